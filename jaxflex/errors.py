@@ -1,0 +1,17 @@
+"""Error types users see. Every message names the offending field and what is allowed."""
+
+
+class JaxflexError(Exception):
+    """Base class of every error jaxflex raises on purpose."""
+
+
+class InputError(JaxflexError, ValueError):
+    """A value passed by the user is out of range or has the wrong shape."""
+
+
+class ModelError(InputError):
+    """A ModalModel field is inconsistent (shape, finiteness, range)."""
+
+
+class ModelFileError(JaxflexError, OSError):
+    """A model file cannot be read: missing, truncated, corrupt or of an unknown schema."""

@@ -1,0 +1,251 @@
+"""The modal model: everything the response computation needs to know about a part.
+
+A part clamped at its gripper and carried without rotation obeys, per mode i,
+
+    q_i'' + 2 zeta_i omega_i q_i' + omega_i^2 q_i = -gamma_i . a(t),
+    u_p(t) = sum_i phi_i(p) q_i(t)
+
+with mass-normalised mode shapes phi_i, so the model is fully described by the natural
+frequencies, the damping ratios, the participation factors and the mode shapes at the
+monitored points. SI units throughout: Hz, kg^0.5 (participation), m / (kg^0.5) (shapes), m.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import jax
+import numpy as np
+
+from jaxflex.errors import ModelError
+
+
+def _is_concrete(x: Any) -> bool:
+    return not isinstance(x, jax.core.Tracer)
+
+
+def _as_float_array(name: str, value: Any, ndim: int) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"ModalModel.{name}: must be numeric, got {type(value).__name__}") from exc
+    if arr.ndim != ndim:
+        raise ModelError(f"ModalModel.{name}: must be {ndim}-D, got shape {arr.shape}")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ModelError(f"ModalModel.{name}: must be finite, found {arr[where]} at index {where}")
+    arr.setflags(write=False)
+    return arr
+
+
+@jax.tree_util.register_pytree_node_class
+@dataclass(frozen=True, eq=False)
+class ModalModel:
+    """Modal data of a part at K monitored points, M modes.
+
+    Attributes:
+        freq_hz: (M,) undamped natural frequencies in Hz, > 0, ascending is customary.
+        zeta: (M,) modal damping ratios, 0 <= zeta < 1.
+        gamma: (M, 3) participation factors Gamma_i = phi_i^T M R in kg^0.5 for base
+            acceleration along x, y, z.
+        shapes: (K, 3, M) mass-normalised mode shapes at the points, m per kg^0.5.
+        points: (K, 3) undeformed point coordinates in m.
+        labels: optional K point labels (e.g. "weld_3"); empty strings for unlabelled points.
+        meta: free JSON-serialisable description (source, material, gripper, mesh).
+
+    Construction from concrete arrays validates every field and raises ModelError naming
+    the field. Inside ``jax.jit``/``jax.vmap`` the model is a pytree and is not re-validated.
+    """
+
+    freq_hz: Any
+    zeta: Any
+    gamma: Any
+    shapes: Any
+    points: Any
+    labels: tuple[str, ...] | None = None
+    meta: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        leaves = (self.freq_hz, self.zeta, self.gamma, self.shapes, self.points)
+        if not all(_is_concrete(x) for x in leaves):
+            return
+        freq = _as_float_array("freq_hz", self.freq_hz, 1)
+        zeta = _as_float_array("zeta", self.zeta, 1)
+        gamma = _as_float_array("gamma", self.gamma, 2)
+        shapes = _as_float_array("shapes", self.shapes, 3)
+        points = _as_float_array("points", self.points, 2)
+        n_modes = freq.shape[0]
+        if n_modes == 0:
+            raise ModelError("ModalModel.freq_hz: needs at least one mode")
+        if (freq <= 0).any():
+            i = int(np.argmax(freq <= 0))
+            raise ModelError(
+                f"ModalModel.freq_hz: frequencies must be > 0 Hz (rigid-body modes are not "
+                f"allowed), got {freq[i]} at mode {i}"
+            )
+        if zeta.shape != (n_modes,):
+            raise ModelError(f"ModalModel.zeta: expected shape ({n_modes},), got {zeta.shape}")
+        if ((zeta < 0) | (zeta >= 1)).any():
+            i = int(np.argmax((zeta < 0) | (zeta >= 1)))
+            raise ModelError(
+                f"ModalModel.zeta: must satisfy 0 <= zeta < 1, got {zeta[i]} at mode {i}"
+            )
+        if gamma.shape != (n_modes, 3):
+            raise ModelError(f"ModalModel.gamma: expected shape ({n_modes}, 3), got {gamma.shape}")
+        if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] == 0:
+            raise ModelError(
+                f"ModalModel.points: expected shape (K, 3) with K >= 1, got {points.shape}"
+            )
+        n_points = points.shape[0]
+        if shapes.shape != (n_points, 3, n_modes):
+            raise ModelError(
+                f"ModalModel.shapes: expected shape (K, 3, M) = ({n_points}, 3, {n_modes}), "
+                f"got {shapes.shape}"
+            )
+        labels = self.labels
+        if labels is not None:
+            labels = tuple(str(s) for s in labels)
+            if len(labels) != n_points:
+                raise ModelError(
+                    f"ModalModel.labels: expected {n_points} labels, got {len(labels)}"
+                )
+        meta = dict(self.meta)
+        try:
+            json.dumps(meta)
+        except TypeError as exc:
+            raise ModelError(f"ModalModel.meta: must be JSON-serialisable ({exc})") from exc
+        for name, value in (
+            ("freq_hz", freq),
+            ("zeta", zeta),
+            ("gamma", gamma),
+            ("shapes", shapes),
+            ("points", points),
+            ("labels", labels),
+            ("meta", meta),
+        ):
+            object.__setattr__(self, name, value)
+
+    # -- pytree protocol: arrays are leaves, labels and meta are static -------------------
+    def tree_flatten(self):
+        children = (self.freq_hz, self.zeta, self.gamma, self.shapes, self.points)
+        aux = (self.labels, json.dumps(dict(self.meta), sort_keys=True))
+        return children, aux
+
+    @classmethod
+    def tree_unflatten(cls, aux, children):
+        obj = object.__new__(cls)
+        for name, value in zip(
+            ("freq_hz", "zeta", "gamma", "shapes", "points"), children, strict=True
+        ):
+            object.__setattr__(obj, name, value)
+        object.__setattr__(obj, "labels", aux[0])
+        object.__setattr__(obj, "meta", json.loads(aux[1]))
+        return obj
+
+    # -- derived quantities ------------------------------------------------------------
+    @property
+    def n_modes(self) -> int:
+        return int(np.shape(self.freq_hz)[-1])
+
+    @property
+    def n_points(self) -> int:
+        return int(np.shape(self.points)[-2])
+
+    @property
+    def omega(self):
+        """(M,) natural circular frequencies in rad/s."""
+        return 2.0 * np.pi * self.freq_hz
+
+    @cached_property
+    def shape_norms(self) -> np.ndarray:
+        """(K, M) Euclidean norm of each mode shape vector at each point, m per kg^0.5."""
+        return np.linalg.norm(np.asarray(self.shapes), axis=1)
+
+    def __repr__(self) -> str:
+        f = np.asarray(self.freq_hz)
+        span = f"{f.min():.4g}-{f.max():.4g} Hz" if f.size else "no modes"
+        return f"ModalModel(K={self.n_points} points, M={self.n_modes} modes, {span})"
+
+    # -- helpers returning new models --------------------------------------------------
+    def truncate_modes(
+        self, n_modes: int | None = None, *, max_freq_hz: float | None = None
+    ) -> ModalModel:
+        """Keep the lowest modes: the first ``n_modes`` and/or those at or below ``max_freq_hz``."""
+        order = np.argsort(np.asarray(self.freq_hz), kind="stable")
+        keep = order
+        if n_modes is not None:
+            if int(n_modes) < 1:
+                raise ModelError(f"truncate_modes: n_modes must be >= 1, got {n_modes}")
+            keep = keep[: int(n_modes)]
+        if max_freq_hz is not None:
+            keep = keep[np.asarray(self.freq_hz)[keep] <= max_freq_hz]
+            if keep.size == 0:
+                raise ModelError(
+                    f"truncate_modes: no mode at or below max_freq_hz={max_freq_hz} Hz "
+                    f"(lowest is {np.min(self.freq_hz):.4g} Hz)"
+                )
+        keep = np.sort(keep)
+        return self._replace(
+            freq_hz=self.freq_hz[keep],
+            zeta=self.zeta[keep],
+            gamma=self.gamma[keep],
+            shapes=self.shapes[:, :, keep],
+        )
+
+    def select_points(self, indices: Sequence[int] | np.ndarray) -> ModalModel:
+        """Keep the points at ``indices`` (in that order)."""
+        idx = np.asarray(indices)
+        if idx.dtype == bool:
+            idx = np.flatnonzero(idx)
+        idx = idx.astype(np.int64)
+        if idx.ndim != 1 or idx.size == 0:
+            raise ModelError("select_points: indices must be a non-empty 1-D sequence")
+        if (idx < 0).any() or (idx >= self.n_points).any():
+            raise ModelError(
+                f"select_points: indices must lie in [0, {self.n_points - 1}], "
+                f"got min {idx.min()}, max {idx.max()}"
+            )
+        labels = None if self.labels is None else tuple(self.labels[i] for i in idx)
+        return self._replace(shapes=self.shapes[idx], points=self.points[idx], labels=labels)
+
+    def with_damping(self, zeta: float | Sequence[float] | np.ndarray) -> ModalModel:
+        """Same model with damping ratio ``zeta`` (scalar for all modes, or one per mode)."""
+        z = np.broadcast_to(np.asarray(zeta, dtype=np.float64), (self.n_modes,))
+        return self._replace(zeta=z.copy())
+
+    def with_frequency_scale(self, scale: float) -> ModalModel:
+        """Same model with every natural frequency multiplied by ``scale`` (> 0).
+
+        Stiffness uncertainty at fixed mass: mode shapes and participation are unchanged.
+        """
+        if not scale > 0:
+            raise ModelError(f"with_frequency_scale: scale must be > 0, got {scale}")
+        return self._replace(freq_hz=np.asarray(self.freq_hz) * float(scale))
+
+    def with_meta(self, **entries: Any) -> ModalModel:
+        """Same model with ``meta`` updated by ``entries``."""
+        return self._replace(meta={**dict(self.meta), **entries})
+
+    def _replace(self, **changes: Any) -> ModalModel:
+        fields = {
+            "freq_hz": self.freq_hz,
+            "zeta": self.zeta,
+            "gamma": self.gamma,
+            "shapes": self.shapes,
+            "points": self.points,
+            "labels": self.labels,
+            "meta": self.meta,
+        }
+        fields.update(changes)
+        return ModalModel(**fields)
+
+    def save(self, path) -> None:
+        """Write the model to a versioned ``.npz`` file, atomically (see jaxflex.model_io)."""
+        from jaxflex.model_io import save_model
+
+        save_model(self, path)
