@@ -1,0 +1,131 @@
+"""The preprint's direct convolution: a reference path, and a way to use a user's R1 matrix.
+
+The acceleration is a sum of hat functions a(t) = sum_k a_k h_k(t) (h_k = 1 at t_k, linear to
+0 at t_{k-1} and t_{k+1}; preprint eq. 1-2). The response to the hat at t_1 with unit
+amplitude along one axis, sampled at t_j, is the unit response R1 (K points x 3 components x
+N steps). By time invariance the hat at t_k gives R1 shifted by k - 1 steps, so (eq. 4)
+
+    u(t_j) = sum_k a_k R1(t_{j - k + 1}).
+
+This costs O(n^2 K) per profile, against O(n M + n K M) for the modal recursion; jaxflex
+keeps it to check the recursion and to benchmark against. R1 files use the preprint's
+Table 2 layout: a CSV with one row per point and, per time step, the x, y, z displacement in
+m (3 N columns), optionally a header row.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from jaxflex.atomic import write_text_atomic
+from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
+from jaxflex.simulate import simulate
+from jaxflex.validation import check_acc, check_positive
+
+
+def unit_response(model: ModalModel, dt: float, n_steps: int) -> np.ndarray:
+    """R1 for a unit hat at t_1 along x, y and z: (3 axes, n_steps + 1, K, 3) in m per m/s^2.
+
+    Computed exactly with the modal recursion; R1[:, 0] is zero.
+    """
+    dt = check_positive("dt", dt)
+    if int(n_steps) < 2:
+        raise InputError(f"n_steps: must be >= 2, got {n_steps}")
+    out = np.empty((3, int(n_steps) + 1, model.n_points, 3))
+    for axis in range(3):
+        acc = np.zeros((int(n_steps) + 1, 3))
+        acc[1, axis] = 1.0
+        out[axis] = np.asarray(simulate(model, acc, dt, displacement=True).displacement)
+    return out
+
+
+def convolve_unit_response(r1: np.ndarray, acc, axes: tuple[int, ...] = (0, 1, 2)) -> np.ndarray:
+    """Displacements u(t_j), (n+1, K, 3) in m, by direct superposition of shifted unit responses.
+
+    ``r1``: (A, N+1, K, 3) unit responses for the acceleration ``axes`` (A of them, 0 = x,
+    1 = y, 2 = z), N >= n. ``acc``: (n+1, 3) samples in m/s^2 with a_0 = 0 (the hat at t_0
+    lies half before the start and is not represented by R1); the other axes must be zero.
+    """
+    acc = check_acc(acc)
+    r1 = np.asarray(r1, dtype=np.float64)
+    axes = tuple(int(a) for a in axes)
+    if not axes or len(set(axes)) != len(axes) or any(a not in (0, 1, 2) for a in axes):
+        raise InputError(f"axes: distinct values among 0, 1, 2 required, got {axes}")
+    if r1.ndim != 4 or r1.shape[3] != 3 or r1.shape[0] != len(axes):
+        raise InputError(f"r1: expected shape ({len(axes)} axes, N+1, K, 3), got {r1.shape}")
+    n_r1 = r1.shape[1]
+    n = acc.shape[0] - 1
+    if n_r1 < n + 1:
+        raise InputError(f"r1: covers {n_r1 - 1} steps, the profile needs {n}")
+    if np.any(acc[0] != 0):
+        raise InputError("acc: the first sample must be 0 for the hat-function convolution")
+    others = [a for a in range(3) if a not in axes]
+    if np.any(acc[:, others] != 0):
+        raise InputError(f"acc: r1 holds axes {axes} only, but axes {others} are non-zero")
+    acc = acc[:, axes]
+    out = np.zeros((n + 1, r1.shape[2], 3))
+    for k in range(1, n + 1):
+        weights = acc[k]
+        if not weights.any():
+            continue
+        # Hat k: u(t_j) += a_k R1(t_{j-k+1}) for j >= k - 1.
+        out[k - 1 :] += np.tensordot(weights, r1[:, : n + 2 - k], axes=(0, 0))
+    return out
+
+
+def deviation_from_displacement(displacement: np.ndarray) -> np.ndarray:
+    """d_j = max_p |u_p(t_j)| for (T, K, 3) displacements: (T,) in m."""
+    return np.sqrt(np.max(np.einsum("tkc,tkc->tk", displacement, displacement), axis=1))
+
+
+def write_unit_response_csv(path: str | os.PathLike, r1_axis: np.ndarray) -> None:
+    """Write one axis' R1 ((N+1, K, 3)) in the Table 2 layout, atomically, with a header."""
+    r1_axis = np.asarray(r1_axis, dtype=np.float64)
+    n_t, n_points, _ = r1_axis.shape
+    header = [f"{c}_{j}" for j in range(n_t) for c in "xyz"]
+    buf = io.StringIO()
+    writer = csv.writer(buf)
+    writer.writerow(header)
+    table = np.transpose(r1_axis, (1, 0, 2)).reshape(n_points, 3 * n_t)
+    for row in table:
+        writer.writerow([repr(float(v)) for v in row])
+    write_text_atomic(path, buf.getvalue())
+
+
+def read_unit_response_csv(path: str | os.PathLike) -> np.ndarray:
+    """Read an R1 CSV in the Table 2 layout (K rows, x/y/z per time step; an optional header
+    row is skipped) as (N+1, K, 3). Raises InputError with the line for malformed files."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"R1 file {str(path)!r} does not exist")
+    rows: list[list[float]] = []
+    with path.open(newline="", encoding="utf-8") as handle:
+        for line_no, row in enumerate(csv.reader(handle), start=1):
+            if not row or all(not cell.strip() for cell in row):
+                continue
+            try:
+                rows.append([float(cell) for cell in row])
+            except ValueError:
+                if line_no == 1 and not rows:
+                    continue  # header
+                raise InputError(f"{str(path)!r} line {line_no}: non-numeric value") from None
+    if not rows:
+        raise InputError(f"{str(path)!r}: no data rows")
+    widths = {len(r) for r in rows}
+    if len(widths) != 1:
+        raise InputError(f"{str(path)!r}: rows have different lengths {sorted(widths)}")
+    width = widths.pop()
+    if width % 3:
+        raise InputError(
+            f"{str(path)!r}: {width} columns is not a multiple of 3 (x, y, z per step)"
+        )
+    table = np.asarray(rows)
+    if not np.isfinite(table).all():
+        raise InputError(f"{str(path)!r}: contains non-finite values")
+    return np.transpose(table.reshape(len(rows), width // 3, 3), (1, 0, 2))

@@ -1,0 +1,81 @@
+"""Acceleration-sample profiles: exact kinematics and a grid-aligned jerk-limited move.
+
+A profile is a (n+1, 3) array of acceleration samples a_k (m/s^2) at t_k = k dt, linear in
+between (DESIGN.md). Velocity is then piecewise quadratic and position piecewise cubic, both
+linear in the samples:
+
+    v_{k+1} = v_k + dt (a_k + a_{k+1}) / 2
+    x_{k+1} = x_k + dt v_k + dt^2 (2 a_k + a_{k+1}) / 6
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from jaxflex.errors import InputError
+from jaxflex.validation import check_acc, check_positive
+
+
+def integrate(acc, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact velocity (m/s) and position (m) at the samples, from rest at the origin:
+    two (n+1, 3) arrays."""
+    acc = check_acc(acc).astype(np.float64)
+    dt = check_positive("dt", dt)
+    dv = 0.5 * dt * (acc[:-1] + acc[1:])
+    vel = np.concatenate([np.zeros((1, 3)), np.cumsum(dv, axis=0)])
+    dx = dt * vel[:-1] + dt**2 * (2.0 * acc[:-1] + acc[1:]) / 6.0
+    pos = np.concatenate([np.zeros((1, 3)), np.cumsum(dx, axis=0)])
+    return vel, pos
+
+
+def axis_limits(name: str, value, n_axes: int = 3) -> np.ndarray:
+    """A per-axis limit given as a scalar or n_axes values, each finite and > 0."""
+    arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (n_axes,)).copy()
+    for i, v in enumerate(arr):
+        check_positive(f"{name}[{'xyz'[i]}]", v)
+    return arr
+
+
+def path_limit(direction: np.ndarray, per_axis: np.ndarray) -> float:
+    """Largest scalar s with |direction_i| s <= per_axis_i on every axis (unit direction;
+    components below 1e-12 move less than 1e-12 of the path and do not bind)."""
+    moving = np.abs(direction) > 1e-12
+    return float(np.min(per_axis[moving] / np.abs(direction[moving])))
+
+
+def jerk_limited_move(distance_m, vmax, amax, jmax, dt: float) -> np.ndarray:
+    """Shortest straight-line move with a symmetric trapezoidal acceleration whose corners lie
+    on the dt grid, within per-axis |v| <= vmax (m/s), |a| <= amax (m/s^2), |jerk| <= jmax
+    (m/s^3). Returns (n+1, 3) samples; the move ends exactly at ``distance_m`` (3,) at rest.
+
+    Corners on the grid make the piecewise-linear samples represent the profile exactly; the
+    price is at most a few steps over the continuous time-optimal motion (see optim issue
+    baselines for the ruckig duration).
+    """
+    dist = np.asarray(distance_m, dtype=np.float64).reshape(-1)
+    if dist.shape != (3,) or not np.isfinite(dist).all():
+        raise InputError(f"distance_m: expected 3 finite values (x, y, z) in m, got {distance_m!r}")
+    length = float(np.linalg.norm(dist))
+    if length == 0:
+        raise InputError("distance_m: the move has zero length")
+    dt = check_positive("dt", dt)
+    direction = dist / length
+    v_lim = path_limit(direction, axis_limits("vmax", vmax))
+    a_lim = path_limit(direction, axis_limits("amax", amax))
+    j_lim = path_limit(direction, axis_limits("jmax", jmax))
+
+    nj_max = max(1, int(np.ceil(a_lim / (j_lim * dt)))) + 1
+    na_max = max(0, int(np.ceil(v_lim / (a_lim * dt)))) + 1
+    nj, na = np.meshgrid(np.arange(1, nj_max + 1), np.arange(0, na_max + 1), indexing="ij")
+    peak_acc = np.minimum(a_lim, j_lim * nj * dt)
+    # Steps of one acceleration phase plus cruise, needed by the velocity and acceleration caps.
+    need = np.maximum(length / (dt * v_lim), length / (dt**2 * (nj + na) * peak_acc))
+    nv = np.maximum(0, np.ceil(need * (1 - 1e-12)) - (2 * nj + na)).astype(np.int64)
+    total = 2 * (2 * nj + na) + nv
+    best = np.unravel_index(np.lexsort((peak_acc.ravel(), total.ravel()))[0], total.shape)
+    n_j, n_a, n_v = int(nj[best]), int(na[best]), int(nv[best])
+    accel = length / (dt**2 * (n_j + n_a) * (2 * n_j + n_a + n_v))
+    ramp = accel * np.arange(n_j + 1) / n_j
+    phase = np.concatenate([ramp, np.full(n_a, accel), ramp[::-1][1:]])  # 2 n_j + n_a + 1
+    profile = np.concatenate([phase, np.zeros(n_v), -phase[1:]])
+    return np.outer(profile, direction)
