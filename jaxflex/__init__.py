@@ -1,0 +1,47 @@
+"""jaxflex: cycle time of robot transfers of thin, vibrating sheet-metal parts.
+
+The core (this package) holds the modal model, the exact discrete-time modal recursion in
+JAX, deviation, settle and cycle time and their gradients. SI units throughout.
+float64 is enabled on import (``jax_enable_x64``); float32 is available on request.
+"""
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+from jaxflex.errors import InputError, JaxflexError, ModelError, ModelFileError  # noqa: E402
+from jaxflex.model import ModalModel  # noqa: E402
+from jaxflex.model_io import load_model, save_model  # noqa: E402
+from jaxflex.settle import SettleReport, analyze_move, cycle_time, settle_time  # noqa: E402
+from jaxflex.simulate import (  # noqa: E402
+    Response,
+    end_state,
+    free_states,
+    modal_states,
+    simulate,
+    upsample,
+)
+from jaxflex.surrogate import cycle_time_smooth, envelope_time  # noqa: E402
+
+__all__ = [
+    "InputError",
+    "JaxflexError",
+    "ModalModel",
+    "ModelError",
+    "ModelFileError",
+    "Response",
+    "SettleReport",
+    "analyze_move",
+    "cycle_time",
+    "cycle_time_smooth",
+    "end_state",
+    "envelope_time",
+    "free_states",
+    "load_model",
+    "modal_states",
+    "save_model",
+    "settle_time",
+    "simulate",
+    "upsample",
+]
+__version__ = "0.1.0"

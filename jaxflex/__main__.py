@@ -1,0 +1,5 @@
+import sys
+
+from jaxflex.cli import main
+
+sys.exit(main())
