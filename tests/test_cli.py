@@ -1,0 +1,59 @@
+"""The command line as a user runs it."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+
+import jaxflex
+from optim.trajectory_io import read_trajectory_csv
+
+
+def run_cli(*args, cwd=None):
+    return subprocess.run(
+        [sys.executable, "-m", "jaxflex", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=600,
+    )
+
+
+def test_demo_writes_every_output(tmp_path):
+    out = tmp_path / "demo"
+    proc = run_cli("demo", "-o", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert "cycle time" in proc.stdout
+    for name in ("model.npz", "trajectory.csv", "deviation.png", "report.json"):
+        assert (out / name).stat().st_size > 0, name
+    report = json.loads((out / "report.json").read_text())
+    model = jaxflex.load_model(out / "model.npz")
+    acc, dt = read_trajectory_csv(out / "trajectory.csv")
+    # the reported cycle time is the exact one of the saved model and trajectory
+    assert report["result"]["cycle_time_s"] == jaxflex.cycle_time(
+        model, acc, dt, report["result"]["threshold_m"]
+    )
+    assert report["result"]["cycle_time_s"] >= report["result"]["transfer_time_s"]
+    assert (out / "deviation.png").read_bytes()[:4] == b"\x89PNG"
+    assert not list(out.glob("*.tmp"))
+
+
+def test_bench_quick(tmp_path):
+    path = tmp_path / "bench.json"
+    proc = run_cli("bench", "--quick", "-o", str(path))
+    assert proc.returncode == 0, proc.stderr
+    report = json.loads(path.read_text())
+    r = report["results"]
+    assert r["convolution_vs_scan_max_rel_diff"] < 1e-10
+    assert r["float32_max_rel_error"] < 1e-4
+    assert np.isfinite(r["forward_ms"]) and r["forward_ms"] > 0
+    assert r["cycle_time_smooth_s"] >= r["cycle_time_s"]
+
+
+def test_bad_option_gives_a_clear_error(tmp_path):
+    proc = run_cli("demo", "-o", str(tmp_path), "--threshold", "-1")
+    assert proc.returncode == 2
+    assert "--threshold" in proc.stderr and "Traceback" not in proc.stderr
