@@ -6,6 +6,10 @@ import argparse
 import json
 import sys
 
+COMMAND = "bench"
+HELP = "speed and accuracy figures as JSON"
+ORDER = 90
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(

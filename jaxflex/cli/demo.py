@@ -10,6 +10,11 @@ from pathlib import Path
 DEFAULT_DIR = "jaxflex_demo"
 
 
+COMMAND = "demo"
+HELP = "run the whole job on the built-in default part"
+ORDER = 0
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "-o", "--output", default=DEFAULT_DIR, help=f"output directory (default {DEFAULT_DIR})"
