@@ -1,1 +1,13 @@
-"""fmu package."""
+"""FMI 2.0 and 3.0 co-simulation FMUs of a jaxflex part (see docs/fmu.md).
+
+``export_fmu(model, "part.fmu", fmi_version=2|3, trajectory=(acc, dt_s))`` writes the FMU
+(C sources of the exact modal recursion, gcc-built binaries, versioned binary resource) and,
+with a trajectory, the input CSV and case JSON beside it. ``verify("part.fmu")`` validates it
+with fmpy, simulates it and compares with ``jaxflex.simulate``.
+"""
+
+from fmu.build import FmuBuildError
+from fmu.export import ExportResult, export_fmu
+from fmu.verify import VerifyReport, verify
+
+__all__ = ["ExportResult", "FmuBuildError", "VerifyReport", "export_fmu", "verify"]

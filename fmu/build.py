@@ -1,0 +1,141 @@
+"""Compiling the FMU binaries with gcc (and mingw-w64 for Windows, when installed)."""
+
+from __future__ import annotations
+
+import platform
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from jaxflex.errors import JaxflexError
+
+C_DIR = Path(__file__).resolve().parent / "c"
+CORE_FILES = ("jxf_core.h", "jxf_core.c")
+GLUE_FILE = {2: "jxf_fmi2.c", 3: "jxf_fmi3.c"}
+CFLAGS = ("-std=c99", "-O2", "-fvisibility=hidden", "-Wall", "-Wextra")
+WINDOWS_COMPILER = "x86_64-w64-mingw32-gcc"
+
+
+class FmuBuildError(JaxflexError):
+    """The C compiler is missing or failed."""
+
+
+@dataclass(frozen=True)
+class Target:
+    """One binary: platform folder names for FMI 2 / FMI 3, compiler, file suffix, flags."""
+
+    fmi2_dir: str
+    fmi3_dir: str
+    compiler: str
+    suffix: str
+    flags: tuple[str, ...]
+
+    def folder(self, fmi_version: int) -> str:
+        return self.fmi2_dir if fmi_version == 2 else self.fmi3_dir
+
+
+@dataclass
+class BuildReport:
+    """Platforms built (folder names under binaries/), skipped ones with the reason, and
+    the compiler messages (empty when the build is warning-free)."""
+
+    platforms: list[str] = field(default_factory=list)
+    skipped: dict[str, str] = field(default_factory=dict)
+    messages: str = ""
+
+
+def fmi_headers() -> Path:
+    """Directory with the FMI 2.0 and 3.0 C headers (shipped with fmpy)."""
+    import fmpy
+
+    path = Path(fmpy.__file__).resolve().parent / "c-code"
+    if not (path / "fmi2Functions.h").is_file() or not (path / "fmi3Functions.h").is_file():
+        raise FmuBuildError(f"FMI C headers not found in {path}; reinstall fmpy")
+    return path
+
+
+def host_target(compiler: str = "gcc") -> Target:
+    """The binary for this machine (Linux x86_64 or aarch64)."""
+    machine = platform.machine().lower()
+    if sys.platform.startswith("linux") and machine in ("x86_64", "amd64"):
+        return Target("linux64", "x86_64-linux", compiler, ".so", ("-fPIC", "-shared"))
+    if sys.platform.startswith("linux") and machine in ("aarch64", "arm64"):
+        return Target("aarch64-linux", "aarch64-linux", compiler, ".so", ("-fPIC", "-shared"))
+    raise FmuBuildError(
+        f"building FMU binaries on {sys.platform}/{machine} is not supported; build from the "
+        "FMU's sources/ folder with your platform's compiler instead"
+    )
+
+
+def windows_target() -> Target | None:
+    """The Windows x86_64 DLL target when the mingw-w64 cross compiler is installed."""
+    if shutil.which(WINDOWS_COMPILER) is None:
+        return None
+    flags = ("-shared", "-static-libgcc")
+    return Target("win64", "x86_64-windows", WINDOWS_COMPILER, ".dll", flags)
+
+
+def sources_for(fmi_version: int) -> tuple[str, ...]:
+    """C files copied into the FMU's sources/ folder (besides the generated jxf_config.h)."""
+    return (*CORE_FILES, GLUE_FILE[fmi_version])
+
+
+def compile_library(target: Target, sources_dir: Path, fmi_version: int, out_file: Path) -> str:
+    """Compile the sources in ``sources_dir`` into ``out_file``; returns compiler messages."""
+    if shutil.which(target.compiler) is None:
+        raise FmuBuildError(f"C compiler {target.compiler!r} not found on PATH (install gcc)")
+    out_file.parent.mkdir(parents=True, exist_ok=True)
+    c_files = [str(sources_dir / name) for name in sources_for(fmi_version) if name.endswith(".c")]
+    cmd = [
+        target.compiler,
+        *CFLAGS,
+        *target.flags,
+        f"-I{sources_dir}",
+        f"-I{fmi_headers()}",
+        *c_files,
+        "-o",
+        str(out_file),
+        "-lm",
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise FmuBuildError(f"compiling the FMU failed ({' '.join(cmd)}):\n{proc.stderr.strip()}")
+    return proc.stderr.strip()
+
+
+def build_binaries(
+    sources_dir: Path,
+    binaries_dir: Path,
+    fmi_version: int,
+    model_identifier: str,
+    windows: bool | None = None,
+) -> BuildReport:
+    """Build the host binary and, when ``windows`` is None (auto) or True, the Windows DLL.
+
+    ``windows=True`` without the mingw-w64 compiler is an error; with None the DLL is skipped
+    and the reason recorded in the report.
+    """
+    report = BuildReport()
+    targets = [host_target()]
+    cross = windows_target() if windows is not False else None
+    if cross is not None:
+        targets.append(cross)
+    elif windows is None:
+        report.skipped["x86_64-windows"] = f"{WINDOWS_COMPILER} is not installed"
+    elif windows:
+        raise FmuBuildError(
+            f"a Windows DLL was requested but {WINDOWS_COMPILER} is not installed "
+            "(Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64)"
+        )
+    messages = []
+    for target in targets:
+        folder = target.folder(fmi_version)
+        out = binaries_dir / folder / f"{model_identifier}{target.suffix}"
+        text = compile_library(target, sources_dir, fmi_version, out)
+        if text:
+            messages.append(f"[{folder}] {text}")
+        report.platforms.append(folder)
+    report.messages = "\n".join(messages)
+    return report

@@ -1,0 +1,118 @@
+/* jaxflex FMU core: the exact discrete-time modal recursion of a flexible part.
+ *
+ * Per mode i (state q_i, v_i = dq_i/dt) the part obeys
+ *     q'' + 2 zeta_i omega_i q' + omega_i^2 q = -gamma_i . a(t)
+ * and the point displacements are u_p = sum_i phi_i(p) q_i. Over a step of length h with an
+ * acceleration that is linear in time (first-order hold) the state advances exactly as
+ *     x(h) = Phi x(0) + G0 f(0) + G1 f(h),    G0 = J1 / h,  G1 = J0 - G0
+ * (the same discretisation as jaxflex.discretize: closed form for omega h >= 0.1, a 16-term
+ * series of the matrix exponential below). A held input is the special case f(h) = f(0).
+ *
+ * The FMI 2.0 and FMI 3.0 glue files (jxf_fmi2.c, jxf_fmi3.c) call only this interface.
+ * SI units: m, s, m/s^2, Hz; modal coordinates in kg^0.5 m.
+ */
+#ifndef JXF_CORE_H
+#define JXF_CORE_H
+
+#include <stddef.h>
+
+#include "jxf_config.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+enum { JXF_LOG_INFO = 0, JXF_LOG_WARNING = 1, JXF_LOG_ERROR = 2 };
+
+/* Receives every message of the core; level is one of JXF_LOG_*. */
+typedef void (*jxf_log_fn)(void *context, int level, const char *message);
+
+/* Coefficients of the exact step for one step length, all modes. */
+typedef struct {
+    double h;            /* step length in s (0: slot unused) */
+    double damping;      /* damping scale the slot was computed with */
+    unsigned long stamp; /* last use, for least-recently-used replacement */
+    double *p11, *p12, *p21, *p22; /* Phi */
+    double *g0q, *g0v, *g1q, *g1v; /* G0, G1 */
+} jxf_coeffs;
+
+#define JXF_CACHE_SLOTS 4
+
+typedef struct jxf_model {
+    /* model data from the resource file (views into `buffer`) */
+    int n_points, n_modes, n_traj;
+    double traj_dt;
+    const double *freq_hz;  /* (M) */
+    const double *zeta;     /* (M) */
+    const double *gamma;    /* (M, 3) */
+    const double *shapes;   /* (M, 3, K): x rows of all points, then y, then z */
+    const double *points;   /* (K, 3) */
+    const double *traj;     /* (N, 3) acceleration samples, m/s^2 */
+    unsigned char *buffer;
+
+    /* parameters */
+    double threshold;     /* m */
+    double damping_scale; /* multiplies every zeta */
+    int use_trajectory;   /* replay the embedded trajectory instead of the inputs */
+    int started;          /* initialization finished: fixed parameters are frozen */
+
+    /* inputs: value at the communication point and its time derivative */
+    double acc[3];
+    double acc_rate[3];
+
+    /* state and outputs */
+    double start_time, time;
+    double *q, *v;       /* (M) */
+    double *u;           /* (3K) displacement, component-major like `shapes` */
+    double deviation;    /* max_p |u_p|, m */
+    int settled;         /* deviation <= threshold at the current communication point */
+    double settle_time;  /* time the settled flag last went true, s */
+
+    jxf_coeffs cache[JXF_CACHE_SLOTS];
+    unsigned long clock;
+    unsigned long recomputations;
+
+    jxf_log_fn log;
+    void *log_context;
+    int debug;
+} jxf_model;
+
+/* Load the resource file found in `resource_location` (a file: URI or a directory path),
+ * check it against this build (sizes, token) and return a model at rest with the start
+ * values of the parameters. Returns NULL after logging the reason on any failure. */
+jxf_model *jxf_create(const char *resource_location, const char *token, jxf_log_fn log,
+                      void *log_context, int debug);
+
+/* Free everything owned by the model (NULL is allowed). */
+void jxf_destroy(jxf_model *m);
+
+/* Back to the state after jxf_create: parameters at start values, inputs 0, at rest. */
+void jxf_reset(jxf_model *m);
+
+/* Leave initialization: at rest at `start_time` (s), outputs evaluated. */
+void jxf_start(jxf_model *m, double start_time);
+
+/* Variables by value reference (see jxf_config.h). Setters check the value and store it
+ * only when `apply` is nonzero, so a caller can check a whole batch before changing anything.
+ * All return 0 on success and -1 after logging the reason. */
+int jxf_get_real(const jxf_model *m, unsigned vr, double *value);
+int jxf_set_real(jxf_model *m, unsigned vr, double value, int apply);
+int jxf_set_input_rate(jxf_model *m, unsigned vr, int order, double value, int apply);
+int jxf_get_bool(const jxf_model *m, unsigned vr, int *value);
+int jxf_set_bool(jxf_model *m, unsigned vr, int value, int apply);
+
+/* Advance from `t` (the current communication point) by `h` s; 0 on success, -1 on error
+ * (logged, state untouched). */
+int jxf_do_step(jxf_model *m, double t, double h);
+
+/* Displaced coordinates points + u, (K, 3) row-major, m. */
+void jxf_displaced_points(const jxf_model *m, double *out);
+
+/* Format a message and send it to the model's logger (printf-style). */
+void jxf_log(const jxf_model *m, int level, const char *format, ...);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* JXF_CORE_H */

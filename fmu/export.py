@@ -1,0 +1,280 @@
+"""``export_fmu``: a ModalModel (and optionally the optimised trajectory) as an FMU.
+
+The FMU holds modelDescription.xml, the C sources (sources/, with buildDescription.xml for
+FMI 3.0), the binaries compiled here (binaries/linux64 for FMI 2.0, binaries/x86_64-linux for
+FMI 3.0, plus the Windows DLL when mingw-w64 is installed) and resources/jaxflex_model.bin.
+With a trajectory, the case is also written beside the FMU: ``<name>_input.csv`` (columns
+time, ax, ay, az in s and m/s^2: fmpy's ``simulate_fmu`` input format) and ``<name>_case.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import shutil
+import tempfile
+import uuid
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fmu.build import C_DIR as _C_DIR
+from fmu.build import BuildReport, build_binaries, sources_for
+from fmu.model_description import Description, build_description, model_description
+from fmu.resource import encode_resource
+from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
+from jaxflex.atomic import atomic_open, write_text_atomic
+from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
+from jaxflex.validation import check_acc, check_positive
+
+DEFAULT_THRESHOLD_M = 5e-4
+DEFAULT_STEP_S = 0.01
+CASE_FORMAT = "jaxflex.fmu_case"
+_CASE_TIMES = ("cycle_time_s", "transfer_time_s", "settle_time_s")
+
+
+@dataclass(frozen=True)
+class ExportResult:
+    """What :func:`export_fmu` wrote. ``platforms`` are folder names under binaries/;
+    ``skipped`` maps platforms that were not built to the reason."""
+
+    fmu_path: Path
+    fmi_version: int
+    token: str
+    model_identifier: str
+    n_points: int
+    n_modes: int
+    n_trajectory: int
+    resource_bytes: int
+    platforms: tuple[str, ...]
+    skipped: dict[str, str] = field(default_factory=dict)
+    compiler_messages: str = ""
+    input_csv: Path | None = None
+    case_json: Path | None = None
+    case: dict[str, Any] | None = None
+
+
+def model_identifier(path: Path) -> str:
+    """A C identifier from the FMU file name (``part-A.fmu`` -> ``part_A``)."""
+    ident = re.sub(r"\W", "_", path.stem, flags=re.ASCII) or "jaxflex_part"
+    return f"_{ident}" if ident[0].isdigit() else ident
+
+
+def sidecar_paths(fmu_path: str | os.PathLike) -> tuple[Path, Path]:
+    """(input CSV, case JSON) written beside ``fmu_path`` when a trajectory is exported."""
+    path = Path(fmu_path)
+    return path.with_name(f"{path.stem}_input.csv"), path.with_name(f"{path.stem}_case.json")
+
+
+def _check_arguments(model, path, fmi_version, threshold_m, damping_scale):
+    if not isinstance(model, ModalModel):
+        raise InputError(f"model: expected a jaxflex.ModalModel, got {type(model).__name__}")
+    if fmi_version not in (2, 3):
+        raise InputError(f"fmi_version: must be 2 or 3, got {fmi_version!r}")
+    path = Path(path)
+    if path.suffix.lower() != ".fmu":
+        raise InputError(f"path: an FMU file name must end in .fmu, got {str(path)!r}")
+    threshold_m = check_positive("threshold_m", threshold_m)
+    zeta_max = float(np.max(model.zeta))
+    scale = float(damping_scale)
+    if not (math.isfinite(scale) and scale >= 0 and scale * zeta_max < 1):
+        raise InputError(
+            f"damping_scale: must be >= 0 and keep every damping ratio below 1 (largest zeta "
+            f"{zeta_max:g}), got {damping_scale!r}"
+        )
+    return path, threshold_m, scale
+
+
+def _check_trajectory(trajectory) -> tuple[np.ndarray | None, float | None]:
+    if trajectory is None:
+        return None, None
+    try:
+        acc, dt_s = trajectory
+    except (TypeError, ValueError) as exc:
+        raise InputError("trajectory: expected a pair (acc (n+1, 3) m/s^2, dt_s)") from exc
+    acc = check_acc(acc, name="trajectory acc", rest_at_ends=True).astype(np.float64)
+    return acc, check_positive("trajectory dt_s", dt_s)
+
+
+def _case_summary(model, acc, dt_s, threshold_m, case) -> dict[str, Any]:
+    """Limits, threshold and the exact cycle time of the exported move."""
+    case = dict(case or {})
+    summary: dict[str, Any] = {
+        "threshold_m": threshold_m,
+        "dt_s": dt_s,
+        "n_samples": int(acc.shape[0]),
+        "duration_s": (acc.shape[0] - 1) * dt_s,
+        "limits": case.pop("limits", None),
+    }
+    case_threshold = case.pop("threshold_m", threshold_m)
+    times = {key: case.pop(key) for key in _CASE_TIMES if key in case}
+    if len(times) < len(_CASE_TIMES) or not math.isclose(case_threshold, threshold_m):
+        from jaxflex.settle import analyze_move
+
+        report = analyze_move(model, acc, dt_s, threshold_m)
+        times = {key: float(getattr(report, key)) for key in _CASE_TIMES}
+    summary.update(times)
+    summary["optimisation"] = case  # everything else the optimiser reported, unchanged
+    return summary
+
+
+def _stop_time(acc, dt_s, summary) -> float:
+    if acc is None:
+        return 2.0
+    horizon = max(summary["duration_s"], summary["cycle_time_s"])
+    return math.ceil(1.25 * horizon / dt_s - 1e-9) * dt_s
+
+
+def _stage(stage: Path, fmi_version: int, ident: str, config: str, xml: str, resource: bytes):
+    sources = stage / "sources"
+    sources.mkdir(parents=True)
+    for name in sources_for(fmi_version):
+        shutil.copyfile(_C_DIR / name, sources / name)
+    (sources / "jxf_config.h").write_text(config, encoding="utf-8")
+    if fmi_version == 3:
+        (sources / "buildDescription.xml").write_text(build_description(ident), encoding="utf-8")
+    (stage / "resources").mkdir()
+    (stage / "resources" / RESOURCE_FILE).write_bytes(resource)
+    (stage / "modelDescription.xml").write_text(xml, encoding="utf-8")
+
+
+def _zip(stage: Path, path: Path) -> None:
+    files = sorted(f for f in stage.rglob("*") if f.is_file())
+    with (
+        atomic_open(path, "wb") as handle,
+        zipfile.ZipFile(handle, "w", zipfile.ZIP_DEFLATED) as zf,
+    ):
+        for file in files:
+            zf.write(file, file.relative_to(stage).as_posix())
+
+
+def _write_sidecars(path: Path, acc, dt_s, summary, result_fields) -> tuple[Path, Path, dict]:
+    csv_path, json_path = sidecar_paths(path)
+    t = dt_s * np.arange(acc.shape[0])
+    lines = [",".join(INPUT_COLUMNS)]
+    lines += [",".join(f"{x:.17g}" for x in (ti, *a)) for ti, a in zip(t, acc, strict=True)]
+    write_text_atomic(csv_path, "\n".join(lines) + "\n")
+    case = {
+        "format": CASE_FORMAT,
+        "schema_version": 1,
+        **result_fields,
+        "input_csv": csv_path.name,
+        "input_units": dict(zip(INPUT_COLUMNS, ("s", "m/s2", "m/s2", "m/s2"), strict=True)),
+        "replay": (
+            "set the parameter use_embedded_trajectory = true for the exact replay, or feed "
+            f"{csv_path.name} as input with a communication step of dt_s (FMI 2.0: with input "
+            "derivatives the input is linear over a step, as in jaxflex; otherwise held)"
+        ),
+        **summary,
+    }
+    write_text_atomic(json_path, json.dumps(case, indent=2))
+    return csv_path, json_path, case
+
+
+def export_fmu(
+    model: ModalModel,
+    path: str | os.PathLike,
+    fmi_version: int = 2,
+    trajectory: tuple[Any, float] | None = None,
+    threshold_m: float = DEFAULT_THRESHOLD_M,
+    case: dict[str, Any] | None = None,
+    *,
+    damping_scale: float = 1.0,
+    model_name: str | None = None,
+    description: str | None = None,
+    windows: bool | None = None,
+) -> ExportResult:
+    """Write ``model`` as an FMI 2.0 or 3.0 co-simulation FMU at ``path`` (atomically).
+
+    Args:
+        model: the part (K points, M modes).
+        path: the .fmu file; its stem is the model identifier (made a C identifier).
+        fmi_version: 2 or 3.
+        trajectory: optional ``(acc, dt_s)``, acc (n+1, 3) m/s^2 starting and ending at 0,
+            embedded in the resource (replayed with ``use_embedded_trajectory = true``) and
+            written beside the FMU as ``<name>_input.csv`` with ``<name>_case.json``.
+        threshold_m: start value of the ``threshold`` parameter, m.
+        case: what the optimiser reported (``limits``, ``cycle_time_s``, ``transfer_time_s``,
+            ``settle_time_s``, ``threshold_m``, ...); missing times are computed exactly.
+        damping_scale: start value of the ``damping_scale`` parameter.
+        model_name, description: text for modelDescription.xml.
+        windows: build the Windows DLL too: None = when mingw-w64 is installed, True = must.
+    """
+    path, threshold_m, damping_scale = _check_arguments(
+        model, path, fmi_version, threshold_m, damping_scale
+    )
+    acc, dt_s = _check_trajectory(trajectory)
+    if case is not None and acc is None:
+        raise InputError("case: describes a trajectory, so it needs trajectory=(acc, dt_s)")
+    summary = _case_summary(model, acc, dt_s, threshold_m, case) if acc is not None else None
+    ident = model_identifier(path)
+    token = "{" + str(uuid.uuid4()) + "}"
+    n_traj = 0 if acc is None else int(acc.shape[0])
+    zeta_max = float(np.max(model.zeta))
+    desc = Description(
+        fmi_version=fmi_version,
+        model_name=model_name or ident,
+        model_identifier=ident,
+        token=token,
+        description=description
+        or f"Flexible sheet-metal part carried by a robot: exact modal response of "
+        f"{model.n_modes} modes at {model.n_points} points (jaxflex)",
+        n_points=model.n_points,
+        n_modes=model.n_modes,
+        n_trajectory=n_traj,
+        threshold_m=threshold_m,
+        damping_scale=damping_scale,
+        damping_scale_max=(1.0 / zeta_max) * (1 - 1e-12) if zeta_max > 0 else 1e6,
+        start_time_s=0.0,
+        stop_time_s=_stop_time(acc, dt_s, summary),
+        step_s=dt_s or DEFAULT_STEP_S,
+    )
+    config = config_header(
+        fmi_version=fmi_version,
+        token=token,
+        n_points=model.n_points,
+        n_modes=model.n_modes,
+        n_trajectory=n_traj,
+        threshold_m=threshold_m,
+        damping_scale=damping_scale,
+    )
+    resource = encode_resource(model, token, acc, dt_s)
+    with tempfile.TemporaryDirectory(prefix="jaxflex_fmu_") as tmp:
+        stage = Path(tmp) / "fmu"
+        _stage(stage, fmi_version, ident, config, model_description(desc), resource)
+        built: BuildReport = build_binaries(
+            stage / "sources", stage / "binaries", fmi_version, ident, windows
+        )
+        _zip(stage, path)
+    fields = {
+        "fmu": path.name,
+        "fmi_version": fmi_version,
+        "instantiation_token": token,
+        "n_points": model.n_points,
+        "n_modes": model.n_modes,
+    }
+    csv_path = json_path = case_out = None
+    if acc is not None:
+        csv_path, json_path, case_out = _write_sidecars(path, acc, dt_s, summary, fields)
+    return ExportResult(
+        fmu_path=path,
+        fmi_version=fmi_version,
+        token=token,
+        model_identifier=ident,
+        n_points=model.n_points,
+        n_modes=model.n_modes,
+        n_trajectory=n_traj,
+        resource_bytes=len(resource),
+        platforms=tuple(built.platforms),
+        skipped=dict(built.skipped),
+        compiler_messages=built.messages,
+        input_csv=csv_path,
+        case_json=json_path,
+        case=case_out,
+    )

@@ -1,0 +1,227 @@
+"""modelDescription.xml (FMI 2.0 and 3.0) and buildDescription.xml (FMI 3.0)."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from datetime import UTC, datetime
+
+import jaxflex
+from fmu.variables import Variable, input_description, variables_for
+
+SOURCE_FILES = {2: ("jxf_core.c", "jxf_fmi2.c"), 3: ("jxf_core.c", "jxf_fmi3.c")}
+LOG_CATEGORIES = (
+    ("logStatusError", "Errors: bad inputs or parameters, missing or corrupt resources"),
+    ("logStatusWarning", "Warnings: inconsistent communication points"),
+    ("logAll", "Debug messages: resource loading, recomputed step matrices"),
+)
+_UNITS = {"m": {"m": "1"}, "s": {"s": "1"}, "m/s2": {"m": "1", "s": "-2"}}
+
+
+@dataclass(frozen=True)
+class Description:
+    """What modelDescription.xml states about one export (sizes in points/modes/samples)."""
+
+    fmi_version: int
+    model_name: str
+    model_identifier: str
+    token: str
+    description: str
+    n_points: int
+    n_modes: int
+    n_trajectory: int
+    threshold_m: float
+    damping_scale: float
+    damping_scale_max: float
+    start_time_s: float
+    stop_time_s: float
+    step_s: float
+
+
+def _fmt(x: float) -> str:
+    return repr(float(x))
+
+
+def _units(parent: ET.Element) -> None:
+    units = ET.SubElement(parent, "UnitDefinitions")
+    for name, exponents in _UNITS.items():
+        ET.SubElement(ET.SubElement(units, "Unit", name=name), "BaseUnit", exponents)
+
+
+def _log_categories(parent: ET.Element) -> None:
+    cats = ET.SubElement(parent, "LogCategories")
+    for name, text in LOG_CATEGORIES:
+        ET.SubElement(cats, "Category", name=name, description=text)
+
+
+def _description_of(v: Variable, d: Description) -> str:
+    if v.causality == "input":
+        return f"{v.description}; {input_description(d.fmi_version)}"
+    return v.description
+
+
+def _start(v: Variable, d: Description) -> str | None:
+    if v.causality == "input":
+        return "0.0"
+    return {
+        "threshold": _fmt(d.threshold_m),
+        "damping_scale": _fmt(d.damping_scale),
+        "use_embedded_trajectory": "false",
+    }.get(v.name)
+
+
+def _value_attributes(v: Variable, d: Description) -> dict[str, str]:
+    attrs = {}
+    start = _start(v, d)
+    if start is not None:
+        attrs["start"] = start
+    if v.unit is not None:
+        attrs["unit"] = v.unit
+    if v.name == "threshold":
+        attrs["min"] = "0.0"
+    if v.name == "damping_scale":
+        attrs["min"] = "0.0"
+        attrs["max"] = _fmt(d.damping_scale_max)
+    return attrs
+
+
+def _variable_attributes(v: Variable, d: Description) -> dict[str, str]:
+    attrs = {
+        "name": v.name,
+        "valueReference": str(v.vr),
+        "description": _description_of(v, d),
+        "causality": v.causality,
+        "variability": v.variability,
+    }
+    if v.initial is not None and v.causality not in ("input", "parameter"):
+        attrs["initial"] = v.initial
+    return attrs
+
+
+def _fmi2(d: Description, variables: list[Variable]) -> ET.Element:
+    root = ET.Element(
+        "fmiModelDescription",
+        fmiVersion="2.0",
+        modelName=d.model_name,
+        guid=d.token,
+        description=d.description,
+        generationTool=f"jaxflex {jaxflex.__version__}",
+        generationDateAndTime=datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        variableNamingConvention="flat",
+        numberOfEventIndicators="0",
+    )
+    cs = ET.SubElement(
+        root,
+        "CoSimulation",
+        modelIdentifier=d.model_identifier,
+        needsExecutionTool="false",
+        canHandleVariableCommunicationStepSize="true",
+        canInterpolateInputs="true",
+        maxOutputDerivativeOrder="0",
+        canRunAsynchronuously="false",
+        canBeInstantiatedOnlyOncePerProcess="false",
+        canNotUseMemoryManagementFunctions="true",
+        canGetAndSetFMUstate="false",
+        canSerializeFMUstate="false",
+        providesDirectionalDerivative="false",
+    )
+    files = ET.SubElement(cs, "SourceFiles")
+    for name in SOURCE_FILES[2]:
+        ET.SubElement(files, "File", name=name)
+    _units(root)
+    _log_categories(root)
+    _default_experiment(root, d)
+    mv = ET.SubElement(root, "ModelVariables")
+    for v in variables:
+        sv = ET.SubElement(mv, "ScalarVariable", _variable_attributes(v, d))
+        ET.SubElement(sv, "Real" if v.kind == "real" else "Boolean", _value_attributes(v, d))
+    index = {v.name: i + 1 for i, v in enumerate(variables)}
+    outputs = [v for v in variables if v.causality == "output"]
+    ms = ET.SubElement(root, "ModelStructure")
+    out_el = ET.SubElement(ms, "Outputs")
+    for v in outputs:  # no direct feedthrough: outputs depend on the state only
+        ET.SubElement(out_el, "Unknown", index=str(index[v.name]), dependencies="")
+    init_el = ET.SubElement(ms, "InitialUnknowns")
+    for v in outputs:
+        ET.SubElement(init_el, "Unknown", index=str(index[v.name]))
+    return root
+
+
+def _fmi3(d: Description, variables: list[Variable]) -> ET.Element:
+    root = ET.Element(
+        "fmiModelDescription",
+        fmiVersion="3.0",
+        modelName=d.model_name,
+        instantiationToken=d.token,
+        description=d.description,
+        generationTool=f"jaxflex {jaxflex.__version__}",
+        generationDateAndTime=datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        variableNamingConvention="flat",
+    )
+    ET.SubElement(
+        root,
+        "CoSimulation",
+        modelIdentifier=d.model_identifier,
+        canHandleVariableCommunicationStepSize="true",
+        canBeInstantiatedOnlyOncePerProcess="false",
+        canGetAndSetFMUState="false",
+        canSerializeFMUState="false",
+        providesDirectionalDerivatives="false",
+        providesAdjointDerivatives="false",
+        maxOutputDerivativeOrder="0",
+        providesIntermediateUpdate="false",
+        hasEventMode="false",
+    )
+    _units(root)
+    _log_categories(root)
+    _default_experiment(root, d)
+    mv = ET.SubElement(root, "ModelVariables")
+    for v in variables:
+        attrs = _variable_attributes(v, d)
+        attrs.update(_value_attributes(v, d))
+        el = ET.SubElement(mv, "Float64" if v.kind == "real" else "Boolean", attrs)
+        if v.array:
+            ET.SubElement(el, "Dimension", start=str(d.n_points))
+            ET.SubElement(el, "Dimension", start="3")
+    ms = ET.SubElement(root, "ModelStructure")
+    outputs = [v for v in variables if v.causality == "output"]
+    for v in outputs:  # no direct feedthrough: outputs depend on the state only
+        ET.SubElement(ms, "Output", valueReference=str(v.vr), dependencies="")
+    for v in variables:
+        if v.causality == "output" or v.causality == "calculatedParameter":
+            ET.SubElement(ms, "InitialUnknown", valueReference=str(v.vr))
+    return root
+
+
+def _default_experiment(root: ET.Element, d: Description) -> None:
+    ET.SubElement(
+        root,
+        "DefaultExperiment",
+        startTime=_fmt(d.start_time_s),
+        stopTime=_fmt(d.stop_time_s),
+        stepSize=_fmt(d.step_s),
+    )
+
+
+def _to_text(root: ET.Element) -> str:
+    ET.indent(root)
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, "unicode") + "\n"
+
+
+def model_description(d: Description) -> str:
+    """modelDescription.xml text for the FMI version in ``d``."""
+    variables = variables_for(d.fmi_version, d.n_trajectory > 0)
+    build = _fmi2 if d.fmi_version == 2 else _fmi3
+    return _to_text(build(d, variables))
+
+
+def build_description(model_identifier: str) -> str:
+    """sources/buildDescription.xml (FMI 3.0): how to compile the sources on any platform."""
+    root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
+    config = ET.SubElement(root, "BuildConfiguration", modelIdentifier=model_identifier)
+    files = ET.SubElement(config, "SourceFileSet", language="C99")
+    for name in SOURCE_FILES[3]:
+        ET.SubElement(files, "SourceFile", name=name)
+    ET.SubElement(files, "IncludeDirectory", name=".")
+    ET.SubElement(config, "Library", name="m", description="C math library (libm)")
+    return _to_text(root)

@@ -1,0 +1,159 @@
+"""The FMU's variables: one table that both modelDescription.xml and the C build read.
+
+Value references are fixed across exports, so a virtual-commissioning project keeps its
+connections when a part is exported again. The C code sees them as ``JXF_VR_*`` macros in the
+generated ``jxf_config.h`` (see :func:`config_header`); nothing is numbered twice.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+RESOURCE_FILE = "jaxflex_model.bin"
+INPUT_COLUMNS = ("time", "ax", "ay", "az")  # input CSV / fmpy signal: s, m/s^2
+
+_INPUT_HELD = "held constant over a communication step"
+_INPUT_FMI2 = (
+    "linear over a communication step when the importer sets its time derivative with "
+    "fmi2SetRealInputDerivatives (canInterpolateInputs), " + _INPUT_HELD + " otherwise"
+)
+_INPUT_FMI3 = _INPUT_HELD + " (FMI 3.0 has no input derivatives)"
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMU variable. ``kind`` is "real" (fmi2 Real / fmi3 Float64) or "bool".
+
+    ``fmi`` lists the FMI major versions that have it; ``needs_trajectory`` marks variables
+    that exist only when a trajectory is embedded; ``array`` marks the K x 3 arrays (FMI 3).
+    """
+
+    name: str
+    vr: int
+    kind: str
+    causality: str
+    variability: str
+    initial: str | None
+    unit: str | None
+    description: str
+    macro: str
+    fmi: tuple[int, ...] = (2, 3)
+    needs_trajectory: bool = False
+    array: bool = False
+
+
+def _input(axis: str, vr: int) -> Variable:
+    return Variable(
+        name=f"a{axis}",
+        vr=vr,
+        kind="real",
+        causality="input",
+        variability="continuous",
+        initial=None,
+        unit="m/s2",
+        description=f"Base acceleration of the gripper along {axis}, m/s^2",
+        macro=f"A{axis.upper()}",
+    )
+
+
+VARIABLES: tuple[Variable, ...] = (
+    Variable(
+        "time", 0, "real", "independent", "continuous", None, "s", "Simulation time, s",
+        "TIME", fmi=(3,),
+    ),
+    _input("x", 1),
+    _input("y", 2),
+    _input("z", 3),
+    Variable(
+        "deviation", 10, "real", "output", "continuous", "calculated", "m",
+        "Largest displacement magnitude over the monitored points relative to the rigid part "
+        "at the communication point, m",
+        "DEVIATION",
+    ),
+    Variable(
+        "settle_time", 11, "real", "output", "discrete", "calculated", "s",
+        "Time at which 'settled' last became true, s (the exact settle time lies within one "
+        "communication step before it)",
+        "SETTLE_TIME",
+    ),
+    Variable(
+        "settled", 12, "bool", "output", "discrete", "calculated", None,
+        "True while deviation <= threshold at the communication point",
+        "SETTLED",
+    ),
+    Variable(
+        "threshold", 20, "real", "parameter", "tunable", "exact", "m",
+        "Deviation threshold of the 'settled' flag, m (> 0)",
+        "THRESHOLD",
+    ),
+    Variable(
+        "damping_scale", 21, "real", "parameter", "tunable", "exact", None,
+        "Factor on every modal damping ratio (1 = as exported; >= 0 and keeping each ratio "
+        "below 1)",
+        "DAMPING_SCALE",
+    ),
+    Variable(
+        "use_embedded_trajectory", 22, "bool", "parameter", "fixed", "exact", None,
+        "Replay the embedded optimised trajectory (exact: linear between its samples, at rest "
+        "after its end) instead of the inputs ax, ay, az",
+        "USE_TRAJECTORY",
+        needs_trajectory=True,
+    ),
+    Variable(
+        "displaced_points", 30, "real", "output", "continuous", "calculated", "m",
+        "Displaced coordinates of the monitored points (undeformed + deviation), K x 3, m",
+        "DISPLACED_POINTS", fmi=(3,), array=True,
+    ),
+    Variable(
+        "undeformed_points", 31, "real", "calculatedParameter", "fixed", "calculated", "m",
+        "Undeformed coordinates of the monitored points, K x 3, m",
+        "POINTS", fmi=(3,), array=True,
+    ),
+)  # fmt: skip
+
+
+def variables_for(fmi_version: int, has_trajectory: bool) -> list[Variable]:
+    """The variables of one FMU, in modelDescription order."""
+    return [
+        v for v in VARIABLES if fmi_version in v.fmi and (has_trajectory or not v.needs_trajectory)
+    ]
+
+
+def input_description(fmi_version: int) -> str:
+    """How the FMU treats the inputs over a step (written into each input's description)."""
+    return _INPUT_FMI2 if fmi_version == 2 else _INPUT_FMI3
+
+
+def config_header(
+    *,
+    fmi_version: int,
+    token: str,
+    n_points: int,
+    n_modes: int,
+    n_trajectory: int,
+    threshold_m: float,
+    damping_scale: float,
+) -> str:
+    """``jxf_config.h`` for one export: sizes, token, start values and value references,
+    the same numbers that modelDescription.xml declares."""
+    if not all(math.isfinite(x) for x in (threshold_m, damping_scale)):
+        raise ValueError("start values must be finite")
+    variables = variables_for(fmi_version, n_trajectory > 0)
+    lines = [
+        "/* Generated by jaxflex (fmu.variables): must match modelDescription.xml. */",
+        "#ifndef JXF_CONFIG_H",
+        "#define JXF_CONFIG_H",
+        f"#define JXF_FMI_VERSION {int(fmi_version)}",
+        f'#define JXF_TOKEN "{token}"',
+        f'#define JXF_RESOURCE_FILE "{RESOURCE_FILE}"',
+        f"#define JXF_N_POINTS {int(n_points)}",
+        f"#define JXF_N_MODES {int(n_modes)}",
+        f"#define JXF_N_TRAJ {int(n_trajectory)}",
+        f"#define JXF_START_THRESHOLD {float(threshold_m)!r}",
+        f"#define JXF_START_DAMPING_SCALE {float(damping_scale)!r}",
+    ]
+    lines += [f"#define JXF_VR_{v.macro} {v.vr}u" for v in variables]
+    table = ", ".join(f'{{{v.vr}u, "{v.name}"}}' for v in variables)
+    lines += [f"#define JXF_VARIABLE_TABLE {{{table}}}", "#endif", ""]
+    return "\n".join(lines)

@@ -1,0 +1,280 @@
+"""Built-in verification: validate an FMU with fmpy, simulate it, compare with jaxflex.
+
+Three ways to drive the FMU, each with the reference that describes it exactly:
+
+- "embedded": ``use_embedded_trajectory = true``; the FMU replays its own trajectory (linear
+  between samples). Reference: ``jaxflex.simulate`` of the same samples.
+- "linear" (FMI 2.0): inputs set with their time derivatives (fmi2SetRealInputDerivatives),
+  so the acceleration is linear over each step; driven by :class:`fmu.master.Session` (fmpy's
+  FMU2Slave). Reference: ``jaxflex.simulate``.
+- "held": inputs only (FMI 3.0, or FMI 2.0 on request), constant over each step. Reference:
+  the exact zero-order-hold recursion built on ``jaxflex.discretize.propagators``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import zipfile
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fmu.master import Session, run_linear
+from fmu.resource import decode_resource
+from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE
+from jaxflex.errors import InputError, ModelFileError
+from jaxflex.model import ModalModel
+from jaxflex.validation import check_acc, check_positive
+
+DEFAULT_RTOL = 1e-9
+MODES = ("embedded", "linear", "held")
+
+
+@dataclass
+class VerifyReport:
+    """Result of :func:`verify`. Differences are max over all communication points (and for
+    FMI 3.0 over all displaced coordinates); relative ones are divided by the reference's
+    largest absolute value."""
+
+    path: str
+    fmi_version: int
+    mode: str
+    reference: str
+    validation: list[str]
+    n_steps: int
+    dt_s: float
+    stop_time_s: float
+    max_abs_diff_m: float
+    max_rel_diff: float
+    max_abs_diff_points_m: float | None
+    max_rel_diff_points: float | None
+    settle_time_fmu_s: float
+    settle_time_reference_s: float
+    rtol: float = DEFAULT_RTOL
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """Validation clean, outputs within ``rtol`` and the same settle time."""
+        rel = [self.max_rel_diff, self.max_rel_diff_points or 0.0]
+        return (
+            not self.validation
+            and max(rel) <= self.rtol
+            and math.isclose(
+                self.settle_time_fmu_s, self.settle_time_reference_s, abs_tol=1e-9 * self.dt_s
+            )
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        return {**asdict(self), "ok": self.ok}
+
+    def summary(self) -> str:
+        lines = [
+            f"{self.path}: FMI {self.fmi_version}.0, {self.mode} input, {self.n_steps} steps of "
+            f"{self.dt_s:g} s to {self.stop_time_s:g} s",
+            "fmpy validation: " + ("clean" if not self.validation else "; ".join(self.validation)),
+            f"deviation vs {self.reference}: max abs {self.max_abs_diff_m:.3e} m, "
+            f"relative {self.max_rel_diff:.3e}",
+        ]
+        if self.max_abs_diff_points_m is not None:
+            lines.append(
+                f"displaced points: max abs {self.max_abs_diff_points_m:.3e} m, relative "
+                f"{self.max_rel_diff_points:.3e}"
+            )
+        lines.append(
+            f"settle time at communication points: FMU {self.settle_time_fmu_s:.6g} s, "
+            f"reference {self.settle_time_reference_s:.6g} s"
+        )
+        lines += self.notes
+        lines.append("OK" if self.ok else f"FAILED (tolerance {self.rtol:g} relative)")
+        return "\n".join(lines)
+
+
+def input_signal(acc, dt_s: float) -> np.ndarray:
+    """Input for ``fmpy.simulate_fmu``: a structured array with fields time, ax, ay, az (the
+    columns of the ``<name>_input.csv`` written beside an exported FMU)."""
+    acc = np.asarray(acc, dtype=np.float64)
+    signal = np.zeros(acc.shape[0], dtype=[(name, np.float64) for name in INPUT_COLUMNS])
+    signal["time"] = dt_s * np.arange(acc.shape[0])
+    for i, name in enumerate(INPUT_COLUMNS[1:]):
+        signal[name] = acc[:, i]
+    return signal
+
+
+def held_input_response(model: ModalModel, acc, dt_s: float, n_steps: int, *, points=False):
+    """Exact response when each sample a_k is held over [t_k, t_k + dt_s) (zero-order hold),
+    0 after the last sample: (deviation (n_steps + 1,) m, displacement (n_steps + 1, K, 3) m
+    or None). The same exact propagators as jaxflex, with G0 + G1 = J0 as the input matrix."""
+    from jaxflex.discretize import propagators
+
+    omega = 2.0 * np.pi * np.asarray(model.freq_hz)
+    prop = propagators(omega, np.asarray(model.zeta), dt_s, xp=np)
+    force = np.zeros((n_steps + 1, model.n_modes))
+    n = min(len(acc), n_steps + 1)
+    force[:n] = -np.asarray(acc)[:n] @ np.asarray(model.gamma).T
+    q = np.zeros((n_steps + 1, model.n_modes))
+    x = np.zeros((model.n_modes, 2))
+    for k in range(n_steps):
+        x = np.einsum("mij,mj->mi", prop.phi, x) + prop.j0 * force[k][:, None]
+        q[k + 1] = x[:, 0]
+    disp = np.einsum("kcm,tm->tkc", np.asarray(model.shapes), q)
+    return np.linalg.norm(disp, axis=2).max(axis=1), (disp if points else None)
+
+
+def _linear_response(model: ModalModel, acc, dt_s: float, n_steps: int, *, points=False):
+    import jaxflex
+
+    extend = (n_steps - (len(acc) - 1)) * dt_s
+    res = jaxflex.simulate(model, acc, dt_s, extend_s=max(extend, 0.0), displacement=points)
+    dev = np.asarray(res.deviation)[: n_steps + 1]
+    disp = None if not points else np.asarray(res.displacement)[: n_steps + 1]
+    return dev, disp
+
+
+def settle_time_at_points(t: np.ndarray, deviation: np.ndarray, threshold_m: float) -> float:
+    """Time at which ``deviation <= threshold`` last became true (t[0] if always true)."""
+    settled = deviation <= threshold_m
+    rises = np.flatnonzero(settled[1:] & ~settled[:-1]) + 1
+    return float(t[rises[-1]]) if rises.size else float(t[0])
+
+
+def _relative(diff: float, scale: float) -> float:
+    return diff / scale if scale > 0 else diff
+
+
+def read_fmu_resource(path: str | os.PathLike):
+    """The model and embedded trajectory stored in an exported FMU."""
+    try:
+        with zipfile.ZipFile(path) as zf:
+            data = zf.read(f"resources/{RESOURCE_FILE}")
+    except (zipfile.BadZipFile, KeyError, OSError) as exc:
+        raise ModelFileError(f"{str(path)!r} is not a jaxflex FMU ({exc})") from exc
+    return decode_resource(data, source=f"{path}:resources/{RESOURCE_FILE}")
+
+
+def _choose_mode(fmi_version: int, given: bool, mode: str) -> str:
+    if mode not in ("auto", *MODES):
+        raise InputError(f"input_mode: must be one of auto, {', '.join(MODES)}; got {mode!r}")
+    if mode == "auto":
+        return "embedded" if not given else ("linear" if fmi_version == 2 else "held")
+    if mode == "linear" and fmi_version != 2:
+        raise InputError("input_mode 'linear' needs FMI 2.0 (FMI 3.0 has no input derivatives)")
+    if (mode == "embedded") == given:
+        raise InputError(
+            "input_mode 'embedded' replays the FMU's own trajectory: do not pass acc"
+            if given
+            else f"input_mode {mode!r} needs acc and dt_s"
+        )
+    return mode
+
+
+def verify(
+    path: str | os.PathLike,
+    acc=None,
+    dt_s: float | None = None,
+    *,
+    input_mode: str = "auto",
+    extend_s: float | None = None,
+    rtol: float = DEFAULT_RTOL,
+) -> VerifyReport:
+    """Validate the FMU at ``path`` with fmpy, simulate it with ``fmpy.simulate_fmu`` (output
+    interval = the sample step; the "linear" mode uses fmpy's FMU2Slave through
+    :class:`fmu.master.Session`) and compare with jaxflex.
+
+    Without ``acc`` the FMU replays its embedded trajectory; otherwise ``acc`` ((n+1, 3)
+    m/s^2 at step ``dt_s`` s) drives the inputs ("linear" for FMI 2.0, "held" for FMI 3.0 by
+    default, see the module docstring). The run lasts until the FMU's default stop time or
+    ``extend_s`` s after the last sample.
+    """
+    from fmpy import read_model_description, simulate_fmu
+    from fmpy.validation import validate_fmu
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"FMU {str(path)!r} does not exist")
+    stored = read_fmu_resource(path)
+    md = read_model_description(str(path))
+    fmi_version = int(md.fmiVersion[0])
+    mode = _choose_mode(fmi_version, acc is not None, input_mode)
+    if mode == "embedded":
+        if stored.acc is None:
+            raise InputError(f"{str(path)!r} has no embedded trajectory: pass acc and dt_s")
+        acc, dt_s = stored.acc, stored.dt_s
+    else:
+        acc = check_acc(acc).astype(np.float64)
+        dt_s = check_positive("dt_s", dt_s)
+    duration = (len(acc) - 1) * dt_s
+    if extend_s is not None:
+        stop = duration + float(extend_s)
+    else:
+        stop = max(float(md.defaultExperiment.stopTime or 0.0), duration)
+    n_steps = round(stop / dt_s)
+    stop = n_steps * dt_s
+    threshold = next(float(v.start) for v in md.modelVariables if v.name == "threshold")
+
+    points = fmi_version == 3
+    if mode == "linear":
+        with Session(path, instance_name="jaxflex_verify") as session:
+            session.start(0.0)
+            result = run_linear(session, acc, dt_s, n_steps)
+    else:
+        outputs = ["deviation", "settle_time", "settled"] + (["displaced_points"] * points)
+        if mode == "embedded":
+            drive: dict[str, Any] = {"start_values": {"use_embedded_trajectory": True}}
+        else:
+            drive = {"input": input_signal(acc, dt_s)}
+        result = simulate_fmu(
+            str(path),
+            validate=False,
+            start_time=0.0,
+            stop_time=stop,
+            output_interval=dt_s,
+            output=outputs,
+            **drive,
+        )
+    if len(result["time"]) != n_steps + 1:
+        raise InputError(
+            f"the simulation returned {len(result['time'])} samples, expected {n_steps + 1}: "
+            f"dt_s = {dt_s} s must divide the simulated time"
+        )
+    if mode == "held":
+        ref_dev, ref_disp = held_input_response(stored.model, acc, dt_s, n_steps, points=points)
+        reference = "exact zero-order hold (jaxflex.discretize)"
+    else:
+        ref_dev, ref_disp = _linear_response(stored.model, acc, dt_s, n_steps, points=points)
+        reference = "jaxflex.simulate"
+    dev = np.asarray(result["deviation"])
+    diff = float(np.max(np.abs(dev - ref_dev)))
+    diff_p = rel_p = None
+    if points:
+        disp = np.asarray(result["displaced_points"]) - np.asarray(stored.model.points)[None]
+        diff_p = float(np.max(np.abs(disp - ref_disp)))
+        rel_p = _relative(diff_p, float(np.max(np.abs(ref_disp))))
+    t = np.asarray(result["time"])
+    notes = []
+    if mode == "held":
+        notes.append(
+            "inputs are held over each step; jaxflex (linear between samples) differs by "
+            "about half a step of delay"
+        )
+    return VerifyReport(
+        path=str(path),
+        fmi_version=fmi_version,
+        mode=mode,
+        reference=reference,
+        validation=list(validate_fmu(str(path))),
+        n_steps=n_steps,
+        dt_s=dt_s,
+        stop_time_s=stop,
+        max_abs_diff_m=diff,
+        max_rel_diff=_relative(diff, float(np.max(np.abs(ref_dev)))),
+        max_abs_diff_points_m=diff_p,
+        max_rel_diff_points=rel_p,
+        settle_time_fmu_s=float(result["settle_time"][-1]),
+        settle_time_reference_s=settle_time_at_points(t, ref_dev, threshold),
+        rtol=rtol,
+        notes=notes,
+    )
