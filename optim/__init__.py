@@ -1,1 +1,30 @@
-"""optim package."""
+"""optim: minimum cycle-time transfers under robot limits.
+
+Public interface (SI units throughout):
+
+* ``Limits(vmax, amax, jmax, vpath=None, apath=None, jpath=None)`` and ``check_profile``;
+* ``RobustSpec(freq_scale=(0.9, 1.1), zeta=(0.01, 0.03), n_freq=21, n_zeta=3)``;
+* ``baselines(model, distance_m, limits, threshold_m, dt_s)`` -> ruckig floor, ruckig + free
+  decay, ZV / ZVD / EI multi-mode shaped moves, each with its exact cycle time;
+* ``optimize(model, distance_m, limits, threshold_m, dt_s, method="exact"|"gradient", ...)``
+  -> ``OptimizationResult`` (``.save(directory)`` writes trajectory.csv, report.json, plots).
+"""
+
+from optim.baselines import Baseline, BaselineSet, baselines
+from optim.limits import ConstraintCheck, Limits, Violation, check_profile
+from optim.optimize import optimize
+from optim.result import OptimizationResult
+from optim.robust import RobustSpec
+
+__all__ = [
+    "Baseline",
+    "BaselineSet",
+    "ConstraintCheck",
+    "Limits",
+    "OptimizationResult",
+    "RobustSpec",
+    "Violation",
+    "baselines",
+    "check_profile",
+    "optimize",
+]

@@ -1,0 +1,174 @@
+"""Baselines every optimised move is compared against, each with its exact cycle time.
+
+* the kinematic floor: ruckig's time-optimal jerk-limited motion; its grid version's length
+  bounds every transfer time from below;
+* "ruckig + free decay": that grid move, then waiting for the vibration to settle;
+* ZV, ZVD and EI input shaping of the time-optimal motion for the dominant modes (several
+  modes by convolving their shapers), with the number of shaped modes that gives the
+  shortest cycle (the shortest worst-case cycle in robust mode).
+
+Dominant modes are ranked by their quasi-static deflection along the move,
+max_p |phi_i(p)| |Gamma_i . u| / omega_i^2 (u the unit direction of the move).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from jaxflex.model import ModalModel
+from optim.limits import Limits
+from optim.robust import RobustSpec, perturbed
+from optim.ruckig_move import kinematic_floor_move, shaped_grid_move, time_optimal_move
+from optim.shapers import KINDS, convolve, shaper
+from optim.timing import MoveTiming, exact_timing
+
+MAX_SHAPED_MODES = 6
+
+
+@dataclass
+class Baseline:
+    """One baseline move: samples, exact timing, and (robust mode) its worst case."""
+
+    name: str
+    acc: np.ndarray
+    timing: MoveTiming
+    shaped_freq_hz: list[float] = field(default_factory=list)
+    worst_cycle_time_s: float | None = None
+    worst_case: dict | None = None  # scenario of the worst case
+    worst_grid: list[dict] | None = None  # cycle time at every point of the check grid
+
+    @property
+    def cycle_time_s(self) -> float:
+        return self.timing.cycle_time_s
+
+    def score(self) -> float:
+        """What the baseline is ranked by: the worst case in robust mode, else nominal."""
+        return self.cycle_time_s if self.worst_cycle_time_s is None else self.worst_cycle_time_s
+
+    def as_dict(self) -> dict:
+        return {
+            "name": self.name,
+            "n_steps": int(self.acc.shape[0] - 1),
+            **self.timing.as_dict(),
+            "shaped_modes": len(self.shaped_freq_hz),
+            "shaped_freq_hz": self.shaped_freq_hz,
+            "worst_cycle_time_s": self.worst_cycle_time_s,
+            "worst_case": self.worst_case,
+        }
+
+
+@dataclass
+class BaselineSet:
+    kinematic_floor_s: float  # continuous time-optimal (ruckig) duration
+    floor_acc: np.ndarray  # its grid version: floor_steps = len - 1
+    entries: list[Baseline]
+
+    @property
+    def floor_steps(self) -> int:
+        return int(self.floor_acc.shape[0] - 1)
+
+    def best(self, shapers_only: bool = False) -> Baseline:
+        pool = [b for b in self.entries if not shapers_only or b.shaped_freq_hz]
+        return min(pool, key=Baseline.score)
+
+    def as_dict(self) -> dict:
+        return {
+            "kinematic_floor_s": self.kinematic_floor_s,
+            "floor_steps": self.floor_steps,
+            "entries": [b.as_dict() for b in self.entries],
+        }
+
+
+def dominant_modes(model: ModalModel, distance: np.ndarray) -> np.ndarray:
+    """Mode indices, most important first (module docstring)."""
+    unit = distance / np.linalg.norm(distance)
+    omega = 2 * np.pi * np.asarray(model.freq_hz)
+    deflection = model.shape_norms.max(axis=0) * np.abs(np.asarray(model.gamma) @ unit) / omega**2
+    return np.argsort(-deflection, kind="stable")
+
+
+def worst_case(
+    model: ModalModel, acc: np.ndarray, dt: float, threshold_m: float, grid
+) -> tuple[float, dict, list[dict]]:
+    """Largest exact cycle time over the (frequency scale, zeta) points of ``grid``: (worst,
+    where, every point as {"freq_scale", "zeta", "cycle_time_s"})."""
+    points = []
+    for scale, zeta in grid:
+        timing = exact_timing(perturbed(model, scale, zeta), acc, dt, threshold_m, settle=False)
+        points.append({"freq_scale": scale, "zeta": zeta, "cycle_time_s": timing.cycle_time_s})
+    worst = max(points, key=lambda p: p["cycle_time_s"])
+    where = {"freq_scale": worst["freq_scale"], "zeta": worst["zeta"]}
+    return float(worst["cycle_time_s"]), where, points
+
+
+def _selection_grid(robust: RobustSpec):
+    """A coarse grid (5 frequency scales x the zeta end points) to choose shaped modes."""
+    coarse = RobustSpec(
+        robust.freq_scale, robust.zeta, min(robust.n_freq, 5), min(robust.n_zeta, 2)
+    )
+    return coarse.grid()
+
+
+def baselines(
+    model: ModalModel,
+    distance_m,
+    limits: Limits,
+    threshold_m: float,
+    dt_s: float = 0.01,
+    *,
+    robust: RobustSpec | None = None,
+    max_shaped_modes: int = MAX_SHAPED_MODES,
+    max_steps: int = 3000,
+    solver: str = "highs",
+    progress: bool = False,
+) -> BaselineSet:
+    """Every baseline for the move ``distance_m`` (3,) m (module docstring). In robust mode
+    each entry also carries its worst cycle time over ``robust``'s check grid."""
+    distance = np.asarray(distance_m, dtype=np.float64).reshape(3)
+    floor = kinematic_floor_move(distance, limits, dt_s, max_steps, solver=solver)
+    continuous = time_optimal_move(distance, limits)
+    select_grid = None if robust is None else _selection_grid(robust)
+
+    def evaluate(name, acc, freqs):
+        entry = Baseline(name, acc, exact_timing(model, acc, dt_s, threshold_m), freqs)
+        if select_grid is not None:
+            entry.worst_cycle_time_s, entry.worst_case, _ = worst_case(
+                model, acc, dt_s, threshold_m, select_grid
+            )
+        return entry
+
+    entries = [
+        Baseline(
+            "ruckig + free decay", floor.acc, exact_timing(model, floor.acc, dt_s, threshold_m)
+        )
+    ]
+    order = dominant_modes(model, distance)[:max_shaped_modes]
+    freq, zeta = np.asarray(model.freq_hz), np.asarray(model.zeta)
+    bar = tqdm(total=len(KINDS) * len(order), desc="baselines", disable=not progress, leave=False)
+    for kind in KINDS:
+        best: Baseline | None = None
+        for count in range(1, len(order) + 1):
+            bar.update(1)
+            modes = order[:count]
+            train = convolve(*(shaper(kind, freq[i], zeta[i]) for i in modes))
+            if best is not None and continuous.duration_s + train.duration_s >= best.score():
+                continue  # the move alone is longer than the best cycle so far
+            acc = shaped_grid_move(continuous, train, distance, limits, dt_s, solver=solver)
+            if acc is None:
+                continue
+            entry = evaluate(f"{kind} x{count}", acc, [float(freq[i]) for i in modes])
+            if best is None or entry.score() < best.score():
+                best = entry
+        if best is not None:
+            best.name = f"{kind} ({len(best.shaped_freq_hz)} modes)"
+            entries.append(best)
+    bar.close()
+    if robust is not None:  # the final figures over the full check grid
+        for entry in entries:
+            entry.worst_cycle_time_s, entry.worst_case, entry.worst_grid = worst_case(
+                model, entry.acc, dt_s, threshold_m, robust.grid()
+            )
+    return BaselineSet(continuous.duration_s, floor.acc, entries)

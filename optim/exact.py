@@ -1,0 +1,96 @@
+"""The exact route: each "do n steps suffice?" test is one linear program.
+
+Variables: the move (optim.kinematics), each training scenario's modal end state in scaled
+units (z_hat = x_end / zscale, so that z_hat ~ 1 means ~threshold deviation) tied to the
+samples by the exact linear map, and the epigraph variable s. Rows: kinematics and limits,
+z_hat - (E / zscale) a = 0, and for every pooled (scenario, point, time) row
+c . u_p(tau) / (rho limit) <= s. Minimising s decides feasibility (s <= 1); the final
+``polish`` pass fixes s <= 1 and minimises the total variation of the acceleration
+instead, which removes the chattering an LP vertex tends to have.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from optim.kinematics import add_cuts, add_move, add_tv_objective, path_cuts
+from optim.lp import LPBuilder, solve_lp
+from optim.polytope import ball_normals
+from optim.search import Problem, SubResult
+
+MAX_CUT_ROUNDS = 30
+# The polish pass keeps the margin the feasibility LP found, give or take this share of the
+# threshold: among (nearly) margin-optimal moves it picks the smoothest.
+POLISH_SLACK = 0.02
+
+
+class LPSubsolver:
+    """Subproblem solver of the exact route; ``solver`` is an optim.lp back end."""
+
+    polyhedral = True
+
+    def __init__(self, solver: str = "highs") -> None:
+        self.solver = solver
+        self.name = f"exact ({solver})"
+        self._cuts: dict[int, list] = {}  # path-norm cuts per n (they depend on n)
+        self.best_value = 1.0  # smallest max-row value seen at the polished n (set by caller)
+
+    def _build(self, problem: Problem, n_steps: int, polish: bool):
+        builder = LPBuilder()
+        layout = add_move(builder, n_steps, problem.dt, problem.distance, problem.limits)
+        add_cuts(builder, self._cuts.get(n_steps, []))
+        s_cap = min(1.0, self.best_value + POLISH_SLACK) if polish else np.inf
+        s = builder.variables(1, 0.0, s_cap, 0.0 if polish else 1.0)[0]
+        if polish:
+            add_tv_objective(builder, layout, problem.limits, 1.0)
+        rho = ball_normals(len(problem.components))[1]
+        a_cols = layout.a.ravel()  # axis-major, like E[..., axes] transposed below
+        z_cols = {}
+        for i in problem.training:
+            scen = problem.scenarios[i]
+            emap = problem.end_map(i, n_steps)[..., list(layout.axes)]  # (M, 2, n+1, d)
+            m = emap.shape[0]
+            e_flat = np.transpose(emap, (0, 1, 3, 2)).reshape(2 * m, -1)
+            e_flat = e_flat / scen.zscale.reshape(-1, 1)
+            z = builder.variables(2 * m)
+            builder.dense_rows(
+                np.hstack([np.eye(2 * m), -e_flat]), np.concatenate([z, a_cols]), 0.0, 0.0
+            )
+            z_cols[i] = z
+        rows = [r for r in problem.pool if r.scenario in z_cols]
+        if rows:
+            coef = np.stack(
+                [
+                    (r.coef * problem.scenarios[r.scenario].zscale).ravel()
+                    / (rho * problem.limit_m)
+                    for r in rows
+                ]
+            )
+            cols = np.stack([z_cols[r.scenario] for r in rows])
+            builder.rows(
+                np.column_stack([cols, np.full(len(rows), s)]),
+                np.column_stack([coef, -np.ones(len(rows))]),
+                -np.inf,
+                0.0,
+            )
+        return builder, layout, s
+
+    def solve(self, problem: Problem, n_steps: int, warm: np.ndarray, polish: bool) -> SubResult:
+        builder, layout, s = self._build(problem, n_steps, polish)
+        stats = {"lp_solves": 0, "lp_wall_s": 0.0, "lp_iterations": 0, "rows": 0}
+        for _ in range(MAX_CUT_ROUNDS):
+            program = builder.program()
+            sol = solve_lp(program, self.solver)
+            stats["lp_solves"] += 1
+            stats["lp_wall_s"] += sol.wall_s
+            stats["lp_iterations"] += sol.iterations
+            stats["rows"] = int(program.matrix.shape[0])
+            stats["variables"] = int(program.matrix.shape[1])
+            if sol.status != "optimal":
+                return SubResult(sol.status, None, np.inf, stats)
+            cuts = path_cuts(layout, sol.x, problem.limits)
+            if not cuts:
+                return SubResult("solved", layout.acceleration(sol.x), float(sol.x[s]), stats)
+            self._cuts.setdefault(n_steps, []).extend(cuts)
+            add_cuts(builder, cuts)
+        return SubResult("failed", None, np.inf, stats)

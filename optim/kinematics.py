@@ -1,0 +1,159 @@
+"""A rest-to-rest move of n steps as LP variables and rows: exact kinematics and limits.
+
+Per moving axis the variables are the samples a_0..a_n, v_0..v_n and x_0..x_n, tied by the
+exact recursions of the piecewise-linear acceleration (optim.profiles):
+
+    v_{k+1} = v_k + dt (a_k + a_{k+1}) / 2,    x_{k+1} = x_k + dt v_k + dt^2 (2 a_k + a_{k+1}) / 6
+
+with a_0 = a_n = 0, v_0 = v_n = 0, x_0 = 0, x_n = distance. Limits:
+
+* |a_k| <= amax and |a_{k+1} - a_k| <= jmax dt are exact (acceleration is linear on a step);
+* velocity, quadratic on a step, lies in the convex hull of its Bernstein coefficients
+  (v_k, v_k + a_k dt / 2, v_{k+1}), so |v_k| <= vmax and |v_k + a_k dt / 2| <= vmax make the
+  limit hold at every instant. The price is at most jmax dt^2 / 2 of velocity where the
+  acceleration crosses zero (5 mm/s at jmax 100 m/s^3, dt 10 ms).
+* path-norm limits |v|, |a|, |jerk| <= limit act on the same points (the hull argument holds
+  for vectors, the norm being convex) through the polyhedral inner approximation of
+  optim.polytope, generated lazily as cutting planes (:func:`path_cuts`).
+
+Axes that do not move (zero distance) stay at rest and are not variables. Limits are used
+at their exact values (a margin would make the kinematic floor infeasible whenever ruckig's
+corners fall on the grid); the solvers run with a 1e-9 feasibility tolerance and the
+limits check allows 1e-9 relative.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from optim.limits import Limits
+from optim.lp import LPBuilder
+from optim.polytope import ball_normals, support, worst_normal
+
+
+@dataclass(frozen=True)
+class MoveLayout:
+    """Variable indices of a move: a, v, x are (d, n+1) for the d moving ``axes``."""
+
+    n_steps: int
+    dt: float
+    axes: tuple[int, ...]
+    a: np.ndarray
+    v: np.ndarray
+    x: np.ndarray
+
+    def acceleration(self, solution: np.ndarray) -> np.ndarray:
+        """(n+1, 3) samples from an LP solution vector (zero on axes that do not move)."""
+        acc = np.zeros((self.n_steps + 1, 3))
+        acc[:, list(self.axes)] = solution[self.a].T
+        return acc
+
+    def interior_a(self) -> np.ndarray:
+        """Indices of a_1 .. a_{n-1} per axis, (d, n-1)."""
+        return self.a[:, 1:-1]
+
+
+def moving_axes(distance_m: np.ndarray) -> tuple[int, ...]:
+    return tuple(int(c) for c in np.flatnonzero(np.asarray(distance_m) != 0))
+
+
+def add_move(
+    builder: LPBuilder, n_steps: int, dt: float, distance_m: np.ndarray, limits: Limits
+) -> MoveLayout:
+    """Add the variables and rows of an n-step move to ``builder`` (module docstring)."""
+    axes = moving_axes(distance_m)
+    n, h = n_steps, dt
+    a_idx, v_idx, x_idx = [], [], []
+    for c in axes:
+        amax, vmax = float(limits.amax[c]), float(limits.vmax[c])
+        if limits.apath is not None:
+            amax = min(amax, limits.apath)
+        if limits.vpath is not None:
+            vmax = min(vmax, limits.vpath)
+        a = builder.variables(n + 1, -amax, amax)
+        v = builder.variables(n + 1, -vmax, vmax)
+        x = builder.variables(n + 1)
+        builder.set_bounds([a[0], a[-1], v[0], v[-1], x[0]], 0.0, 0.0)
+        builder.set_bounds([x[-1]], distance_m[c], distance_m[c])
+        k = np.arange(n)
+        ones = np.ones(n)
+        builder.rows(  # v_{k+1} - v_k - h/2 (a_k + a_{k+1}) = 0
+            np.column_stack([v[k + 1], v[k], a[k], a[k + 1]]),
+            np.column_stack([ones, -ones, -h / 2 * ones, -h / 2 * ones]),
+            0.0,
+            0.0,
+        )
+        builder.rows(  # x_{k+1} - x_k - h v_k - h^2/3 a_k - h^2/6 a_{k+1} = 0
+            np.column_stack([x[k + 1], x[k], v[k], a[k], a[k + 1]]),
+            np.column_stack([ones, -ones, -h * ones, -h * h / 3 * ones, -h * h / 6 * ones]),
+            0.0,
+            0.0,
+        )
+        jump = float(limits.jmax[c]) * h
+        if limits.jpath is not None:
+            jump = min(jump, limits.jpath * h)
+        builder.rows(np.column_stack([a[k + 1], a[k]]), np.column_stack([ones, -ones]), -jump, jump)
+        builder.rows(  # Bernstein middle coefficient of the velocity on step k
+            np.column_stack([v[k], a[k]]), np.column_stack([ones, h / 2 * ones]), -vmax, vmax
+        )
+        a_idx.append(a)
+        v_idx.append(v)
+        x_idx.append(x)
+    return MoveLayout(n, dt, axes, np.array(a_idx), np.array(v_idx), np.array(x_idx))
+
+
+def add_tv_objective(builder: LPBuilder, layout: MoveLayout, limits: Limits, weight: float):
+    """Add ``weight`` * sum_k,c |a_{k+1,c} - a_{k,c}| / (jmax_c dt) to the objective (total
+    variation of the acceleration, which favours few jerk switches)."""
+    for i, c in enumerate(layout.axes):
+        a = layout.a[i]
+        t = builder.variables(layout.n_steps, 0.0, np.inf, weight / (limits.jmax[c] * layout.dt))
+        ones = np.ones(layout.n_steps)
+        cols = np.column_stack([t, a[1:], a[:-1]])
+        builder.rows(cols, np.column_stack([ones, -ones, ones]), 0.0, np.inf)
+        builder.rows(cols, np.column_stack([ones, ones, -ones]), 0.0, np.inf)
+
+
+def _path_quantities(layout: MoveLayout, sol: np.ndarray, limits: Limits):
+    """(name, values (m, d), columns (m, terms, d), weights, limit) of every norm-limited
+    quantity at the points where the LP bounds it."""
+    a, v = sol[layout.a].T, sol[layout.v].T  # (n+1, d)
+    n, h = layout.n_steps, layout.dt
+    k = np.arange(n)
+    out = []
+    if limits.apath is not None:
+        out.append((a, layout.a.T[:, None, :], (1.0,), limits.apath))
+    if limits.jpath is not None:
+        cols = np.stack([layout.a.T[k + 1], layout.a.T[k]], axis=1)
+        out.append(((a[k + 1] - a[k]) / h, cols, (1.0 / h, -1.0 / h), limits.jpath))
+    if limits.vpath is not None:
+        out.append((v, layout.v.T[:, None, :], (1.0,), limits.vpath))
+        cols = np.stack([layout.v.T[k], layout.a.T[k]], axis=1)
+        out.append((v[k] + 0.5 * h * a[k], cols, (1.0, 0.5 * h), limits.vpath))
+    return out
+
+
+def path_cuts(
+    layout: MoveLayout, sol: np.ndarray, limits: Limits, tol: float = 1e-9
+) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Cutting planes (columns, coefficients, upper bound) for every path-norm limit the LP
+    solution ``sol`` breaks in the polyhedral sense. Empty for single-axis moves, where the
+    norm limits are plain bounds already."""
+    d = len(layout.axes)
+    if d < 2 or not limits.has_path_limits():
+        return []
+    _, rho = ball_normals(d)
+    cuts = []
+    for values, cols, weights, limit in _path_quantities(layout, sol, limits):
+        bound = rho * limit
+        for i in np.flatnonzero(support(values, d) > bound * (1 + tol)):
+            normal = worst_normal(values[i], d)
+            cuts.append((cols[i].ravel(), np.concatenate([w * normal for w in weights]), bound))
+    return cuts
+
+
+def add_cuts(builder: LPBuilder, cuts) -> None:
+    for cols, coef, bound in cuts:
+        builder.rows(cols[None], coef[None], -np.inf, bound)

@@ -1,0 +1,208 @@
+"""Sparse linear programs: a small builder and two independent solver back ends.
+
+    minimise cost . x   subject to   row_lo <= A x <= row_hi,   var_lo <= x <= var_hi
+
+Back ends: scipy's HiGHS (``linprog(method="highs")``) and casadi's conic interface (COIN-OR
+Clp by default, or casadi's own HiGHS build), so the exact route can be cross-checked with a
+second solver.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from jaxflex.errors import InputError
+
+LP_SOLVERS = ("highs", "casadi", "casadi-highs")
+# Feasibility tolerance asked of every back end (absolute, on rows of O(1) scale); the
+# limits check allows 1e-9 relative, so a returned vertex meets it with room to spare.
+TOLERANCE = 1e-9
+
+
+@dataclass
+class LinearProgram:
+    cost: np.ndarray
+    matrix: sp.csr_matrix
+    row_lo: np.ndarray
+    row_hi: np.ndarray
+    var_lo: np.ndarray
+    var_hi: np.ndarray
+
+
+@dataclass(frozen=True)
+class LPSolution:
+    status: str  # "optimal", "infeasible" or "failed"
+    x: np.ndarray | None
+    objective: float
+    wall_s: float
+    iterations: int
+    message: str
+
+
+class LPBuilder:
+    """Collects variables (with bounds and cost) and sparse rows (two-sided bounds)."""
+
+    def __init__(self) -> None:
+        self._lo: list[np.ndarray] = []
+        self._hi: list[np.ndarray] = []
+        self._cost: list[np.ndarray] = []
+        self._data: list[np.ndarray] = []
+        self._rows: list[np.ndarray] = []
+        self._cols: list[np.ndarray] = []
+        self._row_lo: list[np.ndarray] = []
+        self._row_hi: list[np.ndarray] = []
+        self.n_vars = 0
+        self.n_rows = 0
+
+    def variables(self, count: int, lo=-np.inf, hi=np.inf, cost=0.0) -> np.ndarray:
+        """Add ``count`` variables; returns their indices."""
+        idx = np.arange(self.n_vars, self.n_vars + count)
+        self._lo.append(np.broadcast_to(np.asarray(lo, float), (count,)).copy())
+        self._hi.append(np.broadcast_to(np.asarray(hi, float), (count,)).copy())
+        self._cost.append(np.broadcast_to(np.asarray(cost, float), (count,)).copy())
+        self.n_vars += count
+        return idx
+
+    def set_bounds(self, idx, lo, hi) -> None:
+        lo_all, hi_all = np.concatenate(self._lo), np.concatenate(self._hi)
+        lo_all[idx], hi_all[idx] = lo, hi
+        self._lo, self._hi = [lo_all], [hi_all]
+
+    def rows(self, cols, vals, lo, hi) -> None:
+        """Add R rows: ``cols`` and ``vals`` (R, k) give k coefficients per row; ``lo``/``hi``
+        (R,) or scalars bound each row."""
+        cols, vals = np.atleast_2d(cols), np.atleast_2d(np.asarray(vals, float))
+        cols, vals = np.broadcast_arrays(cols, vals)
+        count = cols.shape[0]
+        if count == 0:
+            return
+        self._rows.append(np.repeat(np.arange(self.n_rows, self.n_rows + count), cols.shape[1]))
+        self._cols.append(cols.ravel())
+        self._data.append(vals.ravel())
+        self._row_lo.append(np.broadcast_to(np.asarray(lo, float), (count,)).copy())
+        self._row_hi.append(np.broadcast_to(np.asarray(hi, float), (count,)).copy())
+        self.n_rows += count
+
+    def dense_rows(self, block: np.ndarray, cols: np.ndarray, lo, hi) -> None:
+        """Add rows ``block`` (R, len(cols)) acting on variables ``cols``."""
+        self.rows(np.broadcast_to(cols, block.shape), block, lo, hi)
+
+    def program(self) -> LinearProgram:
+        data = np.concatenate(self._data) if self._data else np.zeros(0)
+        rows = np.concatenate(self._rows) if self._rows else np.zeros(0, int)
+        cols = np.concatenate(self._cols) if self._cols else np.zeros(0, int)
+        matrix = sp.csr_matrix((data, (rows, cols)), shape=(self.n_rows, self.n_vars))
+        cat = np.concatenate
+        return LinearProgram(
+            cost=cat(self._cost),
+            matrix=matrix,
+            row_lo=cat(self._row_lo) if self._row_lo else np.zeros(0),
+            row_hi=cat(self._row_hi) if self._row_hi else np.zeros(0),
+            var_lo=cat(self._lo),
+            var_hi=cat(self._hi),
+        )
+
+
+def _solve_highs(lp: LinearProgram) -> LPSolution:
+    from scipy.optimize import linprog
+
+    a = lp.matrix
+    eq = lp.row_lo == lp.row_hi
+    upper = ~eq & np.isfinite(lp.row_hi)
+    lower = ~eq & np.isfinite(lp.row_lo)
+    a_ub = sp.vstack([a[upper], -a[lower]]).tocsr()
+    b_ub = np.concatenate([lp.row_hi[upper], -lp.row_lo[lower]])
+    start = time.perf_counter()
+    res = linprog(
+        lp.cost,
+        A_ub=a_ub if a_ub.shape[0] else None,
+        b_ub=b_ub if a_ub.shape[0] else None,
+        A_eq=a[eq] if eq.any() else None,
+        b_eq=lp.row_lo[eq] if eq.any() else None,
+        bounds=np.column_stack([lp.var_lo, lp.var_hi]),
+        method="highs",
+        options={
+            "primal_feasibility_tolerance": TOLERANCE,
+            "dual_feasibility_tolerance": TOLERANCE,
+        },
+    )
+    wall = time.perf_counter() - start
+    status = {0: "optimal", 2: "infeasible"}.get(res.status, "failed")
+    return LPSolution(
+        status=status,
+        x=res.x if status == "optimal" else None,
+        objective=float(res.fun) if status == "optimal" else np.inf,
+        wall_s=wall,
+        iterations=int(getattr(res, "nit", 0) or 0),
+        message=str(res.message),
+    )
+
+
+@contextlib.contextmanager
+def _quiet_stdout():
+    """Silence file descriptor 1 (C libraries' printf) for the duration of the block."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+            yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def _solve_casadi(lp: LinearProgram, plugin: str) -> LPSolution:
+    import casadi as ca
+
+    a = ca.DM(lp.matrix.tocsc())
+    n = lp.cost.size
+    options = {"verbose": False, "print_time": False, "error_on_fail": False}
+    if plugin == "highs":
+        options["highs"] = {
+            "output_flag": False,
+            "primal_feasibility_tolerance": TOLERANCE,
+            "dual_feasibility_tolerance": TOLERANCE,
+        }
+    else:
+        options["clp"] = {"PrimalTolerance": TOLERANCE, "DualTolerance": TOLERANCE}
+    solver = ca.conic("lp", plugin, {"a": a.sparsity(), "h": ca.Sparsity(n, n)}, options)
+    start = time.perf_counter()
+    with _quiet_stdout():  # Clp logs to the C-level stdout and has no option to stop it
+        res = solver(g=lp.cost, a=a, lba=lp.row_lo, uba=lp.row_hi, lbx=lp.var_lo, ubx=lp.var_hi)
+    wall = time.perf_counter() - start
+    stats = solver.stats()
+    message = str(stats.get("return_status", ""))
+    if stats.get("success", False):
+        status = "optimal"
+    elif "infeas" in message.lower():
+        status = "infeasible"
+    else:
+        status = "failed"
+    x = np.asarray(res["x"]).ravel() if status == "optimal" else None
+    return LPSolution(
+        status=status,
+        x=x,
+        objective=float(res["cost"]) if status == "optimal" else np.inf,
+        wall_s=wall,
+        iterations=max(0, int(stats.get("iter_count", 0) or 0)),
+        message=message,
+    )
+
+
+def solve_lp(lp: LinearProgram, solver: str = "highs") -> LPSolution:
+    """Solve with ``solver``: "highs" (scipy), "casadi" (casadi + Clp) or "casadi-highs"."""
+    if solver == "highs":
+        return _solve_highs(lp)
+    if solver == "casadi":
+        return _solve_casadi(lp, "clp")
+    if solver == "casadi-highs":
+        return _solve_casadi(lp, "highs")
+    raise InputError(f"solver: the exact route accepts {LP_SOLVERS}, got {solver!r}")

@@ -1,0 +1,248 @@
+"""``optim.optimize``: the minimum-cycle-time move under robot limits, by either route.
+
+1. Baselines (optim.baselines): the kinematic floor from ruckig and the shaped moves; the
+   best baseline's cycle time (worst case, in robust mode) brackets the search from above.
+2. Bisection over the number of steps (optim.search) with the exact route's LP
+   (optim.exact, default) or the gradient route's smooth NLP (optim.gradient), every
+   feasible answer certified with the exact cycle time of every scenario.
+3. Exact route: a polish pass picks the smoothest move among those with the margin found.
+4. The returned profile passes the limits check (optim.limits) or is not returned: if it
+   failed (it never has), the best baseline that passes is returned instead, and said so.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+
+import numpy as np
+
+from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
+from jaxflex.validation import check_positive
+from optim.baselines import baselines as compute_baselines
+from optim.exact import POLISH_SLACK, LPSubsolver
+from optim.gradient import GRADIENT_SOLVERS, GradientSubsolver
+from optim.limits import Limits, check_profile
+from optim.lp import LP_SOLVERS
+from optim.result import OptimizationResult, deviation_summary
+from optim.robust import RobustSpec
+from optim.search import attempt, bisect, make_problem
+from optim.timing import exact_timing
+
+METHODS = {"exact": ("highs", LP_SOLVERS), "gradient": ("ipopt", GRADIENT_SOLVERS)}
+DEFAULT_MAX_DURATION_S = 30.0
+
+
+def _as_limits(limits) -> Limits:
+    if isinstance(limits, Limits):
+        return limits
+    if isinstance(limits, Mapping):
+        if "vmax_m_s" in limits:
+            return Limits.from_dict(dict(limits))
+        return Limits(**limits)
+    raise InputError(
+        f"limits: expected optim.Limits(vmax, amax, jmax, ...) or a mapping, got {limits!r}"
+    )
+
+
+def _as_distance(distance_m) -> np.ndarray:
+    try:
+        dist = np.asarray(distance_m, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise InputError(
+            f"distance_m: expected 3 numbers (x, y, z) in m, got {distance_m!r}"
+        ) from exc
+    if dist.shape != (3,) or not np.isfinite(dist).all():
+        raise InputError(f"distance_m: expected 3 finite values (x, y, z) in m, got {distance_m!r}")
+    if not np.any(dist):
+        raise InputError("distance_m: the move has zero length")
+    return dist
+
+
+def _check_model(model, robust: RobustSpec | None) -> None:
+    if not isinstance(model, ModalModel):
+        raise InputError(f"model: expected a jaxflex.ModalModel, got {type(model).__name__}")
+    zeta = np.asarray(model.zeta)
+    if robust is None or robust.zeta is None:
+        undamped = np.flatnonzero(zeta <= 0)
+        if undamped.size:
+            i = int(undamped[0])
+            raise InputError(
+                f"model.zeta: mode {i} ({float(model.freq_hz[i]):.4g} Hz) is undamped (zeta = 0); "
+                "its vibration never decays, so no cycle time exists. Set a damping ratio "
+                "(model.with_damping) or a robust zeta range"
+            )
+
+
+def _as_robust(robust) -> RobustSpec | None:
+    if robust is None or isinstance(robust, RobustSpec):
+        return robust
+    if robust is True:
+        return RobustSpec()
+    if isinstance(robust, Mapping):
+        return RobustSpec.from_dict(dict(robust))
+    raise InputError(f"robust: expected None, True or optim.RobustSpec(...), got {robust!r}")
+
+
+def optimize(
+    model: ModalModel,
+    distance_m,
+    limits: Limits,
+    threshold_m: float,
+    dt_s: float = 0.01,
+    method: str = "exact",
+    solver: str | None = None,
+    robust: RobustSpec | None = None,
+    progress: bool = True,
+    *,
+    max_duration_s: float = DEFAULT_MAX_DURATION_S,
+    max_shaped_modes: int = 6,
+) -> OptimizationResult:
+    """The move over ``distance_m`` ((3,) m) within ``limits`` with the shortest cycle time
+    (move plus settling below ``threshold_m`` m), on the ``dt_s`` grid.
+
+    method: "exact" (LP feasibility tests, solver "highs", "casadi" (Clp) or
+        "casadi-highs") or "gradient" (smooth surrogate, solver "ipopt" or "slsqp").
+    robust: None for the nominal model, or a RobustSpec: then the worst cycle time over the
+        spec's frequency-scale / damping grid is minimised (recommended: FE frequencies and
+        damping are uncertain).
+    max_duration_s: longest move considered (a request that needs more is an error).
+    """
+    start = time.perf_counter()
+    robust = _as_robust(robust)
+    _check_model(model, robust)
+    distance = _as_distance(distance_m)
+    limits = _as_limits(limits)
+    threshold = check_positive("threshold_m", threshold_m)
+    dt = check_positive("dt_s", dt_s)
+    check_positive("max_duration_s", max_duration_s)
+    if method not in METHODS:
+        raise InputError(f"method: must be one of {sorted(METHODS)}, got {method!r}")
+    default_solver, allowed = METHODS[method]
+    solver = default_solver if solver is None else solver
+    if solver not in allowed:
+        raise InputError(f"solver: method {method!r} accepts {allowed}, got {solver!r}")
+    max_steps = math.floor(max_duration_s / dt + 1e-9)
+
+    base = compute_baselines(
+        model,
+        distance,
+        limits,
+        threshold,
+        dt,
+        robust=robust,
+        max_shaped_modes=max_shaped_modes,
+        max_steps=max_steps,
+        progress=progress,
+    )
+    problem = make_problem(model, distance, limits, threshold, dt, max_steps, robust)
+    sub = LPSubsolver(solver) if method == "exact" else GradientSubsolver(solver)
+    upper = math.ceil(base.best().score() / dt - 1e-9)
+    best, history = bisect(
+        problem, sub, base.floor_acc, upper, [e.acc for e in base.entries], progress=progress
+    )
+    if best is None:
+        raise InputError(
+            f"threshold_m: no move of at most max_duration_s = {max_duration_s:g} s keeps the "
+            f"deviation below {threshold * 1e3:g} mm after it; raise max_duration_s or "
+            "threshold_m"
+        )
+    final = best
+    if method == "exact":
+        sub.best_value = best.value
+        row_limit = min(1.0, best.value + POLISH_SLACK)
+        polished = attempt(problem, sub, best.n_steps, best.acc, polish=True, row_limit=row_limit)
+        history.append(polished)
+        if polished.feasible:
+            final = polished
+
+    notes = []
+    acc = final.acc
+    check = check_profile(acc, dt, limits, distance)
+    if not check.ok:  # never observed; kept so that a broken limit can never be returned
+        notes.append(f"optimised profile rejected ({check.summary()}); best baseline returned")
+        for entry in sorted(base.entries, key=lambda e: e.score()):
+            check = check_profile(entry.acc, dt, limits, distance)
+            if check.ok:
+                acc = entry.acc
+                break
+    timing = exact_timing(model, acc, dt, threshold)
+    worst = None
+    if robust is not None:
+        grid = (
+            [
+                (s.scale, s.zeta, final.timings[i].cycle_time_s)
+                for i, s in enumerate(problem.scenarios)
+            ]
+            if acc is final.acc
+            else None
+        )
+        worst = _worst_case(problem, acc, dt, threshold, grid)
+    stats = {
+        "route": sub.name,
+        "attempts": [a.summary() for a in history],
+        "subproblems": sum(len(a.solver_stats) for a in history),
+        "pooled_rows": len(problem.pool),
+        "training_scenarios": [problem.scenarios[i].as_dict() for i in problem.training],
+        "totals": _totals(history),
+        "notes": notes,
+    }
+    return OptimizationResult(
+        model=model,
+        distance_m=distance,
+        dt_s=dt,
+        threshold_m=threshold,
+        limits=limits,
+        method=method,
+        solver=solver,
+        robust=robust,
+        acc=acc,
+        timing=timing,
+        deviation=deviation_summary(model, acc, dt),
+        constraint_check=check,
+        solver_stats=stats,
+        wall_time_s=time.perf_counter() - start,
+        baselines=base,
+        worst_case=worst,
+    )
+
+
+def _worst_case(problem, acc, dt, threshold, grid) -> dict:
+    """Worst exact cycle time over the robust check grid (reusing certified timings)."""
+    if grid is None:
+        grid = [
+            (s.scale, s.zeta, exact_timing(s.model, acc, dt, threshold, settle=False).cycle_time_s)
+            for s in problem.scenarios
+        ]
+    scale, zeta, cycle = max(grid, key=lambda g: g[2])
+    return {
+        "cycle_time_s": cycle,
+        "freq_scale": scale,
+        "zeta": zeta,
+        "grid": [{"freq_scale": s, "zeta": z, "cycle_time_s": c} for s, z, c in grid],
+    }
+
+
+_SUMMED = (
+    "lp_solves",
+    "lp_wall_s",
+    "lp_iterations",
+    "nlp_solves",
+    "nlp_wall_s",
+    "iterations",
+    "jax_evaluations",
+    "jax_s",
+)
+
+
+def _totals(history) -> dict:
+    """Solver work summed over every subproblem of the search; for the gradient route also
+    whether every Ipopt / SLSQP run reported success (casadi ``stats()['success']``)."""
+    every = [s for a in history for s in a.solver_stats]
+    totals = {key: sum(s.get(key, 0) for s in every) for key in _SUMMED}
+    totals = {k: v for k, v in totals.items() if v}
+    if any("success" in s for s in every):
+        totals["all_nlp_success"] = all(s.get("success", True) for s in every)
+    return totals

@@ -1,0 +1,89 @@
+"""Model uncertainty for the robust mode: a range of frequency scales and damping ratios.
+
+Frequencies from FE and the damping ratio are uncertain. The robust mode asks the profile to
+work for every model in a range: all natural frequencies scaled by one factor s in
+[s_min, s_max] (stiffness error at fixed mass; shapes and participation unchanged), and
+every damping ratio set to zeta in [zeta_min, zeta_max] (or kept as in the model).
+"The worst case" is the largest exact cycle time over a dense grid of that range.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
+
+
+@dataclass(frozen=True)
+class RobustSpec:
+    """Uncertainty range and its check grid.
+
+    freq_scale: (min, max) factor on every natural frequency, 0 < min <= 1 <= max.
+    zeta: (min, max) damping ratio for every mode, 0 < min <= max < 1, or None to keep
+        the model's damping.
+    n_freq, n_zeta: points of the check grid over each range (end points included).
+    """
+
+    freq_scale: tuple[float, float] = (0.9, 1.1)
+    zeta: tuple[float, float] | None = (0.01, 0.03)
+    n_freq: int = 21
+    n_zeta: int = 3
+
+    def __post_init__(self) -> None:
+        lo, hi = (float(v) for v in self.freq_scale)
+        if not (0 < lo <= 1 <= hi and np.isfinite(hi)):
+            raise InputError(
+                f"freq_scale: expected (min, max) with 0 < min <= 1 <= max, got {self.freq_scale}"
+            )
+        object.__setattr__(self, "freq_scale", (lo, hi))
+        if self.zeta is not None:
+            zlo, zhi = (float(v) for v in self.zeta)
+            if not 0 < zlo <= zhi < 1:
+                raise InputError(
+                    f"zeta: expected (min, max) with 0 < min <= max < 1, got {self.zeta} "
+                    "(undamped modes never settle)"
+                )
+            object.__setattr__(self, "zeta", (zlo, zhi))
+        for name in ("n_freq", "n_zeta"):
+            value = getattr(self, name)
+            if int(value) != value or value < 1:
+                raise InputError(f"{name}: must be an integer >= 1, got {value!r}")
+            object.__setattr__(self, name, int(value))
+
+    def grid(self) -> list[tuple[float, float | None]]:
+        """(frequency scale, zeta or None) of every model on the check grid."""
+        lo, hi = self.freq_scale
+        scales = np.linspace(lo, hi, self.n_freq) if hi > lo else np.array([lo])
+        if self.zeta is None:
+            zetas: list[float | None] = [None]
+        else:
+            zlo, zhi = self.zeta
+            zetas = list(np.linspace(zlo, zhi, self.n_zeta)) if zhi > zlo else [zlo]
+        return [(float(s), None if z is None else float(z)) for z in zetas for s in scales]
+
+    def as_dict(self) -> dict:
+        return {
+            "freq_scale": list(self.freq_scale),
+            "zeta": None if self.zeta is None else list(self.zeta),
+            "n_freq": self.n_freq,
+            "n_zeta": self.n_zeta,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> RobustSpec:
+        zeta = data.get("zeta")
+        return cls(
+            tuple(data["freq_scale"]),
+            None if zeta is None else tuple(zeta),
+            data.get("n_freq", 21),
+            data.get("n_zeta", 3),
+        )
+
+
+def perturbed(model: ModalModel, scale: float, zeta: float | None) -> ModalModel:
+    """``model`` with frequencies scaled by ``scale`` and damping ``zeta`` (if given)."""
+    out = model.with_frequency_scale(scale)
+    return out if zeta is None else out.with_damping(zeta)

@@ -1,0 +1,343 @@
+"""The shortest move after which the part stays within the threshold: shared outer loops.
+
+Feasibility of "n steps suffice" is monotone in n (one more zero sample keeps any solution),
+so the minimum is found by bisection between the kinematic floor (infeasible below it) and
+a baseline's cycle time (a baseline padded with zeros to its cycle time is feasible).
+
+Each test at a fixed n asks a subproblem solver (the LP of the exact route or the smooth NLP
+of the gradient route) for samples that keep the deviation below the threshold at a pool of
+sampled (scenario, point, time-after-the-move) rows, then
+
+1. samples the free response of every training scenario densely and adds the worst
+   exceedances to the pool (rows depend on the time after the move only, so they stay valid
+   for every n and the pool is shared by the whole search);
+2. once no sampled exceedance is left, certifies the profile with the exact cycle time of
+   every scenario (``jaxflex.analyze_move``); a scenario that fails adds a row at its worst
+   peak near the certified crossing (and joins the training set, in robust mode).
+
+Rows use the threshold reduced by RESIDUAL_MARGIN (0.1 %), so peaks between samples rarely
+fail the certification; the result is exact regardless, because only certified profiles
+count as feasible.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from jaxflex.model import ModalModel
+from optim.limits import Limits
+from optim.profiles import enforce_end_state
+from optim.residual import Peak, ResidualModel, end_state_map
+from optim.robust import RobustSpec, perturbed
+from optim.timing import MoveTiming, exact_timing
+
+RESIDUAL_MARGIN = 1e-3
+MAX_ROUNDS = 60
+PEAKS_PER_ROUND = 40
+TIME_RTOL = 1e-12
+
+
+@dataclass
+class Scenario:
+    """One model the profile must work for (the nominal one, or a point of the robust grid)."""
+
+    label: str
+    scale: float
+    zeta: float | None
+    model: ModalModel
+    residual: ResidualModel
+    zscale: np.ndarray  # (M, 2): modal amplitudes that give ~threshold deviation
+
+    def as_dict(self) -> dict:
+        return {"freq_scale": self.scale, "zeta": self.zeta}
+
+
+@dataclass
+class PoolRow:
+    scenario: int
+    peak: Peak
+    coef: np.ndarray  # (M, 2): coef . x_end = the cut's value in m
+
+
+@dataclass
+class Problem:
+    """Everything a search needs: data, scenarios, training set and the row pool."""
+
+    model: ModalModel
+    distance: np.ndarray
+    limits: Limits
+    threshold_m: float
+    dt: float
+    max_steps: int
+    robust: RobustSpec | None
+    scenarios: list[Scenario]
+    training: list[int]
+    components: tuple[int, ...]
+    pool: list[PoolRow] = field(default_factory=list)
+    _maps: dict = field(default_factory=dict)
+
+    @property
+    def limit_m(self) -> float:
+        return self.threshold_m * (1.0 - RESIDUAL_MARGIN)
+
+    def end_map(self, scenario: int, n_steps: int) -> np.ndarray:
+        key = (scenario, n_steps)
+        if key not in self._maps:
+            self._maps[key] = end_state_map(self.scenarios[scenario].model, n_steps, self.dt)
+        return self._maps[key]
+
+    def end_state(self, scenario: int, acc: np.ndarray) -> np.ndarray:
+        return np.einsum("mikc,kc->mi", self.end_map(scenario, acc.shape[0] - 1), acc)
+
+    def add_peak(self, scenario: int, peak: Peak, polyhedral: bool) -> None:
+        coef = self.scenarios[scenario].residual.row(peak, polyhedral)
+        self.pool.append(PoolRow(scenario, peak, coef))
+
+
+def active_components(model: ModalModel) -> tuple[int, ...]:
+    """Displacement components the mode shapes use (all three for a general part)."""
+    shapes = np.abs(np.asarray(model.shapes))
+    peak = shapes.max()
+    comps = tuple(int(c) for c in range(3) if shapes[:, c, :].max() > 1e-12 * peak)
+    return comps or (2,)
+
+
+def make_problem(
+    model: ModalModel,
+    distance: np.ndarray,
+    limits: Limits,
+    threshold_m: float,
+    dt: float,
+    max_steps: int,
+    robust: RobustSpec | None,
+) -> Problem:
+    comps = active_components(model)
+    grid = [(1.0, None)] if robust is None else robust.grid()
+    scenarios = []
+    for scale, zeta in grid:
+        m = perturbed(model, scale, zeta) if robust is not None else model
+        res = ResidualModel(m, comps)
+        zq = threshold_m / np.where(res.weights.max(axis=0) > 0, res.weights.max(axis=0), 1.0)
+        label = "nominal" if robust is None else f"f x{scale:.3f}, zeta {zeta}"
+        scenarios.append(Scenario(label, scale, zeta, m, res, np.stack([zq, res.omega * zq], -1)))
+    if robust is None:
+        training = [0]
+    else:  # start from the corners and the middle of the frequency range at the lowest zeta
+        scales = sorted({s for s, _ in grid})
+        zmin = min(z for _, z in grid) if robust.zeta is not None else None
+        wanted = {scales[0], scales[len(scales) // 2], scales[-1]}
+        training = [i for i, (s, z) in enumerate(grid) if s in wanted and z == zmin]
+    return Problem(
+        model, distance, limits, threshold_m, dt, max_steps, robust, scenarios, training, comps
+    )
+
+
+@dataclass
+class SubResult:
+    """A subproblem's answer at fixed n: samples (raw, before the exact end-state correction)
+    and the largest pool row value in units of the limit (<= 1 means all rows hold)."""
+
+    status: str  # "solved", "infeasible" (kinematically, or rows cannot all hold) or "failed"
+    acc: np.ndarray | None
+    value: float
+    stats: dict
+
+
+class Subsolver(Protocol):
+    polyhedral: bool
+    name: str
+
+    def solve(self, problem: Problem, n_steps: int, warm: np.ndarray, polish: bool) -> SubResult:
+        """Minimise the largest pool row (or, with ``polish``, a smoothness measure subject
+        to every row holding) over moves of ``n_steps`` steps."""
+
+
+@dataclass
+class Attempt:
+    n_steps: int
+    feasible: bool
+    acc: np.ndarray | None
+    timings: dict[int, MoveTiming]
+    value: float
+    rounds: int
+    wall_s: float
+    reason: str
+    solver_stats: list[dict]
+
+    def summary(self) -> dict:
+        return {
+            "n_steps": self.n_steps,
+            "feasible": self.feasible,
+            "max_row_value": self.value,
+            "rounds": self.rounds,
+            "wall_s": self.wall_s,
+            "reason": self.reason,
+        }
+
+
+def _certify(problem: Problem, acc: np.ndarray, polyhedral: bool):
+    """Exact cycle time of every scenario. Training scenarios that fail get a row at their
+    worst peak near the certified crossing; of the others, only the worst failure joins
+    the training set (adding every failing scenario floods the LP with near-duplicates).
+    Returns (timings, number of failures)."""
+    n_steps = acc.shape[0] - 1
+    transfer = n_steps * problem.dt
+    timings: dict[int, MoveTiming] = {}
+    failed = []
+    for i, scen in enumerate(problem.scenarios):
+        timing = exact_timing(scen.model, acc, problem.dt, problem.threshold_m, settle=False)
+        timings[i] = timing
+        if timing.cycle_time_s > transfer * (1 + TIME_RTOL):
+            failed.append(i)
+    outside = [i for i in failed if i not in problem.training]
+    chosen = [i for i in failed if i in problem.training]
+    if outside:
+        worst = max(outside, key=lambda i: timings[i].cycle_time_s)
+        problem.training.append(worst)
+        chosen.append(worst)
+    for i in chosen:
+        x_end = problem.end_state(i, acc)
+        tau = timings[i].settle_time_s - transfer
+        problem.add_peak(
+            i,
+            problem.scenarios[i].residual.worst_near(x_end, tau, problem.limit_m, polyhedral),
+            polyhedral,
+        )
+    return timings, len(failed)
+
+
+def attempt(
+    problem: Problem,
+    solver: Subsolver,
+    n_steps: int,
+    warm: np.ndarray,
+    polish: bool = False,
+    row_limit: float = 1.0,
+) -> Attempt:
+    """Is there a certified move of ``n_steps`` steps? (module docstring). ``row_limit``
+    (<= 1, in units of the threshold) is the level the sampled check holds the free
+    response to; the polish pass uses the margin the feasibility test found."""
+    start = time.perf_counter()
+    stats: list[dict] = []
+    value = np.inf
+    for rounds in range(1, MAX_ROUNDS + 1):
+        sub = solver.solve(problem, n_steps, warm, polish)
+        stats.append(sub.stats)
+        value = sub.value
+        if sub.status != "solved" or sub.value > 1.0 + 1e-7:
+            reason = "rows cannot all hold" if sub.status == "solved" else sub.status
+            return Attempt(
+                n_steps, False, None, {}, value, rounds, time.perf_counter() - start, reason, stats
+            )
+        acc = sub.acc
+        warm = acc
+        added = 0
+        for i in list(problem.training):
+            x_end = problem.end_state(i, acc)
+            peaks = problem.scenarios[i].residual.exceedances(
+                x_end,
+                problem.limit_m * row_limit,
+                polyhedral=solver.polyhedral,
+                max_peaks=PEAKS_PER_ROUND,
+            )
+            for peak in peaks:
+                problem.add_peak(i, peak, solver.polyhedral)
+            added += len(peaks)
+        if added:
+            continue
+        acc = enforce_end_state(acc, problem.dt, problem.distance)
+        timings, failures = _certify(problem, acc, solver.polyhedral)
+        if not failures:
+            return Attempt(
+                n_steps,
+                True,
+                acc,
+                timings,
+                value,
+                rounds,
+                time.perf_counter() - start,
+                "certified",
+                stats,
+            )
+    return Attempt(
+        n_steps,
+        False,
+        None,
+        {},
+        value,
+        MAX_ROUNDS,
+        time.perf_counter() - start,
+        "row generation did not converge",
+        stats,
+    )
+
+
+def pad_to(acc: np.ndarray, n_steps: int) -> np.ndarray:
+    """A move of at most ``n_steps`` steps padded with zero samples to n_steps + 1 samples."""
+    return np.vstack([acc, np.zeros((n_steps + 1 - acc.shape[0], 3))])
+
+
+def _warm_start(moves: list[np.ndarray], n_steps: int) -> np.ndarray:
+    """The longest known feasible-kinematics move that fits in ``n_steps``, padded."""
+    fitting = [m for m in moves if m.shape[0] <= n_steps + 1]
+    return pad_to(max(fitting, key=len), n_steps)
+
+
+def bisect(
+    problem: Problem,
+    solver: Subsolver,
+    floor_move: np.ndarray,
+    upper_steps: int,
+    warm_moves: list[np.ndarray],
+    *,
+    progress: bool = True,
+) -> tuple[Attempt | None, list[Attempt]]:
+    """Fewest steps n with a certified move. ``floor_move`` is the kinematic floor (no move
+    is shorter); the search starts at ``upper_steps`` (widening the bracket while that is
+    infeasible, up to max_steps) and bisects. ``warm_moves`` (kinematically feasible moves,
+    e.g. the baselines) seed the subproblems. Returns (best attempt or None, all attempts)."""
+    floor_steps = floor_move.shape[0] - 1
+    moves = [floor_move, *warm_moves]
+    history: list[Attempt] = []
+    lo = floor_steps - 1  # infeasible: no grid move is shorter than the kinematic floor
+    hi = min(max(upper_steps, floor_steps), problem.max_steps)
+    best: Attempt | None = None
+    bar = tqdm(
+        total=int(np.ceil(np.log2(max(2, hi - lo)))) + 1,
+        desc=f"{solver.name}: shortest move",
+        unit="test",
+        disable=not progress,
+        leave=False,
+    )
+    try:
+        while best is None:
+            result = attempt(problem, solver, hi, _warm_start(moves, hi))
+            history.append(result)
+            bar.update(1)
+            bar.set_postfix_str(f"n={hi} {'ok' if result.feasible else 'no'}")
+            if result.feasible:
+                best = result
+                moves.append(result.acc)
+            elif hi >= problem.max_steps:
+                return None, history
+            else:
+                lo, hi = hi, min(problem.max_steps, hi + max(1, hi - lo))
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            result = attempt(problem, solver, mid, _warm_start(moves, mid))
+            history.append(result)
+            bar.update(1)
+            bar.set_postfix_str(f"n={mid} {'ok' if result.feasible else 'no'} [{lo + 1}, {hi}]")
+            if result.feasible:
+                best, hi = result, mid
+                moves.append(result.acc)
+            else:
+                lo = mid
+    finally:
+        bar.close()
+    return best, history
