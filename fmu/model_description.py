@@ -98,18 +98,38 @@ def _variable_attributes(v: Variable, d: Description) -> dict[str, str]:
     return attrs
 
 
-def _fmi2(d: Description, variables: list[Variable]) -> ET.Element:
-    root = ET.Element(
+def _root(d: Description, token_attribute: str, **extra: str) -> ET.Element:
+    return ET.Element(
         "fmiModelDescription",
-        fmiVersion="2.0",
-        modelName=d.model_name,
-        guid=d.token,
-        description=d.description,
-        generationTool=f"jaxflex {jaxflex.__version__}",
-        generationDateAndTime=datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
-        variableNamingConvention="flat",
-        numberOfEventIndicators="0",
+        {
+            "fmiVersion": f"{d.fmi_version}.0",
+            "modelName": d.model_name,
+            token_attribute: d.token,
+            "description": d.description,
+            "generationTool": f"jaxflex {jaxflex.__version__}",
+            "generationDateAndTime": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+            "variableNamingConvention": "flat",
+            **extra,
+        },
     )
+
+
+def _after_interface(root: ET.Element, d: Description) -> ET.Element:
+    """UnitDefinitions, LogCategories, DefaultExperiment; returns the ModelVariables element."""
+    _units(root)
+    _log_categories(root)
+    ET.SubElement(
+        root,
+        "DefaultExperiment",
+        startTime=_fmt(d.start_time_s),
+        stopTime=_fmt(d.stop_time_s),
+        stepSize=_fmt(d.step_s),
+    )
+    return ET.SubElement(root, "ModelVariables")
+
+
+def _fmi2(d: Description, variables: list[Variable]) -> ET.Element:
+    root = _root(d, "guid", numberOfEventIndicators="0")
     cs = ET.SubElement(
         root,
         "CoSimulation",
@@ -128,10 +148,7 @@ def _fmi2(d: Description, variables: list[Variable]) -> ET.Element:
     files = ET.SubElement(cs, "SourceFiles")
     for name in SOURCE_FILES[2]:
         ET.SubElement(files, "File", name=name)
-    _units(root)
-    _log_categories(root)
-    _default_experiment(root, d)
-    mv = ET.SubElement(root, "ModelVariables")
+    mv = _after_interface(root, d)
     for v in variables:
         sv = ET.SubElement(mv, "ScalarVariable", _variable_attributes(v, d))
         ET.SubElement(sv, "Real" if v.kind == "real" else "Boolean", _value_attributes(v, d))
@@ -148,16 +165,7 @@ def _fmi2(d: Description, variables: list[Variable]) -> ET.Element:
 
 
 def _fmi3(d: Description, variables: list[Variable]) -> ET.Element:
-    root = ET.Element(
-        "fmiModelDescription",
-        fmiVersion="3.0",
-        modelName=d.model_name,
-        instantiationToken=d.token,
-        description=d.description,
-        generationTool=f"jaxflex {jaxflex.__version__}",
-        generationDateAndTime=datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
-        variableNamingConvention="flat",
-    )
+    root = _root(d, "instantiationToken")
     ET.SubElement(
         root,
         "CoSimulation",
@@ -172,10 +180,7 @@ def _fmi3(d: Description, variables: list[Variable]) -> ET.Element:
         providesIntermediateUpdate="false",
         hasEventMode="false",
     )
-    _units(root)
-    _log_categories(root)
-    _default_experiment(root, d)
-    mv = ET.SubElement(root, "ModelVariables")
+    mv = _after_interface(root, d)
     for v in variables:
         attrs = _variable_attributes(v, d)
         attrs.update(_value_attributes(v, d))
@@ -191,16 +196,6 @@ def _fmi3(d: Description, variables: list[Variable]) -> ET.Element:
         if v.causality == "output" or v.causality == "calculatedParameter":
             ET.SubElement(ms, "InitialUnknown", valueReference=str(v.vr))
     return root
-
-
-def _default_experiment(root: ET.Element, d: Description) -> None:
-    ET.SubElement(
-        root,
-        "DefaultExperiment",
-        startTime=_fmt(d.start_time_s),
-        stopTime=_fmt(d.stop_time_s),
-        stepSize=_fmt(d.step_s),
-    )
 
 
 def _to_text(root: ET.Element) -> str:

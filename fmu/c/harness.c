@@ -303,7 +303,8 @@ int main(int argc, char **argv) {
     }
     load(lib);
     if (strcmp(argv[4], "bench") == 0)
-        status = bench(argv[2], argv[3], atoi(argv[5]), atof(argv[6]), argc > 7 ? atoi(argv[7]) : 20);
+        status = bench(argv[2], argv[3], atoi(argv[5]), atof(argv[6]),
+                       argc > 7 ? atoi(argv[7]) : 20);
     else
         status = check(argv[2], argv[3], atoi(argv[5]), atof(argv[6]));
     dlclose(lib);

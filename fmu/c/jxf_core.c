@@ -334,6 +334,8 @@ static int allocate_work(jxf_model *m) {
     return 0;
 }
 
+static void restart(jxf_model *m);
+
 jxf_model *jxf_create(const char *resource_location, const char *token, jxf_log_fn log,
                       void *log_context, int debug) {
     jxf_model *m = (jxf_model *)calloc(1, sizeof(jxf_model));
@@ -368,7 +370,7 @@ jxf_model *jxf_create(const char *resource_location, const char *token, jxf_log_
     jxf_log(m, JXF_LOG_INFO, "loaded '%s': %d points, %d modes, %d trajectory samples", name,
             m->n_points, m->n_modes, m->n_traj);
     free(name);
-    jxf_reset(m);
+    restart(m);
     return m;
 }
 
@@ -441,12 +443,7 @@ static void rest(jxf_model *m, double start_time) {
     update_outputs(m);
 }
 
-void jxf_start(jxf_model *m, double start_time) {
-    rest(m, start_time);
-    m->started = 1;
-}
-
-void jxf_reset(jxf_model *m) {
+static void restart(jxf_model *m) {
     int s;
     m->threshold = JXF_START_THRESHOLD;
     m->damping_scale = JXF_START_DAMPING_SCALE;
@@ -459,8 +456,9 @@ void jxf_reset(jxf_model *m) {
     }
     m->clock = 0;
     m->recomputations = 0;
+    m->state = JXF_INSTANTIATED;
+    m->setup_time = 0.0;
     rest(m, 0.0);
-    m->started = 0;
 }
 
 void jxf_displaced_points(const jxf_model *m, double *out) {
@@ -578,7 +576,7 @@ int jxf_get_bool(const jxf_model *m, unsigned vr, int *value) {
 int jxf_set_bool(jxf_model *m, unsigned vr, int value, int apply) {
 #ifdef JXF_VR_USE_TRAJECTORY
     if (vr == JXF_VR_USE_TRAJECTORY) {
-        if (m->started) {
+        if (m->state & (JXF_STEP | JXF_TERMINATED)) {
             jxf_log(m, JXF_LOG_ERROR, "use_embedded_trajectory is a fixed parameter: set it "
                     "before leaving initialization mode");
             return -1;
@@ -589,6 +587,74 @@ int jxf_set_bool(jxf_model *m, unsigned vr, int value, int apply) {
 #endif
     (void)value, (void)apply;
     return no_such(m, "set", "Boolean", vr);
+}
+
+/* ---- life cycle --------------------------------------------------------------------- */
+
+int jxf_allowed(jxf_model *m, const char *function, int states) {
+    if (m == NULL) return 0;
+    if (m->state & states) return 1;
+    jxf_log(m, JXF_LOG_ERROR, "%s is not allowed in the current state", function);
+    return 0;
+}
+
+int jxf_unsupported(jxf_model *m, const char *function) {
+    jxf_log(m, JXF_LOG_ERROR, "%s is not supported by this co-simulation FMU", function);
+    return -1;
+}
+
+int jxf_set_logging(jxf_model *m, const char *function, int on, size_t n_categories,
+                    const char *const categories[]) {
+    static const char *known[] = {"logStatusError", "logStatusWarning", "logAll"};
+    size_t i;
+    int k, found;
+    if (!jxf_allowed(m, function, JXF_ANY_STATE)) return -1;
+    for (i = 0; i < n_categories; ++i) {
+        const char *name = categories ? categories[i] : NULL;
+        for (found = 0, k = 0; k < 3; ++k) found |= name != NULL && !strcmp(name, known[k]);
+        if (!found) {
+            jxf_log(m, JXF_LOG_ERROR, "%s: unknown log category '%s' (known: logStatusError, "
+                    "logStatusWarning, logAll)", function, name ? name : "(null)");
+            return -1;
+        }
+    }
+    m->debug = on != 0;
+    return 0;
+}
+
+int jxf_setup(jxf_model *m, const char *function, double start_time) {
+    if (!jxf_allowed(m, function, JXF_INSTANTIATED)) return -1;
+    if (!isfinite(start_time)) {
+        jxf_log(m, JXF_LOG_ERROR, "%s: startTime %g is not finite", function, start_time);
+        return -1;
+    }
+    m->setup_time = start_time;
+    return 0;
+}
+
+int jxf_enter_initialization(jxf_model *m, const char *function) {
+    if (!jxf_allowed(m, function, JXF_INSTANTIATED)) return -1;
+    m->state = JXF_INITIALIZATION;
+    return 0;
+}
+
+int jxf_exit_initialization(jxf_model *m, const char *function) {
+    if (!jxf_allowed(m, function, JXF_INITIALIZATION)) return -1;
+    rest(m, m->setup_time);
+    m->state = JXF_STEP;
+    return 0;
+}
+
+int jxf_terminate(jxf_model *m, const char *function) {
+    if (!jxf_allowed(m, function, JXF_STEP)) return -1;
+    m->state = JXF_TERMINATED;
+    return 0;
+}
+
+int jxf_reset(jxf_model *m, const char *function) {
+    if (!jxf_allowed(m, function, JXF_ANY_STATE)) return -1;
+    restart(m);
+    return 0;
 }
 
 /* ---- the exact step ----------------------------------------------------------------- */

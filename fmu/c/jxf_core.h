@@ -54,7 +54,9 @@ typedef struct jxf_model {
     double threshold;     /* m */
     double damping_scale; /* multiplies every zeta */
     int use_trajectory;   /* replay the embedded trajectory instead of the inputs */
-    int started;          /* initialization finished: fixed parameters are frozen */
+
+    int state;            /* one of the JXF_* life-cycle states */
+    double setup_time;    /* start time given for the coming initialization, s */
 
     /* inputs: value at the communication point and its time derivative */
     double acc[3];
@@ -77,6 +79,11 @@ typedef struct jxf_model {
     int debug;
 } jxf_model;
 
+/* Life cycle shared by FMI 2.0 and 3.0 (bit flags, so a set of states is an OR). */
+enum { JXF_INSTANTIATED = 1, JXF_INITIALIZATION = 2, JXF_STEP = 4, JXF_TERMINATED = 8 };
+#define JXF_ANY_STATE 15
+#define JXF_LIVE (JXF_INSTANTIATED | JXF_INITIALIZATION | JXF_STEP)
+
 /* Load the resource file found in `resource_location` (a file: URI or a directory path),
  * check it against this build (sizes, token) and return a model at rest with the start
  * values of the parameters. Returns NULL after logging the reason on any failure. */
@@ -86,11 +93,19 @@ jxf_model *jxf_create(const char *resource_location, const char *token, jxf_log_
 /* Free everything owned by the model (NULL is allowed). */
 void jxf_destroy(jxf_model *m);
 
+/* Life-cycle calls of the importer; `function` names the FMI function in messages. Each
+ * returns 0, or -1 after logging (also for m == NULL or a call in the wrong state).
+ * jxf_allowed returns 1 if the model is in one of `states`, else logs and returns 0. */
+int jxf_allowed(jxf_model *m, const char *function, int states);
+int jxf_unsupported(jxf_model *m, const char *function);
+int jxf_set_logging(jxf_model *m, const char *function, int on, size_t n_categories,
+                    const char *const categories[]);
+int jxf_setup(jxf_model *m, const char *function, double start_time);
+int jxf_enter_initialization(jxf_model *m, const char *function);
+int jxf_exit_initialization(jxf_model *m, const char *function);
+int jxf_terminate(jxf_model *m, const char *function);
 /* Back to the state after jxf_create: parameters at start values, inputs 0, at rest. */
-void jxf_reset(jxf_model *m);
-
-/* Leave initialization: at rest at `start_time` (s), outputs evaluated. */
-void jxf_start(jxf_model *m, double start_time);
+int jxf_reset(jxf_model *m, const char *function);
 
 /* Variables by value reference (see jxf_config.h). Setters check the value and store it
  * only when `apply` is nonzero, so a caller can check a whole batch before changing anything.
@@ -101,8 +116,8 @@ int jxf_set_input_rate(jxf_model *m, unsigned vr, int order, double value, int a
 int jxf_get_bool(const jxf_model *m, unsigned vr, int *value);
 int jxf_set_bool(jxf_model *m, unsigned vr, int value, int apply);
 
-/* Advance from `t` (the current communication point) by `h` s; 0 on success, -1 on error
- * (logged, state untouched). */
+/* Advance from `t` (the current communication point) by `h` s (step mode only); 0 on
+ * success, -1 on error (logged, state untouched). */
 int jxf_do_step(jxf_model *m, double t, double h);
 
 /* Displaced coordinates points + u, (K, 3) row-major, m. */

@@ -12,15 +12,14 @@
 #include "fmi2Functions.h"
 #include "jxf_core.h"
 
-typedef enum { ST_INSTANTIATED, ST_INITIALIZATION, ST_STEP, ST_TERMINATED } State;
-
 typedef struct {
     jxf_model *model;
     fmi2CallbackFunctions callbacks;
     char *name;
-    State state;
-    double start_time;
 } Instance;
+
+#define MODEL(c) ((c) != NULL ? ((Instance *)(c))->model : NULL)
+#define STATUS(result) ((result) == 0 ? fmi2OK : fmi2Error)
 
 static void forward_log(void *context, int level, const char *message) {
     const Instance *inst = (const Instance *)context;
@@ -40,23 +39,8 @@ static char *copy_string(const char *s) {
     return out;
 }
 
-/* Log an error for a call that is not allowed in the current state. */
-static int allowed(Instance *inst, const char *function, int mask) {
-    if (inst == NULL) return 0;
-    if (mask & (1 << inst->state)) return 1;
-    jxf_log(inst->model, JXF_LOG_ERROR, "%s is not allowed in the current state", function);
-    return 0;
-}
-
-#define ANY_STATE 0xF
-#define BEFORE_RUN ((1 << ST_INSTANTIATED) | (1 << ST_INITIALIZATION))
-#define LIVE ((1 << ST_INSTANTIATED) | (1 << ST_INITIALIZATION) | (1 << ST_STEP))
-
 static fmi2Status unsupported(fmi2Component c, const char *function) {
-    Instance *inst = (Instance *)c;
-    if (inst != NULL)
-        jxf_log(inst->model, JXF_LOG_ERROR, "%s is not supported by this co-simulation FMU",
-                function);
+    jxf_unsupported(MODEL(c), function);
     return fmi2Error;
 }
 
@@ -68,22 +52,8 @@ const char *fmi2GetVersion(void) { return fmi2Version; }
 
 fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
                                const fmi2String categories[]) {
-    static const char *known[] = {"logStatusError", "logStatusWarning", "logAll"};
-    Instance *inst = (Instance *)c;
-    size_t i;
-    int k, found;
-    if (!allowed(inst, "fmi2SetDebugLogging", ANY_STATE)) return fmi2Error;
-    for (i = 0; i < nCategories; ++i) {
-        for (found = 0, k = 0; k < 3; ++k) found |= categories[i] && !strcmp(categories[i], known[k]);
-        if (!found) {
-            jxf_log(inst->model, JXF_LOG_ERROR, "fmi2SetDebugLogging: unknown log category '%s' "
-                    "(known: logStatusError, logStatusWarning, logAll)",
-                    categories[i] ? categories[i] : "(null)");
-            return fmi2Error;
-        }
-    }
-    inst->model->debug = loggingOn != fmi2False;
-    return fmi2OK;
+    return STATUS(jxf_set_logging(MODEL(c), "fmi2SetDebugLogging", loggingOn != fmi2False,
+                                  nCategories, categories));
 }
 
 fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
@@ -110,7 +80,6 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         free(inst);
         return NULL;
     }
-    inst->state = ST_INSTANTIATED;
     return inst;
 }
 
@@ -125,92 +94,64 @@ void fmi2FreeInstance(fmi2Component c) {
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
                                fmi2Real tolerance, fmi2Real startTime,
                                fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
-    Instance *inst = (Instance *)c;
-    (void)toleranceDefined;
-    (void)tolerance;
-    (void)stopTimeDefined;
-    (void)stopTime;
-    if (!allowed(inst, "fmi2SetupExperiment", 1 << ST_INSTANTIATED)) return fmi2Error;
-    if (!isfinite(startTime)) {
-        jxf_log(inst->model, JXF_LOG_ERROR, "fmi2SetupExperiment: startTime %g is not finite",
-                startTime);
-        return fmi2Error;
-    }
-    inst->start_time = startTime;
-    return fmi2OK;
+    (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
+    return STATUS(jxf_setup(MODEL(c), "fmi2SetupExperiment", startTime));
 }
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
-    Instance *inst = (Instance *)c;
-    if (!allowed(inst, "fmi2EnterInitializationMode", 1 << ST_INSTANTIATED)) return fmi2Error;
-    inst->state = ST_INITIALIZATION;
-    return fmi2OK;
+    return STATUS(jxf_enter_initialization(MODEL(c), "fmi2EnterInitializationMode"));
 }
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
-    Instance *inst = (Instance *)c;
-    if (!allowed(inst, "fmi2ExitInitializationMode", 1 << ST_INITIALIZATION)) return fmi2Error;
-    jxf_start(inst->model, inst->start_time);
-    inst->state = ST_STEP;
-    return fmi2OK;
+    return STATUS(jxf_exit_initialization(MODEL(c), "fmi2ExitInitializationMode"));
 }
 
 fmi2Status fmi2Terminate(fmi2Component c) {
-    Instance *inst = (Instance *)c;
-    if (!allowed(inst, "fmi2Terminate", 1 << ST_STEP)) return fmi2Error;
-    inst->state = ST_TERMINATED;
-    return fmi2OK;
+    return STATUS(jxf_terminate(MODEL(c), "fmi2Terminate"));
 }
 
-fmi2Status fmi2Reset(fmi2Component c) {
-    Instance *inst = (Instance *)c;
-    if (!allowed(inst, "fmi2Reset", ANY_STATE)) return fmi2Error;
-    jxf_reset(inst->model);
-    inst->start_time = 0.0;
-    inst->state = ST_INSTANTIATED;
-    return fmi2OK;
-}
+fmi2Status fmi2Reset(fmi2Component c) { return STATUS(jxf_reset(MODEL(c), "fmi2Reset")); }
 
 /* ---- variables ---------------------------------------------------------------------- */
 
 static fmi2Status no_variables(fmi2Component c, const char *function, size_t nvr) {
-    Instance *inst = (Instance *)c;
-    if (!allowed(inst, function, ANY_STATE)) return fmi2Error;
+    if (!jxf_allowed(MODEL(c), function, JXF_ANY_STATE)) return fmi2Error;
     if (nvr == 0) return fmi2OK;
-    jxf_log(inst->model, JXF_LOG_ERROR, "%s: this FMU has no variables of this type", function);
+    jxf_log(MODEL(c), JXF_LOG_ERROR, "%s: this FMU has no variables of this type", function);
     return fmi2Error;
 }
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[]) {
-    Instance *inst = (Instance *)c;
+    jxf_model *m = MODEL(c);
     size_t i;
-    if (!allowed(inst, "fmi2GetReal", ANY_STATE)) return fmi2Error;
+    if (!jxf_allowed(m, "fmi2GetReal", JXF_ANY_STATE)) return fmi2Error;
     for (i = 0; i < nvr; ++i)
-        if (jxf_get_real(inst->model, vr[i], &value[i])) return fmi2Error;
+        if (jxf_get_real(m, vr[i], &value[i])) return fmi2Error;
     return fmi2OK;
 }
 
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        const fmi2Real value[]) {
-    Instance *inst = (Instance *)c;
+    jxf_model *m = MODEL(c);
     size_t i;
     int apply;
-    if (!allowed(inst, "fmi2SetReal", LIVE)) return fmi2Error;
-    for (apply = 0; apply < 2; ++apply) /* check all, then store all: a rejected call changes nothing */
+    if (!jxf_allowed(m, "fmi2SetReal", JXF_LIVE)) return fmi2Error;
+    /* check all, then store all: a rejected call changes nothing */
+    for (apply = 0; apply < 2; ++apply)
         for (i = 0; i < nvr; ++i)
-            if (jxf_set_real(inst->model, vr[i], value[i], apply)) return fmi2Error;
+            if (jxf_set_real(m, vr[i], value[i], apply)) return fmi2Error;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Boolean value[]) {
-    Instance *inst = (Instance *)c;
+    jxf_model *m = MODEL(c);
     size_t i;
     int flag;
-    if (!allowed(inst, "fmi2GetBoolean", ANY_STATE)) return fmi2Error;
+    if (!jxf_allowed(m, "fmi2GetBoolean", JXF_ANY_STATE)) return fmi2Error;
     for (i = 0; i < nvr; ++i) {
-        if (jxf_get_bool(inst->model, vr[i], &flag)) return fmi2Error;
+        if (jxf_get_bool(m, vr[i], &flag)) return fmi2Error;
         value[i] = flag ? fmi2True : fmi2False;
     }
     return fmi2OK;
@@ -218,13 +159,13 @@ fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           const fmi2Boolean value[]) {
-    Instance *inst = (Instance *)c;
+    jxf_model *m = MODEL(c);
     size_t i;
     int apply;
-    if (!allowed(inst, "fmi2SetBoolean", LIVE)) return fmi2Error;
+    if (!jxf_allowed(m, "fmi2SetBoolean", JXF_LIVE)) return fmi2Error;
     for (apply = 0; apply < 2; ++apply)
         for (i = 0; i < nvr; ++i)
-            if (jxf_set_bool(inst->model, vr[i], value[i] != fmi2False, apply)) return fmi2Error;
+            if (jxf_set_bool(m, vr[i], value[i] != fmi2False, apply)) return fmi2Error;
     return fmi2OK;
 }
 
@@ -257,37 +198,35 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
                                        size_t nvr, const fmi2Integer order[],
                                        const fmi2Real value[]) {
-    Instance *inst = (Instance *)c;
+    jxf_model *m = MODEL(c);
     size_t i;
     int apply;
-    if (!allowed(inst, "fmi2SetRealInputDerivatives", LIVE)) return fmi2Error;
+    if (!jxf_allowed(m, "fmi2SetRealInputDerivatives", JXF_LIVE)) return fmi2Error;
     for (apply = 0; apply < 2; ++apply)
         for (i = 0; i < nvr; ++i)
-            if (jxf_set_input_rate(inst->model, vr[i], order[i], value[i], apply))
-                return fmi2Error;
+            if (jxf_set_input_rate(m, vr[i], order[i], value[i], apply)) return fmi2Error;
     return fmi2OK;
 }
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
                       fmi2Real communicationStepSize,
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
-    Instance *inst = (Instance *)c;
+    jxf_model *m = MODEL(c);
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (!allowed(inst, "fmi2DoStep", 1 << ST_STEP)) return fmi2Error;
-    return jxf_do_step(inst->model, currentCommunicationPoint, communicationStepSize) ? fmi2Error
-                                                                                       : fmi2OK;
+    if (!jxf_allowed(m, "fmi2DoStep", JXF_STEP)) return fmi2Error;
+    return STATUS(jxf_do_step(m, currentCommunicationPoint, communicationStepSize));
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
-    Instance *inst = (Instance *)c;
-    if (!allowed(inst, "fmi2GetRealStatus", ANY_STATE)) return fmi2Error;
+    jxf_model *m = MODEL(c);
+    if (!jxf_allowed(m, "fmi2GetRealStatus", JXF_ANY_STATE)) return fmi2Error;
     if (s != fmi2LastSuccessfulTime) return unsupported(c, "fmi2GetRealStatus (this kind)");
-    *value = inst->model->time;
+    *value = m->time;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
-    if (!allowed((Instance *)c, "fmi2GetBooleanStatus", ANY_STATE)) return fmi2Error;
+    if (!jxf_allowed(MODEL(c), "fmi2GetBooleanStatus", JXF_ANY_STATE)) return fmi2Error;
     if (s != fmi2Terminated) return unsupported(c, "fmi2GetBooleanStatus (this kind)");
     *value = fmi2False;
     return fmi2OK;
@@ -374,7 +313,8 @@ fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
     return unsupported(c, "fmi2EnterContinuousTimeMode (model exchange)");
 }
 
-fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
+fmi2Status fmi2CompletedIntegratorStep(fmi2Component c,
+                                       fmi2Boolean noSetFMUStatePriorToCurrentPoint,
                                        fmi2Boolean *enterEventMode,
                                        fmi2Boolean *terminateSimulation) {
     (void)noSetFMUStatePriorToCurrentPoint, (void)enterEventMode, (void)terminateSimulation;

@@ -14,18 +14,14 @@
 #include "fmi3Functions.h"
 #include "jxf_core.h"
 
-typedef enum { ST_INSTANTIATED, ST_INITIALIZATION, ST_STEP, ST_TERMINATED } State;
-
 typedef struct {
     jxf_model *model;
     fmi3InstanceEnvironment environment;
     fmi3LogMessageCallback log_message;
-    State state;
-    double start_time;
 } Instance;
 
-#define ANY_STATE 0xF
-#define LIVE ((1 << ST_INSTANTIATED) | (1 << ST_INITIALIZATION) | (1 << ST_STEP))
+#define MODEL(c) ((c) != NULL ? ((Instance *)(c))->model : NULL)
+#define STATUS(result) ((result) == 0 ? fmi3OK : fmi3Error)
 #define N_ARRAY (3 * (size_t)JXF_N_POINTS)
 
 static void forward_log(void *context, int level, const char *message) {
@@ -37,18 +33,8 @@ static void forward_log(void *context, int level, const char *message) {
     if (inst->log_message != NULL) inst->log_message(inst->environment, status, category, message);
 }
 
-static int allowed(Instance *inst, const char *function, int mask) {
-    if (inst == NULL) return 0;
-    if (mask & (1 << inst->state)) return 1;
-    jxf_log(inst->model, JXF_LOG_ERROR, "%s is not allowed in the current state", function);
-    return 0;
-}
-
 static fmi3Status unsupported(fmi3Instance instance, const char *function) {
-    Instance *inst = (Instance *)instance;
-    if (inst != NULL)
-        jxf_log(inst->model, JXF_LOG_ERROR, "%s is not supported by this co-simulation FMU",
-                function);
+    jxf_unsupported(MODEL(instance), function);
     return fmi3Error;
 }
 
@@ -58,22 +44,8 @@ const char *fmi3GetVersion(void) { return fmi3Version; }
 
 fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, size_t nCategories,
                                const fmi3String categories[]) {
-    static const char *known[] = {"logStatusError", "logStatusWarning", "logAll"};
-    Instance *inst = (Instance *)instance;
-    size_t i;
-    int k, found;
-    if (!allowed(inst, "fmi3SetDebugLogging", ANY_STATE)) return fmi3Error;
-    for (i = 0; i < nCategories; ++i) {
-        for (found = 0, k = 0; k < 3; ++k) found |= categories[i] && !strcmp(categories[i], known[k]);
-        if (!found) {
-            jxf_log(inst->model, JXF_LOG_ERROR, "fmi3SetDebugLogging: unknown log category '%s' "
-                    "(known: logStatusError, logStatusWarning, logAll)",
-                    categories[i] ? categories[i] : "(null)");
-            return fmi3Error;
-        }
-    }
-    inst->model->debug = loggingOn;
-    return fmi3OK;
+    return STATUS(jxf_set_logging(MODEL(instance), "fmi3SetDebugLogging", loggingOn, nCategories,
+                                  categories));
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(
@@ -99,7 +71,6 @@ fmi3Instance fmi3InstantiateCoSimulation(
         free(inst);
         return NULL;
     }
-    inst->state = ST_INSTANTIATED;
     return inst;
 }
 
@@ -140,65 +111,46 @@ void fmi3FreeInstance(fmi3Instance instance) {
 fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean toleranceDefined,
                                        fmi3Float64 tolerance, fmi3Float64 startTime,
                                        fmi3Boolean stopTimeDefined, fmi3Float64 stopTime) {
-    Instance *inst = (Instance *)instance;
+    jxf_model *m = MODEL(instance);
     (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
-    if (!allowed(inst, "fmi3EnterInitializationMode", 1 << ST_INSTANTIATED)) return fmi3Error;
-    if (!isfinite(startTime)) {
-        jxf_log(inst->model, JXF_LOG_ERROR, "fmi3EnterInitializationMode: startTime %g is not "
-                "finite", startTime);
-        return fmi3Error;
-    }
-    inst->start_time = startTime;
-    inst->state = ST_INITIALIZATION;
-    return fmi3OK;
+    return STATUS(jxf_setup(m, "fmi3EnterInitializationMode", startTime) ||
+                  jxf_enter_initialization(m, "fmi3EnterInitializationMode"));
 }
 
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
-    Instance *inst = (Instance *)instance;
-    if (!allowed(inst, "fmi3ExitInitializationMode", 1 << ST_INITIALIZATION)) return fmi3Error;
-    jxf_start(inst->model, inst->start_time);
-    inst->state = ST_STEP;
-    return fmi3OK;
+    return STATUS(jxf_exit_initialization(MODEL(instance), "fmi3ExitInitializationMode"));
 }
 
 fmi3Status fmi3Terminate(fmi3Instance instance) {
-    Instance *inst = (Instance *)instance;
-    if (!allowed(inst, "fmi3Terminate", 1 << ST_STEP)) return fmi3Error;
-    inst->state = ST_TERMINATED;
-    return fmi3OK;
+    return STATUS(jxf_terminate(MODEL(instance), "fmi3Terminate"));
 }
 
 fmi3Status fmi3Reset(fmi3Instance instance) {
-    Instance *inst = (Instance *)instance;
-    if (!allowed(inst, "fmi3Reset", ANY_STATE)) return fmi3Error;
-    jxf_reset(inst->model);
-    inst->start_time = 0.0;
-    inst->state = ST_INSTANTIATED;
-    return fmi3OK;
+    return STATUS(jxf_reset(MODEL(instance), "fmi3Reset"));
 }
 
 /* ---- Float64 and Boolean variables -------------------------------------------------- */
 
 fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                           size_t nValueReferences, fmi3Float64 values[], size_t nValues) {
-    Instance *inst = (Instance *)instance;
+    jxf_model *m = MODEL(instance);
     size_t i, k = 0;
-    if (!allowed(inst, "fmi3GetFloat64", ANY_STATE)) return fmi3Error;
+    if (!jxf_allowed(m, "fmi3GetFloat64", JXF_ANY_STATE)) return fmi3Error;
     for (i = 0; i < nValueReferences; ++i) {
         const fmi3ValueReference vr = valueReferences[i];
         const size_t size = vr == JXF_VR_DISPLACED_POINTS || vr == JXF_VR_POINTS ? N_ARRAY : 1;
         if (k + size > nValues) {
-            jxf_log(inst->model, JXF_LOG_ERROR, "fmi3GetFloat64: nValues = %lu is too small for "
+            jxf_log(m, JXF_LOG_ERROR, "fmi3GetFloat64: nValues = %lu is too small for "
                     "the requested variables", (unsigned long)nValues);
             return fmi3Error;
         }
-        if (vr == JXF_VR_DISPLACED_POINTS) jxf_displaced_points(inst->model, values + k);
-        else if (vr == JXF_VR_POINTS) memcpy(values + k, inst->model->points, N_ARRAY * 8);
-        else if (jxf_get_real(inst->model, vr, values + k)) return fmi3Error;
+        if (vr == JXF_VR_DISPLACED_POINTS) jxf_displaced_points(m, values + k);
+        else if (vr == JXF_VR_POINTS) memcpy(values + k, m->points, N_ARRAY * 8);
+        else if (jxf_get_real(m, vr, values + k)) return fmi3Error;
         k += size;
     }
     if (k != nValues) {
-        jxf_log(inst->model, JXF_LOG_ERROR, "fmi3GetFloat64: nValues = %lu, but the variables "
+        jxf_log(m, JXF_LOG_ERROR, "fmi3GetFloat64: nValues = %lu, but the variables "
                 "hold %lu values", (unsigned long)nValues, (unsigned long)k);
         return fmi3Error;
     }
@@ -207,31 +159,31 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
 
 fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                           size_t nValueReferences, const fmi3Float64 values[], size_t nValues) {
-    Instance *inst = (Instance *)instance;
+    jxf_model *m = MODEL(instance);
     size_t i;
     int apply;
-    if (!allowed(inst, "fmi3SetFloat64", LIVE)) return fmi3Error;
+    if (!jxf_allowed(m, "fmi3SetFloat64", JXF_LIVE)) return fmi3Error;
     if (nValues != nValueReferences) {
-        jxf_log(inst->model, JXF_LOG_ERROR, "fmi3SetFloat64: only scalar variables can be set "
+        jxf_log(m, JXF_LOG_ERROR, "fmi3SetFloat64: only scalar variables can be set "
                 "(nValues %lu != nValueReferences %lu)", (unsigned long)nValues,
                 (unsigned long)nValueReferences);
         return fmi3Error;
     }
     for (apply = 0; apply < 2; ++apply) /* check all, then store all */
         for (i = 0; i < nValueReferences; ++i)
-            if (jxf_set_real(inst->model, valueReferences[i], values[i], apply)) return fmi3Error;
+            if (jxf_set_real(m, valueReferences[i], values[i], apply)) return fmi3Error;
     return fmi3OK;
 }
 
 fmi3Status fmi3GetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                           size_t nValueReferences, fmi3Boolean values[], size_t nValues) {
-    Instance *inst = (Instance *)instance;
+    jxf_model *m = MODEL(instance);
     size_t i;
     int flag;
-    if (!allowed(inst, "fmi3GetBoolean", ANY_STATE)) return fmi3Error;
+    if (!jxf_allowed(m, "fmi3GetBoolean", JXF_ANY_STATE)) return fmi3Error;
     if (nValues != nValueReferences) return unsupported(instance, "fmi3GetBoolean of arrays");
     for (i = 0; i < nValueReferences; ++i) {
-        if (jxf_get_bool(inst->model, valueReferences[i], &flag)) return fmi3Error;
+        if (jxf_get_bool(m, valueReferences[i], &flag)) return fmi3Error;
         values[i] = flag != 0;
     }
     return fmi3OK;
@@ -239,23 +191,23 @@ fmi3Status fmi3GetBoolean(fmi3Instance instance, const fmi3ValueReference valueR
 
 fmi3Status fmi3SetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                           size_t nValueReferences, const fmi3Boolean values[], size_t nValues) {
-    Instance *inst = (Instance *)instance;
+    jxf_model *m = MODEL(instance);
     size_t i;
     int apply;
-    if (!allowed(inst, "fmi3SetBoolean", LIVE)) return fmi3Error;
+    if (!jxf_allowed(m, "fmi3SetBoolean", JXF_LIVE)) return fmi3Error;
     if (nValues != nValueReferences) return unsupported(instance, "fmi3SetBoolean of arrays");
     for (apply = 0; apply < 2; ++apply)
         for (i = 0; i < nValueReferences; ++i)
-            if (jxf_set_bool(inst->model, valueReferences[i], values[i], apply)) return fmi3Error;
+            if (jxf_set_bool(m, valueReferences[i], values[i], apply)) return fmi3Error;
     return fmi3OK;
 }
 
 /* Variable types this FMU does not have: fine for an empty request, an error otherwise. */
 static fmi3Status no_variables(fmi3Instance instance, const char *function, size_t n) {
-    Instance *inst = (Instance *)instance;
-    if (!allowed(inst, function, ANY_STATE)) return fmi3Error;
+    if (!jxf_allowed(MODEL(instance), function, JXF_ANY_STATE)) return fmi3Error;
     if (n == 0) return fmi3OK;
-    jxf_log(inst->model, JXF_LOG_ERROR, "%s: this FMU has no variables of this type", function);
+    jxf_log(MODEL(instance), JXF_LOG_ERROR, "%s: this FMU has no variables of this type",
+            function);
     return fmi3Error;
 }
 
@@ -315,15 +267,14 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
                       fmi3Boolean noSetFMUStatePriorToCurrentPoint,
                       fmi3Boolean *eventHandlingNeeded, fmi3Boolean *terminateSimulation,
                       fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime) {
-    Instance *inst = (Instance *)instance;
+    jxf_model *m = MODEL(instance);
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (!allowed(inst, "fmi3DoStep", 1 << ST_STEP)) return fmi3Error;
-    if (jxf_do_step(inst->model, currentCommunicationPoint, communicationStepSize))
-        return fmi3Error;
+    if (!jxf_allowed(m, "fmi3DoStep", JXF_STEP)) return fmi3Error;
+    if (jxf_do_step(m, currentCommunicationPoint, communicationStepSize)) return fmi3Error;
     if (eventHandlingNeeded) *eventHandlingNeeded = fmi3False;
     if (terminateSimulation) *terminateSimulation = fmi3False;
     if (earlyReturn) *earlyReturn = fmi3False;
-    if (lastSuccessfulTime) *lastSuccessfulTime = inst->model->time;
+    if (lastSuccessfulTime) *lastSuccessfulTime = m->time;
     return fmi3OK;
 }
 
