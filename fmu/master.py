@@ -57,6 +57,7 @@ class Session:
             "instanceName": instance_name,
         }
         if self.fmi_version == 2:
+            from fmpy import calloc, free
             from fmpy.fmi2 import (
                 FMU2Slave,
                 fmi2CallbackAllocateMemoryTYPE,
@@ -66,11 +67,10 @@ class Session:
             )
             from fmpy.logging import addLoggerProxy
 
-            libc = ctypes.CDLL(None)
             callbacks = fmi2CallbackFunctions()
             callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
-            callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(libc.calloc)
-            callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(libc.free)
+            callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+            callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
             addLoggerProxy(ctypes.byref(callbacks))
             self._callbacks = callbacks  # keep alive while the instance exists
             slave = FMU2Slave(**kwargs)

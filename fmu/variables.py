@@ -16,7 +16,9 @@ INPUT_COLUMNS = ("time", "ax", "ay", "az")  # input CSV / fmpy signal: s, m/s^2
 _INPUT_HELD = "held constant over a communication step"
 _INPUT_FMI2 = (
     "linear over a communication step when the importer sets its time derivative with "
-    "fmi2SetRealInputDerivatives (canInterpolateInputs), " + _INPUT_HELD + " otherwise"
+    "fmi2SetRealInputDerivatives (canInterpolateInputs; in effect until set again), "
+    + _INPUT_HELD
+    + " otherwise"
 )
 _INPUT_FMI3 = _INPUT_HELD + " (FMI 3.0 has no input derivatives)"
 
