@@ -1,1 +1,42 @@
-"""fem package."""
+"""fem: parts, grippers and modal models with scikit-fem (offline step of jaxflex).
+
+Part + gripper -> finite-element model -> modal analysis -> jaxflex.ModalModel; plus the
+full-order transient reference, meshio export and pictures. Geometry in metres, SI units.
+"""
+
+from fem.damping import Rayleigh, rayleigh_zeta
+from fem.export import export_modes, export_transient, plot_part
+from fem.materials import PRESETS, Material, resolve_material
+from fem.modal import ModalResult, modal_analysis
+from fem.parts import Part, curved_panel, read_mesh, rectangular_plate
+from fem.scenes import SCENES, default_gripper, default_model, scene
+from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup
+from fem.transient import TransientResult, agreement, transient_reference
+
+__all__ = [
+    "PRESETS",
+    "SCENES",
+    "ClampedEdge",
+    "Material",
+    "ModalResult",
+    "Part",
+    "PointSupport",
+    "Rayleigh",
+    "SimplySupportedEdge",
+    "SuctionCup",
+    "TransientResult",
+    "agreement",
+    "curved_panel",
+    "default_gripper",
+    "default_model",
+    "export_modes",
+    "export_transient",
+    "modal_analysis",
+    "plot_part",
+    "rayleigh_zeta",
+    "read_mesh",
+    "rectangular_plate",
+    "resolve_material",
+    "scene",
+    "transient_reference",
+]

@@ -1,0 +1,109 @@
+"""Generalised symmetric eigenproblem K phi = omega^2 M phi for the lowest modes.
+
+Shift-invert Lanczos (ARPACK via scipy eigsh) about a negative shift sigma, so K - sigma M is
+positive definite even if rigid-body modes remain; the operator (K - sigma M)^-1 is a sparse
+LU (SuperLU) with the MMD ordering of A^T + A and no pivoting (the matrix is symmetric
+positive definite), ~2.5x faster than eigsh's own factorisation.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+
+from fem.blas import single_threaded_blas
+from fem.progress import progress_bar
+from jaxflex.errors import InputError
+
+DENSE_MAX_DOF = 6000
+
+
+def factorize(matrix: sp.spmatrix) -> sla.SuperLU:
+    """Sparse LU of a symmetric positive definite matrix (fill-reducing MMD on A^T + A)."""
+    return sla.splu(
+        sp.csc_matrix(matrix),
+        permc_spec="MMD_AT_PLUS_A",
+        diag_pivot_thresh=0.0,
+        options={"SymmetricMode": True},
+    )
+
+
+@dataclass
+class EigenSolution:
+    """Eigenvalues omega^2 (rad/s)^2 ascending, M-orthonormal vectors (n, k), the shifted
+    factorisation (None for dense solves) and timings in s."""
+
+    eigenvalues: np.ndarray
+    vectors: np.ndarray
+    shifted_lu: sla.SuperLU | None
+    sigma: float
+    factorization_s: float
+    solve_s: float
+    n_solves: int
+
+
+def lowest_modes(
+    K: sp.spmatrix,
+    M: sp.spmatrix,
+    n_modes: int | None,
+    *,
+    max_freq_hz: float | None = None,
+    sigma: float = -((2 * np.pi) ** 2),
+    progress: bool | None = None,
+) -> EigenSolution:
+    """The ``n_modes`` lowest modes, or all modes up to ``max_freq_hz`` (at most ``n_modes``
+    if both are given; the count is doubled until the limit is passed)."""
+    n = K.shape[0]
+    start = time.perf_counter()
+    lu = factorize(K - sigma * M)
+    factorization_s = time.perf_counter() - start
+    count = [0]
+    with (
+        progress_bar(None, "eigen solve (sparse solves)", progress, unit="solve") as bar,
+        single_threaded_blas(),
+    ):
+
+        def solve(x):
+            count[0] += 1
+            bar.update(1)
+            return lu.solve(np.asarray(x, dtype=float).ravel())
+
+        op = sla.LinearOperator((n, n), matvec=solve, dtype=float)
+        start = time.perf_counter()
+        k = n_modes if n_modes is not None else 20
+        limit_w2 = None if max_freq_hz is None else (2 * np.pi * max_freq_hz) ** 2
+        while True:
+            k = min(k, n - 2)
+            if k < 1:
+                raise InputError(f"n_modes: the model has only {n} free DOFs")
+            values, vectors = sla.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op)
+            order = np.argsort(values)
+            values, vectors = values[order], vectors[:, order]
+            if limit_w2 is None or values[-1] > limit_w2 or k >= n - 2:
+                break
+            if n_modes is not None and k >= n_modes:
+                break
+            k *= 2
+        solve_s = time.perf_counter() - start
+    if limit_w2 is not None:
+        keep = values <= limit_w2
+        values, vectors = values[keep], vectors[:, keep]
+    return EigenSolution(values, vectors, lu, sigma, factorization_s, solve_s, count[0])
+
+
+def all_modes(K: sp.spmatrix, M: sp.spmatrix) -> EigenSolution:
+    """Every mode by a dense solve (small models only, n <= DENSE_MAX_DOF)."""
+    n = K.shape[0]
+    if n > DENSE_MAX_DOF:
+        raise InputError(
+            f"n_modes='all': the model has {n} free DOFs; a full eigen decomposition is limited "
+            f"to {DENSE_MAX_DOF} (use a coarser mesh or a number of modes)"
+        )
+    start = time.perf_counter()
+    values, vectors = scipy.linalg.eigh(K.toarray(), M.toarray())
+    return EigenSolution(values, vectors, None, 0.0, 0.0, time.perf_counter() - start, 0)

@@ -1,0 +1,391 @@
+"""Modal analysis of a part held by its gripper, and the jaxflex.ModalModel it yields.
+
+Relative displacement u of the part carried with base acceleration a(t) obeys
+M u'' + C u' + K u = -(M R)_free a(t); with mass-normalised modes phi_i the participation
+factors are Gamma_i = phi_i^T (M R)_free (kg^0.5, one per direction x, y, z) and
+sum over all modes of Gamma_i,d^2 = b_d^T M_ff^-1 b_d (the "mobile mass" along d: the part's
+mass less what the supports carry directly). Effective-mass fractions relate Gamma^2 to that
+sum, and the residual check evaluates it with one sparse solve. SI units throughout.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from fem.damping import describe_damping, modal_zeta
+from fem.eigen import all_modes, factorize, lowest_modes
+from fem.parts import Part
+from fem.supports import SuctionCup, as_support_list, check_layout
+from fem.system import FESystem
+from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
+from jaxflex.points import downsample_to_count, snap_key_points
+from jaxflex.validation import check_positive
+
+RIGID_MODES = {"plate": 3, "solid": 6}
+
+
+@dataclass(eq=False)
+class ModalResult:
+    """Outcome of :func:`modal_analysis` (SI units).
+
+    Attributes:
+        part, supports: the inputs.
+        system: the assembled FESystem (matrices, nodes, constraints).
+        basis: T (n_dof, n_free) admissible displacements u = T z.
+        freq_hz: (M,) natural frequencies of the elastic modes, ascending.
+        vectors: (n_free, M) mass-normalised elastic modes in the reduced coordinates z.
+        gamma: (M, 3) participation factors along x, y, z in kg^0.5.
+        rigid_freq_hz: frequencies of rigid-body modes found (only if allowed), Hz.
+        mobile_mass_kg: (3,) b_d^T M_ff^-1 b_d = sum over all modes of Gamma_d^2, kg.
+        static_residual_fraction: (3,) share of the static deflection under uniform
+            acceleration that the retained modes miss (0 = complete).
+        mass_kg: the part's mass.
+        zeta: (M,) modal damping ratios; damping: the spec they came from.
+        timings_s: wall times of the steps in s.
+    """
+
+    part: Part
+    supports: list
+    system: FESystem
+    basis: sp.csc_matrix
+    K_free: sp.csr_matrix
+    M_free: sp.csr_matrix
+    load: np.ndarray
+    freq_hz: np.ndarray
+    vectors: np.ndarray
+    gamma: np.ndarray
+    rigid_freq_hz: np.ndarray
+    mobile_mass_kg: np.ndarray
+    static_residual_fraction: np.ndarray
+    mass_kg: float
+    zeta: np.ndarray
+    damping: Any
+    timings_s: dict[str, float] = field(default_factory=dict)
+    observation: sp.csr_matrix | None = None
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.freq_hz.size)
+
+    @property
+    def effective_mass_kg(self) -> np.ndarray:
+        """(M, 3) effective modal mass Gamma^2 per direction, kg."""
+        return self.gamma**2
+
+    @property
+    def effective_mass_fraction(self) -> np.ndarray:
+        """(M, 3) Gamma^2 / mobile mass per direction; NaN for a direction the formulation
+        cannot move in (a Kirchhoff plate along x and y)."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(self.mobile_mass_kg > 0, self.gamma**2 / self.mobile_mass_kg, np.nan)
+
+    @property
+    def cumulative_fraction(self) -> np.ndarray:
+        """(3,) share of the mobile mass captured by the retained modes, per direction."""
+        return np.nansum(self.effective_mass_fraction, axis=0) + np.where(
+            self.mobile_mass_kg > 0, 0.0, np.nan
+        )
+
+    @property
+    def residual_fraction(self) -> np.ndarray:
+        """(3,) 1 - cumulative_fraction: the mass the truncated modes carry (residual check)."""
+        return 1.0 - self.cumulative_fraction
+
+    def node_shapes(self) -> np.ndarray:
+        """(N, 3, M) mode shapes at all reporting nodes, m per kg^0.5."""
+        values = self.observation @ self.vectors
+        return values.reshape(len(self.system.nodes), 3, self.n_modes)
+
+    def select_nodes(
+        self, points=None, key_points=None, key_tolerance_m: float | None = None
+    ) -> np.ndarray:
+        """Node indices for ``points``: None/"all" every node; an int N: about N nodes by voxel
+        downsampling (``key_points`` (Kk, 3) always kept); an array (K, 2) of footprint
+        points or (K, 3) points (m): the nearest nodes (within ``key_tolerance_m``, default
+        two element sizes)."""
+        nodes = self.system.nodes
+        tol = key_tolerance_m or 2 * self.system.stats["edge_length_max_m"]
+        if points is None or (isinstance(points, str) and points == "all"):
+            if key_points is not None:
+                raise InputError("key_points: only used with points=<count>")
+            return np.arange(len(nodes))
+        if isinstance(points, int | np.integer):
+            if int(points) < 1:
+                raise InputError(f"points: a count must be >= 1, got {points}")
+            return downsample_to_count(
+                nodes, int(points), key_points=self._as_xyz(key_points), key_tolerance_m=tol
+            )
+        if key_points is not None:
+            raise InputError("key_points: only used with points=<count>")
+        return snap_key_points(nodes, self._as_xyz(points), tol)
+
+    def _as_xyz(self, pts):
+        if pts is None:
+            return None
+        arr = np.asarray(pts, dtype=float)
+        if arr.ndim != 2 or arr.shape[1] not in (2, 3) or arr.shape[0] == 0:
+            raise InputError(f"points: expected shape (K, 2) or (K, 3) in m, got {arr.shape}")
+        if arr.shape[1] == 2:
+            inside = self.part.contains_xy(arr)
+            if not inside.all():
+                i = int(np.argmin(inside))
+                raise InputError(f"points: point {i} at {arr[i].tolist()} m is off the part")
+            arr = self.part.surface_point(arr)
+        return arr
+
+    def to_modal_model(
+        self,
+        points=None,
+        *,
+        key_points=None,
+        labels: Sequence[str] | None = None,
+        zeta=None,
+        key_tolerance_m: float | None = None,
+    ) -> ModalModel:
+        """The jaxflex.ModalModel at the monitored points (see :meth:`select_nodes`); ``zeta``
+        overrides the damping (scalar, per mode or fem.Rayleigh)."""
+        if self.n_modes == 0:
+            raise InputError("to_modal_model: the analysis found no elastic mode")
+        idx = self.select_nodes(points, key_points, key_tolerance_m)
+        if labels is not None:
+            labels = [str(s) for s in labels]
+            if len(labels) != len(idx):
+                raise InputError(f"labels: expected {len(idx)} labels, got {len(labels)}")
+        spec = self.damping if zeta is None else zeta
+        zeta_arr = modal_zeta(spec, self.freq_hz)
+        shapes = self.node_shapes()[idx]
+        return ModalModel(
+            freq_hz=self.freq_hz,
+            zeta=zeta_arr,
+            gamma=self.gamma,
+            shapes=shapes,
+            points=self.system.nodes[idx],
+            labels=labels,
+            meta=self.meta(damping=spec, n_points=len(idx)),
+        )
+
+    def meta(self, damping=None, n_points: int | None = None) -> dict[str, Any]:
+        """JSON-serialisable description stored in the ModalModel."""
+        frac = self.effective_mass_fraction
+
+        def clean(values):
+            return [None if not np.isfinite(v) else float(v) for v in np.atleast_1d(values)]
+
+        return {
+            "source": "fem.modal_analysis",
+            "units": "SI: m, s, kg, Pa; freq_hz Hz, gamma kg^0.5, shapes m/kg^0.5",
+            "part": self.part.describe(),
+            "material": self.part.material.as_dict(),
+            "gripper": [s.describe() for s in self.supports],
+            "mesh": dict(self.system.stats, n_free_dof=int(self.basis.shape[1])),
+            "formulation": self.system.formulation,
+            "mass_kg": self.mass_kg,
+            "effective_mass": {
+                "directions": ["x", "y", "z"],
+                "mobile_mass_kg": clean(self.mobile_mass_kg),
+                "fraction_per_mode": [clean(row) for row in frac],
+                "cumulative_fraction": clean(self.cumulative_fraction),
+                "residual_fraction": clean(self.residual_fraction),
+                "static_residual_fraction": clean(self.static_residual_fraction),
+            },
+            "rigid_modes": {
+                "count": int(self.rigid_freq_hz.size),
+                "freq_hz": clean(self.rigid_freq_hz),
+            },
+            "damping": describe_damping(self.damping if damping is None else damping),
+            "n_points": n_points,
+            "timings_s": {k: round(v, 4) for k, v in self.timings_s.items()},
+        }
+
+    def summary(self) -> str:
+        """Human-readable table: frequencies, effective-mass fractions, residuals, timings."""
+        frac = self.effective_mass_fraction
+
+        def cells(values) -> str:
+            return " ".join("   -  " if not np.isfinite(v) else f"{v:6.3f}" for v in values)
+
+        lines = [
+            f"{self.part.name}: {self.system.formulation}",
+            f"mesh: {self.system.stats['n_elements']} elements, {self.system.stats['n_dof']} DOFs "
+            f"({self.basis.shape[1]} free), mass {self.mass_kg:.4g} kg",
+            " mode   freq [Hz]   zeta    eff. mass x     y      z   (fraction of mobile mass)",
+        ]
+        for i in range(self.n_modes):
+            lines.append(
+                f"{i + 1:5d} {self.freq_hz[i]:11.4f} {self.zeta[i]:6.4f}    {cells(frac[i])}"
+            )
+        lines.append(f"{'sum':>5s} {'':11s} {'':6s}    {cells(self.cumulative_fraction)}")
+        res = ", ".join(
+            f"{d}: {v:.2e}"
+            for d, v in zip("xyz", self.residual_fraction, strict=True)
+            if np.isfinite(v)
+        )
+        stat = ", ".join(
+            f"{d}: {v:.2e}"
+            for d, v in zip("xyz", self.static_residual_fraction, strict=True)
+            if np.isfinite(v)
+        )
+        lines.append(f"residual mass fraction (truncated modes) {res}; static deflection {stat}")
+        if self.rigid_freq_hz.size:
+            lines.append(f"rigid-body modes kept out of the model: {self.rigid_freq_hz.size}")
+        steps = ", ".join(f"{k.removesuffix('_s')} {v:.2f} s" for k, v in self.timings_s.items())
+        lines.append(f"timings: {steps}")
+        return "\n".join(lines)
+
+
+def modal_analysis(
+    part: Part,
+    supports,
+    n_modes: int | str | None = 20,
+    zeta=0.02,
+    max_freq_hz: float | None = None,
+    *,
+    allow_rigid_modes: bool = False,
+    sigma_hz: float = 1.0,
+    rigid_tol_hz: float = 0.01,
+    progress: bool | None = None,
+) -> ModalResult:
+    """Natural modes of ``part`` held by ``supports``.
+
+    Args:
+        part: from fem.rectangular_plate / curved_panel / read_mesh.
+        supports: fem.SuctionCup / PointSupport / ClampedEdge / SimplySupportedEdge (list).
+        n_modes: number of elastic modes; "all" for a full (dense) decomposition of a small
+            model; None with ``max_freq_hz`` for every mode up to that frequency.
+        zeta: modal damping: a ratio, one per mode, or fem.Rayleigh(alpha, beta).
+        max_freq_hz: keep only modes up to this frequency (Hz).
+        allow_rigid_modes: accept grippers that leave rigid-body modes (they are reported,
+            not put into the model) instead of rejecting them.
+        sigma_hz: the shift of the eigen solver is -(2 pi sigma_hz)^2.
+        rigid_tol_hz: modes below this frequency count as rigid-body modes.
+        progress: show progress bars (None: on a terminal only).
+    """
+    t_start = time.perf_counter()
+    if not isinstance(part, Part):
+        raise InputError(
+            f"part: expected a fem part (rectangular_plate, curved_panel, "
+            f"read_mesh), got {type(part).__name__}"
+        )
+    supports = as_support_list(supports)
+    dense = isinstance(n_modes, str)
+    if dense and n_modes != "all":
+        raise InputError(f"n_modes: a count, 'all' or None, got {n_modes!r}")
+    if (
+        not dense
+        and n_modes is not None
+        and (not isinstance(n_modes, int | np.integer) or n_modes < 1)
+    ):
+        raise InputError(f"n_modes: must be an integer >= 1, got {n_modes!r}")
+    if n_modes is None and max_freq_hz is None:
+        raise InputError("n_modes: give a number of modes or max_freq_hz")
+    if max_freq_hz is not None:
+        max_freq_hz = check_positive("max_freq_hz", max_freq_hz)
+    check_positive("sigma_hz", sigma_hz)
+    check_layout(supports, part.contains_xy, allow_rigid_modes=allow_rigid_modes)
+    timings: dict[str, float] = {}
+
+    tick = time.perf_counter()
+    cups = [s for s in supports if isinstance(s, SuctionCup)]
+    mesh = part.mesh(cups)
+    timings["mesh_s"] = time.perf_counter() - tick
+    tick = time.perf_counter()
+    if part.kind == "plate":
+        from fem.plate import assemble_plate
+
+        system = assemble_plate(
+            mesh, part.element, part.material, part.thickness_m, supports, progress
+        )
+    else:
+        from fem.solid import assemble_solid
+
+        system, _ = assemble_solid(mesh, part, supports, progress)
+    timings["assembly_s"] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    T = system.constraints.basis(system.n_dof)
+    K_free = (T.T @ system.K @ T).tocsr()
+    M_free = (T.T @ system.M @ T).tocsr()
+    load = T.T @ (system.M @ system.rigid)  # (n_free, 3) = (M R)_free
+    timings["constraints_s"] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    sigma = -((2 * np.pi * sigma_hz) ** 2)
+    extra = RIGID_MODES[part.kind] if allow_rigid_modes else 0
+    if dense:
+        sol = all_modes(K_free, M_free)
+    else:
+        sol = lowest_modes(
+            K_free,
+            M_free,
+            None if n_modes is None else int(n_modes) + extra,
+            max_freq_hz=max_freq_hz,
+            sigma=sigma,
+            progress=progress,
+        )
+    timings["factorization_s"] = sol.factorization_s
+    timings["eigen_s"] = sol.solve_s
+    values, vectors = sol.eigenvalues, sol.vectors
+    vectors = vectors / np.sqrt(np.einsum("im,im->m", vectors, M_free @ vectors))
+    rigid = values < (2 * np.pi * rigid_tol_hz) ** 2
+    if rigid.any() and not allow_rigid_modes:
+        raise InputError(
+            f"supports: the gripper leaves {int(rigid.sum())} rigid-body mode(s) (below "
+            f"{rigid_tol_hz:g} Hz): the part is not held; add cups or pass allow_rigid_modes=True"
+        )
+    rigid_freq = np.sqrt(np.abs(values[rigid])) / (2 * np.pi)
+    all_gamma = vectors.T @ load
+    values_el, vectors_el = values[~rigid], vectors[:, ~rigid]
+    if not dense and n_modes is not None:
+        values_el, vectors_el = values_el[: int(n_modes)], vectors_el[:, : int(n_modes)]
+    observation = (system.observation() @ T).tocsr()
+    if vectors_el.shape[1]:
+        observed = observation @ vectors_el
+        peak = observed[np.argmax(np.abs(observed), axis=0), np.arange(observed.shape[1])]
+        vectors_el = vectors_el * np.where(peak < 0, -1.0, 1.0)
+    freq = np.sqrt(values_el) / (2 * np.pi)
+    gamma = vectors_el.T @ load
+
+    tick = time.perf_counter()
+    mobile = np.zeros(3)
+    active = np.flatnonzero(np.abs(load).sum(axis=0) > 0)
+    if active.size:
+        solved = factorize(M_free).solve(np.ascontiguousarray(load[:, active]))
+        mobile[active] = np.einsum("id,id->d", load[:, active], solved)
+    lu = sol.shifted_lu or factorize(K_free - sigma * M_free)
+    static_full = np.einsum("id,id->d", load, lu.solve(np.ascontiguousarray(load)))
+    static_kept = np.sum(all_gamma**2 / (values - sigma)[:, None], axis=0)
+    if not dense and n_modes is not None:  # only the retained elastic (and rigid) modes
+        kept = np.concatenate([np.flatnonzero(rigid), np.flatnonzero(~rigid)[: int(n_modes)]])
+        static_kept = np.sum(all_gamma[kept] ** 2 / (values[kept] - sigma)[:, None], axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        static_res = np.where(static_full > 0, 1.0 - static_kept / static_full, np.nan)
+    timings["residual_s"] = time.perf_counter() - tick
+    mass = float(np.max(np.einsum("id,id->d", system.rigid, system.M @ system.rigid)))
+    timings["total_s"] = time.perf_counter() - t_start
+    return ModalResult(
+        part=part,
+        supports=supports,
+        system=system,
+        basis=T,
+        K_free=K_free,
+        M_free=M_free,
+        load=load,
+        freq_hz=freq,
+        vectors=vectors_el,
+        gamma=gamma,
+        rigid_freq_hz=rigid_freq,
+        mobile_mass_kg=mobile,
+        static_residual_fraction=static_res,
+        mass_kg=mass,
+        zeta=modal_zeta(zeta, freq),
+        damping=zeta,
+        timings_s=timings,
+        observation=observation,
+    )

@@ -1,0 +1,161 @@
+"""Kirchhoff plate (flat parts): Morley or Argyris triangles with scikit-fem.
+
+Deflection w (m) along z; strain energy D/2 int [nu (lap w)^2 + (1 - nu) w_,ij w_,ij] dA with
+D = E h^3 / (12 (1 - nu^2)); kinetic energy rho h/2 int w_t^2 dA (no rotary inertia).
+A suction cup clamps its disc: deflection and slopes of every vertex inside the disc and the
+normal slope of every edge inside it are held (second derivatives of Argyris are left free,
+which would over-constrain the disc boundary).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import skfem
+from skfem.helpers import dd, ddot, trace
+
+from fem.parts import PlateMesh
+from fem.progress import progress_bar
+from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup
+from fem.system import Constraints, FESystem
+from jaxflex.errors import InputError
+
+ELEMENT_CLASSES = {"morley": skfem.ElementTriMorley, "argyris": skfem.ElementTriArgyris}
+FORMULATION = {
+    "morley": "Kirchhoff plate, Morley triangles (scikit-fem ElementTriMorley)",
+    "argyris": "Kirchhoff plate, Argyris triangles (scikit-fem ElementTriArgyris)",
+}
+CHUNK_ELEMENTS = 4000
+
+
+def _forms(bending_nm: float, nu: float, mass_per_area: float):
+    @skfem.BilinearForm
+    def stiffness(u, v, _):
+        return bending_nm * ((1 - nu) * ddot(dd(u), dd(v)) + nu * trace(dd(u)) * trace(dd(v)))
+
+    @skfem.BilinearForm
+    def mass(u, v, _):
+        return mass_per_area * u * v
+
+    return stiffness, mass
+
+
+def assemble_plate(
+    mesh: PlateMesh, element: str, material, thickness_m: float, supports, progress=None
+) -> FESystem:
+    """Assemble the plate and translate ``supports`` into held DOFs."""
+    skmesh = skfem.MeshTri(mesh.nodes_xy.T.copy(), mesh.triangles.T.copy())
+    elem = ELEMENT_CLASSES[element]()
+    stiffness, mass = _forms(
+        material.bending_stiffness_nm(thickness_m), material.nu, material.rho_kg_m3 * thickness_m
+    )
+    n_el = skmesh.t.shape[1]
+    chunks = np.array_split(np.arange(n_el), max(1, int(np.ceil(n_el / CHUNK_ELEMENTS))))
+    K = M = None
+    basis = None
+    with progress_bar(len(chunks), f"assembly ({element}, {n_el} elements)", progress) as bar:
+        for chunk in chunks:
+            part_basis = skfem.Basis(skmesh, elem, elements=chunk)
+            k_part = stiffness.assemble(part_basis)
+            m_part = mass.assemble(part_basis)
+            K = k_part if K is None else K + k_part
+            M = m_part if M is None else M + m_part
+            basis = basis or part_basis
+            bar.update(1)
+    n_dof = K.shape[0]
+    nodal = basis.nodal_dofs  # (n nodal dofs per vertex, N): u [, u_x, u_y, u_xx, u_xy, u_yy]
+    facet_dofs = basis.facet_dofs[0]  # u_n per edge
+    rigid = np.zeros((n_dof, 3))
+    rigid[nodal[0], 2] = 1.0
+    nodes = np.column_stack([mesh.nodes_xy, np.full(len(mesh.nodes_xy), mesh.z0)])
+    node_dofs = np.full((len(nodes), 3), -1, dtype=np.int64)
+    node_dofs[:, 2] = nodal[0]
+    constraints = _constraints(skmesh, element, nodal, facet_dofs, supports)
+    lengths = np.linalg.norm(np.diff(skmesh.p[:, skmesh.facets], axis=1)[:, 0], axis=0)
+    stats = {
+        "cell_type": "triangle",
+        "n_nodes": int(skmesh.p.shape[1]),
+        "n_elements": int(n_el),
+        "n_dof": int(n_dof),
+        "edge_length_min_m": float(lengths.min()),
+        "edge_length_max_m": float(lengths.max()),
+    }
+    return FESystem(
+        K.tocsr(),
+        M.tocsr(),
+        rigid,
+        nodes,
+        node_dofs,
+        mesh.triangles.copy(),
+        "triangle",
+        constraints,
+        stats,
+        FORMULATION[element],
+    )
+
+
+def _side_facets(skmesh, side: str) -> np.ndarray:
+    boundary = skmesh.boundary_facets()
+    if side == "all":
+        return boundary
+    mid = skmesh.p[:, skmesh.facets[:, boundary]].mean(axis=1)
+    axis = 0 if side[0] == "x" else 1
+    target = skmesh.p[axis].min() if side[1] == "0" else skmesh.p[axis].max()
+    tol = 1e-6 * np.ptp(skmesh.p, axis=1).max()
+    picked = boundary[np.abs(mid[axis] - target) <= tol]
+    if picked.size == 0:
+        raise InputError(f"edge support side {side!r}: no boundary edge of the part lies there")
+    return picked
+
+
+def _constraints(skmesh, element, nodal, facet_dofs, supports) -> Constraints:
+    fixed: list[np.ndarray] = []
+    p = skmesh.p
+    for i, s in enumerate(supports):
+        if isinstance(s, SuctionCup):
+            inside = np.hypot(p[0] - s.x, p[1] - s.y) <= s.radius * (1 + 1e-9)
+            if not inside.any():
+                raise InputError(
+                    f"supports[{i}]: the cup at ({s.x:g}, {s.y:g}) m contains no mesh node; "
+                    "use a smaller mesh_size"
+                )
+            fixed.append(nodal[0, inside])
+            if element == "argyris":
+                fixed.extend([nodal[1, inside], nodal[2, inside]])
+            edges_inside = inside[skmesh.facets].all(axis=0)
+            fixed.append(facet_dofs[edges_inside])
+        elif isinstance(s, PointSupport):
+            nearest = int(np.argmin(np.hypot(p[0] - s.x, p[1] - s.y)))
+            fixed.append(nodal[0, [nearest]])
+        elif isinstance(s, ClampedEdge | SimplySupportedEdge):
+            fixed.extend(_edge_dofs(skmesh, element, nodal, facet_dofs, s))
+    return Constraints(fixed=np.unique(np.concatenate(fixed)) if fixed else np.empty(0, int))
+
+
+def _edge_dofs(skmesh, element, nodal, facet_dofs, support) -> list[np.ndarray]:
+    facets = _side_facets(skmesh, support.side)
+    clamped = isinstance(support, ClampedEdge)
+    vertices = np.unique(skmesh.facets[:, facets])
+    out = [nodal[0, vertices]]
+    if clamped:
+        out.append(facet_dofs[facets])
+    if element == "morley":
+        return out
+    # Argyris: w = 0 along an edge also holds the tangential first and second derivatives
+    # at its vertices (clamped: all first derivatives and the cross derivative as well);
+    # index rows of ``nodal``: 0 u, 1 u_x, 2 u_y, 3 u_xx, 4 u_xy, 5 u_yy.
+    d = np.diff(skmesh.p[:, skmesh.facets[:, facets]], axis=1)[:, 0]
+    length = np.hypot(d[0], d[1])
+    along_x = np.abs(d[1]) <= 1e-9 * length
+    along_y = np.abs(d[0]) <= 1e-9 * length
+    if not (along_x | along_y).all():
+        raise InputError(
+            "edge supports with element='argyris' need straight edges along x or y; use "
+            "element='morley' for other outlines"
+        )
+    for mask, rows in ((along_x, (1, 3, 2, 4)), (along_y, (2, 5, 1, 4))):
+        verts = np.unique(skmesh.facets[:, facets[mask]])
+        if verts.size == 0:
+            continue
+        held = rows if clamped else rows[:2]
+        out.extend(nodal[r, verts] for r in held)
+    return out
