@@ -105,5 +105,6 @@ def all_modes(K: sp.spmatrix, M: sp.spmatrix) -> EigenSolution:
             f"to {DENSE_MAX_DOF} (use a coarser mesh or a number of modes)"
         )
     start = time.perf_counter()
-    values, vectors = scipy.linalg.eigh(K.toarray(), M.toarray())
+    with single_threaded_blas():
+        values, vectors = scipy.linalg.eigh(K.toarray(), M.toarray())
     return EigenSolution(values, vectors, None, 0.0, 0.0, time.perf_counter() - start, 0)

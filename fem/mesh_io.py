@@ -24,7 +24,9 @@ def load_part_mesh(path: str | os.PathLike, scale: float = 1.0):
         raise InputError(f"mesh: file {str(path)!r} does not exist")
     try:
         data = meshio.read(path)
-    except Exception as exc:  # meshio raises many types (ReadError, KeyError, ValueError...)
+    # meshio raises many types (ReadError, KeyError, ValueError...) and, when no reader
+    # accepts the file, calls sys.exit(1)
+    except (Exception, SystemExit) as exc:
         raise InputError(
             f"mesh: cannot read {str(path)!r} ({type(exc).__name__}: {exc}); give a mesh file "
             "meshio understands (.msh, .vtu, .vtk, .xdmf, .inp, .med, ...)"

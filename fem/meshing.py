@@ -39,10 +39,10 @@ def cup_grid(
     width_m: float, height_m: float, size_m: float, cups, fine_fraction: float = 0.25
 ) -> tuple[np.ndarray, np.ndarray]:
     """Grid lines (x, y) of a width x height footprint, refined around ``cups``: inside a band
-    of the cup radius plus one base element, the spacing is min(size, fine_fraction * radius)."""
+    of the cup diameter, the spacing is min(size, fine_fraction * radius)."""
     bands_x, bands_y, fines = [], [], []
     for cup in cups:
-        margin = cup.radius + size_m
+        margin = cup.radius
         bands_x.append((cup.x - margin, cup.x + margin))
         bands_y.append((cup.y - margin, cup.y + margin))
         fines.append(min(size_m, fine_fraction * cup.radius))

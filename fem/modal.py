@@ -43,6 +43,7 @@ class ModalResult:
         vectors: (n_free, M) mass-normalised elastic modes in the reduced coordinates z.
         gamma: (M, 3) participation factors along x, y, z in kg^0.5.
         rigid_freq_hz: frequencies of rigid-body modes found (only if allowed), Hz.
+        rigid_gamma: (R, 3) their participation factors, kg^0.5.
         mobile_mass_kg: (3,) b_d^T M_ff^-1 b_d = sum over all modes of Gamma_d^2, kg.
         static_residual_fraction: (3,) share of the static deflection under uniform
             acceleration that the retained modes miss (0 = complete).
@@ -62,6 +63,7 @@ class ModalResult:
     vectors: np.ndarray
     gamma: np.ndarray
     rigid_freq_hz: np.ndarray
+    rigid_gamma: np.ndarray
     mobile_mass_kg: np.ndarray
     static_residual_fraction: np.ndarray
     mass_kg: float
@@ -333,7 +335,10 @@ def modal_analysis(
     timings["eigen_s"] = sol.solve_s
     values, vectors = sol.eigenvalues, sol.vectors
     vectors = vectors / np.sqrt(np.einsum("im,im->m", vectors, M_free @ vectors))
-    rigid = values < (2 * np.pi * rigid_tol_hz) ** 2
+    rigid_limit = (2 * np.pi * rigid_tol_hz) ** 2
+    if dense:  # a dense solve resolves omega^2 only to ~eps * lambda_max (thin solids: ~1e14)
+        rigid_limit = max(rigid_limit, 100 * np.finfo(float).eps * np.abs(values).max())
+    rigid = values < rigid_limit
     if rigid.any() and not allow_rigid_modes:
         raise InputError(
             f"supports: the gripper leaves {int(rigid.sum())} rigid-body mode(s) (below "
@@ -381,6 +386,7 @@ def modal_analysis(
         vectors=vectors_el,
         gamma=gamma,
         rigid_freq_hz=rigid_freq,
+        rigid_gamma=all_gamma[rigid],
         mobile_mass_kg=mobile,
         static_residual_fraction=static_res,
         mass_kg=mass,

@@ -32,7 +32,7 @@ ELEMENTS = (*PLATE_ELEMENTS, "hex2")
 DEFAULT_SIZE_M = {"morley": 0.015, "argyris": 0.05, "hex2": 0.025}
 DEFAULT_SIZE_PER_SPAN = {"morley": 60, "argyris": 20, "hex2": 30}
 # Element size inside a cup as a fraction of its radius (quadratic solids have mid-nodes).
-CUP_FINE_FRACTION = {"morley": 0.25, "argyris": 0.25, "hex2": 0.5}
+CUP_FINE_FRACTION = {"morley": 0.25, "argyris": 0.25, "hex2": 1 / 3}
 
 
 @dataclass(frozen=True, eq=False)

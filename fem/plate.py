@@ -112,17 +112,19 @@ def _constraints(skmesh, element, nodal, facet_dofs, supports) -> Constraints:
     p = skmesh.p
     for i, s in enumerate(supports):
         if isinstance(s, SuctionCup):
-            inside = np.hypot(p[0] - s.x, p[1] - s.y) <= s.radius * (1 + 1e-9)
-            if not inside.any():
+            # the disc is the union of the triangles whose centroid lies in it
+            centroid = p[:, skmesh.t].mean(axis=1)
+            held = np.hypot(centroid[0] - s.x, centroid[1] - s.y) <= s.radius
+            if not held.any():
                 raise InputError(
-                    f"supports[{i}]: the cup at ({s.x:g}, {s.y:g}) m contains no mesh node; "
-                    "use a smaller mesh_size"
+                    f"supports[{i}]: the cup at ({s.x:g}, {s.y:g}) m covers no element "
+                    "centroid; use a smaller mesh_size"
                 )
-            fixed.append(nodal[0, inside])
+            vertices = np.unique(skmesh.t[:, held])
+            fixed.append(nodal[0, vertices])
             if element == "argyris":
-                fixed.extend([nodal[1, inside], nodal[2, inside]])
-            edges_inside = inside[skmesh.facets].all(axis=0)
-            fixed.append(facet_dofs[edges_inside])
+                fixed.extend([nodal[1, vertices], nodal[2, vertices]])
+            fixed.append(facet_dofs[np.unique(skmesh.t2f[:, held])])
         elif isinstance(s, PointSupport):
             nearest = int(np.argmin(np.hypot(p[0] - s.x, p[1] - s.y)))
             fixed.append(nodal[0, [nearest]])

@@ -1,0 +1,77 @@
+"""Kirchhoff plate (Morley, Argyris) against closed forms and published values."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import fem
+
+STEEL = fem.PRESETS["steel"]
+THICKNESS = 1e-3
+
+
+def _lambda(result, side_m: float) -> np.ndarray:
+    """Frequency parameter lambda = omega a^2 sqrt(rho h / D) of a square plate of side a."""
+    bending = STEEL.bending_stiffness_nm(THICKNESS)
+    omega = 2 * np.pi * result.freq_hz
+    return omega * side_m**2 * np.sqrt(STEEL.rho_kg_m3 * THICKNESS / bending)
+
+
+# simply supported square plate: lambda_mn = pi^2 (m^2 + n^2), the six lowest
+SS_EXACT = np.pi**2 * np.array([2, 5, 5, 8, 10, 10])
+# clamped square plate (CCCC), Leissa (1969) / Gorman: lambda independent of nu
+CCCC_PUBLISHED = np.array([35.985, 73.394, 73.394, 108.22, 131.58, 132.20])
+
+
+def test_simply_supported_morley_default_mesh_within_half_percent():
+    # Morley converges from below with O(h^2); at the default 15 mm elements on a 1 m plate
+    # the error of the 6th mode is ~0.37 % (DESIGN.md "FE choices": ~0.4 %), target 0.5 %.
+    result = fem.modal_analysis(fem.rectangular_plate(1.0, 1.0), fem.SimplySupportedEdge(), 6)
+    error = _lambda(result, 1.0) / SS_EXACT - 1
+    assert np.all(np.abs(error) <= 5e-3), error
+    assert np.all(error < 0), "Morley converges from below"
+
+
+def test_simply_supported_argyris_within_005_percent():
+    # Argyris (quintic, C1) at 125 mm elements: measured <= 0.0001 %; the target is 0.05 %.
+    part = fem.rectangular_plate(1.0, 1.0, element="argyris", mesh_size=0.125)
+    result = fem.modal_analysis(part, fem.SimplySupportedEdge(), 6)
+    assert np.all(np.abs(_lambda(result, 1.0) / SS_EXACT - 1) <= 5e-4)
+
+
+def test_rectangular_simply_supported_plate_matches_analytic_fixture():
+    # the 1.5 x 0.8 m plate of jaxflex.analytic: 12 modes, with the mode ordering of the
+    # closed form (rectangular plates have no repeated frequencies here)
+    from jaxflex.analytic import simply_supported_plate
+
+    exact = simply_supported_plate(n_modes=12).freq_hz
+    result = fem.modal_analysis(
+        fem.rectangular_plate(element="argyris", mesh_size=0.1), fem.SimplySupportedEdge(), 12
+    )
+    np.testing.assert_allclose(result.freq_hz, exact, rtol=5e-4)
+    # participation of the (1,1) mode: Gamma = 8 sqrt(m) / pi^2 (closed form)
+    mass = STEEL.rho_kg_m3 * THICKNESS * 1.5 * 0.8
+    assert result.gamma[0, 2] == pytest.approx(8 * np.sqrt(mass) / np.pi**2, rel=1e-3)
+
+
+def test_clamped_square_plate_against_leissa():
+    # Argyris at 125 mm: within 0.05 % of the published values (given to 5 digits);
+    # Morley at the default mesh within 1 % (clamped edges converge more slowly).
+    argyris = fem.modal_analysis(
+        fem.rectangular_plate(1.0, 1.0, element="argyris", mesh_size=0.125), fem.ClampedEdge(), 6
+    )
+    np.testing.assert_allclose(_lambda(argyris, 1.0), CCCC_PUBLISHED, rtol=5e-4)
+    morley = fem.modal_analysis(fem.rectangular_plate(1.0, 1.0), fem.ClampedEdge(), 6)
+    np.testing.assert_allclose(_lambda(morley, 1.0), CCCC_PUBLISHED, rtol=1e-2)
+
+
+def test_cup_held_plate_default_mesh_is_converged_to_1_5_percent():
+    # A cup clamps the triangles whose centroid lies in its disc. Against a 2x finer mesh
+    # (3.75 mm; finer meshes move f1 by < 0.3 %, measured down to 2.5 mm) the default mesh
+    # is within 1.5 % on the first 10 modes (measured 1.1 %) and below it (Morley).
+    cups = fem.default_gripper(0.6, 0.4, 0.03)
+    default = fem.modal_analysis(fem.rectangular_plate(0.6, 0.4), cups, 10)
+    fine = fem.modal_analysis(fem.rectangular_plate(0.6, 0.4, mesh_size=0.00375), cups, 10)
+    np.testing.assert_allclose(default.freq_hz, fine.freq_hz, rtol=1.5e-2)
+    assert default.freq_hz[0] < fine.freq_hz[0]
