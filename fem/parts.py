@@ -224,16 +224,30 @@ def rectangular_plate(
     in m (default: 15 mm or span/60 for Morley, 50 mm or span/20 for Argyris, 25 mm or span/30
     for hex2, whichever is smaller); the mesh is refined around the cups.
     """
-    check_positive("width", width)
-    check_positive("height", height)
-    _check_common(thickness, element, mesh_size, ELEMENTS)
+    description = {"shape": "flat rectangle"}
+    return _rectangular_part(
+        "rectangular plate",
+        (width, height),
+        thickness,
+        material,
+        mesh_size,
+        element,
+        ELEMENTS,
+        None,
+        description,
+    )
+
+
+def _rectangular_part(
+    name, size, thickness, material, mesh_size, element, allowed, surface, description
+) -> Part:
+    width, height = (check_positive(n, v) for n, v in zip(("width", "height"), size, strict=True))
+    _check_common(thickness, element, mesh_size, allowed)
     geometry = _Rectangle(
-        float(width),
-        float(height),
-        description={"shape": "flat rectangle", "width_m": float(width), "height_m": float(height)},
+        width, height, surface, description={**description, "width_m": width, "height_m": height}
     )
     return Part(
-        "rectangular plate",
+        name,
         element,
         resolve_material(material),
         float(thickness),
@@ -272,7 +286,6 @@ def curved_panel(
     """
     check_positive("width", width)
     check_positive("height", height)
-    _check_common(thickness, element, mesh_size, ("hex2",))
     for name, r, half in (("radius_x", radius_x, width / 2), ("radius_y", radius_y, height / 2)):
         if r is not None and not math.isinf(r):
             check_positive(name, r)
@@ -291,25 +304,21 @@ def curved_panel(
         zy, dzy = _arc(y, cy, radius_y)
         return zx + zy, dzx, dzy
 
-    geometry = _Rectangle(
-        float(width),
-        float(height),
-        surface,
-        description={
-            "shape": "doubly curved panel" if radius_x and radius_y else "cylindrical panel",
-            "width_m": float(width),
-            "height_m": float(height),
-            "radius_x_m": radius_x,
-            "radius_y_m": radius_y,
-        },
-    )
-    return Part(
+    description = {
+        "shape": "doubly curved panel" if radius_x and radius_y else "cylindrical panel",
+        "radius_x_m": radius_x,
+        "radius_y_m": radius_y,
+    }
+    return _rectangular_part(
         "curved panel",
+        (width, height),
+        thickness,
+        material,
+        mesh_size,
         element,
-        resolve_material(material),
-        float(thickness),
-        None if mesh_size is None else float(mesh_size),
-        geometry,
+        ("hex2",),
+        surface,
+        description,
     )
 
 

@@ -79,8 +79,8 @@ def test_flat_thin_solid_matches_kirchhoff_plate_within_2_percent():
 
 
 def test_flat_thin_solid_with_clamped_edges_matches_argyris():
-    # clamped 0.6 x 0.4 m plate: solid at the default mesh vs Argyris (converged to
-    # < 0.01 % at 50 mm); measured difference <= 0.7 %, tolerance 2 %
+    # clamped 0.6 x 0.4 m plate: solid at 20 mm vs Argyris (converged to < 0.01 % at 50 mm);
+    # measured +0.8 ... +1.5 % (mild locking, as above), tolerance 2 %
     solid = fem.modal_analysis(
         fem.rectangular_plate(0.6, 0.4, element="hex2", mesh_size=0.02), fem.ClampedEdge(), 6
     )
