@@ -128,8 +128,8 @@ def transient_reference(
             u, a = u_new, a_new
             if k % every == 0:
                 out.append(observe @ u)
-            if k % 256 == 0:
-                bar.update(256)
+            if k % 256 == 0 or k == n_fine:
+                bar.update(k - bar.n)
     displacement = np.array(out).reshape(len(out), len(idx), 3)
     t_out = np.arange(len(out)) * h * every
     return TransientResult(
