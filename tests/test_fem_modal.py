@@ -78,6 +78,10 @@ def test_modal_model_from_analysis():
     named = result.to_modal_model(points=keys, labels=["centre", "corner"])
     assert named.labels == ("centre", "corner")
     np.testing.assert_allclose(named.points[:, :2], keys, atol=0.02)
+    # a voxel-reduced set always keeps the key points (snapped to the nearest node)
+    reduced = result.to_modal_model(points=40, key_points=keys)
+    for key in named.points:
+        assert np.min(np.linalg.norm(reduced.points - key, axis=1)) == 0.0
     # mass normalisation at the nodes: the shapes come from M-orthonormal vectors
     phi = result.vectors
     np.testing.assert_allclose(phi.T @ (result.M_free @ phi), np.eye(8), atol=1e-9)
