@@ -4,9 +4,12 @@ Variables: the move (optim.kinematics), each training scenario's modal end state
 units (z_hat = x_end / zscale, so that z_hat ~ 1 means ~threshold deviation) tied to the
 samples by the exact linear map, and the epigraph variable s. Rows: kinematics and limits,
 z_hat - (E / zscale) a = 0, and for every pooled (scenario, point, time) row
-c . u_p(tau) / (rho limit) <= s. Minimising s decides feasibility (s <= 1); the final
-``polish`` pass fixes s <= 1 and minimises the total variation of the acceleration
-instead, which removes the chattering an LP vertex tends to have.
+c . u_p(tau) / limit <= s, with c the direction of the deviation at the pooled peak: the
+tangent plane of the norm ball there. Generated lazily at the worst peaks, these cuts
+converge to the exact Euclidean norm constraint (a second-order cone) and are exact in 1-D.
+Minimising s decides feasibility (s <= 1); the final ``polish`` pass keeps s within
+POLISH_SLACK of its minimum and minimises the total variation of the acceleration instead,
+which removes the chattering an LP vertex tends to have.
 """
 
 from __future__ import annotations
@@ -15,7 +18,6 @@ import numpy as np
 
 from optim.kinematics import add_cuts, add_move, add_tv_objective, path_cuts
 from optim.lp import LPBuilder, solve_lp
-from optim.polytope import ball_normals
 from optim.search import Problem, SubResult
 
 MAX_CUT_ROUNDS = 30
@@ -26,8 +28,6 @@ POLISH_SLACK = 0.02
 
 class LPSubsolver:
     """Subproblem solver of the exact route; ``solver`` is an optim.lp back end."""
-
-    polyhedral = True
 
     def __init__(self, solver: str = "highs") -> None:
         self.solver = solver
@@ -43,7 +43,6 @@ class LPSubsolver:
         s = builder.variables(1, 0.0, s_cap, 0.0 if polish else 1.0)[0]
         if polish:
             add_tv_objective(builder, layout, problem.limits, 1.0)
-        rho = ball_normals(len(problem.components))[1]
         a_cols = layout.a.ravel()  # axis-major, like E[..., axes] transposed below
         z_cols = {}
         for i in problem.training:
@@ -61,8 +60,7 @@ class LPSubsolver:
         if rows:
             coef = np.stack(
                 [
-                    (r.coef * problem.scenarios[r.scenario].zscale).ravel()
-                    / (rho * problem.limit_m)
+                    (r.coef * problem.scenarios[r.scenario].zscale).ravel() / problem.limit_m
                     for r in rows
                 ]
             )

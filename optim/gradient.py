@@ -7,8 +7,8 @@ threshold,
     F = (1 / beta) log sum_r exp(beta |u_r|^2 / limit^2),      max_r <= F <= max_r + log(R) / beta,
 
 over the same linear kinematic constraints as the exact route. The deviations are exact
-Euclidean norms (no polyhedral approximation) and the soft maximum runs over every
-scenario at once (a smooth worst case for the robust mode). F and its gradient come from one
+Euclidean norms (the LP reaches them through cutting planes) and the soft maximum runs over
+every scenario at once (a smooth worst case for the robust mode). F and its gradient come from one
 jit-compiled ``jax.value_and_grad``; the rows' data are arguments, padded to powers of two,
 so a search compiles it a handful of times. Casadi sees F as a ``casadi.Callback`` with a
 Jacobian callback (kept alive on the object), Ipopt runs with a limited-memory Hessian;
@@ -271,8 +271,6 @@ def _slsqp(program, z_slice, data: RowData, x0: np.ndarray, beta: float, sample_
 
 class GradientSubsolver:
     """Subproblem solver of the gradient route; ``solver`` is "ipopt" or "slsqp"."""
-
-    polyhedral = False
 
     def __init__(self, solver: str = "ipopt") -> None:
         if solver not in GRADIENT_SOLVERS:

@@ -32,7 +32,7 @@ def axis_limits(name: str, value, n_axes: int = 3) -> np.ndarray:
     """A per-axis limit given as a scalar or n_axes values, each finite and > 0."""
     arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (n_axes,)).copy()
     for i, v in enumerate(arr):
-        check_positive(f"{name}[{'xyz'[i]}]", v)
+        check_positive(f"{name}[{'xyz'[i]}]", float(v))
     return arr
 
 

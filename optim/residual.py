@@ -20,7 +20,6 @@ import numpy as np
 
 from jaxflex.discretize import foh_coefficients, propagators
 from jaxflex.model import ModalModel
-from optim.polytope import ball_normals, support, worst_normal
 
 SAMPLES_PER_PERIOD = 16  # dense check: time step 1 / (16 f_max)
 REFINE_SAMPLES = 33  # sub-samples over two grid steps around every candidate peak
@@ -58,8 +57,7 @@ class ResidualModel:
     """Free decay of one modal model after a move, evaluated for many end states.
 
     ``components`` are the displacement components the shapes actually use (a flat part
-    moving in z has only u_z): norms are taken over those, and the LP's polyhedral
-    approximation of the ball has their dimension (exact in 1-D).
+    moving in z has only u_z): norms are taken over those only.
     """
 
     def __init__(self, model: ModalModel, components: tuple[int, ...]) -> None:
@@ -128,21 +126,13 @@ class ResidualModel:
         return hi
 
     # -- finding exceedances -------------------------------------------------------------
-    def _measure(self, u: np.ndarray, polyhedral: bool) -> np.ndarray:
-        """Size of deviation vectors (..., C) in the LP's sense (support function of the
-        inner polytope, divided by rho) or the Euclidean norm."""
-        dim = len(self.components)
-        if not polyhedral or dim == 1:
-            return np.linalg.norm(u, axis=-1)
-        return support(u, dim) / ball_normals(dim)[1]
-
-    def _refine(self, x_end, tau0, tau1, point, limit_m, polyhedral) -> Peak:
+    def _refine(self, x_end, tau0, tau1, point, limit_m) -> Peak:
         """Largest deviation over [tau0, tau1] (at ``point``, or any point if None)."""
         tau = np.linspace(max(0.0, tau0), tau1, REFINE_SAMPLES)
         u = self.displacement(x_end, tau)
         if point is not None:
             u = u[:, [point]]
-        values = self._measure(u, polyhedral) / limit_m
+        values = np.linalg.norm(u, axis=-1) / limit_m
         j, p = np.unravel_index(np.argmax(values), values.shape)
         return Peak(float(tau[j]), int(p if point is None else point), u[j, p], float(values[j, p]))
 
@@ -151,7 +141,6 @@ class ResidualModel:
         x_end: np.ndarray,
         limit_m: float,
         *,
-        polyhedral: bool,
         max_peaks: int = 40,
         tol: float = 1e-6,
     ) -> list[Peak]:
@@ -168,7 +157,7 @@ class ResidualModel:
             first = max(0, start - 1)
             tau = h * np.arange(first, min(n_samples, start + CHUNK) + 1)
             u = self.displacement(x_end, tau)
-            size = np.linalg.norm(u, axis=-1) / limit_m  # (T, K) Euclidean >= LP measure
+            size = np.linalg.norm(u, axis=-1) / limit_m  # (T, K)
             d, worst = size.max(axis=1), size.argmax(axis=1)
             if first == 0:  # tau = 0 is a boundary: a maximum there if d decreases
                 d = np.concatenate([[-np.inf], d])
@@ -176,34 +165,30 @@ class ResidualModel:
                 tau = np.concatenate([[0.0], tau])
             local = (d[1:-1] >= d[:-2]) & (d[1:-1] >= d[2:]) & (d[1:-1] > 1.0 - PEAK_SLACK)
             for j in np.flatnonzero(local) + 1:
-                peak = self._refine(
-                    x_end, tau[j - 1], tau[j + 1], int(worst[j]), limit_m, polyhedral
-                )
+                peak = self._refine(x_end, tau[j - 1], tau[j + 1], int(worst[j]), limit_m)
                 if peak.value > 1.0 + tol:
                     peaks.append(peak)
         peaks.sort(key=lambda pk: -pk.value)
         return peaks[:max_peaks]
 
-    def worst_near(self, x_end: np.ndarray, tau_s: float, limit_m: float, polyhedral: bool) -> Peak:
+    def worst_near(self, x_end: np.ndarray, tau_s: float, limit_m: float) -> Peak:
         """The largest deviation (any point) within half the longest period before
         ``tau_s``: where a certification found the last exceedance."""
         span = 0.5 / np.min(np.asarray(self.model.freq_hz))
         step = self.step_s / 4
         fine = np.arange(max(0.0, tau_s - span), tau_s + step, step)
-        values = self._measure(self.displacement(x_end, fine), polyhedral)
+        values = np.linalg.norm(self.displacement(x_end, fine), axis=-1)
         j, p = np.unravel_index(np.argmax(values), values.shape)
         lo, hi = fine[max(0, j - 1)], fine[min(len(fine) - 1, j + 1)]
-        return self._refine(x_end, lo, hi, int(p), limit_m, polyhedral)
+        return self._refine(x_end, lo, hi, int(p), limit_m)
 
     # -- rows ------------------------------------------------------------------------------
-    def row(self, peak: Peak, polyhedral: bool) -> np.ndarray:
-        """(M, 2) coefficients r with r . x_end = c . u_p(tau) for the peak's worst facet
-        normal c (polyhedral) or unit direction u / |u| (Euclidean): a linear cut."""
-        dim = len(self.components)
-        if polyhedral and dim > 1:
-            normal = worst_normal(peak.u, dim)
-        else:
-            normal = peak.u / np.linalg.norm(peak.u)
+    def row(self, peak: Peak) -> np.ndarray:
+        """(M, 2) coefficients r with r . x_end = c . u_p(tau), c = u / |u| the peak's
+        direction: the tangent plane of the ball |u_p(tau)| <= limit at the peak, a valid
+        linear cut (every feasible end state satisfies it). Generated lazily at the worst
+        peaks, these cuts converge to the exact norm constraint (a second-order cone)."""
+        normal = peak.u / np.linalg.norm(peak.u)
         p11, p12 = self.propagator_rows(np.array([peak.tau_s]))
         along = normal @ self.shapes[peak.point]  # (M,)
         return np.stack([along * p11[0], along * p12[0]], axis=-1)

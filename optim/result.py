@@ -21,29 +21,16 @@ from pathlib import Path
 
 import numpy as np
 
-import jaxflex
 from jaxflex.atomic import write_text_atomic
 from jaxflex.model import ModalModel
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
 from optim.plots import plot_deviations, plot_profiles, plot_robust
 from optim.profiles import integrate
+from optim.response import SUBSTEPS, deviation_curve
 from optim.robust import RobustSpec, perturbed
 from optim.timing import MoveTiming
 from optim.trajectory_io import write_trajectory_csv
-
-SUBSTEPS = 8  # deviation curves and peak: exact samples every dt / 8
-CURVE_BUCKET = 64  # curve lengths are rounded up to this many steps (fewer compilations)
-
-
-def deviation_curve(model: ModalModel, acc: np.ndarray, dt: float, until_s: float):
-    """(t (T,) s, deviation (T,) m): exact samples every dt / SUBSTEPS from 0 to at least
-    ``until_s`` (the move followed by free decay)."""
-    steps = max(acc.shape[0] - 1, int(np.ceil(until_s / dt)))
-    steps = -(-steps // CURVE_BUCKET) * CURVE_BUCKET
-    padded = np.vstack([acc, np.zeros((steps + 1 - acc.shape[0], 3))])
-    response = jaxflex.simulate(model, jaxflex.upsample(padded, SUBSTEPS), dt / SUBSTEPS)
-    return np.asarray(response.t), np.asarray(response.deviation)
 
 
 def deviation_summary(model: ModalModel, acc: np.ndarray, dt: float) -> dict:

@@ -146,7 +146,7 @@ def kinematic_floor_move(
         raise InputError("distance_m: the move has zero length")
     floor = time_optimal_move(distance, limits)
     start = grid_steps(floor.duration_s, dt)
-    for n_steps in range(start, max(start, max_steps) + 1):
+    for n_steps in range(start, max_steps + 1):
         stretched = time_optimal_move(distance, limits, minimum_duration_s=n_steps * dt)
         reference = stretched.acceleration(dt * np.arange(n_steps + 1))
         acc = fit_to_grid(reference, dt, distance, limits, solver=solver)

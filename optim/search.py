@@ -94,8 +94,8 @@ class Problem:
     def end_state(self, scenario: int, acc: np.ndarray) -> np.ndarray:
         return np.einsum("mikc,kc->mi", self.end_map(scenario, acc.shape[0] - 1), acc)
 
-    def add_peak(self, scenario: int, peak: Peak, polyhedral: bool) -> None:
-        coef = self.scenarios[scenario].residual.row(peak, polyhedral)
+    def add_peak(self, scenario: int, peak: Peak) -> None:
+        coef = self.scenarios[scenario].residual.row(peak)
         self.pool.append(PoolRow(scenario, peak, coef))
 
 
@@ -149,7 +149,6 @@ class SubResult:
 
 
 class Subsolver(Protocol):
-    polyhedral: bool
     name: str
 
     def solve(self, problem: Problem, n_steps: int, warm: np.ndarray, polish: bool) -> SubResult:
@@ -180,7 +179,7 @@ class Attempt:
         }
 
 
-def _certify(problem: Problem, acc: np.ndarray, polyhedral: bool):
+def _certify(problem: Problem, acc: np.ndarray):
     """Exact cycle time of every scenario. Training scenarios that fail get a row at their
     worst peak near the certified crossing; of the others, only the worst failure joins
     the training set (adding every failing scenario floods the LP with near-duplicates).
@@ -205,8 +204,7 @@ def _certify(problem: Problem, acc: np.ndarray, polyhedral: bool):
         tau = timings[i].settle_time_s - transfer
         problem.add_peak(
             i,
-            problem.scenarios[i].residual.worst_near(x_end, tau, problem.limit_m, polyhedral),
-            polyhedral,
+            problem.scenarios[i].residual.worst_near(x_end, tau, problem.limit_m),
         )
     return timings, len(failed)
 
@@ -242,16 +240,15 @@ def attempt(
             peaks = problem.scenarios[i].residual.exceedances(
                 x_end,
                 problem.limit_m * row_limit,
-                polyhedral=solver.polyhedral,
                 max_peaks=PEAKS_PER_ROUND,
             )
             for peak in peaks:
-                problem.add_peak(i, peak, solver.polyhedral)
+                problem.add_peak(i, peak)
             added += len(peaks)
         if added:
             continue
         acc = enforce_end_state(acc, problem.dt, problem.distance)
-        timings, failures = _certify(problem, acc, solver.polyhedral)
+        timings, failures = _certify(problem, acc)
         if not failures:
             return Attempt(
                 n_steps,
@@ -298,44 +295,47 @@ def bisect(
     progress: bool = True,
 ) -> tuple[Attempt | None, list[Attempt]]:
     """Fewest steps n with a certified move. ``floor_move`` is the kinematic floor (no move
-    is shorter); the search starts at ``upper_steps`` (widening the bracket while that is
-    infeasible, up to max_steps) and bisects. ``warm_moves`` (kinematically feasible moves,
-    e.g. the baselines) seed the subproblems. Returns (best attempt or None, all attempts)."""
+    is shorter); ``upper_steps`` is a length known to be feasible in principle (a baseline
+    padded to its cycle time). The search gallops upwards from the floor (steps of 4 %,
+    doubling) until a length is feasible, then bisects: optima usually lie near the floor,
+    and short moves make small LPs. ``warm_moves`` (kinematically feasible moves, e.g. the
+    baselines) seed the subproblems. Returns (best attempt or None, every attempt)."""
+    history: list[Attempt] = []
     floor_steps = floor_move.shape[0] - 1
     moves = [floor_move, *warm_moves]
-    history: list[Attempt] = []
-    lo = floor_steps - 1  # infeasible: no grid move is shorter than the kinematic floor
-    hi = min(max(upper_steps, floor_steps), problem.max_steps)
+    cap = min(max(upper_steps, floor_steps), problem.max_steps)
+    lo, n, stride = floor_steps - 1, floor_steps, max(1, int(np.ceil(0.04 * floor_steps)))
     best: Attempt | None = None
-    bar = tqdm(
-        total=int(np.ceil(np.log2(max(2, hi - lo)))) + 1,
-        desc=f"{solver.name}: shortest move",
-        unit="test",
-        disable=not progress,
-        leave=False,
-    )
+    bar = tqdm(desc=f"{solver.name}: shortest move", unit="test", disable=not progress, leave=False)
+
+    def test(n_steps: int) -> Attempt:
+        result = attempt(problem, solver, n_steps, _warm_start(moves, n_steps))
+        history.append(result)
+        bar.update(1)
+        bar.set_postfix_str(f"n={n_steps} {'ok' if result.feasible else 'no'} (> {lo})")
+        if result.feasible:
+            moves.append(result.acc)
+        return result
+
     try:
         while best is None:
-            result = attempt(problem, solver, hi, _warm_start(moves, hi))
-            history.append(result)
-            bar.update(1)
-            bar.set_postfix_str(f"n={hi} {'ok' if result.feasible else 'no'}")
+            result = test(n)
             if result.feasible:
                 best = result
-                moves.append(result.acc)
-            elif hi >= problem.max_steps:
+            elif n >= problem.max_steps:
                 return None, history
             else:
-                lo, hi = hi, min(problem.max_steps, hi + max(1, hi - lo))
+                lo, n = n, n + stride
+                stride *= 2
+                if lo < cap < n:
+                    n = cap
+                n = min(n, problem.max_steps)
+        hi = best.n_steps
         while hi - lo > 1:
             mid = (lo + hi) // 2
-            result = attempt(problem, solver, mid, _warm_start(moves, mid))
-            history.append(result)
-            bar.update(1)
-            bar.set_postfix_str(f"n={mid} {'ok' if result.feasible else 'no'} [{lo + 1}, {hi}]")
+            result = test(mid)
             if result.feasible:
                 best, hi = result, mid
-                moves.append(result.acc)
             else:
                 lo = mid
     finally:

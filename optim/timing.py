@@ -6,7 +6,7 @@ rest while the acceleration is zero, so the move preceded by k zero samples has 
 response shifted by k dt, and its settle time is shifted by exactly k dt. The zero lead-in
 costs the search nothing (the deviation is identically zero there, which certifies at
 once). :func:`exact_timing` prepends zeros up to a multiple of PAD_STEPS samples (one
-compilation per 32 steps of length) and undoes the shift.
+compilation per 128 steps of length) and undoes the shift.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 from jaxflex.model import ModalModel
 from jaxflex.settle import analyze_move
 
-PAD_STEPS = 32
+PAD_STEPS = 128
 
 
 @dataclass(frozen=True)

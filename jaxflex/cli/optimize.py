@@ -1,0 +1,150 @@
+"""``jaxflex optimize``: the minimum-cycle-time move for a modal model under robot limits."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+COMMAND = "optimize"
+HELP = "shortest cycle time move under vmax/amax/jmax limits (trajectory CSV, JSON, plots)"
+ORDER = 20
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", help="modal model file (.npz, from `jaxflex model`)")
+    parser.add_argument(
+        "--distance",
+        nargs=3,
+        type=float,
+        required=True,
+        metavar=("X", "Y", "Z"),
+        help="move from rest to rest by this displacement, m",
+    )
+    for name, unit, default in (
+        ("vmax", "m/s", 2.0),
+        ("amax", "m/s^2", 10.0),
+        ("jmax", "m/s^3", 100.0),
+    ):
+        parser.add_argument(
+            f"--{name}",
+            nargs="+",
+            type=float,
+            default=[default],
+            metavar="V",
+            help=f"per-axis limit in {unit}: one value or three (x y z); default {default:g}",
+        )
+    for name, unit in (("vpath", "m/s"), ("apath", "m/s^2"), ("jpath", "m/s^3")):
+        parser.add_argument(
+            f"--{name}",
+            type=float,
+            default=None,
+            help=f"optional limit on the norm over the axes, {unit}",
+        )
+    parser.add_argument(
+        "--threshold", type=float, required=True, help="deviation threshold, m (e.g. 0.0005)"
+    )
+    parser.add_argument("--dt", type=float, default=0.01, help="sample step, s (default 0.01)")
+    parser.add_argument(
+        "--method",
+        choices=("exact", "gradient"),
+        default="exact",
+        help="exact: LP feasibility tests (default); gradient: smooth surrogate with Ipopt",
+    )
+    parser.add_argument(
+        "--solver",
+        default=None,
+        help="exact: highs (default), casadi (Clp) or casadi-highs; gradient: ipopt "
+        "(default) or slsqp",
+    )
+    parser.add_argument(
+        "--robust",
+        action="store_true",
+        help="minimise the worst cycle time over a range of frequency scales and damping "
+        "ratios (recommended; see --freq-scale, --zeta, --grid)",
+    )
+    parser.add_argument(
+        "--freq-scale",
+        nargs=2,
+        type=float,
+        default=(0.9, 1.1),
+        metavar=("MIN", "MAX"),
+        help="robust: range of the factor on every natural frequency (default 0.9 1.1)",
+    )
+    parser.add_argument(
+        "--zeta",
+        nargs=2,
+        type=float,
+        default=(0.01, 0.03),
+        metavar=("MIN", "MAX"),
+        help="robust: range of the damping ratio of every mode (default 0.01 0.03)",
+    )
+    parser.add_argument(
+        "--grid",
+        nargs=2,
+        type=int,
+        default=(21, 3),
+        metavar=("NF", "NZ"),
+        help="robust: check-grid points over the frequency and damping ranges (default 21 3)",
+    )
+    parser.add_argument(
+        "--max-duration",
+        type=float,
+        default=30.0,
+        help="longest move considered, s (default 30)",
+    )
+    parser.add_argument("-o", "--output", required=True, help="output directory")
+    parser.add_argument("--quiet", action="store_true", help="no progress display")
+
+
+def _limits(args):
+    from optim.limits import Limits
+
+    values = {}
+    for name in ("vmax", "amax", "jmax"):
+        given = getattr(args, name)
+        if len(given) not in (1, 3):
+            from jaxflex.errors import InputError
+
+            raise InputError(f"--{name}: give one value or three (x y z), got {len(given)}")
+        values[name] = given[0] if len(given) == 1 else given
+    return Limits(**values, vpath=args.vpath, apath=args.apath, jpath=args.jpath)
+
+
+def run(args: argparse.Namespace) -> int:
+    import jaxflex
+    from jaxflex.validation import check_positive
+    from optim.optimize import optimize
+    from optim.robust import RobustSpec
+
+    threshold = check_positive("--threshold", args.threshold)
+    dt = check_positive("--dt", args.dt)
+    max_duration = check_positive("--max-duration", args.max_duration)
+    limits = _limits(args)
+    robust = None
+    if args.robust:
+        robust = RobustSpec(tuple(args.freq_scale), tuple(args.zeta), *args.grid)
+    model = jaxflex.load_model(args.model)
+    progress = not args.quiet
+    if progress:
+        mode = "robust" if robust else "nominal"
+        print(
+            f"{args.model}: {model.n_modes} modes, {model.n_points} points; "
+            f"{mode} optimisation ({args.method})",
+            file=sys.stderr,
+        )
+    result = optimize(
+        model,
+        args.distance,
+        limits,
+        threshold,
+        dt,
+        method=args.method,
+        solver=args.solver,
+        robust=robust,
+        progress=progress,
+        max_duration_s=max_duration,
+    )
+    paths = result.save(args.output)
+    print(result.summary())
+    print("wrote " + ", ".join(str(p) for p in paths))
+    return 0

@@ -1,0 +1,101 @@
+"""The linear residual model of the exact route, the polytope, and the exact timing helper."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from conftest import random_model, smooth_move
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import jaxflex
+from optim.polytope import ball_normals, support
+from optim.residual import ResidualModel, end_state_map
+from optim.timing import exact_timing
+
+
+@pytest.mark.parametrize("dt", [0.004, 0.01, 0.03])
+def test_end_state_map_is_the_jacobian_of_the_scan(dt):
+    model = random_model(seed=2, n_modes=5, f_max_hz=120.0)
+    acc = smooth_move(40, dt)
+    jac = jax.jacfwd(lambda a: jaxflex.end_state(model, a, dt))(jnp.asarray(acc))
+    emap = end_state_map(model, 40, dt)
+    # Both are the same sums of exact propagator products; round-off only.
+    np.testing.assert_allclose(emap, np.asarray(jac), rtol=0, atol=1e-13 * np.abs(emap).max())
+    np.testing.assert_allclose(
+        np.einsum("mikc,kc->mi", emap, acc),
+        np.asarray(jaxflex.end_state(model, acc, dt)),
+        atol=1e-13,
+    )
+
+
+def test_free_response_matches_the_simulation():
+    model = random_model(seed=4, n_points=12, n_modes=4)
+    dt, acc = 0.01, smooth_move(30, 0.01)
+    res = jaxflex.simulate(model, acc, dt, extend_s=1.0, displacement=True)
+    x_end = np.asarray(res.end_state)
+    tau = dt * np.arange(101)
+    u = ResidualModel(model, (0, 1, 2)).displacement(x_end, tau)
+    np.testing.assert_allclose(u, np.asarray(res.displacement)[30:], atol=1e-12)
+
+
+def brute_force_peak(residual, x_end, horizon, samples=200_001):
+    tau = np.linspace(0.0, horizon, samples)
+    d = np.concatenate(
+        [
+            np.linalg.norm(residual.displacement(x_end, chunk), axis=-1).max(axis=1)
+            for chunk in np.array_split(tau, 50)
+        ]
+    )
+    return tau, d
+
+
+def test_exceedances_find_the_worst_peak():
+    model = random_model(seed=5, n_points=20, n_modes=3, f_min_hz=2.0, f_max_hz=15.0)
+    residual = ResidualModel(model, (0, 1, 2))
+    dt, acc = 0.01, smooth_move(25, 0.01)
+    x_end = np.asarray(jaxflex.end_state(model, acc, dt))
+    tau, d = brute_force_peak(residual, x_end, 6.0)
+    limit = 0.5 * d.max()
+    peaks = residual.exceedances(x_end, limit, max_peaks=1000)
+    assert peaks and all(p.value > 1.0 for p in peaks)
+    # the worst reported peak is the true maximum (refined on a 1/256-period grid: the
+    # peak lies within 1/512 period of a sample, so the sampled cosine is within
+    # (pi / 256)^2 / 2 < 1e-4 of it)
+    assert peaks[0].value * limit == pytest.approx(d.max(), rel=1e-4)
+    # every brute-force time above 1.01 x limit lies within one lobe of a reported peak
+    lobe = 0.5 / np.max(np.asarray(model.freq_hz))
+    found = np.array([p.tau_s for p in peaks])
+    for t in tau[d > 1.01 * limit][::97]:
+        assert np.min(np.abs(found - t)) < lobe
+    # each row evaluates the peak's projection on its direction (linear in the end state)
+    for peak in peaks[:5]:
+        assert np.sum(residual.row(peak) * x_end) == pytest.approx(np.linalg.norm(peak.u))
+    assert residual.exceedances(x_end, 1.01 * d.max()) == []
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 10_000), st.sampled_from([2, 3]))
+def test_polytope_lies_inside_the_ball(seed, dim):
+    # support(u) >= rho |u| for every u  <=>  {c . u <= rho} is inside the unit ball
+    normals, rho = ball_normals(dim)
+    u = np.random.default_rng(seed).normal(size=(2000, dim))
+    assert np.all(support(u, dim) >= rho * np.linalg.norm(u, axis=1) * (1 - 1e-12))
+    assert rho > (0.99 if dim == 3 else 0.995)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_exact_timing_with_a_lead_in_is_analyze_move(seed):
+    model = random_model(seed=seed, n_points=15, n_modes=4, f_min_hz=1.0, f_max_hz=30.0)
+    acc = smooth_move(37 + 5 * seed, 0.01)
+    for threshold in (1e-3, 1e-2, 5e-2):
+        direct = jaxflex.analyze_move(model, acc, 0.01, threshold)
+        timing = exact_timing(model, acc, 0.01, threshold)
+        assert timing.transfer_time_s == direct.transfer_time_s
+        # the settle time is located to 1e-9 s by both searches
+        assert timing.settle_time_s == pytest.approx(direct.settle_time_s, abs=2e-9)
+        assert timing.cycle_time_s == pytest.approx(direct.cycle_time_s, abs=2e-9)
+        fast = exact_timing(model, acc, 0.01, threshold, settle=False)
+        assert fast.cycle_time_s == pytest.approx(direct.cycle_time_s, abs=2e-9)
