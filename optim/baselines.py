@@ -19,6 +19,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from jaxflex.model import ModalModel
+from optim.kinematics import clean_distance
 from optim.limits import Limits
 from optim.robust import RobustSpec, perturbed
 from optim.ruckig_move import kinematic_floor_move, shaped_grid_move, time_optimal_move
@@ -127,7 +128,7 @@ def baselines(
 ) -> BaselineSet:
     """Every baseline for the move ``distance_m`` (3,) m (module docstring). In robust mode
     each entry also carries its worst cycle time over ``robust``'s check grid."""
-    distance = np.asarray(distance_m, dtype=np.float64).reshape(3)
+    distance = clean_distance(distance_m)
     floor = kinematic_floor_move(distance, limits, dt_s, max_steps, solver=solver)
     continuous = time_optimal_move(distance, limits)
     select_grid = None if robust is None else _selection_grid(robust)

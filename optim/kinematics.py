@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from jaxflex.errors import InputError
 from optim.limits import Limits
 from optim.lp import LPBuilder
 from optim.polytope import ball_normals, support, worst_normal
@@ -55,8 +56,29 @@ class MoveLayout:
         return self.a[:, 1:-1]
 
 
+MOVE_ATOL_M = 1e-12  # axes moving less than this stay at rest (below the 1e-9 m check)
+
+
+def clean_distance(distance_m) -> np.ndarray:
+    """The move as 3 finite values in m, components below MOVE_ATOL_M set to zero; raises
+    InputError naming ``distance_m`` otherwise (or for a move of zero length)."""
+    try:
+        dist = np.array(distance_m, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise InputError(
+            f"distance_m: expected 3 numbers (x, y, z) in m, got {distance_m!r}"
+        ) from exc
+    if dist.shape != (3,) or not np.isfinite(dist).all():
+        raise InputError(f"distance_m: expected 3 finite values (x, y, z) in m, got {distance_m!r}")
+    dist[np.abs(dist) <= MOVE_ATOL_M] = 0.0
+    if not np.any(dist):
+        raise InputError("distance_m: the move has zero length")
+    return dist
+
+
 def moving_axes(distance_m: np.ndarray) -> tuple[int, ...]:
-    return tuple(int(c) for c in np.flatnonzero(np.asarray(distance_m) != 0))
+    """Axes whose distance exceeds MOVE_ATOL_M."""
+    return tuple(int(c) for c in np.flatnonzero(np.abs(np.asarray(distance_m)) > MOVE_ATOL_M))
 
 
 def add_move(

@@ -24,6 +24,7 @@ from jaxflex.validation import check_positive
 from optim.baselines import baselines as compute_baselines
 from optim.exact import POLISH_SLACK, LPSubsolver
 from optim.gradient import GRADIENT_SOLVERS, GradientSubsolver
+from optim.kinematics import clean_distance
 from optim.limits import Limits, check_profile
 from optim.lp import LP_SOLVERS
 from optim.result import OptimizationResult, deviation_summary
@@ -45,20 +46,6 @@ def _as_limits(limits) -> Limits:
     raise InputError(
         f"limits: expected optim.Limits(vmax, amax, jmax, ...) or a mapping, got {limits!r}"
     )
-
-
-def _as_distance(distance_m) -> np.ndarray:
-    try:
-        dist = np.asarray(distance_m, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise InputError(
-            f"distance_m: expected 3 numbers (x, y, z) in m, got {distance_m!r}"
-        ) from exc
-    if dist.shape != (3,) or not np.isfinite(dist).all():
-        raise InputError(f"distance_m: expected 3 finite values (x, y, z) in m, got {distance_m!r}")
-    if not np.any(dist):
-        raise InputError("distance_m: the move has zero length")
-    return dist
 
 
 def _check_model(model, robust: RobustSpec | None) -> None:
@@ -113,7 +100,7 @@ def optimize(
     start = time.perf_counter()
     robust = _as_robust(robust)
     _check_model(model, robust)
-    distance = _as_distance(distance_m)
+    distance = clean_distance(distance_m)
     limits = _as_limits(limits)
     threshold = check_positive("threshold_m", threshold_m)
     dt = check_positive("dt_s", dt_s)

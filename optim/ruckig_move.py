@@ -21,13 +21,16 @@ import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
 
 from jaxflex.errors import InputError
-from optim.kinematics import add_cuts, add_move, moving_axes, path_cuts
+from optim.kinematics import add_cuts, add_move, clean_distance, path_cuts
 from optim.limits import Limits
 from optim.lp import LPBuilder, solve_lp
 from optim.profiles import enforce_end_state
 from optim.shapers import Shaper
 
 MAX_CUT_ROUNDS = 30
+# Grid moves exist at ceil(T / dt) or one step more in every case tried (hundreds of random
+# moves and limits); a few more are allowed before this is treated as a failure.
+MAX_EXTRA_STEPS = 4
 
 
 @dataclass(frozen=True)
@@ -141,17 +144,20 @@ def kinematic_floor_move(
 ) -> GridMove:
     """Ruckig's time-optimal motion on the grid: the fewest steps N >= ceil(T_ruckig / dt) at
     which the motion, stretched by ruckig to N dt, has a grid version within the limits."""
-    distance = np.asarray(distance_m, dtype=np.float64).reshape(3)
-    if not moving_axes(distance):
-        raise InputError("distance_m: the move has zero length")
+    distance = clean_distance(distance_m)
     floor = time_optimal_move(distance, limits)
     start = grid_steps(floor.duration_s, dt)
-    for n_steps in range(start, max_steps + 1):
+    for n_steps in range(start, min(max_steps, start + MAX_EXTRA_STEPS) + 1):
         stretched = time_optimal_move(distance, limits, minimum_duration_s=n_steps * dt)
         reference = stretched.acceleration(dt * np.arange(n_steps + 1))
         acc = fit_to_grid(reference, dt, distance, limits, solver=solver)
         if acc is not None:
             return GridMove(acc, floor.duration_s)
+    if start <= max_steps:
+        raise RuntimeError(
+            f"no grid move found within {MAX_EXTRA_STEPS} steps of ruckig's duration "
+            f"{floor.duration_s:.6g} s (distance {distance.tolist()} m, dt {dt} s)"
+        )
     raise InputError(
         f"distance_m: the move needs at least {floor.duration_s:.3f} s at these limits "
         f"(time-optimal jerk-limited motion), more than the allowed {max_steps * dt:g} s "

@@ -80,7 +80,7 @@ def test_exceedances_find_the_worst_peak():
 @given(st.integers(0, 10_000), st.sampled_from([2, 3]))
 def test_polytope_lies_inside_the_ball(seed, dim):
     # support(u) >= rho |u| for every u  <=>  {c . u <= rho} is inside the unit ball
-    normals, rho = ball_normals(dim)
+    _, rho = ball_normals(dim)
     u = np.random.default_rng(seed).normal(size=(2000, dim))
     assert np.all(support(u, dim) >= rho * np.linalg.norm(u, axis=1) * (1 - 1e-12))
     assert rho > (0.99 if dim == 3 else 0.995)

@@ -1,0 +1,228 @@
+"""optim.optimize: optimality against the baselines, robust mode, both routes, exact
+limits and boundary conditions on every returned profile, clear errors, saved outputs."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import jaxflex
+import optim
+from jaxflex.errors import InputError
+from optim.exact import LPSubsolver
+from optim.robust import perturbed
+from optim.search import attempt, make_problem
+from optim.trajectory_io import read_trajectory_csv
+
+DT = 0.01
+LIMITS = optim.Limits(1.5, 8.0, 80.0)
+DISTANCE = (0.0, 0.0, 0.8)
+THRESHOLD = 1e-3
+
+
+def few_mode_model(freq_hz=(3.0, 7.0, 15.0), zeta=0.02) -> jaxflex.ModalModel:
+    """Three modes with full 3-D shapes at 16 points (mostly vertical, like a sagging
+    sheet), participation mostly along z: a move along z excites all three."""
+    rng = np.random.default_rng(7)
+    shapes = rng.normal(size=(16, 3, 3)) * np.array([0.05, 0.05, 0.3])[None, :, None]
+    return jaxflex.ModalModel(
+        freq_hz=list(freq_hz),
+        zeta=[zeta] * 3,
+        gamma=[[0.1, 0.05, 2.0], [0.05, -0.2, 0.9], [-0.1, 0.1, 0.5]],
+        shapes=shapes,
+        points=rng.uniform(size=(16, 3)),
+        meta={"source": "tests.few_mode_model"},
+    )
+
+
+@pytest.fixture(scope="module")
+def model():
+    return few_mode_model()
+
+
+@pytest.fixture(scope="module")
+def nominal(model):
+    return optim.optimize(model, DISTANCE, LIMITS, THRESHOLD, DT, progress=False)
+
+
+def test_optimum_beats_every_baseline(model, nominal):
+    assert nominal.constraint_check.ok
+    for baseline in nominal.baselines.entries:
+        assert nominal.cycle_time_s <= baseline.cycle_time_s, baseline.name
+    # the reported cycle time is the exact one, recomputed independently (no lead-in)
+    assert nominal.cycle_time_s == pytest.approx(
+        jaxflex.cycle_time(model, nominal.acc, DT, THRESHOLD), abs=2e-9
+    )
+    # it is the move itself: the optimum leaves no settling time
+    assert nominal.cycle_time_s == pytest.approx(nominal.n_steps * DT)
+    assert nominal.transfer_time_s >= nominal.baselines.kinematic_floor_s
+
+
+def test_one_step_less_is_certainly_infeasible(model, nominal):
+    # Minimality: with the rows found so far the LP already proves n - 1 infeasible.
+    problem = make_problem(model, np.array(DISTANCE), LIMITS, THRESHOLD, DT, 3000, None)
+    shorter = attempt(problem, LPSubsolver(), nominal.n_steps - 1, nominal.baselines.floor_acc)
+    assert not shorter.feasible
+
+
+def test_vibration_ignored_gives_ruckigs_duration_on_the_grid(model):
+    # A threshold no deviation reaches: the minimum is the kinematic floor, i.e. ruckig's
+    # time-optimal duration rounded up to the grid (at most one more step where no grid
+    # move of ceil(T / dt) steps exists), and the LP proves one step less impossible.
+    result = optim.optimize(model, DISTANCE, LIMITS, 10.0, DT, progress=False)
+    base = result.baselines
+    assert result.n_steps == base.floor_steps
+    ceil_steps = math.ceil(base.kinematic_floor_s / DT - 1e-7)
+    assert ceil_steps <= result.n_steps <= ceil_steps + 1
+    problem = make_problem(model, np.array(DISTANCE), LIMITS, 10.0, DT, 3000, None)
+    assert not attempt(problem, LPSubsolver(), result.n_steps - 1, base.floor_acc).feasible
+
+
+@pytest.mark.slow
+def test_routes_agree_and_the_exact_route_is_never_worse(model, nominal):
+    # exact via scipy's HiGHS (the fixture), via casadi + Clp, and the gradient route via
+    # Ipopt and SLSQP: same problem, answers within a few steps, the exact one the shortest.
+    for method, solver in (("exact", "casadi"), ("gradient", "ipopt"), ("gradient", "slsqp")):
+        other = optim.optimize(
+            model, DISTANCE, LIMITS, THRESHOLD, DT, method=method, solver=solver, progress=False
+        )
+        assert other.constraint_check.ok
+        assert other.cycle_time_s == pytest.approx(
+            jaxflex.cycle_time(model, other.acc, DT, THRESHOLD), abs=2e-9
+        )
+        if method == "exact":
+            assert other.n_steps == nominal.n_steps  # two LP solvers, same optimum
+        else:
+            assert nominal.n_steps <= other.n_steps <= nominal.n_steps + 3, solver
+            assert other.solver_stats["totals"]["jax_evaluations"] > 0
+
+
+def test_robust_worst_case_beats_every_shaper(model, nominal):
+    spec = optim.RobustSpec((0.9, 1.1), (0.01, 0.03), n_freq=5, n_zeta=2)
+    result = optim.optimize(model, DISTANCE, LIMITS, THRESHOLD, DT, robust=spec, progress=False)
+    assert result.constraint_check.ok
+    shapers = [b for b in result.baselines.entries if b.shaped_freq_hz]
+    assert len(shapers) == 3
+    for b in shapers:
+        assert result.worst_cycle_time_s <= b.worst_cycle_time_s, b.name
+    # the worst case is the exact maximum over the grid, recomputed independently
+    worst = max(
+        jaxflex.cycle_time(perturbed(model, s, z), result.acc, DT, THRESHOLD)
+        for s, z in spec.grid()
+    )
+    assert result.worst_cycle_time_s == pytest.approx(worst, abs=2e-9)
+    # robustness costs time: never shorter than the nominal optimum
+    assert result.n_steps >= nominal.n_steps
+
+
+@settings(
+    max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    distance=st.tuples(*[st.floats(-1.0, 1.0)] * 3).filter(lambda d: np.linalg.norm(d) > 0.05),
+    vmax=st.floats(0.5, 3.0),
+    amax=st.floats(3.0, 15.0),
+    jmax=st.floats(30.0, 300.0),
+    path=st.booleans(),
+    method=st.sampled_from(["exact", "gradient"]),
+)
+def test_limits_and_boundary_conditions_hold_on_every_returned_profile(
+    model, distance, vmax, amax, jmax, path, method
+):
+    limits = optim.Limits(
+        [vmax, 1.2 * vmax, vmax],
+        amax,
+        [jmax, jmax, 0.8 * jmax],
+        vpath=1.1 * vmax if path else None,
+        apath=1.1 * amax if path else None,
+        jpath=1.1 * jmax if path else None,
+    )
+    result = optim.optimize(model, distance, limits, 2e-3, DT, method=method, progress=False)
+    acc = result.acc
+    # independent re-check: samples, every step's jerk, velocity between samples
+    check = optim.check_profile(acc, DT, limits, distance)
+    assert check.ok, check.summary()
+    assert np.all(acc[0] == 0) and np.all(acc[-1] == 0)
+    np.testing.assert_allclose(result.pos[-1], distance, atol=1e-9)
+    np.testing.assert_allclose(result.vel[-1], 0.0, atol=1e-9)
+    assert np.all(np.abs(acc) <= limits.amax * (1 + 1e-9))
+    assert np.all(np.abs(np.diff(acc, axis=0)) / DT <= limits.jmax * (1 + 1e-9))
+    assert result.cycle_time_s <= min(b.cycle_time_s for b in result.baselines.entries) + 1e-9
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"limits": {"vmax": 0.0, "amax": 8.0, "jmax": 80.0}}, r"vmax\[x\]"),
+        ({"limits": {"vmax": 1.5, "amax": -8.0, "jmax": 80.0}}, r"amax\[x\]"),
+        ({"threshold_m": 0.0}, "threshold_m"),
+        ({"threshold_m": -1e-3}, "threshold_m"),
+        ({"distance_m": (0.0, 0.0, 0.0)}, "zero length"),
+        ({"distance_m": (0.0, np.nan, 1.0)}, "distance_m"),
+        ({"distance_m": (0.0, 0.0, 50.0)}, "max_duration_s"),
+        ({"dt_s": 0.0}, "dt_s"),
+        ({"method": "newton"}, "method"),
+        ({"solver": "ipopt"}, "solver"),
+        ({"robust": optim.RobustSpec}, "robust"),
+    ],
+)
+def test_infeasible_or_bad_requests_give_clear_errors(model, change, message):
+    kwargs = {
+        "model": model,
+        "distance_m": DISTANCE,
+        "limits": LIMITS,
+        "threshold_m": THRESHOLD,
+        "dt_s": DT,
+        "progress": False,
+    } | change
+    with pytest.raises(InputError, match=message):
+        optim.optimize(**kwargs)
+
+
+def test_undamped_models_and_unreachable_thresholds_are_errors(model):
+    with pytest.raises(InputError, match=r"model\.zeta"):
+        optim.optimize(model.with_damping(0.0), DISTANCE, LIMITS, THRESHOLD, progress=False)
+    # only the kinematic floor fits in max_duration_s, and it leaves too much vibration
+    floor_s = optim.baselines(model, DISTANCE, LIMITS, THRESHOLD).floor_steps * DT
+    with pytest.raises(InputError, match="no move of at most"):
+        optim.optimize(
+            model, DISTANCE, LIMITS, 1e-6, DT, progress=False, max_duration_s=floor_s + 1e-9
+        )
+
+
+def test_save_writes_everything_atomically(model, nominal, tmp_path):
+    paths = nominal.save(tmp_path / "out")
+    names = {p.name for p in paths}
+    assert {"trajectory.csv", "report.json", "profiles.png", "deviation.png"} <= names
+    for p in paths:
+        assert p.stat().st_size > 0
+    assert not list((tmp_path / "out").glob("*.tmp"))
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    for key in (
+        "distance_m",
+        "dt_s",
+        "threshold_m",
+        "limits",
+        "transfer_time_s",
+        "settle_time_s",
+        "cycle_time_s",
+        "method",
+        "robust",
+        "baselines",
+    ):
+        assert key in report, key
+    assert report["robust"] is None and report["method"] == "exact"
+    assert report["limits"]["vmax_m_s"] == [1.5, 1.5, 1.5]
+    acc, dt = read_trajectory_csv(tmp_path / "out" / "trajectory.csv")
+    assert dt == pytest.approx(DT)
+    # the saved file reproduces the reported exact cycle time
+    assert jaxflex.cycle_time(model, acc, dt, report["threshold_m"]) == pytest.approx(
+        report["cycle_time_s"], abs=2e-9
+    )
+    names = [b["name"] for b in report["baselines"]["entries"]]
+    assert names[0] == "ruckig + free decay" and len(names) == 4
