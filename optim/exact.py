@@ -7,9 +7,10 @@ z_hat - (E / zscale) a = 0, and for every pooled (scenario, point, time) row
 c . u_p(tau) / limit <= s, with c the direction of the deviation at the pooled peak: the
 tangent plane of the norm ball there. Generated lazily at the worst peaks, these cuts
 converge to the exact Euclidean norm constraint (a second-order cone) and are exact in 1-D.
-Minimising s decides feasibility (s <= 1); the final ``polish`` pass keeps s within
-POLISH_SLACK of its minimum and minimises the total variation of the acceleration instead,
-which removes the chattering an LP vertex tends to have.
+Minimising s decides feasibility (s <= 1). The final ``polish`` pass minimises
+s + POLISH_WEIGHT * TV / TV_max instead (TV the total variation of the acceleration, at most
+TV_max = n jmax dt per axis): among moves within POLISH_WEIGHT of the best margin it picks
+the smoothest, which removes the chattering an LP vertex tends to have.
 """
 
 from __future__ import annotations
@@ -21,9 +22,11 @@ from optim.lp import LPBuilder, solve_lp
 from optim.search import Problem, SubResult
 
 MAX_CUT_ROUNDS = 30
-# The polish pass keeps the margin the feasibility LP found, give or take this share of the
-# threshold: among (nearly) margin-optimal moves it picks the smoothest.
-POLISH_SLACK = 0.02
+# Weight of the normalised total variation in the polish pass (the margin it may give up).
+POLISH_WEIGHT = 0.02
+# The polish pass is the final solve: it keeps this fraction of every limit in reserve, so
+# that no solver's feasibility tolerance (Clp's reaches ~3e-9 relative) can break a limit.
+POLISH_MARGIN = 1e-7
 
 
 class LPSubsolver:
@@ -33,16 +36,17 @@ class LPSubsolver:
         self.solver = solver
         self.name = f"exact ({solver})"
         self._cuts: dict[int, list] = {}  # path-norm cuts per n (they depend on n)
-        self.best_value = 1.0  # smallest max-row value seen at the polished n (set by caller)
 
     def _build(self, problem: Problem, n_steps: int, polish: bool):
         builder = LPBuilder()
-        layout = add_move(builder, n_steps, problem.dt, problem.distance, problem.limits)
-        add_cuts(builder, self._cuts.get(n_steps, []))
-        s_cap = min(1.0, self.best_value + POLISH_SLACK) if polish else np.inf
-        s = builder.variables(1, 0.0, s_cap, 0.0 if polish else 1.0)[0]
+        limits = problem.limits.shrunk(POLISH_MARGIN) if polish else problem.limits
+        layout = add_move(builder, n_steps, problem.dt, problem.distance, limits)
+        if not polish:
+            add_cuts(builder, self._cuts.get(n_steps, []))
+        s = builder.variables(1, 0.0, np.inf, 1.0)[0]
         if polish:
-            add_tv_objective(builder, layout, problem.limits, 1.0)
+            weight = POLISH_WEIGHT / (n_steps * len(layout.axes))
+            add_tv_objective(builder, layout, problem.limits, weight)
         a_cols = layout.a.ravel()  # axis-major, like E[..., axes] transposed below
         z_cols = {}
         for i in problem.training:
@@ -71,10 +75,10 @@ class LPSubsolver:
                 -np.inf,
                 0.0,
             )
-        return builder, layout, s
+        return builder, layout, s, limits
 
     def solve(self, problem: Problem, n_steps: int, warm: np.ndarray, polish: bool) -> SubResult:
-        builder, layout, s = self._build(problem, n_steps, polish)
+        builder, layout, s, limits = self._build(problem, n_steps, polish)
         stats = {"lp_solves": 0, "lp_wall_s": 0.0, "lp_iterations": 0, "rows": 0}
         for _ in range(MAX_CUT_ROUNDS):
             program = builder.program()
@@ -86,9 +90,10 @@ class LPSubsolver:
             stats["variables"] = int(program.matrix.shape[1])
             if sol.status != "optimal":
                 return SubResult(sol.status, None, np.inf, stats)
-            cuts = path_cuts(layout, sol.x, problem.limits)
+            cuts = path_cuts(layout, sol.x, limits)
             if not cuts:
                 return SubResult("solved", layout.acceleration(sol.x), float(sol.x[s]), stats)
-            self._cuts.setdefault(n_steps, []).extend(cuts)
+            if not polish:  # cuts of the shrunk limits are not reused by the others
+                self._cuts.setdefault(n_steps, []).extend(cuts)
             add_cuts(builder, cuts)
         return SubResult("failed", None, np.inf, stats)

@@ -71,6 +71,22 @@ class Limits:
     def has_path_limits(self) -> bool:
         return any(v is not None for v in self.path().values())
 
+    def shrunk(self, margin: float) -> Limits:
+        """Every limit reduced by the fraction ``margin`` (a final solve keeps this distance
+        from the limits so that solver tolerances cannot break them)."""
+
+        def scale(value):
+            return None if value is None else value * (1.0 - margin)
+
+        return Limits(
+            scale(self.vmax),
+            scale(self.amax),
+            scale(self.jmax),
+            scale(self.vpath),
+            scale(self.apath),
+            scale(self.jpath),
+        )
+
     def as_dict(self) -> dict:
         """JSON form: per-axis lists and optional path limits, keys with SI units."""
         return {

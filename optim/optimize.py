@@ -22,7 +22,7 @@ from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.validation import check_positive
 from optim.baselines import baselines as compute_baselines
-from optim.exact import POLISH_SLACK, LPSubsolver
+from optim.exact import LPSubsolver
 from optim.gradient import GRADIENT_SOLVERS, GradientSubsolver
 from optim.kinematics import clean_distance
 from optim.limits import Limits, check_profile
@@ -138,12 +138,7 @@ def optimize(
         )
     final = best
     if method == "exact":
-        sub.best_value = best.value
-        row_limit = min(1.0, best.value + POLISH_SLACK)
-        polished = attempt(problem, sub, best.n_steps, best.acc, polish=True, row_limit=row_limit)
-        history.append(polished)
-        if polished.feasible:
-            final = polished
+        final = _polish(problem, sub, best, history)
 
     notes = []
     acc = final.acc
@@ -194,6 +189,18 @@ def optimize(
         baselines=base,
         worst_case=worst,
     )
+
+
+def _polish(problem, sub: LPSubsolver, best, history):
+    """The final solve of the exact route: the smoothest move that keeps (nearly) the margin
+    the search found, every limit held a little inside (POLISH_MARGIN); one step more if the
+    margin makes n infeasible. Returns the first feasible attempt, else ``best``."""
+    for n_steps in (best.n_steps, best.n_steps + 1):
+        polished = attempt(problem, sub, n_steps, best.acc, polish=True)
+        history.append(polished)
+        if polished.feasible:
+            return polished
+    return best
 
 
 def _worst_case(problem, acc, dt, threshold, grid) -> dict:

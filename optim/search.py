@@ -215,11 +215,8 @@ def attempt(
     n_steps: int,
     warm: np.ndarray,
     polish: bool = False,
-    row_limit: float = 1.0,
 ) -> Attempt:
-    """Is there a certified move of ``n_steps`` steps? (module docstring). ``row_limit``
-    (<= 1, in units of the threshold) is the level the sampled check holds the free
-    response to; the polish pass uses the margin the feasibility test found."""
+    """Is there a certified move of ``n_steps`` steps? (module docstring)."""
     start = time.perf_counter()
     stats: list[dict] = []
     value = np.inf
@@ -239,7 +236,7 @@ def attempt(
             x_end = problem.end_state(i, acc)
             peaks = problem.scenarios[i].residual.exceedances(
                 x_end,
-                problem.limit_m * row_limit,
+                problem.limit_m,
                 max_peaks=PEAKS_PER_ROUND,
             )
             for peak in peaks:
