@@ -19,7 +19,7 @@ import numpy as np
 
 from optim.kinematics import add_cuts, add_move, add_tv_objective, path_cuts
 from optim.lp import LPBuilder, solve_lp
-from optim.search import Problem, SubResult
+from optim.search import Problem, SubResult, add_end_states
 
 MAX_CUT_ROUNDS = 30
 # Weight of the normalised total variation in the polish pass (the margin it may give up).
@@ -47,19 +47,7 @@ class LPSubsolver:
         if polish:
             weight = POLISH_WEIGHT / (n_steps * len(layout.axes))
             add_tv_objective(builder, layout, problem.limits, weight)
-        a_cols = layout.a.ravel()  # axis-major, like E[..., axes] transposed below
-        z_cols = {}
-        for i in problem.training:
-            scen = problem.scenarios[i]
-            emap = problem.end_map(i, n_steps)[..., list(layout.axes)]  # (M, 2, n+1, d)
-            m = emap.shape[0]
-            e_flat = np.transpose(emap, (0, 1, 3, 2)).reshape(2 * m, -1)
-            e_flat = e_flat / scen.zscale.reshape(-1, 1)
-            z = builder.variables(2 * m)
-            builder.dense_rows(
-                np.hstack([np.eye(2 * m), -e_flat]), np.concatenate([z, a_cols]), 0.0, 0.0
-            )
-            z_cols[i] = z
+        z_cols = add_end_states(builder, problem, layout)
         rows = [r for r in problem.pool if r.scenario in z_cols]
         if rows:
             coef = np.stack(

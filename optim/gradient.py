@@ -31,7 +31,7 @@ from optim.kinematics import add_cuts, add_move, path_cuts
 from optim.lp import LPBuilder
 from optim.profiles import integrate
 from optim.ruckig_move import fit_to_grid
-from optim.search import Problem, SubResult
+from optim.search import Problem, SubResult, add_end_states
 
 GRADIENT_SOLVERS = ("ipopt", "slsqp")
 BETAS = (20.0, 200.0)
@@ -295,18 +295,8 @@ class GradientSubsolver:
         builder = LPBuilder()
         layout = add_move(builder, n_steps, problem.dt, problem.distance, problem.limits)
         add_cuts(builder, self._cuts.get(n_steps, []))
-        a_cols = layout.a.ravel()
         first = builder.n_vars
-        for j in problem.training:
-            scen = problem.scenarios[j]
-            emap = problem.end_map(j, n_steps)[..., list(layout.axes)]
-            m = emap.shape[0]
-            e_flat = np.transpose(emap, (0, 1, 3, 2)).reshape(2 * m, -1)
-            e_flat = e_flat / scen.zscale.reshape(-1, 1)
-            z = builder.variables(2 * m)
-            builder.dense_rows(
-                np.hstack([np.eye(2 * m), -e_flat]), np.concatenate([z, a_cols]), 0.0, 0.0
-            )
+        add_end_states(builder, problem, layout)
         z_slice = slice(first, builder.n_vars)
         data = RowData(problem)
         stats = {

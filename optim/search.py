@@ -137,6 +137,25 @@ def make_problem(
     )
 
 
+def add_end_states(builder, problem: Problem, layout) -> dict[int, np.ndarray]:
+    """Add each training scenario's scaled end state z_hat = x_end / zscale (2 M variables,
+    contiguous, in training order) tied to the samples by z_hat - (E / zscale) a = 0.
+    Returns the variable indices per scenario."""
+    a_cols = layout.a.ravel()  # axis-major, like E[..., axes] transposed below
+    z_cols = {}
+    for i in problem.training:
+        emap = problem.end_map(i, layout.n_steps)[..., list(layout.axes)]  # (M, 2, n+1, d)
+        m = emap.shape[0]
+        e_flat = np.transpose(emap, (0, 1, 3, 2)).reshape(2 * m, -1)
+        e_flat = e_flat / problem.scenarios[i].zscale.reshape(-1, 1)
+        z = builder.variables(2 * m)
+        builder.dense_rows(
+            np.hstack([np.eye(2 * m), -e_flat]), np.concatenate([z, a_cols]), 0.0, 0.0
+        )
+        z_cols[i] = z
+    return z_cols
+
+
 @dataclass
 class SubResult:
     """A subproblem's answer at fixed n: samples (raw, before the exact end-state correction)

@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 import jaxflex
 import optim
 from jaxflex.errors import InputError
+from optim.bench import few_mode_model as bench_model
 from optim.exact import LPSubsolver
 from optim.robust import perturbed
 from optim.search import attempt, make_problem
@@ -25,19 +26,10 @@ DISTANCE = (0.0, 0.0, 0.8)
 THRESHOLD = 1e-3
 
 
-def few_mode_model(freq_hz=(3.0, 7.0, 15.0), zeta=0.02) -> jaxflex.ModalModel:
-    """Three modes with full 3-D shapes at 16 points (mostly vertical, like a sagging
-    sheet), participation mostly along z: a move along z excites all three."""
-    rng = np.random.default_rng(7)
-    shapes = rng.normal(size=(16, 3, 3)) * np.array([0.05, 0.05, 0.3])[None, :, None]
-    return jaxflex.ModalModel(
-        freq_hz=list(freq_hz),
-        zeta=[zeta] * 3,
-        gamma=[[0.1, 0.05, 2.0], [0.05, -0.2, 0.9], [-0.1, 0.1, 0.5]],
-        shapes=shapes,
-        points=rng.uniform(size=(16, 3)),
-        meta={"source": "tests.few_mode_model"},
-    )
+def few_mode_model() -> jaxflex.ModalModel:
+    """optim.bench's synthetic three-mode part (full 3-D shapes at 16 points, participation
+    mostly along z) at 3, 7 and 15 Hz: stiff enough for short test runs."""
+    return bench_model(freq_hz=(3.0, 7.0, 15.0))
 
 
 @pytest.fixture(scope="module")

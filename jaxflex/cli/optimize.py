@@ -62,30 +62,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="minimise the worst cycle time over a range of frequency scales and damping "
         "ratios (recommended; see --freq-scale, --zeta, --grid)",
     )
-    parser.add_argument(
-        "--freq-scale",
-        nargs=2,
-        type=float,
-        default=(0.9, 1.1),
-        metavar=("MIN", "MAX"),
-        help="robust: range of the factor on every natural frequency (default 0.9 1.1)",
-    )
-    parser.add_argument(
-        "--zeta",
-        nargs=2,
-        type=float,
-        default=(0.01, 0.03),
-        metavar=("MIN", "MAX"),
-        help="robust: range of the damping ratio of every mode (default 0.01 0.03)",
-    )
-    parser.add_argument(
-        "--grid",
-        nargs=2,
-        type=int,
-        default=(21, 3),
-        metavar=("NF", "NZ"),
-        help="robust: check-grid points over the frequency and damping ranges (default 21 3)",
-    )
+    for flag, default, metavar, kind, text in (
+        (
+            "--freq-scale",
+            (0.9, 1.1),
+            ("MIN", "MAX"),
+            float,
+            "range of the factor on every natural frequency",
+        ),
+        ("--zeta", (0.01, 0.03), ("MIN", "MAX"), float, "range of the damping ratio of every mode"),
+        (
+            "--grid",
+            (21, 3),
+            ("NF", "NZ"),
+            int,
+            "check-grid points over the frequency and damping ranges",
+        ),
+    ):
+        parser.add_argument(
+            flag,
+            nargs=2,
+            type=kind,
+            default=default,
+            metavar=metavar,
+            help=f"robust: {text} (default {default[0]:g} {default[1]:g})",
+        )
     parser.add_argument(
         "--max-duration",
         type=float,
