@@ -22,8 +22,11 @@ from optim.lp import LPBuilder, solve_lp
 from optim.search import Problem, SubResult, add_end_states
 
 MAX_CUT_ROUNDS = 30
-# Weight of the normalised total variation in the polish pass (the margin it may give up).
+# Weight of the normalised total variation in the polish pass (the margin it may give up),
+# and in the search: there it only breaks ties, so that each LP has one smooth answer
+# instead of an arbitrary vertex of a degenerate optimal face (lazy rows then converge).
 POLISH_WEIGHT = 0.02
+SEARCH_WEIGHT = 1e-4
 # The polish pass is the final solve: it keeps this fraction of every limit in reserve, so
 # that no solver's feasibility tolerance (Clp's reaches ~3e-9 relative) can break a limit.
 POLISH_MARGIN = 1e-7
@@ -31,6 +34,8 @@ POLISH_MARGIN = 1e-7
 
 class LPSubsolver:
     """Subproblem solver of the exact route; ``solver`` is an optim.lp back end."""
+
+    clearance_rows = True
 
     def __init__(self, solver: str = "highs") -> None:
         self.solver = solver
@@ -44,10 +49,15 @@ class LPSubsolver:
         if not polish:
             add_cuts(builder, self._cuts.get(n_steps, []))
         s = builder.variables(1, 0.0, np.inf, 1.0)[0]
-        if polish:
-            weight = POLISH_WEIGHT / (n_steps * len(layout.axes))
-            add_tv_objective(builder, layout, problem.limits, weight)
+        share = POLISH_WEIGHT if polish else SEARCH_WEIGHT
+        add_tv_objective(builder, layout, problem.limits, share / (n_steps * len(layout.axes)))
         z_cols = add_end_states(builder, problem, layout)
+        peaks = problem.clearance_pool.get(n_steps, [])
+        if peaks:  # tangent cuts of the clearance during the move, on the samples directly
+            response = problem.move_map(n_steps)
+            coef = np.stack([response.row(pk, layout.axes).T.ravel() for pk in peaks])
+            cols = np.broadcast_to(layout.a.ravel(), coef.shape)
+            builder.rows(cols, coef / problem.clearance_limit_m, -np.inf, 1.0)
         rows = [r for r in problem.pool if r.scenario in z_cols]
         if rows:
             coef = np.stack(

@@ -8,23 +8,29 @@ threshold,
 
 over the same linear kinematic constraints as the exact route. The deviations are exact
 Euclidean norms (the LP reaches them through cutting planes) and the soft maximum runs over
-every scenario at once (a smooth worst case for the robust mode). F and its gradient come from one
-jit-compiled ``jax.value_and_grad``; the rows' data are arguments, padded to powers of two,
-so a search compiles it a handful of times. Casadi sees F as a ``casadi.Callback`` with a
-Jacobian callback (kept alive on the object), Ipopt runs with a limited-memory Hessian;
-scipy's SLSQP takes F with ``jac=True``. beta is raised in stages (continuation), each
-stage warm-started from the last. Feasibility (max_r <= 1) and the outer loops are those of
-the exact route (optim.search), so the route's answers are certified the same way.
+every scenario at once (a smooth worst case for the robust mode). With a clearance, the soft
+maximum of the deviation during the move (every point, every dt / 8) in units of the
+clearance is a non-linear constraint G <= 1 (conservative: G >= the true maximum).
+
+Each smooth term is one jit-compiled ``jax.value_and_grad`` of a vector that is linear in the
+variables (the scaled end states, the modal coordinates during the move); its data are
+arguments, padded to powers of two, so a search compiles it a handful of times. Casadi sees a
+term as a ``casadi.Callback`` whose Jacobian is a second callback (kept alive on the first:
+casadi holds only weak references); Ipopt runs with a limited-memory Hessian and its
+``stats()['success']`` is reported. scipy's SLSQP gets the same values and gradients in the
+interior samples (it works with dense matrices). beta is raised in stages (continuation),
+each warm-started from the last. Feasibility and the outer loops are those of the exact route
+(optim.search), so the route's answers are certified the same way.
 """
 
 from __future__ import annotations
 
 import time
-from functools import partial
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+import scipy.sparse as sp
 
 from jaxflex.errors import InputError
 from optim.kinematics import add_cuts, add_move, path_cuts
@@ -42,7 +48,7 @@ MAX_ITERATIONS = 200
 MAX_CUT_ROUNDS = 30
 
 
-@partial(jax.jit, static_argnames=())
+@jax.jit
 def soft_max_rows(zhat, scenario, aq, av, mask, beta):
     """Soft maximum of |u_r|^2 / limit^2 over rows r and its gradient w.r.t. ``zhat``.
 
@@ -54,61 +60,87 @@ def soft_max_rows(zhat, scenario, aq, av, mask, beta):
         u = jnp.einsum("rcm,rm->rc", aq, z[scenario, :, 0]) + jnp.einsum(
             "rcm,rm->rc", av, z[scenario, :, 1]
         )
-        r = jnp.sum(u * u, axis=-1)
-        return jax.nn.logsumexp(beta * r, b=mask) / beta
+        return jax.nn.logsumexp(beta * jnp.sum(u * u, axis=-1), b=mask) / beta
 
     return jax.value_and_grad(value)(zhat)
+
+
+@jax.jit
+def soft_max_points(q, shapes, mask, beta):
+    """Soft maximum over times t and points p of |shapes_p q_t|^2 (shapes in units of the
+    limit) and its gradient w.r.t. q (T, M). mask: (T,) 0/1."""
+
+    def value(modal):
+        u = jnp.einsum("pcm,tm->tpc", shapes, modal)
+        weights = jnp.broadcast_to(mask[:, None], u.shape[:2])
+        return jax.nn.logsumexp(beta * jnp.sum(u * u, axis=-1), b=weights) / beta
+
+    return jax.value_and_grad(value)(q)
 
 
 def _capacity(count: int, minimum: int = 8) -> int:
     return max(minimum, 1 << int(np.ceil(np.log2(max(1, count)))))
 
 
-class RowData:
-    """The pooled rows of the training scenarios as padded JAX arrays."""
+class SmoothTerm:
+    """A soft maximum F(v) of a vector v = map @ x linear in the NLP variables x, with a
+    cached value_and_grad (casadi asks for the value and the gradient separately)."""
 
-    def __init__(self, problem: Problem) -> None:
+    def __init__(self, linear_map: sp.csr_matrix) -> None:
+        self.map = linear_map
+        self.evaluations = 0
+        self.jax_s = 0.0
+        self._last = None
+
+    def _evaluate(self, v: np.ndarray, beta: float) -> tuple[float, np.ndarray]:
+        raise NotImplementedError
+
+    def value_and_grad(self, v: np.ndarray, beta: float) -> tuple[float, np.ndarray]:
+        key = (beta, v.tobytes())
+        if self._last is None or self._last[0] != key:
+            start = time.perf_counter()
+            result = self._evaluate(v, beta)
+            self.evaluations += 1
+            self.jax_s += time.perf_counter() - start
+            self._last = (key, result)
+        return self._last[1]
+
+
+class RowTerm(SmoothTerm):
+    """The pooled residual rows of the training scenarios (the objective)."""
+
+    def __init__(self, problem: Problem, z_slice: slice, n_vars: int) -> None:
+        size = z_slice.stop - z_slice.start
+        select = sp.csr_matrix(
+            (np.ones(size), (np.arange(size), np.arange(z_slice.start, z_slice.stop))),
+            shape=(size, n_vars),
+        )
+        super().__init__(select)
         slot = {s: k for k, s in enumerate(problem.training)}
         rows = [r for r in problem.pool if r.scenario in slot]
-        n_modes = problem.model.n_modes
-        dim = len(problem.components)
+        n_modes, dim = problem.model.n_modes, len(problem.components)
         r_cap = _capacity(len(rows), 64)
-        aq = np.zeros((r_cap, dim, n_modes))
-        av = np.zeros((r_cap, dim, n_modes))
-        scen = np.zeros(r_cap, dtype=np.int32)
-        mask = np.zeros(r_cap)
+        aq, av = np.zeros((r_cap, dim, n_modes)), np.zeros((r_cap, dim, n_modes))
+        scen, mask = np.zeros(r_cap, dtype=np.int32), np.zeros(r_cap)
         for k, row in enumerate(rows):
             s = problem.scenarios[row.scenario]
             p11, p12 = s.residual.propagator_rows(np.array([row.peak.tau_s]))
             shape = s.residual.shapes[row.peak.point]  # (C, M)
             aq[k] = shape * (p11[0] * s.zscale[:, 0]) / problem.limit_m
             av[k] = shape * (p12[0] * s.zscale[:, 1]) / problem.limit_m
-            scen[k] = slot[row.scenario]
-            mask[k] = 1.0
-        self.n_scenarios = len(problem.training)
+            scen[k], mask[k] = slot[row.scenario], 1.0
+        self.n_scenarios, self.n_modes = len(problem.training), n_modes
         self.j_cap = _capacity(self.n_scenarios, 1)
-        self.n_modes = n_modes
         self.args = tuple(jnp.asarray(x) for x in (scen, aq, av, mask))
         self.count = len(rows)
-        self.evaluations = 0
-        self.jax_s = 0.0
-        self._last = None
 
-    def value_and_grad(self, z_flat: np.ndarray, beta: float) -> tuple[float, np.ndarray]:
-        """F and dF/dz for the training scenarios' scaled end states, flattened (J M 2,).
-        The last evaluation is cached (casadi asks for value and gradient separately)."""
-        key = (beta, z_flat.tobytes())
-        if self._last is not None and self._last[0] == key:
-            return self._last[1]
-        start = time.perf_counter()
+    def _evaluate(self, v, beta):
+        if self.count == 0:  # no row yet (a clearance alone drives the NLP)
+            return 0.0, np.zeros_like(v)
         z = np.zeros((self.j_cap, self.n_modes, 2))
-        z[: self.n_scenarios] = z_flat.reshape(self.n_scenarios, self.n_modes, 2)
+        z[: self.n_scenarios] = v.reshape(self.n_scenarios, self.n_modes, 2)
         value, grad = soft_max_rows(jnp.asarray(z), *self.args, beta)
-        grad = np.asarray(grad)[: self.n_scenarios].ravel()
-        self.evaluations += 1
-        self.jax_s += time.perf_counter() - start
-        self._last = (key, (float(value), grad))
-        return self._last[1]
+        return float(value), np.asarray(grad)[: self.n_scenarios].ravel()
 
     def max_row(self, z_flat: np.ndarray) -> float:
         """max_r |u_r| / limit (the hard maximum the surrogate approximates)."""
@@ -123,15 +155,50 @@ class RowData:
         return float(np.sqrt(np.max(np.sum(u * u, axis=-1))))
 
 
-def _ipopt(program, z_slice, data: RowData, x0: np.ndarray, beta: float):
+class ClearanceTerm(SmoothTerm):
+    """The deviation of the nominal model during the move, every dt / 8 (the constraint)."""
+
+    def __init__(self, problem: Problem, layout, n_vars: int) -> None:
+        response = problem.move_map(layout.n_steps)
+        smap = response.sample_map(layout.axes)  # (T, M, n+1, d)
+        t_len, n_modes = smap.shape[:2]
+        cols = layout.a.T  # (n+1, d): variable index of each sample
+        dense = smap.reshape(t_len * n_modes, -1)
+        super().__init__(
+            sp.csr_matrix(
+                (
+                    dense.ravel(),
+                    (
+                        np.repeat(np.arange(dense.shape[0]), dense.shape[1]),
+                        np.tile(cols.ravel(), dense.shape[0]),
+                    ),
+                ),
+                shape=(dense.shape[0], n_vars),
+            )
+        )
+        self.t_len, self.n_modes = t_len, n_modes
+        self.t_cap = _capacity(t_len, 256)
+        mask = np.zeros(self.t_cap)
+        mask[:t_len] = 1.0
+        self.args = (jnp.asarray(response.shapes / problem.clearance_limit_m), jnp.asarray(mask))
+
+    def _evaluate(self, v, beta):
+        q = np.zeros((self.t_cap, self.n_modes))
+        q[: self.t_len] = v.reshape(self.t_len, self.n_modes)
+        value, grad = soft_max_points(jnp.asarray(q), *self.args, beta)
+        return float(value), np.asarray(grad)[: self.t_len].ravel()
+
+
+def _casadi_term(term: SmoothTerm, beta: float, name: str):
+    """``term`` as a casadi Callback with an exact Jacobian callback."""
     import casadi as ca
 
-    n_z = z_slice.stop - z_slice.start
+    size = term.map.shape[0]
 
     class Gradient(ca.Callback):
         def __init__(self):
             ca.Callback.__init__(self)
-            self.construct("surrogate_grad", {})
+            self.construct(f"{name}_grad", {})
 
         def get_n_in(self):
             return 2
@@ -140,20 +207,19 @@ def _ipopt(program, z_slice, data: RowData, x0: np.ndarray, beta: float):
             return 1
 
         def get_sparsity_in(self, i):
-            return ca.Sparsity.dense(n_z, 1) if i == 0 else ca.Sparsity.dense(1, 1)
+            return ca.Sparsity.dense(size, 1) if i == 0 else ca.Sparsity.dense(1, 1)
 
         def get_sparsity_out(self, i):
-            return ca.Sparsity.dense(1, n_z)
+            return ca.Sparsity.dense(1, size)
 
         def eval(self, arg):
-            _, grad = data.value_and_grad(np.asarray(arg[0]).ravel(), beta)
-            return [ca.DM(grad).T]
+            return [ca.DM(term.value_and_grad(np.asarray(arg[0]).ravel(), beta)[1]).T]
 
-    class Surrogate(ca.Callback):
+    class Value(ca.Callback):
         def __init__(self):
             ca.Callback.__init__(self)
             self.jacobians = []  # casadi keeps only weak references: hold every one here
-            self.construct("surrogate", {})
+            self.construct(name, {})
 
         def get_n_in(self):
             return 1
@@ -162,7 +228,7 @@ def _ipopt(program, z_slice, data: RowData, x0: np.ndarray, beta: float):
             return 1
 
         def get_sparsity_in(self, i):
-            return ca.Sparsity.dense(n_z, 1)
+            return ca.Sparsity.dense(size, 1)
 
         def get_sparsity_out(self, i):
             return ca.Sparsity.dense(1, 1)
@@ -175,13 +241,25 @@ def _ipopt(program, z_slice, data: RowData, x0: np.ndarray, beta: float):
             return self.jacobians[-1]
 
         def eval(self, arg):
-            value, _ = data.value_and_grad(np.asarray(arg[0]).ravel(), beta)
-            return [value]
+            return [term.value_and_grad(np.asarray(arg[0]).ravel(), beta)[0]]
 
-    surrogate = Surrogate()
+    return Value()
+
+
+def _ipopt(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: float):
+    import casadi as ca
+
     x = ca.MX.sym("x", program.cost.size)
-    g = ca.mtimes(ca.DM(program.matrix.tocsc()), x)
-    nlp = {"x": x, "f": surrogate(x[z_slice.start : z_slice.stop]), "g": g}
+    f_cb = _casadi_term(objective, beta, "surrogate")
+    g = [ca.mtimes(ca.DM(program.matrix.tocsc()), x)]
+    lbg, ubg = [program.row_lo], [program.row_hi]
+    callbacks = [f_cb]
+    if clearance is not None:
+        callbacks.append(_casadi_term(clearance, beta, "clearance"))
+        g.append(callbacks[-1](ca.mtimes(ca.DM(clearance.map.tocsc()), x)))
+        lbg.append([-np.inf])
+        ubg.append([1.0])
+    nlp = {"x": x, "f": f_cb(ca.mtimes(ca.DM(objective.map.tocsc()), x)), "g": ca.vertcat(*g)}
     options = {
         "print_time": False,
         "ipopt": {
@@ -197,7 +275,11 @@ def _ipopt(program, z_slice, data: RowData, x0: np.ndarray, beta: float):
     }
     solver = ca.nlpsol("gradient_route", "ipopt", nlp, options)
     res = solver(
-        x0=x0, lbx=program.var_lo, ubx=program.var_hi, lbg=program.row_lo, ubg=program.row_hi
+        x0=x0,
+        lbx=program.var_lo,
+        ubx=program.var_hi,
+        lbg=np.concatenate(lbg),
+        ubg=np.concatenate(ubg),
     )
     stats = solver.stats()
     return np.asarray(res["x"]).ravel(), {
@@ -229,10 +311,10 @@ def _sample_map(problem: Problem, layout, z_slice, size: int) -> np.ndarray:
     return t
 
 
-def _slsqp(program, z_slice, data: RowData, x0: np.ndarray, beta: float, sample_map):
+def _slsqp(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: float, sample_map):
     """SLSQP over the interior samples only (it works with dense matrices, so the sparse
     variables v, x, z are eliminated through ``sample_map``)."""
-    from scipy.optimize import LinearConstraint, minimize
+    from scipy.optimize import LinearConstraint, NonlinearConstraint, minimize
 
     t = sample_map
     rows = np.vstack([program.matrix @ t, t])
@@ -246,12 +328,22 @@ def _slsqp(program, z_slice, data: RowData, x0: np.ndarray, beta: float, sample_
         LinearConstraint(rows[eq], lo[eq], hi[eq]),
         LinearConstraint(rows[keep], lo[keep], hi[keep]),
     ]
-    t_z = t[z_slice]
+    f_map = objective.map @ t
+    if clearance is not None:
+        g_map = clearance.map @ t
+        constraints.append(
+            NonlinearConstraint(
+                lambda y: clearance.value_and_grad(g_map @ y, beta)[0],
+                -np.inf,
+                1.0,
+                jac=lambda y: (g_map.T @ clearance.value_and_grad(g_map @ y, beta)[1])[None],
+            )
+        )
     y0 = np.linalg.lstsq(t, x0, rcond=None)[0]
 
     def fun(y):
-        value, grad_z = data.value_and_grad(t_z @ y, beta)
-        return value, t_z.T @ grad_z
+        value, grad = objective.value_and_grad(f_map @ y, beta)
+        return value, f_map.T @ grad
 
     res = minimize(
         fun,
@@ -271,6 +363,8 @@ def _slsqp(program, z_slice, data: RowData, x0: np.ndarray, beta: float, sample_
 
 class GradientSubsolver:
     """Subproblem solver of the gradient route; ``solver`` is "ipopt" or "slsqp"."""
+
+    clearance_rows = False  # the whole clearance grid is in the NLP already
 
     def __init__(self, solver: str = "ipopt") -> None:
         if solver not in GRADIENT_SOLVERS:
@@ -298,13 +392,16 @@ class GradientSubsolver:
         first = builder.n_vars
         add_end_states(builder, problem, layout)
         z_slice = slice(first, builder.n_vars)
-        data = RowData(problem)
+        objective = RowTerm(problem, z_slice, builder.n_vars)
+        clearance = None
+        if problem.clearance_m is not None:
+            clearance = ClearanceTerm(problem, layout, builder.n_vars)
         stats = {
             "nlp_solves": 0,
             "nlp_wall_s": 0.0,
             "iterations": 0,
             "success": True,
-            "rows": data.count,
+            "rows": objective.count,
         }
         x = self._start(problem, layout, z_slice, warm, builder.n_vars)
         sample_map = None
@@ -313,11 +410,11 @@ class GradientSubsolver:
         for _ in range(MAX_CUT_ROUNDS):
             program = builder.program()
             start = time.perf_counter()
-            for beta in BETAS if data.count else ():
+            for beta in BETAS if objective.count or clearance is not None else ():
                 if sample_map is None:
-                    x, info = _ipopt(program, z_slice, data, x, beta)
+                    x, info = _ipopt(program, objective, clearance, x, beta)
                 else:
-                    x, info = _slsqp(program, z_slice, data, x, beta, sample_map)
+                    x, info = _slsqp(program, objective, clearance, x, beta, sample_map)
                 stats["nlp_solves"] += 1
                 stats["iterations"] += info["iterations"]
                 stats["success"] &= info["success"]
@@ -328,11 +425,14 @@ class GradientSubsolver:
                 break
             self._cuts.setdefault(n_steps, []).extend(cuts)
             add_cuts(builder, cuts)
-        stats["jax_evaluations"], stats["jax_s"] = data.evaluations, data.jax_s
+        terms = [objective] if clearance is None else [objective, clearance]
+        stats["jax_evaluations"] = sum(t.evaluations for t in terms)
+        stats["jax_s"] = sum(t.jax_s for t in terms)
         # Snap the NLP's answer (interior-point tolerances) exactly onto the limits and
         # boundary conditions: the closest grid move in L1, a change of solver-tolerance size.
         acc = fit_to_grid(layout.acceleration(x), problem.dt, problem.distance, problem.limits)
         if acc is None:
             return SubResult("infeasible", None, np.inf, stats)
         z = [problem.end_state(j, acc) / problem.scenarios[j].zscale for j in problem.training]
-        return SubResult("solved", acc, data.max_row(np.concatenate([v.ravel() for v in z])), stats)
+        value = objective.max_row(np.concatenate([v.ravel() for v in z]))
+        return SubResult("solved", acc, value, stats)

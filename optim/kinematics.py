@@ -31,7 +31,7 @@ import numpy as np
 from jaxflex.errors import InputError
 from optim.limits import Limits
 from optim.lp import LPBuilder
-from optim.polytope import ball_normals, support, worst_normal
+from optim.polytope import ball_normals, support, worst_normals
 
 
 @dataclass(frozen=True)
@@ -171,8 +171,9 @@ def path_cuts(
     for values, cols, weights, limit in _path_quantities(layout, sol, limits):
         bound = rho * limit
         for i in np.flatnonzero(support(values, d) > bound * (1 + tol)):
-            normal = worst_normal(values[i], d)
-            cuts.append((cols[i].ravel(), np.concatenate([w * normal for w in weights]), bound))
+            for normal in worst_normals(values[i], d):
+                coef = np.concatenate([w * normal for w in weights])
+                cuts.append((cols[i].ravel(), coef, bound))
     return cuts
 
 

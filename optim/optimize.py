@@ -86,6 +86,7 @@ def optimize(
     *,
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
     max_shaped_modes: int = 6,
+    clearance_m: float | None = None,
 ) -> OptimizationResult:
     """The move over ``distance_m`` ((3,) m) within ``limits`` with the shortest cycle time
     (move plus settling below ``threshold_m`` m), on the ``dt_s`` grid.
@@ -96,6 +97,8 @@ def optimize(
         spec's frequency-scale / damping grid is minimised (recommended: FE frequencies and
         damping are uncertain).
     max_duration_s: longest move considered (a request that needs more is an error).
+    clearance_m: optional limit on the deviation of the nominal model during the move (m,
+        at exact samples every dt / 8), e.g. to keep the part clear of a fixture.
     """
     start = time.perf_counter()
     robust = _as_robust(robust)
@@ -105,6 +108,8 @@ def optimize(
     threshold = check_positive("threshold_m", threshold_m)
     dt = check_positive("dt_s", dt_s)
     check_positive("max_duration_s", max_duration_s)
+    if clearance_m is not None:
+        clearance_m = check_positive("clearance_m", clearance_m)
     if method not in METHODS:
         raise InputError(f"method: must be one of {sorted(METHODS)}, got {method!r}")
     default_solver, allowed = METHODS[method]
@@ -124,17 +129,18 @@ def optimize(
         max_steps=max_steps,
         progress=progress,
     )
-    problem = make_problem(model, distance, limits, threshold, dt, max_steps, robust)
+    problem = make_problem(model, distance, limits, threshold, dt, max_steps, robust, clearance_m)
     sub = LPSubsolver(solver) if method == "exact" else GradientSubsolver(solver)
     upper = math.ceil(base.best().score() / dt - 1e-9)
     best, history = bisect(
         problem, sub, base.floor_acc, upper, [e.acc for e in base.entries], progress=progress
     )
     if best is None:
+        during = "" if clearance_m is None else f" (and below {clearance_m * 1e3:g} mm during it)"
         raise InputError(
             f"threshold_m: no move of at most max_duration_s = {max_duration_s:g} s keeps the "
-            f"deviation below {threshold * 1e3:g} mm after it; raise max_duration_s or "
-            "threshold_m"
+            f"deviation below {threshold * 1e3:g} mm after it{during}; raise max_duration_s, "
+            "threshold_m" + ("" if clearance_m is None else " or clearance_m")
         )
     final = best
     if method == "exact":
@@ -172,6 +178,7 @@ def optimize(
         "notes": notes,
     }
     return OptimizationResult(
+        clearance_m=clearance_m,
         model=model,
         distance_m=distance,
         dt_s=dt,

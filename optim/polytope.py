@@ -16,6 +16,7 @@ from scipy.spatial import ConvexHull
 
 POLYGON_SIDES = 32
 SPHERE_NORMALS = 400
+PATCH = {1: 1, 2: 3, 3: 12}
 
 
 @functools.lru_cache(maxsize=8)
@@ -54,7 +55,11 @@ def support(vectors: np.ndarray, dim: int) -> np.ndarray:
     return np.max(vectors @ normals.T, axis=-1)
 
 
-def worst_normal(vector: np.ndarray, dim: int) -> np.ndarray:
-    """The normal c_f maximising c_f . u (the row a cutting-plane method adds for u)."""
+def worst_normals(vector: np.ndarray, dim: int) -> np.ndarray:
+    """The normals with the largest c_f . u: the facets a cutting-plane method adds for a
+    vector u outside the polytope. Several at once (PATCH[dim]), because an LP pushed against
+    one facet slides to its neighbours: with the single worst facet per round, 3-D path limits
+    took more than 30 rounds."""
     normals, _ = ball_normals(dim)
-    return normals[int(np.argmax(normals @ vector))]
+    order = np.argsort(-(normals @ vector))
+    return normals[order[: PATCH[dim]]]

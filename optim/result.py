@@ -65,6 +65,7 @@ class OptimizationResult:
     wall_time_s: float
     baselines: BaselineSet
     worst_case: dict | None = None  # robust mode: worst exact cycle over the check grid
+    clearance_m: float | None = None  # limit on the deviation during the move, if any
 
     @property
     def n_steps(self) -> int:
@@ -137,6 +138,7 @@ class OptimizationResult:
             "method": self.method,
             "solver": self.solver,
             "robust": None if self.robust is None else self.robust.as_dict(),
+            "clearance_m": self.clearance_m,
             "n_steps": self.n_steps,
             "transfer_time_s": self.transfer_time_s,
             "settle_time_s": self.settle_time_s,
@@ -158,6 +160,9 @@ class OptimizationResult:
         ]
         if self.worst_case is not None:
             lines.append(f"  worst case over the robust grid: {self.worst_cycle_time_s:.3f} s")
+        peak = self.deviation["peak_during_move_m"]
+        clear = "" if self.clearance_m is None else f" (clearance {self.clearance_m * 1e3:g} mm)"
+        lines.append(f"  peak deviation during the move: {peak * 1e3:.3f} mm{clear}")
         lines.append(f"  kinematic floor (ruckig): {self.baselines.kinematic_floor_s:.3f} s")
         for b in self.baselines.entries:
             worst = "" if b.worst_cycle_time_s is None else f", worst {b.worst_cycle_time_s:.3f} s"

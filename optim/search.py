@@ -31,6 +31,7 @@ from tqdm.auto import tqdm
 
 from jaxflex.model import ModalModel
 from optim.limits import Limits
+from optim.move_response import ClearancePeak, MoveResponse
 from optim.profiles import enforce_end_state
 from optim.residual import Peak, ResidualModel, end_state_map
 from optim.robust import RobustSpec, perturbed
@@ -40,6 +41,7 @@ RESIDUAL_MARGIN = 1e-3
 MAX_ROUNDS = 60
 PEAKS_PER_ROUND = 40
 TIME_RTOL = 1e-12
+SOLVER_FAILURES = ("failed", "row generation did not converge")
 
 
 @dataclass
@@ -78,12 +80,25 @@ class Problem:
     scenarios: list[Scenario]
     training: list[int]
     components: tuple[int, ...]
+    clearance_m: float | None = None  # limit on the deviation during the move (nominal)
     pool: list[PoolRow] = field(default_factory=list)
+    clearance_pool: dict[int, list[ClearancePeak]] = field(default_factory=dict)
     _maps: dict = field(default_factory=dict)
+    _move_maps: dict = field(default_factory=dict)
 
     @property
     def limit_m(self) -> float:
         return self.threshold_m * (1.0 - RESIDUAL_MARGIN)
+
+    @property
+    def clearance_limit_m(self) -> float:
+        return self.clearance_m * (1.0 - RESIDUAL_MARGIN)
+
+    def move_map(self, n_steps: int) -> MoveResponse:
+        """The nominal model's response during an n-step move (optim.move_response)."""
+        if n_steps not in self._move_maps:
+            self._move_maps[n_steps] = MoveResponse(self.model, self.components, n_steps, self.dt)
+        return self._move_maps[n_steps]
 
     def end_map(self, scenario: int, n_steps: int) -> np.ndarray:
         key = (scenario, n_steps)
@@ -115,6 +130,7 @@ def make_problem(
     dt: float,
     max_steps: int,
     robust: RobustSpec | None,
+    clearance_m: float | None = None,
 ) -> Problem:
     comps = active_components(model)
     grid = [(1.0, None)] if robust is None else robust.grid()
@@ -133,7 +149,17 @@ def make_problem(
         wanted = {scales[0], scales[len(scales) // 2], scales[-1]}
         training = [i for i, (s, z) in enumerate(grid) if s in wanted and z == zmin]
     return Problem(
-        model, distance, limits, threshold_m, dt, max_steps, robust, scenarios, training, comps
+        model,
+        distance,
+        limits,
+        threshold_m,
+        dt,
+        max_steps,
+        robust,
+        scenarios,
+        training,
+        comps,
+        clearance_m,
     )
 
 
@@ -169,6 +195,7 @@ class SubResult:
 
 class Subsolver(Protocol):
     name: str
+    clearance_rows: bool  # True: takes the clearance as pooled rows; False: as a whole
 
     def solve(self, problem: Problem, n_steps: int, warm: np.ndarray, polish: bool) -> SubResult:
         """Minimise the largest pool row (or, with ``polish``, a smoothness measure subject
@@ -228,6 +255,12 @@ def _certify(problem: Problem, acc: np.ndarray):
     return timings, len(failed)
 
 
+def _rejected(n_steps, value, rounds, start, reason, stats) -> Attempt:
+    return Attempt(
+        n_steps, False, None, {}, value, rounds, time.perf_counter() - start, reason, stats
+    )
+
+
 def attempt(
     problem: Problem,
     solver: Subsolver,
@@ -245,9 +278,7 @@ def attempt(
         value = sub.value
         if sub.status != "solved" or sub.value > 1.0 + 1e-7:
             reason = "rows cannot all hold" if sub.status == "solved" else sub.status
-            return Attempt(
-                n_steps, False, None, {}, value, rounds, time.perf_counter() - start, reason, stats
-            )
+            return _rejected(n_steps, value, rounds, start, reason, stats)
         acc = sub.acc
         warm = acc
         added = 0
@@ -260,6 +291,12 @@ def attempt(
             )
             for peak in peaks:
                 problem.add_peak(i, peak)
+            added += len(peaks)
+        if problem.clearance_m is not None:
+            peaks = problem.move_map(n_steps).peaks(acc, problem.clearance_limit_m)
+            if peaks and not solver.clearance_rows:
+                return _rejected(n_steps, value, rounds, start, "clearance cannot be met", stats)
+            problem.clearance_pool.setdefault(n_steps, []).extend(peaks)
             added += len(peaks)
         if added:
             continue
@@ -277,17 +314,7 @@ def attempt(
                 "certified",
                 stats,
             )
-    return Attempt(
-        n_steps,
-        False,
-        None,
-        {},
-        value,
-        MAX_ROUNDS,
-        time.perf_counter() - start,
-        "row generation did not converge",
-        stats,
-    )
+    return _rejected(n_steps, value, MAX_ROUNDS, start, "row generation did not converge", stats)
 
 
 def pad_to(acc: np.ndarray, n_steps: int) -> np.ndarray:
@@ -340,6 +367,11 @@ def bisect(
                 best = result
             elif n >= problem.max_steps:
                 return None, history
+            elif n == cap and result.reason in SOLVER_FAILURES:
+                raise RuntimeError(
+                    f"{solver.name}: the subproblem failed ({result.reason}) at n = {n}, a "
+                    "length a baseline shows to be feasible; see solver_stats"
+                )
             else:
                 lo, n = n, n + stride
                 stride *= 2

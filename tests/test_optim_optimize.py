@@ -112,6 +112,42 @@ def test_robust_worst_case_beats_every_shaper(model, nominal):
     assert result.n_steps >= nominal.n_steps
 
 
+def test_clearance_limits_the_deviation_during_the_move(model, nominal):
+    clearance = 0.025  # the unconstrained optimum peaks at ~43 mm during the move
+    assert nominal.peak_deviation_m > clearance
+    result = optim.optimize(
+        model, DISTANCE, LIMITS, THRESHOLD, DT, clearance_m=clearance, progress=False
+    )
+    # independent check: the exact response sampled every dt / 8 by jaxflex.simulate
+    fine = jaxflex.simulate(model, jaxflex.upsample(result.acc, 8), DT / 8)
+    assert float(np.max(fine.deviation)) <= clearance
+    assert result.peak_deviation_m == pytest.approx(float(np.max(fine.deviation)), rel=1e-9)
+    assert result.n_steps > nominal.n_steps  # the limit costs time here
+    assert result.cycle_time_s == pytest.approx(result.n_steps * DT)
+    assert result.constraint_check.ok
+    assert result.report()["clearance_m"] == clearance
+
+
+@pytest.mark.slow
+def test_gradient_route_meets_the_clearance_too(model):
+    exact = optim.optimize(
+        model, DISTANCE, LIMITS, THRESHOLD, DT, clearance_m=0.025, progress=False
+    )
+    other = optim.optimize(
+        model,
+        DISTANCE,
+        LIMITS,
+        THRESHOLD,
+        DT,
+        clearance_m=0.025,
+        method="gradient",
+        solver="slsqp",
+        progress=False,
+    )
+    assert other.peak_deviation_m <= 0.025
+    assert exact.n_steps <= other.n_steps <= exact.n_steps + 3
+
+
 @settings(
     max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
@@ -161,6 +197,7 @@ def test_limits_and_boundary_conditions_hold_on_every_returned_profile(
         ({"method": "newton"}, "method"),
         ({"solver": "ipopt"}, "solver"),
         ({"robust": optim.RobustSpec}, "robust"),
+        ({"clearance_m": -0.01}, "clearance_m"),
     ],
 )
 def test_infeasible_or_bad_requests_give_clear_errors(model, change, message):

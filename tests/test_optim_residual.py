@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import jaxflex
+from optim.move_response import MoveResponse
 from optim.polytope import ball_normals, support
 from optim.residual import ResidualModel, end_state_map
 from optim.timing import exact_timing
@@ -39,6 +40,22 @@ def test_free_response_matches_the_simulation():
     tau = dt * np.arange(101)
     u = ResidualModel(model, (0, 1, 2)).displacement(x_end, tau)
     np.testing.assert_allclose(u, np.asarray(res.displacement)[30:], atol=1e-12)
+
+
+def test_move_response_map_is_the_simulation_during_the_move():
+    model = random_model(seed=6, n_points=10, n_modes=4, f_max_hz=60.0)
+    dt, acc = 0.01, smooth_move(30, 0.01)
+    response = MoveResponse(model, (0, 1, 2), 30, dt)
+    fine = jaxflex.simulate(model, jaxflex.upsample(acc, 8), dt / 8)
+    # q at every dt / 8 from the tabulated linear map equals the scan at the finer step
+    np.testing.assert_allclose(response.modal(acc), np.asarray(fine.q), atol=1e-13)
+    # and a tangent row evaluates the projection of the deviation on its direction
+    peak = response.peaks(acc, 0.5 * float(np.max(fine.deviation)))[0]
+    assert peak.value * 0.5 * float(np.max(fine.deviation)) == pytest.approx(
+        float(np.max(fine.deviation))
+    )
+    row = response.row(peak, (0, 1, 2))
+    assert np.sum(row * acc) == pytest.approx(np.linalg.norm(peak.u))
 
 
 def brute_force_peak(residual, x_end, horizon, samples=200_001):

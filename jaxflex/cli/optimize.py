@@ -45,6 +45,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--dt", type=float, default=0.01, help="sample step, s (default 0.01)")
     parser.add_argument(
+        "--clearance",
+        type=float,
+        default=None,
+        help="optional limit on the deviation during the move, m (nominal model)",
+    )
+    parser.add_argument(
         "--method",
         choices=("exact", "gradient"),
         default="exact",
@@ -144,6 +150,9 @@ def run(args: argparse.Namespace) -> int:
         robust=robust,
         progress=progress,
         max_duration_s=max_duration,
+        clearance_m=None
+        if args.clearance is None
+        else check_positive("--clearance", args.clearance),
     )
     paths = result.save(args.output)
     print(result.summary())
