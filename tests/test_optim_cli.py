@@ -31,29 +31,9 @@ def model_file(tmp_path_factory):
 
 def test_optimize_writes_trajectory_report_and_plots(model_file, tmp_path):
     out = tmp_path / "opt"
-    proc = run_cli(
-        str(model_file),
-        "--distance",
-        "0",
-        "0",
-        "0.8",
-        "--vmax",
-        "1.5",
-        "--amax",
-        "8",
-        "--jmax",
-        "80",
-        "80",
-        "60",
-        "--threshold",
-        "1e-3",
-        "--robust",
-        "--grid",
-        "3",
-        "2",
-        "-o",
-        str(out),
-    )
+    args = "--distance 0 0 0.8 --vmax 1.5 --amax 8 --jmax 80 80 60 --threshold 1e-3 "
+    args += "--robust --grid 3 2 --clearance 0.03"
+    proc = run_cli(str(model_file), *args.split(), "-o", str(out))
     assert proc.returncode == 0, proc.stderr
     assert "cycle" in proc.stdout and "worst case" in proc.stdout
     assert "shortest move" in proc.stderr  # the progress display
@@ -69,6 +49,8 @@ def test_optimize_writes_trajectory_report_and_plots(model_file, tmp_path):
     report = json.loads((out / "report.json").read_text())
     assert report["limits"]["jmax_m_s3"] == [80.0, 80.0, 60.0]
     assert report["robust"]["freq_scale"] == [0.9, 1.1]
+    assert report["clearance_m"] == 0.03
+    assert report["deviation"]["peak_during_move_m"] <= 0.03
     assert report["worst_case"]["cycle_time_s"] >= report["n_steps"] * report["dt_s"] - 1e-12
     acc, dt = read_trajectory_csv(out / "trajectory.csv")
     model = jaxflex.load_model(model_file)
