@@ -164,7 +164,8 @@ def baselines(
             if best is None or entry.score() < best.score():
                 best = entry
         if best is not None:
-            best.name = f"{kind} ({len(best.shaped_freq_hz)} modes)"
+            count = len(best.shaped_freq_hz)
+            best.name = f"{kind} ({count} mode{'s' if count > 1 else ''})"
             entries.append(best)
     bar.close()
     if robust is not None:  # the final figures over the full check grid

@@ -51,10 +51,6 @@ class MoveLayout:
         acc[:, list(self.axes)] = solution[self.a].T
         return acc
 
-    def interior_a(self) -> np.ndarray:
-        """Indices of a_1 .. a_{n-1} per axis, (d, n-1)."""
-        return self.a[:, 1:-1]
-
 
 MOVE_ATOL_M = 1e-12  # axes moving less than this stay at rest (below the 1e-9 m check)
 

@@ -62,14 +62,8 @@ class Limits:
             if value is not None:
                 object.__setattr__(self, name, check_positive(name, value))
 
-    def per_axis(self) -> dict[str, np.ndarray]:
-        return {"velocity": self.vmax, "acceleration": self.amax, "jerk": self.jmax}
-
-    def path(self) -> dict[str, float | None]:
-        return {"velocity": self.vpath, "acceleration": self.apath, "jerk": self.jpath}
-
     def has_path_limits(self) -> bool:
-        return any(v is not None for v in self.path().values())
+        return any(v is not None for v in (self.vpath, self.apath, self.jpath))
 
     def shrunk(self, margin: float) -> Limits:
         """Every limit reduced by the fraction ``margin`` (a final solve keeps this distance

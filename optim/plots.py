@@ -68,6 +68,7 @@ def plot_robust(path: str | os.PathLike, series: dict[str, list[dict]], title: s
             if points:
                 s, c = zip(*points, strict=True)
                 ax.plot(s, c, marker="o", ms=3, label=f"{label} (worst {max(c):.3f} s)")
+        ax.set_yscale("log")
         ax.set_xlabel("frequency scale")
         ax.set_title("model damping" if zeta is None else f"zeta = {zeta:.3g}")
         ax.grid(True, alpha=0.3)

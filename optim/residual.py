@@ -126,15 +126,13 @@ class ResidualModel:
         return hi
 
     # -- finding exceedances -------------------------------------------------------------
-    def _refine(self, x_end, tau0, tau1, point, limit_m) -> Peak:
-        """Largest deviation over [tau0, tau1] (at ``point``, or any point if None)."""
+    def _refine(self, x_end, tau0, tau1, point: int, limit_m) -> Peak:
+        """Largest deviation of ``point`` over [tau0, tau1] (REFINE_SAMPLES samples)."""
         tau = np.linspace(max(0.0, tau0), tau1, REFINE_SAMPLES)
-        u = self.displacement(x_end, tau)
-        if point is not None:
-            u = u[:, [point]]
+        u = self.displacement(x_end, tau)[:, point]  # (T, C)
         values = np.linalg.norm(u, axis=-1) / limit_m
-        j, p = np.unravel_index(np.argmax(values), values.shape)
-        return Peak(float(tau[j]), int(p if point is None else point), u[j, p], float(values[j, p]))
+        j = int(np.argmax(values))
+        return Peak(float(tau[j]), point, u[j], float(values[j]))
 
     def exceedances(
         self,

@@ -1,0 +1,123 @@
+"""The results table of a sweep: one row per case in the spec's order, written as CSV.
+
+Columns (SI units in the names): index, case_id, layout, move, status ("ok", "error",
+"pending"), stage (of an error: "fe", "optimization", "worker"), n_cups, cups
+("x:y:r;..." in m), distance_m ("x y z"), n_dof, n_modes, n_points, first_freq_hz, mass_kg,
+cycle_time_s (exact, nominal model), worst_cycle_time_s (robust mode: worst case over the
+check grid), transfer_time_s, settle_time_s, n_steps, kinematic_floor_s, cycle_over_floor,
+best_baseline, best_baseline_cycle_time_s, peak_deviation_m (during the move, exact samples
+every dt / 8), deviation_at_stop_m, fe_wall_s, opt_wall_s, worker, error.
+Floats are written with full precision (repr), so equal runs give equal files apart from the
+wall-time and worker columns (:data:`RUN_COLUMNS`).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+from jaxflex.atomic import write_text_atomic
+from optim.sweep.cases import Case
+
+COLUMNS = (
+    "index",
+    "case_id",
+    "layout",
+    "move",
+    "status",
+    "stage",
+    "n_cups",
+    "cups",
+    "distance_m",
+    "n_dof",
+    "n_modes",
+    "n_points",
+    "first_freq_hz",
+    "mass_kg",
+    "cycle_time_s",
+    "worst_cycle_time_s",
+    "transfer_time_s",
+    "settle_time_s",
+    "n_steps",
+    "kinematic_floor_s",
+    "cycle_over_floor",
+    "best_baseline",
+    "best_baseline_cycle_time_s",
+    "peak_deviation_m",
+    "deviation_at_stop_m",
+    "fe_wall_s",
+    "opt_wall_s",
+    "worker",
+    "error",
+)
+RUN_COLUMNS = ("fe_wall_s", "opt_wall_s", "worker")  # differ between runs of the same case
+_FE = ("n_dof", "n_modes", "n_points", "first_freq_hz", "mass_kg", "fe_wall_s")
+_OPT = (
+    "cycle_time_s",
+    "worst_cycle_time_s",
+    "transfer_time_s",
+    "settle_time_s",
+    "n_steps",
+    "kinematic_floor_s",
+    "best_baseline",
+    "best_baseline_cycle_time_s",
+    "peak_deviation_m",
+    "deviation_at_stop_m",
+    "opt_wall_s",
+)
+
+
+def row(case: Case, record: dict | None) -> dict:
+    """The table row of ``case`` from its record (None: not computed yet)."""
+    out = {
+        "index": case.index,
+        "case_id": case.case_id,
+        "layout": case.layout.name,
+        "move": case.move.name,
+        "status": "pending" if record is None else record["status"],
+        "n_cups": len(case.layout.cups),
+        "cups": ";".join(":".join(f"{v:g}" for v in cup) for cup in case.layout.cups),
+        "distance_m": " ".join(f"{v:g}" for v in case.move.distance_m),
+    }
+    if record is None:
+        return out
+    out["stage"] = record.get("stage")
+    out["worker"] = record.get("worker")
+    out["error"] = record.get("error")
+    fe, opt = record.get("fe") or {}, record.get("opt") or {}
+    out.update({k: fe.get(k) for k in _FE})
+    out.update({k: opt.get(k) for k in _OPT})
+    if "fe_wall_s" in record:  # an FE error carries its own timing
+        out["fe_wall_s"] = record["fe_wall_s"]
+    if opt.get("cycle_time_s") is not None:
+        out["cycle_over_floor"] = opt["cycle_time_s"] / opt["kinematic_floor_s"]
+    return out
+
+
+def _cell(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def table_rows(cases: list[Case], records: dict[str, dict]) -> list[dict]:
+    return [row(case, records.get(case.case_id)) for case in cases]
+
+
+def write_table(path: str | Path, rows: list[dict]) -> None:
+    """Write ``rows`` as CSV (header :data:`COLUMNS`) atomically."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(COLUMNS)
+    for r in rows:
+        writer.writerow([_cell(r.get(c)) for c in COLUMNS])
+    write_text_atomic(path, buffer.getvalue())
+
+
+def read_table(path: str | Path) -> list[dict[str, str]]:
+    """The rows of a results CSV as dicts of strings (empty string for missing values)."""
+    with open(path, newline="", encoding="utf-8") as handle:
+        return list(csv.DictReader(handle))
