@@ -34,6 +34,7 @@ from jaxflex.model import ModalModel
 from jaxflex.simulate import shapes_by_component
 
 METHODS = ("batched", "loop")
+HORIZON_BLOCK = 64
 
 
 def _states(freq_hz, zeta, gamma, acc, h):
@@ -67,16 +68,17 @@ def _batched(freq_hz, zeta, gamma, shapes_c, acc, h):
 
 def padded_moves(accs: Sequence[np.ndarray], horizon_steps: int, substeps: int) -> np.ndarray:
     """(B, horizon_steps * substeps + 1, 3): each move followed by rest up to the horizon,
-    on the grid dt / substeps (exact upsampling of the piecewise-linear profile)."""
-    out = np.zeros((len(accs), horizon_steps + 1, 3))
+    on the grid dt / substeps (linear interpolation: the same piecewise-linear profile)."""
+    coarse = np.zeros((len(accs), horizon_steps + 1, 3))
     for b, acc in enumerate(accs):
         acc = np.asarray(acc, dtype=float)
         if acc.shape[0] > horizon_steps + 1:
             raise InputError(f"horizon_s: shorter than move {b} ({acc.shape[0] - 1} steps)")
-        out[b, : acc.shape[0]] = acc
-    if substeps == 1:
-        return out
-    return np.stack([np.asarray(jaxflex.upsample(a, substeps)) for a in out])
+        coarse[b, : acc.shape[0]] = acc
+    frac = (np.arange(substeps) / substeps)[None, None, :, None]
+    fine = (1.0 - frac) * coarse[:, :-1, None] + frac * coarse[:, 1:, None]  # (B, n, s, 3)
+    fine = fine.reshape(len(accs), horizon_steps * substeps, 3)
+    return np.concatenate([fine, coarse[:, -1:]], axis=1)
 
 
 def deviation_traces(
@@ -90,7 +92,8 @@ def deviation_traces(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Times t (T,) s and deviations d (B, T) m of each model under its move ``accs[b]``
     ((n_b + 1, 3) m/s^2 at step ``dt_s``), from 0 to ``horizon_s``. All models must have
-    the same number of points and modes (one group of the sweep)."""
+    the same number of points and modes (one group of the sweep). The horizon is rounded up
+    to whole blocks of :data:`HORIZON_BLOCK` steps (t reaches at least ``horizon_s``)."""
     if method not in METHODS:
         raise InputError(f"method: must be one of {list(METHODS)}, got {method!r}")
     if len(models) != len(accs) or not models:
@@ -98,7 +101,9 @@ def deviation_traces(
     sizes = {(m.n_points, m.n_modes) for m in models}
     if len(sizes) != 1:
         raise InputError(f"models: one group needs one size (points, modes), got {sorted(sizes)}")
-    horizon_steps = int(np.ceil(horizon_s / dt_s - 1e-9))
+    # whole blocks of HORIZON_BLOCK steps, so that groups of similar moves share the compiled code
+    steps = int(np.ceil(horizon_s / dt_s - 1e-9))
+    horizon_steps = HORIZON_BLOCK * -(-steps // HORIZON_BLOCK)
     fine = padded_moves(accs, horizon_steps, substeps)
     h = dt_s / substeps
     t = h * np.arange(fine.shape[1])

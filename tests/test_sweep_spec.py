@@ -1,0 +1,146 @@
+"""Sweep specification: validation errors name the field; grids expand as documented; case
+ids depend on the content, not on names or order."""
+
+from __future__ import annotations
+
+import copy
+import json
+import re
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from jaxflex.cli import main
+from jaxflex.errors import InputError
+from optim.sweep.cases import expand
+from optim.sweep.spec import EXAMPLE, load_spec, parse_spec
+
+BASE = {
+    "part": {"width_m": 0.6, "height_m": 0.4},
+    "moves": [{"name": "up", "distance_m": [0, 0, 0.5]}],
+    "layouts": [{"name": "a", "cups": [[0.1, 0.1, 0.03], [0.5, 0.1, 0.03], [0.3, 0.3, 0.03]]}],
+}
+
+
+def _with(path: str, value):
+    """BASE with the field at ``path`` ("moves.0.vmax") set to ``value``."""
+    spec = copy.deepcopy(BASE)
+    *parents, last = path.split(".")
+    node = spec
+    for key in parents:
+        node = node[int(key)] if key.isdigit() else node.setdefault(key, {})
+    if last.isdigit():
+        node[int(last)] = value
+    else:
+        node[last] = value
+    return spec
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "field"),
+    [
+        ("part.width_m", -1.0, "part.width_m"),
+        ("part.shape", "disc", "part.shape"),
+        ("part.widht_m", 1.0, "part.widht_m: unknown field"),
+        ("model.n_modes", 0, "model.n_modes"),
+        ("model.zeta", 1.5, "model.zeta"),
+        ("model.monitor_grid", [4], "model.monitor_grid"),
+        ("optimization.threshold_m", "small", "optimization.threshold_m"),
+        ("optimization.method", "newton", "optimization.method"),
+        ("optimization.robust", {"freq_scale": [1.1, 0.9]}, "optimization.robust.freq_scale"),
+        ("moves.0.vmax", [1, 2], "moves[0].vmax"),
+        ("moves.0.jmax", 0, "moves[0].jmax"),
+        ("moves.0.distance_m", [0, 0, 0], "moves[0].distance_m"),
+        ("layouts.0.cups", [[0.1, 0.1]], "layouts[0].cups[0]"),
+        ("layouts.0.cups", [{"x_m": 0.1, "y_m": 0.1}], "layouts[0].cups[0].radius_m"),
+        (
+            "grids",
+            [{"nx": [2], "ny": [2], "inset_x": [0.6], "inset_y": [0.2], "radius_m": [0.03]}],
+            "grids[0].inset_x[0]",
+        ),
+        (
+            "grids",
+            [{"nx": [2], "ny": [2], "inset_x": [0.2], "inset_y": [0.2]}],
+            "grids[0].radius_m",
+        ),
+        ("moves", [], "moves"),
+        ("layouts", [], "layouts"),
+        ("colour", "red", "colour: unknown field"),
+    ],
+)
+def test_bad_fields_are_named(path, value, field):
+    with pytest.raises(InputError, match="^" + re.escape(field)):
+        parse_spec(_with(path, value))
+
+
+def test_duplicate_names_rejected():
+    spec = _with("moves", [BASE["moves"][0], BASE["moves"][0]])
+    with pytest.raises(InputError, match="moves: the name 'up' is used twice"):
+        parse_spec(spec)
+
+
+def test_example_parses_and_file_errors_name_the_file(tmp_path):
+    path = tmp_path / "sweep.toml"
+    path.write_text(EXAMPLE)
+    spec = load_spec(path)
+    # 1 explicit layout + 2 (nx) x 1 (ny) x 2 x 2 (insets) x 2 (radii) grid layouts, 2 moves
+    assert len(spec.layouts) == 17 and len(spec.moves) == 2 and len(expand(spec)) == 34
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(_with("moves.0.amax", -3)))
+    with pytest.raises(InputError, match=r"^bad\.json: moves\[0\]\.amax: must be > 0"):
+        load_spec(bad)
+    broken = tmp_path / "broken.json"
+    broken.write_text("{")
+    with pytest.raises(InputError, match=r"broken\.json is not valid JSON"):
+        load_spec(broken)
+
+
+def test_cli_reports_the_field_and_exits_2(tmp_path, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(_with("model.n_modes", "many")))
+    assert main(["sweep", str(bad), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "jaxflex sweep: error: bad.json: model.n_modes: expected an integer" in err
+    assert main(["sweep", "--example"]) == 0
+    assert "[[grids]]" in capsys.readouterr().out
+
+
+def test_case_ids_follow_content_not_names_or_order():
+    spec = parse_spec(
+        _with("moves", [{"name": "up", "distance_m": [0, 0, 0.5]}, {"distance_m": [0.3, 0, 0]}])
+    )
+    renamed = copy.deepcopy(spec.source)
+    renamed["moves"].reverse()
+    renamed["layouts"][0]["name"] = "renamed"
+    ids = {c.case_id for c in expand(spec)}
+    assert len(ids) == 2
+    assert {c.case_id for c in expand(parse_spec(renamed))} == ids
+    changed = copy.deepcopy(spec.source)
+    changed["optimization"] = {"threshold_m": 1e-4}
+    assert not ids & {c.case_id for c in expand(parse_spec(changed))}
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    nx=st.lists(st.integers(1, 4), min_size=1, max_size=3, unique=True),
+    ny=st.lists(st.integers(1, 3), min_size=1, max_size=2, unique=True),
+    inset=st.lists(st.floats(0.05, 0.45), min_size=1, max_size=2, unique=True),
+    radius=st.lists(st.floats(0.01, 0.05), min_size=1, max_size=2, unique=True),
+)
+def test_grid_expands_to_every_combination(nx, ny, inset, radius):
+    grid = {"nx": nx, "ny": ny, "inset_x": inset, "inset_y": [0.25], "radius_m": radius}
+    spec = parse_spec({**BASE, "layouts": [], "grids": [grid]})
+    assert len(spec.layouts) == len(nx) * len(ny) * len(inset) * len(radius)
+    width, height = BASE["part"]["width_m"], BASE["part"]["height_m"]
+    for layout in spec.layouts:
+        xs = sorted({c[0] for c in layout.cups})
+        ys = sorted({c[1] for c in layout.cups})
+        assert len(layout.cups) == len(xs) * len(ys)
+        # outer cups at inset * side from each edge (a single cup: the centre)
+        if len(xs) == 1:
+            assert xs[0] == pytest.approx(width / 2)
+        else:
+            assert any(xs[0] == pytest.approx(f * width) for f in inset)
+        assert xs[0] + xs[-1] == pytest.approx(width)
+        assert ys[0] + ys[-1] == pytest.approx(height)
