@@ -4,9 +4,9 @@ Columns (SI units in the names): index, case_id, layout, move, status ("ok", "er
 "pending"), stage (of an error: "fe", "optimization", "worker"), n_cups, cups
 ("x:y:r;..." in m), distance_m ("x y z"), n_dof, n_modes, n_points, first_freq_hz, mass_kg,
 cycle_time_s (exact, nominal model), worst_cycle_time_s (robust mode: worst case over the
-check grid), transfer_time_s, settle_time_s, n_steps, kinematic_floor_s, cycle_over_floor,
-best_baseline, best_baseline_cycle_time_s, peak_deviation_m (during the move, exact samples
-every dt / 8), deviation_at_stop_m, fe_wall_s, opt_wall_s, fe_cpu_s, opt_cpu_s (wall and
+check grid), transfer_time_s, settle_time_s, n_steps, kinematic_floor_s, best_baseline,
+best_baseline_cycle_time_s, peak_deviation_m (during the move, exact samples every dt / 8),
+deviation_at_stop_m, cycle_over_floor, fe_wall_s, opt_wall_s, fe_cpu_s, opt_cpu_s (wall and
 CPU time of the two steps, s; the FE step is shared by the moves of a layout), worker, error.
 Floats are written with full precision (repr), so equal runs give equal files apart from the
 wall-time and worker columns (:data:`RUN_COLUMNS`).
@@ -21,7 +21,7 @@ from pathlib import Path
 from jaxflex.atomic import write_text_atomic
 from optim.sweep.cases import Case
 
-COLUMNS = (
+_CASE = (
     "index",
     "case_id",
     "layout",
@@ -31,37 +31,8 @@ COLUMNS = (
     "n_cups",
     "cups",
     "distance_m",
-    "n_dof",
-    "n_modes",
-    "n_points",
-    "first_freq_hz",
-    "mass_kg",
-    "cycle_time_s",
-    "worst_cycle_time_s",
-    "transfer_time_s",
-    "settle_time_s",
-    "n_steps",
-    "kinematic_floor_s",
-    "cycle_over_floor",
-    "best_baseline",
-    "best_baseline_cycle_time_s",
-    "peak_deviation_m",
-    "deviation_at_stop_m",
-    "fe_wall_s",
-    "opt_wall_s",
-    "fe_cpu_s",
-    "opt_cpu_s",
-    "worker",
-    "error",
 )
-RUN_COLUMNS = (
-    "fe_wall_s",
-    "opt_wall_s",
-    "fe_cpu_s",
-    "opt_cpu_s",
-    "worker",
-)  # differ between runs of the same case
-_FE = ("n_dof", "n_modes", "n_points", "first_freq_hz", "mass_kg", "fe_wall_s", "fe_cpu_s")
+_FE = ("n_dof", "n_modes", "n_points", "first_freq_hz", "mass_kg")
 _OPT = (
     "cycle_time_s",
     "worst_cycle_time_s",
@@ -73,9 +44,9 @@ _OPT = (
     "best_baseline_cycle_time_s",
     "peak_deviation_m",
     "deviation_at_stop_m",
-    "opt_wall_s",
-    "opt_cpu_s",
 )
+RUN_COLUMNS = ("fe_wall_s", "opt_wall_s", "fe_cpu_s", "opt_cpu_s", "worker")  # vary per run
+COLUMNS = (*_CASE, *_FE, *_OPT, "cycle_over_floor", *RUN_COLUMNS, "error")
 
 
 def row(case: Case, record: dict | None) -> dict:
@@ -96,8 +67,8 @@ def row(case: Case, record: dict | None) -> dict:
     out["worker"] = record.get("worker")
     out["error"] = record.get("error")
     fe, opt = record.get("fe") or {}, record.get("opt") or {}
-    out.update({k: fe.get(k) for k in _FE})
-    out.update({k: opt.get(k) for k in _OPT})
+    out.update({k: fe.get(k) for k in (*_FE, "fe_wall_s", "fe_cpu_s")})
+    out.update({k: opt.get(k) for k in (*_OPT, "opt_wall_s", "opt_cpu_s")})
     for key in ("fe_wall_s", "fe_cpu_s"):  # an FE error carries its own timing
         if key in record:
             out[key] = record[key]
