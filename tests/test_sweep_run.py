@@ -110,32 +110,54 @@ def test_local_cluster_gives_the_serial_table(serial, tmp_path):
     _assert_same_table(read_table(tmp_path / "results.csv"), reference)
 
 
-def test_killed_run_restarts_with_the_missing_cases_only(serial, tmp_path):
-    _, reference = serial
-    spec_path = tmp_path / "spec.json"
-    spec_path.write_text(json.dumps(SPEC))
-    out = tmp_path / "out"
+def _start(spec_path, out):
     cmd = [sys.executable, "-m", "jaxflex", "sweep", str(spec_path), "-o", str(out)]
-    proc = subprocess.Popen(
+    return subprocess.Popen(
         [*cmd, "--serial", "--quiet", "--no-plots"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         start_new_session=True,
     )
-    cases_dir = out / "cases"
+
+
+def _wait_for_records(proc, cases_dir, count: int) -> None:
     deadline = time.monotonic() + 120
+    while len(list(cases_dir.glob("*.json"))) < count:
+        assert proc.poll() is None, proc.stderr.read().decode()
+        assert time.monotonic() < deadline, "the sweep made no progress"
+        time.sleep(0.01)
+
+
+def test_interrupted_and_killed_runs_restart_with_the_missing_cases_only(serial, tmp_path):
+    _, reference = serial
+    spec_path = tmp_path / "spec.json"
+    spec_path.write_text(json.dumps(SPEC))
+    out = tmp_path / "out"
+    cases_dir = out / "cases"
+
+    # Ctrl-C: the CLI stops, says so, exits 130 and writes the table of what is done
+    proc = _start(spec_path, out)
     try:
-        while len(list(cases_dir.glob("*.json"))) < 4:
-            assert proc.poll() is None, proc.stderr.read().decode()
-            assert time.monotonic() < deadline, "the sweep made no progress"
-            time.sleep(0.01)
+        _wait_for_records(proc, cases_dir, 2)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130 and "jaxflex sweep: interrupted" in err.decode()
+    statuses = [r["status"] for r in read_table(out / "results.csv")]
+    assert statuses.count("pending") == N_CASES - len(list(cases_dir.glob("*.json"))) > 0
+
+    # SIGKILL of the next run midway (no chance to clean up)
+    proc = _start(spec_path, out)
+    try:
+        _wait_for_records(proc, cases_dir, 5)
     finally:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
         proc.stderr.close()
     assert proc.returncode == -signal.SIGKILL
     before = {p.name: p.read_bytes() for p in cases_dir.glob("*.json")}
-    assert 4 <= len(before) < N_CASES, "the kill should land midway"
+    assert 5 <= len(before) < N_CASES, "the kill should land midway"
 
     run = run_sweep(parse_spec(SPEC), out, executor="serial", progress=False, plots=False)
     assert (run.skipped, run.computed) == (len(before), N_CASES - len(before))

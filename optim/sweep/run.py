@@ -19,6 +19,7 @@ computes only the missing cases.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import time
 import uuid
@@ -184,7 +185,8 @@ def _client(scheduler: str | None, n_workers: int | None):
         n_workers=n_workers or os.cpu_count() or 1,
         threads_per_worker=1,
         processes=True,
-        dashboard_address=None,
+        dashboard_address=":0",  # a free port: never clashes with another cluster
+        silence_logs=logging.ERROR,  # not the workers' warnings about cancelled tasks
         env=WORKER_ENV,
     )
     client = Client(cluster)
