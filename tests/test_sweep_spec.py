@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from jaxflex.cli import main
 from jaxflex.errors import InputError
 from optim.sweep.cases import expand
+from optim.sweep.run import run_sweep
 from optim.sweep.spec import EXAMPLE, load_spec, parse_spec
 
 BASE = {
@@ -144,3 +145,17 @@ def test_grid_expands_to_every_combination(nx, ny, inset, radius):
             assert any(xs[0] == pytest.approx(f * width) for f in inset)
         assert xs[0] + xs[-1] == pytest.approx(width)
         assert ys[0] + ys[-1] == pytest.approx(height)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"executor": "threads"}, "executor"),
+        ({"executor": "serial", "scheduler": "tcp://localhost:8786"}, "scheduler"),
+        ({"scheduler": "localhost:8786"}, "scheduler: expected an address like tcp://"),
+        ({"n_workers": 0}, "n_workers"),
+    ],
+)
+def test_bad_run_options_are_named(tmp_path, kwargs, field):
+    with pytest.raises(InputError, match="^" + re.escape(field)):
+        run_sweep(parse_spec(BASE), tmp_path, progress=False, plots=False, **kwargs)

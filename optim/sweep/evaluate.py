@@ -2,8 +2,8 @@
 
 For B cases with models of equal size (K points, M modes) and moves of any length, the
 deviation d(t) = max_p |u_p(t)| (m) is evaluated every dt / ``substeps`` (exact: the
-piecewise-linear profile is the same on the finer grid, jaxflex.upsample) up to a common
-horizon. Two methods give the same numbers (to round-off):
+piecewise-linear profile is the same on the finer grid, as in jaxflex.upsample) up to a
+common horizon. Two methods give the same numbers (to round-off):
 
 * ``"batched"``: one jitted function for the group. The modal recursions of all B cases run
   in one ``lax.scan`` (``jax.vmap`` over the cases: B x M independent oscillators per step),
@@ -14,9 +14,9 @@ horizon. Two methods give the same numbers (to round-off):
 * ``"loop"``: jaxflex.simulate case by case (compiled once per padded shape).
 
 Which pays off is measured by ``python -m optim.sweep.bench`` (docs/sweep.md): the batched
-form wins for small models (many short scans) and ties for large ones; either way the
-evaluation costs milliseconds per case against ~0.3-1 s of optimisation and the FE analysis,
-so the sweep uses it for its plots, not as a bottleneck.
+form is up to ~1.7x faster for small and mid-size models and ties for large ones; either way
+the evaluation costs milliseconds per case against ~0.6-1 s of optimisation and the FE
+analysis, so the sweep uses it for its deviation plot; it is not the bottleneck.
 """
 
 from __future__ import annotations
