@@ -16,7 +16,6 @@ Timings are the best of several repeats of ``jax.block_until_ready`` loops after
 
 from __future__ import annotations
 
-import platform
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -25,6 +24,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxflex.bench.timing import best_time_s, machine
 from jaxflex.convolution import convolve_unit_response, deviation_from_displacement, unit_response
 from jaxflex.model import ModalModel
 from jaxflex.settle import cycle_time
@@ -74,22 +74,6 @@ def sine_move(n_steps: int, dt_s: float, distance_m: float = 1.0) -> np.ndarray:
     acc[:, 2] = 2 * np.pi * distance_m / duration**2 * np.sin(2 * np.pi * t / duration)
     acc[[0, -1]] = 0.0
     return acc
-
-
-def best_time_s(fn: Callable[[], object], repeats: int = 5, min_total_s: float = 0.2) -> float:
-    """Best mean wall time of ``fn`` over ``repeats`` loops (each >= min_total_s / repeats)."""
-    jax.block_until_ready(fn())
-    start = time.perf_counter()
-    jax.block_until_ready(fn())
-    once = max(time.perf_counter() - start, 1e-6)
-    loops = max(1, int(min_total_s / repeats / once))
-    best = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        for _ in range(loops):
-            jax.block_until_ready(fn())
-        best = min(best, (time.perf_counter() - start) / loops)
-    return float(best)
 
 
 def run_bench(case: BenchCase = BenchCase(), *, progress: Callable[[str], None] = print) -> dict:
@@ -152,12 +136,7 @@ def run_bench(case: BenchCase = BenchCase(), *, progress: Callable[[str], None] 
             "threshold_m": case.threshold_m,
             "dtype": "float64",
         },
-        "machine": {
-            "python": platform.python_version(),
-            "jax": jax.__version__,
-            "cpu_count": __import__("os").cpu_count(),
-            "processor": platform.processor() or platform.machine(),
-        },
+        "machine": machine(),
         "targets": {"forward_ms": 5.0, "gradient_over_forward": 3.0},
         "results": results,
     }
