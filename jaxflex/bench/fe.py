@@ -1,0 +1,161 @@
+"""Finite-element scenes and the full-order reference of the accuracy bench.
+
+This is application-layer code (like ``jaxflex.cli``): it imports the ``fem`` package lazily.
+
+* :class:`SceneSpec`: a part (the built-in plate or curved panel, or a smaller one for quick
+  runs), its gripper, mesh, the modes to compute and the monitored points.
+* :func:`knot_move`: the test move, piecewise linear with knots every 100 ms, so that it is
+  the *same* profile when sampled at 10, 20 or 25 ms (the preprint's steps).
+* :func:`fe_reference`: the full-order FE transient (``fem.transient_reference``, Newmark
+  average acceleration) at a fine step h and at 2 h, combined by Richardson extrapolation
+  (u_ref = (4 u_h - u_2h) / 3 removes Newmark's O(h^2) error); |u_ref - u_h| is reported as
+  the error estimate of the plain fine run. Output every 1 ms.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from jaxflex.errors import InputError
+
+KNOT_S = 0.1  # knot spacing of the move: a multiple of every swept dt (10, 20, 25 ms)
+BASE_S = 0.005  # the move is handed to the FE transient at this step (divides 10, 20, 25 ms)
+OUTPUT_PER_BASE = 5  # reference output every BASE_S / 5 = 1 ms
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """One scene of the accuracy bench (SI units).
+
+    name: "plate" (Kirchhoff plate, element ``element``) or "panel" (curved thin solid).
+    width_m, height_m: footprint; mesh_size_m: element size (None: fem's default);
+    cup_radius_m: four cups at 22 %/78 % of width and height (fem.default_gripper).
+    n_modes: modes computed (the largest count swept); mode_counts: counts swept.
+    n_points: monitored points (voxel-reduced FE nodes); voxel_sizes_m: coarser point sets.
+    omega1_h: omega_1 h of the finest FE step (the reference); move_s / rest_s: the move's
+    duration and the rest after it; fe_factors: the FE method is also run at these multiples
+    of the fine step (its own accuracy-time front).
+    """
+
+    name: str
+    width_m: float = 1.5
+    height_m: float = 0.8
+    mesh_size_m: float | None = None
+    cup_radius_m: float = 0.04
+    element: str = "morley"
+    n_modes: int = 80
+    mode_counts: tuple[int, ...] = (10, 20, 40, 80)
+    n_points: int = 1000
+    voxel_sizes_m: tuple[float, ...] = (0.1, 0.2)
+    omega1_h: float = 0.01
+    move_s: float = 0.6
+    rest_s: float = 0.6
+    fe_factors: tuple[int, ...] = (4, 16)
+
+    def describe(self) -> dict:
+        return asdict(self)
+
+
+def knot_move(dt_s: float, move_s: float, rest_s: float, peak_m_s2: float = 8.0) -> np.ndarray:
+    """Rest-to-rest move along (0.3, 0, 1)/|.| sampled every ``dt_s`` (s): acceleration ramps
+    up, holds, ramps down, then the mirror image (braking), each phase ``move_s`` / 6 long
+    (a multiple of KNOT_S), followed by ``rest_s`` at rest: (n+1, 3) in m/s^2."""
+    phase = move_s / 6
+    if abs(phase / KNOT_S - round(phase / KNOT_S)) > 1e-9 or round(phase / KNOT_S) < 1:
+        raise InputError(f"move_s: must be a multiple of {6 * KNOT_S:g} s, got {move_s}")
+    steps = (move_s + rest_s) / dt_s
+    if abs(steps - round(steps)) > 1e-9 or abs(KNOT_S / dt_s - round(KNOT_S / dt_s)) > 1e-9:
+        raise InputError(f"dt_s: {KNOT_S} s and the horizon must be multiples of it, got {dt_s}")
+    t = np.arange(round(steps) + 1) * dt_s
+    knots_t = phase * np.arange(7)
+    knots_a = peak_m_s2 * np.array([0, 1, 1, 0, -1, -1, 0], dtype=float)
+    shape = np.interp(t, knots_t, knots_a, right=0.0)
+    direction = np.array([0.3, 0.0, 1.0]) / math.hypot(0.3, 1.0)
+    acc = np.outer(shape, direction)
+    acc[[0, -1]] = 0.0
+    return acc
+
+
+def build_scene(spec: SceneSpec, progress: bool | None = None):
+    """Modal analysis of ``spec`` and the Rayleigh damping with 2 % at its first and 10th
+    mode (pass it to ``to_modal_model(zeta=)`` and the transient so that both agree):
+    (fem.ModalResult, fem.Rayleigh, seconds)."""
+    import fem
+
+    start = time.perf_counter()
+    if spec.name == "plate":
+        part = fem.rectangular_plate(
+            spec.width_m, spec.height_m, 1e-3, "steel", spec.mesh_size_m, element=spec.element
+        )
+    elif spec.name == "panel":
+        part = fem.curved_panel(spec.width_m, spec.height_m, 1e-3, "steel", spec.mesh_size_m)
+    else:
+        raise InputError(f"scene: must be 'plate' or 'panel', got {spec.name!r}")
+    cups = fem.default_gripper(spec.width_m, spec.height_m, spec.cup_radius_m)
+    result = fem.modal_analysis(part, cups, spec.n_modes, zeta=0.02, progress=progress)
+    f_ref = result.freq_hz[min(10, result.n_modes) - 1]
+    damping = fem.Rayleigh.from_zeta(0.02, float(result.freq_hz[0]), float(f_ref))
+    return result, damping, time.perf_counter() - start
+
+
+@dataclass
+class Reference:
+    """Full-order FE transient at the monitored points (SI units).
+
+    t_s (T,), displacement_m (T, K, 3): Richardson-extrapolated reference; points (K, 3);
+    runs: {factor: (displacement (T, K, 3), integration seconds)} for the plain Newmark runs
+    at ``factor`` times the fine step h_s (factor 1 = the fine run).
+    """
+
+    t_s: np.ndarray
+    displacement_m: np.ndarray
+    points: np.ndarray
+    h_s: float
+    runs: dict
+    n_dof: int
+
+    @property
+    def deviation_m(self) -> np.ndarray:
+        return np.linalg.norm(self.displacement_m, axis=2).max(axis=1)
+
+
+def fe_reference(result, damping, spec: SceneSpec, progress: bool | None = None) -> Reference:
+    """Full-order transient of ``result`` under :func:`knot_move` at the fine step (omega_1 h
+    = spec.omega1_h), at 2 h (Richardson) and at the multiples ``spec.fe_factors`` of h."""
+    import fem
+
+    base = BASE_S
+    acc = knot_move(base, spec.move_s, 0.0)
+    omega1 = 2 * np.pi * float(result.freq_hz[0])
+    factors = sorted({1, 2, *spec.fe_factors})
+    lcm = math.lcm(*factors) * OUTPUT_PER_BASE
+    substeps = lcm * max(1, math.ceil(omega1 * base / spec.omega1_h / lcm))
+    runs, points = {}, None
+    for factor in factors:
+        run = fem.transient_reference(
+            result,
+            acc,
+            base,
+            damping=damping,
+            points=spec.n_points if points is None else points,
+            substeps=substeps // factor,
+            output_substeps=OUTPUT_PER_BASE,
+            extend_s=spec.rest_s,
+            progress=progress,
+        )
+        points = run.points if points is None else points
+        runs[factor] = (run.displacement_m, run.timings_s["integration_s"])
+        t_s = run.t_s
+    extrapolated = (4 * runs[1][0] - runs[2][0]) / 3
+    return Reference(
+        t_s=t_s,
+        displacement_m=extrapolated,
+        points=points,
+        h_s=base / substeps,
+        runs=runs,
+        n_dof=int(result.K_free.shape[0]),
+    )
