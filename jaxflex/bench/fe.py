@@ -9,7 +9,7 @@ This is application-layer code (like ``jaxflex.cli``): it imports the ``fem`` pa
 * :func:`fe_reference`: the full-order FE transient (``fem.transient_reference``, Newmark
   average acceleration) at a fine step h and at 2 h, combined by Richardson extrapolation
   (u_ref = (4 u_h - u_2h) / 3 removes Newmark's O(h^2) error); |u_ref - u_h| is reported as
-  the error estimate of the plain fine run. Output every 1 ms.
+  the error estimate of the plain fine run. Output every 1 ms by default.
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ from jaxflex.errors import InputError
 
 KNOT_S = 0.1  # knot spacing of the move: a multiple of every swept dt (10, 20, 25 ms)
 BASE_S = 0.005  # the move is handed to the FE transient at this step (divides 10, 20, 25 ms)
-OUTPUT_PER_BASE = 5  # reference output every BASE_S / 5 = 1 ms
 
 
 @dataclass(frozen=True)
@@ -38,7 +37,9 @@ class SceneSpec:
     n_points: monitored points (voxel-reduced FE nodes); voxel_sizes_m: coarser point sets.
     omega1_h: omega_1 h of the finest FE step (the reference); move_s / rest_s: the move's
     duration and the rest after it; fe_factors: the FE method is also run at these multiples
-    of the fine step (its own accuracy-time front).
+    of the fine step (its own accuracy-time front); dt_sweep_s: sample steps swept (the
+    first is the base case); newmark_substeps: Newmark steps per sample swept;
+    output_per_base: reference outputs per BASE_S (5: every 1 ms).
     """
 
     name: str
@@ -55,6 +56,9 @@ class SceneSpec:
     move_s: float = 0.6
     rest_s: float = 0.6
     fe_factors: tuple[int, ...] = (4, 16)
+    dt_sweep_s: tuple[float, ...] = (0.01, 0.02, 0.025)
+    newmark_substeps: tuple[int, ...] = (1, 8)
+    output_per_base: int = 5
 
     def describe(self) -> dict:
         return asdict(self)
@@ -132,7 +136,7 @@ def fe_reference(result, damping, spec: SceneSpec, progress: bool | None = None)
     acc = knot_move(base, spec.move_s, 0.0)
     omega1 = 2 * np.pi * float(result.freq_hz[0])
     factors = sorted({1, 2, *spec.fe_factors})
-    lcm = math.lcm(*factors) * OUTPUT_PER_BASE
+    lcm = math.lcm(*factors) * spec.output_per_base
     substeps = lcm * max(1, math.ceil(omega1 * base / spec.omega1_h / lcm))
     runs, points = {}, None
     for factor in factors:
@@ -143,7 +147,7 @@ def fe_reference(result, damping, spec: SceneSpec, progress: bool | None = None)
             damping=damping,
             points=spec.n_points if points is None else points,
             substeps=substeps // factor,
-            output_substeps=OUTPUT_PER_BASE,
+            output_substeps=spec.output_per_base,
             extend_s=spec.rest_s,
             progress=progress,
         )

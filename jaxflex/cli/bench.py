@@ -1,13 +1,12 @@
-"""``jaxflex bench``: speed and accuracy figures of the core as a table and JSON."""
+"""``jaxflex bench``: speed and accuracy of every method as JSON plus PNG charts."""
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 COMMAND = "bench"
-HELP = "speed and accuracy figures as JSON"
+HELP = "speed and accuracy figures of every method as JSON + charts (SI units)"
 ORDER = 90
 
 
@@ -15,21 +14,43 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "-o",
         "--output",
-        default="jaxflex_bench.json",
-        help="JSON file to write (default jaxflex_bench.json)",
+        default="jaxflex_bench",
+        help="directory for bench.json and the PNG charts (default jaxflex_bench); a path "
+        "ending in .json names the JSON file itself, the charts go next to it",
     )
-    parser.add_argument(
-        "--quick", action="store_true", help="small case (K=200, M=10, N=200) for CI"
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument(
+        "--quick",
+        action="store_true",
+        help="CI size: small scenes, few sweep points, core case K=200 M=10 N=200 (~30 s)",
+    )
+    size.add_argument(
+        "--size",
+        choices=("quick", "medium", "full"),
+        default="full",
+        help="full (default): the built-in scenes, several minutes; medium: small scenes with "
+        "the full sweeps",
     )
 
 
 def run(args: argparse.Namespace) -> int:
-    from jaxflex.atomic import write_text_atomic
-    from jaxflex.bench import QUICK, BenchCase, format_table, run_bench
+    from pathlib import Path
 
-    case = QUICK if args.quick else BenchCase()
-    report = run_bench(case, progress=lambda msg: print(msg, file=sys.stderr, flush=True))
+    from jaxflex.bench import format_table
+    from jaxflex.bench.suite import run_suite, summary_lines
+
+    size = "quick" if args.quick else args.size
+    out = Path(args.output)
+    json_path = out if out.suffix == ".json" else None
+    out_dir = out.parent if json_path is not None else out
+    report = run_suite(
+        out_dir,
+        size,
+        progress=lambda msg: print(msg, file=sys.stderr, flush=True),
+        json_path=json_path,
+    )
     print(format_table(report))
-    write_text_atomic(args.output, json.dumps(report, indent=2))
-    print(f"wrote {args.output}")
+    print("\n".join(summary_lines(report)))
+    charts = ", ".join(report["charts"].values())
+    print(f"wrote {report['json_path']} and charts {charts} in {out_dir}")
     return 0
