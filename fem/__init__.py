@@ -10,6 +10,7 @@ from fem.materials import PRESETS, Material, resolve_material
 from fem.modal import ModalResult, modal_analysis
 from fem.parts import Part, curved_panel, read_mesh, rectangular_plate
 from fem.scenes import SCENES, default_gripper, default_model, scene
+from fem.sizing import SizingResult, size_model
 from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup
 from fem.transient import TransientResult, agreement, transient_reference
 
@@ -23,6 +24,7 @@ __all__ = [
     "PointSupport",
     "Rayleigh",
     "SimplySupportedEdge",
+    "SizingResult",
     "SuctionCup",
     "TransientResult",
     "agreement",
@@ -38,5 +40,6 @@ __all__ = [
     "rectangular_plate",
     "resolve_material",
     "scene",
+    "size_model",
     "transient_reference",
 ]

@@ -152,7 +152,10 @@ class Part:
 
     Create it with :func:`rectangular_plate`, :func:`curved_panel` or :func:`read_mesh`.
     ``mesh_size_m`` None means the default for the element (see ``DEFAULT_SIZE_M``); it is
-    ignored for parts read from a mesh file (their mesh is used as is).
+    ignored for parts read from a mesh file (their mesh is used as is). ``cup_fine_fraction``
+    (element size inside a cup band as a fraction of the cup radius) None means the default
+    for the element (``CUP_FINE_FRACTION``); fem.sizing scales it with the base size so that
+    a refinement sequence refines the whole mesh.
     """
 
     name: str
@@ -161,6 +164,7 @@ class Part:
     thickness_m: float
     mesh_size_m: float | None
     geometry: Any
+    cup_fine_fraction: float | None = None
 
     @property
     def kind(self) -> str:
@@ -185,7 +189,7 @@ class Part:
 
     def mesh(self, cups=()) -> PlateMesh | SurfaceMesh:
         """The mesh used for analysis, refined around ``cups`` (built-in parts)."""
-        fine = CUP_FINE_FRACTION[self.element]
+        fine = self.cup_fine_fraction or CUP_FINE_FRACTION[self.element]
         if self.kind == "plate":
             return self.geometry.plate_mesh(self.element_size_m, cups, fine)
         return self.geometry.surface_mesh(self.element_size_m, cups, fine)
@@ -196,6 +200,7 @@ class Part:
             "element": self.element,
             "thickness_m": self.thickness_m,
             "mesh_size_m": None if isinstance(self.geometry, _GivenMesh) else self.element_size_m,
+            **({"cup_fine_fraction": self.cup_fine_fraction} if self.cup_fine_fraction else {}),
             **self.geometry.description,
         }
 

@@ -1,4 +1,8 @@
-"""``jaxflex model``: part + gripper -> finite-element modal analysis -> modal model file."""
+"""``jaxflex model``: part + gripper -> finite-element modal analysis -> modal model file.
+
+With ``--tolerance`` the mesh, the number of modes and the monitored points are chosen for a
+move (``--trajectory`` or ``--distance`` with limits) and a ``--threshold`` by fem.size_model.
+"""
 
 from __future__ import annotations
 
@@ -36,6 +40,16 @@ def _points(text: str) -> int | str:
         return int(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(f"expected a count or 'all', got {text!r}") from exc
+
+
+def _tolerance(text: str) -> float:
+    """'1%' -> 0.01, '0.01' -> 0.01."""
+    raw = text.strip()
+    scale = 0.01 if raw.endswith("%") else 1.0
+    try:
+        return float(raw.removesuffix("%")) * scale
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected e.g. 1% or 0.01, got {text!r}") from exc
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -95,13 +109,86 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--points",
         type=_points,
-        default=1000,
+        default=None,
         help="monitored points: a count (voxel-reduced, default 1000) or 'all'",
     )
     parser.add_argument("--plot", metavar="PNG", help="picture of the part, cups and modes")
     parser.add_argument("--vtu", metavar="FILE", help="mode shapes for ParaView (.vtu/.xdmf)")
     parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
     parser.add_argument("-o", "--output", default="model.npz", help="model file (.npz)")
+    _add_sizing_arguments(parser)
+
+
+def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group(
+        "model sizing (--tolerance): choose the mesh, modes and points for a move; exit status "
+        "1 if the tolerance was not met (the best model found is still written)"
+    )
+    group.add_argument(
+        "--tolerance",
+        type=_tolerance,
+        help="accuracy of the deviation (share of its peak) and of the settle time (share of "
+        "the cycle time), e.g. 1%% or 0.01",
+    )
+    move = group.add_mutually_exclusive_group()
+    move.add_argument(
+        "--trajectory",
+        metavar="CSV|DIR",
+        help="the move: a trajectory CSV (jaxflex optimize -o DIR writes DIR/trajectory.csv)",
+    )
+    move.add_argument(
+        "--distance",
+        nargs=3,
+        type=float,
+        metavar=("X", "Y", "Z"),
+        help="the move: jerk-limited straight move by this displacement, m",
+    )
+    for name, unit, default in (
+        ("vmax", "m/s", 2.0),
+        ("amax", "m/s^2", 10.0),
+        ("jmax", "m/s^3", 100.0),
+    ):
+        group.add_argument(
+            f"--{name}",
+            nargs="+",
+            type=float,
+            metavar="V",
+            help=f"--distance: per-axis limit in {unit}, one value or three; default {default:g}",
+        )
+    group.add_argument("--dt", type=float, help="--distance: sample step in s (default 0.01)")
+    group.add_argument("--threshold", type=float, help="settle threshold in m (e.g. 0.0005)")
+    group.add_argument(
+        "--mesh-sizes",
+        nargs="+",
+        type=float,
+        metavar="H",
+        help="element sizes to try in m, coarse to fine (default: 4 ... 0.7 x the default size)",
+    )
+    group.add_argument(
+        "--max-modes", type=int, default=160, help="most modes to compute (default 160)"
+    )
+    group.add_argument(
+        "--key-points",
+        nargs="+",
+        type=_pair,
+        metavar="X,Y",
+        help="points that must stay monitored (x,y in m on the part)",
+    )
+    group.add_argument("--report", metavar="JSON", help="write the sizing report here")
+
+
+SIZING_ONLY = (
+    "trajectory",
+    "distance",
+    "vmax",
+    "amax",
+    "jmax",
+    "dt",
+    "threshold",
+    "mesh_sizes",
+    "key_points",
+    "report",
+)
 
 
 def _material(args):
@@ -137,6 +224,11 @@ def run(args: argparse.Namespace) -> int:
     supports += [fem.ClampedEdge(side) for side in args.clamped_edges]
     if not supports:
         raise InputError("--cups: a mesh file needs a gripper (--cups X,Y,R ...)")
+    if args.tolerance is not None:
+        return _run_sizing(args, part, supports)
+    for name in SIZING_ONLY:
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name.replace('_', '-')}: only with --tolerance")
     n_modes = args.n_modes
     if n_modes is None and args.max_freq is None:
         n_modes = 20
@@ -150,7 +242,15 @@ def run(args: argparse.Namespace) -> int:
         progress=False if args.no_progress else None,
     )
     print(result.summary())
-    model = result.to_modal_model(points=None if args.points == "all" else args.points)
+    points = 1000 if args.points is None else args.points
+    model = result.to_modal_model(points=None if points == "all" else points)
+    _write(args, model, result)
+    return 0
+
+
+def _write(args, model, result) -> None:
+    import fem
+
     model.save(args.output)
     print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
     if args.plot:
@@ -159,4 +259,80 @@ def run(args: argparse.Namespace) -> int:
     if args.vtu:
         fem.export_modes(result, args.vtu)
         print(f"wrote {args.vtu}")
+
+
+def _move(args):
+    """(acc, dt) of the move at hand from --trajectory or --distance and the limits."""
+    from pathlib import Path
+
+    from jaxflex.errors import InputError
+
+    limits = {}
+    for name, default in (("vmax", 2.0), ("amax", 10.0), ("jmax", 100.0)):
+        given = getattr(args, name)
+        if given is not None and args.distance is None:
+            raise InputError(f"--{name}: only with --distance (a trajectory has its own limits)")
+        if given is not None and len(given) not in (1, 3):
+            raise InputError(f"--{name}: give one value or three (x y z), got {len(given)}")
+        limits[name] = default if given is None else (given[0] if len(given) == 1 else given)
+    if args.trajectory is not None:
+        from optim.trajectory_io import read_trajectory_csv
+
+        if args.dt is not None:
+            raise InputError("--dt: only with --distance (the trajectory file has its step)")
+        path = Path(args.trajectory)
+        return read_trajectory_csv(path / "trajectory.csv" if path.is_dir() else path)
+    if args.distance is None:
+        raise InputError("--tolerance: give the move, --trajectory FILE or --distance X Y Z")
+    from optim.profiles import jerk_limited_move
+
+    dt = 0.01 if args.dt is None else args.dt
+    return jerk_limited_move(args.distance, dt=dt, **limits), dt
+
+
+def _run_sizing(args, part, supports) -> int:
+    import sys
+
+    import fem
+    from jaxflex.errors import InputError
+
+    for name in ("n_modes", "max_freq", "points"):
+        if getattr(args, name) is not None:
+            raise InputError(
+                f"--{name.replace('_', '-')}: chosen by --tolerance (use --max-modes, "
+                "--key-points or --mesh-sizes to steer it)"
+            )
+    if args.threshold is None:
+        raise InputError("--threshold: the settle threshold in m is required with --tolerance")
+    if args.mesh is not None and args.mesh_sizes is not None:
+        raise InputError("--mesh-sizes: a mesh file is used as is")
+    acc, dt = _move(args)
+    sized = fem.size_model(
+        part,
+        supports,
+        acc,
+        dt,
+        args.threshold,
+        args.tolerance,
+        zeta=args.zeta,
+        mesh_sizes_m=args.mesh_sizes,
+        max_modes=args.max_modes,
+        reference_modes=min(40, args.max_modes),
+        key_points=args.key_points,
+        allow_rigid_modes=args.allow_rigid_modes,
+        progress=False if args.no_progress else None,
+        log=print,
+    )
+    print(sized.summary())
+    _write(args, sized.model, sized.result)
+    if args.report:
+        sized.save_report(args.report)
+        print(f"wrote {args.report}")
+    if not sized.met:
+        print(
+            f"jaxflex model: tolerance {100 * args.tolerance:g} % not met; the best model found "
+            "was written (see the notes above)",
+            file=sys.stderr,
+        )
+        return 1
     return 0
