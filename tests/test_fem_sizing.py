@@ -1,0 +1,180 @@
+"""fem.size_model: the tolerance-driven model meets its tolerance against a richer model.
+
+The scenes are the built-in plate and panel scaled down (same kind of part, gripper at the
+same fractions of the footprint, cups of 30 mm) so that a whole refinement sequence costs
+seconds; the move is a short jerk-limited lift along z (the direction both parts respond to).
+The richer model is built here, independently of the sizing code: a mesh at least as fine as
+the sizing's reference (finer than the chosen mesh), more modes, every node as a monitored
+point, simulated with jaxflex.simulate and timed with jaxflex.analyze_move.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import numpy as np
+import pytest
+
+import fem
+import jaxflex
+from jaxflex.errors import InputError
+from optim.profiles import jerk_limited_move
+
+DT_S = 0.01
+FACTOR = 10  # evaluation step dt / 10 = 1 ms: >= 1.5 samples per period of every mode kept
+CUP_M = 0.03
+# The thresholds are about half the peak deviation (a settle time > 0 that the check must
+# match). The tolerances are the tightest that the cup clamp (a staircase disc on the grid,
+# converging irregularly at about first order) and the thin solid's locking let a test-sized
+# sequence reach; the criterion is the same at 1 % (measured figures in docs/fem.md).
+# ``rich_refine``: the richer model's element size is the reference's / rich_refine and it
+# has rich_modes x the reference's modes (the panel's reference is already the finest
+# affordable here: the sizing computed ~100 modes on it).
+CASES = {
+    "plate": {
+        "footprint_m": (0.6, 0.4),
+        "threshold_m": 5e-5,
+        "tolerance": 0.05,
+        "sizes_m": (0.06, 0.042, 0.03, 0.021, 0.015),
+        "reference_modes": 20,
+        "rich_refine": 2**0.5,
+        "rich_modes": 1.5,
+    },
+    "panel": {
+        "footprint_m": (0.6, 0.4),
+        "threshold_m": 5e-6,
+        "tolerance": 0.05,
+        "sizes_m": (0.042, 0.03, 0.021),
+        "reference_modes": 45,  # the thin solid needs ~100 (measured): skip cheap re-solves
+        "rich_refine": 1.0,
+        "rich_modes": 1.0,
+    },
+}
+
+
+def small_scene(kind: str) -> tuple[fem.Part, list]:
+    width, height = CASES[kind]["footprint_m"]
+    if kind == "plate":
+        part = fem.rectangular_plate(width, height, 1e-3)
+    else:  # the panel's radii scaled with its footprint (2.5 m and 1.2 m at 1.5 m x 0.8 m)
+        part = fem.curved_panel(width, height, 1e-3, radius_x=1.0, radius_y=0.48)
+    return part, fem.default_gripper(width, height, CUP_M)
+
+
+def lift() -> np.ndarray:
+    return jerk_limited_move((0.0, 0.0, 0.3), vmax=2.0, amax=10.0, jmax=100.0, dt=DT_S)
+
+
+@pytest.fixture(
+    scope="module",
+    params=["plate", pytest.param("panel", marks=pytest.mark.slow)],  # panel: ~100 s
+)
+def sized(request):
+    kind = request.param
+    case = CASES[kind]
+    part, supports = small_scene(kind)
+    result = fem.size_model(
+        part,
+        supports,
+        lift(),
+        DT_S,
+        case["threshold_m"],
+        case["tolerance"],
+        mesh_sizes_m=case["sizes_m"],
+        reference_modes=case["reference_modes"],
+        progress=False,
+    )
+    return kind, result
+
+
+def richer_model(kind: str, result: fem.SizingResult) -> jaxflex.ModalModel:
+    """The sizing's reference mesh refined by rich_refine (cup elements alike), analysed here
+    with rich_modes x its modes and every node as a monitored point."""
+    part, supports = small_scene(kind)
+    ref, case = result.reference, CASES[kind]
+    finer = dataclasses.replace(
+        part,
+        mesh_size_m=ref["mesh_size_m"] / case["rich_refine"],
+        cup_fine_fraction=ref["cup_fine_fraction"] / case["rich_refine"],
+    )
+    n_modes = round(case["rich_modes"] * ref["n_modes"])
+    modal = fem.modal_analysis(finer, supports, n_modes=n_modes, progress=False)
+    return modal.to_modal_model(points=None)
+
+
+def deviation(model: jaxflex.ModalModel, acc: np.ndarray, horizon_s: float) -> np.ndarray:
+    """d(t) every dt / FACTOR (exact samples of the piecewise-linear move), then free decay."""
+    extend = horizon_s - (acc.shape[0] - 1) * DT_S
+    response = jaxflex.simulate(
+        model, jaxflex.upsample(acc, FACTOR), DT_S / FACTOR, extend_s=extend
+    )
+    return np.asarray(response.deviation)
+
+
+def test_meets_tolerance_against_richer_model(sized):
+    kind, result = sized
+    tol, threshold = result.tolerance, CASES[kind]["threshold_m"]
+    assert result.met, result.summary()
+    chosen, rich = result.model, richer_model(kind, result)
+    # the chosen model is smaller on every count
+    assert chosen.n_points < rich.n_points and chosen.n_modes < rich.n_modes
+    assert result.choice["n_dof"] < result.reference["n_dof"]
+
+    acc = lift()
+    rich_report = jaxflex.analyze_move(rich, acc, DT_S, threshold)
+    report = jaxflex.analyze_move(chosen, acc, DT_S, threshold)
+    assert rich_report.settle_time_s > 0  # the settle criterion is exercised, not trivially 0
+    # compare up to the later cycle time plus two periods of the first mode
+    horizon = max(report.cycle_time_s, rich_report.cycle_time_s) + 2.0 / rich.freq_hz[0]
+    d, d_rich = deviation(chosen, acc, horizon), deviation(rich, acc, horizon)
+    linf = np.abs(d - d_rich).max() / d_rich.max()
+    # The issue's requirement, as size_model defines it: deviation L-inf relative to the peak
+    # within the tolerance (the sizing budgets its mesh share against the Richardson-estimated
+    # converged mesh, so a finer mesh than its reference must agree too).
+    assert linf <= tol, (linf, result.summary())
+    # Settle time within tol x the cycle time, or explained by the deviation error: inside
+    # the richer model's settle times for thresholds (1 +- tol) x threshold (the settle time
+    # jumps by half a period where a peak touches the threshold).
+    error_s = abs(report.settle_time_s - rich_report.settle_time_s)
+    if error_s > tol * rich_report.cycle_time_s:
+        lo = jaxflex.analyze_move(rich, acc, DT_S, threshold * (1 + tol)).settle_time_s
+        hi = jaxflex.analyze_move(rich, acc, DT_S, threshold * (1 - tol)).settle_time_s
+        assert lo <= report.settle_time_s <= hi, (report, rich_report, lo, hi)
+
+
+def test_richardson_recovers_a_power_law():
+    """Errors e(h) = C h^2 on a sqrt 2 sequence: the estimate of the finest level's error from
+    the differences is exact (observed order 2); with two levels order 1 is assumed, which
+    over-estimates a second-order error (the safe side)."""
+    from fem.sizing import _richardson
+
+    h = 0.06 / np.sqrt(2.0) ** np.arange(4)
+    e = 3.0 * h**2
+    deltas, ratios = list(e[:-1] - e[1:]), list(h[:-1] / h[1:])
+    estimate, order, _ = _richardson(deltas, ratios)
+    assert order == pytest.approx(2.0, rel=1e-12)
+    assert estimate == pytest.approx(e[-1], rel=1e-12)
+    two_levels, order, _ = _richardson(deltas[:1], ratios[:1])
+    assert order is None and two_levels > e[1]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"tolerance": 0.5}, "tolerance: a fraction in (0, 0.5)"),
+        ({"tolerance": -0.01}, "tolerance: must be a finite number > 0"),
+        ({"threshold_m": None}, "threshold_m: the settle threshold"),
+        ({"acc": np.zeros((5, 3))}, "acc: every sample is 0"),
+        ({"mesh_sizes_m": (0.03, 0.04)}, "mesh_sizes_m: give at least two element sizes"),
+        ({"shares": (0.7, 0.3, 0.2)}, "shares: three fractions"),
+        ({"zeta": 0.0}, "zeta: must be > 0"),
+        ({"part": "fender"}, "part: a fem part or a scene"),
+    ],
+)
+def test_size_model_input_errors(kwargs, message):
+    part, supports = small_scene("plate")
+    args = {"part": part, "supports": supports, "acc": lift(), "dt_s": DT_S}
+    args.update({"threshold_m": 5e-5, **kwargs})
+    with pytest.raises(InputError, match=re.escape(message)):
+        fem.size_model(**args, progress=False)
