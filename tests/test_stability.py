@@ -4,9 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.linalg
+import scipy.sparse.linalg
 from closed_forms import piecewise_linear_response
 
+import fem
 import jaxflex
+from jaxflex.bench.metrics import settle_from_samples
 from jaxflex.integrators import central_difference_modal, newmark_modal
 
 
@@ -87,3 +91,78 @@ def test_float32_drifts_over_long_horizons_float64_does_not():
             np.testing.assert_allclose(q64, expected, atol=1e-11 * np.abs(expected).max())
     assert errors[1_000] < 1e-5
     assert errors[100_000] > 10 * errors[1_000]
+
+
+def test_step_sampling_misses_the_settle_time_analyze_move_does_not():
+    """A 6.7 Hz mode (omega dt = 0.42, zeta 5 %) after a short pulse: read at the 10 ms steps,
+    the deviation drops below the 5 % threshold ~65 ms too early, because an oscillation
+    peak between two samples still crosses it. jaxflex.analyze_move certifies the gaps between
+    samples and finds the true last crossing. Truth: the closed-form response (independent of
+    jaxflex) evaluated 64 times finer than dt."""
+    dt, zeta, omega = 0.01, 0.05, 0.4217 / 0.01
+    model = one_mode(omega / (2 * np.pi), zeta)
+    acc = np.zeros((5, 3))
+    acc[1:4, 2] = [1.0, 2.0, 1.0]
+    n_rest = 1200  # e^{-zeta omega t} < 1e-10 at the end: nothing crosses afterwards
+    full = np.concatenate([acc, np.zeros((n_rest, 3))])
+    t_dense = dt / 64 * np.arange(64 * (len(full) - 1) + 1)
+    dense = np.abs(piecewise_linear_response(t_dense, full[:, 2], dt, omega, zeta))
+    threshold = 0.05 * dense.max()
+    truth = settle_from_samples(t_dense, dense, threshold)
+    exact = jaxflex.analyze_move(model, acc, dt, threshold).settle_time_s
+    # the dense truth itself is read with linear interpolation: within one fine step
+    assert abs(exact - truth) <= dt / 64
+    sampled_dev = np.asarray(jaxflex.simulate(model, full, dt).deviation)
+    sampled = settle_from_samples(dt * np.arange(len(full)), sampled_dev, threshold)
+    assert sampled < truth - 0.03  # measured: 65 ms early (the period is 149 ms)
+    # ... because a peak between samples after the sampled "settle" exceeds the threshold
+    late = t_dense > sampled + dt
+    assert dense[late].max() > threshold
+
+
+def _pinned_plate(points, allow_rigid_modes):
+    part = fem.rectangular_plate(0.3, 0.2, 1e-3, "steel", 0.03)
+    supports = [fem.PointSupport(x, y) for x, y in points]
+    return fem.modal_analysis(part, supports, 6, allow_rigid_modes=allow_rigid_modes)
+
+
+@pytest.mark.parametrize(
+    "points",
+    [[(0.05, 0.1), (0.25, 0.1)], [(0.05, 0.1), (0.15, 0.1), (0.25, 0.1)]],
+    ids=["two pins", "three collinear pins"],
+)
+def test_rigid_mode_is_detected_where_a_naive_solve_fails(points):
+    """A plate pinned on one line can rotate about it: K is singular (cond ~1e17). fem's
+    shift-invert solve about a negative shift (K - sigma M positive definite) reports exactly
+    one rigid-body mode and elastic frequencies equal to a dense generalised eigen solve;
+    the naive routes fail: the layout is rejected without allow_rigid_modes, a factorisation
+    of K returns garbage silently, and Lanczos for the smallest eigenvalues without a shift
+    does not converge."""
+    with pytest.raises(jaxflex.InputError, match="allow_rigid_modes"):
+        _pinned_plate(points, allow_rigid_modes=False)
+    result = _pinned_plate(points, allow_rigid_modes=True)
+    assert result.rigid_freq_hz.size == 1 and result.rigid_freq_hz[0] < 0.01
+    K, M = result.K_free.toarray(), result.M_free.toarray()
+    dense = np.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True)[1:7]) / (2 * np.pi)
+    # both solve the same matrices: agreement to round-off of the eigenvalues
+    np.testing.assert_allclose(result.freq_hz, dense, rtol=1e-8)
+    b = np.ones(K.shape[0])
+    x = scipy.sparse.linalg.splu(result.K_free.tocsc()).solve(b)
+    assert not np.abs(K @ x - b).max() <= 1e-6 * np.abs(b).max()  # no solution exists
+    with pytest.raises(scipy.sparse.linalg.ArpackNoConvergence):
+        scipy.sparse.linalg.eigsh(result.K_free, k=4, M=result.M_free, which="SM", maxiter=200)
+
+
+def test_near_collinear_pins_give_an_accurate_soft_mode():
+    """Three pins 1 mm off one line hold the plate, barely: the lowest mode (16 Hz, a third of
+    the next) is elastic and K is ill-conditioned (~4e6). The layout is rejected unless
+    allowed; once allowed, no mode is reported rigid and all six match the dense solve."""
+    points = [(0.05, 0.1), (0.15, 0.101), (0.25, 0.1)]
+    with pytest.raises(jaxflex.InputError, match="collinear"):
+        _pinned_plate(points, allow_rigid_modes=False)
+    result = _pinned_plate(points, allow_rigid_modes=True)
+    assert result.rigid_freq_hz.size == 0
+    K, M = result.K_free.toarray(), result.M_free.toarray()
+    dense = np.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True)[:6]) / (2 * np.pi)
+    np.testing.assert_allclose(result.freq_hz, dense, rtol=1e-8)
+    assert result.freq_hz[0] < 0.4 * result.freq_hz[1]

@@ -18,7 +18,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from jaxflex.bench.fe import BASE_S, SceneSpec, build_scene, fe_reference, knot_move
+from jaxflex.bench.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_of
 from jaxflex.bench.methods import METHODS, prepare, stable_substeps
 from jaxflex.bench.metrics import compare, curve_errors, settle_from_samples
 from jaxflex.bench.timing import best_time_s
@@ -101,7 +101,7 @@ def run_scene(
         model = full.truncate_modes(n_modes)
         if voxel is not None:
             model = model.select_points(voxel_downsample(model.points, voxel))
-        acc = knot_move(dt_s, spec.move_s, spec.rest_s)
+        acc = move_of(spec, dt_s)
         t_s = dt_s * np.arange(acc.shape[0])
         for method in METHODS:
             for substeps in _variants(method, model, dt_s, spec):
@@ -169,7 +169,7 @@ def agreement_by_modes(full, ref, spec: SceneSpec, threshold_m: float, settle_re
     settle time (jaxflex.analyze_move) against the reference's; ``meets_target`` per DESIGN."""
     import fem
 
-    acc = knot_move(BASE_S, spec.move_s, spec.rest_s)
+    acc = move_of(spec, BASE_S)
     fine = upsample(acc, spec.output_per_base)
     out_step = BASE_S / spec.output_per_base
     rows = []

@@ -20,17 +20,18 @@ import numpy as np
 from jaxflex.errors import InputError
 
 
-def curve_errors(reference_m, estimate_m) -> dict[str, float]:
+def curve_errors(reference_m, estimate_m, peak_m: float | None = None) -> dict[str, float]:
     """R^2, RMSE (m) and L-infinity relative to the reference peak of ``estimate_m`` against
-    ``reference_m`` (both (T,) on the same times). Non-finite estimates (a diverged method)
-    give R^2 = -inf and infinite errors."""
+    ``reference_m`` (both (T,) on the same times). ``peak_m``: the peak to divide by (default
+    max |reference_m|). Non-finite estimates (a diverged method) give R^2 = -inf and infinite
+    errors."""
     ref = np.asarray(reference_m, dtype=float)
     est = np.asarray(estimate_m, dtype=float)
     if ref.shape != est.shape or ref.ndim != 1 or ref.size < 2:
         raise InputError(
             f"curve_errors: need two (T,) curves, T >= 2; got {ref.shape}, {est.shape}"
         )
-    peak = float(np.max(np.abs(ref)))
+    peak = float(np.max(np.abs(ref))) if peak_m is None else float(peak_m)
     if not np.all(np.isfinite(est)):
         return {"r2": -np.inf, "rmse_m": np.inf, "linf_rel_peak": np.inf}
     err = est - ref
@@ -79,13 +80,14 @@ def compare(
 ) -> dict[str, float]:
     """Every metric of a method's curve (t_s, deviation_m) against the reference curve
     (t_ref_s, reference_m): errors at the method's own samples (``samples_*``, the reference
-    is interpolated there when the grids differ), dense errors on the reference grid, and the
+    is interpolated there when the grids differ; L-infinity still relative to the peak of the
+    whole reference curve), dense errors on the reference grid, and the
     settle-time error (s) of the sampled curve against ``settle_ref_s``."""
     t_ref = np.asarray(t_ref_s, dtype=float)
     ref = np.asarray(reference_m, dtype=float)
     t = np.asarray(t_s, dtype=float)
     d = np.asarray(deviation_m, dtype=float)
-    at_samples = curve_errors(on_grid(t_ref, ref, t), d)
+    at_samples = curve_errors(on_grid(t_ref, ref, t), d, peak_m=float(np.max(np.abs(ref))))
     dense = curve_errors(
         ref, on_grid(t, d, t_ref) if np.all(np.isfinite(d)) else np.full_like(ref, np.inf)
     )

@@ -101,7 +101,6 @@ SIZES = {
                 omega1_h=0.01,
                 move_s=0.6,
                 rest_s=0.6,
-                fe_factors=(4, 16),
             ),
             # the built-in panel (geometry and cups) at a 100 mm base mesh (~46k DOFs; the
             # 25 mm default has 100k and a full-order transient of ~40 min here)
@@ -112,10 +111,9 @@ SIZES = {
                 mode_counts=(10, 20, 40, 80, 120),
                 n_points=1000,
                 voxel_sizes_m=(0.05, 0.1, 0.2),
-                omega1_h=0.04,
+                omega1_h=0.05,
                 move_s=0.6,
                 rest_s=0.3,
-                fe_factors=(4, 16),
             ),
         ),
         "omega_dt": OMEGA_DT,
