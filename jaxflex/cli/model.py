@@ -162,7 +162,8 @@ def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
         nargs="+",
         type=float,
         metavar="H",
-        help="element sizes to try in m, coarse to fine (default: 4 ... 0.7 x the default size)",
+        help="element sizes to try in m, coarse to fine (default: 4 ... 1/2 x the part's size "
+        "in sqrt 2 steps; 4 ... 1 x for the thin solid)",
     )
     group.add_argument(
         "--max-modes", type=int, default=160, help="most modes to compute (default 160)"
