@@ -28,6 +28,7 @@ from jaxflex.simulate import simulate, upsample
 
 OURS = ("scan64", "scan32")
 SETTLE_SHARE_OF_PEAK = 0.05
+ROUND_OFF = 1e-9
 
 
 def settle_threshold(t_s: np.ndarray, deviation_m: np.ndarray, rest_s: float) -> float:
@@ -219,7 +220,8 @@ def dominance(points: list[dict], key: str = "samples_linf_rel_peak") -> dict:
     others = [p for p in points if p["method"] not in OURS]
     exceptions = []
     for p in others:
-        if not any(q["time_s"] <= p["time_s"] and q[key] <= p[key] for q in ours):
+        # errors equal to round-off (the convolution is the same linear map) count as equal
+        if not any(q["time_s"] <= p["time_s"] and q[key] <= p[key] * (1 + ROUND_OFF) for q in ours):
             exceptions.append(
                 {k: p[k] for k in ("method", "sweep", "n_modes", "dt_s", "substeps", "time_s")}
                 | {key: p[key]}
