@@ -64,10 +64,10 @@ def run_scene(
 ) -> dict:
     """Every accuracy-time point of ``spec`` and its FE-agreement figures (JSON-ready)."""
     start = time.perf_counter()
-    progress(f"[{spec.name}] modal analysis ...")
+    progress(f"[{spec.key}] modal analysis ...")
     result, damping, modal_s = build_scene(spec, fe_progress)
     progress(
-        f"[{spec.name}] full-order FE transient ({result.K_free.shape[0]} DOFs) "
+        f"[{spec.key}] full-order FE transient ({result.K_free.shape[0]} DOFs) "
         f"[{time.perf_counter() - start:.0f} s] ..."
     )
     ref = fe_reference(result, damping, spec, fe_progress)
@@ -90,12 +90,12 @@ def run_scene(
                 **compare(ref.t_s, ref_dev, ref.t_s, dev, threshold, settle_ref),
             }
         )
-    progress(f"[{spec.name}] reduced methods [{time.perf_counter() - start:.0f} s] ...")
+    progress(f"[{spec.key}] reduced methods [{time.perf_counter() - start:.0f} s] ...")
     runs = _runs(spec, full, full.n_modes)
     try:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=len(runs), desc=f"{spec.name}: reduced methods", leave=False)
+        bar = tqdm(total=len(runs), desc=f"{spec.key}: reduced methods", leave=False)
     except ImportError:  # pragma: no cover - tqdm is a dependency
         bar = None
     for sweep, n_modes, voxel, dt_s in runs:

@@ -51,7 +51,7 @@ def pareto_chart(scene: dict, path: str | os.PathLike) -> None:
     ax.set_ylabel("L-inf error of the deviation / reference peak")
     fe = scene["fe"]
     ax.set_title(
-        f"{scene['scene']['name']}: {fe['formulation']}, {fe['n_dof']} DOFs, "
+        f"{scene['scene']['name']}: {fe['formulation'][:60]}, {fe['n_dof']} DOFs, "
         f"{fe['n_points']} points; reference: full-order FE (h = {fe['reference_h_s']:.2g} s)",
         fontsize=9,
     )

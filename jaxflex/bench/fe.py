@@ -30,7 +30,8 @@ BASE_S = 0.005  # the move is handed to the FE transient at this step (divides 1
 class SceneSpec:
     """One scene of the accuracy bench (SI units).
 
-    name: "plate" (Kirchhoff plate, element ``element``) or "panel" (curved thin solid).
+    name: "plate" or "panel" (curved); element: fem's formulation (None: "morley" for the
+    plate, "hex2" thin solid for the panel; the plate also takes "argyris" and "hex2").
     width_m, height_m: footprint; mesh_size_m: element size (None: fem's default);
     cup_radius_m: four cups at 22 %/78 % of width and height (fem.default_gripper).
     n_modes: modes computed (the largest count swept); mode_counts: counts swept.
@@ -49,7 +50,7 @@ class SceneSpec:
     height_m: float = 0.8
     mesh_size_m: float | None = None
     cup_radius_m: float = 0.04
-    element: str = "morley"
+    element: str | None = None
     n_modes: int = 80
     mode_counts: tuple[int, ...] = (10, 20, 40, 80)
     n_points: int = 1000
@@ -63,6 +64,11 @@ class SceneSpec:
     output_per_base: int = 5
     knot_s: float = KNOT_S
     direction: tuple[float, float, float] = (0.3, 0.0, 1.0)
+
+    @property
+    def key(self) -> str:
+        """Name of the scene in reports and chart files: "plate", "plate_argyris", ..."""
+        return self.name if self.element is None else f"{self.name}_{self.element}"
 
     def describe(self) -> dict:
         return asdict(self)
@@ -110,10 +116,22 @@ def build_scene(spec: SceneSpec, progress: bool | None = None):
     start = time.perf_counter()
     if spec.name == "plate":
         part = fem.rectangular_plate(
-            spec.width_m, spec.height_m, 1e-3, "steel", spec.mesh_size_m, element=spec.element
+            spec.width_m,
+            spec.height_m,
+            1e-3,
+            "steel",
+            spec.mesh_size_m,
+            element=spec.element or "morley",
         )
     elif spec.name == "panel":
-        part = fem.curved_panel(spec.width_m, spec.height_m, 1e-3, "steel", spec.mesh_size_m)
+        part = fem.curved_panel(
+            spec.width_m,
+            spec.height_m,
+            1e-3,
+            "steel",
+            spec.mesh_size_m,
+            element=spec.element or "hex2",
+        )
     else:
         raise InputError(f"scene: must be 'plate' or 'panel', got {spec.name!r}")
     cups = fem.default_gripper(spec.width_m, spec.height_m, spec.cup_radius_m)
