@@ -40,7 +40,10 @@ TIME_TOL_S = 1e-9
 # threshold, so intervals whose samples stay below (1 - share) * threshold certify at once.
 CURVATURE_SHARE = 0.1
 CHUNK_STEPS = 256
-MAX_EVALUATIONS = 50_000_000  # point-time evaluations before the search gives up
+# Point-time evaluations before the search gives up (a tangent or undamped response): at
+# least MAX_EVALUATIONS, more for models with many points, whose honest cost grows with K.
+MAX_EVALUATIONS = 50_000_000
+MAX_EVALUATIONS_PER_POINT = 50_000
 
 
 @dataclass(frozen=True)
@@ -60,12 +63,13 @@ class SettleReport:
 
 
 class _SearchBudget:
-    def __init__(self) -> None:
+    def __init__(self, n_points: int) -> None:
         self.count = 0
+        self.limit = max(MAX_EVALUATIONS, MAX_EVALUATIONS_PER_POINT * n_points)
 
     def spend(self, n: int) -> None:
         self.count += n
-        if self.count > MAX_EVALUATIONS:
+        if self.count > self.limit:
             raise RuntimeError(
                 "settle-time search exceeded its evaluation budget; the deviation stays within "
                 "1e-9 of the threshold over a long span (undamped or tangent response)"
@@ -81,7 +85,7 @@ class _ModalSignal:
         self.omega = 2.0 * np.pi * np.asarray(model.freq_hz)
         self.zeta = np.asarray(model.zeta)
         self.sigma = self.zeta * self.omega
-        self.budget = _SearchBudget()
+        self.budget = _SearchBudget(self.weights.shape[0])
 
     def _point_norms(self, q: np.ndarray, idx: np.ndarray) -> np.ndarray:
         """|u_p| for points idx and modal coordinates q (T, M) -> (P, T)."""

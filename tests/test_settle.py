@@ -219,3 +219,21 @@ def test_surrogate_gradient_with_respect_to_damping(plate):
     fd = float((f(0.02 + 1e-7) - f(0.02 - 1e-7)) / 2e-7)
     assert g < 0  # more damping, shorter settle
     assert g == pytest.approx(fd, rel=1e-5)
+
+
+def test_search_budget_stops_a_runaway_search_and_scales_with_the_points(monkeypatch):
+    """The evaluation budget is a guard against tangent responses; it must not refuse honest
+    searches on many-point models (their cost grows with K), and it must stop a search that
+    exceeds it with a message instead of running on."""
+    from jaxflex import settle
+
+    model = random_model(seed=3, n_points=40, n_modes=8)
+    acc = smooth_move(60, 0.01)
+    peak = float(np.max(jaxflex.simulate(model, acc, 0.01).deviation))
+    needed = jaxflex.analyze_move(model, acc, 0.01, 1.01 * peak).evaluations
+    monkeypatch.setattr(settle, "MAX_EVALUATIONS", needed // 2)
+    monkeypatch.setattr(settle, "MAX_EVALUATIONS_PER_POINT", 0)
+    with pytest.raises(RuntimeError, match="evaluation budget"):
+        jaxflex.analyze_move(model, acc, 0.01, 1.01 * peak)
+    monkeypatch.setattr(settle, "MAX_EVALUATIONS_PER_POINT", needed // model.n_points + 1)
+    assert jaxflex.analyze_move(model, acc, 0.01, 1.01 * peak).evaluations == needed
