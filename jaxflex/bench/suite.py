@@ -69,7 +69,9 @@ SMALL_PANEL = SceneSpec(
     rest_s=0.1,
     fe_factors=(4,),
 )
-QUICK_PANEL = replace(SMALL_PANEL, omega1_h=2.0, **QUICK_SWEEPS)
+QUICK_PANEL = replace(
+    SMALL_PANEL, omega1_h=2.0, mode_counts=(30,), voxel_sizes_m=(), **QUICK_SWEEPS
+)
 FULL_SCENE = SceneSpec(
     "plate",
     n_modes=120,
@@ -90,8 +92,8 @@ ELEMENT_SCENES = tuple(
         mesh_size_m=mesh_m,
         cup_radius_m=0.05,
         element=element,
-        n_modes=40,
-        mode_counts=(10, 40),
+        n_modes=120,
+        mode_counts=(10, 40, 120),
         n_points=300,
         voxel_sizes_m=(),
         omega1_h=0.05,
@@ -114,7 +116,6 @@ SIZES = {
         "scenes": (
             replace(SMALL_PLATE, mode_counts=(5, 10, 20, 40)),
             SMALL_PANEL,
-            *ELEMENT_SCENES,
         ),
         "omega_dt": OMEGA_DT,
         "drift_steps": (1_000, 10_000, 100_000),
