@@ -114,26 +114,18 @@ def build_scene(spec: SceneSpec, progress: bool | None = None):
     import fem
 
     start = time.perf_counter()
-    if spec.name == "plate":
-        part = fem.rectangular_plate(
-            spec.width_m,
-            spec.height_m,
-            1e-3,
-            "steel",
-            spec.mesh_size_m,
-            element=spec.element or "morley",
-        )
-    elif spec.name == "panel":
-        part = fem.curved_panel(
-            spec.width_m,
-            spec.height_m,
-            1e-3,
-            "steel",
-            spec.mesh_size_m,
-            element=spec.element or "hex2",
-        )
-    else:
+    factories = {"plate": (fem.rectangular_plate, "morley"), "panel": (fem.curved_panel, "hex2")}
+    if spec.name not in factories:
         raise InputError(f"scene: must be 'plate' or 'panel', got {spec.name!r}")
+    make, default_element = factories[spec.name]
+    part = make(
+        spec.width_m,
+        spec.height_m,
+        1e-3,
+        "steel",
+        spec.mesh_size_m,
+        element=spec.element or default_element,
+    )
     cups = fem.default_gripper(spec.width_m, spec.height_m, spec.cup_radius_m)
     result = fem.modal_analysis(part, cups, spec.n_modes, zeta=0.02, progress=progress)
     f_ref = result.freq_hz[min(10, result.n_modes) - 1]
