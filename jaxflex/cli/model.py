@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 
+from jaxflex.cli._limits import AXIS_LIMITS, add_axis_limits
+
 COMMAND = "model"
 HELP = "build a modal model (.npz) from a built-in scene or a mesh file (SI units, m)"
 ORDER = 10
@@ -143,18 +145,7 @@ def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
         metavar=("X", "Y", "Z"),
         help="the move: jerk-limited straight move by this displacement, m",
     )
-    for name, unit, default in (
-        ("vmax", "m/s", 2.0),
-        ("amax", "m/s^2", 10.0),
-        ("jmax", "m/s^3", 100.0),
-    ):
-        group.add_argument(
-            f"--{name}",
-            nargs="+",
-            type=float,
-            metavar="V",
-            help=f"--distance: per-axis limit in {unit}, one value or three; default {default:g}",
-        )
+    add_axis_limits(group, with_defaults=False, condition="--distance: ")
     group.add_argument("--dt", type=float, help="--distance: sample step in s (default 0.01)")
     group.add_argument("--threshold", type=float, help="settle threshold in m (e.g. 0.0005)")
     group.add_argument(
@@ -269,7 +260,7 @@ def _move(args):
     from jaxflex.errors import InputError
 
     limits = {}
-    for name, default in (("vmax", 2.0), ("amax", 10.0), ("jmax", 100.0)):
+    for name, _unit, default in AXIS_LIMITS:
         given = getattr(args, name)
         if given is not None and args.distance is None:
             raise InputError(f"--{name}: only with --distance (a trajectory has its own limits)")

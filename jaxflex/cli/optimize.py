@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from jaxflex.cli._limits import add_axis_limits
+
 COMMAND = "optimize"
 HELP = "shortest cycle time move under vmax/amax/jmax limits (trajectory CSV, JSON, plots)"
 ORDER = 20
@@ -20,19 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar=("X", "Y", "Z"),
         help="move from rest to rest by this displacement, m",
     )
-    for name, unit, default in (
-        ("vmax", "m/s", 2.0),
-        ("amax", "m/s^2", 10.0),
-        ("jmax", "m/s^3", 100.0),
-    ):
-        parser.add_argument(
-            f"--{name}",
-            nargs="+",
-            type=float,
-            default=[default],
-            metavar="V",
-            help=f"per-axis limit in {unit}: one value or three (x y z); default {default:g}",
-        )
+    add_axis_limits(parser, with_defaults=True)
     for name, unit in (("vpath", "m/s"), ("apath", "m/s^2"), ("jpath", "m/s^3")):
         parser.add_argument(
             f"--{name}",
