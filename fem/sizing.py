@@ -329,13 +329,12 @@ class _Sizer:
             settle = fine.settle.check(coarse.settle.settle_s, self.shares[0] * self.tol)
             ok = measured <= share and settle.ok
             self._row(
-                Row(
+                Row.compared(
                     "mesh",
                     coarse.describe(),
                     f"{coarse.n_dof} DOFs",
                     fine.describe(),
-                    err["linf"],
-                    err["r2"],
+                    err,
                     settle,
                     ok,
                     note=f"est. error of the finer {100 * estimate:.3g} %",
@@ -405,13 +404,12 @@ class _Sizer:
                 ok = settle.ok
             label = f"voxel {1e3 * voxel:.3g} mm"
             self._row(
-                Row(
+                Row.compared(
                     "points",
                     label,
                     f"{len(idx)} points",
                     against,
-                    err["linf"],
-                    err["r2"],
+                    err,
                     settle,
                     ok,
                 )
@@ -442,13 +440,12 @@ class _Sizer:
             if ok or settle is not None or count in shown or count == total:
                 freq = level.result.freq_hz[count - 1]
                 self._row(
-                    Row(
+                    Row.compared(
                         "modes",
                         f"{count} mode" + ("s" if count > 1 else ""),
                         f"up to {freq:.4g} Hz",
                         against,
-                        err["linf"],
-                        err["r2"],
+                        err,
                         settle,
                         ok,
                     )
@@ -469,13 +466,12 @@ class _Sizer:
         settle = ref.settle.check(report.settle_time_s, self.tol)
         ok = err["linf"] <= self.tol and settle.ok
         self._row(
-            Row(
+            Row.compared(
                 "final",
                 f"{level.describe()}, {len(idx)} pts, {n_modes} modes",
                 f"{len(idx) * n_modes} K x M",
                 f"{ref.describe()}, all",
-                err["linf"],
-                err["r2"],
+                err,
                 settle,
                 ok,
             )

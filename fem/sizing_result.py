@@ -35,6 +35,21 @@ class Row:
     accepted: bool | None = None
     note: str = ""
 
+    @classmethod
+    def compared(
+        cls,
+        stage: str,
+        candidate: str,
+        cost: str,
+        against: str,
+        err: dict,
+        settle,
+        ok: bool,
+        note: str = "",
+    ) -> Row:
+        """A candidate checked against ``against``: ``err`` from sizing_curves.curve_error."""
+        return cls(stage, candidate, cost, against, err["linf"], err["r2"], settle, ok, note)
+
     def as_dict(self) -> dict[str, Any]:
         out = {
             "stage": self.stage,
