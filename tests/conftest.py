@@ -1,6 +1,9 @@
-"""Shared fixtures: exact analytic models and small random models."""
+"""Shared fixtures: exact analytic models, small random models, the CLI as a user runs it."""
 
 from __future__ import annotations
+
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -50,3 +53,14 @@ def plate() -> jaxflex.ModalModel:
 @pytest.fixture(scope="session")
 def small_model() -> jaxflex.ModalModel:
     return random_model()
+
+
+def run_jaxflex(*args: str, cwd=None, timeout_s: float = 600) -> subprocess.CompletedProcess:
+    """``jaxflex ARGS`` in a fresh interpreter (as a user types it); text stdout/stderr."""
+    return subprocess.run(
+        [sys.executable, "-m", "jaxflex", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=timeout_s,
+    )

@@ -4,12 +4,10 @@ test move, and a quick run of the whole bench (JSON with every method, PNG chart
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
-from conftest import random_model, smooth_move
+from conftest import random_model, run_jaxflex, smooth_move
 
 from jaxflex.bench.accuracy import dominance, pareto_front
 from jaxflex.bench.fe import knot_move
@@ -122,12 +120,7 @@ def test_quick_bench_writes_every_method_and_chart(tmp_path):
     """One quick run through the CLI, as a user runs it (CI size; a single test so that
     parallel workers do not repeat it)."""
     out = tmp_path / "bench"
-    proc = subprocess.run(
-        [sys.executable, "-m", "jaxflex", "bench", "--quick", "-o", str(out)],
-        capture_output=True,
-        text=True,
-        timeout=900,
-    )
+    proc = run_jaxflex("bench", "--quick", "-o", str(out), timeout_s=900)
     assert proc.returncode == 0, proc.stderr
     saved = json.loads((out / "bench.json").read_text())
     assert set(saved["accuracy"]) == {"plate", "panel"}

@@ -3,26 +3,16 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
+
+from conftest import run_jaxflex
 
 import jaxflex
 from optim.trajectory_io import read_trajectory_csv
 
 
-def run_cli(*args, cwd=None):
-    return subprocess.run(
-        [sys.executable, "-m", "jaxflex", *args],
-        capture_output=True,
-        text=True,
-        cwd=cwd,
-        timeout=600,
-    )
-
-
 def test_demo_runs_the_whole_pipeline(tmp_path):
     out = tmp_path / "demo"
-    proc = run_cli("demo", "-o", str(out))
+    proc = run_jaxflex("demo", "-o", str(out))
     assert proc.returncode == 0, proc.stderr
     assert "cycle" in proc.stdout and "FMI 3.0" in proc.stdout
     for name in (
@@ -47,6 +37,6 @@ def test_demo_runs_the_whole_pipeline(tmp_path):
 
 
 def test_bad_option_gives_a_clear_error(tmp_path):
-    proc = run_cli("demo", "-o", str(tmp_path), "--threshold", "-1")
+    proc = run_jaxflex("demo", "-o", str(tmp_path), "--threshold", "-1")
     assert proc.returncode == 2
     assert "--threshold" in proc.stderr and "Traceback" not in proc.stderr

@@ -3,23 +3,13 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import pytest
+from conftest import run_jaxflex
 from test_optim_optimize import few_mode_model
 
 import jaxflex
 from optim.trajectory_io import read_trajectory_csv
-
-
-def run_cli(*args):
-    return subprocess.run(
-        [sys.executable, "-m", "jaxflex", "optimize", *args],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +23,7 @@ def test_optimize_writes_trajectory_report_and_plots(model_file, tmp_path):
     out = tmp_path / "opt"
     args = "--distance 0 0 0.8 --vmax 1.5 --amax 8 --jmax 80 80 60 --threshold 1e-3 "
     args += "--robust --grid 3 2 --clearance 0.03"
-    proc = run_cli(str(model_file), *args.split(), "-o", str(out))
+    proc = run_jaxflex("optimize", str(model_file), *args.split(), "-o", str(out))
     assert proc.returncode == 0, proc.stderr
     assert "cycle" in proc.stdout and "worst case" in proc.stdout
     assert "shortest move" in proc.stderr  # the progress display
@@ -70,6 +60,6 @@ def test_optimize_writes_trajectory_report_and_plots(model_file, tmp_path):
 )
 def test_bad_requests_exit_2_with_a_clear_message(model_file, tmp_path, args, message):
     base = [str(model_file), "--distance", "0", "0", "0.8", "-o", str(tmp_path), "--quiet"]
-    proc = run_cli(*base, *args)
+    proc = run_jaxflex("optimize", *base, *args)
     assert proc.returncode == 2
     assert message in proc.stderr and "Traceback" not in proc.stderr
