@@ -17,6 +17,7 @@ import time
 from collections.abc import Callable
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from jaxflex.bench.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_of
 from jaxflex.bench.methods import METHODS, prepare, stable_substeps
@@ -91,46 +92,16 @@ def run_scene(
             }
         )
     progress(f"[{spec.key}] reduced methods [{time.perf_counter() - start:.0f} s] ...")
+    reference = (ref.t_s, ref_dev, threshold, settle_ref)
     runs = _runs(spec, full, full.n_modes)
-    try:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(runs), desc=f"{spec.key}: reduced methods", leave=False)
-    except ImportError:  # pragma: no cover - tqdm is a dependency
-        bar = None
-    for sweep, n_modes, voxel, dt_s in runs:
-        model = full.truncate_modes(n_modes)
-        if voxel is not None:
-            model = model.select_points(voxel_downsample(model.points, voxel))
-        acc = move_of(spec, dt_s)
-        t_s = dt_s * np.arange(acc.shape[0])
-        for method in METHODS:
-            for substeps in _variants(method, model, dt_s, spec):
-                fn = prepare(method, model, acc, dt_s, substeps)
-                seconds = best_time_s(fn, repeats=3, min_total_s=min_time_s)
-                dev = np.asarray(fn(), dtype=float)
-                point = {
-                    "method": method,
-                    "sweep": sweep,
-                    "n_modes": n_modes,
-                    "n_points": model.n_points,
-                    "voxel_m": voxel,
-                    "dt_s": dt_s,
-                    "substeps": substeps,
-                    "time_s": seconds,
-                    **compare(ref.t_s, ref_dev, t_s, dev, threshold, settle_ref),
-                }
-                if method == "scan64":
-                    tick = time.perf_counter()
-                    report = analyze_move(model, acc, dt_s, threshold)
-                    point["settle_exact_s"] = report.settle_time_s
-                    point["settle_exact_error_s"] = report.settle_time_s - settle_ref
-                    point["settle_exact_time_s"] = time.perf_counter() - tick
-                points.append(point)
-        if bar is not None:
+    with tqdm(total=len(runs), desc=f"{spec.key}: reduced methods", leave=False) as bar:
+        for sweep, n_modes, voxel, dt_s in runs:
+            model = full.truncate_modes(n_modes)
+            if voxel is not None:
+                model = model.select_points(voxel_downsample(model.points, voxel))
+            run = {"sweep": sweep, "n_modes": n_modes, "voxel_m": voxel}
+            points.extend(_method_points(spec, model, dt_s, run, min_time_s, reference))
             bar.update(1)
-    if bar is not None:
-        bar.close()
     return {
         "scene": spec.describe(),
         "fe": {
@@ -151,6 +122,37 @@ def run_scene(
         "points": points,
         "dominance": dominance(points),
     }
+
+
+def _method_points(spec, model, dt_s: float, run: dict, min_time_s: float, reference) -> list:
+    """One accuracy-time point per method (and substep variant) for one model and dt.
+    ``reference`` is (t_s, deviation_m, threshold_m, settle_s) of the FE reference."""
+    ref_t_s, ref_dev, threshold, settle_ref = reference
+    acc = move_of(spec, dt_s)
+    t_s = dt_s * np.arange(acc.shape[0])
+    points = []
+    for method in METHODS:
+        for substeps in _variants(method, model, dt_s, spec):
+            fn = prepare(method, model, acc, dt_s, substeps)
+            seconds = best_time_s(fn, repeats=3, min_total_s=min_time_s)
+            dev = np.asarray(fn(), dtype=float)
+            point = {
+                "method": method,
+                **run,
+                "n_points": model.n_points,
+                "dt_s": dt_s,
+                "substeps": substeps,
+                "time_s": seconds,
+                **compare(ref_t_s, ref_dev, t_s, dev, threshold, settle_ref),
+            }
+            if method == "scan64":
+                tick = time.perf_counter()
+                report = analyze_move(model, acc, dt_s, threshold)
+                point["settle_exact_s"] = report.settle_time_s
+                point["settle_exact_error_s"] = report.settle_time_s - settle_ref
+                point["settle_exact_time_s"] = time.perf_counter() - tick
+            points.append(point)
+    return points
 
 
 def _self_error(ref) -> dict:
