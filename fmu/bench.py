@@ -13,6 +13,7 @@ instantiation with a ~1 MB resource <= 10 ms.
 
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
 import sys
@@ -138,8 +139,29 @@ def run(
     return report
 
 
-def main() -> int:
-    report = run(progress=lambda msg: print(msg, file=sys.stderr, flush=True))
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m fmu.bench", description=__doc__.split("\n")[0])
+    parser.add_argument(
+        "--points", type=int, default=1099, help="monitored points K (default 1099)"
+    )
+    parser.add_argument("--modes", type=int, default=40, help="modes M (default 40)")
+    parser.add_argument(
+        "--steps", type=int, default=20_000, help="timed communication steps (default 20000)"
+    )
+    parser.add_argument(
+        "--fmi", type=int, nargs="+", choices=(2, 3), default=[2, 3], help="FMI versions (2 3)"
+    )
+    args = parser.parse_args(argv)
+    for name in ("points", "modes", "steps"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name}: must be at least 1, got {getattr(args, name)}")
+    report = run(
+        n_points=args.points,
+        n_modes=args.modes,
+        n_steps=args.steps,
+        fmi_versions=tuple(args.fmi),
+        progress=lambda msg: print(msg, file=sys.stderr, flush=True),
+    )
     print(json.dumps(report, indent=2))
     return 0
 
