@@ -18,10 +18,11 @@ import json
 import warnings
 from pathlib import Path
 
+from jaxflex.model import load_model
+
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import ModelFileError
 from jaxflex.model import ModalModel
-from jaxflex.model_io import load_model
 
 FINAL_STAGES = ("fe", "optimization")
 
