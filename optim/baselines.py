@@ -72,9 +72,9 @@ class BaselineSet:
     def floor_steps(self) -> int:
         return int(self.floor_acc.shape[0] - 1)
 
-    def best(self, shapers_only: bool = False) -> Baseline:
-        pool = [b for b in self.entries if not shapers_only or b.shaped_freq_hz]
-        return min(pool, key=Baseline.score)
+    def best(self) -> Baseline:
+        """The entry with the shortest cycle (worst case in robust mode, else nominal)."""
+        return min(self.entries, key=Baseline.score)
 
     def as_dict(self) -> dict:
         return {
