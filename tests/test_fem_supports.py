@@ -53,15 +53,14 @@ class RectangularPad(fem.Support):
         return Disc(self.x, self.y, self.refine_radius_m)
 
     def _inside(self, xy: np.ndarray) -> np.ndarray:
-        return (np.abs(xy[:, 0] - self.x) <= self.half_m) & (
-            np.abs(xy[:, 1] - self.y) <= self.half_m
-        )
+        reach = self.half_m * (1 + 1e-9)  # as SuctionCup.hold_solid allows for rounding
+        return (np.abs(xy[:, 0] - self.x) <= reach) & (np.abs(xy[:, 1] - self.y) <= reach)
 
     def hold_plate(self, plate: PlateDofs, index: int) -> Constraints:
         return plate.clamp_elements(self._inside(plate.centroids_xy))
 
     def hold_solid(self, solid: SolidDofs, index: int) -> Constraints:
-        inside = np.flatnonzero(self._inside(solid.surface_points[:, :2] * (1 - 1e-12)))
+        inside = np.flatnonzero(self._inside(solid.surface_points[:, :2]))
         if inside.size == 0:
             raise InputError(f"supports[{index}]: the pad holds no mesh node")
         return solid.clamp_nodes(inside)
