@@ -16,7 +16,6 @@ from pathlib import Path
 import numpy as np
 
 from fem.modal import ModalResult
-from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup
 from fem.transient import TransientResult
 from jaxflex.errors import InputError
 
@@ -122,15 +121,10 @@ def plot_part(result: ModalResult, path: str | os.PathLike, n_modes: int = 4) ->
     )
     ax = axes.flat[0]
     ax.triplot(tri, lw=0.15, color="0.6")
-    for s in result.supports:
-        if isinstance(s, SuctionCup):
-            ax.add_patch(plt.Circle((s.x, s.y), s.radius, color="tab:red", alpha=0.6))
-        elif isinstance(s, PointSupport):
-            ax.plot(s.x, s.y, "^", color="tab:red")
-    edges = [s for s in result.supports if isinstance(s, ClampedEdge | SimplySupportedEdge)]
+    captions = [c for s in result.supports if (c := s.draw(ax)) is not None]
     title = f"{result.part.name}: {len(result.supports)} support(s)"
-    if edges:
-        title += " (" + ", ".join(f"{s.describe()['type']} {s.side}" for s in edges) + ")"
+    if captions:
+        title += " (" + ", ".join(captions) + ")"
     ax.set_title(title, fontsize=9)
     shapes = result.node_shapes()
     for i in range(n):
