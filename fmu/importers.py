@@ -18,9 +18,13 @@ the named outputs there (``deviation``, ``settle_time``, ``settled`` of an FMU; 
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import os
+import sys
 import xml.etree.ElementTree as ET
 import zipfile
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -77,6 +81,25 @@ def ssp_fmi_version(ssp_path: str | os.PathLike) -> int:
     return versions.pop()
 
 
+@contextlib.contextmanager
+def _c_stdout_to_stderr() -> Iterator[None]:
+    """Ecos's FMU loader (fmi4c) prints progress to the C stdout; send it to stderr so that
+    our stdout (reports, JSON) stays clean. POSIX only (elsewhere nothing is redirected)."""
+    if os.name != "posix":
+        yield
+        return
+    libc = ctypes.CDLL(None)
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        os.dup2(2, 1)
+        yield
+    finally:
+        libc.fflush(None)
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def _stack(rows: list[tuple]) -> dict[str, np.ndarray]:
     names = rows[0]
     return {name: np.asarray([row[i] for row in rows[1:]]) for i, name in enumerate(names)}
@@ -108,7 +131,7 @@ def ecos_fmu(
     from ecospy import EcosLib, EcosSimulation, EcosSimulationStructure
 
     EcosLib.set_log_level("warn")
-    with EcosSimulationStructure() as structure:
+    with _c_stdout_to_stderr(), EcosSimulationStructure() as structure:
         structure.add_model("part", os.fspath(fmu_path))
         if start_values:
             values = {f"part::{name}": value for name, value in start_values.items()}
@@ -126,7 +149,10 @@ def ecos_ssp(
     from ecospy import EcosLib, EcosSimulation
 
     EcosLib.set_log_level("warn")
-    with EcosSimulation(ssp_path=os.fspath(ssp_path), step_size=dt_s) as sim:
+    with (
+        _c_stdout_to_stderr(),
+        EcosSimulation(ssp_path=os.fspath(ssp_path), step_size=dt_s) as sim,
+    ):
         sim.init(parameter_set=parameter_set)
         return _record_ecos(sim, n_steps, "part.")
 
