@@ -3,8 +3,9 @@
 * ``ecospy`` (Ecos, PyPI; needs the TBB runtime, Debian ``libtbb12``): FMI 2.0 and 3.0 FMUs
   and SSP 1.0 packages.
 * ``libcosimpy`` (Open Simulation Platform's libcosim, PyPI, Linux/Windows x86_64): FMI 2.0
-  FMUs and SSP packages. libcosim 0.0.6 crashes the process (SIGSEGV) when it is given an FMI
-  3.0 FMU, so FMI 3.0 is refused here before it is loaded.
+  FMUs and SSP packages. libcosimpy 0.0.6 crashes the process (SIGSEGV in
+  ``CosimExecution.add_local_slave``) when it is given an FMI 3.0 FMU, so FMI 3.0 is refused
+  here before libcosim sees it.
 * fmpy's ``fmpy.ssp.simulation.simulate_ssp``: SSP packages of FMI 1.0/2.0 FMUs.
 
 All three are fixed-step Jacobi masters that copy output values to connected inputs after
@@ -28,14 +29,11 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from fmu.ssp import package_fmi_version, read_parameters
 from jaxflex.errors import InputError
 
 REAL_OUTPUTS = ("deviation", "settle_time")
 BOOL_OUTPUTS = ("settled",)
-SSP_NS = {
-    "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
-    "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
-}
 _ECOS_HINT = (
     "pip install ecospy; it needs the TBB runtime (Debian/Ubuntu: apt-get install libtbb12)"
 )
@@ -64,21 +62,6 @@ def fmi_version_of(fmu_path: str | os.PathLike) -> int:
     with zipfile.ZipFile(fmu_path) as zf:
         root = ET.fromstring(zf.read("modelDescription.xml"))
     return int(root.get("fmiVersion", "0")[0])
-
-
-def ssp_fmi_version(ssp_path: str | os.PathLike) -> int:
-    """FMI major version of the FMUs in an SSP package (all the same in ours)."""
-    with zipfile.ZipFile(ssp_path) as zf:
-        ssd = ET.fromstring(zf.read("SystemStructure.ssd"))
-        versions = set()
-        for component in ssd.iter(f"{{{SSP_NS['ssd']}}}Component"):
-            with zf.open(component.get("source")) as handle, zipfile.ZipFile(handle) as fmu:
-                versions.add(
-                    int(ET.fromstring(fmu.read("modelDescription.xml")).get("fmiVersion")[0])
-                )
-    if len(versions) != 1:
-        raise InputError(f"{ssp_path}: components of FMI versions {sorted(versions)}")
-    return versions.pop()
 
 
 @contextlib.contextmanager
@@ -207,7 +190,7 @@ def libcosim_fmu(
 def libcosim_ssp(ssp_path: str | os.PathLike, n_steps: int, dt_s: float) -> dict[str, np.ndarray]:
     """An SSP package of FMI 2.0 FMUs in libcosim (fixed step ``dt_s``); the part's outputs
     after every step."""
-    _refuse_fmi3(ssp_fmi_version(ssp_path), str(ssp_path), "libcosim")
+    _refuse_fmi3(package_fmi_version(ssp_path), str(ssp_path), "libcosim")
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
@@ -223,9 +206,7 @@ def fmpy_ssp(ssp_path: str | os.PathLike, n_steps: int, dt_s: float) -> dict[str
     from fmpy.ssp.simulation import simulate_ssp
     from fmpy.ssp.ssd import Parameter, ParameterSet
 
-    from fmu.ssp import read_parameters
-
-    _refuse_fmi3(ssp_fmi_version(ssp_path), str(ssp_path), "fmpy's simulate_ssp")
+    _refuse_fmi3(package_fmi_version(ssp_path), str(ssp_path), "fmpy's simulate_ssp")
     # simulate_ssp applies one set of "<component>.<name>" values, not the bindings it reads
     bound = ParameterSet(name="bindings")
     for component, values in read_parameters(ssp_path).items():

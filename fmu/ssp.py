@@ -255,6 +255,21 @@ def read_parameters(path: str | os.PathLike) -> dict[str, dict[str, float | bool
     return bound
 
 
+def package_fmi_version(ssp_path: str | os.PathLike) -> int:
+    """FMI major version of the FMUs in an SSP package (all the same in ours)."""
+    with zipfile.ZipFile(ssp_path) as zf:
+        ssd = ET.fromstring(zf.read(SSD_FILE))
+        versions = set()
+        for component in ssd.iter(_q("ssd:Component")):
+            with zf.open(component.get("source")) as handle, zipfile.ZipFile(handle) as fmu:
+                versions.add(
+                    int(ET.fromstring(fmu.read("modelDescription.xml")).get("fmiVersion")[0])
+                )
+    if len(versions) != 1:
+        raise InputError(f"{ssp_path}: components of FMI versions {sorted(versions)}")
+    return versions.pop()
+
+
 def held_samples(acc: np.ndarray, dt_s: float, step_s: float, n_steps: int) -> np.ndarray:
     """What a host that copies values at communication points k * step_s feeds the part:
     the source's output there (the samples, linear between them, 0 after), (n_steps + 1, 3)."""
