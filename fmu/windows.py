@@ -32,8 +32,8 @@ def wine_command() -> list[str] | None:
     """How to start a Windows x86_64 program here (``wine64``, ``wine``, or Debian's loader),
     or None when wine is not installed."""
     for name in ("wine64", "wine"):
-        if shutil.which(name):
-            return [shutil.which(name)]
+        if found := shutil.which(name):
+            return [found]
     return [str(_WINE64_LOADER)] if _WINE64_LOADER.is_file() else None
 
 
