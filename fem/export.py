@@ -8,36 +8,25 @@ displacements in m (mode shapes: m per kg^0.5, mass-normalised), at the reportin
 
 from __future__ import annotations
 
-import contextlib
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from fem.modal import ModalResult
 from fem.transient import TransientResult
+from jaxflex.atomic import atomic_path
 from jaxflex.errors import InputError
 
 FORMATS = (".vtu", ".vtk", ".xdmf", ".xmf")
 
 
-@contextlib.contextmanager
 def _atomic_path(path: str | os.PathLike):
-    """A temporary path with the same suffix beside ``path``; renamed onto it on success."""
+    """A new file with the same suffix beside ``path``, renamed onto it on success."""
     target = Path(path)
     if target.suffix.lower() not in FORMATS:
         raise InputError(f"export path {str(path)!r}: use one of the suffixes {list(FORMATS)}")
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=target.suffix, dir=target.parent)
-    os.close(fd)
-    try:
-        yield tmp
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
+    return atomic_path(target, suffix=target.suffix)
 
 
 def _write(path, points, cells, point_data, field_data=None) -> None:

@@ -6,6 +6,8 @@ derivatives set and the deviation read every step; timed in chunks of 100 steps,
 median is robust against other processes on the machine), and prints the figures as JSON.
 
     .venv/bin/python -m fmu.bench            # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
+    .venv/bin/python -m fmu.bench --windows  # also: the Windows DLL under wine (fmu.windows)
+    .venv/bin/python -m fmu.bench --hosts    # also: FMU and SSP in other hosts (fmu.crosscheck)
 
 Targets (issue 5): one step <= 30 us (the preprint's FMU: 0.85 ms per 10 ms step),
 instantiation with a ~1 MB resource <= 10 ms.
@@ -15,9 +17,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import statistics
 import subprocess
 import sys
 import tempfile
+import time
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
@@ -86,6 +90,98 @@ def bench_model(n_points: int, n_modes: int, seed: int = 0) -> ModalModel:
     )
 
 
+def _export_s(model: ModalModel, path: Path, version: int, windows: bool) -> float:
+    t0 = time.perf_counter()
+    export_fmu(model, path, fmi_version=version, windows=windows)
+    return time.perf_counter() - t0
+
+
+def smooth_move(dt_s: float, duration_s: float = 1.0) -> np.ndarray:
+    """A rest-to-rest move of about 1 m: one sine period of acceleration per axis, m/s^2."""
+    t = dt_s * np.arange(round(duration_s / dt_s) + 1)
+    acc = np.outer(2 * np.pi / duration_s**2 * np.sin(2 * np.pi * t / duration_s), [0.3, -0.2, 1.0])
+    acc[[0, -1]] = 0.0
+    return acc
+
+
+def host_figures(model: ModalModel, version: int, folder: Path, dt_s: float) -> dict[str, Any]:
+    """The SSP package of ``model`` moved by :func:`smooth_move` (threshold 0.5 mm) and the
+    part FMU inside it, run in every available host: max |deviation - jaxflex| / peak per
+    host (see fmu.crosscheck for which reference each host gets)."""
+    from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
+    from fmu.ssp import export_ssp
+
+    folder.mkdir(parents=True, exist_ok=True)
+    ssp = export_ssp(model, folder / "case.ssp", version, (smooth_move(dt_s), dt_s), 5e-4)
+    with zipfile.ZipFile(ssp.ssp_path) as zf:
+        part = Path(zf.extract("resources/part.fmu", folder))
+    figures: dict[str, Any] = {"n_steps": None}
+    for kind, report in (("fmu", crosscheck_fmu(part)), ("ssp", crosscheck_ssp(ssp.ssp_path))):
+        figures["n_steps"] = report.n_steps
+        figures[kind] = {
+            r.host: {"reference": r.reference, "max_rel_diff": r.max_rel_diff} for r in report.runs
+        }
+        figures[f"{kind}_skipped"] = report.skipped
+    return figures
+
+
+def windows_figures(
+    model: ModalModel, version: int, folder: Path, n_steps: int, dt_s: float, repeats: int
+) -> dict[str, Any]:
+    """The Windows DLL beside the Linux binary: export time without and with it (median of 3
+    each, alternating), the harness's step and instantiation timing of the DLL under wine, and
+    the largest difference between the outputs of a replayed 1 s move (300 steps) on the two
+    platforms, relative to each output's peak."""
+    from fmu.windows import (
+        compile_windows_harness,
+        replay,
+        run_under_wine,
+        windows_library,
+        windows_path,
+        windows_resource_location,
+    )
+
+    folder.mkdir(parents=True, exist_ok=True)
+    times = {False: [], True: []}
+    for k in range(3):
+        for dll in (False, True):
+            times[dll].append(_export_s(model, folder / f"t{k}{int(dll)}.fmu", version, dll))
+    linux_s, with_dll_s = (statistics.median(times[dll]) for dll in (False, True))
+    result = export_fmu(
+        model, folder / "move.fmu", version, (smooth_move(dt_s), dt_s), windows=True
+    )
+    harnesses = (
+        compile_harness(version, folder / "harness"),
+        compile_windows_harness(version, folder / "harness.exe"),
+    )
+    linux = replay(result.fmu_path, folder / "linux", harnesses[0], 300, dt_s, windows=False)
+    win = replay(result.fmu_path, folder / "windows", harnesses[1], 300, dt_s, windows=True)
+    rel = {
+        name: float(np.abs(win[name] - linux[name]).max() / max(np.abs(linux[name]).max(), 1e-300))
+        for name in linux
+        if name != "time"
+    }
+    library, resources, token = unpack(result.fmu_path, folder / "bench")
+    args = [
+        windows_path(windows_library(library, version)),
+        windows_resource_location(version, resources),
+        token,
+        "bench",
+        str(n_steps),
+        repr(dt_s),
+        str(repeats),
+    ]
+    timing = json.loads(run_under_wine([str(harnesses[1]), *args]))
+    return {
+        "export_s_linux_only": linux_s,
+        "export_s_with_dll": with_dll_s,
+        "dll_export_overhead_s": with_dll_s - linux_s,
+        "replay_max_rel_diff_windows_vs_linux": max(rel.values()),
+        "replay_rel_diff_by_output": rel,
+        "wine": timing,
+    }
+
+
 def run(
     n_points: int = 1099,
     n_modes: int = 40,
@@ -94,8 +190,11 @@ def run(
     repeats: int = 50,
     fmi_versions: tuple[int, ...] = (2, 3),
     progress: Callable[[str], None] | None = None,
+    windows: bool = False,
+    hosts: bool = False,
 ) -> dict[str, Any]:
-    """Export a K x M model, time it with the C harness; figures per FMI version."""
+    """Export a K x M model, time it with the C harness; figures per FMI version (with
+    ``windows``, also :func:`windows_figures`; with ``hosts``, :func:`host_figures`)."""
     say = progress or (lambda msg: None)
     model = bench_model(n_points, n_modes)
     report: dict[str, Any] = {
@@ -135,6 +234,14 @@ def run(
                 figures["step_us_median"] <= STEP_TARGET_US
                 and figures["instantiate_us_median"] <= INSTANTIATE_TARGET_US
             )
+            if windows:
+                say(f"FMI {version}.0: the Windows DLL (export times, replay, wine timing)")
+                figures["windows"] = windows_figures(
+                    model, version, tmp / f"windows{version}", n_steps, dt_s, repeats
+                )
+            if hosts:
+                say(f"FMI {version}.0: FMU and SSP package in other hosts")
+                figures["hosts"] = host_figures(model, version, tmp / f"hosts{version}", dt_s)
             report[f"fmi{version}"] = figures
     return report
 
@@ -151,6 +258,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--fmi", type=int, nargs="+", choices=(2, 3), default=[2, 3], help="FMI versions (2 3)"
     )
+    parser.add_argument(
+        "--windows",
+        action="store_true",
+        help="also time exports with the Windows DLL and run the DLL under wine (needs "
+        "gcc-mingw-w64-x86-64 and wine64)",
+    )
+    parser.add_argument(
+        "--hosts",
+        action="store_true",
+        help="also run the FMU and an SSP package with a 1 s move in ecospy, libcosimpy and "
+        "fmpy's SSP runner against jaxflex",
+    )
     args = parser.parse_args(argv)
     for name in ("points", "modes", "steps"):
         if getattr(args, name) < 1:
@@ -161,6 +280,8 @@ def main(argv: list[str] | None = None) -> int:
         n_steps=args.steps,
         fmi_versions=tuple(args.fmi),
         progress=lambda msg: print(msg, file=sys.stderr, flush=True),
+        windows=args.windows,
+        hosts=args.hosts,
     )
     print(json.dumps(report, indent=2))
     return 0

@@ -141,6 +141,14 @@ class Session:
                 raise ValueError("FMI 3.0 has no input derivatives: inputs are held over a step")
             self._slave.setFloat64(vrs, values)
 
+    def output_rates(self, names) -> np.ndarray:
+        """First time derivatives of the named Real outputs at the communication point
+        (fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives), one per name."""
+        vrs = [self._vr(n) for n in names]
+        if self.fmi_version == 2:
+            return np.asarray(self._slave.getRealOutputDerivatives(vrs, [1] * len(vrs)))
+        return np.asarray(self._slave.getOutputDerivatives(vrs, [1] * len(vrs)))
+
     def step(self, t: float, h: float) -> None:
         self._slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
 
@@ -169,17 +177,41 @@ def run_linear(session: Session, acc, dt_s: float, n_steps: int) -> dict[str, np
     padded = np.zeros((max(n_steps + 1, len(acc)) + 1, 3))
     padded[: len(acc)] = acc
     rates = np.diff(padded, axis=0) / dt_s
-    out = {"time": [], "deviation": [], "settle_time": [], "settled": []}
-
-    def record(t):
-        out["time"].append(t)
-        for name in ("deviation", "settle_time", "settled"):
-            out[name].append(session.get(name))
-
-    record(0.0)
+    out = _record(session, 0.0)
     for k in range(n_steps):
         t = k * dt_s
         session.set_inputs(padded[k], rates[k])
         session.step(t, dt_s)
-        record((k + 1) * dt_s)
+        _record(session, (k + 1) * dt_s, out)
+    return {key: np.asarray(value) for key, value in out.items()}
+
+
+def _record(session: Session, t: float, out: dict | None = None) -> dict[str, list]:
+    """Append the time and the part's outputs to ``out`` (a new record when None)."""
+    out = (
+        out if out is not None else {"time": [], "deviation": [], "settle_time": [], "settled": []}
+    )
+    out["time"].append(t)
+    for name in ("deviation", "settle_time", "settled"):
+        out[name].append(session.get(name))
+    return out
+
+
+def run_chained(
+    source: Session, part: Session, dt_s: float, n_steps: int, *, forward_rates: bool
+) -> dict[str, np.ndarray]:
+    """Drive the initialized ``part`` with the outputs ax, ay, az of the initialized
+    trajectory ``source`` for ``n_steps`` steps of ``dt_s``, as a master of a connected system
+    does: values at each communication point, and with ``forward_rates`` (FMI 2.0) their
+    time derivatives as the part's input derivatives, so the part sees the source's
+    piecewise-linear signal instead of held values. Recorded outputs at t_0 .. t_n."""
+    axes = ("ax", "ay", "az")
+    out = _record(part, 0.0)
+    for k in range(n_steps):
+        t = k * dt_s
+        values = [source.get(name) for name in axes]
+        part.set_inputs(values, source.output_rates(axes) if forward_rates else None)
+        source.step(t, dt_s)
+        part.step(t, dt_s)
+        _record(part, (k + 1) * dt_s, out)
     return {key: np.asarray(value) for key, value in out.items()}

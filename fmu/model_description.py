@@ -215,12 +215,13 @@ def model_description(d: Description) -> str:
     return _to_text(build(d, variables))
 
 
-def build_description(model_identifier: str) -> str:
-    """sources/buildDescription.xml (FMI 3.0): how to compile the sources on any platform."""
+def build_description(model_identifier: str, source_files: tuple[str, ...] | None = None) -> str:
+    """sources/buildDescription.xml (FMI 3.0): how to compile ``source_files`` (default: the
+    part FMU's) on any platform."""
     root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
     config = ET.SubElement(root, "BuildConfiguration", modelIdentifier=model_identifier)
     files = ET.SubElement(config, "SourceFileSet", language="C99")
-    for name in _c_files(3):
+    for name in source_files or _c_files(3):
         ET.SubElement(files, "SourceFile", name=name)
     ET.SubElement(files, "IncludeDirectory", name=".")
     ET.SubElement(config, "Library", name="m", description="C math library (libm)")

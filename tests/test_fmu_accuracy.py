@@ -27,7 +27,7 @@ from fmu.verify import reference_response, settle_time_at_points
 DT = 0.01
 N = 60  # samples of the embedded move
 QUARTER = DT / 4
-RTOL = 1e-9  # issue 5
+RTOL = 1e-9  # FMU vs jaxflex: both evaluate the same exact recursion, in C and in JAX
 EXTEND_S = 3.0  # free vibration simulated after each move (covers the settle time)
 
 
@@ -109,6 +109,14 @@ def test_fmpy_replay_of_embedded_move_matches_jaxflex(fmus, version):
         assert report.max_rel_diff_points <= RTOL
     assert report.settle_time_fmu_s == pytest.approx(report.settle_time_reference_s, abs=1e-12)
     assert report.ok
+
+
+def test_verify_compares_with_the_damping_the_fmu_was_exported_with(part, move, tmp_path):
+    """An FMU exported with damping_scale 0.5 simulates zeta / 2: verify's reference too."""
+    path = tmp_path / "half_damping.fmu"
+    export_fmu(part, path, 2, (move, DT), threshold_m=1e-3, damping_scale=0.5, windows=False)
+    report = verify(path)
+    assert report.max_rel_diff <= RTOL and report.ok
 
 
 def test_fmpy_with_input_derivatives_matches_jaxflex_on_a_random_profile(fmus):
