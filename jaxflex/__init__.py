@@ -12,6 +12,7 @@ jax.config.update("jax_enable_x64", True)
 from jaxflex.errors import InputError, JaxflexError, ModelError, ModelFileError  # noqa: E402
 from jaxflex.model import ModalModel  # noqa: E402
 from jaxflex.model_io import load_model, save_model  # noqa: E402
+from jaxflex.profile import integrate, jerk_limited_move  # noqa: E402
 from jaxflex.settle import SettleReport, analyze_move, cycle_time, settle_time  # noqa: E402
 from jaxflex.simulate import (  # noqa: E402
     Response,
@@ -37,6 +38,8 @@ __all__ = [
     "end_state",
     "envelope_time",
     "free_states",
+    "integrate",
+    "jerk_limited_move",
     "load_model",
     "modal_states",
     "save_model",

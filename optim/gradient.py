@@ -33,9 +33,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from jaxflex.errors import InputError
+from jaxflex.profile import integrate
 from optim.kinematics import add_cuts, add_move, path_cuts
 from optim.lp import LPBuilder
-from optim.profiles import integrate
 from optim.ruckig_move import fit_to_grid
 from optim.search import Problem, SubResult, add_end_states
 

@@ -30,9 +30,9 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from jaxflex.model import ModalModel
+from jaxflex.profile import enforce_end_state
 from optim.limits import Limits
 from optim.move_response import ClearancePeak, MoveResponse
-from optim.profiles import enforce_end_state
 from optim.residual import Peak, ResidualModel, end_state_map
 from optim.robust import RobustSpec, perturbed
 from optim.timing import MoveTiming, exact_timing

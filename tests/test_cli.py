@@ -7,7 +7,7 @@ import json
 from conftest import run_jaxflex
 
 import jaxflex
-from optim.trajectory_io import read_trajectory_csv
+from jaxflex.trajectory_io import read_trajectory_csv
 
 
 def test_demo_runs_the_whole_pipeline(tmp_path):

@@ -14,11 +14,11 @@ from hypothesis import strategies as st
 import jaxflex
 import optim
 from jaxflex.errors import InputError
+from jaxflex.trajectory_io import read_trajectory_csv
 from optim.bench import few_mode_model as bench_model
 from optim.exact import LPSubsolver
 from optim.robust import perturbed
 from optim.search import attempt, make_problem
-from optim.trajectory_io import read_trajectory_csv
 
 DT = 0.01
 LIMITS = optim.Limits(1.5, 8.0, 80.0)

@@ -61,7 +61,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def load_case(path: Path) -> tuple[object, float, dict | None]:
     """(acc (n+1, 3) m/s^2, dt s, report dict or None) from an optimize folder or a CSV."""
     from jaxflex.errors import InputError
-    from optim.trajectory_io import read_trajectory_csv
+    from jaxflex.trajectory_io import read_trajectory_csv
 
     if path.is_dir():
         csv, report_path = path / "trajectory.csv", path / "report.json"

@@ -268,7 +268,7 @@ def _move(args):
             raise InputError(f"--{name}: give one value or three (x y z), got {len(given)}")
         limits[name] = default if given is None else (given[0] if len(given) == 1 else given)
     if args.trajectory is not None:
-        from optim.trajectory_io import read_trajectory_csv
+        from jaxflex.trajectory_io import read_trajectory_csv
 
         if args.dt is not None:
             raise InputError("--dt: only with --distance (the trajectory file has its step)")
@@ -276,7 +276,7 @@ def _move(args):
         return read_trajectory_csv(path / "trajectory.csv" if path.is_dir() else path)
     if args.distance is None:
         raise InputError("--tolerance: give the move, --trajectory FILE or --distance X Y Z")
-    from optim.profiles import jerk_limited_move
+    from jaxflex.profile import jerk_limited_move
 
     dt = 0.01 if args.dt is None else args.dt
     return jerk_limited_move(args.distance, dt=dt, **limits), dt
