@@ -36,8 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from jaxflex.bench import format_table
-    from jaxflex.bench.suite import run_suite, summary_lines
+    from benchmarks import format_table
+    from benchmarks.suite import run_suite, summary_lines
 
     size = "quick" if args.quick else args.size
     out = Path(args.output)

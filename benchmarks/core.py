@@ -24,7 +24,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxflex.bench.timing import best_time_s, machine
+from benchmarks.timing import best_time_s, machine
 from jaxflex.convolution import convolve_unit_response, deviation_from_displacement, unit_response
 from jaxflex.model import ModalModel
 from jaxflex.settle import cycle_time
@@ -61,7 +61,7 @@ def synthetic_model(case: BenchCase) -> ModalModel:
         gamma=gamma,
         shapes=shapes,
         points=points,
-        meta={"source": "jaxflex.bench synthetic model"},
+        meta={"source": "benchmarks.core synthetic model"},
     )
 
 

@@ -5,7 +5,7 @@ times many instantiations and a long run of communication steps (inputs and inpu
 derivatives set and the deviation read every step; timed in chunks of 100 steps, so the
 median is robust against other processes on the machine), and prints the figures as JSON.
 
-    .venv/bin/python -m fmu.bench            # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
+    .venv/bin/python -m benchmarks.fmu   # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
 
 Targets (issue 5): one step <= 30 us (the preprint's FMU: 0.85 ms per 10 ms step),
 instantiation with a ~1 MB resource <= 10 ms.
@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from fmpy import read_model_description
 
 from fmu.build import C_DIR, FmuBuildError, fmi_headers, host_target
 from fmu.export import export_fmu
@@ -58,8 +59,6 @@ def compile_harness(fmi_version: int, out_file: Path) -> Path:
 
 def unpack(fmu_path: Path, folder: Path) -> tuple[Path, Path, str]:
     """Extract the FMU: (shared library, resources folder, instantiation token)."""
-    from fmpy import read_model_description
-
     with zipfile.ZipFile(fmu_path) as zf:
         zf.extractall(folder)
     md = read_model_description(str(folder))
@@ -82,7 +81,7 @@ def bench_model(n_points: int, n_modes: int, seed: int = 0) -> ModalModel:
         gamma=rng.normal(size=(n_modes, 3)),
         shapes=rng.normal(size=(n_points, 3, n_modes)) * 0.05,
         points=rng.uniform(size=(n_points, 3)),
-        meta={"source": "fmu.bench"},
+        meta={"source": "benchmarks.fmu"},
     )
 
 
@@ -99,7 +98,7 @@ def run(
     say = progress or (lambda msg: None)
     model = bench_model(n_points, n_modes)
     report: dict[str, Any] = {
-        "command": f"{Path(sys.executable).name} -m fmu.bench",
+        "command": f"{Path(sys.executable).name} -m benchmarks.fmu",
         "n_points": n_points,
         "n_modes": n_modes,
         "dt_s": dt_s,
@@ -140,7 +139,9 @@ def run(
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m fmu.bench", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.fmu", description=__doc__.split("\n")[0]
+    )
     parser.add_argument(
         "--points", type=int, default=1099, help="monitored points K (default 1099)"
     )
