@@ -6,6 +6,15 @@ import argparse
 import json
 from pathlib import Path
 
+from fmpy.validation import validate_fmu
+
+import jaxflex
+from fmu.export import export_fmu
+from fmu.verify import verify
+from jaxflex.errors import InputError
+from jaxflex.trajectory_io import read_trajectory_csv
+from jaxflex.validation import check_positive
+
 COMMAND = "export"
 HELP = "write the part as an FMI 2.0/3.0 co-simulation FMU (optionally with the optimised move)"
 ORDER = 30
@@ -60,9 +69,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_case(path: Path) -> tuple[object, float, dict | None]:
     """(acc (n+1, 3) m/s^2, dt s, report dict or None) from an optimize folder or a CSV."""
-    from jaxflex.errors import InputError
-    from jaxflex.trajectory_io import read_trajectory_csv
-
     if path.is_dir():
         csv, report_path = path / "trajectory.csv", path / "report.json"
         if not csv.is_file():
@@ -91,10 +97,6 @@ def load_case(path: Path) -> tuple[object, float, dict | None]:
 
 
 def run(args: argparse.Namespace) -> int:
-    import jaxflex
-    from fmu import export_fmu, verify
-    from jaxflex.validation import check_positive
-
     model = jaxflex.load_model(args.model)
     trajectory, case = None, None
     if args.trajectory:
@@ -130,8 +132,6 @@ def run(args: argparse.Namespace) -> int:
             f"{threshold * 1e3:g} mm; wrote {result.input_csv.name}, {result.case_json.name}"
         )
     if result.case is None or args.no_verify:
-        from fmpy.validation import validate_fmu
-
         problems = validate_fmu(str(result.fmu_path))
         print("fmpy validation: " + ("clean" if not problems else "; ".join(problems)))
         return 0 if not problems else 1
