@@ -16,6 +16,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
+from fmpy.fmi3 import FMU3Slave
+from fmpy.logging import addLoggerProxy
 
 _LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
 
@@ -32,8 +42,6 @@ class Session:
         instance_name: str = "jaxflex",
         debug: bool = False,
     ) -> None:
-        from fmpy import extract, read_model_description
-
         self.messages: list[tuple[str, str]] = []
         self.description = read_model_description(str(unzip_dir or fmu))
         self.fmi_version = int(self.description.fmiVersion[0])
@@ -57,16 +65,6 @@ class Session:
             "instanceName": instance_name,
         }
         if self.fmi_version == 2:
-            from fmpy import calloc, free
-            from fmpy.fmi2 import (
-                FMU2Slave,
-                fmi2CallbackAllocateMemoryTYPE,
-                fmi2CallbackFreeMemoryTYPE,
-                fmi2CallbackFunctions,
-                fmi2CallbackLoggerTYPE,
-            )
-            from fmpy.logging import addLoggerProxy
-
             callbacks = fmi2CallbackFunctions()
             callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
             callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
@@ -76,8 +74,6 @@ class Session:
             slave = FMU2Slave(**kwargs)
             slave.instantiate(callbacks=callbacks, loggingOn=debug)
         else:
-            from fmpy.fmi3 import FMU3Slave
-
             slave = FMU3Slave(**kwargs)
             slave.instantiate(loggingOn=debug, logMessage=self._log3)
         return slave
