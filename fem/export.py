@@ -11,12 +11,15 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import matplotlib.tri as mtri
+import meshio
 import numpy as np
 
 from fem.modal import ModalResult
 from fem.transient import TransientResult
 from jaxflex.atomic import atomic_path
 from jaxflex.errors import InputError
+from jaxflex.plots import plt, save_figure
 
 FORMATS = (".vtu", ".vtk", ".xdmf", ".xmf")
 
@@ -30,8 +33,6 @@ def _atomic_path(path: str | os.PathLike):
 
 
 def _write(path, points, cells, point_data, field_data=None) -> None:
-    import meshio
-
     with _atomic_path(path) as tmp:
         if Path(tmp).suffix.lower() in (".xdmf", ".xmf"):
             # meshio's static XDMF writer needs h5py; one step of a time series does not
@@ -64,8 +65,6 @@ def export_transient(
     """Write a transient response as an XDMF time series (``path`` .xdmf, XML data): field
     "displacement" (K, 3) in m per output time. On the mesh cells if it was computed at every
     node, else as a point cloud of the monitored points."""
-    import meshio
-
     if Path(path).suffix.lower() not in (".xdmf", ".xmf"):
         raise InputError(f"export_transient: path {str(path)!r} must end in .xdmf")
     full = len(transient.node_indices) == len(result.system.nodes) and np.array_equal(
@@ -94,11 +93,6 @@ def _triangles(result: ModalResult) -> np.ndarray:
 def plot_part(result: ModalResult, path: str | os.PathLike, n_modes: int = 4) -> None:
     """PNG: the part's footprint with its supports, and contour plots of the normal (z)
     displacement of the first ``n_modes`` modes."""
-    import matplotlib.pyplot as plt
-    import matplotlib.tri as mtri
-
-    from jaxflex.plots import save_figure
-
     nodes = result.system.nodes
     tri = mtri.Triangulation(nodes[:, 0], nodes[:, 1], _triangles(result))
     n = min(int(n_modes), result.n_modes)

@@ -21,6 +21,8 @@ import scipy.sparse as sp
 from fem.damping import describe_damping, modal_zeta
 from fem.eigen import all_modes, factorize, lowest_modes
 from fem.parts import Part
+from fem.plate import assemble_plate
+from fem.solid import assemble_solid
 from fem.supports import as_support_list, check_layout, contact_discs
 from fem.system import FESystem
 from jaxflex.errors import InputError
@@ -299,14 +301,10 @@ def modal_analysis(
     timings["mesh_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     if part.kind == "plate":
-        from fem.plate import assemble_plate
-
         system = assemble_plate(
             mesh, part.element, part.material, part.thickness_m, supports, progress
         )
     else:
-        from fem.solid import assemble_solid
-
         system, _ = assemble_solid(mesh, part, supports, progress)
     timings["assembly_s"] = time.perf_counter() - tick
 

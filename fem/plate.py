@@ -14,7 +14,7 @@ import numpy as np
 import skfem
 from skfem.helpers import dd, ddot, trace
 
-from fem.parts import PlateMesh
+from fem.mesh import PlateMesh
 from fem.progress import progress_bar
 from fem.supports import Support
 from fem.system import Constraints, FESystem

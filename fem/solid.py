@@ -15,7 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 import skfem
 
-from fem.parts import SurfaceMesh
+from fem.mesh import SurfaceMesh
 from fem.progress import progress_bar
 from fem.supports import Support
 from fem.system import Constraints, FESystem

@@ -10,6 +10,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import fmpy
+
 from jaxflex.errors import JaxflexError
 
 C_DIR = Path(__file__).resolve().parent / "c"
@@ -50,8 +52,6 @@ class BuildReport:
 
 def fmi_headers() -> Path:
     """Directory with the FMI 2.0 and 3.0 C headers (shipped with fmpy)."""
-    import fmpy
-
     path = Path(fmpy.__file__).resolve().parent / "c-code"
     if not (path / "fmi2Functions.h").is_file() or not (path / "fmi3Functions.h").is_file():
         raise FmuBuildError(f"FMI C headers not found in {path}; reinstall fmpy")

@@ -30,6 +30,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from fmpy.ssp.ssd import read_ssd
+from fmpy.validation import validate_fmu
 
 from fmu import importers
 from fmu.master import Session, run_chained
@@ -153,8 +155,6 @@ def crosscheck_fmu(
 
 
 def _ssp_validation(path: Path, folder: Path) -> list[str]:
-    from fmpy.ssp.ssd import read_ssd
-    from fmpy.validation import validate_fmu
 
     problems = []
     try:

@@ -31,6 +31,7 @@ from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
+from jaxflex.settle import analyze_move
 from jaxflex.validation import check_acc, check_positive
 
 DEFAULT_THRESHOLD_M = 5e-4
@@ -115,8 +116,6 @@ def _case_summary(model, acc, dt_s, threshold_m, case) -> dict[str, Any]:
     case_threshold = case.pop("threshold_m", threshold_m)
     times = {key: case.pop(key) for key in _CASE_TIMES if key in case}
     if len(times) < len(_CASE_TIMES) or not math.isclose(case_threshold, threshold_m):
-        from jaxflex.settle import analyze_move
-
         report = analyze_move(model, acc, dt_s, threshold_m)
         times = {key: float(getattr(report, key)) for key in _CASE_TIMES}
     summary.update(times)

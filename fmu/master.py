@@ -10,14 +10,45 @@ nine-slot derivative buffer.)
 from __future__ import annotations
 
 import ctypes
+import itertools
 import os
 import shutil
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi1 import printLogMessage
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
+from fmpy.fmi3 import FMU3Slave
+from fmpy.logging import addLoggerProxy
 
 _LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
+# FMI 2.0 log messages of open sessions, by the componentEnvironment their instance got
+_FMI2_LOGS: dict[int, list[tuple[str, str]]] = {}
+_FMI2_KEYS = itertools.count(1)
+
+
+def _route_fmi2_log(env, name, status, category, message) -> None:
+    """The one FMI 2.0 logger of this process. fmpy formats the variadic arguments in a
+    native proxy that keeps a single process-wide pointer to the Python logger it wraps, so a
+    logger per session would dangle (and crash the next FMU that logs) once its session is
+    gone. Messages of our sessions go to their list, any other FMU's are printed as fmpy's
+    default logger prints them."""
+    messages = _FMI2_LOGS.get(env or 0)
+    if messages is None:
+        printLogMessage(env, name, status, category, message)
+    else:
+        messages.append((_LABELS[status], message.decode("utf-8", "replace")))
+
+
+_FMI2_LOGGER = fmi2CallbackLoggerTYPE(_route_fmi2_log)
 
 
 class Session:
@@ -32,8 +63,6 @@ class Session:
         instance_name: str = "jaxflex",
         debug: bool = False,
     ) -> None:
-        from fmpy import extract, read_model_description
-
         self.messages: list[tuple[str, str]] = []
         self.description = read_model_description(str(unzip_dir or fmu))
         self.fmi_version = int(self.description.fmiVersion[0])
@@ -57,33 +86,21 @@ class Session:
             "instanceName": instance_name,
         }
         if self.fmi_version == 2:
-            from fmpy import calloc, free
-            from fmpy.fmi2 import (
-                FMU2Slave,
-                fmi2CallbackAllocateMemoryTYPE,
-                fmi2CallbackFreeMemoryTYPE,
-                fmi2CallbackFunctions,
-                fmi2CallbackLoggerTYPE,
-            )
-            from fmpy.logging import addLoggerProxy
-
+            self._log_key = next(_FMI2_KEYS)
+            _FMI2_LOGS[self._log_key] = self.messages
             callbacks = fmi2CallbackFunctions()
-            callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
+            callbacks.logger = _FMI2_LOGGER
             callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
             callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+            callbacks.componentEnvironment = self._log_key
             addLoggerProxy(ctypes.byref(callbacks))
             self._callbacks = callbacks  # keep alive while the instance exists
             slave = FMU2Slave(**kwargs)
             slave.instantiate(callbacks=callbacks, loggingOn=debug)
         else:
-            from fmpy.fmi3 import FMU3Slave
-
             slave = FMU3Slave(**kwargs)
             slave.instantiate(loggingOn=debug, logMessage=self._log3)
         return slave
-
-    def _log2(self, env, name, status, category, message):
-        self.messages.append((_LABELS[status], message.decode("utf-8", "replace")))
 
     def _log3(self, env, status, category, message):
         self.messages.append((_LABELS[status], message.decode("utf-8", "replace")))
@@ -159,6 +176,7 @@ class Session:
         if self._slave is not None:
             self._slave.freeInstance()
             self._slave = None
+        _FMI2_LOGS.pop(getattr(self, "_log_key", 0), None)
         if self._tmp is not None:
             shutil.rmtree(self._tmp, ignore_errors=True)
             self._tmp = None

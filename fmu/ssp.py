@@ -28,6 +28,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from fmpy import read_model_description
+from fmpy.ssp.ssd import read_ssd
 
 import jaxflex
 from fmu.archive import zip_folder
@@ -81,7 +83,6 @@ class SspResult:
 
 def part_connectors(fmu_path: Path) -> list[Connector]:
     """Connectors for every scalar input, output and parameter of the part FMU."""
-    from fmpy import read_model_description
 
     connectors = []
     for v in read_model_description(str(fmu_path)).modelVariables:
@@ -243,7 +244,6 @@ def export_ssp(
 def read_parameters(path: str | os.PathLike) -> dict[str, dict[str, float | bool]]:
     """The values bound to the components' parameters in an SSP package, by component name
     (read with fmpy's SSD reader, which validates against the SSP 1.0 schema)."""
-    from fmpy.ssp.ssd import read_ssd
 
     bound: dict[str, dict[str, float | bool]] = {}
     for component in read_ssd(os.fspath(path)).system.elements:

@@ -17,8 +17,10 @@ import tempfile
 from pathlib import Path, PureWindowsPath
 
 import numpy as np
+from fmpy import read_model_description
 
 from fmu.build import C_DIR, WINDOWS_COMPILER, FmuBuildError, fmi_headers
+from fmu.harness import resource_location, unpack
 
 OBJDUMP = "x86_64-w64-mingw32-objdump"
 WINE_TIMEOUT_S = 600.0  # the first run creates the wine prefix
@@ -163,15 +165,11 @@ def replay(
     fmu_path: Path, folder: Path, harness: Path, n_steps: int, dt_s: float, *, windows: bool
 ) -> dict[str, np.ndarray]:
     """Extract the FMU at ``fmu_path`` into ``folder`` and run its Linux binary
-    (``windows=False``; ``harness`` from :func:`fmu.bench.compile_harness`) or its Windows DLL
+    (``windows=False``; ``harness`` from :func:`fmu.harness.compile_harness`) or its Windows DLL
     (``harness`` from :func:`compile_windows_harness`, run under wine) for ``n_steps`` steps of
     ``dt_s`` s, with ``use_embedded_trajectory = true`` when the FMU has it (inputs stay 0).
     Returns {"time": (n_steps + 1,), output name: (n_steps + 1[, size])}: every output at the
     start and after every step."""
-    from fmpy import read_model_description
-
-    from fmu.bench import resource_location, unpack
-
     library, resources, token = unpack(fmu_path, folder)
     md = read_model_description(str(folder))
     fmi_version = int(md.fmiVersion[0])

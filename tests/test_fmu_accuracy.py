@@ -10,6 +10,8 @@ growing roughly linearly over a few hundred steps); observed differences are ~1e
 from __future__ import annotations
 
 import itertools
+import subprocess
+import sys
 import zipfile
 
 import numpy as np
@@ -278,3 +280,32 @@ def test_property_linear_inputs_on_any_aligned_step_schedule(fmus, part, seed, b
         s.start(0.0)
         times, dev = drive(s, steps, acc)
     assert rel_error(dev, fine_reference(part, acc, times)) <= RTOL
+
+
+def test_an_fmu_logging_after_a_closed_session_does_not_crash_the_process(fmus, tmp_path):
+    """fmpy's native log proxy keeps one process-wide pointer to the Python logger it wraps:
+    after a Session is closed, another FMU's log message (here a wrong token, logged by the
+    FMU as an error) must still reach a live logger. Run in a fresh interpreter, where a
+    dangling logger would end in a segmentation fault."""
+    script = f"""
+import pytest
+from fmpy import extract
+from fmpy.fmi2 import FMU2Slave
+from fmu.master import Session
+def one_session():
+    with Session({str(fmus[2][0])!r}) as session:
+        session.start(0.0)
+one_session()
+import gc
+gc.collect()
+folder = extract({str(fmus[2][0])!r})
+slave = FMU2Slave(guid="{{wrong}}", unzipDirectory=folder, modelIdentifier="part2",
+                  instanceName="wrong-token")
+with pytest.raises(Exception):
+    slave.instantiate()
+print("alive")
+"""
+    proc = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert proc.returncode == 0 and "alive" in proc.stdout, proc.stderr[-2000:]

@@ -12,7 +12,7 @@ from test_fmu_export import smooth_profile
 from fmu.ssp import read_parameters
 from fmu.verify import read_fmu_resource
 from jaxflex.cli import main
-from optim.trajectory_io import write_trajectory_csv
+from jaxflex.trajectory_io import write_trajectory_csv
 
 DT = 0.01
 

@@ -13,8 +13,8 @@ from conftest import random_model
 from test_fmu_export import _exported_functions, smooth_profile
 
 from fmu import FmuBuildError, export_fmu
-from fmu.bench import compile_harness
 from fmu.build import fmi_headers
+from fmu.harness import compile_harness
 from fmu.source import export_source_fmu
 from fmu.windows import (
     SYSTEM_DLLS,

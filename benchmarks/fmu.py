@@ -5,11 +5,11 @@ times many instantiations and a long run of communication steps (inputs and inpu
 derivatives set and the deviation read every step; timed in chunks of 100 steps, so the
 median is robust against other processes on the machine), and prints the figures as JSON.
 
-    .venv/bin/python -m fmu.bench            # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
-    .venv/bin/python -m fmu.bench --windows  # also: the Windows DLL under wine (fmu.windows)
-    .venv/bin/python -m fmu.bench --hosts    # also: FMU and SSP in other hosts (fmu.crosscheck)
+    python -m benchmarks.fmu            # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
+    python -m benchmarks.fmu --windows  # also: the Windows DLL under wine (fmu.windows)
+    python -m benchmarks.fmu --hosts    # also: FMU and SSP in other hosts (fmu.crosscheck)
 
-Targets (issue 5): one step <= 30 us (the preprint's FMU: 0.85 ms per 10 ms step),
+Targets (docs/design.md): one step <= 30 us (the preprint's FMU: 0.85 ms per 10 ms step),
 instantiation with a ~1 MB resource <= 10 ms.
 """
 
@@ -29,52 +29,23 @@ from typing import Any
 
 import numpy as np
 
-from fmu.build import C_DIR, FmuBuildError, fmi_headers, host_target
+from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.export import export_fmu
+from fmu.harness import compile_harness, resource_location, unpack
+from fmu.ssp import export_ssp
+from fmu.windows import (
+    compile_windows_harness,
+    replay,
+    run_under_wine,
+    windows_library,
+    windows_path,
+    windows_resource_location,
+)
 from jaxflex.model import ModalModel
 
 STEP_TARGET_US = 30.0
 INSTANTIATE_TARGET_US = 10_000.0
 PREPRINT_STEP_US = 850.0
-
-
-def compile_harness(fmi_version: int, out_file: Path) -> Path:
-    """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``."""
-    cmd = [
-        host_target().compiler,
-        "-std=c99",
-        "-O2",
-        "-Wall",
-        "-Wextra",
-        f"-DHARNESS_FMI={fmi_version}",
-        f"-I{fmi_headers()}",
-        str(C_DIR / "harness.c"),
-        "-o",
-        str(out_file),
-        "-ldl",
-        "-lm",
-    ]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise FmuBuildError(f"compiling the harness failed:\n{proc.stderr.strip()}")
-    return out_file
-
-
-def unpack(fmu_path: Path, folder: Path) -> tuple[Path, Path, str]:
-    """Extract the FMU: (shared library, resources folder, instantiation token)."""
-    from fmpy import read_model_description
-
-    with zipfile.ZipFile(fmu_path) as zf:
-        zf.extractall(folder)
-    md = read_model_description(str(folder))
-    plat = host_target().folder(int(md.fmiVersion[0]))
-    ident = md.coSimulation.modelIdentifier
-    return folder / "binaries" / plat / f"{ident}.so", folder / "resources", md.guid
-
-
-def resource_location(fmi_version: int, resources: Path) -> str:
-    """What an importer passes: a file URI (FMI 2.0) or a path ending in '/' (FMI 3.0)."""
-    return resources.resolve().as_uri() + "/" if fmi_version == 2 else f"{resources.resolve()}/"
 
 
 def bench_model(n_points: int, n_modes: int, seed: int = 0) -> ModalModel:
@@ -86,7 +57,7 @@ def bench_model(n_points: int, n_modes: int, seed: int = 0) -> ModalModel:
         gamma=rng.normal(size=(n_modes, 3)),
         shapes=rng.normal(size=(n_points, 3, n_modes)) * 0.05,
         points=rng.uniform(size=(n_points, 3)),
-        meta={"source": "fmu.bench"},
+        meta={"source": "benchmarks.fmu"},
     )
 
 
@@ -108,9 +79,6 @@ def host_figures(model: ModalModel, version: int, folder: Path, dt_s: float) -> 
     """The SSP package of ``model`` moved by :func:`smooth_move` (threshold 0.5 mm) and the
     part FMU inside it, run in every available host: max |deviation - jaxflex| / peak per
     host (see fmu.crosscheck for which reference each host gets)."""
-    from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
-    from fmu.ssp import export_ssp
-
     folder.mkdir(parents=True, exist_ok=True)
     ssp = export_ssp(model, folder / "case.ssp", version, (smooth_move(dt_s), dt_s), 5e-4)
     with zipfile.ZipFile(ssp.ssp_path) as zf:
@@ -132,15 +100,6 @@ def windows_figures(
     each, alternating), the harness's step and instantiation timing of the DLL under wine, and
     the largest difference between the outputs of a replayed 1 s move (300 steps) on the two
     platforms, relative to each output's peak."""
-    from fmu.windows import (
-        compile_windows_harness,
-        replay,
-        run_under_wine,
-        windows_library,
-        windows_path,
-        windows_resource_location,
-    )
-
     folder.mkdir(parents=True, exist_ok=True)
     times = {False: [], True: []}
     for k in range(3):
@@ -198,7 +157,7 @@ def run(
     say = progress or (lambda msg: None)
     model = bench_model(n_points, n_modes)
     report: dict[str, Any] = {
-        "command": f"{Path(sys.executable).name} -m fmu.bench",
+        "command": f"{Path(sys.executable).name} -m benchmarks.fmu",
         "n_points": n_points,
         "n_modes": n_modes,
         "dt_s": dt_s,
@@ -247,7 +206,9 @@ def run(
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m fmu.bench", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.fmu", description=__doc__.split("\n")[0]
+    )
     parser.add_argument(
         "--points", type=int, default=1099, help="monitored points K (default 1099)"
     )

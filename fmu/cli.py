@@ -6,6 +6,17 @@ import argparse
 import json
 from pathlib import Path
 
+from fmpy.validation import validate_fmu
+
+import jaxflex
+from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
+from fmu.export import export_fmu
+from fmu.ssp import export_ssp
+from fmu.verify import verify
+from jaxflex.errors import InputError
+from jaxflex.trajectory_io import read_trajectory_csv
+from jaxflex.validation import check_positive
+
 COMMAND = "export"
 HELP = (
     "write the part as an FMI 2.0/3.0 co-simulation FMU (optionally with the optimised move) "
@@ -69,9 +80,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_case(path: Path) -> tuple[object, float, dict | None]:
     """(acc (n+1, 3) m/s^2, dt s, report dict or None) from an optimize folder or a CSV."""
-    from jaxflex.errors import InputError
-    from optim.trajectory_io import read_trajectory_csv
-
     if path.is_dir():
         csv, report_path = path / "trajectory.csv", path / "report.json"
         if not csv.is_file():
@@ -106,9 +114,6 @@ def _print_binaries(name: str, platforms, skipped: dict[str, str]) -> None:
 
 
 def _export_fmu(args, model, trajectory, threshold, case, windows) -> int:
-    from fmu import export_fmu, verify
-    from fmu.crosscheck import crosscheck_fmu
-
     result = export_fmu(
         model,
         args.output,
@@ -133,8 +138,6 @@ def _export_fmu(args, model, trajectory, threshold, case, windows) -> int:
             f"{threshold * 1e3:g} mm; wrote {result.input_csv.name}, {result.case_json.name}"
         )
     if result.case is None or args.no_verify:
-        from fmpy.validation import validate_fmu
-
         problems = validate_fmu(str(result.fmu_path))
         print("fmpy validation: " + ("clean" if not problems else "; ".join(problems)))
         return 0 if not problems else 1
@@ -146,9 +149,6 @@ def _export_fmu(args, model, trajectory, threshold, case, windows) -> int:
 
 
 def _export_ssp(args, model, trajectory, threshold, case, windows) -> int:
-    from fmu.crosscheck import crosscheck_ssp
-    from fmu.ssp import export_ssp
-
     result = export_ssp(
         model,
         args.ssp,
@@ -177,10 +177,6 @@ def _export_ssp(args, model, trajectory, threshold, case, windows) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    import jaxflex
-    from jaxflex.errors import InputError
-    from jaxflex.validation import check_positive
-
     if not args.output and not args.ssp:
         raise InputError("give -o FILE.fmu, --ssp FILE.ssp or both")
     if args.ssp and not args.trajectory:
