@@ -46,8 +46,8 @@ CD_STABILITY_MARGIN = 0.9  # central difference runs at omega_max h <= 0.9 * 2
 
 
 @jax.jit
-def _scan_deviation(model, shapes_c, acc, dt):
-    return deviation(shapes_c, modal_states(model, acc, dt)[..., 0])
+def _scan_deviation(model, shapes_c, acc, dt_s):
+    return deviation(shapes_c, modal_states(model, acc, dt_s)[..., 0])
 
 
 @partial(jax.jit, static_argnames=("integrator", "every"))

@@ -272,8 +272,8 @@ def _move(args):
         return read_trajectory_csv(path / "trajectory.csv" if path.is_dir() else path)
     if args.distance is None:
         raise InputError("--tolerance: give the move, --trajectory FILE or --distance X Y Z")
-    dt = 0.01 if args.dt is None else args.dt
-    return jerk_limited_move(args.distance, dt=dt, **limits), dt
+    dt_s = 0.01 if args.dt is None else args.dt
+    return jerk_limited_move(args.distance, dt_s=dt_s, **limits), dt_s
 
 
 def _run_sizing(args, part, supports) -> int:
@@ -287,12 +287,12 @@ def _run_sizing(args, part, supports) -> int:
         raise InputError("--threshold: the settle threshold in m is required with --tolerance")
     if args.mesh is not None and args.mesh_sizes is not None:
         raise InputError("--mesh-sizes: a mesh file is used as is")
-    acc, dt = _move(args)
+    acc, dt_s = _move(args)
     sized = size_model(
         part,
         supports,
         acc,
-        dt,
+        dt_s,
         args.threshold,
         args.tolerance,
         zeta=args.zeta,

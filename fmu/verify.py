@@ -205,7 +205,7 @@ def verify(
         stop = max(float(md.defaultExperiment.stopTime or 0.0), duration)
     n_steps = round(stop / dt_s)
     stop = n_steps * dt_s
-    threshold = next(float(v.start) for v in md.modelVariables if v.name == "threshold")
+    threshold_m = next(float(v.start) for v in md.modelVariables if v.name == "threshold")
 
     points = fmi_version == 3
     if mode == "linear":
@@ -265,7 +265,7 @@ def verify(
         max_abs_diff_points_m=diff_p,
         max_rel_diff_points=rel_p,
         settle_time_fmu_s=float(result["settle_time"][-1]),
-        settle_time_reference_s=settle_time_at_points(t, ref_dev, threshold),
+        settle_time_reference_s=settle_time_at_points(t, ref_dev, threshold_m),
         rtol=rtol,
         notes=notes,
     )

@@ -29,19 +29,19 @@ from jaxflex.simulate import simulate
 from jaxflex.validation import check_acc, check_positive
 
 
-def unit_response(model: ModalModel, dt: float, n_steps: int) -> np.ndarray:
+def unit_response(model: ModalModel, dt_s: float, n_steps: int) -> np.ndarray:
     """R1 for a unit hat at t_1 along x, y and z: (3 axes, n_steps + 1, K, 3) in m per m/s^2.
 
     Computed exactly with the modal recursion; R1[:, 0] is zero.
     """
-    dt = check_positive("dt", dt)
+    dt_s = check_positive("dt_s", dt_s)
     if int(n_steps) < 2:
         raise InputError(f"n_steps: must be >= 2, got {n_steps}")
     out = np.empty((3, int(n_steps) + 1, model.n_points, 3))
     for axis in range(3):
         acc = np.zeros((int(n_steps) + 1, 3))
         acc[1, axis] = 1.0
-        out[axis] = np.asarray(simulate(model, acc, dt, displacement=True).displacement)
+        out[axis] = np.asarray(simulate(model, acc, dt_s, displacement=True).displacement)
     return out
 
 

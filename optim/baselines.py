@@ -93,13 +93,13 @@ def dominant_modes(model: ModalModel, distance: np.ndarray) -> np.ndarray:
 
 
 def worst_case(
-    model: ModalModel, acc: np.ndarray, dt: float, threshold_m: float, grid
+    model: ModalModel, acc: np.ndarray, dt_s: float, threshold_m: float, grid
 ) -> tuple[float, dict, list[dict]]:
     """Largest exact cycle time over the (frequency scale, zeta) points of ``grid``: (worst,
     where, every point as {"freq_scale", "zeta", "cycle_time_s"})."""
     points = []
     for scale, zeta in grid:
-        timing = analyze_move(perturbed(model, scale, zeta), acc, dt, threshold_m, settle=False)
+        timing = analyze_move(perturbed(model, scale, zeta), acc, dt_s, threshold_m, settle=False)
         points.append({"freq_scale": scale, "zeta": zeta, "cycle_time_s": timing.cycle_time_s})
     worst = max(points, key=lambda p: p["cycle_time_s"])
     where = {"freq_scale": worst["freq_scale"], "zeta": worst["zeta"]}

@@ -45,7 +45,7 @@ class LPSubsolver:
     def _build(self, problem: Problem, n_steps: int, polish: bool):
         builder = LPBuilder()
         limits = problem.limits.shrunk(POLISH_MARGIN) if polish else problem.limits
-        layout = add_move(builder, n_steps, problem.dt, problem.distance, limits)
+        layout = add_move(builder, n_steps, problem.dt_s, problem.distance, limits)
         if not polish:
             add_cuts(builder, self._cuts.get(n_steps, []))
         s = builder.variables(1, 0.0, np.inf, 1.0)[0]

@@ -75,7 +75,7 @@ class Problem:
     distance: np.ndarray
     limits: Limits
     threshold_m: float
-    dt: float
+    dt_s: float
     max_steps: int
     robust: RobustSpec | None
     scenarios: list[Scenario]
@@ -98,13 +98,13 @@ class Problem:
     def move_map(self, n_steps: int) -> MoveResponse:
         """The nominal model's response during an n-step move (optim.move_response)."""
         if n_steps not in self._move_maps:
-            self._move_maps[n_steps] = MoveResponse(self.model, self.components, n_steps, self.dt)
+            self._move_maps[n_steps] = MoveResponse(self.model, self.components, n_steps, self.dt_s)
         return self._move_maps[n_steps]
 
     def end_map(self, scenario: int, n_steps: int) -> np.ndarray:
         key = (scenario, n_steps)
         if key not in self._maps:
-            self._maps[key] = end_state_map(self.scenarios[scenario].model, n_steps, self.dt)
+            self._maps[key] = end_state_map(self.scenarios[scenario].model, n_steps, self.dt_s)
         return self._maps[key]
 
     def end_state(self, scenario: int, acc: np.ndarray) -> np.ndarray:
@@ -128,7 +128,7 @@ def make_problem(
     distance: np.ndarray,
     limits: Limits,
     threshold_m: float,
-    dt: float,
+    dt_s: float,
     max_steps: int,
     robust: RobustSpec | None,
     clearance_m: float | None = None,
@@ -154,7 +154,7 @@ def make_problem(
         distance,
         limits,
         threshold_m,
-        dt,
+        dt_s,
         max_steps,
         robust,
         scenarios,
@@ -232,11 +232,11 @@ def _certify(problem: Problem, acc: np.ndarray):
     the training set (adding every failing scenario floods the LP with near-duplicates).
     Returns (timings, number of failures)."""
     n_steps = acc.shape[0] - 1
-    transfer = n_steps * problem.dt
+    transfer = n_steps * problem.dt_s
     timings: dict[int, SettleReport] = {}
     failed = []
     for i, scen in enumerate(problem.scenarios):
-        timing = analyze_move(scen.model, acc, problem.dt, problem.threshold_m, settle=False)
+        timing = analyze_move(scen.model, acc, problem.dt_s, problem.threshold_m, settle=False)
         timings[i] = timing
         if timing.cycle_time_s > transfer * (1 + TIME_RTOL):
             failed.append(i)
@@ -301,7 +301,7 @@ def attempt(
             added += len(peaks)
         if added:
             continue
-        acc = enforce_end_state(acc, problem.dt, problem.distance)
+        acc = enforce_end_state(acc, problem.dt_s, problem.distance)
         timings, failures = _certify(problem, acc)
         if not failures:
             return Attempt(

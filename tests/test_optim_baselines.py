@@ -43,19 +43,19 @@ def independent_ruckig_duration(distance, limits):
     vmax=st.tuples(*[st.floats(0.2, 3.0)] * 3),
     amax=st.tuples(*[st.floats(1.0, 20.0)] * 3),
     jmax=st.tuples(*[st.floats(10.0, 400.0)] * 3),
-    dt=st.sampled_from([0.004, 0.01, 0.02]),
+    dt_s=st.sampled_from([0.004, 0.01, 0.02]),
 )
-def test_kinematic_floor_on_the_grid(distance, scale, vmax, amax, jmax, dt):
+def test_kinematic_floor_on_the_grid(distance, scale, vmax, amax, jmax, dt_s):
     dist = np.array(distance) * np.array(scale)
     limits = optim.Limits(vmax, amax, jmax)
-    move = kinematic_floor_move(dist, limits, dt, max_steps=100_000)
-    assert optim.check_profile(move.acc, dt, limits, dist).ok
+    move = kinematic_floor_move(dist, limits, dt_s, max_steps=100_000)
+    assert optim.check_profile(move.acc, dt_s, limits, dist).ok
     # every grid move is a jerk-limited motion, so none is shorter than ruckig's optimum;
     # the grid version needs ceil(T / dt) steps or, where corners cannot align, one more
     steps = move.acc.shape[0] - 1
     duration = independent_ruckig_duration(dist, limits)
     assert move.continuous_duration_s == pytest.approx(duration, rel=1e-9)
-    assert math.ceil(duration / dt - 1e-7) <= steps <= math.ceil(duration / dt - 1e-7) + 1
+    assert math.ceil(duration / dt_s - 1e-7) <= steps <= math.ceil(duration / dt_s - 1e-7) + 1
 
 
 def test_path_limited_floor_keeps_the_norms():

@@ -247,10 +247,10 @@ def test_save_writes_everything_atomically(model, nominal, tmp_path):
         assert key in report, key
     assert report["robust"] is None and report["method"] == "exact"
     assert report["limits"]["vmax_m_s"] == [1.5, 1.5, 1.5]
-    acc, dt = read_trajectory_csv(tmp_path / "out" / "trajectory.csv")
-    assert dt == pytest.approx(DT)
+    acc, dt_s = read_trajectory_csv(tmp_path / "out" / "trajectory.csv")
+    assert dt_s == pytest.approx(DT)
     # the saved file reproduces the reported exact cycle time
-    assert jaxflex.cycle_time(model, acc, dt, report["threshold_m"]) == pytest.approx(
+    assert jaxflex.cycle_time(model, acc, dt_s, report["threshold_m"]) == pytest.approx(
         report["cycle_time_s"], abs=2e-9
     )
     names = [b["name"] for b in report["baselines"]["entries"]]
