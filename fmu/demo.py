@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
         f"threshold {threshold_m * 1e3:g} mm, {'nominal' if robust is None else 'robust'} optimum"
     )
     start = time.perf_counter()
-    result = optim.optimize(model, DISTANCE_M, limits, threshold_m, dt_s, robust=robust)
+    result = optim.optimize(model, DISTANCE_M, limits, dt_s, threshold_m, robust=robust)
     timings["optimize_s"] = time.perf_counter() - start
     print(result.summary())
     result.save(out / "optimized")

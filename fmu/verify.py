@@ -31,7 +31,7 @@ from jaxflex.deviation import point_displacements
 from jaxflex.engine import modal_states, rest_padded
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.model import ModalModel
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.profile import as_move
 
 DEFAULT_RTOL = 1e-9
 MODES = ("embedded", "linear", "held")
@@ -196,8 +196,8 @@ def verify(
             raise InputError(f"{str(path)!r} has no embedded trajectory: pass acc and dt_s")
         acc, dt_s = stored.acc, stored.dt_s
     else:
-        acc = check_acc(acc).astype(np.float64)
-        dt_s = check_positive("dt_s", dt_s)
+        move = as_move(acc, dt_s)
+        acc, dt_s = move.acc, move.dt_s
     duration = (len(acc) - 1) * dt_s
     if extend_s is not None:
         stop = duration + float(extend_s)

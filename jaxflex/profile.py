@@ -1,14 +1,20 @@
-"""Acceleration-sample profiles: exact kinematics and a grid-aligned jerk-limited move.
+"""Moves: acceleration samples, checked once, their exact kinematics, a jerk-limited move.
 
-A profile is a (n+1, 3) array of acceleration samples a_k (m/s^2) at t_k = k dt, linear in
-between (DESIGN.md). Velocity is then piecewise quadratic and position piecewise cubic, both
-linear in the samples:
+A move is a (n+1, 3) array of acceleration samples a_k (m/s^2) at t_k = k dt_s, linear in
+between (docs/design.md). Velocity is then piecewise quadratic and position piecewise cubic,
+both linear in the samples:
 
-    v_{k+1} = v_k + dt (a_k + a_{k+1}) / 2
-    x_{k+1} = x_k + dt v_k + dt^2 (2 a_k + a_{k+1}) / 6
+    v_{k+1} = v_k + dt_s (a_k + a_{k+1}) / 2
+    x_{k+1} = x_k + dt_s v_k + dt_s^2 (2 a_k + a_{k+1}) / 6
+
+User input is checked once, where it enters (:func:`as_move`); a :class:`Move` carries that
+check with it, so the layers below trust it instead of checking the same array again.
 """
 
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -16,11 +22,49 @@ from jaxflex.errors import InputError
 from jaxflex.validation import check_acc, check_positive
 
 
+@dataclass(frozen=True, eq=False)
+class Move:
+    """Checked acceleration samples ``acc`` ((n+1, 3) float64, read-only, m/s^2) at step
+    ``dt_s`` (s). Made by :func:`as_move`."""
+
+    acc: np.ndarray
+    dt_s: float
+
+    @property
+    def n_steps(self) -> int:
+        return self.acc.shape[0] - 1
+
+    @property
+    def duration_s(self) -> float:
+        """n dt_s: the transfer time, s."""
+        return self.n_steps * self.dt_s
+
+    @property
+    def at_rest(self) -> bool:
+        """True if the move starts and ends at rest (a_0 = a_n = 0)."""
+        return not (self.acc[0].any() or self.acc[-1].any())
+
+
+def as_move(acc, dt_s, *, at_rest: bool = False, name: str = "acc") -> Move:
+    """``acc`` ((n+1, 3) m/s^2, n >= 1, finite; with ``at_rest`` also a_0 = a_n = 0) at step
+    ``dt_s`` (s, > 0) as a checked :class:`Move`. A Move passes through without a second check
+    (its step must be ``dt_s``). Raises InputError naming the field."""
+    if isinstance(acc, Move):
+        if not math.isclose(acc.dt_s, float(dt_s), rel_tol=1e-12):
+            raise InputError(f"dt_s: {dt_s} s, but the move is sampled every {acc.dt_s} s")
+        if at_rest and not acc.at_rest:
+            check_acc(acc.acc, name=name, rest_at_ends=True)  # raises with the details
+        return acc
+    checked = check_acc(acc, name=name, rest_at_ends=at_rest).astype(np.float64)
+    checked.setflags(write=False)
+    return Move(checked, check_positive("dt_s", dt_s))
+
+
 def integrate(acc, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact velocity (m/s) and position (m) at the samples, from rest at the origin:
     two (n+1, 3) arrays."""
-    acc = check_acc(acc).astype(np.float64)
-    dt_s = check_positive("dt_s", dt_s)
+    move = as_move(acc, dt_s)
+    acc, dt_s = move.acc, move.dt_s
     dv = 0.5 * dt_s * (acc[:-1] + acc[1:])
     vel = np.concatenate([np.zeros((1, 3)), np.cumsum(dv, axis=0)])
     dx = dt_s * vel[:-1] + dt_s**2 * (2.0 * acc[:-1] + acc[1:]) / 6.0

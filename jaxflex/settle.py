@@ -32,7 +32,8 @@ from jaxflex.decay import amplitudes, envelope, envelope_horizon
 from jaxflex.deviation import point_norms
 from jaxflex.engine import free_states, modal_forces, modal_states, states_between
 from jaxflex.model import ModalModel
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.profile import as_move
+from jaxflex.validation import check_positive
 
 SUBDIVISIONS = 16
 TIME_TOL_S = 1e-9
@@ -208,11 +209,10 @@ def _tail_settle(decay: _FreeDecay, threshold_m: float) -> tuple[float | None, f
 
 
 def _prepare(model: ModalModel, acc, dt_s, threshold_m):
-    acc = check_acc(acc, rest_at_ends=True).astype(np.float64)
-    dt_s = check_positive("dt_s", dt_s)
+    move = as_move(acc, dt_s, at_rest=True)
     threshold_m = check_positive("threshold_m", threshold_m)
-    states = modal_states(model, acc, dt_s, xp=np)
-    return states, modal_forces(model, acc, np), dt_s, threshold_m
+    states = modal_states(model, move.acc, move.dt_s, xp=np)
+    return states, modal_forces(model, move.acc, np), move.dt_s, threshold_m
 
 
 def analyze_move(

@@ -381,7 +381,7 @@ class GradientSubsolver:
         x0[z_slice] = np.concatenate([zz.ravel() for zz in z])
         return x0
 
-    def solve(self, problem: Problem, n_steps: int, warm: np.ndarray, polish: bool) -> SubResult:
+    def solve(self, problem: Problem, n_steps: int, warm: np.ndarray) -> SubResult:
         builder = LPBuilder()
         layout = add_move(builder, n_steps, problem.dt_s, problem.distance, problem.limits)
         add_cuts(builder, self._cuts.get(n_steps, []))

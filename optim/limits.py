@@ -17,8 +17,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.profile import axis_limits, integrate
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.profile import as_move, axis_limits, integrate
+from jaxflex.validation import check_positive
 
 AXES = "xyz"
 # A limit counts as broken only beyond this relative excess: float64 round-off of the
@@ -210,9 +210,9 @@ def check_profile(
     ``distance_m`` (3,) is given, the boundary conditions: rest at both ends (a_0 = a_n = 0,
     v_n = 0) and arrival at ``distance_m``. Velocity is checked between samples too.
     Returns every violation with its time and size."""
-    acc = check_acc(acc).astype(np.float64)
-    dt_s = check_positive("dt_s", dt_s)
-    vel, pos = integrate(acc, dt_s)
+    move = as_move(acc, dt_s)
+    acc, dt_s = move.acc, move.dt_s
+    vel, pos = integrate(move, dt_s)
     n = acc.shape[0] - 1
     t = dt_s * np.arange(n + 1)
     violations: list[Violation] = []

@@ -18,8 +18,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from jaxflex.errors import InputError
+from jaxflex.errors import InputError, JaxflexError
 from jaxflex.model import ModalModel
+from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
 from jaxflex.validation import check_positive
 from optim.baselines import baselines as compute_baselines
@@ -77,13 +78,13 @@ def optimize(
     model: ModalModel,
     distance_m,
     limits: Limits,
+    dt_s: float,
     threshold_m: float,
-    dt_s: float = 0.01,
+    *,
     method: str = "exact",
     solver: str | None = None,
     robust: RobustSpec | None = None,
     progress: bool = True,
-    *,
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
     max_shaped_modes: int = 6,
     clearance_m: float | None = None,
@@ -122,15 +123,15 @@ def optimize(
         model,
         distance,
         limits,
-        threshold_m,
         dt_s,
+        threshold_m,
         robust=robust,
         max_shaped_modes=max_shaped_modes,
         max_steps=max_steps,
         progress=progress,
     )
     problem = make_problem(
-        model, distance, limits, threshold_m, dt_s, max_steps, robust, clearance_m
+        model, distance, limits, dt_s, threshold_m, max_steps, robust, clearance_m
     )
     sub = LPSubsolver(solver) if method == "exact" else GradientSubsolver(solver)
     upper = math.ceil(base.best().score() / dt_s - 1e-9)
@@ -151,13 +152,15 @@ def optimize(
     notes = []
     acc = final.acc
     check = check_profile(acc, dt_s, limits, distance)
-    if not check.ok:  # never observed; kept so that a broken limit can never be returned
+    if not check.ok:  # a broken limit is never returned (test_optim_optimize reaches this)
         notes.append(f"optimised profile rejected ({check.summary()}); best baseline returned")
         for entry in sorted(base.entries, key=lambda e: e.score()):
             check = check_profile(entry.acc, dt_s, limits, distance)
             if check.ok:
                 acc = entry.acc
                 break
+        else:
+            raise JaxflexError(f"no profile meets the limits exactly ({check.summary()})")
     timing = analyze_move(model, acc, dt_s, threshold_m)
     worst = None
     if robust is not None:
@@ -205,7 +208,7 @@ def _polish(problem, sub: LPSubsolver, best, history):
     the search found, every limit held a little inside (POLISH_MARGIN); one step more if the
     margin makes n infeasible. Returns the first feasible attempt, else ``best``."""
     for n_steps in (best.n_steps, best.n_steps + 1):
-        polished = attempt(problem, sub, n_steps, best.acc, polish=True)
+        polished = attempt(problem, sub.polishing(), n_steps, best.acc)
         history.append(polished)
         if polished.feasible:
             return polished
@@ -215,11 +218,12 @@ def _polish(problem, sub: LPSubsolver, best, history):
 def _worst_case(problem, acc, dt_s, threshold_m, grid) -> dict:
     """Worst exact cycle time over the robust check grid (reusing certified timings)."""
     if grid is None:
+        move = as_move(acc, dt_s, at_rest=True)  # checked once for the whole grid
         grid = [
             (
                 s.scale,
                 s.zeta,
-                analyze_move(s.model, acc, dt_s, threshold_m, settle=False).cycle_time_s,
+                analyze_move(s.model, move, dt_s, threshold_m, settle=False).cycle_time_s,
             )
             for s in problem.scenarios
         ]

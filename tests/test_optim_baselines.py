@@ -73,7 +73,7 @@ def model():
 
 @pytest.fixture(scope="module")
 def base(model):
-    return optim.baselines(model, DISTANCE, LIMITS, THRESHOLD, DT)
+    return optim.baselines(model, DISTANCE, LIMITS, DT, THRESHOLD)
 
 
 def test_each_baseline_carries_its_exact_cycle_time(model, base):
@@ -107,7 +107,7 @@ def test_the_number_of_shaped_modes_is_the_best_one(model, base):
 
 def test_robust_baselines_report_their_worst_case(model):
     spec = optim.RobustSpec(n_freq=3, n_zeta=2)
-    base = optim.baselines(model, DISTANCE, LIMITS, THRESHOLD, DT, robust=spec)
+    base = optim.baselines(model, DISTANCE, LIMITS, DT, THRESHOLD, robust=spec)
     for b in base.entries:
         cycles = [
             jaxflex.cycle_time(perturbed(model, s, z), b.acc, DT, THRESHOLD) for s, z in spec.grid()
@@ -144,7 +144,7 @@ def test_a_shaper_registered_outside_optim_is_one_of_the_optimisers_baselines(
     h = 1e-3 * omega
     v = design.residual_vibration(np.array([omega - h, omega, omega + h]), zeta)
     assert v[1] < 1e-12 and v.max() < 1e-8
-    result = optim.optimize(model, DISTANCE, LIMITS, THRESHOLD, DT, progress=False)
+    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, progress=False)
     entries = result.baselines.entries
     assert [b.name.split()[0] for b in entries] == ["ruckig", "ZV", "ZVD", "EI", "ZVDD"]
     zvdd = entries[-1]
