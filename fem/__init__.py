@@ -4,8 +4,10 @@ Part + gripper -> finite-element model -> modal analysis -> jaxflex.ModalModel; 
 full-order transient reference, meshio export and pictures. Geometry in metres, SI units.
 """
 
+from fem.ansys import from_ansys
 from fem.damping import Rayleigh, rayleigh_zeta
 from fem.export import export_modes, export_transient, plot_part
+from fem.imported import ImportedModes
 from fem.materials import PRESETS, Material, resolve_material
 from fem.modal import ModalResult, modal_analysis
 from fem.parts import Part, curved_panel, read_mesh, rectangular_plate
@@ -18,6 +20,7 @@ __all__ = [
     "PRESETS",
     "SCENES",
     "ClampedEdge",
+    "ImportedModes",
     "Material",
     "ModalResult",
     "Part",
@@ -33,6 +36,7 @@ __all__ = [
     "default_model",
     "export_modes",
     "export_transient",
+    "from_ansys",
     "modal_analysis",
     "plot_part",
     "rayleigh_zeta",
