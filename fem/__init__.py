@@ -7,6 +7,7 @@ full-order transient reference, meshio export and pictures. Geometry in metres, 
 from fem.ansys import from_ansys
 from fem.damping import Rayleigh, rayleigh_zeta
 from fem.export import export_modes, export_transient, plot_part
+from fem.identify import R1Identification, from_r1
 from fem.imported import ImportedModes
 from fem.materials import PRESETS, Material, resolve_material
 from fem.modal import ModalResult, modal_analysis
@@ -25,6 +26,7 @@ __all__ = [
     "ModalResult",
     "Part",
     "PointSupport",
+    "R1Identification",
     "Rayleigh",
     "SimplySupportedEdge",
     "SizingResult",
@@ -37,6 +39,7 @@ __all__ = [
     "export_modes",
     "export_transient",
     "from_ansys",
+    "from_r1",
     "modal_analysis",
     "plot_part",
     "rayleigh_zeta",
