@@ -171,17 +171,25 @@ def _not_a_number(cell: str) -> bool:
 def _read_table_by_line(path: Path) -> np.ndarray:
     rows: list[list[float]] = []
     lines: list[int] = []
+    bad_line = None
     with path.open(newline="", encoding="utf-8") as handle:
         for line_no, row in enumerate(csv.reader(handle), start=1):
             if not row or all(not cell.strip() for cell in row):
                 continue
+            if bad_line is not None:  # a broken line followed by data: not a cut-off end
+                raise InputError(f"{str(path)!r} line {bad_line}: non-numeric value")
             try:
                 rows.append([float(cell) for cell in row])
                 lines.append(line_no)
             except ValueError:
                 if line_no == 1 and not rows:
                     continue  # header
-                raise InputError(f"{str(path)!r} line {line_no}: non-numeric value") from None
+                bad_line = line_no
+    if bad_line is not None:
+        raise InputError(
+            f"{str(path)!r} line {bad_line}: non-numeric value at the end of the file; the file "
+            "looks truncated"
+        )
     if not rows:
         raise InputError(f"{str(path)!r}: no data rows")
     widths = np.array([len(r) for r in rows])
