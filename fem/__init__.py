@@ -11,6 +11,7 @@ from fem.identify import R1Identification, from_r1
 from fem.imported import ImportedModes
 from fem.materials import PRESETS, Material, resolve_material
 from fem.modal import ModalResult, modal_analysis
+from fem.nastran import from_nastran
 from fem.parts import Part, curved_panel, read_mesh, rectangular_plate
 from fem.scenes import SCENES, default_gripper, default_model, scene
 from fem.sizing import SizingResult, size_model
@@ -39,6 +40,7 @@ __all__ = [
     "export_modes",
     "export_transient",
     "from_ansys",
+    "from_nastran",
     "from_r1",
     "modal_analysis",
     "plot_part",
