@@ -2,6 +2,8 @@
 
 With ``--tolerance`` the mesh, the number of modes and the monitored points are chosen for a
 move (``--trajectory`` or ``--distance`` with limits) and a ``--threshold`` by fem.size_model.
+``--from-ansys``, ``--from-nastran`` and ``--from-r1`` build the model from a user's own
+finite-element results (fem.from_ansys, fem.from_nastran, fem.from_r1).
 """
 
 from __future__ import annotations
@@ -11,7 +13,10 @@ import argparse
 from jaxflex.cli._limits import AXIS_LIMITS, add_axis_limits
 
 COMMAND = "model"
-HELP = "build a modal model (.npz) from a built-in scene or a mesh file (SI units, m)"
+HELP = (
+    "build a modal model (.npz) from a built-in scene, a mesh file, or ANSYS, Nastran or R1 "
+    "results (SI units, m)"
+)
 ORDER = 10
 
 
@@ -58,6 +63,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--scene", choices=("plate", "panel"), help="built-in part and gripper")
     src.add_argument("--mesh", metavar="FILE", help="mesh file read by meshio (coordinates in m)")
+    src.add_argument(
+        "--from-ansys",
+        metavar="FILE",
+        help="MAPDL .full (modes computed here; coordinates from --nodes) or .rst (modes as "
+        "MAPDL computed them; participation from --full or --gamma)",
+    )
+    src.add_argument(
+        "--from-nastran", metavar="DECK", help="Nastran bulk-data deck solved by our shell model"
+    )
+    src.add_argument(
+        "--from-r1",
+        nargs="+",
+        metavar="CSV",
+        help="unit response R1 in the preprint's Table 2 layout (one file per --axis), "
+        "identified as a modal model; needs --dt",
+    )
+    _add_import_arguments(parser)
     parser.add_argument("--thickness", type=float, help="sheet thickness in m (mesh files)")
     parser.add_argument(
         "--scale",
@@ -121,6 +143,37 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _add_sizing_arguments(parser)
 
 
+def _add_import_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("imported results (--from-ansys, --from-nastran, --from-r1)")
+    group.add_argument(
+        "--full", metavar="FILE", help="--from-ansys .rst: the .full of the same model"
+    )
+    group.add_argument(
+        "--nodes",
+        metavar="FILE",
+        help="node coordinates: --from-ansys .full: a .cdb, .rst or CSV node,x,y,z of the same "
+        "mesh (file units); --from-r1: CSV x,y,z (or node,x,y,z) in m, one row per R1 row",
+    )
+    group.add_argument(
+        "--units",
+        help="unit system of ANSYS/Nastran files that state none: SI, MPA (mm, t, s), BIN "
+        "(in, lbf s^2/in, s), BFT, CGS, UMKS",
+    )
+    group.add_argument(
+        "--gamma",
+        metavar="CSV",
+        help="--from-ansys .rst: participation factors, one row x,y,z per mode in kg^0.5",
+    )
+    group.add_argument("--spc-id", type=int, help="--from-nastran: the SPC set to use")
+    group.add_argument(
+        "--axis",
+        nargs="+",
+        choices=("x", "y", "z"),
+        default=None,
+        help="--from-r1: the acceleration axis of each R1 file (default z)",
+    )
+
+
 def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group(
         "model sizing (--tolerance): choose the mesh, modes and points for a move; exit status "
@@ -146,7 +199,11 @@ def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
         help="the move: jerk-limited straight move by this displacement, m",
     )
     add_axis_limits(group, with_defaults=False, condition="--distance: ")
-    group.add_argument("--dt", type=float, help="--distance: sample step in s (default 0.01)")
+    group.add_argument(
+        "--dt",
+        type=float,
+        help="--distance: sample step in s (default 0.01); --from-r1: the R1 time step in s",
+    )
     group.add_argument("--threshold", type=float, help="settle threshold in m (e.g. 0.0005)")
     group.add_argument(
         "--mesh-sizes",
@@ -166,7 +223,9 @@ def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="X,Y",
         help="points that must stay monitored (x,y in m on the part)",
     )
-    group.add_argument("--report", metavar="JSON", help="write the sizing report here")
+    group.add_argument(
+        "--report", metavar="JSON", help="write the sizing report (or the R1 fit report) here"
+    )
 
 
 SIZING_ONLY = (
@@ -194,6 +253,13 @@ def run(args: argparse.Namespace) -> int:
     import fem
     from jaxflex.errors import InputError
 
+    if args.from_ansys or args.from_nastran or args.from_r1:
+        return _run_import(args)
+    for name in IMPORT_ONLY:
+        if getattr(args, name) is not None:
+            raise InputError(
+                f"--{name.replace('_', '-')}: only with --from-ansys/--from-nastran/--from-r1"
+            )
     material = _material(args)
     if args.scene:
         if args.thickness is not None or args.element is not None:
@@ -237,6 +303,117 @@ def run(args: argparse.Namespace) -> int:
     points = 1000 if args.points is None else args.points
     model = result.to_modal_model(points=None if points == "all" else points)
     _write(args, model, result)
+    return 0
+
+
+IMPORT_ONLY = ("full", "nodes", "units", "gamma", "spc_id", "axis")
+# options of the built-in and meshed parts and of sizing, with their unset values
+NOT_FOR_IMPORTS = {
+    "thickness": None,
+    "scale": 1.0,
+    "material": "steel",
+    "E_pa": None,
+    "nu": None,
+    "rho_kg_m3": None,
+    "mesh_size": None,
+    "point_supports": [],
+    "clamped_edges": [],
+    "tolerance": None,
+    "trajectory": None,
+    "distance": None,
+    "vmax": None,
+    "amax": None,
+    "jmax": None,
+    "threshold": None,
+    "mesh_sizes": None,
+    "max_modes": 160,
+    "key_points": None,
+}
+ALLOWED = {
+    "ansys": {"full", "nodes", "units", "gamma", "n_modes", "max_freq"},
+    "nastran": {"units", "spc_id", "cups", "element", "allow_rigid_modes", "n_modes", "max_freq"},
+    "r1": {"nodes", "axis", "dt", "report", "n_modes"},
+}
+
+
+def _check_import_options(args, source: str) -> None:
+    from jaxflex.errors import InputError
+
+    unset = {**NOT_FOR_IMPORTS, **dict.fromkeys(IMPORT_ONLY), "cups": None, "element": None}
+    unset.update(allow_rigid_modes=False, n_modes=None, max_freq=None, dt=None, report=None)
+    for name, default in unset.items():
+        if name not in ALLOWED[source] and getattr(args, name) != default:
+            raise InputError(f"--{name.replace('_', '-')}: not used with --from-{source}")
+
+
+def _read_gamma(path):
+    import numpy as np
+
+    from jaxflex.errors import InputError
+
+    try:
+        return np.loadtxt(path, delimiter=",", ndmin=2)
+    except (OSError, ValueError) as exc:
+        raise InputError(f"--gamma: cannot read {path!r} as rows x,y,z ({exc})") from exc
+
+
+def _run_import(args) -> int:
+    import json
+
+    import fem
+    from jaxflex.atomic import write_text_atomic
+    from jaxflex.errors import InputError
+
+    progress = False if args.no_progress else None
+    n_modes = args.n_modes
+    if args.from_ansys:
+        _check_import_options(args, "ansys")
+        result = fem.from_ansys(
+            args.from_ansys,
+            full=args.full,
+            nodes=args.nodes,
+            units=args.units,
+            n_modes=20 if n_modes is None and args.max_freq is None else n_modes,
+            max_freq_hz=args.max_freq,
+            gamma=None if args.gamma is None else _read_gamma(args.gamma),
+            zeta=args.zeta,
+            progress=progress,
+        )
+    elif args.from_nastran:
+        _check_import_options(args, "nastran")
+        result = fem.from_nastran(
+            args.from_nastran,
+            units=args.units,
+            cups=[fem.SuctionCup(x, y, r) for x, y, r in args.cups or []],
+            spc_id=args.spc_id,
+            element=args.element,
+            n_modes=20 if n_modes is None and args.max_freq is None else n_modes,
+            max_freq_hz=args.max_freq,
+            zeta=args.zeta,
+            allow_rigid_modes=args.allow_rigid_modes,
+            progress=progress,
+        )
+    else:
+        _check_import_options(args, "r1")
+        if args.dt is None:
+            raise InputError("--dt: the time step of the R1 file(s) in s is required")
+        result = fem.from_r1(
+            args.from_r1, args.dt, args.axis or ["z"], nodes=args.nodes, max_modes=n_modes
+        )
+    print(result.summary())
+    points = 1000 if args.points is None else args.points
+    zeta = None if args.from_r1 else args.zeta  # R1: the identified damping
+    model = result.to_modal_model(points=None if points == "all" else points, zeta=zeta)
+    if args.from_r1 and args.report:
+        write_text_atomic(args.report, json.dumps(result.fit.as_dict(), indent=2))
+        print(f"wrote {args.report}")
+    if args.from_nastran:
+        _write(args, model, result)
+    else:
+        if args.plot or args.vtu:
+            raise InputError("--plot/--vtu: only for models solved here (scenes, meshes, decks)")
+        model.save(args.output)
+        print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
     return 0
 
 
