@@ -58,7 +58,7 @@ def test_full_modes_equal_a_dense_solve_of_the_same_matrices(full_modes):
     # 1e-6 is the target; shift-invert Lanczos (ARPACK to machine precision) and LAPACK's
     # eigh agree to 2e-10 here (measured; eigenvalue spread ~1e4 of a 900-DOF problem)
     np.testing.assert_allclose(full_modes.freq_hz, freq_dense[:6], rtol=1e-6)
-    # the values the issue quotes, to the 0.01 Hz they are printed with
+    # the published values of this example, to the 0.01 Hz they are printed with
     np.testing.assert_allclose(full_modes.freq_hz, FULL_FIRST_SIX_HZ, atol=0.005)
 
 
