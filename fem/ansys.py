@@ -22,7 +22,6 @@ alone (its DOFs are nodal): the rigid translations would be wrong.
 
 from __future__ import annotations
 
-import hashlib
 import os
 import warnings
 from dataclasses import dataclass
@@ -31,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from fem.imported import ImportedModes
+from fem.imported import ImportedModes, file_digest
 from fem.modal import solve_modes
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
@@ -226,15 +225,6 @@ def _read_csv_table(path: Path, width: int, name: str) -> np.ndarray:
             f"{name}: {str(path)!r} must have {width} finite numbers per row, got {table.shape[1]}"
         )
     return table
-
-
-def file_digest(path: str | os.PathLike) -> dict:
-    """{"path", "sha256", "bytes"} of an input file (recorded in the model's meta)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return {"path": str(path), "sha256": digest.hexdigest(), "bytes": os.path.getsize(path)}
 
 
 def _free_system(full: FullMatrices):

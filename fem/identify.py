@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 import scipy.optimize
 
-from fem.imported import ImportedModes
+from fem.imported import ImportedModes, file_digest
 from jaxflex.convolution import read_unit_response_csv, unit_response_times
 from jaxflex.discretize import foh_coefficients
 from jaxflex.errors import InputError
@@ -509,8 +509,6 @@ def from_r1(
     acceleration axis in ``axes``), sampled every ``dt_s`` s. ``nodes``: a CSV (x, y, z or
     node, x, y, z in m, one row per R1 row) or an array (K, 3) m. See :func:`identify_r1`;
     ``.fit`` is the fit report, ``.to_modal_model(points)`` the model."""
-    from fem.ansys import file_digest
-
     dt_s = check_positive("dt", dt_s)
     paths = [paths] if isinstance(paths, str | os.PathLike) else list(paths)
     axes = (axes,) if isinstance(axes, str) else tuple(axes)

@@ -1,4 +1,4 @@
-"""Modes that come from another program's files (ANSYS results, Nastran OP2, an identified
+"""Modes that come from another program's files (ANSYS results, an identified
 unit response), in SI units, and the jaxflex.ModalModel they give.
 
 What a file cannot tell is kept as None and named when it is needed: participation factors
@@ -7,6 +7,8 @@ need the mass matrix, point coordinates need the mesh.
 
 from __future__ import annotations
 
+import hashlib
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -149,3 +151,12 @@ class ImportedModes:
         if self.nodes is None:
             raise InputError(f"node coordinates: {self.nodes_missing}")
         return self.nodes
+
+
+def file_digest(path: str | os.PathLike) -> dict:
+    """{"path", "sha256", "bytes"} of an input file (recorded in the model's meta)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return {"path": str(path), "sha256": digest.hexdigest(), "bytes": os.path.getsize(path)}
