@@ -1,12 +1,13 @@
-"""Nastran bulk-data decks read with pyNastran and solved by our own shell models.
+"""Nastran bulk-data decks solved by our own shell models.
 
-A deck's GRID points and shell elements (CQUAD4, CTRIA3, CQUAD8, CTRIA6; the mid-side
-grids of the quadratic ones are dropped, our elements have their own edge DOFs), its
-PSHELL thickness and MAT1 material become a fem part: a flat deck a Kirchhoff plate
-(triangles; quads are split), a curved one of quads the one-layer thin solid. SPC/SPC1
-translations become pinned points; the suction cups of the gripper may be given as well
-(``cups``). Nastran decks state no units: they are given (fem.units), everything is
-converted to SI before the analysis.
+A deck's GRID points and shell elements (CQUAD4, CTRIA3, CQUAD8, CTRIA6; the mid-side grids
+of the quadratic ones are dropped, our elements have their own edge DOFs), its PSHELL
+thickness and MAT1 material (fem.bdf reads them) become a fem part: a flat deck a Kirchhoff
+plate (triangles; quads are split), a curved one of quads the one-layer thin solid.
+Single-point constraints (the SPC/SPC1 set case control or ``spc_id`` selects, and GRID
+PS) become pinned points; the suction cups of the gripper may be given as well (``cups``).
+Nastran decks state no units: they are given (fem.units), everything is converted to SI
+before the analysis.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from fem import meshing
-from fem.ansys import file_digest
+from fem.bdf import SHELL_CARDS, BulkData, Shell, read_bulk
+from fem.imported import file_digest
 from fem.materials import Material
 from fem.mesh_io import surface_from_quads
 from fem.modal import ModalResult, modal_analysis
@@ -26,70 +28,132 @@ from fem.supports import PointSupport, as_support_list
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
 
-SHELLS = {"CTRIA3": 3, "CTRIA6": 3, "CQUAD4": 4, "CQUAD8": 4}  # corner grids first
 FLAT_TOLERANCE = 1e-9  # z spread of a flat deck relative to its extent
 
 
-def read_deck(path: str | os.PathLike):
-    """The pyNastran BDF model of a deck (bulk data only, or with executive and case
-    control), cross-referenced."""
-    from pyNastran.bdf.bdf import BDF
-
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"deck: file {str(path)!r} does not exist")
-    text = path.read_text(errors="replace").upper()
-    model = BDF(debug=None)
-    try:
-        model.read_bdf(str(path), punch="BEGIN BULK" not in text, xref=True)
-    except Exception as exc:  # pyNastran raises many types for a broken deck
-        raise InputError(
-            f"deck: pyNastran cannot read {str(path)!r} ({type(exc).__name__}: {exc})"
-        ) from exc
-    return model
-
-
-def _one(kind: str, values: set, what: str):
+def _one(values: dict, what: str):
+    """The one value of ``values`` ({value: card label}); several are refused by name."""
     if len(values) != 1:
-        raise InputError(
-            f"deck: {what} differs between elements ({sorted(values)}); a part of one "
-            f"{kind} is required"
-        )
-    return values.pop()
+        shown = "; ".join(f"{v} ({label})" for v, label in values.items())
+        raise InputError(f"deck: {what} differs between elements ({shown}); one is required")
+    return next(iter(values))
 
 
-def _constraints(model, spc_id: int | None) -> tuple[list[int], dict]:
-    """Grid ids whose translation normal to the sheet is held, and a description."""
-    if not model.spcs:
-        return [], {}
-    if spc_id is None:
-        if len(model.spcs) > 1:
+def _material_of(bulk: BulkData, shells: list[Shell]):
+    """(thickness, (E, NU, RHO) of the bending material, description) in file units."""
+    thickness: dict = {}
+    material: dict = {}
+    notes: dict = {}
+    for pid in sorted({s.pid for s in shells}):
+        user = next(s for s in shells if s.pid == pid)
+        prop = bulk.pshells.get(pid)
+        if prop is None:
+            other = bulk.card_with_id(pid, "P")
+            kind = f"a {other.name}; only PSHELL is supported" if other else "not in the deck"
+            raise InputError(f"deck: {user.card.where(1, 'PID')}: property {pid} is {kind}")
+        if prop.t is None:
+            prop.card.required(None, 2, "T")
+        thickness[prop.t] = prop.card.label
+        mats = {}
+        for index, mid in ((1, prop.mid1), (3, prop.mid2)):
+            if mid is None:
+                continue
+            mat = bulk.mat1s.get(mid)
+            if mat is None:
+                other = bulk.card_with_id(mid, "MAT")
+                kind = f"a {other.name}; only MAT1 is supported" if other else "not in the deck"
+                label = f"MID{1 if index == 1 else 2}"
+                raise InputError(f"deck: {prop.card.where(index, label)}: material {mid} is {kind}")
+            mats[mid] = mat
+        values = {(m.e, m.nu, m.rho) for m in mats.values()}
+        if len(values) > 1:
             raise InputError(
-                f"spc_id: the deck has SPC sets {sorted(model.spcs)}; choose one (--spc-id)"
+                f"deck: {prop.card.where(None)}: membrane (MID1) and bending (MID2) materials "
+                "differ; an isotropic shell of one material is required"
             )
-        spc_id = next(iter(model.spcs))
-    if spc_id not in model.spcs:
-        raise InputError(f"spc_id: no SPC set {spc_id} in the deck (it has {sorted(model.spcs)})")
-    held: list[int] = []
-    for card in model.spcs[spc_id]:
-        if card.type == "SPC1":
-            pairs = [(card.components, nid) for nid in card.node_ids]
-        elif card.type == "SPC":
-            pairs = list(zip(card.components, card.node_ids, strict=True))
-            if any(v != 0 for v in card.enforced):
-                raise InputError("deck: SPC with enforced non-zero values is not a support")
+        bending = mats[prop.mid2]
+        material[(bending.e, bending.nu, bending.rho)] = bending.card.label
+        if bending.derived:
+            notes[bending.card.label] = f"{bending.derived} from E = 2 (1 + NU) G"
+    return (
+        _one(thickness, "PSHELL thickness T"),
+        _one(material, "material (E, NU, RHO)"),
+        notes,
+    )
+
+
+def _selected_set(bulk: BulkData, spc_id: int | None) -> tuple[int | None, str]:
+    """The SPC set to apply and why."""
+    sets = sorted(bulk.spcs)
+    if spc_id is not None:
+        if spc_id not in bulk.spcs:
+            raise InputError(f"spc_id: no SPC set {spc_id} in the deck (it has {sets})")
+        return spc_id, "given"
+    if bulk.case_spc is not None:
+        if len(bulk.case_spc) > 1:
+            raise InputError(
+                f"spc_id: case control selects SPC sets {bulk.case_spc} in different subcases; "
+                "choose one (--spc-id)"
+            )
+        if not bulk.case_spc:
+            unused = f" (sets {sets} not applied, as in Nastran)" if sets else ""
+            return None, "case control selects none" + unused
+        chosen = bulk.case_spc[0]
+        if chosen not in bulk.spcs:
+            raise InputError(f"deck: case control selects SPC = {chosen}; the deck has {sets}")
+        return chosen, "selected by case control"
+    if len(sets) > 1:
+        raise InputError(f"spc_id: the deck has SPC sets {sets}; choose one (--spc-id)")
+    return (sets[0], "the deck's only set") if sets else (None, "none in the deck")
+
+
+def _held_grids(bulk: BulkData, spc_id, flat: bool, part_grids: set, midside: set):
+    """Grid ids pinned (translations held) and a description of the constraints."""
+    chosen, reason = _selected_set(bulk, spc_id)
+    wanted: dict[int, tuple[set, str]] = {}
+    for grid in bulk.grids.values():
+        if grid.ps:
+            wanted[grid.id] = (set(grid.ps), grid.card.where(6, "PS"))
+    for con in bulk.spcs.get(chosen, []):
+        if con.grid not in bulk.grids:
+            raise InputError(f"deck: {con.card.where(None)}: grid {con.grid} is not in the deck")
+        comps, where = wanted.get(con.grid, (set(), ""))
+        wanted[con.grid] = (comps | set(con.components), where or con.card.where(None))
+    pinned, ignored, on_midside = [], 0, 0
+    for gid, (comps, where) in sorted(wanted.items()):
+        if comps & {"4", "5"}:
+            raise InputError(
+                f"deck: {where}: grid {gid} has its rotations {''.join(sorted(comps))} held; our "
+                "shell models hold slopes through suction cups (cups=, --cups) or clamped "
+                "edges, not per grid: keep the translations (123) in the deck"
+            )
+        translations = comps & {"1", "2", "3"}
+        if gid in midside and gid not in part_grids:
+            on_midside += 1
+            continue
+        if flat:
+            held = "3" in translations  # 1, 2 (in-plane) and 6 (drilling): not plate DOFs
         else:
-            raise InputError(f"deck: {card.type} constraints are not supported (SPC, SPC1 are)")
-        for components, nid in pairs:
-            comps = str(components)
-            if set(comps) & {"4", "5", "6"}:
+            if translations and translations != {"1", "2", "3"}:
                 raise InputError(
-                    f"deck: SPC set {spc_id} holds rotations ({comps}) of grid {nid}; our "
-                    "shell models hold slopes through suction cups (cups=, --cups) or clamped "
-                    "edges, not per grid: keep the translations (123) in the deck"
+                    f"deck: {where}: grid {gid} holds translations {''.join(sorted(comps))}; "
+                    "the thin solid pins all three (123) at a point"
                 )
-            held.append(int(nid))
-    return sorted(set(held)), {"spc_id": int(spc_id), "held_grids": len(set(held))}
+            held = bool(translations)
+        if not held:
+            ignored += 1
+            continue
+        if gid not in part_grids:
+            raise InputError(f"deck: {where}: grid {gid} is held but no shell element uses it")
+        pinned.append(gid)
+    info = {
+        "spc_set": chosen,
+        "spc_set_reason": reason,
+        "held_grids": len(pinned),
+        "constraints_without_effect": ignored,
+        "constraints_on_midside_grids": on_midside,
+    }
+    return pinned, info
 
 
 def part_from_deck(
@@ -100,38 +164,28 @@ def part_from_deck(
     spc_id: int | None = None,
 ):
     """(part, pinned supports, grid ids of the part's nodes, description) from a deck."""
-    model = read_deck(path)
+    bulk = read_bulk(path)
     unit = resolve_units(units, None, f"the Nastran deck {str(path)!r}")
-    shells = [e for e in model.elements.values() if e.type in SHELLS]
-    others = sorted({e.type for e in model.elements.values()} - set(SHELLS))
-    if others:
-        raise InputError(f"deck: elements {others} are not supported (shells: {sorted(SHELLS)})")
-    if not shells:
-        raise InputError(f"deck: {str(path)!r} has no shell elements ({sorted(SHELLS)})")
-    props = list({e.pid: e.pid_ref for e in shells}.values())
-    if any(p.type != "PSHELL" for p in props):
-        raise InputError("deck: shell properties other than PSHELL are not supported")
-    thickness = _one("thickness", {float(p.t) for p in props}, "PSHELL thickness T")
-    if any(float(p.nsm or 0.0) != 0.0 for p in props):
-        raise InputError("deck: PSHELL non-structural mass (NSM) is not supported")
-    mats = [p.mid1_ref for p in props]
-    if any(m is None or m.type != "MAT1" for m in mats):
-        raise InputError("deck: the PSHELL material must be a MAT1")
-    e_mod, nu, rho = _one(
-        "material", {(float(m.e), float(m.nu), float(m.rho)) for m in mats}, "MAT1 (E, NU, RHO)"
-    )
-    corners = [list(e.node_ids[: SHELLS[e.type]]) for e in shells]
+    if not bulk.shells:
+        raise InputError(f"deck: {str(path)!r} has no shell elements (CQUAD4, CTRIA3, ...)")
+    thickness, (e_mod, nu, rho), derived = _material_of(bulk, bulk.shells)
+    corners = [list(s.corners) for s in bulk.shells]
     grid_ids = np.unique(np.concatenate(corners))
     index = {int(g): i for i, g in enumerate(grid_ids)}
-    xyz = np.array([model.nodes[int(g)].get_position() for g in grid_ids]) * unit.length_m
-    material = Material("deck MAT1", e_mod * unit.modulus_to_si, nu, rho * unit.density_to_si)
+    xyz = np.array([bulk.grids[int(g)].xyz for g in grid_ids]) * unit.length_m
+    try:
+        material = Material(
+            "deck MAT1",
+            e_mod * unit.modulus_to_si,
+            nu,
+            rho * bulk.wtmass * unit.density_to_si,
+        )
+    except InputError as exc:
+        raise InputError(f"deck: MAT1 {exc}") from exc
     extent = float(np.ptp(xyz, axis=0).max())
     flat = np.ptp(xyz[:, 2]) <= FLAT_TOLERANCE * extent
-    description = {
-        "shape": "Nastran deck",
-        "path": str(path),
-        "elements": {t: sum(e.type == t for e in shells) for t in SHELLS},
-    }
+    counts = {t: sum(s.name == t for s in bulk.shells) for t in SHELL_CARDS}
+    description = {"shape": "Nastran deck", "path": str(path), "elements": counts}
     if flat:
         tris = [c for c in corners if len(c) == 3]
         quads = [c for c in corners if len(c) == 4]
@@ -158,12 +212,19 @@ def part_from_deck(
     part = part_from_mesh(
         mesh, thickness * unit.length_m, material, element, Path(path).name, description
     )
-    held, spc = _constraints(model, spc_id)
-    missing = [g for g in held if g not in index]
-    if missing:
-        raise InputError(f"deck: SPC on grids {missing[:5]} that no shell element uses")
+    midside = {g for s in bulk.shells for g in s.grids[len(s.corners) :]}
+    held, spc = _held_grids(bulk, spc_id, bool(flat), set(index), midside)
     supports = [PointSupport(*xyz[index[g], :2]) for g in held]
-    return part, supports, grid_ids, {"units": unit.describe(), **spc}
+    info = {
+        "units": unit.describe(),
+        "elements": counts,
+        **spc,
+        "wtmass": bulk.wtmass,
+        "mat1_derived": derived,
+        "ignored_cards": bulk.ignored,
+        "included_files": bulk.files[1:],
+    }
+    return part, supports, grid_ids, info
 
 
 def from_nastran(
@@ -182,11 +243,14 @@ def from_nastran(
     """Modal analysis of a Nastran deck's part with our shell models (SI units).
 
     Args:
-        path: the bulk-data deck (.bdf/.dat/.nas).
+        path: the deck (.bdf/.dat/.nas): bulk data, or executive and case control with
+            BEGIN BULK; INCLUDEd files are read.
         units: its consistent unit system (fem.units.UNIT_SYSTEMS name), e.g. "SI" or
-            "MPA" (mm, t, s, N, MPa); Nastran decks do not state one.
+            "MPA" (mm, t, s, N, MPa); Nastran decks do not state one (PARAM WTMASS is
+            applied to the density).
         cups: suction cups (fem.SuctionCup) holding the part besides the deck's SPCs.
-        spc_id: the SPC set to use when the deck has several.
+        spc_id: the SPC set to use (default: the one case control selects, or the deck's
+            only set).
         element: "morley" (default for flat decks), "argyris", or "hex2" (curved decks).
         n_modes, max_freq_hz, zeta, allow_rigid_modes, progress: as fem.modal_analysis.
     Returns the fem.ModalResult (``.to_modal_model(points)``); its meta records the deck,
@@ -208,14 +272,15 @@ def from_nastran(
         allow_rigid_modes=allow_rigid_modes,
         progress=progress,
     )
+    included = {"included": [file_digest(p) for p in info["included_files"]]}
     result.provenance = {
-        "source": "fem.from_nastran (deck solved by jaxflex's shell model)",
-        "input": {"deck": file_digest(path)},
+        "source": "fem.from_nastran (deck read by fem.bdf, solved by jaxflex's shell model)",
+        "input": {"deck": file_digest(path), **(included if info["included_files"] else {})},
         "derived": {
             "mesh": "deck GRIDs and shell corner grids (mid-side grids dropped); quads split "
             "into triangles for the plate",
             "supports": f"{len(pins)} SPC grids pinned (translation held), {len(cups)} cups",
-            **info,
+            **{k: v for k, v in info.items() if k != "included_files"},
             "grids": int(grid_ids.size),
         },
     }

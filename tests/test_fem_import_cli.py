@@ -7,7 +7,7 @@ import json
 import numpy as np
 from ansys.mapdl.reader import examples
 from conftest import random_model, run_jaxflex
-from test_fem_nastran import write_deck
+from test_fem_nastran import STEEL_SI, meshio_deck
 
 import fem
 import jaxflex
@@ -62,7 +62,7 @@ def test_from_r1_writes_the_model_and_the_fit_report(tmp_path):
 def test_from_nastran_with_cups(tmp_path):
     part, cups = fem.scene("plate", mesh_size=0.1)
     mesh = part.mesh(cups)
-    deck = write_deck(tmp_path / "plate.bdf", mesh.nodes_xy, mesh.triangles)
+    deck = meshio_deck(tmp_path / "plate.bdf", mesh.nodes_xy, "triangle", mesh.triangles, STEEL_SI)
     out = tmp_path / "deck.npz"
     cup_args = [f"{c.x},{c.y},{c.radius}" for c in cups]
     done = run_jaxflex(
