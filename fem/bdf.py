@@ -324,13 +324,13 @@ def _cards(lines: Iterator[tuple[str, int, str]]) -> Iterator[Card]:
 def _grid(card: Card, defaults: Card | None) -> Grid:
     gid = card.required(card.integer(0, "ID"), 0, "ID")
     for index, label in ((1, "CP"), (5, "CD")):
-        system = card.integer(index, label)
-        if system is None and defaults is not None:
-            system = defaults.integer(index, label, 0)
+        source = card if card.text(index) or defaults is None else defaults
+        system = source.integer(index, label)
         if system:
+            given = "" if source is card else f", blank: the default of {defaults.where(index)}"
             raise InputError(
-                f"deck: {card.where(index, label)}: coordinate system {system}; only the basic "
-                "system (0 or blank) is supported: export the grids in basic coordinates"
+                f"deck: {card.where(index, label)}{given}: coordinate system {system}; only the "
+                "basic system (0 or blank) is supported: export the grids in basic coordinates"
             )
     xyz = tuple(card.real(i, f"X{i - 1}", 0.0) for i in (2, 3, 4))
     ps = ""

@@ -208,6 +208,24 @@ def test_mat1_two_of_three_and_thru_over_missing_grids(tmp_path):
     assert held[:12] == list(range(1, 13))  # 1 THRU 40 over the deck's 12 grids
 
 
+def test_grdset_gives_the_grids_defaults(tmp_path):
+    text = SMALL.replace("PARAM   POST    -1", "GRDSET" + " " * 50 + "6")
+    text = text.replace(
+        "GRID    5               .2      .2      0.",
+        "GRID    5               .2      .2      0.              345",
+    )
+    grids = read_bulk(write(tmp_path, text)).grids
+    assert {g.ps for g in grids.values()} == {"6", "345"}
+    assert grids[5].ps == "345"  # its own PS, not the default
+    system = text.replace("GRDSET          ", "GRDSET          3")
+    message = (
+        r"GRID 1 \(deck\.bdf line 11, field 3 CP\), blank: the default of GRDSET "
+        r"\(deck\.bdf line 8, field 3\): coordinate system 3"
+    )
+    with pytest.raises(InputError, match=message):
+        read_bulk(write(tmp_path, system))
+
+
 @pytest.mark.parametrize(
     ("text", "expected"),
     [

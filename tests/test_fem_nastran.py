@@ -185,6 +185,11 @@ def test_hand_formatted_small_deck_gives_our_plate(tmp_path):
     reference = fem.modal_analysis(part, [fem.SimplySupportedEdge("all")], n_modes=4)
     np.testing.assert_allclose(result.freq_hz, reference.freq_hz, rtol=1e-6)
     assert result.provenance["derived"]["ignored_cards"] == {"EIGRL": 1, "PARAM": 1}
+    # GRDSET PS 6 on every grid: drilling, not a DOF of the plate; changes nothing
+    deck.write_text(SMALL.replace("PARAM   POST    -1", "GRDSET" + " " * 50 + "6"))
+    drilling = fem.from_nastran(deck, units="SI", n_modes=4)
+    np.testing.assert_allclose(drilling.freq_hz, reference.freq_hz, rtol=1e-6)
+    assert drilling.provenance["derived"]["constraints_without_effect"] == 2  # grids 5, 8
 
 
 def test_curved_deck_is_our_thin_solid(tmp_path):
