@@ -108,6 +108,8 @@ class Card:
         text = self.text(index)
         if not text:
             return default
+        if text.isascii() and text.isdigit():
+            return int(text)
         if not _INT.fullmatch(text):
             raise InputError(f"deck: {self.where(index, label)}: {text!r} is not an integer")
         return int(text)
@@ -269,9 +271,10 @@ def _bulk_lines(path: Path, start: int, lines: list[str], stack: tuple[Path, ...
 def _split_line(text: str, path: str, number: int) -> tuple[str, list[str], str]:
     """(field 1, data fields (8, or 4 for large field), field 10) of one line in any of the
     three formats; data fields stripped and upper case."""
+    text = text.upper()
     if "," in text:
         tokens = [t.strip() for t in text.split(",")]
-        first = tokens[0].upper()
+        first = tokens[0]
         width = 4 if (first.endswith("*") or first.startswith("*")) else 8
         data, rest = tokens[1 : 1 + width], tokens[1 + width :]
         if any(rest[1:]):
@@ -280,14 +283,14 @@ def _split_line(text: str, path: str, number: int) -> tuple[str, list[str], str]
                 f"{width} data fields and a continuation field, got {len(tokens) - 1} fields"
             )
         data += [""] * (width - len(data))
-        return first, [t.upper() for t in data], rest[0].upper() if rest else ""
+        return first, data, rest[0] if rest else ""
     text = text[:80]
-    first = text[:8].strip().upper()
+    first = text[:8].strip()
     if first.endswith("*") or first.startswith("*"):
-        data = [text[8 + 16 * k : 24 + 16 * k] for k in range(4)]
+        data = [text[8 + 16 * k : 24 + 16 * k].strip() for k in range(4)]
     else:
-        data = [text[8 + 8 * k : 16 + 8 * k] for k in range(8)]
-    return first, [t.strip().upper() for t in data], text[72:80].strip().upper()
+        data = [text[8 + 8 * k : 16 + 8 * k].strip() for k in range(8)]
+    return first, data, text[72:80].strip()
 
 
 def _cards(lines: Iterator[tuple[str, int, str]]) -> Iterator[Card]:

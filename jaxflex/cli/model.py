@@ -164,7 +164,12 @@ def _add_import_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="CSV",
         help="--from-ansys .rst: participation factors, one row x,y,z per mode in kg^0.5",
     )
-    group.add_argument("--spc-id", type=int, help="--from-nastran: the SPC set to use")
+    group.add_argument(
+        "--spc-id",
+        type=int,
+        help="--from-nastran: the SPC set to use (default: the one case control selects, or "
+        "the deck's only set)",
+    )
     group.add_argument(
         "--axis",
         nargs="+",
