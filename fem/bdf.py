@@ -240,7 +240,7 @@ def _bulk_lines(path: Path, start: int, lines: list[str], stack: tuple[Path, ...
     while i < len(lines):
         number, text = i + 1, lines[i].split("$", 1)[0].expandtabs(8).rstrip()
         i += 1
-        if not text.strip():
+        if not text.strip() or _BEGIN_BULK.match(text):  # an included deck may repeat it
             continue
         if _INCLUDE.match(text):
             name = text.strip()[7:].strip()
