@@ -21,9 +21,10 @@ from fem import meshing
 from fem.bdf import SHELL_CARDS, BulkData, Shell, read_bulk
 from fem.imported import file_digest
 from fem.materials import Material
+from fem.mesh import PlateMesh
 from fem.mesh_io import surface_from_quads
 from fem.modal import ModalResult, modal_analysis
-from fem.parts import PlateMesh, part_from_mesh
+from fem.parts import part_from_mesh
 from fem.supports import PointSupport, as_support_list
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError

@@ -17,7 +17,7 @@ import jaxflex
 from fem.identify import hat_responses, identify_r1, round_significant, significant_digits
 from jaxflex.convolution import convolve_unit_response, unit_response, write_unit_response_csv
 from jaxflex.errors import InputError
-from optim.profiles import jerk_limited_move
+from jaxflex.profile import jerk_limited_move
 
 DT = 0.01
 STEPS = 1000

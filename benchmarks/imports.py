@@ -1,7 +1,7 @@
 """Wall time of the imports at the preprint's size, as JSON.
 
-    python -m fem.import_bench [--nodes 66308] [--steps 1000] [--imports r1 nastran]
-                               [--dir DIR] [-o import_bench.json]
+    python -m benchmarks.imports [--nodes 66308] [--steps 1000] [--imports r1 nastran]
+                                 [--dir DIR] [-o imports_bench.json]
 
 * R1: the built-in plate meshed finely enough for ``--nodes`` nodes (every mode below 40 Hz,
   zeta 0.02), R1 of ``--nodes`` of its nodes over ``--steps`` steps of 10 ms written as a
@@ -10,7 +10,7 @@
 * Nastran: the same plate mesh as a bulk-data deck (meshio's writer: GRID* large field,
   CTRIA3) with its cups, then timed: fem.from_nastran (fem.bdf read, our plate, 20 modes).
 ANSYS files of that size cannot be made here (no MAPDL); the .full import is read + our
-eigen solve, which fem.bench times.
+eigen solve, which benchmarks.fem times.
 """
 
 from __future__ import annotations
@@ -21,14 +21,21 @@ import tempfile
 import time
 from pathlib import Path
 
+import meshio
 import numpy as np
+
+import fem
+import jaxflex
+from fem.bdf import read_bulk
+from fem.identify import round_significant
+from jaxflex.atomic import write_text_atomic
+from jaxflex.convolution import convolve_unit_response, unit_response
+from jaxflex.profile import jerk_limited_move
 
 IMPORTS = ("r1", "nastran")
 
 
 def _plate_with_nodes(n_nodes: int):
-    import fem
-
     size = 0.015
     while True:
         part, cups = fem.scene("plate", mesh_size=size)
@@ -40,8 +47,6 @@ def _plate_with_nodes(n_nodes: int):
 
 def write_plate_deck(path: Path, mesh) -> None:
     """The plate mesh as a deck: GRIDs and CTRIA3 by meshio, 1 mm steel added as cards."""
-    import meshio
-
     xyz = np.column_stack([mesh.nodes_xy, np.zeros(len(mesh.nodes_xy))])
     ones = np.ones(len(mesh.triangles), dtype=int)
     cells = [("triangle", mesh.triangles)]
@@ -51,19 +56,8 @@ def write_plate_deck(path: Path, mesh) -> None:
     path.write_text(text.removesuffix("ENDDATA\n") + cards + "ENDDATA\n")
 
 
-def sine_move(distance_m: float, duration_s: float, dt_s: float) -> np.ndarray:
-    """(n+1, 3) m/s^2: a rest-to-rest move along z, one sine period of acceleration (fem
-    does not import optim's profiles)."""
-    t = np.arange(round(duration_s / dt_s) + 1) * dt_s
-    acc = np.zeros((t.size, 3))
-    acc[:, 2] = 2 * np.pi * distance_m / duration_s**2 * np.sin(2 * np.pi * t / duration_s)
-    return acc
-
-
 def run(n_nodes: int, n_steps: int, workdir: Path, imports=IMPORTS) -> dict:
     """Figures of the ``imports`` ("r1", "nastran") at ``n_nodes`` nodes."""
-    import fem
-
     out: dict = {"n_nodes": n_nodes, "n_steps": n_steps}
     part, cups, mesh = _plate_with_nodes(n_nodes)
     tick = time.perf_counter()
@@ -78,11 +72,6 @@ def run(n_nodes: int, n_steps: int, workdir: Path, imports=IMPORTS) -> dict:
 
 
 def _r1_import(result, n_nodes: int, n_steps: int, workdir: Path) -> dict:
-    import fem
-    import jaxflex
-    from fem.identify import round_significant
-    from jaxflex.convolution import convolve_unit_response, unit_response
-
     out: dict = {}
     nodes = result.system.nodes
     keep = np.sort(np.random.default_rng(0).choice(len(nodes), n_nodes, replace=False))
@@ -111,7 +100,7 @@ def _r1_import(result, n_nodes: int, n_steps: int, workdir: Path) -> dict:
     match = [np.argmin(np.abs(true_f - f)) for f in identified.freq_hz]
     out["r1_freq_rel_err_max"] = float(np.max(np.abs(identified.freq_hz / true_f[match] - 1)))
     out["r1_zeta_rel_err_max"] = float(np.max(np.abs(identified.zeta / model.zeta[match] - 1)))
-    acc = sine_move(1.0, 1.0, 0.01)
+    acc = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt=0.01)
     direct = convolve_unit_response(r1[None], acc, axes=(2,))
     full = identified.to_modal_model()
     modal = np.asarray(jaxflex.simulate(full, acc, 0.01, displacement=True).displacement)
@@ -123,9 +112,6 @@ def _r1_import(result, n_nodes: int, n_steps: int, workdir: Path) -> dict:
 
 
 def _nastran_import(result, mesh, cups, workdir: Path) -> dict:
-    import fem
-    from fem.bdf import read_bulk
-
     out: dict = {}
     deck_path = workdir / "plate.bdf"
     write_plate_deck(deck_path, mesh)
@@ -146,21 +132,21 @@ def _nastran_import(result, mesh, cups, workdir: Path) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m fem.import_bench", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.imports", description=__doc__)
     parser.add_argument("--nodes", type=int, default=66308, help="R1 rows / deck grids")
     parser.add_argument("--steps", type=int, default=1000, help="R1 time steps of 10 ms")
     parser.add_argument("--dir", help="where to write the R1 CSV and the deck (default: temp)")
     parser.add_argument(
         "--imports", nargs="+", choices=IMPORTS, default=list(IMPORTS), help="what to time"
     )
-    parser.add_argument("-o", "--output", default="import_bench.json", help="JSON results")
+    parser.add_argument("-o", "--output", default="imports_bench.json", help="JSON results")
     args = parser.parse_args(argv)
     if args.nodes < 100 or args.steps < 100:
         parser.error("--nodes and --steps: at least 100")
     with tempfile.TemporaryDirectory(dir=args.dir) as tmp:
         figures = run(args.nodes, args.steps, Path(tmp), args.imports)
     text = json.dumps(figures, indent=2)
-    Path(args.output).write_text(text)
+    write_text_atomic(args.output, text)
     print(text)
     return 0
 

@@ -3,14 +3,26 @@
 With ``--tolerance`` the mesh, the number of modes and the monitored points are chosen for a
 move (``--trajectory`` or ``--distance`` with limits) and a ``--threshold`` by fem.size_model.
 ``--from-ansys``, ``--from-nastran`` and ``--from-r1`` build the model from a user's own
-finite-element results (fem.from_ansys, fem.from_nastran, fem.from_r1).
+finite-element results (fem.cli_imports).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
-from jaxflex.cli._limits import AXIS_LIMITS, add_axis_limits
+from fem import cli_imports
+from fem.export import export_modes, plot_part
+from fem.modal import modal_analysis
+from fem.parts import read_mesh
+from fem.scenes import scene
+from fem.sizing import size_model
+from fem.supports import ClampedEdge, PointSupport, SuctionCup
+from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
+from jaxflex.errors import InputError
+from jaxflex.profile import jerk_limited_move
+from jaxflex.trajectory_io import read_trajectory_csv
 
 COMMAND = "model"
 HELP = (
@@ -63,23 +75,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--scene", choices=("plate", "panel"), help="built-in part and gripper")
     src.add_argument("--mesh", metavar="FILE", help="mesh file read by meshio (coordinates in m)")
-    src.add_argument(
-        "--from-ansys",
-        metavar="FILE",
-        help="MAPDL .full (modes computed here; coordinates from --nodes) or .rst (modes as "
-        "MAPDL computed them; participation from --full or --gamma)",
-    )
-    src.add_argument(
-        "--from-nastran", metavar="DECK", help="Nastran bulk-data deck solved by our shell model"
-    )
-    src.add_argument(
-        "--from-r1",
-        nargs="+",
-        metavar="CSV",
-        help="unit response R1 in the preprint's Table 2 layout (one file per --axis), "
-        "identified as a modal model; needs --dt",
-    )
-    _add_import_arguments(parser)
+    cli_imports.add_sources(src)
+    cli_imports.add_arguments(parser)
     parser.add_argument("--thickness", type=float, help="sheet thickness in m (mesh files)")
     parser.add_argument(
         "--scale",
@@ -141,42 +138,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
     parser.add_argument("-o", "--output", default="model.npz", help="model file (.npz)")
     _add_sizing_arguments(parser)
-
-
-def _add_import_arguments(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("imported results (--from-ansys, --from-nastran, --from-r1)")
-    group.add_argument(
-        "--full", metavar="FILE", help="--from-ansys .rst: the .full of the same model"
-    )
-    group.add_argument(
-        "--nodes",
-        metavar="FILE",
-        help="node coordinates: --from-ansys .full: a .cdb, .rst or CSV node,x,y,z of the same "
-        "mesh (file units); --from-r1: CSV x,y,z (or node,x,y,z) in m, one row per R1 row",
-    )
-    group.add_argument(
-        "--units",
-        help="unit system of ANSYS/Nastran files that state none: SI, MPA (mm, t, s), BIN "
-        "(in, lbf s^2/in, s), BFT, CGS, UMKS",
-    )
-    group.add_argument(
-        "--gamma",
-        metavar="CSV",
-        help="--from-ansys .rst: participation factors, one row x,y,z per mode in kg^0.5",
-    )
-    group.add_argument(
-        "--spc-id",
-        type=int,
-        help="--from-nastran: the SPC set to use (default: the one case control selects, or "
-        "the deck's only set)",
-    )
-    group.add_argument(
-        "--axis",
-        nargs="+",
-        choices=("x", "y", "z"),
-        default=None,
-        help="--from-r1: the acceleration axis of each R1 file (default z)",
-    )
 
 
 def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
@@ -254,26 +215,26 @@ def _material(args):
     return args.material
 
 
-def run(args: argparse.Namespace) -> int:
-    import fem
-    from jaxflex.errors import InputError
+def _defaults() -> dict:
+    """The command's option defaults (what an option left out gives)."""
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    return vars(parser.parse_args(["--scene", "plate"]))
 
-    if args.from_ansys or args.from_nastran or args.from_r1:
-        return _run_import(args)
-    for name in IMPORT_ONLY:
-        if getattr(args, name) is not None:
-            raise InputError(
-                f"--{name.replace('_', '-')}: only with --from-ansys/--from-nastran/--from-r1"
-            )
+
+def run(args: argparse.Namespace) -> int:
+    if cli_imports.requested(args):
+        return cli_imports.run(args, _defaults(), _write)
+    cli_imports.refuse_import_options(args)
     material = _material(args)
     if args.scene:
         if args.thickness is not None or args.element is not None:
             raise InputError("--thickness/--element: only for --mesh (scenes are 1 mm steel)")
-        part, supports = fem.scene(args.scene, mesh_size=args.mesh_size, material=material)
+        part, supports = scene(args.scene, mesh_size=args.mesh_size, material=material)
     else:
         if args.mesh_size is not None:
             raise InputError("--mesh-size: only for --scene (a mesh file is used as is)")
-        part = fem.read_mesh(
+        part = read_mesh(
             args.mesh,
             thickness=args.thickness,
             material=material,
@@ -282,9 +243,9 @@ def run(args: argparse.Namespace) -> int:
         )
         supports = []
     if args.cups is not None:
-        supports = [fem.SuctionCup(x, y, r) for x, y, r in args.cups]
-    supports += [fem.PointSupport(x, y) for x, y in args.point_supports]
-    supports += [fem.ClampedEdge(side) for side in args.clamped_edges]
+        supports = [SuctionCup(x, y, r) for x, y, r in args.cups]
+    supports += [PointSupport(x, y) for x, y in args.point_supports]
+    supports += [ClampedEdge(side) for side in args.clamped_edges]
     if not supports:
         raise InputError("--cups: a mesh file needs a gripper (--cups X,Y,R ...)")
     if args.tolerance is not None:
@@ -295,7 +256,7 @@ def run(args: argparse.Namespace) -> int:
     n_modes = args.n_modes
     if n_modes is None and args.max_freq is None:
         n_modes = 20
-    result = fem.modal_analysis(
+    result = modal_analysis(
         part,
         supports,
         n_modes=n_modes,
@@ -311,165 +272,35 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-IMPORT_ONLY = ("full", "nodes", "units", "gamma", "spc_id", "axis")
-# options of the built-in and meshed parts and of sizing, with their unset values
-NOT_FOR_IMPORTS = {
-    "thickness": None,
-    "scale": 1.0,
-    "material": "steel",
-    "E_pa": None,
-    "nu": None,
-    "rho_kg_m3": None,
-    "mesh_size": None,
-    "point_supports": [],
-    "clamped_edges": [],
-    "tolerance": None,
-    "trajectory": None,
-    "distance": None,
-    "vmax": None,
-    "amax": None,
-    "jmax": None,
-    "threshold": None,
-    "mesh_sizes": None,
-    "max_modes": 160,
-    "key_points": None,
-}
-ALLOWED = {
-    "ansys": {"full", "nodes", "units", "gamma", "n_modes", "max_freq"},
-    "nastran": {"units", "spc_id", "cups", "element", "allow_rigid_modes", "n_modes", "max_freq"},
-    "r1": {"nodes", "axis", "dt", "report", "n_modes"},
-}
-
-
-def _check_import_options(args, source: str) -> None:
-    from jaxflex.errors import InputError
-
-    unset = {**NOT_FOR_IMPORTS, **dict.fromkeys(IMPORT_ONLY), "cups": None, "element": None}
-    unset.update(allow_rigid_modes=False, n_modes=None, max_freq=None, dt=None, report=None)
-    for name, default in unset.items():
-        if name not in ALLOWED[source] and getattr(args, name) != default:
-            raise InputError(f"--{name.replace('_', '-')}: not used with --from-{source}")
-
-
-def _read_gamma(path):
-    import numpy as np
-
-    from jaxflex.errors import InputError
-
-    try:
-        return np.loadtxt(path, delimiter=",", ndmin=2)
-    except (OSError, ValueError) as exc:
-        raise InputError(f"--gamma: cannot read {path!r} as rows x,y,z ({exc})") from exc
-
-
-def _run_import(args) -> int:
-    import json
-
-    import fem
-    from jaxflex.atomic import write_text_atomic
-    from jaxflex.errors import InputError
-
-    progress = False if args.no_progress else None
-    n_modes = args.n_modes
-    if args.from_ansys:
-        _check_import_options(args, "ansys")
-        result = fem.from_ansys(
-            args.from_ansys,
-            full=args.full,
-            nodes=args.nodes,
-            units=args.units,
-            n_modes=20 if n_modes is None and args.max_freq is None else n_modes,
-            max_freq_hz=args.max_freq,
-            gamma=None if args.gamma is None else _read_gamma(args.gamma),
-            zeta=args.zeta,
-            progress=progress,
-        )
-    elif args.from_nastran:
-        _check_import_options(args, "nastran")
-        result = fem.from_nastran(
-            args.from_nastran,
-            units=args.units,
-            cups=[fem.SuctionCup(x, y, r) for x, y, r in args.cups or []],
-            spc_id=args.spc_id,
-            element=args.element,
-            n_modes=20 if n_modes is None and args.max_freq is None else n_modes,
-            max_freq_hz=args.max_freq,
-            zeta=args.zeta,
-            allow_rigid_modes=args.allow_rigid_modes,
-            progress=progress,
-        )
-    else:
-        _check_import_options(args, "r1")
-        if args.dt is None:
-            raise InputError("--dt: the time step of the R1 file(s) in s is required")
-        result = fem.from_r1(
-            args.from_r1, args.dt, args.axis or ["z"], nodes=args.nodes, max_modes=n_modes
-        )
-    print(result.summary())
-    points = 1000 if args.points is None else args.points
-    zeta = None if args.from_r1 else args.zeta  # R1: the identified damping
-    model = result.to_modal_model(points=None if points == "all" else points, zeta=zeta)
-    if args.from_r1 and args.report:
-        write_text_atomic(args.report, json.dumps(result.fit.as_dict(), indent=2))
-        print(f"wrote {args.report}")
-    if args.from_nastran:
-        _write(args, model, result)
-    else:
-        if args.plot or args.vtu:
-            raise InputError("--plot/--vtu: only for models solved here (scenes, meshes, decks)")
-        model.save(args.output)
-        print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
-    return 0
-
-
 def _write(args, model, result) -> None:
-    import fem
-
     model.save(args.output)
     print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
     if args.plot:
-        fem.plot_part(result, args.plot)
+        plot_part(result, args.plot)
         print(f"wrote {args.plot}")
     if args.vtu:
-        fem.export_modes(result, args.vtu)
+        export_modes(result, args.vtu)
         print(f"wrote {args.vtu}")
 
 
 def _move(args):
     """(acc, dt) of the move at hand from --trajectory or --distance and the limits."""
-    from pathlib import Path
-
-    from jaxflex.errors import InputError
-
-    limits = {}
-    for name, _unit, default in AXIS_LIMITS:
-        given = getattr(args, name)
-        if given is not None and args.distance is None:
+    for name, _unit, _default in AXIS_LIMITS:
+        if getattr(args, name) is not None and args.distance is None:
             raise InputError(f"--{name}: only with --distance (a trajectory has its own limits)")
-        if given is not None and len(given) not in (1, 3):
-            raise InputError(f"--{name}: give one value or three (x y z), got {len(given)}")
-        limits[name] = default if given is None else (given[0] if len(given) == 1 else given)
+    limits = axis_limit_values(args)
     if args.trajectory is not None:
-        from optim.trajectory_io import read_trajectory_csv
-
         if args.dt is not None:
             raise InputError("--dt: only with --distance (the trajectory file has its step)")
         path = Path(args.trajectory)
         return read_trajectory_csv(path / "trajectory.csv" if path.is_dir() else path)
     if args.distance is None:
         raise InputError("--tolerance: give the move, --trajectory FILE or --distance X Y Z")
-    from optim.profiles import jerk_limited_move
-
     dt = 0.01 if args.dt is None else args.dt
     return jerk_limited_move(args.distance, dt=dt, **limits), dt
 
 
 def _run_sizing(args, part, supports) -> int:
-    import sys
-
-    import fem
-    from jaxflex.errors import InputError
-
     for name in ("n_modes", "max_freq", "points"):
         if getattr(args, name) is not None:
             raise InputError(
@@ -481,7 +312,7 @@ def _run_sizing(args, part, supports) -> int:
     if args.mesh is not None and args.mesh_sizes is not None:
         raise InputError("--mesh-sizes: a mesh file is used as is")
     acc, dt = _move(args)
-    sized = fem.size_model(
+    sized = size_model(
         part,
         supports,
         acc,
