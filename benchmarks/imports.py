@@ -100,7 +100,7 @@ def _r1_import(result, n_nodes: int, n_steps: int, workdir: Path) -> dict:
     match = [np.argmin(np.abs(true_f - f)) for f in identified.freq_hz]
     out["r1_freq_rel_err_max"] = float(np.max(np.abs(identified.freq_hz / true_f[match] - 1)))
     out["r1_zeta_rel_err_max"] = float(np.max(np.abs(identified.zeta / model.zeta[match] - 1)))
-    acc = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt=0.01)
+    acc = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=0.01)
     direct = convolve_unit_response(r1[None], acc, axes=(2,))
     full = identified.to_modal_model()
     modal = np.asarray(jaxflex.simulate(full, acc, 0.01, displacement=True).displacement)
