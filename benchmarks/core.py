@@ -1,6 +1,6 @@
 """Speed and accuracy figures of the core, measured in one run.
 
-Case (DESIGN.md targets): K = 1099 points, M = 40 modes, N = 1000 steps of 10 ms, float64,
+Case (docs/design.md targets): K = 1099 points, M = 40 modes, N = 1000 steps of 10 ms, float64,
 on a synthetic model with full 3-D mode shapes (a curved part's shapes have all three
 components; frequencies 5-300 Hz, zeta 0.02) and a smooth vertical move. Measured:
 

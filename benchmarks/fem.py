@@ -3,7 +3,7 @@
     .venv/bin/python -m benchmarks.fem [--cases plate solid scenes transient] [-o fem_bench.json]
 
 Each case runs in its own process so that its peak memory (max RSS) is its own.
-Targets (issue 3): plate ~25k DOFs, 20 modes <= 10 s; thin solid ~50k DOFs, 30 modes <= 30 s
+Targets (docs/design.md): plate ~25k DOFs, 20 modes <= 10 s; thin solid ~50k DOFs, 30 modes <= 30 s
 and <= 4 GB; reduced vs full-order transient R^2 >= 0.9999, max error <= 0.5 % of the peak.
 """
 

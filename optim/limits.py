@@ -3,7 +3,7 @@
 Per-axis limits |v_c| <= vmax_c, |a_c| <= amax_c, |jerk_c| <= jmax_c (m/s, m/s^2, m/s^3), and
 optionally limits on the Euclidean norms of the path velocity, acceleration and jerk.
 
-The profile is piecewise linear in acceleration (DESIGN.md), so jerk is constant on each step
+The profile is piecewise linear in acceleration (docs/design.md), so jerk is constant on each step
 and acceleration is extreme at the samples: those two limits are exact on the samples. The
 velocity is piecewise quadratic; it can peak inside a step where the acceleration changes
 sign, so the check evaluates that interior extremum (per axis in closed form, and for the

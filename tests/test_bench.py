@@ -152,7 +152,7 @@ def test_quick_bench_writes_every_method_and_chart(tmp_path):
 
     # FE-agreement target on the plate: the built-in plate (1.5 x 0.8 m, 4 cups) on a 100 mm
     # Morley mesh, 40 modes against its own full-order FE transient (Richardson-extrapolated
-    # Newmark). DESIGN.md: R^2 >= 0.99999, L-inf <= 0.2 % of the peak, settle time within
+    # Newmark). docs/design.md: R^2 >= 0.99999, L-inf <= 0.2 % of the peak, settle time within
     # 10 ms (measured: deviation R^2 0.9999929, 0.12 %, displacement 0.19 %, settle 0.06 ms).
     row = next(r for r in saved["accuracy"]["plate"]["agreement"] if r["n_modes"] == 40)
     assert row["meets_target"], row

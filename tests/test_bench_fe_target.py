@@ -1,4 +1,4 @@
-"""Reduced modal model against the full-order FE transient on the curved panel (DESIGN.md
+"""Reduced modal model against the full-order FE transient on the curved panel (docs/design.md
 target: R^2 >= 0.99999, L-inf <= 0.2 % of the peak, settle time within 10 ms). The plate is
 checked on the quick bench run (tests/test_bench.py)."""
 
