@@ -50,8 +50,9 @@ import scipy.optimize
 
 from fem.imported import ImportedModes, file_digest
 from jaxflex.convolution import read_unit_response_csv, unit_response_times
-from jaxflex.discretize import foh_coefficients
+from jaxflex.engine import modal_states
 from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
 from jaxflex.validation import check_positive
 
 AXES = ("x", "y", "z")
@@ -61,18 +62,19 @@ HEADER_DT_RTOL = 1e-6  # a header's times are printed with >= 9 significant digi
 
 def hat_responses(freq_hz, zeta, dt_s: float, n_steps: int) -> np.ndarray:
     """g_i(t_j), (n_steps + 1, M): displacement of unit-participation modes (q'' + 2 zeta w
-    q' + w^2 q = -h_1(t)) for the unit hat h_1 at t_1, sampled at t_j = j dt (exact)."""
-    omega = 2 * np.pi * np.asarray(freq_hz, dtype=float)
-    phi, g0, g1 = foh_coefficients(omega, np.asarray(zeta, dtype=float), dt_s, xp=np)
-    out = np.zeros((n_steps + 1, omega.size))
-    x = -g1  # t_0 -> t_1: the force ramps from 0 to -1
-    out[1] = x[:, 0]
-    x = np.einsum("mij,mj->mi", phi, x) - g0  # t_1 -> t_2: from -1 back to 0
-    out[2] = x[:, 0]
-    for j in range(3, n_steps + 1):
-        x = np.einsum("mij,mj->mi", phi, x)
-        out[j] = x[:, 0]
-    return out
+    q' + w^2 q = -h_1(t)) for the unit hat h_1 at t_1, sampled at t_j = j dt_s (the exact
+    recursion of jaxflex.engine)."""
+    n_modes = np.size(freq_hz)
+    probe = ModalModel(
+        freq_hz,
+        zeta,
+        np.tile([0.0, 0.0, 1.0], (n_modes, 1)),
+        np.zeros((1, 3, n_modes)),
+        np.zeros((1, 3)),
+    )
+    hat = np.zeros((n_steps + 1, 3))
+    hat[1, 2] = 1.0
+    return modal_states(probe, hat, dt_s, xp=np)[..., 0]
 
 
 def gavish_donoho_threshold(singular_values: np.ndarray, shape: tuple[int, int]) -> float:
