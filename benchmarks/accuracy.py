@@ -17,7 +17,6 @@ import time
 from collections.abc import Callable
 
 import numpy as np
-from tqdm.auto import tqdm
 
 import fem
 from benchmarks.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_of
@@ -26,6 +25,7 @@ from benchmarks.metrics import compare, curve_errors, settle_from_samples
 from benchmarks.timing import best_time_s
 from jaxflex.engine import upsample
 from jaxflex.points import voxel_downsample
+from jaxflex.progress import progress_bar, step
 from jaxflex.settle import analyze_move
 from jaxflex.simulate import simulate
 
@@ -62,7 +62,7 @@ def run_scene(
     spec: SceneSpec,
     *,
     min_time_s: float = 0.1,
-    progress: Callable[[str], None] = print,
+    progress: Callable[[str], None] = step,
     fe_progress: bool | None = None,
 ) -> dict:
     """Every accuracy-time point of ``spec`` and its FE-agreement figures (JSON-ready)."""
@@ -96,7 +96,7 @@ def run_scene(
     progress(f"[{spec.key}] reduced methods [{time.perf_counter() - start:.0f} s] ...")
     reference = (ref.t_s, ref_dev, threshold_m, settle_ref)
     runs = _runs(spec, full, full.n_modes)
-    with tqdm(total=len(runs), desc=f"{spec.key}: reduced methods", leave=False) as bar:
+    with progress_bar(len(runs), f"{spec.key}: reduced methods", unit="run") as bar:
         for sweep, n_modes, voxel, dt_s in runs:
             model = full.truncate_modes(n_modes)
             if voxel is not None:

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from benchmarks.core import format_table
 from benchmarks.suite import run_suite, summary_lines
+from jaxflex.progress import step
 
 COMMAND = "bench"
 HELP = "speed and accuracy figures of every method as JSON + charts (SI units)"
@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     report = run_suite(
         out_dir,
         size,
-        progress=lambda msg: print(msg, file=sys.stderr, flush=True),
+        progress=step,
         json_path=json_path,
     )
     print(format_table(report))

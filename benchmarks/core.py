@@ -29,6 +29,7 @@ from jaxflex.convolution import convolve_unit_response, deviation_from_displacem
 from jaxflex.deviation import deviation
 from jaxflex.engine import modal_states
 from jaxflex.model import ModalModel
+from jaxflex.progress import step
 from jaxflex.settle import cycle_time
 from jaxflex.simulate import on_device, simulate
 from jaxflex.surrogate import cycle_time_smooth
@@ -78,7 +79,7 @@ def sine_move(n_steps: int, dt_s: float, distance_m: float = 1.0) -> np.ndarray:
     return acc
 
 
-def run_bench(case: BenchCase = BenchCase(), *, progress: Callable[[str], None] = print) -> dict:
+def run_bench(case: BenchCase = BenchCase(), *, progress: Callable[[str], None] = step) -> dict:
     """Measure everything listed in the module docstring; returns a JSON-ready dict."""
     model = synthetic_model(case)
     dt_s = case.dt_s

@@ -42,6 +42,7 @@ from fmu.windows import (
     windows_resource_location,
 )
 from jaxflex.model import ModalModel
+from jaxflex.progress import step
 
 STEP_TARGET_US = 30.0
 INSTANTIATE_TARGET_US = 10_000.0
@@ -240,7 +241,7 @@ def main(argv: list[str] | None = None) -> int:
         n_modes=args.modes,
         n_steps=args.steps,
         fmi_versions=tuple(args.fmi),
-        progress=lambda msg: print(msg, file=sys.stderr, flush=True),
+        progress=step,
         windows=args.windows,
         hosts=args.hosts,
     )

@@ -33,6 +33,7 @@ from benchmarks.fe import SceneSpec
 from benchmarks.stability import OMEGA_DT, run_stability
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
+from jaxflex.progress import step
 
 SMALL_PLATE = SceneSpec(
     "plate",
@@ -149,7 +150,7 @@ def run_suite(
     out_dir: str | os.PathLike,
     size: str = "full",
     *,
-    progress: Callable[[str], None] = print,
+    progress: Callable[[str], None] = step,
     fe_progress: bool | None = None,
     json_path: str | os.PathLike | None = None,
 ) -> dict:

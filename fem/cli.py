@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from fem import cli_imports
+from fem.damping import check_damping
 from fem.export import export_modes, plot_part
 from fem.modal import modal_analysis
 from fem.parts import read_mesh
@@ -56,9 +57,25 @@ def _points(text: str) -> int | str:
     if text == "all":
         return "all"
     try:
-        return int(text)
+        count = int(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(f"expected a count or 'all', got {text!r}") from exc
+    if count < 1:
+        raise argparse.ArgumentTypeError(f"expected a count >= 1 or 'all', got {count}")
+    return count
+
+
+def _zeta(text: str) -> float:
+    """A damping ratio in [0, 1), checked before any finite-element work."""
+    try:
+        value = float(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected a damping ratio, got {text!r}") from exc
+    try:
+        check_damping(value)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("zeta: ")) from exc
+    return value
 
 
 def _tolerance(text: str) -> float:
@@ -74,7 +91,14 @@ def _tolerance(text: str) -> float:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--scene", choices=("plate", "panel"), help="built-in part and gripper")
-    src.add_argument("--mesh", metavar="FILE", help="mesh file read by meshio (coordinates in m)")
+    src.add_argument(
+        "--mesh",
+        metavar="FILE",
+        help="mesh file, coordinates in m (see --scale), any format meshio reads: Gmsh .msh, "
+        "VTK .vtu/.vtk, XDMF .xdmf, Abaqus .inp, MED .med, Medit .mesh, STL .stl, OBJ .obj, "
+        "PLY .ply, OFF .off, SU2 .su2, ...; flat triangles: a plate; quads: the mid-surface of "
+        "a curved part (with --thickness); hexahedra: a one-layer thin solid",
+    )
     cli_imports.add_sources(src)
     cli_imports.add_arguments(parser)
     parser.add_argument("--thickness", type=float, help="sheet thickness in m (mesh files)")
@@ -126,7 +150,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--n-modes", type=int, help="number of modes (default 20, or all up to --max-freq)"
     )
     parser.add_argument("--max-freq", type=float, help="keep modes up to this frequency in Hz")
-    parser.add_argument("--zeta", type=float, default=0.02, help="damping ratio (default 0.02)")
+    parser.add_argument(
+        "--zeta", type=_zeta, default=0.02, help="damping ratio in [0, 1) (default 0.02 = 2 %%)"
+    )
     parser.add_argument(
         "--points",
         type=_points,
@@ -135,7 +161,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--plot", metavar="PNG", help="picture of the part, cups and modes")
     parser.add_argument("--vtu", metavar="FILE", help="mode shapes for ParaView (.vtu/.xdmf)")
-    parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
     parser.add_argument("-o", "--output", default="model.npz", help="model file (.npz)")
     _add_sizing_arguments(parser)
 
@@ -263,7 +288,6 @@ def run(args: argparse.Namespace) -> int:
         zeta=args.zeta,
         max_freq_hz=args.max_freq,
         allow_rigid_modes=args.allow_rigid_modes,
-        progress=False if args.no_progress else None,
     )
     print(result.summary())
     points = 1000 if args.points is None else args.points
@@ -325,7 +349,6 @@ def _run_sizing(args, part, supports) -> int:
         reference_modes=min(40, args.max_modes),
         key_points=args.key_points,
         allow_rigid_modes=args.allow_rigid_modes,
-        progress=False if args.no_progress else None,
         log=print,
     )
     print(sized.summary())

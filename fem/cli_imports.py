@@ -120,7 +120,6 @@ def _read_gamma(path):
 def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
     """Import, print the summary, write the model; ``defaults``: the command's option
     defaults; ``write(args, model, result)``: fem.cli's writer of a model solved here."""
-    progress = False if args.no_progress else None
     n_modes = args.n_modes
     if n_modes is None and args.max_freq is None and not args.from_r1:
         n_modes = 20
@@ -135,7 +134,6 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
             max_freq_hz=args.max_freq,
             gamma=None if args.gamma is None else _read_gamma(args.gamma),
             zeta=args.zeta,
-            progress=progress,
         )
     elif args.from_nastran:
         _check_options(args, "nastran", defaults)
@@ -149,7 +147,6 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
             max_freq_hz=args.max_freq,
             zeta=args.zeta,
             allow_rigid_modes=args.allow_rigid_modes,
-            progress=progress,
         )
     else:
         _check_options(args, "r1", defaults)

@@ -65,14 +65,48 @@ def modal_zeta(spec, freq_hz: np.ndarray) -> np.ndarray:
                 f"zeta: expected a number, {freq_hz.size} per-mode values or fem.Rayleigh, "
                 f"got {spec!r}"
             ) from exc
-    bad = ~np.isfinite(zeta) | (zeta < 0) | (zeta >= 1)
-    if bad.any():
-        i = int(np.argmax(bad))
+    i = _bad_ratio(zeta)
+    if i is not None:
+        hint = (
+            "; with Rayleigh damping keep fewer modes or a smaller beta"
+            if isinstance(spec, Rayleigh)
+            else _ratio_hint(float(zeta[i]))
+        )
         raise InputError(
             f"zeta: damping ratio {zeta[i]:.4g} of mode {i} ({freq_hz[i]:.4g} Hz) must lie in "
-            "[0, 1); with Rayleigh damping keep fewer modes or a smaller beta"
+            f"[0, 1){hint}"
         )
     return zeta
+
+
+def _ratio_hint(value: float) -> str:
+    """What a damping ratio is, and the ratio meant if ``value`` looks like a percentage."""
+    meant = f"; {value:g} % would be {value / 100:g}" if 1 <= value < 100 else ""
+    return f" (a ratio: 0.02 is 2 % of critical damping{meant})"
+
+
+def _bad_ratio(zeta: np.ndarray) -> int | None:
+    """Index of the first value outside [0, 1) (or not finite), None if all are fine."""
+    bad = ~np.isfinite(zeta) | (zeta < 0) | (zeta >= 1)
+    return int(np.argmax(bad)) if bad.any() else None
+
+
+def check_damping(spec) -> None:
+    """Check a damping spec before any work: a ratio or per-mode ratios in [0, 1) (a Rayleigh
+    spec is checked per mode once the frequencies are known, by :func:`modal_zeta`)."""
+    if isinstance(spec, Rayleigh):
+        return
+    try:
+        zeta = np.atleast_1d(np.asarray(spec, dtype=float))
+    except (TypeError, ValueError) as exc:
+        raise InputError(
+            f"zeta: expected a number, per-mode values or fem.Rayleigh, got {spec!r}"
+        ) from exc
+    i = _bad_ratio(zeta)
+    if i is not None:
+        raise InputError(
+            f"zeta: damping ratio {zeta[i]:.4g} must lie in [0, 1){_ratio_hint(float(zeta[i]))}"
+        )
 
 
 def describe_damping(spec) -> dict:

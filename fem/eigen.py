@@ -19,8 +19,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from threadpoolctl import threadpool_limits
 
-from fem.progress import progress_bar
 from jaxflex.errors import InputError
+from jaxflex.progress import progress_bar, step
 
 DENSE_MAX_DOF = 6000
 
@@ -61,6 +61,7 @@ def lowest_modes(
     """The ``n_modes`` lowest modes, or all modes up to ``max_freq_hz`` (at most ``n_modes``
     if both are given; the count is doubled until the limit is passed)."""
     n = K.shape[0]
+    step(f"factorisation of K - sigma M ({n} DOFs)", enabled=progress)
     start = time.perf_counter()
     lu = factorize(K - sigma * M)
     factorization_s = time.perf_counter() - start

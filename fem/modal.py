@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from fem.damping import describe_damping, modal_zeta
+from fem.damping import check_damping, describe_damping, modal_zeta
 from fem.eigen import all_modes, factorize, lowest_modes
 from fem.parts import Part
 from fem.plate import assemble_plate
@@ -28,6 +28,7 @@ from fem.system import FESystem
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.points import downsample_to_count, snap_key_points
+from jaxflex.progress import step
 from jaxflex.validation import check_positive
 
 RIGID_MODES = {"plate": 3, "solid": 6}
@@ -341,6 +342,7 @@ def solve_modes(
         peak = observed[np.argmax(np.abs(observed), axis=0), np.arange(observed.shape[1])]
         vectors_el = vectors_el * np.where(peak < 0, -1.0, 1.0)
 
+    step("truncation check (static residual, mobile mass)", enabled=progress)
     tick = time.perf_counter()
     mobile = np.zeros(3)
     active = np.flatnonzero(np.abs(load).sum(axis=0) > 0)
@@ -394,7 +396,7 @@ def modal_analysis(
             not put into the model) instead of rejecting them.
         sigma_hz: the shift of the eigen solver is -(2 pi sigma_hz)^2.
         rigid_tol_hz: modes below this frequency count as rigid-body modes.
-        progress: show progress bars (None: on a terminal only).
+        progress: show progress (jaxflex.progress; None: unless the process is quiet).
     """
     t_start = time.perf_counter()
     if not isinstance(part, Part):
@@ -417,6 +419,7 @@ def modal_analysis(
     if max_freq_hz is not None:
         max_freq_hz = check_positive("max_freq_hz", max_freq_hz)
     check_positive("sigma_hz", sigma_hz)
+    check_damping(zeta)
     check_layout(supports, part.contains_xy, allow_rigid_modes=allow_rigid_modes)
     timings: dict[str, float] = {}
 
@@ -432,6 +435,7 @@ def modal_analysis(
         system, _ = assemble_solid(mesh, part, supports, progress)
     timings["assembly_s"] = time.perf_counter() - tick
 
+    step(f"gripper constraints ({system.n_dof} DOFs)", enabled=progress)
     tick = time.perf_counter()
     T = system.constraints.basis(system.n_dof)
     K_free = (T.T @ system.K @ T).tocsr()

@@ -15,10 +15,10 @@ import skfem
 from skfem.helpers import dd, ddot, trace
 
 from fem.mesh import PlateMesh
-from fem.progress import progress_bar
 from fem.supports import Support
 from fem.system import Constraints, FESystem
 from jaxflex.errors import InputError
+from jaxflex.progress import progress_bar
 
 ELEMENT_CLASSES = {"morley": skfem.ElementTriMorley, "argyris": skfem.ElementTriArgyris}
 FORMULATION = {

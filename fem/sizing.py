@@ -44,7 +44,6 @@ import numpy as np
 
 from fem.modal import ModalResult, modal_analysis
 from fem.parts import CUP_FINE_FRACTION, Part, _GivenMesh
-from fem.progress import progress_bar
 from fem.scenes import SCENES, scene
 from fem.sizing_curves import (
     SettleReference,
@@ -61,6 +60,7 @@ from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.points import voxel_downsample
 from jaxflex.profile import as_move
+from jaxflex.progress import progress_bar
 from jaxflex.settle import analyze_move
 from jaxflex.validation import check_positive
 

@@ -16,10 +16,10 @@ import scipy.sparse as sp
 import skfem
 
 from fem.mesh import SurfaceMesh
-from fem.progress import progress_bar
 from fem.supports import Support
 from fem.system import Constraints, FESystem
 from jaxflex.errors import InputError
+from jaxflex.progress import progress_bar
 
 FORMULATION = (
     "thin solid, one layer of 27-node hexahedra (ElementHex2 shape functions), "

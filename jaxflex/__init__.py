@@ -5,6 +5,8 @@ JAX, deviation, settle and cycle time and their gradients. SI units throughout.
 float64 is enabled on import (``jax_enable_x64``); float32 is available on request.
 """
 
+from importlib.metadata import version
+
 import jax
 
 jax.config.update("jax_enable_x64", True)
@@ -42,4 +44,4 @@ __all__ = [
     "stack_models",
     "upsample",
 ]
-__version__ = "0.1.0"
+__version__ = version("jaxflex")  # pyproject.toml's, the one place it is set

@@ -23,11 +23,13 @@ import ast
 import importlib
 import importlib.util
 import sys
+import warnings
 from dataclasses import dataclass
-from importlib.metadata import entry_points
+from importlib.metadata import entry_points, version
 from pathlib import Path
 
-from jaxflex.errors import InputError, JaxflexError
+from jaxflex.errors import InputError, JaxflexError, JaxflexWarning
+from jaxflex.progress import set_quiet
 
 GROUP = "jaxflex.commands"
 DESCRIPTION = (
@@ -79,9 +81,17 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The parser of ``jaxflex``; ``command``'s module is imported and adds its arguments (the
     other subcommands are listed only)."""
     parser = argparse.ArgumentParser(prog="jaxflex", description=DESCRIPTION)
+    parser.add_argument("--version", action="version", version=f"jaxflex {version('jaxflex')}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for listed in commands():
         cmd = sub.add_parser(listed.name, help=listed.help, description=listed.help)
+        cmd.add_argument(
+            "-q",
+            "--quiet",
+            action="store_true",
+            help="no progress display and no step lines on stderr (results and warnings "
+            "are still printed)",
+        )
         if listed.name == command:
             module = importlib.import_module(listed.module)
             module.add_arguments(cmd)
@@ -91,17 +101,35 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    # jaxflex itself takes no option but --help: the first other word names the command
+    # jaxflex itself takes no option but --help and --version: the first other word names the
+    # command
     chosen = next((arg for arg in argv if not arg.startswith("-")), None)
     args = build_parser(chosen).parse_args(argv)
+    set_quiet(args.quiet)
     try:
-        return int(args._run(args) or 0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", JaxflexWarning)
+            warnings.showwarning = _warning_printer(args.command, warnings.showwarning)
+            return int(args._run(args) or 0)
     except JaxflexError as exc:
         print(f"jaxflex {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"jaxflex {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+def _warning_printer(command: str, fallback):
+    """``warnings.showwarning`` that prints a JaxflexWarning as one line on stderr, like the
+    errors (``jaxflex COMMAND: warning: ...``), and leaves other warnings to ``fallback``."""
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, JaxflexWarning):
+            print(f"jaxflex {command}: warning: {message}", file=sys.stderr, flush=True)
+        else:
+            fallback(message, category, filename, lineno, file, line)
+
+    return show
 
 
 def add_axis_limits(parser, *, with_defaults: bool, condition: str = "") -> None:

@@ -15,3 +15,9 @@ class ModelError(InputError):
 
 class ModelFileError(JaxflexError, OSError):
     """A model file cannot be read: missing, truncated, corrupt or of an unknown schema."""
+
+
+class JaxflexWarning(UserWarning):
+    """Input that is allowed but probably not meant (a threshold in mm given as m, a robust
+    check grid of one point): the work goes on, the message says what looks wrong and why.
+    The command line prints it as ``jaxflex COMMAND: warning: ...``."""

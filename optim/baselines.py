@@ -17,10 +17,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from jaxflex.model import ModalModel
 from jaxflex.profile import as_move
+from jaxflex.progress import progress_bar
 from jaxflex.settle import SettleReport, analyze_move
 from optim.kinematics import clean_distance
 from optim.limits import Limits
@@ -127,7 +127,7 @@ def baselines(
     max_shaped_modes: int = MAX_SHAPED_MODES,
     max_steps: int = 3000,
     solver: str = "highs",
-    progress: bool = False,
+    progress: bool | None = False,
 ) -> BaselineSet:
     """Every baseline for the move ``distance_m`` (3,) m (module docstring). In robust mode
     each entry also carries its worst cycle time over ``robust``'s check grid."""
@@ -152,7 +152,7 @@ def baselines(
     order = dominant_modes(model, distance)[:max_shaped_modes]
     freq, omega, zeta = np.asarray(model.freq_hz), np.asarray(model.omega), np.asarray(model.zeta)
     kinds = list(SHAPERS)
-    bar = tqdm(total=len(kinds) * len(order), desc="baselines", disable=not progress, leave=False)
+    bar = progress_bar(len(kinds) * len(order), "baselines", progress, unit="move")
     for kind in kinds:
         best: Baseline | None = None
         for count in range(1, len(order) + 1):

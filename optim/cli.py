@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 import jaxflex
 from jaxflex.cli import add_axis_limits, axis_limit_values
+from jaxflex.progress import step
 from jaxflex.validation import check_positive
 from optim.limits import Limits
 from optim.optimize import optimize
@@ -95,7 +95,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="longest move considered, s (default 30)",
     )
     parser.add_argument("-o", "--output", required=True, help="output directory")
-    parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -107,14 +106,10 @@ def run(args: argparse.Namespace) -> int:
     if args.robust:
         robust = RobustSpec(tuple(args.freq_scale), tuple(args.zeta), *args.grid)
     model = jaxflex.load_model(args.model)
-    progress = not args.quiet
-    if progress:
-        mode = "robust" if robust else "nominal"
-        print(
-            f"{args.model}: {model.n_modes} modes, {model.n_points} points; "
-            f"{mode} optimisation ({args.method})",
-            file=sys.stderr,
-        )
+    step(
+        f"{args.model}: {model.n_modes} modes, {model.n_points} points; "
+        f"{'robust' if robust else 'nominal'} optimisation ({args.method})"
+    )
     result = optimize(
         model,
         args.distance,
@@ -124,7 +119,6 @@ def run(args: argparse.Namespace) -> int:
         method=args.method,
         solver=args.solver,
         robust=robust,
-        progress=progress,
         max_duration_s=max_duration,
         clearance_m=None
         if args.clearance is None

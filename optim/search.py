@@ -27,11 +27,11 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from jaxflex.engine import end_state_map
 from jaxflex.model import ModalModel
 from jaxflex.profile import as_move, enforce_end_state
+from jaxflex.progress import progress_bar
 from jaxflex.settle import SettleReport, analyze_move
 from optim.limits import Limits
 from optim.move_response import ClearancePeak, MoveResponse
@@ -328,6 +328,11 @@ def _warm_start(moves: list[np.ndarray], n_steps: int) -> np.ndarray:
     return pad_to(max(fitting, key=len), n_steps)
 
 
+def _tests_left(lo: int, hi: int) -> int:
+    """Tests a bisection needs to find the shortest length in (lo, hi] (hi feasible)."""
+    return max(0, (hi - lo - 1).bit_length()) if hi > lo + 1 else 0
+
+
 def bisect(
     problem: Problem,
     solver: Subsolver,
@@ -335,7 +340,7 @@ def bisect(
     upper_steps: int,
     warm_moves: list[np.ndarray],
     *,
-    progress: bool = True,
+    progress: bool | None = None,
 ) -> tuple[Attempt | None, list[Attempt]]:
     """Fewest steps n with a certified move. ``floor_move`` is the kinematic floor (no move
     is shorter); ``upper_steps`` is a length known to be feasible in principle (a baseline
@@ -349,15 +354,23 @@ def bisect(
     cap = min(max(upper_steps, floor_steps), problem.max_steps)
     lo, n, stride = floor_steps - 1, floor_steps, max(1, int(np.ceil(0.04 * floor_steps)))
     best: Attempt | None = None
-    bar = tqdm(desc=f"{solver.name}: shortest move", unit="test", disable=not progress, leave=False)
+    bar = progress_bar(
+        max(1, _tests_left(lo, cap)), f"{solver.name}: shortest move", progress, "test"
+    )
 
     def test(n_steps: int) -> Attempt:
         result = attempt(problem, solver, n_steps, _warm_start(moves, n_steps))
         history.append(result)
-        bar.update(1)
-        bar.set_postfix_str(f"n={n_steps} {'ok' if result.feasible else 'no'} (> {lo})")
         if result.feasible:
             moves.append(result.acc)
+        low = lo if result.feasible else n_steps
+        high = n_steps if result.feasible else (best.n_steps if best is not None else cap)
+        bar.total = bar.n + 1 + _tests_left(low, high)  # what bisecting the bracket takes
+        bar.update(1)
+        bar.set_postfix_str(
+            f"n = {n_steps} {'ok' if result.feasible else 'too short'}; "
+            f"shortest in ({low}, {high}] steps"
+        )
         return result
 
     try:

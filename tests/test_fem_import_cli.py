@@ -67,7 +67,7 @@ def test_from_nastran_with_cups(tmp_path):
     cup_args = [f"{c.x},{c.y},{c.radius}" for c in cups]
     done = run_jaxflex(
         "model", "--from-nastran", str(deck), "--units", "SI", "--cups", *cup_args,
-        "--n-modes", "5", "--points", "100", "--no-progress", "-o", str(out),
+        "--n-modes", "5", "--points", "100", "--quiet", "-o", str(out),
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     reference = fem.modal_analysis(part, cups, n_modes=5)

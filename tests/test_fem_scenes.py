@@ -103,7 +103,7 @@ def test_cli_model_from_mesh_file(tmp_path, capsys):
         "model", "--mesh", str(tmp_path / "part.vtu"), "--thickness", "1e-3",
         "--material", "aluminium", "--cups", "0.1,0.1,0.04", "0.3,0.1,0.04", "0.2,0.22,0.04",
         "--n-modes", "5", "--points", "all", "-o", str(out), "--plot", str(tmp_path / "p.png"),
-        "--no-progress",
+        "--quiet",
     ])  # fmt: skip
     assert code == 0
     text = capsys.readouterr().out

@@ -13,7 +13,7 @@ from jaxflex.trajectory_io import write_trajectory_csv
 
 # The full plate scene on a coarse sequence (100, 70, 50 mm): seconds, converges at 10 %.
 SIZED = ["model", "--scene", "plate", "--tolerance", "10%", "--threshold", "1e-3",
-         "--mesh-sizes", "0.1", "0.07", "0.05", "--no-progress"]  # fmt: skip
+         "--mesh-sizes", "0.1", "0.07", "0.05", "--quiet"]  # fmt: skip
 
 
 def test_tolerance_writes_the_sized_model_and_report(tmp_path, capsys):

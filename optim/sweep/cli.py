@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 from jaxflex.errors import InputError
+from jaxflex.progress import step
 from optim.sweep.run import run_sweep
 from optim.sweep.spec import EXAMPLE, load_spec
 
@@ -41,7 +41,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="recompute cases stored as errors (results are always kept)",
     )
     parser.add_argument("--no-plots", action="store_true", help="write the table only")
-    parser.add_argument("--quiet", action="store_true", help="no progress display")
     parser.add_argument(
         "--example", action="store_true", help="print an example spec (TOML) and exit"
     )
@@ -59,13 +58,11 @@ def run(args: argparse.Namespace) -> int:
         )
     spec = load_spec(args.spec)
     executor = "serial" if args.serial else "dask"
-    if not args.quiet:
-        where = args.scheduler or ("this process" if args.serial else "a local dask cluster")
-        print(
-            f"{args.spec}: {len(spec.layouts)} layouts x {len(spec.moves)} moves on {where}; "
-            f"results in {args.output}",
-            file=sys.stderr,
-        )
+    where = args.scheduler or ("this process" if args.serial else "a local dask cluster")
+    step(
+        f"{args.spec}: {len(spec.layouts)} layouts x {len(spec.moves)} moves on {where}; "
+        f"results in {args.output}"
+    )
     result = run_sweep(
         spec,
         args.output,
@@ -73,7 +70,6 @@ def run(args: argparse.Namespace) -> int:
         scheduler=args.scheduler,
         n_workers=args.workers,
         retry_errors=args.retry_errors,
-        progress=not args.quiet,
         plots=not args.no_plots,
     )
     print(result.summary())

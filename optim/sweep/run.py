@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from distributed import Client, LocalCluster, as_completed
-from tqdm.auto import tqdm
 
 from jaxflex.errors import InputError
+from jaxflex.progress import progress_bar
 from optim.sweep.cases import Case, case_job, expand, layout_job
 from optim.sweep.plots import plot_sweep
 from optim.sweep.spec import SweepSpec
@@ -93,7 +93,7 @@ def run_sweep(
     scheduler: str | None = None,
     n_workers: int | None = None,
     retry_errors: bool = False,
-    progress: bool = True,
+    progress: bool | None = None,
     plots: bool = True,
 ) -> SweepRun:
     """Compute every case of ``spec`` not yet stored in ``directory`` and write the table
@@ -119,7 +119,7 @@ def run_sweep(
             pending.setdefault(case.case_id, case)
     run = SweepRun(spec, store.root, cases, dict(keep), skipped=len(keep), executor=executor)
     start = time.perf_counter()
-    bar = tqdm(total=len(pending), unit="case", disable=not progress, desc=spec.name)
+    bar = progress_bar(len(pending), spec.name, progress, unit="case")
     try:
         compute = _run_serial if executor == "serial" else _run_dask
         stream = compute(spec, store, list(pending.values()), scheduler, n_workers)
@@ -129,7 +129,7 @@ def run_sweep(
                 run.records[record["case_id"]] = record
                 run.computed += 1
                 bar.update()
-                bar.set_postfix(errors=run.n_errors, refresh=False)
+                bar.set_postfix_str(f"errors={run.n_errors}")
     finally:
         bar.close()
         run.wall_s = time.perf_counter() - start
