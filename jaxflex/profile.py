@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from jaxflex.errors import InputError
+from jaxflex.grid import grid_time
 from jaxflex.validation import check_acc, check_positive
 
 
@@ -36,8 +37,8 @@ class Move:
 
     @property
     def duration_s(self) -> float:
-        """n dt_s: the transfer time, s."""
-        return self.n_steps * self.dt_s
+        """n dt_s: the transfer time, s (jaxflex.grid: 82 steps of 0.01 s last 0.82 s)."""
+        return grid_time(self.n_steps, self.dt_s)
 
     @property
     def at_rest(self) -> bool:

@@ -31,6 +31,7 @@ import numpy as np
 from jaxflex.decay import amplitudes, envelope, envelope_horizon
 from jaxflex.deviation import point_norms
 from jaxflex.engine import free_states, modal_forces, modal_states, states_between
+from jaxflex.grid import grid_time
 from jaxflex.model import ModalModel
 from jaxflex.profile import as_move
 from jaxflex.validation import check_positive
@@ -224,7 +225,7 @@ def analyze_move(
     it lies after the move; otherwise it is reported as the transfer time."""
     states, force, dt_s, threshold_m = _prepare(model, acc, dt_s, threshold_m)
     n_steps = states.shape[0] - 1
-    t_n = n_steps * dt_s
+    t_n = grid_time(n_steps, dt_s)
     decay = _FreeDecay(model, states[-1], t_n)
     tail, horizon = _tail_settle(decay, threshold_m)
     evaluations = decay.budget.count

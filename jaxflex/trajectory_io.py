@@ -1,12 +1,16 @@
 """Trajectory files: CSV with one row per sample, SI units in the column names.
 
-Columns: t_s, ax_m_s2, ay_m_s2, az_m_s2, vx_m_s, vy_m_s, vz_m_s, x_m, y_m, z_m. Velocity and
-position are the exact integrals of the piecewise-linear acceleration (jaxflex.profile).
+Columns: t_s, ax_m_s2, ay_m_s2, az_m_s2, vx_m_s, vy_m_s, vz_m_s, x_m, y_m, z_m, jx_m_s3,
+jy_m_s3, jz_m_s3. Velocity and position are the exact integrals of the piecewise-linear
+acceleration (jaxflex.profile); the jerk is constant on each step, (a_{k+1} - a_k) / dt_s
+on [t_k, t_{k+1}) in row k, and 0 in the last row (at rest after the move). Times are the
+decimal multiples of the step (jaxflex.grid: 0.82, not 0.8200000000000001); every value is
+written as the shortest decimal that reads back as the same float. Reading needs t and the
+acceleration only.
 """
 
 from __future__ import annotations
 
-import io
 import os
 from pathlib import Path
 
@@ -14,6 +18,7 @@ import numpy as np
 
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
+from jaxflex.grid import grid_times
 from jaxflex.profile import integrate
 
 COLUMNS = (
@@ -27,18 +32,23 @@ COLUMNS = (
     "x_m",
     "y_m",
     "z_m",
+    "jx_m_s3",
+    "jy_m_s3",
+    "jz_m_s3",
 )
 
 
 def write_trajectory_csv(path: str | os.PathLike, acc, dt_s: float) -> None:
-    """Write samples ``acc`` ((n+1, 3) m/s^2 at step ``dt_s`` s) with velocity and position."""
+    """Write samples ``acc`` ((n+1, 3) m/s^2 at step ``dt_s`` s) with velocity, position and
+    jerk (module docstring)."""
     vel, pos = integrate(acc, dt_s)
     acc = np.asarray(acc, dtype=np.float64)
-    t = dt_s * np.arange(acc.shape[0])
-    table = np.column_stack([t, acc, vel, pos])
-    buf = io.StringIO()
-    np.savetxt(buf, table, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.17g")
-    write_text_atomic(path, buf.getvalue())
+    jerk = np.vstack([np.diff(acc, axis=0) / dt_s, np.zeros((1, 3))])
+    t = grid_times(acc.shape[0] - 1, dt_s)
+    table = np.column_stack([t, acc, vel, pos, jerk]) + 0.0  # + 0.0: no "-0.0" cells
+    lines = [",".join(COLUMNS)]
+    lines += [",".join(map(repr, row)) for row in table.tolist()]
+    write_text_atomic(path, "\n".join(lines) + "\n")
 
 
 def read_trajectory_csv(path: str | os.PathLike) -> tuple[np.ndarray, float]:
@@ -63,4 +73,15 @@ def read_trajectory_csv(path: str | os.PathLike) -> tuple[np.ndarray, float]:
     dt_s = float(np.mean(steps))
     if dt_s <= 0 or np.max(np.abs(steps - dt_s)) > 1e-9 * max(1.0, t[-1]):
         raise InputError(f"{str(path)!r}: samples must be equally spaced in t_s")
-    return acc, dt_s
+    return acc, _written_step(t, dt_s)
+
+
+def _written_step(t: np.ndarray, mean_step_s: float) -> float:
+    """The step a file was written with: the shortest decimal near the mean step whose grid
+    reproduces the times exactly (a file of write_trajectory_csv), else the mean step."""
+    n = len(t) - 1
+    for digits in range(1, 18):
+        candidate = float(f"{mean_step_s:.{digits}g}")
+        if np.array_equal(grid_times(n, candidate), t - t[0]):
+            return candidate
+    return mean_step_s

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from jaxflex.errors import InputError
+from jaxflex.grid import grid_values
 from jaxflex.model import ModalModel
 
 
@@ -56,13 +57,13 @@ class RobustSpec:
     def grid(self) -> list[tuple[float, float | None]]:
         """(frequency scale, zeta or None) of every model on the check grid."""
         lo, hi = self.freq_scale
-        scales = np.linspace(lo, hi, self.n_freq) if hi > lo else np.array([lo])
+        scales = grid_values(lo, hi, self.n_freq) if hi > lo else [lo]
         if self.zeta is None:
             zetas: list[float | None] = [None]
         else:
             zlo, zhi = self.zeta
-            zetas = list(np.linspace(zlo, zhi, self.n_zeta)) if zhi > zlo else [zlo]
-        return [(float(s), None if z is None else float(z)) for z in zetas for s in scales]
+            zetas = list(grid_values(zlo, zhi, self.n_zeta)) if zhi > zlo else [zlo]
+        return [(s, z) for z in zetas for s in scales]
 
     def as_dict(self) -> dict:
         return {
