@@ -134,6 +134,23 @@ def add_tv_objective(builder: LPBuilder, layout: MoveLayout, limits: Limits, wei
         builder.rows(cols, np.column_stack([ones, ones, -ones]), 0.0, np.inf)
 
 
+def add_jerk_tv_objective(builder: LPBuilder, layout: MoveLayout, limits: Limits, weight: float):
+    """Add ``weight`` * sum_k,c |j_{k+1,c} - j_{k,c}| / (2 jmax_c) to the objective (total
+    variation of the jerk, j_k = (a_{k+1} - a_k) / dt: few and small jerk changes, no
+    chattering between the jerk limits)."""
+    n = layout.n_steps
+    if n < 2:
+        return
+    for i, c in enumerate(layout.axes):
+        a = layout.a[i]
+        scale = weight / (2.0 * limits.jmax[c] * layout.dt_s)
+        t = builder.variables(n - 1, 0.0, np.inf, scale)
+        ones = np.ones(n - 1)
+        cols = np.column_stack([t, a[2:], a[1:-1], a[:-2]])
+        builder.rows(cols, np.column_stack([ones, -ones, 2 * ones, -ones]), 0.0, np.inf)
+        builder.rows(cols, np.column_stack([ones, ones, -2 * ones, ones]), 0.0, np.inf)
+
+
 def _path_quantities(layout: MoveLayout, sol: np.ndarray, limits: Limits):
     """(name, values (m, d), columns (m, terms, d), weights, limit) of every norm-limited
     quantity at the points where the LP bounds it."""

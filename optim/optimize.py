@@ -6,8 +6,12 @@
    (optim.exact, default) or the gradient route's smooth NLP (optim.gradient), every
    feasible answer certified with the exact cycle time of every scenario.
 3. Exact route: a polish pass picks the smoothest move among those with the margin found.
-4. The returned profile passes the limits check (optim.limits) or is not returned: if it
-   failed (it never has), the best baseline that passes is returned instead, and said so.
+4. The returned move is the best certified move seen, baselines included, that passes the
+   limits check (optim.choice): never worse than a baseline, and the report says where it
+   came from when it is not the optimiser's final move.
+
+Input that is allowed but probably not meant (a threshold above every deviation or below
+the model's resolution, a sparse robust grid) is reported as warnings (optim.advice).
 """
 
 from __future__ import annotations
@@ -23,8 +27,10 @@ from jaxflex.model import ModalModel
 from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
 from jaxflex.validation import check_positive
+from optim.advice import grid_advice, issue, model_resolution, threshold_advice
 from optim.baselines import baselines as compute_baselines
-from optim.exact import LPSubsolver
+from optim.choice import candidates, choose
+from optim.exact import POLISH_MARGIN, LPSubsolver
 from optim.gradient import GRADIENT_SOLVERS, GradientSubsolver
 from optim.kinematics import clean_distance
 from optim.limits import Limits, check_profile
@@ -84,7 +90,7 @@ def optimize(
     method: str = "exact",
     solver: str | None = None,
     robust: RobustSpec | None = None,
-    progress: bool = True,
+    progress: bool | None = None,
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
     max_shaped_modes: int = 6,
     clearance_m: float | None = None,
@@ -118,6 +124,7 @@ def optimize(
     if solver not in allowed:
         raise InputError(f"solver: method {method!r} accepts {allowed}, got {solver!r}")
     max_steps = math.floor(max_duration_s / dt_s + 1e-9)
+    advice = issue(grid_advice(robust))
 
     base = compute_baselines(
         model,
@@ -129,6 +136,15 @@ def optimize(
         max_shaped_modes=max_shaped_modes,
         max_steps=max_steps,
         progress=progress,
+    )
+    floor = base.entries[0]  # ruckig's time-optimal move on the grid: the fastest there is
+    advice += issue(
+        threshold_advice(
+            threshold_m,
+            floor.timing.settle_time_s,
+            deviation_summary(model, floor.acc, dt_s)["peak_during_move_m"],
+            model_resolution(model, distance),
+        )
     )
     problem = make_problem(
         model, distance, limits, dt_s, threshold_m, max_steps, robust, clearance_m
@@ -145,34 +161,22 @@ def optimize(
             f"deviation below {threshold_m * 1e3:g} mm after it{during}; raise max_duration_s, "
             "threshold_m" + ("" if clearance_m is None else " or clearance_m")
         )
-    final = best
+    final, notes = best, []
     if method == "exact":
-        final = _polish(problem, sub, best, history)
-
-    notes = []
-    acc = final.acc
-    check = check_profile(acc, dt_s, limits, distance)
-    if not check.ok:  # a broken limit is never returned (test_optim_optimize reaches this)
-        notes.append(f"optimised profile rejected ({check.summary()}); best baseline returned")
-        for entry in sorted(base.entries, key=lambda e: e.score()):
-            check = check_profile(entry.acc, dt_s, limits, distance)
-            if check.ok:
-                acc = entry.acc
-                break
-        else:
-            raise JaxflexError(f"no profile meets the limits exactly ({check.summary()})")
+        final, notes = _polish(problem, sub, best, history)
+    found = candidates(problem, history, final, base)
+    try:
+        chosen, check, choice_notes = choose(
+            found, lambda acc: check_profile(acc, dt_s, limits, distance)
+        )
+    except ValueError as exc:
+        raise JaxflexError(str(exc)) from exc
+    notes += choice_notes
+    acc = chosen.acc
     timing = analyze_move(model, acc, dt_s, threshold_m)
     worst = None
     if robust is not None:
-        grid = (
-            [
-                (s.scale, s.zeta, final.timings[i].cycle_time_s)
-                for i, s in enumerate(problem.scenarios)
-            ]
-            if acc is final.acc
-            else None
-        )
-        worst = _worst_case(problem, acc, dt_s, threshold_m, grid)
+        worst = _worst_case(problem, acc, dt_s, threshold_m, chosen.grid)
     stats = {
         "route": sub.name,
         "attempts": [a.summary() for a in history],
@@ -196,6 +200,8 @@ def optimize(
         timing=timing,
         deviation=deviation_summary(model, acc, dt_s),
         constraint_check=check,
+        source=chosen.name if chosen.kind == "baseline" else chosen.kind,
+        warnings=advice,
         solver_stats=stats,
         wall_time_s=time.perf_counter() - start,
         baselines=base,
@@ -203,16 +209,21 @@ def optimize(
     )
 
 
-def _polish(problem, sub: LPSubsolver, best, history):
-    """The final solve of the exact route: the smoothest move that keeps (nearly) the margin
-    the search found, every limit held a little inside (POLISH_MARGIN); one step more if the
-    margin makes n infeasible. Returns the first feasible attempt, else ``best``."""
-    for n_steps in (best.n_steps, best.n_steps + 1):
-        polished = attempt(problem, sub.polishing(), n_steps, best.acc)
+def _polish(problem, sub: LPSubsolver, best, history) -> tuple:
+    """The final solve of the exact route: the smoothest move of the search's length that
+    keeps (nearly) its margin, every limit held a little inside (POLISH_MARGIN), or exactly
+    on the limits where the reserve rules the length out (the kinematic floor, when the
+    vibration does not limit the move). Returns (the smoothed attempt, or ``best`` if both
+    fail, and notes)."""
+    for margin in (POLISH_MARGIN, 0.0):
+        polished = attempt(problem, sub.polishing(margin), best.n_steps, best.acc)
         history.append(polished)
         if polished.feasible:
-            return polished
-    return best
+            return polished, []
+    return best, [
+        f"the smoothing pass found no move of {best.n_steps} steps; the search's move is "
+        "returned as found"
+    ]
 
 
 def _worst_case(problem, acc, dt_s, threshold_m, grid) -> dict:

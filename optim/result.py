@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -68,6 +68,8 @@ class OptimizationResult:
     baselines: BaselineSet
     worst_case: dict | None = None  # robust mode: worst exact cycle over the check grid
     clearance_m: float | None = None  # limit on the deviation during the move, if any
+    source: str = "optimised"  # "optimised", "search" or a baseline's name (optim.choice)
+    warnings: list[dict] = field(default_factory=list)  # optim.advice: {"kind", "message"}
 
     @property
     def n_steps(self) -> int:
@@ -100,6 +102,24 @@ class OptimizationResult:
     @property
     def worst_cycle_time_s(self) -> float | None:
         return None if self.worst_case is None else self.worst_case["cycle_time_s"]
+
+    @property
+    def objective_s(self) -> float:
+        """What was minimised: the worst case over the robust grid, else the cycle time."""
+        return self.cycle_time_s if self.worst_case is None else self.worst_cycle_time_s
+
+    def comparison(self) -> dict:
+        """The answer against the best baseline by the same objective: its name, its
+        objective and the saving (s, and relative to the baseline)."""
+        best = self.baselines.best()
+        saving = best.score() - self.objective_s
+        return {
+            "objective": "cycle_time_s" if self.worst_case is None else "worst_cycle_time_s",
+            "best_baseline": best.name,
+            "best_baseline_s": best.score(),
+            "saving_s": saving,
+            "saving_rel": saving / best.score(),
+        }
 
     def ratios(self) -> dict:
         """The issue's figures: cycle time over the kinematic floor and over the best
@@ -141,11 +161,15 @@ class OptimizationResult:
             "solver": self.solver,
             "robust": None if self.robust is None else self.robust.as_dict(),
             "clearance_m": self.clearance_m,
+            "source": self.source,
+            "notes": list(self.solver_stats.get("notes", [])),
+            "warnings": self.warnings,
             "n_steps": self.n_steps,
             "transfer_time_s": self.transfer_time_s,
             "settle_time_s": self.settle_time_s,
             "cycle_time_s": self.cycle_time_s,
             "worst_case": self.worst_case,
+            "comparison": self.comparison(),
             "deviation": self.deviation,
             "ratios": self.ratios(),
             "constraint_check": self.constraint_check.as_dict(),
@@ -155,22 +179,68 @@ class OptimizationResult:
         }
 
     def summary(self) -> str:
-        """A few lines for the terminal."""
-        lines = [
-            f"optimised ({self.method}, {self.solver}): transfer {self.transfer_time_s:.3f} s, "
-            f"cycle {self.cycle_time_s:.3f} s (exact), {self.wall_time_s:.1f} s wall",
-        ]
+        """The answer first (ruckig-style: one line), then the details, for the terminal."""
+        lines = [self.headline(), f"  {self._timeline()}"]
         if self.worst_case is not None:
-            lines.append(f"  worst case over the robust grid: {self.worst_cycle_time_s:.3f} s")
+            grid = self.worst_case["grid"]
+            lines.append(
+                f"  nominal model: cycle {self.cycle_time_s:.3f} s; worst over the "
+                f"{len(grid)} models of the robust grid at f x{self.worst_case['freq_scale']:.3g}"
+                + ("" if self.worst_case["zeta"] is None else f", zeta {self.worst_case['zeta']:g}")
+            )
         peak = self.deviation["peak_during_move_m"]
         clear = "" if self.clearance_m is None else f" (clearance {self.clearance_m * 1e3:g} mm)"
         lines.append(f"  peak deviation during the move: {peak * 1e3:.3f} mm{clear}")
-        lines.append(f"  kinematic floor (ruckig): {self.baselines.kinematic_floor_s:.3f} s")
-        for b in self.baselines.entries:
-            worst = "" if b.worst_cycle_time_s is None else f", worst {b.worst_cycle_time_s:.3f} s"
-            lines.append(f"  {b.name:22s} cycle {b.cycle_time_s:.3f} s{worst}")
+        base = self.baselines
+        lines.append(
+            f"  kinematic floor (ruckig): {base.kinematic_floor_s:.3f} s, "
+            f"{base.floor_steps} steps on the {self.dt_s * 1e3:g} ms grid"
+        )
+        robust = self.worst_case is not None
+        lines.append("  baselines:" + " " * 16 + "cycle" + ("      worst" if robust else ""))
+        for b in base.entries:
+            worst = f"    {b.worst_cycle_time_s:7.3f} s" if robust else ""
+            lines.append(f"    {b.name:24s}{b.cycle_time_s:7.3f} s{worst}")
         lines.append(f"  limits: {self.constraint_check.summary()}")
+        lines += [f"  note: {note}" for note in self.solver_stats.get("notes", [])]
+        lines.append(f"  ({self.method}, {self.solver}; {self.wall_time_s:.1f} s wall)")
         return "\n".join(lines)
+
+    def headline(self) -> str:
+        """One line with the answer: which move, its objective, and how it compares with
+        the best baseline (the same objective)."""
+        cmp = self.comparison()
+        what = "worst case" if self.worst_case is not None else "cycle"
+        base = f"{cmp['best_baseline']} {cmp['best_baseline_s']:.3f} s"
+        if self.source not in ("optimised", "search"):
+            return (
+                f"best move: the baseline {self.source!r}, {what} {self.objective_s:.3f} s (no "
+                "optimised move was shorter; see the note)"
+            )
+        head = f"best move: optimised, {what} {self.objective_s:.3f} s"
+        if cmp["saving_s"] > 0:
+            return (
+                f"{head}, {cmp['saving_s']:.3f} s ({100 * cmp['saving_rel']:.1f} %) shorter "
+                f"than the best baseline, {base}"
+            )
+        floor = " = the kinematic floor, no move is shorter" if self._at_floor() else ""
+        return f"{head}, as short as the best baseline, {base}{floor}"
+
+    def _at_floor(self) -> bool:
+        return (
+            self.n_steps == self.baselines.floor_steps and self.objective_s == self.transfer_time_s
+        )
+
+    def _timeline(self) -> str:
+        """Transfer, settle and cycle time in words: the cycle is max(transfer, settle)."""
+        transfer, settle = self.transfer_time_s, self.settle_time_s
+        mm = f"{self.threshold_m * 1e3:g} mm"
+        if settle == 0.0:
+            after = f"the deviation never exceeds {mm}"
+        else:
+            when = "before" if settle <= transfer else f"{settle - transfer:.3f} s after"
+            after = f"the deviation stays below {mm} from {settle:.3f} s on, {when} the stop"
+        return f"transfer {transfer:.3f} s; {after}; cycle {self.cycle_time_s:.3f} s (exact)"
 
     def save(self, directory: str | os.PathLike) -> list[Path]:
         """Write trajectory.csv, report.json and the plots into ``directory`` (module
