@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
-import numpy as np
+from matplotlib.ticker import FuncFormatter
 
 from jaxflex.atomic import atomic_open
 
@@ -21,27 +20,26 @@ def save_figure(fig, path: str | os.PathLike) -> None:
     plt.close(fig)
 
 
-def plot_deviation(
-    path: str | os.PathLike,
-    curves: Mapping[str, tuple[np.ndarray, np.ndarray, float]],
-    threshold_m: float,
-    title: str = "",
-) -> None:
-    """Deviation against time for several moves: ``curves`` maps a label to
-    (t (T,) s, deviation (T,) m, cycle time s). The threshold is drawn, each cycle time marked."""
-    fig, ax = plt.subplots(figsize=(8, 4))
-    for label, (t, d, cycle_s) in curves.items():
-        (line,) = ax.plot(t, np.asarray(d) * 1e3, lw=1.2, label=f"{label}: cycle {cycle_s:.3f} s")
-        ax.axvline(cycle_s, color=line.get_color(), ls=":", lw=1)
+def _plain(value: float, _pos=None) -> str:
+    """Tick labels as plain numbers (0.01, 0.5, 2, 100), not 2x10^0."""
+    return f"{value:g}"
+
+
+PLAIN = FuncFormatter(_plain)
+
+
+def deviation_axes(ax, threshold_m: float, *, label: bool = True) -> None:
+    """Make ``ax`` a deviation axis: log scale in mm, the threshold drawn (and in the legend
+    if ``label``), two decades below it shown, a grid."""
     ax.axhline(
-        threshold_m * 1e3, color="k", ls="--", lw=1, label=f"threshold {threshold_m * 1e3:g} mm"
+        threshold_m * 1e3,
+        color="k",
+        ls="--",
+        lw=1,
+        label=f"threshold {threshold_m * 1e3:g} mm" if label else None,
     )
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("deviation max_p |u_p| [mm]")
     ax.set_yscale("log")
     ax.set_ylim(bottom=threshold_m * 1e3 / 100)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(loc="upper right", fontsize=8)
-    if title:
-        ax.set_title(title)
-    save_figure(fig, path)
+    ax.yaxis.set_major_formatter(PLAIN)
+    ax.set_ylabel("deviation max_p |u_p| [mm]")
+    ax.grid(True, which="major", alpha=0.3)

@@ -29,7 +29,7 @@ from jaxflex.settle import SettleReport
 from jaxflex.trajectory_io import write_trajectory_csv
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
-from optim.plots import plot_deviations, plot_profiles, plot_robust
+from optim.plots import Trace, plot_comparison, plot_profiles, plot_robust, plot_worst_case
 from optim.robust import RobustSpec, perturbed
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
@@ -254,37 +254,43 @@ class OptimizationResult:
         written += self._plot_deviation(out / "deviation.png")
         if self.worst_case is not None:
             written.append(out / "robust.png")
-            series = {"optimised": self.worst_case["grid"]}
+            series = {self._label(): self.worst_case["grid"]}
             for b in self.baselines.entries:
                 if b.worst_grid is not None:
                     series[b.name] = b.worst_grid
-            plot_robust(written[-1], series, "exact cycle time across the uncertainty range")
+            plot_robust(written[-1], series, "Exact cycle time across the uncertainty range")
         return written
 
+    def _label(self) -> str:
+        return "optimised" if self.source in ("optimised", "search") else f"{self.source} (chosen)"
+
     def _plot_deviation(self, path: Path) -> list[Path]:
-        moves = {"optimised": (self.acc, self.cycle_time_s)}
+        moves = [(self._label(), self.acc, self.cycle_time_s, self.worst_cycle_time_s)]
         for b in self.baselines.entries:
-            moves[b.name] = (b.acc, b.cycle_time_s)
-        until = 1.15 * max(c for _, c in moves.values()) + self.dt_s
-        curves = {}
-        for label, (acc, cycle) in moves.items():
+            if not (self.source == b.name and np.array_equal(b.acc, self.acc)):
+                moves.append((b.name, b.acc, b.cycle_time_s, b.worst_cycle_time_s))
+        until = 1.15 * max(cycle for _, _, cycle, _ in moves) + self.dt_s
+        traces = []
+        for label, acc, cycle, worst in moves:
             t, d = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS)
-            curves[label] = (t, d, cycle)
-        plot_deviations(path, curves, self.threshold_m, "Deviation: optimised move vs baselines")
+            traces.append(Trace(label, t, d, cycle, worst))
+        plot_comparison(
+            path,
+            traces,
+            self.threshold_m,
+            self.baselines.kinematic_floor_s,
+            "Deviation of the optimised move and the baselines (nominal model)",
+        )
         written = [path]
         if self.worst_case is not None:
             scale, zeta = self.worst_case["freq_scale"], self.worst_case["zeta"]
             worst_model = perturbed(self.model, scale, zeta)
             t, d = deviation_curve(worst_model, self.acc, self.dt_s, until, SUBSTEPS)
-            curves = {
-                f"optimised, worst case (f x{scale:.3f}, zeta {zeta})": (
-                    t,
-                    d,
-                    self.worst_cycle_time_s,
-                )
-            }
+            label = f"{self._label()} at f x{scale:g}" + (
+                "" if zeta is None else f", zeta {zeta:g}"
+            )
             written.append(path.with_name("deviation_worst_case.png"))
-            plot_deviations(
-                written[-1], curves, self.threshold_m, "Optimised move at its worst case"
+            plot_worst_case(
+                written[-1], Trace(label, t, d, self.worst_cycle_time_s), self.threshold_m
             )
         return written

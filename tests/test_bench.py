@@ -122,6 +122,7 @@ def test_quick_bench_writes_every_method_and_chart(tmp_path):
     out = tmp_path / "bench"
     proc = run_jaxflex("bench", "--quick", "-o", str(out), timeout_s=900)
     assert proc.returncode == 0, proc.stderr
+    assert "\r" not in proc.stderr and "reduced methods: " in proc.stderr  # a redirected log
     saved = json.loads((out / "bench.json").read_text())
     assert set(saved["accuracy"]) == {"plate", "panel"}
     for name, scene in saved["accuracy"].items():

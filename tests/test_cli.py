@@ -74,6 +74,7 @@ def test_demo_runs_the_whole_pipeline(tmp_path):
     proc = run_jaxflex("demo", "-o", str(out))
     assert proc.returncode == 0, proc.stderr
     assert "cycle" in proc.stdout and "FMI 3.0" in proc.stdout
+    assert "\r" not in proc.stderr and "shortest move:" in proc.stderr  # a redirected log
     for name in (
         "model.npz",
         "optimized/trajectory.csv",

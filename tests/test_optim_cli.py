@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 from conftest import run_jaxflex
@@ -26,7 +27,10 @@ def test_optimize_writes_trajectory_report_and_plots(model_file, tmp_path):
     proc = run_jaxflex("optimize", str(model_file), *args.split(), "-o", str(out))
     assert proc.returncode == 0, proc.stderr
     assert "cycle" in proc.stdout and "worst case" in proc.stdout
-    assert "shortest move" in proc.stderr  # the progress display
+    # the progress display, redirected: plain lines with count and total, no "\r" frames
+    assert re.search(r"shortest move: \d+/\d+ test in ", proc.stderr), proc.stderr
+    assert re.search(r"baselines: \d+/\d+ move in ", proc.stderr)
+    assert "\r" not in proc.stderr
     for name in (
         "trajectory.csv",
         "report.json",

@@ -31,6 +31,7 @@ from distributed import Client, LocalCluster, as_completed
 
 from jaxflex.errors import InputError
 from jaxflex.progress import progress_bar
+from optim.sweep.best import MoveBest, best_layouts, move_limits
 from optim.sweep.cases import Case, case_job, expand, layout_job
 from optim.sweep.plots import plot_sweep
 from optim.sweep.spec import SweepSpec
@@ -75,14 +76,36 @@ class SweepRun:
     def rows(self) -> list[dict]:
         return table_rows(self.cases, self.records)
 
+    def best(self) -> list[MoveBest]:
+        """Per move, the best layout and its comparison (optim.sweep.best)."""
+        return best_layouts(self.spec, self._stored())
+
+    def _stored(self):
+        return ((c, self.records[c.case_id]) for c in self.cases if c.case_id in self.records)
+
+    def warnings(self) -> list[str]:
+        """Each kind of warning the cases got, once, with the number of cases."""
+        kinds: dict[str, list[str]] = {}
+        for _case, record in self._stored():
+            for w in (record.get("opt") or {}).get("warnings", []):
+                kinds.setdefault(w["kind"], []).append(w["message"])
+        return [
+            f"warning ({len(messages)} case{'s' if len(messages) > 1 else ''}): {messages[0]}"
+            for messages in kinds.values()
+        ]
+
     def summary(self) -> str:
+        """The answer per move first (best layout), then the run's bookkeeping."""
         ok = sum(r["status"] == "ok" for r in self.records.values())
         rate = 60.0 * self.computed / self.wall_s if self.wall_s > 0 else float("nan")
-        return (
+        lines = [*move_limits(self.spec), *(best.line() for best in self.best())]
+        lines.append(
             f"{self.spec.name}: {len({c.case_id for c in self.cases})} cases, {ok} ok, "
             f"{self.n_errors} errors; computed {self.computed} ({self.executor}, "
             f"{self.wall_s:.1f} s, {rate:.1f} cases/min), skipped {self.skipped} finished"
         )
+        lines += self.warnings()
+        return "\n".join(lines)
 
 
 def run_sweep(

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from jaxflex.cli import AXIS_LIMITS
 from jaxflex.errors import InputError
 from optim.robust import RobustSpec
 
@@ -109,6 +110,9 @@ class OptimizationSpec:
     method: str = "exact"
     max_duration_s: float = 30.0
     robust: dict | None = None
+
+
+LIMIT_KEYS = tuple((key, unit) for key, unit, _default in AXIS_LIMITS)
 
 
 @dataclass(frozen=True)
@@ -281,11 +285,7 @@ def _move(i: int, data: Any) -> MoveSpec:
     if not any(distance):
         raise InputError(f"{where}.distance_m: the move must go somewhere, got {dist}")
     limits = {}
-    for key, unit, default in (
-        ("vmax", "m/s", 2.0),
-        ("amax", "m/s^2", 10.0),
-        ("jmax", "m/s^3", 100.0),
-    ):
+    for key, unit, default in AXIS_LIMITS:  # the command line's defaults
         limits[key] = _axis_values(f"{where}.{key}", d.get(key, default), unit)
     name = _name(f"{where}.name", d.get("name", f"move{i}"))
     return MoveSpec(name=name, distance_m=distance, **limits)  # type: ignore[arg-type]
