@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import os
+import textwrap
 
 import numpy as np
 
 from benchmarks.accuracy import pareto_front
 from benchmarks.methods import LABELS
-from jaxflex.plots import plt, save_figure
+from jaxflex.plots import PLAIN, PLAIN_MINOR, plt, save_figure
 
 STYLE = {
     "scan64": ("C0", "o"),
@@ -20,12 +21,13 @@ STYLE = {
 }
 ERROR_KEY = "samples_linf_rel_peak"
 FLOOR = 1e-7  # errors below are drawn at the floor (log axis)
+TITLE_WIDTH = 90  # characters per title line: titles wrap at words, never cut
 
 
 def pareto_chart(scene: dict, path: str | os.PathLike) -> None:
     """Error (L-infinity of the deviation at the method's samples, relative to the reference
     peak) against wall time, every run as a marker, each method's Pareto front as a line."""
-    fig, ax = plt.subplots(figsize=(8, 5.5))
+    fig, ax = plt.subplots(figsize=(8, 5.5), layout="constrained")
     points = scene["points"]
     for method, (color, marker) in STYLE.items():
         mine = [p for p in points if p["method"] == method]
@@ -47,14 +49,16 @@ def pareto_chart(scene: dict, path: str | os.PathLike) -> None:
         )
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ax.yaxis.set_major_formatter(PLAIN)
+    ax.yaxis.set_minor_formatter(PLAIN_MINOR)
     ax.set_xlabel("wall time per evaluation [s] (compiled, best of repeats)")
     ax.set_ylabel("L-inf error of the deviation / reference peak")
     fe = scene["fe"]
-    ax.set_title(
-        f"{scene['scene']['name']}: {fe['formulation'][:60]}, {fe['n_dof']} DOFs, "
-        f"{fe['n_points']} points; reference: full-order FE (h = {fe['reference_h_s']:.2g} s)",
-        fontsize=9,
+    title = (
+        f"{scene['scene']['name']}: {fe['formulation']}, {fe['n_dof']} DOFs, "
+        f"{fe['n_points']} points; reference: full-order FE (h = {fe['reference_h_s']:.2g} s)"
     )
+    ax.set_title(textwrap.fill(title, TITLE_WIDTH), fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, loc="best")
     save_figure(fig, path)
@@ -63,7 +67,7 @@ def pareto_chart(scene: dict, path: str | os.PathLike) -> None:
 def stability_chart(stab: dict, path: str | os.PathLike) -> None:
     """Three panels: error of each method against omega dt (one mode), settle-time error of
     step sampling against jaxflex.analyze_move, float32 drift against the horizon."""
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5), layout="constrained")
     w = np.asarray(stab["omega_dt"])
     ax = axes[0]
     for method, values in stab["error_rel_peak"].items():
@@ -72,9 +76,10 @@ def stability_chart(stab: dict, path: str | os.PathLike) -> None:
         v = np.where(np.isfinite(v), np.clip(v, 1e-16, 1e3), 1e3)
         ax.plot(w, v, color=color, marker=marker, ms=4, label=LABELS[method])
     ax.axvline(2.0, color="k", ls=":", lw=1, label="w dt = 2 (central difference limit)")
-    ax.set(xscale="log", yscale="log", xlabel="omega dt", ylabel="max error / peak (clipped 1e3)")
+    ax.set(xscale="log", yscale="log", xlabel="omega dt", ylabel="max error / peak")
+    ax.text(0.02, 0.98, "unstable: clipped at 1e3", transform=ax.transAxes, va="top", fontsize=7)
     ax.set_title("one mode after an impulse, 2000 steps", fontsize=9)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(0.0, 0.16))  # the empty middle
     ax = axes[1]
     for name, color in (("step_sampled", "C3"), ("analyze_move", "C0")):
         v = np.abs(np.asarray(stab["settle_error_s"][name], dtype=float)) * 1e3
@@ -89,6 +94,8 @@ def stability_chart(stab: dict, path: str | os.PathLike) -> None:
     ax.plot(steps, drift, color="C9", marker="s", label="scan float32 vs float64")
     ax.set(xscale="log", yscale="log", xlabel="steps (dt = 10 ms)", ylabel="max error / peak")
     ax.set_title("float32 drift, undamped 1 Hz mode", fontsize=9)
+    ax.yaxis.set_major_formatter(PLAIN)
+    ax.yaxis.set_minor_formatter(PLAIN)  # less than a decade: every minor tick labelled
     ax.legend(fontsize=7)
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)

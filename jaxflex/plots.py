@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 
 import matplotlib
@@ -25,7 +26,14 @@ def _plain(value: float, _pos=None) -> str:
     return f"{value:g}"
 
 
+def _plain_minor(value: float, _pos=None) -> str:
+    """Minor tick labels of a log axis spanning decades: only 2 and 5 (x 10^k), plain."""
+    mantissa = value / 10 ** math.floor(math.log10(value))
+    return f"{value:g}" if min(abs(mantissa - 2), abs(mantissa - 5)) < 1e-6 else ""
+
+
 PLAIN = FuncFormatter(_plain)
+PLAIN_MINOR = FuncFormatter(_plain_minor)
 
 
 def deviation_axes(ax, threshold_m: float, *, label: bool = True) -> None:
