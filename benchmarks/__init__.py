@@ -2,15 +2,20 @@
 
 * :mod:`benchmarks.core`: the core speed figures (K=1099, M=40, N=1000);
 * :mod:`benchmarks.metrics`: the preprint's accuracy metrics of a deviation curve;
-* :mod:`benchmarks.timing`: wall-time measurement and a description of the machine.
+* :mod:`benchmarks.timing`: wall-time measurement and a description of the machine;
+* :func:`run_suite` (:mod:`benchmarks.suite`): the whole ``jaxflex bench`` at a size
+  ("tiny", "quick", "medium", "full"), JSON and charts written to a directory, and
+  :func:`summary_lines`, its findings as text (what the notebooks use).
 """
 
 from benchmarks.core import QUICK, BenchCase, format_table, run_bench, sine_move, synthetic_model
 from benchmarks.metrics import compare, curve_errors, on_grid, settle_from_samples
+from benchmarks.suite import SIZES, run_suite, summary_lines
 from benchmarks.timing import best_time_s, machine
 
 __all__ = [
     "QUICK",
+    "SIZES",
     "BenchCase",
     "best_time_s",
     "compare",
@@ -19,7 +24,9 @@ __all__ = [
     "machine",
     "on_grid",
     "run_bench",
+    "run_suite",
     "settle_from_samples",
     "sine_move",
+    "summary_lines",
     "synthetic_model",
 ]

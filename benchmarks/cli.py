@@ -30,7 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     size.add_argument(
         "--size",
-        choices=("quick", "medium", "full"),
+        choices=("tiny", "quick", "medium", "full"),
         default="full",
         help="full (default): the built-in scenes, several minutes; medium: small scenes with "
         "the full sweeps",

@@ -10,8 +10,9 @@ Sections of ``bench.json`` (SI units; times in s unless the key says ms):
 * ``stability``: where each method breaks against omega dt (:mod:`benchmarks.stability`);
   chart ``stability.png``.
 
-Three sizes: ``full`` (the built-in scenes, minutes), ``medium`` (small scenes, the sweeps
-of the full run; about a minute) and ``quick`` (CI: small scenes, a few points per sweep).
+Four sizes: ``full`` (the built-in scenes, minutes), ``medium`` (small scenes, the sweeps
+of the full run; about a minute), ``quick`` (CI: small scenes, a few points per sweep) and
+``tiny`` (the small plate alone, for the notebook's quick mode).
 """
 
 from __future__ import annotations
@@ -106,6 +107,14 @@ ELEMENT_SCENES = tuple(
     for element, mesh_m in (("morley", 0.02), ("argyris", 0.05), ("hex2", 0.05))
 )
 SIZES = {
+    # the notebook's quick mode (speed_vs_accuracy.ipynb): the small plate only
+    "tiny": {
+        "core": QUICK_CORE,
+        "scenes": (QUICK_PLATE,),
+        "omega_dt": OMEGA_DT[::6],
+        "drift_steps": (1_000, 10_000),
+        "min_time_s": 0.005,
+    },
     "quick": {
         "core": QUICK_CORE,
         "scenes": (QUICK_PLATE, QUICK_PANEL),
@@ -154,7 +163,7 @@ def run_suite(
     fe_progress: bool | None = None,
     json_path: str | os.PathLike | None = None,
 ) -> dict:
-    """Run every section at ``size`` ("quick", "medium", "full"), write ``bench.json`` (or
+    """Run every section at ``size`` ("tiny", "quick", "medium", "full"), write ``bench.json`` (or
     ``json_path``) and the PNG charts into ``out_dir``; returns the report."""
     if size not in SIZES:
         raise InputError(f"size: must be one of {list(SIZES)}, got {size!r}")

@@ -10,7 +10,7 @@ from fem.export import export_modes, export_transient, plot_part
 from fem.identify import R1Identification, from_r1
 from fem.imported import ImportedModes
 from fem.materials import PRESETS, Material, resolve_material
-from fem.modal import ModalResult, modal_analysis
+from fem.modal import ModalResult, describe_model, modal_analysis
 from fem.nastran import from_nastran
 from fem.parts import Part, curved_panel, read_mesh, rectangular_plate
 from fem.scenes import SCENES, default_gripper, default_model, scene
@@ -38,6 +38,7 @@ __all__ = [
     "curved_panel",
     "default_gripper",
     "default_model",
+    "describe_model",
     "export_modes",
     "export_transient",
     "from_ansys",

@@ -12,6 +12,8 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from fem import cli_imports
 from fem.damping import check_damping
 from fem.export import export_modes, plot_part
@@ -20,9 +22,12 @@ from fem.parts import read_mesh
 from fem.scenes import scene
 from fem.sizing import size_model
 from fem.supports import ClampedEdge, PointSupport, SuctionCup
+from jaxflex.advice import issue, model_resolution, threshold_advice
 from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
+from jaxflex.deviation import deviation_curve
 from jaxflex.errors import InputError
 from jaxflex.profile import jerk_limited_move
+from jaxflex.settle import analyze_move
 from jaxflex.trajectory_io import read_trajectory_csv
 
 COMMAND = "model"
@@ -324,6 +329,22 @@ def _move(args):
     return jerk_limited_move(args.distance, dt_s=dt_s, **limits), dt_s
 
 
+def _threshold_advice(model, acc, dt_s: float, threshold_m: float) -> None:
+    """Warn about a --threshold the sized model cannot mean (jaxflex.advice)."""
+    n_steps = len(acc) - 1
+    _, deviation = deviation_curve(model, acc, dt_s, n_steps * dt_s, 8)
+    issue(
+        threshold_advice(
+            threshold_m,
+            analyze_move(model, acc, dt_s, threshold_m).settle_time_s,
+            float(np.max(deviation)),
+            model_resolution(model, np.sum(np.abs(acc), axis=0)),
+            name="--threshold",
+            move=("the move", "the settle time is 0 and there is nothing to size the model for"),
+        )
+    )
+
+
 def _run_sizing(args, part, supports) -> int:
     for name in ("n_modes", "max_freq", "points"):
         if getattr(args, name) is not None:
@@ -352,6 +373,7 @@ def _run_sizing(args, part, supports) -> int:
         log=print,
     )
     print(sized.summary())
+    _threshold_advice(sized.model, acc, dt_s, args.threshold)
     _write(args, sized.model, sized.result)
     if args.report:
         sized.save_report(args.report)

@@ -482,3 +482,25 @@ def modal_analysis(
         timings_s=timings,
         observation=observation,
     )
+
+
+def describe_model(model: ModalModel) -> str:
+    """One line about the part behind a model, read from its meta (fem.modal_analysis):
+    "rectangular plate 1.5 x 0.8 m x 1 mm steel on 4 suction cups, 31047 DOFs"; parts of
+    the description the meta does not hold are left out."""
+    meta = dict(model.meta)
+    part, words = meta.get("part") or {}, []
+    words.append(part.get("name", "part"))
+    if "width_m" in part and "height_m" in part:
+        words.append(f"{part['width_m']:g} x {part['height_m']:g} m")
+    if "thickness_m" in part:
+        words.append(f"x {part['thickness_m'] * 1e3:g} mm")
+    material = (meta.get("material") or {}).get("name")
+    if material:
+        words.append(material)
+    grippers = meta.get("gripper") or []
+    if grippers:
+        kinds = sorted({g.get("type", "support").replace("_", " ") for g in grippers})
+        words.append(f"on {len(grippers)} {' / '.join(kinds)}{'s' if len(grippers) > 1 else ''}")
+    dofs = (meta.get("mesh") or {}).get("n_dof")
+    return " ".join(words) + (f", {dofs} DOFs" if dofs else "")

@@ -63,10 +63,8 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     model = fem.default_model(args.scene, n_modes=20, n_points=1000, zeta=0.02)
     timings["fe_model_s"] = time.perf_counter() - start
-    mesh = model.meta.get("mesh", {})
     print(
-        f"part: {args.scene} 1.5 x 0.8 m x 1 mm steel on 4 suction cups, "
-        f"{mesh.get('n_dof', '?')} DOFs -> {model.n_modes} modes "
+        f"part: {fem.describe_model(model)} -> {model.n_modes} modes "
         f"{model.freq_hz[0]:.2f}-{model.freq_hz[-1]:.1f} Hz at {model.n_points} points "
         f"({timings['fe_model_s']:.1f} s)"
     )

@@ -7,10 +7,12 @@ Public interface (SI units throughout):
 * ``baselines(model, distance_m, limits, dt_s, threshold_m)`` -> ruckig floor, ruckig + free
   decay, ZV / ZVD / EI multi-mode shaped moves, each with its exact cycle time;
 * ``optimize(model, distance_m, limits, dt_s, threshold_m, method="exact"|"gradient", ...)``
-  -> ``OptimizationResult`` (``.save(directory)`` writes trajectory.csv, report.json, plots).
+  -> ``OptimizationResult`` (``.save(directory)`` writes trajectory.csv, report.json, plots);
+* ``worst_case(model, acc, dt_s, threshold_m, RobustSpec().grid())`` -> the largest exact
+  cycle time of a move over a robust grid, where, and every grid point.
 """
 
-from optim.baselines import Baseline, BaselineSet, baselines
+from optim.baselines import Baseline, BaselineSet, baselines, worst_case
 from optim.limits import ConstraintCheck, Limits, Violation, check_profile
 from optim.optimize import optimize
 from optim.result import OptimizationResult
@@ -27,4 +29,5 @@ __all__ = [
     "baselines",
     "check_profile",
     "optimize",
+    "worst_case",
 ]

@@ -22,12 +22,13 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from jaxflex.advice import issue, model_resolution, threshold_advice
 from jaxflex.errors import InputError, JaxflexError
 from jaxflex.model import ModalModel
 from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
 from jaxflex.validation import check_positive
-from optim.advice import grid_advice, issue, model_resolution, threshold_advice
+from optim.advice import grid_advice
 from optim.baselines import baselines as compute_baselines
 from optim.choice import candidates, choose
 from optim.exact import POLISH_MARGIN, LPSubsolver

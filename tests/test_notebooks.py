@@ -10,6 +10,8 @@ working directory; the test checks that notebooks/ is unchanged afterwards.
 
 from __future__ import annotations
 
+import ast
+import importlib
 import sys
 from pathlib import Path
 
@@ -22,6 +24,7 @@ NOTEBOOK_DIR = ROOT / "notebooks"
 NOTEBOOKS = sorted(NOTEBOOK_DIR.glob("*.ipynb"))
 QUICK_ENV = "JAXFLEX_NOTEBOOK_QUICK"
 KERNEL = "python3"
+PROJECT = ("jaxflex", "fem", "optim", "fmu", "benchmarks")
 CELL_TIMEOUT_S = 600  # generous: the machine may be shared; the quick budget is ~60 s in all
 
 
@@ -84,3 +87,25 @@ def test_notebook_outputs_stripped(path):
         if cell.cell_type == "code" and (cell.outputs or cell.execution_count is not None)
     ]
     assert not dirty, f"{path.name}: cells {dirty} have outputs; strip them before committing"
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+def test_notebooks_use_the_public_packages_only(path):
+    """Every name a notebook imports from the project is in a package's ``__all__`` (no
+    module paths into the packages, no internals such as a sweep's result store)."""
+    nb = nbformat.read(path, as_version=4)
+    code = "\n".join(
+        "\n".join(line for line in cell.source.splitlines() if not line.startswith("%"))
+        for cell in nb.cells
+        if cell.cell_type == "code"
+    )
+    for node in ast.walk(ast.parse(code)):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.split(".")[0] in PROJECT:
+                    assert alias.name in PROJECT, f"{path.name}: import {alias.name}"
+        elif isinstance(node, ast.ImportFrom) and node.module.split(".")[0] in PROJECT:
+            public = importlib.import_module(node.module).__dict__.get("__all__")
+            assert public is not None, f"{path.name}: {node.module} is not a public package"
+            for alias in node.names:
+                assert alias.name in public, f"{path.name}: {node.module}.{alias.name}"

@@ -30,6 +30,7 @@ from pathlib import Path
 from distributed import Client, LocalCluster, as_completed
 
 from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
 from jaxflex.progress import progress_bar
 from optim.sweep.best import MoveBest, best_layouts, move_limits
 from optim.sweep.cases import Case, case_job, expand, layout_job
@@ -75,6 +76,21 @@ class SweepRun:
     @property
     def rows(self) -> list[dict]:
         return table_rows(self.cases, self.records)
+
+    def record(self, case: Case) -> dict:
+        """The stored record of ``case`` (optim.sweep.table lists its fields)."""
+        if case.case_id not in self.records:
+            raise InputError(f"case {case.case_id} ({case.layout.name}): no stored record")
+        return self.records[case.case_id]
+
+    def model(self, case: Case) -> ModalModel:
+        """The modal model of ``case``'s layout, as stored by the FE step."""
+        found = ResultStore(self.directory).load_model(case.layout_id)
+        if found is None:
+            raise InputError(
+                f"layout {case.layout.name!r}: no stored model (its FE step failed or has not run)"
+            )
+        return found[0]
 
     def best(self) -> list[MoveBest]:
         """Per move, the best layout and its comparison (optim.sweep.best)."""
