@@ -5,6 +5,7 @@ command, --version, warnings as one line."""
 from __future__ import annotations
 
 import io
+import json
 import re
 
 import pytest
@@ -104,3 +105,32 @@ def test_bad_zeta_and_points_are_refused_before_any_finite_element_work():
         assert "factorisation" not in proc.stderr and "assembly" not in proc.stderr
     proc = run_jaxflex("model", "--scene", "plate", "--zeta", "1.5", "-o", "never.npz")
     assert "Rayleigh" not in proc.stderr and "1.5 % would be 0.015" in proc.stderr
+
+
+def test_redirected_logs_of_model_and_sweep_have_plain_lines_only(tmp_path):
+    # `optimize`, `demo`, `bench`, `export` are checked where their runs are tested
+    proc = run_jaxflex(
+        "model", "--scene", "plate", "--mesh-size", "0.1", "--n-modes", "4", "--points", "40",
+        "-o", str(tmp_path / "m.npz"),
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert "\r" not in proc.stderr
+    assert re.search(r"assembly \(morley, \d+ elements\): \d+/\d+ it in ", proc.stderr)
+    assert "factorisation of K - sigma M" in proc.stderr
+    spec = {
+        "name": "log",
+        "part": {"width_m": 0.6, "height_m": 0.4, "mesh_size_m": 0.1},
+        "model": {"n_modes": 4, "monitor_grid": [4, 3]},
+        "moves": [{"name": "up", "distance_m": [0, 0, 0.3]}],
+        "layouts": [{"name": "four", "cups": [[0.15, 0.1, 0.03], [0.45, 0.1, 0.03],
+                                              [0.15, 0.3, 0.03], [0.45, 0.3, 0.03]]}],
+    }  # fmt: skip
+    path = tmp_path / "spec.json"
+    path.write_text(json.dumps(spec))
+    proc = run_jaxflex("sweep", str(path), "-o", str(tmp_path / "sweep"), "--serial")
+    assert proc.returncode == 0, proc.stderr
+    assert "\r" not in proc.stderr and re.search(r"log: 1/1 case in ", proc.stderr)
+    assert "move 'up': best layout 'four'" in proc.stdout
+    assert "vmax 2 m/s (default)" in proc.stdout
+    quiet = run_jaxflex("sweep", str(path), "-o", str(tmp_path / "sweep"), "--serial", "-q")
+    assert quiet.returncode == 0 and quiet.stderr == ""
