@@ -58,7 +58,9 @@ def assemble_plate(
     chunks = np.array_split(np.arange(n_el), max(1, int(np.ceil(n_el / CHUNK_ELEMENTS))))
     K = M = None
     basis = None
-    with progress_bar(len(chunks), f"assembly ({element}, {n_el} elements)", progress) as bar:
+    with progress_bar(
+        len(chunks), f"assembly ({element}, {n_el} elements)", progress, unit="chunk"
+    ) as bar:
         for chunk in chunks:
             part_basis = skfem.Basis(skmesh, elem, elements=chunk)
             k_part = stiffness.assemble(part_basis)

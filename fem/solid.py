@@ -133,7 +133,9 @@ def assemble_solid(
     n_nodes = len(layer.points)
     basis = _reference_basis()
     chunks = np.array_split(np.arange(n_el), max(1, int(np.ceil(n_el / CHUNK_ELEMENTS))))
-    with progress_bar(len(chunks) + 1, f"assembly (hex2, {n_el} elements)", progress) as bar:
+    with progress_bar(
+        len(chunks) + 1, f"assembly (hex2, {n_el} elements)", progress, unit="chunk"
+    ) as bar:
         # sparsity at node level: 3x3 blocks per pair of nodes sharing an element
         nodes = layer.element_nodes.astype(np.int64)
         pair_keys = (np.repeat(nodes, 27, axis=1) * n_nodes + np.tile(nodes, (1, 27))).ravel()

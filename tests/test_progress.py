@@ -115,7 +115,7 @@ def test_redirected_logs_of_model_and_sweep_have_plain_lines_only(tmp_path):
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     assert "\r" not in proc.stderr
-    assert re.search(r"assembly \(morley, \d+ elements\): \d+/\d+ it in ", proc.stderr)
+    assert re.search(r"assembly \(morley, \d+ elements\): \d+/\d+ chunk in ", proc.stderr)
     assert "factorisation of K - sigma M" in proc.stderr
     spec = {
         "name": "log",
