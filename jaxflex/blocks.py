@@ -37,7 +37,7 @@ class PointBlocks:
     shapes: (nB, M, C b) mode shapes in the product layout of a block: column c b + j is
         component c of the block's j-th point (m per kg^0.5; padding slots are zero).
     index: (nB, b) original point index of every slot; padding slots hold K.
-    centres: (M, C nB) the centre shapes, column c nB + B is component c of block B's centre.
+    centres: (M, C, nB) the centre shapes of the blocks.
     radius: (nB, M) per-mode radius rho_{B,i} of each block about its centre.
     slot: (K,) slot B b + j of every original point.
     """
@@ -138,7 +138,7 @@ def point_blocks(shapes, points, block_points: int = BLOCK_POINTS) -> PointBlock
     return PointBlocks(
         shapes=jnp.transpose(members, (0, 3, 2, 1)).reshape(n_blocks, n_modes, n_comp * b),
         index=index.astype(jnp.int32),
-        centres=jnp.transpose(centre_shape, (2, 1, 0)).reshape(n_modes, n_comp * n_blocks),
+        centres=jnp.transpose(centre_shape, (2, 1, 0)),
         radius=radius,
         slot=slot,
     )

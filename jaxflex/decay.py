@@ -46,10 +46,19 @@ def envelope_horizon(
     weights: np.ndarray, amplitude: np.ndarray, sigma: np.ndarray, threshold_m: float
 ) -> float:
     """Smallest tau >= 0 (s) with max_p E_p(tau) <= ``threshold_m``; inf if undamped modes
-    keep the envelope above it forever. Bisection to HORIZON_REL_TOL relative."""
+    keep the envelope above it forever. Bisection to HORIZON_REL_TOL relative.
+
+    Every E_p decreases in tau and the search only ever asks at later tau than the last one
+    found above the threshold, so the points at or below it there are dropped for good."""
+    active = weights
 
     def peak(tau: float) -> float:
-        return float(envelope(weights, amplitude, sigma, tau).max())
+        nonlocal active
+        values = envelope(active, amplitude, sigma, tau)[:, 0]
+        top = float(values.max())
+        if top > threshold_m:
+            active = active[values > threshold_m]
+        return top
 
     peak0 = peak(0.0)
     if peak0 <= threshold_m:

@@ -42,28 +42,55 @@ BATCH_UNITS = 16  # units per iteration of the evaluation loop
 ROUND_OFF_FACTOR = 16
 
 
+def block_bounds(centres, radius, q, xp=jnp):
+    """(centre (T, nB), upper (T, nB)) for modal coordinates q (T, M): the attained value
+    |u_c(t)| of each block's centre and the bound |u_c(t)| + sum_i rho_{B,i} |q_i(t)| of every
+    member, from ``centres`` (M, C, nB) and ``radius`` (nB, M) of jaxflex.blocks.PointBlocks
+    (or a subset of their blocks). ``xp``: jax.numpy or numpy."""
+    n_modes, n_comp, n_blocks = centres.shape
+    u_centre = (q @ centres.reshape(n_modes, n_comp * n_blocks)).reshape(-1, n_comp, n_blocks)
+    centre = xp.sqrt(xp.sum(u_centre * u_centre, axis=1))
+    return centre, centre + xp.abs(q) @ radius.T
+
+
+def round_off_slack(n_modes: int, n_comp: int, dtype) -> float:
+    """1 + the relative round-off a bound or a norm of length-M dot products can carry (see
+    ROUND_OFF_FACTOR): bounds are inflated by it before they prune."""
+    return 1.0 + ROUND_OFF_FACTOR * (n_modes + n_comp) * float(np.finfo(dtype).eps)
+
+
 def _alive_tiles(blocks: PointBlocks, q):
     """(nB, T / UNIT_STEPS) bool: the (block, tile of UNIT_STEPS steps) pairs in which some
     step's bound reaches the largest centre value of that step. T must be a multiple of
     UNIT_STEPS."""
     n_steps, n_modes = q.shape
-    n_comp = blocks.n_components
-    n_blocks = blocks.radius.shape[0]
-    u_centre = (q @ blocks.centres).reshape(n_steps, n_comp, n_blocks)
-    centre = jnp.sqrt(jnp.sum(u_centre * u_centre, axis=1))  # (T, nB): attained values
-    upper = centre + jnp.abs(q) @ blocks.radius.T
+    centre, upper = block_bounds(blocks.centres, blocks.radius, q)
     lower = jnp.max(centre, axis=1, keepdims=True)
-    slack = 1.0 + ROUND_OFF_FACTOR * (n_modes + n_comp) * jnp.finfo(q.dtype).eps
+    slack = round_off_slack(n_modes, blocks.n_components, q.dtype)
     alive = (upper * slack >= lower) & (upper > 0)
-    return jnp.any(alive.reshape(n_steps // UNIT_STEPS, UNIT_STEPS, n_blocks), axis=1).T
+    return jnp.any(alive.reshape(n_steps // UNIT_STEPS, UNIT_STEPS, -1), axis=1).T
+
+
+def _block_max(q, shapes, members, big: int):
+    """Largest |u|^2 of a block's points and its lowest-index maximiser: q (..., S, M),
+    shapes (..., M, C b) and member indices (..., b) -> (value (..., S), point (..., S))."""
+    b = members.shape[-1]
+    u = jnp.einsum("...sm,...mx->...sx", q, shapes)
+    sq = jnp.sum(u.reshape(*u.shape[:-1], -1, b) ** 2, axis=-2)  # (..., S, b)
+    value = jnp.max(sq, axis=-1)
+    who = jnp.min(jnp.where(sq == value[..., None], members[..., None, :], big), axis=-1)
+    return value, who
 
 
 def _evaluate(blocks: PointBlocks, q):
     """(d^2 (T,), point (T,)): max_p |u_p(t)|^2 over the alive tiles and its lowest-index
-    maximiser (0 where d = 0, as a dense arg-max of zeros)."""
+    maximiser (0 where d = 0, as a dense arg-max of zeros). A single block has nothing to
+    prune: it is evaluated at once."""
     n_steps, n_modes = q.shape
-    b, n_comp = blocks.block_points, blocks.n_components
     big = blocks.n_points
+    if blocks.radius.shape[0] == 1:
+        value, who = _block_max(q, blocks.shapes[0], blocks.index[0], big)
+        return value, jnp.where(value > 0, who, 0)
     n_tiles = -(-n_steps // UNIT_STEPS)
     q_tiles = jnp.zeros((n_tiles * UNIT_STEPS, n_modes), q.dtype).at[:n_steps].set(q)
     alive = _alive_tiles(blocks, q_tiles).ravel()  # block-major
@@ -77,11 +104,7 @@ def _evaluate(blocks: PointBlocks, q):
         valid = unit < n_todo
         which = todo[jnp.minimum(unit, todo.shape[0] - 1)]
         block, tile = which // n_tiles, which % n_tiles
-        u = jnp.einsum("gsm,gmx->gsx", q_tiles[tile], blocks.shapes[block])
-        sq = jnp.sum(u.reshape(BATCH_UNITS, UNIT_STEPS, n_comp, b) ** 2, axis=2)  # (G, S, b)
-        value = jnp.max(sq, axis=2)
-        members = blocks.index[block][:, None, :]
-        who = jnp.min(jnp.where(sq == value[..., None], members, big), axis=2)
+        value, who = _block_max(q_tiles[tile], blocks.shapes[block], blocks.index[block], big)
         value = jnp.where(valid[:, None], value, -1.0)
         raised = best.at[tile].max(value)
         point = jnp.where(raised > best, big, point)
