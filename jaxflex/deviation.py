@@ -176,12 +176,18 @@ _build_blocks = jax.jit(point_blocks, static_argnames="block_points")
 _max_norms = jax.jit(deviation_point)
 
 
+def block_model(shapes, points, dtype: str = "float64") -> PointBlocks:
+    """:class:`PointBlocks` of concrete ``shapes`` (K, C, M) at ``points`` (K, 3) m, for
+    :func:`max_norms` (compiled once per size)."""
+    return _build_blocks(jnp.asarray(shapes, dtype), jnp.asarray(points, jnp.float64))
+
+
 def blocks_of(model, dtype: str = "float64") -> PointBlocks:
     """The :class:`PointBlocks` of a concrete model's shapes in ``dtype`` (built once, then
     cached on the model)."""
     cache = model.__dict__.setdefault("_blocks_cache", {})
     if dtype not in cache:
-        cache[dtype] = _build_blocks(jnp.asarray(model.shapes, dtype), jnp.asarray(model.points))
+        cache[dtype] = block_model(model.shapes, model.points, dtype)
     return cache[dtype]
 
 
