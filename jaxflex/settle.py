@@ -89,6 +89,23 @@ class _SearchBudget:
             )
 
 
+def _block_data(model: ModalModel):
+    """NumPy block data of a model, cached on it: members (nB, b) with K for padding, centres
+    (M, C, nB), radii (nB, M) and per-mode largest shape norm of the members (nB, M)."""
+    cache = model.__dict__
+    if "_settle_blocks" not in cache:
+        blocks = blocks_of(model)
+        members = np.asarray(blocks.index)
+        padded = np.vstack([model.shape_norms, np.zeros((1, model.n_modes))])
+        cache["_settle_blocks"] = (
+            members,
+            np.asarray(blocks.centres),
+            np.asarray(blocks.radius),
+            padded[members].max(axis=1),
+        )
+    return cache["_settle_blocks"]
+
+
 class _ModalSignal:
     """Shared data of the closed-form response: per-point shape norms, the point blocks with
     their bounds, modal constants. Subclasses give the modal coordinates q(t)."""
@@ -101,12 +118,7 @@ class _ModalSignal:
         self.zeta = np.asarray(model.zeta)
         self.sigma = self.zeta * self.omega
         self.budget = _SearchBudget(self.weights.shape[0])
-        blocks = blocks_of(model)
-        self.members = np.asarray(blocks.index)  # (nB, b); K marks padding
-        self.centres = np.asarray(blocks.centres)  # (M, C, nB)
-        self.radius = np.asarray(blocks.radius)  # (nB, M)
-        padded = np.vstack([self.weights, np.zeros((1, self.weights.shape[1]))])
-        self.block_weights = padded[self.members].max(axis=1)  # (nB, M) >= members' norms
+        self.members, self.centres, self.radius, self.block_weights = _block_data(model)
         self.slack = round_off_slack(model.n_modes, self.shapes.shape[1], np.float64)
 
     def modal(self, t: np.ndarray) -> np.ndarray:
@@ -249,7 +261,9 @@ def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold: float):
 
 def _tail_settle(decay: _FreeDecay, threshold: float) -> tuple[float | None, float]:
     """(last exceedance time after the move or None, proof horizon tau_env) in s from t0."""
-    horizon = envelope_horizon(decay.weights, decay.amplitude, decay.sigma, threshold)
+    horizon = envelope_horizon(
+        decay.weights, decay.amplitude, decay.sigma, threshold, (decay.members, decay.block_weights)
+    )
     if horizon == 0.0:
         return None, 0.0
     if math.isinf(horizon):
