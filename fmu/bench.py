@@ -6,6 +6,7 @@ derivatives set and the deviation read every step; timed in chunks of 100 steps,
 median is robust against other processes on the machine), and prints the figures as JSON.
 
     .venv/bin/python -m fmu.bench            # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
+    .venv/bin/python -m fmu.bench --points 66308 --fmi 3 --array   # every node, read each step
 
 Targets (issue 5): one step <= 30 us (the preprint's FMU: 0.85 ms per 10 ms step),
 instantiation with a ~1 MB resource <= 10 ms.
@@ -34,8 +35,10 @@ INSTANTIATE_TARGET_US = 10_000.0
 PREPRINT_STEP_US = 850.0
 
 
-def compile_harness(fmi_version: int, out_file: Path) -> Path:
-    """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``."""
+def compile_harness(fmi_version: int, out_file: Path, array_points: int | None = None) -> Path:
+    """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``; with ``array_points``
+    (FMI 3.0) it also reads the displaced-points array output (K x 3) after every step."""
+    array = [f"-DHARNESS_ARRAY_POINTS={array_points}"] if array_points else []
     cmd = [
         host_target().compiler,
         "-std=c99",
@@ -43,6 +46,7 @@ def compile_harness(fmi_version: int, out_file: Path) -> Path:
         "-Wall",
         "-Wextra",
         f"-DHARNESS_FMI={fmi_version}",
+        *array,
         f"-I{fmi_headers()}",
         str(C_DIR / "harness.c"),
         "-o",
@@ -94,6 +98,7 @@ def run(
     repeats: int = 50,
     fmi_versions: tuple[int, ...] = (2, 3),
     progress: Callable[[str], None] | None = None,
+    read_array: bool = False,
 ) -> dict[str, Any]:
     """Export a K x M model, time it with the C harness; figures per FMI version."""
     say = progress or (lambda msg: None)
@@ -103,6 +108,7 @@ def run(
         "n_points": n_points,
         "n_modes": n_modes,
         "dt_s": dt_s,
+        "reads_displaced_points_array": read_array,
         "targets": {
             "step_us": STEP_TARGET_US,
             "instantiate_us": INSTANTIATE_TARGET_US,
@@ -115,7 +121,8 @@ def run(
             say(f"FMI {version}.0: export K={n_points}, M={n_modes}")
             result = export_fmu(model, tmp / f"bench{version}.fmu", fmi_version=version)
             library, resources, token = unpack(result.fmu_path, tmp / f"fmu{version}")
-            harness = compile_harness(version, tmp / f"harness{version}")
+            array = n_points if read_array and version == 3 else None
+            harness = compile_harness(version, tmp / f"harness{version}", array)
             say(f"FMI {version}.0: {repeats} instantiations, {n_steps} steps")
             cmd = [
                 str(harness),
@@ -151,6 +158,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--fmi", type=int, nargs="+", choices=(2, 3), default=[2, 3], help="FMI versions (2 3)"
     )
+    parser.add_argument(
+        "--array",
+        action="store_true",
+        help="FMI 3.0: also read the displaced points of every node (K x 3 array) each step",
+    )
     args = parser.parse_args(argv)
     for name in ("points", "modes", "steps"):
         if getattr(args, name) < 1:
@@ -160,6 +172,7 @@ def main(argv: list[str] | None = None) -> int:
         n_modes=args.modes,
         n_steps=args.steps,
         fmi_versions=tuple(args.fmi),
+        read_array=args.array,
         progress=lambda msg: print(msg, file=sys.stderr, flush=True),
     )
     print(json.dumps(report, indent=2))
