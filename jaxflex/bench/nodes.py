@@ -244,3 +244,33 @@ def format_nodes(report: dict) -> str:
                 f"exact settle {row['settle_ms']:.0f} ms"
             )
     return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m jaxflex.bench.nodes [--large K] [--scenes plate panel]``: this section alone,
+    figures as text and JSON (``-o FILE``)."""
+    import argparse
+    import json
+    import sys
+
+    from jaxflex.atomic import write_text_atomic
+
+    parser = argparse.ArgumentParser(prog="python -m jaxflex.bench.nodes", description=__doc__)
+    parser.add_argument("--large", type=int, default=1_000_000, help="points of the large case")
+    parser.add_argument("--no-large", action="store_true", help="skip the large case")
+    parser.add_argument("--scenes", nargs="*", default=["plate"], choices=["plate", "panel"])
+    parser.add_argument("-o", "--output", help="also write the figures as JSON to this file")
+    args = parser.parse_args(argv)
+    say = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
+    report = {
+        "scale": run_scale(large=None if args.no_large else args.large, progress=say),
+        "reduction": [run_reduction(name, progress=say) for name in args.scenes],
+    }
+    print(format_nodes(report))
+    if args.output:
+        write_text_atomic(args.output, json.dumps(report, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
