@@ -11,7 +11,7 @@ from fem.modal import ModalResult, modal_analysis
 from fem.parts import Part, curved_panel, read_mesh, rectangular_plate
 from fem.scenes import SCENES, default_gripper, default_model, scene
 from fem.sizing import SizingResult, size_model
-from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup
+from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup, Support
 from fem.transient import TransientResult, agreement, transient_reference
 
 __all__ = [
@@ -26,6 +26,7 @@ __all__ = [
     "SimplySupportedEdge",
     "SizingResult",
     "SuctionCup",
+    "Support",
     "TransientResult",
     "agreement",
     "curved_panel",

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import os
 
+import meshio
 import numpy as np
 
-from fem.parts import PlateMesh, SurfaceMesh
+from fem.mesh import PlateMesh, SurfaceMesh
 from jaxflex.errors import InputError
 
 MAX_EXTENT_M = 20.0  # a sheet-metal part larger than this is almost surely in millimetres
@@ -18,8 +19,6 @@ def load_part_mesh(path: str | os.PathLike, scale: float = 1.0):
     Triangles -> PlateMesh (must be flat in a plane z = const); quads -> SurfaceMesh;
     hexahedra -> SurfaceMesh of the mid-surface plus the measured thickness.
     """
-    import meshio
-
     if not os.path.isfile(path):
         raise InputError(f"mesh: file {str(path)!r} does not exist")
     try:

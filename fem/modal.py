@@ -21,7 +21,9 @@ import scipy.sparse as sp
 from fem.damping import describe_damping, modal_zeta
 from fem.eigen import all_modes, factorize, lowest_modes
 from fem.parts import Part
-from fem.supports import SuctionCup, as_support_list, check_layout
+from fem.plate import assemble_plate
+from fem.solid import assemble_solid
+from fem.supports import as_support_list, check_layout, contact_discs
 from fem.system import FESystem
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
@@ -258,7 +260,8 @@ def modal_analysis(
 
     Args:
         part: from fem.rectangular_plate / curved_panel / read_mesh.
-        supports: fem.SuctionCup / PointSupport / ClampedEdge / SimplySupportedEdge (list).
+        supports: fem.Support (SuctionCup, PointSupport, ClampedEdge, SimplySupportedEdge,
+            ...) or a list of them.
         n_modes: number of elastic modes; "all" for a full (dense) decomposition of a small
             model; None with ``max_freq_hz`` for every mode up to that frequency.
         zeta: modal damping: a ratio, one per mode, or fem.Rayleigh(alpha, beta).
@@ -294,19 +297,14 @@ def modal_analysis(
     timings: dict[str, float] = {}
 
     tick = time.perf_counter()
-    cups = [s for s in supports if isinstance(s, SuctionCup)]
-    mesh = part.mesh(cups)
+    mesh = part.mesh(contact_discs(supports))
     timings["mesh_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     if part.kind == "plate":
-        from fem.plate import assemble_plate
-
         system = assemble_plate(
             mesh, part.element, part.material, part.thickness_m, supports, progress
         )
     else:
-        from fem.solid import assemble_solid
-
         system, _ = assemble_solid(mesh, part, supports, progress)
     timings["assembly_s"] = time.perf_counter() - tick
 

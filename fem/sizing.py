@@ -55,7 +55,7 @@ from fem.sizing_curves import (
 )
 from fem.sizing_residual import TruncationResidual
 from fem.sizing_result import Row, SizingResult
-from fem.supports import SuctionCup
+from fem.supports import contact_discs
 from jaxflex.deviation import deviation_curves
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
@@ -128,11 +128,12 @@ class _Level:
 
 
 def _cup_element_m(part: Part, supports) -> float | None:
-    cups = [s for s in supports if isinstance(s, SuctionCup)]
-    if not cups:
+    """Element size inside the contact discs (cups) of ``supports``, m (None: no disc)."""
+    discs = contact_discs(supports)
+    if not discs:
         return None
     fraction = part.cup_fine_fraction or CUP_FINE_FRACTION[part.element]
-    return min(part.element_size_m, fraction * min(c.radius for c in cups))
+    return min(part.element_size_m, fraction * min(d.radius for d in discs))
 
 
 def _refinement_parts(part: Part, mesh_sizes_m, radius_m: float | None) -> list[Part]:
@@ -213,7 +214,7 @@ class _Sizer:
             "progress": progress,
         }
         self.key_points, self.eval_step_s = key_points, eval_step_s
-        radii = [c.radius for c in supports if isinstance(c, SuctionCup)]
+        radii = [d.radius for d in contact_discs(supports)]
         self.parts = _refinement_parts(part, mesh_sizes_m, min(radii, default=None))
         self.progress, self.log = progress, log or (lambda text: None)
         self.rows: list[Row] = []

@@ -27,15 +27,17 @@ from __future__ import annotations
 
 import time
 
+import casadi as ca
 import jax
 import jax.numpy as jnp
 import numpy as np
 import scipy.sparse as sp
+from scipy.optimize import LinearConstraint, NonlinearConstraint, minimize
 
 from jaxflex.errors import InputError
+from jaxflex.profile import integrate
 from optim.kinematics import add_cuts, add_move, path_cuts
 from optim.lp import LPBuilder
-from optim.profiles import integrate
 from optim.ruckig_move import fit_to_grid
 from optim.search import Problem, SubResult, add_end_states
 
@@ -191,8 +193,6 @@ class ClearanceTerm(SmoothTerm):
 
 def _casadi_term(term: SmoothTerm, beta: float, name: str):
     """``term`` as a casadi Callback with an exact Jacobian callback."""
-    import casadi as ca
-
     size = term.map.shape[0]
 
     class Gradient(ca.Callback):
@@ -247,8 +247,6 @@ def _casadi_term(term: SmoothTerm, beta: float, name: str):
 
 
 def _ipopt(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: float):
-    import casadi as ca
-
     x = ca.MX.sym("x", program.cost.size)
     f_cb = _casadi_term(objective, beta, "surrogate")
     g = [ca.mtimes(ca.DM(program.matrix.tocsc()), x)]
@@ -314,8 +312,6 @@ def _sample_map(problem: Problem, layout, z_slice, size: int) -> np.ndarray:
 def _slsqp(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: float, sample_map):
     """SLSQP over the interior samples only (it works with dense matrices, so the sparse
     variables v, x, z are eliminated through ``sample_map``)."""
-    from scipy.optimize import LinearConstraint, NonlinearConstraint, minimize
-
     t = sample_map
     rows = np.vstack([program.matrix @ t, t])
     lo = np.concatenate([program.row_lo, program.var_lo])

@@ -17,8 +17,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from jaxflex.errors import InputError
+from jaxflex.profile import axis_limits, integrate
 from jaxflex.validation import check_acc, check_positive
-from optim.profiles import axis_limits, integrate
 
 AXES = "xyz"
 # A limit counts as broken only beyond this relative excess: float64 round-off of the

@@ -8,8 +8,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from jaxflex.plots import plot_deviation, save_figure
+from jaxflex.profile import integrate
 from optim.limits import AXES, Limits
-from optim.profiles import integrate
 
 
 def plot_profiles(path: str | os.PathLike, acc: np.ndarray, dt: float, limits: Limits) -> None:

@@ -2,7 +2,7 @@
 
 ``OptimizationResult.save(directory)`` writes, each file atomically:
 
-* ``trajectory.csv`` — t, a, v, x per axis (optim.trajectory_io format, SI units);
+* ``trajectory.csv`` — t, a, v, x per axis (jaxflex.trajectory_io format, SI units);
 * ``report.json`` — inputs, exact times, ratios to the baselines, the constraint check,
   solver statistics, the robust worst case (see :meth:`OptimizationResult.report`);
 * ``profiles.png`` — position, velocity, acceleration, jerk with the limits;
@@ -24,13 +24,13 @@ import numpy as np
 from jaxflex.atomic import write_text_atomic
 from jaxflex.deviation import deviation_curve
 from jaxflex.model import ModalModel
+from jaxflex.profile import integrate
 from jaxflex.settle import SettleReport
+from jaxflex.trajectory_io import write_trajectory_csv
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
 from optim.plots import plot_deviations, plot_profiles, plot_robust
-from optim.profiles import integrate
 from optim.robust import RobustSpec, perturbed
-from optim.trajectory_io import write_trajectory_csv
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
 

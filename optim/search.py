@@ -31,10 +31,10 @@ from tqdm.auto import tqdm
 
 from jaxflex.engine import end_state_map
 from jaxflex.model import ModalModel
+from jaxflex.profile import enforce_end_state
 from jaxflex.settle import SettleReport, analyze_move
 from optim.limits import Limits
 from optim.move_response import ClearancePeak, MoveResponse
-from optim.profiles import enforce_end_state
 from optim.residual import Peak, ResidualModel
 from optim.robust import RobustSpec, perturbed
 

@@ -1,4 +1,4 @@
-"""jaxflex.bench: metrics against hand-computed values, the methods against each other, the
+"""benchmarks: metrics against hand-computed values, the methods against each other, the
 test move, and a quick run of the whole bench (JSON with every method, PNG charts)."""
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from conftest import random_model, run_jaxflex, smooth_move
 
-from jaxflex.bench.accuracy import dominance, pareto_front
-from jaxflex.bench.fe import knot_move
-from jaxflex.bench.methods import METHODS, prepare, stable_substeps
-from jaxflex.bench.metrics import compare, curve_errors, settle_from_samples
+from benchmarks.accuracy import dominance, pareto_front
+from benchmarks.fe import knot_move
+from benchmarks.methods import METHODS, prepare, stable_substeps
+from benchmarks.metrics import compare, curve_errors, settle_from_samples
 from jaxflex.errors import InputError
 
 

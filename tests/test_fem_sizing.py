@@ -19,7 +19,7 @@ import pytest
 import fem
 import jaxflex
 from jaxflex.errors import InputError
-from optim.profiles import jerk_limited_move
+from jaxflex.profile import jerk_limited_move
 
 DT_S = 0.01
 FACTOR = 10  # evaluation step dt / 10 = 1 ms: >= 1.5 samples per period of every mode kept

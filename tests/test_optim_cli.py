@@ -9,7 +9,7 @@ from conftest import run_jaxflex
 from test_optim_optimize import few_mode_model
 
 import jaxflex
-from optim.trajectory_io import read_trajectory_csv
+from jaxflex.trajectory_io import read_trajectory_csv
 
 
 @pytest.fixture(scope="module")

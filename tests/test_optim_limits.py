@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from jaxflex.errors import InputError
+from jaxflex.profile import end_weights, enforce_end_state, integrate
 from optim.limits import Limits, check_profile, velocity_extrema
-from optim.profiles import end_weights, enforce_end_state, integrate
 from optim.robust import RobustSpec
 
 

@@ -13,12 +13,12 @@ from hypothesis import strategies as st
 
 import jaxflex
 import optim
+from benchmarks.optim import few_mode_model as bench_model
 from jaxflex.errors import InputError
-from optim.bench import few_mode_model as bench_model
+from jaxflex.trajectory_io import read_trajectory_csv
 from optim.exact import LPSubsolver
 from optim.robust import perturbed
 from optim.search import attempt, make_problem
-from optim.trajectory_io import read_trajectory_csv
 
 DT = 0.01
 LIMITS = optim.Limits(1.5, 8.0, 80.0)
@@ -27,7 +27,7 @@ THRESHOLD = 1e-3
 
 
 def few_mode_model() -> jaxflex.ModalModel:
-    """optim.bench's synthetic three-mode part (full 3-D shapes at 16 points, participation
+    """benchmarks.optim's synthetic three-mode part (full 3-D shapes at 16 points, participation
     mostly along z) at 3, 7 and 15 Hz: stiff enough for short test runs."""
     return bench_model(freq_hz=(3.0, 7.0, 15.0))
 

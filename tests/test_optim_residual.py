@@ -105,15 +105,22 @@ def test_polytope_lies_inside_the_ball(seed, dim):
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_exact_timing_with_a_lead_in_is_analyze_move(seed):
+def test_a_zero_lead_in_shifts_the_settle_time_and_skipping_the_move_search_keeps_the_cycle(
+    seed,
+):
+    """A part at rest stays at rest: k zero samples before the move delay its settle time by
+    exactly k dt (to the 1e-9 s the search locates it to); the cycle time without the search
+    during the move (settle=False, what the optimiser asks) is the same."""
     model = random_model(seed=seed, n_points=15, n_modes=4, f_min_hz=1.0, f_max_hz=30.0)
     acc = smooth_move(37 + 5 * seed, 0.01)
+    lead = 13
+    delayed = np.vstack([np.zeros((lead, 3)), acc])
     for threshold in (1e-3, 1e-2, 5e-2):
-        direct = jaxflex.analyze_move(model, acc, 0.01, threshold)
-        timing = analyze_move(model, acc, 0.01, threshold)
-        assert timing.transfer_time_s == direct.transfer_time_s
-        # the settle time is located to 1e-9 s by both searches
-        assert timing.settle_time_s == pytest.approx(direct.settle_time_s, abs=2e-9)
-        assert timing.cycle_time_s == pytest.approx(direct.cycle_time_s, abs=2e-9)
+        direct = analyze_move(model, acc, 0.01, threshold)
+        shifted = analyze_move(model, delayed, 0.01, threshold)
+        if direct.settle_time_s > 0:
+            assert shifted.settle_time_s - lead * 0.01 == pytest.approx(
+                direct.settle_time_s, abs=2e-9
+            )
         fast = analyze_move(model, acc, 0.01, threshold, settle=False)
         assert fast.cycle_time_s == pytest.approx(direct.cycle_time_s, abs=2e-9)

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from ruckig import InputParameter, Ruckig, Trajectory
 
 from jaxflex.errors import InputError
-from optim.profiles import integrate, jerk_limited_move
+from jaxflex.profile import integrate, jerk_limited_move
 
 
 def test_integration_is_exact_for_a_cubic_position():

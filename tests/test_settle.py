@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 import jaxflex
 from jaxflex.analytic import simply_supported_plate
-from optim.profiles import jerk_limited_move
+from jaxflex.profile import jerk_limited_move
 
 BRUTE_STEP_S = 1e-4
 

@@ -27,10 +27,12 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from distributed import Client, LocalCluster, as_completed
 from tqdm.auto import tqdm
 
 from jaxflex.errors import InputError
 from optim.sweep.cases import Case, case_job, expand, layout_job
+from optim.sweep.plots import plot_sweep
 from optim.sweep.spec import SweepSpec
 from optim.sweep.store import ResultStore, is_final
 from optim.sweep.table import table_rows, write_table
@@ -134,8 +136,6 @@ def run_sweep(
         write_table(store.root / "results.csv", run.rows)
     run.outputs.append(str(store.root / "results.csv"))
     if plots:
-        from optim.sweep.plots import plot_sweep
-
         run.outputs += plot_sweep(run, store)
     return run
 
@@ -169,8 +169,6 @@ def _run_serial(spec, store, pending, scheduler, n_workers) -> Iterator[dict]:
 
 def _client(scheduler: str | None, n_workers: int | None):
     """A dask Client and a closer: the embedded LocalCluster, or the given scheduler."""
-    from distributed import Client, LocalCluster
-
     if scheduler is not None:
         if not scheduler.startswith(("tcp://", "tls://", "inproc://", "ucx://", "ws://")):
             raise InputError(
@@ -199,8 +197,6 @@ def _client(scheduler: str | None, n_workers: int | None):
 
 
 def _run_dask(spec, store, pending, scheduler, n_workers) -> Iterator[dict]:
-    from distributed import as_completed
-
     if not pending:
         return
     client, close = _client(scheduler, n_workers)

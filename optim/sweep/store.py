@@ -18,11 +18,9 @@ import json
 import warnings
 from pathlib import Path
 
-from jaxflex.model import load_model
-
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import ModelFileError
-from jaxflex.model import ModalModel
+from jaxflex.model import ModalModel, load_model
 
 FINAL_STAGES = ("fe", "optimization")
 

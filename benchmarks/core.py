@@ -24,7 +24,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxflex.bench.timing import best_time_s, machine
+from benchmarks.timing import best_time_s, machine
 from jaxflex.convolution import convolve_unit_response, deviation_from_displacement, unit_response
 from jaxflex.deviation import deviation
 from jaxflex.engine import modal_states
@@ -63,7 +63,7 @@ def synthetic_model(case: BenchCase) -> ModalModel:
         gamma=gamma,
         shapes=shapes,
         points=points,
-        meta={"source": "jaxflex.bench synthetic model"},
+        meta={"source": "benchmarks.core synthetic model"},
     )
 
 

@@ -1,7 +1,7 @@
 """Accuracy against time of every method on one FE scene (the Pareto data of ``jaxflex bench``).
 
-For a scene (:mod:`jaxflex.bench.fe`) the full-order FE transient is the reference. The
-reduced methods (:mod:`jaxflex.bench.methods`) run on the scene's modal model, each at its
+For a scene (:mod:`benchmarks.fe`) the full-order FE transient is the reference. The
+reduced methods (:mod:`benchmarks.methods`) run on the scene's modal model, each at its
 own native step, over three sweeps from the base case (all modes, all points, dt = 10 ms):
 number of modes, number of points (voxel size) and dt (10, 20, 25 ms). The FE transient
 itself is a method too, at coarser steps than the reference. Each run gives one point:
@@ -19,10 +19,11 @@ from collections.abc import Callable
 import numpy as np
 from tqdm.auto import tqdm
 
-from jaxflex.bench.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_of
-from jaxflex.bench.methods import METHODS, prepare, stable_substeps
-from jaxflex.bench.metrics import compare, curve_errors, settle_from_samples
-from jaxflex.bench.timing import best_time_s
+import fem
+from benchmarks.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_of
+from benchmarks.methods import METHODS, prepare, stable_substeps
+from benchmarks.metrics import compare, curve_errors, settle_from_samples
+from benchmarks.timing import best_time_s
 from jaxflex.engine import upsample
 from jaxflex.points import voxel_downsample
 from jaxflex.settle import analyze_move
@@ -159,8 +160,6 @@ def _method_points(spec, model, dt_s: float, run: dict, min_time_s: float, refer
 def _self_error(ref) -> dict:
     """How far the plain fine FE run is from the extrapolated reference (displacements at all
     points; the reference's own error is of higher order in h, far below this)."""
-    import fem
-
     return fem.agreement(ref.displacement_m, ref.runs[1][0])
 
 
@@ -171,8 +170,6 @@ def agreement_by_modes(full, ref, spec: SceneSpec, threshold_m: float, settle_re
     """Reduced (exact scan, output on the reference grid) vs full-order FE for each swept mode
     count: R^2 and L-infinity of the deviation curve and of the displacements, and the exact
     settle time (jaxflex.analyze_move) against the reference's; ``meets_target`` per DESIGN."""
-    import fem
-
     acc = move_of(spec, BASE_S)
     fine = upsample(acc, spec.output_per_base)
     out_step = BASE_S / spec.output_per_base

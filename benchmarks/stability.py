@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.signal
 
-from jaxflex.bench.metrics import settle_from_samples
+from benchmarks.metrics import settle_from_samples
 from jaxflex.engine import upsample
 from jaxflex.integrators import central_difference_modal, newmark_modal
 from jaxflex.model import ModalModel

@@ -1,7 +1,7 @@
 """Trajectory files: CSV with one row per sample, SI units in the column names.
 
 Columns: t_s, ax_m_s2, ay_m_s2, az_m_s2, vx_m_s, vy_m_s, vz_m_s, x_m, y_m, z_m. Velocity and
-position are the exact integrals of the piecewise-linear acceleration (optim.profiles).
+position are the exact integrals of the piecewise-linear acceleration (jaxflex.profile).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import numpy as np
 
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
-from optim.profiles import integrate
+from jaxflex.profile import integrate
 
 COLUMNS = (
     "t_s",

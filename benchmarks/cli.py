@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+
+from benchmarks.core import format_table
+from benchmarks.suite import run_suite, summary_lines
 
 COMMAND = "bench"
 HELP = "speed and accuracy figures of every method as JSON + charts (SI units)"
@@ -34,11 +38,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from jaxflex.bench import format_table
-    from jaxflex.bench.suite import run_suite, summary_lines
-
     size = "quick" if args.quick else args.size
     out = Path(args.output)
     json_path = out if out.suffix == ".json" else None

@@ -26,9 +26,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from benchmarks.core import sine_move
+from benchmarks.timing import best_time_s
 from jaxflex.analytic import simply_supported_plate
-from jaxflex.bench.core import sine_move
-from jaxflex.bench.timing import best_time_s
 from jaxflex.deviation import deviation
 from jaxflex.engine import modal_states
 from jaxflex.model import ModalModel
@@ -73,7 +73,7 @@ def curved_part(n_points: int, n_modes: int = 40, seed: int = 0) -> ModalModel:
         gamma=gamma,
         shapes=shapes,
         points=points,
-        meta={"source": "jaxflex.bench.nodes curved analytic part"},
+        meta={"source": "benchmarks.nodes curved analytic part"},
     )
 
 
@@ -247,7 +247,7 @@ def format_nodes(report: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m jaxflex.bench.nodes [--large K] [--scenes plate panel]``: this section alone,
+    """``python -m benchmarks.nodes [--large K] [--scenes plate panel]``: this section alone,
     figures as text and JSON (``-o FILE``)."""
     import argparse
     import json
@@ -255,7 +255,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from jaxflex.atomic import write_text_atomic
 
-    parser = argparse.ArgumentParser(prog="python -m jaxflex.bench.nodes", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.nodes", description=__doc__)
     parser.add_argument("--large", type=int, default=1_000_000, help="points of the large case")
     parser.add_argument("--no-large", action="store_true", help="skip the large case")
     parser.add_argument("--scenes", nargs="*", default=["plate"], choices=["plate", "panel"])

@@ -6,8 +6,8 @@ import os
 
 import numpy as np
 
-from jaxflex.bench.accuracy import pareto_front
-from jaxflex.bench.methods import LABELS
+from benchmarks.accuracy import pareto_front
+from benchmarks.methods import LABELS
 from jaxflex.plots import plt, save_figure
 
 STYLE = {

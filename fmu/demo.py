@@ -12,6 +12,15 @@ import json
 import time
 from pathlib import Path
 
+import numpy as np
+
+import fem
+import optim
+from fmu.export import export_fmu
+from fmu.verify import verify
+from jaxflex.atomic import write_text_atomic
+from jaxflex.validation import check_positive
+
 COMMAND = "demo"
 HELP = "run the whole job on the built-in default part (FE model, optimised move, FMUs)"
 ORDER = 0
@@ -45,13 +54,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    import fem
-    import optim
-    from jaxflex.atomic import write_text_atomic
-    from jaxflex.validation import check_positive
-
     threshold = check_positive("--threshold", args.threshold)
     dt = check_positive("--dt", args.dt)
     out = Path(args.output)
@@ -85,14 +87,12 @@ def run(args: argparse.Namespace) -> int:
 
     fmus = {}
     if not args.no_fmu:
-        import fmu
-
         case = result.report()
         for version in (2, 3):
             path = out / f"part_fmi{version}.fmu"
             start = time.perf_counter()
-            fmu.export_fmu(model, path, version, (result.acc, dt), threshold, case)
-            check = fmu.verify(path)
+            export_fmu(model, path, version, (result.acc, dt), threshold, case)
+            check = verify(path)
             timings[f"fmi{version}_export_and_verify_s"] = time.perf_counter() - start
             fmus[path.name] = {"max_rel_diff": check.max_rel_diff, "ok": check.ok}
             print(

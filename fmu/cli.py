@@ -6,8 +6,22 @@ import argparse
 import json
 from pathlib import Path
 
+from fmpy.validation import validate_fmu
+
+import jaxflex
+from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
+from fmu.export import export_fmu
+from fmu.ssp import export_ssp
+from fmu.verify import verify
+from jaxflex.errors import InputError
+from jaxflex.trajectory_io import read_trajectory_csv
+from jaxflex.validation import check_positive
+
 COMMAND = "export"
-HELP = "write the part as an FMI 2.0/3.0 co-simulation FMU (optionally with the optimised move)"
+HELP = (
+    "write the part as an FMI 2.0/3.0 co-simulation FMU (optionally with the optimised move) "
+    "or an SSP package of the part and the move"
+)
 ORDER = 30
 
 # what `jaxflex optimize -o DIR` writes into DIR/report.json and the FMU's case file keeps
@@ -32,7 +46,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "CSV (columns t_s, ax_m_s2, ay_m_s2, az_m_s2, ...; SI units): embedded in the FMU and "
         "written beside it as <name>_input.csv and <name>_case.json",
     )
-    parser.add_argument("-o", "--output", required=True, help="FMU file to write (.fmu)")
+    parser.add_argument("-o", "--output", help="FMU file to write (.fmu)")
+    parser.add_argument(
+        "--ssp",
+        help="SSP 1.0 package to write (.ssp): the part FMU and a trajectory source FMU playing "
+        "the --trajectory move, connected ax/ay/az, with the threshold and damping scale as "
+        "parameters (with or instead of -o)",
+    )
     parser.add_argument(
         "--threshold",
         type=float,
@@ -49,20 +69,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--windows",
         choices=("auto", "yes", "no"),
         default="auto",
-        help="also build the Windows DLL: auto = when mingw-w64 is installed (default)",
+        help="also build the Windows DLLs: auto = when mingw-w64 is installed (default)",
     )
     parser.add_argument(
         "--no-verify",
         action="store_true",
-        help="skip the fmpy simulation of the embedded move against jaxflex",
+        help="skip the simulations against jaxflex (fmpy; ecospy and libcosimpy when installed)",
     )
 
 
 def load_case(path: Path) -> tuple[object, float, dict | None]:
     """(acc (n+1, 3) m/s^2, dt s, report dict or None) from an optimize folder or a CSV."""
-    from jaxflex.errors import InputError
-    from optim.trajectory_io import read_trajectory_csv
-
     if path.is_dir():
         csv, report_path = path / "trajectory.csv", path / "report.json"
         if not csv.is_file():
@@ -90,21 +107,13 @@ def load_case(path: Path) -> tuple[object, float, dict | None]:
     return acc, dt, {key: report[key] for key in CASE_KEYS if key in report}
 
 
-def run(args: argparse.Namespace) -> int:
-    import jaxflex
-    from fmu import export_fmu, verify
-    from jaxflex.validation import check_positive
+def _print_binaries(name: str, platforms, skipped: dict[str, str]) -> None:
+    print(f"{name}: binaries {', '.join(platforms)}")
+    for plat, reason in skipped.items():
+        print(f"{name}: skipped {plat}: {reason}")
 
-    model = jaxflex.load_model(args.model)
-    trajectory, case = None, None
-    if args.trajectory:
-        acc, dt, case = load_case(Path(args.trajectory))
-        trajectory = (acc, dt)
-    threshold = args.threshold
-    if threshold is None:
-        threshold = (case or {}).get("threshold_m", 5e-4)
-    threshold = check_positive("--threshold", threshold)
-    windows = {"auto": None, "yes": True, "no": False}[args.windows]
+
+def _export_fmu(args, model, trajectory, threshold, case, windows) -> int:
     result = export_fmu(
         model,
         args.output,
@@ -119,10 +128,9 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"wrote {result.fmu_path}: FMI {result.fmi_version}.0 co-simulation, "
         f"{result.n_points} points, {result.n_modes} modes, resource "
-        f"{result.resource_bytes / 1e6:.2f} MB, binaries {', '.join(result.platforms)}"
+        f"{result.resource_bytes / 1e6:.2f} MB"
     )
-    for plat, reason in result.skipped.items():
-        print(f"skipped {plat}: {reason}")
+    _print_binaries(result.fmu_path.name, result.platforms, result.skipped)
     if result.case is not None:
         print(
             f"embedded move: {result.n_trajectory} samples, dt {result.case['dt_s']:g} s, "
@@ -130,11 +138,62 @@ def run(args: argparse.Namespace) -> int:
             f"{threshold * 1e3:g} mm; wrote {result.input_csv.name}, {result.case_json.name}"
         )
     if result.case is None or args.no_verify:
-        from fmpy.validation import validate_fmu
-
         problems = validate_fmu(str(result.fmu_path))
         print("fmpy validation: " + ("clean" if not problems else "; ".join(problems)))
         return 0 if not problems else 1
     report = verify(result.fmu_path)
     print(report.summary())
+    hosts = crosscheck_fmu(result.fmu_path)
+    print(hosts.summary())
+    return 0 if report.ok and hosts.ok else 1
+
+
+def _export_ssp(args, model, trajectory, threshold, case, windows) -> int:
+    result = export_ssp(
+        model,
+        args.ssp,
+        args.fmi,
+        trajectory,
+        threshold,
+        case,
+        damping_scale=args.damping_scale,
+        model_name=args.name,
+        windows=windows,
+    )
+    part, source = result.part, result.source
+    print(
+        f"wrote {result.ssp_path}: SSP 1.0, part FMU ({part.n_points} points, {part.n_modes} "
+        f"modes) driven by a trajectory source FMU ({source.n_samples} samples every "
+        f"{source.dt_s:g} s), FMI {result.fmi_version}.0, parameters "
+        + ", ".join(f"{k} = {v:g}" for k, v in result.parameters.items())
+    )
+    _print_binaries("part.fmu", result.part.platforms, result.part.skipped)
+    _print_binaries("trajectory.fmu", result.source.platforms, result.source.skipped)
+    if args.no_verify:
+        return 0
+    report = crosscheck_ssp(result.ssp_path)
+    print(report.summary())
     return 0 if report.ok else 1
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.output and not args.ssp:
+        raise InputError("give -o FILE.fmu, --ssp FILE.ssp or both")
+    if args.ssp and not args.trajectory:
+        raise InputError("--ssp: the package plays a move; give --trajectory as well")
+    model = jaxflex.load_model(args.model)
+    trajectory, case = None, None
+    if args.trajectory:
+        acc, dt, case = load_case(Path(args.trajectory))
+        trajectory = (acc, dt)
+    threshold = args.threshold
+    if threshold is None:
+        threshold = (case or {}).get("threshold_m", 5e-4)
+    threshold = check_positive("--threshold", threshold)
+    windows = {"auto": None, "yes": True, "no": False}[args.windows]
+    status = 0
+    if args.output:
+        status = _export_fmu(args, model, trajectory, threshold, case, windows)
+    if args.ssp:
+        status = max(status, _export_ssp(args, model, trajectory, threshold, case, windows))
+    return status

@@ -5,6 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 
+from jaxflex.errors import InputError
+from optim.sweep.run import run_sweep
+from optim.sweep.spec import EXAMPLE, load_spec
+
 COMMAND = "sweep"
 HELP = "gripper-layout sweep from a JSON/TOML spec: FE + optimised cycle time per case (SI units)"
 ORDER = 25
@@ -44,11 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from jaxflex.errors import InputError
-
     if args.example:
-        from optim.sweep.spec import EXAMPLE
-
         print(EXAMPLE, end="")
         return 0
     if not args.spec or not args.output:
@@ -57,8 +57,6 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(
             "--workers: only for the embedded LocalCluster (not with --serial/--scheduler)"
         )
-    from optim.sweep import load_spec, run_sweep
-
     spec = load_spec(args.spec)
     executor = "serial" if args.serial else "dask"
     if not args.quiet:

@@ -5,7 +5,12 @@ from __future__ import annotations
 import argparse
 import sys
 
-from jaxflex.cli._limits import add_axis_limits
+import jaxflex
+from jaxflex.cli import add_axis_limits, axis_limit_values
+from jaxflex.validation import check_positive
+from optim.limits import Limits
+from optim.optimize import optimize
+from optim.robust import RobustSpec
 
 COMMAND = "optimize"
 HELP = "shortest cycle time move under vmax/amax/jmax limits (trajectory CSV, JSON, plots)"
@@ -93,30 +98,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
-def _limits(args):
-    from optim.limits import Limits
-
-    values = {}
-    for name in ("vmax", "amax", "jmax"):
-        given = getattr(args, name)
-        if len(given) not in (1, 3):
-            from jaxflex.errors import InputError
-
-            raise InputError(f"--{name}: give one value or three (x y z), got {len(given)}")
-        values[name] = given[0] if len(given) == 1 else given
-    return Limits(**values, vpath=args.vpath, apath=args.apath, jpath=args.jpath)
-
-
 def run(args: argparse.Namespace) -> int:
-    import jaxflex
-    from jaxflex.validation import check_positive
-    from optim.optimize import optimize
-    from optim.robust import RobustSpec
-
     threshold = check_positive("--threshold", args.threshold)
     dt = check_positive("--dt", args.dt)
     max_duration = check_positive("--max-duration", args.max_duration)
-    limits = _limits(args)
+    limits = Limits(**axis_limit_values(args), vpath=args.vpath, apath=args.apath, jpath=args.jpath)
     robust = None
     if args.robust:
         robust = RobustSpec(tuple(args.freq_scale), tuple(args.zeta), *args.grid)

@@ -1,7 +1,5 @@
 """Finite-element scenes and the full-order reference of the accuracy bench.
 
-This is application-layer code (like ``jaxflex.cli``): it imports the ``fem`` package lazily.
-
 * :class:`SceneSpec`: a part (the built-in plate or curved panel, or a smaller one for quick
   runs), its gripper, mesh, the modes to compute and the monitored points.
 * :func:`knot_move`: the test move, piecewise linear with knots every 100 ms, so that it is
@@ -20,6 +18,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+import fem
 from jaxflex.errors import InputError
 
 KNOT_S = 0.1  # knot spacing of the move: a multiple of every swept dt (10, 20, 25 ms)
@@ -111,8 +110,6 @@ def build_scene(spec: SceneSpec, progress: bool | None = None):
     """Modal analysis of ``spec`` and the Rayleigh damping with 2 % at its first and 10th
     mode (pass it to ``to_modal_model(zeta=)`` and the transient so that both agree):
     (fem.ModalResult, fem.Rayleigh, seconds)."""
-    import fem
-
     start = time.perf_counter()
     factories = {"plate": (fem.rectangular_plate, "morley"), "panel": (fem.curved_panel, "hex2")}
     if spec.name not in factories:
@@ -157,8 +154,6 @@ class Reference:
 def fe_reference(result, damping, spec: SceneSpec, progress: bool | None = None) -> Reference:
     """Full-order transient of ``result`` under :func:`knot_move` at the fine step (omega_1 h
     = spec.omega1_h), at 2 h (Richardson) and at the multiples ``spec.fe_factors`` of h."""
-    import fem
-
     base = BASE_S
     acc = move_of(spec, base, rest=False)
     omega1 = 2 * np.pi * float(result.freq_hz[0])

@@ -3,13 +3,13 @@
 Sections of ``bench.json`` (SI units; times in s unless the key says ms):
 
 * ``case``, ``machine``, ``targets``, ``results``: the core speed figures
-  (:mod:`jaxflex.bench.core`; K=1099 points, M=40 modes, N=1000 steps in the full run);
+  (:mod:`benchmarks.core`; K=1099 points, M=40 modes, N=1000 steps in the full run);
 * ``accuracy``: per scene (plate, panel) every accuracy-time point of every method, the
   reduced-vs-full-order FE agreement per mode count and the dominance check
-  (:mod:`jaxflex.bench.accuracy`); charts ``pareto_plate.png``, ``pareto_panel.png``;
-* ``stability``: where each method breaks against omega dt (:mod:`jaxflex.bench.stability`);
+  (:mod:`benchmarks.accuracy`); charts ``pareto_plate.png``, ``pareto_panel.png``;
+* ``stability``: where each method breaks against omega dt (:mod:`benchmarks.stability`);
   chart ``stability.png``;
-* ``nodes``: every node, no reduction (:mod:`jaxflex.bench.nodes`): forward deviation and
+* ``nodes``: every node, no reduction (:mod:`benchmarks.nodes`): forward deviation and
   exact cycle time at full-mesh sizes (``scale``) and what voxel reduction of the monitored
   points costs in peak deviation and settle time (``reduction``).
 
@@ -26,14 +26,16 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
+from benchmarks.accuracy import run_scene
+from benchmarks.charts import pareto_chart, stability_chart
+from benchmarks.core import QUICK as QUICK_CORE
+from benchmarks.core import BenchCase, run_bench
+from benchmarks.fe import SceneSpec
+from benchmarks.nodes import format_nodes, run_reduction, run_scale
+from benchmarks.stability import OMEGA_DT, run_stability
 from jaxflex.atomic import write_text_atomic
-from jaxflex.bench.accuracy import run_scene
-from jaxflex.bench.charts import pareto_chart, stability_chart
-from jaxflex.bench.core import QUICK as QUICK_CORE
-from jaxflex.bench.core import BenchCase, run_bench
-from jaxflex.bench.fe import SceneSpec
-from jaxflex.bench.nodes import format_nodes, run_reduction, run_scale
-from jaxflex.bench.stability import OMEGA_DT, run_stability
 from jaxflex.errors import InputError
 
 SMALL_PLATE = SceneSpec(
@@ -208,8 +210,6 @@ def run_nodes(spec: dict, counts: tuple[int, ...], *, progress: Callable[[str], 
 
 
 def _json_default(value):
-    import numpy as np
-
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, np.ndarray):

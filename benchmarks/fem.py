@@ -1,6 +1,6 @@
 """Benchmarks of the fem package: speed, memory and accuracy figures as JSON.
 
-    .venv/bin/python -m fem.bench [--cases plate solid scenes transient] [-o fem_bench.json]
+    .venv/bin/python -m benchmarks.fem [--cases plate solid scenes transient] [-o fem_bench.json]
 
 Each case runs in its own process so that its peak memory (max RSS) is its own.
 Targets (issue 3): plate ~25k DOFs, 20 modes <= 10 s; thin solid ~50k DOFs, 30 modes <= 30 s
@@ -18,6 +18,10 @@ import time
 
 import numpy as np
 
+import fem
+import jaxflex
+from jaxflex.atomic import write_text_atomic
+
 CASES = ("plate", "solid", "scenes", "transient")
 
 
@@ -26,8 +30,6 @@ def _peak_rss_mb() -> float:
 
 
 def _modal_case(part, supports, n_modes: int) -> dict:
-    import fem
-
     start = time.perf_counter()
     result = fem.modal_analysis(part, supports, n_modes)
     wall = time.perf_counter() - start
@@ -47,8 +49,6 @@ def _modal_case(part, supports, n_modes: int) -> dict:
 
 def case_plate() -> dict:
     """Morley plate, 1.5 x 0.8 m, 4 cups, 15 mm elements (~26k DOFs), 20 modes."""
-    import fem
-
     part, cups = fem.scene("plate", mesh_size=0.015)
     return {"target": "<= 10 s", **_modal_case(part, cups, 20)}
 
@@ -56,16 +56,12 @@ def case_plate() -> dict:
 def case_solid() -> dict:
     """Curved panel, one-layer Hex2 thin solid, 4 cups, 60 mm base elements refined to 13 mm
     at the cups (~55k DOFs), 30 modes."""
-    import fem
-
     part, cups = fem.scene("panel", mesh_size=0.06)
     return {"target": "<= 30 s, <= 4 GB", **_modal_case(part, cups, 30)}
 
 
 def case_scenes() -> dict:
     """fem.default_model for both scenes (what `jaxflex demo` calls)."""
-    import fem
-
     out = {}
     for name in ("plate", "panel"):
         start = time.perf_counter()
@@ -81,9 +77,6 @@ def case_scenes() -> dict:
 
 def case_transient() -> dict:
     """Reduced modal model vs the full-order Newmark transient: error against mode count."""
-    import fem
-    import jaxflex
-
     dt, n_move, n_rest = 0.01, 30, 30
     t = np.arange(n_move + 1) * dt
     shape = 2 * np.pi / (n_move * dt) ** 2 * np.sin(2 * np.pi * t / (n_move * dt))
@@ -132,7 +125,9 @@ def _child(case: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m fem.bench", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.fem", description=__doc__.split("\n")[0]
+    )
     parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
     parser.add_argument("-o", "--output", help="write the figures as JSON here")
     parser.add_argument("--child", choices=CASES, help=argparse.SUPPRESS)
@@ -143,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     figures = {}
     for case in args.cases:
         proc = subprocess.run(
-            [sys.executable, "-m", "fem.bench", "--child", case],
+            [sys.executable, "-m", "benchmarks.fem", "--child", case],
             capture_output=True,
             text=True,
             check=False,
@@ -154,8 +149,6 @@ def main(argv: list[str] | None = None) -> int:
         figures[case] = json.loads(proc.stdout.strip().splitlines()[-1])
         print(f"{case}: {json.dumps(figures[case], indent=1)}", flush=True)
     if args.output:
-        from jaxflex.atomic import write_text_atomic
-
         write_text_atomic(args.output, json.dumps(figures, indent=2))
     return 0
 

@@ -7,8 +7,19 @@ move (``--trajectory`` or ``--distance`` with limits) and a ``--threshold`` by f
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
-from jaxflex.cli._limits import AXIS_LIMITS, add_axis_limits
+from fem.export import export_modes, plot_part
+from fem.modal import modal_analysis
+from fem.parts import read_mesh
+from fem.scenes import scene
+from fem.sizing import size_model
+from fem.supports import ClampedEdge, PointSupport, SuctionCup
+from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
+from jaxflex.errors import InputError
+from jaxflex.profile import jerk_limited_move
+from jaxflex.trajectory_io import read_trajectory_csv
 
 COMMAND = "model"
 HELP = "build a modal model (.npz) from a built-in scene or a mesh file (SI units, m)"
@@ -191,18 +202,15 @@ def _material(args):
 
 
 def run(args: argparse.Namespace) -> int:
-    import fem
-    from jaxflex.errors import InputError
-
     material = _material(args)
     if args.scene:
         if args.thickness is not None or args.element is not None:
             raise InputError("--thickness/--element: only for --mesh (scenes are 1 mm steel)")
-        part, supports = fem.scene(args.scene, mesh_size=args.mesh_size, material=material)
+        part, supports = scene(args.scene, mesh_size=args.mesh_size, material=material)
     else:
         if args.mesh_size is not None:
             raise InputError("--mesh-size: only for --scene (a mesh file is used as is)")
-        part = fem.read_mesh(
+        part = read_mesh(
             args.mesh,
             thickness=args.thickness,
             material=material,
@@ -211,9 +219,9 @@ def run(args: argparse.Namespace) -> int:
         )
         supports = []
     if args.cups is not None:
-        supports = [fem.SuctionCup(x, y, r) for x, y, r in args.cups]
-    supports += [fem.PointSupport(x, y) for x, y in args.point_supports]
-    supports += [fem.ClampedEdge(side) for side in args.clamped_edges]
+        supports = [SuctionCup(x, y, r) for x, y, r in args.cups]
+    supports += [PointSupport(x, y) for x, y in args.point_supports]
+    supports += [ClampedEdge(side) for side in args.clamped_edges]
     if not supports:
         raise InputError("--cups: a mesh file needs a gripper (--cups X,Y,R ...)")
     if args.tolerance is not None:
@@ -224,7 +232,7 @@ def run(args: argparse.Namespace) -> int:
     n_modes = args.n_modes
     if n_modes is None and args.max_freq is None:
         n_modes = 20
-    result = fem.modal_analysis(
+    result = modal_analysis(
         part,
         supports,
         n_modes=n_modes,
@@ -241,53 +249,34 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _write(args, model, result) -> None:
-    import fem
-
     model.save(args.output)
     print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
     if args.plot:
-        fem.plot_part(result, args.plot)
+        plot_part(result, args.plot)
         print(f"wrote {args.plot}")
     if args.vtu:
-        fem.export_modes(result, args.vtu)
+        export_modes(result, args.vtu)
         print(f"wrote {args.vtu}")
 
 
 def _move(args):
     """(acc, dt) of the move at hand from --trajectory or --distance and the limits."""
-    from pathlib import Path
-
-    from jaxflex.errors import InputError
-
-    limits = {}
-    for name, _unit, default in AXIS_LIMITS:
-        given = getattr(args, name)
-        if given is not None and args.distance is None:
+    for name, _unit, _default in AXIS_LIMITS:
+        if getattr(args, name) is not None and args.distance is None:
             raise InputError(f"--{name}: only with --distance (a trajectory has its own limits)")
-        if given is not None and len(given) not in (1, 3):
-            raise InputError(f"--{name}: give one value or three (x y z), got {len(given)}")
-        limits[name] = default if given is None else (given[0] if len(given) == 1 else given)
+    limits = axis_limit_values(args)
     if args.trajectory is not None:
-        from optim.trajectory_io import read_trajectory_csv
-
         if args.dt is not None:
             raise InputError("--dt: only with --distance (the trajectory file has its step)")
         path = Path(args.trajectory)
         return read_trajectory_csv(path / "trajectory.csv" if path.is_dir() else path)
     if args.distance is None:
         raise InputError("--tolerance: give the move, --trajectory FILE or --distance X Y Z")
-    from optim.profiles import jerk_limited_move
-
     dt = 0.01 if args.dt is None else args.dt
     return jerk_limited_move(args.distance, dt=dt, **limits), dt
 
 
 def _run_sizing(args, part, supports) -> int:
-    import sys
-
-    import fem
-    from jaxflex.errors import InputError
-
     for name in ("n_modes", "max_freq", "points"):
         if getattr(args, name) is not None:
             raise InputError(
@@ -299,7 +288,7 @@ def _run_sizing(args, part, supports) -> int:
     if args.mesh is not None and args.mesh_sizes is not None:
         raise InputError("--mesh-sizes: a mesh file is used as is")
     acc, dt = _move(args)
-    sized = fem.size_model(
+    sized = size_model(
         part,
         supports,
         acc,

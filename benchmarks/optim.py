@@ -14,7 +14,7 @@ threshold 0.5 mm, dt 10 ms) it reports
 * the exact route (scipy HiGHS and casadi + Clp) against the gradient route (Ipopt and
   SLSQP) on the same problems.
 
-Run: ``python -m optim.bench --scene fem-plate -o optim_bench.json`` (or ``--model
+Run: ``python -m benchmarks.optim --scene fem-plate -o optim_bench.json`` (or ``--model
 part.npz``); ``run(model)`` from Python.
 """
 
@@ -28,6 +28,9 @@ import time
 
 import numpy as np
 
+import fem
+from jaxflex import load_model
+from jaxflex.analytic import simply_supported_plate
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
@@ -62,7 +65,7 @@ def few_mode_model(freq_hz=(1.7, 4.3, 9.8), zeta=0.02) -> ModalModel:
         gamma=[[0.1, 0.05, 2.0], [0.05, -0.2, 0.9], [-0.1, 0.1, 0.5]],
         shapes=shapes,
         points=rng.uniform(size=(16, 3)),
-        meta={"source": "optim.bench.few_mode_model"},
+        meta={"source": "benchmarks.optim.few_mode_model"},
     )
 
 
@@ -70,12 +73,8 @@ def scene_model(name: str) -> ModalModel:
     """ "fem-plate" (fem.default_model("plate"), the issue's scene), "analytic-plate"
     (jaxflex.analytic.simply_supported_plate) or "few-mode" (:func:`few_mode_model`)."""
     if name == "fem-plate":
-        import fem
-
         return fem.default_model("plate", progress=False)
     if name == "analytic-plate":
-        from jaxflex.analytic import simply_supported_plate
-
         return simply_supported_plate()
     if name == "few-mode":
         return few_mode_model()
@@ -192,7 +191,7 @@ def _targets(report: dict) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m optim.bench", description=__doc__.split("\n")[0]
+        prog="python -m benchmarks.optim", description=__doc__.split("\n")[0]
     )
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--model", help="modal model file (.npz)")
@@ -207,12 +206,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("-o", "--output", default="optim_bench.json", help="JSON file")
     args = parser.parse_args(argv)
-    if args.model:
-        from jaxflex.model import load_model
-
-        model = load_model(args.model)
-    else:
-        model = scene_model(args.scene)
+    model = load_model(args.model) if args.model else scene_model(args.scene)
     routes = {"nominal_routes": NOMINAL_ROUTES[:1], "robust_routes": ROBUST_ROUTES[:1]}
     report = run(model, threshold_m=args.threshold, **(routes if args.quick else {}))
     report["model"]["scene"] = args.model or args.scene

@@ -1,8 +1,8 @@
 """Sweep benchmark: throughput serial vs dask LocalCluster, per-case cost split, compiled-code
 reuse, batched vs looped evaluation. JSON on stdout (and ``-o FILE``).
 
-    python -m optim.sweep.bench                       # the example spec (34 cases), 2 workers
-    python -m optim.sweep.bench --spec sweep.toml --workers 2 --robust -o sweep_bench.json
+    python -m benchmarks.sweep                       # the example spec (34 cases), 2 workers
+    python -m benchmarks.sweep --spec sweep.toml --workers 2 --robust -o sweep_bench.json
 
 Every run starts from an empty results directory (nothing skipped). Throughput counts the
 computed cases over the wall time of the computation, which for dask includes starting the
@@ -16,12 +16,16 @@ import json
 import sys
 import tempfile
 import time
+import tomllib
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from jaxflex.atomic import write_text_atomic
+from optim.limits import Limits
+from optim.optimize import optimize
+from optim.robust import RobustSpec
 from optim.sweep.cases import expand, layout_job
 from optim.sweep.evaluate import deviation_traces
 from optim.sweep.run import run_sweep
@@ -65,8 +69,6 @@ def _throughput(spec: SweepSpec, executor: str, n_workers: int | None, root: Pat
 def _meta_reuse(spec: SweepSpec, n_layouts: int = 4) -> dict:
     """Optimisation wall time per case with the FE model's meta kept vs stripped: meta is
     static pytree data, so each distinct meta recompiles the jitted functions."""
-    from optim.limits import Limits
-    from optim.optimize import optimize
 
     move = spec.moves[0]
     payloads = []
@@ -126,11 +128,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--robust", action="store_true", help="robust optimisation (default grid)")
     parser.add_argument("-o", "--output", help="also write the JSON here")
     args = parser.parse_args(argv)
-    import tomllib
-
     spec = load_spec(args.spec) if args.spec else parse_spec(tomllib.loads(EXAMPLE))
     if args.robust:
-        spec = replace(spec, optimization=replace(spec.optimization, robust=_default_robust()))
+        spec = replace(spec, optimization=replace(spec.optimization, robust=RobustSpec().as_dict()))
     report: dict = {"spec": spec.name, "cases": len(expand(spec)), "robust": args.robust}
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
@@ -146,12 +146,6 @@ def main(argv: list[str] | None = None) -> int:
     if args.output:
         write_text_atomic(args.output, text + "\n")
     return 0
-
-
-def _default_robust() -> dict:
-    from optim.robust import RobustSpec
-
-    return RobustSpec().as_dict()
 
 
 if __name__ == "__main__":
