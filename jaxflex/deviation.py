@@ -260,11 +260,12 @@ def deviation_curve(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(t (T,) s, d (T,) m): the exact deviation every dt_s / ``substeps`` during the move
     ``acc`` ((n+1, 3) m/s^2) and after it, until at least ``until_s`` (and at least one step
-    past the end of the move). Exact samples of d(t), not interpolations."""
+    past the end of the move). Exact samples of d(t), not interpolations; the points are
+    evaluated by the pruned blocked evaluation (:func:`max_norms`)."""
     n_steps = np.shape(acc)[0] - 1
     h = dt_s / substeps
     t_move = h * np.arange(n_steps * substeps)
     after = max(1, int(np.ceil((until_s - n_steps * dt_s) / h)) + 1)
     t = np.concatenate([t_move, n_steps * dt_s + h * np.arange(after)])
     q = states_at(model, acc, dt_s, t)[..., 0]
-    return t, deviation_curves(np.asarray(model.shapes), q).all
+    return t, max_norms(blocks_of(model), q)[0]
