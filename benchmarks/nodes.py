@@ -17,7 +17,10 @@ deviation and of the exact settle time, next to the time each evaluation takes.
 
 from __future__ import annotations
 
+import argparse
+import json
 import resource
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -28,7 +31,10 @@ import numpy as np
 
 from benchmarks.core import sine_move
 from benchmarks.timing import best_time_s
+from fem.modal import modal_analysis
+from fem.scenes import scene as built_in
 from jaxflex.analytic import simply_supported_plate
+from jaxflex.atomic import write_text_atomic
 from jaxflex.deviation import deviation
 from jaxflex.engine import modal_states
 from jaxflex.model import ModalModel
@@ -169,9 +175,6 @@ def run_reduction(
     deviation and exact settle time of a 1 m vertical sine move in 0.8 s (threshold 10 % of
     the all-node peak), their errors, and the time of the forward deviation and of the exact
     settle time at each size."""
-    from fem.modal import modal_analysis
-    from fem.scenes import scene as built_in
-
     progress(f"reduction study: FE modes of the {scene} ...")
     part, supports = built_in(scene, mesh_size=mesh_size_m)
     result = modal_analysis(part, supports, n_modes=n_modes, zeta=0.02, progress=False)
@@ -249,12 +252,6 @@ def format_nodes(report: dict) -> str:
 def main(argv: list[str] | None = None) -> int:
     """``python -m benchmarks.nodes [--large K] [--scenes plate panel]``: this section alone,
     figures as text and JSON (``-o FILE``)."""
-    import argparse
-    import json
-    import sys
-
-    from jaxflex.atomic import write_text_atomic
-
     parser = argparse.ArgumentParser(prog="python -m benchmarks.nodes", description=__doc__)
     parser.add_argument("--large", type=int, default=1_000_000, help="points of the large case")
     parser.add_argument("--no-large", action="store_true", help="skip the large case")
