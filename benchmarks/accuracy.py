@@ -46,7 +46,7 @@ def _runs(spec: SceneSpec, model, max_modes: int):
     base_dt = spec.dt_sweep_s[0]
     out = [("modes", m, None, base_dt) for m in spec.mode_counts if m <= max_modes]
     out += [("points", max_modes, v, base_dt) for v in spec.voxel_sizes_m]
-    out += [("dt", max_modes, None, dt) for dt in spec.dt_sweep_s[1:]]
+    out += [("dt", max_modes, None, dt_s) for dt_s in spec.dt_sweep_s[1:]]
     return out
 
 
@@ -76,8 +76,8 @@ def run_scene(
     ref = fe_reference(result, damping, spec, fe_progress)
     full = result.to_modal_model(points=ref.points, zeta=damping)
     ref_dev = ref.deviation_m
-    threshold = settle_threshold(ref.t_s, ref_dev, spec.rest_s)
-    settle_ref = settle_from_samples(ref.t_s, ref_dev, threshold)
+    threshold_m = settle_threshold(ref.t_s, ref_dev, spec.rest_s)
+    settle_ref = settle_from_samples(ref.t_s, ref_dev, threshold_m)
     points = []
     for factor, (disp, seconds) in sorted(ref.runs.items()):
         dev = np.linalg.norm(disp, axis=2).max(axis=1)
@@ -90,11 +90,11 @@ def run_scene(
                 "dt_s": ref.h_s * factor,
                 "substeps": None,
                 "time_s": seconds,
-                **compare(ref.t_s, ref_dev, ref.t_s, dev, threshold, settle_ref),
+                **compare(ref.t_s, ref_dev, ref.t_s, dev, threshold_m, settle_ref),
             }
         )
     progress(f"[{spec.key}] reduced methods [{time.perf_counter() - start:.0f} s] ...")
-    reference = (ref.t_s, ref_dev, threshold, settle_ref)
+    reference = (ref.t_s, ref_dev, threshold_m, settle_ref)
     runs = _runs(spec, full, full.n_modes)
     with tqdm(total=len(runs), desc=f"{spec.key}: reduced methods", leave=False) as bar:
         for sweep, n_modes, voxel, dt_s in runs:
@@ -117,10 +117,10 @@ def run_scene(
             "reference_self_error": _self_error(ref),
             "n_points": len(ref.points),
         },
-        "threshold_m": threshold,
+        "threshold_m": threshold_m,
         "settle_reference_s": settle_ref,
         "peak_m": float(ref_dev.max()),
-        "agreement": agreement_by_modes(full, ref, spec, threshold, settle_ref),
+        "agreement": agreement_by_modes(full, ref, spec, threshold_m, settle_ref),
         "points": points,
         "dominance": dominance(points),
     }
@@ -129,7 +129,7 @@ def run_scene(
 def _method_points(spec, model, dt_s: float, run: dict, min_time_s: float, reference) -> list:
     """One accuracy-time point per method (and substep variant) for one model and dt.
     ``reference`` is (t_s, deviation_m, threshold_m, settle_s) of the FE reference."""
-    ref_t_s, ref_dev, threshold, settle_ref = reference
+    ref_t_s, ref_dev, threshold_m, settle_ref = reference
     acc = move_of(spec, dt_s)
     t_s = dt_s * np.arange(acc.shape[0])
     points = []
@@ -145,11 +145,11 @@ def _method_points(spec, model, dt_s: float, run: dict, min_time_s: float, refer
                 "dt_s": dt_s,
                 "substeps": substeps,
                 "time_s": seconds,
-                **compare(ref_t_s, ref_dev, t_s, dev, threshold, settle_ref),
+                **compare(ref_t_s, ref_dev, t_s, dev, threshold_m, settle_ref),
             }
             if method == "scan64":
                 tick = time.perf_counter()
-                report = analyze_move(model, acc, dt_s, threshold)
+                report = analyze_move(model, acc, dt_s, threshold_m)
                 point["settle_exact_s"] = report.settle_time_s
                 point["settle_exact_error_s"] = report.settle_time_s - settle_ref
                 point["settle_exact_time_s"] = time.perf_counter() - tick

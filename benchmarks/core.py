@@ -1,6 +1,6 @@
 """Speed and accuracy figures of the core, measured in one run.
 
-Case (DESIGN.md targets): K = 1099 points, M = 40 modes, N = 1000 steps of 10 ms, float64,
+Case (docs/design.md targets): K = 1099 points, M = 40 modes, N = 1000 steps of 10 ms, float64,
 on a synthetic model with full 3-D mode shapes (a curved part's shapes have all three
 components; frequencies 5-300 Hz, zeta 0.02) and a smooth vertical move. Measured:
 
@@ -81,34 +81,34 @@ def sine_move(n_steps: int, dt_s: float, distance_m: float = 1.0) -> np.ndarray:
 def run_bench(case: BenchCase = BenchCase(), *, progress: Callable[[str], None] = print) -> dict:
     """Measure everything listed in the module docstring; returns a JSON-ready dict."""
     model = synthetic_model(case)
-    dt = case.dt_s
-    acc = sine_move(case.n_steps, dt, distance_m=25.0)  # long horizon: peak 1.6 m/s^2
-    device_model, shapes_c = on_device(model)
+    dt_s = case.dt_s
+    acc = sine_move(case.n_steps, dt_s, distance_m=25.0)  # long horizon: peak 1.6 m/s^2
+    device_model, blocks = on_device(model)
     acc_j = jnp.asarray(acc)
 
     @jax.jit
     def forward(m, s, a):
-        return deviation(s, modal_states(m, a, dt)[..., 0])
+        return deviation(s, modal_states(m, a, dt_s)[..., 0])
 
     grad_peak = jax.jit(jax.grad(lambda a, m, s: jnp.max(forward(m, s, a))))
-    model32, shapes32 = on_device(model, "float32")
+    model32, blocks32 = on_device(model, "float32")
     acc32 = acc_j.astype(jnp.float32)
     results: dict = {}
 
     progress("forward (jit, float64) ...")
-    results["forward_ms"] = 1e3 * best_time_s(lambda: forward(device_model, shapes_c, acc_j))
-    results["simulate_public_ms"] = 1e3 * best_time_s(lambda: simulate(model, acc, dt).deviation)
+    results["forward_ms"] = 1e3 * best_time_s(lambda: forward(device_model, blocks, acc_j))
+    results["simulate_public_ms"] = 1e3 * best_time_s(lambda: simulate(model, acc, dt_s).deviation)
     progress("gradient ...")
-    results["gradient_ms"] = 1e3 * best_time_s(lambda: grad_peak(acc_j, device_model, shapes_c))
+    results["gradient_ms"] = 1e3 * best_time_s(lambda: grad_peak(acc_j, device_model, blocks))
     results["gradient_over_forward"] = results["gradient_ms"] / results["forward_ms"]
     progress("float32 ...")
-    results["forward_float32_ms"] = 1e3 * best_time_s(lambda: forward(model32, shapes32, acc32))
-    d64 = np.asarray(forward(device_model, shapes_c, acc_j))
-    d32 = np.asarray(forward(model32, shapes32, acc32), dtype=np.float64)
+    results["forward_float32_ms"] = 1e3 * best_time_s(lambda: forward(model32, blocks32, acc32))
+    d64 = np.asarray(forward(device_model, blocks, acc_j))
+    d32 = np.asarray(forward(model32, blocks32, acc32), dtype=np.float64)
     results["float32_max_rel_error"] = float(np.max(np.abs(d32 - d64)) / np.max(d64))
 
     progress("direct convolution of R1 (numpy) ...")
-    r1 = unit_response(model, dt, case.n_steps)[2:3]  # z axis: the move is vertical
+    r1 = unit_response(model, dt_s, case.n_steps)[2:3]  # z axis: the move is vertical
     start = time.perf_counter()
     disp = convolve_unit_response(r1, acc, axes=(2,))
     results["direct_convolution_ms"] = 1e3 * (time.perf_counter() - start)
@@ -119,13 +119,15 @@ def run_bench(case: BenchCase = BenchCase(), *, progress: Callable[[str], None] 
     )
 
     progress("exact cycle time and surrogate (1 m move in 0.8 s) ...")
-    move = sine_move(round(0.8 / dt), dt)
-    threshold = case.threshold_m
-    results["cycle_time_s"] = cycle_time(model, move, dt, threshold)
+    move = sine_move(round(0.8 / dt_s), dt_s)
+    threshold_m = case.threshold_m
+    results["cycle_time_s"] = cycle_time(model, move, dt_s, threshold_m)
     results["cycle_time_exact_ms"] = 1e3 * best_time_s(
-        lambda: cycle_time(model, move, dt, threshold), repeats=3
+        lambda: cycle_time(model, move, dt_s, threshold_m), repeats=3
     )
-    smooth_vg = jax.jit(jax.value_and_grad(lambda a: cycle_time_smooth(model, a, dt, threshold)))
+    smooth_vg = jax.jit(
+        jax.value_and_grad(lambda a: cycle_time_smooth(model, a, dt_s, threshold_m))
+    )
     move_j = jnp.asarray(move)
     results["cycle_time_smooth_s"] = float(smooth_vg(move_j)[0])
     results["smooth_value_and_grad_ms"] = 1e3 * best_time_s(lambda: smooth_vg(move_j))
@@ -134,7 +136,7 @@ def run_bench(case: BenchCase = BenchCase(), *, progress: Callable[[str], None] 
             "n_points": case.n_points,
             "n_modes": case.n_modes,
             "n_steps": case.n_steps,
-            "dt_s": dt,
+            "dt_s": dt_s,
             "threshold_m": case.threshold_m,
             "dtype": "float64",
         },

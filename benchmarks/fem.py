@@ -3,7 +3,7 @@
     .venv/bin/python -m benchmarks.fem [--cases plate solid scenes transient] [-o fem_bench.json]
 
 Each case runs in its own process so that its peak memory (max RSS) is its own.
-Targets (issue 3): plate ~25k DOFs, 20 modes <= 10 s; thin solid ~50k DOFs, 30 modes <= 30 s
+Targets (docs/design.md): plate ~25k DOFs, 20 modes <= 10 s; thin solid ~50k DOFs, 30 modes <= 30 s
 and <= 4 GB; reduced vs full-order transient R^2 >= 0.9999, max error <= 0.5 % of the peak.
 """
 
@@ -77,9 +77,9 @@ def case_scenes() -> dict:
 
 def case_transient() -> dict:
     """Reduced modal model vs the full-order Newmark transient: error against mode count."""
-    dt, n_move, n_rest = 0.01, 30, 30
-    t = np.arange(n_move + 1) * dt
-    shape = 2 * np.pi / (n_move * dt) ** 2 * np.sin(2 * np.pi * t / (n_move * dt))
+    dt_s, n_move, n_rest = 0.01, 30, 30
+    t = np.arange(n_move + 1) * dt_s
+    shape = 2 * np.pi / (n_move * dt_s) ** 2 * np.sin(2 * np.pi * t / (n_move * dt_s))
     acc = np.outer(shape, [0.3, 0.0, 1.0])
     acc[[0, -1]] = 0.0
     part = fem.rectangular_plate(0.6, 0.4, mesh_size=0.025)
@@ -88,20 +88,20 @@ def case_transient() -> dict:
     result = fem.modal_analysis(part, cups, 160, zeta=damping)
     start = time.perf_counter()
     full = fem.transient_reference(
-        result, acc, dt, points=1000, extend_s=n_rest * dt, substeps=200, output_substeps=10
+        result, acc, dt_s, points=1000, extend_s=n_rest * dt_s, substeps=200, output_substeps=10
     )
     full_s = time.perf_counter() - start
     fine = jaxflex.upsample(np.concatenate([acc, np.zeros((n_rest, 3))]), 10)
-    threshold = 0.05 * full.deviation_m.max()
+    threshold_m = 0.05 * full.deviation_m.max()
 
     def settle(t_s, deviation):
-        above = np.flatnonzero(deviation > threshold)
+        above = np.flatnonzero(deviation > threshold_m)
         return float(t_s[above[-1] + 1]) if above.size else 0.0
 
     curve = []
     for n_modes in (5, 10, 20, 40, 80, 160):
         model = result.to_modal_model(points=full.points).truncate_modes(n_modes)
-        response = jaxflex.simulate(model, fine, dt / 10, displacement=True)
+        response = jaxflex.simulate(model, fine, dt_s / 10, displacement=True)
         agreement = fem.agreement(full.displacement_m, np.asarray(response.displacement))
         agreement["settle_difference_s"] = settle(full.t_s, np.asarray(response.deviation)) - (
             settle(full.t_s, full.deviation_m)
@@ -113,7 +113,7 @@ def case_transient() -> dict:
         "n_dof": result.system.n_dof,
         "n_points": len(full.points),
         "full_order_s": full_s,
-        "settle_threshold_m": threshold,
+        "settle_threshold_m": threshold_m,
         "curve": curve,
     }
 

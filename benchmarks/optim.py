@@ -1,4 +1,4 @@
-"""The optimiser's target figures, measured in one run (issue: optim).
+"""The optimiser's target figures, measured in one run (docs/design.md).
 
 For one model and move (default: 1 m vertical, vmax 2 m/s, amax 10 m/s^2, jmax 100 m/s^3,
 threshold 0.5 mm, dt 10 ms) it reports
@@ -137,8 +137,8 @@ def run(
                 model,
                 distance_m,
                 limits,
-                threshold_m,
                 dt_s,
+                threshold_m,
                 method=method,
                 solver=solver,
                 robust=spec,

@@ -97,14 +97,14 @@ def settle_errors(
     full = np.concatenate([acc, np.zeros((SETTLE_STEPS, 3))])
     dense = simulate(model, upsample(full, DENSE_FACTOR), dt_s / DENSE_FACTOR).deviation
     dense = np.asarray(dense)
-    threshold = SETTLE_THRESHOLD_SHARE * dense.max()
+    threshold_m = SETTLE_THRESHOLD_SHARE * dense.max()
     t_dense = dt_s / DENSE_FACTOR * np.arange(len(dense))
-    truth = settle_from_samples(t_dense, dense, threshold)
+    truth = settle_from_samples(t_dense, dense, threshold_m)
     sampled = np.asarray(simulate(model, full, dt_s).deviation)
     t = dt_s * np.arange(len(sampled))
     return {
-        "step_sampled": settle_from_samples(t, sampled, threshold) - truth,
-        "analyze_move": analyze_move(model, acc, dt_s, threshold).settle_time_s - truth,
+        "step_sampled": settle_from_samples(t, sampled, threshold_m) - truth,
+        "analyze_move": analyze_move(model, acc, dt_s, threshold_m).settle_time_s - truth,
         "dense_resolution_s": dt_s / DENSE_FACTOR,
     }
 

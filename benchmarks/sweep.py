@@ -86,8 +86,8 @@ def _meta_reuse(spec: SweepSpec, n_layouts: int = 4) -> dict:
                 model,
                 move.distance_m,
                 Limits(move.vmax, move.amax, move.jmax),
-                spec.optimization.threshold_m,
                 spec.optimization.dt_s,
+                spec.optimization.threshold_m,
                 progress=False,
             )
             times.append(time.perf_counter() - tick)

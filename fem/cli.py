@@ -2,6 +2,8 @@
 
 With ``--tolerance`` the mesh, the number of modes and the monitored points are chosen for a
 move (``--trajectory`` or ``--distance`` with limits) and a ``--threshold`` by fem.size_model.
+``--from-ansys``, ``--from-nastran`` and ``--from-r1`` build the model from a user's own
+finite-element results (fem.cli_imports).
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from fem import cli_imports
 from fem.export import export_modes, plot_part
 from fem.modal import modal_analysis
 from fem.parts import read_mesh
@@ -22,7 +25,10 @@ from jaxflex.profile import jerk_limited_move
 from jaxflex.trajectory_io import read_trajectory_csv
 
 COMMAND = "model"
-HELP = "build a modal model (.npz) from a built-in scene or a mesh file (SI units, m)"
+HELP = (
+    "build a modal model (.npz) from a built-in scene, a mesh file, or ANSYS, Nastran or R1 "
+    "results (SI units, m)"
+)
 ORDER = 10
 
 
@@ -69,6 +75,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--scene", choices=("plate", "panel"), help="built-in part and gripper")
     src.add_argument("--mesh", metavar="FILE", help="mesh file read by meshio (coordinates in m)")
+    cli_imports.add_sources(src)
+    cli_imports.add_arguments(parser)
     parser.add_argument("--thickness", type=float, help="sheet thickness in m (mesh files)")
     parser.add_argument(
         "--scale",
@@ -157,7 +165,11 @@ def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
         help="the move: jerk-limited straight move by this displacement, m",
     )
     add_axis_limits(group, with_defaults=False, condition="--distance: ")
-    group.add_argument("--dt", type=float, help="--distance: sample step in s (default 0.01)")
+    group.add_argument(
+        "--dt",
+        type=float,
+        help="--distance: sample step in s (default 0.01); --from-r1: the R1 time step in s",
+    )
     group.add_argument("--threshold", type=float, help="settle threshold in m (e.g. 0.0005)")
     group.add_argument(
         "--mesh-sizes",
@@ -177,7 +189,9 @@ def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="X,Y",
         help="points that must stay monitored (x,y in m on the part)",
     )
-    group.add_argument("--report", metavar="JSON", help="write the sizing report here")
+    group.add_argument(
+        "--report", metavar="JSON", help="write the sizing report (or the R1 fit report) here"
+    )
 
 
 SIZING_ONLY = (
@@ -201,7 +215,17 @@ def _material(args):
     return args.material
 
 
+def _defaults() -> dict:
+    """The command's option defaults (what an option left out gives)."""
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    return vars(parser.parse_args(["--scene", "plate"]))
+
+
 def run(args: argparse.Namespace) -> int:
+    if cli_imports.requested(args):
+        return cli_imports.run(args, _defaults(), _write)
+    cli_imports.refuse_import_options(args)
     material = _material(args)
     if args.scene:
         if args.thickness is not None or args.element is not None:
@@ -272,8 +296,8 @@ def _move(args):
         return read_trajectory_csv(path / "trajectory.csv" if path.is_dir() else path)
     if args.distance is None:
         raise InputError("--tolerance: give the move, --trajectory FILE or --distance X Y Z")
-    dt = 0.01 if args.dt is None else args.dt
-    return jerk_limited_move(args.distance, dt=dt, **limits), dt
+    dt_s = 0.01 if args.dt is None else args.dt
+    return jerk_limited_move(args.distance, dt_s=dt_s, **limits), dt_s
 
 
 def _run_sizing(args, part, supports) -> int:
@@ -287,12 +311,12 @@ def _run_sizing(args, part, supports) -> int:
         raise InputError("--threshold: the settle threshold in m is required with --tolerance")
     if args.mesh is not None and args.mesh_sizes is not None:
         raise InputError("--mesh-sizes: a mesh file is used as is")
-    acc, dt = _move(args)
+    acc, dt_s = _move(args)
     sized = size_model(
         part,
         supports,
         acc,
-        dt,
+        dt_s,
         args.threshold,
         args.tolerance,
         zeta=args.zeta,

@@ -46,7 +46,7 @@ def load_part_mesh(path: str | os.PathLike, scale: float = 1.0):
         return (*_mid_surface_of_hexes(points, blocks["hexahedron"]), "hexahedron")
     if "quad" in blocks:
         nodes, quads = _compact(points, blocks["quad"])
-        return _surface(nodes, quads, path), None, "quad"
+        return surface_from_quads(nodes, quads, path), None, "quad"
     if "triangle" in blocks:
         nodes, tris = _compact(points, blocks["triangle"])
         z = nodes[:, 2]
@@ -108,7 +108,7 @@ def orient_quads(quads: np.ndarray) -> np.ndarray:
     return quads
 
 
-def _surface(nodes: np.ndarray, quads: np.ndarray, path) -> SurfaceMesh:
+def surface_from_quads(nodes: np.ndarray, quads: np.ndarray, path) -> SurfaceMesh:
     """Quad mid-surface with area-weighted node normals, consistently oriented."""
     quads = orient_quads(quads)
     a, b, c, d = (nodes[quads[:, k]] for k in range(4))
@@ -162,4 +162,4 @@ def _mid_surface_of_hexes(points: np.ndarray, hexes: np.ndarray):
             f"mesh: hexahedral mesh thickness varies from {thickness.min():.4g} to "
             f"{thickness.max():.4g} m; a uniform one-layer sheet is required"
         )
-    return _surface(mid, quads, "hexahedral mesh"), float(thickness.mean())
+    return surface_from_quads(mid, quads, "hexahedral mesh"), float(thickness.mean())

@@ -338,8 +338,25 @@ def read_mesh(
         raise InputError(f"thickness: required for a {cell_type} mesh (sheet thickness in m)")
     _check_common(thickness, element, None, allowed)
     description = {"shape": "mesh file", "path": str(path), "cell_type": cell_type, "scale": scale}
+    return part_from_mesh(
+        mesh, thickness, material, element, os.path.basename(str(path)), description
+    )
+
+
+def part_from_mesh(
+    mesh: PlateMesh | SurfaceMesh,
+    thickness: float,
+    material: str | Material | Mapping[str, Any],
+    element: str,
+    name: str,
+    description: dict,
+) -> Part:
+    """A part whose mesh is given (used as is): a flat PlateMesh for a Kirchhoff plate
+    ("morley", "argyris") or a quad SurfaceMesh for the thin solid ("hex2"); thickness in m."""
+    allowed = PLATE_ELEMENTS if isinstance(mesh, PlateMesh) else ("hex2",)
+    _check_common(thickness, element, None, allowed)
     return Part(
-        os.path.basename(str(path)),
+        name,
         element,
         resolve_material(material),
         float(thickness),

@@ -60,8 +60,9 @@ from jaxflex.deviation import deviation_curves
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.points import voxel_downsample
+from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.validation import check_positive
 
 # Refinement sequence: multiples of the part's element size, coarse to fine (a factor sqrt 2
 # per level); the cup element size is CUP_RATIO x the base size (measured on the 1.5 x 0.8 m
@@ -668,10 +669,10 @@ def size_model(
         raise InputError("supports: a part needs its gripper (fem.SuctionCup, ...)")
     if acc is None:
         raise InputError("acc: the move's acceleration samples (n+1, 3) in m/s^2 are required")
-    acc = check_acc(acc, rest_at_ends=True).astype(np.float64)
+    move = as_move(acc, dt_s, at_rest=True)
+    acc, dt_s = move.acc, move.dt_s
     if not np.any(acc):
         raise InputError("acc: every sample is 0; the part does not move")
-    dt_s = check_positive("dt_s", dt_s)
     if threshold_m is None:
         raise InputError("threshold_m: the settle threshold in m is required")
     threshold_m = check_positive("threshold_m", threshold_m)

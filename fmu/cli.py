@@ -91,20 +91,20 @@ def load_case(path: Path) -> tuple[object, float, dict | None]:
         csv, report_path = path, path.with_name("report.json")
     else:
         raise InputError(f"--trajectory: {str(path)!r} does not exist")
-    acc, dt = read_trajectory_csv(csv)
+    acc, dt_s = read_trajectory_csv(csv)
     if not report_path.is_file():
-        return acc, dt, None
+        return acc, dt_s, None
     try:
         report = json.loads(report_path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"--trajectory: {str(report_path)!r} is not valid JSON ({exc})") from exc
     report_dt = report.get("dt_s")
-    if report_dt is not None and abs(float(report_dt) - dt) > 1e-9 * dt:
+    if report_dt is not None and abs(float(report_dt) - dt_s) > 1e-9 * dt_s:
         raise InputError(
             f"--trajectory: {report_path.name} says dt_s = {report_dt} s but {csv.name} is "
-            f"sampled every {dt} s; they do not belong together"
+            f"sampled every {dt_s} s; they do not belong together"
         )
-    return acc, dt, {key: report[key] for key in CASE_KEYS if key in report}
+    return acc, dt_s, {key: report[key] for key in CASE_KEYS if key in report}
 
 
 def _print_binaries(name: str, platforms, skipped: dict[str, str]) -> None:
@@ -113,13 +113,13 @@ def _print_binaries(name: str, platforms, skipped: dict[str, str]) -> None:
         print(f"{name}: skipped {plat}: {reason}")
 
 
-def _export_fmu(args, model, trajectory, threshold, case, windows) -> int:
+def _export_fmu(args, model, trajectory, threshold_m, case, windows) -> int:
     result = export_fmu(
         model,
         args.output,
         args.fmi,
         trajectory,
-        threshold_m=threshold,
+        threshold_m=threshold_m,
         case=case,
         damping_scale=args.damping_scale,
         model_name=args.name,
@@ -135,7 +135,7 @@ def _export_fmu(args, model, trajectory, threshold, case, windows) -> int:
         print(
             f"embedded move: {result.n_trajectory} samples, dt {result.case['dt_s']:g} s, "
             f"cycle time {result.case['cycle_time_s']:.3f} s at threshold "
-            f"{threshold * 1e3:g} mm; wrote {result.input_csv.name}, {result.case_json.name}"
+            f"{threshold_m * 1e3:g} mm; wrote {result.input_csv.name}, {result.case_json.name}"
         )
     if result.case is None or args.no_verify:
         problems = validate_fmu(str(result.fmu_path))
@@ -148,13 +148,13 @@ def _export_fmu(args, model, trajectory, threshold, case, windows) -> int:
     return 0 if report.ok and hosts.ok else 1
 
 
-def _export_ssp(args, model, trajectory, threshold, case, windows) -> int:
+def _export_ssp(args, model, trajectory, threshold_m, case, windows) -> int:
     result = export_ssp(
         model,
         args.ssp,
         args.fmi,
         trajectory,
-        threshold,
+        threshold_m,
         case,
         damping_scale=args.damping_scale,
         model_name=args.name,
@@ -184,16 +184,16 @@ def run(args: argparse.Namespace) -> int:
     model = jaxflex.load_model(args.model)
     trajectory, case = None, None
     if args.trajectory:
-        acc, dt, case = load_case(Path(args.trajectory))
-        trajectory = (acc, dt)
-    threshold = args.threshold
-    if threshold is None:
-        threshold = (case or {}).get("threshold_m", 5e-4)
-    threshold = check_positive("--threshold", threshold)
+        acc, dt_s, case = load_case(Path(args.trajectory))
+        trajectory = (acc, dt_s)
+    threshold_m = args.threshold
+    if threshold_m is None:
+        threshold_m = (case or {}).get("threshold_m", 5e-4)
+    threshold_m = check_positive("--threshold", threshold_m)
     windows = {"auto": None, "yes": True, "no": False}[args.windows]
     status = 0
     if args.output:
-        status = _export_fmu(args, model, trajectory, threshold, case, windows)
+        status = _export_fmu(args, model, trajectory, threshold_m, case, windows)
     if args.ssp:
-        status = max(status, _export_ssp(args, model, trajectory, threshold, case, windows))
+        status = max(status, _export_ssp(args, model, trajectory, threshold_m, case, windows))
     return status

@@ -43,7 +43,7 @@ DEFAULT_RTOL = 1e-9
 FMU_HOSTS = ("ecospy", "libcosimpy")
 SSP_HOSTS = ("fmpy", "ecospy", "libcosimpy", "jaxflex-master")
 _LINEAR = "jaxflex.simulate (linear between samples)"
-_HELD = "exact zero-order hold of the samples (jaxflex propagators)"
+_HELD = "exact zero-order hold of the samples (jaxflex.engine)"
 
 
 @dataclass(frozen=True)

@@ -54,8 +54,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    threshold = check_positive("--threshold", args.threshold)
-    dt = check_positive("--dt", args.dt)
+    threshold_m = check_positive("--threshold", args.threshold)
+    dt_s = check_positive("--dt", args.dt)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     timings: dict[str, float] = {}
@@ -76,11 +76,11 @@ def run(args: argparse.Namespace) -> int:
     robust = None if args.nominal else optim.RobustSpec()
     print(
         f"move: {np.linalg.norm(DISTANCE_M):g} m along z, vmax {LIMITS['vmax']:g} m/s, "
-        f"amax {LIMITS['amax']:g} m/s^2, jmax {LIMITS['jmax']:g} m/s^3, dt {dt * 1e3:g} ms, "
-        f"threshold {threshold * 1e3:g} mm, {'nominal' if robust is None else 'robust'} optimum"
+        f"amax {LIMITS['amax']:g} m/s^2, jmax {LIMITS['jmax']:g} m/s^3, dt {dt_s * 1e3:g} ms, "
+        f"threshold {threshold_m * 1e3:g} mm, {'nominal' if robust is None else 'robust'} optimum"
     )
     start = time.perf_counter()
-    result = optim.optimize(model, DISTANCE_M, limits, threshold, dt, robust=robust)
+    result = optim.optimize(model, DISTANCE_M, limits, dt_s, threshold_m, robust=robust)
     timings["optimize_s"] = time.perf_counter() - start
     print(result.summary())
     result.save(out / "optimized")
@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
         for version in (2, 3):
             path = out / f"part_fmi{version}.fmu"
             start = time.perf_counter()
-            export_fmu(model, path, version, (result.acc, dt), threshold, case)
+            export_fmu(model, path, version, (result.acc, dt_s), threshold_m, case)
             check = verify(path)
             timings[f"fmi{version}_export_and_verify_s"] = time.perf_counter() - start
             fmus[path.name] = {"max_rel_diff": check.max_rel_diff, "ok": check.ok}
@@ -102,8 +102,8 @@ def run(args: argparse.Namespace) -> int:
             )
     summary = {
         "scene": args.scene,
-        "threshold_m": threshold,
-        "dt_s": dt,
+        "threshold_m": threshold_m,
+        "dt_s": dt_s,
         "cycle_time_s": result.cycle_time_s,
         "fmus": fmus,
         "timings_s": timings,

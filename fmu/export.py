@@ -31,8 +31,9 @@ from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
+from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.validation import check_positive
 
 DEFAULT_THRESHOLD_M = 5e-4
 DEFAULT_STEP_S = 0.01
@@ -99,8 +100,8 @@ def _check_trajectory(trajectory) -> tuple[np.ndarray | None, float | None]:
         acc, dt_s = trajectory
     except (TypeError, ValueError) as exc:
         raise InputError("trajectory: expected a pair (acc (n+1, 3) m/s^2, dt_s)") from exc
-    acc = check_acc(acc, name="trajectory acc", rest_at_ends=True).astype(np.float64)
-    return acc, check_positive("trajectory dt_s", dt_s)
+    move = as_move(acc, dt_s, at_rest=True, name="trajectory acc")
+    return move.acc, move.dt_s
 
 
 def _case_summary(model, acc, dt_s, threshold_m, case) -> dict[str, Any]:

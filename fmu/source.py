@@ -30,7 +30,7 @@ from fmu.build import C_DIR, build_binaries
 from fmu.export import model_identifier
 from fmu.model_description import build_description
 from jaxflex.errors import InputError
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.profile import as_move
 
 SOURCE_FILES = {
     2: ("jxf_source.c", "jxf_source_fmi2.c"),
@@ -207,8 +207,8 @@ def export_source_fmu(
     path = Path(path)
     if path.suffix.lower() != ".fmu":
         raise InputError(f"path: an FMU file name must end in .fmu, got {str(path)!r}")
-    acc = check_acc(acc, name="trajectory acc", rest_at_ends=True).astype(np.float64)
-    dt_s = check_positive("trajectory dt_s", dt_s)
+    move = as_move(acc, dt_s, at_rest=True, name="trajectory acc")
+    acc, dt_s = move.acc, move.dt_s
     ident = model_identifier(path)
     token = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="jaxflex_source_") as tmp:

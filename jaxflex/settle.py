@@ -37,7 +37,8 @@ from jaxflex.decay import amplitudes, envelope, envelope_horizon
 from jaxflex.deviation import block_bounds, blocks_of, point_norms, round_off_slack
 from jaxflex.engine import free_states, modal_forces, modal_states, states_between
 from jaxflex.model import ModalModel
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.profile import as_move
+from jaxflex.validation import check_positive
 
 SUBDIVISIONS = 16
 TIME_TOL_S = 1e-9
@@ -134,9 +135,9 @@ class _ModalSignal:
         self.budget.spend(idx.size * t.size)
         return point_norms(self.shapes[idx], self.modal(t))
 
-    def block_suspects(self, t: np.ndarray, blocks: np.ndarray, threshold: float):
+    def block_suspects(self, t: np.ndarray, blocks: np.ndarray, threshold_m: float):
         """(upper (T, nb), suspect (nb, J)): the bound of every member of each of ``blocks`` at
-        the times ``t`` (centre plus radius) and whether the block may exceed ``threshold``
+        the times ``t`` (centre plus radius) and whether the block may exceed ``threshold_m``
         inside each grid interval (those bounds at the ends plus the largest members'
         curvature in between); where not, none of its points does."""
         _, upper = block_bounds(self.centres[:, :, blocks], self.radius[blocks], self.modal(t), np)
@@ -145,7 +146,7 @@ class _ModalSignal:
         bound = np.maximum(upper[:-1], upper[1:]).T + (h**2 / 8.0) * self.curvature(
             t[:-1], t[1:], self.block_weights[blocks]
         )
-        return upper, bound > threshold
+        return upper, bound > threshold_m
 
     def peak(self, t: float) -> float:
         """max_p |u_p(t)| (m), evaluating only the blocks whose bound reaches the largest
@@ -202,18 +203,18 @@ class _ForcedMotion(_ModalSignal):
         return weights @ self.acc_bound[k].T
 
 
-def _last_exceedance(signal, idx, t, norms, threshold) -> float | None:
+def _last_exceedance(signal, idx, t, norms, threshold_m) -> float | None:
     """sup{s in [t[0], t[-1]] : max_p |u_p(s)| > threshold} over points ``idx`` (all other
     points are known to stay below on this span), or None if there is none.
 
     ``t`` is an increasing grid and ``norms`` (P, T) the exact |u_p| on it.
     """
     h = np.diff(t)
-    over = norms.max(axis=0) > threshold
+    over = norms.max(axis=0) > threshold_m
     bound = np.maximum(norms[:, :-1], norms[:, 1:]) + (h**2 / 8.0) * signal.curvature(
         t[:-1], t[1:], signal.weights[idx]
     )
-    suspect = bound > threshold  # (P, J): point may exceed inside interval j
+    suspect = bound > threshold_m  # (P, J): point may exceed inside interval j
     for j in np.flatnonzero(suspect.any(axis=0))[::-1]:
         if over[j + 1]:
             return float(t[j + 1])
@@ -223,34 +224,34 @@ def _last_exceedance(signal, idx, t, norms, threshold) -> float | None:
             continue  # exceeds by at most (1e-9 s)^2 / 8 * curvature: below resolution
         sub = np.linspace(t[j], t[j + 1], SUBDIVISIONS + 1)
         sub_idx = idx[suspect[:, j]]
-        found = _last_exceedance(signal, sub_idx, sub, signal.norms(sub, sub_idx), threshold)
+        found = _last_exceedance(signal, sub_idx, sub, signal.norms(sub, sub_idx), threshold_m)
         if found is not None:
             return found
     return None
 
 
-def _last_exceedance_in_blocks(signal, blocks, t, threshold) -> float | None:
+def _last_exceedance_in_blocks(signal, blocks, t, threshold_m) -> float | None:
     """:func:`_last_exceedance` over the points of ``blocks`` (all others stay below on this
     span) on the grid ``t``: intervals are first certified a block at a time, and only the
     points of blocks that stay suspect are evaluated, on those intervals only."""
-    _, suspect = signal.block_suspects(t, blocks, threshold)  # (nb, J)
+    _, suspect = signal.block_suspects(t, blocks, threshold_m)  # (nb, J)
     for j in np.flatnonzero(suspect.any(axis=0))[::-1]:
         idx = signal.points_of(blocks[suspect[:, j]])
         ends = t[j : j + 2]
-        found = _last_exceedance(signal, idx, ends, signal.norms(ends, idx), threshold)
+        found = _last_exceedance(signal, idx, ends, signal.norms(ends, idx), threshold_m)
         if found is not None:
             return found
     return None
 
 
-def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold: float):
+def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold_m: float):
     """Grid chunks over [0, horizon] (tau), step adapted to the decaying curvature bound."""
     chunks = []
     tau = 0.0
     while tau < horizon:
         curvature = decay.curvature(np.array([decay.t0 + tau]), None, decay.block_weights).max()
         step = (
-            math.sqrt(8.0 * CURVATURE_SHARE * threshold / curvature) if curvature > 0 else horizon
+            math.sqrt(8.0 * CURVATURE_SHARE * threshold_m / curvature) if curvature > 0 else horizon
         )
         n = max(1, min(CHUNK_STEPS, math.ceil((horizon - tau) / step)))
         end = min(horizon, tau + n * step)
@@ -259,31 +260,34 @@ def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold: float):
     return chunks
 
 
-def _tail_settle(decay: _FreeDecay, threshold: float) -> tuple[float | None, float]:
+def _tail_settle(decay: _FreeDecay, threshold_m: float) -> tuple[float | None, float]:
     """(last exceedance time after the move or None, proof horizon tau_env) in s from t0."""
     horizon = envelope_horizon(
-        decay.weights, decay.amplitude, decay.sigma, threshold, (decay.members, decay.block_weights)
+        decay.weights,
+        decay.amplitude,
+        decay.sigma,
+        threshold_m,
+        (decay.members, decay.block_weights),
     )
     if horizon == 0.0:
         return None, 0.0
     if math.isinf(horizon):
         return math.inf, math.inf
-    for grid in reversed(_tail_grid_chunks(decay, horizon, threshold)):
-        blocks = np.flatnonzero(decay.envelope(grid[:1], decay.block_weights)[:, 0] > threshold)
+    for grid in reversed(_tail_grid_chunks(decay, horizon, threshold_m)):
+        blocks = np.flatnonzero(decay.envelope(grid[:1], decay.block_weights)[:, 0] > threshold_m)
         if blocks.size == 0:
             continue
-        found = _last_exceedance_in_blocks(decay, blocks, decay.t0 + grid, threshold)
+        found = _last_exceedance_in_blocks(decay, blocks, decay.t0 + grid, threshold_m)
         if found is not None:
             return found - decay.t0, horizon
     return None, horizon
 
 
 def _prepare(model: ModalModel, acc, dt_s, threshold_m):
-    acc = check_acc(acc, rest_at_ends=True).astype(np.float64)
-    dt_s = check_positive("dt_s", dt_s)
+    move = as_move(acc, dt_s, at_rest=True)
     threshold_m = check_positive("threshold_m", threshold_m)
-    states = modal_states(model, acc, dt_s, xp=np)
-    return states, modal_forces(model, acc, np), dt_s, threshold_m
+    states = modal_states(model, move.acc, move.dt_s, xp=np)
+    return states, modal_forces(model, move.acc, np), move.dt_s, threshold_m
 
 
 def analyze_move(

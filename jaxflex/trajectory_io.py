@@ -30,11 +30,11 @@ COLUMNS = (
 )
 
 
-def write_trajectory_csv(path: str | os.PathLike, acc, dt: float) -> None:
-    """Write samples ``acc`` ((n+1, 3) m/s^2 at step ``dt`` s) with velocity and position."""
-    vel, pos = integrate(acc, dt)
+def write_trajectory_csv(path: str | os.PathLike, acc, dt_s: float) -> None:
+    """Write samples ``acc`` ((n+1, 3) m/s^2 at step ``dt_s`` s) with velocity and position."""
+    vel, pos = integrate(acc, dt_s)
     acc = np.asarray(acc, dtype=np.float64)
-    t = dt * np.arange(acc.shape[0])
+    t = dt_s * np.arange(acc.shape[0])
     table = np.column_stack([t, acc, vel, pos])
     buf = io.StringIO()
     np.savetxt(buf, table, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.17g")
@@ -60,7 +60,7 @@ def read_trajectory_csv(path: str | os.PathLike) -> tuple[np.ndarray, float]:
     if len(t) < 2:
         raise InputError(f"{str(path)!r}: needs at least two samples")
     steps = np.diff(t)
-    dt = float(np.mean(steps))
-    if dt <= 0 or np.max(np.abs(steps - dt)) > 1e-9 * max(1.0, t[-1]):
+    dt_s = float(np.mean(steps))
+    if dt_s <= 0 or np.max(np.abs(steps - dt_s)) > 1e-9 * max(1.0, t[-1]):
         raise InputError(f"{str(path)!r}: samples must be equally spaced in t_s")
-    return acc, dt
+    return acc, dt_s

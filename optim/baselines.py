@@ -20,6 +20,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from jaxflex.model import ModalModel
+from jaxflex.profile import as_move
 from jaxflex.settle import SettleReport, analyze_move
 from optim.kinematics import clean_distance
 from optim.limits import Limits
@@ -93,13 +94,14 @@ def dominant_modes(model: ModalModel, distance: np.ndarray) -> np.ndarray:
 
 
 def worst_case(
-    model: ModalModel, acc: np.ndarray, dt: float, threshold_m: float, grid
+    model: ModalModel, acc: np.ndarray, dt_s: float, threshold_m: float, grid
 ) -> tuple[float, dict, list[dict]]:
     """Largest exact cycle time over the (frequency scale, zeta) points of ``grid``: (worst,
     where, every point as {"freq_scale", "zeta", "cycle_time_s"})."""
     points = []
+    move = as_move(acc, dt_s, at_rest=True)  # checked once for the whole grid
     for scale, zeta in grid:
-        timing = analyze_move(perturbed(model, scale, zeta), acc, dt, threshold_m, settle=False)
+        timing = analyze_move(perturbed(model, scale, zeta), move, dt_s, threshold_m, settle=False)
         points.append({"freq_scale": scale, "zeta": zeta, "cycle_time_s": timing.cycle_time_s})
     worst = max(points, key=lambda p: p["cycle_time_s"])
     where = {"freq_scale": worst["freq_scale"], "zeta": worst["zeta"]}
@@ -118,8 +120,8 @@ def baselines(
     model: ModalModel,
     distance_m,
     limits: Limits,
+    dt_s: float,
     threshold_m: float,
-    dt_s: float = 0.01,
     *,
     robust: RobustSpec | None = None,
     max_shaped_modes: int = MAX_SHAPED_MODES,

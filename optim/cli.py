@@ -99,8 +99,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    threshold = check_positive("--threshold", args.threshold)
-    dt = check_positive("--dt", args.dt)
+    threshold_m = check_positive("--threshold", args.threshold)
+    dt_s = check_positive("--dt", args.dt)
     max_duration = check_positive("--max-duration", args.max_duration)
     limits = Limits(**axis_limit_values(args), vpath=args.vpath, apath=args.apath, jpath=args.jpath)
     robust = None
@@ -119,8 +119,8 @@ def run(args: argparse.Namespace) -> int:
         model,
         args.distance,
         limits,
-        threshold,
-        dt,
+        dt_s,
+        threshold_m,
         method=args.method,
         solver=args.solver,
         robust=robust,

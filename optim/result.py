@@ -35,15 +35,15 @@ from optim.robust import RobustSpec, perturbed
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
 
 
-def deviation_summary(model: ModalModel, acc: np.ndarray, dt: float) -> dict:
+def deviation_summary(model: ModalModel, acc: np.ndarray, dt_s: float) -> dict:
     """Peak deviation during the move (exact samples every dt / 8) and at the stop, m."""
     n = acc.shape[0] - 1
-    t, d = deviation_curve(model, acc, dt, n * dt, SUBSTEPS)
+    t, d = deviation_curve(model, acc, dt_s, n * dt_s, SUBSTEPS)
     return {
         "peak_during_move_m": float(d[: n * SUBSTEPS + 1].max()),
         "peak_time_s": float(t[int(np.argmax(d[: n * SUBSTEPS + 1]))]),
         "at_stop_m": float(d[n * SUBSTEPS]),
-        "sampling_s": dt / SUBSTEPS,
+        "sampling_s": dt_s / SUBSTEPS,
     }
 
 

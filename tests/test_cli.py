@@ -86,10 +86,10 @@ def test_demo_runs_the_whole_pipeline(tmp_path):
         assert (out / name).stat().st_size > 0, name
     summary = json.loads((out / "demo.json").read_text())
     model = jaxflex.load_model(out / "model.npz")
-    acc, dt = read_trajectory_csv(out / "optimized" / "trajectory.csv")
+    acc, dt_s = read_trajectory_csv(out / "optimized" / "trajectory.csv")
     # the reported cycle time is the exact one of the saved model and trajectory
-    assert summary["cycle_time_s"] == jaxflex.cycle_time(model, acc, dt, summary["threshold_m"])
-    assert summary["cycle_time_s"] >= (len(acc) - 1) * dt
+    assert summary["cycle_time_s"] == jaxflex.cycle_time(model, acc, dt_s, summary["threshold_m"])
+    assert summary["cycle_time_s"] >= (len(acc) - 1) * dt_s
     # both FMUs reproduce jaxflex (fmpy run inside the demo), to round-off
     assert all(f["ok"] and f["max_rel_diff"] < 1e-9 for f in summary["fmus"].values())
     assert not list(out.rglob("*.tmp"))

@@ -12,7 +12,7 @@ import pytest
 from conftest import random_model, smooth_move
 
 from fmu import export_fmu
-from jaxflex.atomic import atomic_open, atomic_path, write_bytes_atomic, write_text_atomic
+from jaxflex.atomic import atomic_open, atomic_path, write_text_atomic
 
 
 @contextlib.contextmanager
@@ -32,7 +32,8 @@ def _modes(folder) -> dict[str, int]:
 def test_atomic_writes_get_the_umask_mode(tmp_path, mask, mode):
     with umask(mask):
         write_text_atomic(tmp_path / "a.json", "{}")
-        write_bytes_atomic(tmp_path / "b.bin", b"\0")
+        with atomic_open(tmp_path / "b.bin", "wb") as handle:
+            handle.write(b"\0")
         with atomic_path(tmp_path / "c.vtu", suffix=".vtu") as name:
             assert name.endswith(".vtu")
             with open(name, "w") as handle:  # a writer that opens by name, like meshio

@@ -45,19 +45,19 @@ def move():
 
 
 @pytest.fixture(scope="module")
-def threshold(part, move):
+def threshold_m(part, move):
     """A threshold the deviation crosses several times: 30 % of its peak."""
     return 0.3 * float(jaxflex.simulate(part, move, DT, extend_s=EXTEND_S).deviation.max())
 
 
 @pytest.fixture(scope="module")
-def fmus(part, move, threshold, tmp_path_factory):
+def fmus(part, move, threshold_m, tmp_path_factory):
     """FMI 2.0 and 3.0 FMUs with the move embedded, and their extracted folders."""
     out = tmp_path_factory.mktemp("fmu_accuracy")
     built = {}
     for version in (2, 3):
         path = out / f"part{version}.fmu"
-        export_fmu(part, path, version, (move, DT), threshold_m=threshold)
+        export_fmu(part, path, version, (move, DT), threshold_m=threshold_m)
         folder = out / f"x{version}"
         with zipfile.ZipFile(path) as zf:
             zf.extractall(folder)
@@ -225,7 +225,7 @@ def test_damping_scale_matches_jaxflex_with_scaled_damping(fmus, part, move):
     assert rel_error(dev, fine_reference(scaled, move, times)) <= RTOL
 
 
-def test_settled_flag_and_settle_time_follow_the_threshold(fmus, part, move, threshold):
+def test_settled_flag_and_settle_time_follow_the_threshold(fmus, part, move, threshold_m):
     """settled = deviation <= threshold at each communication point; settle_time is when it
     last became true, within one step after jaxflex's exact settle time."""
     steps = [4] * (N + round(EXTEND_S / DT))
@@ -243,9 +243,9 @@ def test_settled_flag_and_settle_time_follow_the_threshold(fmus, part, move, thr
         assert s.get("settled") is True and s.get("settle_time") == pytest.approx(DT * len(steps))
     t = DT * np.arange(len(steps) + 1)
     ref = np.asarray(jaxflex.simulate(part, move, DT, extend_s=EXTEND_S).deviation)
-    np.testing.assert_array_equal(flags, ref <= threshold)
-    assert settle[-1] == pytest.approx(settle_time_at_points(t, ref, threshold), abs=1e-12)
-    exact = jaxflex.settle_time(part, move, DT, threshold)  # certified: no later crossing
+    np.testing.assert_array_equal(flags, ref <= threshold_m)
+    assert settle[-1] == pytest.approx(settle_time_at_points(t, ref, threshold_m), abs=1e-12)
+    exact = jaxflex.settle_time(part, move, DT, threshold_m)  # certified: no later crossing
     assert exact + DT < t[-1]
     assert exact <= settle[-1] < exact + DT
     assert not all(flags) and flags[-1]  # the flag did drop during the move

@@ -258,9 +258,9 @@ def test_case_files_beside_the_fmu(exported):
 
 def test_case_times_are_computed_when_missing(part, tmp_path):
     acc = smooth_profile(2, 40)
-    threshold = 0.05
-    result = export_fmu(part, tmp_path / "p.fmu", 2, (acc, DT), threshold_m=threshold)
-    report = jaxflex.analyze_move(part, acc, DT, threshold)
+    threshold_m = 0.05
+    result = export_fmu(part, tmp_path / "p.fmu", 2, (acc, DT), threshold_m=threshold_m)
+    report = jaxflex.analyze_move(part, acc, DT, threshold_m)
     assert math.isclose(result.case["cycle_time_s"], report.cycle_time_s, rel_tol=1e-12)
     assert result.case["transfer_time_s"] == pytest.approx(40 * DT)
     assert result.case["limits"] is None

@@ -43,19 +43,19 @@ def independent_ruckig_duration(distance, limits):
     vmax=st.tuples(*[st.floats(0.2, 3.0)] * 3),
     amax=st.tuples(*[st.floats(1.0, 20.0)] * 3),
     jmax=st.tuples(*[st.floats(10.0, 400.0)] * 3),
-    dt=st.sampled_from([0.004, 0.01, 0.02]),
+    dt_s=st.sampled_from([0.004, 0.01, 0.02]),
 )
-def test_kinematic_floor_on_the_grid(distance, scale, vmax, amax, jmax, dt):
+def test_kinematic_floor_on_the_grid(distance, scale, vmax, amax, jmax, dt_s):
     dist = np.array(distance) * np.array(scale)
     limits = optim.Limits(vmax, amax, jmax)
-    move = kinematic_floor_move(dist, limits, dt, max_steps=100_000)
-    assert optim.check_profile(move.acc, dt, limits, dist).ok
+    move = kinematic_floor_move(dist, limits, dt_s, max_steps=100_000)
+    assert optim.check_profile(move.acc, dt_s, limits, dist).ok
     # every grid move is a jerk-limited motion, so none is shorter than ruckig's optimum;
     # the grid version needs ceil(T / dt) steps or, where corners cannot align, one more
     steps = move.acc.shape[0] - 1
     duration = independent_ruckig_duration(dist, limits)
     assert move.continuous_duration_s == pytest.approx(duration, rel=1e-9)
-    assert math.ceil(duration / dt - 1e-7) <= steps <= math.ceil(duration / dt - 1e-7) + 1
+    assert math.ceil(duration / dt_s - 1e-7) <= steps <= math.ceil(duration / dt_s - 1e-7) + 1
 
 
 def test_path_limited_floor_keeps_the_norms():
@@ -73,7 +73,7 @@ def model():
 
 @pytest.fixture(scope="module")
 def base(model):
-    return optim.baselines(model, DISTANCE, LIMITS, THRESHOLD, DT)
+    return optim.baselines(model, DISTANCE, LIMITS, DT, THRESHOLD)
 
 
 def test_each_baseline_carries_its_exact_cycle_time(model, base):
@@ -107,7 +107,7 @@ def test_the_number_of_shaped_modes_is_the_best_one(model, base):
 
 def test_robust_baselines_report_their_worst_case(model):
     spec = optim.RobustSpec(n_freq=3, n_zeta=2)
-    base = optim.baselines(model, DISTANCE, LIMITS, THRESHOLD, DT, robust=spec)
+    base = optim.baselines(model, DISTANCE, LIMITS, DT, THRESHOLD, robust=spec)
     for b in base.entries:
         cycles = [
             jaxflex.cycle_time(perturbed(model, s, z), b.acc, DT, THRESHOLD) for s, z in spec.grid()
@@ -144,7 +144,7 @@ def test_a_shaper_registered_outside_optim_is_one_of_the_optimisers_baselines(
     h = 1e-3 * omega
     v = design.residual_vibration(np.array([omega - h, omega, omega + h]), zeta)
     assert v[1] < 1e-12 and v.max() < 1e-8
-    result = optim.optimize(model, DISTANCE, LIMITS, THRESHOLD, DT, progress=False)
+    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, progress=False)
     entries = result.baselines.entries
     assert [b.name.split()[0] for b in entries] == ["ruckig", "ZV", "ZVD", "EI", "ZVDD"]
     zvdd = entries[-1]

@@ -63,19 +63,19 @@ def test_damped_ei_meets_its_conditions(zeta):
 def test_shaped_step_response_leaves_no_residual_vibration():
     # Independent check through the modal recursion: a step of acceleration shaped by ZV at
     # the mode's frequency leaves the oscillator at rest relative to its static deflection.
-    freq, zeta, dt = 2.0, 0.03, 1e-3
+    freq, zeta, dt_s = 2.0, 0.03, 1e-3
     s = shaper("ZV", 2 * np.pi * freq, zeta)
     model = single_mode(freq, zeta)
-    t = dt * np.arange(4001)
+    t = dt_s * np.arange(4001)
     acc = np.zeros((t.size, 3))
     for amp, delay in zip(s.amplitudes, s.times_s, strict=True):
-        acc[:, 2] += amp * np.clip((t - delay) / dt, 0, 1)  # steps smoothed over one sample
+        acc[:, 2] += amp * np.clip((t - delay) / dt_s, 0, 1)  # steps smoothed over one sample
     acc[-1] = 0.0
     omega = 2 * np.pi * freq
     static = -1.0 / omega**2
 
     def amplitude(a):  # of the oscillation about the static deflection, at the end
-        q, qd = np.asarray(jaxflex.modal_states(model, a, dt))[-2, 0]
+        q, qd = np.asarray(jaxflex.modal_states(model, a, dt_s))[-2, 0]
         return np.hypot(q - static, qd / omega)
 
     unshaped = np.zeros_like(acc)
