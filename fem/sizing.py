@@ -49,19 +49,18 @@ from fem.scenes import SCENES, scene
 from fem.sizing_curves import (
     SettleReference,
     TimeGrid,
-    analyze,
-    bare,
     curve_error,
-    deviation_curves,
     modal_coordinates,
     truncation_curves,
 )
 from fem.sizing_residual import TruncationResidual
 from fem.sizing_result import Row, SizingResult
 from fem.supports import SuctionCup
+from jaxflex.deviation import deviation_curves
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.points import voxel_downsample
+from jaxflex.settle import analyze_move
 from jaxflex.validation import check_acc, check_positive
 
 # Refinement sequence: multiples of the part's element size, coarse to fine (a factor sqrt 2
@@ -94,7 +93,7 @@ class _Level:
         start = time.perf_counter()
         self.part = part
         self.result: ModalResult = modal_analysis(part, supports, n_modes=n_modes, **options)
-        self.model: ModalModel = bare(self.result.to_modal_model(points=None))
+        self.model: ModalModel = self.result.to_modal_model(points=None)
         self.wall_s = time.perf_counter() - start
         self.residual = TruncationResidual(self.result)
         self._q: dict[int, np.ndarray] = {}
@@ -245,7 +244,7 @@ class _Sizer:
             else:
                 factor = math.ceil(self.dt_s / self.eval_step_s - 1e-9)
             self.grid = TimeGrid(self.acc, self.dt_s, max(1, factor))
-        level.settle = SettleReference(level.model, self.grid, self.threshold_m, self.n_modes)
+        level.settle = SettleReference(level.model, self.grid, self.threshold_m)
         if not np.isfinite(level.settle.cycle_s):
             raise InputError("zeta: the deviation never settles (undamped modes); give zeta > 0")
         self.log(
@@ -399,7 +398,7 @@ class _Sizer:
             settle, ok = None, err["linf"] <= share
             if ok:
                 model = level.model.select_points(idx)
-                report = analyze(model, self.grid, self.threshold_m, self.n_modes)
+                report = analyze_move(model, self.grid.acc, self.grid.dt_s, self.threshold_m)
                 settle = level.settle.check(report.settle_time_s, share)
                 ok = settle.ok
             label = f"voxel {1e3 * voxel:.3g} mm"
@@ -425,7 +424,7 @@ class _Sizer:
         n = self._window(level)
         q = level.q(self.grid, n)
         curves = truncation_curves(np.asarray(model.shapes), q)
-        reference = SettleReference(model, self.grid, self.threshold_m, self.n_modes)
+        reference = SettleReference(model, self.grid, self.threshold_m)
         total = level.result.n_modes
         against = f"{total} modes"
         shown = {1, 2, 3, 5, 8, 12, 20, 30, 50, 80, 120, 200}
@@ -434,7 +433,7 @@ class _Sizer:
             settle, ok = None, err["linf"] <= share
             if ok and count < total:
                 truncated = model.truncate_modes(count)
-                report = analyze(truncated, self.grid, self.threshold_m, self.n_modes)
+                report = analyze_move(truncated, self.grid.acc, self.grid.dt_s, self.threshold_m)
                 settle = reference.check(report.settle_time_s, share)
                 ok = settle.ok
             if ok or settle is not None or count in shown or count == total:
@@ -457,7 +456,7 @@ class _Sizer:
     # -- final check and the whole run -------------------------------------------------------
     def _final(self, level: _Level, ref: _Level, idx, n_modes: int):
         model = level.model.select_points(idx).truncate_modes(n_modes)
-        report = analyze(model, self.grid, self.threshold_m, self.n_modes)
+        report = analyze_move(model, self.grid.acc, self.grid.dt_s, self.threshold_m)
         n = self._window(ref, level, cycle_s=report.cycle_time_s)
         q = level.q(self.grid, n)[:, :n_modes]
         curve = deviation_curves(np.asarray(model.shapes), q).all

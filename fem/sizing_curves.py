@@ -11,19 +11,14 @@ times are not taken from the curves but from jaxflex.analyze_move (exact, checke
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
-import jaxflex
+from jaxflex.engine import modal_states, upsample
 from jaxflex.model import ModalModel
-
-CHUNK_POINTS = 1024  # points per matrix product when curves run over every node
-SAMPLE_BUCKET = 512
+from jaxflex.settle import SettleReport, analyze_move
 
 
 @dataclass(frozen=True)
@@ -48,105 +43,18 @@ class TimeGrid:
         return math.ceil(t_end / self.step_s - 1e-9) + 1
 
     def fine_acc(self, n_samples: int) -> np.ndarray:
-        """(n_samples, 3) the move on the fine grid (the same piecewise-linear profile, as
+        """(n_samples, 3) the move on the fine grid (the same piecewise-linear profile,
         jaxflex.upsample), then at rest."""
-        n_fine = self.n_move * self.factor + 1
-        if n_samples < n_fine:
-            raise ValueError(f"n_samples {n_samples} is shorter than the move ({n_fine})")
-        t = np.arange(n_fine) / self.factor  # in steps of dt
-        fine = np.column_stack([np.interp(t, np.arange(self.n_move + 1), a) for a in self.acc.T])
-        return np.concatenate([fine, np.zeros((n_samples - n_fine, 3))])
-
-
-def _bucket(n: int) -> int:
-    """Size class of n: powers of 4 up to 1024 (cheap to pad), powers of 2 above."""
-    power = max(0, (n - 1).bit_length())
-    if power < 10:
-        power += power % 2
-    return 1 << power
-
-
-def padded(model: ModalModel, n_modes: int = 0) -> ModalModel:
-    """The same deviation with K rounded up to a power of two and M to one of at least
-    ``n_modes``, so that the jitted part of jaxflex.analyze_move compiles once per size class
-    instead of once per candidate: extra points repeat the last point (the maximum over
-    points is unchanged), extra modes have zero participation and zero shapes (they stay at
-    rest and add nothing)."""
-    k, m = model.n_points, model.n_modes
-    kb, mb = _bucket(k), _bucket(max(m, n_modes))
-    take = np.minimum(np.arange(kb), k - 1)
-    shapes = np.zeros((kb, 3, mb))
-    shapes[:, :, :m] = np.asarray(model.shapes)[take]
-    freq = np.concatenate([model.freq_hz, np.full(mb - m, np.max(model.freq_hz))])
-    zeta = np.concatenate([model.zeta, np.full(mb - m, model.zeta[-1])])
-    gamma = np.concatenate([model.gamma, np.zeros((mb - m, 3))])
-    return ModalModel(freq, zeta, gamma, shapes, np.asarray(model.points)[take])
-
-
-def analyze(model: ModalModel, grid: TimeGrid, threshold_m: float, n_modes: int = 0):
-    """jaxflex.analyze_move of ``model`` for the move of ``grid`` (exact settle time), padded
-    to at least ``n_modes`` modes (see :func:`padded`)."""
-    return jaxflex.analyze_move(padded(model, n_modes), grid.acc, grid.dt_s, threshold_m)
-
-
-def bare(model: ModalModel) -> ModalModel:
-    """The same model without labels and meta: both are static in the model's pytree, so
-    jitted functions (jaxflex.analyze_move) would recompile for every distinct meta."""
-    return ModalModel(model.freq_hz, model.zeta, model.gamma, model.shapes, model.points)
-
-
-@jax.jit
-def _states(freq_hz, zeta, gamma, acc, step_s):
-    probe = ModalModel(freq_hz, zeta, gamma, jnp.zeros((1, 3, freq_hz.shape[0])), jnp.zeros((1, 3)))
-    return jaxflex.modal_states(probe, acc, step_s)[..., 0]
+        fine = upsample(self.acc, self.factor, np)
+        if n_samples < fine.shape[0]:
+            raise ValueError(f"n_samples {n_samples} is shorter than the move ({fine.shape[0]})")
+        return np.concatenate([fine, np.zeros((n_samples - fine.shape[0], 3))])
 
 
 def modal_coordinates(model: ModalModel, grid: TimeGrid, n_samples: int) -> np.ndarray:
-    """(n_samples, M) modal coordinates q_i(t) (kg^0.5 m) of ``model`` on ``grid``. The
-    horizon is padded to a multiple of SAMPLE_BUCKET samples so that few shapes compile."""
-    padded = SAMPLE_BUCKET * math.ceil(n_samples / SAMPLE_BUCKET)
-    q = _states(model.freq_hz, model.zeta, model.gamma, grid.fine_acc(padded), grid.step_s)
-    return np.asarray(q)[:n_samples]
-
-
-@dataclass(frozen=True)
-class Curves:
-    """Deviation over every point (``all``, (T,) m, with the point index ``argmax`` (T,)) and
-    over each requested subset of points (``subsets`` (S, T) m)."""
-
-    all: np.ndarray
-    argmax: np.ndarray
-    subsets: np.ndarray
-
-
-def deviation_curves(
-    shapes: np.ndarray, q: np.ndarray, subsets: Sequence[np.ndarray] = ()
-) -> Curves:
-    """d(t) = max_p |u_p(t)| with u_p = shapes[p] @ q(t) for all points of ``shapes``
-    (K, 3, M) and for each index subset, from modal coordinates ``q`` (T, M)."""
-    n_points = shapes.shape[0]
-    best = np.full(q.shape[0], -1.0)
-    where = np.zeros(q.shape[0], dtype=np.int64)
-    masks = []
-    for idx in subsets:
-        mask = np.zeros(n_points, dtype=bool)
-        mask[np.asarray(idx, dtype=np.int64)] = True
-        masks.append(mask)
-    sub = np.zeros((len(masks), q.shape[0]))
-    for start in range(0, n_points, CHUNK_POINTS):
-        block = shapes[start : start + CHUNK_POINTS]
-        u = (block.reshape(-1, block.shape[2]) @ q.T).reshape(block.shape[0], 3, -1)
-        norms = np.sqrt(np.einsum("kdt,kdt->kt", u, u))
-        local = np.argmax(norms, axis=0)
-        value = norms[local, np.arange(norms.shape[1])]
-        better = value > best
-        best = np.where(better, value, best)
-        where = np.where(better, local + start, where)
-        for s, mask in enumerate(masks):
-            inside = mask[start : start + block.shape[0]]
-            if inside.any():
-                sub[s] = np.maximum(sub[s], norms[inside].max(axis=0))
-    return Curves(all=best, argmax=where, subsets=sub)
+    """(n_samples, M) modal coordinates q_i(t) (kg^0.5 m) of ``model`` on ``grid``: the exact
+    recursion (jaxflex.engine, NumPy) over the finely sampled move, then at rest."""
+    return modal_states(model, grid.fine_acc(n_samples), grid.step_s, xp=np)[..., 0]
 
 
 def truncation_curves(shapes: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -204,14 +112,13 @@ class SettleReference:
     """Exact settle time of a reference model for a move, and its sensitivity to the
     threshold (computed on demand): the settle times for (1 + s) x and (1 - s) x threshold."""
 
-    def __init__(self, model: ModalModel, grid: TimeGrid, threshold_m: float, n_modes: int = 0):
+    def __init__(self, model: ModalModel, grid: TimeGrid, threshold_m: float):
         self.model, self.grid, self.threshold_m = model, grid, threshold_m
-        self.n_modes = n_modes
         self._band: dict[float, tuple[float, float]] = {}
 
     @cached_property
-    def report(self) -> jaxflex.settle.SettleReport:
-        return analyze(self.model, self.grid, self.threshold_m, self.n_modes)
+    def report(self) -> SettleReport:
+        return self._analyze(self.threshold_m)
 
     @property
     def settle_s(self) -> float:
@@ -221,10 +128,13 @@ class SettleReference:
     def cycle_s(self) -> float:
         return self.report.cycle_time_s
 
+    def _analyze(self, threshold_m: float) -> SettleReport:
+        return analyze_move(self.model, self.grid.acc, self.grid.dt_s, threshold_m)
+
     def band(self, share: float) -> tuple[float, float]:
         if share not in self._band:
-            lo = analyze(self.model, self.grid, self.threshold_m * (1 + share), self.n_modes)
-            hi = analyze(self.model, self.grid, self.threshold_m * (1 - share), self.n_modes)
+            lo = self._analyze(self.threshold_m * (1 + share))
+            hi = self._analyze(self.threshold_m * (1 - share))
             self._band[share] = (lo.settle_time_s, hi.settle_time_s)
         return self._band[share]
 

@@ -3,12 +3,12 @@
 Three ways to drive the FMU, each with the reference that describes it exactly:
 
 - "embedded": ``use_embedded_trajectory = true``; the FMU replays its own trajectory (linear
-  between samples). Reference: ``jaxflex.simulate`` of the same samples.
+  between samples). Reference: the exact recursion (jaxflex.engine) of the same samples.
 - "linear" (FMI 2.0): inputs set with their time derivatives (fmi2SetRealInputDerivatives),
   so the acceleration is linear over each step; driven by :class:`fmu.master.Session` (fmpy's
-  FMU2Slave). Reference: ``jaxflex.simulate``.
+  FMU2Slave). Reference: the same.
 - "held": inputs only (FMI 3.0, or FMI 2.0 on request), constant over each step. Reference:
-  the exact zero-order-hold recursion built on ``jaxflex.discretize.propagators``.
+  the exact zero-order-hold recursion (jaxflex.engine, ``hold="zero"``).
 """
 
 from __future__ import annotations
@@ -21,10 +21,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from fmpy import read_model_description, simulate_fmu
+from fmpy.validation import validate_fmu
 
 from fmu.master import Session, run_linear
 from fmu.resource import decode_resource
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE
+from jaxflex.deviation import point_displacements
+from jaxflex.engine import modal_states, rest_padded
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.model import ModalModel
 from jaxflex.validation import check_acc, check_positive
@@ -104,34 +108,16 @@ def input_signal(acc, dt_s: float) -> np.ndarray:
     return signal
 
 
-def held_input_response(model: ModalModel, acc, dt_s: float, n_steps: int, *, points=False):
-    """Exact response when each sample a_k is held over [t_k, t_k + dt_s) (zero-order hold),
-    0 after the last sample: (deviation (n_steps + 1,) m, displacement (n_steps + 1, K, 3) m
-    or None). The same exact propagators as jaxflex, with G0 + G1 = J0 as the input matrix."""
-    from jaxflex.discretize import propagators
-
-    omega = 2.0 * np.pi * np.asarray(model.freq_hz)
-    prop = propagators(omega, np.asarray(model.zeta), dt_s, xp=np)
-    force = np.zeros((n_steps + 1, model.n_modes))
-    n = min(len(acc), n_steps + 1)
-    force[:n] = -np.asarray(acc)[:n] @ np.asarray(model.gamma).T
-    q = np.zeros((n_steps + 1, model.n_modes))
-    x = np.zeros((model.n_modes, 2))
-    for k in range(n_steps):
-        x = np.einsum("mij,mj->mi", prop.phi, x) + prop.j0 * force[k][:, None]
-        q[k + 1] = x[:, 0]
-    disp = np.einsum("kcm,tm->tkc", np.asarray(model.shapes), q)
+def reference_response(
+    model: ModalModel, acc, dt_s: float, n_steps: int, *, hold: str = "linear", points=False
+):
+    """Exact response at the communication points t_k = k dt_s, k = 0..n_steps, to the samples
+    ``acc`` (linear between them, or each held over its step with ``hold="zero"``) and rest
+    after them: (deviation (n_steps + 1,) m, displacement (n_steps + 1, K, 3) m or None)."""
+    acc = rest_padded(np.asarray(acc, dtype=np.float64)[: n_steps + 1], n_steps)
+    q = modal_states(model, acc, dt_s, hold=hold, xp=np)[..., 0]
+    disp = point_displacements(np.asarray(model.shapes), q)
     return np.linalg.norm(disp, axis=2).max(axis=1), (disp if points else None)
-
-
-def _linear_response(model: ModalModel, acc, dt_s: float, n_steps: int, *, points=False):
-    import jaxflex
-
-    extend = (n_steps - (len(acc) - 1)) * dt_s
-    res = jaxflex.simulate(model, acc, dt_s, extend_s=max(extend, 0.0), displacement=points)
-    dev = np.asarray(res.deviation)[: n_steps + 1]
-    disp = None if not points else np.asarray(res.displacement)[: n_steps + 1]
-    return dev, disp
 
 
 def settle_time_at_points(t: np.ndarray, deviation: np.ndarray, threshold_m: float) -> float:
@@ -189,9 +175,6 @@ def verify(
     default, see the module docstring). The run lasts until the FMU's default stop time or
     ``extend_s`` s after the last sample.
     """
-    from fmpy import read_model_description, simulate_fmu
-    from fmpy.validation import validate_fmu
-
     path = Path(path)
     if not path.is_file():
         raise InputError(f"FMU {str(path)!r} does not exist")
@@ -240,12 +223,11 @@ def verify(
             f"the simulation returned {len(result['time'])} samples, expected {n_steps + 1}: "
             f"dt_s = {dt_s} s must divide the simulated time"
         )
-    if mode == "held":
-        ref_dev, ref_disp = held_input_response(stored.model, acc, dt_s, n_steps, points=points)
-        reference = "exact zero-order hold (jaxflex.discretize)"
-    else:
-        ref_dev, ref_disp = _linear_response(stored.model, acc, dt_s, n_steps, points=points)
-        reference = "jaxflex.simulate"
+    hold = "zero" if mode == "held" else "linear"
+    ref_dev, ref_disp = reference_response(
+        stored.model, acc, dt_s, n_steps, hold=hold, points=points
+    )
+    reference = f"jaxflex.engine ({'zero-order hold' if mode == 'held' else 'first-order hold'})"
     dev = np.asarray(result["deviation"])
     diff = float(np.max(np.abs(dev - ref_dev)))
     diff_p = rel_p = None

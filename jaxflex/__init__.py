@@ -9,18 +9,11 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
+from jaxflex.engine import free_states, modal_states, upsample  # noqa: E402
 from jaxflex.errors import InputError, JaxflexError, ModelError, ModelFileError  # noqa: E402
-from jaxflex.model import ModalModel  # noqa: E402
-from jaxflex.model_io import load_model, save_model  # noqa: E402
+from jaxflex.model import ModalModel, load_model, save_model, stack_models  # noqa: E402
 from jaxflex.settle import SettleReport, analyze_move, cycle_time, settle_time  # noqa: E402
-from jaxflex.simulate import (  # noqa: E402
-    Response,
-    end_state,
-    free_states,
-    modal_states,
-    simulate,
-    upsample,
-)
+from jaxflex.simulate import Response, batch_deviation, end_state, simulate  # noqa: E402
 from jaxflex.surrogate import cycle_time_smooth, envelope_time  # noqa: E402
 
 __all__ = [
@@ -32,6 +25,7 @@ __all__ = [
     "Response",
     "SettleReport",
     "analyze_move",
+    "batch_deviation",
     "cycle_time",
     "cycle_time_smooth",
     "end_state",
@@ -42,6 +36,7 @@ __all__ = [
     "save_model",
     "settle_time",
     "simulate",
+    "stack_models",
     "upsample",
 ]
 __version__ = "0.1.0"

@@ -21,17 +21,17 @@ from functools import partial
 import jax
 import jax.numpy as jnp
 
+from jaxflex.engine import modal_forces
 from jaxflex.model import ModalModel
-from jaxflex.simulate import modal_forces
 
 
 @partial(jax.jit, static_argnames=("beta", "gamma"))
 def newmark_modal(model: ModalModel, acc, dt, beta: float = 0.25, gamma: float = 0.5):
     """Newmark-beta on each mode: modal coordinates q (n+1, M) at t_k = k dt."""
-    omega = 2.0 * jnp.pi * model.freq_hz
+    omega = model.omega
     damping = 2.0 * model.zeta * omega
     stiffness = omega**2
-    force = modal_forces(model.gamma, acc)
+    force = modal_forces(model, acc)
     k_eff = stiffness + gamma / (beta * dt) * damping + 1.0 / (beta * dt**2)
 
     def step(state, f_next):
@@ -57,9 +57,9 @@ def newmark_modal(model: ModalModel, acc, dt, beta: float = 0.25, gamma: float =
 @jax.jit
 def central_difference_modal(model: ModalModel, acc, dt):
     """Explicit central difference on each mode: q (n+1, M); unstable if w h > 2."""
-    omega = 2.0 * jnp.pi * model.freq_hz
+    omega = model.omega
     sigma_h = model.zeta * omega * dt
-    force = modal_forces(model.gamma, acc)
+    force = modal_forces(model, acc)
     q0 = jnp.zeros_like(omega)
     q_prev = q0 + 0.5 * dt**2 * force[0]  # q_{-1} from rest with q''(0) = f_0
 

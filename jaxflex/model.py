@@ -22,6 +22,25 @@ import jax
 import numpy as np
 
 from jaxflex.errors import ModelError
+from jaxflex.model_file import ARRAY_FIELDS, read_model_file, write_model_file
+
+
+class _Annotations:
+    """Labels and meta of a model as pytree auxiliary data that compares equal to any other
+    annotations: models that differ only in their description share compiled code and stack
+    (jax.vmap, jaxflex.stack_models). Nothing traced reads them. A model returned *from* a
+    jitted function therefore carries the annotations of the call that compiled it."""
+
+    __slots__ = ("labels", "meta")
+
+    def __init__(self, labels, meta) -> None:
+        self.labels, self.meta = labels, meta
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _Annotations)
+
+    def __hash__(self) -> int:
+        return hash(_Annotations)
 
 
 def _is_concrete(x: Any) -> bool:
@@ -130,21 +149,18 @@ class ModalModel:
         ):
             object.__setattr__(self, name, value)
 
-    # -- pytree protocol: arrays are leaves, labels and meta are static -------------------
+    # -- pytree protocol: arrays are leaves, labels and meta ride along (_Annotations) -----
     def tree_flatten(self):
-        children = (self.freq_hz, self.zeta, self.gamma, self.shapes, self.points)
-        aux = (self.labels, json.dumps(dict(self.meta), sort_keys=True))
-        return children, aux
+        children = tuple(getattr(self, name) for name in ARRAY_FIELDS)
+        return children, _Annotations(self.labels, self.meta)
 
     @classmethod
-    def tree_unflatten(cls, aux, children):
+    def tree_unflatten(cls, aux: _Annotations, children):
         obj = object.__new__(cls)
-        for name, value in zip(
-            ("freq_hz", "zeta", "gamma", "shapes", "points"), children, strict=True
-        ):
+        for name, value in zip(ARRAY_FIELDS, children, strict=True):
             object.__setattr__(obj, name, value)
-        object.__setattr__(obj, "labels", aux[0])
-        object.__setattr__(obj, "meta", json.loads(aux[1]))
+        object.__setattr__(obj, "labels", aux.labels)
+        object.__setattr__(obj, "meta", aux.meta)
         return obj
 
     # -- derived quantities ------------------------------------------------------------
@@ -245,7 +261,37 @@ class ModalModel:
         return ModalModel(**fields)
 
     def save(self, path) -> None:
-        """Write the model to a versioned ``.npz`` file, atomically (see jaxflex.model_io)."""
-        from jaxflex.model_io import save_model
+        """Write the model to a versioned ``.npz`` file, atomically (jaxflex.model_file)."""
+        arrays = {name: getattr(self, name) for name in ARRAY_FIELDS}
+        write_model_file(path, arrays, self.labels, dict(self.meta))
 
-        save_model(self, path)
+
+def save_model(model: ModalModel, path) -> None:
+    """Write ``model`` to ``path`` (.npz) atomically: the file is complete or absent."""
+    model.save(path)
+
+
+def load_model(path) -> ModalModel:
+    """Read a model written by :func:`save_model`.
+
+    Raises ModelFileError for a missing, truncated or corrupt file, a file of another format,
+    an unknown schema version or a missing field; ModelError if the stored data are invalid.
+    """
+    fields = read_model_file(path)
+    try:
+        return ModalModel(**fields)
+    except ModelError as exc:
+        raise ModelError(f"{str(path)!r}: {exc}") from exc
+
+
+def stack_models(models: Sequence[ModalModel]) -> ModalModel:
+    """B models of equal size (K points, M modes) as one model whose arrays have a leading
+    batch axis (B, ...): the input of ``jax.vmap`` over models and of
+    jaxflex.simulate.batch_deviation. Labels and meta are those of the first model."""
+    models = list(models)
+    if not models:
+        raise ModelError("stack_models: needs at least one model")
+    sizes = sorted({(m.n_points, m.n_modes) for m in models})
+    if len(sizes) != 1:
+        raise ModelError(f"stack_models: models must have equal size (points, modes), got {sizes}")
+    return jax.tree_util.tree_map(lambda *leaves: np.stack(leaves), *models)

@@ -1,7 +1,7 @@
 """Exact settle time and cycle time.
 
-Definitions (DESIGN.md): deviation d(t) = max_p |u_p(t)|, settle time
-t_s = sup{t : d(t) > threshold} (0 if never), cycle time T_c = max(n dt, t_s).
+Definitions (docs/design.md): deviation d(t) = max_p |u_p(t)|, settle time
+t_s = sup{t : d(t) > threshold} (0 if never), cycle time T_c = max(n dt_s, t_s).
 
 "Exact" means no peak is missed and the search provably ends:
 
@@ -15,7 +15,7 @@ t_s = sup{t : d(t) > threshold} (0 if never), cycle time T_c = max(n dt, t_s).
   where sup |u_p''| <= sum_i |phi_i(p)| sup |q_i''| is bounded in closed form: omega_i^2 R_i
   e^{-sigma_i a} after the move, and, during the move (force f_i linear on the step, so the
   energy radius r_i = sqrt(q_i'^2 + omega_i^2 q_i^2) grows at most like |f_i|),
-  max|f_i| + (1 + 2 zeta_i) omega_i (r_i(t_k) + dt max|f_i|). Intervals that cannot be
+  max|f_i| + (1 + 2 zeta_i) omega_i (r_i(t_k) + dt_s max|f_i|). Intervals that cannot be
   certified are subdivided (16-fold) until they are certified, or an exceedance is found and
   the last crossing is located to 1e-9 s.
 The search runs backwards in time and stops at the first (= last in time) exceedance.
@@ -26,12 +26,12 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-import jax
 import numpy as np
 
-from jaxflex.discretize import propagators, substep_state
+from jaxflex.decay import amplitudes, envelope, envelope_horizon
+from jaxflex.deviation import point_norms
+from jaxflex.engine import free_states, modal_forces, modal_states, states_between
 from jaxflex.model import ModalModel
-from jaxflex.simulate import modal_forces, modal_states
 from jaxflex.validation import check_acc, check_positive
 
 SUBDIVISIONS = 16
@@ -61,6 +61,14 @@ class SettleReport:
     def as_dict(self) -> dict:
         return asdict(self)
 
+    def times(self) -> dict[str, float]:
+        """Transfer, settle and cycle time (s), the part of the report a move is judged by."""
+        return {
+            "transfer_time_s": self.transfer_time_s,
+            "settle_time_s": self.settle_time_s,
+            "cycle_time_s": self.cycle_time_s,
+        }
+
 
 class _SearchBudget:
     def __init__(self, n_points: int) -> None:
@@ -80,9 +88,10 @@ class _ModalSignal:
     """Shared data of the closed-form response: per-point shape norms and modal constants."""
 
     def __init__(self, model: ModalModel) -> None:
+        self.model = model
         self.shapes = np.asarray(model.shapes)
         self.weights = model.shape_norms  # (K, M)
-        self.omega = 2.0 * np.pi * np.asarray(model.freq_hz)
+        self.omega = np.asarray(model.omega)
         self.zeta = np.asarray(model.zeta)
         self.sigma = self.zeta * self.omega
         self.budget = _SearchBudget(self.weights.shape[0])
@@ -90,8 +99,7 @@ class _ModalSignal:
     def _point_norms(self, q: np.ndarray, idx: np.ndarray) -> np.ndarray:
         """|u_p| for points idx and modal coordinates q (T, M) -> (P, T)."""
         self.budget.spend(idx.size * q.shape[0])
-        u = np.einsum("pcm,tm->pct", self.shapes[idx], q, optimize=True)
-        return np.sqrt(np.einsum("pct,pct->pt", u, u))
+        return point_norms(self.shapes[idx], q)
 
 
 class _FreeDecay(_ModalSignal):
@@ -100,18 +108,15 @@ class _FreeDecay(_ModalSignal):
     def __init__(self, model: ModalModel, x_end: np.ndarray, t0: float) -> None:
         super().__init__(model)
         self.x_end, self.t0 = x_end, t0
-        q0, v0 = x_end[:, 0], x_end[:, 1]
-        omega_d = self.omega * np.sqrt(1.0 - self.zeta**2)
-        self.amplitude = np.hypot(q0, (v0 + self.sigma * q0) / omega_d)  # R_i
+        self.amplitude = amplitudes(model, x_end)  # R_i
 
     def norms(self, t: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        prop = propagators(self.omega, self.zeta, (t - self.t0)[:, None], np)
-        q = prop.phi[..., 0, 0] * self.x_end[:, 0] + prop.phi[..., 0, 1] * self.x_end[:, 1]
+        q = free_states(self.model, self.x_end, t - self.t0, np)[..., 0]
         return self._point_norms(q, idx)
 
     def envelope(self, tau: np.ndarray, idx: np.ndarray | slice = slice(None)) -> np.ndarray:
         """E_p(tau) >= |u_p(t0 + tau)|: (P, T)."""
-        return self.weights[idx] @ (self.amplitude[:, None] * np.exp(-np.outer(self.sigma, tau)))
+        return envelope(self.weights[idx], self.amplitude, self.sigma, tau)
 
     def curvature(self, a: np.ndarray, b: np.ndarray, idx: np.ndarray) -> np.ndarray:
         decay = np.exp(-np.outer(self.sigma, a - self.t0))
@@ -121,29 +126,22 @@ class _FreeDecay(_ModalSignal):
 class _ForcedMotion(_ModalSignal):
     """Response during the move from the exact states at the samples (FOH in between)."""
 
-    def __init__(self, model: ModalModel, states: np.ndarray, force: np.ndarray, dt: float):
+    def __init__(self, model: ModalModel, states: np.ndarray, force: np.ndarray, dt_s: float):
         super().__init__(model)
-        self.states, self.force, self.dt = states, force, dt
+        self.states, self.force, self.dt_s = states, force, dt_s
         self.n_steps = states.shape[0] - 1
         step_force = np.maximum(np.abs(force[:-1]), np.abs(force[1:]))  # (n, M)
         radius = np.hypot(states[:-1, :, 1], self.omega * states[:-1, :, 0])  # r_i(t_k)
         self.acc_bound = step_force + (1.0 + 2.0 * self.zeta) * self.omega * (
-            radius + dt * step_force
+            radius + dt_s * step_force
         )  # (n, M): sup |q_i''| on step k
 
-    def _step_index(self, t: np.ndarray) -> np.ndarray:
-        return np.clip(np.floor(t / self.dt).astype(np.int64), 0, self.n_steps - 1)
-
     def norms(self, t: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        k = self._step_index(t)
-        tau = t - k * self.dt
-        prop = propagators(self.omega, self.zeta, tau[:, None], np)
-        slope = (self.force[k + 1] - self.force[k]) / self.dt
-        x = substep_state(prop, tau[:, None], self.states[k], self.force[k], slope, np)
+        x = states_between(self.model, self.states, self.force, self.dt_s, t, np)
         return self._point_norms(x[..., 0], idx)
 
     def curvature(self, a: np.ndarray, b: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        k = self._step_index(0.5 * (a + b))
+        k = np.clip(np.floor(0.5 * (a + b) / self.dt_s).astype(np.int64), 0, self.n_steps - 1)
         return self.weights[idx] @ self.acc_bound[k].T
 
 
@@ -174,32 +172,6 @@ def _last_exceedance(signal, idx, t, norms, threshold) -> float | None:
     return None
 
 
-def _envelope_horizon(decay: _FreeDecay, threshold: float) -> float:
-    """Smallest tau >= 0 with max_p E_p(tau) <= threshold (inf if undamped modes prevent it)."""
-    peak0 = decay.envelope(np.zeros(1)).max()
-    if peak0 <= threshold:
-        return 0.0
-    lasting = decay.sigma <= 0
-    if lasting.any():
-        floor = (decay.weights[:, lasting] @ decay.amplitude[lasting]).max()
-        if floor >= threshold:
-            return math.inf
-    damped = (decay.sigma > 0) & (decay.amplitude > 0)
-    sigma_min = decay.sigma[damped].min()
-    lo, hi = 0.0, math.log(peak0 / threshold) / sigma_min
-    while decay.envelope(np.array([hi])).max() > threshold:  # undamped floor just below
-        lo, hi = hi, 2.0 * hi
-    for _ in range(200):
-        if hi - lo <= 1e-12 * max(1.0, hi):
-            break
-        mid = 0.5 * (lo + hi)
-        if decay.envelope(np.array([mid])).max() > threshold:
-            lo = mid
-        else:
-            hi = mid
-    return hi
-
-
 def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold: float):
     """Grid chunks over [0, horizon] (tau), step adapted to the decaying curvature bound."""
     chunks = []
@@ -219,7 +191,7 @@ def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold: float):
 
 def _tail_settle(decay: _FreeDecay, threshold: float) -> tuple[float | None, float]:
     """(last exceedance time after the move or None, proof horizon tau_env) in s from t0."""
-    horizon = _envelope_horizon(decay, threshold)
+    horizon = envelope_horizon(decay.weights, decay.amplitude, decay.sigma, threshold)
     if horizon == 0.0:
         return None, 0.0
     if math.isinf(horizon):
@@ -235,38 +207,35 @@ def _tail_settle(decay: _FreeDecay, threshold: float) -> tuple[float | None, flo
     return None, horizon
 
 
-@jax.jit
-def _motion(model, acc, dt):
-    return modal_states(model, acc, dt), modal_forces(model.gamma, acc)
-
-
-def _prepare(model: ModalModel, acc, dt, threshold):
+def _prepare(model: ModalModel, acc, dt_s, threshold_m):
     acc = check_acc(acc, rest_at_ends=True).astype(np.float64)
-    dt = check_positive("dt", dt)
-    threshold = check_positive("threshold", threshold)
-    states, force = _motion(model, acc, dt)
-    return np.asarray(states), np.asarray(force), dt, threshold
+    dt_s = check_positive("dt_s", dt_s)
+    threshold_m = check_positive("threshold_m", threshold_m)
+    states = modal_states(model, acc, dt_s, xp=np)
+    return states, modal_forces(model, acc, np), dt_s, threshold_m
 
 
-def analyze_move(model: ModalModel, acc, dt: float, threshold: float, *, settle: bool = True):
+def analyze_move(
+    model: ModalModel, acc, dt_s: float, threshold_m: float, *, settle: bool = True
+) -> SettleReport:
     """Exact transfer, settle and cycle time of the move ``acc`` ((n+1, 3) m/s^2, a_0 = a_n = 0)
-    at step ``dt`` (s) against ``threshold`` (m). With ``settle=False`` the search during the
-    move is skipped (the cycle time does not need it) and settle_time_s is only exact if it
-    lies after the move; otherwise it is reported as the transfer time."""
-    states, force, dt, threshold = _prepare(model, acc, dt, threshold)
+    at step ``dt_s`` (s) against ``threshold_m`` (m). With ``settle=False`` the search during
+    the move is skipped (the cycle time does not need it) and settle_time_s is only exact if
+    it lies after the move; otherwise it is reported as the transfer time."""
+    states, force, dt_s, threshold_m = _prepare(model, acc, dt_s, threshold_m)
     n_steps = states.shape[0] - 1
-    t_n = n_steps * dt
+    t_n = n_steps * dt_s
     decay = _FreeDecay(model, states[-1], t_n)
-    tail, horizon = _tail_settle(decay, threshold)
+    tail, horizon = _tail_settle(decay, threshold_m)
     evaluations = decay.budget.count
     residual = float(decay.norms(np.array([t_n]), np.arange(model.n_points)).max())
     if tail is not None:
         settle_s = t_n + tail
     elif settle:
-        motion = _ForcedMotion(model, states, force, dt)
-        grid = dt * np.arange(n_steps + 1)
+        motion = _ForcedMotion(model, states, force, dt_s)
+        grid = dt_s * np.arange(n_steps + 1)
         idx = np.arange(model.n_points)
-        found = _last_exceedance(motion, idx, grid, motion.norms(grid, idx), threshold)
+        found = _last_exceedance(motion, idx, grid, motion.norms(grid, idx), threshold_m)
         settle_s = 0.0 if found is None else found
         evaluations += motion.budget.count
     else:
@@ -275,19 +244,19 @@ def analyze_move(model: ModalModel, acc, dt: float, threshold: float, *, settle:
         transfer_time_s=t_n,
         settle_time_s=settle_s,
         cycle_time_s=max(t_n, settle_s),
-        threshold_m=threshold,
+        threshold_m=threshold_m,
         residual_m=residual,
         proof_horizon_s=float(t_n + horizon),
         evaluations=evaluations,
     )
 
 
-def cycle_time(model: ModalModel, acc, dt: float, threshold: float) -> float:
-    """Exact cycle time max(n dt, t_s) in s (see module docstring); inf if undamped modes
-    keep the deviation above ``threshold`` (m) forever."""
-    return analyze_move(model, acc, dt, threshold, settle=False).cycle_time_s
+def cycle_time(model: ModalModel, acc, dt_s: float, threshold_m: float) -> float:
+    """Exact cycle time max(n dt_s, t_s) in s (see module docstring); inf if undamped modes
+    keep the deviation above ``threshold_m`` (m) forever."""
+    return analyze_move(model, acc, dt_s, threshold_m, settle=False).cycle_time_s
 
 
-def settle_time(model: ModalModel, acc, dt: float, threshold: float) -> float:
-    """Exact settle time sup{t : d(t) > threshold} in s, 0 if the deviation never exceeds."""
-    return analyze_move(model, acc, dt, threshold).settle_time_s
+def settle_time(model: ModalModel, acc, dt_s: float, threshold_m: float) -> float:
+    """Exact settle time sup{t : d(t) > threshold_m} in s, 0 if the deviation never exceeds."""
+    return analyze_move(model, acc, dt_s, threshold_m).settle_time_s

@@ -12,7 +12,7 @@ which a soft maximum over points of E_p reaches the threshold,
     F(tau) = (1 / s) log sum_p E_p(tau)^s   (>= max_p log E_p(tau)),   F(tau_env) = log threshold,
 
 extended to negative tau (a residual already below the threshold) and passed through a
-softplus of width w (default: dt):  T_smooth = t_n + w softplus(tau_env / w).
+softplus of width w (default: dt_s):  T_smooth = t_n + w softplus(tau_env / w).
 
 Bound: T_smooth >= exact cycle time, always (every step over-estimates). It is tight when one
 mode dominates the residual (then the envelope touches the true peaks); with several modes the
@@ -32,31 +32,31 @@ from jaxflex.simulate import end_state
 _NEWTON_STEPS = 40
 
 
-def _envelope_terms(model: ModalModel, x_end, threshold):
+def _envelope_terms(model: ModalModel, x_end, threshold_m):
     """Point weights |phi_i(p)| (K, M), amplitudes R_i (M,) and decay rates sigma_i (M,),
     with floors that only ever raise the envelope (so the bound is kept)."""
-    omega = 2.0 * jnp.pi * model.freq_hz
+    omega = model.omega
     sigma = model.zeta * omega
     omega_d = omega * jnp.sqrt(1.0 - model.zeta**2)
     weights = jnp.linalg.norm(model.shapes, axis=1)  # (K, M)
     weights = jnp.maximum(weights, 1e-30 * jax.lax.stop_gradient(jnp.max(weights)))
     # Smooth |.|: sqrt(R^2 + eps^2) >= R with eps small enough to add < 1e-9 threshold.
-    eps = 1e-9 * threshold / jax.lax.stop_gradient(jnp.max(jnp.sum(weights, axis=1)))
+    eps = 1e-9 * threshold_m / jax.lax.stop_gradient(jnp.max(jnp.sum(weights, axis=1)))
     q0, v0 = x_end[:, 0], x_end[:, 1]
     amplitude = jnp.sqrt(q0**2 + ((v0 + sigma * q0) / omega_d) ** 2 + eps**2)
     return weights, amplitude, sigma
 
 
-def envelope_time(model: ModalModel, x_end, threshold, *, sharpness: float = 50.0):
-    """Smooth root tau (s, may be negative) of soft-max_p log E_p(tau) = log threshold for the
+def envelope_time(model: ModalModel, x_end, threshold_m, *, sharpness: float = 50.0):
+    """Smooth root tau (s, may be negative) of soft-max_p log E_p(tau) = log threshold_m for the
     free decay from modal state ``x_end`` (M, 2). Differentiable in x_end and the model.
 
     G(tau) = soft-max_p log E_p(tau) - log threshold is convex and decreasing in tau (a
     log-sum-exp of functions linear in tau), so Newton's method started left of the root
     climbs to it monotonically without overshooting.
     """
-    weights, amplitude, sigma = _envelope_terms(model, x_end, threshold)
-    log_threshold = jnp.log(threshold)
+    weights, amplitude, sigma = _envelope_terms(model, x_end, threshold_m)
+    log_threshold = jnp.log(threshold_m)
 
     def excess(tau):
         envelope = weights @ (amplitude * jnp.exp(-sigma * tau))  # (K,)
@@ -83,17 +83,17 @@ def envelope_time(model: ModalModel, x_end, threshold, *, sharpness: float = 50.
 def cycle_time_smooth(
     model: ModalModel,
     acc,
-    dt,
-    threshold,
+    dt_s,
+    threshold_m,
     *,
     sharpness: float = 50.0,
     width_s=None,
 ):
     """Smooth upper bound of the exact cycle time (s) of the move ``acc`` ((n+1, 3) m/s^2)
-    at step ``dt`` (s) against ``threshold`` (m); see the module docstring. Traceable, so
+    at step ``dt_s`` (s) against ``threshold_m`` (m); see the module docstring. Traceable, so
     jax.grad gives its gradient with respect to the samples and the model."""
     acc = jnp.asarray(acc)
     n_steps = acc.shape[0] - 1
-    width = dt if width_s is None else width_s
-    tau = envelope_time(model, end_state(model, acc, dt), threshold, sharpness=sharpness)
-    return n_steps * dt + width * jax.nn.softplus(tau / width)
+    width = dt_s if width_s is None else width_s
+    tau = envelope_time(model, end_state(model, acc, dt_s), threshold_m, sharpness=sharpness)
+    return n_steps * dt_s + width * jax.nn.softplus(tau / width)

@@ -19,12 +19,12 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from jaxflex.model import ModalModel
+from jaxflex.settle import SettleReport, analyze_move
 from optim.kinematics import clean_distance
 from optim.limits import Limits
 from optim.robust import RobustSpec, perturbed
 from optim.ruckig_move import kinematic_floor_move, shaped_grid_move, time_optimal_move
 from optim.shapers import KINDS, convolve, shaper
-from optim.timing import MoveTiming, exact_timing
 
 MAX_SHAPED_MODES = 6
 
@@ -35,7 +35,7 @@ class Baseline:
 
     name: str
     acc: np.ndarray
-    timing: MoveTiming
+    timing: SettleReport
     shaped_freq_hz: list[float] = field(default_factory=list)
     worst_cycle_time_s: float | None = None
     worst_case: dict | None = None  # scenario of the worst case
@@ -53,7 +53,7 @@ class Baseline:
         return {
             "name": self.name,
             "n_steps": int(self.acc.shape[0] - 1),
-            **self.timing.as_dict(),
+            **self.timing.times(),
             "shaped_modes": len(self.shaped_freq_hz),
             "shaped_freq_hz": self.shaped_freq_hz,
             "worst_cycle_time_s": self.worst_cycle_time_s,
@@ -98,7 +98,7 @@ def worst_case(
     where, every point as {"freq_scale", "zeta", "cycle_time_s"})."""
     points = []
     for scale, zeta in grid:
-        timing = exact_timing(perturbed(model, scale, zeta), acc, dt, threshold_m, settle=False)
+        timing = analyze_move(perturbed(model, scale, zeta), acc, dt, threshold_m, settle=False)
         points.append({"freq_scale": scale, "zeta": zeta, "cycle_time_s": timing.cycle_time_s})
     worst = max(points, key=lambda p: p["cycle_time_s"])
     where = {"freq_scale": worst["freq_scale"], "zeta": worst["zeta"]}
@@ -134,7 +134,7 @@ def baselines(
     select_grid = None if robust is None else _selection_grid(robust)
 
     def evaluate(name, acc, freqs):
-        entry = Baseline(name, acc, exact_timing(model, acc, dt_s, threshold_m), freqs)
+        entry = Baseline(name, acc, analyze_move(model, acc, dt_s, threshold_m), freqs)
         if select_grid is not None:
             entry.worst_cycle_time_s, entry.worst_case, _ = worst_case(
                 model, acc, dt_s, threshold_m, select_grid
@@ -143,7 +143,7 @@ def baselines(
 
     entries = [
         Baseline(
-            "ruckig + free decay", floor.acc, exact_timing(model, floor.acc, dt_s, threshold_m)
+            "ruckig + free decay", floor.acc, analyze_move(model, floor.acc, dt_s, threshold_m)
         )
     ]
     order = dominant_modes(model, distance)[:max_shaped_modes]

@@ -208,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("-o", "--output", default="optim_bench.json", help="JSON file")
     args = parser.parse_args(argv)
     if args.model:
-        from jaxflex.model_io import load_model
+        from jaxflex.model import load_model
 
         model = load_model(args.model)
     else:

@@ -20,6 +20,7 @@ import numpy as np
 
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
+from jaxflex.settle import analyze_move
 from jaxflex.validation import check_positive
 from optim.baselines import baselines as compute_baselines
 from optim.exact import LPSubsolver
@@ -30,7 +31,6 @@ from optim.lp import LP_SOLVERS
 from optim.result import OptimizationResult, deviation_summary
 from optim.robust import RobustSpec
 from optim.search import attempt, bisect, make_problem
-from optim.timing import exact_timing
 
 METHODS = {"exact": ("highs", LP_SOLVERS), "gradient": ("ipopt", GRADIENT_SOLVERS)}
 DEFAULT_MAX_DURATION_S = 30.0
@@ -156,7 +156,7 @@ def optimize(
             if check.ok:
                 acc = entry.acc
                 break
-    timing = exact_timing(model, acc, dt, threshold)
+    timing = analyze_move(model, acc, dt, threshold)
     worst = None
     if robust is not None:
         grid = (
@@ -214,7 +214,7 @@ def _worst_case(problem, acc, dt, threshold, grid) -> dict:
     """Worst exact cycle time over the robust check grid (reusing certified timings)."""
     if grid is None:
         grid = [
-            (s.scale, s.zeta, exact_timing(s.model, acc, dt, threshold, settle=False).cycle_time_s)
+            (s.scale, s.zeta, analyze_move(s.model, acc, dt, threshold, settle=False).cycle_time_s)
             for s in problem.scenarios
         ]
     scale, zeta, cycle = max(grid, key=lambda g: g[2])

@@ -4,9 +4,9 @@ The modal state at the end of an n-step move is linear in the samples (first-ord
 
     x_end = sum_k Phi^{n-1-k} (G0 f_k + G1 f_{k+1}),   f_k = -Gamma . a_k,   Phi^j = Phi(j dt),
 
-so :func:`end_state_map` gives the matrix exactly (it equals ``jax.jacfwd`` of
-``jaxflex.end_state`` through the scan; computed here in closed form because its shape
-changes with n and a jitted Jacobian would recompile for every n tried). After the move the
+so jaxflex.engine.end_state_map gives the matrix exactly (it equals ``jax.jacfwd`` of
+``jaxflex.end_state`` through the scan, in closed form because its shape changes with n and
+a jitted Jacobian would recompile for every n tried). After the move the
 part vibrates freely, u_p(t_n + tau) = sum_i phi_i(p) (P11_i(tau) q_i + P12_i(tau) qd_i), again
 linear in the end state. :class:`ResidualModel` samples that response densely to find the
 (point, time) pairs where it exceeds the threshold: those become the LP's rows.
@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex.discretize import foh_coefficients, propagators
+from jaxflex.decay import amplitudes, envelope_horizon, free_rows
+from jaxflex.deviation import point_displacements
 from jaxflex.model import ModalModel
 
 SAMPLES_PER_PERIOD = 16  # dense check: time step 1 / (16 f_max)
@@ -26,20 +27,6 @@ REFINE_SAMPLES = 33  # sub-samples over two grid steps around every candidate pe
 PEAK_SLACK = 0.03  # a sampled peak can hide (2 pi / 16)^2 / 8 = 1.9 % between samples
 CHUNK = 1024
 HORIZON_CAP_S = 120.0
-
-
-def end_state_map(model: ModalModel, n_steps: int, dt: float) -> np.ndarray:
-    """(M, 2, n+1, 3) matrix E with x_end[i, :] = sum_{k, c} E[i, :, k, c] a[k, c]."""
-    omega = 2.0 * np.pi * np.asarray(model.freq_hz)
-    zeta = np.asarray(model.zeta)
-    powers = propagators(omega, zeta, dt * np.arange(n_steps + 1)[:, None], np).phi
-    _, g0, g1 = foh_coefficients(omega, zeta, dt, np)  # (M, 2)
-    k = np.arange(n_steps)
-    coef = np.zeros((n_steps + 1, omega.size, 2))
-    coef[:-1] += np.einsum("kmij,mj->kmi", powers[n_steps - 1 - k], g0)
-    coef[1:] += np.einsum("kmij,mj->kmi", powers[n_steps - 1 - k], g1)
-    gamma = np.asarray(model.gamma)  # (M, 3)
-    return -np.einsum("kmi,mc->mikc", coef, gamma)
 
 
 @dataclass(frozen=True)
@@ -63,38 +50,27 @@ class ResidualModel:
     def __init__(self, model: ModalModel, components: tuple[int, ...]) -> None:
         self.model = model
         self.components = components
-        self.omega = 2.0 * np.pi * np.asarray(model.freq_hz)
-        self.zeta = np.asarray(model.zeta)
-        self.sigma = self.zeta * self.omega
+        self.omega = np.asarray(model.omega)
+        self.sigma = np.asarray(model.zeta) * self.omega
         shapes = np.asarray(model.shapes)[:, list(components), :]  # (K, C, M)
         self.shapes = shapes
         self.n_points = shapes.shape[0]
-        self.by_row = np.transpose(shapes, (2, 1, 0)).reshape(self.omega.size, -1)  # (M, C K)
         self.weights = np.linalg.norm(shapes, axis=1)  # (K, M)
         self.step_s = 1.0 / (SAMPLES_PER_PERIOD * np.max(np.asarray(model.freq_hz)))
 
     # -- closed-form free response -------------------------------------------------------
     def propagator_rows(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """P11, P12 (T, M): q_i(tau) = P11 q_i + P12 qd_i for the free decay (0 <= zeta < 1),
-        q(tau) = e^{-sigma tau} (q0 cos(w_d tau) + (qd0 + sigma q0) sin(w_d tau) / w_d)."""
-        tau = np.asarray(tau, dtype=np.float64)[:, None]
-        omega_d = self.omega * np.sqrt(1.0 - self.zeta**2)
-        decay = np.exp(-self.sigma * tau)
-        sin_over = np.sin(omega_d * tau) / omega_d
-        return decay * (np.cos(omega_d * tau) + self.sigma * sin_over), decay * sin_over
+        """P11, P12 (T, M): q_i(tau) = P11 q_i + P12 qd_i for the free decay."""
+        return free_rows(self.model, tau)
 
     def displacement(self, x_end: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """(T, K, C) displacement of every point at times ``tau`` after the move."""
         p11, p12 = self.propagator_rows(tau)
-        q = p11 * x_end[:, 0] + p12 * x_end[:, 1]
-        u = (q @ self.by_row).reshape(len(tau), len(self.components), self.n_points)
-        return np.transpose(u, (0, 2, 1))
+        return point_displacements(self.shapes, p11 * x_end[:, 0] + p12 * x_end[:, 1])
 
     def amplitudes(self, x_end: np.ndarray) -> np.ndarray:
         """R_i (M,): amplitude of each mode's free decay from ``x_end``."""
-        omega_d = self.omega * np.sqrt(1.0 - self.zeta**2)
-        q0, v0 = x_end[:, 0], x_end[:, 1]
-        return np.hypot(q0, (v0 + self.sigma * q0) / omega_d)
+        return amplitudes(self.model, x_end)
 
     def sampling_step(self, x_end: np.ndarray, limit_m: float) -> float:
         """1/16 of the period of the highest mode that matters: modes are dropped from the
@@ -110,20 +86,8 @@ class ResidualModel:
     def envelope_horizon(self, x_end: np.ndarray, limit_m: float) -> float:
         """Smallest tau after which the envelope sum_i |phi_i(p)| R_i e^{-sigma_i tau} stays
         below ``limit_m`` at every point (so |u_p| does too), capped at HORIZON_CAP_S."""
-        amplitude = self.amplitudes(x_end)
-
-        def peak(tau):
-            return np.max(self.weights @ (amplitude * np.exp(-self.sigma * tau)))
-
-        if peak(0.0) <= limit_m:
-            return 0.0
-        lo, hi = 0.0, HORIZON_CAP_S
-        if peak(hi) > limit_m:
-            return hi
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if peak(mid) > limit_m else (lo, mid)
-        return hi
+        horizon = envelope_horizon(self.weights, self.amplitudes(x_end), self.sigma, limit_m)
+        return min(horizon, HORIZON_CAP_S)
 
     # -- finding exceedances -------------------------------------------------------------
     def _refine(self, x_end, tau0, tau1, point: int, limit_m) -> Peak:

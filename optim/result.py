@@ -22,21 +22,23 @@ from pathlib import Path
 import numpy as np
 
 from jaxflex.atomic import write_text_atomic
+from jaxflex.deviation import deviation_curve
 from jaxflex.model import ModalModel
+from jaxflex.settle import SettleReport
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
 from optim.plots import plot_deviations, plot_profiles, plot_robust
 from optim.profiles import integrate
-from optim.response import SUBSTEPS, deviation_curve
 from optim.robust import RobustSpec, perturbed
-from optim.timing import MoveTiming
 from optim.trajectory_io import write_trajectory_csv
+
+SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
 
 
 def deviation_summary(model: ModalModel, acc: np.ndarray, dt: float) -> dict:
     """Peak deviation during the move (exact samples every dt / 8) and at the stop, m."""
     n = acc.shape[0] - 1
-    t, d = deviation_curve(model, acc, dt, n * dt)
+    t, d = deviation_curve(model, acc, dt, n * dt, SUBSTEPS)
     return {
         "peak_during_move_m": float(d[: n * SUBSTEPS + 1].max()),
         "peak_time_s": float(t[int(np.argmax(d[: n * SUBSTEPS + 1]))]),
@@ -58,7 +60,7 @@ class OptimizationResult:
     solver: str
     robust: RobustSpec | None
     acc: np.ndarray  # (n+1, 3) m/s^2
-    timing: MoveTiming  # exact, nominal model
+    timing: SettleReport  # exact, nominal model
     deviation: dict
     constraint_check: ConstraintCheck
     solver_stats: dict
@@ -196,14 +198,14 @@ class OptimizationResult:
         until = 1.15 * max(c for _, c in moves.values()) + self.dt_s
         curves = {}
         for label, (acc, cycle) in moves.items():
-            t, d = deviation_curve(self.model, acc, self.dt_s, until)
+            t, d = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS)
             curves[label] = (t, d, cycle)
         plot_deviations(path, curves, self.threshold_m, "Deviation: optimised move vs baselines")
         written = [path]
         if self.worst_case is not None:
             scale, zeta = self.worst_case["freq_scale"], self.worst_case["zeta"]
             worst_model = perturbed(self.model, scale, zeta)
-            t, d = deviation_curve(worst_model, self.acc, self.dt_s, until)
+            t, d = deviation_curve(worst_model, self.acc, self.dt_s, until, SUBSTEPS)
             curves = {
                 f"optimised, worst case (f x{scale:.3f}, zeta {zeta})": (
                     t,

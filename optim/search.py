@@ -29,13 +29,14 @@ from typing import Protocol
 import numpy as np
 from tqdm.auto import tqdm
 
+from jaxflex.engine import end_state_map
 from jaxflex.model import ModalModel
+from jaxflex.settle import SettleReport, analyze_move
 from optim.limits import Limits
 from optim.move_response import ClearancePeak, MoveResponse
 from optim.profiles import enforce_end_state
-from optim.residual import Peak, ResidualModel, end_state_map
+from optim.residual import Peak, ResidualModel
 from optim.robust import RobustSpec, perturbed
-from optim.timing import MoveTiming, exact_timing
 
 RESIDUAL_MARGIN = 1e-3
 MAX_ROUNDS = 60
@@ -207,7 +208,7 @@ class Attempt:
     n_steps: int
     feasible: bool
     acc: np.ndarray | None
-    timings: dict[int, MoveTiming]
+    timings: dict[int, SettleReport]
     value: float
     rounds: int
     wall_s: float
@@ -232,10 +233,10 @@ def _certify(problem: Problem, acc: np.ndarray):
     Returns (timings, number of failures)."""
     n_steps = acc.shape[0] - 1
     transfer = n_steps * problem.dt
-    timings: dict[int, MoveTiming] = {}
+    timings: dict[int, SettleReport] = {}
     failed = []
     for i, scen in enumerate(problem.scenarios):
-        timing = exact_timing(scen.model, acc, problem.dt, problem.threshold_m, settle=False)
+        timing = analyze_move(scen.model, acc, problem.dt, problem.threshold_m, settle=False)
         timings[i] = timing
         if timing.cycle_time_s > transfer * (1 + TIME_RTOL):
             failed.append(i)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import jaxflex
-from jaxflex import model_io
+from jaxflex import model_file
 
 
 def fields(model):
@@ -84,7 +84,7 @@ def test_failed_write_keeps_the_old_file(tmp_path, small_model, monkeypatch):
         handle.write(b"partial")
         raise OSError("disk full")
 
-    monkeypatch.setattr(model_io.np, "savez", broken_savez)
+    monkeypatch.setattr(model_file.np, "savez", broken_savez)
     with pytest.raises(OSError, match="disk full"):
         small_model.with_damping(0.05).save(path)
     assert path.read_bytes() == before

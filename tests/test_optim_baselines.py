@@ -13,11 +13,11 @@ from test_optim_optimize import DISTANCE, DT, LIMITS, THRESHOLD, few_mode_model
 
 import jaxflex
 import optim
+from jaxflex.settle import analyze_move
 from optim.baselines import dominant_modes
 from optim.robust import perturbed
 from optim.ruckig_move import kinematic_floor_move, shaped_grid_move, time_optimal_move
 from optim.shapers import convolve, shaper
-from optim.timing import exact_timing
 
 
 def independent_ruckig_duration(distance, limits):
@@ -99,7 +99,7 @@ def test_the_number_of_shaped_modes_is_the_best_one(model, base):
         modes = order[:count]
         train = convolve(*(shaper("ZV", model.freq_hz[i], model.zeta[i]) for i in modes))
         acc = shaped_grid_move(continuous, train, DISTANCE, LIMITS, DT)
-        cycles.append(exact_timing(model, acc, DT, THRESHOLD).cycle_time_s)
+        cycles.append(analyze_move(model, acc, DT, THRESHOLD).cycle_time_s)
     assert zv.cycle_time_s == pytest.approx(min(cycles), abs=1e-9)
     assert len(zv.shaped_freq_hz) == int(np.argmin(cycles)) + 1
 

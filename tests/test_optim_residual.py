@@ -11,10 +11,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import jaxflex
+from jaxflex.engine import end_state_map
+from jaxflex.settle import analyze_move
 from optim.move_response import MoveResponse
 from optim.polytope import ball_normals, support
-from optim.residual import ResidualModel, end_state_map
-from optim.timing import exact_timing
+from optim.residual import ResidualModel
 
 
 @pytest.mark.parametrize("dt", [0.004, 0.01, 0.03])
@@ -109,10 +110,10 @@ def test_exact_timing_with_a_lead_in_is_analyze_move(seed):
     acc = smooth_move(37 + 5 * seed, 0.01)
     for threshold in (1e-3, 1e-2, 5e-2):
         direct = jaxflex.analyze_move(model, acc, 0.01, threshold)
-        timing = exact_timing(model, acc, 0.01, threshold)
+        timing = analyze_move(model, acc, 0.01, threshold)
         assert timing.transfer_time_s == direct.transfer_time_s
         # the settle time is located to 1e-9 s by both searches
         assert timing.settle_time_s == pytest.approx(direct.settle_time_s, abs=2e-9)
         assert timing.cycle_time_s == pytest.approx(direct.cycle_time_s, abs=2e-9)
-        fast = exact_timing(model, acc, 0.01, threshold, settle=False)
+        fast = analyze_move(model, acc, 0.01, threshold, settle=False)
         assert fast.cycle_time_s == pytest.approx(direct.cycle_time_s, abs=2e-9)

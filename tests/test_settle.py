@@ -102,7 +102,7 @@ def test_exceedance_only_during_the_move():
 
 def test_never_exceeding_gives_zero_settle_time(small_model):
     acc = 1e-6 * smooth_move(30, 0.01)
-    report = jaxflex.analyze_move(small_model, acc, 0.01, threshold=1.0)
+    report = jaxflex.analyze_move(small_model, acc, 0.01, threshold_m=1.0)
     assert report.settle_time_s == 0.0
     assert report.cycle_time_s == pytest.approx(0.3)
 
@@ -147,13 +147,13 @@ def test_peaks_hidden_between_samples_are_found():
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"threshold": 0.0}, "threshold"),
-        ({"threshold": -1e-3}, "threshold"),
-        ({"dt": 0.0}, "dt"),
+        ({"threshold_m": 0.0}, "threshold_m"),
+        ({"threshold_m": -1e-3}, "threshold_m"),
+        ({"dt_s": 0.0}, "dt_s"),
     ],
 )
 def test_bad_arguments(small_model, kwargs, message):
-    args = {"acc": smooth_move(20, 0.01), "dt": 0.01, "threshold": 1e-3} | kwargs
+    args = {"acc": smooth_move(20, 0.01), "dt_s": 0.01, "threshold_m": 1e-3} | kwargs
     with pytest.raises(jaxflex.InputError, match=message):
         jaxflex.cycle_time(small_model, **args)
 

@@ -23,9 +23,10 @@ from jaxflex.bench.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_
 from jaxflex.bench.methods import METHODS, prepare, stable_substeps
 from jaxflex.bench.metrics import compare, curve_errors, settle_from_samples
 from jaxflex.bench.timing import best_time_s
+from jaxflex.engine import upsample
 from jaxflex.points import voxel_downsample
 from jaxflex.settle import analyze_move
-from jaxflex.simulate import simulate, upsample
+from jaxflex.simulate import simulate
 
 OURS = ("scan64", "scan32")
 SETTLE_SHARE_OF_PEAK = 0.05

@@ -26,9 +26,11 @@ import numpy as np
 
 from jaxflex.bench.timing import best_time_s, machine
 from jaxflex.convolution import convolve_unit_response, deviation_from_displacement, unit_response
+from jaxflex.deviation import deviation
+from jaxflex.engine import modal_states
 from jaxflex.model import ModalModel
 from jaxflex.settle import cycle_time
-from jaxflex.simulate import deviation, modal_states, on_device, simulate
+from jaxflex.simulate import on_device, simulate
 from jaxflex.surrogate import cycle_time_smooth
 
 

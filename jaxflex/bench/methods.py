@@ -26,10 +26,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxflex.convolution import convolve_unit_response, deviation_from_displacement, unit_response
+from jaxflex.deviation import deviation
+from jaxflex.engine import modal_states, upsample
 from jaxflex.errors import InputError
 from jaxflex.integrators import central_difference_modal, newmark_modal
 from jaxflex.model import ModalModel
-from jaxflex.simulate import deviation, modal_states, on_device, upsample
+from jaxflex.simulate import on_device
 
 METHODS = ("scan64", "scan32", "convolution", "newmark", "central_difference")
 LABELS = {
@@ -56,7 +58,7 @@ def _integrator_deviation(model, shapes_c, acc_fine, h, integrator: str, every: 
 
 def stable_substeps(model: ModalModel, dt_s: float, margin: float = CD_STABILITY_MARGIN) -> int:
     """Fewest central-difference steps per sample interval with omega_max h <= 2 margin."""
-    omega_max = 2 * np.pi * float(np.max(model.freq_hz))
+    omega_max = float(np.max(model.omega))
     return max(1, math.ceil(omega_max * dt_s / (2.0 * margin)))
 
 

@@ -21,8 +21,7 @@ from pathlib import Path
 
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import ModelFileError
-from jaxflex.model import ModalModel
-from jaxflex.model_io import load_model
+from jaxflex.model import ModalModel, load_model
 
 FINAL_STAGES = ("fe", "optimization")
 

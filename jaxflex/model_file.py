@@ -1,4 +1,4 @@
-"""Modal model files: a versioned ``.npz`` (numpy zip archive, no pickled objects).
+"""The modal model file: a versioned ``.npz`` (numpy zip archive, no pickled objects).
 
 Schema version 1 holds:
     format          "jaxflex.modal_model"
@@ -6,6 +6,9 @@ Schema version 1 holds:
     freq_hz (M,) Hz, zeta (M,), gamma (M, 3) kg^0.5, shapes (K, 3, M) m/kg^0.5, points (K, 3) m,
     labels (K,) unicode (empty strings: unlabelled; absent array: no labels),
     meta_json       JSON text (source, material, gripper, mesh statistics; SI units).
+
+This module knows the file, not the model class: it writes and reads plain arrays, and
+jaxflex.model turns them into a validated ModalModel.
 """
 
 from __future__ import annotations
@@ -14,39 +17,43 @@ import json
 import os
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from jaxflex.atomic import atomic_open
-from jaxflex.errors import ModelError, ModelFileError
-from jaxflex.model import ModalModel
+from jaxflex.errors import ModelFileError
 
 FORMAT_NAME = "jaxflex.modal_model"
 SCHEMA_VERSION = 1
-_ARRAY_FIELDS = ("freq_hz", "zeta", "gamma", "shapes", "points")
+ARRAY_FIELDS = ("freq_hz", "zeta", "gamma", "shapes", "points")
 
 
-def save_model(model: ModalModel, path: str | os.PathLike) -> None:
-    """Write ``model`` to ``path`` (.npz) atomically: the file is complete or absent."""
-    arrays = {name: np.asarray(getattr(model, name), dtype=np.float64) for name in _ARRAY_FIELDS}
-    if model.labels is not None:
-        arrays["labels"] = np.asarray(model.labels, dtype=np.str_)
+def write_model_file(
+    path: str | os.PathLike,
+    arrays: dict[str, Any],
+    labels: tuple[str, ...] | None,
+    meta: dict[str, Any],
+) -> None:
+    """Write the model ``arrays`` (ARRAY_FIELDS), ``labels`` and ``meta`` to ``path`` (.npz)
+    atomically: the file is complete or absent."""
+    stored = {name: np.asarray(arrays[name], dtype=np.float64) for name in ARRAY_FIELDS}
+    if labels is not None:
+        stored["labels"] = np.asarray(labels, dtype=np.str_)
     with atomic_open(path, "wb") as handle:
         np.savez(
             handle,
             format=np.asarray(FORMAT_NAME),
             schema_version=np.asarray(SCHEMA_VERSION),
-            meta_json=np.asarray(json.dumps(dict(model.meta), sort_keys=True)),
-            **arrays,
+            meta_json=np.asarray(json.dumps(dict(meta), sort_keys=True)),
+            **stored,
         )
 
 
-def load_model(path: str | os.PathLike) -> ModalModel:
-    """Read a model written by :func:`save_model`.
-
-    Raises ModelFileError for a missing, truncated or corrupt file, a file of another format,
-    an unknown schema version or a missing field; ModelError if the stored data are invalid.
-    """
+def read_model_file(path: str | os.PathLike) -> dict[str, Any]:
+    """The fields of a model file: ARRAY_FIELDS as arrays, ``labels`` (tuple or None) and
+    ``meta`` (dict). Raises ModelFileError for a missing, truncated or corrupt file, a file of
+    another format, an unknown schema version or a missing field."""
     path = Path(path)
     if not path.is_file():
         raise ModelFileError(f"model file {str(path)!r} does not exist")
@@ -72,7 +79,7 @@ def load_model(path: str | os.PathLike) -> ModalModel:
             f"{str(path)!r}: schema version {version} is not supported by this jaxflex "
             f"(reads version {SCHEMA_VERSION}); regenerate the model with this version"
         )
-    for name in (*_ARRAY_FIELDS, "meta_json"):
+    for name in (*ARRAY_FIELDS, "meta_json"):
         if name not in contents:
             raise ModelFileError(f"{str(path)!r}: missing field {name!r}")
     try:
@@ -80,11 +87,8 @@ def load_model(path: str | os.PathLike) -> ModalModel:
     except json.JSONDecodeError as exc:
         raise ModelFileError(f"{str(path)!r}: field 'meta_json' is not valid JSON ({exc})") from exc
     labels = contents.get("labels")
-    try:
-        return ModalModel(
-            **{name: contents[name] for name in _ARRAY_FIELDS},
-            labels=None if labels is None else tuple(str(s) for s in labels),
-            meta=meta,
-        )
-    except ModelError as exc:
-        raise ModelError(f"{str(path)!r}: {exc}") from exc
+    return {
+        **{name: contents[name] for name in ARRAY_FIELDS},
+        "labels": None if labels is None else tuple(str(s) for s in labels),
+        "meta": meta,
+    }
