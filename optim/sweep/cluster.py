@@ -41,6 +41,17 @@ WORKER_ENV = {
     "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
 }
 DASHBOARD_ADDRESS = "127.0.0.1:0"  # this machine only, a free port
+# dask settings of the client and the embedded LocalCluster, so that no process grows while
+# a sweep runs (measured, docs/sweep.md): dask's statistical profiler samples every thread
+# each 10 ms and keeps a call tree per second for the last 1000 s, for the dashboard's
+# profile page only (workers grew by ~0.17 MB/s for 17 minutes); its developers' logs keep
+# the last 1000 messages of every connection, task specifications included (the client
+# with the LocalCluster's scheduler grew by ~1 kB per case for the first ~1500 cases).
+# Other clusters: DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False where workers start.
+SWEEP_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.low-level-log-length": 100,
+}
 CONNECT_TIMEOUT_S = 15.0  # connecting, waiting for a first worker, reconnecting
 TASKS_PER_THREAD = 4  # case tasks submitted per worker thread: the bounded batch
 PLUGIN_NAME = "jaxflex-version"
@@ -226,9 +237,34 @@ def connect(
     core) with its dashboard at ``dashboard_address`` ("host:port", default 127.0.0.1 and a
     free port). ``notify`` gets the messages for the user (default: stderr); the dashboard
     link is the first. Everything started is closed on exit."""
+    import dask
+
+    with dask.config.set(SWEEP_CONFIG):  # read as the objects start; nannies pass it on
+        client, local = _start(scheduler, n_workers, dashboard_address)
+    try:
+        cluster = Cluster(client, notify or _notify_stderr)
+        link = cluster.dashboard_link()
+        cluster.notify(
+            f"dashboard: {link}" if link else "dashboard: none (the scheduler serves none)"
+        )
+        cluster.admit_workers()
+        yield cluster
+    finally:
+        if client.status == "running":
+            for topic in (TOPIC, "all"):  # else the scheduler's last events meet a closed comm
+                client.unsubscribe_topic(topic)
+            client.close()
+        else:  # the scheduler is lost: closing cancels dask's reconnection, which it logs
+            with _silenced("distributed.client"):
+                client.close()
+        if local is not None:
+            local.close()
+
+
+def _start(scheduler: str | None, n_workers: int | None, dashboard_address: str | None):
+    """(client, LocalCluster or None)."""
     from distributed import Client
 
-    notify = notify or _notify_stderr
     if scheduler is not None:
         if not scheduler.startswith(SCHEMES):
             raise InputError(
@@ -243,24 +279,9 @@ def connect(
             client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
         except (OSError, TimeoutError) as exc:
             raise InputError(f"scheduler: cannot connect to {scheduler} ({exc})") from exc
-        local = None
-    else:
-        local = _local_cluster(n_workers, dashboard_address)
-        client = Client(local)
-    try:
-        cluster = Cluster(client, notify)
-        link = cluster.dashboard_link()
-        notify(f"dashboard: {link}" if link else "dashboard: none (the scheduler serves none)")
-        cluster.admit_workers()
-        yield cluster
-    finally:
-        if client.status == "running":
-            client.close()
-        else:  # the scheduler is lost: closing cancels dask's reconnection, which it logs
-            with _silenced("distributed.client"):
-                client.close()
-        if local is not None:
-            local.close()
+        return client, None
+    local = _local_cluster(n_workers, dashboard_address)
+    return Client(local), local
 
 
 @contextlib.contextmanager
