@@ -27,7 +27,7 @@ from sweep_cases import N_CASES, SPEC, assert_same_table, start_sweep, wait_for_
 
 import jaxflex
 from optim.sweep import read_table
-from optim.sweep.cluster import WORKER_ENV
+from optim.sweep.cluster import TASKS_PER_THREAD, WORKER_ENV, connect, resource_name
 from optim.sweep.store import ResultStore
 
 DASK = Path(sys.executable).with_name("dask")  # distributed's command line, this venv
@@ -258,3 +258,38 @@ def test_worker_with_another_jaxflex_version_is_refused_by_name(
     places = {r["worker"] for r in ResultStore(out).iter_records() if r["worker"]}
     assert {p.rsplit(":", 1)[1] for p in places} == {str(same_pid)}
     assert_same_table(read_table(out / "results.csv"), reference)
+
+
+def test_a_worker_joining_later_with_another_version_is_refused_and_gets_no_task(
+    dask_processes, tmp_path
+):
+    """The version gate holds for workers that join after the sweep connected: the plugin
+    runs on them, they offer their own version's resource, the client names them."""
+    other = "0.0.1+other"
+    path = other_jaxflex(tmp_path / "other-release", other)
+    address, _, _ = dask_processes.scheduler()
+    dask_processes.worker(address, "same")
+    same_pid = workers(address, 1)["same"]["pid"]
+    messages: list[str] = []
+    with connect(address, notify=messages.append) as cluster:
+        assert cluster.window == TASKS_PER_THREAD  # one admitted thread
+        dask_processes.worker(address, "old", PYTHONPATH=str(path))
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while not any(m.startswith("refused worker") for m in messages):
+            assert time.monotonic() < deadline, messages
+            time.sleep(0.1)
+        info = cluster.client.scheduler_info()["workers"].values()
+        assert {w["name"]: w["resources"] for w in info} == {
+            "same": {resource_name(jaxflex.__version__): 1},
+            "old": {resource_name(other): 1},
+        }
+        assert cluster.window == TASKS_PER_THREAD
+        futures = cluster.client.map(
+            lambda _: os.getpid(), range(4 * TASKS_PER_THREAD), pure=False, **cluster.task_options
+        )
+        assert set(cluster.client.gather(futures)) == {same_pid}
+    [refused] = [m for m in messages if m.startswith("refused worker")]
+    assert refused.endswith(
+        f"(old): it has jaxflex {other}, this client jaxflex {jaxflex.__version__}; "
+        "it gets no case of this sweep"
+    )
