@@ -31,15 +31,28 @@ def test_two_thousand_cases_in_bounded_batches_and_flat_memory(tmp_path):
     # bounded batches: never more than TASKS_PER_THREAD case tasks per worker thread out
     assert 0 < report["peak_in_flight"] <= 2 * TASKS_PER_THREAD
 
-    # Memory, resident set sizes (MB) sampled every SAMPLE_EVERY records. Holding the
-    # records would cost the client at least their JSON size (Python objects are larger)
-    # for each case after WARM; the measured growth must stay below a third of that. A
-    # worker holds nothing between tasks: below the same bound.
-    samples = {s["cases"]: s for s in report["samples"]}
-    assert sorted(samples) == list(range(SAMPLE_EVERY, N_CASES + 1, SAMPLE_EVERY))
-    held_mb = (N_CASES - WARM) * report["record_bytes_mean"] / 2**20
-    start, end = samples[WARM], samples[N_CASES]
-    assert end["client_rss_mb"] - start["client_rss_mb"] < held_mb / 3, report["samples"]
-    assert start["workers"].keys() == end["workers"].keys() and len(end["workers"]) == 2
-    for pid, worker in end["workers"].items():
-        assert worker["rss_mb"] - start["workers"][pid]["rss_mb"] < held_mb / 3, pid
+    # Memory, sampled every SAMPLE_EVERY records. Holding the records would add to the
+    # client at least one container per case (a record is a dict of dicts and of one list per
+    # time step): the client's Python containers may not grow by as much as one per case
+    # after WARM. Resident set sizes (MB) move with transient allocations (an FE analysis
+    # takes ~10 MB for a moment, measured), so each process's baseline is the least of its
+    # samples in a window: it may not rise by 5 MB from cases WARM..1000 to 1500..2000, a
+    # fraction of what dask's profiler, left on, adds over the run (~0.17 MB/s per worker,
+    # measured: tens of MB) and of what the records held in the client would take (their
+    # JSON alone: 1500 x ~2.8 kB; as Python objects several times more).
+    samples = report["samples"]
+    assert [s["cases"] for s in samples] == list(range(SAMPLE_EVERY, N_CASES + 1, SAMPLE_EVERY))
+    by_cases = {s["cases"]: s for s in samples}
+    grown = by_cases[N_CASES]["client_objects"] - by_cases[WARM]["client_objects"]
+    assert grown < N_CASES - WARM, grown
+    early = [s for s in samples if WARM <= s["cases"] <= 1000]
+    late = [s for s in samples if s["cases"] >= 1500]
+
+    def rise(rss) -> float:
+        return min(map(rss, late)) - min(map(rss, early))
+
+    assert rise(lambda s: s["client_rss_mb"]) < 5.0, samples
+    pids = samples[-1]["workers"].keys()
+    assert len(pids) == 2 and all(s["workers"].keys() == pids for s in early + late)
+    for pid in pids:
+        assert rise(lambda s, pid=pid: s["workers"][pid]["rss_mb"]) < 5.0, (pid, samples)

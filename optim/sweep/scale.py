@@ -7,8 +7,9 @@ case do not grow with the number of finished cases. JSON on stdout (and ``-o FIL
 The spec (:func:`scale_spec`): a 0.6 x 0.4 m aluminium plate with 100 mm elements, 4 modes,
 6 monitored points; 200 rectangular layouts (2 or 3 cups per side, 5 x 5 insets, 2 radii)
 x 10 moves. Every ``SAMPLE_EVERY`` records the run notes the time, the client's memory (its
-process also runs the LocalCluster's scheduler) and each worker's (the workers are found
-from the records' ``worker`` field, ``host:pid``); the store's cost is timed per record.
+process also runs the LocalCluster's scheduler) and its number of Python container objects
+(after a garbage collection), and each worker's memory (the workers are found from the
+records' ``worker`` field, ``host:pid``); the store's cost is timed per record.
 Memory figures are resident set sizes (MB): current, and the process's peak so far
 (``VmHWM``, Linux).
 """
@@ -16,6 +17,7 @@ Memory figures are resident set sizes (MB): current, and the process's peak so f
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import sys
@@ -108,12 +110,14 @@ class Sampler:
                 "peak_mb": _round(_peak_mb(process)),
                 "cpu_s": round(_cpu_s(process), 2),
             }
+        gc.collect()
         return {
             "cases": len(self.store_s),
             "elapsed_s": round(time.perf_counter() - self.start, 2),
             "client_rss_mb": round(self.client.memory_info().rss / MB, 1),
             "client_peak_mb": _round(_peak_mb(self.client)),
             "client_cpu_s": round(_cpu_s(self.client), 2),
+            "client_objects": len(gc.get_objects()),
             "workers": workers,
         }
 
@@ -189,6 +193,8 @@ def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> 
             / (n - first["cases"]),
             1,
         ),
+        "client_objects_first": first["client_objects"],
+        "client_objects_last": samples[-1]["client_objects"],
         "client_rss_mb_first": first["client_rss_mb"],
         "client_rss_mb_last": samples[-1]["client_rss_mb"],
         "client_peak_mb": samples[-1]["client_peak_mb"],
