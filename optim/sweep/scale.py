@@ -9,7 +9,8 @@ The spec (:func:`scale_spec`): a 0.6 x 0.4 m aluminium plate with 100 mm element
 x 10 moves. Every ``SAMPLE_EVERY`` records the run notes the time, the client's memory (its
 process also runs the LocalCluster's scheduler) and its number of Python container objects
 (after a garbage collection), and each worker's memory (the workers are found from the
-records' ``worker`` field, ``host:pid``); the store's cost is timed per record.
+records' ``worker`` field, ``host:pid``); the store's cost is timed per record, and after
+the run, interleaved, into the full results directory and into an empty one.
 Memory figures are resident set sizes (MB): current, and the process's peak so far
 (``VmHWM``, Linux).
 """
@@ -31,6 +32,7 @@ import psutil
 from jaxflex.atomic import write_text_atomic
 from optim.sweep.run import run_sweep
 from optim.sweep.spec import SweepSpec, parse_spec
+from optim.sweep.store import ResultStore
 
 SAMPLE_EVERY = 100  # records between two samples
 MB = 2**20
@@ -136,6 +138,23 @@ def _block(values: list[float], start: int, stop: int) -> float:
     return float(np.mean(values[start:stop]))
 
 
+def store_cost_ms(full: ResultStore, record: dict, repeats: int = 300) -> dict:
+    """Median ms to store ``record`` into ``full`` (a run's store) and into an empty store,
+    the two writes interleaved so that the disk's load meets both alike (each copy is
+    removed again, so the directory's size stays)."""
+    times: dict[str, list[float]] = {"empty_dir": [], "full_dir": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        stores = {"empty_dir": ResultStore(tmp), "full_dir": full}
+        for i in range(repeats):
+            copy = {**record, "case_id": f"store-cost-{i}"}
+            for name, store in stores.items():
+                tick = time.perf_counter()
+                store.save_record(copy)
+                times[name].append(time.perf_counter() - tick)
+                store.record_path(copy["case_id"]).unlink()
+    return {name: round(1e3 * float(np.median(t)), 3) for name, t in times.items()}
+
+
 def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> dict:
     """Run the scale spec on a LocalCluster of ``n_workers`` into ``directory`` (empty, or a
     previous run's: then only the missing cases), then rerun it (nothing left to compute:
@@ -151,6 +170,8 @@ def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> 
         notify=lambda message: None,
         on_record=sampler,
     )
+    store = ResultStore(directory)
+    stored_ms = store_cost_ms(store, store.load_record(run.cases[-1].case_id))
     tick = time.perf_counter()
     rerun = run_sweep(spec, directory, executor="serial", progress=False, plots=False)
     rerun_s = time.perf_counter() - tick
@@ -179,6 +200,8 @@ def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> 
         "store_ms_per_case_first": round(_block(store_ms, 0, block), 3),
         "store_ms_per_case_last": round(_block(store_ms, n - block, n), 3),
         "store_block_cases": block,
+        "store_ms_median_empty_dir": stored_ms["empty_dir"],
+        "store_ms_median_full_dir": stored_ms["full_dir"],
         "record_bytes_mean": round(float(np.mean(sampler.record_bytes))),
         "rerun_s": round(rerun_s, 2),
         "rerun_ms_per_stored_case": round(1e3 * rerun_s / max(rerun.skipped, 1), 3),
