@@ -4,28 +4,35 @@ Part + gripper -> finite-element model -> modal analysis -> jaxflex.ModalModel; 
 full-order transient reference, meshio export and pictures. Geometry in metres, SI units.
 """
 
+from fem.ansys import from_ansys
 from fem.damping import Rayleigh, rayleigh_zeta
 from fem.export import export_modes, export_transient, plot_part
+from fem.identify import R1Identification, from_r1
+from fem.imported import ImportedModes
 from fem.materials import PRESETS, Material, resolve_material
 from fem.modal import ModalResult, modal_analysis
+from fem.nastran import from_nastran
 from fem.parts import Part, curved_panel, read_mesh, rectangular_plate
 from fem.scenes import SCENES, default_gripper, default_model, scene
 from fem.sizing import SizingResult, size_model
-from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup
+from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup, Support
 from fem.transient import TransientResult, agreement, transient_reference
 
 __all__ = [
     "PRESETS",
     "SCENES",
     "ClampedEdge",
+    "ImportedModes",
     "Material",
     "ModalResult",
     "Part",
     "PointSupport",
+    "R1Identification",
     "Rayleigh",
     "SimplySupportedEdge",
     "SizingResult",
     "SuctionCup",
+    "Support",
     "TransientResult",
     "agreement",
     "curved_panel",
@@ -33,6 +40,9 @@ __all__ = [
     "default_model",
     "export_modes",
     "export_transient",
+    "from_ansys",
+    "from_nastran",
+    "from_r1",
     "modal_analysis",
     "plot_part",
     "rayleigh_zeta",

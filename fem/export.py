@@ -8,42 +8,31 @@ displacements in m (mode shapes: m per kg^0.5, mass-normalised), at the reportin
 
 from __future__ import annotations
 
-import contextlib
 import os
-import tempfile
 from pathlib import Path
 
+import matplotlib.tri as mtri
+import meshio
 import numpy as np
 
 from fem.modal import ModalResult
-from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup
 from fem.transient import TransientResult
+from jaxflex.atomic import atomic_path
 from jaxflex.errors import InputError
+from jaxflex.plots import plt, save_figure
 
 FORMATS = (".vtu", ".vtk", ".xdmf", ".xmf")
 
 
-@contextlib.contextmanager
 def _atomic_path(path: str | os.PathLike):
-    """A temporary path with the same suffix beside ``path``; renamed onto it on success."""
+    """A new file with the same suffix beside ``path``, renamed onto it on success."""
     target = Path(path)
     if target.suffix.lower() not in FORMATS:
         raise InputError(f"export path {str(path)!r}: use one of the suffixes {list(FORMATS)}")
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=target.suffix, dir=target.parent)
-    os.close(fd)
-    try:
-        yield tmp
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
+    return atomic_path(target, suffix=target.suffix)
 
 
 def _write(path, points, cells, point_data, field_data=None) -> None:
-    import meshio
-
     with _atomic_path(path) as tmp:
         if Path(tmp).suffix.lower() in (".xdmf", ".xmf"):
             # meshio's static XDMF writer needs h5py; one step of a time series does not
@@ -76,8 +65,6 @@ def export_transient(
     """Write a transient response as an XDMF time series (``path`` .xdmf, XML data): field
     "displacement" (K, 3) in m per output time. On the mesh cells if it was computed at every
     node, else as a point cloud of the monitored points."""
-    import meshio
-
     if Path(path).suffix.lower() not in (".xdmf", ".xmf"):
         raise InputError(f"export_transient: path {str(path)!r} must end in .xdmf")
     full = len(transient.node_indices) == len(result.system.nodes) and np.array_equal(
@@ -106,11 +93,6 @@ def _triangles(result: ModalResult) -> np.ndarray:
 def plot_part(result: ModalResult, path: str | os.PathLike, n_modes: int = 4) -> None:
     """PNG: the part's footprint with its supports, and contour plots of the normal (z)
     displacement of the first ``n_modes`` modes."""
-    import matplotlib.pyplot as plt
-    import matplotlib.tri as mtri
-
-    from jaxflex.plots import save_figure
-
     nodes = result.system.nodes
     tri = mtri.Triangulation(nodes[:, 0], nodes[:, 1], _triangles(result))
     n = min(int(n_modes), result.n_modes)
@@ -122,15 +104,10 @@ def plot_part(result: ModalResult, path: str | os.PathLike, n_modes: int = 4) ->
     )
     ax = axes.flat[0]
     ax.triplot(tri, lw=0.15, color="0.6")
-    for s in result.supports:
-        if isinstance(s, SuctionCup):
-            ax.add_patch(plt.Circle((s.x, s.y), s.radius, color="tab:red", alpha=0.6))
-        elif isinstance(s, PointSupport):
-            ax.plot(s.x, s.y, "^", color="tab:red")
-    edges = [s for s in result.supports if isinstance(s, ClampedEdge | SimplySupportedEdge)]
+    captions = [c for s in result.supports if (c := s.draw(ax)) is not None]
     title = f"{result.part.name}: {len(result.supports)} support(s)"
-    if edges:
-        title += " (" + ", ".join(f"{s.describe()['type']} {s.side}" for s in edges) + ")"
+    if captions:
+        title += " (" + ", ".join(captions) + ")"
     ax.set_title(title, fontsize=9)
     shapes = result.node_shapes()
     for i in range(n):

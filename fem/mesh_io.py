@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import os
 
+import meshio
 import numpy as np
 
-from fem.parts import PlateMesh, SurfaceMesh
+from fem.mesh import PlateMesh, SurfaceMesh
 from jaxflex.errors import InputError
 
 MAX_EXTENT_M = 20.0  # a sheet-metal part larger than this is almost surely in millimetres
@@ -18,8 +19,6 @@ def load_part_mesh(path: str | os.PathLike, scale: float = 1.0):
     Triangles -> PlateMesh (must be flat in a plane z = const); quads -> SurfaceMesh;
     hexahedra -> SurfaceMesh of the mid-surface plus the measured thickness.
     """
-    import meshio
-
     if not os.path.isfile(path):
         raise InputError(f"mesh: file {str(path)!r} does not exist")
     try:
@@ -47,7 +46,7 @@ def load_part_mesh(path: str | os.PathLike, scale: float = 1.0):
         return (*_mid_surface_of_hexes(points, blocks["hexahedron"]), "hexahedron")
     if "quad" in blocks:
         nodes, quads = _compact(points, blocks["quad"])
-        return _surface(nodes, quads, path), None, "quad"
+        return surface_from_quads(nodes, quads, path), None, "quad"
     if "triangle" in blocks:
         nodes, tris = _compact(points, blocks["triangle"])
         z = nodes[:, 2]
@@ -109,7 +108,7 @@ def orient_quads(quads: np.ndarray) -> np.ndarray:
     return quads
 
 
-def _surface(nodes: np.ndarray, quads: np.ndarray, path) -> SurfaceMesh:
+def surface_from_quads(nodes: np.ndarray, quads: np.ndarray, path) -> SurfaceMesh:
     """Quad mid-surface with area-weighted node normals, consistently oriented."""
     quads = orient_quads(quads)
     a, b, c, d = (nodes[quads[:, k]] for k in range(4))
@@ -163,4 +162,4 @@ def _mid_surface_of_hexes(points: np.ndarray, hexes: np.ndarray):
             f"mesh: hexahedral mesh thickness varies from {thickness.min():.4g} to "
             f"{thickness.max():.4g} m; a uniform one-layer sheet is required"
         )
-    return _surface(mid, quads, "hexahedral mesh"), float(thickness.mean())
+    return surface_from_quads(mid, quads, "hexahedral mesh"), float(thickness.mean())

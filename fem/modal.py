@@ -21,7 +21,9 @@ import scipy.sparse as sp
 from fem.damping import describe_damping, modal_zeta
 from fem.eigen import all_modes, factorize, lowest_modes
 from fem.parts import Part
-from fem.supports import SuctionCup, as_support_list, check_layout
+from fem.plate import assemble_plate
+from fem.solid import assemble_solid
+from fem.supports import as_support_list, check_layout, contact_discs
 from fem.system import FESystem
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
@@ -29,6 +31,35 @@ from jaxflex.points import downsample_to_count, snap_key_points
 from jaxflex.validation import check_positive
 
 RIGID_MODES = {"plate": 3, "solid": 6}
+
+
+def select_node_indices(
+    nodes: np.ndarray, points=None, key_points=None, tolerance_m: float | None = None
+) -> np.ndarray:
+    """Indices into ``nodes`` (N, 3) m of the monitored points.
+
+    ``points``: None or "all" every node; an int N: about N nodes by voxel downsampling
+    (``key_points`` (Kk, 3) m always kept); an array (K, 3) m: the nearest nodes (each within
+    ``tolerance_m``).
+    """
+    if points is None or (isinstance(points, str) and points == "all"):
+        if key_points is not None:
+            raise InputError("key_points: only used with points=<count>")
+        return np.arange(len(nodes))
+    if isinstance(points, str):
+        raise InputError(f"points: a count, 'all' or (K, 3) coordinates in m, got {points!r}")
+    if isinstance(points, int | np.integer):
+        if int(points) < 1:
+            raise InputError(f"points: a count must be >= 1, got {points}")
+        return downsample_to_count(
+            nodes, int(points), key_points=key_points, key_tolerance_m=tolerance_m
+        )
+    if key_points is not None:
+        raise InputError("key_points: only used with points=<count>")
+    arr = np.asarray(points, dtype=float)
+    if arr.ndim != 2 or arr.shape[1] != 3 or arr.shape[0] == 0:
+        raise InputError(f"points: expected shape (K, 3) in m, got {arr.shape}")
+    return snap_key_points(nodes, arr, tolerance_m)
 
 
 @dataclass(eq=False)
@@ -50,6 +81,7 @@ class ModalResult:
         mass_kg: the part's mass.
         zeta: (M,) modal damping ratios; damping: the spec they came from.
         timings_s: wall times of the steps in s.
+        provenance: entries added to the model's meta (e.g. the input file of an import).
     """
 
     part: Part
@@ -71,6 +103,7 @@ class ModalResult:
     damping: Any
     timings_s: dict[str, float] = field(default_factory=dict)
     observation: sp.csr_matrix | None = None
+    provenance: dict[str, Any] = field(default_factory=dict)
 
     @property
     def n_modes(self) -> int:
@@ -112,25 +145,14 @@ class ModalResult:
         downsampling (``key_points`` (Kk, 3) always kept); an array (K, 2) of footprint
         points or (K, 3) points (m): the nearest nodes (within ``key_tolerance_m``, default
         two element sizes)."""
-        nodes = self.system.nodes
         tol = key_tolerance_m or 2 * self.system.stats["edge_length_max_m"]
-        if points is None or (isinstance(points, str) and points == "all"):
-            if key_points is not None:
-                raise InputError("key_points: only used with points=<count>")
-            return np.arange(len(nodes))
-        if isinstance(points, int | np.integer):
-            if int(points) < 1:
-                raise InputError(f"points: a count must be >= 1, got {points}")
-            return downsample_to_count(
-                nodes, int(points), key_points=self._as_xyz(key_points), key_tolerance_m=tol
-            )
-        if key_points is not None:
-            raise InputError("key_points: only used with points=<count>")
-        return snap_key_points(nodes, self._as_xyz(points), tol)
+        return select_node_indices(
+            self.system.nodes, self._as_xyz(points), self._as_xyz(key_points), tol
+        )
 
     def _as_xyz(self, pts):
-        if pts is None:
-            return None
+        if pts is None or isinstance(pts, str | int | np.integer):
+            return pts
         arr = np.asarray(pts, dtype=float)
         if arr.ndim != 2 or arr.shape[1] not in (2, 3) or arr.shape[0] == 0:
             raise InputError(f"points: expected shape (K, 2) or (K, 3) in m, got {arr.shape}")
@@ -204,6 +226,7 @@ class ModalResult:
             "damping": describe_damping(self.damping if damping is None else damping),
             "n_points": n_points,
             "timings_s": {k: round(v, 4) for k, v in self.timings_s.items()},
+            **self.provenance,
         }
 
     def summary(self) -> str:
@@ -242,6 +265,109 @@ class ModalResult:
         return "\n".join(lines)
 
 
+@dataclass(eq=False)
+class ModeSolution:
+    """Elastic modes of K_free z = omega^2 M_free z with their participation (SI units).
+
+    freq_hz (M,), vectors (n_free, M) mass-normalised, gamma (M, 3) = vectors^T load in
+    kg^0.5; rigid_freq_hz (R,) and rigid_gamma (R, 3) of the rigid-body modes found;
+    mobile_mass_kg (3,) = load^T M_free^-1 load (the sum of Gamma^2 over all modes);
+    static_residual_fraction (3,) as in :class:`ModalResult`; timings_s.
+    """
+
+    freq_hz: np.ndarray
+    vectors: np.ndarray
+    gamma: np.ndarray
+    rigid_freq_hz: np.ndarray
+    rigid_gamma: np.ndarray
+    mobile_mass_kg: np.ndarray
+    static_residual_fraction: np.ndarray
+    timings_s: dict[str, float]
+
+
+def solve_modes(
+    K_free: sp.spmatrix,
+    M_free: sp.spmatrix,
+    load: np.ndarray,
+    observation: sp.spmatrix,
+    n_modes: int | str | None,
+    *,
+    max_freq_hz: float | None = None,
+    rigid_count: int | None = None,
+    sigma_hz: float = 1.0,
+    rigid_tol_hz: float = 0.01,
+    rigid_message: str = "the model has {count} rigid-body mode(s) (below {tol:g} Hz)",
+    progress: bool | None = None,
+) -> ModeSolution:
+    """Lowest modes of the free system, mass-normalised, with Gamma = phi^T load.
+
+    ``load`` (n_free, 3) is (M R)_free; ``observation`` (3N, n_free) maps the modes to node
+    displacements (each mode's largest observed value is made positive). ``n_modes``: a
+    count, "all" (dense solve) or None with ``max_freq_hz``. ``rigid_count`` None refuses
+    rigid-body modes (InputError with ``rigid_message``), a number computes that many extra
+    modes so the elastic count is kept.
+    """
+    dense = isinstance(n_modes, str)
+    timings: dict[str, float] = {}
+    sigma = -((2 * np.pi * sigma_hz) ** 2)
+    extra = rigid_count or 0
+    if dense:
+        sol = all_modes(K_free, M_free)
+    else:
+        sol = lowest_modes(
+            K_free,
+            M_free,
+            None if n_modes is None else int(n_modes) + extra,
+            max_freq_hz=max_freq_hz,
+            sigma=sigma,
+            progress=progress,
+        )
+    timings["factorization_s"] = sol.factorization_s
+    timings["eigen_s"] = sol.solve_s
+    values, vectors = sol.eigenvalues, sol.vectors
+    vectors = vectors / np.sqrt(np.einsum("im,im->m", vectors, M_free @ vectors))
+    rigid_limit = (2 * np.pi * rigid_tol_hz) ** 2
+    if dense:  # a dense solve resolves omega^2 only to ~eps * lambda_max (thin solids: ~1e14)
+        rigid_limit = max(rigid_limit, 100 * np.finfo(float).eps * np.abs(values).max())
+    rigid = values < rigid_limit
+    if rigid.any() and rigid_count is None:
+        raise InputError(rigid_message.format(count=int(rigid.sum()), tol=rigid_tol_hz))
+    all_gamma = vectors.T @ load
+    values_el, vectors_el = values[~rigid], vectors[:, ~rigid]
+    if not dense and n_modes is not None:
+        values_el, vectors_el = values_el[: int(n_modes)], vectors_el[:, : int(n_modes)]
+    if vectors_el.shape[1]:
+        observed = observation @ vectors_el
+        peak = observed[np.argmax(np.abs(observed), axis=0), np.arange(observed.shape[1])]
+        vectors_el = vectors_el * np.where(peak < 0, -1.0, 1.0)
+
+    tick = time.perf_counter()
+    mobile = np.zeros(3)
+    active = np.flatnonzero(np.abs(load).sum(axis=0) > 0)
+    if active.size:
+        solved = factorize(M_free).solve(np.ascontiguousarray(load[:, active]))
+        mobile[active] = np.einsum("id,id->d", load[:, active], solved)
+    lu = sol.shifted_lu or factorize(K_free - sigma * M_free)
+    static_full = np.einsum("id,id->d", load, lu.solve(np.ascontiguousarray(load)))
+    static_kept = np.sum(all_gamma**2 / (values - sigma)[:, None], axis=0)
+    if not dense and n_modes is not None:  # only the retained elastic (and rigid) modes
+        kept = np.concatenate([np.flatnonzero(rigid), np.flatnonzero(~rigid)[: int(n_modes)]])
+        static_kept = np.sum(all_gamma[kept] ** 2 / (values[kept] - sigma)[:, None], axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        static_res = np.where(static_full > 0, 1.0 - static_kept / static_full, np.nan)
+    timings["residual_s"] = time.perf_counter() - tick
+    return ModeSolution(
+        freq_hz=np.sqrt(values_el) / (2 * np.pi),
+        vectors=vectors_el,
+        gamma=vectors_el.T @ load,
+        rigid_freq_hz=np.sqrt(np.abs(values[rigid])) / (2 * np.pi),
+        rigid_gamma=all_gamma[rigid],
+        mobile_mass_kg=mobile,
+        static_residual_fraction=static_res,
+        timings_s=timings,
+    )
+
+
 def modal_analysis(
     part: Part,
     supports,
@@ -258,7 +384,8 @@ def modal_analysis(
 
     Args:
         part: from fem.rectangular_plate / curved_panel / read_mesh.
-        supports: fem.SuctionCup / PointSupport / ClampedEdge / SimplySupportedEdge (list).
+        supports: fem.Support (SuctionCup, PointSupport, ClampedEdge, SimplySupportedEdge,
+            ...) or a list of them.
         n_modes: number of elastic modes; "all" for a full (dense) decomposition of a small
             model; None with ``max_freq_hz`` for every mode up to that frequency.
         zeta: modal damping: a ratio, one per mode, or fem.Rayleigh(alpha, beta).
@@ -294,19 +421,14 @@ def modal_analysis(
     timings: dict[str, float] = {}
 
     tick = time.perf_counter()
-    cups = [s for s in supports if isinstance(s, SuctionCup)]
-    mesh = part.mesh(cups)
+    mesh = part.mesh(contact_discs(supports))
     timings["mesh_s"] = time.perf_counter() - tick
     tick = time.perf_counter()
     if part.kind == "plate":
-        from fem.plate import assemble_plate
-
         system = assemble_plate(
             mesh, part.element, part.material, part.thickness_m, supports, progress
         )
     else:
-        from fem.solid import assemble_solid
-
         system, _ = assemble_solid(mesh, part, supports, progress)
     timings["assembly_s"] = time.perf_counter() - tick
 
@@ -317,61 +439,22 @@ def modal_analysis(
     load = T.T @ (system.M @ system.rigid)  # (n_free, 3) = (M R)_free
     timings["constraints_s"] = time.perf_counter() - tick
 
-    tick = time.perf_counter()
-    sigma = -((2 * np.pi * sigma_hz) ** 2)
-    extra = RIGID_MODES[part.kind] if allow_rigid_modes else 0
-    if dense:
-        sol = all_modes(K_free, M_free)
-    else:
-        sol = lowest_modes(
-            K_free,
-            M_free,
-            None if n_modes is None else int(n_modes) + extra,
-            max_freq_hz=max_freq_hz,
-            sigma=sigma,
-            progress=progress,
-        )
-    timings["factorization_s"] = sol.factorization_s
-    timings["eigen_s"] = sol.solve_s
-    values, vectors = sol.eigenvalues, sol.vectors
-    vectors = vectors / np.sqrt(np.einsum("im,im->m", vectors, M_free @ vectors))
-    rigid_limit = (2 * np.pi * rigid_tol_hz) ** 2
-    if dense:  # a dense solve resolves omega^2 only to ~eps * lambda_max (thin solids: ~1e14)
-        rigid_limit = max(rigid_limit, 100 * np.finfo(float).eps * np.abs(values).max())
-    rigid = values < rigid_limit
-    if rigid.any() and not allow_rigid_modes:
-        raise InputError(
-            f"supports: the gripper leaves {int(rigid.sum())} rigid-body mode(s) (below "
-            f"{rigid_tol_hz:g} Hz): the part is not held; add cups or pass allow_rigid_modes=True"
-        )
-    rigid_freq = np.sqrt(np.abs(values[rigid])) / (2 * np.pi)
-    all_gamma = vectors.T @ load
-    values_el, vectors_el = values[~rigid], vectors[:, ~rigid]
-    if not dense and n_modes is not None:
-        values_el, vectors_el = values_el[: int(n_modes)], vectors_el[:, : int(n_modes)]
     observation = (system.observation() @ T).tocsr()
-    if vectors_el.shape[1]:
-        observed = observation @ vectors_el
-        peak = observed[np.argmax(np.abs(observed), axis=0), np.arange(observed.shape[1])]
-        vectors_el = vectors_el * np.where(peak < 0, -1.0, 1.0)
-    freq = np.sqrt(values_el) / (2 * np.pi)
-    gamma = vectors_el.T @ load
-
-    tick = time.perf_counter()
-    mobile = np.zeros(3)
-    active = np.flatnonzero(np.abs(load).sum(axis=0) > 0)
-    if active.size:
-        solved = factorize(M_free).solve(np.ascontiguousarray(load[:, active]))
-        mobile[active] = np.einsum("id,id->d", load[:, active], solved)
-    lu = sol.shifted_lu or factorize(K_free - sigma * M_free)
-    static_full = np.einsum("id,id->d", load, lu.solve(np.ascontiguousarray(load)))
-    static_kept = np.sum(all_gamma**2 / (values - sigma)[:, None], axis=0)
-    if not dense and n_modes is not None:  # only the retained elastic (and rigid) modes
-        kept = np.concatenate([np.flatnonzero(rigid), np.flatnonzero(~rigid)[: int(n_modes)]])
-        static_kept = np.sum(all_gamma[kept] ** 2 / (values[kept] - sigma)[:, None], axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        static_res = np.where(static_full > 0, 1.0 - static_kept / static_full, np.nan)
-    timings["residual_s"] = time.perf_counter() - tick
+    modes = solve_modes(
+        K_free,
+        M_free,
+        load,
+        observation,
+        n_modes,
+        max_freq_hz=max_freq_hz,
+        rigid_count=RIGID_MODES[part.kind] if allow_rigid_modes else None,
+        sigma_hz=sigma_hz,
+        rigid_tol_hz=rigid_tol_hz,
+        rigid_message="supports: the gripper leaves {count} rigid-body mode(s) (below {tol:g} "
+        "Hz): the part is not held; add cups or pass allow_rigid_modes=True",
+        progress=progress,
+    )
+    timings.update(modes.timings_s)
     mass = float(np.max(np.einsum("id,id->d", system.rigid, system.M @ system.rigid)))
     timings["total_s"] = time.perf_counter() - t_start
     return ModalResult(
@@ -382,15 +465,15 @@ def modal_analysis(
         K_free=K_free,
         M_free=M_free,
         load=load,
-        freq_hz=freq,
-        vectors=vectors_el,
-        gamma=gamma,
-        rigid_freq_hz=rigid_freq,
-        rigid_gamma=all_gamma[rigid],
-        mobile_mass_kg=mobile,
-        static_residual_fraction=static_res,
+        freq_hz=modes.freq_hz,
+        vectors=modes.vectors,
+        gamma=modes.gamma,
+        rigid_freq_hz=modes.rigid_freq_hz,
+        rigid_gamma=modes.rigid_gamma,
+        mobile_mass_kg=modes.mobile_mass_kg,
+        static_residual_fraction=modes.static_residual_fraction,
         mass_kg=mass,
-        zeta=modal_zeta(zeta, freq),
+        zeta=modal_zeta(zeta, modes.freq_hz),
         damping=zeta,
         timings_s=timings,
         observation=observation,

@@ -15,14 +15,17 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import matplotlib.tri as mtri
 import numpy as np
 
 from fem import meshing
 from fem.materials import Material, resolve_material
+from fem.mesh import PlateMesh, SurfaceMesh
+from fem.mesh_io import load_part_mesh
 from jaxflex.errors import InputError
 from jaxflex.validation import check_positive
 
@@ -33,31 +36,6 @@ DEFAULT_SIZE_M = {"morley": 0.015, "argyris": 0.05, "hex2": 0.025}
 DEFAULT_SIZE_PER_SPAN = {"morley": 60, "argyris": 20, "hex2": 30}
 # Element size inside a cup as a fraction of its radius (quadratic solids have mid-nodes).
 CUP_FINE_FRACTION = {"morley": 0.25, "argyris": 0.25, "hex2": 1 / 3}
-
-
-@dataclass(frozen=True, eq=False)
-class PlateMesh:
-    """A flat triangle mesh in the plane z = z0: nodes_xy (N, 2) m, triangles (E, 3)."""
-
-    nodes_xy: np.ndarray
-    triangles: np.ndarray
-    z0: float = 0.0
-
-
-@dataclass(frozen=True, eq=False)
-class SurfaceMesh:
-    """A quadrilateral mid-surface to extrude into a one-layer thin solid.
-
-    nodes (N, 3) m, quads (E, 4) counter-clockwise seen from the normal side, normals (N, 3)
-    unit. ``exact(uv) -> (points, normals)`` maps footprint coordinates ``params`` (N, 2)
-    exactly onto the surface (built-in parts), so mid-side nodes lie on the true surface.
-    """
-
-    nodes: np.ndarray
-    quads: np.ndarray
-    normals: np.ndarray
-    params: np.ndarray | None = None
-    exact: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
 
 
 class _Rectangle:
@@ -113,8 +91,6 @@ class _GivenMesh:
         else:
             xy, tris = mesh.nodes[:, :2], meshing.split_quads(mesh.quads, mesh.nodes[:, :2])
             self._z = mesh.nodes[:, 2]
-        import matplotlib.tri as mtri
-
         self._tri = mtri.Triangulation(xy[:, 0], xy[:, 1], tris)
         self._finder = self._tri.get_trifinder()
         self._xy, self._tris = xy, tris
@@ -343,8 +319,6 @@ def read_mesh(
     - hexahedra: a one-layer thin solid; its mid-surface is extracted and re-extruded, the
       thickness is measured from the mesh (``thickness`` must be None or agree within 5 %).
     """
-    from fem.mesh_io import load_part_mesh
-
     scale = check_positive("scale", scale)
     mesh, measured, cell_type = load_part_mesh(path, scale)
     if isinstance(mesh, PlateMesh):
@@ -364,8 +338,25 @@ def read_mesh(
         raise InputError(f"thickness: required for a {cell_type} mesh (sheet thickness in m)")
     _check_common(thickness, element, None, allowed)
     description = {"shape": "mesh file", "path": str(path), "cell_type": cell_type, "scale": scale}
+    return part_from_mesh(
+        mesh, thickness, material, element, os.path.basename(str(path)), description
+    )
+
+
+def part_from_mesh(
+    mesh: PlateMesh | SurfaceMesh,
+    thickness: float,
+    material: str | Material | Mapping[str, Any],
+    element: str,
+    name: str,
+    description: dict,
+) -> Part:
+    """A part whose mesh is given (used as is): a flat PlateMesh for a Kirchhoff plate
+    ("morley", "argyris") or a quad SurfaceMesh for the thin solid ("hex2"); thickness in m."""
+    allowed = PLATE_ELEMENTS if isinstance(mesh, PlateMesh) else ("hex2",)
+    _check_common(thickness, element, None, allowed)
     return Part(
-        os.path.basename(str(path)),
+        name,
         element,
         resolve_material(material),
         float(thickness),

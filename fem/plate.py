@@ -2,9 +2,10 @@
 
 Deflection w (m) along z; strain energy D/2 int [nu (lap w)^2 + (1 - nu) w_,ij w_,ij] dA with
 D = E h^3 / (12 (1 - nu^2)); kinetic energy rho h/2 int w_t^2 dA (no rotary inertia).
-A suction cup clamps its disc: deflection and slopes of every vertex inside the disc and the
-normal slope of every edge inside it are held (second derivatives of Argyris are left free,
-which would over-constrain the disc boundary).
+Supports choose the DOFs they hold through :class:`PlateMeshDofs` (a suction cup clamps the
+elements of its disc: deflection and slopes of their vertices and the normal slopes of their
+edges; second derivatives of Argyris are left free, which would over-constrain the disc
+boundary).
 """
 
 from __future__ import annotations
@@ -13,9 +14,9 @@ import numpy as np
 import skfem
 from skfem.helpers import dd, ddot, trace
 
-from fem.parts import PlateMesh
+from fem.mesh import PlateMesh
 from fem.progress import progress_bar
-from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup
+from fem.supports import Support
 from fem.system import Constraints, FESystem
 from jaxflex.errors import InputError
 
@@ -40,9 +41,14 @@ def _forms(bending_nm: float, nu: float, mass_per_area: float):
 
 
 def assemble_plate(
-    mesh: PlateMesh, element: str, material, thickness_m: float, supports, progress=None
+    mesh: PlateMesh,
+    element: str,
+    material,
+    thickness_m: float,
+    supports: list[Support],
+    progress=None,
 ) -> FESystem:
-    """Assemble the plate and translate ``supports`` into held DOFs."""
+    """Assemble the plate and ask each of ``supports`` which DOFs it holds."""
     skmesh = skfem.MeshTri(mesh.nodes_xy.T.copy(), mesh.triangles.T.copy())
     elem = ELEMENT_CLASSES[element]()
     stiffness, mass = _forms(
@@ -69,7 +75,8 @@ def assemble_plate(
     nodes = np.column_stack([mesh.nodes_xy, np.full(len(mesh.nodes_xy), mesh.z0)])
     node_dofs = np.full((len(nodes), 3), -1, dtype=np.int64)
     node_dofs[:, 2] = nodal[0]
-    constraints = _constraints(skmesh, element, nodal, facet_dofs, supports)
+    dofs = PlateMeshDofs(skmesh, element, nodal, facet_dofs)
+    constraints = Constraints.union(s.hold_plate(dofs, i) for i, s in enumerate(supports))
     lengths = np.linalg.norm(np.diff(skmesh.p[:, skmesh.facets], axis=1)[:, 0], axis=0)
     stats = {
         "cell_type": "triangle",
@@ -93,6 +100,53 @@ def assemble_plate(
     )
 
 
+class PlateMeshDofs:
+    """The plate's DOF numbering as supports see it (fem.supports.PlateDofs): scikit-fem
+    mesh, element name, ``nodal`` (rows u [, u_x, u_y, u_xx, u_xy, u_yy], N vertices) and
+    ``facet_dofs`` (normal slope u_n per edge)."""
+
+    def __init__(self, mesh: skfem.MeshTri, element: str, nodal, facet_dofs) -> None:
+        self.mesh, self.element = mesh, element
+        self.nodal, self.facet_dofs = nodal, facet_dofs
+
+    @property
+    def centroids_xy(self) -> np.ndarray:
+        """(E, 2) element centroids, m."""
+        return self.mesh.p[:, self.mesh.t].mean(axis=1).T
+
+    def nearest_vertex(self, x: float, y: float) -> int:
+        """Index of the mesh vertex nearest to (x, y) m."""
+        p = self.mesh.p
+        return int(np.argmin(np.hypot(p[0] - x, p[1] - y)))
+
+    def clamp_elements(self, held: np.ndarray) -> Constraints:
+        """Clamp the elements of the mask ``held`` (E,): deflection and slopes at their
+        vertices (second derivatives of Argyris are left free, which would over-constrain the
+        boundary of the region), normal slopes on their edges."""
+        vertices = np.unique(self.mesh.t[:, held])
+        rows = (0, 1, 2) if self.element == "argyris" else (0,)
+        fixed = [self.nodal[r, vertices] for r in rows]
+        fixed.append(self.facet_dofs[np.unique(self.mesh.t2f[:, held])])
+        return Constraints(fixed=np.concatenate(fixed))
+
+    def pin_vertices(self, vertices) -> Constraints:
+        """Hold the deflection (not the slopes) at ``vertices``."""
+        return Constraints(fixed=self.nodal[0, np.asarray(vertices)])
+
+    def hold_side(self, side: str, *, clamped: bool) -> Constraints:
+        """Deflection held along a side (fem.supports.SIDES); ``clamped``: the normal slope
+        too."""
+        skmesh, nodal = self.mesh, self.nodal
+        facets = _side_facets(skmesh, side)
+        vertices = np.unique(skmesh.facets[:, facets])
+        out = [nodal[0, vertices]]
+        if clamped:
+            out.append(self.facet_dofs[facets])
+        if self.element == "argyris":
+            out.extend(_argyris_edge_dofs(skmesh, nodal, facets, clamped))
+        return Constraints(fixed=np.concatenate(out))
+
+
 def _side_facets(skmesh, side: str) -> np.ndarray:
     boundary = skmesh.boundary_facets()
     if side == "all":
@@ -107,44 +161,10 @@ def _side_facets(skmesh, side: str) -> np.ndarray:
     return picked
 
 
-def _constraints(skmesh, element, nodal, facet_dofs, supports) -> Constraints:
-    fixed: list[np.ndarray] = []
-    p = skmesh.p
-    for i, s in enumerate(supports):
-        if isinstance(s, SuctionCup):
-            # the disc is the union of the triangles whose centroid lies in it
-            centroid = p[:, skmesh.t].mean(axis=1)
-            held = np.hypot(centroid[0] - s.x, centroid[1] - s.y) <= s.radius
-            if not held.any():
-                raise InputError(
-                    f"supports[{i}]: the cup at ({s.x:g}, {s.y:g}) m covers no element "
-                    "centroid; use a smaller mesh_size"
-                )
-            vertices = np.unique(skmesh.t[:, held])
-            fixed.append(nodal[0, vertices])
-            if element == "argyris":
-                fixed.extend([nodal[1, vertices], nodal[2, vertices]])
-            fixed.append(facet_dofs[np.unique(skmesh.t2f[:, held])])
-        elif isinstance(s, PointSupport):
-            nearest = int(np.argmin(np.hypot(p[0] - s.x, p[1] - s.y)))
-            fixed.append(nodal[0, [nearest]])
-        elif isinstance(s, ClampedEdge | SimplySupportedEdge):
-            fixed.extend(_edge_dofs(skmesh, element, nodal, facet_dofs, s))
-    return Constraints(fixed=np.unique(np.concatenate(fixed)) if fixed else np.empty(0, int))
-
-
-def _edge_dofs(skmesh, element, nodal, facet_dofs, support) -> list[np.ndarray]:
-    facets = _side_facets(skmesh, support.side)
-    clamped = isinstance(support, ClampedEdge)
-    vertices = np.unique(skmesh.facets[:, facets])
-    out = [nodal[0, vertices]]
-    if clamped:
-        out.append(facet_dofs[facets])
-    if element == "morley":
-        return out
-    # Argyris: w = 0 along an edge also holds the tangential first and second derivatives
-    # at its vertices (clamped: all first derivatives and the cross derivative as well);
-    # index rows of ``nodal``: 0 u, 1 u_x, 2 u_y, 3 u_xx, 4 u_xy, 5 u_yy.
+def _argyris_edge_dofs(skmesh, nodal, facets, clamped: bool) -> list[np.ndarray]:
+    """Argyris: w = 0 along an edge also holds the tangential first and second derivatives
+    at its vertices (clamped: all first derivatives and the cross derivative as well);
+    index rows of ``nodal``: 0 u, 1 u_x, 2 u_y, 3 u_xx, 4 u_xy, 5 u_yy."""
     d = np.diff(skmesh.p[:, skmesh.facets[:, facets]], axis=1)[:, 0]
     length = np.hypot(d[0], d[1])
     along_x = np.abs(d[1]) <= 1e-9 * length
@@ -154,6 +174,7 @@ def _edge_dofs(skmesh, element, nodal, facet_dofs, support) -> list[np.ndarray]:
             "edge supports with element='argyris' need straight edges along x or y; use "
             "element='morley' for other outlines"
         )
+    out = []
     for mask, rows in ((along_x, (1, 3, 2, 4)), (along_y, (2, 5, 1, 4))):
         verts = np.unique(skmesh.facets[:, facets[mask]])
         if verts.size == 0:

@@ -55,13 +55,14 @@ from fem.sizing_curves import (
 )
 from fem.sizing_residual import TruncationResidual
 from fem.sizing_result import Row, SizingResult
-from fem.supports import SuctionCup
+from fem.supports import contact_discs
 from jaxflex.deviation import deviation_curves
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.points import voxel_downsample
+from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.validation import check_positive
 
 # Refinement sequence: multiples of the part's element size, coarse to fine (a factor sqrt 2
 # per level); the cup element size is CUP_RATIO x the base size (measured on the 1.5 x 0.8 m
@@ -128,11 +129,12 @@ class _Level:
 
 
 def _cup_element_m(part: Part, supports) -> float | None:
-    cups = [s for s in supports if isinstance(s, SuctionCup)]
-    if not cups:
+    """Element size inside the contact discs (cups) of ``supports``, m (None: no disc)."""
+    discs = contact_discs(supports)
+    if not discs:
         return None
     fraction = part.cup_fine_fraction or CUP_FINE_FRACTION[part.element]
-    return min(part.element_size_m, fraction * min(c.radius for c in cups))
+    return min(part.element_size_m, fraction * min(d.radius for d in discs))
 
 
 def _refinement_parts(part: Part, mesh_sizes_m, radius_m: float | None) -> list[Part]:
@@ -213,7 +215,7 @@ class _Sizer:
             "progress": progress,
         }
         self.key_points, self.eval_step_s = key_points, eval_step_s
-        radii = [c.radius for c in supports if isinstance(c, SuctionCup)]
+        radii = [d.radius for d in contact_discs(supports)]
         self.parts = _refinement_parts(part, mesh_sizes_m, min(radii, default=None))
         self.progress, self.log = progress, log or (lambda text: None)
         self.rows: list[Row] = []
@@ -667,10 +669,10 @@ def size_model(
         raise InputError("supports: a part needs its gripper (fem.SuctionCup, ...)")
     if acc is None:
         raise InputError("acc: the move's acceleration samples (n+1, 3) in m/s^2 are required")
-    acc = check_acc(acc, rest_at_ends=True).astype(np.float64)
+    move = as_move(acc, dt_s, at_rest=True)
+    acc, dt_s = move.acc, move.dt_s
     if not np.any(acc):
         raise InputError("acc: every sample is 0; the part does not move")
-    dt_s = check_positive("dt_s", dt_s)
     if threshold_m is None:
         raise InputError("threshold_m: the settle threshold in m is required")
     threshold_m = check_positive("threshold_m", threshold_m)

@@ -15,9 +15,9 @@ import numpy as np
 import scipy.sparse as sp
 import skfem
 
-from fem.parts import SurfaceMesh
+from fem.mesh import SurfaceMesh
 from fem.progress import progress_bar
-from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup
+from fem.supports import Support
 from fem.system import Constraints, FESystem
 from jaxflex.errors import InputError
 
@@ -122,9 +122,10 @@ def element_matrices(coords: np.ndarray, lam: float, mu: float, rho: float, basi
 
 
 def assemble_solid(
-    surface: SurfaceMesh, part, supports, progress=None
+    surface: SurfaceMesh, part, supports: list[Support], progress=None
 ) -> tuple[FESystem, Hex2Layer]:
-    """Assemble the thin solid of ``part`` on ``surface`` and translate ``supports``."""
+    """Assemble the thin solid of ``part`` on ``surface`` and ask each of ``supports`` which
+    DOFs it holds."""
     layer = Hex2Layer(surface, part.thickness_m)
     mat = part.material
     n_el = len(layer.element_nodes)
@@ -179,7 +180,8 @@ def assemble_solid(
         "edge_length_min_m": float(lengths.min()),
         "edge_length_max_m": float(lengths.max()),
     }
-    constraints = _constraints(layer, part, supports)
+    dofs = Hex2LayerDofs(layer, part)
+    constraints = Constraints.union(s.hold_solid(dofs, i) for i, s in enumerate(supports))
     system = FESystem(
         K,
         M,
@@ -195,43 +197,45 @@ def assemble_solid(
     return system, layer
 
 
-def _node_dofs(layer: Hex2Layer, surface_nodes) -> np.ndarray:
-    hexnodes = layer.layers_of(surface_nodes)
-    return (3 * hexnodes[:, None] + np.arange(3)).ravel()
+class Hex2LayerDofs:
+    """The thin solid's DOFs as supports see them (fem.supports.SolidDofs): DOF 3 n + i is
+    direction i of hexahedral node n; a surface node stands for its three layers."""
 
+    def __init__(self, layer: Hex2Layer, part) -> None:
+        self.layer, self.part = layer, part
 
-def _constraints(layer: Hex2Layer, part, supports) -> Constraints:
-    fixed: list[np.ndarray] = []
-    directions: list[tuple[np.ndarray, np.ndarray]] = []
-    pts = layer.surface_points
-    for i, s in enumerate(supports):
-        if isinstance(s, SuctionCup | PointSupport):
-            centre = part.surface_point([[s.x, s.y]])[0]
-            distance = np.linalg.norm(pts - centre, axis=1)
-        if isinstance(s, SuctionCup):
-            inside = np.flatnonzero(distance <= s.radius * (1 + 1e-9))
-            if inside.size == 0:
-                raise InputError(
-                    f"supports[{i}]: the cup at ({s.x:g}, {s.y:g}) m contains no mesh node; "
-                    "use a smaller mesh_size"
-                )
-            fixed.append(_node_dofs(layer, inside))
-        elif isinstance(s, PointSupport):
-            nearest = int(np.argmin(distance[: layer.n_vertices]))
-            fixed.append(_node_dofs(layer, [nearest]))
-        elif isinstance(s, ClampedEdge | SimplySupportedEdge):
-            nodes, tangents = _side_nodes(layer, s.side)
-            if isinstance(s, ClampedEdge):
-                fixed.append(_node_dofs(layer, nodes))
-                continue
-            for k, held_tangents in zip(nodes, tangents, strict=True):
-                held = np.vstack([layer.surface_normals[k], *held_tangents])
-                for hexnode in layer.layers_of([k]):
-                    directions.append((3 * hexnode + np.arange(3), held))
-    return Constraints(
-        fixed=np.unique(np.concatenate(fixed)) if fixed else np.empty(0, dtype=np.int64),
-        directions=directions,
-    )
+    @property
+    def surface_points(self) -> np.ndarray:
+        """(Ns, 3) mid-surface nodes, m (their footprint is the first two columns)."""
+        return self.layer.surface_points
+
+    def distance_m(self, x: float, y: float) -> np.ndarray:
+        """(Ns,) 3-D distance of every mid-surface node from the surface point above (x, y)."""
+        centre = self.part.surface_point([[x, y]])[0]
+        return np.linalg.norm(self.surface_points - centre, axis=1)
+
+    def nearest_vertex(self, x: float, y: float) -> int:
+        """The mesh vertex (a mid-surface node) nearest to the surface point above (x, y)."""
+        return int(np.argmin(self.distance_m(x, y)[: self.layer.n_vertices]))
+
+    def clamp_nodes(self, surface_nodes) -> Constraints:
+        """Hold every displacement component through the thickness at ``surface_nodes``."""
+        hexnodes = self.layer.layers_of(surface_nodes)
+        return Constraints(fixed=(3 * hexnodes[:, None] + np.arange(3)).ravel())
+
+    def hold_side(self, side: str, *, clamped: bool) -> Constraints:
+        """Clamp a side (fem.supports.SIDES), or hold the normal and the along-edge
+        displacement there (simple support; two tangents at a sharp corner)."""
+        layer = self.layer
+        nodes, tangents = _side_nodes(layer, side)
+        if clamped:
+            return self.clamp_nodes(nodes)
+        directions = []
+        for k, held_tangents in zip(nodes, tangents, strict=True):
+            held = np.vstack([layer.surface_normals[k], *held_tangents])
+            for hexnode in layer.layers_of([k]):
+                directions.append((3 * hexnode + np.arange(3), held))
+        return Constraints(directions=directions)
 
 
 def _side_nodes(layer: Hex2Layer, side: str):

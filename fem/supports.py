@@ -5,19 +5,149 @@ above (x, y). A suction cup clamps every node of its disc region rigidly (the di
 of surface points within ``radius`` of the cup centre, measured in 3-D on curved parts).
 Edge supports are for validation cases; ``side`` names a side of the footprint's bounding
 box ("x0": x = x_min, "x1": x = x_max, "y0", "y1") or "all" for the whole boundary.
+
+Every support is a :class:`Support`: it states which degrees of freedom it holds on a
+Kirchhoff plate (:meth:`Support.hold_plate`, asking a ``fem.plate.PlateDofs``) and on the
+thin solid (:meth:`Support.hold_solid`, asking a ``fem.solid.SolidDofs``), how it is
+described in the model's meta and drawn, and what the layout checks and the mesh refinement
+need to know (:attr:`Support.anchor_xy`, :attr:`Support.contact_disc`,
+:attr:`Support.prevents_rigid_motion`). A new gripper type is one subclass; the assembly,
+the checks, the meta and the pictures ask it instead of testing its type.
 """
 
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import ClassVar, NamedTuple, Protocol
 
 import numpy as np
 
+from fem.system import Constraints
 from jaxflex.errors import InputError
 
 SIDES = ("all", "x0", "x1", "y0", "y1")
+
+
+class Disc(NamedTuple):
+    """A disc of the footprint: centre (x, y) and radius, m."""
+
+    x: float
+    y: float
+    radius: float
+
+
+class PlateDofs(Protocol):
+    """What a support may ask of a Kirchhoff plate (fem.plate provides it)."""
+
+    @property
+    def centroids_xy(self) -> np.ndarray:
+        """(E, 2) element centroids, m."""
+
+    def nearest_vertex(self, x: float, y: float) -> int:
+        """Index of the mesh vertex nearest to (x, y) m."""
+
+    def clamp_elements(self, held: np.ndarray) -> Constraints:
+        """Clamp the elements of the mask ``held`` (E,): deflection and slopes at their
+        vertices, normal slopes on their edges."""
+
+    def pin_vertices(self, vertices) -> Constraints:
+        """Hold the deflection (not the slopes) at ``vertices``."""
+
+    def hold_side(self, side: str, *, clamped: bool) -> Constraints:
+        """Simply support (deflection held) or clamp (slope across it too) a side in SIDES."""
+
+
+class SolidDofs(Protocol):
+    """What a support may ask of the thin solid (fem.solid provides it)."""
+
+    @property
+    def surface_points(self) -> np.ndarray:
+        """(Ns, 3) mid-surface nodes, m (their footprint is the first two columns)."""
+
+    def distance_m(self, x: float, y: float) -> np.ndarray:
+        """(Ns,) 3-D distance of every mid-surface node from the surface point above (x, y)."""
+
+    def nearest_vertex(self, x: float, y: float) -> int:
+        """The mesh vertex (a mid-surface node) nearest to the surface point above (x, y)."""
+
+    def clamp_nodes(self, surface_nodes) -> Constraints:
+        """Hold every displacement component through the thickness at ``surface_nodes``."""
+
+    def hold_side(self, side: str, *, clamped: bool) -> Constraints:
+        """Clamp a side in SIDES, or simply support it (normal and along-edge displacement
+        held, the slope across it free)."""
+
+
+class Support(ABC):
+    """A gripper or support of the part (module docstring).
+
+    Subclasses implement :meth:`describe`, :meth:`hold_plate` and :meth:`hold_solid`; the
+    other members have defaults for a support without a contact disc or anchor point.
+    ``noun`` names the support in error messages.
+    """
+
+    noun: ClassVar[str] = "support"
+
+    @abstractmethod
+    def describe(self) -> dict:
+        """JSON-serialisable description for the model's meta ("type" names the support)."""
+
+    @abstractmethod
+    def hold_plate(self, plate: PlateDofs, index: int) -> Constraints:
+        """The plate DOFs this support holds; ``index`` is its position in the support list
+        (for error messages)."""
+
+    @abstractmethod
+    def hold_solid(self, solid: SolidDofs, index: int) -> Constraints:
+        """The thin-solid DOFs (or directions at nodes) this support holds."""
+
+    @property
+    def anchor_xy(self) -> tuple[float, float] | None:
+        """Footprint point (m) the support holds the part at, or None (edges): checked to lie
+        on the part and counted towards the three non-collinear holds."""
+        return None
+
+    @property
+    def contact_disc(self) -> Disc | None:
+        """The footprint disc the support holds (None: none). The mesh is refined around it,
+        it must lie on the part and must not overlap another support's disc."""
+        return None
+
+    @property
+    def prevents_rigid_motion(self) -> bool:
+        """True if this support alone removes every rigid-body mode (clamped or simply
+        supported edges), so the layout needs no three non-collinear anchors."""
+        return False
+
+    def draw(self, ax) -> str | None:
+        """Draw the support on the matplotlib axes of the footprint (m); return a caption for
+        the title if it is not drawn (None if it is)."""
+        return self.describe()["type"]
+
+    def check_on_part(self, index: int, contains_xy) -> None:
+        """Raise InputError if the support is not on the part (``contains_xy`` as in
+        :func:`check_layout`): its anchor off the part or its disc overhanging the edge."""
+        if self.anchor_xy is not None:
+            x, y = self.anchor_xy
+            if not contains_xy(np.array([[x, y]]))[0]:
+                raise InputError(
+                    f"supports[{index}]: {self.noun} centre at ({x:g}, {y:g}) m is off the part"
+                )
+        disc = self.contact_disc
+        if disc is not None:
+            angle = np.linspace(0, 2 * np.pi, 48, endpoint=False)
+            rim = np.column_stack(
+                [disc.x + disc.radius * np.cos(angle), disc.y + disc.radius * np.sin(angle)]
+            )
+            if not contains_xy(rim).all():
+                raise InputError(
+                    f"supports[{index}]: {self.noun} at ({disc.x:g}, {disc.y:g}) m with radius "
+                    f"{disc.radius:g} m overhangs the edge of the part; move it inwards or use "
+                    "a smaller radius"
+                )
 
 
 def _finite(owner: str, name: str, value: float) -> float:
@@ -31,12 +161,13 @@ def _finite(owner: str, name: str, value: float) -> float:
 
 
 @dataclass(frozen=True)
-class SuctionCup:
+class SuctionCup(Support):
     """A vacuum suction cup at (x, y) m with contact radius ``radius`` m (default 40 mm)."""
 
     x: float
     y: float
     radius: float = 0.04
+    noun: ClassVar[str] = "cup"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "x", _finite("SuctionCup", "x", self.x))
@@ -49,13 +180,53 @@ class SuctionCup:
     def describe(self) -> dict:
         return {"type": "suction_cup", "x_m": self.x, "y_m": self.y, "radius_m": self.radius}
 
+    @property
+    def anchor_xy(self) -> tuple[float, float]:
+        return self.x, self.y
+
+    @property
+    def contact_disc(self) -> Disc:
+        return Disc(self.x, self.y, self.radius)
+
+    def hold_plate(self, plate: PlateDofs, index: int) -> Constraints:
+        # the disc is the union of the triangles whose centroid lies in it
+        centroid = plate.centroids_xy
+        held = np.hypot(centroid[:, 0] - self.x, centroid[:, 1] - self.y) <= self.radius
+        if not held.any():
+            raise InputError(
+                f"supports[{index}]: the cup at ({self.x:g}, {self.y:g}) m covers no element "
+                "centroid; use a smaller mesh_size"
+            )
+        return plate.clamp_elements(held)
+
+    def hold_solid(self, solid: SolidDofs, index: int) -> Constraints:
+        distance = solid.distance_m(self.x, self.y)
+        inside = np.flatnonzero(distance <= self.radius * (1 + 1e-9))
+        if inside.size == 0:
+            raise InputError(
+                f"supports[{index}]: the cup at ({self.x:g}, {self.y:g}) m contains no mesh "
+                "node; use a smaller mesh_size"
+            )
+        return solid.clamp_nodes(inside)
+
+    def draw(self, ax) -> None:
+        angle = np.linspace(0, 2 * np.pi, 65)
+        ax.fill(
+            self.x + self.radius * np.cos(angle),
+            self.y + self.radius * np.sin(angle),
+            color="tab:red",
+            alpha=0.6,
+            lw=0,
+        )
+
 
 @dataclass(frozen=True)
-class PointSupport:
+class PointSupport(Support):
     """A pinned point at (x, y) m: the displacement (not the rotation) is held there."""
 
     x: float
     y: float
+    noun: ClassVar[str] = "point support"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "x", _finite("PointSupport", "x", self.x))
@@ -63,6 +234,19 @@ class PointSupport:
 
     def describe(self) -> dict:
         return {"type": "point_support", "x_m": self.x, "y_m": self.y}
+
+    @property
+    def anchor_xy(self) -> tuple[float, float]:
+        return self.x, self.y
+
+    def hold_plate(self, plate: PlateDofs, index: int) -> Constraints:
+        return plate.pin_vertices([plate.nearest_vertex(self.x, self.y)])
+
+    def hold_solid(self, solid: SolidDofs, index: int) -> Constraints:
+        return solid.clamp_nodes([solid.nearest_vertex(self.x, self.y)])
+
+    def draw(self, ax) -> None:
+        ax.plot(self.x, self.y, "^", color="tab:red")
 
 
 def _check_side(owner: str, side: str) -> str:
@@ -74,107 +258,114 @@ def _check_side(owner: str, side: str) -> str:
 
 
 @dataclass(frozen=True)
-class ClampedEdge:
-    """A fully clamped side of the part (displacement and slope held)."""
+class _Edge(Support):
+    """A supported side of the part; ``clamped`` tells whether the slope across it is held."""
 
     side: str = "all"
+    clamped: ClassVar[bool]
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "side", _check_side("ClampedEdge", self.side))
+        object.__setattr__(self, "side", _check_side(type(self).__name__, self.side))
+
+    @property
+    def prevents_rigid_motion(self) -> bool:
+        return True
+
+    def hold_plate(self, plate: PlateDofs, index: int) -> Constraints:
+        return plate.hold_side(self.side, clamped=self.clamped)
+
+    def hold_solid(self, solid: SolidDofs, index: int) -> Constraints:
+        return solid.hold_side(self.side, clamped=self.clamped)
+
+    def draw(self, ax) -> str:
+        return f"{self.describe()['type']} {self.side}"
+
+
+@dataclass(frozen=True)
+class ClampedEdge(_Edge):
+    """A fully clamped side of the part (displacement and slope held)."""
+
+    clamped: ClassVar[bool] = True
+    noun: ClassVar[str] = "clamped edge"
 
     def describe(self) -> dict:
         return {"type": "clamped_edge", "side": self.side}
 
 
 @dataclass(frozen=True)
-class SimplySupportedEdge:
+class SimplySupportedEdge(_Edge):
     """A simply supported (hinged) side: the deflection normal to the surface and the
     displacement along the edge are held, the slope across the edge is free (for thin solids
     this is the shear-diaphragm condition of shell theory)."""
 
-    side: str = "all"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "side", _check_side("SimplySupportedEdge", self.side))
+    clamped: ClassVar[bool] = False
+    noun: ClassVar[str] = "simply supported edge"
 
     def describe(self) -> dict:
         return {"type": "simply_supported_edge", "side": self.side}
 
 
-Support = SuctionCup | PointSupport | ClampedEdge | SimplySupportedEdge
-
-
-def as_support_list(supports) -> list:
+def as_support_list(supports) -> list[Support]:
     """Normalise a single support or a sequence of supports to a list (type-checked)."""
-    if isinstance(supports, SuctionCup | PointSupport | ClampedEdge | SimplySupportedEdge):
+    if isinstance(supports, Support):
         return [supports]
     if not isinstance(supports, Sequence):
         raise InputError(
-            "supports: expected a sequence of fem.SuctionCup / PointSupport / ClampedEdge / "
-            f"SimplySupportedEdge, got {type(supports).__name__}"
+            "supports: expected a sequence of fem.Support (SuctionCup, PointSupport, "
+            f"ClampedEdge, SimplySupportedEdge, ...), got {type(supports).__name__}"
         )
     out = list(supports)
     for i, s in enumerate(out):
-        if not isinstance(s, SuctionCup | PointSupport | ClampedEdge | SimplySupportedEdge):
+        if not isinstance(s, Support):
             raise InputError(
-                f"supports[{i}]: expected fem.SuctionCup, PointSupport, ClampedEdge or "
-                f"SimplySupportedEdge, got {type(s).__name__}"
+                f"supports[{i}]: expected a fem.Support (SuctionCup, PointSupport, ClampedEdge, "
+                f"SimplySupportedEdge, ...), got {type(s).__name__}"
             )
     return out
 
 
-def check_layout(supports: list, contains_xy, *, allow_rigid_modes: bool = False) -> None:
+def contact_discs(supports: Sequence[Support]) -> list[Disc]:
+    """The contact discs of ``supports`` (those that have one), in order."""
+    return [s.contact_disc for s in supports if s.contact_disc is not None]
+
+
+def check_layout(supports: list[Support], contains_xy, *, allow_rigid_modes: bool = False) -> None:
     """Reject gripper layouts that cannot hold the part.
 
     ``contains_xy(xy (N, 2)) -> bool (N,)`` tells whether footprint points lie on the part.
-    Raises InputError for a cup or point off the part, a cup overhanging the edge, overlapping
-    cups, and (unless ``allow_rigid_modes``) fewer than three non-collinear cups/points when no
-    edge is supported.
+    Raises InputError for a support off the part (its anchor or contact disc), overlapping
+    contact discs, and (unless ``allow_rigid_modes``) fewer than three non-collinear anchors
+    (cups/points) when no support removes the rigid-body modes alone (an edge).
     """
-    cups = [s for s in supports if isinstance(s, SuctionCup)]
-    points = [s for s in supports if isinstance(s, PointSupport)]
-    edges = [s for s in supports if isinstance(s, ClampedEdge | SimplySupportedEdge)]
     for i, s in enumerate(supports):
-        if isinstance(s, SuctionCup | PointSupport):
-            kind = "cup" if isinstance(s, SuctionCup) else "point support"
-            if not contains_xy(np.array([[s.x, s.y]]))[0]:
-                raise InputError(
-                    f"supports[{i}]: {kind} centre at ({s.x:g}, {s.y:g}) m is off the part"
-                )
-        if isinstance(s, SuctionCup):
-            angle = np.linspace(0, 2 * np.pi, 48, endpoint=False)
-            rim = np.column_stack([s.x + s.radius * np.cos(angle), s.y + s.radius * np.sin(angle)])
-            if not contains_xy(rim).all():
-                raise InputError(
-                    f"supports[{i}]: cup at ({s.x:g}, {s.y:g}) m with radius {s.radius:g} m "
-                    "overhangs the edge of the part; move it inwards or use a smaller radius"
-                )
-    for i in range(len(cups)):
-        for j in range(i + 1, len(cups)):
-            a, b = cups[i], cups[j]
+        s.check_on_part(i, contains_xy)
+    discs = [(s, s.contact_disc) for s in supports if s.contact_disc is not None]
+    for i, (s, a) in enumerate(discs):
+        for t, b in discs[i + 1 :]:
             gap = math.hypot(a.x - b.x, a.y - b.y) - a.radius - b.radius
             if gap < 0:
                 raise InputError(
-                    f"supports: cups at ({a.x:g}, {a.y:g}) m and ({b.x:g}, {b.y:g}) m overlap "
-                    f"by {-gap * 1e3:.3g} mm; every cup needs its own contact disc"
+                    f"supports: {s.noun} at ({a.x:g}, {a.y:g}) m and {t.noun} at "
+                    f"({b.x:g}, {b.y:g}) m overlap by {-gap * 1e3:.3g} mm; every support "
+                    "needs its own contact disc"
                 )
-    if edges or allow_rigid_modes:
+    if allow_rigid_modes or any(s.prevents_rigid_motion for s in supports):
         return
-    held = cups + points
+    anchors = [s.anchor_xy for s in supports if s.anchor_xy is not None]
     hint = "; add supports or pass allow_rigid_modes=True (--allow-rigid-modes) to keep rigid modes"
-    if len(held) < 3:
+    if len(anchors) < 3:
         raise InputError(
-            f"supports: {len(held)} cup(s)/point(s) cannot hold the part without rigid-body "
+            f"supports: {len(anchors)} cup(s)/point(s) cannot hold the part without rigid-body "
             f"modes; at least 3 non-collinear cups are needed{hint}"
         )
-    centres = np.array([[s.x, s.y] for s in held])
+    centres = np.array(anchors)
     centred = centres - centres.mean(axis=0)
     _, _, vt = np.linalg.svd(centred, full_matrices=False)
     off_line = np.abs(centred @ vt[1])
-    tolerance = min((s.radius for s in cups), default=1e-3)
+    tolerance = min((d.radius for _, d in discs), default=1e-3)
     if off_line.max() <= tolerance:
         raise InputError(
-            f"supports: the {len(held)} cups/points are collinear (all within "
+            f"supports: the {len(anchors)} cups/points are collinear (all within "
             f"{tolerance * 1e3:.3g} mm of one line), so the part can rotate about that line; "
             f"at least 3 non-collinear cups are needed{hint}"
         )

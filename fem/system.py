@@ -8,6 +8,7 @@ expressed by a sparse basis T of the admissible displacements: u = T z.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,6 +22,16 @@ class Constraints:
 
     fixed: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     directions: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+
+    @classmethod
+    def union(cls, parts: Iterable[Constraints]) -> Constraints:
+        """Everything any of ``parts`` holds (the constraints of several supports)."""
+        parts = list(parts)
+        fixed = [c.fixed for c in parts]
+        return cls(
+            fixed=np.unique(np.concatenate(fixed)) if fixed else np.empty(0, dtype=np.int64),
+            directions=[d for c in parts for d in c.directions],
+        )
 
     def basis(self, n_dof: int) -> sp.csc_matrix:
         """Sparse T (n_dof, n_free) whose columns span the admissible displacements."""

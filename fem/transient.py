@@ -22,7 +22,7 @@ from fem.eigen import factorize
 from fem.modal import ModalResult
 from fem.progress import progress_bar
 from jaxflex.errors import InputError
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.profile import as_move
 
 DEFAULT_OMEGA_H = 0.05  # omega h at the reference mode: Newmark period error ~ 2e-4
 REFERENCE_MODE = 10  # the default step resolves the 10th mode (higher modes respond
@@ -74,8 +74,8 @@ def transient_reference(
     (fine steps per dt) defaults to omega h <= 0.05 for the 10th mode of ``result``.
     """
     start = time.perf_counter()
-    acc = check_acc(acc).astype(float)
-    dt_s = check_positive("dt_s", dt_s)
+    move = as_move(acc, dt_s)
+    acc, dt_s = move.acc, move.dt_s
     damping = damping if damping is not None else result.damping
     if not isinstance(damping, Rayleigh):
         raise InputError(

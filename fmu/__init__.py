@@ -3,11 +3,22 @@
 ``export_fmu(model, "part.fmu", fmi_version=2|3, trajectory=(acc, dt_s))`` writes the FMU
 (C sources of the exact modal recursion, gcc-built binaries, versioned binary resource) and,
 with a trajectory, the input CSV and case JSON beside it. ``verify("part.fmu")`` validates it
-with fmpy, simulates it and compares with ``jaxflex.simulate``.
+with fmpy, simulates it and compares with ``jaxflex.simulate``. ``export_ssp(model,
+"case.ssp", 2, (acc, dt_s))`` writes an SSP 1.0 package of the part and a trajectory source
+FMU playing the move (fmu.ssp); ``fmu.crosscheck`` runs FMUs and packages in other hosts.
 """
 
 from fmu.build import FmuBuildError
 from fmu.export import ExportResult, export_fmu
+from fmu.ssp import SspResult, export_ssp
 from fmu.verify import VerifyReport, verify
 
-__all__ = ["ExportResult", "FmuBuildError", "VerifyReport", "export_fmu", "verify"]
+__all__ = [
+    "ExportResult",
+    "FmuBuildError",
+    "SspResult",
+    "VerifyReport",
+    "export_fmu",
+    "export_ssp",
+    "verify",
+]

@@ -6,16 +6,20 @@ import platform
 import shutil
 import subprocess
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import fmpy
 
 from jaxflex.errors import JaxflexError
 
 C_DIR = Path(__file__).resolve().parent / "c"
-CORE_FILES = ("jxf_core.h", "jxf_core.c")
+CORE_FILES = ("jxf_core.h", "jxf_core.c", "jxf_values.c")
 GLUE_FILE = {2: "jxf_fmi2.c", 3: "jxf_fmi3.c"}
 CFLAGS = ("-std=c99", "-O2", "-fvisibility=hidden", "-Wall", "-Wextra")
 WINDOWS_COMPILER = "x86_64-w64-mingw32-gcc"
+_MINGW_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64"
 
 
 class FmuBuildError(JaxflexError):
@@ -48,8 +52,6 @@ class BuildReport:
 
 def fmi_headers() -> Path:
     """Directory with the FMI 2.0 and 3.0 C headers (shipped with fmpy)."""
-    import fmpy
-
     path = Path(fmpy.__file__).resolve().parent / "c-code"
     if not (path / "fmi2Functions.h").is_file() or not (path / "fmi3Functions.h").is_file():
         raise FmuBuildError(f"FMI C headers not found in {path}; reinstall fmpy")
@@ -82,12 +84,20 @@ def sources_for(fmi_version: int) -> tuple[str, ...]:
     return (*CORE_FILES, GLUE_FILE[fmi_version])
 
 
-def compile_library(target: Target, sources_dir: Path, fmi_version: int, out_file: Path) -> str:
-    """Compile the sources in ``sources_dir`` into ``out_file``; returns compiler messages."""
+def compile_library(
+    target: Target,
+    sources_dir: Path,
+    fmi_version: int,
+    out_file: Path,
+    c_files: Sequence[str] | None = None,
+) -> str:
+    """Compile the sources in ``sources_dir`` (``c_files``, default: the part FMU's) into
+    ``out_file``; returns compiler messages."""
     if shutil.which(target.compiler) is None:
         raise FmuBuildError(f"C compiler {target.compiler!r} not found on PATH (install gcc)")
     out_file.parent.mkdir(parents=True, exist_ok=True)
-    c_files = [str(sources_dir / name) for name in sources_for(fmi_version) if name.endswith(".c")]
+    names = c_files or [name for name in sources_for(fmi_version) if name.endswith(".c")]
+    c_files = [str(sources_dir / name) for name in names]
     cmd = [
         target.compiler,
         *CFLAGS,
@@ -111,8 +121,10 @@ def build_binaries(
     fmi_version: int,
     model_identifier: str,
     windows: bool | None = None,
+    c_files: Sequence[str] | None = None,
 ) -> BuildReport:
-    """Build the host binary and, when ``windows`` is None (auto) or True, the Windows DLL.
+    """Build the host binary and, when ``windows`` is None (auto) or True, the Windows DLL,
+    from ``c_files`` in ``sources_dir`` (default: the part FMU's).
 
     ``windows=True`` without the mingw-w64 compiler is an error; with None the DLL is skipped
     and the reason recorded in the report.
@@ -123,17 +135,16 @@ def build_binaries(
     if cross is not None:
         targets.append(cross)
     elif windows is None:
-        report.skipped["x86_64-windows"] = f"{WINDOWS_COMPILER} is not installed"
+        report.skipped["x86_64-windows"] = f"{WINDOWS_COMPILER} is not installed ({_MINGW_HINT})"
     elif windows:
         raise FmuBuildError(
-            f"a Windows DLL was requested but {WINDOWS_COMPILER} is not installed "
-            "(Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64)"
+            f"a Windows DLL was requested but {WINDOWS_COMPILER} is not installed ({_MINGW_HINT})"
         )
     messages = []
     for target in targets:
         folder = target.folder(fmi_version)
         out = binaries_dir / folder / f"{model_identifier}{target.suffix}"
-        text = compile_library(target, sources_dir, fmi_version, out)
+        text = compile_library(target, sources_dir, fmi_version, out, c_files)
         if text:
             messages.append(f"[{folder}] {text}")
         report.platforms.append(folder)

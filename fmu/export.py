@@ -16,22 +16,24 @@ import re
 import shutil
 import tempfile
 import uuid
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from fmu.archive import zip_folder
 from fmu.build import C_DIR as _C_DIR
 from fmu.build import BuildReport, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
 from fmu.resource import encode_resource
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
-from jaxflex.atomic import atomic_open, write_text_atomic
+from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.profile import as_move
+from jaxflex.settle import analyze_move
+from jaxflex.validation import check_positive
 
 DEFAULT_THRESHOLD_M = 5e-4
 DEFAULT_STEP_S = 0.01
@@ -98,8 +100,8 @@ def _check_trajectory(trajectory) -> tuple[np.ndarray | None, float | None]:
         acc, dt_s = trajectory
     except (TypeError, ValueError) as exc:
         raise InputError("trajectory: expected a pair (acc (n+1, 3) m/s^2, dt_s)") from exc
-    acc = check_acc(acc, name="trajectory acc", rest_at_ends=True).astype(np.float64)
-    return acc, check_positive("trajectory dt_s", dt_s)
+    move = as_move(acc, dt_s, at_rest=True, name="trajectory acc")
+    return move.acc, move.dt_s
 
 
 def _case_summary(model, acc, dt_s, threshold_m, case) -> dict[str, Any]:
@@ -115,8 +117,6 @@ def _case_summary(model, acc, dt_s, threshold_m, case) -> dict[str, Any]:
     case_threshold = case.pop("threshold_m", threshold_m)
     times = {key: case.pop(key) for key in _CASE_TIMES if key in case}
     if len(times) < len(_CASE_TIMES) or not math.isclose(case_threshold, threshold_m):
-        from jaxflex.settle import analyze_move
-
         report = analyze_move(model, acc, dt_s, threshold_m)
         times = {key: float(getattr(report, key)) for key in _CASE_TIMES}
     summary.update(times)
@@ -142,16 +142,6 @@ def _stage(stage: Path, fmi_version: int, ident: str, config: str, xml: str, res
     (stage / "resources").mkdir()
     (stage / "resources" / RESOURCE_FILE).write_bytes(resource)
     (stage / "modelDescription.xml").write_text(xml, encoding="utf-8")
-
-
-def _zip(stage: Path, path: Path) -> None:
-    files = sorted(f for f in stage.rglob("*") if f.is_file())
-    with (
-        atomic_open(path, "wb") as handle,
-        zipfile.ZipFile(handle, "w", zipfile.ZIP_DEFLATED) as zf,
-    ):
-        for file in files:
-            zf.write(file, file.relative_to(stage).as_posix())
 
 
 def _write_sidecars(path: Path, acc, dt_s, summary, result_fields) -> tuple[Path, Path, dict]:
@@ -251,7 +241,7 @@ def export_fmu(
         built: BuildReport = build_binaries(
             stage / "sources", stage / "binaries", fmi_version, ident, windows
         )
-        _zip(stage, path)
+        zip_folder(stage, path)
     fields = {
         "fmu": path.name,
         "fmi_version": fmi_version,

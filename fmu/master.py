@@ -10,14 +10,45 @@ nine-slot derivative buffer.)
 from __future__ import annotations
 
 import ctypes
+import itertools
 import os
 import shutil
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi1 import printLogMessage
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
+from fmpy.fmi3 import FMU3Slave
+from fmpy.logging import addLoggerProxy
 
 _LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
+# FMI 2.0 log messages of open sessions, by the componentEnvironment their instance got
+_FMI2_LOGS: dict[int, list[tuple[str, str]]] = {}
+_FMI2_KEYS = itertools.count(1)
+
+
+def _route_fmi2_log(env, name, status, category, message) -> None:
+    """The one FMI 2.0 logger of this process. fmpy formats the variadic arguments in a
+    native proxy that keeps a single process-wide pointer to the Python logger it wraps, so a
+    logger per session would dangle (and crash the next FMU that logs) once its session is
+    gone. Messages of our sessions go to their list, any other FMU's are printed as fmpy's
+    default logger prints them."""
+    messages = _FMI2_LOGS.get(env or 0)
+    if messages is None:
+        printLogMessage(env, name, status, category, message)
+    else:
+        messages.append((_LABELS[status], message.decode("utf-8", "replace")))
+
+
+_FMI2_LOGGER = fmi2CallbackLoggerTYPE(_route_fmi2_log)
 
 
 class Session:
@@ -32,8 +63,6 @@ class Session:
         instance_name: str = "jaxflex",
         debug: bool = False,
     ) -> None:
-        from fmpy import extract, read_model_description
-
         self.messages: list[tuple[str, str]] = []
         self.description = read_model_description(str(unzip_dir or fmu))
         self.fmi_version = int(self.description.fmiVersion[0])
@@ -57,33 +86,21 @@ class Session:
             "instanceName": instance_name,
         }
         if self.fmi_version == 2:
-            from fmpy import calloc, free
-            from fmpy.fmi2 import (
-                FMU2Slave,
-                fmi2CallbackAllocateMemoryTYPE,
-                fmi2CallbackFreeMemoryTYPE,
-                fmi2CallbackFunctions,
-                fmi2CallbackLoggerTYPE,
-            )
-            from fmpy.logging import addLoggerProxy
-
+            self._log_key = next(_FMI2_KEYS)
+            _FMI2_LOGS[self._log_key] = self.messages
             callbacks = fmi2CallbackFunctions()
-            callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
+            callbacks.logger = _FMI2_LOGGER
             callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
             callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+            callbacks.componentEnvironment = self._log_key
             addLoggerProxy(ctypes.byref(callbacks))
             self._callbacks = callbacks  # keep alive while the instance exists
             slave = FMU2Slave(**kwargs)
             slave.instantiate(callbacks=callbacks, loggingOn=debug)
         else:
-            from fmpy.fmi3 import FMU3Slave
-
             slave = FMU3Slave(**kwargs)
             slave.instantiate(loggingOn=debug, logMessage=self._log3)
         return slave
-
-    def _log2(self, env, name, status, category, message):
-        self.messages.append((_LABELS[status], message.decode("utf-8", "replace")))
 
     def _log3(self, env, status, category, message):
         self.messages.append((_LABELS[status], message.decode("utf-8", "replace")))
@@ -141,6 +158,14 @@ class Session:
                 raise ValueError("FMI 3.0 has no input derivatives: inputs are held over a step")
             self._slave.setFloat64(vrs, values)
 
+    def output_rates(self, names) -> np.ndarray:
+        """First time derivatives of the named Real outputs at the communication point
+        (fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives), one per name."""
+        vrs = [self._vr(n) for n in names]
+        if self.fmi_version == 2:
+            return np.asarray(self._slave.getRealOutputDerivatives(vrs, [1] * len(vrs)))
+        return np.asarray(self._slave.getOutputDerivatives(vrs, [1] * len(vrs)))
+
     def step(self, t: float, h: float) -> None:
         self._slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
 
@@ -151,6 +176,7 @@ class Session:
         if self._slave is not None:
             self._slave.freeInstance()
             self._slave = None
+        _FMI2_LOGS.pop(getattr(self, "_log_key", 0), None)
         if self._tmp is not None:
             shutil.rmtree(self._tmp, ignore_errors=True)
             self._tmp = None
@@ -169,17 +195,41 @@ def run_linear(session: Session, acc, dt_s: float, n_steps: int) -> dict[str, np
     padded = np.zeros((max(n_steps + 1, len(acc)) + 1, 3))
     padded[: len(acc)] = acc
     rates = np.diff(padded, axis=0) / dt_s
-    out = {"time": [], "deviation": [], "settle_time": [], "settled": []}
-
-    def record(t):
-        out["time"].append(t)
-        for name in ("deviation", "settle_time", "settled"):
-            out[name].append(session.get(name))
-
-    record(0.0)
+    out = _record(session, 0.0)
     for k in range(n_steps):
         t = k * dt_s
         session.set_inputs(padded[k], rates[k])
         session.step(t, dt_s)
-        record((k + 1) * dt_s)
+        _record(session, (k + 1) * dt_s, out)
+    return {key: np.asarray(value) for key, value in out.items()}
+
+
+def _record(session: Session, t: float, out: dict | None = None) -> dict[str, list]:
+    """Append the time and the part's outputs to ``out`` (a new record when None)."""
+    out = (
+        out if out is not None else {"time": [], "deviation": [], "settle_time": [], "settled": []}
+    )
+    out["time"].append(t)
+    for name in ("deviation", "settle_time", "settled"):
+        out[name].append(session.get(name))
+    return out
+
+
+def run_chained(
+    source: Session, part: Session, dt_s: float, n_steps: int, *, forward_rates: bool
+) -> dict[str, np.ndarray]:
+    """Drive the initialized ``part`` with the outputs ax, ay, az of the initialized
+    trajectory ``source`` for ``n_steps`` steps of ``dt_s``, as a master of a connected system
+    does: values at each communication point, and with ``forward_rates`` (FMI 2.0) their
+    time derivatives as the part's input derivatives, so the part sees the source's
+    piecewise-linear signal instead of held values. Recorded outputs at t_0 .. t_n."""
+    axes = ("ax", "ay", "az")
+    out = _record(part, 0.0)
+    for k in range(n_steps):
+        t = k * dt_s
+        values = [source.get(name) for name in axes]
+        part.set_inputs(values, source.output_rates(axes) if forward_rates else None)
+        source.step(t, dt_s)
+        part.step(t, dt_s)
+        _record(part, (k + 1) * dt_s, out)
     return {key: np.asarray(value) for key, value in out.items()}

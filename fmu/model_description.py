@@ -7,9 +7,9 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 
 import jaxflex
+from fmu.build import sources_for
 from fmu.variables import Variable, input_description, variables_for
 
-SOURCE_FILES = {2: ("jxf_core.c", "jxf_fmi2.c"), 3: ("jxf_core.c", "jxf_fmi3.c")}
 LOG_CATEGORIES = (
     ("logStatusError", "Errors: bad inputs or parameters, missing or corrupt resources"),
     ("logStatusWarning", "Warnings: inconsistent communication points"),
@@ -36,6 +36,11 @@ class Description:
     start_time_s: float
     stop_time_s: float
     step_s: float
+
+
+def _c_files(fmi_version: int) -> list[str]:
+    """The C files compiled into the FMU (the headers are only included)."""
+    return [name for name in sources_for(fmi_version) if name.endswith(".c")]
 
 
 def _fmt(x: float) -> str:
@@ -146,7 +151,7 @@ def _fmi2(d: Description, variables: list[Variable]) -> ET.Element:
         providesDirectionalDerivative="false",
     )
     files = ET.SubElement(cs, "SourceFiles")
-    for name in SOURCE_FILES[2]:
+    for name in _c_files(2):
         ET.SubElement(files, "File", name=name)
     mv = _after_interface(root, d)
     for v in variables:
@@ -210,12 +215,13 @@ def model_description(d: Description) -> str:
     return _to_text(build(d, variables))
 
 
-def build_description(model_identifier: str) -> str:
-    """sources/buildDescription.xml (FMI 3.0): how to compile the sources on any platform."""
+def build_description(model_identifier: str, source_files: tuple[str, ...] | None = None) -> str:
+    """sources/buildDescription.xml (FMI 3.0): how to compile ``source_files`` (default: the
+    part FMU's) on any platform."""
     root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
     config = ET.SubElement(root, "BuildConfiguration", modelIdentifier=model_identifier)
     files = ET.SubElement(config, "SourceFileSet", language="C99")
-    for name in SOURCE_FILES[3]:
+    for name in source_files or _c_files(3):
         ET.SubElement(files, "SourceFile", name=name)
     ET.SubElement(files, "IncludeDirectory", name=".")
     ET.SubElement(config, "Library", name="m", description="C math library (libm)")

@@ -2,7 +2,10 @@
 
 Value references are fixed across exports, so a virtual-commissioning project keeps its
 connections when a part is exported again. The C code sees them as ``JXF_VR_*`` macros in the
-generated ``jxf_config.h`` (see :func:`config_header`); nothing is numbered twice.
+generated ``jxf_config.h`` (see :func:`config_header`); nothing is numbered twice. Every
+variable ``name`` is read by the C function ``jxf_value_<name>`` in ``fmu/c/jxf_values.c``,
+which ``jxf_config.h`` declares and lists by value reference: a new output is a row here and
+that one function.
 """
 
 from __future__ import annotations
@@ -115,6 +118,9 @@ VARIABLES: tuple[Variable, ...] = (
 )  # fmt: skip
 
 
+_C_TYPE = {"real": "double", "bool": "int"}
+
+
 def variables_for(fmi_version: int, has_trajectory: bool) -> list[Variable]:
     """The variables of one FMU, in modelDescription order."""
     return [
@@ -157,5 +163,24 @@ def config_header(
     ]
     lines += [f"#define JXF_VR_{v.macro} {v.vr}u" for v in variables]
     table = ", ".join(f'{{{v.vr}u, "{v.name}"}}' for v in variables)
-    lines += [f"#define JXF_VARIABLE_TABLE {{{table}}}", "#endif", ""]
+    lines += [f"#define JXF_VARIABLE_TABLE {{{table}}}", "struct jxf_model;"]
+    lines += [
+        f"void {value_function(v)}(const struct jxf_model *m, {_C_TYPE[v.kind]} *out);"
+        for v in variables
+    ]
+    reals = ", ".join(
+        f"{{JXF_VR_{v.macro}, {'3u * JXF_N_POINTS' if v.array else '1u'}, {value_function(v)}}}"
+        for v in variables
+        if v.kind == "real"
+    )
+    bools = ", ".join(
+        f"{{JXF_VR_{v.macro}, {value_function(v)}}}" for v in variables if v.kind == "bool"
+    )
+    lines += [f"#define JXF_REAL_VALUES {{{reals}}}", f"#define JXF_BOOL_VALUES {{{bools}}}"]
+    lines += ["#endif", ""]
     return "\n".join(lines)
+
+
+def value_function(v: Variable) -> str:
+    """Name of the C function in fmu/c/jxf_values.c that reads ``v``."""
+    return f"jxf_value_{v.name}"

@@ -12,6 +12,7 @@ jax.config.update("jax_enable_x64", True)
 from jaxflex.engine import free_states, modal_states, upsample  # noqa: E402
 from jaxflex.errors import InputError, JaxflexError, ModelError, ModelFileError  # noqa: E402
 from jaxflex.model import ModalModel, load_model, save_model, stack_models  # noqa: E402
+from jaxflex.profile import integrate, jerk_limited_move  # noqa: E402
 from jaxflex.settle import SettleReport, analyze_move, cycle_time, settle_time  # noqa: E402
 from jaxflex.simulate import Response, batch_deviation, end_state, simulate  # noqa: E402
 from jaxflex.surrogate import cycle_time_smooth, envelope_time  # noqa: E402
@@ -31,6 +32,8 @@ __all__ = [
     "end_state",
     "envelope_time",
     "free_states",
+    "integrate",
+    "jerk_limited_move",
     "load_model",
     "modal_states",
     "save_model",

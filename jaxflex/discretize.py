@@ -104,14 +104,14 @@ def propagators(omega, zeta, h, xp: Any = jnp) -> Propagators:
     return Propagators(phi=phi, j0=xp.stack(j0, axis=-1), j1=xp.stack(j1, axis=-1))
 
 
-def foh_coefficients(omega, zeta, dt, xp: Any = jnp):
+def foh_coefficients(omega, zeta, dt_s, xp: Any = jnp):
     """Exact first-order-hold step x_{k+1} = Phi x_k + G0 f_k + G1 f_{k+1}.
 
-    Returns (phi (..., 2, 2), g0 (..., 2), g1 (..., 2)) for step ``dt`` in s (> 0).
+    Returns (phi (..., 2, 2), g0 (..., 2), g1 (..., 2)) for step ``dt_s`` in s (> 0).
     """
-    prop = propagators(omega, zeta, dt, xp)
-    dt = xp.asarray(dt)[..., None]
-    g0 = prop.j1 / dt
+    prop = propagators(omega, zeta, dt_s, xp)
+    dt_s = xp.asarray(dt_s)[..., None]
+    g0 = prop.j1 / dt_s
     g1 = prop.j0 - g0
     return prop.phi, g0, g1
 

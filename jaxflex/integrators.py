@@ -26,27 +26,27 @@ from jaxflex.model import ModalModel
 
 
 @partial(jax.jit, static_argnames=("beta", "gamma"))
-def newmark_modal(model: ModalModel, acc, dt, beta: float = 0.25, gamma: float = 0.5):
+def newmark_modal(model: ModalModel, acc, dt_s, beta: float = 0.25, gamma: float = 0.5):
     """Newmark-beta on each mode: modal coordinates q (n+1, M) at t_k = k dt."""
     omega = model.omega
     damping = 2.0 * model.zeta * omega
     stiffness = omega**2
     force = modal_forces(model, acc)
-    k_eff = stiffness + gamma / (beta * dt) * damping + 1.0 / (beta * dt**2)
+    k_eff = stiffness + gamma / (beta * dt_s) * damping + 1.0 / (beta * dt_s**2)
 
     def step(state, f_next):
         q, v, a = state
         rhs = (
             f_next
-            + q / (beta * dt**2)
-            + v / (beta * dt)
+            + q / (beta * dt_s**2)
+            + v / (beta * dt_s)
             + (0.5 / beta - 1.0) * a
-            + damping * (gamma / (beta * dt) * q + (gamma / beta - 1.0) * v)
-            + damping * dt * (0.5 * gamma / beta - 1.0) * a
+            + damping * (gamma / (beta * dt_s) * q + (gamma / beta - 1.0) * v)
+            + damping * dt_s * (0.5 * gamma / beta - 1.0) * a
         )
         q_next = rhs / k_eff
-        a_next = (q_next - q) / (beta * dt**2) - v / (beta * dt) - (0.5 / beta - 1.0) * a
-        v_next = v + dt * ((1.0 - gamma) * a + gamma * a_next)
+        a_next = (q_next - q) / (beta * dt_s**2) - v / (beta * dt_s) - (0.5 / beta - 1.0) * a
+        v_next = v + dt_s * ((1.0 - gamma) * a + gamma * a_next)
         return (q_next, v_next, a_next), q_next
 
     zeros = jnp.zeros_like(omega)
@@ -55,17 +55,17 @@ def newmark_modal(model: ModalModel, acc, dt, beta: float = 0.25, gamma: float =
 
 
 @jax.jit
-def central_difference_modal(model: ModalModel, acc, dt):
+def central_difference_modal(model: ModalModel, acc, dt_s):
     """Explicit central difference on each mode: q (n+1, M); unstable if w h > 2."""
     omega = model.omega
-    sigma_h = model.zeta * omega * dt
+    sigma_h = model.zeta * omega * dt_s
     force = modal_forces(model, acc)
     q0 = jnp.zeros_like(omega)
-    q_prev = q0 + 0.5 * dt**2 * force[0]  # q_{-1} from rest with q''(0) = f_0
+    q_prev = q0 + 0.5 * dt_s**2 * force[0]  # q_{-1} from rest with q''(0) = f_0
 
     def step(state, f):
         q_before, q = state
-        q_next = (dt**2 * f - (omega**2 * dt**2 - 2.0) * q - (1.0 - sigma_h) * q_before) / (
+        q_next = (dt_s**2 * f - (omega**2 * dt_s**2 - 2.0) * q - (1.0 - sigma_h) * q_before) / (
             1.0 + sigma_h
         )
         return (q, q_next), q_next

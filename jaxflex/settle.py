@@ -32,7 +32,8 @@ from jaxflex.decay import amplitudes, envelope, envelope_horizon
 from jaxflex.deviation import point_norms
 from jaxflex.engine import free_states, modal_forces, modal_states, states_between
 from jaxflex.model import ModalModel
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.profile import as_move
+from jaxflex.validation import check_positive
 
 SUBDIVISIONS = 16
 TIME_TOL_S = 1e-9
@@ -145,18 +146,18 @@ class _ForcedMotion(_ModalSignal):
         return self.weights[idx] @ self.acc_bound[k].T
 
 
-def _last_exceedance(signal, idx, t, norms, threshold) -> float | None:
+def _last_exceedance(signal, idx, t, norms, threshold_m) -> float | None:
     """sup{s in [t[0], t[-1]] : max_p |u_p(s)| > threshold} over points ``idx`` (all other
     points are known to stay below on this span), or None if there is none.
 
     ``t`` is an increasing grid and ``norms`` (P, T) the exact |u_p| on it.
     """
     h = np.diff(t)
-    over = norms.max(axis=0) > threshold
+    over = norms.max(axis=0) > threshold_m
     bound = np.maximum(norms[:, :-1], norms[:, 1:]) + (h**2 / 8.0) * signal.curvature(
         t[:-1], t[1:], idx
     )
-    suspect = bound > threshold  # (P, J): point may exceed inside interval j
+    suspect = bound > threshold_m  # (P, J): point may exceed inside interval j
     for j in np.flatnonzero(suspect.any(axis=0))[::-1]:
         if over[j + 1]:
             return float(t[j + 1])
@@ -166,13 +167,13 @@ def _last_exceedance(signal, idx, t, norms, threshold) -> float | None:
             continue  # exceeds by at most (1e-9 s)^2 / 8 * curvature: below resolution
         sub = np.linspace(t[j], t[j + 1], SUBDIVISIONS + 1)
         sub_idx = idx[suspect[:, j]]
-        found = _last_exceedance(signal, sub_idx, sub, signal.norms(sub, sub_idx), threshold)
+        found = _last_exceedance(signal, sub_idx, sub, signal.norms(sub, sub_idx), threshold_m)
         if found is not None:
             return found
     return None
 
 
-def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold: float):
+def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold_m: float):
     """Grid chunks over [0, horizon] (tau), step adapted to the decaying curvature bound."""
     chunks = []
     tau = 0.0
@@ -180,7 +181,7 @@ def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold: float):
     while tau < horizon:
         curvature = decay.curvature(np.array([decay.t0 + tau]), None, all_points).max()
         step = (
-            math.sqrt(8.0 * CURVATURE_SHARE * threshold / curvature) if curvature > 0 else horizon
+            math.sqrt(8.0 * CURVATURE_SHARE * threshold_m / curvature) if curvature > 0 else horizon
         )
         n = max(1, min(CHUNK_STEPS, math.ceil((horizon - tau) / step)))
         end = min(horizon, tau + n * step)
@@ -189,30 +190,29 @@ def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold: float):
     return chunks
 
 
-def _tail_settle(decay: _FreeDecay, threshold: float) -> tuple[float | None, float]:
+def _tail_settle(decay: _FreeDecay, threshold_m: float) -> tuple[float | None, float]:
     """(last exceedance time after the move or None, proof horizon tau_env) in s from t0."""
-    horizon = envelope_horizon(decay.weights, decay.amplitude, decay.sigma, threshold)
+    horizon = envelope_horizon(decay.weights, decay.amplitude, decay.sigma, threshold_m)
     if horizon == 0.0:
         return None, 0.0
     if math.isinf(horizon):
         return math.inf, math.inf
-    for grid in reversed(_tail_grid_chunks(decay, horizon, threshold)):
-        idx = np.flatnonzero(decay.envelope(grid[:1])[:, 0] > threshold)
+    for grid in reversed(_tail_grid_chunks(decay, horizon, threshold_m)):
+        idx = np.flatnonzero(decay.envelope(grid[:1])[:, 0] > threshold_m)
         if idx.size == 0:
             continue
         times = decay.t0 + grid
-        found = _last_exceedance(decay, idx, times, decay.norms(times, idx), threshold)
+        found = _last_exceedance(decay, idx, times, decay.norms(times, idx), threshold_m)
         if found is not None:
             return found - decay.t0, horizon
     return None, horizon
 
 
 def _prepare(model: ModalModel, acc, dt_s, threshold_m):
-    acc = check_acc(acc, rest_at_ends=True).astype(np.float64)
-    dt_s = check_positive("dt_s", dt_s)
+    move = as_move(acc, dt_s, at_rest=True)
     threshold_m = check_positive("threshold_m", threshold_m)
-    states = modal_states(model, acc, dt_s, xp=np)
-    return states, modal_forces(model, acc, np), dt_s, threshold_m
+    states = modal_states(model, move.acc, move.dt_s, xp=np)
+    return states, modal_forces(model, move.acc, np), move.dt_s, threshold_m
 
 
 def analyze_move(

@@ -21,6 +21,7 @@ from jaxflex.deviation import deviation, shapes_by_component
 from jaxflex.engine import HOLDS, free_states, modal_states
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
+from jaxflex.profile import Move
 from jaxflex.validation import check_acc, check_positive, is_traced
 
 _DTYPES = {"float64": jnp.float64, "float32": jnp.float32}
@@ -128,7 +129,9 @@ def simulate(
     jaxflex.stack_models).
     """
     model, shapes_c = on_device(model, dtype)
-    if not is_traced(acc):
+    if isinstance(acc, Move):  # checked when it was made
+        acc = acc.acc
+    elif not is_traced(acc):
         check_acc(acc)
     if not is_traced(dt_s):
         check_positive("dt_s", dt_s)

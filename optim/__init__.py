@@ -4,9 +4,9 @@ Public interface (SI units throughout):
 
 * ``Limits(vmax, amax, jmax, vpath=None, apath=None, jpath=None)`` and ``check_profile``;
 * ``RobustSpec(freq_scale=(0.9, 1.1), zeta=(0.01, 0.03), n_freq=21, n_zeta=3)``;
-* ``baselines(model, distance_m, limits, threshold_m, dt_s)`` -> ruckig floor, ruckig + free
+* ``baselines(model, distance_m, limits, dt_s, threshold_m)`` -> ruckig floor, ruckig + free
   decay, ZV / ZVD / EI multi-mode shaped moves, each with its exact cycle time;
-* ``optimize(model, distance_m, limits, threshold_m, dt_s, method="exact"|"gradient", ...)``
+* ``optimize(model, distance_m, limits, dt_s, threshold_m, method="exact"|"gradient", ...)``
   -> ``OptimizationResult`` (``.save(directory)`` writes trajectory.csv, report.json, plots).
 """
 

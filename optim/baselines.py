@@ -3,9 +3,10 @@
 * the kinematic floor: ruckig's time-optimal jerk-limited motion; its grid version's length
   bounds every transfer time from below;
 * "ruckig + free decay": that grid move, then waiting for the vibration to settle;
-* ZV, ZVD and EI input shaping of the time-optimal motion for the dominant modes (several
-  modes by convolving their shapers), with the number of shaped modes that gives the
-  shortest cycle (the shortest worst-case cycle in robust mode).
+* input shaping of the time-optimal motion for the dominant modes with every shaper of
+  optim.shapers.SHAPERS (ZV, ZVD, EI; several modes by convolving their shapers), with the
+  number of shaped modes that gives the shortest cycle (the shortest worst-case cycle in
+  robust mode).
 
 Dominant modes are ranked by their quasi-static deflection along the move,
 max_p |phi_i(p)| |Gamma_i . u| / omega_i^2 (u the unit direction of the move).
@@ -19,12 +20,13 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from jaxflex.model import ModalModel
+from jaxflex.profile import as_move
 from jaxflex.settle import SettleReport, analyze_move
 from optim.kinematics import clean_distance
 from optim.limits import Limits
 from optim.robust import RobustSpec, perturbed
 from optim.ruckig_move import kinematic_floor_move, shaped_grid_move, time_optimal_move
-from optim.shapers import KINDS, convolve, shaper
+from optim.shapers import SHAPERS, convolve, shaper
 
 MAX_SHAPED_MODES = 6
 
@@ -71,9 +73,9 @@ class BaselineSet:
     def floor_steps(self) -> int:
         return int(self.floor_acc.shape[0] - 1)
 
-    def best(self, shapers_only: bool = False) -> Baseline:
-        pool = [b for b in self.entries if not shapers_only or b.shaped_freq_hz]
-        return min(pool, key=Baseline.score)
+    def best(self) -> Baseline:
+        """The entry with the shortest cycle (worst case in robust mode, else nominal)."""
+        return min(self.entries, key=Baseline.score)
 
     def as_dict(self) -> dict:
         return {
@@ -86,19 +88,20 @@ class BaselineSet:
 def dominant_modes(model: ModalModel, distance: np.ndarray) -> np.ndarray:
     """Mode indices, most important first (module docstring)."""
     unit = distance / np.linalg.norm(distance)
-    omega = 2 * np.pi * np.asarray(model.freq_hz)
+    omega = np.asarray(model.omega)
     deflection = model.shape_norms.max(axis=0) * np.abs(np.asarray(model.gamma) @ unit) / omega**2
     return np.argsort(-deflection, kind="stable")
 
 
 def worst_case(
-    model: ModalModel, acc: np.ndarray, dt: float, threshold_m: float, grid
+    model: ModalModel, acc: np.ndarray, dt_s: float, threshold_m: float, grid
 ) -> tuple[float, dict, list[dict]]:
     """Largest exact cycle time over the (frequency scale, zeta) points of ``grid``: (worst,
     where, every point as {"freq_scale", "zeta", "cycle_time_s"})."""
     points = []
+    move = as_move(acc, dt_s, at_rest=True)  # checked once for the whole grid
     for scale, zeta in grid:
-        timing = analyze_move(perturbed(model, scale, zeta), acc, dt, threshold_m, settle=False)
+        timing = analyze_move(perturbed(model, scale, zeta), move, dt_s, threshold_m, settle=False)
         points.append({"freq_scale": scale, "zeta": zeta, "cycle_time_s": timing.cycle_time_s})
     worst = max(points, key=lambda p: p["cycle_time_s"])
     where = {"freq_scale": worst["freq_scale"], "zeta": worst["zeta"]}
@@ -117,8 +120,8 @@ def baselines(
     model: ModalModel,
     distance_m,
     limits: Limits,
+    dt_s: float,
     threshold_m: float,
-    dt_s: float = 0.01,
     *,
     robust: RobustSpec | None = None,
     max_shaped_modes: int = MAX_SHAPED_MODES,
@@ -147,14 +150,15 @@ def baselines(
         )
     ]
     order = dominant_modes(model, distance)[:max_shaped_modes]
-    freq, zeta = np.asarray(model.freq_hz), np.asarray(model.zeta)
-    bar = tqdm(total=len(KINDS) * len(order), desc="baselines", disable=not progress, leave=False)
-    for kind in KINDS:
+    freq, omega, zeta = np.asarray(model.freq_hz), np.asarray(model.omega), np.asarray(model.zeta)
+    kinds = list(SHAPERS)
+    bar = tqdm(total=len(kinds) * len(order), desc="baselines", disable=not progress, leave=False)
+    for kind in kinds:
         best: Baseline | None = None
         for count in range(1, len(order) + 1):
             bar.update(1)
             modes = order[:count]
-            train = convolve(*(shaper(kind, freq[i], zeta[i]) for i in modes))
+            train = convolve(*(shaper(kind, omega[i], zeta[i]) for i in modes))
             if best is not None and continuous.duration_s + train.duration_s >= best.score():
                 continue  # the move alone is longer than the best cycle so far
             acc = shaped_grid_move(continuous, train, distance, limits, dt_s, solver=solver)

@@ -33,19 +33,27 @@ POLISH_MARGIN = 1e-7
 
 
 class LPSubsolver:
-    """Subproblem solver of the exact route; ``solver`` is an optim.lp back end."""
+    """Subproblem solver of the exact route; ``solver`` is an optim.lp back end. With
+    ``polish`` it is the final pass (module docstring): the smoothest move keeping the
+    margin, every limit held POLISH_MARGIN inside."""
 
     clearance_rows = True
 
-    def __init__(self, solver: str = "highs") -> None:
+    def __init__(self, solver: str = "highs", *, polish: bool = False) -> None:
         self.solver = solver
+        self.polish = polish
         self.name = f"exact ({solver})"
         self._cuts: dict[int, list] = {}  # path-norm cuts per n (they depend on n)
 
-    def _build(self, problem: Problem, n_steps: int, polish: bool):
+    def polishing(self) -> LPSubsolver:
+        """The final-pass subsolver of the same back end."""
+        return LPSubsolver(self.solver, polish=True)
+
+    def _build(self, problem: Problem, n_steps: int):
+        polish = self.polish
         builder = LPBuilder()
         limits = problem.limits.shrunk(POLISH_MARGIN) if polish else problem.limits
-        layout = add_move(builder, n_steps, problem.dt, problem.distance, limits)
+        layout = add_move(builder, n_steps, problem.dt_s, problem.distance, limits)
         if not polish:
             add_cuts(builder, self._cuts.get(n_steps, []))
         s = builder.variables(1, 0.0, np.inf, 1.0)[0]
@@ -75,8 +83,8 @@ class LPSubsolver:
             )
         return builder, layout, s, limits
 
-    def solve(self, problem: Problem, n_steps: int, warm: np.ndarray, polish: bool) -> SubResult:
-        builder, layout, s, limits = self._build(problem, n_steps, polish)
+    def solve(self, problem: Problem, n_steps: int, warm: np.ndarray) -> SubResult:
+        builder, layout, s, limits = self._build(problem, n_steps)
         stats = {"lp_solves": 0, "lp_wall_s": 0.0, "lp_iterations": 0, "rows": 0}
         for _ in range(MAX_CUT_ROUNDS):
             program = builder.program()
@@ -91,7 +99,7 @@ class LPSubsolver:
             cuts = path_cuts(layout, sol.x, limits)
             if not cuts:
                 return SubResult("solved", layout.acceleration(sol.x), float(sol.x[s]), stats)
-            if not polish:  # cuts of the shrunk limits are not reused by the others
+            if not self.polish:  # cuts of the shrunk limits are not reused by the others
                 self._cuts.setdefault(n_steps, []).extend(cuts)
             add_cuts(builder, cuts)
         return SubResult("failed", None, np.inf, stats)

@@ -27,15 +27,17 @@ from __future__ import annotations
 
 import time
 
+import casadi as ca
 import jax
 import jax.numpy as jnp
 import numpy as np
 import scipy.sparse as sp
+from scipy.optimize import LinearConstraint, NonlinearConstraint, minimize
 
 from jaxflex.errors import InputError
+from jaxflex.profile import integrate
 from optim.kinematics import add_cuts, add_move, path_cuts
 from optim.lp import LPBuilder
-from optim.profiles import integrate
 from optim.ruckig_move import fit_to_grid
 from optim.search import Problem, SubResult, add_end_states
 
@@ -191,8 +193,6 @@ class ClearanceTerm(SmoothTerm):
 
 def _casadi_term(term: SmoothTerm, beta: float, name: str):
     """``term`` as a casadi Callback with an exact Jacobian callback."""
-    import casadi as ca
-
     size = term.map.shape[0]
 
     class Gradient(ca.Callback):
@@ -247,8 +247,6 @@ def _casadi_term(term: SmoothTerm, beta: float, name: str):
 
 
 def _ipopt(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: float):
-    import casadi as ca
-
     x = ca.MX.sym("x", program.cost.size)
     f_cb = _casadi_term(objective, beta, "surrogate")
     g = [ca.mtimes(ca.DM(program.matrix.tocsc()), x)]
@@ -292,7 +290,7 @@ def _ipopt(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: floa
 def _sample_map(problem: Problem, layout, z_slice, size: int) -> np.ndarray:
     """T (size, d (n-1)): every variable as a linear function of the interior samples
     a_1..a_{n-1} of each axis (velocity, position and end states follow exactly)."""
-    n, h = layout.n_steps, problem.dt
+    n, h = layout.n_steps, problem.dt_s
     eye = np.eye(n + 1)[:, 1:-1]  # unit moves of the interior samples
     vel = np.vstack([np.zeros((1, n - 1)), np.cumsum(0.5 * h * (eye[:-1] + eye[1:]), axis=0)])
     dx = h * vel[:-1] + h * h / 6.0 * (2.0 * eye[:-1] + eye[1:])
@@ -314,8 +312,6 @@ def _sample_map(problem: Problem, layout, z_slice, size: int) -> np.ndarray:
 def _slsqp(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: float, sample_map):
     """SLSQP over the interior samples only (it works with dense matrices, so the sparse
     variables v, x, z are eliminated through ``sample_map``)."""
-    from scipy.optimize import LinearConstraint, NonlinearConstraint, minimize
-
     t = sample_map
     rows = np.vstack([program.matrix @ t, t])
     lo = np.concatenate([program.row_lo, program.var_lo])
@@ -378,16 +374,16 @@ class GradientSubsolver:
     def _start(self, problem: Problem, layout, z_slice, warm: np.ndarray, size: int):
         """Initial point: the warm move's samples, exact kinematics and end states."""
         x0 = np.zeros(size)
-        vel, pos = integrate(warm, problem.dt)
+        vel, pos = integrate(warm, problem.dt_s)
         for i, c in enumerate(layout.axes):
             x0[layout.a[i]], x0[layout.v[i]], x0[layout.x[i]] = warm[:, c], vel[:, c], pos[:, c]
         z = [problem.end_state(j, warm) / problem.scenarios[j].zscale for j in problem.training]
         x0[z_slice] = np.concatenate([zz.ravel() for zz in z])
         return x0
 
-    def solve(self, problem: Problem, n_steps: int, warm: np.ndarray, polish: bool) -> SubResult:
+    def solve(self, problem: Problem, n_steps: int, warm: np.ndarray) -> SubResult:
         builder = LPBuilder()
-        layout = add_move(builder, n_steps, problem.dt, problem.distance, problem.limits)
+        layout = add_move(builder, n_steps, problem.dt_s, problem.distance, problem.limits)
         add_cuts(builder, self._cuts.get(n_steps, []))
         first = builder.n_vars
         add_end_states(builder, problem, layout)
@@ -430,7 +426,7 @@ class GradientSubsolver:
         stats["jax_s"] = sum(t.jax_s for t in terms)
         # Snap the NLP's answer (interior-point tolerances) exactly onto the limits and
         # boundary conditions: the closest grid move in L1, a change of solver-tolerance size.
-        acc = fit_to_grid(layout.acceleration(x), problem.dt, problem.distance, problem.limits)
+        acc = fit_to_grid(layout.acceleration(x), problem.dt_s, problem.distance, problem.limits)
         if acc is None:
             return SubResult("infeasible", None, np.inf, stats)
         z = [problem.end_state(j, acc) / problem.scenarios[j].zscale for j in problem.training]

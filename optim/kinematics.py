@@ -1,7 +1,7 @@
 """A rest-to-rest move of n steps as LP variables and rows: exact kinematics and limits.
 
 Per moving axis the variables are the samples a_0..a_n, v_0..v_n and x_0..x_n, tied by the
-exact recursions of the piecewise-linear acceleration (optim.profiles):
+exact recursions of the piecewise-linear acceleration (jaxflex.profile):
 
     v_{k+1} = v_k + dt (a_k + a_{k+1}) / 2,    x_{k+1} = x_k + dt v_k + dt^2 (2 a_k + a_{k+1}) / 6
 
@@ -39,7 +39,7 @@ class MoveLayout:
     """Variable indices of a move: a, v, x are (d, n+1) for the d moving ``axes``."""
 
     n_steps: int
-    dt: float
+    dt_s: float
     axes: tuple[int, ...]
     a: np.ndarray
     v: np.ndarray
@@ -78,11 +78,11 @@ def moving_axes(distance_m: np.ndarray) -> tuple[int, ...]:
 
 
 def add_move(
-    builder: LPBuilder, n_steps: int, dt: float, distance_m: np.ndarray, limits: Limits
+    builder: LPBuilder, n_steps: int, dt_s: float, distance_m: np.ndarray, limits: Limits
 ) -> MoveLayout:
     """Add the variables and rows of an n-step move to ``builder`` (module docstring)."""
     axes = moving_axes(distance_m)
-    n, h = n_steps, dt
+    n, h = n_steps, dt_s
     a_idx, v_idx, x_idx = [], [], []
     for c in axes:
         amax, vmax = float(limits.amax[c]), float(limits.vmax[c])
@@ -119,7 +119,7 @@ def add_move(
         a_idx.append(a)
         v_idx.append(v)
         x_idx.append(x)
-    return MoveLayout(n, dt, axes, np.array(a_idx), np.array(v_idx), np.array(x_idx))
+    return MoveLayout(n, dt_s, axes, np.array(a_idx), np.array(v_idx), np.array(x_idx))
 
 
 def add_tv_objective(builder: LPBuilder, layout: MoveLayout, limits: Limits, weight: float):
@@ -127,7 +127,7 @@ def add_tv_objective(builder: LPBuilder, layout: MoveLayout, limits: Limits, wei
     variation of the acceleration, which favours few jerk switches)."""
     for i, c in enumerate(layout.axes):
         a = layout.a[i]
-        t = builder.variables(layout.n_steps, 0.0, np.inf, weight / (limits.jmax[c] * layout.dt))
+        t = builder.variables(layout.n_steps, 0.0, np.inf, weight / (limits.jmax[c] * layout.dt_s))
         ones = np.ones(layout.n_steps)
         cols = np.column_stack([t, a[1:], a[:-1]])
         builder.rows(cols, np.column_stack([ones, -ones, ones]), 0.0, np.inf)
@@ -138,7 +138,7 @@ def _path_quantities(layout: MoveLayout, sol: np.ndarray, limits: Limits):
     """(name, values (m, d), columns (m, terms, d), weights, limit) of every norm-limited
     quantity at the points where the LP bounds it."""
     a, v = sol[layout.a].T, sol[layout.v].T  # (n+1, d)
-    n, h = layout.n_steps, layout.dt
+    n, h = layout.n_steps, layout.dt_s
     k = np.arange(n)
     out = []
     if limits.apath is not None:

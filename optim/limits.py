@@ -3,7 +3,7 @@
 Per-axis limits |v_c| <= vmax_c, |a_c| <= amax_c, |jerk_c| <= jmax_c (m/s, m/s^2, m/s^3), and
 optionally limits on the Euclidean norms of the path velocity, acceleration and jerk.
 
-The profile is piecewise linear in acceleration (DESIGN.md), so jerk is constant on each step
+The profile is piecewise linear in acceleration (docs/design.md), so jerk is constant on each step
 and acceleration is extreme at the samples: those two limits are exact on the samples. The
 velocity is piecewise quadratic; it can peak inside a step where the acceleration changes
 sign, so the check evaluates that interior extremum (per axis in closed form, and for the
@@ -17,8 +17,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.validation import check_acc, check_positive
-from optim.profiles import axis_limits, integrate
+from jaxflex.profile import as_move, axis_limits, integrate
+from jaxflex.validation import check_positive
 
 AXES = "xyz"
 # A limit counts as broken only beyond this relative excess: float64 round-off of the
@@ -154,7 +154,7 @@ class ConstraintCheck:
         return "; ".join(lines)
 
 
-def velocity_extrema(acc: np.ndarray, vel: np.ndarray, dt: float) -> tuple[np.ndarray, ...]:
+def velocity_extrema(acc: np.ndarray, vel: np.ndarray, dt_s: float) -> tuple[np.ndarray, ...]:
     """Interior extrema of the piecewise-quadratic velocity, per step and axis.
 
     On step k, v(tau) = v_k + a_k tau + (a_{k+1} - a_k) tau^2 / (2 dt) has a stationary point
@@ -165,16 +165,16 @@ def velocity_extrema(acc: np.ndarray, vel: np.ndarray, dt: float) -> tuple[np.nd
     a0, a1 = acc[:-1], acc[1:]
     crossing = a0 * a1 < 0
     denom = np.where(crossing, a0 - a1, 1.0)
-    tau = np.where(crossing, a0 * dt / denom, 0.0)
+    tau = np.where(crossing, a0 * dt_s / denom, 0.0)
     value = np.where(crossing, vel[:-1] + 0.5 * a0 * tau, vel[:-1])
     return value, tau, crossing
 
 
-def _path_speed_peaks(acc: np.ndarray, vel: np.ndarray, dt: float):
+def _path_speed_peaks(acc: np.ndarray, vel: np.ndarray, dt_s: float):
     """Largest |v(t)| inside each step (n,) and its time offset, from the roots of
     d|v|^2/dtau = 2 v(tau) . a(tau), a cubic in tau."""
     a0, a1, v0 = acc[:-1], acc[1:], vel[:-1]
-    slope = (a1 - a0) / dt
+    slope = (a1 - a0) / dt_s
     # v(tau) = v0 + a0 tau + slope tau^2 / 2,  a(tau) = a0 + slope tau
     # v . a = (v0.a0) + (v0.slope + a0.a0) tau + (1.5 a0.slope) tau^2 + (0.5 slope.slope) tau^3
     coeffs = np.stack(
@@ -194,7 +194,7 @@ def _path_speed_peaks(acc: np.ndarray, vel: np.ndarray, dt: float):
             continue
         roots = np.roots(c[nz[0] :])
         roots = roots[np.abs(roots.imag) < 1e-12].real
-        roots = roots[(roots > 0) & (roots < dt)]
+        roots = roots[(roots > 0) & (roots < dt_s)]
         if roots.size:
             v = v0[k] + np.outer(roots, a0[k]) + 0.5 * np.outer(roots**2, slope[k])
             speed = np.linalg.norm(v, axis=1)
@@ -204,17 +204,17 @@ def _path_speed_peaks(acc: np.ndarray, vel: np.ndarray, dt: float):
 
 
 def check_profile(
-    acc, dt: float, limits: Limits, distance_m=None, *, rtol: float = CHECK_RTOL
+    acc, dt_s: float, limits: Limits, distance_m=None, *, rtol: float = CHECK_RTOL
 ) -> ConstraintCheck:
-    """Check samples ``acc`` ((n+1, 3) m/s^2 at step ``dt`` s) against ``limits`` and, if
+    """Check samples ``acc`` ((n+1, 3) m/s^2 at step ``dt_s`` s) against ``limits`` and, if
     ``distance_m`` (3,) is given, the boundary conditions: rest at both ends (a_0 = a_n = 0,
     v_n = 0) and arrival at ``distance_m``. Velocity is checked between samples too.
     Returns every violation with its time and size."""
-    acc = check_acc(acc).astype(np.float64)
-    dt = check_positive("dt", dt)
-    vel, pos = integrate(acc, dt)
+    move = as_move(acc, dt_s)
+    acc, dt_s = move.acc, move.dt_s
+    vel, pos = integrate(move, dt_s)
     n = acc.shape[0] - 1
-    t = dt * np.arange(n + 1)
+    t = dt_s * np.arange(n + 1)
     violations: list[Violation] = []
     usage: dict[str, dict[str, float]] = {}
 
@@ -226,20 +226,20 @@ def check_profile(
         for i in np.flatnonzero(np.abs(values) > limit * (1.0 + rtol)):
             violations.append(Violation(quantity, axis, float(times[i]), float(values[i]), limit))
 
-    jerk = np.diff(acc, axis=0) / dt
-    v_mid, tau_mid, _ = velocity_extrema(acc, vel, dt)
+    jerk = np.diff(acc, axis=0) / dt_s
+    v_mid, tau_mid, _ = velocity_extrema(acc, vel, dt_s)
     for c, axis in enumerate(AXES):
         collect("acceleration", axis, acc[:, c], t, float(limits.amax[c]))
-        collect("jerk", axis, jerk[:, c], t[:-1] + 0.5 * dt, float(limits.jmax[c]))
+        collect("jerk", axis, jerk[:, c], t[:-1] + 0.5 * dt_s, float(limits.jmax[c]))
         v_all = np.concatenate([vel[:, c], v_mid[:, c]])
         t_all = np.concatenate([t, t[:-1] + tau_mid[:, c]])
         collect("velocity", axis, v_all, t_all, float(limits.vmax[c]))
     if limits.apath is not None:
         collect("acceleration", "path", np.linalg.norm(acc, axis=1), t, limits.apath)
     if limits.jpath is not None:
-        collect("jerk", "path", np.linalg.norm(jerk, axis=1), t[:-1] + 0.5 * dt, limits.jpath)
+        collect("jerk", "path", np.linalg.norm(jerk, axis=1), t[:-1] + 0.5 * dt_s, limits.jpath)
     if limits.vpath is not None:
-        peaks, tau = _path_speed_peaks(acc, vel, dt)
+        peaks, tau = _path_speed_peaks(acc, vel, dt_s)
         speeds = np.concatenate([np.linalg.norm(vel, axis=1), peaks])
         collect("velocity", "path", speeds, np.concatenate([t, t[:-1] + tau]), limits.vpath)
     if distance_m is not None:

@@ -15,8 +15,10 @@ import sys
 import time
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 import scipy.sparse as sp
+from scipy.optimize import linprog
 
 from jaxflex.errors import InputError
 
@@ -111,8 +113,6 @@ class LPBuilder:
 
 
 def _solve_highs(lp: LinearProgram) -> LPSolution:
-    from scipy.optimize import linprog
-
     a = lp.matrix
     eq = lp.row_lo == lp.row_hi
     upper = ~eq & np.isfinite(lp.row_hi)
@@ -160,8 +160,6 @@ def _quiet_stdout():
 
 
 def _solve_casadi(lp: LinearProgram, plugin: str) -> LPSolution:
-    import casadi as ca
-
     a = ca.DM(lp.matrix.tocsc())
     n = lp.cost.size
     options = {"verbose": False, "print_time": False, "error_on_fail": False}

@@ -33,13 +33,13 @@ class MoveResponse:
     """q(t_j) (T, M) = sum_i G[j, :, i] f_i at t_j = j dt / substeps, j = 0 .. n substeps."""
 
     def __init__(
-        self, model: ModalModel, components, n_steps: int, dt: float, substeps: int = SUBSTEPS
+        self, model: ModalModel, components, n_steps: int, dt_s: float, substeps: int = SUBSTEPS
     ):
         self.model = model
-        self.coef = state_map(model, n_steps, dt, substeps)
+        self.coef = state_map(model, n_steps, dt_s, substeps)
         self.gamma = np.asarray(model.gamma)
         self.shapes = np.asarray(model.shapes)[:, list(components), :]  # (K, C, M)
-        self.dt, self.substeps = dt, substeps
+        self.dt_s, self.substeps = dt_s, substeps
 
     def sample_map(self, axes) -> np.ndarray:
         """(T, M, n+1, d): q(t_j) = sum over samples and moving ``axes`` of map * a."""

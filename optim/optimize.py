@@ -18,8 +18,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from jaxflex.errors import InputError
+from jaxflex.errors import InputError, JaxflexError
 from jaxflex.model import ModalModel
+from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
 from jaxflex.validation import check_positive
 from optim.baselines import baselines as compute_baselines
@@ -77,13 +78,13 @@ def optimize(
     model: ModalModel,
     distance_m,
     limits: Limits,
+    dt_s: float,
     threshold_m: float,
-    dt_s: float = 0.01,
+    *,
     method: str = "exact",
     solver: str | None = None,
     robust: RobustSpec | None = None,
     progress: bool = True,
-    *,
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
     max_shaped_modes: int = 6,
     clearance_m: float | None = None,
@@ -105,8 +106,8 @@ def optimize(
     _check_model(model, robust)
     distance = clean_distance(distance_m)
     limits = _as_limits(limits)
-    threshold = check_positive("threshold_m", threshold_m)
-    dt = check_positive("dt_s", dt_s)
+    threshold_m = check_positive("threshold_m", threshold_m)
+    dt_s = check_positive("dt_s", dt_s)
     check_positive("max_duration_s", max_duration_s)
     if clearance_m is not None:
         clearance_m = check_positive("clearance_m", clearance_m)
@@ -116,22 +117,24 @@ def optimize(
     solver = default_solver if solver is None else solver
     if solver not in allowed:
         raise InputError(f"solver: method {method!r} accepts {allowed}, got {solver!r}")
-    max_steps = math.floor(max_duration_s / dt + 1e-9)
+    max_steps = math.floor(max_duration_s / dt_s + 1e-9)
 
     base = compute_baselines(
         model,
         distance,
         limits,
-        threshold,
-        dt,
+        dt_s,
+        threshold_m,
         robust=robust,
         max_shaped_modes=max_shaped_modes,
         max_steps=max_steps,
         progress=progress,
     )
-    problem = make_problem(model, distance, limits, threshold, dt, max_steps, robust, clearance_m)
+    problem = make_problem(
+        model, distance, limits, dt_s, threshold_m, max_steps, robust, clearance_m
+    )
     sub = LPSubsolver(solver) if method == "exact" else GradientSubsolver(solver)
-    upper = math.ceil(base.best().score() / dt - 1e-9)
+    upper = math.ceil(base.best().score() / dt_s - 1e-9)
     best, history = bisect(
         problem, sub, base.floor_acc, upper, [e.acc for e in base.entries], progress=progress
     )
@@ -139,7 +142,7 @@ def optimize(
         during = "" if clearance_m is None else f" (and below {clearance_m * 1e3:g} mm during it)"
         raise InputError(
             f"threshold_m: no move of at most max_duration_s = {max_duration_s:g} s keeps the "
-            f"deviation below {threshold * 1e3:g} mm after it{during}; raise max_duration_s, "
+            f"deviation below {threshold_m * 1e3:g} mm after it{during}; raise max_duration_s, "
             "threshold_m" + ("" if clearance_m is None else " or clearance_m")
         )
     final = best
@@ -148,15 +151,17 @@ def optimize(
 
     notes = []
     acc = final.acc
-    check = check_profile(acc, dt, limits, distance)
-    if not check.ok:  # never observed; kept so that a broken limit can never be returned
+    check = check_profile(acc, dt_s, limits, distance)
+    if not check.ok:  # a broken limit is never returned (test_optim_optimize reaches this)
         notes.append(f"optimised profile rejected ({check.summary()}); best baseline returned")
         for entry in sorted(base.entries, key=lambda e: e.score()):
-            check = check_profile(entry.acc, dt, limits, distance)
+            check = check_profile(entry.acc, dt_s, limits, distance)
             if check.ok:
                 acc = entry.acc
                 break
-    timing = analyze_move(model, acc, dt, threshold)
+        else:
+            raise JaxflexError(f"no profile meets the limits exactly ({check.summary()})")
+    timing = analyze_move(model, acc, dt_s, threshold_m)
     worst = None
     if robust is not None:
         grid = (
@@ -167,7 +172,7 @@ def optimize(
             if acc is final.acc
             else None
         )
-        worst = _worst_case(problem, acc, dt, threshold, grid)
+        worst = _worst_case(problem, acc, dt_s, threshold_m, grid)
     stats = {
         "route": sub.name,
         "attempts": [a.summary() for a in history],
@@ -181,15 +186,15 @@ def optimize(
         clearance_m=clearance_m,
         model=model,
         distance_m=distance,
-        dt_s=dt,
-        threshold_m=threshold,
+        dt_s=dt_s,
+        threshold_m=threshold_m,
         limits=limits,
         method=method,
         solver=solver,
         robust=robust,
         acc=acc,
         timing=timing,
-        deviation=deviation_summary(model, acc, dt),
+        deviation=deviation_summary(model, acc, dt_s),
         constraint_check=check,
         solver_stats=stats,
         wall_time_s=time.perf_counter() - start,
@@ -203,18 +208,23 @@ def _polish(problem, sub: LPSubsolver, best, history):
     the search found, every limit held a little inside (POLISH_MARGIN); one step more if the
     margin makes n infeasible. Returns the first feasible attempt, else ``best``."""
     for n_steps in (best.n_steps, best.n_steps + 1):
-        polished = attempt(problem, sub, n_steps, best.acc, polish=True)
+        polished = attempt(problem, sub.polishing(), n_steps, best.acc)
         history.append(polished)
         if polished.feasible:
             return polished
     return best
 
 
-def _worst_case(problem, acc, dt, threshold, grid) -> dict:
+def _worst_case(problem, acc, dt_s, threshold_m, grid) -> dict:
     """Worst exact cycle time over the robust check grid (reusing certified timings)."""
     if grid is None:
+        move = as_move(acc, dt_s, at_rest=True)  # checked once for the whole grid
         grid = [
-            (s.scale, s.zeta, analyze_move(s.model, acc, dt, threshold, settle=False).cycle_time_s)
+            (
+                s.scale,
+                s.zeta,
+                analyze_move(s.model, move, dt_s, threshold_m, settle=False).cycle_time_s,
+            )
             for s in problem.scenarios
         ]
     scale, zeta, cycle = max(grid, key=lambda g: g[2])

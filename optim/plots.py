@@ -8,16 +8,16 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from jaxflex.plots import plot_deviation, save_figure
+from jaxflex.profile import integrate
 from optim.limits import AXES, Limits
-from optim.profiles import integrate
 
 
-def plot_profiles(path: str | os.PathLike, acc: np.ndarray, dt: float, limits: Limits) -> None:
+def plot_profiles(path: str | os.PathLike, acc: np.ndarray, dt_s: float, limits: Limits) -> None:
     """Position, velocity, acceleration and jerk of every moving axis against time, with
     the per-axis limits (and path limits, if any) drawn as dashed lines."""
-    vel, pos = integrate(acc, dt)
-    t = dt * np.arange(acc.shape[0])
-    jerk = np.diff(acc, axis=0) / dt
+    vel, pos = integrate(acc, dt_s)
+    t = dt_s * np.arange(acc.shape[0])
+    jerk = np.diff(acc, axis=0) / dt_s
     moving = [c for c in range(3) if np.any(acc[:, c] != 0)]
     fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
     panels = (

@@ -2,7 +2,7 @@
 
 ``OptimizationResult.save(directory)`` writes, each file atomically:
 
-* ``trajectory.csv`` — t, a, v, x per axis (optim.trajectory_io format, SI units);
+* ``trajectory.csv`` — t, a, v, x per axis (jaxflex.trajectory_io format, SI units);
 * ``report.json`` — inputs, exact times, ratios to the baselines, the constraint check,
   solver statistics, the robust worst case (see :meth:`OptimizationResult.report`);
 * ``profiles.png`` — position, velocity, acceleration, jerk with the limits;
@@ -24,26 +24,26 @@ import numpy as np
 from jaxflex.atomic import write_text_atomic
 from jaxflex.deviation import deviation_curve
 from jaxflex.model import ModalModel
+from jaxflex.profile import integrate
 from jaxflex.settle import SettleReport
+from jaxflex.trajectory_io import write_trajectory_csv
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
 from optim.plots import plot_deviations, plot_profiles, plot_robust
-from optim.profiles import integrate
 from optim.robust import RobustSpec, perturbed
-from optim.trajectory_io import write_trajectory_csv
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
 
 
-def deviation_summary(model: ModalModel, acc: np.ndarray, dt: float) -> dict:
+def deviation_summary(model: ModalModel, acc: np.ndarray, dt_s: float) -> dict:
     """Peak deviation during the move (exact samples every dt / 8) and at the stop, m."""
     n = acc.shape[0] - 1
-    t, d = deviation_curve(model, acc, dt, n * dt, SUBSTEPS)
+    t, d = deviation_curve(model, acc, dt_s, n * dt_s, SUBSTEPS)
     return {
         "peak_during_move_m": float(d[: n * SUBSTEPS + 1].max()),
         "peak_time_s": float(t[int(np.argmax(d[: n * SUBSTEPS + 1]))]),
         "at_stop_m": float(d[n * SUBSTEPS]),
-        "sampling_s": dt / SUBSTEPS,
+        "sampling_s": dt_s / SUBSTEPS,
     }
 
 

@@ -21,10 +21,10 @@ import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
 
 from jaxflex.errors import InputError
+from jaxflex.profile import enforce_end_state
 from optim.kinematics import add_cuts, add_move, clean_distance, path_cuts
 from optim.limits import Limits
 from optim.lp import LPBuilder, solve_lp
-from optim.profiles import enforce_end_state
 from optim.shapers import Shaper
 
 MAX_CUT_ROUNDS = 30
@@ -101,7 +101,7 @@ def shaped_acceleration(move: ContinuousMove, shaper: Shaper) -> Callable:
 
 
 def fit_to_grid(
-    reference: np.ndarray, dt: float, distance_m, limits: Limits, *, solver: str = "highs"
+    reference: np.ndarray, dt_s: float, distance_m, limits: Limits, *, solver: str = "highs"
 ) -> np.ndarray | None:
     """The grid move of len(reference) - 1 steps closest to ``reference`` ((N+1, 3) samples)
     in the L1 norm that meets ``limits`` and the boundary conditions exactly, or None if
@@ -109,7 +109,7 @@ def fit_to_grid(
     distance = np.asarray(distance_m, dtype=np.float64).reshape(3)
     n_steps = reference.shape[0] - 1
     builder = LPBuilder()
-    layout = add_move(builder, n_steps, dt, distance, limits)
+    layout = add_move(builder, n_steps, dt_s, distance, limits)
     for i, c in enumerate(layout.axes):
         a = layout.a[i]
         e = builder.variables(n_steps + 1, 0.0, np.inf, 1.0 / limits.amax[c])
@@ -123,14 +123,14 @@ def fit_to_grid(
             return None
         cuts = path_cuts(layout, sol.x, limits)
         if not cuts:
-            return enforce_end_state(layout.acceleration(sol.x), dt, distance)
+            return enforce_end_state(layout.acceleration(sol.x), dt_s, distance)
         add_cuts(builder, cuts)
     return None
 
 
-def grid_steps(duration_s: float, dt: float) -> int:
+def grid_steps(duration_s: float, dt_s: float) -> int:
     """ceil(duration / dt), tolerant to round-off in ruckig's duration."""
-    return max(2, math.ceil(duration_s / dt - 1e-7))
+    return max(2, math.ceil(duration_s / dt_s - 1e-7))
 
 
 @dataclass(frozen=True)
@@ -140,27 +140,27 @@ class GridMove:
 
 
 def kinematic_floor_move(
-    distance_m, limits: Limits, dt: float, max_steps: int, *, solver: str = "highs"
+    distance_m, limits: Limits, dt_s: float, max_steps: int, *, solver: str = "highs"
 ) -> GridMove:
     """Ruckig's time-optimal motion on the grid: the fewest steps N >= ceil(T_ruckig / dt) at
     which the motion, stretched by ruckig to N dt, has a grid version within the limits."""
     distance = clean_distance(distance_m)
     floor = time_optimal_move(distance, limits)
-    start = grid_steps(floor.duration_s, dt)
+    start = grid_steps(floor.duration_s, dt_s)
     for n_steps in range(start, min(max_steps, start + MAX_EXTRA_STEPS) + 1):
-        stretched = time_optimal_move(distance, limits, minimum_duration_s=n_steps * dt)
-        reference = stretched.acceleration(dt * np.arange(n_steps + 1))
-        acc = fit_to_grid(reference, dt, distance, limits, solver=solver)
+        stretched = time_optimal_move(distance, limits, minimum_duration_s=n_steps * dt_s)
+        reference = stretched.acceleration(dt_s * np.arange(n_steps + 1))
+        acc = fit_to_grid(reference, dt_s, distance, limits, solver=solver)
         if acc is not None:
             return GridMove(acc, floor.duration_s)
     if start <= max_steps:
         raise RuntimeError(
             f"no grid move found within {MAX_EXTRA_STEPS} steps of ruckig's duration "
-            f"{floor.duration_s:.6g} s (distance {distance.tolist()} m, dt {dt} s)"
+            f"{floor.duration_s:.6g} s (distance {distance.tolist()} m, dt {dt_s} s)"
         )
     raise InputError(
         f"distance_m: the move needs at least {floor.duration_s:.3f} s at these limits "
-        f"(time-optimal jerk-limited motion), more than the allowed {max_steps * dt:g} s "
+        f"(time-optimal jerk-limited motion), more than the allowed {max_steps * dt_s:g} s "
         "(max_duration_s); raise max_duration_s or the limits, or shorten the move"
     )
 
@@ -170,7 +170,7 @@ def shaped_grid_move(
     shaper: Shaper,
     distance_m,
     limits: Limits,
-    dt: float,
+    dt_s: float,
     *,
     extra_steps: int = 3,
     solver: str = "highs",
@@ -178,10 +178,10 @@ def shaped_grid_move(
     """Grid version of the time-optimal move convolved with ``shaper`` (None if no grid move
     within ``extra_steps`` of its continuous length exists)."""
     acc_fn = shaped_acceleration(floor, shaper)
-    start = grid_steps(floor.duration_s + shaper.duration_s, dt)
+    start = grid_steps(floor.duration_s + shaper.duration_s, dt_s)
     for n_steps in range(start, start + extra_steps + 1):
         acc = fit_to_grid(
-            acc_fn(dt * np.arange(n_steps + 1)), dt, distance_m, limits, solver=solver
+            acc_fn(dt_s * np.arange(n_steps + 1)), dt_s, distance_m, limits, solver=solver
         )
         if acc is not None:
             return acc

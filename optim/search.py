@@ -31,10 +31,10 @@ from tqdm.auto import tqdm
 
 from jaxflex.engine import end_state_map
 from jaxflex.model import ModalModel
+from jaxflex.profile import as_move, enforce_end_state
 from jaxflex.settle import SettleReport, analyze_move
 from optim.limits import Limits
 from optim.move_response import ClearancePeak, MoveResponse
-from optim.profiles import enforce_end_state
 from optim.residual import Peak, ResidualModel
 from optim.robust import RobustSpec, perturbed
 
@@ -75,7 +75,7 @@ class Problem:
     distance: np.ndarray
     limits: Limits
     threshold_m: float
-    dt: float
+    dt_s: float
     max_steps: int
     robust: RobustSpec | None
     scenarios: list[Scenario]
@@ -98,13 +98,13 @@ class Problem:
     def move_map(self, n_steps: int) -> MoveResponse:
         """The nominal model's response during an n-step move (optim.move_response)."""
         if n_steps not in self._move_maps:
-            self._move_maps[n_steps] = MoveResponse(self.model, self.components, n_steps, self.dt)
+            self._move_maps[n_steps] = MoveResponse(self.model, self.components, n_steps, self.dt_s)
         return self._move_maps[n_steps]
 
     def end_map(self, scenario: int, n_steps: int) -> np.ndarray:
         key = (scenario, n_steps)
         if key not in self._maps:
-            self._maps[key] = end_state_map(self.scenarios[scenario].model, n_steps, self.dt)
+            self._maps[key] = end_state_map(self.scenarios[scenario].model, n_steps, self.dt_s)
         return self._maps[key]
 
     def end_state(self, scenario: int, acc: np.ndarray) -> np.ndarray:
@@ -127,8 +127,8 @@ def make_problem(
     model: ModalModel,
     distance: np.ndarray,
     limits: Limits,
+    dt_s: float,
     threshold_m: float,
-    dt: float,
     max_steps: int,
     robust: RobustSpec | None,
     clearance_m: float | None = None,
@@ -154,7 +154,7 @@ def make_problem(
         distance,
         limits,
         threshold_m,
-        dt,
+        dt_s,
         max_steps,
         robust,
         scenarios,
@@ -198,9 +198,9 @@ class Subsolver(Protocol):
     name: str
     clearance_rows: bool  # True: takes the clearance as pooled rows; False: as a whole
 
-    def solve(self, problem: Problem, n_steps: int, warm: np.ndarray, polish: bool) -> SubResult:
-        """Minimise the largest pool row (or, with ``polish``, a smoothness measure subject
-        to every row holding) over moves of ``n_steps`` steps."""
+    def solve(self, problem: Problem, n_steps: int, warm: np.ndarray) -> SubResult:
+        """Minimise the largest pool row over moves of ``n_steps`` steps (a polishing
+        subsolver: a smoothness measure subject to every row holding)."""
 
 
 @dataclass
@@ -231,12 +231,12 @@ def _certify(problem: Problem, acc: np.ndarray):
     worst peak near the certified crossing; of the others, only the worst failure joins
     the training set (adding every failing scenario floods the LP with near-duplicates).
     Returns (timings, number of failures)."""
-    n_steps = acc.shape[0] - 1
-    transfer = n_steps * problem.dt
+    move = as_move(acc, problem.dt_s, at_rest=True)  # checked once for every scenario
+    transfer = move.duration_s
     timings: dict[int, SettleReport] = {}
     failed = []
     for i, scen in enumerate(problem.scenarios):
-        timing = analyze_move(scen.model, acc, problem.dt, problem.threshold_m, settle=False)
+        timing = analyze_move(scen.model, move, move.dt_s, problem.threshold_m, settle=False)
         timings[i] = timing
         if timing.cycle_time_s > transfer * (1 + TIME_RTOL):
             failed.append(i)
@@ -267,14 +267,13 @@ def attempt(
     solver: Subsolver,
     n_steps: int,
     warm: np.ndarray,
-    polish: bool = False,
 ) -> Attempt:
     """Is there a certified move of ``n_steps`` steps? (module docstring)."""
     start = time.perf_counter()
     stats: list[dict] = []
     value = np.inf
     for rounds in range(1, MAX_ROUNDS + 1):
-        sub = solver.solve(problem, n_steps, warm, polish)
+        sub = solver.solve(problem, n_steps, warm)
         stats.append(sub.stats)
         value = sub.value
         if sub.status != "solved" or sub.value > 1.0 + 1e-7:
@@ -301,7 +300,7 @@ def attempt(
             added += len(peaks)
         if added:
             continue
-        acc = enforce_end_state(acc, problem.dt, problem.distance)
+        acc = enforce_end_state(acc, problem.dt_s, problem.distance)
         timings, failures = _certify(problem, acc)
         if not failures:
             return Attempt(

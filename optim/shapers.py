@@ -1,4 +1,5 @@
-"""Input shapers ZV, ZVD and EI for damped modes, and their convolution (multi-mode shaping).
+"""Input shapers for damped modes, a registry of their designers, and their convolution
+(multi-mode shaping).
 
 A shaper is a train of impulses (amplitudes A_j > 0 summing to 1, times t_j >= 0). Convolving
 a motion with it leaves the distance unchanged and keeps every limit (a convex combination of
@@ -15,11 +16,16 @@ relative to the unshaped motion's (Singer & Seering 1990; Singhose, Seering & Si
   insensitivity than ZVD for the same length. The damped EI shaper has no closed form; it is
   solved here from those seven conditions (Newton from the undamped closed form
   A = ((1 + V)/4, (1 - V)/2, (1 + V)/4), t = (0, T/2, T)).
+
+``SHAPERS`` maps a name to its designer ``(omega_rad_s, zeta) -> Shaper``; every registered
+shaper is tried as a baseline (optim.baselines). A new shaper is one function decorated with
+``@register_shaper("NAME")``, here or in the caller's code.
 """
 
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,7 +33,6 @@ from scipy.optimize import root
 
 from jaxflex.errors import InputError
 
-KINDS = ("ZV", "ZVD", "EI")
 EI_VTOL = 0.05
 
 
@@ -42,9 +47,25 @@ class Shaper:
     def duration_s(self) -> float:
         return float(self.times_s[-1])
 
-    def residual_vibration(self, freq_hz, zeta):
-        """V(w) of this shaper for modes of ``freq_hz`` (array) and damping ``zeta``."""
-        return residual_vibration(self.amplitudes, self.times_s, 2 * np.pi * freq_hz, zeta)
+    def residual_vibration(self, omega_rad_s, zeta):
+        """V(w) of this shaper for modes of circular frequency ``omega_rad_s`` (array, rad/s)
+        and damping ``zeta``."""
+        return residual_vibration(self.amplitudes, self.times_s, omega_rad_s, zeta)
+
+
+ShaperDesigner = Callable[[float, float], Shaper]
+SHAPERS: dict[str, ShaperDesigner] = {}
+
+
+def register_shaper(name: str) -> Callable[[ShaperDesigner], ShaperDesigner]:
+    """Decorator: register ``designer(omega_rad_s, zeta) -> Shaper`` under ``name`` (omega in
+    rad/s > 0, 0 <= zeta < 1, both checked by :func:`shaper`)."""
+
+    def add(designer: ShaperDesigner) -> ShaperDesigner:
+        SHAPERS[name] = designer
+        return designer
+
+    return add
 
 
 def residual_vibration(amplitudes, times, omega, zeta):
@@ -96,30 +117,47 @@ def _ei_normalised(zeta: float, vtol: float) -> tuple[tuple[float, ...], tuple[f
     return amps, (0.0, t2, t3)
 
 
-def shaper(kind: str, freq_hz: float, zeta: float, *, vtol: float = EI_VTOL) -> Shaper:
-    """The ``kind`` ("ZV", "ZVD" or "EI") shaper for a mode of ``freq_hz`` Hz and damping
-    ratio ``zeta`` (0 <= zeta < 1)."""
-    if kind not in KINDS:
-        raise InputError(f"kind: must be one of {KINDS}, got {kind!r}")
-    if not freq_hz > 0:
-        raise InputError(f"freq_hz: must be > 0, got {freq_hz}")
+def _damped_half_period_s(omega_rad_s: float, zeta: float) -> tuple[float, float]:
+    """Half a damped period (s) and the decay K = exp(-zeta pi / sqrt(1 - zeta^2)) over it."""
+    root = np.sqrt(1.0 - zeta**2)
+    return np.pi / (omega_rad_s * root), np.exp(-zeta * np.pi / root)
+
+
+@register_shaper("ZV")
+def zv_shaper(omega_rad_s: float, zeta: float) -> Shaper:
+    """Zero vibration: two impulses over half a damped period."""
+    half_period, k = _damped_half_period_s(omega_rad_s, zeta)
+    return Shaper(np.array([1.0, k]) / (1.0 + k), np.array([0.0, half_period]))
+
+
+@register_shaper("ZVD")
+def zvd_shaper(omega_rad_s: float, zeta: float) -> Shaper:
+    """Zero vibration and derivative: three impulses over a damped period."""
+    half_period, k = _damped_half_period_s(omega_rad_s, zeta)
+    return Shaper(
+        np.array([1.0, 2 * k, k * k]) / (1.0 + k) ** 2,
+        np.array([0.0, half_period, 2 * half_period]),
+    )
+
+
+@register_shaper("EI")
+def ei_shaper(omega_rad_s: float, zeta: float, *, vtol: float = EI_VTOL) -> Shaper:
+    """Extra insensitive with V(w_n) = ``vtol`` (module docstring)."""
+    amps, times = _ei_normalised(round(float(zeta), 12), float(vtol))
+    return Shaper(np.array(amps), np.array(times) / omega_rad_s)
+
+
+def shaper(kind: str, omega_rad_s: float, zeta: float, **options) -> Shaper:
+    """The ``kind`` shaper (a name in SHAPERS) for a mode of circular frequency
+    ``omega_rad_s`` rad/s and damping ratio ``zeta`` (0 <= zeta < 1); ``options`` go to its
+    designer (EI: ``vtol``)."""
+    if kind not in SHAPERS:
+        raise InputError(f"kind: must be one of {list(SHAPERS)}, got {kind!r}")
+    if not omega_rad_s > 0:
+        raise InputError(f"omega_rad_s: must be > 0, got {omega_rad_s}")
     if not 0 <= zeta < 1:
         raise InputError(f"zeta: must satisfy 0 <= zeta < 1, got {zeta}")
-    omega = 2 * np.pi * freq_hz
-    root = np.sqrt(1.0 - zeta**2)
-    half_period = np.pi / (omega * root)  # half a damped period
-    k = np.exp(-zeta * np.pi / root)
-    if kind == "ZV":
-        amps = np.array([1.0, k]) / (1.0 + k)
-        times = np.array([0.0, half_period])
-    elif kind == "ZVD":
-        amps = np.array([1.0, 2 * k, k * k]) / (1.0 + k) ** 2
-        times = np.array([0.0, half_period, 2 * half_period])
-    else:
-        amps_n, times_n = _ei_normalised(round(float(zeta), 12), float(vtol))
-        amps = np.array(amps_n)
-        times = np.array(times_n) / omega
-    return Shaper(amps, times)
+    return SHAPERS[kind](float(omega_rad_s), float(zeta), **options)
 
 
 def convolve(*shapers: Shaper) -> Shaper:

@@ -28,17 +28,17 @@ def ramp_response(t, omega: float, zeta: float):
     return np.where(t > 0, r, 0.0)
 
 
-def piecewise_linear_response(t, force_samples, dt: float, omega: float, zeta: float):
+def piecewise_linear_response(t, force_samples, dt_s: float, omega: float, zeta: float):
     """Response at times t to a force linear between samples f_k at k dt (f_0 = 0 required,
     constant f_n after the last sample)."""
     f = np.asarray(force_samples, dtype=float)
     assert f[0] == 0.0
-    slopes = np.diff(f) / dt
+    slopes = np.diff(f) / dt_s
     slope_change = np.diff(np.concatenate([[0.0], slopes, [0.0]]))  # at t_0 .. t_n
     out = np.zeros_like(np.asarray(t, dtype=float))
     for k, c in enumerate(slope_change):
         if c != 0.0:
-            out += c * ramp_response(np.asarray(t) - k * dt, omega, zeta)
+            out += c * ramp_response(np.asarray(t) - k * dt_s, omega, zeta)
     return out
 
 

@@ -34,10 +34,10 @@ def random_model(
     )
 
 
-def smooth_move(n_steps: int, dt: float, distance=(0.3, -0.2, 1.0)) -> np.ndarray:
+def smooth_move(n_steps: int, dt_s: float, distance=(0.3, -0.2, 1.0)) -> np.ndarray:
     """Rest-to-rest move with one sine of acceleration per axis: (n_steps + 1, 3) m/s^2."""
-    duration = n_steps * dt
-    t = np.arange(n_steps + 1) * dt
+    duration = n_steps * dt_s
+    t = np.arange(n_steps + 1) * dt_s
     shape = 2 * np.pi / duration**2 * np.sin(2 * np.pi * t / duration)
     acc = np.outer(shape, np.asarray(distance, dtype=float))
     acc[[0, -1]] = 0.0

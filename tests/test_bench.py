@@ -1,4 +1,4 @@
-"""jaxflex.bench: metrics against hand-computed values, the methods against each other, the
+"""benchmarks: metrics against hand-computed values, the methods against each other, the
 test move, and a quick run of the whole bench (JSON with every method, PNG charts)."""
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from conftest import random_model, run_jaxflex, smooth_move
 
-from jaxflex.bench.accuracy import dominance, pareto_front
-from jaxflex.bench.fe import knot_move
-from jaxflex.bench.methods import METHODS, prepare, stable_substeps
-from jaxflex.bench.metrics import compare, curve_errors, settle_from_samples
+from benchmarks.accuracy import dominance, pareto_front
+from benchmarks.fe import knot_move
+from benchmarks.methods import METHODS, prepare, stable_substeps
+from benchmarks.metrics import compare, curve_errors, settle_from_samples
 from jaxflex.errors import InputError
 
 
@@ -71,18 +71,18 @@ def test_pareto_front_and_dominance():
 
 def test_methods_agree_where_exact_and_converge_where_not():
     model = random_model(seed=3, n_points=20, n_modes=5, f_min_hz=2.0, f_max_hz=30.0)
-    dt = 0.01
-    acc = np.concatenate([smooth_move(60, dt), np.zeros((40, 3))])
-    exact = np.asarray(prepare("scan64", model, acc, dt)())
+    dt_s = 0.01
+    acc = np.concatenate([smooth_move(60, dt_s), np.zeros((40, 3))])
+    exact = np.asarray(prepare("scan64", model, acc, dt_s)())
     # the convolution of R1 is the same linear map: equal to round-off
-    conv = np.asarray(prepare("convolution", model, acc, dt)())
+    conv = np.asarray(prepare("convolution", model, acc, dt_s)())
     np.testing.assert_allclose(conv, exact, rtol=0, atol=1e-10 * exact.max())
     # float32: coefficient round-off ~6e-8 amplified over 100 steps
-    f32 = np.asarray(prepare("scan32", model, acc, dt)(), dtype=float)
+    f32 = np.asarray(prepare("scan32", model, acc, dt_s)(), dtype=float)
     assert np.abs(f32 - exact).max() < 1e-4 * exact.max()
 
     def err(method, substeps):
-        dev = np.asarray(prepare(method, model, acc, dt, substeps)())
+        dev = np.asarray(prepare(method, model, acc, dt_s, substeps)())
         return np.abs(dev - exact).max() / exact.max()
 
     # Newmark and central difference are second order: halving h quarters the error
@@ -93,15 +93,15 @@ def test_methods_agree_where_exact_and_converge_where_not():
     s = stable_substeps(model, 0.05)
     assert 2 * np.pi * model.freq_hz.max() * 0.05 / s <= 1.8 + 1e-12
     with pytest.raises(InputError, match="method"):
-        prepare("euler", model, acc, dt)
+        prepare("euler", model, acc, dt_s)
 
 
 def test_knot_move_is_one_profile_at_every_swept_dt():
     fine = knot_move(0.005, 0.6, 0.3)
     t_fine = 0.005 * np.arange(len(fine))
-    for dt in (0.01, 0.02, 0.025):
-        acc = knot_move(dt, 0.6, 0.3)
-        t = dt * np.arange(len(acc))
+    for dt_s in (0.01, 0.02, 0.025):
+        acc = knot_move(dt_s, 0.6, 0.3)
+        t = dt_s * np.arange(len(acc))
         assert t[-1] == pytest.approx(0.9)
         for axis in (0, 2):  # the piecewise-linear profiles coincide everywhere
             np.testing.assert_allclose(
@@ -152,7 +152,7 @@ def test_quick_bench_writes_every_method_and_chart(tmp_path):
 
     # FE-agreement target on the plate: the built-in plate (1.5 x 0.8 m, 4 cups) on a 100 mm
     # Morley mesh, 40 modes against its own full-order FE transient (Richardson-extrapolated
-    # Newmark). DESIGN.md: R^2 >= 0.99999, L-inf <= 0.2 % of the peak, settle time within
+    # Newmark). docs/design.md: R^2 >= 0.99999, L-inf <= 0.2 % of the peak, settle time within
     # 10 ms (measured: deviation R^2 0.9999929, 0.12 %, displacement 0.19 %, settle 0.06 ms).
     row = next(r for r in saved["accuracy"]["plate"]["agreement"] if r["n_modes"] == 40)
     assert row["meets_target"], row

@@ -1,4 +1,4 @@
-"""Reduced modal model against the full-order FE transient on the curved panel (DESIGN.md
+"""Reduced modal model against the full-order FE transient on the curved panel (docs/design.md
 target: R^2 >= 0.99999, L-inf <= 0.2 % of the peak, settle time within 10 ms). The plate is
 checked on the quick bench run (tests/test_bench.py)."""
 
@@ -8,10 +8,10 @@ from dataclasses import replace
 
 import pytest
 
-from jaxflex.bench.accuracy import TARGETS, agreement_by_modes, settle_threshold
-from jaxflex.bench.fe import build_scene, fe_reference
-from jaxflex.bench.metrics import settle_from_samples
-from jaxflex.bench.suite import SMALL_PANEL
+from benchmarks.accuracy import TARGETS, agreement_by_modes, settle_threshold
+from benchmarks.fe import build_scene, fe_reference
+from benchmarks.metrics import settle_from_samples
+from benchmarks.suite import SMALL_PANEL
 
 
 @pytest.mark.slow
@@ -37,9 +37,9 @@ def test_panel_reduced_model_against_full_order_fe():
     result, damping, _ = build_scene(spec, progress=False)
     ref = fe_reference(result, damping, spec, progress=False)
     model = result.to_modal_model(points=ref.points, zeta=damping)
-    threshold = settle_threshold(ref.t_s, ref.deviation_m, spec.rest_s)
-    settle_ref = settle_from_samples(ref.t_s, ref.deviation_m, threshold)
-    rows = agreement_by_modes(model, ref, spec, threshold, settle_ref)
+    threshold_m = settle_threshold(ref.t_s, ref.deviation_m, spec.rest_s)
+    settle_ref = settle_from_samples(ref.t_s, ref.deviation_m, threshold_m)
+    rows = agreement_by_modes(model, ref, spec, threshold_m, settle_ref)
     coarse, fine = rows
     # more modes, closer to the full-order model
     assert fine["displacement_linf_rel_peak"] < 0.5 * coarse["displacement_linf_rel_peak"]

@@ -1,13 +1,72 @@
-"""The command line as a user runs it."""
+"""The command line as a user runs it, and how the dispatcher finds the commands."""
 
 from __future__ import annotations
 
+import importlib
 import json
+import subprocess
+import sys
+from importlib.metadata import entry_points
 
 from conftest import run_jaxflex
 
 import jaxflex
-from optim.trajectory_io import read_trajectory_csv
+import optim.sweep.cli
+from jaxflex.cli import GROUP, commands, main
+from jaxflex.trajectory_io import read_trajectory_csv
+
+# what each package contributes, in the order of `jaxflex --help`
+COMMANDS = {
+    "demo": "fmu.demo",
+    "model": "fem.cli",
+    "optimize": "optim.cli",
+    "sweep": "optim.sweep.cli",
+    "export": "fmu.cli",
+    "bench": "benchmarks.cli",
+}
+# what the packages behind the commands load on import; listing the commands loads none
+HEAVY = ("fem", "optim", "fmu", "benchmarks", "skfem", "matplotlib", "distributed", "casadi")
+
+
+def test_each_package_registers_its_commands():
+    assert {p.name: p.module for p in entry_points(group=GROUP)} == COMMANDS
+    listed = commands()
+    assert [(c.name, c.module) for c in listed] == list(COMMANDS.items())
+    for command in listed:  # what the dispatcher read from the source is what the module says
+        module = importlib.import_module(command.module)
+        assert (
+            command.name,
+            command.help,
+            command.order,
+        ) == (module.COMMAND, module.HELP, module.ORDER)
+        assert callable(module.add_arguments) and callable(module.run)
+
+
+def test_help_lists_every_command_without_importing_one():
+    code = (
+        "import sys\n"
+        "from jaxflex.cli import main\n"
+        "try:\n"
+        "    main(['--help'])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        f"print('loaded:', [m for m in {HEAVY!r} if m in sys.modules])\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.rstrip().endswith("loaded: []")
+    words = " ".join(proc.stdout.split())  # argparse wraps the help lines
+    for command in commands():
+        assert f"{command.name} {command.help}" in words
+
+
+def test_interrupted_command_exits_130(monkeypatch, capsys):
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(optim.sweep.cli, "run", interrupted)
+    assert main(["sweep", "--example"]) == 130
+    assert "jaxflex sweep: interrupted" in capsys.readouterr().err
 
 
 def test_demo_runs_the_whole_pipeline(tmp_path):
@@ -27,10 +86,10 @@ def test_demo_runs_the_whole_pipeline(tmp_path):
         assert (out / name).stat().st_size > 0, name
     summary = json.loads((out / "demo.json").read_text())
     model = jaxflex.load_model(out / "model.npz")
-    acc, dt = read_trajectory_csv(out / "optimized" / "trajectory.csv")
+    acc, dt_s = read_trajectory_csv(out / "optimized" / "trajectory.csv")
     # the reported cycle time is the exact one of the saved model and trajectory
-    assert summary["cycle_time_s"] == jaxflex.cycle_time(model, acc, dt, summary["threshold_m"])
-    assert summary["cycle_time_s"] >= (len(acc) - 1) * dt
+    assert summary["cycle_time_s"] == jaxflex.cycle_time(model, acc, dt_s, summary["threshold_m"])
+    assert summary["cycle_time_s"] >= (len(acc) - 1) * dt_s
     # both FMUs reproduce jaxflex (fmpy run inside the demo), to round-off
     assert all(f["ok"] and f["max_rel_diff"] < 1e-9 for f in summary["fmus"].values())
     assert not list(out.rglob("*.tmp"))

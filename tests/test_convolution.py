@@ -16,13 +16,13 @@ from jaxflex.errors import InputError
 
 
 def test_csv_round_trip_and_use(tmp_path, small_model):
-    dt, n = 0.01, 40
-    r1 = unit_response(small_model, dt, n)
+    dt_s, n = 0.01, 40
+    r1 = unit_response(small_model, dt_s, n)
     path = tmp_path / "r1_z.csv"
     write_unit_response_csv(path, r1[2])
     back = read_unit_response_csv(path)
     np.testing.assert_array_equal(back, r1[2])  # repr() keeps every bit
-    acc = smooth_move(n, dt, distance=(0, 0, 1.0))
+    acc = smooth_move(n, dt_s, distance=(0, 0, 1.0))
     np.testing.assert_array_equal(
         convolve_unit_response(back[None], acc, axes=(2,)),
         convolve_unit_response(r1[2:], acc, axes=(2,)),

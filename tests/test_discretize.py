@@ -72,10 +72,10 @@ def test_series_and_closed_form_meet_continuously():
 
 def test_high_frequency_mode_at_coarse_step_is_bounded_and_exact():
     """A 2 kHz mode at dt = 10 ms: |eigenvalues of Phi| = e^{-zeta omega dt} <= 1 exactly."""
-    omega, zeta, dt = 2 * np.pi * 2000.0, 0.02, 0.01
-    phi, g0, g1 = foh_coefficients(omega, zeta, dt, np)
+    omega, zeta, dt_s = 2 * np.pi * 2000.0, 0.02, 0.01
+    phi, g0, g1 = foh_coefficients(omega, zeta, dt_s, np)
     radius = np.max(np.abs(np.linalg.eigvals(phi)))
-    assert radius == pytest.approx(np.exp(-zeta * omega * dt), rel=1e-12)
+    assert radius == pytest.approx(np.exp(-zeta * omega * dt_s), rel=1e-12)
     # A constant unit force held forever converges to the static deflection 1/omega^2.
     x = np.zeros(2)
     for _ in range(200):
@@ -88,8 +88,8 @@ def test_high_frequency_mode_at_coarse_step_is_bounded_and_exact():
 def test_gradients_match_finite_differences(argnum):
     args = [2 * np.pi * 12.0, 0.04, 0.01]
 
-    def total(omega, zeta, dt):
-        phi, g0, g1 = foh_coefficients(omega, zeta, dt)
+    def total(omega, zeta, dt_s):
+        phi, g0, g1 = foh_coefficients(omega, zeta, dt_s)
         weights = jnp.array([1.0, 0.3])
         return jnp.sum(phi @ weights) + 50 * (omega**2) * jnp.sum(g0 + 2 * g1)
 

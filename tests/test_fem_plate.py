@@ -26,7 +26,7 @@ CCCC_PUBLISHED = np.array([35.985, 73.394, 73.394, 108.22, 131.58, 132.20])
 
 def test_simply_supported_morley_default_mesh_within_half_percent():
     # Morley converges from below with O(h^2); at the default 15 mm elements on a 1 m plate
-    # the error of the 6th mode is ~0.37 % (DESIGN.md "FE choices": ~0.4 %), target 0.5 %.
+    # the error of the 6th mode is ~0.37 % (docs/design.md, FE choices: ~0.4 %), target 0.5 %.
     result = fem.modal_analysis(fem.rectangular_plate(1.0, 1.0), fem.SimplySupportedEdge(), 6)
     error = _lambda(result, 1.0) / SS_EXACT - 1
     assert np.all(np.abs(error) <= 5e-3), error

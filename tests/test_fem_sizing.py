@@ -19,7 +19,7 @@ import pytest
 import fem
 import jaxflex
 from jaxflex.errors import InputError
-from optim.profiles import jerk_limited_move
+from jaxflex.profile import jerk_limited_move
 
 DT_S = 0.01
 FACTOR = 10  # evaluation step dt / 10 = 1 ms: >= 1.5 samples per period of every mode kept
@@ -63,7 +63,7 @@ def small_scene(kind: str) -> tuple[fem.Part, list]:
 
 
 def lift() -> np.ndarray:
-    return jerk_limited_move((0.0, 0.0, 0.3), vmax=2.0, amax=10.0, jmax=100.0, dt=DT_S)
+    return jerk_limited_move((0.0, 0.0, 0.3), vmax=2.0, amax=10.0, jmax=100.0, dt_s=DT_S)
 
 
 @pytest.fixture(
@@ -114,7 +114,7 @@ def deviation(model: jaxflex.ModalModel, acc: np.ndarray, horizon_s: float) -> n
 
 def test_meets_tolerance_against_richer_model(sized):
     kind, result = sized
-    tol, threshold = result.tolerance, CASES[kind]["threshold_m"]
+    tol, threshold_m = result.tolerance, CASES[kind]["threshold_m"]
     assert result.met, result.summary()
     chosen, rich = result.model, richer_model(kind, result)
     # the chosen model is smaller on every count
@@ -122,8 +122,8 @@ def test_meets_tolerance_against_richer_model(sized):
     assert result.choice["n_dof"] < result.reference["n_dof"]
 
     acc = lift()
-    rich_report = jaxflex.analyze_move(rich, acc, DT_S, threshold)
-    report = jaxflex.analyze_move(chosen, acc, DT_S, threshold)
+    rich_report = jaxflex.analyze_move(rich, acc, DT_S, threshold_m)
+    report = jaxflex.analyze_move(chosen, acc, DT_S, threshold_m)
     assert rich_report.settle_time_s > 0  # the settle criterion is exercised, not trivially 0
     # compare up to the later cycle time plus two periods of the first mode
     horizon = max(report.cycle_time_s, rich_report.cycle_time_s) + 2.0 / rich.freq_hz[0]
@@ -138,8 +138,8 @@ def test_meets_tolerance_against_richer_model(sized):
     # jumps by half a period where a peak touches the threshold).
     error_s = abs(report.settle_time_s - rich_report.settle_time_s)
     if error_s > tol * rich_report.cycle_time_s:
-        lo = jaxflex.analyze_move(rich, acc, DT_S, threshold * (1 + tol)).settle_time_s
-        hi = jaxflex.analyze_move(rich, acc, DT_S, threshold * (1 - tol)).settle_time_s
+        lo = jaxflex.analyze_move(rich, acc, DT_S, threshold_m * (1 + tol)).settle_time_s
+        hi = jaxflex.analyze_move(rich, acc, DT_S, threshold_m * (1 - tol)).settle_time_s
         assert lo <= report.settle_time_s <= hi, (report, rich_report, lo, hi)
 
 

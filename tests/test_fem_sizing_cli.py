@@ -8,8 +8,8 @@ import pytest
 
 import jaxflex
 from jaxflex.cli import main
-from optim.profiles import jerk_limited_move
-from optim.trajectory_io import write_trajectory_csv
+from jaxflex.profile import jerk_limited_move
+from jaxflex.trajectory_io import write_trajectory_csv
 
 # The full plate scene on a coarse sequence (100, 70, 50 mm): seconds, converges at 10 %.
 SIZED = ["model", "--scene", "plate", "--tolerance", "10%", "--threshold", "1e-3",

@@ -9,9 +9,10 @@ import pytest
 from conftest import random_model
 from test_fmu_export import smooth_profile
 
+from fmu.ssp import read_parameters
 from fmu.verify import read_fmu_resource
 from jaxflex.cli import main
-from optim.trajectory_io import write_trajectory_csv
+from jaxflex.trajectory_io import write_trajectory_csv
 
 DT = 0.01
 
@@ -47,6 +48,7 @@ def test_export_from_an_optimize_folder_verifies_the_fmu(inputs, capsys):
     assert main([*args, "-o", str(out)]) == 0
     text = capsys.readouterr().out
     assert "wrote" in text and "fmpy validation: clean" in text and text.rstrip().endswith("OK")
+    assert "ecospy: " in text  # run, or not run with the reason
     stored = read_fmu_resource(out)
     np.testing.assert_allclose(stored.acc, acc, rtol=1e-15, atol=0)  # CSV round trip
     case = json.loads((root / "out" / "part_case.json").read_text())
@@ -106,3 +108,33 @@ def test_report_with_another_sample_step_is_refused(inputs, tmp_path, capsys):
     argv = ["export", str(root / "model.npz"), "--trajectory", str(tmp_path), "-o"]
     assert main([*argv, str(tmp_path / "e.fmu")]) == 2
     assert "do not belong together" in capsys.readouterr().err
+
+
+def test_export_an_ssp_package_and_check_it_in_other_hosts(inputs, tmp_path, capsys):
+    """`--ssp` alone: the package of part and trajectory source, validated and simulated in
+    every host available here; the FMU export line names the engines it ran too."""
+    root, _, report = inputs
+    out = tmp_path / "case.ssp"
+    argv = ["export", str(root / "model.npz"), "--trajectory", str(root / "opt"), "--ssp"]
+    assert main([*argv, str(out), "--windows", "no", "--damping-scale", "0.5"]) == 0
+    text = capsys.readouterr().out
+    assert f"wrote {out}: SSP 1.0" in text and "SSP validation: clean" in text
+    assert "jaxflex-master: deviation vs jaxflex.simulate" in text
+    assert "fmpy: deviation vs exact zero-order hold" in text
+    assert text.rstrip().endswith("OK")
+    assert read_parameters(out) == {
+        "part": {"threshold": report["threshold_m"], "damping_scale": 0.5}
+    }
+    assert [p.name for p in tmp_path.iterdir()] == ["case.ssp"]
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [([], "give -o FILE.fmu, --ssp FILE.ssp or both"), (["--ssp", "x.ssp"], "--trajectory")],
+    ids=["no-output", "ssp-without-move"],
+)
+def test_ssp_and_output_options_are_checked(inputs, tmp_path, capsys, extra, message):
+    root, _, _ = inputs
+    assert main(["export", str(root / "model.npz"), *extra]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("jaxflex export: error:") and message in err

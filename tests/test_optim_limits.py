@@ -8,17 +8,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from jaxflex.errors import InputError
+from jaxflex.profile import end_weights, enforce_end_state, integrate
 from optim.limits import Limits, check_profile, velocity_extrema
-from optim.profiles import end_weights, enforce_end_state, integrate
 from optim.robust import RobustSpec
 
 
-def dense_velocity(acc, dt, samples=2001):
+def dense_velocity(acc, dt_s, samples=2001):
     """|v| on a fine grid of every step, from the exact quadratic (brute force)."""
-    vel, _ = integrate(acc, dt)
-    tau = np.linspace(0.0, dt, samples)[:, None, None]
+    vel, _ = integrate(acc, dt_s)
+    tau = np.linspace(0.0, dt_s, samples)[:, None, None]
     a0, a1, v0 = acc[:-1], acc[1:], vel[:-1]
-    return v0 + a0 * tau + (a1 - a0) * tau**2 / (2 * dt)  # (samples, n, 3)
+    return v0 + a0 * tau + (a1 - a0) * tau**2 / (2 * dt_s)  # (samples, n, 3)
 
 
 @pytest.mark.parametrize(
@@ -46,30 +46,30 @@ def test_limits_round_trip_through_json_form():
 @settings(max_examples=60, deadline=None)
 @given(
     samples=st.lists(st.floats(-5, 5), min_size=3, max_size=12),
-    dt=st.sampled_from([0.004, 0.01, 0.05]),
+    dt_s=st.sampled_from([0.004, 0.01, 0.05]),
 )
-def test_velocity_extrema_match_a_dense_evaluation(samples, dt):
+def test_velocity_extrema_match_a_dense_evaluation(samples, dt_s):
     # The closed-form interior extremum must equal the brute-force maximum of |v| over each
     # step: a grid of 2001 points misses the true peak by at most
     # |a|max (dt/2000)^2 / dt ~ 1e-6 relative, hence the tolerance.
     acc = np.zeros((len(samples) + 2, 3))
     acc[1:-1, 1] = samples
-    vel, _ = integrate(acc, dt)
-    value, _, _ = velocity_extrema(acc, vel, dt)
-    dense = dense_velocity(acc, dt)
+    vel, _ = integrate(acc, dt_s)
+    value, _, _ = velocity_extrema(acc, vel, dt_s)
+    dense = dense_velocity(acc, dt_s)
     closed = np.maximum(np.abs(value[:, 1]), np.maximum(np.abs(vel[:-1, 1]), np.abs(vel[1:, 1])))
-    np.testing.assert_allclose(closed, np.abs(dense[:, :, 1]).max(axis=0), rtol=0, atol=2e-6 * dt)
+    np.testing.assert_allclose(closed, np.abs(dense[:, :, 1]).max(axis=0), rtol=0, atol=2e-6 * dt_s)
 
 
 def test_a_velocity_peak_between_samples_is_reported():
     # a_k > 0, a_{k+1} < 0: the velocity peaks inside the step, above both sample values.
-    dt = 0.1
+    dt_s = 0.1
     acc = np.array([[0, 0, 0], [0, 0, 10.0], [0, 0, -10.0], [0, 0, 0]])
-    vel, _ = integrate(acc, dt)
-    peak = np.abs(dense_velocity(acc, dt)[:, :, 2]).max()
+    vel, _ = integrate(acc, dt_s)
+    peak = np.abs(dense_velocity(acc, dt_s)[:, :, 2]).max()
     assert peak > np.abs(vel[:, 2]).max()
     limit = 0.5 * (peak + np.abs(vel[:, 2]).max())  # between the sampled and the true peak
-    check = check_profile(acc, dt, Limits(limit, 100, 1000))
+    check = check_profile(acc, dt_s, Limits(limit, 100, 1000))
     (violation,) = [v for v in check.violations if v.quantity == "velocity"]
     assert violation.axis == "z"
     assert violation.value == pytest.approx(peak, rel=1e-6)
@@ -78,21 +78,21 @@ def test_a_velocity_peak_between_samples_is_reported():
 
 
 def test_path_speed_peak_between_samples_is_reported():
-    dt = 0.1
+    dt_s = 0.1
     acc = np.zeros((4, 3))
     acc[1, :2], acc[2, :2] = [6.0, 8.0], [-6.0, -8.0]
-    speed = np.linalg.norm(dense_velocity(acc, dt), axis=2).max()
-    check = check_profile(acc, dt, Limits(100, 100, 1000, vpath=0.99 * speed))
+    speed = np.linalg.norm(dense_velocity(acc, dt_s), axis=2).max()
+    check = check_profile(acc, dt_s, Limits(100, 100, 1000, vpath=0.99 * speed))
     (violation,) = check.violations
     assert (violation.quantity, violation.axis) == ("velocity", "path")
     assert violation.value == pytest.approx(speed, rel=1e-6)
 
 
 def test_every_violation_is_listed_with_time_and_size():
-    dt = 0.01
+    dt_s = 0.01
     acc = np.zeros((6, 3))
     acc[1:5, 0] = [3.0, 5.0, 5.0, 3.0]
-    check = check_profile(acc, dt, Limits(10, 4, 250), distance_m=[1, 0, 0])
+    check = check_profile(acc, dt_s, Limits(10, 4, 250), distance_m=[1, 0, 0])
     kinds = {(v.quantity, round(v.time_s, 3)) for v in check.violations}
     assert ("acceleration", 0.02) in kinds and ("acceleration", 0.03) in kinds
     assert ("jerk", 0.005) in kinds and ("jerk", 0.045) in kinds  # |3 / 0.01| = 300 > 250

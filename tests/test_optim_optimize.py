@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -13,12 +14,13 @@ from hypothesis import strategies as st
 
 import jaxflex
 import optim
+from benchmarks.optim import few_mode_model as bench_model
 from jaxflex.errors import InputError
-from optim.bench import few_mode_model as bench_model
+from jaxflex.trajectory_io import read_trajectory_csv
 from optim.exact import LPSubsolver
+from optim.limits import ConstraintCheck, Violation
 from optim.robust import perturbed
 from optim.search import attempt, make_problem
-from optim.trajectory_io import read_trajectory_csv
 
 DT = 0.01
 LIMITS = optim.Limits(1.5, 8.0, 80.0)
@@ -27,7 +29,7 @@ THRESHOLD = 1e-3
 
 
 def few_mode_model() -> jaxflex.ModalModel:
-    """optim.bench's synthetic three-mode part (full 3-D shapes at 16 points, participation
+    """benchmarks.optim's synthetic three-mode part (full 3-D shapes at 16 points, participation
     mostly along z) at 3, 7 and 15 Hz: stiff enough for short test runs."""
     return bench_model(freq_hz=(3.0, 7.0, 15.0))
 
@@ -39,7 +41,7 @@ def model():
 
 @pytest.fixture(scope="module")
 def nominal(model):
-    return optim.optimize(model, DISTANCE, LIMITS, THRESHOLD, DT, progress=False)
+    return optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, progress=False)
 
 
 def test_optimum_beats_every_baseline(model, nominal):
@@ -57,7 +59,7 @@ def test_optimum_beats_every_baseline(model, nominal):
 
 def test_one_step_less_is_certainly_infeasible(model, nominal):
     # Minimality: with the rows found so far the LP already proves n - 1 infeasible.
-    problem = make_problem(model, np.array(DISTANCE), LIMITS, THRESHOLD, DT, 3000, None)
+    problem = make_problem(model, np.array(DISTANCE), LIMITS, DT, THRESHOLD, 3000, None)
     shorter = attempt(problem, LPSubsolver(), nominal.n_steps - 1, nominal.baselines.floor_acc)
     assert not shorter.feasible
 
@@ -66,12 +68,12 @@ def test_vibration_ignored_gives_ruckigs_duration_on_the_grid(model):
     # A threshold no deviation reaches: the minimum is the kinematic floor, i.e. ruckig's
     # time-optimal duration rounded up to the grid (at most one more step where no grid
     # move of ceil(T / dt) steps exists), and the LP proves one step less impossible.
-    result = optim.optimize(model, DISTANCE, LIMITS, 10.0, DT, progress=False)
+    result = optim.optimize(model, DISTANCE, LIMITS, DT, 10.0, progress=False)
     base = result.baselines
     assert result.n_steps == base.floor_steps
     ceil_steps = math.ceil(base.kinematic_floor_s / DT - 1e-7)
     assert ceil_steps <= result.n_steps <= ceil_steps + 1
-    problem = make_problem(model, np.array(DISTANCE), LIMITS, 10.0, DT, 3000, None)
+    problem = make_problem(model, np.array(DISTANCE), LIMITS, DT, 10.0, 3000, None)
     assert not attempt(problem, LPSubsolver(), result.n_steps - 1, base.floor_acc).feasible
 
 
@@ -81,7 +83,7 @@ def test_routes_agree_and_the_exact_route_is_never_worse(model, nominal):
     # Ipopt and SLSQP: same problem, answers within a few steps, the exact one the shortest.
     for method, solver in (("exact", "casadi"), ("gradient", "ipopt"), ("gradient", "slsqp")):
         other = optim.optimize(
-            model, DISTANCE, LIMITS, THRESHOLD, DT, method=method, solver=solver, progress=False
+            model, DISTANCE, LIMITS, DT, THRESHOLD, method=method, solver=solver, progress=False
         )
         assert other.constraint_check.ok
         assert other.cycle_time_s == pytest.approx(
@@ -96,7 +98,7 @@ def test_routes_agree_and_the_exact_route_is_never_worse(model, nominal):
 
 def test_robust_worst_case_beats_every_shaper(model, nominal):
     spec = optim.RobustSpec((0.9, 1.1), (0.01, 0.03), n_freq=5, n_zeta=2)
-    result = optim.optimize(model, DISTANCE, LIMITS, THRESHOLD, DT, robust=spec, progress=False)
+    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, robust=spec, progress=False)
     assert result.constraint_check.ok
     shapers = [b for b in result.baselines.entries if b.shaped_freq_hz]
     assert len(shapers) == 3
@@ -116,7 +118,7 @@ def test_clearance_limits_the_deviation_during_the_move(model, nominal):
     clearance = 0.025  # the unconstrained optimum peaks at ~43 mm during the move
     assert nominal.peak_deviation_m > clearance
     result = optim.optimize(
-        model, DISTANCE, LIMITS, THRESHOLD, DT, clearance_m=clearance, progress=False
+        model, DISTANCE, LIMITS, DT, THRESHOLD, clearance_m=clearance, progress=False
     )
     # independent check: the exact response sampled every dt / 8 by jaxflex.simulate
     fine = jaxflex.simulate(model, jaxflex.upsample(result.acc, 8), DT / 8)
@@ -131,14 +133,14 @@ def test_clearance_limits_the_deviation_during_the_move(model, nominal):
 @pytest.mark.slow
 def test_gradient_route_meets_the_clearance_too(model):
     exact = optim.optimize(
-        model, DISTANCE, LIMITS, THRESHOLD, DT, clearance_m=0.025, progress=False
+        model, DISTANCE, LIMITS, DT, THRESHOLD, clearance_m=0.025, progress=False
     )
     other = optim.optimize(
         model,
         DISTANCE,
         LIMITS,
-        THRESHOLD,
         DT,
+        THRESHOLD,
         clearance_m=0.025,
         method="gradient",
         solver="slsqp",
@@ -170,7 +172,7 @@ def test_limits_and_boundary_conditions_hold_on_every_returned_profile(
         apath=1.1 * amax if path else None,
         jpath=1.1 * jmax if path else None,
     )
-    result = optim.optimize(model, distance, limits, 2e-3, DT, method=method, progress=False)
+    result = optim.optimize(model, distance, limits, DT, 2e-3, method=method, progress=False)
     acc = result.acc
     # independent re-check: samples, every step's jerk, velocity between samples
     check = optim.check_profile(acc, DT, limits, distance)
@@ -215,12 +217,12 @@ def test_infeasible_or_bad_requests_give_clear_errors(model, change, message):
 
 def test_undamped_models_and_unreachable_thresholds_are_errors(model):
     with pytest.raises(InputError, match=r"model\.zeta"):
-        optim.optimize(model.with_damping(0.0), DISTANCE, LIMITS, THRESHOLD, progress=False)
+        optim.optimize(model.with_damping(0.0), DISTANCE, LIMITS, DT, THRESHOLD, progress=False)
     # only the kinematic floor fits in max_duration_s, and it leaves too much vibration
-    floor_s = optim.baselines(model, DISTANCE, LIMITS, THRESHOLD).floor_steps * DT
+    floor_s = optim.baselines(model, DISTANCE, LIMITS, DT, THRESHOLD).floor_steps * DT
     with pytest.raises(InputError, match="no move of at most"):
         optim.optimize(
-            model, DISTANCE, LIMITS, 1e-6, DT, progress=False, max_duration_s=floor_s + 1e-9
+            model, DISTANCE, LIMITS, DT, 1e-6, progress=False, max_duration_s=floor_s + 1e-9
         )
 
 
@@ -247,11 +249,33 @@ def test_save_writes_everything_atomically(model, nominal, tmp_path):
         assert key in report, key
     assert report["robust"] is None and report["method"] == "exact"
     assert report["limits"]["vmax_m_s"] == [1.5, 1.5, 1.5]
-    acc, dt = read_trajectory_csv(tmp_path / "out" / "trajectory.csv")
-    assert dt == pytest.approx(DT)
+    acc, dt_s = read_trajectory_csv(tmp_path / "out" / "trajectory.csv")
+    assert dt_s == pytest.approx(DT)
     # the saved file reproduces the reported exact cycle time
-    assert jaxflex.cycle_time(model, acc, dt, report["threshold_m"]) == pytest.approx(
+    assert jaxflex.cycle_time(model, acc, dt_s, report["threshold_m"]) == pytest.approx(
         report["cycle_time_s"], abs=2e-9
     )
     names = [b["name"] for b in report["baselines"]["entries"]]
     assert names[0] == "ruckig + free decay" and len(names) == 4
+
+
+def test_a_profile_that_fails_the_final_check_is_never_returned(model, monkeypatch):
+    """The last line of defence: if the optimised samples failed the exact limit check (a
+    solver's tolerance, say), the best baseline that passes it is returned, with a note."""
+    optimize_module = sys.modules["optim.optimize"]  # the package's optimize is the function
+
+    real_check = optimize_module.check_profile
+    calls = []
+
+    def check_rejecting_the_optimum(acc, *args, **kwargs):
+        calls.append(acc)
+        if len(calls) == 1:  # the optimised profile is checked first
+            return ConstraintCheck((Violation("jerk", "z", 0.1, 101.0, 100.0),))
+        return real_check(acc, *args, **kwargs)
+
+    monkeypatch.setattr(optimize_module, "check_profile", check_rejecting_the_optimum)
+    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, progress=False)
+    best_passing = min(result.baselines.entries, key=lambda e: e.score())
+    assert any("rejected" in note for note in result.solver_stats["notes"])
+    np.testing.assert_array_equal(result.acc, best_passing.acc)
+    assert result.constraint_check.ok

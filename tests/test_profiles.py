@@ -9,15 +9,15 @@ from hypothesis import strategies as st
 from ruckig import InputParameter, Ruckig, Trajectory
 
 from jaxflex.errors import InputError
-from optim.profiles import integrate, jerk_limited_move
+from jaxflex.profile import integrate, jerk_limited_move
 
 
 def test_integration_is_exact_for_a_cubic_position():
     # a(t) = 6 t is linear: x = t^3 exactly, v = 3 t^2
-    dt = 0.1
-    t = np.arange(11) * dt
+    dt_s = 0.1
+    t = np.arange(11) * dt_s
     acc = np.outer(6 * t, [1.0, 0.0, -2.0])
-    vel, pos = integrate(acc, dt)
+    vel, pos = integrate(acc, dt_s)
     np.testing.assert_allclose(vel[:, 0], 3 * t**2, rtol=1e-13)
     np.testing.assert_allclose(pos[:, 2], -2 * t**3, rtol=1e-13, atol=1e-15)
 
@@ -38,17 +38,17 @@ def ruckig_duration(length, vmax, amax, jmax):
     vmax=st.floats(0.2, 3),
     amax=st.floats(1, 20),
     jmax=st.floats(10, 400),
-    dt=st.sampled_from([0.004, 0.01, 0.02]),
+    dt_s=st.sampled_from([0.004, 0.01, 0.02]),
 )
-def test_limits_and_end_state_hold_exactly(distance, vmax, amax, jmax, dt):
-    acc = jerk_limited_move(distance, vmax, amax, jmax, dt)
-    vel, pos = integrate(acc, dt)
+def test_limits_and_end_state_hold_exactly(distance, vmax, amax, jmax, dt_s):
+    acc = jerk_limited_move(distance, vmax, amax, jmax, dt_s)
+    vel, pos = integrate(acc, dt_s)
     tol = 1e-9
     assert np.all(acc[0] == 0) and np.all(acc[-1] == 0)
     np.testing.assert_allclose(pos[-1], distance, atol=1e-12)
     np.testing.assert_allclose(vel[-1], 0, atol=1e-12)
     assert np.all(np.abs(acc) <= amax * (1 + tol))
-    assert np.all(np.abs(np.diff(acc, axis=0)) / dt <= jmax * (1 + tol))
+    assert np.all(np.abs(np.diff(acc, axis=0)) / dt_s <= jmax * (1 + tol))
     assert np.all(np.abs(vel) <= vmax * (1 + tol))  # velocity is monotone between samples
     # Along the straight line the binding limits are min_i limit_i / |u_i| (u: unit direction).
     # The time-optimal 1-D motion (ruckig) is a lower bound; ours rounds the jerk, constant-
@@ -57,8 +57,8 @@ def test_limits_and_end_state_hold_exactly(distance, vmax, amax, jmax, dt):
     moving = np.abs(u) > 1e-12
     lim = [np.min(x / np.abs(u[moving])) for x in (vmax, amax, jmax)]
     floor = ruckig_duration(np.linalg.norm(distance), *lim)
-    duration = (len(acc) - 1) * dt
-    assert floor - 1e-9 <= duration <= floor + 7 * dt
+    duration = (len(acc) - 1) * dt_s
+    assert floor - 1e-9 <= duration <= floor + 7 * dt_s
 
 
 def test_single_axis_move_is_time_optimal_on_the_grid():

@@ -12,58 +12,60 @@ from hypothesis import strategies as st
 
 import jaxflex
 from jaxflex.analytic import simply_supported_plate
-from optim.profiles import jerk_limited_move
+from jaxflex.profile import jerk_limited_move
 
 BRUTE_STEP_S = 1e-4
 
 
-def dense_deviation(model, acc, dt, until_s):
+def dense_deviation(model, acc, dt_s, until_s):
     """Deviation on a 0.1 ms grid (exact samples of the piecewise-linear input)."""
-    factor = round(dt / BRUTE_STEP_S)
+    factor = round(dt_s / BRUTE_STEP_S)
     n = acc.shape[0] - 1
-    extend = max(until_s - n * dt, BRUTE_STEP_S)
-    r = jaxflex.simulate(model, jaxflex.upsample(acc, factor), dt / factor, extend_s=extend)
+    extend = max(until_s - n * dt_s, BRUTE_STEP_S)
+    r = jaxflex.simulate(model, jaxflex.upsample(acc, factor), dt_s / factor, extend_s=extend)
     return np.asarray(r.t), np.asarray(r.deviation)
 
 
-def deviation_at(model, acc, dt, t):
+def deviation_at(model, acc, dt_s, t):
     """d(t) for one time t after the move, from the free decay of the end state."""
     n = acc.shape[0] - 1
-    x_end = jaxflex.end_state(model, acc, dt)
-    q = jaxflex.free_states(model, x_end, jnp.array([t - n * dt]))[0, :, 0]
+    x_end = jaxflex.end_state(model, acc, dt_s)
+    q = jaxflex.free_states(model, x_end, jnp.array([t - n * dt_s]))[0, :, 0]
     u = np.einsum("kcm,m->kc", np.asarray(model.shapes), np.asarray(q))
     return float(np.sqrt((u**2).sum(axis=1)).max())
 
 
-def assert_exact_cycle_time(model, acc, dt, threshold):
-    report = jaxflex.analyze_move(model, acc, dt, threshold)
-    t_n = (acc.shape[0] - 1) * dt
-    t, d = dense_deviation(model, acc, dt, report.proof_horizon_s + 0.2)
-    over = np.flatnonzero(d > threshold)
+def assert_exact_cycle_time(model, acc, dt_s, threshold_m):
+    report = jaxflex.analyze_move(model, acc, dt_s, threshold_m)
+    t_n = (acc.shape[0] - 1) * dt_s
+    t, d = dense_deviation(model, acc, dt_s, report.proof_horizon_s + 0.2)
+    over = np.flatnonzero(d > threshold_m)
     brute_last = t[over[-1]] if over.size else 0.0
     # 1. no brute-force sample above the threshold after the reported settle time
     later = t > report.settle_time_s + 1e-9
-    assert np.all(d[later] <= threshold)
+    assert np.all(d[later] <= threshold_m)
     # 2. the reported time is not earlier than brute force's last exceedance, and within one
     #    brute-force step of it unless brute force missed a peak (checked in 3.)
     assert report.settle_time_s >= brute_last - 1e-12
     if report.settle_time_s > brute_last + BRUTE_STEP_S:
-        assert deviation_at(model, acc, dt, report.settle_time_s - 1e-7) > threshold * (1 - 1e-6)
+        assert deviation_at(model, acc, dt_s, report.settle_time_s - 1e-7) > threshold_m * (
+            1 - 1e-6
+        )
     # 3. at a reported crossing after the move the deviation equals the threshold
     if report.settle_time_s > t_n:
-        assert deviation_at(model, acc, dt, report.settle_time_s) == pytest.approx(
-            threshold, rel=1e-6
+        assert deviation_at(model, acc, dt_s, report.settle_time_s) == pytest.approx(
+            threshold_m, rel=1e-6
         )
     assert report.cycle_time_s == max(t_n, report.settle_time_s)
-    assert jaxflex.cycle_time(model, acc, dt, threshold) == report.cycle_time_s
+    assert jaxflex.cycle_time(model, acc, dt_s, threshold_m) == report.cycle_time_s
     return report, brute_last
 
 
 def test_plate_jerk_limited_move_matches_brute_force():
     plate = simply_supported_plate(n_modes=12, zeta=0.02, points=150)
-    dt = 0.01
-    acc = jerk_limited_move([0, 0, 1.0], 2.0, 10.0, 100.0, dt)
-    report, brute = assert_exact_cycle_time(plate, acc, dt, 5e-4)
+    dt_s = 0.01
+    acc = jerk_limited_move([0, 0, 1.0], 2.0, 10.0, 100.0, dt_s)
+    report, brute = assert_exact_cycle_time(plate, acc, dt_s, 5e-4)
     assert report.settle_time_s > 1.0  # a real tail: the plate rings after the move
     assert abs(report.settle_time_s - brute) <= BRUTE_STEP_S
 
@@ -72,14 +74,14 @@ def test_plate_jerk_limited_move_matches_brute_force():
 @given(
     seed=st.integers(0, 1000),
     n_steps=st.integers(20, 90),
-    threshold=st.floats(1e-3, 0.05),
+    threshold_m=st.floats(1e-3, 0.05),
 )
-def test_random_models_and_moves_match_brute_force(seed, n_steps, threshold):
+def test_random_models_and_moves_match_brute_force(seed, n_steps, threshold_m):
     model = random_model(
         seed=seed, n_points=20, n_modes=5, f_min_hz=2.0, f_max_hz=60.0, zeta=(0.01, 0.05)
     )
     acc = smooth_move(n_steps, 0.01)
-    assert_exact_cycle_time(model, acc, 0.01, threshold)
+    assert_exact_cycle_time(model, acc, 0.01, threshold_m)
 
 
 def test_exceedance_only_during_the_move():
@@ -89,14 +91,14 @@ def test_exceedance_only_during_the_move():
     model = jaxflex.ModalModel(
         freq_hz=[2.0], zeta=[0.05], gamma=[[0, 0, 1.0]], shapes=shapes, points=np.zeros((1, 3))
     )
-    dt = 0.01
-    acc = smooth_move(100, dt, distance=(0, 0, 1.0))  # 1 s move, slow against 2 Hz
-    t, d = dense_deviation(model, acc, dt, 4.0)
-    threshold = 0.5 * d[t <= 1.0].max()
-    report = jaxflex.analyze_move(model, acc, dt, threshold)
+    dt_s = 0.01
+    acc = smooth_move(100, dt_s, distance=(0, 0, 1.0))  # 1 s move, slow against 2 Hz
+    t, d = dense_deviation(model, acc, dt_s, 4.0)
+    threshold_m = 0.5 * d[t <= 1.0].max()
+    report = jaxflex.analyze_move(model, acc, dt_s, threshold_m)
     assert report.settle_time_s < report.transfer_time_s
     assert report.cycle_time_s == report.transfer_time_s
-    over = np.flatnonzero(d > threshold)
+    over = np.flatnonzero(d > threshold_m)
     assert t[over[-1]] <= report.settle_time_s <= t[over[-1]] + BRUTE_STEP_S
 
 
@@ -110,7 +112,7 @@ def test_never_exceeding_gives_zero_settle_time(small_model):
 def test_peaks_hidden_between_samples_are_found():
     """A mode whose damped period is exactly 2 dt: sampled every half period, the samples see
     R cos(theta) instead of R. Sampling the deviation at the steps misses the settle time."""
-    zeta, dt = 0.005, 0.01
+    zeta, dt_s = 0.005, 0.01
     freq = 50.0 / np.sqrt(1 - zeta**2)  # damped frequency 50 Hz
     sigma, omega_d = zeta * 2 * np.pi * freq, 2 * np.pi * 50.0
     shapes = np.zeros((1, 3, 1))
@@ -125,20 +127,20 @@ def test_peaks_hidden_between_samples_are_found():
         return acc
 
     def cos_phase(acc):  # |cos| of the free vibration's phase at the first sample after t_n
-        x = jax.vmap(lambda a: jaxflex.end_state(model, a, dt))(jnp.asarray(acc))
+        x = jax.vmap(lambda a: jaxflex.end_state(model, a, dt_s))(jnp.asarray(acc))
         q, v = np.asarray(x[..., 0, 0]), np.asarray(x[..., 0, 1])
         return np.abs(q) / np.hypot(q, (v + sigma * q) / omega_d)
 
     ratios = np.linspace(-1, 1, 401)
     acc = pulse(ratios[np.argmin(cos_phase(np.stack([pulse(b) for b in ratios])))])
     assert cos_phase(acc[None])[0] < 0.02
-    r = jaxflex.simulate(model, acc, dt, extend_s=3.0)
+    r = jaxflex.simulate(model, acc, dt_s, extend_s=3.0)
     t_steps, d_steps = np.asarray(r.t), np.asarray(r.deviation)
-    q, v = np.asarray(jaxflex.end_state(model, acc, dt))[0]
+    q, v = np.asarray(jaxflex.end_state(model, acc, dt_s))[0]
     amplitude = np.hypot(q, (v + sigma * q) / omega_d)
-    threshold = 0.3 * amplitude
-    sampled_settle = t_steps[np.flatnonzero(d_steps > threshold)].max(initial=0.0)
-    report, brute = assert_exact_cycle_time(model, acc, dt, threshold)
+    threshold_m = 0.3 * amplitude
+    sampled_settle = t_steps[np.flatnonzero(d_steps > threshold_m)].max(initial=0.0)
+    report, brute = assert_exact_cycle_time(model, acc, dt_s, threshold_m)
     # the envelope falls to 0.3 R after ln(1/0.3) / sigma = 0.77 s; the samples never see it
     assert report.settle_time_s > sampled_settle + 0.5
     assert abs(report.settle_time_s - brute) <= BRUTE_STEP_S
@@ -169,12 +171,12 @@ def test_move_must_start_and_end_at_rest(small_model):
 
 
 @settings(max_examples=10, deadline=None)
-@given(seed=st.integers(0, 1000), n_steps=st.integers(20, 90), threshold=st.floats(1e-3, 0.05))
-def test_surrogate_bounds_the_exact_cycle_time(seed, n_steps, threshold):
+@given(seed=st.integers(0, 1000), n_steps=st.integers(20, 90), threshold_m=st.floats(1e-3, 0.05))
+def test_surrogate_bounds_the_exact_cycle_time(seed, n_steps, threshold_m):
     model = random_model(seed=seed, n_points=20, n_modes=5, zeta=(0.01, 0.05))
     acc = smooth_move(n_steps, 0.01)
-    exact = jaxflex.cycle_time(model, acc, 0.01, threshold)
-    smooth = float(jaxflex.cycle_time_smooth(model, acc, 0.01, threshold))
+    exact = jaxflex.cycle_time(model, acc, 0.01, threshold_m)
+    smooth = float(jaxflex.cycle_time_smooth(model, acc, 0.01, threshold_m))
     assert smooth >= exact - 1e-12
 
 
@@ -182,20 +184,20 @@ def test_surrogate_is_tight_for_one_mode():
     """One mode: the envelope touches the peaks, so the surrogate exceeds the exact cycle
     time by less than half a period plus the soft-max slack."""
     plate = simply_supported_plate(n_modes=1, zeta=0.02, points=50)
-    dt = 0.01
-    acc = jerk_limited_move([0, 0, 1.0], 2.0, 10.0, 100.0, dt)
-    exact = jaxflex.cycle_time(plate, acc, dt, 5e-4)
-    smooth = float(jaxflex.cycle_time_smooth(plate, acc, dt, 5e-4))
+    dt_s = 0.01
+    acc = jerk_limited_move([0, 0, 1.0], 2.0, 10.0, 100.0, dt_s)
+    exact = jaxflex.cycle_time(plate, acc, dt_s, 5e-4)
+    smooth = float(jaxflex.cycle_time_smooth(plate, acc, dt_s, 5e-4))
     half_period = 0.5 / plate.freq_hz[0]
     slack = np.log(plate.n_points) / (50.0 * 2 * np.pi * plate.freq_hz[0] * 0.02)
     assert exact <= smooth <= exact + half_period + slack
 
 
 def test_surrogate_gradient_matches_finite_differences(plate):
-    dt = 0.01
-    acc = jnp.asarray(jerk_limited_move([0, 0, 1.0], 2.0, 10.0, 100.0, dt))
-    f = jax.jit(lambda a: jaxflex.cycle_time_smooth(plate, a, dt, 5e-4))
-    grad = np.asarray(jax.grad(lambda a: jaxflex.cycle_time_smooth(plate, a, dt, 5e-4))(acc))
+    dt_s = 0.01
+    acc = jnp.asarray(jerk_limited_move([0, 0, 1.0], 2.0, 10.0, 100.0, dt_s))
+    f = jax.jit(lambda a: jaxflex.cycle_time_smooth(plate, a, dt_s, 5e-4))
+    grad = np.asarray(jax.grad(lambda a: jaxflex.cycle_time_smooth(plate, a, dt_s, 5e-4))(acc))
     for k in (10, 40, 70):
         e = np.zeros(acc.shape)
         e[k, 2] = 1e-5
@@ -205,15 +207,15 @@ def test_surrogate_gradient_matches_finite_differences(plate):
 
 
 def test_surrogate_gradient_with_respect_to_damping(plate):
-    dt = 0.01
-    acc = jerk_limited_move([0, 0, 1.0], 2.0, 10.0, 100.0, dt)
+    dt_s = 0.01
+    acc = jerk_limited_move([0, 0, 1.0], 2.0, 10.0, 100.0, dt_s)
 
     def f(zeta):
         m = jaxflex.ModalModel.tree_unflatten(
             plate.tree_flatten()[1],
             (plate.freq_hz, plate.zeta * 0 + zeta, plate.gamma, plate.shapes, plate.points),
         )
-        return jaxflex.cycle_time_smooth(m, acc, dt, 5e-4)
+        return jaxflex.cycle_time_smooth(m, acc, dt_s, 5e-4)
 
     g = float(jax.grad(f)(0.02))
     fd = float((f(0.02 + 1e-7) - f(0.02 - 1e-7)) / 2e-7)

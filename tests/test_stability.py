@@ -11,7 +11,7 @@ from threadpoolctl import threadpool_limits
 
 import fem
 import jaxflex
-from jaxflex.bench.metrics import settle_from_samples
+from benchmarks.metrics import settle_from_samples
 from jaxflex.integrators import central_difference_modal, newmark_modal
 
 
@@ -31,12 +31,14 @@ def hat_input(n: int) -> np.ndarray:
 
 @pytest.mark.parametrize("omega_dt", [2.05, 2.5, 10.0])
 def test_central_difference_blows_up_above_two_over_omega(omega_dt):
-    dt, n = 0.01, 400
-    model = one_mode(omega_dt / dt / (2 * np.pi))
+    dt_s, n = 0.01, 400
+    model = one_mode(omega_dt / dt_s / (2 * np.pi))
     acc = hat_input(n)
-    cd = np.abs(np.asarray(central_difference_modal(model, acc, dt))[:, 0])
-    exact = np.asarray(jaxflex.simulate(model, acc, dt).q)[:, 0]
-    expected = -piecewise_linear_response(dt * np.arange(n + 1), acc[:, 2], dt, omega_dt / dt, 0.0)
+    cd = np.abs(np.asarray(central_difference_modal(model, acc, dt_s))[:, 0])
+    exact = np.asarray(jaxflex.simulate(model, acc, dt_s).q)[:, 0]
+    expected = -piecewise_linear_response(
+        dt_s * np.arange(n + 1), acc[:, 2], dt_s, omega_dt / dt_s, 0.0
+    )
     # exact recursion: round-off only; undamped, so the amplitude stays at its initial value
     np.testing.assert_allclose(exact, expected, atol=1e-12 * np.abs(expected).max())
     # central difference: the amplification factor exceeds 1, growth over 400 steps is enormous
@@ -45,12 +47,14 @@ def test_central_difference_blows_up_above_two_over_omega(omega_dt):
 
 
 def test_central_difference_is_stable_below_the_limit():
-    dt, n = 0.01, 400
+    dt_s, n = 0.01, 400
     omega_dt = 0.2
-    model = one_mode(omega_dt / dt / (2 * np.pi))
+    model = one_mode(omega_dt / dt_s / (2 * np.pi))
     acc = hat_input(n)
-    cd = np.asarray(central_difference_modal(model, acc, dt))[:, 0]
-    expected = -piecewise_linear_response(dt * np.arange(n + 1), acc[:, 2], dt, omega_dt / dt, 0.0)
+    cd = np.asarray(central_difference_modal(model, acc, dt_s))[:, 0]
+    expected = -piecewise_linear_response(
+        dt_s * np.arange(n + 1), acc[:, 2], dt_s, omega_dt / dt_s, 0.0
+    )
     # second-order method: error O((w h)^2) of the amplitude per period, 6 periods here
     assert np.abs(cd - expected).max() < 0.2 * np.abs(expected).max()
 
@@ -59,18 +63,20 @@ def test_central_difference_is_stable_below_the_limit():
 def test_newmark_period_error_grows_with_omega_dt(omega_dt):
     """Average-acceleration Newmark oscillates at (2 / h) arctan(w h / 2) instead of w: its
     period is too long by ~ (w h)^2 / 12. Measured from the discrete free vibration."""
-    dt, n = 0.01, 400
-    omega = omega_dt / dt
+    dt_s, n = 0.01, 400
+    omega = omega_dt / dt_s
     model = one_mode(omega / (2 * np.pi))
-    q = np.asarray(newmark_modal(model, hat_input(n), dt))[:, 0]
+    q = np.asarray(newmark_modal(model, hat_input(n), dt_s))[:, 0]
     k = 200 + int(np.argmax(np.abs(q[200:-1])))
-    measured = np.arccos((q[k + 1] + q[k - 1]) / (2 * q[k])) / dt  # undamped 3-term recurrence
-    theory = 2 / dt * np.arctan(omega_dt / 2)
+    measured = np.arccos((q[k + 1] + q[k - 1]) / (2 * q[k])) / dt_s  # undamped 3-term recurrence
+    theory = 2 / dt_s * np.arctan(omega_dt / 2)
     assert measured == pytest.approx(theory, rel=1e-9)
     period_error = omega / measured - 1
     assert period_error == pytest.approx(omega_dt**2 / 12, rel=0.25 * omega_dt**2 + 1e-3)
-    exact = np.asarray(jaxflex.simulate(model, hat_input(n), dt).q)[:, 0]
-    expected = -piecewise_linear_response(dt * np.arange(n + 1), hat_input(n)[:, 2], dt, omega, 0.0)
+    exact = np.asarray(jaxflex.simulate(model, hat_input(n), dt_s).q)[:, 0]
+    expected = -piecewise_linear_response(
+        dt_s * np.arange(n + 1), hat_input(n)[:, 2], dt_s, omega, 0.0
+    )
     np.testing.assert_allclose(exact, expected, atol=1e-12 * np.abs(expected).max())
 
 
@@ -78,17 +84,17 @@ def test_float32_drifts_over_long_horizons_float64_does_not():
     """An undamped 1 Hz mode driven for 1000 s at dt = 10 ms: float32 coefficients carry a
     relative error ~6e-8, i.e. a frequency error, so the phase error grows with time."""
     model = one_mode(1.0)
-    dt = 0.01
+    dt_s = 0.01
     errors = {}
     for n in (1_000, 100_000):
-        t = np.arange(n + 1) * dt
+        t = np.arange(n + 1) * dt_s
         acc = np.zeros((n + 1, 3))
         acc[:, 2] = np.sin(2 * np.pi * 0.37 * t)
-        q64 = np.asarray(jaxflex.simulate(model, acc, dt).q)[:, 0]
-        q32 = np.asarray(jaxflex.simulate(model, acc, dt, dtype="float32").q, dtype=float)[:, 0]
+        q64 = np.asarray(jaxflex.simulate(model, acc, dt_s).q)[:, 0]
+        q32 = np.asarray(jaxflex.simulate(model, acc, dt_s, dtype="float32").q, dtype=float)[:, 0]
         errors[n] = np.abs(q32 - q64).max() / np.abs(q64).max()
         if n == 1_000:
-            expected = -piecewise_linear_response(t, acc[:, 2], dt, 2 * np.pi, 0.0)
+            expected = -piecewise_linear_response(t, acc[:, 2], dt_s, 2 * np.pi, 0.0)
             np.testing.assert_allclose(q64, expected, atol=1e-11 * np.abs(expected).max())
     assert errors[1_000] < 1e-5
     assert errors[100_000] > 10 * errors[1_000]
@@ -100,25 +106,25 @@ def test_step_sampling_misses_the_settle_time_analyze_move_does_not():
     peak between two samples still crosses it. jaxflex.analyze_move certifies the gaps between
     samples and finds the true last crossing. Truth: the closed-form response (independent of
     jaxflex) evaluated 64 times finer than dt."""
-    dt, zeta, omega = 0.01, 0.05, 0.4217 / 0.01
+    dt_s, zeta, omega = 0.01, 0.05, 0.4217 / 0.01
     model = one_mode(omega / (2 * np.pi), zeta)
     acc = np.zeros((5, 3))
     acc[1:4, 2] = [1.0, 2.0, 1.0]
     n_rest = 1200  # e^{-zeta omega t} < 1e-10 at the end: nothing crosses afterwards
     full = np.concatenate([acc, np.zeros((n_rest, 3))])
-    t_dense = dt / 64 * np.arange(64 * (len(full) - 1) + 1)
-    dense = np.abs(piecewise_linear_response(t_dense, full[:, 2], dt, omega, zeta))
-    threshold = 0.05 * dense.max()
-    truth = settle_from_samples(t_dense, dense, threshold)
-    exact = jaxflex.analyze_move(model, acc, dt, threshold).settle_time_s
+    t_dense = dt_s / 64 * np.arange(64 * (len(full) - 1) + 1)
+    dense = np.abs(piecewise_linear_response(t_dense, full[:, 2], dt_s, omega, zeta))
+    threshold_m = 0.05 * dense.max()
+    truth = settle_from_samples(t_dense, dense, threshold_m)
+    exact = jaxflex.analyze_move(model, acc, dt_s, threshold_m).settle_time_s
     # the dense truth itself is read with linear interpolation: within one fine step
-    assert abs(exact - truth) <= dt / 64
-    sampled_dev = np.asarray(jaxflex.simulate(model, full, dt).deviation)
-    sampled = settle_from_samples(dt * np.arange(len(full)), sampled_dev, threshold)
+    assert abs(exact - truth) <= dt_s / 64
+    sampled_dev = np.asarray(jaxflex.simulate(model, full, dt_s).deviation)
+    sampled = settle_from_samples(dt_s * np.arange(len(full)), sampled_dev, threshold_m)
     assert sampled < truth - 0.03  # measured: 65 ms early (the period is 149 ms)
     # ... because a peak between samples after the sampled "settle" exceeds the threshold
-    late = t_dense > sampled + dt
-    assert dense[late].max() > threshold
+    late = t_dense > sampled + dt_s
+    assert dense[late].max() > threshold_m
 
 
 def _dense_freq_hz(result, first: int, count: int) -> np.ndarray:

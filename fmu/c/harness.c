@@ -1,7 +1,7 @@
 /* Test and benchmark harness for an exported jaxflex FMU (not shipped inside the FMU).
  *
- * Compile with -DHARNESS_FMI=2 or 3 and the FMI headers on the include path; it dlopen()s
- * the FMU's shared library like an importer would.
+ * Compile with -DHARNESS_FMI=2 or 3 and the FMI headers on the include path; it loads the
+ * FMU's shared library (dlopen, or LoadLibrary when built for Windows) like an importer would.
  *
  *   harness LIBRARY RESOURCES TOKEN bench N_STEPS DT REPEATS
  *       time REPEATS instantiations and N_STEPS communication steps (inputs set and the
@@ -9,15 +9,20 @@
  *   harness LIBRARY RESOURCES TOKEN check N_STEPS DT
  *       exercise the life cycle (two instances, NaN input, bad step, reset and re-run,
  *       missing resources); exit status 0 when every expectation holds
+ *   harness LIBRARY RESOURCES TOKEN replay N_STEPS DT SWITCH OUTPUT...
+ *       set the Boolean parameter with value reference SWITCH true during initialization
+ *       ("-": none; e.g. use_embedded_trajectory), take N_STEPS steps of DT without setting
+ *       inputs and print, at the start and after every step, one line: the time and the
+ *       OUTPUTs, each "rVR" (a Real/Float64), "rVRxN" (an FMI 3.0 array of N values) or
+ *       "bVR" (a Boolean, printed 0/1); reals with 17 significant digits
  */
-#define _POSIX_C_SOURCE 200809L
-#include <dlfcn.h>
+#include "harness_os.h"
+
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #if HARNESS_FMI == 2
 #include "fmi2FunctionTypes.h"
@@ -31,14 +36,8 @@
 static int logged = 0;
 static int quiet = 1;
 
-static double now_us(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e6 + ts.tv_nsec * 1e-3;
-}
-
 static void *need(void *lib, const char *name) {
-    void *f = dlsym(lib, name);
+    void *f = find_symbol(lib, name);
     if (f == NULL) {
         fprintf(stderr, "missing symbol %s\n", name);
         exit(2);
@@ -68,6 +67,8 @@ static struct {
     fmi2SetRealTYPE *set_real;
     fmi2GetRealTYPE *get_real;
     fmi2SetRealInputDerivativesTYPE *set_rates;
+    fmi2GetBooleanTYPE *get_bool;
+    fmi2SetBooleanTYPE *set_bool;
     fmi2DoStepTYPE *do_step;
     fmi2ResetTYPE *reset;
     fmi2TerminateTYPE *terminate;
@@ -81,6 +82,8 @@ static void load(void *lib) {
     api.set_real = (fmi2SetRealTYPE *)need(lib, "fmi2SetReal");
     api.get_real = (fmi2GetRealTYPE *)need(lib, "fmi2GetReal");
     api.set_rates = (fmi2SetRealInputDerivativesTYPE *)need(lib, "fmi2SetRealInputDerivatives");
+    api.get_bool = (fmi2GetBooleanTYPE *)need(lib, "fmi2GetBoolean");
+    api.set_bool = (fmi2SetBooleanTYPE *)need(lib, "fmi2SetBoolean");
     api.do_step = (fmi2DoStepTYPE *)need(lib, "fmi2DoStep");
     api.reset = (fmi2ResetTYPE *)need(lib, "fmi2Reset");
     api.terminate = (fmi2TerminateTYPE *)need(lib, "fmi2Terminate");
@@ -89,9 +92,25 @@ static void *instantiate(const char *resources, const char *token) {
     return api.instantiate("harness", fmi2CoSimulation, token, resources, &callbacks, fmi2False,
                            fmi2False);
 }
-static int start(void *c) {
-    return api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) || api.enter_init(c) ||
-           api.exit_init(c);
+static int enter(void *c) {
+    return api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) || api.enter_init(c);
+}
+static int start(void *c) { return enter(c) || api.exit_init(c); }
+static int set_flag(void *c, unsigned vr, int value) {
+    const fmi2ValueReference ref = vr;
+    const fmi2Boolean flag = value ? fmi2True : fmi2False;
+    return api.set_bool(c, &ref, 1, &flag);
+}
+static int get_flag(void *c, unsigned vr, int *value) {
+    const fmi2ValueReference ref = vr;
+    fmi2Boolean flag = fmi2False;
+    int status = api.get_bool(c, &ref, 1, &flag);
+    *value = flag != fmi2False;
+    return status;
+}
+static int get_values(void *c, unsigned vr, int n, double *out) {
+    const fmi2ValueReference ref = vr;
+    return n != 1 || api.get_real(c, &ref, 1, out); /* FMI 2.0 has scalars only */
 }
 static int set_inputs(void *c, const double a[3], const double rate[3]) {
     static const fmi2ValueReference vr[3] = {VR_AX, VR_AX + 1, VR_AX + 2};
@@ -124,6 +143,8 @@ static struct {
     fmi3ExitInitializationModeTYPE *exit_init;
     fmi3SetFloat64TYPE *set_real;
     fmi3GetFloat64TYPE *get_real;
+    fmi3GetBooleanTYPE *get_bool;
+    fmi3SetBooleanTYPE *set_bool;
     fmi3DoStepTYPE *do_step;
     fmi3ResetTYPE *reset;
     fmi3TerminateTYPE *terminate;
@@ -135,6 +156,8 @@ static void load(void *lib) {
     api.exit_init = (fmi3ExitInitializationModeTYPE *)need(lib, "fmi3ExitInitializationMode");
     api.set_real = (fmi3SetFloat64TYPE *)need(lib, "fmi3SetFloat64");
     api.get_real = (fmi3GetFloat64TYPE *)need(lib, "fmi3GetFloat64");
+    api.get_bool = (fmi3GetBooleanTYPE *)need(lib, "fmi3GetBoolean");
+    api.set_bool = (fmi3SetBooleanTYPE *)need(lib, "fmi3SetBoolean");
     api.do_step = (fmi3DoStepTYPE *)need(lib, "fmi3DoStep");
     api.reset = (fmi3ResetTYPE *)need(lib, "fmi3Reset");
     api.terminate = (fmi3TerminateTYPE *)need(lib, "fmi3Terminate");
@@ -143,8 +166,23 @@ static void *instantiate(const char *resources, const char *token) {
     return api.instantiate("harness", token, resources, fmi3False, fmi3False, fmi3False,
                            fmi3False, NULL, 0, NULL, logger, NULL);
 }
-static int start(void *c) {
-    return api.enter_init(c, fmi3False, 0.0, 0.0, fmi3False, 0.0) || api.exit_init(c);
+static int enter(void *c) { return api.enter_init(c, fmi3False, 0.0, 0.0, fmi3False, 0.0); }
+static int start(void *c) { return enter(c) || api.exit_init(c); }
+static int set_flag(void *c, unsigned vr, int value) {
+    const fmi3ValueReference ref = vr;
+    const fmi3Boolean flag = value != 0;
+    return api.set_bool(c, &ref, 1, &flag, 1);
+}
+static int get_flag(void *c, unsigned vr, int *value) {
+    const fmi3ValueReference ref = vr;
+    fmi3Boolean flag = fmi3False;
+    int status = api.get_bool(c, &ref, 1, &flag, 1);
+    *value = flag != fmi3False;
+    return status;
+}
+static int get_values(void *c, unsigned vr, int n, double *out) {
+    const fmi3ValueReference ref = vr;
+    return api.get_real(c, &ref, 1, out, (size_t)n);
 }
 static int set_inputs(void *c, const double a[3], const double rate[3]) {
     static const fmi3ValueReference vr[3] = {VR_AX, VR_AX + 1, VR_AX + 2};
@@ -287,26 +325,93 @@ static int check(const char *resources, const char *token, int n, double dt) {
     return 0;
 }
 
+/* One output of the replay mode: "rVR", "rVRxN" or "bVR". */
+typedef struct {
+    unsigned vr;
+    int count;
+    int boolean;
+} output_spec;
+
+static int parse_output(const char *text, output_spec *out) {
+    char kind = 0;
+    int fields = sscanf(text, "%c%ux%d", &kind, &out->vr, &out->count);
+    if (fields < 2 || (kind != 'r' && kind != 'b')) return -1;
+    if (fields == 2) out->count = 1;
+    out->boolean = kind == 'b';
+    return out->count < 1 || (out->boolean && out->count != 1) ? -1 : 0;
+}
+
+static int print_outputs(void *c, double t, const output_spec *outputs, int n, double *buffer) {
+    int i, j, flag;
+    printf("%.17g", t);
+    for (i = 0; i < n; ++i) {
+        if (outputs[i].boolean) {
+            if (get_flag(c, outputs[i].vr, &flag)) return -1;
+            printf(" %d", flag);
+            continue;
+        }
+        if (get_values(c, outputs[i].vr, outputs[i].count, buffer)) return -1;
+        for (j = 0; j < outputs[i].count; ++j) printf(" %.17g", buffer[j]);
+    }
+    putchar('\n');
+    return 0;
+}
+
+static int replay(const char *resources, const char *token, int n_steps, double dt,
+                  const char *switch_vr, char **specs, int n_specs) {
+    output_spec *outputs = (output_spec *)calloc((size_t)n_specs + 1, sizeof(output_spec));
+    double *buffer;
+    void *c;
+    int i, k, largest = 1;
+    for (i = 0; i < n_specs; ++i) {
+        if (parse_output(specs[i], &outputs[i])) {
+            fprintf(stderr, "bad output '%s' (expected rVR, rVRxN or bVR)\n", specs[i]);
+            return 2;
+        }
+        if (outputs[i].count > largest) largest = outputs[i].count;
+    }
+    buffer = (double *)malloc(sizeof(double) * (size_t)largest);
+    c = instantiate(resources, token);
+    EXPECT(c != NULL, "instantiation");
+    EXPECT(!enter(c), "enter initialization");
+    if (strcmp(switch_vr, "-") != 0)
+        EXPECT(!set_flag(c, (unsigned)atoi(switch_vr), 1), "set the switch parameter");
+    EXPECT(!api.exit_init(c), "exit initialization");
+    EXPECT(!print_outputs(c, 0.0, outputs, n_specs, buffer), "read outputs");
+    for (k = 0; k < n_steps; ++k) {
+        EXPECT(!step(c, k * dt, dt), "step");
+        EXPECT(!print_outputs(c, (k + 1) * dt, outputs, n_specs, buffer), "read outputs");
+    }
+    finish(c);
+    free(outputs);
+    free(buffer);
+    return 0;
+}
+
 int main(int argc, char **argv) {
     void *lib;
     int status;
-    if (argc < 7) {
-        fprintf(stderr, "usage: %s LIBRARY RESOURCES TOKEN bench|check N_STEPS DT [REPEATS]\n",
-                argv[0]);
+    if (argc < 7 || (strcmp(argv[4], "replay") == 0 && argc < 8)) {
+        fprintf(stderr, "usage: %s LIBRARY RESOURCES TOKEN bench|check N_STEPS DT [REPEATS]\n"
+                "       %s LIBRARY RESOURCES TOKEN replay N_STEPS DT SWITCH OUTPUT...\n",
+                argv[0], argv[0]);
         return 2;
     }
     quiet = getenv("HARNESS_VERBOSE") == NULL;
-    lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
+    lib = open_library(argv[1]);
     if (lib == NULL) {
-        fprintf(stderr, "dlopen: %s\n", dlerror());
+        fprintf(stderr, "cannot load %s: %s\n", argv[1], library_error());
         return 2;
     }
     load(lib);
     if (strcmp(argv[4], "bench") == 0)
         status = bench(argv[2], argv[3], atoi(argv[5]), atof(argv[6]),
                        argc > 7 ? atoi(argv[7]) : 20);
+    else if (strcmp(argv[4], "replay") == 0)
+        status = replay(argv[2], argv[3], atoi(argv[5]), atof(argv[6]), argv[7], argv + 8,
+                        argc - 8);
     else
         status = check(argv[2], argv[3], atoi(argv[5]), atof(argv[6]));
-    dlclose(lib);
+    close_library(lib);
     return status;
 }

@@ -461,22 +461,34 @@ static void restart(jxf_model *m) {
     rest(m, 0.0);
 }
 
-void jxf_displaced_points(const jxf_model *m, double *out) {
-    const size_t K = (size_t)m->n_points;
-    size_t p;
-    for (p = 0; p < K; ++p) {
-        out[3 * p] = m->points[3 * p] + m->u[p];
-        out[3 * p + 1] = m->points[3 * p + 1] + m->u[K + p];
-        out[3 * p + 2] = m->points[3 * p + 2] + m->u[2 * K + p];
-    }
-}
-
 /* ---- variables --------------------------------------------------------------------- */
 
 typedef struct {
     unsigned vr;
     const char *name;
 } variable_name;
+
+/* What the importer reads (jxf_values.c, listed in jxf_config.h): `size` values. */
+typedef struct {
+    unsigned vr;
+    size_t size;
+    void (*get)(const jxf_model *m, double *out);
+} real_value;
+
+typedef struct {
+    unsigned vr;
+    void (*get)(const jxf_model *m, int *out);
+} bool_value;
+
+static const real_value REAL_VALUES[] = JXF_REAL_VALUES;
+static const bool_value BOOL_VALUES[] = JXF_BOOL_VALUES;
+
+static const real_value *real_value_of(unsigned vr) {
+    size_t i;
+    for (i = 0; i < sizeof REAL_VALUES / sizeof REAL_VALUES[0]; ++i)
+        if (REAL_VALUES[i].vr == vr) return &REAL_VALUES[i];
+    return NULL;
+}
 
 static const char *name_of(unsigned vr) {
     static const variable_name names[] = JXF_VARIABLE_TABLE;
@@ -502,17 +514,15 @@ static int no_such(const jxf_model *m, const char *action, const char *type, uns
     return -1;
 }
 
+size_t jxf_real_size(unsigned vr) {
+    const real_value *v = real_value_of(vr);
+    return v == NULL ? 1 : v->size;
+}
+
 int jxf_get_real(const jxf_model *m, unsigned vr, double *value) {
-    const int axis = axis_of(vr);
-    if (axis >= 0) *value = m->acc[axis];
-    else if (vr == JXF_VR_DEVIATION) *value = m->deviation;
-    else if (vr == JXF_VR_SETTLE_TIME) *value = m->settle_time;
-    else if (vr == JXF_VR_THRESHOLD) *value = m->threshold;
-    else if (vr == JXF_VR_DAMPING_SCALE) *value = m->damping_scale;
-#ifdef JXF_VR_TIME
-    else if (vr == JXF_VR_TIME) *value = m->time;
-#endif
-    else return no_such(m, "get", "real", vr);
+    const real_value *v = real_value_of(vr);
+    if (v == NULL) return no_such(m, "get", "real", vr);
+    v->get(m, value);
     return 0;
 }
 
@@ -565,12 +575,14 @@ int jxf_set_input_rate(jxf_model *m, unsigned vr, int order, double value, int a
 }
 
 int jxf_get_bool(const jxf_model *m, unsigned vr, int *value) {
-    if (vr == JXF_VR_SETTLED) *value = m->settled;
-#ifdef JXF_VR_USE_TRAJECTORY
-    else if (vr == JXF_VR_USE_TRAJECTORY) *value = m->use_trajectory;
-#endif
-    else return no_such(m, "get", "Boolean", vr);
-    return 0;
+    size_t i;
+    for (i = 0; i < sizeof BOOL_VALUES / sizeof BOOL_VALUES[0]; ++i) {
+        if (BOOL_VALUES[i].vr == vr) {
+            BOOL_VALUES[i].get(m, value);
+            return 0;
+        }
+    }
+    return no_such(m, "get", "Boolean", vr);
 }
 
 int jxf_set_bool(jxf_model *m, unsigned vr, int value, int apply) {

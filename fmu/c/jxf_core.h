@@ -8,7 +8,8 @@
  * (the same discretisation as jaxflex.discretize: closed form for omega h >= 0.1, a 16-term
  * series of the matrix exponential below). A held input is the special case f(h) = f(0).
  *
- * The FMI 2.0 and FMI 3.0 glue files (jxf_fmi2.c, jxf_fmi3.c) call only this interface.
+ * The FMI 2.0 and FMI 3.0 glue files (jxf_fmi2.c, jxf_fmi3.c) call only this interface;
+ * jxf_values.c holds one reading function per variable.
  * SI units: m, s, m/s^2, Hz; modal coordinates in kg^0.5 m.
  */
 #ifndef JXF_CORE_H
@@ -107,9 +108,12 @@ int jxf_terminate(jxf_model *m, const char *function);
 /* Back to the state after jxf_create: parameters at start values, inputs 0, at rest. */
 int jxf_reset(jxf_model *m, const char *function);
 
-/* Variables by value reference (see jxf_config.h). Setters check the value and store it
- * only when `apply` is nonzero, so a caller can check a whole batch before changing anything.
- * All return 0 on success and -1 after logging the reason. */
+/* Variables by value reference (see jxf_config.h). Getters read through the functions of
+ * jxf_values.c; jxf_get_real writes jxf_real_size(vr) values (3K for the K x 3 arrays of
+ * FMI 3.0, else 1). Setters check the value and store it only when `apply` is nonzero, so a
+ * caller can check a whole batch before changing anything. All return 0 on success and -1
+ * after logging the reason. */
+size_t jxf_real_size(unsigned vr);
 int jxf_get_real(const jxf_model *m, unsigned vr, double *value);
 int jxf_set_real(jxf_model *m, unsigned vr, double value, int apply);
 int jxf_set_input_rate(jxf_model *m, unsigned vr, int order, double value, int apply);
@@ -119,9 +123,6 @@ int jxf_set_bool(jxf_model *m, unsigned vr, int value, int apply);
 /* Advance from `t` (the current communication point) by `h` s (step mode only); 0 on
  * success, -1 on error (logged, state untouched). */
 int jxf_do_step(jxf_model *m, double t, double h);
-
-/* Displaced coordinates points + u, (K, 3) row-major, m. */
-void jxf_displaced_points(const jxf_model *m, double *out);
 
 /* Format a message and send it to the model's logger (printf-style). */
 void jxf_log(const jxf_model *m, int level, const char *format, ...);

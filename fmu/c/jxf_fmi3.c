@@ -9,7 +9,6 @@
  */
 #include <math.h>
 #include <stdlib.h>
-#include <string.h>
 
 #include "fmi3Functions.h"
 #include "jxf_core.h"
@@ -22,7 +21,6 @@ typedef struct {
 
 #define MODEL(c) ((c) != NULL ? ((Instance *)(c))->model : NULL)
 #define STATUS(result) ((result) == 0 ? fmi3OK : fmi3Error)
-#define N_ARRAY (3 * (size_t)JXF_N_POINTS)
 
 static void forward_log(void *context, int level, const char *message) {
     const Instance *inst = (const Instance *)context;
@@ -138,15 +136,13 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
     if (!jxf_allowed(m, "fmi3GetFloat64", JXF_ANY_STATE)) return fmi3Error;
     for (i = 0; i < nValueReferences; ++i) {
         const fmi3ValueReference vr = valueReferences[i];
-        const size_t size = vr == JXF_VR_DISPLACED_POINTS || vr == JXF_VR_POINTS ? N_ARRAY : 1;
+        const size_t size = jxf_real_size(vr);
         if (k + size > nValues) {
             jxf_log(m, JXF_LOG_ERROR, "fmi3GetFloat64: nValues = %lu is too small for "
                     "the requested variables", (unsigned long)nValues);
             return fmi3Error;
         }
-        if (vr == JXF_VR_DISPLACED_POINTS) jxf_displaced_points(m, values + k);
-        else if (vr == JXF_VR_POINTS) memcpy(values + k, m->points, N_ARRAY * 8);
-        else if (jxf_get_real(m, vr, values + k)) return fmi3Error;
+        if (jxf_get_real(m, vr, values + k)) return fmi3Error;
         k += size;
     }
     if (k != nValues) {

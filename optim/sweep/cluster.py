@@ -23,12 +23,16 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import sys
 import threading
 import uuid
 from collections.abc import Callable, Iterator
 
+import dask
+from distributed import Client, LocalCluster
 from distributed.diagnostics.plugin import WorkerPlugin
+from tqdm.auto import tqdm
 
 import jaxflex
 from jaxflex.errors import InputError, JaxflexError
@@ -93,8 +97,6 @@ class VersionResource(WorkerPlugin):
 
 
 def _notify_stderr(message: str) -> None:
-    from tqdm.auto import tqdm
-
     tqdm.write(f"jaxflex sweep: {message}", file=sys.stderr)  # above the progress bar
 
 
@@ -209,10 +211,6 @@ class Cluster:
 
 
 def _local_cluster(n_workers: int | None, dashboard_address: str | None):
-    import os
-
-    from distributed import LocalCluster
-
     return LocalCluster(
         n_workers=n_workers or os.cpu_count() or 1,
         threads_per_worker=1,
@@ -237,8 +235,6 @@ def connect(
     core) with its dashboard at ``dashboard_address`` ("host:port", default 127.0.0.1 and a
     free port). ``notify`` gets the messages for the user (default: stderr); the dashboard
     link is the first. Everything started is closed on exit."""
-    import dask
-
     with dask.config.set(SWEEP_CONFIG):  # read as the objects start; nannies pass it on
         client, local = _start(scheduler, n_workers, dashboard_address)
     try:
@@ -263,8 +259,6 @@ def connect(
 
 def _start(scheduler: str | None, n_workers: int | None, dashboard_address: str | None):
     """(client, LocalCluster or None)."""
-    from distributed import Client
-
     if scheduler is not None:
         if not scheduler.startswith(SCHEMES):
             raise InputError(

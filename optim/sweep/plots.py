@@ -69,11 +69,11 @@ def plot_deviations(run, store, path, *, method: str = "batched") -> bool:
     by_move = {k: v[:MAX_TRACES] for k, v in _ok_by_move(run).items() if v}
     if not by_move:
         return False
-    dt = run.spec.optimization.dt_s
-    threshold = run.spec.optimization.threshold_m
+    dt_s = run.spec.optimization.dt_s
+    threshold_m = run.spec.optimization.threshold_m
     fig, axes = plt.subplots(len(by_move), 1, figsize=(9, 3.2 * len(by_move)), squeeze=False)
     for ax, (name, items) in zip(axes[:, 0], by_move.items(), strict=True):
-        horizon = 1.15 * max(r["opt"]["cycle_time_s"] for _, r in items) + dt
+        horizon = 1.15 * max(r["opt"]["cycle_time_s"] for _, r in items) + dt_s
         models, accs = {}, {}
         for case, record in items:
             found = store.load_model(case.layout_id)
@@ -83,7 +83,7 @@ def plot_deviations(run, store, path, *, method: str = "batched") -> bool:
         traces = {}
         for keys in group_by_size(models).values():
             t, d = deviation_traces(
-                [models[k] for k in keys], [accs[k] for k in keys], dt, horizon, method=method
+                [models[k] for k in keys], [accs[k] for k in keys], dt_s, horizon, method=method
             )
             traces.update(zip(keys, d, strict=True))
         # rank by cycle time, ties by the peak deviation during the move
@@ -109,12 +109,12 @@ def plot_deviations(run, store, path, *, method: str = "batched") -> bool:
             )
             ax.axvline(cyc, color=color, ls=":", lw=1)
         ax.axhline(
-            threshold * 1e3, color="k", ls="--", lw=1, label=f"threshold {threshold * 1e3:g} mm"
+            threshold_m * 1e3, color="k", ls="--", lw=1, label=f"threshold {threshold_m * 1e3:g} mm"
         )
         ax.set_title(f"move {name!r}: {len(traces)} layouts (optimised moves)")
         ax.set_ylabel("deviation [mm]")
         ax.set_yscale("log")
-        ax.set_ylim(bottom=threshold * 1e3 / 100)
+        ax.set_ylim(bottom=threshold_m * 1e3 / 100)
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=8)
     axes[-1, 0].set_xlabel("time [s]")

@@ -30,10 +30,13 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from distributed import as_completed
 from tqdm.auto import tqdm
 
 from jaxflex.errors import InputError
 from optim.sweep.cases import Case, case_job, expand, layout_job
+from optim.sweep.cluster import ClusterError, connect
+from optim.sweep.plots import plot_sweep
 from optim.sweep.spec import SweepSpec
 from optim.sweep.store import ResultStore, StoredRecords, is_final
 from optim.sweep.table import table_rows, write_table
@@ -150,8 +153,6 @@ def run_sweep(
         if executor == "serial":
             consume(_run_serial(spec, store, list(pending.values())))
         elif pending:
-            from optim.sweep.cluster import connect
-
             where = {"n_workers": n_workers, "dashboard_address": dashboard_address}
             with connect(scheduler, notify=notify, **where) as cluster:
                 _on_cluster(cluster, run, store, list(pending.values()), consume)
@@ -161,8 +162,6 @@ def run_sweep(
         write_table(store.root / "results.csv", table_rows(cases, run.records))
     run.outputs.append(str(store.root / "results.csv"))
     if plots:
-        from optim.sweep.plots import plot_sweep
-
         run.outputs += plot_sweep(run, store)
     return run
 
@@ -196,8 +195,6 @@ def _run_serial(spec, store, pending) -> Iterator[dict]:
 
 def _on_cluster(cluster, run, store, pending, consume) -> None:
     """Compute ``pending`` on ``cluster``, ``consume`` the records, count the lost workers."""
-    from optim.sweep.cluster import ClusterError
-
     try:
         consume(_run_dask(cluster, run, store, pending))
     except ClusterError as exc:
@@ -239,10 +236,6 @@ def _submissions(cluster, spec, store, pending) -> Iterator[tuple]:
 def _run_dask(cluster, run, store, pending) -> Iterator[dict]:
     """The records of ``pending`` as they finish, with at most ``cluster.window`` case tasks
     out at once; FE results are stored as models on the way."""
-    from distributed import as_completed
-
-    from optim.sweep.cluster import ClusterError
-
     submissions = _submissions(cluster, run.spec, store, pending)
     watched = as_completed()
     out: dict = {}  # future -> (kind, id): what the client holds

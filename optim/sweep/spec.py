@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from jaxflex.errors import InputError
+from optim.robust import RobustSpec
 
 SHAPES = ("plate", "panel")
 METHODS = ("exact", "gradient")
@@ -237,8 +238,6 @@ def _model(data: Any) -> ModelSpec:
 
 
 def _robust(value: Any) -> dict | None:
-    from optim.robust import RobustSpec
-
     if value is False or value is None:
         return None
     if value is True:

@@ -18,8 +18,12 @@ import traceback
 
 import numpy as np
 
+import fem
 from jaxflex.errors import JaxflexError
 from jaxflex.model import ModalModel
+from optim.limits import Limits
+from optim.optimize import optimize
+from optim.robust import RobustSpec
 
 _ARRAYS = ("freq_hz", "zeta", "gamma", "shapes", "points")
 
@@ -66,8 +70,6 @@ def _where() -> str:
 def analyse_layout(job: dict) -> dict:
     """Finite-element step for one layout (``cases.layout_job``): the modal model at the
     monitored points and a summary, or an error record (stage "fe")."""
-    import fem
-
     start, cpu = time.perf_counter(), time.process_time()
     try:
         part_spec, settings = job["part"], job["model"]
@@ -122,10 +124,6 @@ def fe_from_model(model: ModalModel, fe_summary: dict) -> dict:
 def optimise_case(fe: dict, job: dict) -> dict:
     """Optimisation step of one case (``cases.case_job``) on the outcome of
     :func:`analyse_layout`: the case's record (see optim.sweep.table for the fields)."""
-    from optim.limits import Limits
-    from optim.optimize import optimize
-    from optim.robust import RobustSpec
-
     base = {"case_id": job["case_id"], "finished_unix_s": None}
     if fe["status"] != "ok":
         return {**base, **{k: v for k, v in fe.items() if k != "model"}, "fe": None}
@@ -137,8 +135,8 @@ def optimise_case(fe: dict, job: dict) -> dict:
             payload_model(fe["model"]),
             move["distance_m"],
             Limits(move["vmax"], move["amax"], move["jmax"]),
-            settings["threshold_m"],
             settings["dt_s"],
+            settings["threshold_m"],
             method=settings["method"],
             robust=None if robust is None else RobustSpec.from_dict(robust),
             progress=False,

@@ -1,0 +1,55 @@
+"""``jaxflex bench``: speed and accuracy of every method as JSON plus PNG charts."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from benchmarks.core import format_table
+from benchmarks.suite import run_suite, summary_lines
+
+COMMAND = "bench"
+HELP = "speed and accuracy figures of every method as JSON + charts (SI units)"
+ORDER = 90
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "-o",
+        "--output",
+        default="jaxflex_bench",
+        help="directory for bench.json and the PNG charts (default jaxflex_bench); a path "
+        "ending in .json names the JSON file itself, the charts go next to it",
+    )
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument(
+        "--quick",
+        action="store_true",
+        help="CI size: small scenes, few sweep points, core case K=200 M=10 N=200 (~30 s)",
+    )
+    size.add_argument(
+        "--size",
+        choices=("quick", "medium", "full"),
+        default="full",
+        help="full (default): the built-in scenes, several minutes; medium: small scenes with "
+        "the full sweeps",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    size = "quick" if args.quick else args.size
+    out = Path(args.output)
+    json_path = out if out.suffix == ".json" else None
+    out_dir = out.parent if json_path is not None else out
+    report = run_suite(
+        out_dir,
+        size,
+        progress=lambda msg: print(msg, file=sys.stderr, flush=True),
+        json_path=json_path,
+    )
+    print(format_table(report))
+    print("\n".join(summary_lines(report)))
+    charts = ", ".join(report["charts"].values())
+    print(f"wrote {report['json_path']} and charts {charts} in {out_dir}")
+    return 0

@@ -1,0 +1,252 @@
+"""FMU speed at C level: one communication step and one instantiation.
+
+A small C harness (fmu/c/harness.c) dlopen()s the exported FMU's library like an importer,
+times many instantiations and a long run of communication steps (inputs and input
+derivatives set and the deviation read every step; timed in chunks of 100 steps, so the
+median is robust against other processes on the machine), and prints the figures as JSON.
+
+    python -m benchmarks.fmu            # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
+    python -m benchmarks.fmu --windows  # also: the Windows DLL under wine (fmu.windows)
+    python -m benchmarks.fmu --hosts    # also: FMU and SSP in other hosts (fmu.crosscheck)
+
+Targets (docs/design.md): one step <= 30 us (the preprint's FMU: 0.85 ms per 10 ms step),
+instantiation with a ~1 MB resource <= 10 ms.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import zipfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
+from fmu.export import export_fmu
+from fmu.harness import compile_harness, resource_location, unpack
+from fmu.ssp import export_ssp
+from fmu.windows import (
+    compile_windows_harness,
+    replay,
+    run_under_wine,
+    windows_library,
+    windows_path,
+    windows_resource_location,
+)
+from jaxflex.model import ModalModel
+
+STEP_TARGET_US = 30.0
+INSTANTIATE_TARGET_US = 10_000.0
+PREPRINT_STEP_US = 850.0
+
+
+def bench_model(n_points: int, n_modes: int, seed: int = 0) -> ModalModel:
+    """A model of the benchmark size: frequencies 2-400 Hz, random shapes and participation."""
+    rng = np.random.default_rng(seed)
+    return ModalModel(
+        freq_hz=np.geomspace(2.0, 400.0, n_modes),
+        zeta=np.full(n_modes, 0.02),
+        gamma=rng.normal(size=(n_modes, 3)),
+        shapes=rng.normal(size=(n_points, 3, n_modes)) * 0.05,
+        points=rng.uniform(size=(n_points, 3)),
+        meta={"source": "benchmarks.fmu"},
+    )
+
+
+def _export_s(model: ModalModel, path: Path, version: int, windows: bool) -> float:
+    t0 = time.perf_counter()
+    export_fmu(model, path, fmi_version=version, windows=windows)
+    return time.perf_counter() - t0
+
+
+def smooth_move(dt_s: float, duration_s: float = 1.0) -> np.ndarray:
+    """A rest-to-rest move of about 1 m: one sine period of acceleration per axis, m/s^2."""
+    t = dt_s * np.arange(round(duration_s / dt_s) + 1)
+    acc = np.outer(2 * np.pi / duration_s**2 * np.sin(2 * np.pi * t / duration_s), [0.3, -0.2, 1.0])
+    acc[[0, -1]] = 0.0
+    return acc
+
+
+def host_figures(model: ModalModel, version: int, folder: Path, dt_s: float) -> dict[str, Any]:
+    """The SSP package of ``model`` moved by :func:`smooth_move` (threshold 0.5 mm) and the
+    part FMU inside it, run in every available host: max |deviation - jaxflex| / peak per
+    host (see fmu.crosscheck for which reference each host gets)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    ssp = export_ssp(model, folder / "case.ssp", version, (smooth_move(dt_s), dt_s), 5e-4)
+    with zipfile.ZipFile(ssp.ssp_path) as zf:
+        part = Path(zf.extract("resources/part.fmu", folder))
+    figures: dict[str, Any] = {"n_steps": None}
+    for kind, report in (("fmu", crosscheck_fmu(part)), ("ssp", crosscheck_ssp(ssp.ssp_path))):
+        figures["n_steps"] = report.n_steps
+        figures[kind] = {
+            r.host: {"reference": r.reference, "max_rel_diff": r.max_rel_diff} for r in report.runs
+        }
+        figures[f"{kind}_skipped"] = report.skipped
+    return figures
+
+
+def windows_figures(
+    model: ModalModel, version: int, folder: Path, n_steps: int, dt_s: float, repeats: int
+) -> dict[str, Any]:
+    """The Windows DLL beside the Linux binary: export time without and with it (median of 3
+    each, alternating), the harness's step and instantiation timing of the DLL under wine, and
+    the largest difference between the outputs of a replayed 1 s move (300 steps) on the two
+    platforms, relative to each output's peak."""
+    folder.mkdir(parents=True, exist_ok=True)
+    times = {False: [], True: []}
+    for k in range(3):
+        for dll in (False, True):
+            times[dll].append(_export_s(model, folder / f"t{k}{int(dll)}.fmu", version, dll))
+    linux_s, with_dll_s = (statistics.median(times[dll]) for dll in (False, True))
+    result = export_fmu(
+        model, folder / "move.fmu", version, (smooth_move(dt_s), dt_s), windows=True
+    )
+    harnesses = (
+        compile_harness(version, folder / "harness"),
+        compile_windows_harness(version, folder / "harness.exe"),
+    )
+    linux = replay(result.fmu_path, folder / "linux", harnesses[0], 300, dt_s, windows=False)
+    win = replay(result.fmu_path, folder / "windows", harnesses[1], 300, dt_s, windows=True)
+    rel = {
+        name: float(np.abs(win[name] - linux[name]).max() / max(np.abs(linux[name]).max(), 1e-300))
+        for name in linux
+        if name != "time"
+    }
+    library, resources, token = unpack(result.fmu_path, folder / "bench")
+    args = [
+        windows_path(windows_library(library, version)),
+        windows_resource_location(version, resources),
+        token,
+        "bench",
+        str(n_steps),
+        repr(dt_s),
+        str(repeats),
+    ]
+    timing = json.loads(run_under_wine([str(harnesses[1]), *args]))
+    return {
+        "export_s_linux_only": linux_s,
+        "export_s_with_dll": with_dll_s,
+        "dll_export_overhead_s": with_dll_s - linux_s,
+        "replay_max_rel_diff_windows_vs_linux": max(rel.values()),
+        "replay_rel_diff_by_output": rel,
+        "wine": timing,
+    }
+
+
+def run(
+    n_points: int = 1099,
+    n_modes: int = 40,
+    n_steps: int = 20_000,
+    dt_s: float = 0.01,
+    repeats: int = 50,
+    fmi_versions: tuple[int, ...] = (2, 3),
+    progress: Callable[[str], None] | None = None,
+    windows: bool = False,
+    hosts: bool = False,
+) -> dict[str, Any]:
+    """Export a K x M model, time it with the C harness; figures per FMI version (with
+    ``windows``, also :func:`windows_figures`; with ``hosts``, :func:`host_figures`)."""
+    say = progress or (lambda msg: None)
+    model = bench_model(n_points, n_modes)
+    report: dict[str, Any] = {
+        "command": f"{Path(sys.executable).name} -m benchmarks.fmu",
+        "n_points": n_points,
+        "n_modes": n_modes,
+        "dt_s": dt_s,
+        "targets": {
+            "step_us": STEP_TARGET_US,
+            "instantiate_us": INSTANTIATE_TARGET_US,
+            "preprint_step_us": PREPRINT_STEP_US,
+        },
+    }
+    with tempfile.TemporaryDirectory(prefix="jaxflex_fmu_bench_") as tmp:
+        tmp = Path(tmp)
+        for version in fmi_versions:
+            say(f"FMI {version}.0: export K={n_points}, M={n_modes}")
+            result = export_fmu(model, tmp / f"bench{version}.fmu", fmi_version=version)
+            library, resources, token = unpack(result.fmu_path, tmp / f"fmu{version}")
+            harness = compile_harness(version, tmp / f"harness{version}")
+            say(f"FMI {version}.0: {repeats} instantiations, {n_steps} steps")
+            cmd = [
+                str(harness),
+                str(library),
+                resource_location(version, resources),
+                token,
+                "bench",
+                str(n_steps),
+                repr(dt_s),
+                str(repeats),
+            ]
+            proc = subprocess.run(cmd, capture_output=True, text=True, check=True)
+            figures = json.loads(proc.stdout)
+            figures["resource_bytes"] = result.resource_bytes
+            figures["speedup_vs_preprint"] = PREPRINT_STEP_US / figures["step_us_median"]
+            figures["meets_targets"] = (
+                figures["step_us_median"] <= STEP_TARGET_US
+                and figures["instantiate_us_median"] <= INSTANTIATE_TARGET_US
+            )
+            if windows:
+                say(f"FMI {version}.0: the Windows DLL (export times, replay, wine timing)")
+                figures["windows"] = windows_figures(
+                    model, version, tmp / f"windows{version}", n_steps, dt_s, repeats
+                )
+            if hosts:
+                say(f"FMI {version}.0: FMU and SSP package in other hosts")
+                figures["hosts"] = host_figures(model, version, tmp / f"hosts{version}", dt_s)
+            report[f"fmi{version}"] = figures
+    return report
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.fmu", description=__doc__.split("\n")[0]
+    )
+    parser.add_argument(
+        "--points", type=int, default=1099, help="monitored points K (default 1099)"
+    )
+    parser.add_argument("--modes", type=int, default=40, help="modes M (default 40)")
+    parser.add_argument(
+        "--steps", type=int, default=20_000, help="timed communication steps (default 20000)"
+    )
+    parser.add_argument(
+        "--fmi", type=int, nargs="+", choices=(2, 3), default=[2, 3], help="FMI versions (2 3)"
+    )
+    parser.add_argument(
+        "--windows",
+        action="store_true",
+        help="also time exports with the Windows DLL and run the DLL under wine (needs "
+        "gcc-mingw-w64-x86-64 and wine64)",
+    )
+    parser.add_argument(
+        "--hosts",
+        action="store_true",
+        help="also run the FMU and an SSP package with a 1 s move in ecospy, libcosimpy and "
+        "fmpy's SSP runner against jaxflex",
+    )
+    args = parser.parse_args(argv)
+    for name in ("points", "modes", "steps"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name}: must be at least 1, got {getattr(args, name)}")
+    report = run(
+        n_points=args.points,
+        n_modes=args.modes,
+        n_steps=args.steps,
+        fmi_versions=tuple(args.fmi),
+        progress=lambda msg: print(msg, file=sys.stderr, flush=True),
+        windows=args.windows,
+        hosts=args.hosts,
+    )
+    print(json.dumps(report, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,343 @@
+"""``jaxflex model``: part + gripper -> finite-element modal analysis -> modal model file.
+
+With ``--tolerance`` the mesh, the number of modes and the monitored points are chosen for a
+move (``--trajectory`` or ``--distance`` with limits) and a ``--threshold`` by fem.size_model.
+``--from-ansys``, ``--from-nastran`` and ``--from-r1`` build the model from a user's own
+finite-element results (fem.cli_imports).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from fem import cli_imports
+from fem.export import export_modes, plot_part
+from fem.modal import modal_analysis
+from fem.parts import read_mesh
+from fem.scenes import scene
+from fem.sizing import size_model
+from fem.supports import ClampedEdge, PointSupport, SuctionCup
+from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
+from jaxflex.errors import InputError
+from jaxflex.profile import jerk_limited_move
+from jaxflex.trajectory_io import read_trajectory_csv
+
+COMMAND = "model"
+HELP = (
+    "build a modal model (.npz) from a built-in scene, a mesh file, or ANSYS, Nastran or R1 "
+    "results (SI units, m)"
+)
+ORDER = 10
+
+
+def _triple(text: str) -> tuple[float, float, float]:
+    parts = text.split(",")
+    if len(parts) != 3:
+        raise argparse.ArgumentTypeError(f"expected X,Y,R in m (e.g. 0.3,0.2,0.04), got {text!r}")
+    try:
+        return tuple(float(p) for p in parts)  # type: ignore[return-value]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected numbers X,Y,R in m, got {text!r}") from exc
+
+
+def _pair(text: str) -> tuple[float, float]:
+    parts = text.split(",")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"expected X,Y in m (e.g. 0.3,0.2), got {text!r}")
+    try:
+        return float(parts[0]), float(parts[1])
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected numbers X,Y in m, got {text!r}") from exc
+
+
+def _points(text: str) -> int | str:
+    if text == "all":
+        return "all"
+    try:
+        return int(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected a count or 'all', got {text!r}") from exc
+
+
+def _tolerance(text: str) -> float:
+    """'1%' -> 0.01, '0.01' -> 0.01."""
+    raw = text.strip()
+    scale = 0.01 if raw.endswith("%") else 1.0
+    try:
+        return float(raw.removesuffix("%")) * scale
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected e.g. 1% or 0.01, got {text!r}") from exc
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    src = parser.add_mutually_exclusive_group(required=True)
+    src.add_argument("--scene", choices=("plate", "panel"), help="built-in part and gripper")
+    src.add_argument("--mesh", metavar="FILE", help="mesh file read by meshio (coordinates in m)")
+    cli_imports.add_sources(src)
+    cli_imports.add_arguments(parser)
+    parser.add_argument("--thickness", type=float, help="sheet thickness in m (mesh files)")
+    parser.add_argument(
+        "--scale",
+        type=float,
+        default=1.0,
+        help="factor to metres for mesh coordinates (1e-3 for mm)",
+    )
+    parser.add_argument("--material", default="steel", help="steel (default) or aluminium")
+    parser.add_argument("--E", dest="E_pa", type=float, help="Young's modulus in Pa")
+    parser.add_argument("--nu", type=float, help="Poisson ratio")
+    parser.add_argument("--rho", dest="rho_kg_m3", type=float, help="density in kg/m^3")
+    parser.add_argument(
+        "--element",
+        choices=("morley", "argyris", "hex2"),
+        help="formulation (default: morley for flat, hex2 for curved parts)",
+    )
+    parser.add_argument("--mesh-size", type=float, help="element size in m (built-in scenes)")
+    parser.add_argument(
+        "--cups",
+        nargs="+",
+        type=_triple,
+        metavar="X,Y,R",
+        help="suction cups: centre x,y and radius in m (replaces the scene's)",
+    )
+    parser.add_argument(
+        "--point-supports",
+        nargs="+",
+        type=_pair,
+        metavar="X,Y",
+        default=[],
+        help="pinned points x,y in m",
+    )
+    parser.add_argument(
+        "--clamped-edges",
+        nargs="+",
+        default=[],
+        metavar="SIDE",
+        choices=("all", "x0", "x1", "y0", "y1"),
+        help="clamped sides",
+    )
+    parser.add_argument(
+        "--allow-rigid-modes",
+        action="store_true",
+        help="accept a gripper that leaves rigid-body modes (they are dropped)",
+    )
+    parser.add_argument(
+        "--n-modes", type=int, help="number of modes (default 20, or all up to --max-freq)"
+    )
+    parser.add_argument("--max-freq", type=float, help="keep modes up to this frequency in Hz")
+    parser.add_argument("--zeta", type=float, default=0.02, help="damping ratio (default 0.02)")
+    parser.add_argument(
+        "--points",
+        type=_points,
+        default=None,
+        help="monitored points: a count (voxel-reduced, default 1000) or 'all'",
+    )
+    parser.add_argument("--plot", metavar="PNG", help="picture of the part, cups and modes")
+    parser.add_argument("--vtu", metavar="FILE", help="mode shapes for ParaView (.vtu/.xdmf)")
+    parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
+    parser.add_argument("-o", "--output", default="model.npz", help="model file (.npz)")
+    _add_sizing_arguments(parser)
+
+
+def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group(
+        "model sizing (--tolerance): choose the mesh, modes and points for a move; exit status "
+        "1 if the tolerance was not met (the best model found is still written)"
+    )
+    group.add_argument(
+        "--tolerance",
+        type=_tolerance,
+        help="accuracy of the deviation (share of its peak) and of the settle time (share of "
+        "the cycle time), e.g. 1%% or 0.01",
+    )
+    move = group.add_mutually_exclusive_group()
+    move.add_argument(
+        "--trajectory",
+        metavar="CSV|DIR",
+        help="the move: a trajectory CSV (jaxflex optimize -o DIR writes DIR/trajectory.csv)",
+    )
+    move.add_argument(
+        "--distance",
+        nargs=3,
+        type=float,
+        metavar=("X", "Y", "Z"),
+        help="the move: jerk-limited straight move by this displacement, m",
+    )
+    add_axis_limits(group, with_defaults=False, condition="--distance: ")
+    group.add_argument(
+        "--dt",
+        type=float,
+        help="--distance: sample step in s (default 0.01); --from-r1: the R1 time step in s",
+    )
+    group.add_argument("--threshold", type=float, help="settle threshold in m (e.g. 0.0005)")
+    group.add_argument(
+        "--mesh-sizes",
+        nargs="+",
+        type=float,
+        metavar="H",
+        help="element sizes to try in m, coarse to fine (default: 4 ... 1/2 x the part's size "
+        "in sqrt 2 steps; 4 ... 1 x for the thin solid)",
+    )
+    group.add_argument(
+        "--max-modes", type=int, default=160, help="most modes to compute (default 160)"
+    )
+    group.add_argument(
+        "--key-points",
+        nargs="+",
+        type=_pair,
+        metavar="X,Y",
+        help="points that must stay monitored (x,y in m on the part)",
+    )
+    group.add_argument(
+        "--report", metavar="JSON", help="write the sizing report (or the R1 fit report) here"
+    )
+
+
+SIZING_ONLY = (
+    "trajectory",
+    "distance",
+    "vmax",
+    "amax",
+    "jmax",
+    "dt",
+    "threshold",
+    "mesh_sizes",
+    "key_points",
+    "report",
+)
+
+
+def _material(args):
+    given = {k: getattr(args, k) for k in ("E_pa", "nu", "rho_kg_m3")}
+    if any(v is not None for v in given.values()):
+        return {**given, "name": "custom"}
+    return args.material
+
+
+def _defaults() -> dict:
+    """The command's option defaults (what an option left out gives)."""
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    return vars(parser.parse_args(["--scene", "plate"]))
+
+
+def run(args: argparse.Namespace) -> int:
+    if cli_imports.requested(args):
+        return cli_imports.run(args, _defaults(), _write)
+    cli_imports.refuse_import_options(args)
+    material = _material(args)
+    if args.scene:
+        if args.thickness is not None or args.element is not None:
+            raise InputError("--thickness/--element: only for --mesh (scenes are 1 mm steel)")
+        part, supports = scene(args.scene, mesh_size=args.mesh_size, material=material)
+    else:
+        if args.mesh_size is not None:
+            raise InputError("--mesh-size: only for --scene (a mesh file is used as is)")
+        part = read_mesh(
+            args.mesh,
+            thickness=args.thickness,
+            material=material,
+            element=args.element,
+            scale=args.scale,
+        )
+        supports = []
+    if args.cups is not None:
+        supports = [SuctionCup(x, y, r) for x, y, r in args.cups]
+    supports += [PointSupport(x, y) for x, y in args.point_supports]
+    supports += [ClampedEdge(side) for side in args.clamped_edges]
+    if not supports:
+        raise InputError("--cups: a mesh file needs a gripper (--cups X,Y,R ...)")
+    if args.tolerance is not None:
+        return _run_sizing(args, part, supports)
+    for name in SIZING_ONLY:
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name.replace('_', '-')}: only with --tolerance")
+    n_modes = args.n_modes
+    if n_modes is None and args.max_freq is None:
+        n_modes = 20
+    result = modal_analysis(
+        part,
+        supports,
+        n_modes=n_modes,
+        zeta=args.zeta,
+        max_freq_hz=args.max_freq,
+        allow_rigid_modes=args.allow_rigid_modes,
+        progress=False if args.no_progress else None,
+    )
+    print(result.summary())
+    points = 1000 if args.points is None else args.points
+    model = result.to_modal_model(points=None if points == "all" else points)
+    _write(args, model, result)
+    return 0
+
+
+def _write(args, model, result) -> None:
+    model.save(args.output)
+    print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
+    if args.plot:
+        plot_part(result, args.plot)
+        print(f"wrote {args.plot}")
+    if args.vtu:
+        export_modes(result, args.vtu)
+        print(f"wrote {args.vtu}")
+
+
+def _move(args):
+    """(acc, dt) of the move at hand from --trajectory or --distance and the limits."""
+    for name, _unit, _default in AXIS_LIMITS:
+        if getattr(args, name) is not None and args.distance is None:
+            raise InputError(f"--{name}: only with --distance (a trajectory has its own limits)")
+    limits = axis_limit_values(args)
+    if args.trajectory is not None:
+        if args.dt is not None:
+            raise InputError("--dt: only with --distance (the trajectory file has its step)")
+        path = Path(args.trajectory)
+        return read_trajectory_csv(path / "trajectory.csv" if path.is_dir() else path)
+    if args.distance is None:
+        raise InputError("--tolerance: give the move, --trajectory FILE or --distance X Y Z")
+    dt_s = 0.01 if args.dt is None else args.dt
+    return jerk_limited_move(args.distance, dt_s=dt_s, **limits), dt_s
+
+
+def _run_sizing(args, part, supports) -> int:
+    for name in ("n_modes", "max_freq", "points"):
+        if getattr(args, name) is not None:
+            raise InputError(
+                f"--{name.replace('_', '-')}: chosen by --tolerance (use --max-modes, "
+                "--key-points or --mesh-sizes to steer it)"
+            )
+    if args.threshold is None:
+        raise InputError("--threshold: the settle threshold in m is required with --tolerance")
+    if args.mesh is not None and args.mesh_sizes is not None:
+        raise InputError("--mesh-sizes: a mesh file is used as is")
+    acc, dt_s = _move(args)
+    sized = size_model(
+        part,
+        supports,
+        acc,
+        dt_s,
+        args.threshold,
+        args.tolerance,
+        zeta=args.zeta,
+        mesh_sizes_m=args.mesh_sizes,
+        max_modes=args.max_modes,
+        reference_modes=min(40, args.max_modes),
+        key_points=args.key_points,
+        allow_rigid_modes=args.allow_rigid_modes,
+        progress=False if args.no_progress else None,
+        log=print,
+    )
+    print(sized.summary())
+    _write(args, sized.model, sized.result)
+    if args.report:
+        sized.save_report(args.report)
+        print(f"wrote {args.report}")
+    if not sized.met:
+        print(
+            f"jaxflex model: tolerance {100 * args.tolerance:g} % not met; the best model found "
+            "was written (see the notes above)",
+            file=sys.stderr,
+        )
+        return 1
+    return 0

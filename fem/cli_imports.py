@@ -1,0 +1,175 @@
+"""``jaxflex model --from-ansys | --from-nastran | --from-r1``: a modal model from a user's own
+finite-element results (fem.from_ansys, fem.from_nastran, fem.from_r1); the sources and
+options that fem.cli adds to the ``model`` command, and their run."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Callable
+
+import numpy as np
+
+from fem.ansys import from_ansys
+from fem.identify import from_r1
+from fem.nastran import from_nastran
+from fem.supports import SuctionCup
+from jaxflex.atomic import write_text_atomic
+from jaxflex.errors import InputError
+
+SOURCES = ("from_ansys", "from_nastran", "from_r1")
+IMPORT_ONLY = ("full", "nodes", "units", "gamma", "spc_id", "axis")
+# options of the built-in and meshed parts, of sizing and of the imports: each import uses
+# those ALLOWED names and refuses the others when they differ from their defaults
+CHECKED = (
+    *("thickness", "scale", "material", "E_pa", "nu", "rho_kg_m3", "mesh_size"),
+    *("point_supports", "clamped_edges", "cups", "element", "allow_rigid_modes"),
+    *("tolerance", "trajectory", "distance", "vmax", "amax", "jmax", "threshold"),
+    *("mesh_sizes", "max_modes", "key_points", "n_modes", "max_freq", "dt", "report"),
+    *IMPORT_ONLY,
+)
+ALLOWED = {
+    "ansys": {"full", "nodes", "units", "gamma", "n_modes", "max_freq"},
+    "nastran": {"units", "spc_id", "cups", "element", "allow_rigid_modes", "n_modes", "max_freq"},
+    "r1": {"nodes", "axis", "dt", "report", "n_modes"},
+}
+
+
+def add_sources(group) -> None:
+    """The three import sources, in the model command's group of sources."""
+    group.add_argument(
+        "--from-ansys",
+        metavar="FILE",
+        help="MAPDL .full (modes computed here; coordinates from --nodes) or .rst (modes as "
+        "MAPDL computed them; participation from --full or --gamma)",
+    )
+    group.add_argument(
+        "--from-nastran", metavar="DECK", help="Nastran bulk-data deck solved by our shell model"
+    )
+    group.add_argument(
+        "--from-r1",
+        nargs="+",
+        metavar="CSV",
+        help="unit response R1 in the preprint's Table 2 layout (one file per --axis), "
+        "identified as a modal model; needs --dt",
+    )
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options only the imports use (all default to None)."""
+    group = parser.add_argument_group("imported results (--from-ansys, --from-nastran, --from-r1)")
+    group.add_argument(
+        "--full", metavar="FILE", help="--from-ansys .rst: the .full of the same model"
+    )
+    group.add_argument(
+        "--nodes",
+        metavar="FILE",
+        help="node coordinates: --from-ansys .full: a .cdb, .rst or CSV node,x,y,z of the same "
+        "mesh (file units); --from-r1: CSV x,y,z (or node,x,y,z) in m, one row per R1 row",
+    )
+    group.add_argument(
+        "--units",
+        help="unit system of ANSYS/Nastran files that state none: SI, MPA (mm, t, s), BIN "
+        "(in, lbf s^2/in, s), BFT, CGS, UMKS",
+    )
+    group.add_argument(
+        "--gamma",
+        metavar="CSV",
+        help="--from-ansys .rst: participation factors, one row x,y,z per mode in kg^0.5",
+    )
+    group.add_argument(
+        "--spc-id",
+        type=int,
+        help="--from-nastran: the SPC set to use (default: the one case control selects, or "
+        "the deck's only set)",
+    )
+    group.add_argument(
+        "--axis",
+        nargs="+",
+        choices=("x", "y", "z"),
+        help="--from-r1: the acceleration axis of each R1 file (default z)",
+    )
+
+
+def requested(args: argparse.Namespace) -> bool:
+    return any(getattr(args, name) for name in SOURCES)
+
+
+def refuse_import_options(args: argparse.Namespace) -> None:
+    """For scenes and meshes: the import-only options are errors."""
+    for name in IMPORT_ONLY:
+        if getattr(args, name) is not None:
+            raise InputError(
+                f"--{name.replace('_', '-')}: only with --from-ansys/--from-nastran/--from-r1"
+            )
+
+
+def _check_options(args, source: str, defaults: dict) -> None:
+    for name in CHECKED:
+        if name not in ALLOWED[source] and getattr(args, name) != defaults[name]:
+            raise InputError(f"--{name.replace('_', '-')}: not used with --from-{source}")
+
+
+def _read_gamma(path):
+    try:
+        return np.loadtxt(path, delimiter=",", ndmin=2)
+    except (OSError, ValueError) as exc:
+        raise InputError(f"--gamma: cannot read {path!r} as rows x,y,z ({exc})") from exc
+
+
+def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
+    """Import, print the summary, write the model; ``defaults``: the command's option
+    defaults; ``write(args, model, result)``: fem.cli's writer of a model solved here."""
+    progress = False if args.no_progress else None
+    n_modes = args.n_modes
+    if n_modes is None and args.max_freq is None and not args.from_r1:
+        n_modes = 20
+    if args.from_ansys:
+        _check_options(args, "ansys", defaults)
+        result = from_ansys(
+            args.from_ansys,
+            full=args.full,
+            nodes=args.nodes,
+            units=args.units,
+            n_modes=n_modes,
+            max_freq_hz=args.max_freq,
+            gamma=None if args.gamma is None else _read_gamma(args.gamma),
+            zeta=args.zeta,
+            progress=progress,
+        )
+    elif args.from_nastran:
+        _check_options(args, "nastran", defaults)
+        result = from_nastran(
+            args.from_nastran,
+            units=args.units,
+            cups=[SuctionCup(x, y, r) for x, y, r in args.cups or []],
+            spc_id=args.spc_id,
+            element=args.element,
+            n_modes=n_modes,
+            max_freq_hz=args.max_freq,
+            zeta=args.zeta,
+            allow_rigid_modes=args.allow_rigid_modes,
+            progress=progress,
+        )
+    else:
+        _check_options(args, "r1", defaults)
+        if args.dt is None:
+            raise InputError("--dt: the time step of the R1 file(s) in s is required")
+        result = from_r1(
+            args.from_r1, args.dt, args.axis or ["z"], nodes=args.nodes, max_modes=n_modes
+        )
+    print(result.summary())
+    points = 1000 if args.points is None else args.points
+    zeta = None if args.from_r1 else args.zeta  # R1: the identified damping
+    model = result.to_modal_model(points=None if points == "all" else points, zeta=zeta)
+    if args.from_r1 and args.report:
+        write_text_atomic(args.report, json.dumps(result.fit.as_dict(), indent=2))
+        print(f"wrote {args.report}")
+    if args.from_nastran:
+        write(args, model, result)
+        return 0
+    if args.plot or args.vtu:
+        raise InputError("--plot/--vtu: only for models solved here (scenes, meshes, decks)")
+    model.save(args.output)
+    print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
+    return 0

@@ -1,0 +1,35 @@
+"""The two meshes a part is analysed on: a flat triangle mesh (plate elements) and a quad
+mid-surface (extruded into a one-layer thin solid). Built by fem.parts, read from files by
+fem.mesh_io, assembled by fem.plate and fem.solid; coordinates in m."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class PlateMesh:
+    """A flat triangle mesh in the plane z = z0: nodes_xy (N, 2) m, triangles (E, 3)."""
+
+    nodes_xy: np.ndarray
+    triangles: np.ndarray
+    z0: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class SurfaceMesh:
+    """A quadrilateral mid-surface to extrude into a one-layer thin solid.
+
+    nodes (N, 3) m, quads (E, 4) counter-clockwise seen from the normal side, normals (N, 3)
+    unit. ``exact(uv) -> (points, normals)`` maps footprint coordinates ``params`` (N, 2)
+    exactly onto the surface (built-in parts), so mid-side nodes lie on the true surface.
+    """
+
+    nodes: np.ndarray
+    quads: np.ndarray
+    normals: np.ndarray
+    params: np.ndarray | None = None
+    exact: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None

@@ -1,0 +1,199 @@
+"""``jaxflex export``: a modal model (and the optimised move) as an FMI 2.0 / 3.0 FMU."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from fmpy.validation import validate_fmu
+
+import jaxflex
+from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
+from fmu.export import export_fmu
+from fmu.ssp import export_ssp
+from fmu.verify import verify
+from jaxflex.errors import InputError
+from jaxflex.trajectory_io import read_trajectory_csv
+from jaxflex.validation import check_positive
+
+COMMAND = "export"
+HELP = (
+    "write the part as an FMI 2.0/3.0 co-simulation FMU (optionally with the optimised move) "
+    "or an SSP package of the part and the move"
+)
+ORDER = 30
+
+# what `jaxflex optimize -o DIR` writes into DIR/report.json and the FMU's case file keeps
+CASE_KEYS = (
+    "distance_m",
+    "limits",
+    "threshold_m",
+    "cycle_time_s",
+    "transfer_time_s",
+    "settle_time_s",
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", help="modal model file (.npz from `jaxflex model`)")
+    parser.add_argument(
+        "--fmi", type=int, choices=(2, 3), default=2, help="FMI version 2 or 3 (default 2)"
+    )
+    parser.add_argument(
+        "--trajectory",
+        help="output folder of `jaxflex optimize` (trajectory.csv, report.json) or a trajectory "
+        "CSV (columns t_s, ax_m_s2, ay_m_s2, az_m_s2, ...; SI units): embedded in the FMU and "
+        "written beside it as <name>_input.csv and <name>_case.json",
+    )
+    parser.add_argument("-o", "--output", help="FMU file to write (.fmu)")
+    parser.add_argument(
+        "--ssp",
+        help="SSP 1.0 package to write (.ssp): the part FMU and a trajectory source FMU playing "
+        "the --trajectory move, connected ax/ay/az, with the threshold and damping scale as "
+        "parameters (with or instead of -o)",
+    )
+    parser.add_argument(
+        "--threshold",
+        type=float,
+        help="start value of the deviation threshold in m (default: from report.json, else 0.5 mm)",
+    )
+    parser.add_argument(
+        "--damping-scale",
+        type=float,
+        default=1.0,
+        help="start value of the factor on every modal damping ratio (default 1)",
+    )
+    parser.add_argument("--name", help="model name in modelDescription.xml (default: file name)")
+    parser.add_argument(
+        "--windows",
+        choices=("auto", "yes", "no"),
+        default="auto",
+        help="also build the Windows DLLs: auto = when mingw-w64 is installed (default)",
+    )
+    parser.add_argument(
+        "--no-verify",
+        action="store_true",
+        help="skip the simulations against jaxflex (fmpy; ecospy and libcosimpy when installed)",
+    )
+
+
+def load_case(path: Path) -> tuple[object, float, dict | None]:
+    """(acc (n+1, 3) m/s^2, dt s, report dict or None) from an optimize folder or a CSV."""
+    if path.is_dir():
+        csv, report_path = path / "trajectory.csv", path / "report.json"
+        if not csv.is_file():
+            raise InputError(
+                f"--trajectory: folder {str(path)!r} has no trajectory.csv (expected the output "
+                "folder of `jaxflex optimize ... -o DIR`)"
+            )
+    elif path.is_file():
+        csv, report_path = path, path.with_name("report.json")
+    else:
+        raise InputError(f"--trajectory: {str(path)!r} does not exist")
+    acc, dt_s = read_trajectory_csv(csv)
+    if not report_path.is_file():
+        return acc, dt_s, None
+    try:
+        report = json.loads(report_path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"--trajectory: {str(report_path)!r} is not valid JSON ({exc})") from exc
+    report_dt = report.get("dt_s")
+    if report_dt is not None and abs(float(report_dt) - dt_s) > 1e-9 * dt_s:
+        raise InputError(
+            f"--trajectory: {report_path.name} says dt_s = {report_dt} s but {csv.name} is "
+            f"sampled every {dt_s} s; they do not belong together"
+        )
+    return acc, dt_s, {key: report[key] for key in CASE_KEYS if key in report}
+
+
+def _print_binaries(name: str, platforms, skipped: dict[str, str]) -> None:
+    print(f"{name}: binaries {', '.join(platforms)}")
+    for plat, reason in skipped.items():
+        print(f"{name}: skipped {plat}: {reason}")
+
+
+def _export_fmu(args, model, trajectory, threshold_m, case, windows) -> int:
+    result = export_fmu(
+        model,
+        args.output,
+        args.fmi,
+        trajectory,
+        threshold_m=threshold_m,
+        case=case,
+        damping_scale=args.damping_scale,
+        model_name=args.name,
+        windows=windows,
+    )
+    print(
+        f"wrote {result.fmu_path}: FMI {result.fmi_version}.0 co-simulation, "
+        f"{result.n_points} points, {result.n_modes} modes, resource "
+        f"{result.resource_bytes / 1e6:.2f} MB"
+    )
+    _print_binaries(result.fmu_path.name, result.platforms, result.skipped)
+    if result.case is not None:
+        print(
+            f"embedded move: {result.n_trajectory} samples, dt {result.case['dt_s']:g} s, "
+            f"cycle time {result.case['cycle_time_s']:.3f} s at threshold "
+            f"{threshold_m * 1e3:g} mm; wrote {result.input_csv.name}, {result.case_json.name}"
+        )
+    if result.case is None or args.no_verify:
+        problems = validate_fmu(str(result.fmu_path))
+        print("fmpy validation: " + ("clean" if not problems else "; ".join(problems)))
+        return 0 if not problems else 1
+    report = verify(result.fmu_path)
+    print(report.summary())
+    hosts = crosscheck_fmu(result.fmu_path)
+    print(hosts.summary())
+    return 0 if report.ok and hosts.ok else 1
+
+
+def _export_ssp(args, model, trajectory, threshold_m, case, windows) -> int:
+    result = export_ssp(
+        model,
+        args.ssp,
+        args.fmi,
+        trajectory,
+        threshold_m,
+        case,
+        damping_scale=args.damping_scale,
+        model_name=args.name,
+        windows=windows,
+    )
+    part, source = result.part, result.source
+    print(
+        f"wrote {result.ssp_path}: SSP 1.0, part FMU ({part.n_points} points, {part.n_modes} "
+        f"modes) driven by a trajectory source FMU ({source.n_samples} samples every "
+        f"{source.dt_s:g} s), FMI {result.fmi_version}.0, parameters "
+        + ", ".join(f"{k} = {v:g}" for k, v in result.parameters.items())
+    )
+    _print_binaries("part.fmu", result.part.platforms, result.part.skipped)
+    _print_binaries("trajectory.fmu", result.source.platforms, result.source.skipped)
+    if args.no_verify:
+        return 0
+    report = crosscheck_ssp(result.ssp_path)
+    print(report.summary())
+    return 0 if report.ok else 1
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.output and not args.ssp:
+        raise InputError("give -o FILE.fmu, --ssp FILE.ssp or both")
+    if args.ssp and not args.trajectory:
+        raise InputError("--ssp: the package plays a move; give --trajectory as well")
+    model = jaxflex.load_model(args.model)
+    trajectory, case = None, None
+    if args.trajectory:
+        acc, dt_s, case = load_case(Path(args.trajectory))
+        trajectory = (acc, dt_s)
+    threshold_m = args.threshold
+    if threshold_m is None:
+        threshold_m = (case or {}).get("threshold_m", 5e-4)
+    threshold_m = check_positive("--threshold", threshold_m)
+    windows = {"auto": None, "yes": True, "no": False}[args.windows]
+    status = 0
+    if args.output:
+        status = _export_fmu(args, model, trajectory, threshold_m, case, windows)
+    if args.ssp:
+        status = max(status, _export_ssp(args, model, trajectory, threshold_m, case, windows))
+    return status

@@ -1,0 +1,51 @@
+"""The C harness (fmu/c/harness.c): a small importer that dlopen()s an exported FMU's library,
+instantiates it, steps it and prints its outputs or timings. The benchmarks, the robustness
+tests and the Windows checks (fmu.windows) drive FMUs through it.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import zipfile
+from pathlib import Path
+
+from fmpy import read_model_description
+
+from fmu.build import C_DIR, FmuBuildError, fmi_headers, host_target
+
+
+def compile_harness(fmi_version: int, out_file: Path) -> Path:
+    """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``."""
+    cmd = [
+        host_target().compiler,
+        "-std=c99",
+        "-O2",
+        "-Wall",
+        "-Wextra",
+        f"-DHARNESS_FMI={fmi_version}",
+        f"-I{fmi_headers()}",
+        str(C_DIR / "harness.c"),
+        "-o",
+        str(out_file),
+        "-ldl",
+        "-lm",
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise FmuBuildError(f"compiling the harness failed:\n{proc.stderr.strip()}")
+    return out_file
+
+
+def unpack(fmu_path: Path, folder: Path) -> tuple[Path, Path, str]:
+    """Extract the FMU: (shared library, resources folder, instantiation token)."""
+    with zipfile.ZipFile(fmu_path) as zf:
+        zf.extractall(folder)
+    md = read_model_description(str(folder))
+    plat = host_target().folder(int(md.fmiVersion[0]))
+    ident = md.coSimulation.modelIdentifier
+    return folder / "binaries" / plat / f"{ident}.so", folder / "resources", md.guid
+
+
+def resource_location(fmi_version: int, resources: Path) -> str:
+    """What an importer passes: a file URI (FMI 2.0) or a path ending in '/' (FMI 3.0)."""
+    return resources.resolve().as_uri() + "/" if fmi_version == 2 else f"{resources.resolve()}/"

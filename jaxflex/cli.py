@@ -1,0 +1,136 @@
+"""The ``jaxflex`` command: a thin dispatcher, and the options several commands share.
+
+Each package contributes its own subcommands through the entry-point group
+``jaxflex.commands`` (pyproject.toml), so the core never imports the packages built on it::
+
+    [project.entry-points."jaxflex.commands"]
+    model = "fem.cli"
+
+A command module defines ``COMMAND`` (its name, the entry point's), ``HELP`` (one line) and
+``ORDER`` (its place in the list) as plain literals, ``add_arguments(parser)`` and
+``run(args) -> exit status``.
+
+Only the module of the command being run is imported. Importing ``fem.cli`` runs
+``fem/__init__.py``, which loads scikit-fem and matplotlib (optim: scipy.optimize, casadi;
+optim.sweep: dask), seconds in all; so the list that ``jaxflex --help`` prints is read from
+the literals in each command module's source, without running it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import importlib
+import importlib.util
+import sys
+from dataclasses import dataclass
+from importlib.metadata import entry_points
+from pathlib import Path
+
+from jaxflex.errors import InputError, JaxflexError
+
+GROUP = "jaxflex.commands"
+DESCRIPTION = (
+    "Cycle time of robot transfers of thin, vibrating sheet-metal parts. "
+    "All quantities in SI units (m, s, kg, Pa)."
+)
+
+# (option, unit, default): per-axis limits of a jerk-limited move (`model --tolerance`, `optimize`)
+AXIS_LIMITS = (("vmax", "m/s", 2.0), ("amax", "m/s^2", 10.0), ("jmax", "m/s^3", 100.0))
+
+
+@dataclass(frozen=True)
+class Command:
+    """A registered subcommand: its name, help line and place in the list, and its module."""
+
+    name: str
+    help: str
+    order: int
+    module: str
+
+
+def _literals(module: str) -> dict[str, object]:
+    """The top-level ``NAME = literal`` assignments of a module, read from its source file
+    without importing it (nor its package)."""
+    top, *inner = module.split(".")
+    package_dir = Path(importlib.util.find_spec(top).origin).parent
+    path = package_dir.joinpath(*inner).with_suffix(".py")
+    found = {}
+    for node in ast.parse(path.read_text(encoding="utf-8"), filename=str(path)).body:
+        if isinstance(node, ast.Assign) and len(node.targets) == 1:
+            target = node.targets[0]
+            if isinstance(target, ast.Name) and isinstance(node.value, ast.Constant):
+                found[target.id] = node.value.value
+    return found
+
+
+def commands() -> list[Command]:
+    """Every registered subcommand, in the order of the help (ORDER, then name)."""
+    found = []
+    for point in entry_points(group=GROUP):
+        literals = _literals(point.module)
+        found.append(
+            Command(literals["COMMAND"], literals["HELP"], literals["ORDER"], point.module)
+        )
+    return sorted(found, key=lambda command: (command.order, command.name))
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of ``jaxflex``; ``command``'s module is imported and adds its arguments (the
+    other subcommands are listed only)."""
+    parser = argparse.ArgumentParser(prog="jaxflex", description=DESCRIPTION)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for listed in commands():
+        cmd = sub.add_parser(listed.name, help=listed.help, description=listed.help)
+        if listed.name == command:
+            module = importlib.import_module(listed.module)
+            module.add_arguments(cmd)
+            cmd.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    # jaxflex itself takes no option but --help: the first other word names the command
+    chosen = next((arg for arg in argv if not arg.startswith("-")), None)
+    args = build_parser(chosen).parse_args(argv)
+    try:
+        return int(args._run(args) or 0)
+    except JaxflexError as exc:
+        print(f"jaxflex {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"jaxflex {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+def add_axis_limits(parser, *, with_defaults: bool, condition: str = "") -> None:
+    """--vmax/--amax/--jmax, each one value or three (x y z). ``with_defaults`` False leaves
+    them None when not given (:func:`axis_limit_values` applies AXIS_LIMITS' defaults);
+    ``condition`` prefixes the help text (e.g. "--distance: ")."""
+    for name, unit, default in AXIS_LIMITS:
+        parser.add_argument(
+            f"--{name}",
+            nargs="+",
+            type=float,
+            default=[default] if with_defaults else None,
+            metavar="V",
+            help=f"{condition}per-axis limit in {unit}: one value or three (x y z); "
+            f"default {default:g}",
+        )
+
+
+def axis_limit_values(args: argparse.Namespace) -> dict[str, float | list[float]]:
+    """vmax, amax, jmax from the options of :func:`add_axis_limits`: one value for every axis
+    or three (x, y, z); AXIS_LIMITS' default where an option was not given."""
+    limits = {}
+    for name, _unit, default in AXIS_LIMITS:
+        given = getattr(args, name)
+        if given is not None and len(given) not in (1, 3):
+            raise InputError(f"--{name}: give one value or three (x y z), got {len(given)}")
+        limits[name] = default if given is None else (given[0] if len(given) == 1 else given)
+    return limits
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,91 @@
+"""``jaxflex sweep``: every gripper layout of a spec file with every move, on dask or serially."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from jaxflex.errors import InputError
+from optim.sweep.run import run_sweep
+from optim.sweep.spec import EXAMPLE, load_spec
+
+COMMAND = "sweep"
+HELP = "gripper-layout sweep from a JSON/TOML spec: FE + optimised cycle time per case (SI units)"
+ORDER = 25
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "spec", nargs="?", help="sweep specification (.json or .toml; see --example)"
+    )
+    parser.add_argument("-o", "--output", help="results directory (restartable)")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument(
+        "--serial", action="store_true", help="compute in this process, no dask (reference)"
+    )
+    where.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="use the dask.distributed cluster at ADDRESS (tcp://host:8786) instead of an "
+        "embedded LocalCluster",
+    )
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="worker processes of the embedded LocalCluster (default: one per core)",
+    )
+    parser.add_argument(
+        "--dashboard",
+        metavar="HOST:PORT",
+        default=None,
+        help="where the embedded LocalCluster serves its dashboard (default: 127.0.0.1 and a "
+        "free port, this machine only; e.g. 0.0.0.0:8787 for other machines)",
+    )
+    parser.add_argument(
+        "--retry-errors",
+        action="store_true",
+        help="recompute cases stored as errors (results are always kept)",
+    )
+    parser.add_argument("--no-plots", action="store_true", help="write the table only")
+    parser.add_argument("--quiet", action="store_true", help="no progress display")
+    parser.add_argument(
+        "--example", action="store_true", help="print an example spec (TOML) and exit"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.example:
+        print(EXAMPLE, end="")
+        return 0
+    if not args.spec or not args.output:
+        raise InputError("spec and -o/--output are required (or --example for a spec to start)")
+    for option, value in (("--workers", args.workers), ("--dashboard", args.dashboard)):
+        if value is not None and (args.serial or args.scheduler):
+            raise InputError(
+                f"{option}: only for the embedded LocalCluster (not with --serial/--scheduler)"
+            )
+    spec = load_spec(args.spec)
+    executor = "serial" if args.serial else "dask"
+    if not args.quiet:
+        where = args.scheduler or ("this process" if args.serial else "a local dask cluster")
+        print(
+            f"{args.spec}: {len(spec.layouts)} layouts x {len(spec.moves)} moves on {where}; "
+            f"results in {args.output}",
+            file=sys.stderr,
+        )
+    result = run_sweep(
+        spec,
+        args.output,
+        executor=executor,
+        scheduler=args.scheduler,
+        n_workers=args.workers,
+        dashboard_address=args.dashboard,
+        retry_errors=args.retry_errors,
+        progress=not args.quiet,
+        plots=not args.no_plots,
+    )
+    print(result.summary())
+    for path in result.outputs:
+        print(f"wrote {path}")
+    return 0

@@ -1,0 +1,197 @@
+"""ANSYS import on the real MAPDL files shipped by ansys-mapdl-reader (nobody here wrote them).
+
+``file.full``: matrices of a 321-node hexahedral beam (one end held, 63 DOFs); ``file.rst``:
+a 6-mode modal result of a differently constrained run of the same mesh; ``HexBeam.cdb``: the
+mesh with coordinates. The material (E = 16.9e6, density 4.14e-4) is titanium in inches
+and lbf s^2/in, so the files are read as BIN units.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import scipy.linalg
+from ansys.mapdl.reader import examples, read_binary
+
+import fem
+from fem.ansys import RstModes, from_rst_modes, read_full
+from fem.units import UNIT_SYSTEMS
+from jaxflex.errors import InputError
+
+BIN = UNIT_SYSTEMS["BIN"]
+FULL_FIRST_SIX_HZ = [1283.20, 1283.20, 5781.97, 6919.40, 6919.40, 10172.61]
+RST_HZ = [7366.50, 7366.50, 11504.90, 17285.70, 17285.70, 20137.19]
+
+
+def dense_reference():
+    """The .full's matrices as the reader gives them (upper triangles, empty constrained rows),
+    symmetrised and reduced here independently of fem.ansys, and solved densely."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _, k_upper, m_upper = read_binary(examples.fullfile).load_km(sort=True)
+    k, m = k_upper.toarray(), m_upper.toarray()
+    k, m = k + np.triu(k, 1).T, m + np.triu(m, 1).T
+    free = np.flatnonzero(np.abs(k).sum(axis=1) > 0)
+    k, m = k[np.ix_(free, free)], m[np.ix_(free, free)]
+    values, vectors = scipy.linalg.eigh(k, m)
+    return np.sqrt(values) / (2 * np.pi), vectors, k, m
+
+
+@pytest.fixture(scope="module")
+def full_modes():
+    return fem.from_ansys(examples.fullfile, units="BIN", n_modes=6, nodes=examples.hexarchivefile)
+
+
+def dof_vectors(result, mats):
+    """Mode vectors over the free DOFs of ``mats`` (file units) from the node shapes."""
+    free = np.flatnonzero(~mats.constrained)
+    row = {int(n): i for i, n in enumerate(result.node_ids)}
+    rows = np.array([row[int(n)] for n in mats.node_ids[free]])
+    cols = np.array([["UX", "UY", "UZ"].index(label) for label in mats.labels[free]])
+    return result.shapes[rows, cols, :] / BIN.shape_to_si, free
+
+
+def test_full_modes_equal_a_dense_solve_of_the_same_matrices(full_modes):
+    freq_dense, _, _, _ = dense_reference()
+    # 1e-6 is the target; shift-invert Lanczos (ARPACK to machine precision) and LAPACK's
+    # eigh agree to 2e-10 here (measured; eigenvalue spread ~1e4 of a 900-DOF problem)
+    np.testing.assert_allclose(full_modes.freq_hz, freq_dense[:6], rtol=1e-6)
+    # the published values of this example, to the 0.01 Hz they are printed with
+    np.testing.assert_allclose(full_modes.freq_hz, FULL_FIRST_SIX_HZ, atol=0.005)
+
+
+def test_full_modes_are_mass_normalised(full_modes):
+    mats = read_full(examples.fullfile)
+    phi, free = dof_vectors(full_modes, mats)
+    m_free = mats.M[free][:, free]
+    # normalisation divides by sqrt(phi^T M phi) once: the Gram matrix is I to rounding
+    # (1e-15 measured; the degenerate pairs are M-orthogonal through the Lanczos basis)
+    np.testing.assert_allclose(phi.T @ (m_free @ phi), np.eye(6), atol=1e-9)
+
+
+def test_participation_of_all_modes_sums_to_the_rigid_mass():
+    mats = read_full(examples.fullfile)
+    free = ~mats.constrained
+    result = fem.from_ansys(examples.fullfile, units="BIN", n_modes="all")
+    rigid = np.zeros((int(free.sum()), 3))
+    for d, name in enumerate(("UX", "UY", "UZ")):
+        rigid[mats.labels[free] == name, d] = 1.0
+    m_free = mats.M[free][:, free]
+    rigid_mass_kg = np.einsum("id,id->d", rigid, m_free @ rigid) * BIN.mass_kg
+    # sum_i Gamma_i^2 = R^T M phi phi^T M R = R^T M R for a complete M-orthonormal basis;
+    # the dense solve keeps that identity to rounding (9e-16 measured over 900 terms)
+    np.testing.assert_allclose(np.sum(result.gamma**2, axis=0), rigid_mass_kg, rtol=1e-9)
+    np.testing.assert_allclose(result.mobile_mass_kg, rigid_mass_kg, rtol=1e-12)
+    assert result.n_modes == int(free.sum())  # held at one end: no rigid-body mode
+
+
+def test_full_without_coordinates_says_where_to_get_them():
+    result = fem.from_ansys(examples.fullfile, units="BIN", n_modes=2)
+    assert result.nodes is None
+    with pytest.raises(InputError, match=r"node coordinates: .*\.cdb archive"):
+        result.to_modal_model()
+
+
+def test_full_model_file_meta_and_points(full_modes):
+    model = full_modes.to_modal_model(points="all")
+    assert model.n_points == 321 and model.n_modes == 6
+    np.testing.assert_allclose(model.points.max(axis=0), np.array([1.0, 1.0, 5.0]) * 0.0254)
+    assert model.meta["input"]["full"]["sha256"]
+    assert model.labels[0] == "node 1"
+    held = [i for i, lab in enumerate(model.labels) if lab in ("node 1", "node 4", "node 19")]
+    assert np.all(model.shapes[held] == 0)  # nodes the .full constrains do not move
+
+
+def test_rst_alone_gives_its_frequencies_and_shapes_but_no_participation():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rst = read_binary(examples.rstfile)
+        first = rst.nodal_solution(0)[1]
+    result = fem.from_ansys(examples.rstfile, units="BIN")
+    np.testing.assert_allclose(result.freq_hz, rst.time_values, rtol=1e-9)
+    np.testing.assert_allclose(result.freq_hz, RST_HZ, atol=0.005)
+    assert result.shapes.shape == (321, 3, 6)
+    np.testing.assert_allclose(result.shapes[:, :, 0], first * BIN.shape_to_si, rtol=1e-12)
+    assert result.stress is not None and result.stress.shape == (321, 6, 6)
+    with pytest.raises(InputError, match="holds no mass matrix"):
+        result.to_modal_model()
+    gamma = np.tile([0.1, 0.2, 0.3], (6, 1))
+    model = fem.from_ansys(examples.rstfile, units="BIN", gamma=gamma).to_modal_model()
+    np.testing.assert_array_equal(model.gamma, gamma)
+    assert model.meta["derived"]["gamma"] == "given by the user"
+
+
+def test_rst_paired_with_the_full_of_another_run_is_refused():
+    with pytest.raises(InputError) as info:
+        fem.from_ansys(examples.rstfile, units="BIN", full=examples.fullfile)
+    message = str(info.value)
+    assert "constraints differ" in message
+    assert "63 DOF(s) constrained in file.full move in the modes of file.rst" in message
+
+
+def synthetic_rst(full_modes, scale=1.0, freq_hz=None):
+    """A result-file view of modes computed from file.full (what MAPDL would write for a
+    matching run), scaled like MODOPT NRMKEY=ON would leave them."""
+    values = full_modes.shapes / BIN.shape_to_si * scale
+    return RstModes(
+        freq_hz=full_modes.freq_hz if freq_hz is None else freq_hz,
+        node_ids=full_modes.node_ids,
+        nodes=full_modes.nodes / BIN.length_m,
+        labels=np.array(["UX", "UY", "UZ"]),
+        values=values,
+        stress=None,
+        units=None,
+        path="synthetic.rst",
+    )
+
+
+def test_matching_rst_and_full_give_the_full_participation(full_modes):
+    paired = from_rst_modes(
+        synthetic_rst(full_modes, scale=2.0), full=examples.fullfile, units="BIN"
+    )
+    # same vectors up to the factor 2 the pairing removes: equal to rounding (~1e-15)
+    np.testing.assert_allclose(paired.gamma, full_modes.gamma, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(paired.shapes, full_modes.shapes, rtol=1e-9, atol=1e-15)
+    assert paired.provenance["derived"]["mass_normalisation"]["rescaled"]
+    wrong = full_modes.freq_hz * 1.01  # a stiffer model: the modes no longer solve K, M
+    with pytest.raises(InputError, match="does not solve the eigenproblem"):
+        from_rst_modes(
+            synthetic_rst(full_modes, freq_hz=wrong), full=examples.fullfile, units="BIN"
+        )
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"units": "furlong"}, "unknown unit system"),
+        (
+            {"units": "BIN", "gamma": np.ones((6, 2))},
+            r"gamma: expected finite values of shape \(6, 3\)",
+        ),
+        ({"units": "BIN", "gamma": np.ones((6, 3)), "full": examples.fullfile}, "not both"),
+        ({"units": "BIN", "nodes": examples.hexarchivefile}, "holds its node coordinates"),
+    ],
+)
+def test_bad_arguments_are_named(kwargs, message):
+    with pytest.raises(InputError, match=message):
+        fem.from_ansys(examples.rstfile, **kwargs)
+
+
+def test_node_csv_and_missing_files(tmp_path, full_modes):
+    csv = tmp_path / "nodes.csv"
+    ids = full_modes.node_ids
+    table = np.column_stack([ids, full_modes.nodes / BIN.length_m])
+    np.savetxt(csv, table, delimiter=",", header="node,x,y,z", comments="")
+    from_csv = fem.from_ansys(examples.fullfile, units="BIN", n_modes=2, nodes=csv)
+    np.testing.assert_allclose(from_csv.nodes, full_modes.nodes)
+    np.savetxt(csv, table[:-1], delimiter=",")
+    with pytest.raises(InputError, match="lacks 1 node"):
+        fem.from_ansys(examples.fullfile, units="BIN", n_modes=2, nodes=csv)
+    with pytest.raises(InputError, match="does not exist"):
+        fem.from_ansys(tmp_path / "nothing.full", units="BIN")
+    bogus = tmp_path / "bogus.full"
+    bogus.write_bytes(b"not a full file" * 10)
+    with pytest.raises(InputError, match=r"not a MAPDL \.full file"):
+        fem.from_ansys(bogus, units="BIN")

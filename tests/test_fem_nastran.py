@@ -1,0 +1,243 @@
+"""Nastran decks solved by our plate model. The grids and shell elements are written by
+meshio's Nastran writer (an independent implementation), the property, material and
+constraint cards are added as text in small field with Nastran's real forms."""
+
+from __future__ import annotations
+
+import meshio
+import numpy as np
+import pytest
+from test_fem_bdf import SMALL
+
+import fem
+from fem import meshing
+from jaxflex.errors import InputError
+
+STEEL_SI = ["PSHELL  1       1       1.-3    1", "MAT1    1       2.1+11          .3      7850."]
+STEEL_MPA = ["PSHELL  1       1       1.      1", "MAT1    1       2.1+5           .3      7.85-9"]
+
+
+def meshio_deck(
+    path, points, cell_type, cells, cards, point_format="fixed-large", cell_format="fixed-small"
+):
+    """A deck of GRIDs ((K, 2) or (K, 3) coordinates) and shells of property 1 written by
+    meshio, ``cards`` (lines of text) added before ENDDATA. ``point_format``/``cell_format``:
+    meshio's (its fixed-large GRID* keeps 12 digits of the coordinates)."""
+    xyz = points if points.shape[1] == 3 else np.column_stack([points, np.zeros(len(points))])
+    mesh = meshio.Mesh(
+        xyz, [(cell_type, cells)], cell_data={"nastran:ref": [np.ones(len(cells), int)]}
+    )
+    meshio.write(
+        path, mesh, file_format="nastran", point_format=point_format, cell_format=cell_format
+    )
+    text = path.read_text()
+    assert text.endswith("ENDDATA\n")
+    path.write_text(text.removesuffix("ENDDATA\n") + "".join(c + "\n" for c in cards) + "ENDDATA\n")
+    return path
+
+
+def spc1_cards(grid_ids, sid=1):
+    """SPC1 cards holding translation 3 of ``grid_ids`` (1-based), six grids a card."""
+    ids = [int(g) for g in grid_ids]
+    return [
+        "SPC1    " + f"{sid:<8d}3       " + "".join(f"{g:<8d}" for g in ids[k : k + 6])
+        for k in range(0, len(ids), 6)
+    ]
+
+
+def test_deck_of_the_built_in_plate_gives_its_frequencies(tmp_path):
+    part, cups = fem.scene("plate", mesh_size=0.05)
+    mesh = part.mesh(cups)
+    deck = meshio_deck(tmp_path / "plate.bdf", mesh.nodes_xy, "triangle", mesh.triangles, STEEL_SI)
+    result = fem.from_nastran(deck, units="SI", cups=cups, n_modes=12)
+    reference = fem.modal_analysis(part, cups, n_modes=12)
+    # same nodes (12 digits in meshio's GRID*), elements, material, cups: the same matrices up
+    # to the coordinates' 12th digit, so the target 1e-6 holds with room (6e-12 measured)
+    np.testing.assert_allclose(result.freq_hz, reference.freq_hz, rtol=1e-6)
+    model = result.to_modal_model(points=200)
+    assert model.meta["input"]["deck"]["sha256"]
+    assert model.meta["derived"]["units"]["name"] == "SI"
+    assert model.meta["derived"]["mat1_derived"] == {"MAT1 1": "G from E = 2 (1 + NU) G"}
+
+
+WIDTH, HEIGHT = 0.6, 0.4
+
+
+@pytest.fixture(scope="module")
+def simply_supported():
+    """Our simply supported 0.6 m x 0.4 m plate; its mesh is the 13 x 9 grid of 50 mm quads
+    split along the same diagonals, and a Morley edge holds the deflection of its vertices
+    only: a deck of those quads with SPC 3 on the boundary grids is the same model."""
+    part = fem.rectangular_plate(WIDTH, HEIGHT, mesh_size=0.05)
+    return fem.modal_analysis(part, [fem.SimplySupportedEdge("all")], n_modes=6)
+
+
+def on_boundary(points_xy):
+    x, y = points_xy.T
+    return np.isclose(x, 0) | np.isclose(x, WIDTH) | np.isclose(y, 0) | np.isclose(y, HEIGHT)
+
+
+def rectangle():
+    nodes, quads = meshing.grid_quads(np.linspace(0, WIDTH, 13), np.linspace(0, HEIGHT, 9))
+    return nodes, quads, on_boundary(nodes)
+
+
+def with_midside(nodes, cells):
+    """Quadratic cells: each edge's mid-point appended as a grid (as a quadratic mesher
+    writes it, shared edges twice: a deck may repeat locations)."""
+    n = cells.shape[1]
+    mids = np.concatenate(
+        [0.5 * (nodes[cells[:, k]] + nodes[cells[:, (k + 1) % n]]) for k in range(n)]
+    )
+    ids = len(nodes) + np.arange(mids.shape[0]).reshape(n, -1).T
+    return np.vstack([nodes, mids]), np.column_stack([cells, ids])
+
+
+def test_quads_triangles_quadratic_elements_and_units(tmp_path, simply_supported):
+    nodes, quads, _ = rectangle()
+    triangles = meshing.split_quads(quads, nodes)
+    quad8_nodes, quad8 = with_midside(nodes, quads)
+    tri6_nodes, tri6 = with_midside(nodes, triangles)
+    decks = {
+        "CQUAD4, free-field GRIDs": (nodes, "quad", quads, STEEL_SI, "free", "fixed-small"),
+        "CQUAD4 in mm, t, s": (nodes * 1e3, "quad", quads, STEEL_MPA, "fixed-large", "fixed-large"),
+        "CQUAD8": (quad8_nodes, "quad8", quad8, STEEL_SI, "fixed-large", "fixed-small"),
+        "CTRIA6": (tri6_nodes, "triangle6", tri6, STEEL_SI, "fixed-large", "fixed-large"),
+    }
+    for name, (points, kind, cells, cards, point_format, cell_format) in decks.items():
+        path = tmp_path / f"{kind}_{point_format}.bdf"
+        # SPC 3 on every grid of the boundary, mid-side grids of the quadratic cells included
+        held = spc1_cards(np.flatnonzero(on_boundary(points / points.max() * WIDTH)) + 1)
+        meshio_deck(path, points, kind, cells, cards + held, point_format, cell_format)
+        result = fem.from_nastran(path, units="MPA" if "mm" in name else "SI", n_modes=6)
+        # the same model: equal to rounding (the mesh's node coordinates differ by 1e-15)
+        np.testing.assert_allclose(
+            result.freq_hz, simply_supported.freq_hz, rtol=1e-6, err_msg=name
+        )
+        derived = result.provenance["derived"]
+        assert derived["held_grids"] == 40  # the 13 x 9 grid's boundary
+        # the 40 boundary edges' mid-side grids: our elements have no node there
+        assert derived["constraints_on_midside_grids"] == (
+            40 if name in ("CQUAD8", "CTRIA6") else 0
+        )
+    assert derived["elements"]["CTRIA6"] == 2 * len(quads)
+
+
+def test_wtmass_and_mat1_from_e_and_g(tmp_path, simply_supported):
+    nodes, quads, edge = rectangle()
+    boundary = spc1_cards(np.flatnonzero(edge) + 1)
+    # E and G given, NU blank: Nastran's rule gives NU = E / (2 G) - 1 = 0.3
+    e_and_g = ["PSHELL  1       1       1.-3    1", "MAT1,1,2.1+11,8.0769230769231+10,,7850."]
+    path = meshio_deck(tmp_path / "eg.bdf", nodes, "quad", quads, [*e_and_g, *boundary])
+    result = fem.from_nastran(path, units="SI", n_modes=6)
+    # NU from a 14-digit G: 1e-13 off, frequencies move by far less than 1e-6
+    np.testing.assert_allclose(result.freq_hz, simply_supported.freq_hz, rtol=1e-6)
+    assert result.provenance["derived"]["mat1_derived"] == {"MAT1 1": "NU from E = 2 (1 + NU) G"}
+    # PARAM WTMASS scales the mass: a quarter of it doubles every frequency (omega ~ 1/sqrt(m))
+    path = meshio_deck(
+        tmp_path / "wt.bdf", nodes, "quad", quads, ["PARAM,WTMASS,.25", *STEEL_SI, *boundary]
+    )
+    result = fem.from_nastran(path, units="SI", n_modes=6)
+    np.testing.assert_allclose(result.freq_hz, 2 * simply_supported.freq_hz, rtol=1e-9)
+
+
+def test_case_control_selects_the_spc_set_and_include(tmp_path, simply_supported):
+    nodes, quads, edge = rectangle()
+    mesh_deck = meshio_deck(tmp_path / "mesh.bdf", nodes, "quad", quads, [])
+    # meshio's file as an include: its BEGIN BULK is skipped, its ENDDATA would end the deck
+    grids = [line for line in mesh_deck.read_text().splitlines() if line != "ENDDATA"]
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "plate.bdf").write_text("\n".join(grids) + "\n")
+    two_sides = np.flatnonzero(np.isclose(nodes[:, 0], 0) | np.isclose(nodes[:, 0], WIDTH)) + 1
+    lines = [
+        "SOL 103",
+        "CEND",
+        "SUBCASE 1",
+        "  SPC = 2",
+        "  METHOD = 1",
+        "BEGIN BULK",
+        "INCLUDE 'parts/plate.bdf'",
+        "EIGRL,1,,,6",
+        *STEEL_SI,
+        *spc1_cards(two_sides, sid=1),
+        *spc1_cards(np.flatnonzero(edge) + 1, sid=2),
+        "ENDDATA",
+    ]
+    deck = tmp_path / "job.dat"
+    deck.write_text("\n".join(lines) + "\n")
+    result = fem.from_nastran(deck, units="SI", n_modes=6)
+    np.testing.assert_allclose(result.freq_hz, simply_supported.freq_hz, rtol=1e-6)
+    derived = result.provenance["derived"]
+    assert (derived["spc_set"], derived["spc_set_reason"]) == (2, "selected by case control")
+    assert derived["ignored_cards"] == {"EIGRL": 1}
+    assert result.provenance["input"]["included"][0]["path"].endswith("plate.bdf")
+    # set 1 holds two opposite sides only: a softer plate (Levy's case), chosen by spc_id
+    levy = fem.from_nastran(deck, units="SI", n_modes=2, spc_id=1)
+    assert levy.provenance["derived"]["held_grids"] == 18
+    assert levy.freq_hz[0] < simply_supported.freq_hz[0]
+
+
+def test_hand_formatted_small_deck_gives_our_plate(tmp_path):
+    # the 12-grid deck of test_fem_bdf (executive and case control, comments, continuations)
+    deck = tmp_path / "small.bdf"
+    deck.write_text(SMALL)
+    result = fem.from_nastran(deck, units="SI", n_modes=4)
+    part = fem.rectangular_plate(WIDTH, HEIGHT, mesh_size=0.2)
+    reference = fem.modal_analysis(part, [fem.SimplySupportedEdge("all")], n_modes=4)
+    np.testing.assert_allclose(result.freq_hz, reference.freq_hz, rtol=1e-6)
+    assert result.provenance["derived"]["ignored_cards"] == {"EIGRL": 1, "PARAM": 1}
+    # GRDSET PS 6 on every grid: drilling, not a DOF of the plate; changes nothing
+    deck.write_text(SMALL.replace("PARAM   POST    -1", "GRDSET" + " " * 50 + "6"))
+    drilling = fem.from_nastran(deck, units="SI", n_modes=4)
+    np.testing.assert_allclose(drilling.freq_hz, reference.freq_hz, rtol=1e-6)
+    assert drilling.provenance["derived"]["constraints_without_effect"] == 2  # grids 5, 8
+
+
+def test_curved_deck_is_our_thin_solid(tmp_path):
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.4, 9), np.linspace(0, 0.3, 7))
+    sag = 0.5 - np.sqrt(0.5**2 - (nodes[:, 0] - 0.2) ** 2)  # a cylinder of radius 0.5 m
+    xyz = np.column_stack([nodes, sag])
+    meshio.write(tmp_path / "panel.vtu", meshio.Mesh(xyz, [("quad", quads)]))
+    corners = [0, 6, 56, 62]
+    part = fem.read_mesh(tmp_path / "panel.vtu", 1e-3, "steel")
+    reference = fem.modal_analysis(part, [fem.PointSupport(*nodes[i]) for i in corners], n_modes=6)
+    pins = "SPC1,1,123," + ",".join(str(i + 1) for i in corners)
+    deck = meshio_deck(tmp_path / "panel.bdf", xyz, "quad", quads, [*STEEL_SI, pins])
+    result = fem.from_nastran(deck, units="SI", n_modes=6)
+    assert result.part.element == "hex2"
+    # the deck's 12-digit coordinates move the extruded 1 mm layer's normals by ~1e-12;
+    # the thin solid's conditioning makes that 2e-8 in the frequencies (measured)
+    np.testing.assert_allclose(result.freq_hz, reference.freq_hz, rtol=1e-6)
+
+
+def test_deck_errors_are_named(tmp_path):
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 4), np.linspace(0, 0.2, 3))
+    free = meshio_deck(tmp_path / "free.bdf", nodes, "quad", quads, STEEL_SI)
+    with pytest.raises(InputError, match="does not state its unit system"):
+        fem.from_nastran(free)
+    with pytest.raises(InputError, match="no SPC and no cups"):
+        fem.from_nastran(free, units="SI")
+    clamped = meshio_deck(tmp_path / "c.bdf", nodes, "quad", quads, [*STEEL_SI, "SPC1,1,123456,1"])
+    with pytest.raises(InputError, match=r"SPC1 1 \(c\.bdf line \d+\): grid 1 has its rotations"):
+        fem.from_nastran(clamped, units="SI")
+    sets = meshio_deck(
+        tmp_path / "s.bdf", nodes, "quad", quads, [*STEEL_SI, "SPC1,1,3,1", "SPC1,2,3,2"]
+    )
+    with pytest.raises(InputError, match=r"the deck has SPC sets \[1, 2\]; choose one"):
+        fem.from_nastran(sets, units="SI")
+    pcomp = meshio_deck(
+        tmp_path / "p.bdf", nodes, "quad", quads, ["PCOMP,1", "MAT1,1,2.1+11,,.3,7850."]
+    )
+    with pytest.raises(
+        InputError, match=r"CQUAD4 1 \(p\.bdf line \d+, field 3 PID\): property 1 is a PCOMP"
+    ):
+        fem.from_nastran(pcomp, units="SI")
+    mat8 = meshio_deck(
+        tmp_path / "m.bdf", nodes, "quad", quads, ["PSHELL,1,1,1.-3,1", "MAT8,1,1.+11"]
+    )
+    with pytest.raises(
+        InputError, match=r"PSHELL 1 \(m\.bdf line \d+, field 3 MID1\): material 1 is a MAT8"
+    ):
+        fem.from_nastran(mat8, units="SI")
+    with pytest.raises(InputError, match="does not exist"):
+        fem.from_nastran(tmp_path / "none.bdf", units="SI")
