@@ -1,16 +1,16 @@
-"""A sweep of 2 000 small cases on a LocalCluster of 2 workers (optim.sweep.scale): every
+"""A sweep of 2 000 small cases on a LocalCluster of 2 workers (benchmarks.sweep_scale): every
 case stored once, tasks in bounded batches, and the memory of the client and of the workers
 flat once the run is under way. The figures (throughput, memory, store cost) are in
-docs/sweep.md, measured with ``python -m optim.sweep.scale``; this test asserts no time.
+docs/sweep.md, measured with ``python -m benchmarks.sweep_scale``; this test asserts no time.
 """
 
 from __future__ import annotations
 
 import pytest
 
+from benchmarks.sweep_scale import SAMPLE_EVERY, measure
 from optim.sweep import read_table
 from optim.sweep.cluster import TASKS_PER_THREAD
-from optim.sweep.scale import SAMPLE_EVERY, measure
 from optim.sweep.store import FINAL_STAGES
 
 N_CASES = 2000
