@@ -35,7 +35,6 @@ from fmu.export import export_fmu
 from fmu.harness import compile_harness, resource_location, unpack
 from fmu.ssp import export_ssp
 from fmu.windows import (
-    compile_windows_harness,
     replay,
     run_under_wine,
     windows_library,
@@ -112,7 +111,7 @@ def windows_figures(
     )
     harnesses = (
         compile_harness(version, folder / "harness"),
-        compile_windows_harness(version, folder / "harness.exe"),
+        compile_harness(version, folder / "harness.exe", windows=True),
     )
     linux = replay(result.fmu_path, folder / "linux", harnesses[0], 300, dt_s, windows=False)
     win = replay(result.fmu_path, folder / "windows", harnesses[1], 300, dt_s, windows=True)
@@ -178,7 +177,7 @@ def run(
             result = export_fmu(model, tmp / f"bench{version}.fmu", fmi_version=version)
             library, resources, token = unpack(result.fmu_path, tmp / f"fmu{version}")
             array = n_points if read_array and version == 3 else None
-            harness = compile_harness(version, tmp / f"harness{version}", array)
+            harness = compile_harness(version, tmp / f"harness{version}", array_points=array)
             say(f"FMI {version}.0: {repeats} instantiations, {n_steps} steps")
             cmd = [
                 str(harness),
