@@ -17,14 +17,18 @@ from fmu.build import C_DIR, WINDOWS_COMPILER, FmuBuildError, fmi_headers, host_
 WINE_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64 wine64"
 
 
-def compile_harness(fmi_version: int, out_file: Path, *, windows: bool = False) -> Path:
+def compile_harness(
+    fmi_version: int, out_file: Path, *, windows: bool = False, array_points: int | None = None
+) -> Path:
     """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``: for this machine, or
     (``windows=True``) as a static Windows x86_64 executable with mingw-w64, run under wine
-    by fmu.windows."""
+    by fmu.windows. With ``array_points`` (FMI 3.0) it also reads the displaced-points array
+    output (K x 3) after every step."""
     if windows and shutil.which(WINDOWS_COMPILER) is None:
         raise FmuBuildError(f"{WINDOWS_COMPILER} is not installed ({WINE_HINT})")
     compiler = WINDOWS_COMPILER if windows else host_target().compiler
     link = ["-static", "-lm"] if windows else ["-ldl", "-lm"]
+    array = [f"-DHARNESS_ARRAY_POINTS={array_points}"] if array_points else []
     cmd = [
         compiler,
         "-std=c99",
@@ -32,6 +36,7 @@ def compile_harness(fmi_version: int, out_file: Path, *, windows: bool = False) 
         "-Wall",
         "-Wextra",
         f"-DHARNESS_FMI={fmi_version}",
+        *array,
         f"-I{fmi_headers()}",
         str(C_DIR / "harness.c"),
         "-o",

@@ -9,7 +9,8 @@ Where it goes (always stderr, so that stdout keeps the results):
 * quiet: nothing.
 
 ``progress_bar(total, desc)`` is the bar, ``step(message)`` one line saying what starts now
-(work without a count: a factorisation, an eigen solve). Both take ``enabled``: True shows,
+(work without a count: a factorisation, an eigen solve), ``note(message)`` a line that shows
+even when quiet. Both take ``enabled``: True shows,
 False hides, None (the default everywhere) follows the process-wide setting, which the
 ``jaxflex`` command line sets from ``--quiet`` (:func:`set_quiet`).
 """
@@ -59,9 +60,15 @@ def _duration(seconds: float) -> str:
 
 
 def step(message: str, *, enabled: bool | None = None, stream: TextIO | None = None) -> None:
-    """One line on stderr saying what starts now (unless quiet)."""
+    """One line on stderr saying what starts now (unless quiet), above a running bar."""
     if _shown(enabled):
-        print(message, file=stream or sys.stderr, flush=True)
+        note(message, stream=stream)
+
+
+def note(message: str, *, stream: TextIO | None = None) -> None:
+    """One line on stderr that shows even when quiet (a lost worker, a dashboard link),
+    printed above a running bar instead of through it."""
+    tqdm.write(message, file=stream or sys.stderr)
 
 
 class Progress:

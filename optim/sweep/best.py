@@ -49,6 +49,16 @@ class MoveBest:
         return text
 
 
+RANKED = (
+    "cycle_time_s",
+    "worst_cycle_time_s",
+    "peak_deviation_m",
+    "best_baseline",
+    "best_baseline_s",
+    "best_baseline_cycle_time_s",
+)
+
+
 def objective_s(record: dict) -> float:
     """What a case's optimisation minimised: the robust worst case, else the cycle time."""
     opt = record["opt"]
@@ -64,9 +74,10 @@ def best_layouts(spec: SweepSpec, items: Iterable[tuple[Case, dict]]) -> list[Mo
     """Per move of ``spec`` with a successful case, its best layout (module docstring);
     ``items``: (case, record) pairs."""
     by_move: dict[str, list[tuple[Case, dict]]] = {}
-    for case, record in items:
+    for case, record in items:  # kept: the few numbers ranked by (records may be thousands)
         if record.get("status") == "ok":
-            by_move.setdefault(case.move.name, []).append((case, record))
+            slim = {"opt": {k: record["opt"].get(k) for k in RANKED}}
+            by_move.setdefault(case.move.name, []).append((case, slim))
     found = []
     for move in spec.moves:
         ok = by_move.get(move.name)
@@ -83,7 +94,7 @@ def best_layouts(spec: SweepSpec, items: Iterable[tuple[Case, dict]]) -> list[Mo
                 objective_s=best,
                 ties=sum(objective_s(r) == best for _, r in ok) - 1,
                 baseline=opt["best_baseline"],
-                baseline_s=opt.get("best_baseline_s", opt["best_baseline_cycle_time_s"]),
+                baseline_s=opt["best_baseline_s"] or opt["best_baseline_cycle_time_s"],
                 n_layouts=len(ok),
             )
         )
