@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import json
 import resource
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -38,6 +37,7 @@ from jaxflex.atomic import write_text_atomic
 from jaxflex.deviation import deviation
 from jaxflex.engine import modal_states
 from jaxflex.model import ModalModel
+from jaxflex.progress import step
 from jaxflex.settle import analyze_move, cycle_time
 from jaxflex.simulate import on_device
 
@@ -258,10 +258,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scenes", nargs="*", default=["plate"], choices=["plate", "panel"])
     parser.add_argument("-o", "--output", help="also write the figures as JSON to this file")
     args = parser.parse_args(argv)
-    say = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
     report = {
-        "scale": run_scale(large=None if args.no_large else args.large, progress=say),
-        "reduction": [run_reduction(name, progress=say) for name in args.scenes],
+        "scale": run_scale(large=None if args.no_large else args.large, progress=step),
+        "reduction": [run_reduction(name, progress=step) for name in args.scenes],
     }
     print(format_nodes(report))
     if args.output:
