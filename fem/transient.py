@@ -117,7 +117,9 @@ def transient_reference(
     out = [observe @ u]
     setup_s = time.perf_counter() - start
     tick = time.perf_counter()
-    with progress_bar(n_fine, f"Newmark ({K.shape[0]} DOFs, h={h:.3g} s)", progress) as bar:
+    with progress_bar(
+        n_fine, f"Newmark ({K.shape[0]} DOFs, h={h:.3g} s)", progress, unit="step"
+    ) as bar:
         for k in range(1, n_fine + 1):
             mass_part = a0 * u + (4.0 / h) * v + a
             damp_part = a1 * u + v  # gamma/(beta h) u + (gamma/beta - 1) v, gamma/beta = 2
