@@ -26,14 +26,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     size.add_argument(
         "--quick",
         action="store_true",
-        help="CI size: small scenes, few sweep points, core case K=200 M=10 N=200 (~30 s)",
+        help="CI size: small scenes, few sweep points, core case K=200 M=10 N=200 (about 45 s "
+        "of CPU time; longer on a loaded machine)",
     )
     size.add_argument(
         "--size",
         choices=("tiny", "quick", "medium", "full"),
         default="full",
         help="full (default): the built-in scenes, several minutes; medium: small scenes with "
-        "the full sweeps",
+        "the full sweeps; tiny: the small plate only",
     )
 
 
