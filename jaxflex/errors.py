@@ -15,3 +15,8 @@ class ModelError(InputError):
 
 class ModelFileError(JaxflexError, OSError):
     """A model file cannot be read: missing, truncated, corrupt or of an unknown schema."""
+
+
+class BudgetError(InputError):
+    """A request needs more work or memory than its budget allows. The message says what
+    the request needs, the budget, and the option that limits it."""
