@@ -13,11 +13,21 @@ from fmpy import read_model_description
 
 from fmu.build import C_DIR, FmuBuildError, fmi_headers, host_target
 
+# AddressSanitizer and UndefinedBehaviorSanitizer, every finding fatal (the fuzz runs)
+SANITIZE_FLAGS = (
+    "-fsanitize=address,undefined",
+    "-fno-sanitize-recover=all",
+    "-fno-omit-frame-pointer",
+    "-g",
+)
 
-def compile_harness(fmi_version: int, out_file: Path) -> Path:
-    """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``."""
+
+def compile_harness(fmi_version: int, out_file: Path, *, sanitize: bool = False) -> Path:
+    """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file`` (with ``sanitize``:
+    instrumented with SANITIZE_FLAGS, to load an FMU library built with them)."""
     cmd = [
         host_target().compiler,
+        *(SANITIZE_FLAGS if sanitize else ()),
         "-std=c99",
         "-O2",
         "-Wall",

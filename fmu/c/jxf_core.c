@@ -314,6 +314,21 @@ static int all_finite(const double *x, size_t n) {
     return 1;
 }
 
+/* 1 if every value of `x` lies in [low, high] (the physical ranges of jaxflex.model_file,
+ * compiled in as JXF_RANGE_*), else 0 after logging the first one outside. */
+static int in_range(const jxf_model *m, const char *name, const char *what, const double *x,
+                    size_t n, double low, double high) {
+    size_t i;
+    for (i = 0; i < n; ++i) {
+        if (!(x[i] >= low && x[i] <= high)) {
+            jxf_log(m, JXF_LOG_ERROR, "'%s': %s %g (value %lu) is outside the physical range "
+                    "[%g, %g]", name, what, x[i], (unsigned long)i, low, high);
+            return 0;
+        }
+    }
+    return 1;
+}
+
 /* Point the model's arrays into the payload (converted to host order) and check values. */
 static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
     const uint16_t probe = 1;
@@ -338,11 +353,15 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' contains NaN or infinite values", name);
         return -1;
     }
+    if (!in_range(m, name, "frequency (Hz)", m->freq_hz, M, JXF_RANGE_FREQ_HZ) ||
+        !in_range(m, name, "participation factor", m->gamma, 3 * (size_t)M, JXF_RANGE_GAMMA) ||
+        !in_range(m, name, "mode shape value", m->shapes, 3 * (size_t)M * K, JXF_RANGE_SHAPES) ||
+        !in_range(m, name, "point coordinate", m->points, 3 * (size_t)K, JXF_RANGE_POINTS))
+        return -1;
     for (mode = 0; mode < M; ++mode) {
-        if (!(m->freq_hz[mode] > 0.0) || !(m->zeta[mode] >= 0.0 && m->zeta[mode] < 1.0)) {
-            jxf_log(m, JXF_LOG_ERROR, "'%s': mode %d has frequency %g Hz and damping ratio %g "
-                    "(need > 0 Hz and 0 <= zeta < 1)", name, mode, m->freq_hz[mode],
-                    m->zeta[mode]);
+        if (!(m->zeta[mode] >= 0.0 && m->zeta[mode] < 1.0)) {
+            jxf_log(m, JXF_LOG_ERROR, "'%s': mode %d has damping ratio %g (need 0 <= zeta < 1)",
+                    name, mode, m->zeta[mode]);
             return -1;
         }
     }
@@ -879,8 +898,9 @@ static int replay(jxf_model *m, double tau, double h) {
 
 int jxf_do_step(jxf_model *m, double t, double h) {
     const size_t M = (size_t)m->n_modes;
-    const double end = t + h;
-    int status;
+    const double end = t + h, time = m->time;
+    double settle_time;
+    int status, settled;
     if (!(isfinite(h) && h > 0.0) || !isfinite(t) || !isfinite(end)) {
         jxf_log(m, JXF_LOG_ERROR, "doStep(currentCommunicationPoint = %g s, step = %g s): the "
                 "step must be a finite number > 0 ending at a finite time; state unchanged", t,
@@ -898,6 +918,8 @@ int jxf_do_step(jxf_model *m, double t, double h) {
                 "end of the previous step %.17g s; continuing from %.17g s", t, m->time, t);
     }
     memcpy(m->saved, m->q, 2 * M * sizeof(double));
+    settled = m->settled;
+    settle_time = m->settle_time;
     if (m->use_trajectory) {
         status = replay(m, t - m->start_time, h);
     } else {
@@ -906,13 +928,24 @@ int jxf_do_step(jxf_model *m, double t, double h) {
         for (c = 0; c < 3; ++c) a1[c] = m->acc[c] + h * m->acc_rate[c];
         status = advance(m, h, m->acc, a1);
     }
-    if (status != 0) {
+    if (status == 0) {
+        m->time = end;
+        update_outputs(m);
+        if (!isfinite(m->deviation)) {
+            jxf_log(m, JXF_LOG_ERROR, "the displacement after the step is not finite (it "
+                    "overflows double precision)");
+            status = -1;
+        }
+    }
+    if (status != 0) { /* back to the state before the call, outputs included */
         memcpy(m->q, m->saved, 2 * M * sizeof(double));
+        m->time = time;
+        update_outputs(m);
+        m->settled = settled;
+        m->settle_time = settle_time;
         jxf_log(m, JXF_LOG_ERROR, "doStep(currentCommunicationPoint = %g s, step = %g s) "
                 "refused; state unchanged", t, h);
         return -1;
     }
-    m->time = end;
-    update_outputs(m);
     return 0;
 }
