@@ -110,3 +110,16 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
         terminalreporter.write_line(
             f"{category:34s}" + "".join(f"{row[c]:>18d}" for c in TALLY_COLUMNS)
         )
+
+
+@pytest.fixture(scope="session")
+def serial_sweep(tmp_path_factory):
+    """The shared tiny sweep (tests/sweep_cases.py) run serially: (SweepRun, table rows), the
+    reference the other executors must reproduce."""
+    from sweep_cases import SPEC
+
+    from optim.sweep import parse_spec, read_table, run_sweep
+
+    directory = tmp_path_factory.mktemp("serial")
+    run = run_sweep(parse_spec(SPEC), directory, executor="serial", progress=False)
+    return run, read_table(directory / "results.csv")
