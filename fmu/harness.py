@@ -24,6 +24,7 @@ SANITIZE_FLAGS = (
     "-g",
 )
 
+
 def compile_harness(
     fmi_version: int,
     out_file: Path,
