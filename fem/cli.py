@@ -29,6 +29,7 @@ from jaxflex.errors import InputError
 from jaxflex.profile import jerk_limited_move
 from jaxflex.settle import analyze_move
 from jaxflex.trajectory_io import read_trajectory_csv
+from jaxflex.validation import check_output_file
 
 COMMAND = "model"
 HELP = (
@@ -253,6 +254,9 @@ def _defaults() -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
+    for option in ("output", "plot", "vtu", "report"):  # before the analysis, not after it
+        if getattr(args, option) is not None:
+            check_output_file(f"--{option}", getattr(args, option))
     if cli_imports.requested(args):
         return cli_imports.run(args, _defaults(), _write)
     cli_imports.refuse_import_options(args)

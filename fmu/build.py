@@ -15,7 +15,7 @@ import fmpy
 from jaxflex.errors import JaxflexError
 
 C_DIR = Path(__file__).resolve().parent / "c"
-CORE_FILES = ("jxf_core.h", "jxf_core.c", "jxf_values.c")
+CORE_FILES = ("jxf_core.h", "jxf_text.h", "jxf_core.c", "jxf_values.c")
 GLUE_FILE = {2: "jxf_fmi2.c", 3: "jxf_fmi3.c"}
 CFLAGS = ("-std=c99", "-O2", "-fvisibility=hidden", "-Wall", "-Wextra")
 WINDOWS_COMPILER = "x86_64-w64-mingw32-gcc"
@@ -90,9 +90,11 @@ def compile_library(
     fmi_version: int,
     out_file: Path,
     c_files: Sequence[str] | None = None,
+    extra_flags: Sequence[str] = (),
 ) -> str:
     """Compile the sources in ``sources_dir`` (``c_files``, default: the part FMU's) into
-    ``out_file``; returns compiler messages."""
+    ``out_file`` (``extra_flags`` added, e.g. fmu.harness.SANITIZE_FLAGS); returns compiler
+    messages."""
     if shutil.which(target.compiler) is None:
         raise FmuBuildError(f"C compiler {target.compiler!r} not found on PATH (install gcc)")
     out_file.parent.mkdir(parents=True, exist_ok=True)
@@ -101,6 +103,7 @@ def compile_library(
     cmd = [
         target.compiler,
         *CFLAGS,
+        *extra_flags,
         *target.flags,
         f"-I{sources_dir}",
         f"-I{fmi_headers()}",

@@ -14,8 +14,10 @@ from fmu.export import export_fmu
 from fmu.ssp import export_ssp
 from fmu.verify import verify
 from jaxflex.errors import InputError
+from jaxflex.fileset import read_set
 from jaxflex.trajectory_io import read_trajectory_csv
-from jaxflex.validation import check_positive
+from jaxflex.validation import check_output_file, check_positive
+from optim.result import RESULT_KIND
 
 COMMAND = "export"
 HELP = (
@@ -79,25 +81,33 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def load_case(path: Path) -> tuple[object, float, dict | None]:
-    """(acc (n+1, 3) m/s^2, dt s, report dict or None) from an optimize folder or a CSV."""
+    """(acc (n+1, 3) m/s^2, dt s, report dict or None) from an optimize folder or a CSV.
+
+    The trajectory and its report are used together only as members of one complete result
+    set (jaxflex.fileset: the manifest lists both with their hashes): a folder whose run was
+    interrupted, or a CSV beside a report of another run, is refused naming the file."""
     if path.is_dir():
-        csv, report_path = path / "trajectory.csv", path / "report.json"
+        csv = path / "trajectory.csv"
         if not csv.is_file():
             raise InputError(
                 f"--trajectory: folder {str(path)!r} has no trajectory.csv (expected the output "
                 "folder of `jaxflex optimize ... -o DIR`)"
             )
     elif path.is_file():
-        csv, report_path = path, path.with_name("report.json")
+        csv = path
+        if not csv.with_name("report.json").exists():
+            return (*read_trajectory_csv(csv), None)  # a trajectory on its own
     else:
         raise InputError(f"--trajectory: {str(path)!r} does not exist")
+    members = read_set(csv.parent, RESULT_KIND, (csv.name, "report.json"), option="--trajectory")
     acc, dt_s = read_trajectory_csv(csv)
-    if not report_path.is_file():
-        return acc, dt_s, None
+    report_path = members["report.json"]
     try:
         report = json.loads(report_path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"--trajectory: {str(report_path)!r} is not valid JSON ({exc})") from exc
+    if not isinstance(report, dict):
+        raise InputError(f"--trajectory: {str(report_path)!r} is not a report (a JSON object)")
     report_dt = report.get("dt_s")
     if report_dt is not None and abs(float(report_dt) - dt_s) > 1e-9 * dt_s:
         raise InputError(
@@ -179,6 +189,9 @@ def _export_ssp(args, model, trajectory, threshold_m, case, windows) -> int:
 def run(args: argparse.Namespace) -> int:
     if not args.output and not args.ssp:
         raise InputError("give -o FILE.fmu, --ssp FILE.ssp or both")
+    for option, value in (("-o/--output", args.output), ("--ssp", args.ssp)):
+        if value:
+            check_output_file(option, value)
     if args.ssp and not args.trajectory:
         raise InputError("--ssp: the package plays a move; give --trajectory as well")
     model = jaxflex.load_model(args.model)

@@ -16,14 +16,28 @@ from fmu.build import C_DIR, WINDOWS_COMPILER, FmuBuildError, fmi_headers, host_
 
 WINE_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64 wine64"
 
+# AddressSanitizer and UndefinedBehaviorSanitizer, every finding fatal (the fuzz runs)
+SANITIZE_FLAGS = (
+    "-fsanitize=address,undefined",
+    "-fno-sanitize-recover=all",
+    "-fno-omit-frame-pointer",
+    "-g",
+)
+
 
 def compile_harness(
-    fmi_version: int, out_file: Path, *, windows: bool = False, array_points: int | None = None
+    fmi_version: int,
+    out_file: Path,
+    *,
+    windows: bool = False,
+    array_points: int | None = None,
+    sanitize: bool = False,
 ) -> Path:
     """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``: for this machine, or
     (``windows=True``) as a static Windows x86_64 executable with mingw-w64, run under wine
     by fmu.windows. With ``array_points`` (FMI 3.0) it also reads the displaced-points array
-    output (K x 3) after every step."""
+    output (K x 3) after every step. With ``sanitize`` it is instrumented with SANITIZE_FLAGS,
+    to load an FMU library built with them."""
     if windows and shutil.which(WINDOWS_COMPILER) is None:
         raise FmuBuildError(f"{WINDOWS_COMPILER} is not installed ({WINE_HINT})")
     compiler = WINDOWS_COMPILER if windows else host_target().compiler
@@ -31,6 +45,7 @@ def compile_harness(
     array = [f"-DHARNESS_ARRAY_POINTS={array_points}"] if array_points else []
     cmd = [
         compiler,
+        *(SANITIZE_FLAGS if sanitize else ()),
         "-std=c99",
         "-O2",
         "-Wall",

@@ -36,7 +36,7 @@ SOURCE_FILES = {
     2: ("jxf_source.c", "jxf_source_fmi2.c"),
     3: ("jxf_source.c", "jxf_source_fmi3.c"),
 }
-HEADER_FILE = "jxf_source.h"
+HEADER_FILES = ("jxf_source.h", "jxf_text.h")
 DATA_FILE = "jxf_source_data.h"
 OUTPUTS = ("ax", "ay", "az")  # value references 1, 2, 3
 _OUTPUT_TEXT = (
@@ -215,7 +215,7 @@ def export_source_fmu(
         stage = Path(tmp) / "fmu"
         sources = stage / "sources"
         sources.mkdir(parents=True)
-        for name in (*SOURCE_FILES[fmi_version], HEADER_FILE):
+        for name in (*SOURCE_FILES[fmi_version], *HEADER_FILES):
             (sources / name).write_bytes((C_DIR / name).read_bytes())
         (sources / DATA_FILE).write_text(
             source_data_header(fmi_version, token, acc, dt_s), encoding="utf-8"

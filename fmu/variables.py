@@ -13,6 +13,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from jaxflex.model_file import VALUE_RANGES
+
 RESOURCE_FILE = "jaxflex_model.bin"
 INPUT_COLUMNS = ("time", "ax", "ay", "az")  # input CSV / fmpy signal: s, m/s^2
 
@@ -160,6 +162,10 @@ def config_header(
         f"#define JXF_N_TRAJ {int(n_trajectory)}",
         f"#define JXF_START_THRESHOLD {float(threshold_m)!r}",
         f"#define JXF_START_DAMPING_SCALE {float(damping_scale)!r}",
+    ]
+    lines += [  # the physical ranges every model is checked against (jaxflex.model_file)
+        f"#define JXF_RANGE_{name.upper()} {float(low)!r}, {float(high)!r}"
+        for name, (low, high) in VALUE_RANGES.items()
     ]
     lines += [f"#define JXF_VR_{v.macro} {v.vr}u" for v in variables]
     table = ", ".join(f'{{{v.vr}u, "{v.name}"}}' for v in variables)

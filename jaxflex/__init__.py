@@ -12,7 +12,13 @@ import jax
 jax.config.update("jax_enable_x64", True)
 
 from jaxflex.engine import free_states, modal_states, upsample  # noqa: E402
-from jaxflex.errors import InputError, JaxflexError, ModelError, ModelFileError  # noqa: E402
+from jaxflex.errors import (  # noqa: E402
+    BudgetError,
+    InputError,
+    JaxflexError,
+    ModelError,
+    ModelFileError,
+)
 from jaxflex.model import ModalModel, load_model, save_model, stack_models  # noqa: E402
 from jaxflex.profile import integrate, jerk_limited_move  # noqa: E402
 from jaxflex.settle import SettleReport, analyze_move, cycle_time, settle_time  # noqa: E402
@@ -20,6 +26,7 @@ from jaxflex.simulate import Response, batch_deviation, end_state, simulate  # n
 from jaxflex.surrogate import cycle_time_smooth, envelope_time  # noqa: E402
 
 __all__ = [
+    "BudgetError",
     "InputError",
     "JaxflexError",
     "ModalModel",

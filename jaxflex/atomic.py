@@ -10,19 +10,60 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import secrets
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
 
+STALE_AFTER_S = 3600.0
+
 
 def _create_beside(target: Path, suffix: str) -> tuple[int, str]:
     """A new, empty file with a random name beside ``target`` (descriptor, name), created
-    with mode 0666 so that the umask decides its permissions."""
+    with mode 0666 so that the umask decides its permissions. The name carries the writer's
+    process id, so that :func:`remove_stale_temporaries` can tell a killed writer's file from
+    a live one's."""
     target.parent.mkdir(parents=True, exist_ok=True)
-    name = str(target.parent / f".{target.name}.{secrets.token_hex(8)}{suffix}")
+    name = str(target.parent / f".{target.name}.{os.getpid()}-{secrets.token_hex(8)}{suffix}")
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
     return os.open(name, flags, 0o666), name
+
+
+def _writer_alive(entry: Path, pid: str | None) -> bool:
+    """Whether the process ``pid`` that created the temporary file ``entry`` may still be
+    writing it: it runs (POSIX); on other systems, and for names without a process id,
+    whether the file changed within STALE_AFTER_S."""
+    if os.name == "posix" and pid is not None:
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            return False
+        except OSError:  # EPERM: alive, another user's
+            return True
+        return True
+    try:
+        return time.time() - entry.stat().st_mtime < STALE_AFTER_S
+    except OSError:
+        return False
+
+
+def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
+    """Remove the temporary files a killed writer of ``path`` left beside it (those of live
+    writers stay); returns the removed paths."""
+    target = Path(path)
+    pattern = re.compile(rf"\.{re.escape(target.name)}\.(?:(\d+)-)?[0-9a-f]{{16}}(?:\..*)?")
+    removed = []
+    if not target.parent.is_dir():
+        return removed
+    for entry in target.parent.iterdir():
+        match = pattern.fullmatch(entry.name)
+        if match and not _writer_alive(entry, match.group(1)):
+            with contextlib.suppress(FileNotFoundError, IsADirectoryError, PermissionError):
+                entry.unlink()
+                removed.append(entry)
+    return removed
 
 
 @contextlib.contextmanager

@@ -21,3 +21,8 @@ class JaxflexWarning(UserWarning):
     """Input that is allowed but probably not meant (a threshold in mm given as m, a robust
     check grid of one point): the work goes on, the message says what looks wrong and why.
     The command line prints it as ``jaxflex COMMAND: warning: ...``."""
+
+
+class BudgetError(InputError):
+    """A request needs more work or memory than its budget allows. The message says what
+    the request needs, the budget, and the option that limits it."""

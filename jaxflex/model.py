@@ -22,7 +22,7 @@ import jax
 import numpy as np
 
 from jaxflex.errors import ModelError
-from jaxflex.model_file import ARRAY_FIELDS, read_model_file, write_model_file
+from jaxflex.model_file import ARRAY_FIELDS, VALUE_RANGES, read_model_file, write_model_file
 
 
 class _Annotations:
@@ -48,6 +48,8 @@ def _is_concrete(x: Any) -> bool:
 
 
 def _as_float_array(name: str, value: Any, ndim: int) -> np.ndarray:
+    if np.iscomplexobj(value):
+        raise ModelError(f"ModalModel.{name}: must be real, got complex numbers")
     try:
         arr = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -60,6 +62,18 @@ def _as_float_array(name: str, value: Any, ndim: int) -> np.ndarray:
         raise ModelError(f"ModalModel.{name}: must be finite, found {arr[where]} at index {where}")
     arr.setflags(write=False)
     return arr
+
+
+def _check_range(name: str, arr: np.ndarray) -> None:
+    """Values within jaxflex.model_file.VALUE_RANGES (where it says why)."""
+    low, high = VALUE_RANGES[name]
+    outside = (arr < low) | (arr > high)
+    if outside.any():
+        where = tuple(int(i) for i in np.argwhere(outside)[0])
+        raise ModelError(
+            f"ModalModel.{name}: {arr[where]:.6g} at index {where} is outside the physical "
+            f"range [{low:g}, {high:g}] (a unit slip or a damaged file?)"
+        )
 
 
 @jax.tree_util.register_pytree_node_class
@@ -126,6 +140,9 @@ class ModalModel:
                 f"ModalModel.shapes: expected shape (K, 3, M) = ({n_points}, 3, {n_modes}), "
                 f"got {shapes.shape}"
             )
+        arrays = dict(zip(ARRAY_FIELDS, (freq, zeta, gamma, shapes, points), strict=True))
+        for name in VALUE_RANGES:
+            _check_range(name, arrays[name])
         labels = self.labels
         if labels is not None:
             labels = tuple(str(s) for s in labels)
@@ -138,15 +155,7 @@ class ModalModel:
             json.dumps(meta)
         except TypeError as exc:
             raise ModelError(f"ModalModel.meta: must be JSON-serialisable ({exc})") from exc
-        for name, value in (
-            ("freq_hz", freq),
-            ("zeta", zeta),
-            ("gamma", gamma),
-            ("shapes", shapes),
-            ("points", points),
-            ("labels", labels),
-            ("meta", meta),
-        ):
+        for name, value in (*arrays.items(), ("labels", labels), ("meta", meta)):
             object.__setattr__(self, name, value)
 
     # -- pytree protocol: arrays are leaves, labels and meta ride along (_Annotations) -----

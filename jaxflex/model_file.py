@@ -1,11 +1,20 @@
 """The modal model file: a versioned ``.npz`` (numpy zip archive, no pickled objects).
 
-Schema version 1 holds:
+Schema version 1 holds the members of :data:`FIELDS`:
     format          "jaxflex.modal_model"
     schema_version  1
+    meta_json       JSON object (source, material, gripper, mesh statistics; SI units)
     freq_hz (M,) Hz, zeta (M,), gamma (M, 3) kg^0.5, shapes (K, 3, M) m/kg^0.5, points (K, 3) m,
-    labels (K,) unicode (empty strings: unlabelled; absent array: no labels),
-    meta_json       JSON text (source, material, gripper, mesh statistics; SI units).
+    labels (K,) unicode (optional; empty strings: unlabelled points).
+
+Reading trusts nothing in the file. Only the members of :data:`FIELDS` are read (anything
+else in the archive is never decompressed), each one's npy header is checked against the
+table (kind of data, number of dimensions, the sizes M and K the other members declare)
+*before* its data are read, the declared size must be exactly what the member holds, and a
+compressed member may not expand beyond :data:`MAX_EXPANSION` times its stored size (real
+modal data hardly compress; a zip bomb does). Every failure is a ModelFileError naming the
+file and the member. The values themselves (finite, physical ranges :data:`VALUE_RANGES`)
+are checked where the model is built (jaxflex.model).
 
 This module knows the file, not the model class: it writes and reads plain arrays, and
 jaxflex.model turns them into a validated ModalModel.
@@ -14,8 +23,12 @@ jaxflex.model turns them into a validated ModalModel.
 from __future__ import annotations
 
 import json
+import math
 import os
+import struct
 import zipfile
+import zlib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +39,56 @@ from jaxflex.errors import ModelFileError
 
 FORMAT_NAME = "jaxflex.modal_model"
 SCHEMA_VERSION = 1
+SUPPORTED_VERSIONS = (1,)
 ARRAY_FIELDS = ("freq_hz", "zeta", "gamma", "shapes", "points")
+# A member stored compressed may hold at most this many times its compressed size: modal
+# data are float64 noise (a ratio near 1; a flat part's zero in-plane shapes give about 3).
+MAX_EXPANSION = 100
+# The scalar text members (format, meta_json) are small; a larger one is not a model file.
+MAX_TEXT_BYTES = 64 << 20
+_NPY_MAGIC = b"\x93NUMPY"
+
+
+@dataclass(frozen=True)
+class Field:
+    """One member of the archive: its name, the data it holds ("real": numbers, "integer",
+    "text": unicode), its shape in the model's sizes (M modes, K points; integers are fixed
+    lengths), its unit, whether a file must have it and the first schema version with it."""
+
+    name: str
+    kind: str
+    dims: tuple[str | int, ...]
+    unit: str = ""
+    required: bool = True
+    since: int = 1
+
+
+FIELDS = (
+    Field("format", "text", ()),
+    Field("schema_version", "integer", ()),
+    Field("meta_json", "text", ()),
+    Field("freq_hz", "real", ("M",), "Hz"),
+    Field("zeta", "real", ("M",)),
+    Field("gamma", "real", ("M", 3), "kg^0.5"),
+    Field("shapes", "real", ("K", 3, "M"), "m/kg^0.5"),
+    Field("points", "real", ("K", 3), "m"),
+    Field("labels", "text", ("K",), required=False),
+)
+FIELD_BY_NAME = {f.name: f for f in FIELDS}
+HEADER_FIELDS = ("format", "schema_version", "meta_json")  # read first, by name
+
+# Physical ranges of the model's values (closed intervals; jaxflex.model checks them). They are
+# far outside any part this tool is for (sheet-metal parts: modes from about 1 Hz to a few
+# kHz, participation factors about the square root of the part's mass in kg, mass-normalised
+# shapes about its inverse, coordinates of metres), yet far inside float64, so that omega^2,
+# the envelope's exponentials and the LP's coefficients never overflow or underflow: a value
+# outside is a unit slip or a damaged file, not a part.
+VALUE_RANGES: dict[str, tuple[float, float]] = {
+    "freq_hz": (1e-3, 1e6),
+    "gamma": (-1e6, 1e6),
+    "shapes": (-1e6, 1e6),
+    "points": (-1e6, 1e6),
+}
 
 
 def write_model_file(
@@ -50,45 +112,167 @@ def write_model_file(
         )
 
 
+class _Archive:
+    """The members of one open model archive, read one at a time under the checks of the
+    module docstring. ``sizes`` collects M and K as the members declare them."""
+
+    def __init__(self, path: Path, archive: zipfile.ZipFile) -> None:
+        self.path, self.archive = path, archive
+        self.members = {info.filename: info for info in archive.infolist()}
+        self.sizes: dict[str, int] = {}
+
+    def fail(self, name: str, problem: str) -> ModelFileError:
+        return ModelFileError(f"{str(self.path)!r}: field {name!r}: {problem}")
+
+    def has(self, name: str) -> bool:
+        return f"{name}.npy" in self.members
+
+    def read(self, name: str) -> np.ndarray:
+        field = FIELD_BY_NAME[name]
+        info = self.members.get(f"{name}.npy")
+        if info is None:
+            raise ModelFileError(f"{str(self.path)!r}: missing field {name!r}")
+        if (
+            info.compress_type != zipfile.ZIP_STORED
+            and info.file_size > MAX_EXPANSION * max(info.compress_size, 1) + 4096
+        ):
+            raise self.fail(
+                name,
+                f"expands from {info.compress_size} to {info.file_size} bytes, more than "
+                f"{MAX_EXPANSION} times (a zip bomb, not modal data); refused",
+            )
+        with self.archive.open(info) as stream:
+            version = np.lib.format.read_magic(stream)
+            if version == (1, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_1_0(stream)
+            elif version == (2, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_2_0(stream)
+            else:
+                raise self.fail(name, f"npy format version {version} is not supported")
+            self._check_header(field, shape, dtype)
+            n_bytes = math.prod(shape) * dtype.itemsize
+            header_bytes = stream.tell()
+            if header_bytes + n_bytes != info.file_size:
+                raise self.fail(
+                    name,
+                    f"declares shape {shape} of {dtype} ({n_bytes} bytes) but holds "
+                    f"{info.file_size - header_bytes} bytes",
+                )
+            if field.kind == "text" and not field.dims and n_bytes > MAX_TEXT_BYTES:
+                raise self.fail(name, f"{n_bytes} bytes of text, more than {MAX_TEXT_BYTES}")
+            data = stream.read(n_bytes)
+        if len(data) != n_bytes:
+            raise self.fail(name, f"truncated: {len(data)} of {n_bytes} bytes")
+        return np.frombuffer(data, dtype=dtype).reshape(shape, order="F" if fortran else "C")
+
+    def _check_header(self, field: Field, shape: tuple, dtype: np.dtype) -> None:
+        allowed = {"real": "fiu", "integer": "iu", "text": "U"}[field.kind]
+        if dtype.hasobject or dtype.kind not in allowed:
+            what = {"real": "real numbers", "integer": "an integer", "text": "text"}[field.kind]
+            found = "complex numbers" if dtype.kind == "c" else f"data of type {dtype}"
+            raise self.fail(field.name, f"holds {found}; expected {what}")
+        if len(shape) != len(field.dims):
+            raise self.fail(
+                field.name,
+                f"has shape {shape}; expected {len(field.dims)} dimension(s) {field.dims}",
+            )
+        for axis, (dim, size) in enumerate(zip(field.dims, shape, strict=True)):
+            expected = dim if isinstance(dim, int) else self.sizes.setdefault(dim, size)
+            if size != expected:
+                raise self.fail(
+                    field.name,
+                    f"has shape {shape}; axis {axis} must be {dim} = {expected} "
+                    f"(as the other fields declare)",
+                )
+
+
+def _scalar_text(archive: _Archive, name: str) -> str:
+    return str(archive.read(name)[()])
+
+
+def _schema_version(archive: _Archive) -> int:
+    version = int(archive.read("schema_version")[()])
+    if version not in SUPPORTED_VERSIONS:
+        raise ModelFileError(
+            f"{str(archive.path)!r}: schema version {version} is not supported by this jaxflex "
+            f"(it reads version {', '.join(map(str, SUPPORTED_VERSIONS))}); regenerate the "
+            "model with this version"
+        )
+    return version
+
+
+def _meta(archive: _Archive) -> dict[str, Any]:
+    try:
+        meta = json.loads(_scalar_text(archive, "meta_json"))
+    except (json.JSONDecodeError, RecursionError) as exc:
+        raise archive.fail("meta_json", f"is not valid JSON ({type(exc).__name__}: {exc})") from exc
+    if not isinstance(meta, dict):
+        raise archive.fail("meta_json", f"must be a JSON object, got {type(meta).__name__}")
+    return meta
+
+
+def _read_fields(archive: _Archive) -> dict[str, Any]:
+    fmt = _scalar_text(archive, "format") if archive.has("format") else ""
+    if fmt != FORMAT_NAME:
+        raise ModelFileError(
+            f"{str(archive.path)!r} is not a jaxflex modal model (format field {fmt[:80]!r}, "
+            f"expected {FORMAT_NAME!r})"
+        )
+    version = _schema_version(archive)
+    meta = _meta(archive)
+    values = {
+        field.name: archive.read(field.name)
+        for field in FIELDS
+        if field.name not in HEADER_FIELDS and field.since <= version
+        if field.required or archive.has(field.name)
+    }
+    labels = values.get("labels")
+    return {
+        **{name: values[name] for name in ARRAY_FIELDS},
+        "labels": None if labels is None else tuple(str(s) for s in labels),
+        "meta": meta,
+    }
+
+
+# what a damaged archive raises inside zipfile, zlib and numpy's header parser
+_DAMAGED = (
+    zipfile.BadZipFile,
+    zlib.error,
+    EOFError,
+    OSError,
+    ValueError,
+    KeyError,
+    struct.error,
+    NotImplementedError,
+    RuntimeError,
+)
+
+
 def read_model_file(path: str | os.PathLike) -> dict[str, Any]:
     """The fields of a model file: ARRAY_FIELDS as arrays, ``labels`` (tuple or None) and
     ``meta`` (dict). Raises ModelFileError for a missing, truncated or corrupt file, a file of
-    another format, an unknown schema version or a missing field."""
+    another format, an unknown schema version, a missing field or one whose header does not
+    fit the schema (module docstring)."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise ModelFileError(f"model file {str(path)!r} does not exist")
+    if not path.is_file():
+        raise ModelFileError(f"model file {str(path)!r} is not a file (a directory?)")
     try:
-        with np.load(path, allow_pickle=False) as data:
-            contents = {key: data[key] for key in data.files}
-    except (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError) as exc:
+        with path.open("rb") as handle:
+            if handle.read(len(_NPY_MAGIC)) == _NPY_MAGIC:
+                raise ModelFileError(
+                    f"{str(path)!r} is a single numpy array (.npy), not a jaxflex model file "
+                    "(.npz archive); write models with `jaxflex model ... -o FILE.npz` or "
+                    "ModalModel.save"
+                )
+            handle.seek(0)
+            with zipfile.ZipFile(handle) as archive:
+                return _read_fields(_Archive(path, archive))
+    except ModelFileError:
+        raise
+    except _DAMAGED as exc:
         raise ModelFileError(
             f"model file {str(path)!r} is truncated or corrupt ({type(exc).__name__}: {exc}); "
             "regenerate it with `jaxflex model ... -o FILE`"
         ) from exc
-    fmt = str(contents.get("format", ""))
-    if fmt != FORMAT_NAME:
-        raise ModelFileError(
-            f"{str(path)!r} is not a jaxflex modal model (format field {fmt!r}, "
-            f"expected {FORMAT_NAME!r})"
-        )
-    if "schema_version" not in contents:
-        raise ModelFileError(f"{str(path)!r}: missing field 'schema_version'")
-    version = int(contents["schema_version"])
-    if version != SCHEMA_VERSION:
-        raise ModelFileError(
-            f"{str(path)!r}: schema version {version} is not supported by this jaxflex "
-            f"(reads version {SCHEMA_VERSION}); regenerate the model with this version"
-        )
-    for name in (*ARRAY_FIELDS, "meta_json"):
-        if name not in contents:
-            raise ModelFileError(f"{str(path)!r}: missing field {name!r}")
-    try:
-        meta = json.loads(str(contents["meta_json"]))
-    except json.JSONDecodeError as exc:
-        raise ModelFileError(f"{str(path)!r}: field 'meta_json' is not valid JSON ({exc})") from exc
-    labels = contents.get("labels")
-    return {
-        **{name: contents[name] for name in ARRAY_FIELDS},
-        "labels": None if labels is None else tuple(str(s) for s in labels),
-        "meta": meta,
-    }

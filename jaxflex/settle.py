@@ -36,6 +36,7 @@ import numpy as np
 from jaxflex.decay import amplitudes, envelope, envelope_horizon
 from jaxflex.deviation import block_bounds, blocks_of, point_norms, round_off_slack
 from jaxflex.engine import free_states, modal_forces, modal_states, states_between
+from jaxflex.errors import BudgetError
 from jaxflex.grid import grid_time
 from jaxflex.model import ModalModel
 from jaxflex.profile import as_move
@@ -78,16 +79,26 @@ class SettleReport:
 
 
 class _SearchBudget:
+    """Point-time evaluations a search may spend: at least MAX_EVALUATIONS, more for models
+    with many points (MAX_EVALUATIONS_PER_POINT each)."""
+
     def __init__(self, n_points: int) -> None:
         self.count = 0
+        self.n_points = n_points
         self.limit = max(MAX_EVALUATIONS, MAX_EVALUATIONS_PER_POINT * n_points)
+
+    @property
+    def samples(self) -> int:
+        """Time samples of all points the budget pays for."""
+        return self.limit // self.n_points
 
     def spend(self, n: int) -> None:
         self.count += n
         if self.count > self.limit:
-            raise RuntimeError(
-                "settle-time search exceeded its evaluation budget; the deviation stays within "
-                "1e-9 of the threshold over a long span (undamped or tangent response)"
+            raise BudgetError(
+                f"settle-time search exceeded its evaluation budget ({self.limit:.3g} "
+                f"point-time evaluations for {self.n_points} points); the deviation stays "
+                "within 1e-9 of the threshold over a long span (undamped or tangent response)"
             )
 
 
@@ -245,20 +256,43 @@ def _last_exceedance_in_blocks(signal, blocks, t, threshold_m) -> float | None:
     return None
 
 
-def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold_m: float):
-    """Grid chunks over [0, horizon] (tau), step adapted to the decaying curvature bound."""
-    chunks = []
-    tau = 0.0
+def _tail_grid_spans(decay: _FreeDecay, horizon: float, threshold_m: float):
+    """The grid over [0, horizon] (tau) as spans (start, end, intervals), the step adapted to
+    the decaying curvature bound. Only the spans are planned here (three numbers per 256
+    intervals); BudgetError as soon as they need more time samples than the evaluation budget
+    pays for, before any response is evaluated."""
+    spans = []
+    tau, total = 0.0, 0
     while tau < horizon:
         curvature = decay.curvature(np.array([decay.t0 + tau]), None, decay.block_weights).max()
         step = (
             math.sqrt(8.0 * CURVATURE_SHARE * threshold_m / curvature) if curvature > 0 else horizon
         )
         n = max(1, min(CHUNK_STEPS, math.ceil((horizon - tau) / step)))
+        total += n
+        if total > decay.budget.samples:
+            raise BudgetError(_tail_budget_message(decay, horizon, threshold_m))
         end = min(horizon, tau + n * step)
-        chunks.append(np.linspace(tau, end, n + 1))
+        spans.append((tau, end, n))
         tau = end
-    return chunks
+    return spans
+
+
+def _tail_budget_message(decay: _FreeDecay, horizon: float, threshold_m: float) -> str:
+    """What the free decay's grid needs (a closed-form upper bound: with sqrt(sum) <= sum of
+    sqrt, the integral of 1 / step over the horizon, mode by mode) against the budget."""
+    top = decay.weights.max(axis=0) * decay.amplitude  # (M,) largest amplitude at a point, m
+    rate = np.maximum(decay.sigma, 1.0 / horizon)
+    samples = np.sum(decay.omega * np.sqrt(top) * 2.0 / rate * (1 - np.exp(-rate * horizon / 2)))
+    samples /= math.sqrt(8.0 * CURVATURE_SHARE * threshold_m)
+    return (
+        f"settle-time search: the vibration after the move starts at up to {top.sum():.3g} m, "
+        f"{top.sum() / threshold_m:.3g} times the threshold {threshold_m:.3g} m, and takes "
+        f"{horizon:.4g} s to decay below it; certifying that needs up to ~{samples:.3g} time "
+        f"samples of {decay.budget.n_points} points, more than the budget of "
+        f"{decay.budget.samples:.3g} ({decay.budget.limit:.3g} point-time evaluations). Raise "
+        "the threshold (--threshold) or check the model's participation factors and shapes"
+    )
 
 
 def _tail_settle(decay: _FreeDecay, threshold_m: float) -> tuple[float | None, float]:
@@ -274,7 +308,8 @@ def _tail_settle(decay: _FreeDecay, threshold_m: float) -> tuple[float | None, f
         return None, 0.0
     if math.isinf(horizon):
         return math.inf, math.inf
-    for grid in reversed(_tail_grid_chunks(decay, horizon, threshold_m)):
+    for start, end, n in reversed(_tail_grid_spans(decay, horizon, threshold_m)):
+        grid = np.linspace(start, end, n + 1)
         blocks = np.flatnonzero(decay.envelope(grid[:1], decay.block_weights)[:, 0] > threshold_m)
         if blocks.size == 0:
             continue

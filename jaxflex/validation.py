@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import os
+from pathlib import Path
 from typing import Any
 
 import jax
@@ -51,3 +53,45 @@ def check_acc(acc: Any, *, name: str = "acc", rest_at_ends: bool = False) -> np.
             f"(got a_0 = {arr[0].tolist()}, a_n = {arr[-1].tolist()})"
         )
     return arr
+
+
+def _first_existing(path: Path) -> Path:
+    """``path`` or its nearest ancestor that exists."""
+    for candidate in (path, *path.parents):
+        if candidate.exists():
+            return candidate
+    return Path.cwd()
+
+
+def _check_writable_dir(option: str, path: Path, target: Path) -> None:
+    if not path.is_dir():
+        raise InputError(
+            f"{option}: {str(target)!r} cannot be created: {str(path)!r} is a file, not a directory"
+        )
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise InputError(
+            f"{option}: cannot write into {str(path)!r} (no permission, or a read-only file "
+            f"system), so {str(target)!r} cannot be written; choose another location"
+        )
+
+
+def check_output_dir(option: str, path: str | os.PathLike) -> Path:
+    """An output directory that can be written, checked before any work: ``path`` is a
+    directory or absent, and it (or the ancestor it will be created in) is writable.
+    Raises InputError naming ``option`` otherwise. Nothing is created."""
+    target = Path(path)
+    if target.exists() and not target.is_dir():
+        raise InputError(f"{option}: {str(target)!r} exists and is not a directory")
+    _check_writable_dir(option, _first_existing(target), target)
+    return target
+
+
+def check_output_file(option: str, path: str | os.PathLike) -> Path:
+    """An output file that can be written, checked before any work: ``path`` is not a
+    directory and its directory (or the ancestor it will be created in) is writable.
+    Raises InputError naming ``option`` otherwise. Nothing is created."""
+    target = Path(path)
+    if target.is_dir():
+        raise InputError(f"{option}: {str(target)!r} is a directory; give a file name")
+    _check_writable_dir(option, _first_existing(target.parent), target)
+    return target

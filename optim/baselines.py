@@ -18,14 +18,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.profile import as_move
 from jaxflex.progress import progress_bar
 from jaxflex.settle import SettleReport, analyze_move
+from optim.budget import MAX_STEPS
 from optim.kinematics import clean_distance
 from optim.limits import Limits
 from optim.robust import RobustSpec, perturbed
-from optim.ruckig_move import kinematic_floor_move, shaped_grid_move, time_optimal_move
+from optim.ruckig_move import (
+    grid_steps,
+    kinematic_floor_move,
+    shaped_grid_move,
+    time_optimal_move,
+)
 from optim.shapers import SHAPERS, convolve, shaper
 
 MAX_SHAPED_MODES = 6
@@ -68,6 +75,7 @@ class BaselineSet:
     kinematic_floor_s: float  # continuous time-optimal (ruckig) duration
     floor_acc: np.ndarray  # its grid version: floor_steps = len - 1
     entries: list[Baseline]
+    skipped: dict[str, str] = field(default_factory=dict)  # shaper kind -> why it is absent
 
     @property
     def floor_steps(self) -> int:
@@ -82,6 +90,7 @@ class BaselineSet:
             "kinematic_floor_s": self.kinematic_floor_s,
             "floor_steps": self.floor_steps,
             "entries": [b.as_dict() for b in self.entries],
+            "skipped": dict(self.skipped),
         }
 
 
@@ -125,7 +134,7 @@ def baselines(
     *,
     robust: RobustSpec | None = None,
     max_shaped_modes: int = MAX_SHAPED_MODES,
-    max_steps: int = 3000,
+    max_steps: int = MAX_STEPS,
     solver: str = "highs",
     progress: bool | None = False,
 ) -> BaselineSet:
@@ -152,16 +161,30 @@ def baselines(
     order = dominant_modes(model, distance)[:max_shaped_modes]
     freq, omega, zeta = np.asarray(model.freq_hz), np.asarray(model.omega), np.asarray(model.zeta)
     kinds = list(SHAPERS)
+    skipped: dict[str, str] = {}
     bar = progress_bar(len(kinds) * len(order), "baselines", progress, unit="move")
     for kind in kinds:
         best: Baseline | None = None
         for count in range(1, len(order) + 1):
             bar.update(1)
             modes = order[:count]
-            train = convolve(*(shaper(kind, omega[i], zeta[i]) for i in modes))
+            try:
+                train = convolve(*(shaper(kind, omega[i], zeta[i]) for i in modes))
+            except InputError as exc:  # no such shaper for these modes (EI near zeta = 1)
+                skipped.setdefault(kind, str(exc))
+                break
             if best is not None and continuous.duration_s + train.duration_s >= best.score():
                 continue  # the move alone is longer than the best cycle so far
-            acc = shaped_grid_move(continuous, train, distance, limits, dt_s, solver=solver)
+            if grid_steps(continuous.duration_s + train.duration_s, dt_s) > max_steps:
+                skipped.setdefault(
+                    kind,
+                    f"{kind} x{count} lasts {continuous.duration_s + train.duration_s:.4g} s, "
+                    f"more than the {max_steps} steps allowed",
+                )
+                break  # more modes only make it longer
+            acc = shaped_grid_move(
+                continuous, train, distance, limits, dt_s, max_steps=max_steps, solver=solver
+            )
             if acc is None:
                 continue
             entry = evaluate(f"{kind} x{count}", acc, [float(freq[i]) for i in modes])
@@ -177,4 +200,4 @@ def baselines(
             entry.worst_cycle_time_s, entry.worst_case, entry.worst_grid = worst_case(
                 model, entry.acc, dt_s, threshold_m, robust.grid()
             )
-    return BaselineSet(continuous.duration_s, floor.acc, entries)
+    return BaselineSet(continuous.duration_s, floor.acc, entries, skipped)

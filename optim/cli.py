@@ -7,7 +7,8 @@ import argparse
 import jaxflex
 from jaxflex.cli import add_axis_limits, axis_limit_values
 from jaxflex.progress import step
-from jaxflex.validation import check_positive
+from jaxflex.validation import check_output_dir, check_positive
+from optim.budget import MAX_STEPS
 from optim.limits import Limits
 from optim.optimize import optimize
 from optim.robust import RobustSpec
@@ -94,10 +95,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=30.0,
         help="longest move considered, s (default 30)",
     )
+    parser.add_argument(
+        "--max-steps",
+        type=int,
+        default=MAX_STEPS,
+        help=f"budget: most steps of any move an LP is built for (default {MAX_STEPS}; LP time "
+        "grows with their square)",
+    )
+    parser.add_argument(
+        "--max-memory",
+        type=float,
+        default=None,
+        metavar="GB",
+        help="budget: memory of the search in GB (default: half the machine's memory)",
+    )
     parser.add_argument("-o", "--output", required=True, help="output directory")
 
 
 def run(args: argparse.Namespace) -> int:
+    check_output_dir("-o/--output", args.output)
     threshold_m = check_positive("--threshold", args.threshold)
     dt_s = check_positive("--dt", args.dt)
     max_duration = check_positive("--max-duration", args.max_duration)
@@ -123,6 +139,10 @@ def run(args: argparse.Namespace) -> int:
         clearance_m=None
         if args.clearance is None
         else check_positive("--clearance", args.clearance),
+        max_steps=args.max_steps,
+        max_memory_bytes=None
+        if args.max_memory is None
+        else int(check_positive("--max-memory", args.max_memory) * 1e9),
     )
     paths = result.save(args.output)
     print(result.summary())

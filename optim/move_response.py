@@ -43,9 +43,10 @@ class MoveResponse:
         self.blocks = block_model(self.shapes, model.points)
         self.dt_s, self.substeps = dt_s, substeps
 
-    def sample_map(self, axes) -> np.ndarray:
-        """(T, M, n+1, d): q(t_j) = sum over samples and moving ``axes`` of map * a."""
-        return -np.einsum("tmi,mc->tmic", self.coef, self.gamma[:, list(axes)])
+    def sample_map(self, axes, index: int | slice = slice(None)) -> np.ndarray:
+        """(T, M, n+1, d): q(t_j) = sum over samples and moving ``axes`` of map * a; with an
+        integer ``index`` only that time's (M, n+1, d)."""
+        return -np.einsum("...mi,mc->...mic", self.coef[index], self.gamma[:, list(axes)])
 
     def modal(self, acc: np.ndarray) -> np.ndarray:
         """q (T, M) for samples ``acc`` (n+1, 3)."""
@@ -67,4 +68,38 @@ class MoveResponse:
     def row(self, peak: ClearancePeak, axes) -> np.ndarray:
         """(n+1, d) coefficients r with sum r * a = c . u_p(t), c = u / |u| (a tangent cut)."""
         along = (peak.u / np.linalg.norm(peak.u)) @ self.shapes[peak.point]  # (M,)
-        return np.einsum("m,mic->ic", along, self.sample_map(axes)[peak.index])
+        return np.einsum("m,mic->ic", along, self.sample_map(axes, peak.index))
+
+
+# The bound below holds for the continuous response; the clearance is checked at samples
+# every dt / SUBSTEPS, between which the deviation can exceed it. The bound is therefore
+# applied to this multiple of the clearance: it refuses only requests that even a deviation
+# this much larger than allowed could not meet.
+SAMPLING_ALLOWANCE = 2.0
+
+
+def shortest_clearance_move_s(
+    model: ModalModel, components, distance_m: np.ndarray, clearance_m: float
+) -> tuple[float, int]:
+    """(T_min s, mode): no move over ``distance_m`` (3,) m shorter than T_min keeps the
+    deviation at every point within SAMPLING_ALLOWANCE * ``clearance_m``; 0 when the bound
+    says nothing.
+
+    Integrating q'' + 2 zeta w q' + w^2 q = -Gamma . a twice over a rest-to-rest move of
+    duration T gives q(T) + 2 zeta w int q + w^2 int int q = -Gamma . D, so
+    |Gamma . D| <= max|q| (1 + 2 zeta w T + w^2 T^2 / 2). When the shapes at the points have
+    full column rank, q = pinv(Phi) u bounds max|q_i| <= |row_i pinv(Phi)|_1 max|u|, and the
+    quadratic in T gives the shortest T for each mode."""
+    shapes = np.asarray(model.shapes)[:, list(components), :]
+    phi = shapes.reshape(-1, shapes.shape[-1])  # (K C, M)
+    singular = np.linalg.svd(phi, compute_uv=False)
+    if singular.size < phi.shape[1] or singular[-1] <= 1e-9 * singular[0]:
+        return 0.0, -1  # a mode hardly seen at the points: q is not bounded by u
+    gain = np.abs(np.linalg.pinv(phi)).sum(axis=1)  # (M,) max|q_i| per unit max|u|
+    force = np.abs(np.asarray(model.gamma) @ np.asarray(distance_m, dtype=np.float64))
+    ratio = force / (gain * SAMPLING_ALLOWANCE * clearance_m)  # >= 1 + 2 z w T + w^2 T^2 / 2
+    omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
+    need = np.maximum(ratio - 1.0, 0.0)
+    t_min = (np.sqrt((2 * zeta * omega) ** 2 + 2 * omega**2 * need) - 2 * zeta * omega) / omega**2
+    mode = int(np.argmax(t_min))
+    return float(t_min[mode]), mode

@@ -23,22 +23,24 @@ from collections.abc import Mapping
 import numpy as np
 
 from jaxflex.advice import issue, model_resolution, threshold_advice
-from jaxflex.errors import InputError, JaxflexError
+from jaxflex.errors import BudgetError, InputError, JaxflexError
 from jaxflex.model import ModalModel
 from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
 from jaxflex.validation import check_positive
 from optim.advice import grid_advice
 from optim.baselines import baselines as compute_baselines
+from optim.budget import MAX_STEPS, check_memory, check_move_length, default_memory_bytes
 from optim.choice import candidates, choose
 from optim.exact import POLISH_MARGIN, LPSubsolver
 from optim.gradient import GRADIENT_SOLVERS, GradientSubsolver
 from optim.kinematics import clean_distance
 from optim.limits import Limits, check_profile
 from optim.lp import LP_SOLVERS
+from optim.move_response import SAMPLING_ALLOWANCE, shortest_clearance_move_s
 from optim.result import OptimizationResult, deviation_summary
 from optim.robust import RobustSpec
-from optim.search import attempt, bisect, make_problem
+from optim.search import active_components, attempt, bisect, make_problem
 
 METHODS = {"exact": ("highs", LP_SOLVERS), "gradient": ("ipopt", GRADIENT_SOLVERS)}
 DEFAULT_MAX_DURATION_S = 30.0
@@ -95,6 +97,8 @@ def optimize(
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
     max_shaped_modes: int = 6,
     clearance_m: float | None = None,
+    max_steps: int = MAX_STEPS,
+    max_memory_bytes: int | None = None,
 ) -> OptimizationResult:
     """The move over ``distance_m`` ((3,) m) within ``limits`` with the shortest cycle time
     (move plus settling below ``threshold_m`` m), on the ``dt_s`` grid.
@@ -107,6 +111,9 @@ def optimize(
     max_duration_s: longest move considered (a request that needs more is an error).
     clearance_m: optional limit on the deviation of the nominal model during the move (m,
         at exact samples every dt / 8), e.g. to keep the part clear of a fixture.
+    max_steps, max_memory_bytes: the budgets of optim.budget (the longest move any LP is
+        built for; the search's memory, default half the machine's). A request that cannot
+        fit them is refused before any work with a BudgetError that says what it needs.
     """
     start = time.perf_counter()
     robust = _as_robust(robust)
@@ -124,7 +131,17 @@ def optimize(
     solver = default_solver if solver is None else solver
     if solver not in allowed:
         raise InputError(f"solver: method {method!r} accepts {allowed}, got {solver!r}")
-    max_steps = math.floor(max_duration_s / dt_s + 1e-9)
+    if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 2:
+        raise InputError(f"max_steps: must be an integer >= 2, got {max_steps!r}")
+    memory = default_memory_bytes() if max_memory_bytes is None else max_memory_bytes
+    check_positive("max_memory_bytes", memory)
+    shortest, allowed_steps = check_move_length(distance, limits, dt_s, max_duration_s, max_steps)
+    if clearance_m is not None:
+        _check_clearance(model, distance, clearance_m, max_duration_s)
+    scenarios = 1 if robust is None else len(robust.grid())
+    steps_cap = check_memory(
+        model.n_modes, shortest, allowed_steps, scenarios, clearance_m is not None, memory
+    )
     advice = issue(grid_advice(robust))
 
     base = compute_baselines(
@@ -135,7 +152,7 @@ def optimize(
         threshold_m,
         robust=robust,
         max_shaped_modes=max_shaped_modes,
-        max_steps=max_steps,
+        max_steps=steps_cap,
         progress=progress,
     )
     floor = base.entries[0]  # ruckig's time-optimal move on the grid: the fastest there is
@@ -148,7 +165,7 @@ def optimize(
         )
     )
     problem = make_problem(
-        model, distance, limits, dt_s, threshold_m, max_steps, robust, clearance_m
+        model, distance, limits, dt_s, threshold_m, steps_cap, robust, clearance_m
     )
     sub = LPSubsolver(solver) if method == "exact" else GradientSubsolver(solver)
     upper = math.ceil(base.best().score() / dt_s - 1e-9)
@@ -157,6 +174,13 @@ def optimize(
     )
     if best is None:
         during = "" if clearance_m is None else f" (and below {clearance_m * 1e3:g} mm during it)"
+        if steps_cap < math.floor(max_duration_s / dt_s + 1e-9):
+            raise BudgetError(
+                f"no move of at most {steps_cap} steps ({steps_cap * dt_s:g} s) keeps the "
+                f"deviation below {threshold_m * 1e3:g} mm after it{during}; longer moves "
+                f"exceed the budget (--max-steps {max_steps}, --max-memory "
+                f"{memory / 1e9:.3g} GB); raise them, use a coarser --dt or raise the threshold"
+            )
         raise InputError(
             f"threshold_m: no move of at most max_duration_s = {max_duration_s:g} s keeps the "
             f"deviation below {threshold_m * 1e3:g} mm after it{during}; raise max_duration_s, "
@@ -208,6 +232,21 @@ def optimize(
         baselines=base,
         worst_case=worst,
     )
+
+
+def _check_clearance(model, distance, clearance_m, max_duration_s) -> None:
+    """Refuse a clearance no move within max_duration_s can meet (a necessary condition,
+    optim.move_response.shortest_clearance_move_s), before the search tries ever longer
+    moves."""
+    t_min, mode = shortest_clearance_move_s(model, active_components(model), distance, clearance_m)
+    if t_min > max_duration_s:
+        raise InputError(
+            f"clearance_m: no move of at most max_duration_s = {max_duration_s:g} s keeps the "
+            f"deviation during it below {clearance_m:.3g} m: mode {mode} "
+            f"({float(model.freq_hz[mode]):.4g} Hz) alone needs a move of at least "
+            f"{t_min:.4g} s to stay within even {SAMPLING_ALLOWANCE:g} times that (--clearance, "
+            "--max-duration)"
+        )
 
 
 def _polish(problem, sub: LPSubsolver, best, history) -> tuple:

@@ -1,6 +1,8 @@
 """The result of an optimisation: samples, exact timing, checks, statistics, baselines.
 
-``OptimizationResult.save(directory)`` writes, each file atomically:
+``OptimizationResult.save(directory)`` writes one set of files (jaxflex.fileset: each file
+atomically, then ``manifest.json`` with their hashes; readers such as ``jaxflex export``
+accept the files only as that set):
 
 * ``trajectory.csv`` — t, a, v, x per axis (jaxflex.trajectory_io format, SI units);
 * ``report.json`` — inputs, exact times, ratios to the baselines, the constraint check,
@@ -21,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxflex.atomic import write_text_atomic
 from jaxflex.deviation import deviation_curve
+from jaxflex.fileset import MANIFEST, SetWriter, writing
 from jaxflex.model import ModalModel
 from jaxflex.profile import integrate
 from jaxflex.settle import SettleReport
@@ -33,6 +35,15 @@ from optim.plots import Trace, plot_comparison, plot_profiles, plot_robust, plot
 from optim.robust import RobustSpec, perturbed
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
+RESULT_KIND = "jaxflex.optimize"
+RESULT_FILES = (
+    "trajectory.csv",
+    "report.json",
+    "profiles.png",
+    "deviation.png",
+    "robust.png",
+    "deviation_worst_case.png",
+)
 
 
 def deviation_summary(model: ModalModel, acc: np.ndarray, dt_s: float) -> dict:
@@ -244,27 +255,27 @@ class OptimizationResult:
 
     def save(self, directory: str | os.PathLike) -> list[Path]:
         """Write trajectory.csv, report.json and the plots into ``directory`` (module
-        docstring); every file atomically. Returns the paths written."""
-        out = Path(directory)
-        out.mkdir(parents=True, exist_ok=True)
-        written = [out / "trajectory.csv", out / "report.json", out / "profiles.png"]
-        write_trajectory_csv(written[0], self.acc, self.dt_s)
-        write_text_atomic(written[1], json.dumps(self.report(), indent=2))
-        plot_profiles(written[2], self.acc, self.dt_s, self.limits)
-        written += self._plot_deviation(out / "deviation.png")
-        if self.worst_case is not None:
-            written.append(out / "robust.png")
-            series = {self._label(): self.worst_case["grid"]}
-            for b in self.baselines.entries:
-                if b.worst_grid is not None:
-                    series[b.name] = b.worst_grid
-            plot_robust(written[-1], series, "Exact cycle time across the uncertainty range")
-        return written
+        docstring) as one set (jaxflex.fileset): each file atomically, the manifest last,
+        the files of an earlier run that this one does not write removed. Returns the paths
+        written (manifest.json last)."""
+        with writing(directory, RESULT_KIND, RESULT_FILES) as files:
+            files.add("trajectory.csv", lambda p: write_trajectory_csv(p, self.acc, self.dt_s))
+            files.add_text("report.json", json.dumps(self.report(), indent=2))
+            files.add("profiles.png", lambda p: plot_profiles(p, self.acc, self.dt_s, self.limits))
+            self._plot_deviation(files)
+            if self.worst_case is not None:
+                series = {self._label(): self.worst_case["grid"]}
+                for b in self.baselines.entries:
+                    if b.worst_grid is not None:
+                        series[b.name] = b.worst_grid
+                title = "Exact cycle time across the uncertainty range"
+                files.add("robust.png", lambda p: plot_robust(p, series, title))
+        return [files.directory / name for name in (*files.members, MANIFEST)]
 
     def _label(self) -> str:
         return "optimised" if self.source in ("optimised", "search") else f"{self.source} (chosen)"
 
-    def _plot_deviation(self, path: Path) -> list[Path]:
+    def _plot_deviation(self, files: SetWriter) -> None:
         moves = [(self._label(), self.acc, self.cycle_time_s, self.worst_cycle_time_s)]
         for b in self.baselines.entries:
             if not (self.source == b.name and np.array_equal(b.acc, self.acc)):
@@ -274,14 +285,12 @@ class OptimizationResult:
         for label, acc, cycle, worst in moves:
             t, d = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS)
             traces.append(Trace(label, t, d, cycle, worst))
-        plot_comparison(
-            path,
-            traces,
-            self.threshold_m,
-            self.baselines.kinematic_floor_s,
-            "Deviation of the optimised move and the baselines (nominal model)",
+        floor_s = self.baselines.kinematic_floor_s
+        title = "Deviation of the optimised move and the baselines (nominal model)"
+        files.add(
+            "deviation.png",
+            lambda p: plot_comparison(p, traces, self.threshold_m, floor_s, title),
         )
-        written = [path]
         if self.worst_case is not None:
             scale, zeta = self.worst_case["freq_scale"], self.worst_case["zeta"]
             worst_model = perturbed(self.model, scale, zeta)
@@ -289,8 +298,8 @@ class OptimizationResult:
             label = f"{self._label()} at f x{scale:g}" + (
                 "" if zeta is None else f", zeta {zeta:g}"
             )
-            written.append(path.with_name("deviation_worst_case.png"))
-            plot_worst_case(
-                written[-1], Trace(label, t, d, self.worst_cycle_time_s), self.threshold_m
+            worst = Trace(label, t, d, self.worst_cycle_time_s)
+            files.add(
+                "deviation_worst_case.png",
+                lambda p: plot_worst_case(p, worst, self.threshold_m),
             )
-        return written

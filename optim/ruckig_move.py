@@ -77,8 +77,14 @@ def time_optimal_move(
     if minimum_duration_s is not None:
         inp.minimum_duration = float(minimum_duration_s)
     traj = Trajectory(3)
-    result = Ruckig(3).calculate(inp, traj)
-    if result not in (Result.Working, Result.Finished):
+    try:
+        result = Ruckig(3).calculate(inp, traj)
+    except (ValueError, RuntimeError) as exc:  # ruckig's own errors (e.g. result codes < -100)
+        raise InputError(
+            f"limits: ruckig cannot plan the move over {distance.tolist()} m with vmax "
+            f"{v.tolist()}, amax {a.tolist()}, jmax {j.tolist()} ({exc})"
+        ) from exc
+    if result not in (Result.Working, Result.Finished) or not math.isfinite(traj.duration):
         raise InputError(f"limits: ruckig found no motion for distance {distance.tolist()} m")
     knots = []
     for profile in traj.profiles[0]:
@@ -160,8 +166,9 @@ def kinematic_floor_move(
         )
     raise InputError(
         f"distance_m: the move needs at least {floor.duration_s:.3f} s at these limits "
-        f"(time-optimal jerk-limited motion), more than the allowed {max_steps * dt_s:g} s "
-        "(max_duration_s); raise max_duration_s or the limits, or shorten the move"
+        f"(time-optimal jerk-limited motion), more than the {max_steps} steps of "
+        f"{dt_s:g} s allowed ({max_steps * dt_s:g} s: max_duration_s or the step budget); "
+        "raise max_duration_s or the limits, or shorten the move"
     )
 
 
@@ -173,13 +180,15 @@ def shaped_grid_move(
     dt_s: float,
     *,
     extra_steps: int = 3,
+    max_steps: int | None = None,
     solver: str = "highs",
 ) -> np.ndarray | None:
     """Grid version of the time-optimal move convolved with ``shaper`` (None if no grid move
-    within ``extra_steps`` of its continuous length exists)."""
+    within ``extra_steps`` of its continuous length and at most ``max_steps`` long exists)."""
     acc_fn = shaped_acceleration(floor, shaper)
     start = grid_steps(floor.duration_s + shaper.duration_s, dt_s)
-    for n_steps in range(start, start + extra_steps + 1):
+    last = start + extra_steps if max_steps is None else min(start + extra_steps, max_steps)
+    for n_steps in range(start, last + 1):
         acc = fit_to_grid(
             acc_fn(dt_s * np.arange(n_steps + 1)), dt_s, distance_m, limits, solver=solver
         )

@@ -43,6 +43,7 @@ MAX_ROUNDS = 60
 PEAKS_PER_ROUND = 40
 TIME_RTOL = 1e-12
 SOLVER_FAILURES = ("failed", "row generation did not converge")
+KEPT_LENGTHS = 2
 
 
 @dataclass
@@ -98,12 +99,14 @@ class Problem:
     def move_map(self, n_steps: int) -> MoveResponse:
         """The nominal model's response during an n-step move (optim.move_response)."""
         if n_steps not in self._move_maps:
+            _forget_lengths(self._move_maps, n_steps, lambda key: key)
             self._move_maps[n_steps] = MoveResponse(self.model, self.components, n_steps, self.dt_s)
         return self._move_maps[n_steps]
 
     def end_map(self, scenario: int, n_steps: int) -> np.ndarray:
         key = (scenario, n_steps)
         if key not in self._maps:
+            _forget_lengths(self._maps, n_steps, lambda key: key[1])
             self._maps[key] = end_state_map(self.scenarios[scenario].model, n_steps, self.dt_s)
         return self._maps[key]
 
@@ -113,6 +116,15 @@ class Problem:
     def add_peak(self, scenario: int, peak: Peak) -> None:
         coef = self.scenarios[scenario].residual.row(peak)
         self.pool.append(PoolRow(scenario, peak, coef))
+
+
+def _forget_lengths(cache: dict, n_steps: int, length) -> None:
+    """Keep the maps of at most KEPT_LENGTHS move lengths (the search tests one length at a
+    time and the polish pass the best one and the next): memory stays that of the longest."""
+    lengths = list(dict.fromkeys(length(key) for key in cache))
+    if n_steps not in lengths and len(lengths) >= KEPT_LENGTHS:
+        for key in [k for k in cache if length(k) == lengths[0]]:
+            del cache[key]
 
 
 def active_components(model: ModalModel) -> tuple[int, ...]:

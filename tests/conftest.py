@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -64,6 +66,50 @@ def run_jaxflex(*args: str, cwd=None, timeout_s: float = 600) -> subprocess.Comp
         cwd=cwd,
         timeout=timeout_s,
     )
+
+
+# -- the fuzz and fault suite's tally: cases tried, clear errors, crashes or hangs, corrupt
+# results accepted, per category, printed at the end of the run (also under xdist: every
+# worker appends to one file in the session's temporary root) -------------------------------
+TALLY_FILE = "fuzz-tally.jsonl"
+TALLY_COLUMNS = ("tried", "clear_errors", "crashes_or_hangs", "corrupt_accepted")
+
+
+def _session_root(basetemp: Path) -> Path:
+    return basetemp.parent if basetemp.name.startswith("popen-") else basetemp
+
+
+@pytest.fixture
+def fuzz_tally(tmp_path_factory):
+    """``record(category, tried=, clear_errors=, crashes_or_hangs=, corrupt_accepted=)``."""
+    path = _session_root(tmp_path_factory.getbasetemp()) / TALLY_FILE
+
+    def record(category: str, **counts: int) -> None:
+        assert set(counts) == set(TALLY_COLUMNS), counts
+        with open(path, "a", encoding="utf-8") as handle:
+            handle.write(json.dumps({"category": category, **counts}) + "\n")
+
+    return record
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    if hasattr(config, "workerinput"):
+        return
+    path = _session_root(config._tmp_path_factory.getbasetemp()) / TALLY_FILE
+    if not path.is_file():
+        return
+    totals: dict[str, dict[str, int]] = {}
+    for line in path.read_text(encoding="utf-8").splitlines():
+        entry = json.loads(line)
+        row = totals.setdefault(entry.pop("category"), dict.fromkeys(TALLY_COLUMNS, 0))
+        for key in TALLY_COLUMNS:
+            row[key] += entry[key]
+    terminalreporter.section("fuzz and fault suite")
+    terminalreporter.write_line(f"{'category':34s}" + "".join(f"{c:>18s}" for c in TALLY_COLUMNS))
+    for category, row in sorted(totals.items()):
+        terminalreporter.write_line(
+            f"{category:34s}" + "".join(f"{row[c]:>18d}" for c in TALLY_COLUMNS)
+        )
 
 
 @pytest.fixture(scope="session")

@@ -12,7 +12,9 @@ from test_fmu_export import smooth_profile
 from fmu.ssp import read_parameters
 from fmu.verify import read_fmu_resource
 from jaxflex.cli import main
+from jaxflex.fileset import writing
 from jaxflex.trajectory_io import write_trajectory_csv
+from optim.result import RESULT_FILES, RESULT_KIND
 
 DT = 0.01
 
@@ -24,9 +26,6 @@ def inputs(tmp_path_factory):
     model = random_model(6, n_points=20, n_modes=5, f_min_hz=3.0, zeta=0.05)
     model.save(root / "model.npz")
     acc = smooth_profile(5, 50)
-    case_dir = root / "opt"
-    case_dir.mkdir()
-    write_trajectory_csv(case_dir / "trajectory.csv", acc, DT)
     report = {
         "distance_m": [0.0, 0.0, 1.0],
         "dt_s": DT,
@@ -37,8 +36,15 @@ def inputs(tmp_path_factory):
         "settle_time_s": 1.2,
         "solver": {"iterations": 17},
     }
-    (case_dir / "report.json").write_text(json.dumps(report))
+    write_result_set(root / "opt", acc, report)
     return root, acc, report
+
+
+def write_result_set(folder, acc, report) -> None:
+    """trajectory.csv and report.json as the one set `jaxflex optimize -o DIR` writes."""
+    with writing(folder, RESULT_KIND, RESULT_FILES) as files:
+        files.add("trajectory.csv", lambda path: write_trajectory_csv(path, acc, DT))
+        files.add_text("report.json", json.dumps(report))
 
 
 def test_export_from_an_optimize_folder_verifies_the_fmu(inputs, capsys):
@@ -105,8 +111,7 @@ def test_bad_input_gives_a_clear_error(inputs, tmp_path, capsys, setup, message)
 
 def test_report_with_another_sample_step_is_refused(inputs, tmp_path, capsys):
     root, acc, report = inputs
-    write_trajectory_csv(tmp_path / "trajectory.csv", acc, DT)
-    (tmp_path / "report.json").write_text(json.dumps({**report, "dt_s": 0.02}))
+    write_result_set(tmp_path, acc, {**report, "dt_s": 0.02})
     argv = ["export", str(root / "model.npz"), "--trajectory", str(tmp_path), "-o"]
     assert main([*argv, str(tmp_path / "e.fmu")]) == 2
     assert "do not belong together" in capsys.readouterr().err

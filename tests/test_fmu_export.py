@@ -99,6 +99,7 @@ def test_archive_layout(exported, version):
         "resources/jaxflex_model.bin",
         "sources/jxf_core.c",
         "sources/jxf_core.h",
+        "sources/jxf_text.h",
         "sources/jxf_values.c",
         "sources/jxf_config.h",
         f"sources/jxf_fmi{version}.c",

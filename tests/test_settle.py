@@ -235,7 +235,7 @@ def test_search_budget_stops_a_runaway_search_and_scales_with_the_points(monkeyp
     needed = jaxflex.analyze_move(model, acc, 0.01, 1.01 * peak).evaluations
     monkeypatch.setattr(settle, "MAX_EVALUATIONS", needed // 2)
     monkeypatch.setattr(settle, "MAX_EVALUATIONS_PER_POINT", 0)
-    with pytest.raises(RuntimeError, match="evaluation budget"):
+    with pytest.raises(jaxflex.BudgetError, match="evaluation budget"):
         jaxflex.analyze_move(model, acc, 0.01, 1.01 * peak)
     monkeypatch.setattr(settle, "MAX_EVALUATIONS_PER_POINT", needed // model.n_points + 1)
     assert jaxflex.analyze_move(model, acc, 0.01, 1.01 * peak).evaluations == needed

@@ -15,6 +15,15 @@
  *       inputs and print, at the start and after every step, one line: the time and the
  *       OUTPUTs, each "rVR" (a Real/Float64), "rVRxN" (an FMI 3.0 array of N values) or
  *       "bVR" (a Boolean, printed 0/1); reals with 17 significant digits
+ *   harness LIBRARY - TOKEN fuzz N_STEPS DT SWITCH LIST
+ *       for every resource location in the file LIST (one per line), in this one process:
+ *       instantiate; if that succeeds, run N_STEPS steps of DT from rest (with the Boolean
+ *       parameter SWITCH set, "-" for none), then hostile calls (non-finite inputs, steps
+ *       that overflow the time or do not advance it, a step from far before the start over
+ *       it), reset and step again. Prints per location "refused LOGGED" or "accepted LOGGED
+ *       DEVIATION FAULTS": LOGGED messages, the deviation after the steps, and FAULTS the
+ *       calls that broke a rule (a step accepted with a non-finite deviation, a hostile call
+ *       accepted). Built with -fsanitize=address,undefined it is the resource-fuzz run.
  */
 #include "harness_os.h"
 
@@ -397,13 +406,75 @@ static int replay(const char *resources, const char *token, int n_steps, double 
     return 0;
 }
 
+/* Hostile calls on a started instance: each must be refused (and leave it usable). */
+static int hostile(void *c, double t) {
+    const double bad[3] = {NAN, 0.0, INFINITY}, zero[3] = {0.0, 0.0, 0.0};
+    int faults = 0;
+    faults += set_inputs(c, bad, zero) == 0;        /* non-finite input */
+    faults += step(c, t, 1e308) == 0 && !isfinite(deviation(c)); /* huge step: refused or exact */
+    faults += step(c, 1e308, 1e308) == 0;           /* the time overflows */
+    faults += step(c, 1e20, 1e-3) == 0;             /* below the resolution of the time */
+    faults += step(c, t, NAN) == 0;
+    faults += step(c, t, -1.0) == 0;
+    return faults;
+}
+
+static int fuzz_one(const char *resources, const char *token, int n_steps, double dt,
+                    const char *switch_vr) {
+    const double a[3] = {0.5, -1.0, 2.0}, rate[3] = {0.0, 0.0, 0.0};
+    double dev = NAN;
+    int k, faults = 0, before = logged;
+    void *c = instantiate(resources, token);
+    if (c == NULL) {
+        printf("refused %d\n", logged - before);
+        return 0;
+    }
+    if (enter(c) || (strcmp(switch_vr, "-") != 0 && set_flag(c, (unsigned)atoi(switch_vr), 1)) ||
+        api.exit_init(c)) {
+        ++faults; /* a loaded model must start */
+    } else {
+        if (strcmp(switch_vr, "-") == 0) faults += set_inputs(c, a, rate) != 0;
+        for (k = 0; k < n_steps; ++k) {
+            if (step(c, k * dt, dt)) break; /* refused steps are logged, counted by LOGGED */
+            dev = deviation(c);
+            faults += !isfinite(dev);
+        }
+        faults += hostile(c, n_steps * dt);
+        if (step(c, -1e7, 1e7 + n_steps * dt) == 0) faults += !isfinite(deviation(c));
+        if (!reset(c) && !start(c) && !step(c, 0.0, dt)) faults += !isfinite(deviation(c));
+    }
+    finish(c);
+    printf("accepted %d %.17g %d\n", logged - before, dev, faults);
+    return 0;
+}
+
+static int fuzz(const char *token, int n_steps, double dt, const char *switch_vr,
+                const char *list) {
+    char line[4096];
+    FILE *file = fopen(list, "r");
+    if (file == NULL) {
+        fprintf(stderr, "cannot read %s\n", list);
+        return 2;
+    }
+    while (fgets(line, sizeof line, file) != NULL) {
+        line[strcspn(line, "\r\n")] = '\0';
+        if (line[0] == '\0') continue;
+        fuzz_one(line, token, n_steps, dt, switch_vr);
+        fflush(stdout);
+    }
+    fclose(file);
+    return 0;
+}
+
 int main(int argc, char **argv) {
     void *lib;
     int status;
-    if (argc < 7 || (strcmp(argv[4], "replay") == 0 && argc < 8)) {
+    if (argc < 7 || (strcmp(argv[4], "replay") == 0 && argc < 8) ||
+        (strcmp(argv[4], "fuzz") == 0 && argc < 9)) {
         fprintf(stderr, "usage: %s LIBRARY RESOURCES TOKEN bench|check N_STEPS DT [REPEATS]\n"
-                "       %s LIBRARY RESOURCES TOKEN replay N_STEPS DT SWITCH OUTPUT...\n",
-                argv[0], argv[0]);
+                "       %s LIBRARY RESOURCES TOKEN replay N_STEPS DT SWITCH OUTPUT...\n"
+                "       %s LIBRARY - TOKEN fuzz N_STEPS DT SWITCH LIST\n",
+                argv[0], argv[0], argv[0]);
         return 2;
     }
     quiet = getenv("HARNESS_VERBOSE") == NULL;
@@ -416,6 +487,8 @@ int main(int argc, char **argv) {
     if (strcmp(argv[4], "bench") == 0)
         status = bench(argv[2], argv[3], atoi(argv[5]), atof(argv[6]),
                        argc > 7 ? atoi(argv[7]) : 20);
+    else if (strcmp(argv[4], "fuzz") == 0)
+        status = fuzz(argv[3], atoi(argv[5]), atof(argv[6]), argv[7], argv[8]);
     else if (strcmp(argv[4], "replay") == 0)
         status = replay(argv[2], argv[3], atoi(argv[5]), atof(argv[6]), argv[7], argv + 8,
                         argc - 8);

@@ -1,12 +1,15 @@
 /* jaxflex FMU core: resource loading, exact modal step, outputs. See jxf_core.h. */
 #include "jxf_core.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "jxf_text.h"
 
 #if defined(_MSC_VER)
 #define JXF_RESTRICT __restrict
@@ -48,13 +51,14 @@
 #define JXF_TINY 1e-250
 
 void jxf_log(const jxf_model *m, int level, const char *format, ...) {
-    char message[1024];
+    char message[1024], text[4 * sizeof message];
     va_list args;
     if (m == NULL || m->log == NULL || (level == JXF_LOG_INFO && !m->debug)) return;
     va_start(args, format);
     vsnprintf(message, sizeof message, format, args);
     va_end(args);
-    m->log(m->log_context, level, message);
+    jxf_escape(text, sizeof text, message);
+    m->log(m->log_context, level, text);
 }
 
 /* ---- little-endian decoding and CRC-32 ----------------------------------------------- */
@@ -180,7 +184,16 @@ static char *resource_file(const jxf_model *m, const char *location) {
 
 /* ---- loading ------------------------------------------------------------------------ */
 
+/* Bytes of this build's resource file (its sizes are compiled in, jxf_config.h). */
+static size_t resource_bytes(void) {
+    const size_t K = JXF_N_POINTS, M = JXF_N_MODES, N = JXF_N_TRAJ;
+    return JXF_HEADER_BYTES + JXF_TRAILER_BYTES + 8 * (5 * M + 3 * M * K + 3 * K + 3 * N);
+}
+
+/* Read the resource file; never allocates more than this build's resource size, so a
+ * padded or foreign file (or a directory) costs nothing. */
 static unsigned char *read_file(const jxf_model *m, const char *name, size_t *size) {
+    const size_t expected = resource_bytes();
     FILE *file = fopen(name, "rb");
     unsigned char *data;
     long end;
@@ -189,14 +202,31 @@ static unsigned char *read_file(const jxf_model *m, const char *name, size_t *si
                 name);
         return NULL;
     }
-    if (fseek(file, 0, SEEK_END) != 0 || (end = ftell(file)) < 0 || fseek(file, 0, SEEK_SET)) {
-        jxf_log(m, JXF_LOG_ERROR, "cannot determine the size of the resource file '%s'", name);
+    data = (unsigned char *)malloc(expected);
+    if (data == NULL) {
+        jxf_log(m, JXF_LOG_ERROR, "out of memory reading '%s' (%lu bytes)", name,
+                (unsigned long)expected);
         fclose(file);
         return NULL;
     }
-    data = (unsigned char *)malloc(end > 0 ? (size_t)end : 1u);
-    if (data == NULL) {
-        jxf_log(m, JXF_LOG_ERROR, "out of memory reading '%s' (%ld bytes)", name, end);
+    /* a directory opens on some systems but cannot be read: try one byte first */
+    if (fread(data, 1, 1, file) != 1 && ferror(file)) {
+        jxf_log(m, JXF_LOG_ERROR, "the resource '%s' is not a readable file (a directory?)",
+                name);
+        free(data);
+        fclose(file);
+        return NULL;
+    }
+    if (fseek(file, 0, SEEK_END) != 0 || (end = ftell(file)) < 0 || fseek(file, 0, SEEK_SET)) {
+        jxf_log(m, JXF_LOG_ERROR, "cannot determine the size of the resource file '%s'", name);
+        free(data);
+        fclose(file);
+        return NULL;
+    }
+    if ((unsigned long)end > expected) {
+        jxf_log(m, JXF_LOG_ERROR, "'%s' is padded or belongs to another FMU: %ld bytes, this "
+                "FMU's resource has %lu", name, end, (unsigned long)expected);
+        free(data);
         fclose(file);
         return NULL;
     }
@@ -221,10 +251,16 @@ static int check_header(const jxf_model *m, const char *name, const unsigned cha
                 "%lu bytes)", name, (unsigned long)size);
         return -1;
     }
-    if (read_u32(data + 8) != JXF_FORMAT_VERSION || read_u32(data + 12) != JXF_HEADER_BYTES) {
+    if (read_u32(data + 8) != JXF_FORMAT_VERSION) {
         jxf_log(m, JXF_LOG_ERROR, "'%s': resource format version %lu is not supported (this "
                 "binary reads version %u); export the FMU again",
                 name, (unsigned long)read_u32(data + 8), JXF_FORMAT_VERSION);
+        return -1;
+    }
+    if (read_u32(data + 12) != JXF_HEADER_BYTES) {
+        jxf_log(m, JXF_LOG_ERROR, "'%s': header size field says %lu bytes, version %u has %u; "
+                "the file is damaged", name, (unsigned long)read_u32(data + 12),
+                JXF_FORMAT_VERSION, JXF_HEADER_BYTES);
         return -1;
     }
     memcpy(stored, data + 16, JXF_TOKEN_BYTES);
@@ -252,7 +288,13 @@ static int check_header(const jxf_model *m, const char *name, const unsigned cha
     expected = 8u * (5u * (uint64_t)n_modes + 3u * (uint64_t)n_modes * n_points +
                      3u * (uint64_t)n_points + 3u * (uint64_t)n_traj);
     payload = read_u64(data + 104);
-    if (payload != expected || size != JXF_HEADER_BYTES + expected + JXF_TRAILER_BYTES) {
+    if (payload != expected) {
+        jxf_log(m, JXF_LOG_ERROR, "'%s': the header's payload size field says %lu bytes, the "
+                "declared sizes need %lu; the file is damaged", name, (unsigned long)payload,
+                (unsigned long)expected);
+        return -1;
+    }
+    if (size != JXF_HEADER_BYTES + expected + JXF_TRAILER_BYTES) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' is truncated or padded: %lu bytes, expected %lu", name,
                 (unsigned long)size,
                 (unsigned long)(JXF_HEADER_BYTES + expected + JXF_TRAILER_BYTES));
@@ -269,6 +311,21 @@ static int all_finite(const double *x, size_t n) {
     size_t i;
     for (i = 0; i < n; ++i)
         if (!isfinite(x[i])) return 0;
+    return 1;
+}
+
+/* 1 if every value of `x` lies in [low, high] (the physical ranges of jaxflex.model_file,
+ * compiled in as JXF_RANGE_*), else 0 after logging the first one outside. */
+static int in_range(const jxf_model *m, const char *name, const char *what, const double *x,
+                    size_t n, double low, double high) {
+    size_t i;
+    for (i = 0; i < n; ++i) {
+        if (!(x[i] >= low && x[i] <= high)) {
+            jxf_log(m, JXF_LOG_ERROR, "'%s': %s %g (value %lu) is outside the physical range "
+                    "[%g, %g]", name, what, x[i], (unsigned long)i, low, high);
+            return 0;
+        }
+    }
     return 1;
 }
 
@@ -296,11 +353,15 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' contains NaN or infinite values", name);
         return -1;
     }
+    if (!in_range(m, name, "frequency (Hz)", m->freq_hz, M, JXF_RANGE_FREQ_HZ) ||
+        !in_range(m, name, "participation factor", m->gamma, 3 * (size_t)M, JXF_RANGE_GAMMA) ||
+        !in_range(m, name, "mode shape value", m->shapes, 3 * (size_t)M * K, JXF_RANGE_SHAPES) ||
+        !in_range(m, name, "point coordinate", m->points, 3 * (size_t)K, JXF_RANGE_POINTS))
+        return -1;
     for (mode = 0; mode < M; ++mode) {
-        if (!(m->freq_hz[mode] > 0.0) || !(m->zeta[mode] >= 0.0 && m->zeta[mode] < 1.0)) {
-            jxf_log(m, JXF_LOG_ERROR, "'%s': mode %d has frequency %g Hz and damping ratio %g "
-                    "(need > 0 Hz and 0 <= zeta < 1)", name, mode, m->freq_hz[mode],
-                    m->zeta[mode]);
+        if (!(m->zeta[mode] >= 0.0 && m->zeta[mode] < 1.0)) {
+            jxf_log(m, JXF_LOG_ERROR, "'%s': mode %d has damping ratio %g (need 0 <= zeta < 1)",
+                    name, mode, m->zeta[mode]);
             return -1;
         }
     }
@@ -315,9 +376,10 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
 static int allocate_work(jxf_model *m) {
     const size_t M = (size_t)m->n_modes;
     int s;
-    m->q = (double *)calloc(2 * M, sizeof(double));
+    m->q = (double *)calloc(4 * M, sizeof(double));
     m->u = (double *)calloc(3 * (size_t)m->n_points, sizeof(double));
     if (m->q == NULL || m->u == NULL) return -1;
+    m->saved = m->q + 2 * M;
     m->v = m->q + M;
     for (s = 0; s < JXF_CACHE_SLOTS; ++s) {
         jxf_coeffs *c = &m->cache[s];
@@ -427,7 +489,7 @@ static void update_outputs(jxf_model *m) {
     uz = uy + K;
     for (p = 0; p < K; ++p) {
         const double s = ux[p] * ux[p] + uy[p] * uy[p] + uz[p] * uz[p];
-        best = s > best ? s : best;
+        best = s > best || s != s ? s : best; /* a NaN wins: never hidden */
     }
     m->deviation = sqrt(best);
     update_settled(m);
@@ -728,7 +790,8 @@ static void series(double omega, double zeta, double h, jxf_coeffs *c, int i) {
     c->g1v[i] = j0v - c->g0v[i];
 }
 
-/* Coefficients for step `h`, from the cache when a slot matches within JXF_STEP_RTOL. */
+/* Coefficients for step `h`, from the cache when a slot matches within JXF_STEP_RTOL; NULL
+ * (logged) if they are not finite, e.g. omega h beyond the range of double. */
 static const jxf_coeffs *coefficients(jxf_model *m, double h) {
     jxf_coeffs *slot = &m->cache[0];
     int s, i;
@@ -742,10 +805,21 @@ static const jxf_coeffs *coefficients(jxf_model *m, double h) {
     }
     for (i = 0; i < m->n_modes; ++i) {
         const double omega = 2.0 * JXF_PI * m->freq_hz[i], zeta = m->zeta[i] * m->damping_scale;
+        double entries[8];
         if (omega * h < JXF_SERIES_LIMIT)
             series(omega, zeta, h, slot, i);
         else
             closed_form(omega, zeta, h, slot, i);
+        entries[0] = slot->p11[i], entries[1] = slot->p12[i], entries[2] = slot->p21[i];
+        entries[3] = slot->p22[i], entries[4] = slot->g0q[i], entries[5] = slot->g0v[i];
+        entries[6] = slot->g1q[i], entries[7] = slot->g1v[i];
+        if (!all_finite(entries, 8)) {
+            slot->h = 0.0;
+            slot->stamp = 0;
+            jxf_log(m, JXF_LOG_ERROR, "a step of %g s is beyond what the exact step of mode %d "
+                    "(%g Hz) can represent in double precision", h, i, m->freq_hz[i]);
+            return NULL;
+        }
     }
     slot->h = h;
     slot->damping = m->damping_scale;
@@ -755,9 +829,12 @@ static const jxf_coeffs *coefficients(jxf_model *m, double h) {
     return slot;
 }
 
-/* One exact step with the acceleration going linearly from a0 to a1 (m/s^2). */
-static void advance(jxf_model *m, const jxf_coeffs *c, const double a0[3], const double a1[3]) {
+/* One exact step of `h` s with the acceleration going linearly from a0 to a1 (m/s^2); -1
+ * (logged) if the coefficients or the new state are not finite. */
+static int advance(jxf_model *m, double h, const double a0[3], const double a1[3]) {
+    const jxf_coeffs *c = coefficients(m, h);
     int i;
+    if (c == NULL) return -1;
     for (i = 0; i < m->n_modes; ++i) {
         const double *g = m->gamma + 3 * i;
         const double f0 = -(a0[0] * g[0] + a0[1] * g[1] + a0[2] * g[2]);
@@ -765,9 +842,16 @@ static void advance(jxf_model *m, const jxf_coeffs *c, const double a0[3], const
         const double q = m->q[i], v = m->v[i];
         const double qn = c->p11[i] * q + c->p12[i] * v + (c->g0q[i] * f0 + c->g1q[i] * f1);
         const double vn = c->p21[i] * q + c->p22[i] * v + (c->g0v[i] * f0 + c->g1v[i] * f1);
+        if (!isfinite(qn) || !isfinite(vn)) {
+            jxf_log(m, JXF_LOG_ERROR, "the state of mode %d is not finite after a step of %g s "
+                    "(inputs %g, %g / %g, %g / %g, %g m/s^2 at its ends)", i, h, a0[0], a1[0],
+                    a0[1], a1[1], a0[2], a1[2]);
+            return -1;
+        }
         m->q[i] = fabs(qn) < JXF_TINY ? 0.0 : qn;
         m->v[i] = fabs(vn) < JXF_TINY ? 0.0 : vn;
     }
+    return 0;
 }
 
 /* Embedded trajectory at `tau` s after the start: linear between samples, 0 outside. */
@@ -776,7 +860,7 @@ static void trajectory_at(const jxf_model *m, double tau, double a[3]) {
     long k;
     double w;
     int c;
-    if (x < 0.0 || x > (double)(m->n_traj - 1) * (1.0 + JXF_SNAP)) {
+    if (!(x >= 0.0) || x > (double)(m->n_traj - 1) * (1.0 + JXF_SNAP)) {
         a[0] = a[1] = a[2] = 0.0;
         return;
     }
@@ -787,43 +871,81 @@ static void trajectory_at(const jxf_model *m, double tau, double a[3]) {
     for (c = 0; c < 3; ++c) a[c] = (1.0 - w) * m->traj[3 * k + c] + w * m->traj[3 * (k + 1) + c];
 }
 
-/* Replay the embedded trajectory over [tau, tau + h], split at its sample times. */
-static void replay(jxf_model *m, double tau, double h) {
-    const double dt = m->traj_dt, t_last = (double)(m->n_traj - 1) * dt, end = tau + h;
-    double a0[3], a1[3];
+/* Replay the embedded trajectory over [tau, tau + h] (s after the start), split at its
+ * sample times k dt, k = 0 .. N-1, that lie inside (breakpoints within JXF_SNAP dt of an end
+ * count as that end). The breakpoints are integers times dt, so the number of exact steps is
+ * at most N + 1 whatever tau and h are (before the start and after the last sample the
+ * acceleration is 0: one step). */
+static int replay(jxf_model *m, double tau, double h) {
+    const double dt = m->traj_dt, end = tau + h, last = (double)(m->n_traj - 1);
+    const double first_x = floor(tau / dt + JXF_SNAP) + 1.0; /* first breakpoint after tau */
+    const double last_x = ceil(end / dt - JXF_SNAP) - 1.0;   /* last one before the end */
+    double a0[3], a1[3], from = tau;
+    long k, k_first, k_last;
+    k_first = first_x < 0.0 ? 0 : first_x > last ? m->n_traj : (long)first_x;
+    k_last = last_x > last ? m->n_traj - 1 : last_x < 0.0 ? -1 : (long)last_x;
     trajectory_at(m, tau, a0);
-    while (tau < end) {
-        double next = end;
-        if (tau < t_last - JXF_SNAP * dt) {
-            const double breakpoint = (floor(tau / dt + JXF_SNAP) + 1.0) * dt;
-            if (breakpoint < end - JXF_SNAP * dt) next = breakpoint;
-        }
+    for (k = k_first; k <= k_last; ++k) {
+        const double next = (double)k * dt;
         trajectory_at(m, next, a1);
-        advance(m, coefficients(m, next - tau), a0, a1);
+        if (advance(m, next - from, a0, a1)) return -1;
         memcpy(a0, a1, sizeof a0);
-        tau = next;
+        from = next;
     }
+    trajectory_at(m, end, a1);
+    return advance(m, end - from, a0, a1);
 }
 
 int jxf_do_step(jxf_model *m, double t, double h) {
-    if (!(isfinite(h) && h > 0.0) || !isfinite(t)) {
+    const size_t M = (size_t)m->n_modes;
+    const double end = t + h, time = m->time;
+    double settle_time;
+    int status, settled;
+    if (!(isfinite(h) && h > 0.0) || !isfinite(t) || !isfinite(end)) {
         jxf_log(m, JXF_LOG_ERROR, "doStep(currentCommunicationPoint = %g s, step = %g s): the "
-                "step must be a finite number > 0; state unchanged", t, h);
+                "step must be a finite number > 0 ending at a finite time; state unchanged", t,
+                h);
+        return -1;
+    }
+    if (!(end > t)) {
+        jxf_log(m, JXF_LOG_ERROR, "doStep(currentCommunicationPoint = %.17g s, step = %g s): "
+                "the step is below the resolution of the time in double precision, so the time "
+                "would not advance; state unchanged", t, h);
         return -1;
     }
     if (fabs(t - m->time) > 1e-9 * (fabs(t) + h)) {
         jxf_log(m, JXF_LOG_WARNING, "doStep: currentCommunicationPoint %.17g s differs from the "
                 "end of the previous step %.17g s; continuing from %.17g s", t, m->time, t);
     }
+    memcpy(m->saved, m->q, 2 * M * sizeof(double));
+    settled = m->settled;
+    settle_time = m->settle_time;
     if (m->use_trajectory) {
-        replay(m, t - m->start_time, h);
+        status = replay(m, t - m->start_time, h);
     } else {
         double a1[3];
         int c;
         for (c = 0; c < 3; ++c) a1[c] = m->acc[c] + h * m->acc_rate[c];
-        advance(m, coefficients(m, h), m->acc, a1);
+        status = advance(m, h, m->acc, a1);
     }
-    m->time = t + h;
-    update_outputs(m);
+    if (status == 0) {
+        m->time = end;
+        update_outputs(m);
+        if (!isfinite(m->deviation)) {
+            jxf_log(m, JXF_LOG_ERROR, "the displacement after the step is not finite (it "
+                    "overflows double precision)");
+            status = -1;
+        }
+    }
+    if (status != 0) { /* back to the state before the call, outputs included */
+        memcpy(m->q, m->saved, 2 * M * sizeof(double));
+        m->time = time;
+        update_outputs(m);
+        m->settled = settled;
+        m->settle_time = settle_time;
+        jxf_log(m, JXF_LOG_ERROR, "doStep(currentCommunicationPoint = %g s, step = %g s) "
+                "refused; state unchanged", t, h);
+        return -1;
+    }
     return 0;
 }

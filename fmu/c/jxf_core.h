@@ -66,6 +66,7 @@ typedef struct jxf_model {
     /* state and outputs */
     double start_time, time;
     double *q, *v;       /* (M) */
+    double *saved;       /* (2M): q and v before a step, restored if it fails */
     double *u;           /* (3K) displacement, component-major like `shapes` */
     double deviation;    /* max_p |u_p|, m */
     int settled;         /* deviation <= threshold at the current communication point */
@@ -121,7 +122,10 @@ int jxf_get_bool(const jxf_model *m, unsigned vr, int *value);
 int jxf_set_bool(jxf_model *m, unsigned vr, int value, int apply);
 
 /* Advance from `t` (the current communication point) by `h` s (step mode only); 0 on
- * success, -1 on error (logged, state untouched). */
+ * success, -1 on error (logged, state untouched): a step that is not finite and > 0, that
+ * does not advance the time in double precision, or whose exact solution is not finite. The
+ * work is bounded: one exact step per embedded trajectory sample crossed (integer sample
+ * indices, never accumulated time), at most N + 1. */
 int jxf_do_step(jxf_model *m, double t, double h);
 
 /* Format a message and send it to the model's logger (printf-style). */

@@ -6,6 +6,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "jxf_text.h"
+
 /* JXF_SOURCE_FMI_VERSION, JXF_SOURCE_TOKEN, JXF_SOURCE_N (>= 2 samples), JXF_SOURCE_DT (s) and
  * jxf_source_samples[3 * JXF_SOURCE_N] (m/s^2, sample after sample) */
 #include "jxf_source_data.h"
@@ -15,13 +17,14 @@
 #define JXF_SOURCE_SNAP 1e-9
 
 void jxf_source_log(const jxf_source *s, int level, const char *format, ...) {
-    char message[1024];
+    char message[1024], text[4 * sizeof message];
     va_list args;
     if (s == NULL || s->log == NULL || (level == JXF_SOURCE_INFO && !s->debug)) return;
     va_start(args, format);
     vsnprintf(message, sizeof message, format, args);
     va_end(args);
-    s->log(s->log_context, level, message);
+    jxf_escape(text, sizeof text, message);
+    s->log(s->log_context, level, text);
 }
 
 int jxf_source_init(jxf_source *s, const char *token, jxf_source_log_fn log, void *log_context,
@@ -134,9 +137,17 @@ int jxf_source_get(const jxf_source *s, unsigned vr, int order, double *value) {
 }
 
 int jxf_source_do_step(jxf_source *s, double t, double h) {
-    if (!(isfinite(h) && h > 0.0) || !isfinite(t)) {
+    const double end = t + h;
+    if (!(isfinite(h) && h > 0.0) || !isfinite(t) || !isfinite(end)) {
         jxf_source_log(s, JXF_SOURCE_ERROR, "doStep(currentCommunicationPoint = %g s, step = %g "
-                       "s): the step must be a finite number > 0; state unchanged", t, h);
+                       "s): the step must be a finite number > 0 ending at a finite time; state "
+                       "unchanged", t, h);
+        return -1;
+    }
+    if (!(end > t)) {
+        jxf_source_log(s, JXF_SOURCE_ERROR, "doStep(currentCommunicationPoint = %.17g s, step = "
+                       "%g s): the step is below the resolution of the time in double "
+                       "precision, so the time would not advance; state unchanged", t, h);
         return -1;
     }
     if (fabs(t - s->time) > 1e-9 * (fabs(t) + h)) {
@@ -144,6 +155,6 @@ int jxf_source_do_step(jxf_source *s, double t, double h) {
                        "from the end of the previous step %.17g s; continuing from %.17g s", t,
                        s->time, t);
     }
-    s->time = t + h;
+    s->time = end;
     return 0;
 }
