@@ -3,12 +3,12 @@
 The file must hold surfaces (a sheet body: the part's mid-surface); a solid body is
 refused with what to export instead. STEP and IGES state their length unit: OpenCASCADE
 converts the coordinates to metres; BREP has none (its coordinates are taken as metres);
-``scale`` multiplies after that. Faces that touch are sewn into one surface, so the mesh is
-continuous across their common edges (a flange meets its base). The surface is meshed with
-triangles (quadrilaterals for the thin solid) of ``mesh_size_m``, finer where curved (at
-least ``CURVATURE_ELEMENTS`` per full circle of the curvature radius) and refined around
-given discs (suction cups), the size growing by ``GROWTH`` of the distance, as the built-in
-parts are.
+``scale`` multiplies after that. Faces that touch are glued (coincident edges become
+one), so the mesh is continuous across their common edges (a flange meets its base). The
+surface is meshed with triangles (quadrilaterals for the thin solid) of ``mesh_size_m``,
+finer where curved (at least ``CURVATURE_ELEMENTS`` per full circle of the curvature
+radius) and refined around given discs (suction cups), the size growing by ``GROWTH`` of
+the distance, as the built-in parts are.
 """
 
 from __future__ import annotations
@@ -40,7 +40,6 @@ def _session() -> Iterator[None]:
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.option.setString("Geometry.OCCTargetUnit", "M")
-        gmsh.option.setNumber("Geometry.OCCSewFaces", 1)
         yield
     finally:
         gmsh.model.remove()
@@ -66,6 +65,9 @@ def _import(path: str | os.PathLike, scale: float) -> None:
         gmsh.model.occ.dilate(entities, 0, 0, 0, scale, scale, scale)
     gmsh.model.occ.synchronize()
     volumes = gmsh.model.getEntities(3)
+    if not volumes:  # faces that touch share their edges: one continuous mesh
+        gmsh.model.occ.removeAllDuplicates()
+        gmsh.model.occ.synchronize()
     if volumes:
         raise InputError(
             f"cad: {str(path)!r} holds a solid body ({len(volumes)} volume(s)); export the "

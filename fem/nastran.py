@@ -241,7 +241,7 @@ def from_nastran(
     """
     part, pins, grid_ids, info = part_from_deck(path, units, element=element, spc_id=spc_id)
     supports = as_support_list(list(cups)) + pins
-    if not supports:
+    if not supports and not allow_rigid_modes:
         raise InputError(
             "deck: no SPC and no cups hold the part; add SPC/SPC1 to the deck or give cups "
             "(--cups X,Y,R ...)"

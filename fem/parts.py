@@ -114,8 +114,19 @@ class Part:
     def place(self, points) -> tuple[np.ndarray, np.ndarray]:
         """Surface points (N, 3) of points (N, 2|3) m (see :meth:`surface_point`) and how
         far (m) each lies off the part (0 on it): outside the footprint, or beyond the
-        boundary along the surface."""
-        return self.geometry.place(np.atleast_2d(np.asarray(points, dtype=float)))
+        boundary along the surface. A list may mix both kinds."""
+        if isinstance(points, np.ndarray):
+            rows = list(np.atleast_2d(points.astype(float)))
+        else:
+            rows = [np.asarray(p, dtype=float) for p in points]
+        if not all(p.shape in ((2,), (3,)) for p in rows):
+            raise InputError(f"points: each point is (x, y) or (x, y, z) in m, got {points!r}")
+        on, off = np.empty((len(rows), 3)), np.empty(len(rows))
+        for width in (2, 3):
+            group = [i for i, p in enumerate(rows) if p.shape == (width,)]
+            if group:
+                on[group], off[group] = self.geometry.place(np.array([rows[i] for i in group]))
+        return on, off
 
     def disc_problem(self, centre, radius_m: float) -> str | None:
         """Why a contact disc of ``radius_m`` around the surface point ``centre`` (3,) does
