@@ -9,6 +9,10 @@ surface is meshed with triangles (quadrilaterals for the thin solid) of ``mesh_s
 finer where curved (at least ``CURVATURE_ELEMENTS`` per full circle of the curvature
 radius) and refined around given discs (suction cups), the size growing by ``GROWTH`` of
 the distance, as the built-in parts are.
+
+gmsh is imported where a CAD file is read: its library needs X11 and OpenGL system
+libraries (libGLU, libXcursor, libXft, libXinerama) that a minimal system may lack, and
+``import fem`` must not fail for the parts that do not need it.
 """
 
 from __future__ import annotations
@@ -18,7 +22,6 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
-import gmsh
 import numpy as np
 
 from fem.mesh_io import CAD_SUFFIXES, SheetMesh, sheet_from_cells
@@ -29,9 +32,24 @@ CURVATURE_ELEMENTS = 12
 _TRIANGLE, _QUAD = 2, 3  # gmsh element types
 
 
+def _gmsh():
+    """The gmsh module, or an error saying which system libraries it needs."""
+    try:
+        import gmsh
+    except OSError as exc:  # a shared library of libgmsh is missing
+        raise InputError(
+            f"cad: gmsh cannot be loaded ({exc}); it needs the system libraries libGLU, "
+            "libXcursor, libXft and libXinerama (Debian: apt-get install libglu1-mesa "
+            "libxcursor1 libxft2 libxinerama1)"
+        ) from exc
+    return gmsh
+
+
 @contextmanager
-def _session() -> Iterator[None]:
-    """A gmsh model of our own (gmsh keeps global state: a caller's session is left as is)."""
+def _session() -> Iterator[object]:
+    """A gmsh model of our own (gmsh keeps global state: a caller's session is left as is);
+    yields the gmsh module."""
+    gmsh = _gmsh()
     own = not gmsh.isInitialized()
     if own:
         gmsh.initialize(readConfigFiles=False, interruptible=False)
@@ -40,7 +58,7 @@ def _session() -> Iterator[None]:
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.option.setString("Geometry.OCCTargetUnit", "M")
-        yield
+        yield gmsh
     finally:
         gmsh.model.remove()
         if own:
@@ -49,7 +67,7 @@ def _session() -> Iterator[None]:
             gmsh.model.setCurrent(previous)
 
 
-def _import(path: str | os.PathLike, scale: float) -> None:
+def _import(gmsh, path: str | os.PathLike, scale: float) -> None:
     if not os.path.isfile(path):
         raise InputError(f"cad: file {str(path)!r} does not exist")
     if Path(path).suffix.lower() not in CAD_SUFFIXES:
@@ -78,7 +96,7 @@ def _import(path: str | os.PathLike, scale: float) -> None:
         raise InputError(f"cad: {str(path)!r} holds no surface (a sheet body is required)")
 
 
-def _refine(mesh_size_m: float, discs: Sequence[tuple[np.ndarray, float, float]]) -> None:
+def _refine(gmsh, mesh_size_m: float, discs: Sequence[tuple[np.ndarray, float, float]]) -> None:
     """Background size field: ``mesh_size_m`` away from the discs (centre (3,) m, radius m,
     element size m inside), graded linearly by GROWTH of the distance."""
     if not discs:
@@ -102,8 +120,8 @@ def _refine(mesh_size_m: float, discs: Sequence[tuple[np.ndarray, float, float]]
 
 def cad_bounds(path: str | os.PathLike, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper corners (3,) of the bounding box of a CAD file's sheet body, m."""
-    with _session():
-        _import(path, scale)
+    with _session() as gmsh:
+        _import(gmsh, path, scale)
         box = np.array(gmsh.model.getBoundingBox(-1, -1))
     return box[:3], box[3:]
 
@@ -119,8 +137,8 @@ def mesh_cad(
     """Mesh the sheet body of a CAD file (see the module): a SheetMesh of triangles (or
     quadrilaterals with ``quads``), element size ``mesh_size_m`` m, refined in ``discs``
     ((centre (3,) m, radius m, element size m) each)."""
-    with _session():
-        _import(path, scale)
+    with _session() as gmsh:
+        _import(gmsh, path, scale)
         gmsh.option.setNumber("Mesh.MeshSizeMax", float(mesh_size_m))
         gmsh.option.setNumber("Mesh.MeshSizeMin", 0.0)
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
@@ -131,7 +149,7 @@ def mesh_cad(
         if quads:
             gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 1)  # Blossom
             gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1)  # all quadrilaterals
-        _refine(mesh_size_m, discs)
+        _refine(gmsh, mesh_size_m, discs)
         try:
             gmsh.model.mesh.generate(2)
         except Exception as exc:
