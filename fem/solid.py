@@ -223,6 +223,11 @@ class Hex2LayerDofs:
         """The mesh vertex (a mid-surface node) nearest to that surface point."""
         return int(np.argmin(self.distance_m(x, y, z)[: self.layer.n_vertices]))
 
+    def disc_nodes(self, x: float, y: float, z: float | None, radius: float) -> np.ndarray:
+        """Mid-surface nodes within ``radius`` (m) of that surface point (quadratic elements:
+        vertices and mid-nodes resolve the rim to half an element)."""
+        return np.flatnonzero(self.distance_m(x, y, z) <= radius * (1 + 1e-9))
+
     def clamp_nodes(self, surface_nodes) -> Constraints:
         """Hold every displacement component through the thickness at ``surface_nodes``."""
         hexnodes = self.layer.layers_of(surface_nodes)

@@ -88,6 +88,11 @@ class SolidDofs(Protocol):
     def nearest_vertex(self, x: float, y: float, z: float | None = None) -> int:
         """The mesh vertex (a mid-surface node) nearest to that surface point."""
 
+    def disc_nodes(self, x: float, y: float, z: float | None, radius: float) -> np.ndarray:
+        """The mid-surface nodes a clamped disc of ``radius`` (m) around that surface point
+        holds (the thin solid: those within the radius; the shell: within the radius plus
+        half the local element size, so that the held elements fill the disc on average)."""
+
     def clamp_nodes(self, surface_nodes) -> Constraints:
         """Hold every displacement component through the thickness at ``surface_nodes``
         (the shell: translations and rotations)."""
@@ -260,8 +265,7 @@ class SuctionCup(Support):
         return plate.clamp_elements(held)
 
     def hold_solid(self, solid: SolidDofs, index: int) -> Constraints:
-        distance = solid.distance_m(self.x, self.y, self.z)
-        inside = np.flatnonzero(distance <= self.radius * (1 + 1e-9))
+        inside = solid.disc_nodes(self.x, self.y, self.z, self.radius)
         if inside.size == 0:
             raise InputError(
                 f"supports[{index}]: the cup at ({self.x:g}, {self.y:g}) m contains no mesh "
