@@ -4,11 +4,13 @@ runs into with a part that is not built in gets the behaviour asked for."""
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import meshio
 import numpy as np
 import pytest
+from conftest import run_jaxflex
 from sheet_parts import (
     CHORD_M,
     DEPTH_M,
@@ -257,3 +259,47 @@ def test_pieces_non_manifold_edges_and_orientation_are_reported(tmp_path):
     assert read["flipped_cells"] == 1 and read["orientable"]
     summary = part.summary()
     assert "2 disconnected pieces" in summary and "1 non-manifold edges" in summary
+
+
+def test_the_command_reads_a_cad_part_says_what_it_read_and_warns(tmp_path, panel_step):
+    cups = ["0.15,0.1,0.03", "0.45,0.1,0.03", "0.3,0.3,0.03"]
+    done = run_jaxflex(
+        "model", "--cad", str(panel_step), "--thickness", "1e-3", "--mesh-size", "0.04",
+        "--cups", *cups, "--n-modes", "4", "--points", "50", "--no-progress",
+        "-o", str(tmp_path / "panel.npz"),
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    out = done.stdout
+    assert "read " in out and "triangle" in out  # cells per type
+    assert "area 0.24" in out and "mass 1.9" in out  # 0.2435 m^2, 7850 x 1e-3 x area kg
+    assert "bounding box x 0 ... 0.6, y 0 ... 0.4, z -0.04606 ... 0 m" in out
+    assert re.search(r"span 0\.40\d+ m, thickness/span 1/40\d;", out)  # principal extent
+    assert "element 'shell'" in out and "wrote" in out
+    # a thickness in millimetres: the model is built, with warnings naming the values
+    slip = run_jaxflex(
+        "model", "--cad", str(panel_step), "--thickness", "1", "--mesh-size", "0.04",
+        "--cups", *cups, "--n-modes", "2", "--no-progress", "-o", str(tmp_path / "slip.npz"),
+    )  # fmt: skip
+    assert slip.returncode == 0, slip.stderr
+    assert "warning: panel.step: thickness 1 m is 1/0.40" in slip.stderr
+    assert "weighs 1913 kg" in slip.stderr  # 7850 x 1 m x 0.2437 m^2
+    # cups in millimetres: exit 2, how far off and in which unit
+    mm = run_jaxflex(
+        "model", "--cad", str(panel_step), "--thickness", "1e-3", "--mesh-size", "0.04",
+        "--cups", "150,100,30", "450,100,30", "300,300,30", "--no-progress",
+        "-o", str(tmp_path / "mm.npz"),
+    )  # fmt: skip
+    assert mm.returncode == 2
+    # to the corner (0.6, 0.4) of the footprint: hypot(149.4, 99.6) m
+    assert "is 179.6 m off the part (coordinates are read in metres" in mm.stderr
+    assert "in millimetres it lies on the part: give (0.15, 0.1) m" in mm.stderr
+    assert "--cad FILE" in run_jaxflex("model", "--help").stdout
+
+
+def test_a_folded_part_can_be_plotted(tmp_path):
+    points, quads = bracket(90.0, 0.04)
+    meshio.write(tmp_path / "bracket.vtu", meshio.Mesh(points, [("quad", quads)]))
+    part = fem.read_mesh(tmp_path / "bracket.vtu", 2e-3)
+    result = fem.modal_analysis(part, fem.ClampedEdge("x1"), 2, progress=False)
+    fem.plot_part(result, tmp_path / "bracket.png", n_modes=2)
+    assert (tmp_path / "bracket.png").stat().st_size > 0
