@@ -34,7 +34,6 @@ from fmu.export import export_fmu
 from fmu.harness import compile_harness, resource_location, unpack
 from fmu.ssp import export_ssp
 from fmu.windows import (
-    compile_windows_harness,
     replay,
     run_under_wine,
     windows_library,
@@ -111,7 +110,7 @@ def windows_figures(
     )
     harnesses = (
         compile_harness(version, folder / "harness"),
-        compile_windows_harness(version, folder / "harness.exe"),
+        compile_harness(version, folder / "harness.exe", windows=True),
     )
     linux = replay(result.fmu_path, folder / "linux", harnesses[0], 300, dt_s, windows=False)
     win = replay(result.fmu_path, folder / "windows", harnesses[1], 300, dt_s, windows=True)
