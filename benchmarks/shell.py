@@ -29,6 +29,7 @@ import numpy as np
 import fem
 from fem.mesh_io import sheet_from_cells
 from fem.parts import part_from_mesh
+from jaxflex.analytic import cylindrical_panel_frequencies_hz
 from jaxflex.atomic import write_text_atomic
 
 CASES = ("doors", "leissa", "donnell", "locking", "bracket", "scene")
@@ -63,21 +64,12 @@ def case_leissa() -> dict:
 
 
 def donnell_hz(thickness_m: float, count: int = 6) -> np.ndarray:
-    """Donnell-Mushtari shallow shell, shear-diaphragm cylindrical panel (Soedel)."""
-    a, radius = PANEL["a"], PANEL["radius"]
-    b = 2 * radius * np.arcsin(PANEL["chord"] / (2 * radius))
-    bending = STEEL.bending_stiffness_nm(thickness_m)
-    out = []
-    for m in range(1, 9):
-        for n in range(1, 9):
-            km, kn = m * np.pi / a, n * np.pi / b
-            k2 = km**2 + kn**2
-            w2 = (
-                bending / (STEEL.rho_kg_m3 * thickness_m) * k2**2
-                + STEEL.E_pa / (STEEL.rho_kg_m3 * radius**2) * km**4 / k2**2
-            )
-            out.append(np.sqrt(w2) / (2 * np.pi))
-    return np.sort(out)[:count]
+    """Donnell's closed form of the simply supported panel (jaxflex.analytic)."""
+    radius = PANEL["radius"]
+    arc = 2 * radius * np.arcsin(PANEL["chord"] / (2 * radius))
+    return cylindrical_panel_frequencies_hz(
+        PANEL["a"], arc, radius, thickness_m, STEEL.E_pa, STEEL.nu, STEEL.rho_kg_m3, count
+    )
 
 
 def _panel(thickness_m: float, size: float | None, element: str):

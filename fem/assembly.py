@@ -8,8 +8,12 @@ with DOF b n + i = component i of node n.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import scipy.sparse as sp
+
+from fem.progress import progress_bar
 
 
 class BlockPattern:
@@ -52,3 +56,29 @@ class BlockPattern:
 def chunks(n_elements: int, size: int) -> list[np.ndarray]:
     """Consecutive element index chunks of at most ``size`` elements."""
     return np.array_split(np.arange(n_elements), max(1, int(np.ceil(n_elements / size))))
+
+
+def assemble(
+    element_nodes: np.ndarray,
+    n_nodes: int,
+    block: int,
+    compute: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    *,
+    chunk_size: int,
+    label: str,
+    progress=None,
+) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """Stiffness and mass (CSR) from element matrices computed ``chunk_size`` elements at a
+    time: ``compute(chunk)`` gives (k, m), each (len(chunk), n b, n b), for the element
+    indices ``chunk``; a progress bar named ``label`` counts the chunks."""
+    parts = chunks(len(element_nodes), chunk_size)
+    with progress_bar(len(parts) + 1, label, progress) as bar:
+        pattern = BlockPattern(element_nodes, n_nodes, block)
+        bar.update(1)
+        k_blocks, m_blocks = pattern.zeros(), pattern.zeros()
+        for chunk in parts:
+            k_el, m_el = compute(chunk)
+            pattern.add(k_blocks, chunk, k_el)
+            pattern.add(m_blocks, chunk, m_el)
+            bar.update(1)
+    return pattern.matrix(k_blocks), pattern.matrix(m_blocks)

@@ -13,13 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from fem.assembly import BlockPattern, chunks
+from fem.assembly import assemble
 from fem.mesh import ShellMesh
-from fem.progress import progress_bar
 from fem.shell_element import element_matrices
 from fem.sides import side_nodes
 from fem.supports import Support
-from fem.system import Constraints, FESystem
+from fem.system import Constraints, FESystem, mesh_stats
 
 FORMULATION = (
     "shell, flat-facet triangles: DKT bending + ANDES OPT membrane with drilling rotations "
@@ -78,24 +77,23 @@ def assemble_shell(
     ``supports`` which DOFs it holds."""
     mat = part.material
     n_el, n_nodes = len(mesh.triangles), len(mesh.nodes)
-    parts = chunks(n_el, CHUNK_ELEMENTS)
     frames = np.empty((n_el, 3, 3))
-    with progress_bar(len(parts) + 1, f"assembly (shell, {n_el} elements)", progress) as bar:
-        pattern = BlockPattern(mesh.triangles, n_nodes, DOFS_PER_NODE)
-        bar.update(1)
-        k_blocks, m_blocks = pattern.zeros(), pattern.zeros()
-        for chunk in parts:
-            k_el, m_el, frames[chunk] = element_matrices(
-                mesh.nodes[mesh.triangles[chunk]],
-                part.thickness_m,
-                mat.E_pa,
-                mat.nu,
-                mat.rho_kg_m3,
-            )
-            pattern.add(k_blocks, chunk, k_el)
-            pattern.add(m_blocks, chunk, m_el)
-            bar.update(1)
-    K, M = pattern.matrix(k_blocks), pattern.matrix(m_blocks)
+
+    def compute(chunk):
+        k_el, m_el, frames[chunk] = element_matrices(
+            mesh.nodes[mesh.triangles[chunk]], part.thickness_m, mat.E_pa, mat.nu, mat.rho_kg_m3
+        )
+        return k_el, m_el
+
+    K, M = assemble(
+        mesh.triangles,
+        n_nodes,
+        DOFS_PER_NODE,
+        compute,
+        chunk_size=CHUNK_ELEMENTS,
+        label=f"assembly (shell, {n_el} elements)",
+        progress=progress,
+    )
     layer = ShellLayer(mesh, frames)
     n_dof = DOFS_PER_NODE * n_nodes
     rigid = np.zeros((n_dof, 3))
@@ -103,14 +101,7 @@ def assemble_shell(
         rigid[d::DOFS_PER_NODE, d] = 1.0
     node_dofs = DOFS_PER_NODE * np.arange(n_nodes)[:, None] + np.arange(3)
     lengths = np.linalg.norm(np.diff(mesh.nodes[layer.edges], axis=1)[:, 0], axis=1)
-    stats = {
-        "cell_type": "triangle (shell)",
-        "n_nodes": int(n_nodes),
-        "n_elements": int(n_el),
-        "n_dof": int(n_dof),
-        "edge_length_min_m": float(lengths.min()),
-        "edge_length_max_m": float(lengths.max()),
-    }
+    stats = mesh_stats("triangle (shell)", n_nodes, n_el, n_dof, lengths)
     dofs = ShellMeshDofs(layer, part)
     constraints = Constraints.union(s.hold_solid(dofs, i) for i, s in enumerate(supports))
     system = FESystem(

@@ -14,12 +14,11 @@ from __future__ import annotations
 import numpy as np
 import skfem
 
-from fem.assembly import BlockPattern, chunks
+from fem.assembly import assemble
 from fem.mesh import SurfaceMesh
-from fem.progress import progress_bar
 from fem.sides import side_nodes
 from fem.supports import Support
-from fem.system import Constraints, FESystem
+from fem.system import Constraints, FESystem, mesh_stats
 from jaxflex.errors import InputError
 
 FORMULATION = (
@@ -152,38 +151,33 @@ def assemble_solid(
     n_el = len(layer.element_nodes)
     n_dof = 3 * len(layer.points)
     basis = _reference_basis()
-    parts = chunks(n_el, CHUNK_ELEMENTS)
-    with progress_bar(len(parts) + 1, f"assembly (hex2, {n_el} elements)", progress) as bar:
-        # sparsity at node level: 3x3 blocks per pair of nodes sharing an element
-        pattern = BlockPattern(layer.element_nodes, len(layer.points), 3)
-        bar.update(1)
-        k_blocks, m_blocks = pattern.zeros(), pattern.zeros()
-        for chunk in parts:
-            k_el, m_el = element_matrices(
-                layer.points[layer.element_nodes[chunk]],
-                mat.lame_lambda_pa,
-                mat.shear_modulus_pa,
-                mat.rho_kg_m3,
-                basis,
-            )
-            pattern.add(k_blocks, chunk, k_el)
-            pattern.add(m_blocks, chunk, m_el)
-            bar.update(1)
-    K, M = pattern.matrix(k_blocks), pattern.matrix(m_blocks)
+
+    def compute(chunk):
+        return element_matrices(
+            layer.points[layer.element_nodes[chunk]],
+            mat.lame_lambda_pa,
+            mat.shear_modulus_pa,
+            mat.rho_kg_m3,
+            basis,
+        )
+
+    # sparsity at node level: 3x3 blocks per pair of nodes sharing an element
+    K, M = assemble(
+        layer.element_nodes,
+        len(layer.points),
+        3,
+        compute,
+        chunk_size=CHUNK_ELEMENTS,
+        label=f"assembly (hex2, {n_el} elements)",
+        progress=progress,
+    )
     rigid = np.zeros((n_dof, 3))
     for d in range(3):
         rigid[d::3, d] = 1.0
     mid = np.arange(layer.n_surface) + layer.n_surface
     node_dofs = 3 * mid[:, None] + np.arange(3)
     lengths = np.linalg.norm(np.diff(surface.nodes[layer.edges], axis=1)[:, 0], axis=1)
-    stats = {
-        "cell_type": "hexahedron27 (one layer)",
-        "n_nodes": len(layer.points),
-        "n_elements": int(n_el),
-        "n_dof": int(n_dof),
-        "edge_length_min_m": float(lengths.min()),
-        "edge_length_max_m": float(lengths.max()),
-    }
+    stats = mesh_stats("hexahedron27 (one layer)", len(layer.points), n_el, n_dof, lengths)
     dofs = Hex2LayerDofs(layer, part)
     constraints = Constraints.union(s.hold_solid(dofs, i) for i, s in enumerate(supports))
     system = FESystem(

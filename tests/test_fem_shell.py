@@ -14,6 +14,7 @@ from fem import shell_element as se
 from fem.mesh_io import sheet_from_cells
 from fem.parts import part_from_mesh
 from fem.shell import assemble_shell
+from jaxflex.analytic import cylindrical_panel_frequencies_hz
 
 STEEL = fem.PRESETS["steel"]
 E, NU, RHO = STEEL.E_pa, STEEL.nu, STEEL.rho_kg_m3
@@ -156,19 +157,9 @@ def test_clamped_square_plate_with_triangles_against_leissa():
 
 
 def _donnell_hz(a, chord, thickness, radius, count=6):
-    """Simply supported (shear-diaphragm) circular cylindrical panel: axial length a, arc
-    b; Donnell-Mushtari shallow shell (Soedel, "Vibrations of Shells and Plates"):
-    omega^2 = D/(rho h) k^4 + E/(rho R^2) (m pi/a)^4 / k^4, k^2 = (m pi/a)^2 + (n pi/b)^2."""
-    b = 2 * radius * np.arcsin(chord / (2 * radius))
-    bending = STEEL.bending_stiffness_nm(thickness)
-    out = []
-    for m in range(1, 9):
-        for n in range(1, 9):
-            km, kn = m * np.pi / a, n * np.pi / b
-            k2 = km**2 + kn**2
-            w2 = bending / (RHO * thickness) * k2**2 + E / (RHO * radius**2) * km**4 / k2**2
-            out.append(np.sqrt(w2) / (2 * np.pi))
-    return np.sort(out)[:count]
+    """Donnell's closed form of the simply supported cylindrical panel (jaxflex.analytic)."""
+    arc = 2 * radius * np.arcsin(chord / (2 * radius))
+    return cylindrical_panel_frequencies_hz(a, arc, radius, thickness, E, NU, RHO, count)
 
 
 A_M, CHORD_M, R_M = 0.5, 0.4, 2.0
