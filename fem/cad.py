@@ -18,6 +18,7 @@ libraries (libGLU, libXcursor, libXft, libXinerama) that a minimal system may la
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -30,6 +31,7 @@ from jaxflex.errors import InputError
 
 CURVATURE_ELEMENTS = 12
 _TRIANGLE, _QUAD = 2, 3  # gmsh element types
+_LOCK = threading.Lock()  # gmsh keeps one global state: one session at a time per process
 
 
 def _gmsh():
@@ -50,21 +52,22 @@ def _session() -> Iterator[object]:
     """A gmsh model of our own (gmsh keeps global state: a caller's session is left as is);
     yields the gmsh module."""
     gmsh = _gmsh()
-    own = not gmsh.isInitialized()
-    if own:
-        gmsh.initialize(readConfigFiles=False, interruptible=False)
-    previous = gmsh.model.getCurrent() if not own else None
-    gmsh.model.add("jaxflex-cad")
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setString("Geometry.OCCTargetUnit", "M")
-        yield gmsh
-    finally:
-        gmsh.model.remove()
+    with _LOCK:
+        own = not gmsh.isInitialized()
         if own:
-            gmsh.finalize()
-        elif previous:
-            gmsh.model.setCurrent(previous)
+            gmsh.initialize(readConfigFiles=False, interruptible=False)
+        previous = gmsh.model.getCurrent() if not own else None
+        gmsh.model.add("jaxflex-cad")
+        try:
+            gmsh.option.setNumber("General.Terminal", 0)
+            gmsh.option.setString("Geometry.OCCTargetUnit", "M")
+            yield gmsh
+        finally:
+            gmsh.model.remove()
+            if own:
+                gmsh.finalize()
+            elif previous:
+                gmsh.model.setCurrent(previous)
 
 
 def _import(gmsh, path: str | os.PathLike, scale: float) -> None:
