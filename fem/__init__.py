@@ -12,7 +12,7 @@ from fem.imported import ImportedModes
 from fem.materials import PRESETS, Material, resolve_material
 from fem.modal import ModalResult, describe_model, modal_analysis
 from fem.nastran import from_nastran
-from fem.parts import Part, curved_panel, read_mesh, rectangular_plate
+from fem.parts import Part, curved_panel, read_cad, read_mesh, rectangular_plate
 from fem.scenes import SCENES, default_gripper, default_model, scene
 from fem.sizing import SizingResult, size_model
 from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup, Support
@@ -47,6 +47,7 @@ __all__ = [
     "modal_analysis",
     "plot_part",
     "rayleigh_zeta",
+    "read_cad",
     "read_mesh",
     "rectangular_plate",
     "resolve_material",

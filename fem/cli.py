@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -17,8 +18,10 @@ import numpy as np
 from fem import cli_imports
 from fem.damping import check_damping
 from fem.export import export_modes, plot_part
+from fem.mesh_io import CAD_SUFFIXES, FORMATS_HELP
 from fem.modal import modal_analysis
-from fem.parts import read_mesh
+from fem.parts import ELEMENTS, read_cad, read_mesh
+from fem.sanity import PartWarning
 from fem.scenes import scene
 from fem.sizing import size_model
 from fem.supports import ClampedEdge, PointSupport, SuctionCup
@@ -39,14 +42,22 @@ HELP = (
 ORDER = 10
 
 
-def _triple(text: str) -> tuple[float, float, float]:
+def _cup(text: str) -> SuctionCup:
+    """X,Y,R or X,Y,Z,R (m) -> a suction cup (Z: on the surface point nearest (X, Y, Z))."""
     parts = text.split(",")
-    if len(parts) != 3:
-        raise argparse.ArgumentTypeError(f"expected X,Y,R in m (e.g. 0.3,0.2,0.04), got {text!r}")
+    if len(parts) not in (3, 4):
+        raise argparse.ArgumentTypeError(
+            f"expected X,Y,R or X,Y,Z,R in m (e.g. 0.3,0.2,0.04), got {text!r}"
+        )
     try:
-        return tuple(float(p) for p in parts)  # type: ignore[return-value]
+        values = [float(p) for p in parts]
     except ValueError as exc:
-        raise argparse.ArgumentTypeError(f"expected numbers X,Y,R in m, got {text!r}") from exc
+        raise argparse.ArgumentTypeError(f"expected numbers X,Y[,Z],R in m, got {text!r}") from exc
+    x, y, *z, radius = values
+    try:
+        return SuctionCup(x, y, radius, z=z[0] if z else None)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from exc
 
 
 def _pair(text: str) -> tuple[float, float]:
@@ -100,19 +111,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src.add_argument(
         "--mesh",
         metavar="FILE",
-        help="mesh file, coordinates in m (see --scale), any format meshio reads: Gmsh .msh, "
-        "VTK .vtu/.vtk, XDMF .xdmf, Abaqus .inp, MED .med, Medit .mesh, STL .stl, OBJ .obj, "
-        "PLY .ply, OFF .off, SU2 .su2, ...; flat triangles: a plate; quads: the mid-surface of "
-        "a curved part (with --thickness); hexahedra: a one-layer thin solid",
+        help=f"the part's mid-surface mesh ({FORMATS_HELP}); coordinates in m (see --scale)",
+    )
+    src.add_argument(
+        "--cad",
+        metavar="FILE",
+        help=f"CAD sheet body ({', '.join(CAD_SUFFIXES)}; a surface, not a solid) meshed with "
+        "gmsh at --mesh-size, refined around the cups",
     )
     cli_imports.add_sources(src)
     cli_imports.add_arguments(parser)
-    parser.add_argument("--thickness", type=float, help="sheet thickness in m (mesh files)")
+    parser.add_argument(
+        "--thickness", type=float, help="sheet thickness in m, e.g. 0.8e-3 (--mesh, --cad)"
+    )
     parser.add_argument(
         "--scale",
         type=float,
         default=1.0,
-        help="factor to metres for mesh coordinates (1e-3 for mm)",
+        help="factor from the file's coordinates to metres: 1e-3 for a mesh in millimetres "
+        "(STEP and IGES state their unit and are converted first)",
     )
     parser.add_argument("--material", default="steel", help="steel (default) or aluminium")
     parser.add_argument("--E", dest="E_pa", type=float, help="Young's modulus in Pa")
@@ -120,16 +137,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rho", dest="rho_kg_m3", type=float, help="density in kg/m^3")
     parser.add_argument(
         "--element",
-        choices=("morley", "argyris", "hex2"),
-        help="formulation (default: morley for flat, hex2 for curved parts)",
+        choices=ELEMENTS,
+        help="formulation (default: morley for flat parts in a plane z = const, shell for "
+        "curved and folded ones, hex2 for the panel scene and hexahedral meshes)",
     )
-    parser.add_argument("--mesh-size", type=float, help="element size in m (built-in scenes)")
+    parser.add_argument(
+        "--mesh-size", type=float, help="element size in m (--scene, --cad; default per element)"
+    )
     parser.add_argument(
         "--cups",
         nargs="+",
-        type=_triple,
-        metavar="X,Y,R",
-        help="suction cups: centre x,y and radius in m (replaces the scene's)",
+        type=_cup,
+        metavar="X,Y[,Z],R",
+        help="suction cups: centre x,y (the surface point above it) or x,y,z (the nearest "
+        "surface point) and radius, in m (replaces the scene's)",
     )
     parser.add_argument(
         "--point-supports",
@@ -263,25 +284,19 @@ def run(args: argparse.Namespace) -> int:
     material = _material(args)
     if args.scene:
         if args.thickness is not None or args.element is not None:
-            raise InputError("--thickness/--element: only for --mesh (scenes are 1 mm steel)")
+            raise InputError(
+                "--thickness/--element: only for --mesh and --cad (scenes are 1 mm steel)"
+            )
         part, supports = scene(args.scene, mesh_size=args.mesh_size, material=material)
     else:
-        if args.mesh_size is not None:
-            raise InputError("--mesh-size: only for --scene (a mesh file is used as is)")
-        part = read_mesh(
-            args.mesh,
-            thickness=args.thickness,
-            material=material,
-            element=args.element,
-            scale=args.scale,
-        )
+        part = _read_part(args, material)
         supports = []
     if args.cups is not None:
-        supports = [SuctionCup(x, y, r) for x, y, r in args.cups]
+        supports = list(args.cups)
     supports += [PointSupport(x, y) for x, y in args.point_supports]
     supports += [ClampedEdge(side) for side in args.clamped_edges]
     if not supports:
-        raise InputError("--cups: a mesh file needs a gripper (--cups X,Y,R ...)")
+        raise InputError("--cups: a mesh or CAD part needs a gripper (--cups X,Y,R ...)")
     if args.tolerance is not None:
         return _run_sizing(args, part, supports)
     for name in SIZING_ONLY:
@@ -303,6 +318,42 @@ def run(args: argparse.Namespace) -> int:
     model = result.to_modal_model(points=None if points == "all" else points)
     _write(args, model, result)
     return 0
+
+
+def _read_part(args, material):
+    """The part of --mesh or --cad; prints what was read and the unit warnings."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", PartWarning)
+        if args.mesh:
+            if args.mesh_size is not None:
+                raise InputError("--mesh-size: only for --scene and --cad (a mesh is used as is)")
+            part = read_mesh(
+                args.mesh,
+                thickness=args.thickness,
+                material=material,
+                element=args.element,
+                scale=args.scale,
+            )
+        else:
+            if args.thickness is None:
+                raise InputError("--thickness: required with --cad (sheet thickness in m)")
+            part = read_cad(
+                args.cad,
+                args.thickness,
+                material,
+                args.mesh_size,
+                element=args.element,
+                scale=args.scale,
+            )
+    print(part.summary())
+    for warning in caught:
+        if issubclass(warning.category, PartWarning):
+            print(f"warning: {warning.message}", file=sys.stderr)
+        else:
+            warnings.showwarning(
+                warning.message, warning.category, warning.filename, warning.lineno
+            )
+    return part
 
 
 def _write(args, model, result) -> None:
@@ -359,7 +410,7 @@ def _run_sizing(args, part, supports) -> int:
     if args.threshold is None:
         raise InputError("--threshold: the settle threshold in m is required with --tolerance")
     if args.mesh is not None and args.mesh_sizes is not None:
-        raise InputError("--mesh-sizes: a mesh file is used as is")
+        raise InputError("--mesh-sizes: a mesh file is used as is (a CAD part can be re-meshed)")
     acc, dt_s = _move(args)
     sized = size_model(
         part,

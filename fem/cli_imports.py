@@ -13,7 +13,6 @@ import numpy as np
 from fem.ansys import from_ansys
 from fem.identify import from_r1
 from fem.nastran import from_nastran
-from fem.supports import SuctionCup
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
 
@@ -140,7 +139,7 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
         result = from_nastran(
             args.from_nastran,
             units=args.units,
-            cups=[SuctionCup(x, y, r) for x, y, r in args.cups or []],
+            cups=list(args.cups or []),
             spc_id=args.spc_id,
             element=args.element,
             n_modes=n_modes,

@@ -1,6 +1,7 @@
-"""The two meshes a part is analysed on: a flat triangle mesh (plate elements) and a quad
-mid-surface (extruded into a one-layer thin solid). Built by fem.parts, read from files by
-fem.mesh_io, assembled by fem.plate and fem.solid; coordinates in m."""
+"""The meshes a part is analysed on: a flat triangle mesh (plate elements), a quad
+mid-surface (extruded into a one-layer thin solid) and a triangulated mid-surface in space
+(shell elements). Built by fem.parts, read from files by fem.mesh_io, assembled by
+fem.plate, fem.solid and fem.shell; coordinates in m."""
 
 from __future__ import annotations
 
@@ -33,3 +34,13 @@ class SurfaceMesh:
     normals: np.ndarray
     params: np.ndarray | None = None
     exact: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class ShellMesh:
+    """A triangulated mid-surface in space: nodes (N, 3) m, triangles (E, 3), oriented
+    consistently within each connected piece where the surface is orientable (the shell's
+    stiffness does not depend on it; reported normals do). Flat, curved or folded."""
+
+    nodes: np.ndarray
+    triangles: np.ndarray

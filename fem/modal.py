@@ -22,6 +22,7 @@ from fem.damping import check_damping, describe_damping, modal_zeta
 from fem.eigen import all_modes, factorize, lowest_modes
 from fem.parts import Part
 from fem.plate import assemble_plate
+from fem.shell import assemble_shell
 from fem.solid import assemble_solid
 from fem.supports import as_support_list, check_layout, contact_discs
 from fem.system import FESystem
@@ -31,7 +32,7 @@ from jaxflex.points import downsample_to_count, snap_key_points
 from jaxflex.progress import step
 from jaxflex.validation import check_positive
 
-RIGID_MODES = {"plate": 3, "solid": 6}
+RIGID_MODES = {"plate": 3, "solid": 6, "shell": 6}
 
 
 def select_node_indices(
@@ -402,7 +403,7 @@ def modal_analysis(
     if not isinstance(part, Part):
         raise InputError(
             f"part: expected a fem part (rectangular_plate, curved_panel, "
-            f"read_mesh), got {type(part).__name__}"
+            f"read_mesh, read_cad), got {type(part).__name__}"
         )
     supports = as_support_list(supports)
     dense = isinstance(n_modes, str)
@@ -420,7 +421,7 @@ def modal_analysis(
         max_freq_hz = check_positive("max_freq_hz", max_freq_hz)
     check_positive("sigma_hz", sigma_hz)
     check_damping(zeta)
-    check_layout(supports, part.contains_xy, allow_rigid_modes=allow_rigid_modes)
+    check_layout(supports, part, allow_rigid_modes=allow_rigid_modes)
     timings: dict[str, float] = {}
 
     tick = time.perf_counter()
@@ -431,6 +432,8 @@ def modal_analysis(
         system = assemble_plate(
             mesh, part.element, part.material, part.thickness_m, supports, progress
         )
+    elif part.kind == "shell":
+        system, _ = assemble_shell(mesh, part, supports, progress)
     else:
         system, _ = assemble_solid(mesh, part, supports, progress)
     timings["assembly_s"] = time.perf_counter() - tick

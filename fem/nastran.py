@@ -3,7 +3,9 @@
 A deck's GRID points and shell elements (CQUAD4, CTRIA3, CQUAD8, CTRIA6; the mid-side grids
 of the quadratic ones are dropped, our elements have their own edge DOFs), its PSHELL
 thickness and MAT1 material (fem.bdf reads them) become a fem part: a flat deck a Kirchhoff
-plate (triangles; quads are split), a curved one of quads the one-layer thin solid.
+plate (triangles; quads are split), a curved or folded one the shell (fem.shell; or the
+one-layer thin solid on request, quads only). Grids are never merged, even where two share
+a location (a deck keeps such seams apart on purpose).
 Single-point constraints (the SPC/SPC1 set case control or ``spc_id`` selects, and GRID
 PS) become pinned points; the suction cups of the gripper may be given as well (``cups``).
 Nastran decks state no units: they are given (fem.units), everything is converted to SI
@@ -17,19 +19,15 @@ from pathlib import Path
 
 import numpy as np
 
-from fem import meshing
 from fem.bdf import SHELL_CARDS, BulkData, Shell, read_bulk
 from fem.imported import file_digest
 from fem.materials import Material
-from fem.mesh import PlateMesh
-from fem.mesh_io import surface_from_quads
+from fem.mesh_io import sheet_from_cells
 from fem.modal import ModalResult, modal_analysis
 from fem.parts import part_from_mesh
 from fem.supports import PointSupport, as_support_list
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
-
-FLAT_TOLERANCE = 1e-9  # z spread of a flat deck relative to its extent
 
 
 def _one(values: dict, what: str):
@@ -138,7 +136,7 @@ def _held_grids(bulk: BulkData, spc_id, flat: bool, part_grids: set, midside: se
             if translations and translations != {"1", "2", "3"}:
                 raise InputError(
                     f"deck: {where}: grid {gid} holds translations {''.join(sorted(comps))}; "
-                    "the thin solid pins all three (123) at a point"
+                    "the shell and the thin solid pin all three (123) at a point"
                 )
             held = bool(translations)
         if not held:
@@ -183,39 +181,22 @@ def part_from_deck(
         )
     except InputError as exc:
         raise InputError(f"deck: MAT1 {exc}") from exc
-    extent = float(np.ptp(xyz, axis=0).max())
-    flat = np.ptp(xyz[:, 2]) <= FLAT_TOLERANCE * extent
     counts = {t: sum(s.name == t for s in bulk.shells) for t in SHELL_CARDS}
     description = {"shape": "Nastran deck", "path": str(path), "elements": counts}
-    if flat:
-        tris = [c for c in corners if len(c) == 3]
-        quads = [c for c in corners if len(c) == 4]
-        triangles = [[index[g] for g in c] for c in tris]
-        if quads:
-            quad_idx = np.array([[index[g] for g in c] for c in quads])
-            triangles += meshing.split_quads(quad_idx, xyz[:, :2]).tolist()
-        triangles = np.array(triangles)
-        a, b, c = (xyz[triangles[:, k], :2] for k in range(3))
-        cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (
-            c[:, 0] - a[:, 0]
-        )
-        triangles = np.where((cross < 0)[:, None], triangles[:, [0, 2, 1]], triangles)
-        mesh = PlateMesh(xyz[:, :2], triangles, float(xyz[0, 2]))
-        element = element or "morley"
-    else:
-        if any(len(c) == 3 for c in corners):
-            raise InputError(
-                "deck: a curved part is modelled as a thin solid of quads; the deck has "
-                "triangles (CTRIA3/CTRIA6) off the plane"
-            )
-        mesh = surface_from_quads(xyz, np.array([[index[g] for g in c] for c in corners]), path)
-        element = element or "hex2"
+    blocks = [
+        (kind, np.array([[index[g] for g in c] for c in corners if len(c) == n]))
+        for kind, n in (("triangle", 3), ("quad", 4))
+        if any(len(c) == n for c in corners)
+    ]
+    sheet = sheet_from_cells(xyz, blocks, str(path), weld=False)
+    flat = sheet.is_flat
+    element = element or ("morley" if flat else "shell")
     part = part_from_mesh(
-        mesh, thickness * unit.length_m, material, element, Path(path).name, description
+        sheet, thickness * unit.length_m, material, element, Path(path).name, description
     )
     midside = {g for s in bulk.shells for g in s.grids[len(s.corners) :]}
     held, spc = _held_grids(bulk, spc_id, bool(flat), set(index), midside)
-    supports = [PointSupport(*xyz[index[g], :2]) for g in held]
+    supports = [PointSupport(*xyz[index[g]]) for g in held]
     info = {
         "units": unit.describe(),
         "elements": counts,
@@ -252,14 +233,15 @@ def from_nastran(
         cups: suction cups (fem.SuctionCup) holding the part besides the deck's SPCs.
         spc_id: the SPC set to use (default: the one case control selects, or the deck's
             only set).
-        element: "morley" (default for flat decks), "argyris", or "hex2" (curved decks).
+        element: "morley" (default for flat decks), "argyris", "shell" (default for curved
+            and folded decks) or "hex2" (the thin solid, quads only).
         n_modes, max_freq_hz, zeta, allow_rigid_modes, progress: as fem.modal_analysis.
     Returns the fem.ModalResult (``.to_modal_model(points)``); its meta records the deck,
     its hash and the conversions.
     """
     part, pins, grid_ids, info = part_from_deck(path, units, element=element, spc_id=spc_id)
     supports = as_support_list(list(cups)) + pins
-    if not supports:
+    if not supports and not allow_rigid_modes:
         raise InputError(
             "deck: no SPC and no cups hold the part; add SPC/SPC1 to the deck or give cups "
             "(--cups X,Y,R ...)"

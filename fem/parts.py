@@ -2,12 +2,14 @@
 
 Built-in parts are rectangular in their xy footprint [0, width] x [0, height] (m): a flat
 plate, or a doubly curved panel z(x, y) (fender-like). User parts come from mesh files via
-meshio (:func:`read_mesh`). A part is meshed when it is analysed, so the mesh can be refined
-around the cups of the gripper.
+meshio (:func:`read_mesh`) or from CAD sheet bodies via gmsh (:func:`read_cad`). Built-in
+and CAD parts are meshed when they are analysed, so the mesh can be refined around the cups
+of the gripper; a mesh file is used as is.
 
 Formulations (``element``):
     "morley"   Kirchhoff plate, ElementTriMorley (flat parts, default; converges from below).
     "argyris"  Kirchhoff plate, ElementTriArgyris (flat parts, accurate reference).
+    "shell"    flat-facet shell triangles, DKT + OPT (curved and folded parts from files).
     "hex2"     one-layer thin solid of 27-node hexahedra, full integration (curved parts).
 """
 
@@ -19,119 +21,37 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-import matplotlib.tri as mtri
 import numpy as np
 
-from fem import meshing
+from fem.cad import cad_bounds, mesh_cad
+from fem.geometry import CadSurface, GivenMesh, Rectangle, check_sheet_element
 from fem.materials import Material, resolve_material
-from fem.mesh import PlateMesh, SurfaceMesh
-from fem.mesh_io import load_part_mesh
+from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
+from fem.mesh_io import SheetMesh, read_sheet
+from fem.sanity import warn_units
 from jaxflex.errors import InputError
 from jaxflex.validation import check_positive
 
 PLATE_ELEMENTS = ("morley", "argyris")
-ELEMENTS = (*PLATE_ELEMENTS, "hex2")
+ELEMENTS = (*PLATE_ELEMENTS, "shell", "hex2")
 # Default element size: fine enough for <= 0.5 % on the first plate modes (see docs/fem.md).
-DEFAULT_SIZE_M = {"morley": 0.015, "argyris": 0.05, "hex2": 0.025}
-DEFAULT_SIZE_PER_SPAN = {"morley": 60, "argyris": 20, "hex2": 30}
-# Element size inside a cup as a fraction of its radius (quadratic solids have mid-nodes).
-CUP_FINE_FRACTION = {"morley": 0.25, "argyris": 0.25, "hex2": 1 / 3}
-
-
-class _Rectangle:
-    """Footprint [0, w] x [0, h]; optional surface z(x, y) = ``height_fn``."""
-
-    def __init__(self, width_m: float, height_m: float, surface=None, description=None):
-        self.width_m, self.height_m = width_m, height_m
-        self.surface = surface  # callable (x, y) -> (z, dz/dx, dz/dy), or None for flat
-        self.description = description or {}
-
-    def contains_xy(self, xy: np.ndarray) -> np.ndarray:
-        tol = 1e-9 * max(self.width_m, self.height_m)
-        x, y = xy[:, 0], xy[:, 1]
-        return (x >= -tol) & (x <= self.width_m + tol) & (y >= -tol) & (y <= self.height_m + tol)
-
-    def map(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Points (n, 3) and unit normals (n, 3) of the surface above footprint points uv."""
-        if self.surface is None:
-            z, zx, zy = (np.zeros(len(uv)),) * 3
-        else:
-            z, zx, zy = self.surface(uv[:, 0], uv[:, 1])
-        normals = np.column_stack([-zx, -zy, np.ones(len(uv))])
-        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-        return np.column_stack([uv, z]), normals
-
-    def surface_point(self, xy: np.ndarray) -> np.ndarray:
-        return self.map(np.atleast_2d(xy))[0]
-
-    def plate_mesh(self, size_m: float, cups, fine_fraction: float) -> PlateMesh:
-        x, y = meshing.cup_grid(self.width_m, self.height_m, size_m, cups, fine_fraction)
-        nodes, quads = meshing.grid_quads(x, y)
-        return PlateMesh(nodes, meshing.split_quads(quads, nodes))
-
-    def surface_mesh(self, size_m: float, cups, fine_fraction: float) -> SurfaceMesh:
-        x, y = meshing.cup_grid(self.width_m, self.height_m, size_m, cups, fine_fraction)
-        uv, quads = meshing.grid_quads(x, y)
-        points, normals = self.map(uv)
-        return SurfaceMesh(points, quads, normals, params=uv, exact=self.map)
-
-    def span_m(self) -> float:
-        return min(self.width_m, self.height_m)
-
-
-class _GivenMesh:
-    """A part defined by a mesh: flat triangles (plate) or a quad mid-surface (thin solid)."""
-
-    def __init__(self, mesh: PlateMesh | SurfaceMesh, description: dict):
-        self.mesh = mesh
-        self.description = description
-        if isinstance(mesh, PlateMesh):
-            xy, tris = mesh.nodes_xy, mesh.triangles
-            self._z = np.full(len(xy), mesh.z0)
-        else:
-            xy, tris = mesh.nodes[:, :2], meshing.split_quads(mesh.quads, mesh.nodes[:, :2])
-            self._z = mesh.nodes[:, 2]
-        self._tri = mtri.Triangulation(xy[:, 0], xy[:, 1], tris)
-        self._finder = self._tri.get_trifinder()
-        self._xy, self._tris = xy, tris
-
-    def contains_xy(self, xy: np.ndarray) -> np.ndarray:
-        return self._finder(xy[:, 0], xy[:, 1]) >= 0
-
-    def surface_point(self, xy: np.ndarray) -> np.ndarray:
-        xy = np.atleast_2d(xy)
-        tri = self._finder(xy[:, 0], xy[:, 1])
-        out = np.column_stack([xy, np.zeros(len(xy))])
-        for k, t in enumerate(tri):
-            if t < 0:
-                continue
-            a, b, c = self._tris[t]
-            mat = np.column_stack([self._xy[b] - self._xy[a], self._xy[c] - self._xy[a]])
-            l1, l2 = np.linalg.solve(mat, xy[k] - self._xy[a])
-            out[k, 2] = (1 - l1 - l2) * self._z[a] + l1 * self._z[b] + l2 * self._z[c]
-        return out
-
-    def plate_mesh(self, size_m, cups, fine_fraction) -> PlateMesh:
-        return self.mesh
-
-    def surface_mesh(self, size_m, cups, fine_fraction) -> SurfaceMesh:
-        return self.mesh
-
-    def span_m(self) -> float:
-        extent = self._xy.max(axis=0) - self._xy.min(axis=0)
-        return float(extent.min())
+DEFAULT_SIZE_M = {"morley": 0.015, "argyris": 0.05, "shell": 0.02, "hex2": 0.025}
+DEFAULT_SIZE_PER_SPAN = {"morley": 60, "argyris": 20, "shell": 30, "hex2": 30}
+# Element size inside a cup as a fraction of its radius (quadratic solids have mid-nodes; the
+# shell's clamp is nodal, r/6 brings its first modes within ~1 % of the converged clamp).
+CUP_FINE_FRACTION = {"morley": 0.25, "argyris": 0.25, "shell": 1 / 6, "hex2": 1 / 3}
 
 
 @dataclass(frozen=True, eq=False)
 class Part:
     """A thin part: geometry (m), material, thickness (m), formulation and mesh size (m).
 
-    Create it with :func:`rectangular_plate`, :func:`curved_panel` or :func:`read_mesh`.
-    ``mesh_size_m`` None means the default for the element (see ``DEFAULT_SIZE_M``); it is
-    ignored for parts read from a mesh file (their mesh is used as is). ``cup_fine_fraction``
-    (element size inside a cup band as a fraction of the cup radius) None means the default
-    for the element (``CUP_FINE_FRACTION``); fem.sizing scales it with the base size so that
-    a refinement sequence refines the whole mesh.
+    Create it with :func:`rectangular_plate`, :func:`curved_panel`, :func:`read_mesh` or
+    :func:`read_cad`. ``mesh_size_m`` None means the default for the element (see
+    ``DEFAULT_SIZE_M``); it is ignored for parts read from a mesh file (their mesh is used as
+    is). ``cup_fine_fraction`` (element size inside a cup band as a fraction of the cup
+    radius) None means the default for the element (``CUP_FINE_FRACTION``); fem.sizing
+    scales it with the base size so that a refinement sequence refines the whole mesh.
     """
 
     name: str
@@ -144,8 +64,16 @@ class Part:
 
     @property
     def kind(self) -> str:
-        """ "plate" (Kirchhoff, transverse deflection only) or "solid" (3-D displacement)."""
-        return "plate" if self.element in PLATE_ELEMENTS else "solid"
+        """ "plate" (Kirchhoff, transverse deflection only), "shell" (6 DOFs per node) or
+        "solid" (3-D displacement)."""
+        if self.element in PLATE_ELEMENTS:
+            return "plate"
+        return "shell" if self.element == "shell" else "solid"
+
+    @property
+    def mesh_is_given(self) -> bool:
+        """True for a part read from a mesh file (its mesh is used as is)."""
+        return self.geometry.given_mesh
 
     @property
     def element_size_m(self) -> float:
@@ -155,30 +83,117 @@ class Part:
         span = self.geometry.span_m()
         return min(DEFAULT_SIZE_M[self.element], span / DEFAULT_SIZE_PER_SPAN[self.element])
 
+    @property
+    def span_m(self) -> float:
+        """The smaller side of the part (m): its footprint's for built-in parts, the second
+        principal extent for others."""
+        return self.geometry.span_m()
+
+    @property
+    def area_m2(self) -> float:
+        """Mid-surface area, m^2."""
+        return self.geometry.area_m2()
+
+    @property
+    def mass_kg(self) -> float:
+        """rho x thickness x area, kg."""
+        return self.material.rho_kg_m3 * self.thickness_m * self.area_m2
+
+    def bounds_m(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper corners (3,) of the part's bounding box, m."""
+        return self.geometry.bounds_m()
+
     def contains_xy(self, xy) -> np.ndarray:
         """(N,) True where footprint points xy (N, 2) m lie on the part."""
         return self.geometry.contains_xy(np.atleast_2d(np.asarray(xy, dtype=float)))
 
-    def surface_point(self, xy) -> np.ndarray:
-        """(N, 3) mid-surface points above footprint points xy (N, 2) m."""
-        return self.geometry.surface_point(np.atleast_2d(np.asarray(xy, dtype=float)))
+    def surface_point(self, points) -> np.ndarray:
+        """(N, 3) mid-surface points of points (N, 2) (above the footprint point) or (N, 3)
+        (nearest surface point), m."""
+        return self.geometry.surface_point(np.atleast_2d(np.asarray(points, dtype=float)))
 
-    def mesh(self, cups=()) -> PlateMesh | SurfaceMesh:
-        """The mesh used for analysis, refined around ``cups`` (built-in parts)."""
+    def place(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """Surface points (N, 3) of points (N, 2|3) m (see :meth:`surface_point`) and how
+        far (m) each lies off the part (0 on it): outside the footprint, or beyond the
+        boundary along the surface. A list may mix both kinds."""
+        if isinstance(points, np.ndarray):
+            rows = list(np.atleast_2d(points.astype(float)))
+        else:
+            rows = [np.asarray(p, dtype=float) for p in points]
+        if not all(p.shape in ((2,), (3,)) for p in rows):
+            raise InputError(f"points: each point is (x, y) or (x, y, z) in m, got {points!r}")
+        on, off = np.empty((len(rows), 3)), np.empty(len(rows))
+        for width in (2, 3):
+            group = [i for i, p in enumerate(rows) if p.shape == (width,)]
+            if group:
+                on[group], off[group] = self.geometry.place(np.array([rows[i] for i in group]))
+        return on, off
+
+    def disc_problem(self, centre, radius_m: float) -> str | None:
+        """Why a contact disc of ``radius_m`` around the surface point ``centre`` (3,) does
+        not fit on the part (it overhangs an edge, reaches over a fold), or None."""
+        return self.geometry.disc_problem(np.asarray(centre, dtype=float), radius_m)
+
+    def mesh(self, cups=()) -> PlateMesh | SurfaceMesh | ShellMesh:
+        """The mesh used for analysis, refined around ``cups`` (contact discs; built-in and
+        CAD parts)."""
         fine = self.cup_fine_fraction or CUP_FINE_FRACTION[self.element]
-        if self.kind == "plate":
-            return self.geometry.plate_mesh(self.element_size_m, cups, fine)
-        return self.geometry.surface_mesh(self.element_size_m, cups, fine)
+        make = {
+            "plate": self.geometry.plate_mesh,
+            "shell": self.geometry.shell_mesh,
+            "solid": self.geometry.surface_mesh,
+        }[self.kind]
+        return make(self.element_size_m, cups, fine)
 
     def describe(self) -> dict[str, Any]:
         return {
             "name": self.name,
             "element": self.element,
             "thickness_m": self.thickness_m,
-            "mesh_size_m": None if isinstance(self.geometry, _GivenMesh) else self.element_size_m,
+            "mesh_size_m": None if self.mesh_is_given else self.element_size_m,
             **({"cup_fine_fraction": self.cup_fine_fraction} if self.cup_fine_fraction else {}),
             **self.geometry.description,
         }
+
+    def summary(self) -> str:
+        """What the part is: source and cells read (mesh and CAD parts), area, mass,
+        bounding box, thickness-to-span ratio, formulation."""
+        lo, hi = self.bounds_m()
+        box = ", ".join(
+            f"{axis} {a:.4g} ... {b:.4g}" for axis, a, b in zip("xyz", lo, hi, strict=True)
+        )
+        lines = [f"{self.name}: {self.material.name}, thickness {1e3 * self.thickness_m:.4g} mm"]
+        read = self.geometry.description.get("read")
+        if read:
+            lines.append(_describe_read(read))
+        lines += [
+            f"area {self.area_m2:.5g} m^2, mass {self.mass_kg:.5g} kg; bounding box {box} m",
+            f"span {self.span_m:.4g} m, thickness/span 1/{self.span_m / self.thickness_m:.0f}; "
+            f"element {self.element!r}",
+        ]
+        return "\n".join(lines)
+
+
+def _describe_read(read: dict) -> str:
+    cells = ", ".join(f"{n} {kind}" for kind, n in read["cells"].items())
+    linear = read.get("linear_cells", {})
+    text = f"read {read['source']}: {cells}"
+    if linear:
+        text += " -> " + ", ".join(f"{n} linear {k}" for k, n in linear.items() if n)
+    notes = [f"{read['n_nodes']} nodes"]
+    if read.get("skipped_cells"):
+        notes.append("skipped " + ", ".join(f"{n} {k}" for k, n in read["skipped_cells"].items()))
+    if read.get("welded_nodes"):
+        notes.append(f"{read['welded_nodes']} duplicate nodes welded")
+    if read.get("flipped_cells"):
+        notes.append(f"{read['flipped_cells']} cells re-oriented")
+    if read.get("pieces", 1) > 1:
+        notes.append(f"{read['pieces']} disconnected pieces (each needs its own cups)")
+    if read.get("nonmanifold_edges"):
+        notes.append(f"{read['nonmanifold_edges']} non-manifold edges (three or more cells)")
+    if read.get("orientable") is False:
+        notes.append("not orientable")
+    return text + "; " + ", ".join(notes)
 
 
 def _check_common(thickness: float, element: str, mesh_size, allowed) -> None:
@@ -224,10 +239,10 @@ def _rectangular_part(
 ) -> Part:
     width, height = (check_positive(n, v) for n, v in zip(("width", "height"), size, strict=True))
     _check_common(thickness, element, mesh_size, allowed)
-    geometry = _Rectangle(
+    geometry = Rectangle(
         width, height, surface, description={**description, "width_m": width, "height_m": height}
     )
-    return Part(
+    part = Part(
         name,
         element,
         resolve_material(material),
@@ -235,6 +250,8 @@ def _rectangular_part(
         None if mesh_size is None else float(mesh_size),
         geometry,
     )
+    warn_units(part)
+    return part
 
 
 def _arc(coord: np.ndarray, centre: float, radius: float | None):
@@ -297,7 +314,7 @@ def curved_panel(
         material,
         mesh_size,
         element,
-        ("hex2",),
+        ("hex2", "shell"),
         surface,
         description,
     )
@@ -311,22 +328,22 @@ def read_mesh(
     element: str | None = None,
     scale: float = 1.0,
 ) -> Part:
-    """A part from a mesh file (any format meshio reads), coordinates in m (times ``scale``).
+    """A part from a mesh file (any format meshio reads; fem.mesh_io.FORMATS_HELP),
+    coordinates in m (times ``scale``, e.g. 1e-3 for millimetres); ``thickness`` in m.
 
-    - triangles in a plane z = const: a Kirchhoff plate ("morley" default, or "argyris");
-    - quadrilaterals: the mid-surface of a curved part, extruded along the node normals into
-      a one-layer thin solid of ``thickness`` m ("hex2");
-    - hexahedra: a one-layer thin solid; its mid-surface is extracted and re-extruded, the
+    Every cell block is read (tri3, tri6, tri7, quad4, quad8, quad9, mixed), quadratic cells
+    are split through their mid-side nodes, duplicate nodes welded, cells oriented. The
+    formulation (``element``) follows the part unless given:
+
+    - flat in a plane z = const: a Kirchhoff plate ("morley"; or "argyris", "shell", and
+      "hex2" from quadrilaterals);
+    - curved, folded or tilted: the shell ("shell"; "hex2" from quadrilaterals);
+    - one layer of hexahedra: the thin solid ("hex2", or "shell" on its mid-surface); the
       thickness is measured from the mesh (``thickness`` must be None or agree within 5 %).
     """
     scale = check_positive("scale", scale)
-    mesh, measured, cell_type = load_part_mesh(path, scale)
-    if isinstance(mesh, PlateMesh):
-        element = element or "morley"
-        allowed = PLATE_ELEMENTS
-    else:
-        element = element or "hex2"
-        allowed = ("hex2",)
+    sheet = read_sheet(path, scale)
+    measured = sheet.thickness_m
     if measured is not None:
         if thickness is not None and abs(thickness - measured) > 0.05 * measured:
             raise InputError(
@@ -335,31 +352,75 @@ def read_mesh(
             )
         thickness = measured if thickness is None else thickness
     if thickness is None:
-        raise InputError(f"thickness: required for a {cell_type} mesh (sheet thickness in m)")
-    _check_common(thickness, element, None, allowed)
-    description = {"shape": "mesh file", "path": str(path), "cell_type": cell_type, "scale": scale}
-    return part_from_mesh(
-        mesh, thickness, material, element, os.path.basename(str(path)), description
+        raise InputError(f"thickness: required for a mesh of {str(path)!r} (sheet thickness in m)")
+    if element is None:
+        element = "hex2" if measured is not None else "morley" if sheet.is_flat else "shell"
+    description = {"shape": "mesh file", "path": str(path), "scale": scale, "read": sheet.report}
+    part = part_from_mesh(
+        sheet, thickness, material, element, os.path.basename(str(path)), description
     )
+    warn_units(part)
+    return part
 
 
 def part_from_mesh(
-    mesh: PlateMesh | SurfaceMesh,
+    sheet: SheetMesh,
     thickness: float,
     material: str | Material | Mapping[str, Any],
     element: str,
     name: str,
     description: dict,
 ) -> Part:
-    """A part whose mesh is given (used as is): a flat PlateMesh for a Kirchhoff plate
-    ("morley", "argyris") or a quad SurfaceMesh for the thin solid ("hex2"); thickness in m."""
-    allowed = PLATE_ELEMENTS if isinstance(mesh, PlateMesh) else ("hex2",)
-    _check_common(thickness, element, None, allowed)
+    """A part whose mesh is given (used as is; a fem.mesh_io.SheetMesh), thickness in m:
+    a Kirchhoff plate ("morley", "argyris") if flat, the shell ("shell") or the thin solid
+    ("hex2", quadrilaterals only)."""
+    _check_common(thickness, element, None, ELEMENTS)
+    check_sheet_element(sheet, element, repr(description.get("path", name)))
     return Part(
         name,
         element,
         resolve_material(material),
         float(thickness),
         None,
-        _GivenMesh(mesh, description),
+        GivenMesh(sheet, description),
     )
+
+
+def read_cad(
+    path: str | os.PathLike,
+    thickness: float,
+    material: str | Material | Mapping[str, Any] = "steel",
+    mesh_size: float | None = None,
+    *,
+    element: str | None = None,
+    scale: float = 1.0,
+) -> Part:
+    """A part from a CAD sheet body (STEP, IGES or BREP; fem.cad), meshed with gmsh when it
+    is analysed: element size ``mesh_size`` m (default as for built-in parts of the
+    formulation), refined around the cups. STEP and IGES coordinates are converted to metres
+    from the unit the file states, then multiplied by ``scale``; ``thickness`` in m. The
+    formulation follows the part unless given: flat in z = const "morley", else "shell"
+    ("hex2" meshes quadrilaterals)."""
+    scale = check_positive("scale", scale)
+    _check_common(thickness, element or "shell", mesh_size, ELEMENTS)
+    lo, hi = cad_bounds(path, scale)
+    # where points lie, the area and the span come from a mesh at the element size (or 1/40
+    # of the diagonal: the facets' area then differs from the surface's by < 1e-4 for
+    # curvature radii down to the part's size)
+    probe = float(mesh_size) if mesh_size is not None else float(np.linalg.norm(hi - lo)) / 40
+    base = mesh_cad(path, probe, scale=scale)
+    if element is None:
+        element = "morley" if base.is_flat else "shell"
+    check_sheet_element(base, "shell" if element == "hex2" else element, repr(str(path)))
+    description = {"shape": "CAD sheet body", "path": str(path), "scale": scale}
+    description["read"] = base.report
+    part = Part(
+        os.path.basename(str(path)),
+        element,
+        resolve_material(material),
+        float(thickness),
+        None if mesh_size is None else float(mesh_size),
+        CadSurface(path, scale, base, description),
+    )
+    warn_units(part)
+    return part

@@ -16,7 +16,7 @@ from skfem.helpers import dd, ddot, trace
 
 from fem.mesh import PlateMesh
 from fem.supports import Support
-from fem.system import Constraints, FESystem
+from fem.system import Constraints, FESystem, mesh_stats
 from jaxflex.errors import InputError
 from jaxflex.progress import progress_bar
 
@@ -80,14 +80,7 @@ def assemble_plate(
     dofs = PlateMeshDofs(skmesh, element, nodal, facet_dofs)
     constraints = Constraints.union(s.hold_plate(dofs, i) for i, s in enumerate(supports))
     lengths = np.linalg.norm(np.diff(skmesh.p[:, skmesh.facets], axis=1)[:, 0], axis=0)
-    stats = {
-        "cell_type": "triangle",
-        "n_nodes": int(skmesh.p.shape[1]),
-        "n_elements": int(n_el),
-        "n_dof": int(n_dof),
-        "edge_length_min_m": float(lengths.min()),
-        "edge_length_max_m": float(lengths.max()),
-    }
+    stats = mesh_stats("triangle", skmesh.p.shape[1], n_el, n_dof, lengths)
     return FESystem(
         K.tocsr(),
         M.tocsr(),

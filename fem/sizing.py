@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from fem.modal import ModalResult, modal_analysis
-from fem.parts import CUP_FINE_FRACTION, Part, _GivenMesh
+from fem.parts import CUP_FINE_FRACTION, Part
 from fem.scenes import SCENES, scene
 from fem.sizing_curves import (
     SettleReference,
@@ -71,9 +71,10 @@ _ROOT2 = math.sqrt(2.0)
 REFINEMENT = {
     "morley": (4.0, 2.0 * _ROOT2, 2.0, _ROOT2, 1.0, 1.0 / _ROOT2, 0.5),
     "argyris": (4.0, 2.0 * _ROOT2, 2.0, _ROOT2, 1.0, 1.0 / _ROOT2, 0.5),
+    "shell": (4.0, 2.0 * _ROOT2, 2.0, _ROOT2, 1.0, 1.0 / _ROOT2, 0.5),
     "hex2": (4.0, 2.0 * _ROOT2, 2.0, _ROOT2, 1.0),
 }
-CUP_RATIO = {"morley": 1 / 3, "argyris": 1 / 3, "hex2": 1 / 2}
+CUP_RATIO = {"morley": 1 / 3, "argyris": 1 / 3, "shell": 1 / 3, "hex2": 1 / 2}
 # Shares of the tolerance: mesh, points, modes. The mesh is by far the most expensive to
 # refine (offline minutes); points and modes cost little online, so they get less.
 DEFAULT_SHARES = (0.7, 0.1, 0.2)
@@ -110,7 +111,7 @@ class _Level:
         return float(self.result.freq_hz[0])
 
     def describe(self) -> str:
-        if isinstance(self.part.geometry, _GivenMesh):
+        if self.part.mesh_is_given:
             return "mesh from file"
         cup = _cup_element_m(self.part, self.result.supports)
         text = f"{1e3 * self.part.element_size_m:.3g} mm"
@@ -141,7 +142,7 @@ def _refinement_parts(part: Part, mesh_sizes_m, radius_m: float | None) -> list[
     """The parts of the refinement sequence, coarse to fine, with cup elements of CUP_RATIO x
     the base size (``radius_m``: the smallest cup radius, None without cups); a part read
     from a mesh file is used as is."""
-    if isinstance(part.geometry, _GivenMesh):
+    if part.mesh_is_given:
         if mesh_sizes_m is not None:
             raise InputError("mesh_sizes_m: a part read from a mesh file is used as is")
         return [part]
@@ -514,7 +515,7 @@ class _Sizer:
         estimated = err["linf"] + (mesh_est or 0.0) + modes_estimate
         if mesh_est is None:
             self.notes.append("the mesh error is not estimated (a single mesh)")
-        if isinstance(level.part.geometry, _GivenMesh):
+        if level.part.mesh_is_given:
             mesh_size = cup = None
         else:
             mesh_size = level.part.element_size_m

@@ -12,21 +12,20 @@ Displacements are reported at the mid-surface nodes (layer 1).
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 import skfem
 
+from fem.assembly import assemble
 from fem.mesh import SurfaceMesh
+from fem.sides import side_nodes
 from fem.supports import Support
-from fem.system import Constraints, FESystem
+from fem.system import Constraints, FESystem, mesh_stats
 from jaxflex.errors import InputError
-from jaxflex.progress import progress_bar
 
 FORMULATION = (
     "thin solid, one layer of 27-node hexahedra (ElementHex2 shape functions), "
     "full 3x3x3 Gauss integration, vectorised assembly"
 )
 CHUNK_ELEMENTS = 256
-SHARP_CORNER_COS = np.cos(np.radians(30.0))
 
 # local surface slot of each of ElementHex2's 27 nodes: corners A B C D, edge mid-nodes AB BC
 # CD DA, centre; and its layer (reference coordinate zeta = 0, 1/2, 1 -> layer 0, 1, 2)
@@ -74,14 +73,14 @@ class Hex2Layer:
             uv = surface.params
             mid_uv = np.concatenate([uv[edges].mean(axis=1), uv[quads].mean(axis=1)])
             extra_points, extra_normals = surface.exact(mid_uv)
+            normals = np.concatenate([surface.normals, extra_normals])
         else:
             extra_points = np.concatenate([nodes[edges].mean(axis=1), nodes[quads].mean(axis=1)])
-            extra_normals = np.concatenate(
-                [surface.normals[edges].sum(axis=1), surface.normals[quads].sum(axis=1)]
+            normals = _mitre_offsets(
+                nodes, quads, self.surface_of_quad, n_vert + n_edge + len(quads)
             )
-            extra_normals /= np.linalg.norm(extra_normals, axis=1, keepdims=True)
         self.surface_points = np.concatenate([nodes, extra_points])  # (Ns, 3)
-        self.surface_normals = np.concatenate([surface.normals, extra_normals])
+        self.surface_normals = normals
         self.n_surface = len(self.surface_points)
         self.thickness_m = thickness_m
         offsets = (np.arange(3) - 1) * thickness_m / 2
@@ -95,6 +94,27 @@ class Hex2Layer:
     def layers_of(self, surface_nodes: np.ndarray) -> np.ndarray:
         """Hexahedral node indices of all three layers above ``surface_nodes`` (flat)."""
         return (np.arange(3)[:, None] * self.n_surface + np.asarray(surface_nodes)[None]).ravel()
+
+
+def _mitre_offsets(nodes, quads, surface_of_quad, n_surface: int) -> np.ndarray:
+    """(Ns, 3) extrusion directions of the surface nodes of a mesh-defined mid-surface: per
+    node the least-squares m with m . n_f = 1 for the normals n_f of the quads around it, so
+    the layer keeps its thickness on each face at a fold (a mitre: length 1/cos(half the
+    fold angle)); on a smooth surface the unit normal up to O(angle^2). Directions whose
+    spread is below 1e-3 of the largest (smooth curvature) are left out of the solve."""
+    a, b, c, d = (nodes[quads[:, k]] for k in range(4))
+    face = np.cross(c - a, d - b)
+    face /= np.linalg.norm(face, axis=1, keepdims=True)
+    gram = np.zeros((n_surface, 3, 3))
+    rhs = np.zeros((n_surface, 3))
+    outer = np.einsum("ei,ej->eij", face, face)
+    for slot in range(9):
+        np.add.at(gram, surface_of_quad[:, slot], outer)
+        np.add.at(rhs, surface_of_quad[:, slot], face)
+    values, vectors = np.linalg.eigh(gram)
+    keep = values > 1e-3 * values[:, -1:]
+    coeff = np.where(keep, np.einsum("nki,nk->ni", vectors, rhs) / np.where(keep, values, 1), 0)
+    return np.einsum("nki,ni->nk", vectors, coeff)
 
 
 def element_matrices(coords: np.ndarray, lam: float, mu: float, rho: float, basis=None):
@@ -130,43 +150,26 @@ def assemble_solid(
     mat = part.material
     n_el = len(layer.element_nodes)
     n_dof = 3 * len(layer.points)
-    n_nodes = len(layer.points)
     basis = _reference_basis()
-    chunks = np.array_split(np.arange(n_el), max(1, int(np.ceil(n_el / CHUNK_ELEMENTS))))
-    with progress_bar(
-        len(chunks) + 1, f"assembly (hex2, {n_el} elements)", progress, unit="chunk"
-    ) as bar:
-        # sparsity at node level: 3x3 blocks per pair of nodes sharing an element
-        nodes = layer.element_nodes.astype(np.int64)
-        pair_keys = (np.repeat(nodes, 27, axis=1) * n_nodes + np.tile(nodes, (1, 27))).ravel()
-        keys, inverse = np.unique(pair_keys, return_inverse=True)
-        del pair_keys
-        bar.update(1)
-        k_blocks = np.zeros((keys.size, 9))
-        m_blocks = np.zeros((keys.size, 9))
-        per_el = 27 * 27
-        for chunk in chunks:
-            k_el, m_el = element_matrices(
-                layer.points[layer.element_nodes[chunk]],
-                mat.lame_lambda_pa,
-                mat.shear_modulus_pa,
-                mat.rho_kg_m3,
-                basis,
-            )
-            where = inverse[chunk[0] * per_el : (chunk[-1] + 1) * per_el]
-            scatter = sp.csc_matrix(
-                (np.ones(where.size), where, np.arange(where.size + 1)),
-                shape=(keys.size, where.size),
-            )
-            for target, values in ((k_blocks, k_el), (m_blocks, m_el)):
-                blocks = values.reshape(-1, 27, 3, 27, 3).transpose(0, 1, 3, 2, 4)
-                target += scatter @ blocks.reshape(-1, 9)
-            bar.update(1)
-    row, col = np.divmod(keys, n_nodes)
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(row, minlength=n_nodes))])
-    K, M = (
-        sp.bsr_matrix((b.reshape(-1, 3, 3), col, indptr), shape=(n_dof, n_dof)).tocsr()
-        for b in (k_blocks, m_blocks)
+
+    def compute(chunk):
+        return element_matrices(
+            layer.points[layer.element_nodes[chunk]],
+            mat.lame_lambda_pa,
+            mat.shear_modulus_pa,
+            mat.rho_kg_m3,
+            basis,
+        )
+
+    # sparsity at node level: 3x3 blocks per pair of nodes sharing an element
+    K, M = assemble(
+        layer.element_nodes,
+        len(layer.points),
+        3,
+        compute,
+        chunk_size=CHUNK_ELEMENTS,
+        label=f"assembly (hex2, {n_el} elements)",
+        progress=progress,
     )
     rigid = np.zeros((n_dof, 3))
     for d in range(3):
@@ -174,14 +177,7 @@ def assemble_solid(
     mid = np.arange(layer.n_surface) + layer.n_surface
     node_dofs = 3 * mid[:, None] + np.arange(3)
     lengths = np.linalg.norm(np.diff(surface.nodes[layer.edges], axis=1)[:, 0], axis=1)
-    stats = {
-        "cell_type": "hexahedron27 (one layer)",
-        "n_nodes": len(layer.points),
-        "n_elements": int(n_el),
-        "n_dof": int(n_dof),
-        "edge_length_min_m": float(lengths.min()),
-        "edge_length_max_m": float(lengths.max()),
-    }
+    stats = mesh_stats("hexahedron27 (one layer)", len(layer.points), n_el, n_dof, lengths)
     dofs = Hex2LayerDofs(layer, part)
     constraints = Constraints.union(s.hold_solid(dofs, i) for i, s in enumerate(supports))
     system = FESystem(
@@ -211,25 +207,42 @@ class Hex2LayerDofs:
         """(Ns, 3) mid-surface nodes, m (their footprint is the first two columns)."""
         return self.layer.surface_points
 
-    def distance_m(self, x: float, y: float) -> np.ndarray:
-        """(Ns,) 3-D distance of every mid-surface node from the surface point above (x, y)."""
-        centre = self.part.surface_point([[x, y]])[0]
+    def distance_m(self, x: float, y: float, z: float | None = None) -> np.ndarray:
+        """(Ns,) 3-D distance of every mid-surface node from the surface point above (x, y)
+        (nearest to (x, y, z))."""
+        centre = self.part.surface_point([[x, y] if z is None else [x, y, z]])[0]
         return np.linalg.norm(self.surface_points - centre, axis=1)
 
-    def nearest_vertex(self, x: float, y: float) -> int:
-        """The mesh vertex (a mid-surface node) nearest to the surface point above (x, y)."""
-        return int(np.argmin(self.distance_m(x, y)[: self.layer.n_vertices]))
+    def nearest_vertex(self, x: float, y: float, z: float | None = None) -> int:
+        """The mesh vertex (a mid-surface node) nearest to that surface point."""
+        return int(np.argmin(self.distance_m(x, y, z)[: self.layer.n_vertices]))
+
+    def disc_nodes(self, x: float, y: float, z: float | None, radius: float) -> np.ndarray:
+        """Mid-surface nodes within ``radius`` (m) of that surface point (quadratic elements:
+        vertices and mid-nodes resolve the rim to half an element)."""
+        return np.flatnonzero(self.distance_m(x, y, z) <= radius * (1 + 1e-9))
 
     def clamp_nodes(self, surface_nodes) -> Constraints:
         """Hold every displacement component through the thickness at ``surface_nodes``."""
         hexnodes = self.layer.layers_of(surface_nodes)
         return Constraints(fixed=(3 * hexnodes[:, None] + np.arange(3)).ravel())
 
+    def pin_nodes(self, surface_nodes) -> Constraints:
+        """A pinned point of a one-layer solid holds its nodes through the thickness (the
+        same as :meth:`clamp_nodes`; one node alone would be a point load singularity)."""
+        return self.clamp_nodes(surface_nodes)
+
     def hold_side(self, side: str, *, clamped: bool) -> Constraints:
         """Clamp a side (fem.supports.SIDES), or hold the normal and the along-edge
         displacement there (simple support; two tangents at a sharp corner)."""
         layer = self.layer
-        nodes, tangents = _side_nodes(layer, side)
+        nodes, tangents = side_nodes(
+            layer.surface_points,
+            layer.edges[layer.boundary_edges],
+            side,
+            n_vertices=layer.n_vertices,
+            mid_nodes=layer.n_vertices + layer.boundary_edges,
+        )
         if clamped:
             return self.clamp_nodes(nodes)
         directions = []
@@ -238,38 +251,3 @@ class Hex2LayerDofs:
             for hexnode in layer.layers_of([k]):
                 directions.append((3 * hexnode + np.arange(3), held))
         return Constraints(directions=directions)
-
-
-def _side_nodes(layer: Hex2Layer, side: str):
-    """Surface nodes on a side of the boundary and, per node, the edge tangent(s) to hold
-    (two at a sharp corner)."""
-    b_edges = layer.boundary_edges
-    ends = layer.edges[b_edges]
-    pts = layer.surface_points
-    if side != "all":
-        axis = 0 if side[0] == "x" else 1
-        coord = pts[: layer.n_vertices, axis]
-        target = coord.min() if side[1] == "0" else coord.max()
-        tol = 1e-6 * np.ptp(pts, axis=0).max()
-        on_side = (np.abs(pts[ends, axis] - target) <= tol).all(axis=1)
-        b_edges, ends = b_edges[on_side], ends[on_side]
-        if b_edges.size == 0:
-            raise InputError(f"edge support side {side!r}: no boundary edge of the part lies there")
-    vec = pts[ends[:, 1]] - pts[ends[:, 0]]
-    vec /= np.linalg.norm(vec, axis=1, keepdims=True)
-    per_node: dict[int, list[np.ndarray]] = {}
-    for e, (a, b) in enumerate(ends):
-        for k in (int(a), int(b), layer.n_vertices + int(b_edges[e])):
-            per_node.setdefault(k, []).append(vec[e])
-    nodes, tangents = [], []
-    for k, vecs in per_node.items():
-        ref = vecs[0]
-        aligned = [v if v @ ref >= 0 else -v for v in vecs]
-        if min(abs(v @ ref) for v in aligned) < SHARP_CORNER_COS:
-            held = [ref, *(v for v in aligned if abs(v @ ref) < SHARP_CORNER_COS)][:2]
-        else:
-            mean = np.sum(aligned, axis=0)
-            held = [mean / np.linalg.norm(mean)]
-        nodes.append(k)
-        tangents.append(held)
-    return np.array(nodes, dtype=np.int64), tangents

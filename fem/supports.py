@@ -1,14 +1,18 @@
 """Grippers and supports: suction cups, point supports, clamped and simply supported edges.
 
-Coordinates are in metres in the xy footprint of the part; a cup acts on the part surface
-above (x, y). A suction cup clamps every node of its disc region rigidly (the disc is the set
-of surface points within ``radius`` of the cup centre, measured in 3-D on curved parts).
+Coordinates are in metres, in the part's coordinates: a cup at (x, y) acts on the part
+surface above (or below) that footprint point, a cup at (x, y, z) on the surface point
+nearest to it (its projection along the surface normal; the way to reach a flange that has
+no footprint). A suction cup clamps every node of its disc region rigidly (the disc is the
+set of surface points within ``radius`` of the cup centre, measured in 3-D on curved
+parts).
 Edge supports are for validation cases; ``side`` names a side of the footprint's bounding
 box ("x0": x = x_min, "x1": x = x_max, "y0", "y1") or "all" for the whole boundary.
 
 Every support is a :class:`Support`: it states which degrees of freedom it holds on a
-Kirchhoff plate (:meth:`Support.hold_plate`, asking a ``fem.plate.PlateDofs``) and on the
-thin solid (:meth:`Support.hold_solid`, asking a ``fem.solid.SolidDofs``), how it is
+Kirchhoff plate (:meth:`Support.hold_plate`, asking a :class:`PlateDofs`) and on the
+surface formulations, the thin solid and the shell (:meth:`Support.hold_solid`, asking a
+:class:`SolidDofs`), how it is
 described in the model's meta and drawn, and what the layout checks and the mesh refinement
 need to know (:attr:`Support.anchor_xy`, :attr:`Support.contact_disc`,
 :attr:`Support.prevents_rigid_motion`). A new gripper type is one subclass; the assembly,
@@ -29,14 +33,23 @@ from fem.system import Constraints
 from jaxflex.errors import InputError
 
 SIDES = ("all", "x0", "x1", "y0", "y1")
+# a point given in space lands on the surface to rounding: this x the part's size is "on it"
+OFF_PART_RELATIVE = 1e-9
 
 
 class Disc(NamedTuple):
-    """A disc of the footprint: centre (x, y) and radius, m."""
+    """A contact disc: centre (x, y) in the footprint, or (x, y, z) near the surface, and
+    radius, m."""
 
     x: float
     y: float
     radius: float
+    z: float | None = None
+
+    @property
+    def point(self) -> list[float]:
+        """[x, y] or [x, y, z] as given, m."""
+        return [self.x, self.y] if self.z is None else [self.x, self.y, self.z]
 
 
 class PlateDofs(Protocol):
@@ -61,20 +74,32 @@ class PlateDofs(Protocol):
 
 
 class SolidDofs(Protocol):
-    """What a support may ask of the thin solid (fem.solid provides it)."""
+    """What a support may ask of a surface formulation: the thin solid (fem.solid) and the
+    shell (fem.shell) provide it."""
 
     @property
     def surface_points(self) -> np.ndarray:
         """(Ns, 3) mid-surface nodes, m (their footprint is the first two columns)."""
 
-    def distance_m(self, x: float, y: float) -> np.ndarray:
-        """(Ns,) 3-D distance of every mid-surface node from the surface point above (x, y)."""
+    def distance_m(self, x: float, y: float, z: float | None = None) -> np.ndarray:
+        """(Ns,) 3-D distance of every mid-surface node from the surface point above (x, y),
+        or nearest to (x, y, z)."""
 
-    def nearest_vertex(self, x: float, y: float) -> int:
-        """The mesh vertex (a mid-surface node) nearest to the surface point above (x, y)."""
+    def nearest_vertex(self, x: float, y: float, z: float | None = None) -> int:
+        """The mesh vertex (a mid-surface node) nearest to that surface point."""
+
+    def disc_nodes(self, x: float, y: float, z: float | None, radius: float) -> np.ndarray:
+        """The mid-surface nodes a clamped disc of ``radius`` (m) around that surface point
+        holds (the thin solid: those within the radius; the shell: within the radius plus
+        half the local element size, so that the held elements fill the disc on average)."""
 
     def clamp_nodes(self, surface_nodes) -> Constraints:
-        """Hold every displacement component through the thickness at ``surface_nodes``."""
+        """Hold every displacement component through the thickness at ``surface_nodes``
+        (the shell: translations and rotations)."""
+
+    def pin_nodes(self, surface_nodes) -> Constraints:
+        """Hold the displacement at ``surface_nodes`` (the shell: translations only; the
+        one-layer solid: through the thickness, as clamp_nodes)."""
 
     def hold_side(self, side: str, *, clamped: bool) -> Constraints:
         """Clamp a side in SIDES, or simply support it (normal and along-edge displacement
@@ -111,6 +136,19 @@ class Support(ABC):
         return None
 
     @property
+    def anchor_z(self) -> float | None:
+        """z (m) of the anchor when it was given in space (the surface point nearest to
+        (x, y, z) is held), None for the surface point above the footprint point."""
+        return None
+
+    def anchor_point(self) -> list[float] | None:
+        """The anchor as given: [x, y] or [x, y, z] (m), or None."""
+        if self.anchor_xy is None:
+            return None
+        z = self.anchor_z
+        return [*self.anchor_xy] if z is None else [*self.anchor_xy, z]
+
+    @property
     def contact_disc(self) -> Disc | None:
         """The footprint disc the support holds (None: none). The mesh is refined around it,
         it must lie on the part and must not overlap another support's disc."""
@@ -127,27 +165,45 @@ class Support(ABC):
         the title if it is not drawn (None if it is)."""
         return self.describe()["type"]
 
-    def check_on_part(self, index: int, contains_xy) -> None:
-        """Raise InputError if the support is not on the part (``contains_xy`` as in
-        :func:`check_layout`): its anchor off the part or its disc overhanging the edge."""
-        if self.anchor_xy is not None:
-            x, y = self.anchor_xy
-            if not contains_xy(np.array([[x, y]]))[0]:
+    def check_on_part(self, index: int, part) -> None:
+        """Raise InputError if the support is not on ``part`` (a fem.parts.Part): its anchor
+        off the part (saying how far, and in which unit it was read), or its disc
+        overhanging an edge or reaching over a fold."""
+        point = self.anchor_point()
+        if point is not None:
+            _, off = part.place([point])
+            lo, hi = part.bounds_m()
+            if off[0] > OFF_PART_RELATIVE * float(np.max(hi - lo)):
                 raise InputError(
-                    f"supports[{index}]: {self.noun} centre at ({x:g}, {y:g}) m is off the part"
+                    f"supports[{index}]: {self.noun} centre at {_show(point)} m is "
+                    f"{off[0]:.4g} m off the part{_unit_hint(point, part)}"
                 )
         disc = self.contact_disc
         if disc is not None:
-            angle = np.linspace(0, 2 * np.pi, 48, endpoint=False)
-            rim = np.column_stack(
-                [disc.x + disc.radius * np.cos(angle), disc.y + disc.radius * np.sin(angle)]
-            )
-            if not contains_xy(rim).all():
+            centre = part.place([disc.point])[0][0]
+            problem = part.disc_problem(centre, disc.radius)
+            if problem:
                 raise InputError(
-                    f"supports[{index}]: {self.noun} at ({disc.x:g}, {disc.y:g}) m with radius "
-                    f"{disc.radius:g} m overhangs the edge of the part; move it inwards or use "
-                    "a smaller radius"
+                    f"supports[{index}]: {self.noun} at {_show(disc.point)} m with radius "
+                    f"{disc.radius:g} m {problem}; move it or use a smaller radius"
                 )
+
+
+def _show(point) -> str:
+    return "(" + ", ".join(f"{v:g}" for v in point) + ")"
+
+
+def _unit_hint(point, part) -> str:
+    """Where the part is, in the unit the point was read in (m); and the millimetre slip
+    if the point divided by 1000 lies on the part."""
+    lo, hi = part.bounds_m()
+    axes = "xyz"[: len(point)]
+    box = ", ".join(f"{a} {lo[i]:.4g} ... {hi[i]:.4g}" for i, a in enumerate(axes))
+    text = f" (coordinates are read in metres; the part spans {box} m)"
+    scaled = [v * 1e-3 for v in point]
+    if part.place([scaled])[1][0] == 0.0:
+        text += f"; in millimetres it lies on the part: give {_show(scaled)} m"
+    return text
 
 
 def _finite(owner: str, name: str, value: float) -> float:
@@ -162,31 +218,40 @@ def _finite(owner: str, name: str, value: float) -> float:
 
 @dataclass(frozen=True)
 class SuctionCup(Support):
-    """A vacuum suction cup at (x, y) m with contact radius ``radius`` m (default 40 mm)."""
+    """A vacuum suction cup at (x, y) m with contact radius ``radius`` m (default 40 mm); with
+    ``z`` (m) it sits on the surface point nearest to (x, y, z) (e.g. on a flange)."""
 
     x: float
     y: float
     radius: float = 0.04
+    z: float | None = None
     noun: ClassVar[str] = "cup"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "x", _finite("SuctionCup", "x", self.x))
         object.__setattr__(self, "y", _finite("SuctionCup", "y", self.y))
+        if self.z is not None:
+            object.__setattr__(self, "z", _finite("SuctionCup", "z", self.z))
         r = _finite("SuctionCup", "radius", self.radius)
         if r <= 0:
             raise InputError(f"SuctionCup.radius: must be > 0 m, got {self.radius!r}")
         object.__setattr__(self, "radius", r)
 
     def describe(self) -> dict:
-        return {"type": "suction_cup", "x_m": self.x, "y_m": self.y, "radius_m": self.radius}
+        out = {"type": "suction_cup", "x_m": self.x, "y_m": self.y, "radius_m": self.radius}
+        return out if self.z is None else {**out, "z_m": self.z}
 
     @property
     def anchor_xy(self) -> tuple[float, float]:
         return self.x, self.y
 
     @property
+    def anchor_z(self) -> float | None:
+        return self.z
+
+    @property
     def contact_disc(self) -> Disc:
-        return Disc(self.x, self.y, self.radius)
+        return Disc(self.x, self.y, self.radius, self.z)
 
     def hold_plate(self, plate: PlateDofs, index: int) -> Constraints:
         # the disc is the union of the triangles whose centroid lies in it
@@ -200,8 +265,7 @@ class SuctionCup(Support):
         return plate.clamp_elements(held)
 
     def hold_solid(self, solid: SolidDofs, index: int) -> Constraints:
-        distance = solid.distance_m(self.x, self.y)
-        inside = np.flatnonzero(distance <= self.radius * (1 + 1e-9))
+        inside = solid.disc_nodes(self.x, self.y, self.z, self.radius)
         if inside.size == 0:
             raise InputError(
                 f"supports[{index}]: the cup at ({self.x:g}, {self.y:g}) m contains no mesh "
@@ -222,28 +286,37 @@ class SuctionCup(Support):
 
 @dataclass(frozen=True)
 class PointSupport(Support):
-    """A pinned point at (x, y) m: the displacement (not the rotation) is held there."""
+    """A pinned point at (x, y) m (or nearest to (x, y, z)): the displacement (not the
+    rotation) is held at the mesh vertex nearest to it."""
 
     x: float
     y: float
+    z: float | None = None
     noun: ClassVar[str] = "point support"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "x", _finite("PointSupport", "x", self.x))
         object.__setattr__(self, "y", _finite("PointSupport", "y", self.y))
+        if self.z is not None:
+            object.__setattr__(self, "z", _finite("PointSupport", "z", self.z))
 
     def describe(self) -> dict:
-        return {"type": "point_support", "x_m": self.x, "y_m": self.y}
+        out = {"type": "point_support", "x_m": self.x, "y_m": self.y}
+        return out if self.z is None else {**out, "z_m": self.z}
 
     @property
     def anchor_xy(self) -> tuple[float, float]:
         return self.x, self.y
 
+    @property
+    def anchor_z(self) -> float | None:
+        return self.z
+
     def hold_plate(self, plate: PlateDofs, index: int) -> Constraints:
         return plate.pin_vertices([plate.nearest_vertex(self.x, self.y)])
 
     def hold_solid(self, solid: SolidDofs, index: int) -> Constraints:
-        return solid.clamp_nodes([solid.nearest_vertex(self.x, self.y)])
+        return solid.pin_nodes([solid.nearest_vertex(self.x, self.y, self.z)])
 
     def draw(self, ax) -> None:
         ax.plot(self.x, self.y, "^", color="tab:red")
@@ -329,39 +402,41 @@ def contact_discs(supports: Sequence[Support]) -> list[Disc]:
     return [s.contact_disc for s in supports if s.contact_disc is not None]
 
 
-def check_layout(supports: list[Support], contains_xy, *, allow_rigid_modes: bool = False) -> None:
-    """Reject gripper layouts that cannot hold the part.
+def check_layout(supports: list[Support], part, *, allow_rigid_modes: bool = False) -> None:
+    """Reject gripper layouts that cannot hold ``part`` (a fem.parts.Part).
 
-    ``contains_xy(xy (N, 2)) -> bool (N,)`` tells whether footprint points lie on the part.
-    Raises InputError for a support off the part (its anchor or contact disc), overlapping
-    contact discs, and (unless ``allow_rigid_modes``) fewer than three non-collinear anchors
-    (cups/points) when no support removes the rigid-body modes alone (an edge).
+    Raises InputError for a support off the part (its anchor or contact disc: how far off,
+    in which unit), overlapping contact discs, and (unless ``allow_rigid_modes``) fewer than
+    three non-collinear anchors (cups/points) when no support removes the rigid-body modes
+    alone (an edge). Distances are measured between the surface points of the supports.
     """
     for i, s in enumerate(supports):
-        s.check_on_part(i, contains_xy)
+        s.check_on_part(i, part)
     discs = [(s, s.contact_disc) for s in supports if s.contact_disc is not None]
+    centres = part.place([d.point for _, d in discs])[0] if discs else np.empty((0, 3))
     for i, (s, a) in enumerate(discs):
-        for t, b in discs[i + 1 :]:
-            gap = math.hypot(a.x - b.x, a.y - b.y) - a.radius - b.radius
+        for j in range(i + 1, len(discs)):
+            t, b = discs[j]
+            gap = float(np.linalg.norm(centres[i] - centres[j])) - a.radius - b.radius
             if gap < 0:
                 raise InputError(
-                    f"supports: {s.noun} at ({a.x:g}, {a.y:g}) m and {t.noun} at "
-                    f"({b.x:g}, {b.y:g}) m overlap by {-gap * 1e3:.3g} mm; every support "
+                    f"supports: {s.noun} at {_show(a.point)} m and {t.noun} at "
+                    f"{_show(b.point)} m overlap by {-gap * 1e3:.3g} mm; every support "
                     "needs its own contact disc"
                 )
     if allow_rigid_modes or any(s.prevents_rigid_motion for s in supports):
         return
-    anchors = [s.anchor_xy for s in supports if s.anchor_xy is not None]
+    anchors = [s.anchor_point() for s in supports if s.anchor_xy is not None]
     hint = "; add supports or pass allow_rigid_modes=True (--allow-rigid-modes) to keep rigid modes"
     if len(anchors) < 3:
         raise InputError(
             f"supports: {len(anchors)} cup(s)/point(s) cannot hold the part without rigid-body "
             f"modes; at least 3 non-collinear cups are needed{hint}"
         )
-    centres = np.array(anchors)
-    centred = centres - centres.mean(axis=0)
+    points = part.place(anchors)[0]
+    centred = points - points.mean(axis=0)
     _, _, vt = np.linalg.svd(centred, full_matrices=False)
-    off_line = np.abs(centred @ vt[1])
+    off_line = np.linalg.norm(centred - np.outer(centred @ vt[0], vt[0]), axis=1)
     tolerance = min((d.radius for _, d in discs), default=1e-3)
     if off_line.max() <= tolerance:
         raise InputError(

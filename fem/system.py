@@ -107,3 +107,17 @@ class FESystem:
         return sp.csr_matrix(
             (np.ones(rows.size), (rows, cols)), shape=(3 * len(self.nodes), self.n_dof)
         )
+
+
+def mesh_stats(
+    cell_type: str, n_nodes: int, n_elements: int, n_dof: int, edge_lengths_m: np.ndarray
+) -> dict:
+    """The mesh statistics an FESystem carries (the model's meta)."""
+    return {
+        "cell_type": cell_type,
+        "n_nodes": int(n_nodes),
+        "n_elements": int(n_elements),
+        "n_dof": int(n_dof),
+        "edge_length_min_m": float(np.min(edge_lengths_m)),
+        "edge_length_max_m": float(np.max(edge_lengths_m)),
+    }

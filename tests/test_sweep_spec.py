@@ -7,15 +7,18 @@ import copy
 import json
 import re
 
+import meshio
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from jaxflex.cli import main
 from jaxflex.errors import InputError
-from optim.sweep.cases import expand
+from optim.sweep.cases import expand, layout_job
 from optim.sweep.run import run_sweep
 from optim.sweep.spec import EXAMPLE, load_spec, parse_spec
+from optim.sweep.work import analyse_layout, payload_model
 
 BASE = {
     "part": {"width_m": 0.6, "height_m": 0.4},
@@ -174,3 +177,46 @@ def test_grid_expands_to_every_combination(nx, ny, inset, radius):
 def test_bad_run_options_are_named(tmp_path, kwargs, field):
     with pytest.raises(InputError, match="^" + re.escape(field)):
         run_sweep(parse_spec(BASE), tmp_path, progress=False, plots=False, **kwargs)
+
+
+def test_a_sweep_over_the_users_own_part_file(tmp_path):
+    # a flat 0.6 x 0.4 m plate as a quad mesh on [1, 1.6] x [2, 2.4] (the part's coordinates)
+    x, y = np.meshgrid(np.linspace(1.0, 1.6, 13), np.linspace(2.0, 2.4, 9), indexing="ij")
+    idx = np.arange(x.size).reshape(x.shape)
+    quads = np.column_stack([idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(),
+                             idx[:-1, 1:].ravel()])  # fmt: skip
+    points = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    (tmp_path / "parts").mkdir()
+    meshio.write(tmp_path / "parts" / "plate.vtu", meshio.Mesh(points, [("quad", quads)]))
+    grid = {"name": "g", "nx": [2], "ny": [2], "inset_x": [0.25], "inset_y": [0.25],
+            "radius_m": [0.03]}  # fmt: skip
+    data = {
+        **BASE,
+        "part": {"path": "parts/plate.vtu", "thickness_m": 1e-3},
+        "model": {"n_modes": 4, "monitor_grid": [6, 4]},
+        "layouts": [],
+        "grids": [grid],
+    }
+    (tmp_path / "sweep.json").write_text(json.dumps(data))
+    spec = load_spec(tmp_path / "sweep.json")  # the path is relative to the spec file
+    assert spec.part.path == str((tmp_path / "parts" / "plate.vtu").resolve())
+    # grids in the part's footprint: insets from its bounding box [1, 1.6] x [2, 2.4]
+    expected = [(1.15, 2.1, 0.03), (1.45, 2.1, 0.03), (1.15, 2.3, 0.03), (1.45, 2.3, 0.03)]
+    np.testing.assert_allclose(spec.layouts[0].cups, expected, rtol=1e-12)
+    case = expand(spec)[0]
+    fe = analyse_layout(layout_job(spec, case.layout))
+    assert fe["status"] == "ok", fe
+    assert fe["fe"]["mass_kg"] == pytest.approx(7850 * 1e-3 * 0.24)
+    assert payload_model(fe["model"]).n_points == 24  # the 6 x 4 grid, all on the part
+    # the file's content is part of the case: a changed file makes new cases
+    moved = points.copy()
+    moved[0, 0] = 1.0 + 1e-4
+    meshio.write(tmp_path / "parts" / "plate.vtu", meshio.Mesh(moved, [("quad", quads)]))
+    assert expand(load_spec(tmp_path / "sweep.json"))[0].case_id != case.case_id
+    for field, value in (("width_m", 1.0), ("shape", "plate")):
+        with pytest.raises(InputError, match=rf"part\.{field}: not used with part\.path"):
+            parse_spec({**data, "part": {**data["part"], field: value}}, tmp_path)
+    with pytest.raises(InputError, match=r"part\.thickness_m: required with part\.path"):
+        parse_spec({**data, "part": {"path": "parts/plate.vtu"}}, tmp_path)
+    with pytest.raises(InputError, match=r"part\.scale: only with part\.path"):
+        parse_spec({**BASE, "part": {"scale": 1e-3}})

@@ -17,13 +17,16 @@ import json
 import math
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from fem.imported import file_digest
+from fem.parts import ELEMENTS
 from jaxflex.cli import AXIS_LIMITS
 from jaxflex.errors import InputError
 from optim.robust import RobustSpec
+from optim.sweep.part import build_part, footprint_box
 
 SHAPES = ("plate", "panel")
 METHODS = ("exact", "gradient")
@@ -41,6 +44,12 @@ height_m = 0.8
 thickness_m = 0.8e-3
 material = "aluminium"      # or "steel"
 mesh_size_m = 0.03          # element size (optional; fem's default is finer and slower)
+# Your own part instead of shape/width_m/height_m: a mesh file (any format jaxflex model
+# --mesh reads, used as is) or a CAD sheet body (.step/.iges/.brep, meshed at mesh_size_m),
+# the path relative to this file; cups and grids are then in the part's coordinates (m).
+# path = "fender.step"
+# scale = 1.0               # file coordinates to metres (1e-3 for a mesh in millimetres)
+# element = "shell"         # optional: morley, argyris, shell, hex2 (default: by the part)
 
 [model]
 n_modes = 12
@@ -66,7 +75,7 @@ jmax = 100.0                # m/s^3
 name = "transfer"
 distance_m = [1.0, 0.0, 0.3]
 
-[[layouts]]                 # explicit layouts: cups [x_m, y_m, radius_m]
+[[layouts]]                 # explicit layouts: cups [x_m, y_m, radius_m] or [x, y, z, radius]
 name = "three cups"
 cups = [[0.25, 0.2, 0.04], [0.95, 0.2, 0.04], [0.6, 0.6, 0.04]]
 
@@ -82,7 +91,10 @@ radius_m = [0.03, 0.045]
 
 @dataclass(frozen=True)
 class PartSpec:
-    """The part every layout holds (footprint [0, width_m] x [0, height_m], m)."""
+    """The part every layout holds: a built-in shape (footprint [0, width_m] x [0,
+    height_m], m) or the mesh or CAD file ``path`` (absolute; ``scale`` to metres,
+    ``element`` None for the part's default; ``file_sha256`` its content, so that a changed
+    file makes new cases)."""
 
     shape: str = "plate"
     width_m: float = 1.5
@@ -90,6 +102,14 @@ class PartSpec:
     thickness_m: float = 1e-3
     material: str = "steel"
     mesh_size_m: float | None = None
+    path: str | None = None
+    scale: float = 1.0
+    element: str | None = None
+    file_sha256: str | None = None
+
+
+_PART_FIELDS = tuple(k for k in PartSpec.__dataclass_fields__ if k != "file_sha256")
+_FILE_ONLY = ("path", "scale", "element")
 
 
 @dataclass(frozen=True)
@@ -209,10 +229,15 @@ def _axis_values(where: str, value: Any, unit: str) -> tuple[float, ...]:
 # -- sections ----------------------------------------------------------------------------
 
 
-def _part(data: Any) -> PartSpec:
-    d = _keys("part", data, tuple(PartSpec.__dataclass_fields__))
+def _part(data: Any, base: Path) -> PartSpec:
+    d = _keys("part", data, _PART_FIELDS)
     default = PartSpec()
     mesh = d.get("mesh_size_m")
+    if "path" in d:
+        return _file_part(d, base)
+    for key in _FILE_ONLY:
+        if key in d:
+            raise InputError(f"part.{key}: only with part.path (a mesh or CAD file)")
     return PartSpec(
         shape=_choice("part.shape", d.get("shape", default.shape), SHAPES),
         width_m=_number("part.width_m", d.get("width_m", default.width_m), unit="m"),
@@ -222,6 +247,33 @@ def _part(data: Any) -> PartSpec:
         ),
         material=_choice("part.material", d.get("material", default.material), MATERIALS),
         mesh_size_m=None if mesh is None else _number("part.mesh_size_m", mesh, unit="m"),
+    )
+
+
+def _file_part(d: Mapping, base: Path) -> PartSpec:
+    """A part from the mesh or CAD file ``d["path"]`` (relative to ``base``)."""
+    for key in ("shape", "width_m", "height_m"):
+        if key in d:
+            raise InputError(f"part.{key}: not used with part.path (the file gives the geometry)")
+    raw = _name("part.path", d["path"])
+    path = (base / raw).resolve()
+    if not path.is_file():
+        raise InputError(f"part.path: no such file {str(path)!r}")
+    if "thickness_m" not in d:
+        raise InputError("part.thickness_m: required with part.path (sheet thickness in m)")
+    element = d.get("element")
+    if element is not None:
+        element = _choice("part.element", element, ELEMENTS)
+    mesh = d.get("mesh_size_m")
+    return PartSpec(
+        shape="file",
+        thickness_m=_number("part.thickness_m", d["thickness_m"], unit="m"),
+        material=_choice("part.material", d.get("material", "steel"), MATERIALS),
+        mesh_size_m=None if mesh is None else _number("part.mesh_size_m", mesh, unit="m"),
+        path=str(path),
+        scale=_number("part.scale", d.get("scale", 1.0)),
+        element=element,
+        file_sha256=file_digest(path)["sha256"],
     )
 
 
@@ -298,11 +350,15 @@ def _cup(where: str, value: Any) -> tuple[float, float, float]:
         if missing:
             raise InputError(f"{where}.{missing[0]}: required (m)")
         value = [d["x_m"], d["y_m"], d["radius_m"]]
-    if not isinstance(value, list | tuple) or len(value) != 3:
-        raise InputError(f"{where}: expected [x_m, y_m, radius_m], got {value!r}")
-    x = _number(f"{where}[0]", value[0], positive=False, unit="m")
-    y = _number(f"{where}[1]", value[1], positive=False, unit="m")
-    return (x, y, _number(f"{where}[2]", value[2], unit="m"))
+    if not isinstance(value, list | tuple) or len(value) not in (3, 4):
+        raise InputError(
+            f"{where}: expected [x_m, y_m, radius_m] or [x_m, y_m, z_m, radius_m], got {value!r}"
+        )
+    *centre, radius = value
+    return (
+        *(_number(f"{where}[{k}]", v, positive=False, unit="m") for k, v in enumerate(centre)),
+        _number(f"{where}[{len(centre)}]", radius, unit="m"),
+    )
 
 
 def _layout(i: int, data: Any) -> LayoutSpec:
@@ -320,8 +376,9 @@ def _layout(i: int, data: Any) -> LayoutSpec:
 _GRID_FIELDS = ("nx", "ny", "inset_x", "inset_y", "radius_m")
 
 
-def _grid(i: int, data: Any, part: PartSpec) -> list[LayoutSpec]:
-    """Every combination of the grid's values as a layout named ``name/nx3-ny2-...``."""
+def _grid(i: int, data: Any, box: tuple[float, float, float, float]) -> list[LayoutSpec]:
+    """Every combination of the grid's values as a layout named ``name/nx3-ny2-...``; the
+    insets are fractions of the footprint box (x_min, y_min, x_max, y_max)."""
     where = f"grids[{i}]"
     d = _keys(where, data, ("name", *_GRID_FIELDS))
     values: dict[str, list] = {}
@@ -343,9 +400,10 @@ def _grid(i: int, data: Any, part: PartSpec) -> list[LayoutSpec]:
                 )
     name = _name(f"{where}.name", d.get("name", f"grid{i}"))
     layouts = []
+    x0, y0, x1, y1 = box
     for nx, ny, fx, fy, r in itertools.product(*(values[k] for k in _GRID_FIELDS)):
-        xs = _spread(fx * part.width_m, (1 - fx) * part.width_m, nx)
-        ys = _spread(fy * part.height_m, (1 - fy) * part.height_m, ny)
+        xs = _spread(x0 + fx * (x1 - x0), x1 - fx * (x1 - x0), nx)
+        ys = _spread(y0 + fy * (y1 - y0), y1 - fy * (y1 - y0), ny)
         cups = tuple((x, y, r) for y in ys for x in xs)
         label = f"{name}/nx{nx}-ny{ny}-ix{fx:g}-iy{fy:g}-r{r:g}"
         layouts.append(LayoutSpec(name=label, cups=cups))
@@ -358,14 +416,27 @@ def _spread(lo: float, hi: float, count: int) -> list[float]:
     return [lo + (hi - lo) * k / (count - 1) for k in range(count)]
 
 
-def parse_spec(data: Mapping) -> SweepSpec:
-    """Validate a specification mapping (see the module docstring) into a SweepSpec."""
+def _box(part: PartSpec) -> tuple[float, float, float, float]:
+    """The footprint box of the part (a file part is read for it)."""
+    if part.path is None:
+        return 0.0, 0.0, part.width_m, part.height_m
+    try:
+        return footprint_box(build_part(asdict(part)))
+    except InputError as exc:
+        raise InputError(f"part.path: {exc}") from exc
+
+
+def parse_spec(data: Mapping, base: str | Path = ".") -> SweepSpec:
+    """Validate a specification mapping (see the module docstring) into a SweepSpec;
+    ``part.path`` is relative to ``base``."""
     d = _keys("", data, _TOP)
-    part = _part(d.get("part", {}))
+    part = _part(d.get("part", {}), Path(base))
     moves = tuple(_move(i, m) for i, m in enumerate(_list("moves", d.get("moves"))))
     layouts = [_layout(i, lay) for i, lay in enumerate(d.get("layouts", []) or [])]
-    for i, g in enumerate(d.get("grids", []) or []):
-        layouts.extend(_grid(i, g, part))
+    grids = d.get("grids", []) or []
+    box = _box(part) if grids else None
+    for i, g in enumerate(grids):
+        layouts.extend(_grid(i, g, box))
     if not layouts:
         raise InputError("layouts: give at least one layout (layouts = [...] or grids = [...])")
     for kind, items in (("moves", moves), ("layouts", layouts)):
@@ -403,6 +474,6 @@ def load_spec(path: str | Path) -> SweepSpec:
             f"spec: {path.name} is not valid {path.suffix[1:].upper()}: {exc}"
         ) from exc
     try:
-        return parse_spec(data)
+        return parse_spec(data, path.parent)
     except InputError as exc:
         raise InputError(f"{path.name}: {exc}") from exc

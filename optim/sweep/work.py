@@ -25,6 +25,7 @@ from jaxflex.model import ModalModel
 from optim.limits import Limits
 from optim.optimize import optimize
 from optim.robust import RobustSpec
+from optim.sweep.part import build_part, monitor_points
 
 _ARRAYS = ("freq_hz", "zeta", "gamma", "shapes", "points")
 
@@ -39,16 +40,6 @@ def model_payload(model: ModalModel) -> dict:
 def payload_model(payload: dict) -> ModalModel:
     """The ModalModel of :func:`model_payload`."""
     return ModalModel(*(payload[name] for name in _ARRAYS), meta=json.loads(payload["meta_json"]))
-
-
-def monitor_points(part: dict, grid: tuple[int, int] | list[int]) -> np.ndarray:
-    """(nx * ny, 2) footprint points (m): the cell centres of an nx x ny grid. The same
-    points for every layout, so every model of a sweep has the same size and points."""
-    nx, ny = grid
-    x = (np.arange(nx) + 0.5) / nx * part["width_m"]
-    y = (np.arange(ny) + 0.5) / ny * part["height_m"]
-    xx, yy = np.meshgrid(x, y)
-    return np.column_stack([xx.ravel(), yy.ravel()])
 
 
 def _error(stage: str, exc: BaseException) -> dict:
@@ -71,20 +62,14 @@ def analyse_layout(job: dict) -> dict:
     monitored points and a summary, or an error record (stage "fe")."""
     start, cpu = time.perf_counter(), time.process_time()
     try:
-        part_spec, settings = job["part"], job["model"]
-        make = fem.rectangular_plate if part_spec["shape"] == "plate" else fem.curved_panel
-        part = make(
-            part_spec["width_m"],
-            part_spec["height_m"],
-            part_spec["thickness_m"],
-            part_spec["material"],
-            part_spec["mesh_size_m"],
-        )
-        cups = [fem.SuctionCup(x, y, r) for x, y, r in job["cups"]]
+        settings = job["model"]
+        part = build_part(job["part"])
+        cups = [fem.SuctionCup(c[0], c[1], c[-1], z=c[2] if len(c) == 4 else None)
+                for c in job["cups"]]  # fmt: skip
         result = fem.modal_analysis(
             part, cups, n_modes=settings["n_modes"], zeta=settings["zeta"], progress=False
         )
-        model = result.to_modal_model(points=monitor_points(part_spec, settings["monitor_grid"]))
+        model = result.to_modal_model(points=monitor_points(part, settings["monitor_grid"]))
     except Exception as exc:  # recorded, the sweep goes on
         return {
             **_error("fe", exc),

@@ -1,0 +1,176 @@
+"""Shell model of a triangulated mid-surface: flat, curved or folded parts.
+
+Each triangle is a flat facet (fem.shell_element: DKT bending + OPT membrane with drilling
+rotations); node n carries six DOFs 6 n + (u_x, u_y, u_z, theta_x, theta_y, theta_z) in
+global axes, so facets meeting at any angle (a fold, a flange) share them directly. Element
+matrices are computed for blocks of elements with einsum and summed into 6x6 node blocks
+(fem.assembly). Supports ask the shell through fem.supports.SolidDofs (the surface
+vocabulary the thin solid speaks too): a clamped node holds all six DOFs, a pinned one its
+three translations.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fem.assembly import assemble
+from fem.mesh import ShellMesh
+from fem.shell_element import element_matrices
+from fem.sides import side_nodes
+from fem.supports import Support
+from fem.system import Constraints, FESystem, mesh_stats
+
+FORMULATION = (
+    "shell, flat-facet triangles: DKT bending + ANDES OPT membrane with drilling rotations "
+    "(6 DOFs per node), consistent mass, vectorised assembly"
+)
+CHUNK_ELEMENTS = 2000
+DOFS_PER_NODE = 6
+
+
+class ShellLayer:
+    """The assembled shell's geometry: ``nodes`` (N, 3) m, ``triangles`` (E, 3),
+    ``frames`` (E, 3, 3) local axes per element (rows e1, e2, e3), ``element_dofs`` (E, 18)
+    global DOF indices in the element's order, ``normals`` (N, 3) area-weighted unit node
+    normals, ``edges`` (unique vertex pairs) and ``boundary_edges`` (indices into edges),
+    ``node_size_m`` (N,) the node spacing there, m.
+
+    A displacement vector u (n_dof,) gives each element's local DOFs as
+    ``local_dofs(u)`` (E, 18): what fem.shell_element's strain-displacement matrices take
+    (membrane: indices shell_element.MEMBRANE, bending: shell_element.BENDING)."""
+
+    def __init__(self, mesh: ShellMesh, frames: np.ndarray) -> None:
+        self.nodes, self.triangles, self.frames = mesh.nodes, mesh.triangles, frames
+        self.element_dofs = (
+            DOFS_PER_NODE * mesh.triangles[:, :, None] + np.arange(DOFS_PER_NODE)
+        ).reshape(-1, 3 * DOFS_PER_NODE)
+        a, b, c = (mesh.nodes[mesh.triangles[:, k]] for k in range(3))
+        weighted = np.cross(b - a, c - a)
+        normals = np.zeros_like(mesh.nodes)
+        for k in range(3):
+            np.add.at(normals, mesh.triangles[:, k], weighted)
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        self.normals = normals / np.where(length > 0, length, 1.0)
+        pairs = np.sort(
+            np.stack([mesh.triangles, np.roll(mesh.triangles, -1, axis=1)], axis=2).reshape(-1, 2),
+            axis=1,
+        )
+        self.edges, count = np.unique(pairs, axis=0, return_counts=True)
+        self.boundary_edges = np.flatnonzero(count == 1)
+        # node spacing: sqrt(2 x the mean area of the triangles at the node) (the leg of a
+        # right triangle, 0.93 x the side of an equilateral one)
+        area = 0.5 * np.linalg.norm(weighted, axis=1)
+        count = np.bincount(mesh.triangles.ravel(), None, len(mesh.nodes))
+        total = np.bincount(mesh.triangles.ravel(), np.repeat(area, 3), len(mesh.nodes))
+        self.node_size_m = np.sqrt(2 * total / np.maximum(count, 1))
+
+    def local_dofs(self, u: np.ndarray) -> np.ndarray:
+        """(E, 18) local DOFs of every element for global displacements u (n_dof,)."""
+        per_node = u[self.element_dofs].reshape(-1, 6, 3)  # (u, theta) triples per node
+        return np.einsum("eij,eaj->eai", self.frames, per_node).reshape(-1, 18)
+
+
+def assemble_shell(
+    mesh: ShellMesh, part, supports: list[Support], progress=None
+) -> tuple[FESystem, ShellLayer]:
+    """Assemble the shell of ``part`` (material, thickness) on ``mesh`` and ask each of
+    ``supports`` which DOFs it holds."""
+    mat = part.material
+    n_el, n_nodes = len(mesh.triangles), len(mesh.nodes)
+    frames = np.empty((n_el, 3, 3))
+
+    def compute(chunk):
+        k_el, m_el, frames[chunk] = element_matrices(
+            mesh.nodes[mesh.triangles[chunk]], part.thickness_m, mat.E_pa, mat.nu, mat.rho_kg_m3
+        )
+        return k_el, m_el
+
+    K, M = assemble(
+        mesh.triangles,
+        n_nodes,
+        DOFS_PER_NODE,
+        compute,
+        chunk_size=CHUNK_ELEMENTS,
+        label=f"assembly (shell, {n_el} elements)",
+        progress=progress,
+    )
+    layer = ShellLayer(mesh, frames)
+    n_dof = DOFS_PER_NODE * n_nodes
+    rigid = np.zeros((n_dof, 3))
+    for d in range(3):
+        rigid[d::DOFS_PER_NODE, d] = 1.0
+    node_dofs = DOFS_PER_NODE * np.arange(n_nodes)[:, None] + np.arange(3)
+    lengths = np.linalg.norm(np.diff(mesh.nodes[layer.edges], axis=1)[:, 0], axis=1)
+    stats = mesh_stats("triangle (shell)", n_nodes, n_el, n_dof, lengths)
+    dofs = ShellMeshDofs(layer, part)
+    constraints = Constraints.union(s.hold_solid(dofs, i) for i, s in enumerate(supports))
+    system = FESystem(
+        K,
+        M,
+        rigid,
+        mesh.nodes.copy(),
+        node_dofs,
+        mesh.triangles.copy(),
+        "triangle",
+        constraints,
+        stats,
+        FORMULATION,
+    )
+    return system, layer
+
+
+class ShellMeshDofs:
+    """The shell's DOFs as supports see them (fem.supports.SolidDofs): node n has DOFs
+    6 n ... 6 n + 5 (translations, then rotations)."""
+
+    def __init__(self, layer: ShellLayer, part) -> None:
+        self.layer, self.part = layer, part
+
+    @property
+    def surface_points(self) -> np.ndarray:
+        """(N, 3) mid-surface nodes, m."""
+        return self.layer.nodes
+
+    def distance_m(self, x: float, y: float, z: float | None = None) -> np.ndarray:
+        """(N,) 3-D distance of every node from the surface point of (x, y[, z]) (the part
+        places it: above (x, y), or nearest to (x, y, z))."""
+        centre = self.part.surface_point([[x, y] if z is None else [x, y, z]])[0]
+        return np.linalg.norm(self.layer.nodes - centre, axis=1)
+
+    def nearest_vertex(self, x: float, y: float, z: float | None = None) -> int:
+        """The node nearest to the surface point of (x, y[, z])."""
+        return int(np.argmin(self.distance_m(x, y, z)))
+
+    def disc_nodes(self, x: float, y: float, z: float | None, radius: float) -> np.ndarray:
+        """Nodes within ``radius`` (m) plus half their element size of that surface point.
+
+        A node stands for the half of its elements around it: with the radius alone, the
+        outermost held nodes lie on average half an element inside the rim and the fully held
+        elements cover a smaller disc (measured on a 0.6 x 0.4 m plate with four 30 mm cups:
+        f1 -4 % at the default mesh); with half an element added they lie on the rim on
+        average (f1 within 1 % of the converged value from 20 to 2.5 mm elements)."""
+        reach = radius + 0.5 * self.layer.node_size_m
+        return np.flatnonzero(self.distance_m(x, y, z) <= reach * (1 + 1e-9))
+
+    def clamp_nodes(self, surface_nodes) -> Constraints:
+        """Hold all six DOFs (displacement and rotation) at ``surface_nodes``."""
+        nodes = np.asarray(surface_nodes, dtype=np.int64)
+        return Constraints(fixed=(DOFS_PER_NODE * nodes[:, None] + np.arange(6)).ravel())
+
+    def pin_nodes(self, surface_nodes) -> Constraints:
+        """Hold the three translations (not the rotations) at ``surface_nodes``."""
+        nodes = np.asarray(surface_nodes, dtype=np.int64)
+        return Constraints(fixed=(DOFS_PER_NODE * nodes[:, None] + np.arange(3)).ravel())
+
+    def hold_side(self, side: str, *, clamped: bool) -> Constraints:
+        """Clamp a side (fem.supports.SIDES), or hold the normal and the along-edge
+        displacement there (simple support, the shear diaphragm; rotations free)."""
+        layer = self.layer
+        nodes, tangents = side_nodes(layer.nodes, layer.edges[layer.boundary_edges], side)
+        if clamped:
+            return self.clamp_nodes(nodes)
+        directions = [
+            (DOFS_PER_NODE * k + np.arange(3), np.vstack([layer.normals[k], *held]))
+            for k, held in zip(nodes, tangents, strict=True)
+        ]
+        return Constraints(directions=directions)
