@@ -266,7 +266,7 @@ def test_the_command_reads_a_cad_part_says_what_it_read_and_warns(tmp_path, pane
     cups = ["0.15,0.1,0.03", "0.45,0.1,0.03", "0.3,0.3,0.03"]
     done = run_jaxflex(
         "model", "--cad", str(panel_step), "--thickness", "1e-3", "--mesh-size", "0.04",
-        "--cups", *cups, "--n-modes", "4", "--points", "50", "--no-progress",
+        "--cups", *cups, "--n-modes", "4", "--points", "50", "--quiet",
         "-o", str(tmp_path / "panel.npz"),
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
@@ -279,7 +279,7 @@ def test_the_command_reads_a_cad_part_says_what_it_read_and_warns(tmp_path, pane
     # a thickness in millimetres: the model is built, with warnings naming the values
     slip = run_jaxflex(
         "model", "--cad", str(panel_step), "--thickness", "1", "--mesh-size", "0.04",
-        "--cups", *cups, "--n-modes", "2", "--no-progress", "-o", str(tmp_path / "slip.npz"),
+        "--cups", *cups, "--n-modes", "2", "--quiet", "-o", str(tmp_path / "slip.npz"),
     )  # fmt: skip
     assert slip.returncode == 0, slip.stderr
     assert "warning: panel.step: thickness 1 m is 1/0.40" in slip.stderr
@@ -287,7 +287,7 @@ def test_the_command_reads_a_cad_part_says_what_it_read_and_warns(tmp_path, pane
     # cups in millimetres: exit 2, how far off and in which unit
     mm = run_jaxflex(
         "model", "--cad", str(panel_step), "--thickness", "1e-3", "--mesh-size", "0.04",
-        "--cups", "150,100,30", "450,100,30", "300,300,30", "--no-progress",
+        "--cups", "150,100,30", "450,100,30", "300,300,30", "--quiet",
         "-o", str(tmp_path / "mm.npz"),
     )  # fmt: skip
     assert mm.returncode == 2
