@@ -6,6 +6,8 @@ product over all steps, a cheap custom gradient); :func:`point_norms`,
 :func:`point_displacements` and :func:`deviation_curves` are the NumPy forms used where
 no compilation is wanted (exact searches, reports, reductions). Shapes may carry only some
 displacement components (K, C, M): norms are then taken over those.
+:func:`outputs_at` evaluates the other outputs linear in the modal state (cup reactions,
+stresses: jaxflex.outputs) exactly at any time.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxflex.engine import states_at
+from jaxflex.profile import acceleration_at
 
 CHUNK_POINTS = 1024  # points per matrix product in the blocked NumPy evaluation
 
@@ -141,3 +144,12 @@ def deviation_curve(
     t = np.concatenate([t_move, n_steps * dt_s + h * np.arange(after)])
     q = states_at(model, acc, dt_s, t)[..., 0]
     return t, deviation_curves(np.asarray(model.shapes), q).all
+
+
+def outputs_at(model, outputs, acc, dt_s: float, t_s, offset=None) -> np.ndarray:
+    """(T, Y) exact values of ``outputs`` (jaxflex.outputs.LinearOutputs of ``model``) at
+    times ``t_s`` (T,) s during the move ``acc`` ((n+1, 3) m/s^2, at rest at its end) and
+    after it, plus the constant ``offset`` (Y,) (e.g. the share of gravity)."""
+    t = np.asarray(t_s, dtype=np.float64)
+    values = outputs.values(states_at(model, acc, dt_s, t), acceleration_at(acc, dt_s, t))
+    return values if offset is None else values + offset

@@ -72,6 +72,15 @@ def integrate(acc, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
     return vel, pos
 
 
+def acceleration_at(acc, dt_s: float, t_s) -> np.ndarray:
+    """(T, 3) acceleration (m/s^2) of the samples ``acc`` ((n+1, 3) at step ``dt_s`` s) at
+    times ``t_s`` (T,) s: linear between samples, 0 before the start and after the end."""
+    acc = np.asarray(acc, dtype=np.float64)
+    t = np.asarray(t_s, dtype=np.float64)
+    grid = dt_s * np.arange(acc.shape[0])
+    return np.column_stack([np.interp(t, grid, acc[:, c], left=0.0, right=0.0) for c in range(3)])
+
+
 def axis_limits(name: str, value, n_axes: int = 3) -> np.ndarray:
     """A per-axis limit given as a scalar or n_axes values, each finite and > 0."""
     arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (n_axes,)).copy()
