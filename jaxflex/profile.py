@@ -81,6 +81,21 @@ def acceleration_at(acc, dt_s: float, t_s) -> np.ndarray:
     return np.column_stack([np.interp(t, grid, acc[:, c], left=0.0, right=0.0) for c in range(3)])
 
 
+def kinematics_at(acc, dt_s: float, t_s) -> tuple[np.ndarray, np.ndarray]:
+    """Exact (position (T, 3) m, velocity (T, 3) m/s) of the move ``acc`` ((n+1, 3) m/s^2 at
+    step ``dt_s`` s, from rest at the origin) at times ``t_s`` (T,) s; held after the end."""
+    acc = np.asarray(acc, dtype=np.float64)
+    vel, pos = integrate(acc, dt_s)
+    n = acc.shape[0] - 1
+    t = np.asarray(t_s, dtype=np.float64)
+    k = np.clip(np.floor(t / dt_s).astype(np.int64), 0, n - 1)
+    tau = np.clip(t - k * dt_s, 0.0, dt_s)[:, None]
+    jerk = (acc[k + 1] - acc[k]) / dt_s
+    position = pos[k] + vel[k] * tau + acc[k] * tau**2 / 2 + jerk * tau**3 / 6
+    velocity = vel[k] + acc[k] * tau + jerk * tau**2 / 2
+    return position, velocity
+
+
 def axis_limits(name: str, value, n_axes: int = 3) -> np.ndarray:
     """A per-axis limit given as a scalar or n_axes values, each finite and > 0."""
     arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (n_axes,)).copy()
