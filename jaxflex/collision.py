@@ -146,11 +146,14 @@ def min_distance(
     *,
     gravity_m_s2=(0.0, 0.0, -9.81),
     atol: float = 1e-5,
+    limit_m: float | None = None,
 ) -> Clearance:
     """The smallest distance (m) between the monitored points of ``model`` (posed in cell
     coordinates) and ``obstacles`` (or a jaxflex.cell.Cell's) over the move ``acc`` ((n+1, 3)
     m/s^2 in cell coordinates at step ``dt_s`` s, at rest at both ends) and the settling
-    after it, to within ``atol`` m (module docstring)."""
+    after it, to within ``atol`` m (module docstring). With ``limit_m`` the search only
+    decides whether the distance stays above it (``bound_m`` >= limit_m certifies; below it
+    the minimum is located to ``atol``)."""
     if isinstance(obstacles, Cell):
         obstacles = obstacles.obstacles
     obstacles = tuple(obstacles)
@@ -161,14 +164,14 @@ def min_distance(
         motion = _Motion(model, obstacles, move, gravity_m_s2)
         best = SearchState()
 
-        def tolerance(_value: float) -> float:
-            return atol
+        def tolerance(value: float) -> float:
+            return atol if limit_m is None else max(atol, -limit_m - value)
 
         items = np.arange(model.n_points)
         best.update(motion.at_rest(items)[:, None], np.array([math.inf]), items)
         grid = dt_s * np.arange(move.n_steps + 1)
         certified_max(motion.during, motion.during_bound, grid, items, tolerance, best)
-        _settling(motion, best, atol)
+        _settling(motion, best, tolerance)
     time_s, point = best.time, best.item
     if math.isinf(time_s):
         where = motion.base[[point]] + motion.end
@@ -189,17 +192,17 @@ def min_distance(
         point=point,
         obstacle=obstacle,
         obstacle_name=getattr(obstacles[obstacle], "name", str(obstacle)),
-        bound_m=min(-best.value - atol, -best.unresolved),
+        bound_m=min(-best.value - tolerance(best.value), -best.unresolved),
         evaluations=best.evaluations,
     )
 
 
-def _settling(motion: _Motion, best: SearchState, atol: float) -> None:
+def _settling(motion: _Motion, best: SearchState, tolerance) -> None:
     items = np.arange(motion.weights.shape[0])
     rest = motion.at_rest(items)
 
     def above(tau: float) -> np.ndarray:
-        return rest + motion.envelope(items, tau, 0)[:, 0] > best.value + atol
+        return rest + motion.envelope(items, tau, 0)[:, 0] > best.value + tolerance(best.value)
 
     if not above(0.0).any():
         return
@@ -220,5 +223,5 @@ def _settling(motion: _Motion, best: SearchState, atol: float) -> None:
         grid = motion.t_end + np.linspace(start, end, max(2, math.ceil((end - start) / step) + 1))
         alive = items[above(start)]
         if alive.size:
-            certified_max(motion.after, motion.after_bound, grid, alive, lambda _v: atol, best)
+            certified_max(motion.after, motion.after_bound, grid, alive, tolerance, best)
         start = end

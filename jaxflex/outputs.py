@@ -116,13 +116,18 @@ class LinearOutputs:
         """(Y,) the constant share of gravity ``gravity_m_s2`` (3,) (a base acceleration -g)."""
         return -np.asarray(self.a_map) @ np.asarray(gravity_m_s2, dtype=np.float64)
 
-    def transformed(self, out_rows: np.ndarray, rotation: np.ndarray) -> LinearOutputs:
-        """The outputs in a frame rotated by ``rotation`` (3, 3): rows mapped by ``out_rows``
-        (Y, Y), the acceleration input by a_old = rotation^T a_new."""
+    def transformed(self, block: np.ndarray, rotation: np.ndarray) -> LinearOutputs:
+        """The outputs in a frame rotated by ``rotation`` (3, 3): every group of b rows mapped
+        by ``block`` (b, b), the acceleration input by a_old = rotation^T a_new."""
+        b = block.shape[0]
+
+        def rows(values: np.ndarray) -> np.ndarray:
+            values = np.asarray(values)
+            grouped = values.reshape(-1, b, values.shape[1])
+            return np.einsum("ij,gjm->gim", block, grouped).reshape(values.shape)
+
         return LinearOutputs(
-            out_rows @ np.asarray(self.q_map),
-            out_rows @ np.asarray(self.v_map),
-            out_rows @ np.asarray(self.a_map) @ np.asarray(rotation).T,
+            rows(self.q_map), rows(self.v_map), rows(self.a_map) @ np.asarray(rotation).T
         )
 
 
@@ -184,14 +189,13 @@ class CupSet:
     def rotated(self, rotation: np.ndarray, offset_m: np.ndarray) -> CupSet:
         """The cups in a frame where old points x map to rotation x + offset_m."""
         r = np.asarray(rotation, dtype=np.float64)
-        rows = np.kron(np.eye(2 * self.n_cups), r)  # every force and moment vector rotates
         return CupSet(
             np.asarray(self.centre_m) @ r.T + offset_m,
             np.asarray(self.normal) @ r.T,
             self.radius_m,
             self.holding_force_n,
             self.friction,
-            self.reaction.transformed(rows, r),
+            self.reaction.transformed(r, r),  # every force and moment vector rotates
         )
 
 
@@ -218,9 +222,9 @@ class StressSet:
     def rotated(self, rotation: np.ndarray, offset_m: np.ndarray) -> StressSet:
         """The stresses in a frame where old points x map to rotation x + offset_m."""
         r = np.asarray(rotation, dtype=np.float64)
-        rows = np.kron(np.eye(self.n_points), voigt_rotation(r))
         return StressSet(
-            np.asarray(self.points_m) @ r.T + offset_m, self.stress.transformed(rows, r)
+            np.asarray(self.points_m) @ r.T + offset_m,
+            self.stress.transformed(voigt_rotation(r), r),
         )
 
 

@@ -231,23 +231,30 @@ def output_peak(
     offset=None,
     rtol: float = 1e-4,
     atol: float = 0.0,
+    limit: float | None = None,
 ) -> Peak:
     """The largest value of ``functional`` (items of rows of ``outputs``, a
     jaxflex.outputs.LinearOutputs of ``model``) over the move ``acc`` ((n+1, 3) m/s^2 at step
     ``dt_s`` s, at rest at both ends) and the settling after it, plus the constant ``offset``
-    (Y,), to within max(rtol * value, atol) (module docstring)."""
+    (Y,), to within max(rtol * value, atol) (module docstring). With ``limit`` the search
+    only decides whether the peak stays below it: where the bound is below the limit it stops
+    refining (the peak reported is then a value found, and ``bound`` <= limit certifies);
+    above the limit it locates the peak as without one."""
     with threadpool_limits(limits=1, user_api="blas"):
-        return _output_peak(model, outputs, functional, acc, dt_s, offset, rtol, atol)
+        return _output_peak(model, outputs, functional, acc, dt_s, offset, rtol, atol, limit)
 
 
-def _output_peak(model, outputs, functional, acc, dt_s, offset, rtol, atol) -> Peak:
+def _output_peak(model, outputs, functional, acc, dt_s, offset, rtol, atol, limit) -> Peak:
     move = as_move(acc, dt_s, at_rest=True)
     offset = np.zeros(outputs.n_rows) if offset is None else offset
     response = _Response(model, outputs, functional, move, offset)
     best = SearchState()
 
     def tolerance(value: float) -> float:
-        return max(rtol * abs(value), atol) if math.isfinite(value) else math.inf
+        if not math.isfinite(value):
+            return math.inf
+        gap = max(rtol * abs(value), atol)
+        return gap if limit is None else max(gap, limit - value)
 
     items = np.arange(functional.n_items)
     # the limit after the move (the offset: gravity alone) is part of the supremum

@@ -96,6 +96,21 @@ def kinematics_at(acc, dt_s: float, t_s) -> tuple[np.ndarray, np.ndarray]:
     return position, velocity
 
 
+def position_weights(n_steps: int, dt_s: float, t_s) -> np.ndarray:
+    """(T, n+1) weights W with position(t) = W @ a (per axis) for an n-step move from rest at
+    the origin, at times ``t_s`` (T,) s (held after the end): the exact integral of the
+    piecewise-linear acceleration, linear in the samples."""
+    eye = np.eye(n_steps + 1)
+    out = np.empty((np.size(t_s), n_steps + 1))
+    for i in range(0, n_steps + 1, 3):  # three unit samples at a time, one per axis
+        unit = np.zeros((n_steps + 1, 3))
+        cols = list(range(i, min(i + 3, n_steps + 1)))
+        unit[:, : len(cols)] = eye[:, cols]
+        pos, _ = kinematics_at(unit, dt_s, t_s)
+        out[:, cols] = pos[:, : len(cols)]
+    return out
+
+
 def axis_limits(name: str, value, n_axes: int = 3) -> np.ndarray:
     """A per-axis limit given as a scalar or n_axes values, each finite and > 0."""
     arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (n_axes,)).copy()

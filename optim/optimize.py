@@ -8,6 +8,11 @@
 3. Exact route: a polish pass picks the smoothest move among those with the margin found.
 4. The returned profile passes the limits check (optim.limits) or is not returned: if it
    failed (it never has), the best baseline that passes is returned instead, and said so.
+
+With a cell (optim.cell_setup: obstacles, via points, cup and stress limits) the model is
+posed in the cell, the baselines follow the via points, only baselines that meet the cell's
+constraints bound the search, and the exact route adds the constraints' rows
+(optim.cell_rows). The gradient route does not take them.
 """
 
 from __future__ import annotations
@@ -24,9 +29,10 @@ from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
 from jaxflex.validation import check_positive
 from optim.baselines import baselines as compute_baselines
+from optim.baselines import via_baselines
+from optim.cell_setup import prepare_cell
 from optim.exact import LPSubsolver
 from optim.gradient import GRADIENT_SOLVERS, GradientSubsolver
-from optim.kinematics import clean_distance
 from optim.limits import Limits, check_profile
 from optim.lp import LP_SOLVERS
 from optim.result import OptimizationResult, deviation_summary
@@ -88,6 +94,10 @@ def optimize(
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
     max_shaped_modes: int = 6,
     clearance_m: float | None = None,
+    cell=None,
+    min_distance_m: float | None = None,
+    cup_safety: float | None = None,
+    max_stress_pa: float | str | None = None,
 ) -> OptimizationResult:
     """The move over ``distance_m`` ((3,) m) within ``limits`` with the shortest cycle time
     (move plus settling below ``threshold_m`` m), on the ``dt_s`` grid.
@@ -100,11 +110,27 @@ def optimize(
     max_duration_s: longest move considered (a request that needs more is an error).
     clearance_m: optional limit on the deviation of the nominal model during the move (m,
         at exact samples every dt / 8), e.g. to keep the part clear of a fixture.
+    cell: a jaxflex.cell.Cell (obstacles, the part's pose, via points, gravity); the move is
+        then the cell's (``distance_m`` None or equal) and in cell coordinates.
+    min_distance_m: every monitored point keeps this distance (m) from every obstacle of the
+        cell, over the move and the settling (certified).
+    cup_safety: every cup's utilisation (jaxflex.loads) with this safety factor stays <= 1.
+    max_stress_pa: the von Mises stress stays below this (Pa; "yield": the material's yield
+        strength / 1.5).
+    The cell's constraints apply to the nominal model (not to every robust scenario).
     """
     start = time.perf_counter()
     robust = _as_robust(robust)
     _check_model(model, robust)
-    distance = clean_distance(distance_m)
+    setup = prepare_cell(
+        model,
+        distance_m,
+        cell=cell,
+        min_distance_m=min_distance_m,
+        max_stress_pa=max_stress_pa,
+        cup_safety=cup_safety,
+    )
+    model, distance = setup.model, setup.distance
     limits = _as_limits(limits)
     threshold_m = check_positive("threshold_m", threshold_m)
     dt_s = check_positive("dt_s", dt_s)
@@ -118,39 +144,71 @@ def optimize(
     if solver not in allowed:
         raise InputError(f"solver: method {method!r} accepts {allowed}, got {solver!r}")
     max_steps = math.floor(max_duration_s / dt_s + 1e-9)
+    if (setup.families or setup.via) and method != "exact":
+        raise InputError(
+            "method: via points and the cell's constraints (min_distance_m, cup_safety, "
+            "max_stress_pa) need method='exact'"
+        )
 
-    base = compute_baselines(
-        model,
-        distance,
-        limits,
-        dt_s,
-        threshold_m,
-        robust=robust,
-        max_shaped_modes=max_shaped_modes,
-        max_steps=max_steps,
-        progress=progress,
-    )
+    fractions: list[float] = []
+    if setup.via:
+        base, fractions = via_baselines(
+            model,
+            distance,
+            [v[0] for v in setup.via],
+            limits,
+            dt_s,
+            threshold_m,
+            robust=robust,
+            max_steps=max_steps,
+        )
+    else:
+        base = compute_baselines(
+            model,
+            distance,
+            limits,
+            dt_s,
+            threshold_m,
+            robust=robust,
+            max_shaped_modes=max_shaped_modes,
+            max_steps=max_steps,
+            progress=progress,
+        )
+    feasible = []
+    for entry in base.entries:
+        entry.constraints_ok, entry.constraints = setup.feasible(entry.acc, dt_s)
+        if entry.constraints_ok:
+            feasible.append(entry)
     problem = make_problem(
         model, distance, limits, dt_s, threshold_m, max_steps, robust, clearance_m
     )
+    problem.families = setup.families
+    problem.via = [(o, m, t, f) for (o, m, t), f in zip(setup.via, fractions, strict=True)]
     sub = LPSubsolver(solver) if method == "exact" else GradientSubsolver(solver)
-    upper = math.ceil(base.best().score() / dt_s - 1e-9)
+    bound = min((e.score() for e in feasible), default=max_steps * dt_s)
+    upper = math.ceil(bound / dt_s - 1e-9)
     best, history = bisect(
         problem, sub, base.floor_acc, upper, [e.acc for e in base.entries], progress=progress
     )
-    if best is None:
+    notes = []
+    if best is None and not (setup.families and feasible):
         during = "" if clearance_m is None else f" (and below {clearance_m * 1e3:g} mm during it)"
+        limits_note = " within the cell's constraints" if setup.families else ""
         raise InputError(
             f"threshold_m: no move of at most max_duration_s = {max_duration_s:g} s keeps the "
-            f"deviation below {threshold_m * 1e3:g} mm after it{during}; raise max_duration_s, "
-            "threshold_m" + ("" if clearance_m is None else " or clearance_m")
+            f"deviation below {threshold_m * 1e3:g} mm after it{during}{limits_note}; raise "
+            "max_duration_s, threshold_m" + ("" if clearance_m is None else " or clearance_m")
         )
     final = best
-    if method == "exact":
+    if method == "exact" and best is not None:
         final = _polish(problem, sub, best, history)
 
-    notes = []
-    acc = final.acc
+    if final is None:  # only with cell constraints: the LP's rows are restrictions there
+        fallback = min(feasible, key=lambda e: e.score())
+        notes.append(f"no optimised move meets the cell's constraints; {fallback.name!r} returned")
+        acc = fallback.acc
+    else:
+        acc = final.acc
     check = check_profile(acc, dt_s, limits, distance)
     if not check.ok:  # a broken limit is never returned (test_optim_optimize reaches this)
         notes.append(f"optimised profile rejected ({check.summary()}); best baseline returned")
@@ -169,7 +227,7 @@ def optimize(
                 (s.scale, s.zeta, final.timings[i].cycle_time_s)
                 for i, s in enumerate(problem.scenarios)
             ]
-            if acc is final.acc
+            if final is not None and acc is final.acc
             else None
         )
         worst = _worst_case(problem, acc, dt_s, threshold_m, grid)
@@ -200,6 +258,8 @@ def optimize(
         wall_time_s=time.perf_counter() - start,
         baselines=base,
         worst_case=worst,
+        constraints=setup.describe_move(acc, dt_s) if setup.families else [],
+        cell=setup,
     )
 
 

@@ -9,15 +9,18 @@
 * ``deviation.png`` — deviation against time, optimum and baselines, with the threshold;
 * ``robust.png`` and ``deviation_worst_case.png`` (robust mode) — cycle time across the
   uncertainty range for the optimum and the baselines; the optimum's deviation at its worst
-  case.
+  case;
+* ``constraints.png`` (with cell constraints) — the largest cup utilisation, the largest von
+  Mises stress and the smallest distance to the obstacles against time, with the limits.
 """
 
 from __future__ import annotations
 
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -29,10 +32,26 @@ from jaxflex.settle import SettleReport
 from jaxflex.trajectory_io import write_trajectory_csv
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
-from optim.plots import plot_deviations, plot_profiles, plot_robust
+from optim.plots import plot_constraints, plot_deviations, plot_profiles, plot_robust
 from optim.robust import RobustSpec, perturbed
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
+
+
+def constraint_line(c: dict) -> str:
+    """One line on a cell constraint's certified value (optim.cell_rows describe())."""
+    when = "at rest" if not np.isfinite(c["time_s"]) else f"at {c['time_s']:.3f} s"
+    if "distance" in c["name"]:
+        return (
+            f"{c['name']}: {c['peak'] * 1e3:.2f} mm (limit {c['limit'] * 1e3:g} mm) {when}, "
+            f"point {c['item']}, obstacle {c.get('obstacle')!r}"
+        )
+    scale, unit = (1e-6, " MPa") if "stress" in c["name"] else (1.0, "")
+    what = "cup" if "cup" in c["name"] else "stress point"
+    return (
+        f"{c['name']}: {c['peak'] * scale:.3g}{unit} (limit {c['limit'] * scale:.3g}{unit}, "
+        f"utilisation {c['utilisation']:.1%}) {when}, {what} {c['item']}"
+    )
 
 
 def deviation_summary(model: ModalModel, acc: np.ndarray, dt_s: float) -> dict:
@@ -68,6 +87,8 @@ class OptimizationResult:
     baselines: BaselineSet
     worst_case: dict | None = None  # robust mode: worst exact cycle over the check grid
     clearance_m: float | None = None  # limit on the deviation during the move, if any
+    constraints: list[dict] = field(default_factory=list)  # the cell's, certified
+    cell: Any = None  # optim.cell_setup.CellSetup (posed model, via points, families)
 
     @property
     def n_steps(self) -> int:
@@ -141,6 +162,11 @@ class OptimizationResult:
             "solver": self.solver,
             "robust": None if self.robust is None else self.robust.as_dict(),
             "clearance_m": self.clearance_m,
+            "frame": "model" if self.cell is None or self.cell.cell is None else "cell",
+            "cell": None
+            if self.cell is None or self.cell.cell is None
+            else self.cell.cell.describe(),
+            "constraints": self.constraints,
             "n_steps": self.n_steps,
             "transfer_time_s": self.transfer_time_s,
             "settle_time_s": self.settle_time_s,
@@ -165,10 +191,15 @@ class OptimizationResult:
         peak = self.deviation["peak_during_move_m"]
         clear = "" if self.clearance_m is None else f" (clearance {self.clearance_m * 1e3:g} mm)"
         lines.append(f"  peak deviation during the move: {peak * 1e3:.3f} mm{clear}")
+        for c in self.constraints:
+            lines.append("  " + constraint_line(c))
         lines.append(f"  kinematic floor (ruckig): {self.baselines.kinematic_floor_s:.3f} s")
         for b in self.baselines.entries:
             worst = "" if b.worst_cycle_time_s is None else f", worst {b.worst_cycle_time_s:.3f} s"
-            lines.append(f"  {b.name:22s} cycle {b.cycle_time_s:.3f} s{worst}")
+            bad = "" if b.constraints_ok else " (breaks a cell constraint)"
+            lines.append(f"  {b.name:22s} cycle {b.cycle_time_s:.3f} s{worst}{bad}")
+        for note in self.solver_stats.get("notes", []):
+            lines.append(f"  note: {note}")
         lines.append(f"  limits: {self.constraint_check.summary()}")
         return "\n".join(lines)
 
@@ -182,6 +213,9 @@ class OptimizationResult:
         write_text_atomic(written[1], json.dumps(self.report(), indent=2))
         plot_profiles(written[2], self.acc, self.dt_s, self.limits)
         written += self._plot_deviation(out / "deviation.png")
+        if self.constraints:
+            written.append(out / "constraints.png")
+            self._plot_constraints(written[-1])
         if self.worst_case is not None:
             written.append(out / "robust.png")
             series = {"optimised": self.worst_case["grid"]}
@@ -190,6 +224,19 @@ class OptimizationResult:
                     series[b.name] = b.worst_grid
             plot_robust(written[-1], series, "exact cycle time across the uncertainty range")
         return written
+
+    def _plot_constraints(self, path: Path) -> None:
+        moves = {"optimised": self.acc}
+        for b in self.baselines.entries:
+            moves[b.name] = b.acc
+        until = 1.15 * max(self.cycle_time_s, *(b.cycle_time_s for b in self.baselines.entries))
+        curves: dict[str, dict] = {}
+        for label, acc in moves.items():
+            t, _ = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS)
+            for name, values in self.cell.curves(acc, self.dt_s, t).items():
+                curves.setdefault(name, {})[label] = (t, values)
+        limits = {c["name"]: c["limit"] for c in self.constraints}
+        plot_constraints(path, curves, limits)
 
     def _plot_deviation(self, path: Path) -> list[Path]:
         moves = {"optimised": (self.acc, self.cycle_time_s)}
