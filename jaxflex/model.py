@@ -293,6 +293,13 @@ class ModalModel:
         """Same model with ``meta`` updated by ``entries``."""
         return self._replace(meta={**dict(self.meta), **entries})
 
+    def with_outputs(
+        self, *, cups: CupSet | None = None, stress: StressSet | None = None
+    ) -> ModalModel:
+        """Same model with the cups and/or the stresses given replaced (jaxflex.outputs)."""
+        changes = {k: v for k, v in (("cups", cups), ("stress", stress)) if v is not None}
+        return self._replace(**changes)
+
     def posed(self, rotation, offset_m) -> ModalModel:
         """The same part in another frame (e.g. the robot cell's), where a point x of the
         model's frame is at ``rotation`` x + ``offset_m`` ((3, 3) proper rotation, (3,) m).

@@ -91,6 +91,8 @@ def certified_max(
     ``evaluate(t (T,), items (I,)) -> (I, T)`` exact values; ``bound(a (J,), b (J,), va (I, J),
     vb (I, J), items) -> (I, J)`` upper bounds of g over each interval; ``tolerance(best)``
     the allowed gap. Updates ``best`` in place (module docstring)."""
+    if len(items) == 0:
+        return
     values = evaluate(grid, items)
     best.evaluations += values.size
     best.update(values, grid, items)
@@ -279,7 +281,7 @@ def _output_peak(model, outputs, functional, acc, dt_s, offset, rtol, atol, limi
 
 
 def _chunks(items: np.ndarray, size: int = 2048):
-    return [items[i : i + size] for i in range(0, len(items), size)] or [items]
+    return [items[i : i + size] for i in range(0, len(items), size)]
 
 
 def _settling(response: _Response, best: SearchState, tolerance) -> None:

@@ -19,6 +19,7 @@ from jaxflex.collision import distances, gravity_offset
 from jaxflex.errors import InputError
 from jaxflex.loads import DEFAULT_STRESS_SAFETY
 from jaxflex.model import ModalModel
+from jaxflex.outputs import CupSet
 from jaxflex.validation import check_positive
 from optim.cell_rows import DistanceFamily, LoadFamily, family_curve
 from optim.kinematics import clean_distance
@@ -48,6 +49,24 @@ class CellSetup:
     def curves(self, acc: np.ndarray, dt_s: float, t: np.ndarray) -> dict[str, np.ndarray]:
         """What each family limits at times ``t`` (for plots)."""
         return {f.name: family_curve(f, acc, dt_s, t) for f in self.families}
+
+
+def with_cup_rating(
+    model: ModalModel, *, friction: float | None = None, vacuum_pa: float | None = None
+) -> ModalModel:
+    """``model`` with every cup's friction coefficient and/or vacuum (Pa; the holding force
+    becomes vacuum x pi r^2) replaced."""
+    cups = model.cups
+    if cups is None:
+        raise InputError("cups: the model has no cup reactions to rate")
+    holding = np.asarray(cups.holding_force_n)
+    if vacuum_pa is not None:
+        holding = check_positive("vacuum_pa", vacuum_pa) * np.pi * np.asarray(cups.radius_m) ** 2
+    mu = np.asarray(cups.friction)
+    if friction is not None:
+        mu = np.full(cups.n_cups, check_positive("friction", friction))
+    rated = CupSet(cups.centre_m, cups.normal, cups.radius_m, holding, mu, cups.reaction)
+    return model.with_outputs(cups=rated)
 
 
 def _stress_limit(model: ModalModel, max_stress_pa) -> float:

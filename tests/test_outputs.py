@@ -39,7 +39,7 @@ def with_outputs(model: jaxflex.ModalModel, seed: int = 1) -> jaxflex.ModalModel
             rng.normal(size=(30, m)) * 1e7, np.zeros((30, m)), rng.normal(size=(30, 3)) * 1e5
         ),
     )
-    return model._replace(cups=cups, stress=stress)
+    return model.with_outputs(cups=cups, stress=stress)
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +88,7 @@ def test_an_incomplete_group_is_refused(tmp_path, model):
 
 def test_outputs_are_validated(model):
     with pytest.raises(jaxflex.ModelError, match=r"cups\.reaction\.q_map"):
-        model.truncate_modes(3)._replace(cups=model.cups)
+        model.truncate_modes(3).with_outputs(cups=model.cups)
     bad = CupSet
     with pytest.raises(jaxflex.ModelError, match=r"cups\.normal"):
         bad([[0, 0, 0]], [[0, 0, 2.0]], [0.03], [100.0], [0.5], model.cups.reaction)
