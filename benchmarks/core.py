@@ -83,7 +83,7 @@ def run_bench(case: BenchCase = BenchCase(), *, progress: Callable[[str], None] 
     model = synthetic_model(case)
     dt_s = case.dt_s
     acc = sine_move(case.n_steps, dt_s, distance_m=25.0)  # long horizon: peak 1.6 m/s^2
-    device_model, shapes_c = on_device(model)
+    device_model, blocks = on_device(model)
     acc_j = jnp.asarray(acc)
 
     @jax.jit
@@ -91,20 +91,20 @@ def run_bench(case: BenchCase = BenchCase(), *, progress: Callable[[str], None] 
         return deviation(s, modal_states(m, a, dt_s)[..., 0])
 
     grad_peak = jax.jit(jax.grad(lambda a, m, s: jnp.max(forward(m, s, a))))
-    model32, shapes32 = on_device(model, "float32")
+    model32, blocks32 = on_device(model, "float32")
     acc32 = acc_j.astype(jnp.float32)
     results: dict = {}
 
     progress("forward (jit, float64) ...")
-    results["forward_ms"] = 1e3 * best_time_s(lambda: forward(device_model, shapes_c, acc_j))
+    results["forward_ms"] = 1e3 * best_time_s(lambda: forward(device_model, blocks, acc_j))
     results["simulate_public_ms"] = 1e3 * best_time_s(lambda: simulate(model, acc, dt_s).deviation)
     progress("gradient ...")
-    results["gradient_ms"] = 1e3 * best_time_s(lambda: grad_peak(acc_j, device_model, shapes_c))
+    results["gradient_ms"] = 1e3 * best_time_s(lambda: grad_peak(acc_j, device_model, blocks))
     results["gradient_over_forward"] = results["gradient_ms"] / results["forward_ms"]
     progress("float32 ...")
-    results["forward_float32_ms"] = 1e3 * best_time_s(lambda: forward(model32, shapes32, acc32))
-    d64 = np.asarray(forward(device_model, shapes_c, acc_j))
-    d32 = np.asarray(forward(model32, shapes32, acc32), dtype=np.float64)
+    results["forward_float32_ms"] = 1e3 * best_time_s(lambda: forward(model32, blocks32, acc32))
+    d64 = np.asarray(forward(device_model, blocks, acc_j))
+    d32 = np.asarray(forward(model32, blocks32, acc32), dtype=np.float64)
     results["float32_max_rel_error"] = float(np.max(np.abs(d32 - d64)) / np.max(d64))
 
     progress("direct convolution of R1 (numpy) ...")

@@ -8,6 +8,7 @@ median is robust against other processes on the machine), and prints the figures
     python -m benchmarks.fmu            # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
     python -m benchmarks.fmu --windows  # also: the Windows DLL under wine (fmu.windows)
     python -m benchmarks.fmu --hosts    # also: FMU and SSP in other hosts (fmu.crosscheck)
+    python -m benchmarks.fmu --points 66308 --fmi 3 --array  # every node, read each step
 
 Targets (docs/design.md): one step <= 30 us (the preprint's FMU: 0.85 ms per 10 ms step),
 instantiation with a ~1 MB resource <= 10 ms.
@@ -34,7 +35,6 @@ from fmu.export import export_fmu
 from fmu.harness import compile_harness, resource_location, unpack
 from fmu.ssp import export_ssp
 from fmu.windows import (
-    compile_windows_harness,
     replay,
     run_under_wine,
     windows_library,
@@ -111,7 +111,7 @@ def windows_figures(
     )
     harnesses = (
         compile_harness(version, folder / "harness"),
-        compile_windows_harness(version, folder / "harness.exe"),
+        compile_harness(version, folder / "harness.exe", windows=True),
     )
     linux = replay(result.fmu_path, folder / "linux", harnesses[0], 300, dt_s, windows=False)
     win = replay(result.fmu_path, folder / "windows", harnesses[1], 300, dt_s, windows=True)
@@ -151,9 +151,11 @@ def run(
     progress: Callable[[str], None] | None = None,
     windows: bool = False,
     hosts: bool = False,
+    read_array: bool = False,
 ) -> dict[str, Any]:
     """Export a K x M model, time it with the C harness; figures per FMI version (with
-    ``windows``, also :func:`windows_figures`; with ``hosts``, :func:`host_figures`)."""
+    ``windows``, also :func:`windows_figures`; with ``hosts``, :func:`host_figures`; with
+    ``read_array``, FMI 3.0 also reads the displaced points of every node after each step)."""
     say = progress or (lambda msg: None)
     model = bench_model(n_points, n_modes)
     report: dict[str, Any] = {
@@ -161,6 +163,7 @@ def run(
         "n_points": n_points,
         "n_modes": n_modes,
         "dt_s": dt_s,
+        "reads_displaced_points_array": read_array,
         "targets": {
             "step_us": STEP_TARGET_US,
             "instantiate_us": INSTANTIATE_TARGET_US,
@@ -173,7 +176,8 @@ def run(
             say(f"FMI {version}.0: export K={n_points}, M={n_modes}")
             result = export_fmu(model, tmp / f"bench{version}.fmu", fmi_version=version)
             library, resources, token = unpack(result.fmu_path, tmp / f"fmu{version}")
-            harness = compile_harness(version, tmp / f"harness{version}")
+            array = n_points if read_array and version == 3 else None
+            harness = compile_harness(version, tmp / f"harness{version}", array_points=array)
             say(f"FMI {version}.0: {repeats} instantiations, {n_steps} steps")
             cmd = [
                 str(harness),
@@ -231,6 +235,11 @@ def main(argv: list[str] | None = None) -> int:
         help="also run the FMU and an SSP package with a 1 s move in ecospy, libcosimpy and "
         "fmpy's SSP runner against jaxflex",
     )
+    parser.add_argument(
+        "--array",
+        action="store_true",
+        help="FMI 3.0: also read the displaced points of every node (K x 3 array) each step",
+    )
     args = parser.parse_args(argv)
     for name in ("points", "modes", "steps"):
         if getattr(args, name) < 1:
@@ -243,6 +252,7 @@ def main(argv: list[str] | None = None) -> int:
         progress=lambda msg: print(msg, file=sys.stderr, flush=True),
         windows=args.windows,
         hosts=args.hosts,
+        read_array=args.array,
     )
     print(json.dumps(report, indent=2))
     return 0

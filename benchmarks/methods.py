@@ -46,14 +46,14 @@ CD_STABILITY_MARGIN = 0.9  # central difference runs at omega_max h <= 0.9 * 2
 
 
 @jax.jit
-def _scan_deviation(model, shapes_c, acc, dt_s):
-    return deviation(shapes_c, modal_states(model, acc, dt_s)[..., 0])
+def _scan_deviation(model, blocks, acc, dt_s):
+    return deviation(blocks, modal_states(model, acc, dt_s)[..., 0])
 
 
 @partial(jax.jit, static_argnames=("integrator", "every"))
-def _integrator_deviation(model, shapes_c, acc_fine, h, integrator: str, every: int):
+def _integrator_deviation(model, blocks, acc_fine, h, integrator: str, every: int):
     step = newmark_modal if integrator == "newmark" else central_difference_modal
-    return deviation(shapes_c, step(model, acc_fine, h)[::every])
+    return deviation(blocks, step(model, acc_fine, h)[::every])
 
 
 def stable_substeps(model: ModalModel, dt_s: float, margin: float = CD_STABILITY_MARGIN) -> int:
@@ -70,10 +70,10 @@ def prepare(
     acc = np.asarray(acc, dtype=float)
     if method in ("scan64", "scan32"):
         dtype = "float64" if method == "scan64" else "float32"
-        dev_model, shapes_c = on_device(model, dtype)
+        dev_model, blocks = on_device(model, dtype)
         acc_j = jnp.asarray(acc, dev_model.freq_hz.dtype)
         dt_j = jnp.asarray(dt_s, dev_model.freq_hz.dtype)
-        return lambda: _scan_deviation(dev_model, shapes_c, acc_j, dt_j)
+        return lambda: _scan_deviation(dev_model, blocks, acc_j, dt_j)
     if method == "convolution":
         axes = tuple(int(a) for a in np.flatnonzero(np.any(acc != 0, axis=0))) or (2,)
         r1 = unit_response(model, dt_s, acc.shape[0] - 1)[list(axes)]
@@ -81,10 +81,10 @@ def prepare(
     if method in ("newmark", "central_difference"):
         if int(substeps) < 1:
             raise InputError(f"substeps: must be an integer >= 1, got {substeps}")
-        dev_model, shapes_c = on_device(model)
+        dev_model, blocks = on_device(model)
         fine = jnp.asarray(upsample(acc, int(substeps)))
         h = jnp.asarray(dt_s / int(substeps))
         return lambda: _integrator_deviation(
-            dev_model, shapes_c, fine, h, integrator=method, every=int(substeps)
+            dev_model, blocks, fine, h, integrator=method, every=int(substeps)
         )
     raise InputError(f"method: must be one of {list(METHODS)}, got {method!r}")

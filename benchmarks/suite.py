@@ -8,7 +8,10 @@ Sections of ``bench.json`` (SI units; times in s unless the key says ms):
   reduced-vs-full-order FE agreement per mode count and the dominance check
   (:mod:`benchmarks.accuracy`); charts ``pareto_plate.png``, ``pareto_panel.png``;
 * ``stability``: where each method breaks against omega dt (:mod:`benchmarks.stability`);
-  chart ``stability.png``.
+  chart ``stability.png``;
+* ``nodes``: every node, no reduction (:mod:`benchmarks.nodes`): forward deviation and
+  exact cycle time at full-mesh sizes (``scale``) and what voxel reduction of the monitored
+  points costs in peak deviation and settle time (``reduction``).
 
 Three sizes: ``full`` (the built-in scenes, minutes), ``medium`` (small scenes, the sweeps
 of the full run; about a minute) and ``quick`` (CI: small scenes, a few points per sweep).
@@ -30,6 +33,7 @@ from benchmarks.charts import pareto_chart, stability_chart
 from benchmarks.core import QUICK as QUICK_CORE
 from benchmarks.core import BenchCase, run_bench
 from benchmarks.fe import SceneSpec
+from benchmarks.nodes import format_nodes, run_reduction, run_scale
 from benchmarks.stability import OMEGA_DT, run_stability
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
@@ -111,6 +115,8 @@ SIZES = {
         "omega_dt": OMEGA_DT[::3],
         "drift_steps": (1_000, 10_000),
         "min_time_s": 0.01,
+        "nodes": {"sizes": (1_099, 5_000), "large": None, "reduction": (("plate", 0.1),)},
+        "reduction_counts": (100, 30),
     },
     "medium": {
         "core": QUICK_CORE,
@@ -121,6 +127,8 @@ SIZES = {
         "omega_dt": OMEGA_DT,
         "drift_steps": (1_000, 10_000, 100_000),
         "min_time_s": 0.05,
+        "nodes": {"sizes": (1_099, 66_308), "large": None, "reduction": (("plate", None),)},
+        "reduction_counts": (1_099, 300, 100),
     },
     "full": {
         "core": BenchCase(),
@@ -141,6 +149,12 @@ SIZES = {
         "omega_dt": OMEGA_DT,
         "drift_steps": (1_000, 10_000, 100_000),
         "min_time_s": 0.1,
+        "nodes": {
+            "sizes": (1_099, 66_308),
+            "large": 1_000_000,
+            "reduction": (("plate", None), ("panel", None)),
+        },
+        "reduction_counts": (1_099, 300, 100),
     },
 }
 
@@ -177,11 +191,22 @@ def run_suite(
     report["stability"] = run_stability(cfg["omega_dt"], cfg["drift_steps"])
     stability_chart(report["stability"], out / "stability.png")
     report["charts"]["stability"] = "stability.png"
+    report["nodes"] = run_nodes(cfg["nodes"], cfg["reduction_counts"], progress=progress)
     report["wall_s"] = time.perf_counter() - start
     path = Path(json_path) if json_path is not None else out / "bench.json"
     write_text_atomic(path, json.dumps(report, indent=1, default=_json_default))
     report["json_path"] = str(path)
     return report
+
+
+def run_nodes(spec: dict, counts: tuple[int, ...], *, progress: Callable[[str], None]) -> dict:
+    """The all-node section: scale figures and the reduction study of each listed scene."""
+    scale = run_scale(spec["sizes"], spec["large"], progress=progress)
+    reduction = [
+        run_reduction(name, counts, mesh_size_m=mesh, progress=progress)
+        for name, mesh in spec["reduction"]
+    ]
+    return {"scale": scale, "reduction": reduction}
 
 
 def _json_default(value):
@@ -226,6 +251,8 @@ def summary_lines(report: dict) -> list[str]:
                 else ""
             )
         )
+    if "nodes" in report:
+        lines.extend(format_nodes(report["nodes"]).splitlines())
     stab = report.get("stability")
     if stab:
         for key, values in stab["breaks_at_omega_dt"].items():

@@ -18,6 +18,10 @@
 Results are converted to SI with the unit system the file states or the user gives
 (fem.units). Nodes in rotated nodal coordinate systems are not supported for ``.full``
 alone (its DOFs are nodal): the rigid translations would be wrong.
+
+ansys-mapdl-reader loads pyvista and VTK (about 10 s on a loaded 2-core machine): it is
+imported where a file is read, so that `import fem` and `jaxflex model` for other parts do
+not pay for it.
 """
 
 from __future__ import annotations

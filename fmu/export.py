@@ -105,7 +105,7 @@ def _check_trajectory(trajectory) -> tuple[np.ndarray | None, float | None]:
         acc, dt_s = trajectory
     except (TypeError, ValueError) as exc:
         raise InputError("trajectory: expected a pair (acc (n+1, 3) m/s^2, dt_s)") from exc
-    move = as_move(acc, dt_s, at_rest=True, name="trajectory acc")
+    move = as_move(acc, dt_s, at_rest=True, name="trajectory acc", dt_name="trajectory dt_s")
     return move.acc, move.dt_s
 
 

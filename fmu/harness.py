@@ -5,34 +5,48 @@ tests and the Windows checks (fmu.windows) drive FMUs through it.
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import zipfile
 from pathlib import Path
 
 from fmpy import read_model_description
 
-from fmu.build import C_DIR, FmuBuildError, fmi_headers, host_target
+from fmu.build import C_DIR, WINDOWS_COMPILER, FmuBuildError, fmi_headers, host_target
+
+WINE_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64 wine64"
 
 
-def compile_harness(fmi_version: int, out_file: Path) -> Path:
-    """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``."""
+def compile_harness(
+    fmi_version: int, out_file: Path, *, windows: bool = False, array_points: int | None = None
+) -> Path:
+    """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``: for this machine, or
+    (``windows=True``) as a static Windows x86_64 executable with mingw-w64, run under wine
+    by fmu.windows. With ``array_points`` (FMI 3.0) it also reads the displaced-points array
+    output (K x 3) after every step."""
+    if windows and shutil.which(WINDOWS_COMPILER) is None:
+        raise FmuBuildError(f"{WINDOWS_COMPILER} is not installed ({WINE_HINT})")
+    compiler = WINDOWS_COMPILER if windows else host_target().compiler
+    link = ["-static", "-lm"] if windows else ["-ldl", "-lm"]
+    array = [f"-DHARNESS_ARRAY_POINTS={array_points}"] if array_points else []
     cmd = [
-        host_target().compiler,
+        compiler,
         "-std=c99",
         "-O2",
         "-Wall",
         "-Wextra",
         f"-DHARNESS_FMI={fmi_version}",
+        *array,
         f"-I{fmi_headers()}",
         str(C_DIR / "harness.c"),
         "-o",
         str(out_file),
-        "-ldl",
-        "-lm",
+        *link,
     ]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
-        raise FmuBuildError(f"compiling the harness failed:\n{proc.stderr.strip()}")
+        what = "the Windows harness" if windows else "the harness"
+        raise FmuBuildError(f"compiling {what} failed:\n{proc.stderr.strip()}")
     return out_file
 
 

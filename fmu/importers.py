@@ -15,6 +15,9 @@ the trajectory source sees each acceleration sample held for one step.
 Every runner returns ``{"time": (n,), name: (n,)}``: the communication points it reports and
 the named outputs there (``deviation``, ``settle_time``, ``settled`` of an FMU; for an SSP,
 ``part.deviation`` etc. named ``<component>.<variable>``).
+
+ecospy and libcosimpy are optional (the dev extra installs them where they exist): they are
+imported where they are used, and a missing one is reported as a skipped host.
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ import zipfile
 from collections.abc import Iterator
 
 import numpy as np
+from fmpy.ssp.simulation import simulate_ssp
+from fmpy.ssp.ssd import Parameter, ParameterSet
 
 from fmu.ssp import package_fmi_version, read_parameters
 from jaxflex.errors import InputError
@@ -203,9 +208,6 @@ def libcosim_ssp(ssp_path: str | os.PathLike, n_steps: int, dt_s: float) -> dict
 def fmpy_ssp(ssp_path: str | os.PathLike, n_steps: int, dt_s: float) -> dict[str, np.ndarray]:
     """An SSP package of FMI 2.0 FMUs in fmpy's ``simulate_ssp`` (SSD validated against the
     SSP 1.0 schema, parameter bindings applied); the part's outputs after every step."""
-    from fmpy.ssp.simulation import simulate_ssp
-    from fmpy.ssp.ssd import Parameter, ParameterSet
-
     _refuse_fmi3(package_fmi_version(ssp_path), str(ssp_path), "fmpy's simulate_ssp")
     # simulate_ssp applies one set of "<component>.<name>" values, not the bindings it reads
     bound = ParameterSet(name="bindings")

@@ -207,7 +207,7 @@ def export_source_fmu(
     path = Path(path)
     if path.suffix.lower() != ".fmu":
         raise InputError(f"path: an FMU file name must end in .fmu, got {str(path)!r}")
-    move = as_move(acc, dt_s, at_rest=True, name="trajectory acc")
+    move = as_move(acc, dt_s, at_rest=True, name="trajectory acc", dt_name="trajectory dt_s")
     acc, dt_s = move.acc, move.dt_s
     ident = model_identifier(path)
     token = "{" + str(uuid.uuid4()) + "}"

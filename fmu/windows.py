@@ -19,15 +19,14 @@ from pathlib import Path, PureWindowsPath
 import numpy as np
 from fmpy import read_model_description
 
-from fmu.build import C_DIR, WINDOWS_COMPILER, FmuBuildError, fmi_headers
-from fmu.harness import resource_location, unpack
+from fmu.build import WINDOWS_COMPILER, FmuBuildError
+from fmu.harness import WINE_HINT, resource_location, unpack
 
 OBJDUMP = "x86_64-w64-mingw32-objdump"
 WINE_TIMEOUT_S = 600.0  # the first run creates the wine prefix
 _WINE64_LOADER = Path("/usr/lib/wine/wine64")  # Debian's wine64 package without the wrapper
 # DLLs present on every Windows installation (the C runtime msvcrt.dll included)
 SYSTEM_DLLS = frozenset({"kernel32.dll", "msvcrt.dll", "ntdll.dll", "user32.dll", "advapi32.dll"})
-_INSTALL_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64 wine64"
 
 
 def wine_command() -> list[str] | None:
@@ -63,7 +62,7 @@ def windows_path(path: Path) -> str:
 
 def _objdump(dll: Path) -> str:
     if shutil.which(OBJDUMP) is None:
-        raise FmuBuildError(f"{OBJDUMP} is not installed ({_INSTALL_HINT})")
+        raise FmuBuildError(f"{OBJDUMP} is not installed ({WINE_HINT})")
     proc = subprocess.run([OBJDUMP, "-p", str(dll)], capture_output=True, text=True)
     if proc.returncode != 0:
         raise FmuBuildError(f"{OBJDUMP} -p {dll} failed:\n{proc.stderr.strip()}")
@@ -82,30 +81,6 @@ def dll_imports(dll: Path) -> set[str]:
     return set(re.findall(r"DLL Name:\s*(\S+)", _objdump(dll)))
 
 
-def compile_windows_harness(fmi_version: int, out_file: Path) -> Path:
-    """fmu/c/harness.c for FMI ``fmi_version`` as a static Windows x86_64 executable."""
-    if shutil.which(WINDOWS_COMPILER) is None:
-        raise FmuBuildError(f"{WINDOWS_COMPILER} is not installed ({_INSTALL_HINT})")
-    cmd = [
-        WINDOWS_COMPILER,
-        "-std=c99",
-        "-O2",
-        "-Wall",
-        "-Wextra",
-        f"-DHARNESS_FMI={fmi_version}",
-        f"-I{fmi_headers()}",
-        str(C_DIR / "harness.c"),
-        "-o",
-        str(out_file),
-        "-static",
-        "-lm",
-    ]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise FmuBuildError(f"compiling the Windows harness failed:\n{proc.stderr.strip()}")
-    return out_file
-
-
 def run_under_wine(args: list[str], timeout_s: float = WINE_TIMEOUT_S) -> str:
     """Run a Windows program (``args[0]``: the .exe) under wine; its stdout.
 
@@ -114,7 +89,7 @@ def run_under_wine(args: list[str], timeout_s: float = WINE_TIMEOUT_S) -> str:
     a pipe to its end would wait for them."""
     wine = wine_command()
     if wine is None:
-        raise FmuBuildError(f"wine is not installed ({_INSTALL_HINT})")
+        raise FmuBuildError(f"wine is not installed ({WINE_HINT})")
     with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
         proc = subprocess.run(
             [*wine, *args],
@@ -165,9 +140,10 @@ def replay(
     fmu_path: Path, folder: Path, harness: Path, n_steps: int, dt_s: float, *, windows: bool
 ) -> dict[str, np.ndarray]:
     """Extract the FMU at ``fmu_path`` into ``folder`` and run its Linux binary
-    (``windows=False``; ``harness`` from :func:`fmu.harness.compile_harness`) or its Windows DLL
-    (``harness`` from :func:`compile_windows_harness`, run under wine) for ``n_steps`` steps of
-    ``dt_s`` s, with ``use_embedded_trajectory = true`` when the FMU has it (inputs stay 0).
+    (``windows=False``; ``harness`` from :func:`fmu.harness.compile_harness`) or its Windows
+    DLL (``harness`` from ``compile_harness(..., windows=True)``, run under wine) for
+    ``n_steps`` steps of ``dt_s`` s, with ``use_embedded_trajectory = true`` when the FMU
+    has it (inputs stay 0).
     Returns {"time": (n_steps + 1,), output name: (n_steps + 1[, size])}: every output at the
     start and after every step."""
     library, resources, token = unpack(fmu_path, folder)

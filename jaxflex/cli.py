@@ -22,7 +22,10 @@ import argparse
 import ast
 import importlib
 import importlib.util
+import os
+import signal
 import sys
+import threading
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -89,19 +92,60 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+# Ctrl-C raises KeyboardInterrupt wherever Python is; inside a garbage-collector callback
+# (JAX registers one) it is printed and dropped, and the command would run on. Until the
+# interrupt is handled, it is delivered again after this many seconds.
+INTERRUPT_REPEAT_S = 0.2
+
+
+class _Interrupts:
+    """SIGINT as KeyboardInterrupt, repeated until :meth:`handled`; ignored after that."""
+
+    def __init__(self) -> None:
+        self.pending = False
+        self.active = True
+        self.lock = threading.Lock()
+
+    def __call__(self, signum, frame) -> None:
+        if not self.active:
+            return
+        self.pending = True
+        timer = threading.Timer(INTERRUPT_REPEAT_S, self._again)
+        timer.daemon = True
+        timer.start()
+        raise KeyboardInterrupt
+
+    def _again(self) -> None:
+        with self.lock:
+            if self.active and self.pending:
+                os.kill(os.getpid(), signal.SIGINT)
+
+    def handled(self) -> None:
+        with self.lock:
+            self.active = False
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # jaxflex itself takes no option but --help: the first other word names the command
     chosen = next((arg for arg in argv if not arg.startswith("-")), None)
     args = build_parser(chosen).parse_args(argv)
+    interrupts = _Interrupts()
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, interrupts) if main_thread else None
     try:
         return int(args._run(args) or 0)
     except JaxflexError as exc:
         print(f"jaxflex {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        interrupts.handled()
         print(f"jaxflex {args.command}: interrupted", file=sys.stderr)
         return 130
+    finally:
+        interrupts.handled()
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
 
 
 def add_axis_limits(parser, *, with_defaults: bool, condition: str = "") -> None:

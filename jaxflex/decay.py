@@ -43,13 +43,36 @@ def envelope(weights: np.ndarray, amplitude: np.ndarray, sigma: np.ndarray, tau_
 
 
 def envelope_horizon(
-    weights: np.ndarray, amplitude: np.ndarray, sigma: np.ndarray, threshold_m: float
+    weights: np.ndarray,
+    amplitude: np.ndarray,
+    sigma: np.ndarray,
+    threshold_m: float,
+    groups: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> float:
     """Smallest tau >= 0 (s) with max_p E_p(tau) <= ``threshold_m``; inf if undamped modes
-    keep the envelope above it forever. Bisection to HORIZON_REL_TOL relative."""
+    keep the envelope above it forever. Bisection to HORIZON_REL_TOL relative.
+
+    ``groups`` = (members (G, b) point indices, K for none; group weights (G, M) >= those of
+    the members) lets whole groups be ruled out by their envelope before their points are
+    evaluated. Every E_p decreases in tau and the search only ever asks at later tau than the
+    last one found above the threshold, so the groups below it there are dropped for good."""
+    n_points = weights.shape[0]
+    if groups is None:
+        groups = (np.arange(n_points)[:, None], weights)
+    members, group_weights = groups
+    active = np.arange(members.shape[0])
 
     def peak(tau: float) -> float:
-        return float(envelope(weights, amplitude, sigma, tau).max())
+        nonlocal active
+        bound = envelope(group_weights[active], amplitude, sigma, tau)[:, 0]
+        over = active[bound > threshold_m]
+        if over.size == 0:
+            return float(bound.max())  # >= every point's envelope, <= the threshold
+        idx = members[over].ravel()
+        top = float(envelope(weights[idx[idx < n_points]], amplitude, sigma, tau).max())
+        if top > threshold_m:
+            active = over
+        return top
 
     peak0 = peak(0.0)
     if peak0 <= threshold_m:

@@ -1,11 +1,24 @@
 """Point displacements and the deviation d(t) = max_p |u_p(t)| from modal coordinates.
 
-u_p(t) = sum_i phi_i(p) q_i(t) with mode shapes ``shapes`` (K, 3, M) in m per kg^0.5 and
-modal coordinates q (T, M) in kg^0.5 m. :func:`deviation` is the JAX form (one matrix
-product over all steps, a cheap custom gradient); :func:`point_norms`,
-:func:`point_displacements` and :func:`deviation_curves` are the NumPy forms used where
-no compilation is wanted (exact searches, reports, reductions). Shapes may carry only some
-displacement components (K, C, M): norms are then taken over those.
+u_p(t) = sum_i phi_i(p) q_i(t) with mode shapes ``shapes`` (K, C, M) in m per kg^0.5 (C = 3
+displacement components, or fewer: norms are then taken over those) and modal coordinates
+q (T, M) in kg^0.5 m.
+
+:func:`deviation` and :func:`deviation_point` are the JAX forms. They never materialise the
+(T, K, C) displacements: the points are grouped in spatially compact blocks
+(jaxflex.blocks) whose centre and per-mode radius bound every member,
+|u_p(t)| <= |u_c(t)| + sum_i rho_{B,i} |q_i(t)|, and the largest centre value is a lower
+bound of d(t). Only the (block, step) pairs whose bound reaches that lower bound are
+evaluated, in units of one block and up to UNIT_STEPS steps, with a running maximum per step
+(``lax.while_loop``: no host round trip, the same code on CPU and GPU). Pruning is exact: a
+pruned pair's bound, inflated by a multiple of the round-off of its computation, lies below
+a value that is attained, so the result equals the dense evaluation (value and arg-max, ties
+to the lowest point index). The gradient flows through the maximising point only (custom
+VJP, O(T M)). Memory: O(T nB) for the bounds, nB = K / BLOCK_POINTS, plus one batch of units.
+
+:func:`max_norms` is the NumPy entry to the same evaluation (for code that is not traced);
+:func:`point_norms`, :func:`point_displacements` and :func:`deviation_curves` are NumPy
+forms for the places that need every point's value (reports, subset reductions).
 :func:`outputs_at` evaluates the other outputs linear in the modal state (cup reactions,
 stresses: jaxflex.outputs) exactly at any time.
 """
@@ -19,64 +32,178 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxflex.engine import states_at
+from jaxflex.blocks import PointBlocks, point_blocks
+from jaxflex.engine import PAD_STEPS, padded_steps, states_at
 from jaxflex.profile import acceleration_at
 
 CHUNK_POINTS = 1024  # points per matrix product in the blocked NumPy evaluation
+UNIT_STEPS = 32  # steps evaluated together for one block
+BATCH_UNITS = 16  # units per iteration of the evaluation loop
+# A pair is pruned if its bound times (1 + ROUND_OFF_FACTOR (M + C) eps) lies below the lower
+# bound: the bound, the centre value and the evaluated norms each carry a relative round-off
+# of at most (M + C) eps (dot products of length M, sums of C squares).
+ROUND_OFF_FACTOR = 16
 
 
-def shapes_by_component(shapes):
-    """(K, 3, M) mode shapes -> (M, 3K) with all x rows, then all y, then all z: the layout
-    in which one matrix product gives every point's displacement for every time step."""
-    n_points, _, n_modes = shapes.shape
-    return jnp.transpose(shapes, (2, 1, 0)).reshape(n_modes, 3 * n_points)
+def block_bounds(centres, radius, q, xp=jnp):
+    """(centre (T, nB), upper (T, nB)) for modal coordinates q (T, M): the attained value
+    |u_c(t)| of each block's centre and the bound |u_c(t)| + sum_i rho_{B,i} |q_i(t)| of every
+    member, from ``centres`` (M, C, nB) and ``radius`` (nB, M) of jaxflex.blocks.PointBlocks
+    (or a subset of their blocks). ``xp``: jax.numpy or numpy."""
+    n_modes, n_comp, n_blocks = centres.shape
+    u_centre = (q @ centres.reshape(n_modes, n_comp * n_blocks)).reshape(-1, n_comp, n_blocks)
+    centre = xp.sqrt(xp.sum(u_centre * u_centre, axis=1))
+    return centre, centre + xp.abs(q) @ radius.T
 
 
-def _squared_norms(shapes_c, q):
-    n_points = shapes_c.shape[1] // 3
-    u = (q @ shapes_c).reshape(q.shape[0], 3, n_points)
-    return jnp.sum(u * u, axis=1)  # (T, K)
+def round_off_slack(n_modes: int, n_comp: int, dtype) -> float:
+    """1 + the relative round-off a bound or a norm of length-M dot products can carry (see
+    ROUND_OFF_FACTOR): bounds are inflated by it before they prune."""
+    return 1.0 + ROUND_OFF_FACTOR * (n_modes + n_comp) * float(np.finfo(dtype).eps)
 
 
-def _safe_sqrt(x):
-    positive = x > 0
-    return jnp.where(positive, jnp.sqrt(jnp.where(positive, x, 1.0)), 0.0)
+def _alive_tiles(blocks: PointBlocks, q):
+    """(nB, T / UNIT_STEPS) bool: the (block, tile of UNIT_STEPS steps) pairs in which some
+    step's bound reaches the largest centre value of that step. T must be a multiple of
+    UNIT_STEPS."""
+    n_steps, n_modes = q.shape
+    centre, upper = block_bounds(blocks.centres, blocks.radius, q)
+    lower = jnp.max(centre, axis=1, keepdims=True)
+    slack = round_off_slack(n_modes, blocks.n_components, q.dtype)
+    alive = (upper * slack >= lower) & (upper > 0)
+    return jnp.any(alive.reshape(n_steps // UNIT_STEPS, UNIT_STEPS, -1), axis=1).T
+
+
+def _block_max(q, shapes, members, big: int):
+    """Largest |u|^2 of a block's points and its lowest-index maximiser: q (..., S, M),
+    shapes (..., M, C b) and member indices (..., b) -> (value (..., S), point (..., S))."""
+    b = members.shape[-1]
+    u = jnp.einsum("...sm,...mx->...sx", q, shapes)
+    sq = jnp.sum(u.reshape(*u.shape[:-1], -1, b) ** 2, axis=-2)  # (..., S, b)
+    value = jnp.max(sq, axis=-1)
+    who = jnp.min(jnp.where(sq == value[..., None], members[..., None, :], big), axis=-1)
+    return value, who
+
+
+def _evaluate(blocks: PointBlocks, q):
+    """(d^2 (T,), point (T,)): max_p |u_p(t)|^2 over the alive tiles and its lowest-index
+    maximiser (0 where d = 0, as a dense arg-max of zeros). A single block has nothing to
+    prune: it is evaluated at once."""
+    n_steps, n_modes = q.shape
+    big = blocks.n_points
+    if blocks.radius.shape[0] == 1:
+        value, who = _block_max(q, blocks.shapes[0], blocks.index[0], big)
+        return value, jnp.where(value > 0, who, 0)
+    n_tiles = -(-n_steps // UNIT_STEPS)
+    q_tiles = jnp.zeros((n_tiles * UNIT_STEPS, n_modes), q.dtype).at[:n_steps].set(q)
+    alive = _alive_tiles(blocks, q_tiles).ravel()  # block-major
+    todo = jnp.nonzero(alive, size=alive.size, fill_value=0)[0].astype(jnp.int32)
+    n_todo = jnp.sum(alive, dtype=jnp.int32)
+    q_tiles = q_tiles.reshape(n_tiles, UNIT_STEPS, n_modes)
+
+    def body(state):
+        start, best, point = state
+        unit = start + jnp.arange(BATCH_UNITS, dtype=jnp.int32)
+        valid = unit < n_todo
+        which = todo[jnp.minimum(unit, todo.shape[0] - 1)]
+        block, tile = which // n_tiles, which % n_tiles
+        value, who = _block_max(q_tiles[tile], blocks.shapes[block], blocks.index[block], big)
+        value = jnp.where(valid[:, None], value, -1.0)
+        raised = best.at[tile].max(value)
+        point = jnp.where(raised > best, big, point)
+        point = point.at[tile].min(jnp.where(value == raised[tile], who, big))
+        return start + BATCH_UNITS, raised, point
+
+    state = (
+        jnp.int32(0),
+        jnp.zeros((n_tiles, UNIT_STEPS), q.dtype),
+        jnp.zeros((n_tiles, UNIT_STEPS), jnp.int32),
+    )
+    _, best, point = jax.lax.while_loop(lambda s: s[0] < n_todo, body, state)
+    return best.ravel()[:n_steps], point.ravel()[:n_steps]
 
 
 @jax.custom_vjp
-def deviation(shapes_c, q):
-    """d_t = max_p |u_p(t)| (m) for modal coordinates q (T, M); shapes_c from
-    :func:`shapes_by_component`. The gradient flows through the maximising point only
-    (zero where d = 0), which costs O(T M) instead of a second full matrix product."""
-    return _safe_sqrt(jnp.max(_squared_norms(shapes_c, q), axis=1))
+def deviation_point(blocks: PointBlocks, q):
+    """(d (T,) m, point (T,) int): d_t = max_p |u_p(t)| for modal coordinates q (T, M) and
+    the maximising point (lowest index among ties; 0 where d = 0)."""
+    best, point = _evaluate(blocks, q)
+    return jnp.sqrt(best), point
 
 
-def _deviation_fwd(shapes_c, q):
-    sq = _squared_norms(shapes_c, q)
-    arg = jnp.argmax(sq, axis=1)
-    d = _safe_sqrt(jnp.take_along_axis(sq, arg[:, None], axis=1)[:, 0])
-    return d, (shapes_c, q, arg, d)
+def _deviation_fwd(blocks, q):
+    d, point = deviation_point(blocks, q)
+    return (d, point), (blocks, q, point, d)
 
 
-def _deviation_bwd(residuals, d_bar):
-    shapes_c, q, arg, d = residuals
-    n_modes, n_points = shapes_c.shape[0], shapes_c.shape[1] // 3
-    by_point = shapes_c.reshape(n_modes, 3, n_points)
-    selected = jnp.take(by_point, arg, axis=2)  # (M, 3, T)
-    u_sel = jnp.einsum("mct,tm->tc", selected, q)
+def _zero_cotangent(x):
+    if jnp.issubdtype(x.dtype, jnp.integer):
+        return np.zeros(x.shape, dtype=jax.dtypes.float0)
+    return jnp.zeros_like(x)
+
+
+def _deviation_bwd(residuals, cotangents):
+    blocks, q, point, d = residuals
+    d_bar = cotangents[0]
+    n_blocks, n_modes, width = blocks.shapes.shape
+    b, n_comp = blocks.block_points, blocks.n_components
+    by_point = blocks.shapes.reshape(n_blocks, n_modes, n_comp, b)
+    slot = blocks.slot[point]
+    block, member = slot // b, slot % b
+    selected = by_point[block, :, :, member]  # (T, M, C)
+    u_sel = jnp.einsum("tmc,tm->tc", selected, q)
     coef = jnp.where(d > 0, d_bar / jnp.where(d > 0, d, 1.0), 0.0)
-    weighted = coef[:, None] * u_sel  # (T, 3): d(d_t)/d(u_p*)
-    q_bar = jnp.einsum("tc,mct->tm", weighted, selected)
+    weighted = coef[:, None] * u_sel  # (T, C): d(d_t)/d(u_p*)
+    q_bar = jnp.einsum("tc,tmc->tm", weighted, selected)
     shapes_bar = (
         jnp.zeros_like(by_point)
-        .at[:, :, arg]
-        .add(jnp.einsum("tc,tm->mct", weighted, q))
-        .reshape(shapes_c.shape)
+        .at[block, :, :, member]
+        .add(jnp.einsum("tc,tm->tmc", weighted, q))
+        .reshape(n_blocks, n_modes, width)
     )
-    return shapes_bar, q_bar
+    zero = jax.tree_util.tree_map(_zero_cotangent, blocks)
+    return PointBlocks(shapes_bar, zero.index, zero.centres, zero.radius, zero.slot), q_bar
 
 
-deviation.defvjp(_deviation_fwd, _deviation_bwd)
+deviation_point.defvjp(_deviation_fwd, _deviation_bwd)
+
+
+def deviation(blocks: PointBlocks, q):
+    """d_t = max_p |u_p(t)| (T,) in m for modal coordinates q (T, M) and the points of
+    ``blocks`` (jaxflex.blocks.point_blocks, or :func:`blocks_of` a model). Differentiable
+    in both (through the maximising point; zero where d = 0)."""
+    return deviation_point(blocks, q)[0]
+
+
+_build_blocks = jax.jit(point_blocks, static_argnames="block_points")
+_max_norms = jax.jit(deviation_point)
+
+
+def block_model(shapes, points, dtype: str = "float64") -> PointBlocks:
+    """:class:`PointBlocks` of concrete ``shapes`` (K, C, M) at ``points`` (K, 3) m, for
+    :func:`max_norms` (compiled once per size)."""
+    return _build_blocks(jnp.asarray(shapes, dtype), jnp.asarray(points, jnp.float64))
+
+
+def blocks_of(model, dtype: str = "float64") -> PointBlocks:
+    """The :class:`PointBlocks` of a concrete model's shapes in ``dtype`` (built once, then
+    cached on the model)."""
+    cache = model.__dict__.setdefault("_blocks_cache", {})
+    if dtype not in cache:
+        cache[dtype] = block_model(model.shapes, model.points, dtype)
+    return cache[dtype]
+
+
+def max_norms(blocks: PointBlocks, q) -> tuple[np.ndarray, np.ndarray]:
+    """NumPy (d (T,) m, point (T,)) of :func:`deviation_point` for q (T, M) as NumPy. The steps
+    are padded with rest to whole blocks of PAD_STEPS (one compilation per model size and
+    padded length)."""
+    q = np.asarray(q)
+    n_steps = q.shape[0]
+    padded = np.zeros((padded_steps(n_steps, PAD_STEPS), q.shape[1]), q.dtype)
+    padded[:n_steps] = q
+    d, point = _max_norms(blocks, jnp.asarray(padded, blocks.shapes.dtype))
+    return np.asarray(d)[:n_steps], np.asarray(point)[:n_steps]
 
 
 def point_displacements(shapes: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -136,14 +263,15 @@ def deviation_curve(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(t (T,) s, d (T,) m): the exact deviation every dt_s / ``substeps`` during the move
     ``acc`` ((n+1, 3) m/s^2) and after it, until at least ``until_s`` (and at least one step
-    past the end of the move). Exact samples of d(t), not interpolations."""
+    past the end of the move). Exact samples of d(t), not interpolations; the points are
+    evaluated by the pruned blocked evaluation (:func:`max_norms`)."""
     n_steps = np.shape(acc)[0] - 1
     h = dt_s / substeps
     t_move = h * np.arange(n_steps * substeps)
     after = max(1, int(np.ceil((until_s - n_steps * dt_s) / h)) + 1)
     t = np.concatenate([t_move, n_steps * dt_s + h * np.arange(after)])
     q = states_at(model, acc, dt_s, t)[..., 0]
-    return t, deviation_curves(np.asarray(model.shapes), q).all
+    return t, max_norms(blocks_of(model), q)[0]
 
 
 def outputs_at(model, outputs, acc, dt_s: float, t_s, offset=None) -> np.ndarray:

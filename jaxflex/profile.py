@@ -45,19 +45,19 @@ class Move:
         return not (self.acc[0].any() or self.acc[-1].any())
 
 
-def as_move(acc, dt_s, *, at_rest: bool = False, name: str = "acc") -> Move:
+def as_move(acc, dt_s, *, at_rest: bool = False, name: str = "acc", dt_name: str = "dt_s") -> Move:
     """``acc`` ((n+1, 3) m/s^2, n >= 1, finite; with ``at_rest`` also a_0 = a_n = 0) at step
     ``dt_s`` (s, > 0) as a checked :class:`Move`. A Move passes through without a second check
-    (its step must be ``dt_s``). Raises InputError naming the field."""
+    (its step must be ``dt_s``). Raises InputError naming the field (``name``, ``dt_name``)."""
     if isinstance(acc, Move):
         if not math.isclose(acc.dt_s, float(dt_s), rel_tol=1e-12):
-            raise InputError(f"dt_s: {dt_s} s, but the move is sampled every {acc.dt_s} s")
+            raise InputError(f"{dt_name}: {dt_s} s, but the move is sampled every {acc.dt_s} s")
         if at_rest and not acc.at_rest:
             check_acc(acc.acc, name=name, rest_at_ends=True)  # raises with the details
         return acc
     checked = check_acc(acc, name=name, rest_at_ends=at_rest).astype(np.float64)
     checked.setflags(write=False)
-    return Move(checked, check_positive("dt_s", dt_s))
+    return Move(checked, check_positive(dt_name, dt_s))
 
 
 def integrate(acc, dt_s: float) -> tuple[np.ndarray, np.ndarray]:

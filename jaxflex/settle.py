@@ -18,6 +18,11 @@ t_s = sup{t : d(t) > threshold} (0 if never), cycle time T_c = max(n dt_s, t_s).
   max|f_i| + (1 + 2 zeta_i) omega_i (r_i(t_k) + dt_s max|f_i|). Intervals that cannot be
   certified are subdivided (16-fold) until they are certified, or an exceedance is found and
   the last crossing is located to 1e-9 s.
+* Points are first certified a block at a time (jaxflex.blocks: a block's centre and
+  per-mode radius bound all its members, and its curvature bound is the per-mode maximum of
+  its members' shape norms); only the points of blocks that cannot be certified are
+  evaluated one by one, so an all-node model costs little more than its few blocks near the
+  threshold.
 The search runs backwards in time and stops at the first (= last in time) exceedance.
 """
 
@@ -29,7 +34,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from jaxflex.decay import amplitudes, envelope, envelope_horizon
-from jaxflex.deviation import point_norms
+from jaxflex.deviation import block_bounds, blocks_of, point_norms, round_off_slack
 from jaxflex.engine import free_states, modal_forces, modal_states, states_between
 from jaxflex.model import ModalModel
 from jaxflex.profile import as_move
@@ -85,8 +90,26 @@ class _SearchBudget:
             )
 
 
+def _block_data(model: ModalModel):
+    """NumPy block data of a model, cached on it: members (nB, b) with K for padding, centres
+    (M, C, nB), radii (nB, M) and per-mode largest shape norm of the members (nB, M)."""
+    cache = model.__dict__
+    if "_settle_blocks" not in cache:
+        blocks = blocks_of(model)
+        members = np.asarray(blocks.index)
+        padded = np.vstack([model.shape_norms, np.zeros((1, model.n_modes))])
+        cache["_settle_blocks"] = (
+            members,
+            np.asarray(blocks.centres),
+            np.asarray(blocks.radius),
+            padded[members].max(axis=1),
+        )
+    return cache["_settle_blocks"]
+
+
 class _ModalSignal:
-    """Shared data of the closed-form response: per-point shape norms and modal constants."""
+    """Shared data of the closed-form response: per-point shape norms, the point blocks with
+    their bounds, modal constants. Subclasses give the modal coordinates q(t)."""
 
     def __init__(self, model: ModalModel) -> None:
         self.model = model
@@ -96,11 +119,47 @@ class _ModalSignal:
         self.zeta = np.asarray(model.zeta)
         self.sigma = self.zeta * self.omega
         self.budget = _SearchBudget(self.weights.shape[0])
+        self.members, self.centres, self.radius, self.block_weights = _block_data(model)
+        self.slack = round_off_slack(model.n_modes, self.shapes.shape[1], np.float64)
 
-    def _point_norms(self, q: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        """|u_p| for points idx and modal coordinates q (T, M) -> (P, T)."""
-        self.budget.spend(idx.size * q.shape[0])
-        return point_norms(self.shapes[idx], q)
+    def modal(self, t: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def curvature(self, a: np.ndarray, b: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """(P, J) bounds of sup |u''| over the intervals [a_j, b_j] for shape-norm rows
+        ``weights`` (P, M) (of points or of blocks)."""
+        raise NotImplementedError
+
+    def norms(self, t: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        """|u_p| for points idx at times t -> (P, T)."""
+        self.budget.spend(idx.size * t.size)
+        return point_norms(self.shapes[idx], self.modal(t))
+
+    def block_suspects(self, t: np.ndarray, blocks: np.ndarray, threshold_m: float):
+        """(upper (T, nb), suspect (nb, J)): the bound of every member of each of ``blocks`` at
+        the times ``t`` (centre plus radius) and whether the block may exceed ``threshold_m``
+        inside each grid interval (those bounds at the ends plus the largest members'
+        curvature in between); where not, none of its points does."""
+        _, upper = block_bounds(self.centres[:, :, blocks], self.radius[blocks], self.modal(t), np)
+        upper = self.slack * upper
+        h = np.diff(t)
+        bound = np.maximum(upper[:-1], upper[1:]).T + (h**2 / 8.0) * self.curvature(
+            t[:-1], t[1:], self.block_weights[blocks]
+        )
+        return upper, bound > threshold_m
+
+    def peak(self, t: float) -> float:
+        """max_p |u_p(t)| (m), evaluating only the blocks whose bound reaches the largest
+        centre value (an attained value)."""
+        when = np.array([t])
+        centre, upper = block_bounds(self.centres, self.radius, self.modal(when), np)
+        idx = self.points_of(np.flatnonzero(self.slack * upper[0] >= centre.max()))
+        return float(self.norms(when, idx).max())
+
+    def points_of(self, blocks: np.ndarray) -> np.ndarray:
+        """Sorted indices of the points in ``blocks``."""
+        members = self.members[blocks].ravel()
+        return np.sort(members[members < self.weights.shape[0]])
 
 
 class _FreeDecay(_ModalSignal):
@@ -111,17 +170,16 @@ class _FreeDecay(_ModalSignal):
         self.x_end, self.t0 = x_end, t0
         self.amplitude = amplitudes(model, x_end)  # R_i
 
-    def norms(self, t: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        q = free_states(self.model, self.x_end, t - self.t0, np)[..., 0]
-        return self._point_norms(q, idx)
+    def modal(self, t: np.ndarray) -> np.ndarray:
+        return free_states(self.model, self.x_end, t - self.t0, np)[..., 0]
 
-    def envelope(self, tau: np.ndarray, idx: np.ndarray | slice = slice(None)) -> np.ndarray:
-        """E_p(tau) >= |u_p(t0 + tau)|: (P, T)."""
-        return envelope(self.weights[idx], self.amplitude, self.sigma, tau)
+    def envelope(self, tau: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """E(tau) >= |u(t0 + tau)| for shape-norm rows ``weights`` (P, M): (P, T)."""
+        return envelope(weights, self.amplitude, self.sigma, tau)
 
-    def curvature(self, a: np.ndarray, b: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    def curvature(self, a: np.ndarray, b: np.ndarray, weights: np.ndarray) -> np.ndarray:
         decay = np.exp(-np.outer(self.sigma, a - self.t0))
-        return self.weights[idx] @ ((self.omega**2 * self.amplitude)[:, None] * decay)
+        return weights @ ((self.omega**2 * self.amplitude)[:, None] * decay)
 
 
 class _ForcedMotion(_ModalSignal):
@@ -137,13 +195,12 @@ class _ForcedMotion(_ModalSignal):
             radius + dt_s * step_force
         )  # (n, M): sup |q_i''| on step k
 
-    def norms(self, t: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        x = states_between(self.model, self.states, self.force, self.dt_s, t, np)
-        return self._point_norms(x[..., 0], idx)
+    def modal(self, t: np.ndarray) -> np.ndarray:
+        return states_between(self.model, self.states, self.force, self.dt_s, t, np)[..., 0]
 
-    def curvature(self, a: np.ndarray, b: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    def curvature(self, a: np.ndarray, b: np.ndarray, weights: np.ndarray) -> np.ndarray:
         k = np.clip(np.floor(0.5 * (a + b) / self.dt_s).astype(np.int64), 0, self.n_steps - 1)
-        return self.weights[idx] @ self.acc_bound[k].T
+        return weights @ self.acc_bound[k].T
 
 
 def _last_exceedance(signal, idx, t, norms, threshold_m) -> float | None:
@@ -155,7 +212,7 @@ def _last_exceedance(signal, idx, t, norms, threshold_m) -> float | None:
     h = np.diff(t)
     over = norms.max(axis=0) > threshold_m
     bound = np.maximum(norms[:, :-1], norms[:, 1:]) + (h**2 / 8.0) * signal.curvature(
-        t[:-1], t[1:], idx
+        t[:-1], t[1:], signal.weights[idx]
     )
     suspect = bound > threshold_m  # (P, J): point may exceed inside interval j
     for j in np.flatnonzero(suspect.any(axis=0))[::-1]:
@@ -173,13 +230,26 @@ def _last_exceedance(signal, idx, t, norms, threshold_m) -> float | None:
     return None
 
 
+def _last_exceedance_in_blocks(signal, blocks, t, threshold_m) -> float | None:
+    """:func:`_last_exceedance` over the points of ``blocks`` (all others stay below on this
+    span) on the grid ``t``: intervals are first certified a block at a time, and only the
+    points of blocks that stay suspect are evaluated, on those intervals only."""
+    _, suspect = signal.block_suspects(t, blocks, threshold_m)  # (nb, J)
+    for j in np.flatnonzero(suspect.any(axis=0))[::-1]:
+        idx = signal.points_of(blocks[suspect[:, j]])
+        ends = t[j : j + 2]
+        found = _last_exceedance(signal, idx, ends, signal.norms(ends, idx), threshold_m)
+        if found is not None:
+            return found
+    return None
+
+
 def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold_m: float):
     """Grid chunks over [0, horizon] (tau), step adapted to the decaying curvature bound."""
     chunks = []
     tau = 0.0
-    all_points = np.arange(decay.weights.shape[0])
     while tau < horizon:
-        curvature = decay.curvature(np.array([decay.t0 + tau]), None, all_points).max()
+        curvature = decay.curvature(np.array([decay.t0 + tau]), None, decay.block_weights).max()
         step = (
             math.sqrt(8.0 * CURVATURE_SHARE * threshold_m / curvature) if curvature > 0 else horizon
         )
@@ -192,17 +262,22 @@ def _tail_grid_chunks(decay: _FreeDecay, horizon: float, threshold_m: float):
 
 def _tail_settle(decay: _FreeDecay, threshold_m: float) -> tuple[float | None, float]:
     """(last exceedance time after the move or None, proof horizon tau_env) in s from t0."""
-    horizon = envelope_horizon(decay.weights, decay.amplitude, decay.sigma, threshold_m)
+    horizon = envelope_horizon(
+        decay.weights,
+        decay.amplitude,
+        decay.sigma,
+        threshold_m,
+        (decay.members, decay.block_weights),
+    )
     if horizon == 0.0:
         return None, 0.0
     if math.isinf(horizon):
         return math.inf, math.inf
     for grid in reversed(_tail_grid_chunks(decay, horizon, threshold_m)):
-        idx = np.flatnonzero(decay.envelope(grid[:1])[:, 0] > threshold_m)
-        if idx.size == 0:
+        blocks = np.flatnonzero(decay.envelope(grid[:1], decay.block_weights)[:, 0] > threshold_m)
+        if blocks.size == 0:
             continue
-        times = decay.t0 + grid
-        found = _last_exceedance(decay, idx, times, decay.norms(times, idx), threshold_m)
+        found = _last_exceedance_in_blocks(decay, blocks, decay.t0 + grid, threshold_m)
         if found is not None:
             return found - decay.t0, horizon
     return None, horizon
@@ -228,14 +303,14 @@ def analyze_move(
     decay = _FreeDecay(model, states[-1], t_n)
     tail, horizon = _tail_settle(decay, threshold_m)
     evaluations = decay.budget.count
-    residual = float(decay.norms(np.array([t_n]), np.arange(model.n_points)).max())
+    residual = decay.peak(t_n)
     if tail is not None:
         settle_s = t_n + tail
     elif settle:
         motion = _ForcedMotion(model, states, force, dt_s)
         grid = dt_s * np.arange(n_steps + 1)
-        idx = np.arange(model.n_points)
-        found = _last_exceedance(motion, idx, grid, motion.norms(grid, idx), threshold_m)
+        all_blocks = np.arange(motion.members.shape[0])
+        found = _last_exceedance_in_blocks(motion, all_blocks, grid, threshold_m)
         settle_s = 0.0 if found is None else found
         evaluations += motion.budget.count
     else:

@@ -1,8 +1,8 @@
 """Response of a modal model to a piecewise-linear base acceleration: an exact recursion.
 
 Each mode is advanced with the exact first-order-hold step (jaxflex.discretize) inside one
-jitted ``jax.lax.scan``; the point displacements u(t_k) = shapes @ q(t_k) follow from a single
-matrix product over all time steps, and the deviation d_k = max_p |u_p(t_k)|.
+jitted ``jax.lax.scan``; the deviation d_k = max_p |u_p(t_k)| follows from the pruned blocked
+evaluation of jaxflex.deviation, which never forms the (T, K, 3) displacements.
 After the last sample the base is at rest and the part vibrates freely; that continuation is
 evaluated in closed form (no scan over zeros).
 """
@@ -17,7 +17,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxflex.deviation import deviation, shapes_by_component
+from jaxflex.blocks import PointBlocks, point_blocks
+from jaxflex.deviation import blocks_of, deviation
 from jaxflex.engine import HOLDS, free_states, modal_states
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
@@ -64,14 +65,14 @@ def end_state(model: ModalModel, acc, dt_s, x0=None):
 
 
 @partial(jax.jit, static_argnames=("n_free", "want_displacement", "hold"))
-def _simulate(model, shapes_c, acc, dt_s, x0, n_free: int, want_displacement: bool, hold: str):
+def _simulate(model, blocks, acc, dt_s, x0, n_free: int, want_displacement: bool, hold: str):
     states = modal_states(model, acc, dt_s, x0=x0, hold=hold)
     if n_free > 0:
         tau = dt_s * jnp.arange(1, n_free + 1, dtype=acc.dtype)
         states = jnp.concatenate([states, free_states(model, states[-1], tau)], axis=0)
     q, qd = states[..., 0], states[..., 1]
     t = dt_s * jnp.arange(q.shape[0], dtype=acc.dtype)
-    deviation_m = deviation(shapes_c, q)
+    deviation_m = deviation(blocks, q)
     displacement = jnp.einsum("kcm,tm->tkc", model.shapes, q) if want_displacement else None
     return t, q, qd, deviation_m, displacement
 
@@ -82,11 +83,12 @@ def _check_dtype(dtype: str):
     return _DTYPES[dtype]
 
 
-def on_device(model: ModalModel, dtype: str = "float64") -> tuple[ModalModel, Any]:
-    """``model`` as JAX arrays of ``dtype`` plus its shapes in the (M, 3K) product layout.
+def on_device(model: ModalModel, dtype: str = "float64") -> tuple[ModalModel, PointBlocks]:
+    """``model`` as JAX arrays of ``dtype`` plus its points in blocks for the deviation
+    (jaxflex.blocks.PointBlocks).
 
     For a concrete model the result is cached on the model, so repeated calls transfer and
-    transpose nothing; traced models (inside jit/vmap) are converted on the fly.
+    reorder nothing; traced models (inside jit/vmap) are converted on the fly.
     """
     jdtype = _check_dtype(dtype)
     traced = is_traced(model)
@@ -94,7 +96,8 @@ def on_device(model: ModalModel, dtype: str = "float64") -> tuple[ModalModel, An
     if cache is not None and dtype in cache:
         return cache[dtype]
     cast = jax.tree_util.tree_map(lambda x: jnp.asarray(x, jdtype), model)
-    entry = (cast, shapes_by_component(cast.shapes))
+    blocks = point_blocks(cast.shapes, model.points) if traced else blocks_of(model, dtype)
+    entry = (cast, blocks)
     if cache is not None:
         cache[dtype] = entry
     return entry
@@ -128,7 +131,7 @@ def simulate(
     Works under jax.jit, jax.grad and jax.vmap (over ``acc`` and over stacked models,
     jaxflex.stack_models).
     """
-    model, shapes_c = on_device(model, dtype)
+    model, blocks = on_device(model, dtype)
     if isinstance(acc, Move):  # checked when it was made
         acc = acc.acc
     elif not is_traced(acc):
@@ -144,23 +147,23 @@ def simulate(
     acc = jnp.asarray(acc, jdtype)
     x0 = None if x0 is None else jnp.asarray(x0, jdtype)
     t, q, qd, dev, disp = _simulate(
-        model, shapes_c, acc, jnp.asarray(dt_s, jdtype), x0, n_free, bool(displacement), hold
+        model, blocks, acc, jnp.asarray(dt_s, jdtype), x0, n_free, bool(displacement), hold
     )
     return Response(t=t, q=q, qd=qd, deviation=dev, displacement=disp, n_steps=acc.shape[0] - 1)
 
 
 @jax.jit
-def _batch_deviation(models, shapes_c, accs, dt_s):
+def _batch_deviation(models, blocks, accs, dt_s):
     q = jax.vmap(lambda m, a: modal_states(m, a, dt_s)[..., 0])(models, accs)
-    return jax.lax.map(lambda args: deviation(*args), (shapes_c, q))
+    return jax.lax.map(lambda args: deviation(*args), (blocks, q))
 
 
 def batch_deviation(models: ModalModel, accs, dt_s: float):
     """Deviation d (B, n+1) in m of B stacked models (jaxflex.stack_models) under their moves
     ``accs`` (B, n+1, 3) m/s^2 at step ``dt_s`` s: one jitted function for the batch. The
     modal recursions of all cases run in one ``lax.scan`` (B x M oscillators per step); the
-    point evaluation runs case by case (``lax.map``), so at most one (T, 3K) displacement
-    array is alive at a time (a plain vmap would hold B of them: memory bound)."""
+    pruned point evaluation (jaxflex.deviation) runs case by case (``lax.map``), each with
+    its own pruning."""
     accs = jnp.asarray(accs, jnp.float64)
     if accs.ndim != 3 or accs.shape[2] != 3 or accs.shape[0] != np.shape(models.freq_hz)[0]:
         raise InputError(
@@ -168,5 +171,8 @@ def batch_deviation(models: ModalModel, accs, dt_s: float):
             f"got {accs.shape}"
         )
     check_positive("dt_s", dt_s)
-    shapes_c = jax.vmap(shapes_by_component)(jnp.asarray(models.shapes))
-    return _batch_deviation(models, shapes_c, accs, jnp.asarray(dt_s, jnp.float64))
+    blocks = _stacked_blocks(jnp.asarray(models.shapes), jnp.asarray(models.points))
+    return _batch_deviation(models, blocks, accs, jnp.asarray(dt_s, jnp.float64))
+
+
+_stacked_blocks = jax.jit(jax.vmap(point_blocks))

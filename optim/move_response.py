@@ -3,7 +3,8 @@
 The modal coordinates during the move are linear in the modal forces at the samples
 (jaxflex.engine.state_map). :class:`MoveResponse` holds that map at every dt / substeps during
 the move, so that the deviation there is |shapes_p q(t)| with q linear in the samples: the exact
-route bounds it with tangent-plane rows, the gradient route with a soft maximum.
+route bounds it with tangent-plane rows, the gradient route with a soft maximum. The largest
+point at every time comes from the pruned blocked evaluation (jaxflex.deviation).
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex.deviation import point_displacements
+from jaxflex.deviation import block_model, max_norms, point_displacements
 from jaxflex.engine import modal_forces, state_map
 from jaxflex.model import ModalModel
 
@@ -39,6 +40,7 @@ class MoveResponse:
         self.coef = state_map(model, n_steps, dt_s, substeps)
         self.gamma = np.asarray(model.gamma)
         self.shapes = np.asarray(model.shapes)[:, list(components), :]  # (K, C, M)
+        self.blocks = block_model(self.shapes, model.points)
         self.dt_s, self.substeps = dt_s, substeps
 
     def sample_map(self, axes) -> np.ndarray:
@@ -51,14 +53,14 @@ class MoveResponse:
 
     def peaks(self, acc: np.ndarray, limit_m: float, tol: float = 1e-6, most: int = 40):
         """Local maxima in time of max_p |u_p| above ``limit_m`` (worst first)."""
-        u = point_displacements(self.shapes, self.modal(acc))
-        size = np.linalg.norm(u, axis=-1) / limit_m
-        d, worst = size.max(axis=1), size.argmax(axis=1)
+        q = self.modal(acc)
+        d, worst = max_norms(self.blocks, q)
+        d = d / limit_m
         padded = np.concatenate([[-np.inf], d, [-np.inf]])
-        local = (d >= padded[:-2]) & (d >= padded[2:]) & (d > 1.0 + tol)
+        local = np.flatnonzero((d >= padded[:-2]) & (d >= padded[2:]) & (d > 1.0 + tol))
+        u = point_displacements(self.shapes[worst[local]], q[local])  # (J, J, C)
         found = [
-            ClearancePeak(int(j), int(worst[j]), u[j, worst[j]], float(d[j]))
-            for j in np.flatnonzero(local)
+            ClearancePeak(int(j), int(worst[j]), u[i, i], float(d[j])) for i, j in enumerate(local)
         ]
         return sorted(found, key=lambda pk: -pk.value)[:most]
 

@@ -9,7 +9,9 @@ so jaxflex.engine.end_state_map gives the matrix exactly (it equals ``jax.jacfwd
 a jitted Jacobian would recompile for every n tried). After the move the
 part vibrates freely, u_p(t_n + tau) = sum_i phi_i(p) (P11_i(tau) q_i + P12_i(tau) qd_i), again
 linear in the end state. :class:`ResidualModel` samples that response densely to find the
-(point, time) pairs where it exceeds the threshold: those become the LP's rows.
+(point, time) pairs where it exceeds the threshold: those become the LP's rows. The largest
+point at every sample comes from the pruned blocked evaluation (jaxflex.deviation), so
+all-node models cost little more than their few blocks near the maximum.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from jaxflex.decay import amplitudes, envelope_horizon, free_rows
-from jaxflex.deviation import point_displacements
+from jaxflex.deviation import block_model, max_norms, point_displacements
 from jaxflex.model import ModalModel
 
 SAMPLES_PER_PERIOD = 16  # dense check: time step 1 / (16 f_max)
@@ -56,6 +58,7 @@ class ResidualModel:
         self.shapes = shapes
         self.n_points = shapes.shape[0]
         self.weights = np.linalg.norm(shapes, axis=1)  # (K, M)
+        self.blocks = block_model(shapes, model.points)
         self.step_s = 1.0 / (SAMPLES_PER_PERIOD * np.max(np.asarray(model.freq_hz)))
 
     # -- closed-form free response -------------------------------------------------------
@@ -63,10 +66,18 @@ class ResidualModel:
         """P11, P12 (T, M): q_i(tau) = P11 q_i + P12 qd_i for the free decay."""
         return free_rows(self.model, tau)
 
-    def displacement(self, x_end: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """(T, K, C) displacement of every point at times ``tau`` after the move."""
+    def modal(self, x_end: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """(T, M) modal coordinates at times ``tau`` after the move."""
         p11, p12 = self.propagator_rows(tau)
-        return point_displacements(self.shapes, p11 * x_end[:, 0] + p12 * x_end[:, 1])
+        return p11 * x_end[:, 0] + p12 * x_end[:, 1]
+
+    def displacement(self, x_end: np.ndarray, tau: np.ndarray, points=slice(None)) -> np.ndarray:
+        """(T, P, C) displacement of ``points`` (default every point) at times ``tau``."""
+        return point_displacements(self.shapes[points], self.modal(x_end, tau))
+
+    def deviation(self, x_end: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(d (T,) m, point (T,)): the largest |u_p| at times ``tau`` and where it is."""
+        return max_norms(self.blocks, self.modal(x_end, tau))
 
     def amplitudes(self, x_end: np.ndarray) -> np.ndarray:
         """R_i (M,): amplitude of each mode's free decay from ``x_end``."""
@@ -93,7 +104,7 @@ class ResidualModel:
     def _refine(self, x_end, tau0, tau1, point: int, limit_m) -> Peak:
         """Largest deviation of ``point`` over [tau0, tau1] (REFINE_SAMPLES samples)."""
         tau = np.linspace(max(0.0, tau0), tau1, REFINE_SAMPLES)
-        u = self.displacement(x_end, tau)[:, point]  # (T, C)
+        u = self.displacement(x_end, tau, [point])[:, 0]  # (T, C)
         values = np.linalg.norm(u, axis=-1) / limit_m
         j = int(np.argmax(values))
         return Peak(float(tau[j]), point, u[j], float(values[j]))
@@ -118,9 +129,8 @@ class ResidualModel:
         for start in range(0, n_samples, CHUNK):
             first = max(0, start - 1)
             tau = h * np.arange(first, min(n_samples, start + CHUNK) + 1)
-            u = self.displacement(x_end, tau)
-            size = np.linalg.norm(u, axis=-1) / limit_m  # (T, K)
-            d, worst = size.max(axis=1), size.argmax(axis=1)
+            d, worst = self.deviation(x_end, tau)
+            d = d / limit_m
             if first == 0:  # tau = 0 is a boundary: a maximum there if d decreases
                 d = np.concatenate([[-np.inf], d])
                 worst = np.concatenate([[0], worst])
@@ -139,8 +149,9 @@ class ResidualModel:
         span = 0.5 / np.min(np.asarray(self.model.freq_hz))
         step = self.step_s / 4
         fine = np.arange(max(0.0, tau_s - span), tau_s + step, step)
-        values = np.linalg.norm(self.displacement(x_end, fine), axis=-1)
-        j, p = np.unravel_index(np.argmax(values), values.shape)
+        d, worst = self.deviation(x_end, fine)
+        j = int(np.argmax(d))
+        p = worst[j]
         lo, hi = fine[max(0, j - 1)], fine[min(len(fine) - 1, j + 1)]
         return self._refine(x_end, lo, hi, int(p), limit_m)
 

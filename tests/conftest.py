@@ -64,3 +64,16 @@ def run_jaxflex(*args: str, cwd=None, timeout_s: float = 600) -> subprocess.Comp
         cwd=cwd,
         timeout=timeout_s,
     )
+
+
+@pytest.fixture(scope="session")
+def serial_sweep(tmp_path_factory):
+    """The shared tiny sweep (tests/sweep_cases.py) run serially: (SweepRun, table rows), the
+    reference the other executors must reproduce."""
+    from sweep_cases import SPEC
+
+    from optim.sweep import parse_spec, read_table, run_sweep
+
+    directory = tmp_path_factory.mktemp("serial")
+    run = run_sweep(parse_spec(SPEC), directory, executor="serial", progress=False)
+    return run, read_table(directory / "results.csv")

@@ -148,6 +148,19 @@ def test_quick_bench_writes_every_method_and_chart(tmp_path):
     assert core["float32_max_rel_error"] < 1e-4
     assert np.isfinite(core["forward_ms"]) and core["forward_ms"] > 0
     assert core["cycle_time_smooth_s"] >= core["cycle_time_s"]
+    # the all-node section: every size timed on the named device, the reduction study's
+    # reference row is every node of the mesh and the reductions have fewer points
+    nodes = saved["nodes"]
+    assert nodes["scale"]["device"].startswith("cpu")
+    assert [r["n_points"] for r in nodes["scale"]["forward"]] == [1_099, 5_000]
+    assert all(r["forward_ms"] > 0 and r["peak_rss_mb"] > 0 for r in nodes["scale"]["forward"])
+    assert nodes["scale"]["cycle_time"]["cycle_time_s"] > 0
+    rows = nodes["reduction"][0]["rows"]
+    assert rows[0]["n_points"] == nodes["reduction"][0]["mesh_nodes"]
+    assert rows[0]["peak_error_rel"] == 0.0 and rows[0]["settle_error_s"] == 0.0
+    assert all(r["n_points"] < rows[0]["n_points"] for r in rows[1:])
+    # a subset of points never sees more than all of them
+    assert all(r["peak_deviation_m"] <= rows[0]["peak_deviation_m"] * (1 + 1e-12) for r in rows)
     assert not list(out.rglob("*.tmp"))
 
     # FE-agreement target on the plate: the built-in plate (1.5 x 0.8 m, 4 cups) on a 100 mm

@@ -18,7 +18,6 @@ from fmu.harness import compile_harness
 from fmu.source import export_source_fmu
 from fmu.windows import (
     SYSTEM_DLLS,
-    compile_windows_harness,
     dll_exports,
     dll_imports,
     missing_tools,
@@ -77,7 +76,7 @@ def test_windows_dlls_export_fmi_import_system_dlls_and_run_like_linux(version, 
     source = export_source_fmu(tmp_path / "source.fmu", acc, DT, version, windows=True)
     harnesses = (
         compile_harness(version, tmp_path / "harness"),
-        compile_windows_harness(version, tmp_path / "harness.exe"),
+        compile_harness(version, tmp_path / "harness.exe", windows=True),
     )
     outputs = {"part": {"deviation", "settle_time", "settled"}, "source": {"ax", "ay", "az"}}
     for kind, result in (("part", part), ("source", source)):

@@ -105,6 +105,16 @@ def test_cli_reports_the_field_and_exits_2(tmp_path, capsys):
     assert "jaxflex sweep: error: bad.json: model.n_modes: expected an integer" in err
     assert main(["sweep", "--example"]) == 0
     assert "[[grids]]" in capsys.readouterr().out
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps(BASE))
+    out = str(tmp_path / "out")
+    for options in (
+        ["--serial", "--dashboard", "0.0.0.0:8787"],
+        ["--scheduler", "tcp://h:1", "--workers", "2"],
+    ):
+        assert main(["sweep", str(spec), "-o", out, *options]) == 2
+        err = capsys.readouterr().err
+        assert f"error: {options[-2]}: only for the embedded LocalCluster" in err
 
 
 def test_case_ids_follow_content_not_names_or_order():
@@ -154,6 +164,11 @@ def test_grid_expands_to_every_combination(nx, ny, inset, radius):
         ({"executor": "serial", "scheduler": "tcp://localhost:8786"}, "scheduler"),
         ({"scheduler": "localhost:8786"}, "scheduler: expected an address like tcp://"),
         ({"n_workers": 0}, "n_workers"),
+        ({"executor": "serial", "dashboard_address": "127.0.0.1:0"}, "dashboard_address"),
+        (
+            {"scheduler": "tcp://127.0.0.1:8786", "dashboard_address": "0.0.0.0:8787"},
+            "dashboard_address: only for the embedded LocalCluster",
+        ),
     ],
 )
 def test_bad_run_options_are_named(tmp_path, kwargs, field):

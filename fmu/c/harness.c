@@ -32,6 +32,8 @@
 
 #define VR_AX 1u
 #define VR_DEVIATION 10u
+#define VR_DISPLACED_POINTS 30u /* FMI 3.0 array output (K x 3); read every step when the
+                                   harness is built with -DHARNESS_ARRAY_POINTS=K */
 
 static int logged = 0;
 static int quiet = 1;
@@ -198,6 +200,13 @@ static double deviation(void *c) {
     const fmi3ValueReference vr = VR_DEVIATION;
     double d = NAN;
     api.get_real(c, &vr, 1, &d, 1);
+#ifdef HARNESS_ARRAY_POINTS
+    {
+        static double points[3 * (size_t)HARNESS_ARRAY_POINTS];
+        const fmi3ValueReference array = VR_DISPLACED_POINTS;
+        if (api.get_real(c, &array, 1, points, 3 * (size_t)HARNESS_ARRAY_POINTS)) return NAN;
+    }
+#endif
     return d;
 }
 static int reset(void *c) { return api.reset(c); }

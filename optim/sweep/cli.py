@@ -36,6 +36,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="worker processes of the embedded LocalCluster (default: one per core)",
     )
     parser.add_argument(
+        "--dashboard",
+        metavar="HOST:PORT",
+        default=None,
+        help="where the embedded LocalCluster serves its dashboard (default: 127.0.0.1 and a "
+        "free port, this machine only; e.g. 0.0.0.0:8787 for other machines)",
+    )
+    parser.add_argument(
         "--retry-errors",
         action="store_true",
         help="recompute cases stored as errors (results are always kept)",
@@ -53,10 +60,11 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if not args.spec or not args.output:
         raise InputError("spec and -o/--output are required (or --example for a spec to start)")
-    if args.workers is not None and (args.serial or args.scheduler):
-        raise InputError(
-            "--workers: only for the embedded LocalCluster (not with --serial/--scheduler)"
-        )
+    for option, value in (("--workers", args.workers), ("--dashboard", args.dashboard)):
+        if value is not None and (args.serial or args.scheduler):
+            raise InputError(
+                f"{option}: only for the embedded LocalCluster (not with --serial/--scheduler)"
+            )
     spec = load_spec(args.spec)
     executor = "serial" if args.serial else "dask"
     if not args.quiet:
@@ -72,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
         executor=executor,
         scheduler=args.scheduler,
         n_workers=args.workers,
+        dashboard_address=args.dashboard,
         retry_errors=args.retry_errors,
         progress=not args.quiet,
         plots=not args.no_plots,

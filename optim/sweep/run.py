@@ -6,35 +6,39 @@ Executors:
 * ``"serial"``: in this process, layout by layout (the reference; no dask involved);
 * ``"dask"``: a ``dask.distributed.Client`` on an embedded ``LocalCluster`` (``n_workers``
   worker processes, one thread each; default one per core) or on the scheduler at
-  ``scheduler`` ("tcp://host:8786"). One task per layout runs the finite-element analysis;
-  one task per case optimises, depending on its layout's task, so dask schedules the FE
-  analyses in parallel processes and runs each case next to its model. The records come back
-  to this process (``as_completed``), which alone writes the results directory, so the
-  workers need no shared file system.
+  ``scheduler`` ("tcp://host:8786"); see optim.sweep.cluster for the connection, the version
+  gate and the lost workers. One task per layout runs the finite-element analysis; one task
+  per case optimises, depending on its layout's task, so dask schedules the FE analyses in
+  parallel processes and runs each case next to its model. Tasks are submitted in bounded
+  batches: at most ``cluster.window`` case tasks (a few per worker thread) are out at once,
+  and a new one goes out as a record comes back, so neither the task graph nor the client
+  grows with the sweep. The records come back to this process (``as_completed``), which
+  alone writes the results directory, so the workers need no shared file system; the client
+  keeps only each case's status (``SweepRun.records`` reads the store on demand).
 
 Interrupting (Ctrl-C) cancels what is pending and keeps every stored record; the next run
-computes only the missing cases.
+computes only the missing cases. A lost scheduler stops the run with
+:class:`~optim.sweep.cluster.ClusterError`; the stored records stay, and a rerun against a new
+scheduler computes the missing cases.
 """
 
 from __future__ import annotations
 
 import contextlib
-import logging
-import os
 import time
-import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from distributed import Client, LocalCluster, as_completed
+from distributed import as_completed
 from tqdm.auto import tqdm
 
 from jaxflex.errors import InputError
 from optim.sweep.cases import Case, case_job, expand, layout_job
+from optim.sweep.cluster import ClusterError, connect
 from optim.sweep.plots import plot_sweep
 from optim.sweep.spec import SweepSpec
-from optim.sweep.store import ResultStore, is_final
+from optim.sweep.store import ResultStore, StoredRecords, is_final
 from optim.sweep.table import table_rows, write_table
 from optim.sweep.work import (
     analyse_layout,
@@ -44,44 +48,46 @@ from optim.sweep.work import (
 )
 
 EXECUTORS = ("serial", "dask")
-# One thread per worker process for every numeric library (the workers are the parallelism).
-WORKER_ENV = {
-    "OMP_NUM_THREADS": "1",
-    "OPENBLAS_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
-}
 
 
 @dataclass
 class SweepRun:
-    """What a run did. ``records`` holds every stored record of the spec's cases."""
+    """What a run did. ``records`` maps the case id of every stored record of the spec's
+    cases to its record, read from the store on access (optim.sweep.store.StoredRecords)."""
 
     spec: SweepSpec
     directory: Path
     cases: list[Case]
-    records: dict[str, dict]
+    records: StoredRecords
     computed: int = 0
     skipped: int = 0
     wall_s: float = 0.0
     executor: str = "serial"
     outputs: list[str] = field(default_factory=list)
+    peak_in_flight: int = 0  # dask: the most case tasks submitted and not yet collected
+    lost_workers: int = 0  # dask: workers that died or left during the run
+    retried_tasks: int = 0  # dask: tasks of the run rescheduled after a lost worker
 
     @property
     def n_errors(self) -> int:
-        return sum(r["status"] == "error" for r in self.records.values())
+        return self.records.count("error")
 
     @property
     def rows(self) -> list[dict]:
-        return table_rows(self.cases, self.records)
+        return list(table_rows(self.cases, self.records))
 
     def summary(self) -> str:
-        ok = sum(r["status"] == "ok" for r in self.records.values())
         rate = 60.0 * self.computed / self.wall_s if self.wall_s > 0 else float("nan")
+        lost = (
+            f"; lost workers: {self.lost_workers}, retried tasks: {self.retried_tasks}"
+            if self.lost_workers
+            else ""
+        )
         return (
-            f"{self.spec.name}: {len({c.case_id for c in self.cases})} cases, {ok} ok, "
-            f"{self.n_errors} errors; computed {self.computed} ({self.executor}, "
-            f"{self.wall_s:.1f} s, {rate:.1f} cases/min), skipped {self.skipped} finished"
+            f"{self.spec.name}: {len({c.case_id for c in self.cases})} cases, "
+            f"{self.records.count('ok')} ok, {self.n_errors} errors; computed {self.computed} "
+            f"({self.executor}, {self.wall_s:.1f} s, {rate:.1f} cases/min), skipped "
+            f"{self.skipped} finished{lost}"
         )
 
 
@@ -92,48 +98,68 @@ def run_sweep(
     executor: str = "dask",
     scheduler: str | None = None,
     n_workers: int | None = None,
+    dashboard_address: str | None = None,
     retry_errors: bool = False,
     progress: bool = True,
     plots: bool = True,
+    notify: Callable[[str], None] | None = None,
+    on_record: Callable[[dict, float], None] | None = None,
 ) -> SweepRun:
     """Compute every case of ``spec`` not yet stored in ``directory`` and write the table
-    (``results.csv``) and plots. See the module docstring for the executors; ``retry_errors``
-    recomputes cases whose stored record is an error."""
+    (``results.csv``) and plots. See the module docstring for the executors and
+    optim.sweep.cluster.connect for ``scheduler``, ``n_workers``, ``dashboard_address``
+    ("host:port" of the LocalCluster's dashboard) and ``notify`` (messages about the cluster;
+    default: stderr). ``retry_errors`` recomputes cases whose stored record is an error.
+    ``on_record(record, store_s)`` is called after each record is stored, with the seconds
+    the store took."""
     if executor not in EXECUTORS:
         raise InputError(f"executor: must be one of {list(EXECUTORS)}, got {executor!r}")
-    if scheduler is not None and executor != "dask":
-        raise InputError("scheduler: only used with the dask executor")
+    for name, value in (("scheduler", scheduler), ("dashboard_address", dashboard_address)):
+        if value is not None and executor != "dask":
+            raise InputError(f"{name}: only used with the dask executor")
     if n_workers is not None and n_workers < 1:
         raise InputError(f"n_workers: must be >= 1, got {n_workers}")
     store = ResultStore(directory)
     store.save_spec(spec.source)
     cases = expand(spec)
-    stored = store.records()
+    run = SweepRun(spec, store.root, cases, StoredRecords(store), executor=executor)
     ids = {c.case_id for c in cases}
-    keep = {k: r for k, r in stored.items() if k in ids and is_final(r)}
-    if retry_errors:
-        keep = {k: r for k, r in keep.items() if r["status"] == "ok"}
+    for record in store.iter_records():  # one at a time: only the statuses stay in memory
+        keep = is_final(record) and not (retry_errors and record["status"] != "ok")
+        if keep and record["case_id"] in ids:
+            run.records.add(record)
+    run.skipped = len(run.records)
     pending: dict[str, Case] = {}
     for case in cases:
-        if case.case_id not in keep:
+        if case.case_id not in run.records:
             pending.setdefault(case.case_id, case)
-    run = SweepRun(spec, store.root, cases, dict(keep), skipped=len(keep), executor=executor)
     start = time.perf_counter()
     bar = tqdm(total=len(pending), unit="case", disable=not progress, desc=spec.name)
-    try:
-        compute = _run_serial if executor == "serial" else _run_dask
-        stream = compute(spec, store, list(pending.values()), scheduler, n_workers)
+
+    def consume(stream: Iterator[dict]) -> None:
         with contextlib.closing(stream):
             for record in stream:
+                store_start = time.perf_counter()
                 store.save_record(record)
-                run.records[record["case_id"]] = record
+                store_s = time.perf_counter() - store_start
+                run.records.add(record)
                 run.computed += 1
                 bar.update()
                 bar.set_postfix(errors=run.n_errors, refresh=False)
+                if on_record is not None:
+                    on_record(record, store_s)
+
+    try:
+        if executor == "serial":
+            consume(_run_serial(spec, store, list(pending.values())))
+        elif pending:
+            where = {"n_workers": n_workers, "dashboard_address": dashboard_address}
+            with connect(scheduler, notify=notify, **where) as cluster:
+                _on_cluster(cluster, run, store, list(pending.values()), consume)
     finally:
         bar.close()
         run.wall_s = time.perf_counter() - start
-        write_table(store.root / "results.csv", run.rows)
+        write_table(store.root / "results.csv", table_rows(cases, run.records))
     run.outputs.append(str(store.root / "results.csv"))
     if plots:
         run.outputs += plot_sweep(run, store)
@@ -157,7 +183,7 @@ def _keep_model(store: ResultStore, layout_id: str, fe: dict) -> None:
         store.save_model(layout_id, payload_model(fe["model"]), fe["fe"])
 
 
-def _run_serial(spec, store, pending, scheduler, n_workers) -> Iterator[dict]:
+def _run_serial(spec, store, pending) -> Iterator[dict]:
     for layout_id, group in _by_layout(pending).items():
         fe = _stored_fe(store, layout_id)
         if fe is None:
@@ -167,66 +193,96 @@ def _run_serial(spec, store, pending, scheduler, n_workers) -> Iterator[dict]:
             yield optimise_case(fe, case_job(spec, case))
 
 
-def _client(scheduler: str | None, n_workers: int | None):
-    """A dask Client and a closer: the embedded LocalCluster, or the given scheduler."""
-    if scheduler is not None:
-        if not scheduler.startswith(("tcp://", "tls://", "inproc://", "ucx://", "ws://")):
-            raise InputError(
-                f"scheduler: expected an address like tcp://host:8786, got {scheduler!r}"
-            )
-        try:
-            client = Client(scheduler, timeout="15s")
-        except (OSError, TimeoutError) as exc:
-            raise InputError(f"scheduler: cannot connect to {scheduler} ({exc})") from exc
-        return client, client.close
-    cluster = LocalCluster(
-        n_workers=n_workers or os.cpu_count() or 1,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",  # a free port: never clashes with another cluster
-        silence_logs=logging.ERROR,  # not the workers' warnings about cancelled tasks
-        env=WORKER_ENV,
-    )
-    client = Client(cluster)
-
-    def close() -> None:
-        client.close()
-        cluster.close()
-
-    return client, close
-
-
-def _run_dask(spec, store, pending, scheduler, n_workers) -> Iterator[dict]:
-    if not pending:
-        return
-    client, close = _client(scheduler, n_workers)
-    token = uuid.uuid4().hex[:8]  # keys unique on a shared scheduler
-    futures: dict = {}  # future -> (kind, id)
+def _on_cluster(cluster, run, store, pending, consume) -> None:
+    """Compute ``pending`` on ``cluster``, ``consume`` the records, count the lost workers."""
     try:
-        for layout_id, group in _by_layout(pending).items():
-            fe = _stored_fe(store, layout_id)
-            if fe is None:
-                fe = client.submit(
-                    analyse_layout, layout_job(spec, group[0].layout), key=f"fe-{layout_id}-{token}"
-                )
-                futures[fe] = ("fe", layout_id)
-            else:
-                [fe] = client.scatter([fe], hash=False)
-            for case in group:
-                job = case_job(spec, case)
-                fut = client.submit(optimise_case, fe, job, key=f"case-{case.case_id}-{token}")
-                futures[fut] = ("case", case.case_id)
-        for fut in as_completed(list(futures)):
-            kind, ident = futures.pop(fut)
-            outcome = _outcome(fut)
+        consume(_run_dask(cluster, run, store, pending))
+    except ClusterError as exc:
+        missing = len(pending) - run.computed
+        raise ClusterError(
+            f"{exc}; the {run.computed} cases computed before are stored, {missing} are "
+            "not: rerun the same command against a running scheduler to compute only those"
+        ) from None
+    finally:
+        run.lost_workers = cluster.lost_workers
+        run.retried_tasks = cluster.retried_tasks
+
+
+def restored_fe(fe: dict) -> dict:
+    """The stored FE outcome of a layout as a task's result: dask keeps the task's
+    arguments, so it can recompute the result if the worker holding it is lost (scattered
+    data would be lost with the worker)."""
+    return fe
+
+
+def _submissions(cluster, spec, store, pending) -> Iterator[tuple]:
+    """(future, kind, id) of each task, submitted as the caller asks for the next: a layout's
+    FE task ("fe", or its stored model, not watched), then its cases ("case")."""
+    client, token, options = cluster.client, cluster.token, cluster.task_options
+    for layout_id, group in _by_layout(pending).items():
+        stored = _stored_fe(store, layout_id)
+        if stored is None:
+            job = layout_job(spec, group[0].layout)
+            fe = client.submit(analyse_layout, job, key=f"fe-{layout_id}-{token}", **options)
+            yield fe, "fe", layout_id
+        else:
+            fe = client.submit(restored_fe, stored, key=f"model-{layout_id}-{token}", **options)
+        for case in group:
+            job = case_job(spec, case)
+            key = f"case-{case.case_id}-{token}"
+            yield client.submit(optimise_case, fe, job, key=key, **options), "case", case.case_id
+
+
+def _run_dask(cluster, run, store, pending) -> Iterator[dict]:
+    """The records of ``pending`` as they finish, with at most ``cluster.window`` case tasks
+    out at once; FE results are stored as models on the way."""
+    submissions = _submissions(cluster, run.spec, store, pending)
+    watched = as_completed()
+    out: dict = {}  # future -> (kind, id): what the client holds
+    n_cases = 0
+
+    def top_up() -> None:
+        nonlocal n_cases
+        while n_cases < cluster.window:
+            item = next(submissions, None)
+            if item is None:
+                break
+            future, kind, ident = item
+            out[future] = (kind, ident)
+            watched.add(future)
+            n_cases += kind == "case"
+        run.peak_in_flight = max(run.peak_in_flight, n_cases)
+
+    try:
+        top_up()
+        for future in watched:
+            kind, ident = out.pop(future)
+            if future.status == "cancelled":
+                raise ClusterError(_cancelled(future, cluster))
+            outcome = _outcome(future)
             if kind == "fe":
                 if outcome is not None:
                     _keep_model(store, ident, outcome)
             else:
-                yield outcome if outcome is not None else _lost(ident, fut)
+                n_cases -= 1
+                yield outcome if outcome is not None else _lost(ident, future)
+            top_up()
     finally:
-        client.cancel(list(futures))
-        close()
+        if out and cluster.client.status == "running":
+            cluster.client.cancel(list(out))
+
+
+def _cancelled(future, cluster) -> str:
+    """Why a task of the run was cancelled from outside (the run never cancels its own)."""
+    reason = "unknown"
+    try:
+        future.result()
+    except Exception as exc:  # the FutureCancelledError, with dask's reason
+        reason = getattr(exc, "reason", str(exc))
+    address = cluster.client.scheduler.address
+    if reason == "scheduler-connection-lost":
+        return f"lost the connection to the scheduler at {address}"
+    return f"the scheduler at {address} cancelled the sweep's tasks ({reason})"
 
 
 def _outcome(fut):

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import json
 import warnings
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 from jaxflex.atomic import write_text_atomic
@@ -43,20 +44,32 @@ class ResultStore:
             with contextlib.suppress(FileNotFoundError):  # left by a killed run
                 stale.unlink()
 
-    def records(self) -> dict[str, dict]:
-        """Every stored record by case id (unreadable files are reported and ignored)."""
-        out = {}
+    def iter_records(self) -> Iterator[dict]:
+        """Every stored record, one at a time (unreadable files are reported and skipped)."""
         for path in sorted(self.cases_dir.glob("*.json")):
             try:
                 record = json.loads(path.read_text(encoding="utf-8"))
-                out[record["case_id"]] = record
-            except (OSError, ValueError, KeyError, TypeError) as exc:
+                if not isinstance(record.get("case_id"), str):
+                    raise ValueError("no case_id")
+            except (OSError, ValueError, AttributeError) as exc:
                 warnings.warn(f"{path}: unreadable case record ignored ({exc})", stacklevel=2)
-        return out
+                continue
+            yield record
+
+    def records(self) -> dict[str, dict]:
+        """Every stored record by case id (all in memory; see :meth:`iter_records`)."""
+        return {record["case_id"]: record for record in self.iter_records()}
+
+    def record_path(self, case_id: str) -> Path:
+        return self.cases_dir / f"{case_id}.json"
+
+    def load_record(self, case_id: str) -> dict:
+        return json.loads(self.record_path(case_id).read_text(encoding="utf-8"))
 
     def save_record(self, record: dict) -> None:
-        path = self.cases_dir / f"{record['case_id']}.json"
-        write_text_atomic(path, json.dumps(record, sort_keys=True) + "\n")
+        write_text_atomic(
+            self.record_path(record["case_id"]), json.dumps(record, sort_keys=True) + "\n"
+        )
 
     def model_path(self, layout_id: str) -> Path:
         return self.models_dir / f"{layout_id}.npz"
@@ -79,3 +92,33 @@ class ResultStore:
 
     def save_spec(self, source: dict) -> None:
         write_text_atomic(self.root / "spec.json", json.dumps(source, indent=2) + "\n")
+
+
+class StoredRecords(Mapping):
+    """The records of a run's cases by case id, read from the store when asked for: memory
+    holds each case's status only, so a sweep of any size keeps its client small."""
+
+    def __init__(self, store: ResultStore):
+        self._store = store
+        self._status: dict[str, str] = {}
+
+    def add(self, record: dict) -> None:
+        """Count a record that is in the store."""
+        self._status[record["case_id"]] = record["status"]
+
+    def count(self, status: str) -> int:
+        return sum(s == status for s in self._status.values())
+
+    def __getitem__(self, case_id: str) -> dict:
+        if case_id not in self._status:
+            raise KeyError(case_id)
+        return self._store.load_record(case_id)
+
+    def __contains__(self, case_id: object) -> bool:
+        return case_id in self._status
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._status)
+
+    def __len__(self) -> int:
+        return len(self._status)

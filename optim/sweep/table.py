@@ -15,10 +15,10 @@ wall-time and worker columns (:data:`RUN_COLUMNS`).
 from __future__ import annotations
 
 import csv
-import io
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
-from jaxflex.atomic import write_text_atomic
+from jaxflex.atomic import atomic_open
 from optim.sweep.cases import Case
 
 _CASE = (
@@ -85,18 +85,19 @@ def _cell(value) -> str:
     return str(value)
 
 
-def table_rows(cases: list[Case], records: dict[str, dict]) -> list[dict]:
-    return [row(case, records.get(case.case_id)) for case in cases]
+def table_rows(cases: Iterable[Case], records: Mapping[str, dict]) -> Iterator[dict]:
+    """The rows of ``cases``, one at a time (records are read as needed)."""
+    for case in cases:
+        yield row(case, records.get(case.case_id))
 
 
-def write_table(path: str | Path, rows: list[dict]) -> None:
-    """Write ``rows`` as CSV (header :data:`COLUMNS`) atomically."""
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(COLUMNS)
-    for r in rows:
-        writer.writerow([_cell(r.get(c)) for c in COLUMNS])
-    write_text_atomic(path, buffer.getvalue())
+def write_table(path: str | Path, rows: Iterable[dict]) -> None:
+    """Write ``rows`` as CSV (header :data:`COLUMNS`) atomically, row by row."""
+    with atomic_open(path, "w") as handle:
+        writer = csv.writer(handle, lineterminator="\n")
+        writer.writerow(COLUMNS)
+        for r in rows:
+            writer.writerow([_cell(r.get(c)) for c in COLUMNS])
 
 
 def read_table(path: str | Path) -> list[dict[str, str]]:

@@ -35,11 +35,9 @@ def model_payload(model: ModalModel) -> dict:
     return data
 
 
-def payload_model(payload: dict, *, with_meta: bool = True) -> ModalModel:
-    """The ModalModel of :func:`model_payload` (``with_meta=False``: empty meta, so that
-    every model of the same size reuses the compiled JAX functions)."""
-    meta = json.loads(payload["meta_json"]) if with_meta else {}
-    return ModalModel(*(payload[name] for name in _ARRAYS), meta=meta)
+def payload_model(payload: dict) -> ModalModel:
+    """The ModalModel of :func:`model_payload`."""
+    return ModalModel(*(payload[name] for name in _ARRAYS), meta=json.loads(payload["meta_json"]))
 
 
 def monitor_points(part: dict, grid: tuple[int, int] | list[int]) -> np.ndarray:
