@@ -186,7 +186,10 @@ class ModalModel:
 
     @classmethod
     def tree_unflatten(cls, aux: _Annotations, children):
+        """The inverse of :meth:`tree_flatten`; the optional outputs (cups, stress) may be
+        left out of ``children`` (then None)."""
         obj = object.__new__(cls)
+        children = (*children, *(None,) * (len(ARRAY_FIELDS) + len(OUTPUT_FIELDS) - len(children)))
         for name, value in zip((*ARRAY_FIELDS, *OUTPUT_FIELDS), children, strict=True):
             object.__setattr__(obj, name, value)
         object.__setattr__(obj, "labels", aux.labels)
