@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -153,6 +154,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "surface point) and radius, in m (replaces the scene's)",
     )
     parser.add_argument(
+        "--cup-stiffness",
+        default=None,
+        metavar="KIND",
+        help="compliant cups instead of rigid clamps: flat, bellows (presets of fem.cups) or "
+        "A,L,T,R (axial N/m, lateral N/m, tilt N m/rad, torsion N m/rad)",
+    )
+    parser.add_argument(
         "--point-supports",
         nargs="+",
         type=_pair,
@@ -293,6 +301,12 @@ def run(args: argparse.Namespace) -> int:
         supports = []
     if args.cups is not None:
         supports = list(args.cups)
+    if args.cup_stiffness is not None:
+        spec = args.cup_stiffness
+        stiffness = spec if spec in ("flat", "bellows") else spec.split(",")
+        supports = [
+            replace(s, stiffness=stiffness) if isinstance(s, SuctionCup) else s for s in supports
+        ]
     supports += [PointSupport(x, y) for x, y in args.point_supports]
     supports += [ClampedEdge(side) for side in args.clamped_edges]
     if not supports:

@@ -19,12 +19,15 @@ class Material:
         E_pa: Young's modulus in Pa (> 0).
         nu: Poisson ratio, 0 <= nu < 0.5.
         rho_kg_m3: density in kg/m^3 (> 0).
+        yield_pa: yield strength in Pa (> 0) or None (unknown): the default stress limit of
+            the optimiser is yield / 1.5 (jaxflex.loads).
     """
 
     name: str
     E_pa: float
     nu: float
     rho_kg_m3: float
+    yield_pa: float | None = None
 
     def __post_init__(self) -> None:
         for field_name in ("E_pa", "rho_kg_m3"):
@@ -35,6 +38,14 @@ class Material:
                 )
         if not isinstance(self.nu, int | float) or not 0 <= self.nu < 0.5:
             raise InputError(f"material.nu: Poisson ratio must lie in [0, 0.5), got {self.nu!r}")
+        if self.yield_pa is not None and not (
+            isinstance(self.yield_pa, int | float)
+            and math.isfinite(self.yield_pa)
+            and self.yield_pa > 0
+        ):
+            raise InputError(
+                f"material.yield_pa: must be a finite number > 0, got {self.yield_pa!r}"
+            )
 
     @property
     def lame_lambda_pa(self) -> float:
@@ -54,9 +65,11 @@ class Material:
         return asdict(self)
 
 
+# Yield strengths: the lower bound of deep-drawing sheet grades, DC04 steel (EN 10130:
+# 140-210 MPa) and EN AW-6016 T4 aluminium (EN 485-2: 80-140 MPa).
 PRESETS: dict[str, Material] = {
-    "steel": Material("steel", 210e9, 0.3, 7850.0),
-    "aluminium": Material("aluminium", 70e9, 0.33, 2700.0),
+    "steel": Material("steel", 210e9, 0.3, 7850.0, 140e6),
+    "aluminium": Material("aluminium", 70e9, 0.33, 2700.0, 80e6),
 }
 _ALIASES = {"aluminum": "aluminium", "al": "aluminium", "st": "steel"}
 
@@ -79,14 +92,17 @@ def resolve_material(spec: str | Material | Mapping[str, Any]) -> Material:
         renamed = {"E": "E_pa", "rho": "rho_kg_m3"}
         values = {renamed.get(k, k): v for k, v in values.items()}
         missing = {"E_pa", "nu", "rho_kg_m3"} - set(values)
-        unknown = set(values) - {"E_pa", "nu", "rho_kg_m3", "name"}
+        unknown = set(values) - {"E_pa", "nu", "rho_kg_m3", "name", "yield_pa"}
         if missing or unknown:
             raise InputError(
                 f"material: a mapping needs exactly E_pa (Pa), nu, rho_kg_m3 (kg/m^3) "
-                f"[and optional name]; missing {sorted(missing)}, unknown {sorted(unknown)}"
+                f"[and optional name, yield_pa (Pa)]; missing {sorted(missing)}, unknown "
+                f"{sorted(unknown)}"
             )
         try:
-            numbers = {k: float(values[k]) for k in ("E_pa", "nu", "rho_kg_m3")}
+            numbers = {
+                k: float(values[k]) for k in ("E_pa", "nu", "rho_kg_m3", "yield_pa") if k in values
+            }
         except (TypeError, ValueError) as exc:
             raise InputError(f"material: E_pa, nu, rho_kg_m3 must be numbers ({exc})") from exc
         return Material(name=str(values.get("name", "custom")), **numbers)

@@ -18,8 +18,9 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from fem.damping import check_damping, describe_damping, modal_zeta
+from fem.damping import Rayleigh, check_damping, describe_damping, modal_zeta
 from fem.eigen import all_modes, factorize, lowest_modes
+from fem.outputs import modal_outputs
 from fem.parts import Part
 from fem.plate import assemble_plate
 from fem.shell import assemble_shell
@@ -174,9 +175,12 @@ class ModalResult:
         labels: Sequence[str] | None = None,
         zeta=None,
         key_tolerance_m: float | None = None,
+        outputs: bool = True,
     ) -> ModalModel:
         """The jaxflex.ModalModel at the monitored points (see :meth:`select_nodes`); ``zeta``
-        overrides the damping (scalar, per mode or fem.Rayleigh)."""
+        overrides the damping (scalar, per mode or fem.Rayleigh). With ``outputs`` (default)
+        the model also carries the cup reactions and the surface stresses (fem.outputs; one
+        extra sparse solve), unless the part has rigid-body modes."""
         if self.n_modes == 0:
             raise InputError("to_modal_model: the analysis found no elastic mode")
         idx = self.select_nodes(points, key_points, key_tolerance_m)
@@ -187,6 +191,9 @@ class ModalResult:
         spec = self.damping if zeta is None else zeta
         zeta_arr = modal_zeta(spec, self.freq_hz)
         shapes = self.node_shapes()[idx]
+        cups = stress = None
+        if outputs and not self.rigid_freq_hz.size and self.system.outputs is not None:
+            cups, stress = modal_outputs(self, spec if isinstance(spec, Rayleigh) else zeta_arr)
         return ModalModel(
             freq_hz=self.freq_hz,
             zeta=zeta_arr,
@@ -195,6 +202,8 @@ class ModalResult:
             points=self.system.nodes[idx],
             labels=labels,
             meta=self.meta(damping=spec, n_points=len(idx)),
+            cups=cups,
+            stress=stress,
         )
 
     def meta(self, damping=None, n_points: int | None = None) -> dict[str, Any]:
@@ -440,8 +449,8 @@ def modal_analysis(
 
     step(f"gripper constraints ({system.n_dof} DOFs)", enabled=progress)
     tick = time.perf_counter()
-    T = system.constraints.basis(system.n_dof)
-    K_free = (T.T @ system.K @ T).tocsr()
+    T, springs, _ = system.constraints.reduction(system.n_dof)
+    K_free = (T.T @ system.K @ T + springs).tocsr()
     M_free = (T.T @ system.M @ T).tocsr()
     load = T.T @ (system.M @ system.rigid)  # (n_free, 3) = (M R)_free
     timings["constraints_s"] = time.perf_counter() - tick

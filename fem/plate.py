@@ -5,18 +5,24 @@ D = E h^3 / (12 (1 - nu^2)); kinetic energy rho h/2 int w_t^2 dA (no rotary iner
 Supports choose the DOFs they hold through :class:`PlateMeshDofs` (a suction cup clamps the
 elements of its disc: deflection and slopes of their vertices and the normal slopes of their
 edges; second derivatives of Argyris are left free, which would over-constrain the disc
-boundary).
+boundary; a compliant cup ties the same DOFs to a rigid pad on springs instead).
+:class:`PlateOutputs` gives the rigid motions as DOF vectors (exact: a linear function lies
+in both element spaces) and the bending stress at the top surface, sigma = -z E/(1 - nu^2)
+(w_xx + nu w_yy, ...) at z = +h/2 in every element centroid (Morley's curvature is constant
+per element; the bottom surface carries the same stress with the opposite sign, so the same
+von Mises stress).
 """
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 import skfem
 from skfem.helpers import dd, ddot, trace
 
 from fem.mesh import PlateMesh
 from fem.supports import Support
-from fem.system import Constraints, FESystem, mesh_stats
+from fem.system import Constraints, FESystem, Spring, mesh_stats
 from jaxflex.errors import InputError
 from jaxflex.progress import progress_bar
 
@@ -77,8 +83,10 @@ def assemble_plate(
     nodes = np.column_stack([mesh.nodes_xy, np.full(len(mesh.nodes_xy), mesh.z0)])
     node_dofs = np.full((len(nodes), 3), -1, dtype=np.int64)
     node_dofs[:, 2] = nodal[0]
-    dofs = PlateMeshDofs(skmesh, element, nodal, facet_dofs)
-    constraints = Constraints.union(s.hold_plate(dofs, i) for i, s in enumerate(supports))
+    outputs = PlateOutputs(skmesh, elem, element, nodal, facet_dofs, material, thickness_m, mesh.z0)
+    dofs = PlateMeshDofs(skmesh, element, nodal, facet_dofs, outputs)
+    held = [s.hold_plate(dofs, i) for i, s in enumerate(supports)]
+    constraints = Constraints.union(held)
     lengths = np.linalg.norm(np.diff(skmesh.p[:, skmesh.facets], axis=1)[:, 0], axis=0)
     stats = mesh_stats("triangle", skmesh.p.shape[1], n_el, n_dof, lengths)
     return FESystem(
@@ -92,17 +100,99 @@ def assemble_plate(
         constraints,
         stats,
         FORMULATION[element],
+        outputs,
+        held,
     )
+
+
+class PlateOutputs:
+    """Rigid motions and surface stresses of the plate (fem.system.FormulationOutputs)."""
+
+    moves_in_plane = False
+
+    def __init__(self, mesh, elem, element, nodal, facet_dofs, material, thickness_m, z0):
+        self.mesh, self.elem, self.element = mesh, elem, element
+        self.nodal, self.facet_dofs = nodal, facet_dofs
+        self.material, self.thickness_m, self.z0 = material, thickness_m, z0
+        self._linear = None
+
+    def linear_dofs(self) -> np.ndarray:
+        """(n_dof, 3) DOF vectors of w = 1, x, y: values at the vertices, gradients (Argyris),
+        normal slopes on the edges. The orientation of each edge's normal is read from an L2
+        projection of x and y (which is exact up to round-off; checked)."""
+        if self._linear is None:
+            basis = skfem.Basis(self.mesh, self.elem, intorder=4)
+            projected = np.column_stack(
+                [basis.project(lambda x: x[0]), basis.project(lambda x: x[1])]
+            )
+            p, facets = self.mesh.p, self.mesh.facets
+            out = np.zeros((basis.N, 3))
+            out[self.nodal[0], 0] = 1.0
+            out[self.nodal[0], 1:] = p.T
+            if self.element == "argyris":
+                out[self.nodal[1], 1] = out[self.nodal[2], 2] = 1.0
+            d = p[:, facets[1]] - p[:, facets[0]]
+            normal = np.stack([d[1], -d[0]]) / np.hypot(d[0], d[1])
+            sign = np.sign(np.einsum("fc,cf->f", projected[self.facet_dofs], normal))
+            out[self.facet_dofs, 1:] = (sign * normal).T
+            error = np.abs(projected - out[:, 1:]).max() / np.abs(p).max()
+            if error > 1e-5:
+                raise RuntimeError(f"plate rigid motions: projection differs by {error:.1e}")
+            self._linear = out
+        return self._linear
+
+    def rigid_motion(self, centre_m: np.ndarray) -> np.ndarray:
+        """(n_dof, 6): the deflection w of unit rigid motions; a plate has no DOFs for the
+        translations along x, y and the rotation about z (zero columns)."""
+        ones, x, y = self.linear_dofs().T
+        xc, yc = float(centre_m[0]), float(centre_m[1])
+        out = np.zeros((ones.size, 6))
+        out[:, 2] = ones  # translation along z
+        out[:, 3] = y - yc * ones  # rotation about x: w = (y - yc)
+        out[:, 4] = -(x - xc * ones)  # rotation about y: w = -(x - xc)
+        return out
+
+    def surface_frame(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray]:
+        """(point (3,) on the mid-surface above (x, y), unit normal (3,)), m."""
+        return np.array([x, y, self.z0]), np.array([0.0, 0.0, 1.0])
+
+    def stress_operator(self) -> tuple[np.ndarray, sp.csr_matrix]:
+        """Stress at the top surface of every element centroid per unit DOF (module
+        docstring): points (E, 3) m, sparse (6 E, n_dof) Pa."""
+        centroid = skfem.Basis(
+            self.mesh, self.elem, quadrature=(np.array([[1 / 3], [1 / 3]]), np.array([0.5]))
+        )
+        mat, h = self.material, self.thickness_m
+        scale = -(h / 2) * mat.E_pa / (1 - mat.nu**2)
+        nu = mat.nu
+        n_el = self.mesh.t.shape[1]
+        hess = np.array([field[0].hess[..., 0] for field in centroid.basis])  # (nb, 2, 2, E)
+        voigt = np.zeros((hess.shape[0], 6, n_el))
+        voigt[:, 0] = scale * (hess[:, 0, 0] + nu * hess[:, 1, 1])
+        voigt[:, 1] = scale * (hess[:, 1, 1] + nu * hess[:, 0, 0])
+        voigt[:, 5] = scale * (1 - nu) * hess[:, 0, 1]
+        rows = 6 * np.arange(n_el)[None, None, :] + np.arange(6)[None, :, None]
+        cols = np.broadcast_to(centroid.element_dofs[:, None, :], voigt.shape)
+        operator = sp.csr_matrix(
+            (voigt.ravel(), (np.broadcast_to(rows, voigt.shape).ravel(), cols.ravel())),
+            shape=(6 * n_el, centroid.N),
+        )
+        xy = self.mesh.p[:, self.mesh.t].mean(axis=1).T
+        points = np.column_stack([xy, np.full(n_el, self.z0 + h / 2)])
+        return points, operator
 
 
 class PlateMeshDofs:
     """The plate's DOF numbering as supports see it (fem.supports.PlateDofs): scikit-fem
-    mesh, element name, ``nodal`` (rows u [, u_x, u_y, u_xx, u_xy, u_yy], N vertices) and
-    ``facet_dofs`` (normal slope u_n per edge)."""
+    mesh, element name, ``nodal`` (rows u [, u_x, u_y, u_xx, u_xy, u_yy], N vertices),
+    ``facet_dofs`` (normal slope u_n per edge) and the plate's outputs (rigid motions)."""
 
-    def __init__(self, mesh: skfem.MeshTri, element: str, nodal, facet_dofs) -> None:
+    def __init__(
+        self, mesh: skfem.MeshTri, element: str, nodal, facet_dofs, outputs: PlateOutputs
+    ) -> None:
         self.mesh, self.element = mesh, element
         self.nodal, self.facet_dofs = nodal, facet_dofs
+        self.outputs = outputs
 
     @property
     def centroids_xy(self) -> np.ndarray:
@@ -114,15 +204,33 @@ class PlateMeshDofs:
         p = self.mesh.p
         return int(np.argmin(np.hypot(p[0] - x, p[1] - y)))
 
+    def _element_dofs(self, held: np.ndarray) -> np.ndarray:
+        """Deflection and slopes at the vertices of the elements of the mask ``held`` (E,)
+        (not the second derivatives of Argyris), normal slopes on their edges."""
+        vertices = np.unique(self.mesh.t[:, held])
+        rows = (0, 1, 2) if self.element == "argyris" else (0,)
+        dofs = [self.nodal[r, vertices] for r in rows]
+        dofs.append(self.facet_dofs[np.unique(self.mesh.t2f[:, held])])
+        return np.concatenate(dofs)
+
     def clamp_elements(self, held: np.ndarray) -> Constraints:
         """Clamp the elements of the mask ``held`` (E,): deflection and slopes at their
         vertices (second derivatives of Argyris are left free, which would over-constrain the
         boundary of the region), normal slopes on their edges."""
-        vertices = np.unique(self.mesh.t[:, held])
-        rows = (0, 1, 2) if self.element == "argyris" else (0,)
-        fixed = [self.nodal[r, vertices] for r in rows]
-        fixed.append(self.facet_dofs[np.unique(self.mesh.t2f[:, held])])
-        return Constraints(fixed=np.concatenate(fixed))
+        return Constraints(fixed=self._element_dofs(held))
+
+    def spring_elements(
+        self, held: np.ndarray, centre_xy: tuple[float, float], axial_n_m: float, tilt_nm_rad: float
+    ) -> Constraints:
+        """Tie the DOFs :meth:`clamp_elements` would hold to a rigid pad (deflection and two
+        tilts about ``centre_xy``) on an axial spring (N/m) and two tilt springs (N m/rad)."""
+        dofs = self._element_dofs(held)
+        centre = np.array([centre_xy[0], centre_xy[1], 0.0])
+        motions = self.outputs.rigid_motion(centre)[dofs][:, [2, 3, 4]]
+        frame = np.eye(6)[:, [2, 3, 4]]
+        stiffness = np.array([axial_n_m, tilt_nm_rad, tilt_nm_rad], dtype=np.float64)
+        centre[2] = self.outputs.z0
+        return Constraints(springs=[Spring(dofs, motions, stiffness, frame, centre)])
 
     def pin_vertices(self, vertices) -> Constraints:
         """Hold the deflection (not the slopes) at ``vertices``."""

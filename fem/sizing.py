@@ -95,7 +95,7 @@ class _Level:
         start = time.perf_counter()
         self.part = part
         self.result: ModalResult = modal_analysis(part, supports, n_modes=n_modes, **options)
-        self.model: ModalModel = self.result.to_modal_model(points=None)
+        self.model: ModalModel = self.result.to_modal_model(points=None, outputs=False)
         self.wall_s = time.perf_counter() - start
         self.residual = TruncationResidual(self.result)
         self._q: dict[int, np.ndarray] = {}

@@ -6,19 +6,22 @@ so hexahedral node (layer l, surface node k) = l * Ns + k sits at S_k + (l - 1) 
 Stiffness and consistent mass use 3 x 3 x 3 Gauss points (full integration); the element
 matrices are computed for blocks of elements at once with einsum, with scikit-fem's
 ElementHex2 shape functions (its generic assembly of the same forms is ~20x slower).
-Displacements are reported at the mid-surface nodes (layer 1).
+Displacements are reported at the mid-surface nodes (layer 1). :class:`SolidOutputs` gives
+the rigid motions as nodal DOF vectors and the stress tensor at the centres of every
+element's bottom and top faces (the part's two surfaces).
 """
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 import skfem
 
 from fem.assembly import assemble
 from fem.mesh import SurfaceMesh
 from fem.sides import side_nodes
 from fem.supports import Support
-from fem.system import Constraints, FESystem, mesh_stats
+from fem.system import Constraints, FESystem, Spring, mesh_stats
 from jaxflex.errors import InputError
 
 FORMULATION = (
@@ -178,8 +181,10 @@ def assemble_solid(
     node_dofs = 3 * mid[:, None] + np.arange(3)
     lengths = np.linalg.norm(np.diff(surface.nodes[layer.edges], axis=1)[:, 0], axis=1)
     stats = mesh_stats("hexahedron27 (one layer)", len(layer.points), n_el, n_dof, lengths)
-    dofs = Hex2LayerDofs(layer, part)
-    constraints = Constraints.union(s.hold_solid(dofs, i) for i, s in enumerate(supports))
+    outputs = SolidOutputs(layer, part)
+    dofs = Hex2LayerDofs(layer, part, outputs)
+    held = [s.hold_solid(dofs, i) for i, s in enumerate(supports)]
+    constraints = Constraints.union(held)
     system = FESystem(
         K,
         M,
@@ -191,16 +196,86 @@ def assemble_solid(
         constraints,
         stats,
         FORMULATION,
+        outputs,
+        held,
     )
     return system, layer
+
+
+def _cross_columns(r: np.ndarray) -> np.ndarray:
+    """(N, 3, 3): column j is e_j x r for positions r (N, 3)."""
+    zero = np.zeros(len(r))
+    x, y, z = r.T
+    return np.stack(
+        [np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)],
+        axis=-1,
+    )
+
+
+class SolidOutputs:
+    """Rigid motions and surface stresses of the thin solid (fem.system.FormulationOutputs)."""
+
+    moves_in_plane = True
+
+    def __init__(self, layer: Hex2Layer, part) -> None:
+        self.layer, self.part = layer, part
+
+    def rigid_motion(self, centre_m: np.ndarray) -> np.ndarray:
+        """(n_dof, 6): u = t + theta x (x - centre) at every node, t and theta unit vectors."""
+        r = self.layer.points - np.asarray(centre_m, dtype=np.float64)
+        out = np.zeros((len(r), 3, 6))
+        out[:, :, :3] = np.eye(3)
+        out[:, :, 3:] = _cross_columns(r)
+        return out.reshape(-1, 6)
+
+    def surface_frame(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray]:
+        """(point (3,) on the mid-surface above (x, y), unit normal (3,)): the exact surface
+        point and the normal of the nearest mid-surface node."""
+        centre = self.part.surface_point([[x, y]])[0]
+        k = int(np.argmin(np.linalg.norm(self.layer.surface_points - centre, axis=1)))
+        return centre, self.layer.surface_normals[k].copy()
+
+    def stress_operator(self) -> tuple[np.ndarray, sp.csr_matrix]:
+        """Stress at the centres of the bottom and top faces of every element per unit DOF:
+        points (2 E, 3) m (element e: rows 2 e and 2 e + 1), sparse (12 E, n_dof) Pa."""
+        layer, mat = self.layer, self.part.material
+        elem = skfem.ElementHex2()
+        ref = np.array([[0.5, 0.5], [0.5, 0.5], [0.0, 1.0]])  # bottom and top face centres
+        values = np.array([elem.lbasis(ref, i)[0] for i in range(27)])  # (27, 2)
+        grads = np.array([elem.lbasis(ref, i)[1] for i in range(27)])  # (27, 3, 2)
+        coords = layer.points[layer.element_nodes]  # (E, 27, 3)
+        jac = np.einsum("eai,ajq->eqij", coords, grads)
+        grad = np.einsum("ajq,eqji->eqai", grads, np.linalg.inv(jac))  # dN_a/dx_i (E, 2, 27, 3)
+        lam, mu = mat.lame_lambda_pa, mat.shear_modulus_pa
+        n_el = coords.shape[0]
+        b = np.zeros((n_el, 2, 6, 27, 3))  # stress row, node, direction
+        for i in range(3):
+            b[:, :, i, :, i] += 2 * mu * grad[..., i]
+            for j in range(3):
+                b[:, :, j, :, i] += lam * grad[..., i]
+        for row, (i, j) in zip((3, 4, 5), ((1, 2), (0, 2), (0, 1)), strict=True):
+            b[:, :, row, :, i] += mu * grad[..., j]
+            b[:, :, row, :, j] += mu * grad[..., i]
+        rows = np.arange(12 * n_el).reshape(n_el, 2, 6)[..., None, None]
+        cols = 3 * layer.element_nodes[:, None, None, :, None] + np.arange(3)
+        shape = b.shape
+        operator = sp.csr_matrix(
+            (
+                b.ravel(),
+                (np.broadcast_to(rows, shape).ravel(), np.broadcast_to(cols, shape).ravel()),
+            ),
+            shape=(12 * n_el, 3 * len(layer.points)),
+        )
+        points = np.einsum("aq,eai->eqi", values, coords).reshape(-1, 3)
+        return points, operator
 
 
 class Hex2LayerDofs:
     """The thin solid's DOFs as supports see them (fem.supports.SolidDofs): DOF 3 n + i is
     direction i of hexahedral node n; a surface node stands for its three layers."""
 
-    def __init__(self, layer: Hex2Layer, part) -> None:
-        self.layer, self.part = layer, part
+    def __init__(self, layer: Hex2Layer, part, outputs: SolidOutputs) -> None:
+        self.layer, self.part, self.outputs = layer, part, outputs
 
     @property
     def surface_points(self) -> np.ndarray:
@@ -222,10 +297,30 @@ class Hex2LayerDofs:
         vertices and mid-nodes resolve the rim to half an element)."""
         return np.flatnonzero(self.distance_m(x, y, z) <= radius * (1 + 1e-9))
 
+    def _node_dofs(self, surface_nodes) -> np.ndarray:
+        hexnodes = self.layer.layers_of(surface_nodes)
+        return (3 * hexnodes[:, None] + np.arange(3)).ravel()
+
     def clamp_nodes(self, surface_nodes) -> Constraints:
         """Hold every displacement component through the thickness at ``surface_nodes``."""
-        hexnodes = self.layer.layers_of(surface_nodes)
-        return Constraints(fixed=(3 * hexnodes[:, None] + np.arange(3)).ravel())
+        return Constraints(fixed=self._node_dofs(surface_nodes))
+
+    def spring_nodes(self, surface_nodes, x: float, y: float, stiffness: np.ndarray) -> Constraints:
+        """Tie the nodes :meth:`clamp_nodes` would hold to a rigid pad at the surface point
+        above (x, y) on springs ``stiffness`` (6,) along and about the pad's local axes
+        (t1, t2, n): translations N/m, then rotations N m/rad; n is the surface normal."""
+        centre, normal = self.outputs.surface_frame(x, y)
+        t1 = np.array([1.0, 0.0, 0.0]) - normal[0] * normal
+        if np.linalg.norm(t1) < 0.1:
+            t1 = np.array([0.0, 1.0, 0.0]) - normal[1] * normal
+        t1 /= np.linalg.norm(t1)
+        axes = np.column_stack([t1, np.cross(normal, t1), normal])
+        frame = np.kron(np.eye(2), axes)  # (6, 6): local pad coordinates -> x, y, z
+        dofs = self._node_dofs(surface_nodes)
+        motions = self.outputs.rigid_motion(centre)[dofs] @ frame
+        return Constraints(
+            springs=[Spring(dofs, motions, np.asarray(stiffness, np.float64), frame, centre)]
+        )
 
     def pin_nodes(self, surface_nodes) -> Constraints:
         """A pinned point of a one-layer solid holds its nodes through the thickness (the

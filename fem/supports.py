@@ -5,7 +5,9 @@ surface above (or below) that footprint point, a cup at (x, y, z) on the surface
 nearest to it (its projection along the surface normal; the way to reach a flange that has
 no footprint). A suction cup clamps every node of its disc region rigidly (the disc is the
 set of surface points within ``radius`` of the cup centre, measured in 3-D on curved
-parts).
+parts), or, with a ``stiffness`` (fem.cups.CupStiffness), ties the disc to a rigid pad on
+springs: a compliant rubber cup instead of a rigid clamp. A cup also states what it can hold
+(:attr:`Support.cup_rating`), which the model records with its reactions (fem.outputs).
 Edge supports are for validation cases; ``side`` names a side of the footprint's bounding
 box ("x0": x = x_min, "x1": x = x_max, "y0", "y1") or "all" for the whole boundary.
 
@@ -29,8 +31,10 @@ from typing import ClassVar, NamedTuple, Protocol
 
 import numpy as np
 
+from fem.cups import DEFAULT_FRICTION, DEFAULT_VACUUM_PA, CupStiffness
 from fem.system import Constraints
 from jaxflex.errors import InputError
+from jaxflex.validation import check_positive
 
 SIDES = ("all", "x0", "x1", "y0", "y1")
 # a point given in space lands on the surface to rounding: this x the part's size is "on it"
@@ -66,6 +70,12 @@ class PlateDofs(Protocol):
         """Clamp the elements of the mask ``held`` (E,): deflection and slopes at their
         vertices, normal slopes on their edges."""
 
+    def spring_elements(
+        self, held: np.ndarray, centre_xy: tuple[float, float], axial_n_m: float, tilt_nm_rad: float
+    ) -> Constraints:
+        """Tie what :meth:`clamp_elements` holds to a rigid pad on an axial and two tilt
+        springs about ``centre_xy``."""
+
     def pin_vertices(self, vertices) -> Constraints:
         """Hold the deflection (not the slopes) at ``vertices``."""
 
@@ -100,6 +110,10 @@ class SolidDofs(Protocol):
     def pin_nodes(self, surface_nodes) -> Constraints:
         """Hold the displacement at ``surface_nodes`` (the shell: translations only; the
         one-layer solid: through the thickness, as clamp_nodes)."""
+
+    def spring_nodes(self, surface_nodes, x: float, y: float, stiffness) -> Constraints:
+        """Tie what :meth:`clamp_nodes` holds to a rigid pad at the surface point above
+        (x, y) on six springs (lateral, lateral, axial N/m; tilt, tilt, torsion N m/rad)."""
 
     def hold_side(self, side: str, *, clamped: bool) -> Constraints:
         """Clamp a side in SIDES, or simply support it (normal and along-edge displacement
@@ -160,6 +174,12 @@ class Support(ABC):
         supported edges), so the layout needs no three non-collinear anchors."""
         return False
 
+    @property
+    def cup_rating(self) -> CupRating | None:
+        """What the support can hold if it is a suction cup (its reactions are then recorded
+        in the model, fem.outputs), else None."""
+        return None
+
     def draw(self, ax) -> str | None:
         """Draw the support on the matplotlib axes of the footprint (m); return a caption for
         the title if it is not drawn (None if it is)."""
@@ -216,15 +236,33 @@ def _finite(owner: str, name: str, value: float) -> float:
     return x
 
 
+class CupRating(NamedTuple):
+    """What a suction cup holds: effective radius (m), holding force dp x A without safety
+    factor (N), friction coefficient between cup and part (fem.cups)."""
+
+    radius_m: float
+    holding_force_n: float
+    friction: float
+
+
 @dataclass(frozen=True)
 class SuctionCup(Support):
     """A vacuum suction cup at (x, y) m with contact radius ``radius`` m (default 40 mm); with
-    ``z`` (m) it sits on the surface point nearest to (x, y, z) (e.g. on a flange)."""
+    ``z`` (m) it sits on the surface point nearest to (x, y, z) (e.g. on a flange).
+
+    ``stiffness``: None (default) clamps the disc rigidly; a fem.cups.CupStiffness, a preset
+    ("flat", "bellows") or four numbers (axial N/m, lateral N/m, tilt N m/rad, torsion
+    N m/rad) make it compliant. ``vacuum_pa`` (pressure difference, default 60 kPa) and
+    ``friction`` (default 0.5, dry metal) give its rating (fem.cups).
+    """
 
     x: float
     y: float
     radius: float = 0.04
     z: float | None = None
+    stiffness: CupStiffness | str | tuple | None = None
+    vacuum_pa: float = DEFAULT_VACUUM_PA
+    friction: float = DEFAULT_FRICTION
     noun: ClassVar[str] = "cup"
 
     def __post_init__(self) -> None:
@@ -236,10 +274,27 @@ class SuctionCup(Support):
         if r <= 0:
             raise InputError(f"SuctionCup.radius: must be > 0 m, got {self.radius!r}")
         object.__setattr__(self, "radius", r)
+        object.__setattr__(self, "stiffness", CupStiffness.resolve(self.stiffness, r))
+        object.__setattr__(
+            self, "vacuum_pa", check_positive("SuctionCup.vacuum_pa", self.vacuum_pa)
+        )
+        object.__setattr__(self, "friction", check_positive("SuctionCup.friction", self.friction))
 
     def describe(self) -> dict:
-        out = {"type": "suction_cup", "x_m": self.x, "y_m": self.y, "radius_m": self.radius}
+        out = {
+            "type": "suction_cup",
+            "x_m": self.x,
+            "y_m": self.y,
+            "radius_m": self.radius,
+            "stiffness": None if self.stiffness is None else self.stiffness.as_dict(),
+            "vacuum_pa": self.vacuum_pa,
+            "friction": self.friction,
+        }
         return out if self.z is None else {**out, "z_m": self.z}
+
+    @property
+    def cup_rating(self) -> CupRating:
+        return CupRating(self.radius, self.vacuum_pa * math.pi * self.radius**2, self.friction)
 
     @property
     def anchor_xy(self) -> tuple[float, float]:
@@ -262,7 +317,10 @@ class SuctionCup(Support):
                 f"supports[{index}]: the cup at ({self.x:g}, {self.y:g}) m covers no element "
                 "centroid; use a smaller mesh_size"
             )
-        return plate.clamp_elements(held)
+        if self.stiffness is None:
+            return plate.clamp_elements(held)
+        k = self.stiffness
+        return plate.spring_elements(held, (self.x, self.y), k.axial_n_m, k.tilt_nm_rad)
 
     def hold_solid(self, solid: SolidDofs, index: int) -> Constraints:
         inside = solid.disc_nodes(self.x, self.y, self.z, self.radius)
@@ -271,7 +329,12 @@ class SuctionCup(Support):
                 f"supports[{index}]: the cup at ({self.x:g}, {self.y:g}) m contains no mesh "
                 "node; use a smaller mesh_size"
             )
-        return solid.clamp_nodes(inside)
+        if self.stiffness is None:
+            return solid.clamp_nodes(inside)
+        k = self.stiffness
+        springs = [k.lateral_n_m, k.lateral_n_m, k.axial_n_m]
+        springs += [k.tilt_nm_rad, k.tilt_nm_rad, k.torsion_nm_rad]
+        return solid.spring_nodes(inside, self.x, self.y, springs)
 
     def draw(self, ax) -> None:
         angle = np.linspace(0, 2 * np.pi, 65)

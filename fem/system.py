@@ -1,27 +1,47 @@
 """The assembled finite-element system shared by the plate and thin-solid formulations.
 
 Degrees of freedom (DOFs) are those of the formulation (plate: deflection and its
-derivatives; solid: x, y, z displacement per node). Supports remove DOFs (``fixed``) or
-hold displacement components along given directions at nodes (``directions``), which is
-expressed by a sparse basis T of the admissible displacements: u = T z.
+derivatives; solid: x, y, z displacement per node). Supports remove DOFs (``fixed``), hold
+displacement components along given directions at nodes (``directions``), or tie DOFs to a
+rigid pad on springs (``springs``: a compliant suction cup), which is expressed by a sparse
+basis T of the admissible displacements, u = T z, and the springs' stiffness on the pad
+coordinates among z (:meth:`Constraints.reduction`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
 
 
 @dataclass(eq=False)
+class Spring:
+    """DOFs ``dofs`` (n,) moving with r pad coordinates m as u[dofs] = ``shape`` (n, r) @ m,
+    the pad held to the gripper by springs of ``stiffness`` (r,) on m (N/m for translations,
+    N m/rad for rotations when the columns of ``shape`` are unit rigid motions). ``frame``
+    (6, r) maps the pad coordinates' reactions to (F_x, F_y, F_z, M_x, M_y, M_z) about
+    ``centre_m`` (3,): what the cup exerts on the part is -frame @ (stiffness * m)."""
+
+    dofs: np.ndarray
+    shape: np.ndarray
+    stiffness: np.ndarray
+    frame: np.ndarray
+    centre_m: np.ndarray
+
+
+@dataclass(eq=False)
 class Constraints:
-    """Held DOFs: ``fixed`` DOF indices, and ``directions``: node DOF triples (3,) with unit
-    vectors (k, 3) along which that node's displacement is held (k < 3)."""
+    """Held DOFs: ``fixed`` DOF indices, ``directions``: node DOF triples (3,) with unit
+    vectors (k, 3) along which that node's displacement is held (k < 3), and ``springs``:
+    DOFs tied to a pad on springs (:class:`Spring`)."""
 
     fixed: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     directions: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+    springs: list[Spring] = field(default_factory=list)
 
     @classmethod
     def union(cls, parts: Iterable[Constraints]) -> Constraints:
@@ -31,17 +51,30 @@ class Constraints:
         return cls(
             fixed=np.unique(np.concatenate(fixed)) if fixed else np.empty(0, dtype=np.int64),
             directions=[d for c in parts for d in c.directions],
+            springs=[s for c in parts for s in c.springs],
         )
 
     def basis(self, n_dof: int) -> sp.csc_matrix:
         """Sparse T (n_dof, n_free) whose columns span the admissible displacements."""
+        return self.reduction(n_dof)[0]
+
+    def pad_columns(self, n_dof: int) -> list[np.ndarray]:
+        """Per spring, the columns of T (entries of z) that are its pad coordinates."""
+        return self.reduction(n_dof)[2]
+
+    def reduction(self, n_dof: int) -> tuple[sp.csc_matrix, sp.csr_matrix, list[np.ndarray]]:
+        """(T (n_dof, n_free), the springs' stiffness on z (n_free, n_free), the pad columns
+        of every spring): u = T z, and the reduced stiffness is T^T K T + that matrix."""
         fixed = np.zeros(n_dof, dtype=bool)
         fixed[self.fixed] = True
+        tied = np.zeros(n_dof, dtype=bool)
+        for spring in self.springs:
+            tied[spring.dofs] = True
         rotated = np.zeros(n_dof, dtype=bool)
         for dofs, _ in self.directions:
             rotated[dofs] = True
-        rotated &= ~fixed
-        plain = np.flatnonzero(~fixed & ~rotated)
+        rotated &= ~fixed & ~tied
+        plain = np.flatnonzero(~fixed & ~rotated & ~tied)
         rows, cols, vals = [plain], [np.arange(plain.size)], [np.ones(plain.size)]
         col = plain.size
         for dofs, held in _merge_directions(self.directions):
@@ -55,10 +88,25 @@ class Constraints:
                 cols.append(np.full(3, col))
                 vals.append(vec)
                 col += 1
-        return sp.csc_matrix(
+        pads, stiffness = [], []
+        for spring in self.springs:
+            keep = ~fixed[spring.dofs]
+            n_pad = spring.shape.shape[1]
+            block = np.arange(col, col + n_pad)
+            rows.append(np.repeat(spring.dofs[keep], n_pad))
+            cols.append(np.tile(block, int(keep.sum())))
+            vals.append(spring.shape[keep].ravel())
+            pads.append(block)
+            stiffness.append(spring.stiffness)
+            col += n_pad
+        T = sp.csc_matrix(
             (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
             shape=(n_dof, col),
         )
+        where = np.concatenate(pads) if pads else np.zeros(0, dtype=np.int64)
+        k = np.concatenate(stiffness) if stiffness else np.zeros(0)
+        springs = sp.csr_matrix((k, (where, where)), shape=(col, col))
+        return T, springs, pads
 
 
 def _merge_directions(directions):
@@ -67,6 +115,24 @@ def _merge_directions(directions):
         merged.setdefault(tuple(int(d) for d in dofs), []).append(np.atleast_2d(held))
     for key, blocks in merged.items():
         yield np.array(key), np.concatenate(blocks)
+
+
+class FormulationOutputs(Protocol):
+    """What a formulation provides for the outputs beyond displacements (fem.outputs): unit
+    rigid motions as DOF vectors, and the surface stress as a linear map of the DOFs."""
+
+    @property
+    def moves_in_plane(self) -> bool:
+        """False for a Kirchhoff plate (no DOFs along x, y): the in-plane share of the cup
+        reactions is then that of a rigid part (fem.outputs)."""
+
+    def rigid_motion(self, centre_m: np.ndarray) -> np.ndarray:
+        """(n_dof, 6) DOF vectors of unit translations along x, y, z and unit rotations about
+        x, y, z through ``centre_m`` (3,) (zero columns for motions the DOFs cannot make)."""
+
+    def stress_operator(self) -> tuple[np.ndarray, sp.csr_matrix]:
+        """(points (S, 3) m, sparse (6 S, n_dof)): the stress tensor (Voigt xx, yy, zz, yz,
+        xz, xy; Pa) at S surface points per unit DOF."""
 
 
 @dataclass(eq=False)
@@ -83,6 +149,8 @@ class FESystem:
         cells: (C, c) connectivity of ``nodes`` for viewing, meshio type ``cell_type``.
         constraints: the supports as Constraints.
         stats: mesh statistics for the model metadata.
+        formulation: its description; outputs: its FormulationOutputs;
+        support_constraints: the Constraints of each support (in the supports' order).
     """
 
     K: sp.csr_matrix
@@ -95,6 +163,8 @@ class FESystem:
     constraints: Constraints
     stats: dict
     formulation: str
+    outputs: FormulationOutputs | None = None
+    support_constraints: list[Constraints] = field(default_factory=list)
 
     @property
     def n_dof(self) -> int:

@@ -34,7 +34,8 @@ class TransientResult:
     """Displacements of the full-order model at monitored points.
 
     t_s: (T,) output times in s; displacement_m: (T, K, 3) in m; points: (K, 3) m;
-    node_indices: (K,) reporting-node indices; dt_fine_s: integration step in s.
+    node_indices: (K,) reporting-node indices; dt_fine_s: integration step in s;
+    outputs: the requested fem.outputs.PhysicalOutputs at the output times, {name: (T, Y)}.
     """
 
     t_s: np.ndarray
@@ -45,6 +46,7 @@ class TransientResult:
     n_steps: int
     damping: Rayleigh
     timings_s: dict = field(default_factory=dict)
+    outputs: dict = field(default_factory=dict)
 
     @property
     def deviation_m(self) -> np.ndarray:
@@ -63,12 +65,14 @@ def transient_reference(
     substeps: int | None = None,
     extend_s: float = 0.0,
     output_substeps: int = 1,
+    outputs: dict | None = None,
     progress: bool | None = None,
 ) -> TransientResult:
     """Integrate the full FE model of ``result`` under base acceleration ``acc`` (n+1, 3) m/s^2
     sampled every ``dt_s`` s (then ``extend_s`` s at rest) and report displacements at
     ``points`` (same meaning as ModalResult.to_modal_model) ``output_substeps`` times per
-    sample interval.
+    sample interval, and the ``outputs`` ({name: fem.outputs.PhysicalOutputs}: cup
+    reactions, stresses) from the full state (z, z', z'', a).
 
     ``damping`` must be Rayleigh (default: the analysis' damping if it is one). ``substeps``
     (fine steps per dt) defaults to omega h <= 0.05 for the 10th mode of ``result``.
@@ -115,6 +119,16 @@ def transient_reference(
     a = np.zeros_like(u) if at_rest else factorize(M).solve(-load @ acc_fine[0])
     every = substeps // int(output_substeps)
     out = [observe @ u]
+    outputs = dict(outputs or {})
+    recorded = {name: [] for name in outputs}
+
+    def record(k: int) -> None:
+        for name, spec in outputs.items():
+            recorded[name].append(
+                spec.full_order(u[None], v[None], a[None], acc_fine[k][None], damping)[0]
+            )
+
+    record(0)
     setup_s = time.perf_counter() - start
     tick = time.perf_counter()
     with progress_bar(
@@ -130,10 +144,12 @@ def transient_reference(
             u, a = u_new, a_new
             if k % every == 0:
                 out.append(observe @ u)
+                record(k)
             if k % 256 == 0 or k == n_fine:
                 bar.update(k - bar.n)
     displacement = np.array(out).reshape(len(out), len(idx), 3)
     t_out = np.arange(len(out)) * h * every
+    recorded = {name: np.array(values) for name, values in recorded.items()}
     return TransientResult(
         t_s=t_out,
         displacement_m=displacement,
@@ -143,6 +159,7 @@ def transient_reference(
         n_steps=n_fine,
         damping=damping,
         timings_s={"setup_s": setup_s, "integration_s": time.perf_counter() - tick},
+        outputs=recorded,
     )
 
 

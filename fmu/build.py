@@ -15,7 +15,7 @@ import fmpy
 from jaxflex.errors import JaxflexError
 
 C_DIR = Path(__file__).resolve().parent / "c"
-CORE_FILES = ("jxf_core.h", "jxf_text.h", "jxf_core.c", "jxf_values.c")
+CORE_FILES = ("jxf_core.h", "jxf_text.h", "jxf_core.c", "jxf_values.c", "jxf_cell.c")
 GLUE_FILE = {2: "jxf_fmi2.c", 3: "jxf_fmi3.c"}
 CFLAGS = ("-std=c99", "-O2", "-fvisibility=hidden", "-Wall", "-Wextra")
 WINDOWS_COMPILER = "x86_64-w64-mingw32-gcc"

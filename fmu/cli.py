@@ -13,6 +13,7 @@ from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.export import export_fmu
 from fmu.ssp import export_ssp
 from fmu.verify import verify
+from jaxflex.cell import load_cell
 from jaxflex.errors import InputError
 from jaxflex.fileset import read_set
 from jaxflex.trajectory_io import read_trajectory_csv
@@ -72,6 +73,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=("auto", "yes", "no"),
         default="auto",
         help="also build the Windows DLLs: auto = when mingw-w64 is installed (default)",
+    )
+    parser.add_argument(
+        "--cell",
+        default=None,
+        metavar="FILE",
+        help="robot cell (.toml or .json): the part is posed in it (inputs and the trajectory "
+        "in cell coordinates) and the FMU reports the distance to its obstacles",
+    )
+    parser.add_argument(
+        "--cup-safety",
+        type=float,
+        default=1.5,
+        metavar="S",
+        help="safety factor of the cup utilisation outputs (models with cup reactions; "
+        "default 1.5)",
+    )
+    parser.add_argument(
+        "--stress",
+        action="store_true",
+        help="also output the von Mises stress (max_stress; FMI 3.0 point_stresses)",
     )
     parser.add_argument(
         "--no-verify",
@@ -134,12 +155,20 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows) -> int:
         damping_scale=args.damping_scale,
         model_name=args.name,
         windows=windows,
+        cell=None if args.cell is None else load_cell(args.cell),
+        cup_safety=args.cup_safety,
+        stress=args.stress,
     )
     print(
         f"wrote {result.fmu_path}: FMI {result.fmi_version}.0 co-simulation, "
         f"{result.n_points} points, {result.n_modes} modes, resource "
         f"{result.resource_bytes / 1e6:.2f} MB"
     )
+    if result.n_cups or result.n_stress or result.n_obstacles:
+        print(
+            f"cell outputs: {result.n_cups} cups, {result.n_stress} stress points, "
+            f"{result.n_obstacles} obstacle records"
+        )
     _print_binaries(result.fmu_path.name, result.platforms, result.skipped)
     if result.case is not None:
         print(
@@ -194,6 +223,8 @@ def run(args: argparse.Namespace) -> int:
             check_output_file(option, value)
     if args.ssp and not args.trajectory:
         raise InputError("--ssp: the package plays a move; give --trajectory as well")
+    if args.ssp and (args.cell or args.stress):
+        raise InputError("--cell / --stress: only for the FMU (-o), not for the SSP package")
     model = jaxflex.load_model(args.model)
     trajectory, case = None, None
     if args.trajectory:

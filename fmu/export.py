@@ -26,10 +26,12 @@ from fmu.archive import zip_folder
 from fmu.build import C_DIR as _C_DIR
 from fmu.build import BuildReport, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
-from fmu.resource import encode_resource
+from fmu.resource import CellData, encode_resource, obstacle_records
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
 from jaxflex.atomic import write_text_atomic
+from jaxflex.cell import DEFAULT_GRAVITY_M_S2, Cell
 from jaxflex.errors import InputError
+from jaxflex.loads import DEFAULT_CUP_SAFETY
 from jaxflex.model import ModalModel
 from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
@@ -60,6 +62,9 @@ class ExportResult:
     input_csv: Path | None = None
     case_json: Path | None = None
     case: dict[str, Any] | None = None
+    n_cups: int = 0
+    n_stress: int = 0
+    n_obstacles: int = 0
 
 
 def model_identifier(path: Path) -> str:
@@ -179,6 +184,9 @@ def export_fmu(
     model_name: str | None = None,
     description: str | None = None,
     windows: bool | None = None,
+    cell: Cell | None = None,
+    cup_safety: float = DEFAULT_CUP_SAFETY,
+    stress: bool = False,
 ) -> ExportResult:
     """Write ``model`` as an FMI 2.0 or 3.0 co-simulation FMU at ``path`` (atomically).
 
@@ -195,10 +203,31 @@ def export_fmu(
         damping_scale: start value of the ``damping_scale`` parameter.
         model_name, description: text for modelDescription.xml.
         windows: build the Windows DLL too: None = when mingw-w64 is installed, True = must.
+        cell: a jaxflex.cell.Cell: the model is posed in it (inputs and points in cell
+            coordinates, the trajectory too) and the FMU reports the distance to its
+            obstacles (``min_distance``; FMI 3.0 also ``point_distances``).
+        cup_safety: safety factor of the cup utilisation outputs (``cup_utilisation``; FMI 3.0
+            also ``cup_utilisations``), present when the model has cup reactions.
+        stress: also the von Mises outputs (``max_stress``; FMI 3.0 ``point_stresses``; the
+            stress maps can make the resource large: 1.9 kB per stress point at 20 modes).
     """
     path, threshold_m, damping_scale = _check_arguments(
         model, path, fmi_version, threshold_m, damping_scale
     )
+    if cell is not None:
+        model = cell.posed(model)
+    if stress and model.stress is None:
+        raise InputError("stress: the model has no stresses (make it with fem of this version)")
+    cell_data = CellData(
+        DEFAULT_GRAVITY_M_S2 if cell is None else cell.gravity_m_s2,
+        check_positive("cup_safety", cup_safety),
+        obstacle_records(() if cell is None else cell.obstacles),
+        cups=model.cups is not None,
+        stress=stress,
+    )
+    n_cups = model.cups.n_cups if model.cups is not None else 0
+    n_stress = model.stress.n_points if stress else 0
+    n_obstacles = len(cell_data.obstacles)
     acc, dt_s = _check_trajectory(trajectory)
     if case is not None and acc is None:
         raise InputError("case: describes a trajectory, so it needs trajectory=(acc, dt_s)")
@@ -224,6 +253,9 @@ def export_fmu(
         start_time_s=0.0,
         stop_time_s=_stop_time(acc, dt_s, summary),
         step_s=dt_s or DEFAULT_STEP_S,
+        n_cups=n_cups,
+        n_stress=n_stress,
+        n_obstacles=n_obstacles,
     )
     config = config_header(
         fmi_version=fmi_version,
@@ -233,8 +265,11 @@ def export_fmu(
         n_trajectory=n_traj,
         threshold_m=threshold_m,
         damping_scale=damping_scale,
+        n_cups=n_cups,
+        n_stress=n_stress,
+        n_obstacles=n_obstacles,
     )
-    resource = encode_resource(model, token, acc, dt_s)
+    resource = encode_resource(model, token, acc, dt_s, cell_data)
     with tempfile.TemporaryDirectory(prefix="jaxflex_fmu_") as tmp:
         stage = Path(tmp) / "fmu"
         _stage(stage, fmi_version, ident, config, model_description(desc), resource)
@@ -261,6 +296,9 @@ def export_fmu(
         n_modes=model.n_modes,
         n_trajectory=n_traj,
         resource_bytes=len(resource),
+        n_cups=n_cups,
+        n_stress=n_stress,
+        n_obstacles=n_obstacles,
         platforms=tuple(built.platforms),
         skipped=dict(built.skipped),
         compiler_messages=built.messages,

@@ -133,15 +133,15 @@ class Session:
             s.setFloat64([var.valueReference], [float(value)])
 
     def get(self, name: str) -> Any:
-        """A scalar output or parameter, or a (K, 3) array (FMI 3.0 point coordinates)."""
+        """A scalar output or parameter, or an array of its declared dimensions (FMI 3.0)."""
         var, s = self.variables[name], self._slave
         if var.type == "Boolean":
             return bool(s.getBoolean([var.valueReference])[0])
         if self.fmi_version == 2:
             return s.getReal([var.valueReference])[0]
         if var.dimensions:
-            n = int(np.prod([int(d.start) for d in var.dimensions]))
-            return np.asarray(s.getFloat64([var.valueReference], n)).reshape(-1, 3)
+            dims = [int(d.start) for d in var.dimensions]
+            return np.asarray(s.getFloat64([var.valueReference], int(np.prod(dims)))).reshape(dims)
         return s.getFloat64([var.valueReference])[0]
 
     def set_inputs(self, acc, rate=None) -> None:

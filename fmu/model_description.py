@@ -8,14 +8,19 @@ from datetime import UTC, datetime
 
 import jaxflex
 from fmu.build import sources_for
-from fmu.variables import Variable, input_description, variables_for
+from fmu.variables import Variable, available_data, input_description, variables_for
 
 LOG_CATEGORIES = (
     ("logStatusError", "Errors: bad inputs or parameters, missing or corrupt resources"),
     ("logStatusWarning", "Warnings: inconsistent communication points"),
     ("logAll", "Debug messages: resource loading, recomputed step matrices"),
 )
-_UNITS = {"m": {"m": "1"}, "s": {"s": "1"}, "m/s2": {"m": "1", "s": "-2"}}
+_UNITS = {
+    "m": {"m": "1"},
+    "s": {"s": "1"},
+    "m/s2": {"m": "1", "s": "-2"},
+    "Pa": {"kg": "1", "m": "-1", "s": "-2"},
+}
 
 
 @dataclass(frozen=True)
@@ -36,6 +41,15 @@ class Description:
     start_time_s: float
     stop_time_s: float
     step_s: float
+    n_cups: int = 0
+    n_stress: int = 0
+    n_obstacles: int = 0
+
+    def size(self, dim) -> int:
+        """The size of an array dimension of fmu.variables."""
+        if isinstance(dim, int):
+            return dim
+        return {"points": self.n_points, "cups": self.n_cups, "stress_points": self.n_stress}[dim]
 
 
 def _c_files(fmi_version: int) -> list[str]:
@@ -190,9 +204,8 @@ def _fmi3(d: Description, variables: list[Variable]) -> ET.Element:
         attrs = _variable_attributes(v, d)
         attrs.update(_value_attributes(v, d))
         el = ET.SubElement(mv, "Float64" if v.kind == "real" else "Boolean", attrs)
-        if v.array:
-            ET.SubElement(el, "Dimension", start=str(d.n_points))
-            ET.SubElement(el, "Dimension", start="3")
+        for dim in v.dims:
+            ET.SubElement(el, "Dimension", start=str(d.size(dim)))
     ms = ET.SubElement(root, "ModelStructure")
     outputs = [v for v in variables if v.causality == "output"]
     for v in outputs:  # no direct feedthrough: outputs depend on the state only
@@ -210,7 +223,8 @@ def _to_text(root: ET.Element) -> str:
 
 def model_description(d: Description) -> str:
     """modelDescription.xml text for the FMI version in ``d``."""
-    variables = variables_for(d.fmi_version, d.n_trajectory > 0)
+    available = available_data(d.n_cups, d.n_stress, d.n_obstacles)
+    variables = variables_for(d.fmi_version, d.n_trajectory > 0, available)
     build = _fmi2 if d.fmi_version == 2 else _fmi3
     return _to_text(build(d, variables))
 

@@ -33,7 +33,9 @@ class Variable:
     """One FMU variable. ``kind`` is "real" (fmi2 Real / fmi3 Float64) or "bool".
 
     ``fmi`` lists the FMI major versions that have it; ``needs_trajectory`` marks variables
-    that exist only when a trajectory is embedded; ``array`` marks the K x 3 arrays (FMI 3).
+    that exist only when a trajectory is embedded, ``needs`` those that exist only when the
+    model has "cups", "stress" or "obstacles" (the cell); ``dims`` gives an array's
+    dimensions (FMI 3): "points", "cups", "stress_points" or a number.
     """
 
     name: str
@@ -47,7 +49,12 @@ class Variable:
     macro: str
     fmi: tuple[int, ...] = (2, 3)
     needs_trajectory: bool = False
-    array: bool = False
+    dims: tuple = ()
+    needs: str | None = None
+
+    @property
+    def array(self) -> bool:
+        return bool(self.dims)
 
 
 def _input(axis: str, vr: int) -> Variable:
@@ -110,24 +117,75 @@ VARIABLES: tuple[Variable, ...] = (
     Variable(
         "displaced_points", 30, "real", "output", "continuous", "calculated", "m",
         "Displaced coordinates of the monitored points (undeformed + deviation), K x 3, m",
-        "DISPLACED_POINTS", fmi=(3,), array=True,
+        "DISPLACED_POINTS", fmi=(3,), dims=("points", 3),
     ),
     Variable(
         "undeformed_points", 31, "real", "calculatedParameter", "fixed", "calculated", "m",
         "Undeformed coordinates of the monitored points, K x 3, m",
-        "POINTS", fmi=(3,), array=True,
+        "POINTS", fmi=(3,), dims=("points", 3),
+    ),
+    Variable(
+        "min_distance", 14, "real", "output", "continuous", "calculated", "m",
+        "Smallest distance of a monitored point (path + gravity deflection + deviation) to an "
+        "obstacle of the cell at the communication point, m (negative: inside)",
+        "MIN_DISTANCE", needs="obstacles",
+    ),
+    Variable(
+        "cup_utilisation", 15, "real", "output", "continuous", "calculated", None,
+        "Largest utilisation of a suction cup (pull, shear, peel and torsion against its "
+        "holding force with the safety factor; 1 = at its limit) at the communication point",
+        "CUP_UTILISATION", needs="cups",
+    ),
+    Variable(
+        "max_stress", 16, "real", "output", "continuous", "calculated", "Pa",
+        "Largest von Mises stress at the part's surface (with gravity) at the communication "
+        "point, Pa",
+        "MAX_STRESS", needs="stress",
+    ),
+    Variable(
+        "point_distances", 32, "real", "output", "continuous", "calculated", "m",
+        "Distance of every monitored point to the nearest obstacle, K values, m",
+        "POINT_DISTANCES", fmi=(3,), dims=("points",), needs="obstacles",
+    ),
+    Variable(
+        "cup_utilisations", 33, "real", "output", "continuous", "calculated", None,
+        "Utilisation of every suction cup, C values",
+        "CUP_UTILISATIONS", fmi=(3,), dims=("cups",), needs="cups",
+    ),
+    Variable(
+        "point_stresses", 34, "real", "output", "continuous", "calculated", "Pa",
+        "Von Mises stress at every stress point of the part's surface, S values, Pa",
+        "POINT_STRESSES", fmi=(3,), dims=("stress_points",), needs="stress",
     ),
 )  # fmt: skip
+# array dimensions: name -> the C macro of its size (jxf_config.h)
+DIMENSION_MACROS = {"points": "JXF_N_POINTS", "cups": "JXF_N_CUPS", "stress_points": "JXF_N_STRESS"}
 
 
 _C_TYPE = {"real": "double", "bool": "int"}
 
 
-def variables_for(fmi_version: int, has_trajectory: bool) -> list[Variable]:
-    """The variables of one FMU, in modelDescription order."""
+def variables_for(
+    fmi_version: int, has_trajectory: bool, available: frozenset[str] = frozenset()
+) -> list[Variable]:
+    """The variables of one FMU, in modelDescription order; ``available``: which of "cups",
+    "stress", "obstacles" the exported model has."""
     return [
-        v for v in VARIABLES if fmi_version in v.fmi and (has_trajectory or not v.needs_trajectory)
+        v
+        for v in VARIABLES
+        if fmi_version in v.fmi
+        and (has_trajectory or not v.needs_trajectory)
+        and (v.needs is None or v.needs in available)
     ]
+
+
+def array_size(v: Variable) -> str:
+    """The C expression of the number of values of ``v`` (1 for scalars)."""
+    if not v.dims:
+        return "1u"
+    return " * ".join(
+        f"{d}u" if isinstance(d, int) else f"(size_t){DIMENSION_MACROS[d]}" for d in v.dims
+    )
 
 
 def input_description(fmi_version: int) -> str:
@@ -144,12 +202,16 @@ def config_header(
     n_trajectory: int,
     threshold_m: float,
     damping_scale: float,
+    n_cups: int = 0,
+    n_stress: int = 0,
+    n_obstacles: int = 0,
 ) -> str:
     """``jxf_config.h`` for one export: sizes, token, start values and value references,
     the same numbers that modelDescription.xml declares."""
     if not all(math.isfinite(x) for x in (threshold_m, damping_scale)):
         raise ValueError("start values must be finite")
-    variables = variables_for(fmi_version, n_trajectory > 0)
+    available = available_data(n_cups, n_stress, n_obstacles)
+    variables = variables_for(fmi_version, n_trajectory > 0, available)
     lines = [
         "/* Generated by jaxflex (fmu.variables): must match modelDescription.xml. */",
         "#ifndef JXF_CONFIG_H",
@@ -160,6 +222,9 @@ def config_header(
         f"#define JXF_N_POINTS {int(n_points)}",
         f"#define JXF_N_MODES {int(n_modes)}",
         f"#define JXF_N_TRAJ {int(n_trajectory)}",
+        f"#define JXF_N_CUPS {int(n_cups)}",
+        f"#define JXF_N_STRESS {int(n_stress)}",
+        f"#define JXF_N_OBSTACLES {int(n_obstacles)}",
         f"#define JXF_START_THRESHOLD {float(threshold_m)!r}",
         f"#define JXF_START_DAMPING_SCALE {float(damping_scale)!r}",
     ]
@@ -175,7 +240,7 @@ def config_header(
         for v in variables
     ]
     reals = ", ".join(
-        f"{{JXF_VR_{v.macro}, {'3u * JXF_N_POINTS' if v.array else '1u'}, {value_function(v)}}}"
+        f"{{JXF_VR_{v.macro}, {array_size(v)}, {value_function(v)}}}"
         for v in variables
         if v.kind == "real"
     )
@@ -185,6 +250,15 @@ def config_header(
     lines += [f"#define JXF_REAL_VALUES {{{reals}}}", f"#define JXF_BOOL_VALUES {{{bools}}}"]
     lines += ["#endif", ""]
     return "\n".join(lines)
+
+
+def available_data(n_cups: int, n_stress: int, n_obstacles: int) -> frozenset[str]:
+    """Which optional groups of variables an export has."""
+    return frozenset(
+        name
+        for name, count in (("cups", n_cups), ("stress", n_stress), ("obstacles", n_obstacles))
+        if count > 0
+    )
 
 
 def value_function(v: Variable) -> str:

@@ -19,6 +19,8 @@ VJP, O(T M)). Memory: O(T nB) for the bounds, nB = K / BLOCK_POINTS, plus one ba
 :func:`max_norms` is the NumPy entry to the same evaluation (for code that is not traced);
 :func:`point_norms`, :func:`point_displacements` and :func:`deviation_curves` are NumPy
 forms for the places that need every point's value (reports, subset reductions).
+:func:`outputs_at` evaluates the other outputs linear in the modal state (cup reactions,
+stresses: jaxflex.outputs) exactly at any time.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ import numpy as np
 
 from jaxflex.blocks import PointBlocks, point_blocks
 from jaxflex.engine import PAD_STEPS, padded_steps, states_at
+from jaxflex.profile import acceleration_at
 
 CHUNK_POINTS = 1024  # points per matrix product in the blocked NumPy evaluation
 UNIT_STEPS = 32  # steps evaluated together for one block
@@ -269,3 +272,12 @@ def deviation_curve(
     t = np.concatenate([t_move, n_steps * dt_s + h * np.arange(after)])
     q = states_at(model, acc, dt_s, t)[..., 0]
     return t, max_norms(blocks_of(model), q)[0]
+
+
+def outputs_at(model, outputs, acc, dt_s: float, t_s, offset=None) -> np.ndarray:
+    """(T, Y) exact values of ``outputs`` (jaxflex.outputs.LinearOutputs of ``model``) at
+    times ``t_s`` (T,) s during the move ``acc`` ((n+1, 3) m/s^2, at rest at its end) and
+    after it, plus the constant ``offset`` (Y,) (e.g. the share of gravity)."""
+    t = np.asarray(t_s, dtype=np.float64)
+    values = outputs.values(states_at(model, acc, dt_s, t), acceleration_at(acc, dt_s, t))
+    return values if offset is None else values + offset

@@ -161,6 +161,33 @@ def state_map(model, n_steps: int, dt_s: float, substeps: int) -> np.ndarray:
     return np.concatenate([q.reshape(n * substeps, m, n + 1), at_end], axis=0)
 
 
+def state_maps_at(model, n_steps: int, dt_s: float, t_s) -> np.ndarray:
+    """(T, M, 2, n+1, 3) map X with x(t)[i, :] = sum_{k, c} X[t, i, :, k, c] a[k, c]: the
+    modal state (q, q') at any times ``t_s`` (T,) >= 0 s of an n-step move (samples a, first-
+    order hold) and of the free vibration after it, as a linear function of the samples.
+    NumPy; cost O(T n M) (for the few times where the optimiser adds rows)."""
+    t_s = np.atleast_1d(np.asarray(t_s, dtype=np.float64))
+    gamma = np.asarray(model.gamma)
+    out = np.zeros((t_s.size, model.n_modes, 2, n_steps + 1, 3))
+    end = end_state_map(model, n_steps, dt_s)
+    t_end = n_steps * dt_s
+    for j, t in enumerate(t_s):
+        if t >= t_end:
+            phi = free_propagators(model, np.array([t - t_end]), np).phi[0]  # (M, 2, 2)
+            out[j] = np.einsum("mab,mbkc->makc", phi, end)
+            continue
+        k = min(int(np.floor(t / dt_s)), n_steps - 1)
+        tau = t - k * dt_s
+        out[j, :, :, : k + 1] = end_state_map(model, k, dt_s) if k > 0 else 0.0
+        prop = propagators(model.omega, model.zeta, tau, np)  # entries (M, ...)
+        out[j] = np.einsum("mab,mbkc->makc", prop.phi, out[j])
+        ramp = (tau * prop.j0 - prop.j1) / dt_s  # (M, 2), per unit slope of the force
+        here = prop.j0 - ramp  # coefficient of f_k
+        out[j, :, :, k] -= here[:, :, None] * gamma[:, None, :]
+        out[j, :, :, k + 1] -= ramp[:, :, None] * gamma[:, None, :]
+    return out
+
+
 def padded_steps(n_steps: int, block: int = PAD_STEPS) -> int:
     """``n_steps`` rounded up to a whole number of ``block`` steps (at least one block)."""
     return block * max(1, -(-int(n_steps) // block))

@@ -23,6 +23,18 @@ import numpy as np
 
 from jaxflex.errors import ModelError
 from jaxflex.model_file import ARRAY_FIELDS, VALUE_RANGES, read_model_file, write_model_file
+from jaxflex.outputs import (
+    CupSet,
+    StressSet,
+    checked_cups,
+    checked_stress,
+    cups_from_fields,
+    cups_to_fields,
+    stress_from_fields,
+    stress_to_fields,
+)
+
+OUTPUT_FIELDS = ("cups", "stress")  # optional pytree children after ARRAY_FIELDS
 
 
 class _Annotations:
@@ -90,6 +102,8 @@ class ModalModel:
         points: (K, 3) undeformed point coordinates in m.
         labels: optional K point labels (e.g. "weld_3"); empty strings for unlabelled points.
         meta: free JSON-serialisable description (source, material, gripper, mesh).
+        cups: optional jaxflex.outputs.CupSet (the suction cups and their reactions).
+        stress: optional jaxflex.outputs.StressSet (surface stresses).
 
     Construction from concrete arrays validates every field and raises ModelError naming
     the field. Inside ``jax.jit``/``jax.vmap`` the model is a pytree and is not re-validated.
@@ -102,9 +116,13 @@ class ModalModel:
     points: Any
     labels: tuple[str, ...] | None = None
     meta: Mapping[str, Any] = field(default_factory=dict)
+    cups: CupSet | None = None
+    stress: StressSet | None = None
 
     def __post_init__(self) -> None:
-        leaves = (self.freq_hz, self.zeta, self.gamma, self.shapes, self.points)
+        leaves = jax.tree_util.tree_leaves(
+            (self.freq_hz, self.zeta, self.gamma, self.shapes, self.points, self.cups, self.stress)
+        )
         if not all(_is_concrete(x) for x in leaves):
             return
         freq = _as_float_array("freq_hz", self.freq_hz, 1)
@@ -155,18 +173,33 @@ class ModalModel:
             json.dumps(meta)
         except TypeError as exc:
             raise ModelError(f"ModalModel.meta: must be JSON-serialisable ({exc})") from exc
+        for name, kind, check in (
+            ("cups", CupSet, checked_cups),
+            ("stress", StressSet, checked_stress),
+        ):
+            value = getattr(self, name)
+            if value is not None:
+                if not isinstance(value, kind):
+                    raise ModelError(
+                        f"ModalModel.{name}: expected jaxflex.outputs.{kind.__name__} or None, "
+                        f"got {type(value).__name__}"
+                    )
+                object.__setattr__(self, name, check(value, n_modes))
         for name, value in (*arrays.items(), ("labels", labels), ("meta", meta)):
             object.__setattr__(self, name, value)
 
     # -- pytree protocol: arrays are leaves, labels and meta ride along (_Annotations) -----
     def tree_flatten(self):
-        children = tuple(getattr(self, name) for name in ARRAY_FIELDS)
+        children = tuple(getattr(self, name) for name in (*ARRAY_FIELDS, *OUTPUT_FIELDS))
         return children, _Annotations(self.labels, self.meta)
 
     @classmethod
     def tree_unflatten(cls, aux: _Annotations, children):
+        """The inverse of :meth:`tree_flatten`; the optional outputs (cups, stress) may be
+        left out of ``children`` (then None)."""
         obj = object.__new__(cls)
-        for name, value in zip(ARRAY_FIELDS, children, strict=True):
+        children = (*children, *(None,) * (len(ARRAY_FIELDS) + len(OUTPUT_FIELDS) - len(children)))
+        for name, value in zip((*ARRAY_FIELDS, *OUTPUT_FIELDS), children, strict=True):
             object.__setattr__(obj, name, value)
         object.__setattr__(obj, "labels", aux.labels)
         object.__setattr__(obj, "meta", aux.meta)
@@ -215,11 +248,26 @@ class ModalModel:
                     f"(lowest is {np.min(self.freq_hz):.4g} Hz)"
                 )
         keep = np.sort(keep)
+        cups = self.cups
+        if cups is not None:
+            cups = CupSet(
+                cups.centre_m,
+                cups.normal,
+                cups.radius_m,
+                cups.holding_force_n,
+                cups.friction,
+                cups.reaction.take_modes(keep),
+            )
+        stress = self.stress
+        if stress is not None:
+            stress = StressSet(stress.points_m, stress.stress.take_modes(keep))
         return self._replace(
             freq_hz=self.freq_hz[keep],
             zeta=self.zeta[keep],
             gamma=self.gamma[keep],
             shapes=self.shapes[:, :, keep],
+            cups=cups,
+            stress=stress,
         )
 
     def select_points(self, indices: Sequence[int] | np.ndarray) -> ModalModel:
@@ -246,7 +294,8 @@ class ModalModel:
     def with_frequency_scale(self, scale: float) -> ModalModel:
         """Same model with every natural frequency multiplied by ``scale`` (> 0).
 
-        Stiffness uncertainty at fixed mass: mode shapes and participation are unchanged.
+        Stiffness uncertainty at fixed mass: mode shapes and participation are unchanged (so
+        are the cup and stress maps: they describe the nominal model).
         """
         if not scale > 0:
             raise ModelError(f"with_frequency_scale: scale must be > 0, got {scale}")
@@ -255,6 +304,34 @@ class ModalModel:
     def with_meta(self, **entries: Any) -> ModalModel:
         """Same model with ``meta`` updated by ``entries``."""
         return self._replace(meta={**dict(self.meta), **entries})
+
+    def with_outputs(
+        self, *, cups: CupSet | None = None, stress: StressSet | None = None
+    ) -> ModalModel:
+        """Same model with the cups and/or the stresses given replaced (jaxflex.outputs)."""
+        changes = {k: v for k, v in (("cups", cups), ("stress", stress)) if v is not None}
+        return self._replace(**changes)
+
+    def posed(self, rotation, offset_m) -> ModalModel:
+        """The same part in another frame (e.g. the robot cell's), where a point x of the
+        model's frame is at ``rotation`` x + ``offset_m`` ((3, 3) proper rotation, (3,) m).
+        Base accelerations, shapes, points, cups and stresses are expressed in that frame, so
+        a move given in the new frame drives the posed model exactly as the rotated move
+        drives this one."""
+        r = np.asarray(rotation, dtype=np.float64)
+        if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-9):
+            raise ModelError(f"posed: rotation must be a 3 x 3 rotation matrix, got {r.tolist()}")
+        if np.linalg.det(r) < 0:
+            raise ModelError("posed: rotation must be proper (determinant +1), not a reflection")
+        offset = np.asarray(offset_m, dtype=np.float64).reshape(3)
+        return self._replace(
+            gamma=np.asarray(self.gamma) @ r.T,
+            shapes=np.einsum("ij,kjm->kim", r, np.asarray(self.shapes)),
+            points=np.asarray(self.points) @ r.T + offset,
+            cups=None if self.cups is None else self.cups.rotated(r, offset),
+            stress=None if self.stress is None else self.stress.rotated(r, offset),
+            meta={**dict(self.meta), "pose": {"rotation": r.tolist(), "offset_m": offset.tolist()}},
+        )
 
     def _replace(self, **changes: Any) -> ModalModel:
         fields = {
@@ -265,6 +342,8 @@ class ModalModel:
             "points": self.points,
             "labels": self.labels,
             "meta": self.meta,
+            "cups": self.cups,
+            "stress": self.stress,
         }
         fields.update(changes)
         return ModalModel(**fields)
@@ -272,6 +351,10 @@ class ModalModel:
     def save(self, path) -> None:
         """Write the model to a versioned ``.npz`` file, atomically (jaxflex.model_file)."""
         arrays = {name: getattr(self, name) for name in ARRAY_FIELDS}
+        if self.cups is not None:
+            arrays.update(cups_to_fields(self.cups))
+        if self.stress is not None:
+            arrays.update(stress_to_fields(self.stress))
         write_model_file(path, arrays, self.labels, dict(self.meta))
 
 
@@ -287,7 +370,12 @@ def load_model(path) -> ModalModel:
     an unknown schema version or a missing field; ModelError if the stored data are invalid.
     """
     fields = read_model_file(path)
+    optional = fields.pop("optional")
     try:
+        if "cups" in optional:
+            fields["cups"] = cups_from_fields(optional["cups"])
+        if "stress" in optional:
+            fields["stress"] = stress_from_fields(optional["stress"])
         return ModalModel(**fields)
     except ModelError as exc:
         raise ModelError(f"{str(path)!r}: {exc}") from exc

@@ -1,20 +1,23 @@
 """The modal model file: a versioned ``.npz`` (numpy zip archive, no pickled objects).
 
-Schema version 1 holds the members of :data:`FIELDS`:
+Schema version 2 holds the members of :data:`FIELDS`:
     format          "jaxflex.modal_model"
-    schema_version  1
+    schema_version  2
     meta_json       JSON object (source, material, gripper, mesh statistics; SI units)
     freq_hz (M,) Hz, zeta (M,), gamma (M, 3) kg^0.5, shapes (K, 3, M) m/kg^0.5, points (K, 3) m,
-    labels (K,) unicode (optional; empty strings: unlabelled points).
+    labels (K,) unicode (optional; empty strings: unlabelled points),
+and, optionally, the groups of fields marked with a ``group`` (all fields of a group or none;
+see jaxflex.outputs for their meaning): the cups and their reactions, the surface stresses.
+Version 1 files (the same without the groups) are read as well.
 
 Reading trusts nothing in the file. Only the members of :data:`FIELDS` are read (anything
 else in the archive is never decompressed), each one's npy header is checked against the
-table (kind of data, number of dimensions, the sizes M and K the other members declare)
-*before* its data are read, the declared size must be exactly what the member holds, and a
-compressed member may not expand beyond :data:`MAX_EXPANSION` times its stored size (real
-modal data hardly compress; a zip bomb does). Every failure is a ModelFileError naming the
-file and the member. The values themselves (finite, physical ranges :data:`VALUE_RANGES`)
-are checked where the model is built (jaxflex.model).
+table (kind of data, number of dimensions, the sizes M, K, C and S the other members
+declare) *before* its data are read, the declared size must be exactly what the member
+holds, and a compressed member may not expand beyond :data:`MAX_EXPANSION` times its stored
+size (real modal data hardly compress; a zip bomb does). Every failure is a ModelFileError
+naming the file and the member. The values themselves (finite, physical ranges
+:data:`VALUE_RANGES`) are checked where the model is built (jaxflex.model).
 
 This module knows the file, not the model class: it writes and reads plain arrays, and
 jaxflex.model turns them into a validated ModalModel.
@@ -38,8 +41,8 @@ from jaxflex.atomic import atomic_open
 from jaxflex.errors import ModelFileError
 
 FORMAT_NAME = "jaxflex.modal_model"
-SCHEMA_VERSION = 1
-SUPPORTED_VERSIONS = (1,)
+SCHEMA_VERSION = 2
+SUPPORTED_VERSIONS = (1, 2)
 ARRAY_FIELDS = ("freq_hz", "zeta", "gamma", "shapes", "points")
 # A member stored compressed may hold at most this many times its compressed size: modal
 # data are float64 noise (a ratio near 1; a flat part's zero in-plane shapes give about 3).
@@ -52,8 +55,9 @@ _NPY_MAGIC = b"\x93NUMPY"
 @dataclass(frozen=True)
 class Field:
     """One member of the archive: its name, the data it holds ("real": numbers, "integer",
-    "text": unicode), its shape in the model's sizes (M modes, K points; integers are fixed
-    lengths), its unit, whether a file must have it and the first schema version with it."""
+    "text": unicode), its shape in the model's sizes (M modes, K points, C cups, S stress
+    points; integers are fixed lengths), its unit, whether a file must have it, the first
+    schema version with it and the optional group it belongs to (all of a group or none)."""
 
     name: str
     kind: str
@@ -61,8 +65,38 @@ class Field:
     unit: str = ""
     required: bool = True
     since: int = 1
+    group: str | None = None
 
 
+def _group(name: str, *fields: tuple[str, tuple, str]) -> tuple[Field, ...]:
+    return tuple(
+        Field(field, "real", dims, unit, required=False, since=2, group=name)
+        for field, dims, unit in fields
+    )
+
+
+# The optional groups. Reactions: force (N) and moment about the cup centre (N m) that cup c
+# exerts on the part, rows (F_x, F_y, F_z, M_x, M_y, M_z); stresses: Voigt (xx, yy, zz, yz,
+# xz, xy) in Pa. "_q": per unit modal coordinate (kg^0.5 m), "_v": per unit modal velocity
+# (kg^0.5 m/s), "_a": per unit base acceleration (m/s^2).
+CUP_FIELDS = _group(
+    "cups",
+    ("cup_centre_m", ("C", 3), "m"),
+    ("cup_normal", ("C", 3), "unit normal from the part into the cup"),
+    ("cup_radius_m", ("C",), "m (effective suction radius)"),
+    ("cup_holding_force_n", ("C",), "N (vacuum x effective area)"),
+    ("cup_friction", ("C",), "friction coefficient between cup and part"),
+    ("cup_reaction_q", ("C", 6, "M"), "N or N m per unit modal coordinate"),
+    ("cup_reaction_v", ("C", 6, "M"), "N or N m per unit modal velocity"),
+    ("cup_reaction_a", ("C", 6, 3), "N or N m per unit base acceleration"),
+)
+STRESS_FIELDS = _group(
+    "stress",
+    ("stress_points_m", ("S", 3), "m (surface points where the stress is known)"),
+    ("stress_q", ("S", 6, "M"), "Pa per unit modal coordinate"),
+    ("stress_v", ("S", 6, "M"), "Pa per unit modal velocity"),
+    ("stress_a", ("S", 6, 3), "Pa per unit base acceleration"),
+)
 FIELDS = (
     Field("format", "text", ()),
     Field("schema_version", "integer", ()),
@@ -73,9 +107,15 @@ FIELDS = (
     Field("shapes", "real", ("K", 3, "M"), "m/kg^0.5"),
     Field("points", "real", ("K", 3), "m"),
     Field("labels", "text", ("K",), required=False),
+    *CUP_FIELDS,
+    *STRESS_FIELDS,
 )
 FIELD_BY_NAME = {f.name: f for f in FIELDS}
 HEADER_FIELDS = ("format", "schema_version", "meta_json")  # read first, by name
+OPTIONAL_FIELDS: dict[str, tuple[str, ...]] = {
+    "cups": tuple(f.name for f in CUP_FIELDS),
+    "stress": tuple(f.name for f in STRESS_FIELDS),
+}
 
 # Physical ranges of the model's values (closed intervals; jaxflex.model checks them). They are
 # far outside any part this tool is for (sheet-metal parts: modes from about 1 Hz to a few
@@ -97,9 +137,12 @@ def write_model_file(
     labels: tuple[str, ...] | None,
     meta: dict[str, Any],
 ) -> None:
-    """Write the model ``arrays`` (ARRAY_FIELDS), ``labels`` and ``meta`` to ``path`` (.npz)
-    atomically: the file is complete or absent."""
+    """Write the model ``arrays`` (ARRAY_FIELDS and any complete group of OPTIONAL_FIELDS),
+    ``labels`` and ``meta`` to ``path`` (.npz) atomically: the file is complete or absent."""
     stored = {name: np.asarray(arrays[name], dtype=np.float64) for name in ARRAY_FIELDS}
+    for group in OPTIONAL_FIELDS.values():
+        if any(name in arrays for name in group):
+            stored.update({name: np.asarray(arrays[name], dtype=np.float64) for name in group})
     if labels is not None:
         stored["labels"] = np.asarray(labels, dtype=np.str_)
     with atomic_open(path, "wb") as handle:
@@ -231,7 +274,26 @@ def _read_fields(archive: _Archive) -> dict[str, Any]:
         **{name: values[name] for name in ARRAY_FIELDS},
         "labels": None if labels is None else tuple(str(s) for s in labels),
         "meta": meta,
+        "optional": _optional_groups(archive, values),
     }
+
+
+def _optional_groups(archive: _Archive, values: dict[str, np.ndarray]) -> dict[str, dict]:
+    """The groups of OPTIONAL_FIELDS that ``values`` hold, {group: {field: array}}; a group
+    is complete or absent."""
+    groups = {}
+    for group, names in OPTIONAL_FIELDS.items():
+        present = [name for name in names if name in values]
+        if not present:
+            continue
+        missing = [name for name in names if name not in values]
+        if missing:
+            raise archive.fail(
+                missing[0],
+                f"missing: the {group} fields come as a group (found {present}, missing {missing})",
+            )
+        groups[group] = {name: values[name] for name in names}
+    return groups
 
 
 # what a damaged archive raises inside zipfile, zlib and numpy's header parser

@@ -73,6 +73,45 @@ def integrate(acc, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
     return vel, pos
 
 
+def acceleration_at(acc, dt_s: float, t_s) -> np.ndarray:
+    """(T, 3) acceleration (m/s^2) of the samples ``acc`` ((n+1, 3) at step ``dt_s`` s) at
+    times ``t_s`` (T,) s: linear between samples, 0 before the start and after the end."""
+    acc = np.asarray(acc, dtype=np.float64)
+    t = np.asarray(t_s, dtype=np.float64)
+    grid = dt_s * np.arange(acc.shape[0])
+    return np.column_stack([np.interp(t, grid, acc[:, c], left=0.0, right=0.0) for c in range(3)])
+
+
+def kinematics_at(acc, dt_s: float, t_s) -> tuple[np.ndarray, np.ndarray]:
+    """Exact (position (T, 3) m, velocity (T, 3) m/s) of the move ``acc`` ((n+1, 3) m/s^2 at
+    step ``dt_s`` s, from rest at the origin) at times ``t_s`` (T,) s; held after the end."""
+    acc = np.asarray(acc, dtype=np.float64)
+    vel, pos = integrate(acc, dt_s)
+    n = acc.shape[0] - 1
+    t = np.asarray(t_s, dtype=np.float64)
+    k = np.clip(np.floor(t / dt_s).astype(np.int64), 0, n - 1)
+    tau = np.clip(t - k * dt_s, 0.0, dt_s)[:, None]
+    jerk = (acc[k + 1] - acc[k]) / dt_s
+    position = pos[k] + vel[k] * tau + acc[k] * tau**2 / 2 + jerk * tau**3 / 6
+    velocity = vel[k] + acc[k] * tau + jerk * tau**2 / 2
+    return position, velocity
+
+
+def position_weights(n_steps: int, dt_s: float, t_s) -> np.ndarray:
+    """(T, n+1) weights W with position(t) = W @ a (per axis) for an n-step move from rest at
+    the origin, at times ``t_s`` (T,) s (held after the end): the exact integral of the
+    piecewise-linear acceleration, linear in the samples."""
+    eye = np.eye(n_steps + 1)
+    out = np.empty((np.size(t_s), n_steps + 1))
+    for i in range(0, n_steps + 1, 3):  # three unit samples at a time, one per axis
+        unit = np.zeros((n_steps + 1, 3))
+        cols = list(range(i, min(i + 3, n_steps + 1)))
+        unit[:, : len(cols)] = eye[:, cols]
+        pos, _ = kinematics_at(unit, dt_s, t_s)
+        out[:, cols] = pos[:, : len(cols)]
+    return out
+
+
 def axis_limits(name: str, value, n_axes: int = 3) -> np.ndarray:
     """A per-axis limit given as a scalar or n_axes values, each finite and > 0."""
     arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (n_axes,)).copy()

@@ -10,10 +10,16 @@
 
 Dominant modes are ranked by their quasi-static deflection along the move,
 max_p |phi_i(p)| |Gamma_i . u| / omega_i^2 (u the unit direction of the move).
+
+A path through via points (:func:`via_baselines`) has one baseline: ruckig's time-optimal
+motion segment by segment, stopping at every via point (ruckig's community edition has no
+intermediate waypoints), each segment on the grid as the kinematic floor is, then the free
+decay. Its kinematic floor stays the straight move's: no path from A to B is faster.
 """
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -49,6 +55,8 @@ class Baseline:
     worst_cycle_time_s: float | None = None
     worst_case: dict | None = None  # scenario of the worst case
     worst_grid: list[dict] | None = None  # cycle time at every point of the check grid
+    constraints_ok: bool = True  # meets the cell's constraints (optim.cell_setup)
+    constraints: list[dict] | None = None  # their certified values for this move
 
     @property
     def cycle_time_s(self) -> float:
@@ -67,6 +75,8 @@ class Baseline:
             "shaped_freq_hz": self.shaped_freq_hz,
             "worst_cycle_time_s": self.worst_cycle_time_s,
             "worst_case": self.worst_case,
+            "constraints_ok": self.constraints_ok,
+            "constraints": self.constraints,
         }
 
 
@@ -92,6 +102,51 @@ class BaselineSet:
             "entries": [b.as_dict() for b in self.entries],
             "skipped": dict(self.skipped),
         }
+
+
+def via_baselines(
+    model: ModalModel,
+    distance_m,
+    via_offsets,
+    limits: Limits,
+    dt_s: float,
+    threshold_m: float,
+    *,
+    robust: RobustSpec | None = None,
+    max_steps: int = 3000,
+    solver: str = "highs",
+) -> tuple[BaselineSet, list[float]]:
+    """The baseline of a path through the via points ``via_offsets`` ((3,) m from the start,
+    in order) to ``distance_m`` (module docstring), and the fraction of its steps at which it
+    passes each via point."""
+    distance = clean_distance(distance_m)
+    stops = [np.zeros(3), *(np.asarray(v, dtype=np.float64) for v in via_offsets), distance]
+    pieces, fractions, steps = [], [], 0
+    for i, (a, b) in enumerate(itertools.pairwise(stops)):
+        if not np.any(np.abs(b - a) > 1e-12):
+            raise InputError(f"via: point {i} and the next point of the path coincide")
+        segment = kinematic_floor_move(b - a, limits, dt_s, max_steps, solver=solver).acc
+        pieces.append(segment if not pieces else segment[1:])
+        steps += segment.shape[0] - 1
+        fractions.append(steps)
+    acc = np.concatenate(pieces)
+    if acc.shape[0] - 1 > max_steps:
+        raise InputError(
+            f"distance_m: the path through the via points needs {(acc.shape[0] - 1) * dt_s:.3f} s "
+            f"at these limits, more than the allowed {max_steps * dt_s:g} s (max_duration_s)"
+        )
+    entry = Baseline(
+        "ruckig via points + free decay", acc, analyze_move(model, acc, dt_s, threshold_m)
+    )
+    if robust is not None:
+        entry.worst_cycle_time_s, entry.worst_case, entry.worst_grid = worst_case(
+            model, acc, dt_s, threshold_m, robust.grid()
+        )
+    floor = kinematic_floor_move(distance, limits, dt_s, max_steps, solver=solver)
+    continuous = time_optimal_move(distance, limits)
+    return BaselineSet(continuous.duration_s, floor.acc, [entry]), [
+        f / steps for f in fractions[:-1]
+    ]
 
 
 def dominant_modes(model: ModalModel, distance: np.ndarray) -> np.ndarray:

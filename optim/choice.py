@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optim.baselines import BaselineSet
+from optim.baselines import Baseline, BaselineSet
 from optim.limits import ConstraintCheck
 from optim.search import Attempt, Problem
 
@@ -58,11 +58,16 @@ def _from_attempt(problem: Problem, attempt: Attempt, kind: str, name: str) -> C
 
 
 def candidates(
-    problem: Problem, history: list[Attempt], final: Attempt, base: BaselineSet
+    problem: Problem,
+    history: list[Attempt],
+    final: Attempt | None,
+    base: BaselineSet,
+    eligible: Callable[[Baseline], bool] = lambda entry: True,
 ) -> list[Candidate]:
     """Every certified move of the search (``history``; ``final`` is the smoothed optimum or,
-    without a smoothing pass, the search's best) and every baseline, best first."""
-    found = [_from_attempt(problem, final, "optimised", "optimised")]
+    without a smoothing pass, the search's best; None if the search found none) and every
+    baseline that is ``eligible`` (e.g. meets the cell's constraints), best first."""
+    found = [] if final is None else [_from_attempt(problem, final, "optimised", "optimised")]
     for attempt in history:
         if attempt.feasible and attempt is not final:
             found.append(
@@ -70,7 +75,7 @@ def candidates(
                     problem, attempt, "search", f"search's move of {attempt.n_steps} steps"
                 )
             )
-    for entry in base.entries:
+    for entry in filter(eligible, base.entries):
         grid = None
         if entry.worst_grid is not None:
             grid = [(g["freq_scale"], g["zeta"], g["cycle_time_s"]) for g in entry.worst_grid]
@@ -84,7 +89,7 @@ def choose(
     """The first candidate whose samples pass ``check``, its check, and notes for the report
     (why it is not the smoothed optimum, if it is not). Raises ValueError if none passes."""
     notes = []
-    optimised = next(c for c in found if c.kind == "optimised")
+    optimised = next((c for c in found if c.kind == "optimised"), None)
     for cand in found:
         result = check(cand.acc)
         if not result.ok:
@@ -96,8 +101,10 @@ def choose(
     raise ValueError("no candidate move meets the limits exactly: " + "; ".join(notes))
 
 
-def _why(chosen: Candidate, optimised: Candidate) -> str:
-    if chosen.objective_s < optimised.objective_s:
+def _why(chosen: Candidate, optimised: Candidate | None) -> str:
+    if optimised is None:
+        reason = "the optimiser found no move that meets the cell's constraints"
+    elif chosen.objective_s < optimised.objective_s:
         reason = (
             f"it is shorter ({chosen.objective_s:.3f} s) than the optimiser's final move "
             f"({optimised.objective_s:.3f} s, {optimised.n_steps} steps)"

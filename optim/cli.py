@@ -5,10 +5,13 @@ from __future__ import annotations
 import argparse
 
 import jaxflex
+from jaxflex.cell import load_cell
 from jaxflex.cli import add_axis_limits, axis_limit_values
+from jaxflex.errors import InputError
 from jaxflex.progress import step
 from jaxflex.validation import check_output_dir, check_positive
 from optim.budget import MAX_STEPS
+from optim.cell_setup import with_cup_rating
 from optim.limits import Limits
 from optim.optimize import optimize
 from optim.robust import RobustSpec
@@ -24,9 +27,55 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--distance",
         nargs=3,
         type=float,
-        required=True,
+        default=None,
         metavar=("X", "Y", "Z"),
-        help="move from rest to rest by this displacement, m",
+        help="move from rest to rest by this displacement, m (or the path of --cell)",
+    )
+    parser.add_argument(
+        "--cell",
+        default=None,
+        metavar="FILE",
+        help="robot cell (.toml or .json): obstacles, the part's pose, the path with via "
+        "points, gravity (see docs/optim.md)",
+    )
+    parser.add_argument(
+        "--min-distance",
+        type=float,
+        default=None,
+        metavar="M",
+        help="keep every monitored point this far from the cell's obstacles during the move "
+        "and the settling, m (needs --cell)",
+    )
+    parser.add_argument(
+        "--cup-safety",
+        type=float,
+        default=None,
+        metavar="S",
+        help="limit every suction cup's utilisation with this safety factor (1.5: smooth, "
+        "dry sheet; 2 or more: oiled)",
+    )
+    parser.add_argument(
+        "--cup-friction",
+        type=float,
+        default=None,
+        metavar="MU",
+        help="friction coefficient cup/part, replacing the model's (with --cup-safety)",
+    )
+    parser.add_argument(
+        "--cup-vacuum",
+        type=float,
+        default=None,
+        metavar="PA",
+        help="vacuum (pressure difference, Pa) of every cup, replacing the model's "
+        "(holding force = vacuum x pi r^2; with --cup-safety)",
+    )
+    parser.add_argument(
+        "--max-stress",
+        nargs="?",
+        const="yield",
+        default=None,
+        metavar="PA",
+        help="limit the von Mises stress, Pa (without a value: the material's yield / 1.5)",
     )
     add_axis_limits(parser, with_defaults=True)
     for name, unit in (("vpath", "m/s"), ("apath", "m/s^2"), ("jpath", "m/s^3")):
@@ -121,7 +170,22 @@ def run(args: argparse.Namespace) -> int:
     robust = None
     if args.robust:
         robust = RobustSpec(tuple(args.freq_scale), tuple(args.zeta), *args.grid)
+    if (args.distance is None) == (args.cell is None):
+        raise InputError("--distance / --cell: give the move by one of them")
+    cell = None if args.cell is None else load_cell(args.cell)
+    max_stress = args.max_stress
+    if max_stress not in (None, "yield"):
+        try:
+            max_stress = float(max_stress)
+        except ValueError as exc:
+            raise InputError(
+                f"--max-stress: a stress in Pa or nothing, got {max_stress!r}"
+            ) from exc
     model = jaxflex.load_model(args.model)
+    if args.cup_friction is not None or args.cup_vacuum is not None:
+        if args.cup_safety is None:
+            raise InputError("--cup-friction / --cup-vacuum: only with --cup-safety")
+        model = with_cup_rating(model, friction=args.cup_friction, vacuum_pa=args.cup_vacuum)
     step(
         f"{args.model}: {model.n_modes} modes, {model.n_points} points; "
         f"{'robust' if robust else 'nominal'} optimisation ({args.method})"
@@ -143,6 +207,10 @@ def run(args: argparse.Namespace) -> int:
         max_memory_bytes=None
         if args.max_memory is None
         else int(check_positive("--max-memory", args.max_memory) * 1e9),
+        cell=cell,
+        min_distance_m=args.min_distance,
+        cup_safety=args.cup_safety,
+        max_stress_pa=max_stress,
     )
     paths = result.save(args.output)
     print(result.summary())

@@ -62,7 +62,9 @@ class LPSubsolver:
         polish = self.polish
         builder = LPBuilder()
         limits = problem.limits.shrunk(self.margin) if self.margin else problem.limits
-        layout = add_move(builder, n_steps, problem.dt_s, problem.distance, limits)
+        layout = add_move(
+            builder, n_steps, problem.dt_s, problem.distance, limits, problem.via_rows(n_steps)
+        )
         if not polish:
             add_cuts(builder, self._cuts.get(n_steps, []))
         s = builder.variables(1, 0.0, np.inf, 1.0)[0]
@@ -78,6 +80,11 @@ class LPSubsolver:
             coef = np.stack([response.row(pk, layout.axes).T.ravel() for pk in peaks])
             cols = np.broadcast_to(layout.a.ravel(), coef.shape)
             builder.rows(cols, coef / problem.clearance_limit_m, -np.inf, 1.0)
+        cell_rows = problem.cell_rows.get(n_steps, [])
+        if cell_rows:  # distance, cup and stress rows of optim.cell_rows, on the samples
+            coef = np.stack([r.coef.T.ravel() for r in cell_rows])
+            cols = np.broadcast_to(layout.a.ravel(), coef.shape)
+            builder.rows(cols, coef, -np.inf, np.array([r.rhs for r in cell_rows]))
         rows = [r for r in problem.pool if r.scenario in z_cols]
         if rows:
             coef = np.stack(

@@ -16,14 +16,19 @@ with a_0 = a_n = 0, v_0 = v_n = 0, x_0 = 0, x_n = distance. Limits:
   for vectors, the norm being convex) through the polyhedral inner approximation of
   optim.polytope, generated lazily as cutting planes (:func:`path_cuts`).
 
-Axes that do not move (zero distance) stay at rest and are not variables. Limits are used
-at their exact values (a margin would make the kinematic floor infeasible whenever ruckig's
-corners fall on the grid); the solvers run with a 1e-9 feasibility tolerance and the
-limits check allows 1e-9 relative.
+Via points (:class:`ViaRow`): at sample k_j the position equals the via point and the
+velocity and acceleration are 0 (a stop), or each axis lies within a tolerance of it (a
+blend). These rows are exact; the choice of k_j is not part of the LP (optim.cell_rows).
+
+Axes that do not move (zero distance and no via point off the axis) stay at rest and are not
+variables. Limits are used at their exact values (a margin would make the kinematic floor
+infeasible whenever ruckig's corners fall on the grid); the solvers run with a 1e-9
+feasibility tolerance and the limits check allows 1e-9 relative.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,16 +77,35 @@ def clean_distance(distance_m) -> np.ndarray:
     return dist
 
 
-def moving_axes(distance_m: np.ndarray) -> tuple[int, ...]:
-    """Axes whose distance exceeds MOVE_ATOL_M."""
-    return tuple(int(c) for c in np.flatnonzero(np.abs(np.asarray(distance_m)) > MOVE_ATOL_M))
+@dataclass(frozen=True)
+class ViaRow:
+    """A via point at sample ``k``: ``offset_m`` (3,) from the start, ``mode`` "stop" or
+    "blend" (within ``tolerance_m`` per axis)."""
+
+    k: int
+    offset_m: np.ndarray
+    mode: str
+    tolerance_m: float
+
+
+def moving_axes(distance_m: np.ndarray, via: Sequence[ViaRow] = ()) -> tuple[int, ...]:
+    """Axes whose distance, or a via point's offset, exceeds MOVE_ATOL_M."""
+    reach = np.abs(np.asarray(distance_m, dtype=np.float64))
+    for row in via:
+        reach = np.maximum(reach, np.abs(row.offset_m))
+    return tuple(int(c) for c in np.flatnonzero(reach > MOVE_ATOL_M))
 
 
 def add_move(
-    builder: LPBuilder, n_steps: int, dt_s: float, distance_m: np.ndarray, limits: Limits
+    builder: LPBuilder,
+    n_steps: int,
+    dt_s: float,
+    distance_m: np.ndarray,
+    limits: Limits,
+    via: Sequence[ViaRow] = (),
 ) -> MoveLayout:
     """Add the variables and rows of an n-step move to ``builder`` (module docstring)."""
-    axes = moving_axes(distance_m)
+    axes = moving_axes(distance_m, via)
     n, h = n_steps, dt_s
     a_idx, v_idx, x_idx = [], [], []
     for c in axes:
@@ -116,6 +140,14 @@ def add_move(
         builder.rows(  # Bernstein middle coefficient of the velocity on step k
             np.column_stack([v[k], a[k]]), np.column_stack([ones, h / 2 * ones]), -vmax, vmax
         )
+        for row in via:
+            target = float(row.offset_m[c])
+            if row.mode == "stop":
+                builder.set_bounds([x[row.k]], target, target)
+                builder.set_bounds([v[row.k], a[row.k]], 0.0, 0.0)
+            else:
+                tol = row.tolerance_m
+                builder.set_bounds([x[row.k]], target - tol, target + tol)
         a_idx.append(a)
         v_idx.append(v)
         x_idx.append(x)

@@ -10,6 +10,11 @@
    limits check (optim.choice): never worse than a baseline, and the report says where it
    came from when it is not the optimiser's final move.
 
+With a cell (optim.cell_setup: obstacles, via points, cup and stress limits) the model is
+posed in the cell, the baselines follow the via points, only baselines that meet the cell's
+constraints bound the search and may be returned, and the exact route adds the constraints'
+rows (optim.cell_rows). The gradient route does not take them.
+
 Input that is allowed but probably not meant (a threshold above every deviation or below
 the model's resolution, a sparse robust grid) is reported as warnings (optim.advice).
 """
@@ -30,11 +35,12 @@ from jaxflex.settle import analyze_move
 from jaxflex.validation import check_positive
 from optim.advice import grid_advice
 from optim.baselines import baselines as compute_baselines
+from optim.baselines import via_baselines
 from optim.budget import MAX_STEPS, check_memory, check_move_length, default_memory_bytes
+from optim.cell_setup import prepare_cell
 from optim.choice import candidates, choose
 from optim.exact import POLISH_MARGIN, LPSubsolver
 from optim.gradient import GRADIENT_SOLVERS, GradientSubsolver
-from optim.kinematics import clean_distance
 from optim.limits import Limits, check_profile
 from optim.lp import LP_SOLVERS
 from optim.move_response import SAMPLING_ALLOWANCE, shortest_clearance_move_s
@@ -99,6 +105,10 @@ def optimize(
     clearance_m: float | None = None,
     max_steps: int = MAX_STEPS,
     max_memory_bytes: int | None = None,
+    cell=None,
+    min_distance_m: float | None = None,
+    cup_safety: float | None = None,
+    max_stress_pa: float | str | None = None,
 ) -> OptimizationResult:
     """The move over ``distance_m`` ((3,) m) within ``limits`` with the shortest cycle time
     (move plus settling below ``threshold_m`` m), on the ``dt_s`` grid.
@@ -114,11 +124,27 @@ def optimize(
     max_steps, max_memory_bytes: the budgets of optim.budget (the longest move any LP is
         built for; the search's memory, default half the machine's). A request that cannot
         fit them is refused before any work with a BudgetError that says what it needs.
+    cell: a jaxflex.cell.Cell (obstacles, the part's pose, via points, gravity); the move is
+        then the cell's (``distance_m`` None or equal) and in cell coordinates.
+    min_distance_m: every monitored point keeps this distance (m) from every obstacle of the
+        cell, over the move and the settling (certified).
+    cup_safety: every cup's utilisation (jaxflex.loads) with this safety factor stays <= 1.
+    max_stress_pa: the von Mises stress stays below this (Pa; "yield": the material's yield
+        strength / 1.5).
+    The cell's constraints apply to the nominal model (not to every robust scenario).
     """
     start = time.perf_counter()
     robust = _as_robust(robust)
     _check_model(model, robust)
-    distance = clean_distance(distance_m)
+    setup = prepare_cell(
+        model,
+        distance_m,
+        cell=cell,
+        min_distance_m=min_distance_m,
+        max_stress_pa=max_stress_pa,
+        cup_safety=cup_safety,
+    )
+    model, distance = setup.model, setup.distance
     limits = _as_limits(limits)
     threshold_m = check_positive("threshold_m", threshold_m)
     dt_s = check_positive("dt_s", dt_s)
@@ -133,6 +159,11 @@ def optimize(
         raise InputError(f"solver: method {method!r} accepts {allowed}, got {solver!r}")
     if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 2:
         raise InputError(f"max_steps: must be an integer >= 2, got {max_steps!r}")
+    if (setup.families or setup.via) and method != "exact":
+        raise InputError(
+            "method: via points and the cell's constraints (min_distance_m, cup_safety, "
+            "max_stress_pa) need method='exact'"
+        )
     memory = default_memory_bytes() if max_memory_bytes is None else max_memory_bytes
     check_positive("max_memory_bytes", memory)
     shortest, allowed_steps = check_move_length(distance, limits, dt_s, max_duration_s, max_steps)
@@ -144,18 +175,36 @@ def optimize(
     )
     advice = issue(grid_advice(robust))
 
-    base = compute_baselines(
-        model,
-        distance,
-        limits,
-        dt_s,
-        threshold_m,
-        robust=robust,
-        max_shaped_modes=max_shaped_modes,
-        max_steps=steps_cap,
-        progress=progress,
-    )
-    floor = base.entries[0]  # ruckig's time-optimal move on the grid: the fastest there is
+    fractions: list[float] = []
+    if setup.via:
+        base, fractions = via_baselines(
+            model,
+            distance,
+            [v[0] for v in setup.via],
+            limits,
+            dt_s,
+            threshold_m,
+            robust=robust,
+            max_steps=steps_cap,
+        )
+    else:
+        base = compute_baselines(
+            model,
+            distance,
+            limits,
+            dt_s,
+            threshold_m,
+            robust=robust,
+            max_shaped_modes=max_shaped_modes,
+            max_steps=steps_cap,
+            progress=progress,
+        )
+    feasible = []
+    for entry in base.entries:
+        entry.constraints_ok, entry.constraints = setup.feasible(entry.acc, dt_s)
+        if entry.constraints_ok:
+            feasible.append(entry)
+    floor = base.entries[0]  # the fastest move there is on the grid (along the path)
     advice += issue(
         threshold_advice(
             threshold_m,
@@ -167,13 +216,17 @@ def optimize(
     problem = make_problem(
         model, distance, limits, dt_s, threshold_m, steps_cap, robust, clearance_m
     )
+    problem.families = setup.families
+    problem.via = [(o, m, t, f) for (o, m, t), f in zip(setup.via, fractions, strict=True)]
     sub = LPSubsolver(solver) if method == "exact" else GradientSubsolver(solver)
-    upper = math.ceil(base.best().score() / dt_s - 1e-9)
+    bound = min((e.score() for e in feasible), default=steps_cap * dt_s)
+    upper = math.ceil(bound / dt_s - 1e-9)
     best, history = bisect(
         problem, sub, base.floor_acc, upper, [e.acc for e in base.entries], progress=progress
     )
-    if best is None:
+    if best is None and not (setup.families and feasible):
         during = "" if clearance_m is None else f" (and below {clearance_m * 1e3:g} mm during it)"
+        during += " within the cell's constraints" if setup.families else ""
         if steps_cap < math.floor(max_duration_s / dt_s + 1e-9):
             raise BudgetError(
                 f"no move of at most {steps_cap} steps ({steps_cap * dt_s:g} s) keeps the "
@@ -183,13 +236,15 @@ def optimize(
             )
         raise InputError(
             f"threshold_m: no move of at most max_duration_s = {max_duration_s:g} s keeps the "
-            f"deviation below {threshold_m * 1e3:g} mm after it{during}; raise max_duration_s, "
-            "threshold_m" + ("" if clearance_m is None else " or clearance_m")
+            f"deviation below {threshold_m * 1e3:g} mm after it{during}; raise "
+            "max_duration_s, threshold_m" + ("" if clearance_m is None else " or clearance_m")
         )
     final, notes = best, []
-    if method == "exact":
+    if method == "exact" and best is not None:
         final, notes = _polish(problem, sub, best, history)
-    found = candidates(problem, history, final, base)
+    # the search's moves meet the cell's constraints (its rows are restrictions); only the
+    # baselines that meet them may be returned
+    found = candidates(problem, history, final, base, eligible=lambda e: e.constraints_ok)
     try:
         chosen, check, choice_notes = choose(
             found, lambda acc: check_profile(acc, dt_s, limits, distance)
@@ -231,6 +286,8 @@ def optimize(
         wall_time_s=time.perf_counter() - start,
         baselines=base,
         worst_case=worst,
+        constraints=setup.describe_move(acc, dt_s) if setup.families else [],
+        cell=setup,
     )
 
 

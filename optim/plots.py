@@ -270,3 +270,25 @@ def plot_robust(path: str | os.PathLike, series: dict[str, list[dict]], title: s
     fig.legend(handles, labels, loc="outside right center", fontsize=8)
     fig.suptitle(title)
     save_figure(fig, path)
+
+
+def plot_constraints(
+    path: str | os.PathLike, curves: dict[str, dict[str, tuple]], limits: dict[str, float]
+) -> None:
+    """One panel per cell constraint (``curves``: name -> {move label: (t (T,), values (T,))})
+    with its limit (``limits``: name -> value) as a dashed line: the largest cup utilisation,
+    the largest von Mises stress, the smallest distance to the obstacles over time."""
+    fig, axes = plt.subplots(len(curves), 1, figsize=(8, 2.8 * len(curves)), squeeze=False)
+    for ax, (name, moves) in zip(axes[:, 0], curves.items(), strict=True):
+        scale, unit = (
+            (1e-6, "MPa") if "stress" in name else (1e3, "mm") if "distance" in name else (1.0, "")
+        )
+        for label, (t, values) in moves.items():
+            ax.plot(t, values * scale, label=label, lw=1.2 if label == "optimised" else 0.8)
+        ax.axhline(limits[name] * scale, color="k", ls="--", lw=0.8, label="limit")
+        ax.set_ylabel(f"{name}{f' [{unit}]' if unit else ''}")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
+    axes[-1, 0].set_xlabel("time [s]")
+    axes[0, 0].set_title("cell constraints: optimised move and baselines (dashed: limit)")
+    save_figure(fig, path)

@@ -11,7 +11,9 @@ accept the files only as that set):
 * ``deviation.png`` — deviation against time, optimum and baselines, with the threshold;
 * ``robust.png`` and ``deviation_worst_case.png`` (robust mode) — cycle time across the
   uncertainty range for the optimum and the baselines; the optimum's deviation at its worst
-  case.
+  case;
+* ``constraints.png`` (with cell constraints) — the largest cup utilisation, the largest von
+  Mises stress and the smallest distance to the obstacles against time, with the limits.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -31,7 +34,14 @@ from jaxflex.settle import SettleReport
 from jaxflex.trajectory_io import write_trajectory_csv
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
-from optim.plots import Trace, plot_comparison, plot_profiles, plot_robust, plot_worst_case
+from optim.plots import (
+    Trace,
+    plot_comparison,
+    plot_constraints,
+    plot_profiles,
+    plot_robust,
+    plot_worst_case,
+)
 from optim.robust import RobustSpec, perturbed
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
@@ -41,9 +51,26 @@ RESULT_FILES = (
     "report.json",
     "profiles.png",
     "deviation.png",
+    "constraints.png",
     "robust.png",
     "deviation_worst_case.png",
 )
+
+
+def constraint_line(c: dict) -> str:
+    """One line on a cell constraint's certified value (optim.cell_rows describe())."""
+    when = "at rest" if not np.isfinite(c["time_s"]) else f"at {c['time_s']:.3f} s"
+    if "distance" in c["name"]:
+        return (
+            f"{c['name']}: {c['peak'] * 1e3:.2f} mm (limit {c['limit'] * 1e3:g} mm) {when}, "
+            f"point {c['item']}, obstacle {c.get('obstacle')!r}"
+        )
+    scale, unit = (1e-6, " MPa") if "stress" in c["name"] else (1.0, "")
+    what = "cup" if "cup" in c["name"] else "stress point"
+    return (
+        f"{c['name']}: {c['peak'] * scale:.3g}{unit} (limit {c['limit'] * scale:.3g}{unit}, "
+        f"utilisation {c['utilisation']:.1%}) {when}, {what} {c['item']}"
+    )
 
 
 def deviation_summary(model: ModalModel, acc: np.ndarray, dt_s: float) -> dict:
@@ -81,6 +108,8 @@ class OptimizationResult:
     clearance_m: float | None = None  # limit on the deviation during the move, if any
     source: str = "optimised"  # "optimised", "search" or a baseline's name (optim.choice)
     warnings: list[dict] = field(default_factory=list)  # optim.advice: {"kind", "message"}
+    constraints: list[dict] = field(default_factory=list)  # the cell's, certified
+    cell: Any = None  # optim.cell_setup.CellSetup (posed model, via points, families)
 
     @property
     def n_steps(self) -> int:
@@ -175,6 +204,11 @@ class OptimizationResult:
             "source": self.source,
             "notes": list(self.solver_stats.get("notes", [])),
             "warnings": self.warnings,
+            "frame": "model" if self.cell is None or self.cell.cell is None else "cell",
+            "cell": None
+            if self.cell is None or self.cell.cell is None
+            else self.cell.cell.describe(),
+            "constraints": self.constraints,
             "n_steps": self.n_steps,
             "transfer_time_s": self.transfer_time_s,
             "settle_time_s": self.settle_time_s,
@@ -202,6 +236,8 @@ class OptimizationResult:
         peak = self.deviation["peak_during_move_m"]
         clear = "" if self.clearance_m is None else f" (clearance {self.clearance_m * 1e3:g} mm)"
         lines.append(f"  peak deviation during the move: {peak * 1e3:.3f} mm{clear}")
+        for c in self.constraints:
+            lines.append("  " + constraint_line(c))
         base = self.baselines
         lines.append(
             f"  kinematic floor (ruckig): {base.kinematic_floor_s:.3f} s, "
@@ -211,7 +247,8 @@ class OptimizationResult:
         lines.append("  baselines:" + " " * 16 + "cycle" + ("      worst" if robust else ""))
         for b in base.entries:
             worst = f"    {b.worst_cycle_time_s:7.3f} s" if robust else ""
-            lines.append(f"    {b.name:24s}{b.cycle_time_s:7.3f} s{worst}")
+            bad = "" if b.constraints_ok else " (breaks a cell constraint)"
+            lines.append(f"    {b.name:24s}{b.cycle_time_s:7.3f} s{worst}{bad}")
         lines.append(f"  limits: {self.constraint_check.summary()}")
         lines += [f"  note: {note}" for note in self.solver_stats.get("notes", [])]
         lines.append(f"  ({self.method}, {self.solver}; {self.wall_time_s:.1f} s wall)")
@@ -263,6 +300,8 @@ class OptimizationResult:
             files.add_text("report.json", json.dumps(self.report(), indent=2))
             files.add("profiles.png", lambda p: plot_profiles(p, self.acc, self.dt_s, self.limits))
             self._plot_deviation(files)
+            if self.constraints:
+                files.add("constraints.png", self._plot_constraints)
             if self.worst_case is not None:
                 series = {self._label(): self.worst_case["grid"]}
                 for b in self.baselines.entries:
@@ -274,6 +313,19 @@ class OptimizationResult:
 
     def _label(self) -> str:
         return "optimised" if self.source in ("optimised", "search") else f"{self.source} (chosen)"
+
+    def _plot_constraints(self, path: Path) -> None:
+        moves = {self._label(): self.acc}
+        for b in self.baselines.entries:
+            moves[b.name] = b.acc
+        until = 1.15 * max(self.cycle_time_s, *(b.cycle_time_s for b in self.baselines.entries))
+        curves: dict[str, dict] = {}
+        for label, acc in moves.items():
+            t, _ = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS)
+            for name, values in self.cell.curves(acc, self.dt_s, t).items():
+                curves.setdefault(name, {})[label] = (t, values)
+        limits = {c["name"]: c["limit"] for c in self.constraints}
+        plot_constraints(path, curves, limits)
 
     def _plot_deviation(self, files: SetWriter) -> None:
         moves = [(self._label(), self.acc, self.cycle_time_s, self.worst_cycle_time_s)]

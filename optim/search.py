@@ -18,6 +18,10 @@ sampled (scenario, point, time-after-the-move) rows, then
 Rows use the threshold reduced by RESIDUAL_MARGIN (0.1 %), so peaks between samples rarely
 fail the certification; the result is exact regardless, because only certified profiles
 count as feasible.
+
+The cell's constraints (optim.cell_rows: distance to obstacles, cup utilisation, stress) add
+their rows the same way, per n, and are certified after the cycle time; via points pass at
+fixed fractions of the move (:attr:`Problem.via`, taken from the via-point baseline's timing).
 """
 
 from __future__ import annotations
@@ -33,6 +37,8 @@ from jaxflex.model import ModalModel
 from jaxflex.profile import as_move, enforce_end_state
 from jaxflex.progress import progress_bar
 from jaxflex.settle import SettleReport, analyze_move
+from optim.cell_rows import Row
+from optim.kinematics import ViaRow, moving_axes
 from optim.limits import Limits
 from optim.move_response import ClearancePeak, MoveResponse
 from optim.residual import Peak, ResidualModel
@@ -83,14 +89,31 @@ class Problem:
     training: list[int]
     components: tuple[int, ...]
     clearance_m: float | None = None  # limit on the deviation during the move (nominal)
+    via: list[tuple[np.ndarray, str, float, float]] = field(default_factory=list)
+    families: list = field(default_factory=list)  # optim.cell_rows families
     pool: list[PoolRow] = field(default_factory=list)
     clearance_pool: dict[int, list[ClearancePeak]] = field(default_factory=dict)
+    cell_rows: dict[int, list[Row]] = field(default_factory=dict)
     _maps: dict = field(default_factory=dict)
     _move_maps: dict = field(default_factory=dict)
 
     @property
     def limit_m(self) -> float:
         return self.threshold_m * (1.0 - RESIDUAL_MARGIN)
+
+    def via_rows(self, n_steps: int) -> list[ViaRow]:
+        """The via points of an n-step move, each at its fraction of the move (rounded to a
+        sample, kept inside the move)."""
+        rows = []
+        for offset, mode, tolerance, fraction in self.via:
+            k = int(np.clip(round(fraction * n_steps), 1, n_steps - 1))
+            rows.append(ViaRow(k, offset, mode, tolerance))
+        return rows
+
+    @property
+    def axes(self) -> tuple[int, ...]:
+        """The axes the move uses (distance or via points)."""
+        return moving_axes(self.distance, [ViaRow(0, v[0], v[1], v[2]) for v in self.via])
 
     @property
     def clearance_limit_m(self) -> float:
@@ -268,6 +291,22 @@ def _certify(problem: Problem, acc: np.ndarray):
     return timings, len(failed)
 
 
+def _certify_families(problem: Problem, acc: np.ndarray) -> int:
+    """Certify the cell's constraints (optim.cell_rows); each family that fails adds a row
+    at its certified worst point. Returns the number of failures."""
+    failed = 0
+    for family in problem.families:
+        found = family.certify(acc, problem.dt_s)
+        if family.holds(found):
+            continue
+        failed += 1
+        time_s, item = family.worst(found)
+        row = family.row(acc, problem.dt_s, time_s, item, problem.axes)
+        if row is not None:
+            problem.cell_rows.setdefault(acc.shape[0] - 1, []).append(row)
+    return failed
+
+
 def _rejected(n_steps, value, rounds, start, reason, stats) -> Attempt:
     return Attempt(
         n_steps, False, None, {}, value, rounds, time.perf_counter() - start, reason, stats
@@ -310,10 +349,16 @@ def attempt(
                 return _rejected(n_steps, value, rounds, start, "clearance cannot be met", stats)
             problem.clearance_pool.setdefault(n_steps, []).extend(peaks)
             added += len(peaks)
+        for family in problem.families:
+            rows = family.scan(acc, problem.dt_s, problem.axes)
+            problem.cell_rows.setdefault(n_steps, []).extend(rows)
+            added += len(rows)
         if added:
             continue
         acc = enforce_end_state(acc, problem.dt_s, problem.distance)
         timings, failures = _certify(problem, acc)
+        if not failures:
+            failures = _certify_families(problem, acc)
         if not failures:
             return Attempt(
                 n_steps,

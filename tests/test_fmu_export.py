@@ -101,6 +101,7 @@ def test_archive_layout(exported, version):
         "sources/jxf_core.h",
         "sources/jxf_text.h",
         "sources/jxf_values.c",
+        "sources/jxf_cell.c",
         "sources/jxf_config.h",
         f"sources/jxf_fmi{version}.c",
     }
@@ -156,7 +157,7 @@ def test_resource_round_trip(exported, part):
         lambda b: b[:-9],  # truncated
         lambda b: b[:200] + bytes([b[200] ^ 0x40]) + b[201:],  # one bit flipped
         lambda b: b"XXXXXXXX" + b[8:],  # not our format
-        lambda b: b[:8] + (2).to_bytes(4, "little") + b[12:],  # newer format version
+        lambda b: b[:8] + (3).to_bytes(4, "little") + b[12:],  # newer format version
     ],
     ids=["truncated", "bit-flip", "magic", "version"],
 )

@@ -26,6 +26,7 @@ from fmu import export_fmu
 from fmu.build import compile_library, host_target
 from fmu.harness import SANITIZE_FLAGS, compile_harness, resource_location
 from fmu.master import Session
+from fmu.resource import HEADER as _HEADER
 from fmu.resource import decode_resource
 from fmu.source import export_source_fmu
 from jaxflex.errors import ModelError, ModelFileError
@@ -35,7 +36,6 @@ N_STEPS = 40  # embedded move
 CI_CASES = 300  # per FMI version
 SLOW_CASES = 3000
 HARNESS_TIMEOUT_S = 600  # a hang guard for the whole corpus (it takes seconds)
-_HEADER = struct.Struct("<8sII64sIIIIdQ16x")
 INTERESTING = (
     np.nan,
     np.inf,
@@ -122,13 +122,14 @@ def _mutate(data: bytes, rng: np.random.Generator) -> tuple[str, bytes]:
         return "garbage", rng.bytes(int(rng.integers(0, 2 * len(data))))
     if kind == 4:  # one header field, CRC fixed
         fields = list(_HEADER.unpack_from(body))
-        index = int(rng.choice([1, 2, 4, 5, 6, 7, 8, 9]))
+        index = int(rng.choice([1, 2, 4, 5, 6, 7, 8, 9, 10, 11]))
         if index == 8:
             fields[8] = float(rng.choice(INTERESTING))
         else:
             fields[index] = int(rng.choice([0, 1, 2, 3, 127, 129, 2**31, 2**32 - 1]))
             if index == 9:
-                fields[9] = int(rng.choice([0, 8, 2**63, 2**64 - 1, fields[9] + 8]))
+                sizes = [0, 8, 2**63, 2**64 - 1, fields[9] + 8]  # a list: numpy would round
+                fields[9] = sizes[int(rng.integers(len(sizes)))]
         body[: _HEADER.size] = _HEADER.pack(*fields)
         return f"header-{index}", _with_crc(bytes(body))
     if kind == 5:  # payload values, CRC fixed
@@ -163,10 +164,10 @@ def _oracle_accepts(data: bytes, token: str, template: bytes) -> bool:
     except (ModelFileError, ModelError):
         return False
     built = decode_resource(template)
-    sizes = (decoded.model.n_points, decoded.model.n_modes, len(decoded.acc))
+    sizes = (decoded.model.n_points, decoded.model.n_modes, len(decoded.acc), decoded.counts)
     return (
         decoded.token == token
-        and sizes == (built.model.n_points, built.model.n_modes, len(built.acc))
+        and sizes == (built.model.n_points, built.model.n_modes, len(built.acc), built.counts)
         and bool(np.isfinite(decoded.acc).all())
         and np.isfinite(decoded.dt_s)
         and decoded.dt_s > 0

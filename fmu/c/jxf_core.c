@@ -19,21 +19,25 @@
 
 #define JXF_PI 3.14159265358979323846
 
-/* Resource file, format version 1, little-endian throughout:
+/* Resource file, format version 2, little-endian throughout:
  *   0   char[8]  magic "JXFLXFMU"
- *   8   u32      format version (1)
+ *   8   u32      format version (2)
  *   12  u32      header size in bytes (128)
  *   16  char[64] instantiation token, NUL padded
- *   80  u32      K points, 84 u32 M modes, 88 u32 N trajectory samples, 92 u32 0
+ *   80  u32      K points, 84 u32 M modes, 88 u32 N trajectory samples, 92 u32 C cups
  *   96  f64      trajectory sample step in s (0 without a trajectory)
  *   104 u64      payload size in bytes
- *   112 16 zero bytes
+ *   112 u32      S stress points, 116 u32 O obstacle records, 120 8 zero bytes
  *   128 payload of f64: freq_hz (M), zeta (M), gamma (M, 3), shapes (M, 3, K),
- *                       points (K, 3), trajectory (N, 3)
+ *                       points (K, 3), trajectory (N, 3), then, if C + S + O > 0:
+ *                       gravity (3), cup safety factor (1); cups: normals (C, 3),
+ *                       radii (C), holding forces (C), friction (C), Q (6C, M),
+ *                       V (6C, M), A (6C, 3); stresses: Q (6S, M), V (6S, M), A (6S, 3);
+ *                       obstacles: points at rest (K, 3), records (O, 16)
  *   end u32 CRC-32 (IEEE, as zlib) of everything before it, u32 0
  * fmu/resource.py writes the same layout. */
 #define JXF_MAGIC "JXFLXFMU"
-#define JXF_FORMAT_VERSION 1u
+#define JXF_FORMAT_VERSION 2u
 #define JXF_HEADER_BYTES 128u
 #define JXF_TOKEN_BYTES 64u
 #define JXF_TRAILER_BYTES 8u
@@ -184,10 +188,22 @@ static char *resource_file(const jxf_model *m, const char *location) {
 
 /* ---- loading ------------------------------------------------------------------------ */
 
+/* Number of f64 values in the payload (layout above). */
+static uint64_t payload_values(uint64_t K, uint64_t M, uint64_t N, uint64_t C, uint64_t S,
+                               uint64_t O) {
+    uint64_t count = 5u * M + 3u * M * K + 3u * K + 3u * N;
+    if (C + S + O > 0) count += 4u;
+    if (C > 0) count += 6u * C + 12u * C * M + 18u * C;
+    if (S > 0) count += 12u * S * M + 18u * S;
+    if (O > 0) count += 3u * K + 16u * O;
+    return count;
+}
+
 /* Bytes of this build's resource file (its sizes are compiled in, jxf_config.h). */
 static size_t resource_bytes(void) {
-    const size_t K = JXF_N_POINTS, M = JXF_N_MODES, N = JXF_N_TRAJ;
-    return JXF_HEADER_BYTES + JXF_TRAILER_BYTES + 8 * (5 * M + 3 * M * K + 3 * K + 3 * N);
+    return JXF_HEADER_BYTES + JXF_TRAILER_BYTES +
+           8 * (size_t)payload_values(JXF_N_POINTS, JXF_N_MODES, JXF_N_TRAJ, JXF_N_CUPS,
+                                      JXF_N_STRESS, JXF_N_OBSTACLES);
 }
 
 /* Read the resource file; never allocates more than this build's resource size, so a
@@ -244,7 +260,7 @@ static unsigned char *read_file(const jxf_model *m, const char *name, size_t *si
 static int check_header(const jxf_model *m, const char *name, const unsigned char *data,
                         size_t size, const char *token) {
     char stored[JXF_TOKEN_BYTES + 1];
-    uint32_t n_points, n_modes, n_traj;
+    uint32_t n_points, n_modes, n_traj, n_cups, n_stress, n_obstacles;
     uint64_t payload, expected;
     if (size < JXF_HEADER_BYTES + JXF_TRAILER_BYTES || memcmp(data, JXF_MAGIC, 8) != 0) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' is not a jaxflex FMU resource (bad magic or too short, "
@@ -278,15 +294,20 @@ static int check_header(const jxf_model *m, const char *name, const unsigned cha
     n_points = read_u32(data + 80);
     n_modes = read_u32(data + 84);
     n_traj = read_u32(data + 88);
-    if (n_points != JXF_N_POINTS || n_modes != JXF_N_MODES || n_traj != JXF_N_TRAJ) {
-        jxf_log(m, JXF_LOG_ERROR, "'%s' holds %lu points, %lu modes, %lu trajectory samples but "
-                "modelDescription.xml declares %d, %d, %d", name, (unsigned long)n_points,
-                (unsigned long)n_modes, (unsigned long)n_traj, JXF_N_POINTS, JXF_N_MODES,
-                JXF_N_TRAJ);
+    n_cups = read_u32(data + 92);
+    n_stress = read_u32(data + 112);
+    n_obstacles = read_u32(data + 116);
+    if (n_points != JXF_N_POINTS || n_modes != JXF_N_MODES || n_traj != JXF_N_TRAJ ||
+        n_cups != JXF_N_CUPS || n_stress != JXF_N_STRESS || n_obstacles != JXF_N_OBSTACLES) {
+        jxf_log(m, JXF_LOG_ERROR, "'%s' holds %lu points, %lu modes, %lu trajectory samples, "
+                "%lu cups, %lu stress points, %lu obstacle records but modelDescription.xml "
+                "declares %d, %d, %d, %d, %d, %d", name, (unsigned long)n_points,
+                (unsigned long)n_modes, (unsigned long)n_traj, (unsigned long)n_cups,
+                (unsigned long)n_stress, (unsigned long)n_obstacles, JXF_N_POINTS,
+                JXF_N_MODES, JXF_N_TRAJ, JXF_N_CUPS, JXF_N_STRESS, JXF_N_OBSTACLES);
         return -1;
     }
-    expected = 8u * (5u * (uint64_t)n_modes + 3u * (uint64_t)n_modes * n_points +
-                     3u * (uint64_t)n_points + 3u * (uint64_t)n_traj);
+    expected = 8u * payload_values(n_points, n_modes, n_traj, n_cups, n_stress, n_obstacles);
     payload = read_u64(data + 104);
     if (payload != expected) {
         jxf_log(m, JXF_LOG_ERROR, "'%s': the header's payload size field says %lu bytes, the "
@@ -333,8 +354,10 @@ static int in_range(const jxf_model *m, const char *name, const char *what, cons
 static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
     const uint16_t probe = 1;
     const int K = JXF_N_POINTS, M = JXF_N_MODES, N = JXF_N_TRAJ;
-    const size_t count = 5u * M + 3u * (size_t)M * K + 3u * K + 3u * N;
+    const int C = JXF_N_CUPS, S = JXF_N_STRESS, O = JXF_N_OBSTACLES;
+    const size_t count = (size_t)payload_values(K, M, N, C, S, O);
     double *values = (double *)(void *)(data + JXF_HEADER_BYTES);
+    const double *next;
     size_t i;
     int mode;
     if (*(const unsigned char *)&probe != 1) /* big-endian host: decode in place */
@@ -349,6 +372,35 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
     m->shapes = m->gamma + 3 * M;
     m->points = m->shapes + 3 * (size_t)M * K;
     m->traj = m->points + 3 * (size_t)K;
+    m->n_cups = C;
+    m->n_stress = S;
+    m->n_obstacles = O;
+    next = m->traj + 3 * (size_t)N;
+    if (C + S + O > 0) {
+        m->gravity = next;
+        m->cup_safety = next[3];
+        next += 4;
+    }
+    if (C > 0) {
+        m->cup_normal = next;
+        m->cup_radius = m->cup_normal + 3 * (size_t)C;
+        m->cup_holding = m->cup_radius + C;
+        m->cup_friction = m->cup_holding + C;
+        m->cup_q = m->cup_friction + C;
+        m->cup_v = m->cup_q + 6 * (size_t)C * M;
+        m->cup_a = m->cup_v + 6 * (size_t)C * M;
+        next = m->cup_a + 18 * (size_t)C;
+    }
+    if (S > 0) {
+        m->stress_q = next;
+        m->stress_v = m->stress_q + 6 * (size_t)S * M;
+        m->stress_a = m->stress_v + 6 * (size_t)S * M;
+        next = m->stress_a + 18 * (size_t)S;
+    }
+    if (O > 0) {
+        m->rest_points = next;
+        m->obstacles = m->rest_points + 3 * (size_t)K;
+    }
     if (!all_finite(values, count)) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' contains NaN or infinite values", name);
         return -1;
@@ -498,6 +550,9 @@ static void update_outputs(jxf_model *m) {
 /* At rest at `start_time`, outputs evaluated. */
 static void rest(jxf_model *m, double start_time) {
     memset(m->q, 0, 2 * (size_t)m->n_modes * sizeof(double));
+    memset(m->a_now, 0, sizeof m->a_now);
+    memset(m->pos, 0, sizeof m->pos);
+    memset(m->vel, 0, sizeof m->vel);
     m->start_time = start_time;
     m->time = start_time;
     m->settled = 0;
@@ -829,12 +884,19 @@ static const jxf_coeffs *coefficients(jxf_model *m, double h) {
     return slot;
 }
 
-/* One exact step of `h` s with the acceleration going linearly from a0 to a1 (m/s^2); -1
- * (logged) if the coefficients or the new state are not finite. */
+/* One exact step of `h` s with the acceleration going linearly from a0 to a1 (m/s^2); the
+ * path (position and velocity of the gripper, from the start) follows exactly as well. -1
+ * (logged) if the coefficients or the new state are not finite (the caller restores the
+ * state). */
 static int advance(jxf_model *m, double h, const double a0[3], const double a1[3]) {
     const jxf_coeffs *c = coefficients(m, h);
     int i;
     if (c == NULL) return -1;
+    for (i = 0; i < 3; ++i) {
+        m->pos[i] += h * m->vel[i] + h * h * (2.0 * a0[i] + a1[i]) / 6.0;
+        m->vel[i] += 0.5 * h * (a0[i] + a1[i]);
+        m->a_now[i] = a1[i];
+    }
     for (i = 0; i < m->n_modes; ++i) {
         const double *g = m->gamma + 3 * i;
         const double f0 = -(a0[0] * g[0] + a0[1] * g[1] + a0[2] * g[2]);
@@ -899,7 +961,7 @@ static int replay(jxf_model *m, double tau, double h) {
 int jxf_do_step(jxf_model *m, double t, double h) {
     const size_t M = (size_t)m->n_modes;
     const double end = t + h, time = m->time;
-    double settle_time;
+    double settle_time, path[3][3]; /* pos, vel, a_now before the step */
     int status, settled;
     if (!(isfinite(h) && h > 0.0) || !isfinite(t) || !isfinite(end)) {
         jxf_log(m, JXF_LOG_ERROR, "doStep(currentCommunicationPoint = %g s, step = %g s): the "
@@ -918,6 +980,9 @@ int jxf_do_step(jxf_model *m, double t, double h) {
                 "end of the previous step %.17g s; continuing from %.17g s", t, m->time, t);
     }
     memcpy(m->saved, m->q, 2 * M * sizeof(double));
+    memcpy(path[0], m->pos, sizeof path[0]);
+    memcpy(path[1], m->vel, sizeof path[1]);
+    memcpy(path[2], m->a_now, sizeof path[2]);
     settled = m->settled;
     settle_time = m->settle_time;
     if (m->use_trajectory) {
@@ -939,6 +1004,9 @@ int jxf_do_step(jxf_model *m, double t, double h) {
     }
     if (status != 0) { /* back to the state before the call, outputs included */
         memcpy(m->q, m->saved, 2 * M * sizeof(double));
+        memcpy(m->pos, path[0], sizeof path[0]);
+        memcpy(m->vel, path[1], sizeof path[1]);
+        memcpy(m->a_now, path[2], sizeof path[2]);
         m->time = time;
         update_outputs(m);
         m->settled = settled;

@@ -51,6 +51,19 @@ typedef struct jxf_model {
     const double *traj;     /* (N, 3) acceleration samples, m/s^2 */
     unsigned char *buffer;
 
+    /* the cell (resource format 2, all optional; jxf_cell.c): C cups, S stress points,
+     * O obstacle records. Outputs y = Q q + V v + A a - A g per cup (6 rows: force on the
+     * part N, moment about the cup centre N m) and per stress point (6 Voigt rows, Pa). */
+    int n_cups, n_stress, n_obstacles;
+    const double *gravity;                    /* (3) m/s^2 */
+    double cup_safety;                        /* safety factor of the cup utilisation */
+    const double *cup_normal;                 /* (C, 3) from the part into the cup */
+    const double *cup_radius, *cup_holding, *cup_friction; /* (C) m, N, - */
+    const double *cup_q, *cup_v, *cup_a;      /* (6C, M), (6C, M), (6C, 3) */
+    const double *stress_q, *stress_v, *stress_a; /* (6S, M), (6S, M), (6S, 3) */
+    const double *rest_points;                /* (K, 3) points at rest under gravity, m */
+    const double *obstacles;                  /* (O, 16) records, see jxf_cell.c */
+
     /* parameters */
     double threshold;     /* m */
     double damping_scale; /* multiplies every zeta */
@@ -69,6 +82,8 @@ typedef struct jxf_model {
     double *saved;       /* (2M): q and v before a step, restored if it fails */
     double *u;           /* (3K) displacement, component-major like `shapes` */
     double deviation;    /* max_p |u_p|, m */
+    double a_now[3];     /* base acceleration at the communication point, m/s^2 */
+    double pos[3], vel[3]; /* the path travelled since the start, m and m/s (exact) */
     int settled;         /* deviation <= threshold at the current communication point */
     double settle_time;  /* time the settled flag last went true, s */
 
@@ -127,6 +142,12 @@ int jxf_set_bool(jxf_model *m, unsigned vr, int value, int apply);
  * work is bounded: one exact step per embedded trajectory sample crossed (integer sample
  * indices, never accumulated time), at most N + 1. */
 int jxf_do_step(jxf_model *m, double t, double h);
+
+/* The cell's outputs at the communication point (jxf_cell.c): utilisation of cup c, von
+ * Mises stress at stress point s (Pa), distance of point k to the nearest obstacle (m). */
+double jxf_cup_utilisation(const jxf_model *m, int c);
+double jxf_von_mises(const jxf_model *m, int s);
+double jxf_point_distance(const jxf_model *m, int k);
 
 /* Format a message and send it to the model's logger (printf-style). */
 void jxf_log(const jxf_model *m, int level, const char *format, ...);

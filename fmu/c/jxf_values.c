@@ -9,6 +9,7 @@
  * step); a function reading the state computes from m->q, m->v (modal, kg^0.5 m and per s)
  * or m->u (displacement, component-major: x of all K points, then y, then z). SI units.
  */
+#include <math.h>
 #include <string.h>
 
 #include "jxf_core.h"
@@ -49,4 +50,48 @@ void jxf_value_displaced_points(const jxf_model *m, double *out) {
 /* (K, 3) row-major, m */
 void jxf_value_undeformed_points(const jxf_model *m, double *out) {
     memcpy(out, m->points, 3 * (size_t)m->n_points * sizeof(double));
+}
+
+/* ---- the cell (jxf_cell.c): scalars in FMI 2.0 and 3.0, per item arrays in FMI 3.0 ------ */
+
+void jxf_value_cup_utilisation(const jxf_model *m, double *out) {
+    int c;
+    *out = 0.0;
+    for (c = 0; c < m->n_cups; ++c) {
+        const double u = jxf_cup_utilisation(m, c);
+        *out = u > *out ? u : *out;
+    }
+}
+
+void jxf_value_cup_utilisations(const jxf_model *m, double *out) {
+    int c;
+    for (c = 0; c < m->n_cups; ++c) out[c] = jxf_cup_utilisation(m, c);
+}
+
+void jxf_value_max_stress(const jxf_model *m, double *out) {
+    int s;
+    *out = 0.0;
+    for (s = 0; s < m->n_stress; ++s) {
+        const double v = jxf_von_mises(m, s);
+        *out = v > *out ? v : *out;
+    }
+}
+
+void jxf_value_point_stresses(const jxf_model *m, double *out) {
+    int s;
+    for (s = 0; s < m->n_stress; ++s) out[s] = jxf_von_mises(m, s);
+}
+
+void jxf_value_min_distance(const jxf_model *m, double *out) {
+    int k;
+    *out = HUGE_VAL;
+    for (k = 0; k < m->n_points; ++k) {
+        const double d = jxf_point_distance(m, k);
+        *out = d < *out ? d : *out;
+    }
+}
+
+void jxf_value_point_distances(const jxf_model *m, double *out) {
+    int k;
+    for (k = 0; k < m->n_points; ++k) out[k] = jxf_point_distance(m, k);
 }

@@ -69,7 +69,9 @@ def analyse_layout(job: dict) -> dict:
         result = fem.modal_analysis(
             part, cups, n_modes=settings["n_modes"], zeta=settings["zeta"], progress=False
         )
-        model = result.to_modal_model(points=monitor_points(part, settings["monitor_grid"]))
+        model = result.to_modal_model(
+            points=monitor_points(part, settings["monitor_grid"]), outputs=False
+        )
     except Exception as exc:  # recorded, the sweep goes on
         return {
             **_error("fe", exc),

@@ -1,0 +1,217 @@
+"""Cup reactions and surface stresses of a modal analysis, as outputs linear in the modal state.
+
+On the full-order model (free coordinates z, u = T z, base acceleration a) an output is
+
+    y = A_u z + A_v z' + A_acc z'' + A_b a                                         (1)
+
+* the reaction of a rigidly clamped cup (force on the part, moment about the cup centre) is
+  the resultant of the support forces on its held DOFs H, rho_H = [M (R a + T z'') + C T z'
+  + K T z]_H, taken with the unit rigid motions V of the cup (virtual work):
+  A_u = V^T K_H T, A_acc = V^T M_H T, A_b = V^T M_H R;
+* a compliant cup's reaction is its spring force -frame (k * m), m its pad coordinates in z;
+* the stress is A_u = S T (S: the formulation's stress operator).
+
+The damping force C T z' that passes through a support is that of its stiffness share:
+A_v = alpha A_acc + beta A_u for Rayleigh damping, and for modal damping the per-mode
+equivalent (2 zeta_i / omega_i) A_u phi_i (stiffness proportional, which reproduces every
+modal damping ratio). Stresses carry no damping force.
+
+The modal outputs (jaxflex.outputs.LinearOutputs) follow by the mode-acceleration method:
+the quasi-static response to a is taken exactly (z_s = K_ff^-1 b, one sparse solve), the
+modes correct it, z = -z_s a + Phi (q + Omega^-2 Gamma a), z'' = Phi q''. With
+q'' = -Gamma a - 2 Z Omega q' - Omega^2 q this gives
+
+    Q = A_u Phi - A_acc Phi Omega^2,   V = A_v Phi - A_acc Phi 2 Z Omega,
+    A = A_b - A_u z_s + Q Omega^-2 Gamma.                                           (2)
+
+Checks (tests): summed over the cups, A = m I - sum_i Gamma_i Gamma_i^T and Q = -Omega^2
+Gamma, so the reactions add up to m a + sum_i Gamma_i q_i'' at every instant (the part's
+mass times the base acceleration plus the modal inertia forces); a quasi-static move of a
+stiff part loads the cups with exactly m a. A Kirchhoff plate has no in-plane DOFs: the
+in-plane share (F_x, F_y, M_z) is that of a rigid part on the cups' lateral and torsion
+springs (rigid cups: in proportion to their contact area and its polar moment).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from fem.damping import Rayleigh
+from fem.eigen import factorize
+from jaxflex.errors import InputError
+from jaxflex.outputs import CupSet, LinearOutputs, StressSet
+
+
+@dataclass(eq=False)
+class PhysicalOutputs:
+    """Equation (1): ``stiffness`` A_u (Y, n_free), ``inertia`` A_acc (Y, n_free) or None,
+    ``base`` A_b (Y, 3), ``damped``: whether the support's damping force is part of y."""
+
+    stiffness: sp.csr_matrix
+    inertia: sp.csr_matrix | None
+    base: np.ndarray
+    damped: bool
+
+    def full_order(self, z, zd, zdd, acc, damping: Rayleigh) -> np.ndarray:
+        """(T, Y) outputs of full-order states z, z', z'' (T, n_free) under base accelerations
+        ``acc`` (T, 3) with Rayleigh ``damping``."""
+        y = (self.stiffness @ z.T).T + acc @ self.base.T
+        if self.damped:
+            y += damping.beta_s * (self.stiffness @ zd.T).T
+        if self.inertia is not None:
+            y += (self.inertia @ zdd.T).T
+            if self.damped:
+                y += damping.alpha_per_s * (self.inertia @ zd.T).T
+        return y
+
+    def modal(self, result, static: np.ndarray, damping) -> LinearOutputs:
+        """Equation (2) for the modes of ``result`` (fem.ModalResult); ``static`` is z_s
+        (n_free, 3) = K_ff^-1 (M R)_free; ``damping`` a fem.Rayleigh or the per-mode damping
+        ratios (M,) of the model."""
+        phi = result.vectors
+        omega = 2 * np.pi * result.freq_hz
+        zeta = damping.zeta(result.freq_hz) if isinstance(damping, Rayleigh) else damping
+        stiff = np.asarray(self.stiffness @ phi)
+        inert = np.zeros_like(stiff) if self.inertia is None else np.asarray(self.inertia @ phi)
+        q_map = stiff - inert * omega**2
+        if not self.damped:
+            damp = np.zeros_like(stiff)
+        elif isinstance(damping, Rayleigh):
+            damp = damping.alpha_per_s * inert + damping.beta_s * stiff
+        else:
+            damp = stiff * (2 * zeta / omega)
+        v_map = damp - inert * (2 * zeta * omega)
+        a_map = (
+            self.base
+            - np.asarray(self.stiffness @ static)
+            + q_map @ (result.gamma / omega[:, None] ** 2)
+        )
+        return LinearOutputs(q_map, v_map, a_map)
+
+
+def _cup_supports(result) -> list[int]:
+    return [i for i, s in enumerate(result.supports) if s.cup_rating is not None]
+
+
+def cup_frames(result) -> tuple[np.ndarray, np.ndarray]:
+    """(centres (C, 3) m, unit normals (C, 3)) of the suction cups of ``result``."""
+    formulation = result.system.outputs
+    frames = [
+        formulation.surface_frame(result.supports[i].x, result.supports[i].y)
+        for i in _cup_supports(result)
+    ]
+    return np.array([c for c, _ in frames]), np.array([n for _, n in frames])
+
+
+def reaction_outputs(result) -> PhysicalOutputs:
+    """The reactions of every suction cup of ``result`` (6 rows per cup), equation (1)."""
+    system, T = result.system, result.basis
+    cups = _cup_supports(result)
+    if not cups:
+        raise InputError("supports: no suction cup, so there are no cup reactions")
+    centres, _ = cup_frames(result)
+    pads = system.constraints.pad_columns(system.n_dof)
+    springs = system.constraints.springs
+    stiffness, inertia, base = [], [], []
+    rigid = system.rigid
+    for c, i in enumerate(cups):
+        held = system.support_constraints[i]
+        if held.springs:
+            spring = held.springs[0]
+            where = pads[next(k for k, s in enumerate(springs) if s is spring)]
+            k_rows = -(spring.frame * spring.stiffness)  # (6, r)
+            cols = np.broadcast_to(where, k_rows.shape)
+            rows = np.broadcast_to(np.arange(6)[:, None], k_rows.shape)
+            stiffness.append(
+                sp.csr_matrix((k_rows.ravel(), (rows.ravel(), cols.ravel())), (6, T.shape[1]))
+            )
+            inertia.append(sp.csr_matrix((6, T.shape[1])))
+            base.append(np.zeros((6, 3)))
+        else:
+            dofs = held.fixed
+            motions = sp.csr_matrix(system.outputs.rigid_motion(centres[c])[dofs].T)  # (6, H)
+            stiffness.append(motions @ system.K[dofs] @ T)
+            inertia.append(motions @ system.M[dofs] @ T)
+            base.append(np.asarray(motions @ (system.M[dofs] @ rigid)))
+    base = np.concatenate(base)
+    if not system.outputs.moves_in_plane:
+        base += _in_plane_share(result, cups, centres)
+    return PhysicalOutputs(
+        sp.vstack(stiffness).tocsr(), sp.vstack(inertia).tocsr(), base, damped=True
+    )
+
+
+def _in_plane_share(result, cups: list[int], centres: np.ndarray) -> np.ndarray:
+    """(6 C, 3) reactions of a part that is rigid in its plane (a Kirchhoff plate) to the
+    base accelerations along x and y: the part on lateral and torsion springs at the cups
+    (module docstring), in equilibrium with its inertia m a at its centre of mass."""
+    system = result.system
+    mass = result.mass_kg
+    lift = system.rigid[:, 2]
+    origin = system.outputs.rigid_motion(np.zeros(3))
+    weighted = system.M @ lift
+    centre = np.array([-(weighted @ origin[:, 4]), weighted @ origin[:, 3]]) / mass
+    lateral, torsion = [], []
+    for i in cups:
+        support = result.supports[i]
+        if support.stiffness is None:  # a uniform shear layer over the contact disc
+            area = np.pi * support.radius**2
+            lateral.append(area)
+            torsion.append(area * support.radius**2 / 2)
+        else:
+            lateral.append(support.stiffness.lateral_n_m)
+            torsion.append(support.stiffness.torsion_nm_rad)
+    arms = centres[:, :2] - centre
+    maps = np.zeros((len(cups), 2, 3))  # cup displacement per part motion (u_x, u_y, theta)
+    maps[:, 0, 0] = maps[:, 1, 1] = 1.0
+    maps[:, 0, 2], maps[:, 1, 2] = -arms[:, 1], arms[:, 0]
+    k3 = np.einsum("c,cia,cib->ab", lateral, maps, maps)
+    k3[2, 2] += sum(torsion)
+    load = np.zeros((3, 3))
+    load[0, 0] = load[1, 1] = mass  # (F_x, F_y, M_z) the supports carry per unit a
+    motion = -np.linalg.solve(k3, load)  # part motion per unit base acceleration
+    out = np.zeros((len(cups), 6, 3))
+    out[:, :2] = -np.einsum("c,cia,ab->cib", lateral, maps, motion)
+    out[:, 5] = -np.outer(torsion, motion[2])
+    return out.reshape(-1, 3)
+
+
+def stress_outputs(result) -> tuple[np.ndarray, PhysicalOutputs]:
+    """(points (S, 3) m, the surface stresses as equation (1)) of ``result``."""
+    points, operator = result.system.outputs.stress_operator()
+    stiffness = (operator @ result.basis).tocsr()
+    return points, PhysicalOutputs(stiffness, None, np.zeros((stiffness.shape[0], 3)), False)
+
+
+def static_response(result) -> np.ndarray:
+    """z_s (n_free, 3) = K_ff^-1 (M R)_free: the quasi-static deflection per unit base
+    acceleration (negated). Raises InputError when the part is not held (rigid modes)."""
+    if result.rigid_freq_hz.size:
+        raise InputError(
+            "supports: the part has rigid-body modes, so it has no static response and no "
+            "cup reactions or stresses; hold it with three non-collinear cups"
+        )
+    return factorize(result.K_free).solve(np.ascontiguousarray(result.load))
+
+
+def modal_outputs(result, damping) -> tuple[CupSet | None, StressSet]:
+    """The CupSet (None without suction cups) and the StressSet of ``result`` with
+    ``damping`` (fem.Rayleigh or per-mode ratios (M,))."""
+    static = static_response(result)
+    cups = None
+    if _cup_supports(result):
+        centres, normals = cup_frames(result)
+        ratings = [result.supports[i].cup_rating for i in _cup_supports(result)]
+        cups = CupSet(
+            centres,
+            normals,
+            [r.radius_m for r in ratings],
+            [r.holding_force_n for r in ratings],
+            [r.friction for r in ratings],
+            reaction_outputs(result).modal(result, static, damping),
+        )
+    points, stress = stress_outputs(result)
+    return cups, StressSet(points, stress.modal(result, static, damping))

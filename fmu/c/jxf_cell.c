@@ -1,0 +1,141 @@
+/* jaxflex FMU: the cell's outputs at the communication point (resource format 2).
+ *
+ * Cup reactions and stresses are linear in the modal state and the base acceleration,
+ * y = Q q + V v + A (a - g) (jaxflex.outputs: g is gravity, a constant base acceleration -g);
+ * they are evaluated when read, from m->q, m->v and m->a_now. The cup utilisation and the von
+ * Mises stress are those of jaxflex.loads; the distance of a point (at rest under gravity,
+ * moved by the path m->pos and the displacement m->u) to the nearest obstacle is that of
+ * jaxflex.cell. Obstacle records of 16 values: type 1 box (centre 3, half edges 3, rotation
+ * 9 row-major: the box axes are its columns), type 2 half-space (unit normal 3, offset: the
+ * solid is normal . x <= offset), type 3 triangle (corners 3 x 3). SI units.
+ */
+#include <math.h>
+
+#include "jxf_core.h"
+
+/* row `r` of the output block (Q, V, A) at the current state */
+static double linear_output(const jxf_model *m, const double *q_map, const double *v_map,
+                            const double *a_map, size_t r) {
+    const int M = m->n_modes;
+    const double *qr = q_map + r * (size_t)M, *vr = v_map + r * (size_t)M, *ar = a_map + 3 * r;
+    double y = 0.0;
+    int i;
+    for (i = 0; i < M; ++i) y += qr[i] * m->q[i] + vr[i] * m->v[i];
+    for (i = 0; i < 3; ++i) y += ar[i] * (m->a_now[i] - m->gravity[i]);
+    return y;
+}
+
+static double norm3(const double v[3]) { return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+
+double jxf_cup_utilisation(const jxf_model *m, int c) {
+    const double *n = m->cup_normal + 3 * c;
+    const double mu = m->cup_friction[c], r = m->cup_radius[c];
+    double y[6], pull, twist, shear[3], peel[3];
+    int k;
+    for (k = 0; k < 6; ++k)
+        y[k] = linear_output(m, m->cup_q, m->cup_v, m->cup_a, 6 * (size_t)c + (size_t)k);
+    pull = y[0] * n[0] + y[1] * n[1] + y[2] * n[2];
+    twist = y[3] * n[0] + y[4] * n[1] + y[5] * n[2];
+    for (k = 0; k < 3; ++k) {
+        shear[k] = y[k] - pull * n[k];
+        peel[k] = y[3 + k] - twist * n[k];
+    }
+    return m->cup_safety / m->cup_holding[c] *
+           ((pull > 0.0 ? pull : 0.0) + norm3(shear) / mu + 4.0 * norm3(peel) / r +
+            1.5 * fabs(twist) / (mu * r));
+}
+
+double jxf_von_mises(const jxf_model *m, int s) {
+    double y[6], sq;
+    int k;
+    for (k = 0; k < 6; ++k)
+        y[k] = linear_output(m, m->stress_q, m->stress_v, m->stress_a, 6 * (size_t)s + (size_t)k);
+    sq = 0.5 * ((y[0] - y[1]) * (y[0] - y[1]) + (y[1] - y[2]) * (y[1] - y[2]) +
+                (y[2] - y[0]) * (y[2] - y[0])) +
+         3.0 * (y[3] * y[3] + y[4] * y[4] + y[5] * y[5]);
+    return sqrt(sq > 0.0 ? sq : 0.0);
+}
+
+static double dot3(const double a[3], const double b[3]) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* signed distance to a box: negative inside (minus the distance to the nearest face) */
+static double box_distance(const double *rec, const double p[3]) {
+    const double *centre = rec, *half = rec + 3, *rot = rec + 6;
+    double local[3], outside = 0.0, depth = -HUGE_VAL;
+    int i;
+    for (i = 0; i < 3; ++i) { /* local_i = column i of the rotation . (p - centre) */
+        local[i] = rot[i] * (p[0] - centre[0]) + rot[3 + i] * (p[1] - centre[1]) +
+                   rot[6 + i] * (p[2] - centre[2]);
+    }
+    for (i = 0; i < 3; ++i) {
+        const double d = fabs(local[i]) - half[i];
+        if (d > 0.0) outside += d * d;
+        depth = d > depth ? d : depth;
+    }
+    return outside > 0.0 ? sqrt(outside) : depth;
+}
+
+/* distance to a triangle (Ericson, Real-Time Collision Detection, 5.1.5) */
+static double triangle_distance(const double *rec, const double p[3]) {
+    const double *a = rec, *b = rec + 3, *c = rec + 6;
+    double ab[3], ac[3], ap[3], bp[3], cp[3], q[3], d1, d2, d3, d4, d5, d6, va, vb, vc, v, w;
+    int i;
+    for (i = 0; i < 3; ++i) {
+        ab[i] = b[i] - a[i];
+        ac[i] = c[i] - a[i];
+        ap[i] = p[i] - a[i];
+        bp[i] = p[i] - b[i];
+        cp[i] = p[i] - c[i];
+    }
+    d1 = dot3(ab, ap), d2 = dot3(ac, ap), d3 = dot3(ab, bp), d4 = dot3(ac, bp);
+    d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+    vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
+    if (d1 <= 0.0 && d2 <= 0.0) {
+        for (i = 0; i < 3; ++i) q[i] = a[i];
+    } else if (d3 >= 0.0 && d4 <= d3) {
+        for (i = 0; i < 3; ++i) q[i] = b[i];
+    } else if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+        v = d1 / (d1 - d3);
+        for (i = 0; i < 3; ++i) q[i] = a[i] + v * ab[i];
+    } else if (d6 >= 0.0 && d5 <= d6) {
+        for (i = 0; i < 3; ++i) q[i] = c[i];
+    } else if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+        w = d2 / (d2 - d6);
+        for (i = 0; i < 3; ++i) q[i] = a[i] + w * ac[i];
+    } else if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) {
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        for (i = 0; i < 3; ++i) q[i] = b[i] + w * (c[i] - b[i]);
+    } else {
+        const double denom = 1.0 / (va + vb + vc);
+        v = vb * denom, w = vc * denom;
+        for (i = 0; i < 3; ++i) q[i] = a[i] + v * ab[i] + w * ac[i];
+    }
+    for (i = 0; i < 3; ++i) q[i] = p[i] - q[i];
+    return norm3(q);
+}
+
+double jxf_point_distance(const jxf_model *m, int k) {
+    const size_t K = (size_t)m->n_points;
+    double p[3], best = HUGE_VAL;
+    int o, i;
+    for (i = 0; i < 3; ++i) p[i] = m->rest_points[3 * (size_t)k + i] + m->pos[i] + m->u[i * K + k];
+    for (o = 0; o < m->n_obstacles; ++o) {
+        const double *rec = m->obstacles + 16 * (size_t)o;
+        double d;
+        switch ((int)rec[0]) {
+            case 1:
+                d = box_distance(rec + 1, p);
+                break;
+            case 2:
+                d = dot3(rec + 1, p) - rec[4];
+                break;
+            default:
+                d = triangle_distance(rec + 1, p);
+                break;
+        }
+        best = d < best ? d : best;
+    }
+    return best;
+}

@@ -1,0 +1,314 @@
+"""Certified peaks of outputs linear in the modal state, over a move and the settling after it.
+
+For an output y(t) = Q q + V q' + A a (jaxflex.outputs) plus a constant offset (gravity) and
+a functional f_g(y) per item g (a cup's utilisation, a point's von Mises stress: convex,
+positively homogeneous, and Lipschitz with per-row weights W, |f_g(y + e) - f_g(y)| <=
+W_g . |e|), :func:`output_peak` finds max_{t >= 0, g} f_g(y(t)) to within a tolerance, with
+where (item) and when:
+
+* the output is evaluated exactly (jaxflex.engine: states at the samples, between them, and
+  the free vibration after the move); between two evaluation times a, b of one step the
+  value is bounded by max(f(a), f(b)) + W . (b - a)^2 / 8 sup |y''|, with sup |y_j''| <=
+  sum_i |Q_ji| sup |q_i''| + |V_ji| sup |q_i'''| (a is linear within a step, so A adds no
+  curvature). During the move the energy radius r_i = sqrt(q_i'^2 + omega_i^2 q_i^2) grows at
+  most like |f_i| (the modal force), which bounds |q_i'|, |q_i''| and |q_i'''| per step;
+  after it every mode decays, |q_i^(k)| <= omega_i^k R_i e^{-sigma_i tau};
+* after the move f_g(y) <= f_g(offset) + W_g . env(tau) with the decreasing envelope env_j =
+  sum_i (|Q_ji| + |V_ji| omega_i) R_i e^{-sigma_i tau}: beyond the horizon where that bound is
+  below the best value found, nothing can exceed it;
+* intervals whose bound exceeds the best value by more than the tolerance are subdivided
+  (16-fold), items whose bound cannot reach it are dropped (branch and bound).
+
+The search makes many small matrix products: BLAS runs on one thread meanwhile (a thread pool
+made them ~30x slower on a loaded 2-core machine).
+
+The result is exact in the sense of jaxflex.settle: the reported value is attained, and the
+true supremum lies within ``tolerance`` above it (``bound``). :func:`certified_max` is the
+generic branch-and-bound search, shared with the minimum distance of jaxflex.collision.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from jaxflex.decay import amplitudes
+from jaxflex.engine import free_states, modal_forces, modal_states, states_between
+from jaxflex.profile import Move, acceleration_at, as_move
+
+SUBDIVISIONS = 16
+TIME_TOL_S = 1e-9
+SAMPLES_PER_PERIOD = 16
+CHUNK = 256
+MAX_EVALUATIONS = 200_000_000  # item-time evaluations before the search reports a bound only
+
+
+@dataclass(frozen=True)
+class Peak:
+    """The largest value of a functional found (``value``), attained at ``time_s`` (s from the
+    start of the move) by ``item``; the supremum is at most ``bound``."""
+
+    value: float
+    time_s: float
+    item: int
+    bound: float
+    evaluations: int
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+class SearchState:
+    """The best value of a branch-and-bound search so far, where and when, and its cost."""
+
+    def __init__(self) -> None:
+        self.value, self.time, self.item = -math.inf, math.nan, -1
+        self.unresolved = -math.inf  # largest bound left where the time resolution ended
+        self.evaluations = 0
+
+    def update(self, values: np.ndarray, times: np.ndarray, items: np.ndarray) -> None:
+        if values.size == 0:
+            return
+        i, j = np.unravel_index(int(np.argmax(values)), values.shape)
+        if values[i, j] > self.value:
+            self.value, self.time, self.item = float(values[i, j]), float(times[j]), int(items[i])
+
+
+def certified_max(
+    evaluate: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    bound: Callable,
+    grid: np.ndarray,
+    items: np.ndarray,
+    tolerance: Callable[[float], float],
+    best: SearchState,
+) -> None:
+    """Branch and bound for max over t in [grid[0], grid[-1]] and ``items`` of g(t).
+
+    ``evaluate(t (T,), items (I,)) -> (I, T)`` exact values; ``bound(a (J,), b (J,), va (I, J),
+    vb (I, J), items) -> (I, J)`` upper bounds of g over each interval; ``tolerance(best)``
+    the allowed gap. Updates ``best`` in place (module docstring)."""
+    if len(items) == 0:
+        return
+    values = evaluate(grid, items)
+    best.evaluations += values.size
+    best.update(values, grid, items)
+    work = [(grid, items, values)]
+    while work:
+        t, idx, vals = work.pop()
+        upper = bound(t[:-1], t[1:], vals[:, :-1], vals[:, 1:], idx)
+        gap = tolerance(best.value)
+        suspect = upper > best.value + gap
+        order = np.argsort(-np.where(suspect, upper, -np.inf).max(axis=0))
+        for j in order[: int(suspect.any(axis=0).sum())][::-1]:
+            if upper[suspect[:, j], j].max() <= best.value + tolerance(best.value):
+                continue
+            if t[j + 1] - t[j] <= TIME_TOL_S or best.evaluations > MAX_EVALUATIONS:
+                best.unresolved = max(best.unresolved, float(upper[:, j].max()))
+                continue
+            sub = np.linspace(t[j], t[j + 1], SUBDIVISIONS + 1)
+            sub_idx = idx[suspect[:, j]]
+            sub_vals = evaluate(sub, sub_idx)
+            best.evaluations += sub_vals.size
+            best.update(sub_vals, sub, sub_idx)
+            work.append((sub, sub_idx, sub_vals))
+
+
+class _Response:
+    """The output's pieces for a move: modal states at the samples, forces, per-step bounds."""
+
+    def __init__(self, model, outputs, functional, move: Move, offset: np.ndarray) -> None:
+        self.model, self.functional = model, functional
+        self.q_map, self.v_map = np.asarray(outputs.q_map), np.asarray(outputs.v_map)
+        self.a_map = np.asarray(outputs.a_map)
+        self.offset = np.asarray(offset, dtype=np.float64)
+        self.acc, self.dt_s = move.acc, move.dt_s
+        self.states = modal_states(model, move.acc, move.dt_s, xp=np)
+        self.force = modal_forces(model, move.acc, np)
+        self.n_steps = move.n_steps
+        self.t_end = move.duration_s
+        omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
+        self.omega, self.sigma = omega, zeta * omega
+        step_force = np.maximum(np.abs(self.force[:-1]), np.abs(self.force[1:]))
+        slope = np.abs(np.diff(self.force, axis=0)) / move.dt_s
+        radius = np.hypot(self.states[:-1, :, 1], omega * self.states[:-1, :, 0])
+        vel = radius + move.dt_s * step_force  # sup |q'| on each step
+        qdd = step_force + (1.0 + 2.0 * zeta) * omega * vel
+        self.qdd, self.qddd = qdd, slope + 2 * zeta * omega * qdd + omega**2 * vel
+        self.vel = vel
+        self.amplitude = amplitudes(model, self.states[-1])
+
+    def rows(self, items: np.ndarray) -> np.ndarray:
+        r = self.functional.rows_per_item
+        return (r * items[:, None] + np.arange(r)).ravel()
+
+    def values(self, states: np.ndarray, acc: np.ndarray, items: np.ndarray) -> np.ndarray:
+        """(I, T) functional values of ``items`` for states (T, M, 2), accelerations (T, 3)."""
+        rows = self.rows(items)
+        y = (
+            states[..., 0] @ self.q_map[rows].T
+            + states[..., 1] @ self.v_map[rows].T
+            + acc @ self.a_map[rows].T
+            + self.offset[rows]
+        )
+        return self.functional.values(y.reshape(len(y), len(items), -1), items).T
+
+    def weighted(self, items: np.ndarray, per_row: np.ndarray) -> np.ndarray:
+        """(I, ...) W_g . per_row for per-row bounds ``per_row`` (I r, ...) in the order of
+        :meth:`rows`."""
+        w = self.functional.weights(items)  # (I, r)
+        return np.einsum("ir,ir...->i...", w, per_row.reshape(*w.shape, *per_row.shape[1:]))
+
+    # -- during the move ----------------------------------------------------------------
+    def during(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
+        states = states_between(self.model, self.states, self.force, self.dt_s, t, np)
+        return self.values(states, acceleration_at(self.acc, self.dt_s, t), items)
+
+    def during_bound(self, a, b, va, vb, items):
+        k = np.clip(np.floor(0.5 * (a + b) / self.dt_s).astype(np.int64), 0, self.n_steps - 1)
+        rows = self.rows(items)
+        curv = np.abs(self.q_map[rows]) @ self.qdd[k].T + np.abs(self.v_map[rows]) @ self.qddd[k].T
+        return np.maximum(va, vb) + self.weighted(items, curv) * (b - a) ** 2 / 8
+
+    def move_item_bounds(self, items: np.ndarray) -> np.ndarray:
+        """(I,) upper bound of each item over the whole move (energy-radius bounds)."""
+        vel = self.vel.max(axis=0)
+        rows = self.rows(items)
+        per_row = (
+            np.abs(self.q_map[rows]) @ (vel / self.omega)
+            + np.abs(self.v_map[rows]) @ vel
+            + np.abs(self.a_map[rows]) @ np.abs(self.acc).max(axis=0)
+            + np.abs(self.offset[rows])
+        )
+        return self.weighted(items, per_row)
+
+    # -- after the move -----------------------------------------------------------------
+    def after(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
+        states = free_states(self.model, self.states[-1], t - self.t_end, np)
+        return self.values(states, np.zeros((len(t), 3)), items)
+
+    def _tail_rows(self, items: np.ndarray, tau: np.ndarray, power: int) -> np.ndarray:
+        """(I r, T) sum_i (|Q_ji| omega_i^p + |V_ji| omega_i^(p+1)) R_i e^{-sigma_i tau}."""
+        rows = self.rows(items)
+        decay = self.amplitude[:, None] * np.exp(-np.outer(self.sigma, tau))
+        return (np.abs(self.q_map[rows]) * self.omega**power) @ decay + (
+            np.abs(self.v_map[rows]) * self.omega ** (power + 1)
+        ) @ decay
+
+    def after_bound(self, a, b, va, vb, items):
+        curv = self.weighted(items, self._tail_rows(items, a - self.t_end, 2))
+        return np.maximum(va, vb) + curv * (b - a) ** 2 / 8
+
+    def tail_item_bounds(self, items: np.ndarray, tau: float) -> np.ndarray:
+        """(I,) bound of each item from ``tau`` after the move on: f(offset) + W . env."""
+        static = self.functional.values(
+            self.offset[self.rows(items)].reshape(1, len(items), -1), items
+        )[0]
+        if math.isinf(tau):
+            return static
+        return static + self.weighted(items, self._tail_rows(items, np.array([tau]), 0))[:, 0]
+
+    def tail_step(self, tolerance: float) -> float:
+        """1/16 of the period of the highest mode whose contribution matters."""
+        share = self.functional.weights(np.arange(self.functional.n_items)).max()
+        size = (np.abs(self.q_map) + np.abs(self.v_map) * self.omega).max(axis=0)
+        contribution = share * size * self.amplitude
+        order = np.argsort(self.omega)[::-1]
+        dropped = np.cumsum(contribution[order]) <= 1e-3 * tolerance
+        kept = order[~dropped]
+        top = self.omega[kept].max() if kept.size else self.omega.min()
+        return 2 * np.pi / (SAMPLES_PER_PERIOD * top)
+
+
+def output_peak(
+    model,
+    outputs,
+    functional,
+    acc,
+    dt_s: float,
+    *,
+    offset=None,
+    rtol: float = 1e-4,
+    atol: float = 0.0,
+    limit: float | None = None,
+) -> Peak:
+    """The largest value of ``functional`` (items of rows of ``outputs``, a
+    jaxflex.outputs.LinearOutputs of ``model``) over the move ``acc`` ((n+1, 3) m/s^2 at step
+    ``dt_s`` s, at rest at both ends) and the settling after it, plus the constant ``offset``
+    (Y,), to within max(rtol * value, atol) (module docstring). With ``limit`` the search
+    only decides whether the peak stays below it: where the bound is below the limit it stops
+    refining (the peak reported is then a value found, and ``bound`` <= limit certifies);
+    above the limit it locates the peak as without one."""
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _output_peak(model, outputs, functional, acc, dt_s, offset, rtol, atol, limit)
+
+
+def _output_peak(model, outputs, functional, acc, dt_s, offset, rtol, atol, limit) -> Peak:
+    move = as_move(acc, dt_s, at_rest=True)
+    offset = np.zeros(outputs.n_rows) if offset is None else offset
+    response = _Response(model, outputs, functional, move, offset)
+    best = SearchState()
+
+    def tolerance(value: float) -> float:
+        if not math.isfinite(value):
+            return math.inf
+        gap = max(rtol * abs(value), atol)
+        return gap if limit is None else max(gap, limit - value)
+
+    items = np.arange(functional.n_items)
+    # the limit after the move (the offset: gravity alone) is part of the supremum
+    static = response.tail_item_bounds(items, math.inf)
+    best.update(static[:, None], np.array([math.inf]), items)
+    grid = dt_s * np.arange(move.n_steps + 1)
+    samples = np.concatenate([response.during(grid, chunk) for chunk in _chunks(items)])
+    best.evaluations += samples.size
+    best.update(samples, grid, items)
+    keep = items[response.move_item_bounds(items) > best.value + tolerance(best.value)]
+    for chunk in _chunks(keep):
+        certified_max(response.during, response.during_bound, grid, chunk, tolerance, best)
+    _settling(response, best, tolerance)
+    value = best.value
+    return Peak(
+        value=value,
+        time_s=best.time,
+        item=best.item,
+        bound=max(value + tolerance(value), best.unresolved),
+        evaluations=best.evaluations,
+    )
+
+
+def _chunks(items: np.ndarray, size: int = 2048):
+    return [items[i : i + size] for i in range(0, len(items), size)]
+
+
+def _settling(response: _Response, best: SearchState, tolerance) -> None:
+    """The part of the search after the move (module docstring)."""
+    items = np.arange(response.functional.n_items)
+
+    def above(tau: float) -> np.ndarray:
+        return response.tail_item_bounds(items, tau) > best.value + tolerance(best.value)
+
+    if not above(0.0).any():
+        return
+    sigma = response.sigma[response.amplitude > 0]
+    hi = 1.0 / max(sigma.min(), 1e-6) if sigma.size else 1.0
+    while above(hi).any():
+        hi *= 2.0
+        if hi > 1e6:
+            raise RuntimeError("output_peak: the settling does not decay (undamped modes)")
+    lo = 0.0
+    while hi - lo > max(1e-6, 1e-6 * hi):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if above(mid).any() else (lo, mid)
+    step = response.tail_step(tolerance(best.value))
+    start = 0.0
+    while start < hi:
+        end = min(hi, start + CHUNK * step)
+        grid = response.t_end + np.linspace(start, end, max(2, math.ceil((end - start) / step) + 1))
+        alive = items[above(start)]
+        for chunk in _chunks(alive):
+            certified_max(response.after, response.after_bound, grid, chunk, tolerance, best)
+        start = end

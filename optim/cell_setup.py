@@ -1,0 +1,170 @@
+"""The cell's options of ``optim.optimize``: the posed model, the path, the constraint families.
+
+``optim.optimize(model, None, limits, dt_s, threshold_m, cell=cell, min_distance_m=0.01,
+cup_safety=1.5, max_stress_pa="yield")``: the model is posed in the cell (its points at the
+part's place at A, accelerations in cell coordinates), the move goes from A through the via
+points to B, and each limit becomes a family of optim.cell_rows. What no move can change is
+checked first: the part at rest at A and at B (gravity deflection included) must keep the
+distance, and gravity alone must leave the cups and the stress within their limits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from jaxflex.cell import DEFAULT_GRAVITY_M_S2, Cell
+from jaxflex.collision import distances, gravity_offset
+from jaxflex.errors import InputError
+from jaxflex.loads import DEFAULT_STRESS_SAFETY
+from jaxflex.model import ModalModel
+from jaxflex.outputs import CupSet
+from jaxflex.validation import check_positive
+from optim.cell_rows import DistanceFamily, LoadFamily, family_curve
+from optim.kinematics import clean_distance
+
+
+@dataclass
+class CellSetup:
+    """The posed model, the move, gravity, via points and the constraint families."""
+
+    model: ModalModel
+    distance: np.ndarray
+    gravity_m_s2: np.ndarray
+    via: list = field(default_factory=list)  # (offset (3,), mode, tolerance) from the start
+    families: list = field(default_factory=list)
+    cell: Cell | None = None
+
+    def describe_move(self, acc: np.ndarray, dt_s: float) -> list[dict]:
+        """The certified value of every family for the move ``acc``."""
+        return [f.describe(f.certify(acc, dt_s)) for f in self.families]
+
+    def feasible(self, acc: np.ndarray, dt_s: float) -> tuple[bool, list[dict]]:
+        """(every family holds, the families' certified values) for the move ``acc``."""
+        found = [f.certify(acc, dt_s) for f in self.families]
+        ok = all(f.holds(x) for f, x in zip(self.families, found, strict=True))
+        return ok, [f.describe(x) for f, x in zip(self.families, found, strict=True)]
+
+    def curves(self, acc: np.ndarray, dt_s: float, t: np.ndarray) -> dict[str, np.ndarray]:
+        """What each family limits at times ``t`` (for plots)."""
+        return {f.name: family_curve(f, acc, dt_s, t) for f in self.families}
+
+
+def with_cup_rating(
+    model: ModalModel, *, friction: float | None = None, vacuum_pa: float | None = None
+) -> ModalModel:
+    """``model`` with every cup's friction coefficient and/or vacuum (Pa; the holding force
+    becomes vacuum x pi r^2) replaced."""
+    cups = model.cups
+    if cups is None:
+        raise InputError("cups: the model has no cup reactions to rate")
+    holding = np.asarray(cups.holding_force_n)
+    if vacuum_pa is not None:
+        holding = check_positive("vacuum_pa", vacuum_pa) * np.pi * np.asarray(cups.radius_m) ** 2
+    mu = np.asarray(cups.friction)
+    if friction is not None:
+        mu = np.full(cups.n_cups, check_positive("friction", friction))
+    rated = CupSet(cups.centre_m, cups.normal, cups.radius_m, holding, mu, cups.reaction)
+    return model.with_outputs(cups=rated)
+
+
+def _stress_limit(model: ModalModel, max_stress_pa) -> float:
+    if isinstance(max_stress_pa, str):
+        if max_stress_pa != "yield":
+            raise InputError(f"max_stress_pa: a stress in Pa or 'yield', got {max_stress_pa!r}")
+        yield_pa = dict(model.meta).get("material", {}).get("yield_pa")
+        if not yield_pa:
+            raise InputError(
+                "max_stress_pa: the model's material states no yield strength; give the limit "
+                "in Pa (--max-stress PA)"
+            )
+        return float(yield_pa) / DEFAULT_STRESS_SAFETY
+    return check_positive("max_stress_pa", max_stress_pa)
+
+
+def prepare_cell(
+    model: ModalModel,
+    distance_m,
+    *,
+    cell: Cell | None = None,
+    min_distance_m: float | None = None,
+    max_stress_pa: float | str | None = None,
+    cup_safety: float | None = None,
+) -> CellSetup:
+    """The :class:`CellSetup` of ``optim.optimize``'s cell options (module docstring)."""
+    if cell is not None:
+        if not isinstance(cell, Cell):
+            raise InputError(f"cell: expected a jaxflex.cell.Cell, got {type(cell).__name__}")
+        if distance_m is not None and not np.allclose(distance_m, cell.distance_m, atol=1e-9):
+            raise InputError(
+                f"distance_m: {list(distance_m)} differs from the cell's move "
+                f"{cell.distance_m.tolist()} (end_m - start_m); give one of them"
+            )
+        model = cell.posed(model)
+        distance = clean_distance(cell.distance_m)
+        gravity = cell.gravity_m_s2
+        via = cell.via_offsets()
+    else:
+        if distance_m is None:
+            raise InputError("distance_m: required without a cell (the move, m)")
+        distance = clean_distance(distance_m)
+        gravity = np.array(DEFAULT_GRAVITY_M_S2)
+        via = []
+    setup = CellSetup(model, distance, gravity, via, cell=cell)
+    if min_distance_m is not None:
+        if cell is None or not cell.obstacles:
+            raise InputError("min_distance_m: needs a cell with obstacles (--cell FILE)")
+        margin = check_positive("min_distance_m", min_distance_m)
+        setup.families.append(DistanceFamily(model, cell.obstacles, margin, gravity))
+        _check_rest(setup, margin)
+    if cup_safety is not None:
+        if model.cups is None:
+            raise InputError(
+                "cup_safety: the model has no cup reactions (make it with fem or `jaxflex model`"
+                " of this version)"
+            )
+        setup.families.append(
+            LoadFamily.cups(model, check_positive("cup_safety", cup_safety), gravity)
+        )
+    if max_stress_pa is not None:
+        if model.stress is None:
+            raise InputError(
+                "max_stress_pa: the model has no stresses (make it with fem or `jaxflex model` "
+                "of this version)"
+            )
+        setup.families.append(
+            LoadFamily.stress(model, _stress_limit(model, max_stress_pa), gravity)
+        )
+    for family in setup.families:
+        if isinstance(family, LoadFamily):
+            _check_static(family)
+    return setup
+
+
+def _check_rest(setup: CellSetup, margin: float) -> None:
+    """The part at rest at A and at B must keep ``margin`` from every obstacle."""
+    base = np.asarray(setup.model.points) + gravity_offset(setup.model, setup.gravity_m_s2)
+    obstacles = setup.cell.obstacles
+    for where, shift in (("A (start)", np.zeros(3)), ("B (end)", setup.distance)):
+        d, which, _ = distances(obstacles, base + shift)
+        k = int(np.argmin(d))
+        if d[k] < margin:
+            name = getattr(obstacles[which[k]], "name", str(which[k]))
+            raise InputError(
+                f"min_distance_m: at rest at {where} point {k} is {d[k] * 1e3:.3g} mm from "
+                f"obstacle {name!r}, less than {margin * 1e3:g} mm; no move can change that"
+            )
+
+
+def _check_static(family: LoadFamily) -> None:
+    """Gravity alone must stay within the family's limit."""
+    items = np.arange(family.functional.n_items)
+    values = family.functional.values(family.offset.reshape(1, len(items), -1), items)[0]
+    k = int(np.argmax(values))
+    if values[k] > family.limit:
+        raise InputError(
+            f"{family.name}: gravity alone gives {values[k]:.4g} at item {k}, more than the limit "
+            f"{family.limit:.4g}; no move can change that (more cups, a lower safety factor or "
+            "a higher limit)"
+        )

@@ -1,0 +1,104 @@
+"""The cell's FMU outputs: distance to the obstacles, cup utilisation, von Mises stress.
+
+The FMU evaluates them in C from its exact modal state, the exact path (integrated from its
+inputs) and the model's linear output maps; here they are compared with jaxflex's own
+evaluation (jaxflex.collision, jaxflex.loads) at every communication point of the embedded
+move: the same float64 arithmetic in another order, so they agree to ~1e-12 of the peak.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from fmpy.validation import validate_fmu
+
+import fem
+import jaxflex
+from fmu import export_fmu
+from fmu.master import Session
+from jaxflex.cell import Box, Cell, HalfSpace, TriangleMesh, rotation_from_degrees
+from jaxflex.collision import distances, gravity_offset
+from jaxflex.deviation import outputs_at
+from jaxflex.engine import states_at
+from jaxflex.loads import CupUtilisation, VonMises
+from jaxflex.profile import kinematics_at
+
+DT = 0.01
+
+
+@pytest.fixture(scope="module")
+def case():
+    part = fem.rectangular_plate(0.4, 0.3, 1e-3, "steel", 0.05)
+    cups = [fem.SuctionCup(x, y, 0.03) for x in (0.1, 0.3) for y in (0.08, 0.22)]
+    model = fem.modal_analysis(part, cups, n_modes=5, zeta=0.02).to_modal_model(points=20)
+    cell = Cell(
+        obstacles=(
+            Box([1.0, 0.1, 0.2], [0.3, 0.4, 0.2], rotation_from_degrees([0, 0, 20]), "post"),
+            HalfSpace([0, 0, 1], -0.05, "floor"),
+            TriangleMesh([[1.5, -1, -1], [1.5, 1, -1], [1.5, 0, 2]], [[0, 1, 2]], "wall"),
+        ),
+        start_m=[0.0, 0.0, 0.3],
+        end_m=[0.8, 0.2, 0.5],
+        rotation=rotation_from_degrees([0, 0, 10]),
+    )
+    acc = jaxflex.jerk_limited_move(cell.distance_m, 2.0, 10.0, 100.0, DT)
+    return model, cell, acc
+
+
+def _reference(model, cell, acc, t):
+    posed = cell.posed(model)
+    g = cell.gravity_m_s2
+    q = states_at(posed, acc, DT, t)[..., 0]
+    points = np.asarray(posed.points) + gravity_offset(posed, g)
+    points = points[None] + kinematics_at(acc, DT, t)[0][:, None]
+    points = points + np.einsum("kcm,tm->tkc", np.asarray(posed.shapes), q)
+    dist = distances(cell.obstacles, points.reshape(-1, 3))[0].reshape(points.shape[:2])
+    cups = CupUtilisation(posed.cups, 1.7)
+    y = outputs_at(posed, posed.cups.reaction, acc, DT, t, posed.cups.reaction.offset(g))
+    util = cups.values(y.reshape(len(t), -1, 6), np.arange(cups.n_items))
+    vm = VonMises(posed.stress.n_points)
+    y = outputs_at(posed, posed.stress.stress, acc, DT, t, posed.stress.stress.offset(g))
+    stress = vm.values(y.reshape(len(t), -1, 6), np.arange(vm.n_items))
+    return dist, util, stress
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_cell_outputs_match_jaxflex(case, tmp_path, version):
+    model, cell, acc = case
+    result = export_fmu(
+        model, tmp_path / f"cell{version}.fmu", version, trajectory=(acc, DT), cell=cell,
+        cup_safety=1.7, stress=True, windows=False,
+    )  # fmt: skip
+    assert result.compiler_messages == ""
+    assert validate_fmu(str(result.fmu_path)) == []
+    assert (result.n_cups, result.n_obstacles) == (4, 3)
+    n = acc.shape[0] + 20
+    got = []
+    with Session(result.fmu_path) as session:
+        session.start(0.0, {"use_embedded_trajectory": True})
+        for k in range(n):
+            session.step(k * DT, DT)
+            row = [session.get(name) for name in ("min_distance", "cup_utilisation", "max_stress")]
+            if version == 3:
+                row += [session.get(name) for name in ("point_distances", "cup_utilisations")]
+                row += [session.get("point_stresses")]
+            got.append(row)
+    t = DT * np.arange(1, n + 1)
+    dist, util, stress = _reference(model, cell, acc, t)
+    scalars = np.array([r[:3] for r in got])
+    np.testing.assert_allclose(scalars[:, 0], dist.min(axis=1), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(scalars[:, 1], util.max(axis=1), rtol=1e-10)
+    np.testing.assert_allclose(scalars[:, 2], stress.max(axis=1), rtol=1e-10)
+    if version == 3:
+        np.testing.assert_allclose(np.array([r[3] for r in got]), dist, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(np.array([r[4] for r in got]), util, rtol=1e-10)
+        np.testing.assert_allclose(np.array([r[5] for r in got]), stress, rtol=1e-10, atol=1e-3)
+
+
+def test_without_a_cell_the_fmu_has_no_cell_outputs(case, tmp_path):
+    """A model without cups, no cell, no stress: the FMU is what it was."""
+    model = case[0]
+    plain = jaxflex.ModalModel(model.freq_hz, model.zeta, model.gamma, model.shapes, model.points)
+    result = export_fmu(plain, tmp_path / "plain.fmu", 2, windows=False)
+    with Session(result.fmu_path) as session:
+        assert not {"min_distance", "cup_utilisation", "max_stress"} & set(session.variables)

@@ -1,0 +1,229 @@
+"""The cell's constraints in the optimiser: obstacles and via points, cup forces, stress."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import run_jaxflex
+
+import fem
+import optim
+from jaxflex.cell import Box, Cell, HalfSpace, Via
+from jaxflex.collision import distances, gravity_offset, min_distance
+from jaxflex.deviation import outputs_at
+from jaxflex.engine import states_at
+from jaxflex.errors import InputError
+from jaxflex.loads import CupUtilisation, VonMises
+from jaxflex.profile import integrate, kinematics_at
+from optim.ruckig_move import kinematic_floor_move
+
+DT = 0.01
+LIMITS = optim.Limits(2.0, 10.0, 100.0)
+THRESHOLD = 5e-4
+GRAVITY = np.array([0.0, 0.0, -9.81])
+
+
+@pytest.fixture(scope="module")
+def model():
+    """A 0.6 x 0.4 m, 1 mm steel plate on four cups (47-76 Hz, 8 modes, 54 points)."""
+    part = fem.rectangular_plate(0.6, 0.4, 1e-3, "steel", 0.025)
+    cups = [fem.SuctionCup(x, y, 0.03) for x in (0.15, 0.45) for y in (0.1, 0.3)]
+    result = fem.modal_analysis(part, cups, n_modes=8, zeta=0.02)
+    return result.to_modal_model(points=60)
+
+
+def press(via_mode: str = "blend") -> Cell:
+    """The press-opening scene: the part is picked at z = 0.1 m and laid into a press whose
+    opening (between the lower die, top at 0.3 m, and the upper die, bottom at 0.55 m)
+    starts at x = 1.2 m; a straight move hits the lower die's front."""
+    via = (
+        Via([0.45, -0.2, 0.425], "blend", 0.2)
+        if via_mode == "blend"
+        else Via([0.45, -0.2, 0.425], "stop")
+    )
+    return Cell(
+        obstacles=(
+            Box([1.9, 0.0, 0.15], [1.4, 1.2, 0.3], name="lower die"),
+            Box([1.9, 0.0, 0.8], [1.4, 1.2, 0.5], name="upper die"),
+            HalfSpace([0, 0, 1], 0.0, "floor"),
+        ),
+        start_m=[0.0, -0.2, 0.1],
+        end_m=[1.6, -0.2, 0.4],
+        via=(via,),
+    )
+
+
+def dense_distance(model, obstacles, acc, until_s, step_s=1e-4) -> float:
+    """The test's independent check: every point, every obstacle, a 0.1 ms grid."""
+    t = np.arange(0.0, until_s, step_s)
+    q = states_at(model, acc, DT, t)[..., 0]
+    base = np.asarray(model.points) + gravity_offset(model, GRAVITY)
+    points = base[None] + kinematics_at(acc, DT, t)[0][:, None]
+    points = points + np.einsum("kcm,tm->tkc", np.asarray(model.shapes), q)
+    return distances(obstacles, points.reshape(-1, 3))[0].min()
+
+
+def test_press_opening_via_point_move(model):
+    """The optimised via-point move passes the press opening with the requested 10 mm,
+    checked on a 0.1 ms grid over every point (the move and 1 s of settling: the part is
+    at rest within 0.2 s); the straight move collides; the optimum is faster than the
+    ruckig move through the same via point plus its decay (the feasible baseline)."""
+    cell = press()
+    result = optim.optimize(
+        model, None, LIMITS, DT, THRESHOLD, cell=cell, min_distance_m=0.01, progress=False
+    )
+    posed = cell.posed(model)
+    dense = dense_distance(posed, cell.obstacles, result.acc, result.n_steps * DT + 1.0)
+    assert dense >= 0.01 * (1 - 1e-9)
+    assert dense <= 0.0105  # the constraint is active: the part passes the die's corner
+    (baseline,) = result.baselines.entries
+    assert baseline.constraints_ok
+    assert result.cycle_time_s < baseline.cycle_time_s
+    straight = kinematic_floor_move(cell.distance_m, LIMITS, DT, 1000).acc
+    assert min_distance(posed, cell.obstacles, straight, DT).distance_m < 0
+    report = result.report()
+    assert report["frame"] == "cell" and report["constraints"][0]["obstacle"] == "lower die"
+
+
+def test_stop_at_a_via_point(model):
+    """A "stop" via point is passed at rest, exactly where it is."""
+    cell = press("stop")
+    result = optim.optimize(
+        model, None, LIMITS, DT, THRESHOLD, cell=cell, min_distance_m=0.01, progress=False
+    )
+    vel, pos = integrate(result.acc, DT)
+    target = cell.via[0].position_m - cell.start_m
+    k = int(np.argmin(np.linalg.norm(pos - target, axis=1)))
+    np.testing.assert_allclose(pos[k], target, atol=1e-9)
+    np.testing.assert_allclose(vel[k], 0.0, atol=1e-9)
+    np.testing.assert_allclose(result.acc[k], 0.0, atol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def plain(model):
+    return optim.optimize(model, [0.3, 0.0, 0.6], LIMITS, DT, 2e-5, progress=False)
+
+
+def _peak(model, outputs, functional, acc, until_s, step_s=2e-4):
+    """The dense check of a load: every item on a 0.2 ms grid over the move and the
+    settling (its modes decay to 1e-3 within 1 s)."""
+    t = np.arange(0.0, until_s, step_s)
+    offset = outputs.offset(GRAVITY)
+    best = 0.0
+    r = functional.rows_per_item
+    for start in range(0, functional.n_items, 512):
+        items = np.arange(start, min(start + 512, functional.n_items))
+        rows = np.arange(r * items[0], r * (items[-1] + 1))
+        sub = type(outputs)(
+            np.asarray(outputs.q_map)[rows],
+            np.asarray(outputs.v_map)[rows],
+            np.asarray(outputs.a_map)[rows],
+        )
+        y = outputs_at(model, sub, acc, DT, t, offset[rows]).reshape(len(t), len(items), r)
+        best = max(best, float(functional.values(y, items).max()))
+    return best
+
+
+def test_inactive_constraints_leave_the_optimum(model, plain):
+    """Limits far above what the optimum reaches change nothing, bit for bit."""
+    loose = optim.optimize(
+        model,
+        [0.3, 0.0, 0.6],
+        LIMITS,
+        DT,
+        2e-5,
+        progress=False,
+        cup_safety=0.5
+        / _peak(model, model.cups.reaction, CupUtilisation(model.cups, 1.0), plain.acc, 1.6),
+        max_stress_pa=3 * 7.4e6,
+    )
+    np.testing.assert_array_equal(loose.acc, plain.acc)
+    assert [c["name"] for c in loose.constraints] == ["cup utilisation", "von Mises stress"]
+
+
+@pytest.mark.parametrize("kind", ["cups", "stress"])
+def test_active_load_constraints_hold(model, plain, kind):
+    """A limit 15 % below what today's optimum reaches changes the optimum; the new one
+    keeps the limit at every item on a 0.2 ms grid (certified between: the grid values
+    stay below the certified bound, which is at most the limit)."""
+    if kind == "cups":
+        functional = CupUtilisation(model.cups, 1.0)
+        peak0 = _peak(model, model.cups.reaction, functional, plain.acc, 1.6)
+        options = {"cup_safety": 1 / (0.85 * peak0)}
+        outputs, functional, limit = (
+            model.cups.reaction,
+            CupUtilisation(model.cups, 1 / (0.85 * peak0)),
+            1.0,
+        )
+    else:
+        functional = VonMises(model.stress.n_points)
+        peak0 = _peak(model, model.stress.stress, functional, plain.acc, 1.6)
+        options = {"max_stress_pa": 0.85 * peak0}
+        outputs, limit = model.stress.stress, 0.85 * peak0
+    result = optim.optimize(model, [0.3, 0.0, 0.6], LIMITS, DT, 2e-5, progress=False, **options)
+    assert not np.array_equal(result.acc, plain.acc)
+    assert result.cycle_time_s >= plain.cycle_time_s
+    dense = _peak(model, outputs, functional, result.acc, result.n_steps * DT + 1.0)
+    assert dense <= limit * (1 + 1e-9)
+    (constraint,) = result.constraints
+    assert constraint["bound"] <= limit * (1 + 1e-9)
+    assert constraint["utilisation"] > 0.99  # active
+
+
+def test_cell_options_are_checked(model):
+    with pytest.raises(InputError, match="min_distance_m"):
+        optim.optimize(model, [0.3, 0, 0.6], LIMITS, DT, 2e-5, min_distance_m=0.01, progress=False)
+    with pytest.raises(InputError, match="method"):
+        optim.optimize(
+            model, None, LIMITS, DT, 2e-5, cell=press(), method="gradient", progress=False
+        )
+    blocked = Cell(
+        obstacles=(Box([0.3, 0.0, 0.1], [0.2, 0.2, 0.2], name="pillar"),), end_m=[1, 0, 0]
+    )
+    with pytest.raises(InputError, match="pillar"):
+        optim.optimize(
+            model, None, LIMITS, DT, 2e-5, cell=blocked, min_distance_m=0.01, progress=False
+        )
+    with pytest.raises(InputError, match="gravity alone"):
+        optim.optimize(model, [0.3, 0, 0.6], LIMITS, DT, 2e-5, cup_safety=1e4, progress=False)
+
+
+def test_optimize_command_with_a_cell(tmp_path, model):
+    model.save(tmp_path / "plate.npz")
+    cell = """
+[part]
+start_m = [0.0, -0.2, 0.1]
+[path]
+end_m = [1.6, -0.2, 0.4]
+via = [{position_m = [0.45, -0.2, 0.425], mode = "blend", tolerance_m = 0.2}]
+[[obstacles]]
+type = "box"
+name = "lower die"
+centre_m = [1.9, 0.0, 0.15]
+size_m = [1.4, 1.2, 0.3]
+[[obstacles]]
+type = "box"
+name = "upper die"
+centre_m = [1.9, 0.0, 0.8]
+size_m = [1.4, 1.2, 0.5]
+"""
+    (tmp_path / "press.toml").write_text(cell)
+    done = run_jaxflex(
+        "optimize", str(tmp_path / "plate.npz"), "--cell", str(tmp_path / "press.toml"),
+        "--min-distance", "0.01", "--cup-safety", "1.5", "--max-stress", "--threshold", "5e-4",
+        "-o", str(tmp_path / "out"), "--quiet",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    names = [c["name"] for c in report["constraints"]]
+    assert names == ["distance to obstacles", "cup utilisation", "von Mises stress"]
+    assert report["constraints"][2]["limit"] == pytest.approx(140e6 / 1.5)
+    assert (tmp_path / "out" / "constraints.png").stat().st_size > 10_000
+    assert "distance to obstacles" in done.stdout
+    bad = run_jaxflex(
+        "optimize", str(tmp_path / "plate.npz"), "--distance", "1", "0", "0",
+        "--min-distance", "0.01", "--threshold", "5e-4", "-o", str(tmp_path / "x"),
+    )  # fmt: skip
+    assert bad.returncode == 2 and "min_distance_m" in bad.stderr
