@@ -216,10 +216,11 @@ def other_jaxflex(directory: Path, version: str) -> Path:
     target = directory / "jaxflex"
     shutil.copytree(Path(jaxflex.__file__).parent, target, ignore=shutil.ignore_patterns("*.pyc"))
     init = target / "__init__.py"
-    source = init.read_text()
-    line = f'__version__ = "{jaxflex.__version__}"'
-    assert line in source
-    init.write_text(source.replace(line, f'__version__ = "{version}"'))
+    source, count = re.subn(
+        r"^__version__ = .*$", f'__version__ = "{version}"', init.read_text(), flags=re.M
+    )
+    assert count == 1  # the one place the package states its version
+    init.write_text(source)
     return directory
 
 
