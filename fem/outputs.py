@@ -99,10 +99,8 @@ def _cup_supports(result) -> list[int]:
 def cup_frames(result) -> tuple[np.ndarray, np.ndarray]:
     """(centres (C, 3) m, unit normals (C, 3)) of the suction cups of ``result``."""
     formulation = result.system.outputs
-    frames = [
-        formulation.surface_frame(result.supports[i].x, result.supports[i].y)
-        for i in _cup_supports(result)
-    ]
+    cups = [result.supports[i] for i in _cup_supports(result)]
+    frames = [formulation.surface_frame(c.x, c.y, c.z) for c in cups]
     return np.array([c for c, _ in frames]), np.array([n for _, n in frames])
 
 

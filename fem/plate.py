@@ -152,8 +152,11 @@ class PlateOutputs:
         out[:, 4] = -(x - xc * ones)  # rotation about y: w = -(x - xc)
         return out
 
-    def surface_frame(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray]:
-        """(point (3,) on the mid-surface above (x, y), unit normal (3,)), m."""
+    def surface_frame(
+        self, x: float, y: float, z: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(point (3,) on the mid-surface above (x, y), unit normal (3,)), m (a flat plate:
+        ``z`` changes nothing)."""
         return np.array([x, y, self.z0]), np.array([0.0, 0.0, 1.0])
 
     def stress_operator(self) -> tuple[np.ndarray, sp.csr_matrix]:

@@ -6,19 +6,36 @@ global axes, so facets meeting at any angle (a fold, a flange) share them direct
 matrices are computed for blocks of elements with einsum and summed into 6x6 node blocks
 (fem.assembly). Supports ask the shell through fem.supports.SolidDofs (the surface
 vocabulary the thin solid speaks too): a clamped node holds all six DOFs, a pinned one its
-three translations.
+three translations, a compliant cup ties all six to its pad (fem.system.Spring.on_pad).
+
+:class:`ShellOutputs` gives the cup reactions and stresses their ingredients
+(fem.system.FormulationOutputs): the rigid motions (translations u = t + theta x r and
+rotations theta at every node) and the stress at the centroid of every facet on its bottom
+and top surfaces, z = -h/2 and +h/2 along the facet normal. In the facet's frame the
+Kirchhoff strain is eps(z) = eps_m - z kappa (eps_m the OPT membrane strain with its
+higher-order part, kappa = (w_xx, w_yy, 2 w_xy) the DKT curvature, both linear over the
+facet), sigma = C eps with C the plane-stress matrix, turned into global axes.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from fem.assembly import assemble
 from fem.mesh import ShellMesh
-from fem.shell_element import element_matrices
+from fem.shell_element import (
+    BENDING,
+    MEMBRANE,
+    curvature_matrix,
+    element_matrices,
+    local_frames,
+    membrane_strain_matrix,
+    plane_stress,
+)
 from fem.sides import side_nodes
 from fem.supports import Support
-from fem.system import Constraints, FESystem, mesh_stats
+from fem.system import Constraints, FESystem, Spring, mesh_stats, rigid_motions
 
 FORMULATION = (
     "shell, flat-facet triangles: DKT bending + ANDES OPT membrane with drilling rotations "
@@ -102,8 +119,10 @@ def assemble_shell(
     node_dofs = DOFS_PER_NODE * np.arange(n_nodes)[:, None] + np.arange(3)
     lengths = np.linalg.norm(np.diff(mesh.nodes[layer.edges], axis=1)[:, 0], axis=1)
     stats = mesh_stats("triangle (shell)", n_nodes, n_el, n_dof, lengths)
-    dofs = ShellMeshDofs(layer, part)
-    constraints = Constraints.union(s.hold_solid(dofs, i) for i, s in enumerate(supports))
+    outputs = ShellOutputs(layer, part)
+    dofs = ShellMeshDofs(layer, part, outputs)
+    held = [s.hold_solid(dofs, i) for i, s in enumerate(supports)]
+    constraints = Constraints.union(held)
     system = FESystem(
         K,
         M,
@@ -115,16 +134,89 @@ def assemble_shell(
         constraints,
         stats,
         FORMULATION,
+        outputs,
+        held,
     )
     return system, layer
+
+
+VOIGT = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))  # xx, yy, zz, yz, xz, xy
+
+
+class ShellOutputs:
+    """Rigid motions and surface stresses of the shell (fem.system.FormulationOutputs; module
+    docstring)."""
+
+    moves_in_plane = True
+
+    def __init__(self, layer: ShellLayer, part) -> None:
+        self.layer, self.part = layer, part
+
+    def rigid_motion(self, centre_m: np.ndarray) -> np.ndarray:
+        """(n_dof, 6): at every node u = t + theta x (x - centre) and the rotation theta, for
+        unit translations t and unit rotations theta."""
+        n = len(self.layer.nodes)
+        out = np.zeros((n, 2, 3, 6))
+        out[:, 0] = rigid_motions(self.layer.nodes, centre_m)
+        out[:, 1, :, 3:] = np.eye(3)
+        return out.reshape(-1, 6)
+
+    def surface_frame(
+        self, x: float, y: float, z: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(point (3,) on the mid-surface above (x, y) or nearest to (x, y, z), unit normal
+        (3,)): the surface point and the normal of the nearest node."""
+        centre = self.part.surface_point([[x, y] if z is None else [x, y, z]])[0]
+        k = int(np.argmin(np.linalg.norm(self.layer.nodes - centre, axis=1)))
+        return centre, self.layer.normals[k].copy()
+
+    def stress_operator(self) -> tuple[np.ndarray, sp.csr_matrix]:
+        """Stress at the centroid of every facet on its bottom and top surface per unit DOF:
+        points (2 E, 3) m (facet e: rows 2 e and 2 e + 1), sparse (12 E, n_dof) Pa."""
+        layer, mat = self.layer, self.part.material
+        h = self.part.thickness_m
+        xyz = layer.nodes[layer.triangles]
+        frames, xy, _ = local_frames(xyz)
+        centroid = np.full((1, 3), 1 / 3)
+        n_el = len(xyz)
+        strain = np.zeros((n_el, 2, 3, 18))  # surface, (eps_xx, eps_yy, gamma_xy), local DOF
+        membrane = membrane_strain_matrix(xy, centroid, mat.nu)[:, 0]
+        curvature = curvature_matrix(xy, centroid)[:, 0]
+        for side, z in enumerate((-h / 2, h / 2)):
+            strain[:, side][..., MEMBRANE] = membrane
+            strain[:, side][..., BENDING] = -z * curvature
+        local = np.einsum("ab,esbj->esaj", plane_stress(mat.E_pa, mat.nu), strain)
+        # local plane stress (xx, yy, xy) -> global Voigt rows: sigma = F^T s F
+        e1, e2 = frames[:, 0], frames[:, 1]
+        turn = np.zeros((n_el, 6, 3))
+        for row, (i, j) in enumerate(VOIGT):
+            turn[:, row, 0] = e1[:, i] * e1[:, j]
+            turn[:, row, 1] = e2[:, i] * e2[:, j]
+            turn[:, row, 2] = e1[:, i] * e2[:, j] + e2[:, i] * e1[:, j]
+        # local DOFs = the frame applied to each node's translation and rotation triple
+        to_local = np.einsum("ab,eij->eaibj", np.eye(6), frames).reshape(n_el, 18, 18)
+        block = np.einsum("eva,esak,ekj->esvj", turn, local, to_local, optimize=True)
+        rows = np.arange(12 * n_el).reshape(n_el, 2, 6)[..., None]
+        cols = layer.element_dofs[:, None, None, :]
+        shape = block.shape
+        operator = sp.csr_matrix(
+            (
+                block.ravel(),
+                (np.broadcast_to(rows, shape).ravel(), np.broadcast_to(cols, shape).ravel()),
+            ),
+            shape=(12 * n_el, DOFS_PER_NODE * len(layer.nodes)),
+        )
+        offsets = np.array([-h / 2, h / 2])
+        points = xyz.mean(axis=1)[:, None] + offsets[None, :, None] * frames[:, None, 2]
+        return points.reshape(-1, 3), operator
 
 
 class ShellMeshDofs:
     """The shell's DOFs as supports see them (fem.supports.SolidDofs): node n has DOFs
     6 n ... 6 n + 5 (translations, then rotations)."""
 
-    def __init__(self, layer: ShellLayer, part) -> None:
-        self.layer, self.part = layer, part
+    def __init__(self, layer: ShellLayer, part, outputs: ShellOutputs) -> None:
+        self.layer, self.part, self.outputs = layer, part, outputs
 
     @property
     def surface_points(self) -> np.ndarray:
@@ -156,6 +248,18 @@ class ShellMeshDofs:
         """Hold all six DOFs (displacement and rotation) at ``surface_nodes``."""
         nodes = np.asarray(surface_nodes, dtype=np.int64)
         return Constraints(fixed=(DOFS_PER_NODE * nodes[:, None] + np.arange(6)).ravel())
+
+    def spring_nodes(
+        self, surface_nodes, x: float, y: float, stiffness, z: float | None = None
+    ) -> Constraints:
+        """Tie the translations and rotations of ``surface_nodes`` to a rigid pad at the
+        surface point above (x, y) (nearest to (x, y, z)) on springs ``stiffness`` (6,)
+        along and about the pad's local axes (fem.system.Spring.on_pad)."""
+        centre, normal = self.outputs.surface_frame(x, y, z)
+        nodes = np.asarray(surface_nodes, dtype=np.int64)
+        dofs = (DOFS_PER_NODE * nodes[:, None] + np.arange(6)).ravel()
+        motions = self.outputs.rigid_motion(centre)[dofs]
+        return Constraints(springs=[Spring.on_pad(dofs, motions, centre, normal, stiffness)])
 
     def pin_nodes(self, surface_nodes) -> Constraints:
         """Hold the three translations (not the rotations) at ``surface_nodes``."""

@@ -21,7 +21,7 @@ from fem.assembly import assemble
 from fem.mesh import SurfaceMesh
 from fem.sides import side_nodes
 from fem.supports import Support
-from fem.system import Constraints, FESystem, Spring, mesh_stats
+from fem.system import Constraints, FESystem, Spring, mesh_stats, rigid_motions
 from jaxflex.errors import InputError
 
 FORMULATION = (
@@ -202,16 +202,6 @@ def assemble_solid(
     return system, layer
 
 
-def _cross_columns(r: np.ndarray) -> np.ndarray:
-    """(N, 3, 3): column j is e_j x r for positions r (N, 3)."""
-    zero = np.zeros(len(r))
-    x, y, z = r.T
-    return np.stack(
-        [np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)],
-        axis=-1,
-    )
-
-
 class SolidOutputs:
     """Rigid motions and surface stresses of the thin solid (fem.system.FormulationOutputs)."""
 
@@ -222,16 +212,14 @@ class SolidOutputs:
 
     def rigid_motion(self, centre_m: np.ndarray) -> np.ndarray:
         """(n_dof, 6): u = t + theta x (x - centre) at every node, t and theta unit vectors."""
-        r = self.layer.points - np.asarray(centre_m, dtype=np.float64)
-        out = np.zeros((len(r), 3, 6))
-        out[:, :, :3] = np.eye(3)
-        out[:, :, 3:] = _cross_columns(r)
-        return out.reshape(-1, 6)
+        return rigid_motions(self.layer.points, centre_m).reshape(-1, 6)
 
-    def surface_frame(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray]:
-        """(point (3,) on the mid-surface above (x, y), unit normal (3,)): the exact surface
-        point and the normal of the nearest mid-surface node."""
-        centre = self.part.surface_point([[x, y]])[0]
+    def surface_frame(
+        self, x: float, y: float, z: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(point (3,) on the mid-surface above (x, y) or nearest to (x, y, z), unit normal
+        (3,)): the exact surface point and the normal of the nearest mid-surface node."""
+        centre = self.part.surface_point([[x, y] if z is None else [x, y, z]])[0]
         k = int(np.argmin(np.linalg.norm(self.layer.surface_points - centre, axis=1)))
         return centre, self.layer.surface_normals[k].copy()
 
@@ -305,22 +293,16 @@ class Hex2LayerDofs:
         """Hold every displacement component through the thickness at ``surface_nodes``."""
         return Constraints(fixed=self._node_dofs(surface_nodes))
 
-    def spring_nodes(self, surface_nodes, x: float, y: float, stiffness: np.ndarray) -> Constraints:
+    def spring_nodes(
+        self, surface_nodes, x: float, y: float, stiffness, z: float | None = None
+    ) -> Constraints:
         """Tie the nodes :meth:`clamp_nodes` would hold to a rigid pad at the surface point
-        above (x, y) on springs ``stiffness`` (6,) along and about the pad's local axes
-        (t1, t2, n): translations N/m, then rotations N m/rad; n is the surface normal."""
-        centre, normal = self.outputs.surface_frame(x, y)
-        t1 = np.array([1.0, 0.0, 0.0]) - normal[0] * normal
-        if np.linalg.norm(t1) < 0.1:
-            t1 = np.array([0.0, 1.0, 0.0]) - normal[1] * normal
-        t1 /= np.linalg.norm(t1)
-        axes = np.column_stack([t1, np.cross(normal, t1), normal])
-        frame = np.kron(np.eye(2), axes)  # (6, 6): local pad coordinates -> x, y, z
+        above (x, y) (nearest to (x, y, z)) on springs ``stiffness`` (6,) along and about
+        the pad's local axes (fem.system.Spring.on_pad)."""
+        centre, normal = self.outputs.surface_frame(x, y, z)
         dofs = self._node_dofs(surface_nodes)
-        motions = self.outputs.rigid_motion(centre)[dofs] @ frame
-        return Constraints(
-            springs=[Spring(dofs, motions, np.asarray(stiffness, np.float64), frame, centre)]
-        )
+        motions = self.outputs.rigid_motion(centre)[dofs]
+        return Constraints(springs=[Spring.on_pad(dofs, motions, centre, normal, stiffness)])
 
     def pin_nodes(self, surface_nodes) -> Constraints:
         """A pinned point of a one-layer solid holds its nodes through the thickness (the

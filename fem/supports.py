@@ -111,9 +111,12 @@ class SolidDofs(Protocol):
         """Hold the displacement at ``surface_nodes`` (the shell: translations only; the
         one-layer solid: through the thickness, as clamp_nodes)."""
 
-    def spring_nodes(self, surface_nodes, x: float, y: float, stiffness) -> Constraints:
+    def spring_nodes(
+        self, surface_nodes, x: float, y: float, stiffness, z: float | None = None
+    ) -> Constraints:
         """Tie what :meth:`clamp_nodes` holds to a rigid pad at the surface point above
-        (x, y) on six springs (lateral, lateral, axial N/m; tilt, tilt, torsion N m/rad)."""
+        (x, y) (nearest to (x, y, z)) on six springs (lateral, lateral, axial N/m; tilt,
+        tilt, torsion N m/rad)."""
 
     def hold_side(self, side: str, *, clamped: bool) -> Constraints:
         """Clamp a side in SIDES, or simply support it (normal and along-edge displacement
@@ -334,7 +337,7 @@ class SuctionCup(Support):
         k = self.stiffness
         springs = [k.lateral_n_m, k.lateral_n_m, k.axial_n_m]
         springs += [k.tilt_nm_rad, k.tilt_nm_rad, k.torsion_nm_rad]
-        return solid.spring_nodes(inside, self.x, self.y, springs)
+        return solid.spring_nodes(inside, self.x, self.y, springs, self.z)
 
     def draw(self, ax) -> None:
         angle = np.linspace(0, 2 * np.pi, 65)

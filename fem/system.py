@@ -1,7 +1,8 @@
-"""The assembled finite-element system shared by the plate and thin-solid formulations.
+"""The assembled finite-element system shared by the plate, shell and thin-solid formulations.
 
 Degrees of freedom (DOFs) are those of the formulation (plate: deflection and its
-derivatives; solid: x, y, z displacement per node). Supports remove DOFs (``fixed``), hold
+derivatives; solid: x, y, z displacement per node; shell: displacement and rotation per
+node). Supports remove DOFs (``fixed``), hold
 displacement components along given directions at nodes (``directions``), or tie DOFs to a
 rigid pad on springs (``springs``: a compliant suction cup), which is expressed by a sparse
 basis T of the admissible displacements, u = T z, and the springs' stiffness on the pad
@@ -31,6 +32,43 @@ class Spring:
     stiffness: np.ndarray
     frame: np.ndarray
     centre_m: np.ndarray
+
+    @classmethod
+    def on_pad(cls, dofs, motions, centre_m, normal, stiffness) -> Spring:
+        """A rigid pad at ``centre_m`` (3,) on springs ``stiffness`` (6,) along and about its
+        local axes (t1, t2, n): translations N/m, then rotations N m/rad; n = ``normal``
+        (3,), t1 the global x (y where x is nearly normal) projected on the pad. ``dofs``
+        (n,) move with the pad as ``motions`` (n, 6), the unit rigid motions of those DOFs
+        about ``centre_m`` (FormulationOutputs.rigid_motion)."""
+        normal = np.asarray(normal, dtype=np.float64)
+        t1 = np.array([1.0, 0.0, 0.0]) - normal[0] * normal
+        if np.linalg.norm(t1) < 0.1:
+            t1 = np.array([0.0, 1.0, 0.0]) - normal[1] * normal
+        t1 /= np.linalg.norm(t1)
+        axes = np.column_stack([t1, np.cross(normal, t1), normal])
+        frame = np.kron(np.eye(2), axes)  # (6, 6): local pad coordinates -> x, y, z
+        return cls(
+            np.asarray(dofs),
+            np.asarray(motions) @ frame,
+            np.asarray(stiffness, np.float64),
+            frame,
+            np.asarray(centre_m, dtype=np.float64),
+        )
+
+
+def rigid_motions(points_m: np.ndarray, centre_m) -> np.ndarray:
+    """(N, 3, 6) displacements at ``points_m`` (N, 3) of unit translations along x, y, z and
+    unit rotations about x, y, z through ``centre_m`` (3,): u = t + theta x (p - centre)."""
+    r = np.asarray(points_m, dtype=np.float64) - np.asarray(centre_m, dtype=np.float64)
+    zero = np.zeros(len(r))
+    x, y, z = r.T
+    out = np.zeros((len(r), 3, 6))
+    out[:, :, :3] = np.eye(3)
+    out[:, :, 3:] = np.stack(
+        [np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)],
+        axis=-1,
+    )  # column j: e_j x r
+    return out
 
 
 @dataclass(eq=False)
@@ -129,6 +167,12 @@ class FormulationOutputs(Protocol):
     def rigid_motion(self, centre_m: np.ndarray) -> np.ndarray:
         """(n_dof, 6) DOF vectors of unit translations along x, y, z and unit rotations about
         x, y, z through ``centre_m`` (3,) (zero columns for motions the DOFs cannot make)."""
+
+    def surface_frame(
+        self, x: float, y: float, z: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(point (3,) on the mid-surface above (x, y) or nearest to (x, y, z), unit normal
+        (3,)): where a cup sits and its axis."""
 
     def stress_operator(self) -> tuple[np.ndarray, sp.csr_matrix]:
         """(points (S, 3) m, sparse (6 S, n_dof)): the stress tensor (Voigt xx, yy, zz, yz,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,7 +11,7 @@ from conftest import run_jaxflex
 
 import fem
 import optim
-from jaxflex.cell import Box, Cell, HalfSpace, Via
+from jaxflex.cell import Box, Cell, HalfSpace, Via, load_cell
 from jaxflex.collision import distances, gravity_offset, min_distance
 from jaxflex.deviation import outputs_at
 from jaxflex.engine import states_at
@@ -23,6 +24,7 @@ DT = 0.01
 LIMITS = optim.Limits(2.0, 10.0, 100.0)
 THRESHOLD = 5e-4
 GRAVITY = np.array([0.0, 0.0, -9.81])
+EXAMPLE_CELL = Path(__file__).resolve().parents[1] / "examples" / "press_cell.toml"
 
 
 @pytest.fixture(scope="module")
@@ -227,3 +229,44 @@ size_m = [1.4, 1.2, 0.5]
         "--min-distance", "0.01", "--threshold", "5e-4", "-o", str(tmp_path / "x"),
     )  # fmt: skip
     assert bad.returncode == 2 and "min_distance_m" in bad.stderr
+
+
+def test_the_example_cell_is_a_press_opening():
+    """examples/press_cell.toml (the README's and benchmarks.cell's scene) still describes
+    what they say: for the built-in plate's rigid footprint (1.5 x 0.8 m, in its frame),
+    A, the via point and B are clear of every obstacle by more than the 10 mm margin, and
+    the straight line from A to B runs into the lower die."""
+    cell = load_cell(EXAMPLE_CELL)
+    assert [o.name for o in cell.obstacles] == ["lower die", "upper die", "floor"]
+    assert [v.mode for v in cell.via] == ["blend"]
+    x, y = np.meshgrid(np.linspace(0, 1.5, 31), np.linspace(0, 0.8, 17))
+    footprint = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+
+    def clearance(origin_m) -> float:
+        return distances(cell.obstacles, footprint + origin_m)[0].min()
+
+    for origin in (cell.start_m, cell.via[0].position_m, cell.end_m):
+        assert clearance(np.asarray(origin)) > 0.01
+    line = np.linspace(0, 1, 101)[:, None] * (cell.end_m - cell.start_m) + cell.start_m
+    assert min(clearance(p) for p in line) < 0
+
+
+@pytest.mark.slow
+def test_the_example_cell_from_the_command_line(tmp_path):
+    """The README's commands with examples/press_cell.toml on the built-in plate (fewer
+    modes and points): the optimised move keeps the 10 mm margin, certified."""
+    built = run_jaxflex(
+        "model", "--scene", "plate", "--n-modes", "8", "--points", "60",
+        "-o", str(tmp_path / "plate.npz"), "--quiet",
+    )  # fmt: skip
+    assert built.returncode == 0, built.stderr
+    done = run_jaxflex(
+        "optimize", str(tmp_path / "plate.npz"), "--cell", str(EXAMPLE_CELL),
+        "--min-distance", "0.01", "--threshold", "5e-4", "-o", str(tmp_path / "press"),
+        "--quiet",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    report = json.loads((tmp_path / "press" / "report.json").read_text())
+    (distance,) = report["constraints"]
+    assert distance["name"] == "distance to obstacles"
+    assert distance["peak"] >= distance["limit"] * (1 - 1e-9)
