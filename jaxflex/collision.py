@@ -31,7 +31,7 @@ from threadpoolctl import threadpool_limits
 from jaxflex.cell import Cell
 from jaxflex.decay import amplitudes
 from jaxflex.engine import free_states, modal_forces, modal_states, states_between
-from jaxflex.peaks import CHUNK, SAMPLES_PER_PERIOD, SearchState, certified_max
+from jaxflex.peaks import SAMPLES_PER_PERIOD, SearchState, certified_max, settling_windows
 from jaxflex.profile import as_move, kinematics_at
 
 
@@ -204,24 +204,11 @@ def _settling(motion: _Motion, best: SearchState, tolerance) -> None:
     def above(tau: float) -> np.ndarray:
         return rest + motion.envelope(items, tau, 0)[:, 0] > best.value + tolerance(best.value)
 
-    if not above(0.0).any():
-        return
     sigma = motion.sigma[motion.amplitude > 0]
-    hi = 1.0 / max(sigma.min(), 1e-6) if sigma.size else 1.0
-    while above(hi).any():
-        hi *= 2.0
-        if hi > 1e6:
-            raise RuntimeError("min_distance: the settling does not decay (undamped modes)")
-    lo = 0.0
-    while hi - lo > max(1e-6, 1e-6 * hi):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if above(mid).any() else (lo, mid)
     step = 2 * np.pi / (SAMPLES_PER_PERIOD * motion.omega.max())
-    start = 0.0
-    while start < hi:
-        end = min(hi, start + CHUNK * step)
-        grid = motion.t_end + np.linspace(start, end, max(2, math.ceil((end - start) / step) + 1))
+    for start, times in settling_windows(above, sigma, step, "min_distance"):
         alive = items[above(start)]
         if alive.size:
-            certified_max(motion.after, motion.after_bound, grid, alive, tolerance, best)
-        start = end
+            certified_max(
+                motion.after, motion.after_bound, motion.t_end + times, alive, tolerance, best
+            )

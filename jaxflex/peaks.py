@@ -30,7 +30,7 @@ generic branch-and-bound search, shared with the minimum distance of jaxflex.col
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -284,6 +284,32 @@ def _chunks(items: np.ndarray, size: int = 2048):
     return [items[i : i + size] for i in range(0, len(items), size)]
 
 
+def settling_windows(
+    above: Callable[[float], np.ndarray], sigma: np.ndarray, step_s: float, what: str
+) -> Iterator[tuple[float, np.ndarray]]:
+    """The windows of the settling still to search: (start, sample times) in s after the
+    stop, ``step_s`` apart, CHUNK steps per window, up to the time beyond which ``above(tau)``
+    (per item: whether its bound at tau can still beat the best value) is false for every
+    item. The horizon is bracketed by doubling from 1 / min(sigma) (decay rates, 1/s) and
+    bisected to 1e-6 relative. Nothing if no item is above at the stop."""
+    if not above(0.0).any():
+        return
+    hi = 1.0 / max(sigma.min(), 1e-6) if sigma.size else 1.0
+    while above(hi).any():
+        hi *= 2.0
+        if hi > 1e6:
+            raise RuntimeError(f"{what}: the settling does not decay (undamped modes)")
+    lo = 0.0
+    while hi - lo > max(1e-6, 1e-6 * hi):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if above(mid).any() else (lo, mid)
+    start = 0.0
+    while start < hi:
+        end = min(hi, start + CHUNK * step_s)
+        yield start, np.linspace(start, end, max(2, math.ceil((end - start) / step_s) + 1))
+        start = end
+
+
 def _settling(response: _Response, best: SearchState, tolerance) -> None:
     """The part of the search after the move (module docstring)."""
     items = np.arange(response.functional.n_items)
@@ -291,24 +317,11 @@ def _settling(response: _Response, best: SearchState, tolerance) -> None:
     def above(tau: float) -> np.ndarray:
         return response.tail_item_bounds(items, tau) > best.value + tolerance(best.value)
 
-    if not above(0.0).any():
-        return
     sigma = response.sigma[response.amplitude > 0]
-    hi = 1.0 / max(sigma.min(), 1e-6) if sigma.size else 1.0
-    while above(hi).any():
-        hi *= 2.0
-        if hi > 1e6:
-            raise RuntimeError("output_peak: the settling does not decay (undamped modes)")
-    lo = 0.0
-    while hi - lo > max(1e-6, 1e-6 * hi):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if above(mid).any() else (lo, mid)
     step = response.tail_step(tolerance(best.value))
-    start = 0.0
-    while start < hi:
-        end = min(hi, start + CHUNK * step)
-        grid = response.t_end + np.linspace(start, end, max(2, math.ceil((end - start) / step) + 1))
+    for start, times in settling_windows(above, sigma, step, "output_peak"):
         alive = items[above(start)]
         for chunk in _chunks(alive):
-            certified_max(response.after, response.after_bound, grid, chunk, tolerance, best)
-        start = end
+            certified_max(
+                response.after, response.after_bound, response.t_end + times, chunk, tolerance, best
+            )
