@@ -37,9 +37,7 @@ A cell file is TOML or JSON (:func:`load_cell`)::
 
 from __future__ import annotations
 
-import json
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -48,7 +46,7 @@ import meshio
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.validation import check_positive
+from jaxflex.validation import check_positive, read_settings_file
 
 VIA_MODES = ("stop", "blend")
 DEFAULT_GRAVITY_M_S2 = (0.0, 0.0, -9.81)
@@ -401,13 +399,5 @@ def cell_from_dict(data: Mapping, folder: str | Path = ".") -> Cell:
 def load_cell(path: str | Path) -> Cell:
     """Read a cell file (``.toml`` or ``.json``; module docstring)."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"cell: file {str(path)!r} does not exist")
-    text = path.read_text(encoding="utf-8")
-    try:
-        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
-    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise InputError(
-            f"cell: {str(path)!r} is not valid {path.suffix[1:].upper()} ({exc})"
-        ) from exc
+    data = read_settings_file("cell", path)
     return cell_from_dict(data, path.parent)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import json
 import math
 import os
+import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -95,3 +97,23 @@ def check_output_file(option: str, path: str | os.PathLike) -> Path:
         raise InputError(f"{option}: {str(target)!r} is a directory; give a file name")
     _check_writable_dir(option, _first_existing(target.parent), target)
     return target
+
+
+def read_settings_file(field: str, path: str | os.PathLike) -> dict[str, Any]:
+    """The table in a ``.toml`` or ``.json`` file (a cell, a sweep spec); InputError naming
+    ``field`` for a missing file, another suffix, invalid syntax or a top level that is not a
+    table."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{field}: no such file {str(path)!r}")
+    suffix = path.suffix.lower()
+    if suffix not in (".toml", ".json"):
+        raise InputError(f"{field}: expected a .toml or .json file, got {path.name!r}")
+    text = path.read_text(encoding="utf-8")
+    try:
+        data = tomllib.loads(text) if suffix == ".toml" else json.loads(text)
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise InputError(f"{field}: {path.name} is not valid {suffix[1:].upper()}: {exc}") from exc
+    if not isinstance(data, dict):
+        raise InputError(f"{field}: {path.name} must hold a table, got {type(data).__name__}")
+    return data

@@ -15,7 +15,6 @@ from __future__ import annotations
 import itertools
 import json
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -25,6 +24,7 @@ from fem.imported import file_digest
 from fem.parts import ELEMENTS
 from jaxflex.cli import AXIS_LIMITS
 from jaxflex.errors import InputError
+from jaxflex.validation import read_settings_file
 from optim.robust import RobustSpec
 from optim.sweep.part import build_part, footprint_box
 
@@ -459,20 +459,7 @@ def parse_spec(data: Mapping, base: str | Path = ".") -> SweepSpec:
 def load_spec(path: str | Path) -> SweepSpec:
     """Read and validate a ``.json`` or ``.toml`` specification file."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"spec: no such file {str(path)!r}")
-    text = path.read_text(encoding="utf-8")
-    try:
-        if path.suffix.lower() == ".toml":
-            data = tomllib.loads(text)
-        elif path.suffix.lower() == ".json":
-            data = json.loads(text)
-        else:
-            raise InputError(f"spec: expected a .json or .toml file, got {path.name!r}")
-    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise InputError(
-            f"spec: {path.name} is not valid {path.suffix[1:].upper()}: {exc}"
-        ) from exc
+    data = read_settings_file("spec", path)
     try:
         return parse_spec(data, path.parent)
     except InputError as exc:
