@@ -24,12 +24,13 @@ import warnings
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
-from jaxflex.atomic import write_text_atomic
+from jaxflex.atomic import remove_stale_temporaries, write_text_atomic
 from jaxflex.errors import InputError, JaxflexWarning, ModelError, ModelFileError
 from jaxflex.model import ModalModel, load_model
 from optim.sweep.records import RecordError, check_fe_summary, check_record, sealed
 
 FINAL_STAGES = ("fe", "optimization")
+ROOT_FILES = ("spec.json", "results.csv", "sweep.png", "deviation.png")
 REJECTED = "rejected"
 
 
@@ -55,6 +56,8 @@ class ResultStore:
         for stale in (*self.cases_dir.glob(".*.tmp"), *self.models_dir.glob(".*.tmp")):
             with contextlib.suppress(FileNotFoundError, IsADirectoryError):
                 stale.unlink()
+        for name in ROOT_FILES:
+            remove_stale_temporaries(self.root / name)
 
     def reject(self, path: Path, problem: str) -> None:
         """Report ``path`` as untrusted and move it to ``rejected/`` (its case is computed
