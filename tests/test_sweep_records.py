@@ -16,7 +16,7 @@ from sweep_cases import SPEC, assert_same_table, start_sweep, wait_for_records
 
 from jaxflex.errors import InputError, JaxflexWarning
 from optim.sweep import parse_spec, read_table, run_sweep
-from optim.sweep.records import RecordError, check_record, sealed
+from optim.sweep.records import RecordError, as_stored, check_record, sealed
 from optim.sweep.store import ResultStore
 
 
@@ -163,3 +163,15 @@ def test_a_second_sweep_on_a_busy_directory_is_refused(tmp_path):
     finally:
         proc.kill()
         proc.communicate()
+
+
+def test_a_computed_record_that_fails_its_check_is_stored_as_an_error(good_record):
+    """Stored as computed it would be rejected and recomputed on every rerun: it becomes a
+    final error naming what is wrong."""
+    record = json.loads(json.dumps(good_record))
+    record["opt"]["cycle_time_s"] = math.inf
+    stored = as_stored(record, 0.01)
+    check_record(stored, record["case_id"], 0.01)
+    assert (stored["status"], stored["stage"]) == ("error", "optimization")
+    assert "fails its check: opt.cycle_time_s: inf is outside" in stored["error"]
+    assert as_stored(good_record, 0.01) == good_record  # a good one is stored as it is

@@ -182,3 +182,27 @@ def check_record(record, case_id: str, dt_s: float | None = None) -> None:
     ):
         raise RecordError("opt.warnings: must be a list of {kind, message} texts")
     _check_move(record, opt, dt_s)
+
+
+def as_stored(record: dict, dt_s: float | None) -> dict:
+    """The sealed record to store for a case just computed: ``record`` itself, or, if it
+    fails its own check (a defect, not the case's fault), an error of stage "optimization"
+    saying so: stored as it was, it would be rejected and recomputed on every rerun."""
+    stored = sealed(record)
+    try:
+        check_record(stored, record.get("case_id"), dt_s)
+    except RecordError as exc:
+        return sealed(
+            {
+                "case_id": record.get("case_id"),
+                "status": "error",
+                "stage": "optimization",
+                "error_type": "RecordError",
+                "error": f"the computed record fails its check: {exc}",
+                "traceback": None,
+                "fe": None,
+                "worker": record.get("worker") if isinstance(record.get("worker"), str) else None,
+                "finished_unix_s": record.get("finished_unix_s"),
+            }
+        )
+    return stored

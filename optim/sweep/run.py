@@ -202,7 +202,7 @@ def _run_locked(spec, store, *, executor, connect_to, retry_errors, progress, pl
         with contextlib.closing(stream):
             for record in stream:
                 store_start = time.perf_counter()
-                store.save_record(record)
+                record = store.save_record(record)
                 store_s = time.perf_counter() - store_start
                 run.records.add(record)
                 run.computed += 1

@@ -27,7 +27,7 @@ from pathlib import Path
 from jaxflex.atomic import remove_stale_temporaries, write_text_atomic
 from jaxflex.errors import InputError, JaxflexWarning, ModelError, ModelFileError
 from jaxflex.model import ModalModel, load_model
-from optim.sweep.records import RecordError, check_fe_summary, check_record, sealed
+from optim.sweep.records import RecordError, as_stored, check_fe_summary, check_record
 
 FINAL_STAGES = ("fe", "optimization")
 ROOT_FILES = ("spec.json", "results.csv", "sweep.png", "deviation.png")
@@ -125,10 +125,14 @@ class ResultStore:
         except RecordError as exc:
             raise InputError(f"{path}: case record {exc}") from None
 
-    def save_record(self, record: dict) -> None:
+    def save_record(self, record: dict) -> dict:
+        """Store a computed record, sealed (optim.sweep.records.as_stored: a record that fails
+        its own check is stored as an error saying so); returns what was stored."""
+        stored = as_stored(record, self.dt_s)
         write_text_atomic(
-            self.record_path(record["case_id"]), json.dumps(sealed(record), sort_keys=True) + "\n"
+            self.record_path(record["case_id"]), json.dumps(stored, sort_keys=True) + "\n"
         )
+        return stored
 
     def model_path(self, layout_id: str) -> Path:
         return self.models_dir / f"{layout_id}.npz"
