@@ -47,13 +47,24 @@ def file_digest(path: Path) -> str:
 
 
 @contextlib.contextmanager
-def _locked(directory: Path) -> Iterator[None]:
+def directory_lock(directory: str | os.PathLike, *, option: str | None = None) -> Iterator[None]:
+    """Hold an exclusive advisory lock on ``directory`` (an existing directory) while the
+    block runs: POSIX ``flock`` on the directory itself, released when the block ends or the
+    process dies (also by SIGKILL), so a killed writer never leaves it locked. Without
+    ``option`` another holder is waited for; with it, InputError naming ``option`` is raised
+    at once. Where there is no ``flock`` (Windows) the block runs unlocked."""
     if fcntl is None:
         yield
         return
     fd = os.open(directory, os.O_RDONLY)
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | (0 if option is None else fcntl.LOCK_NB))
+        except BlockingIOError:
+            raise InputError(
+                f"{option}: {str(directory)!r} is being written by another jaxflex run; wait "
+                "for it to end or choose another directory"
+            ) from None
         yield
     finally:
         os.close(fd)  # releases the lock
@@ -86,7 +97,7 @@ def writing(
     The manifest is written when the block ends without an exception."""
     root = Path(directory)
     root.mkdir(parents=True, exist_ok=True)
-    with _locked(root):
+    with directory_lock(root):
         (root / MANIFEST).unlink(missing_ok=True)
         for name in (*possible, MANIFEST):
             remove_stale_temporaries(root / name)

@@ -10,6 +10,7 @@ from conftest import run_jaxflex
 from test_optim_optimize import few_mode_model
 
 import jaxflex
+from jaxflex.model_file import ARRAY_FIELDS, write_model_file
 from jaxflex.trajectory_io import read_trajectory_csv
 
 
@@ -60,6 +61,13 @@ def test_optimize_writes_trajectory_report_and_plots(model_file, tmp_path):
         (["--threshold", "1e-3", "--vmax", "1", "2"], "--vmax"),
         (["--threshold", "1e-3", "--amax", "-1"], "amax[x]"),
         (["--threshold", "1e-3", "--distance", "0", "0", "80"], "max_duration_s"),
+        # extreme requests are refused up front (budgets from the problem), naming the option
+        (["--threshold", "1e-3", "--vmax", "1e-6"], "(--vmax, --amax, --jmax)"),
+        (["--threshold", "1e-3", "--distance", "0", "0", "1e9"], "(--max-duration)"),
+        (["--threshold", "1e-3", "--dt", "1e6"], "lasts at least 2 steps = 2e+06 s"),
+        (["--threshold", "1e-3", "--clearance", "1e-12"], "(--clearance, --max-duration)"),
+        (["--threshold", "1e-3", "--max-duration", "1000", "--vmax", "0.001"], "--max-steps"),
+        (["--threshold", "1e-300"], "Raise the threshold (--threshold)"),
     ],
 )
 def test_bad_requests_exit_2_with_a_clear_message(model_file, tmp_path, args, message):
@@ -67,3 +75,19 @@ def test_bad_requests_exit_2_with_a_clear_message(model_file, tmp_path, args, me
     proc = run_jaxflex("optimize", *base, *args)
     assert proc.returncode == 2
     assert message in proc.stderr and "Traceback" not in proc.stderr
+    assert "allowed 0 s" not in proc.stderr
+
+
+def test_participation_factors_out_of_range_are_named(tmp_path):
+    """A model file whose participation factors were scaled by 1e200 (it passed validation
+    before the physical ranges, then made the settle search grow without bound) is refused on
+    load, naming the field and the range."""
+    model = few_mode_model()
+    arrays = {name: getattr(model, name) for name in ARRAY_FIELDS}
+    arrays["gamma"] = arrays["gamma"] * 1e200
+    path = tmp_path / "scaled.npz"
+    write_model_file(path, arrays, None, {})
+    args = ["--distance", "0", "0", "0.8", "--threshold", "1e-3", "-o", str(tmp_path / "o")]
+    proc = run_jaxflex("optimize", str(path), *args, "--quiet")
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "ModalModel.gamma" in proc.stderr and "outside the physical range" in proc.stderr

@@ -33,6 +33,7 @@ from pathlib import Path
 from distributed import as_completed
 
 from jaxflex.errors import InputError
+from jaxflex.fileset import directory_lock
 from jaxflex.model import ModalModel
 from jaxflex.progress import progress_bar
 from optim.sweep.best import MoveBest, best_layouts, move_limits
@@ -159,20 +160,41 @@ def run_sweep(
             raise InputError(f"{name}: only used with the dask executor")
     if n_workers is not None and n_workers < 1:
         raise InputError(f"n_workers: must be >= 1, got {n_workers}")
-    store = ResultStore(directory)
+    store = ResultStore(directory, dt_s=spec.optimization.dt_s)
+    with directory_lock(store.root, option="-o/--output"):
+        where = {"n_workers": n_workers, "dashboard_address": dashboard_address}
+        return _run_locked(
+            spec,
+            store,
+            executor=executor,
+            connect_to=lambda: connect(scheduler, notify=notify, **where),
+            retry_errors=retry_errors,
+            progress=progress,
+            plots=plots,
+            on_record=on_record,
+        )
+
+
+def _run_locked(spec, store, *, executor, connect_to, retry_errors, progress, plots, on_record):
+    """run_sweep's work, with the results directory locked against other sweeps."""
+    store.remove_temporaries()
     store.save_spec(spec.source)
     cases = expand(spec)
     run = SweepRun(spec, store.root, cases, StoredRecords(store), executor=executor)
-    ids = {c.case_id for c in cases}
-    for record in store.iter_records():  # one at a time: only the statuses stay in memory
-        keep = is_final(record) and not (retry_errors and record["status"] != "ok")
-        if keep and record["case_id"] in ids:
-            run.records.add(record)
-    run.skipped = len(run.records)
     pending: dict[str, Case] = {}
     for case in cases:
-        if case.case_id not in run.records:
-            pending.setdefault(case.case_id, case)
+        if case.case_id in run.records or case.case_id in pending:
+            continue
+        record = store.read_record(case.case_id)  # checked; a bad one is rejected
+        if (
+            record is not None
+            and is_final(record)
+            and not (retry_errors and record["status"] != "ok")
+        ):
+            run.records.add(record)
+        else:
+            pending[case.case_id] = case
+    run.skipped = len(run.records)
     start = time.perf_counter()
     bar = progress_bar(len(pending), spec.name, progress, unit="case")
 
@@ -180,7 +202,7 @@ def run_sweep(
         with contextlib.closing(stream):
             for record in stream:
                 store_start = time.perf_counter()
-                store.save_record(record)
+                record = store.save_record(record)
                 store_s = time.perf_counter() - store_start
                 run.records.add(record)
                 run.computed += 1
@@ -193,8 +215,7 @@ def run_sweep(
         if executor == "serial":
             consume(_run_serial(spec, store, list(pending.values())))
         elif pending:
-            where = {"n_workers": n_workers, "dashboard_address": dashboard_address}
-            with connect(scheduler, notify=notify, **where) as cluster:
+            with connect_to() as cluster:
                 _on_cluster(cluster, run, store, list(pending.values()), consume)
     finally:
         bar.close()

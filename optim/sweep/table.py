@@ -10,6 +10,12 @@ deviation_at_stop_m, cycle_over_floor, fe_wall_s, opt_wall_s, fe_cpu_s, opt_cpu_
 CPU time of the two steps, s; the FE step is shared by the moves of a layout), worker, error.
 Floats are written with full precision (repr), so equal runs give equal files apart from the
 wall-time and worker columns (:data:`RUN_COLUMNS`).
+
+Text a spreadsheet would execute as a formula (a layout named ``=HYPERLINK(...)``: cells
+starting with ``=``, ``+``, ``-``, ``@``, a tab or a carriage return) is written with a
+leading apostrophe, which spreadsheets show as text; a leading apostrophe of the text itself
+is doubled, so :func:`read_table` gives back the text that was written (a carriage return in
+it becomes a line break).
 """
 
 from __future__ import annotations
@@ -77,12 +83,25 @@ def row(case: Case, record: dict | None) -> dict:
     return out
 
 
+# what a spreadsheet reads as the start of a formula; the apostrophe marks escaped text
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+ESCAPE = "'"
+
+
 def _cell(value) -> str:
     if value is None:
         return ""
     if isinstance(value, float):
         return repr(value)
-    return str(value)
+    if not isinstance(value, str):
+        return str(value)
+    # a carriage return would end the row unquoted (the rows end in "\n"): a line break
+    text = value.replace("\r\n", "\n").replace("\r", "\n")
+    return ESCAPE + text if text.startswith((*FORMULA_STARTS, ESCAPE)) else text
+
+
+def _unescaped(text: str) -> str:
+    return text[1:] if text.startswith(ESCAPE) else text
 
 
 def table_rows(cases: Iterable[Case], records: Mapping[str, dict]) -> Iterator[dict]:
@@ -101,6 +120,7 @@ def write_table(path: str | Path, rows: Iterable[dict]) -> None:
 
 
 def read_table(path: str | Path) -> list[dict[str, str]]:
-    """The rows of a results CSV as dicts of strings (empty string for missing values)."""
+    """The rows of a results CSV as dicts of strings (empty string for missing values), text
+    unescaped (module docstring)."""
     with open(path, newline="", encoding="utf-8") as handle:
-        return list(csv.DictReader(handle))
+        return [{k: _unescaped(v) for k, v in row.items()} for row in csv.DictReader(handle)]
