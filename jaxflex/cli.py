@@ -136,7 +136,15 @@ class _Interrupts:
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
+    """The ``jaxflex`` command (module docstring); returns the exit status."""
+    try:
+        return _main(sys.argv[1:] if argv is None else list(argv))
+    except BrokenPipeError:  # the reader went away (`jaxflex ... | head`): stop quietly
+        _silence_stdout()
+        return 141  # as if killed by SIGPIPE, like other command-line tools
+
+
+def _main(argv: list[str]) -> int:
     # jaxflex itself takes no option but --help and --version: the first other word names the
     # command
     chosen = next((arg for arg in argv if not arg.startswith("-")), None)
@@ -161,6 +169,15 @@ def main(argv: list[str] | None = None) -> int:
         interrupts.handled()
         if main_thread:
             signal.signal(signal.SIGINT, previous)
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so that the interpreter's last flush does not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # stdout without a file descriptor
+        pass
 
 
 def _warning_printer(command: str, fallback):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import os
 import subprocess
 import sys
 from importlib.metadata import entry_points
@@ -68,6 +69,23 @@ def test_interrupted_command_exits_130(monkeypatch, capsys):
     monkeypatch.setattr(optim.sweep.cli, "run", interrupted)
     assert main(["sweep", "--example"]) == 130
     assert "jaxflex sweep: interrupted" in capsys.readouterr().err
+
+
+def test_output_to_a_closed_pipe_ends_quietly():
+    """`jaxflex ... | head`: the reader is gone before the command writes; no traceback, the
+    status a SIGPIPE kill would give."""
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        done = subprocess.run(
+            [sys.executable, "-m", "jaxflex", "sweep", "--example"],
+            stdout=write_end,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+    finally:
+        os.close(write_end)
+    assert (done.returncode, done.stderr) == (141, "")
 
 
 def test_demo_runs_the_whole_pipeline(tmp_path):
