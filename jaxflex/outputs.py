@@ -25,6 +25,7 @@ another frame (:meth:`CupSet.rotated`, :meth:`StressSet.rotated`). SI units thro
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -37,21 +38,34 @@ VOIGT = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))  # xx, yy, zz, yz, xz, 
 CUP_ROWS = ("F_x", "F_y", "F_z", "M_x", "M_y", "M_z")
 
 
+# Arrays _checked has returned (id -> array, gone with the array): a model derived from a
+# validated one (perturbed, rescaled, re-damped) shares its output maps, which are then not
+# copied and scanned again (the robust grid derives hundreds of models from one).
+_VALIDATED: weakref.WeakValueDictionary[int, np.ndarray] = weakref.WeakValueDictionary()
+
+
 def _checked(owner: str, name: str, value: Any, shape: tuple) -> np.ndarray:
     """``value`` as a read-only float64 array of ``shape`` (None entries: any size)."""
+    if _VALIDATED.get(id(value)) is value and _fits(value.shape, shape):
+        return value
     try:
         arr = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise ModelError(f"{owner}.{name}: must be numeric") from exc
-    if arr.ndim != len(shape) or any(
-        s is not None and s != a for s, a in zip(shape, arr.shape, strict=True)
-    ):
+    if not _fits(arr.shape, shape):
         want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
         raise ModelError(f"{owner}.{name}: expected shape {want}, got {arr.shape}")
     if not np.isfinite(arr).all():
         raise ModelError(f"{owner}.{name}: must be finite")
     arr.setflags(write=False)
+    _VALIDATED[id(arr)] = arr
     return arr
+
+
+def _fits(actual: tuple, shape: tuple) -> bool:
+    return len(actual) == len(shape) and all(
+        s is None or s == a for s, a in zip(shape, actual, strict=True)
+    )
 
 
 def _concrete(*values: Any) -> bool:
