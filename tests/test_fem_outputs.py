@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from closed_forms import ss_plate_stress_error
 
 import fem
 import jaxflex
@@ -117,44 +118,13 @@ def test_reactions_and_stress_match_the_full_order_transient():
     assert abs(vm_ours.max() / vm_ref.max() - 1) <= 0.02
 
 
-def _ss_stress_error(element: str, mesh: float) -> float:
-    """Largest error of the modal surface stresses (first four modes, sigma_xx, sigma_yy,
-    tau_xy at the element centroids) of a simply supported 0.6 x 0.4 m plate against the
-    closed form, relative to each mode's peak: for mode (m, n),
-    w = A sin(m pi x/a) sin(n pi y/b) with A = 2 / sqrt(rho h a b) (mass-normalised), so
-    sigma_xx = (h/2) E/(1 - nu^2) A pi^2 (m^2/a^2 + nu n^2/b^2) sin sin, and alike."""
-    a, b, h = 0.6, 0.4, 1e-3
-    part = fem.rectangular_plate(a, b, h, "steel", mesh, element=element)
-    result = fem.modal_analysis(part, fem.SimplySupportedEdge("all"), n_modes=4, zeta=0.02)
-    model = result.to_modal_model(points=10)
-    steel = part.material
-    amp = 2 / np.sqrt(steel.rho_kg_m3 * h * a * b)
-    factor = (h / 2) * steel.E_pa / (1 - steel.nu**2) * amp * np.pi**2
-    x, y = np.asarray(model.stress.points_m)[:, :2].T
-    modes = sorted(
-        [(1, 1), (2, 1), (3, 1), (1, 2)], key=lambda k: (k[0] / a) ** 2 + (k[1] / b) ** 2
-    )
-    q_map = np.asarray(model.stress.stress.q_map).reshape(-1, 6, model.n_modes)
-    worst = 0.0
-    for i, (m, n) in enumerate(modes):
-        ss = np.sin(m * np.pi * x / a) * np.sin(n * np.pi * y / b)
-        cc = np.cos(m * np.pi * x / a) * np.cos(n * np.pi * y / b)
-        exact = np.zeros((len(x), 6))
-        exact[:, 0] = factor * ((m / a) ** 2 + steel.nu * (n / b) ** 2) * ss
-        exact[:, 1] = factor * ((n / b) ** 2 + steel.nu * (m / a) ** 2) * ss
-        exact[:, 5] = -factor * (1 - steel.nu) * (m / a) * (n / b) * cc
-        ours = q_map[:, :, i] * np.sign(np.sum(q_map[:, :, i] * exact))  # sign is arbitrary
-        worst = max(worst, np.abs(ours - exact).max() / np.abs(exact).max())
-    return worst
-
-
 def test_modal_stress_of_the_simply_supported_plate():
     """Argyris (quintic) is exact to ~1e-4 at 50 mm (tolerance 1e-3). Morley's curvature is
     constant per element, so its centroid value is off by about |grad sigma| h / 3: first
     order, ~7 % of the peak at 12.5 mm on the fourth mode (measured 6.6 %; 13.6 % at 25 mm,
     3.3 % at 6.25 mm), halving with h."""
-    assert _ss_stress_error("argyris", 0.05) <= 1e-3
-    coarse, fine = _ss_stress_error("morley", 0.025), _ss_stress_error("morley", 0.0125)
+    assert ss_plate_stress_error("argyris", 0.05) <= 1e-3
+    coarse, fine = ss_plate_stress_error("morley", 0.025), ss_plate_stress_error("morley", 0.0125)
     assert fine <= 0.08
     assert 1.6 <= coarse / fine <= 2.5  # first order
 

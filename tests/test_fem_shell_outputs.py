@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from closed_forms import ss_plate_stress_error
 
 import fem
 import jaxflex
@@ -76,44 +77,11 @@ def test_a_stiff_shell_loads_its_cups_with_m_a():
     np.testing.assert_allclose(forces[..., :3].sum(axis=1), expected, atol=1e-6 * 20)
 
 
-def _ss_shell_stress_error(mesh_m: float) -> float:
-    """Largest error of the shell's modal surface stresses (first four modes of a simply
-    supported flat 0.6 x 0.4 m plate meshed as shell facets, both surfaces) against the
-    closed form, relative to each mode's peak (mass-normalised w = A sin sin with
-    A = 2 / sqrt(rho h a b); sigma_xx = -z E/(1 - nu^2) (w_xx + nu w_yy), alike)."""
-    a, b, h = 0.6, 0.4, 1e-3
-    part = fem.rectangular_plate(a, b, h, "steel", mesh_m, element="shell")
-    result = fem.modal_analysis(part, fem.SimplySupportedEdge("all"), n_modes=4, zeta=0.02)
-    model = result.to_modal_model(points=10)
-    amp = 2 / np.sqrt(STEEL.rho_kg_m3 * h * a * b)
-    factor = (h / 2) * STEEL.E_pa / (1 - STEEL.nu**2) * amp * np.pi**2
-    points = np.asarray(model.stress.points_m)
-    x, y = points[:, :2].T
-    side = np.sign(points[:, 2])  # top +h/2, bottom -h/2
-    assert set(side) == {-1.0, 1.0}
-    modes = sorted(
-        [(1, 1), (2, 1), (3, 1), (1, 2)], key=lambda k: (k[0] / a) ** 2 + (k[1] / b) ** 2
-    )
-    q_map = np.asarray(model.stress.stress.q_map).reshape(-1, 6, model.n_modes)
-    worst = 0.0
-    for i, (m, n) in enumerate(modes):
-        ss = np.sin(m * np.pi * x / a) * np.sin(n * np.pi * y / b)
-        cc = np.cos(m * np.pi * x / a) * np.cos(n * np.pi * y / b)
-        exact = np.zeros((len(x), 6))
-        exact[:, 0] = factor * ((m / a) ** 2 + STEEL.nu * (n / b) ** 2) * ss
-        exact[:, 1] = factor * ((n / b) ** 2 + STEEL.nu * (m / a) ** 2) * ss
-        exact[:, 5] = -factor * (1 - STEEL.nu) * (m / a) * (n / b) * cc
-        exact *= side[:, None]
-        ours = q_map[:, :, i] * np.sign(np.sum(q_map[:, :, i] * exact))  # sign is arbitrary
-        worst = max(worst, np.abs(ours - exact).max() / np.abs(exact).max())
-    return worst
-
-
 def test_shell_stress_of_the_simply_supported_plate():
     """The DKT curvature and the OPT membrane strain are linear over a facet; their value at
     the centroid, reported for the facet, is off by about |grad sigma| h / 3: first order
     (measured 4.2 % at 25 mm and 2.0 % at 12.5 mm on the fourth mode), halving with h."""
-    coarse, fine = _ss_shell_stress_error(0.025), _ss_shell_stress_error(0.0125)
+    coarse, fine = ss_plate_stress_error("shell", 0.025), ss_plate_stress_error("shell", 0.0125)
     assert fine <= 0.025
     assert 1.6 <= coarse / fine <= 2.5  # first order
 
