@@ -223,6 +223,18 @@ class _Response:
         return 2 * np.pi / (SAMPLES_PER_PERIOD * top)
 
 
+def item_bounds(model, outputs, functional, acc, dt_s: float, *, offset=None) -> np.ndarray:
+    """(I,) an upper bound of each item of ``functional`` (arguments as :func:`output_peak`)
+    over the move and all the settling after it: the energy-radius bound of the move and the
+    decay envelope from its end. Cheap (no evaluation of the outputs); an item below a limit
+    here cannot reach it."""
+    move = as_move(acc, dt_s, at_rest=True)
+    offset = np.zeros(outputs.n_rows) if offset is None else offset
+    response = _Response(model, outputs, functional, move, offset)
+    items = np.arange(functional.n_items)
+    return np.maximum(response.move_item_bounds(items), response.tail_item_bounds(items, 0.0))
+
+
 def output_peak(
     model,
     outputs,

@@ -36,7 +36,7 @@ from jaxflex.collision import Clearance, distances, gravity_offset, min_distance
 from jaxflex.deviation import outputs_at
 from jaxflex.engine import state_maps_at, states_at
 from jaxflex.loads import CupUtilisation, VonMises
-from jaxflex.peaks import Peak, output_peak
+from jaxflex.peaks import Peak, item_bounds, output_peak
 from jaxflex.profile import acceleration_at, kinematics_at, position_weights
 
 ROW_MARGIN = 1e-3
@@ -123,36 +123,49 @@ class LoadFamily:
         r = self.functional.rows_per_item
         return np.arange(r * item, r * item + r)
 
-    def values(self, acc: np.ndarray, dt_s: float, t: np.ndarray) -> np.ndarray:
-        """(T, I) the functional of every item at times ``t`` (items in blocks)."""
+    def values(
+        self, acc: np.ndarray, dt_s: float, t: np.ndarray, items: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(T, I) the functional of ``items`` (default every item) at times ``t`` (in blocks
+        of ITEM_BLOCK items)."""
+        if items is None:
+            items = np.arange(self.functional.n_items)
         with threadpool_limits(limits=1, user_api="blas"):
-            return self._values(acc, dt_s, t)
+            return self._values(acc, dt_s, t, items)
 
-    def _values(self, acc: np.ndarray, dt_s: float, t: np.ndarray) -> np.ndarray:
+    def _values(self, acc: np.ndarray, dt_s: float, t: np.ndarray, items: np.ndarray):
         states = states_at(self.model, acc, dt_s, t)
         a = acceleration_at(acc, dt_s, t)
         r = self.functional.rows_per_item
-        out = []
-        for start in range(0, self.functional.n_items, ITEM_BLOCK):
-            items = np.arange(start, min(start + ITEM_BLOCK, self.functional.n_items))
-            rows = slice(r * items[0], r * (items[-1] + 1))
+        out = [np.zeros((len(t), 0))]
+        for start in range(0, len(items), ITEM_BLOCK):
+            block = items[start : start + ITEM_BLOCK]
+            rows = (r * block[:, None] + np.arange(r)).ravel()
             y = (
                 states[..., 0] @ self.q_map[rows].T
                 + states[..., 1] @ self.v_map[rows].T
                 + a @ self.a_map[rows].T
                 + self.offset[rows]
             )
-            out.append(self.functional.values(y.reshape(len(t), len(items), r), items))
+            out.append(self.functional.values(y.reshape(len(t), len(block), r), block))
         return np.concatenate(out, axis=1)
 
     def scan(self, acc: np.ndarray, dt_s: float, axes) -> list[Row]:
-        """Rows at the worst sampled violations of the move ``acc``."""
+        """Rows at the worst sampled violations of the move ``acc``; only the items whose
+        bound over the whole move and settling (jaxflex.peaks.item_bounds) reaches the row
+        threshold are evaluated (an inactive constraint costs almost nothing)."""
+        above = self.limit * (1 - ROW_MARGIN + SCAN_RTOL)
+        bounds = item_bounds(
+            self.model, self.outputs, self.functional, acc, dt_s, offset=self.offset
+        )
+        candidates = np.flatnonzero(bounds > above)
+        if candidates.size == 0:
+            return []
         t = check_times(self.model, acc.shape[0] - 1, dt_s)
-        values = self.values(acc, dt_s, t)
-        found = _worst_samples(values, self.limit * (1 - ROW_MARGIN + SCAN_RTOL))
+        found = _worst_samples(self.values(acc, dt_s, t, candidates), above)
         by_time: dict[int, list[int]] = {}
-        for j, item in found:
-            by_time.setdefault(j, []).append(item)
+        for j, column in found:
+            by_time.setdefault(j, []).append(int(candidates[column]))
         return [r for j, items in by_time.items() for r in self.rows(acc, dt_s, t[j], items, axes)]
 
     def row(self, acc: np.ndarray, dt_s: float, time_s: float, item: int, axes) -> Row:
