@@ -34,6 +34,7 @@ import numpy as np
 
 from jaxflex.blocks import PointBlocks, point_blocks
 from jaxflex.engine import PAD_STEPS, padded_steps, states_at
+from jaxflex.model import shape_cache
 from jaxflex.profile import acceleration_at
 
 CHUNK_POINTS = 1024  # points per matrix product in the blocked NumPy evaluation
@@ -187,11 +188,23 @@ def block_model(shapes, points, dtype: str = "float64") -> PointBlocks:
 
 def blocks_of(model, dtype: str = "float64") -> PointBlocks:
     """The :class:`PointBlocks` of a concrete model's shapes in ``dtype`` (built once, then
-    cached on the model)."""
-    cache = model.__dict__.setdefault("_blocks_cache", {})
+    shared by the models with the same shapes and points: jaxflex.model.shape_cache)."""
+    cache = shape_cache(model).setdefault("blocks", {})
     if dtype not in cache:
         cache[dtype] = block_model(model.shapes, model.points, dtype)
     return cache[dtype]
+
+
+def component_blocks(model, components: tuple[int, ...]) -> tuple[np.ndarray, PointBlocks]:
+    """The shapes (K, C, M) of a concrete model restricted to the displacement
+    ``components`` it uses, and their :class:`PointBlocks` (float64), built once per shapes
+    and points (jaxflex.model.shape_cache: the scenarios of a robust grid share them)."""
+    cache = shape_cache(model)
+    key = ("components", tuple(components))
+    if key not in cache:
+        shapes = np.asarray(model.shapes)[:, list(components), :]
+        cache[key] = (shapes, block_model(shapes, model.points))
+    return cache[key]
 
 
 # max_norms evaluates the states in chunks of this many (the last padded with rest): one

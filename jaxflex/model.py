@@ -13,6 +13,7 @@ monitored points. SI units throughout: Hz, kg^0.5 (participation), m / (kg^0.5) 
 from __future__ import annotations
 
 import json
+import weakref
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -33,7 +34,13 @@ from jaxflex.outputs import (
     stress_from_fields,
     stress_to_fields,
 )
+from jaxflex.validation import is_validated, validated
 
+# Data derived from a concrete model's shapes and points alone (the point blocks of
+# jaxflex.deviation and jaxflex.settle), shared by every model with the same arrays: the
+# models a robust grid derives (other frequencies or damping) keep them (a validated array
+# is not copied). (id(shapes), id(points)) -> (weak references to both, the cache).
+_SHAPE_CACHES: dict[tuple[int, int], tuple[weakref.ref, weakref.ref, dict]] = {}
 OUTPUT_FIELDS = ("cups", "stress")  # optional pytree children after ARRAY_FIELDS
 
 
@@ -60,6 +67,9 @@ def _is_concrete(x: Any) -> bool:
 
 
 def _as_float_array(name: str, value: Any, ndim: int) -> np.ndarray:
+    """``value`` as a checked, read-only float64 array (a validated one is used as is)."""
+    if is_validated(value) and value.ndim == ndim:
+        return value
     if np.iscomplexobj(value):
         raise ModelError(f"ModalModel.{name}: must be real, got complex numbers")
     try:
@@ -72,8 +82,7 @@ def _as_float_array(name: str, value: Any, ndim: int) -> np.ndarray:
     if bad.any():
         where = tuple(int(i) for i in np.argwhere(bad)[0])
         raise ModelError(f"ModalModel.{name}: must be finite, found {arr[where]} at index {where}")
-    arr.setflags(write=False)
-    return arr
+    return validated(arr)
 
 
 def _check_range(name: str, arr: np.ndarray) -> None:
@@ -160,7 +169,8 @@ class ModalModel:
             )
         arrays = dict(zip(ARRAY_FIELDS, (freq, zeta, gamma, shapes, points), strict=True))
         for name in VALUE_RANGES:
-            _check_range(name, arrays[name])
+            if arrays[name] is not getattr(self, name):  # else checked in the model it came from
+                _check_range(name, arrays[name])
         labels = self.labels
         if labels is not None:
             labels = tuple(str(s) for s in labels)
@@ -356,6 +366,20 @@ class ModalModel:
         if self.stress is not None:
             arrays.update(stress_to_fields(self.stress))
         write_model_file(path, arrays, self.labels, dict(self.meta))
+
+
+def shape_cache(model: ModalModel) -> dict:
+    """A dict for data derived from the concrete ``model``'s shapes and points alone, shared
+    by every model holding the same two arrays (gone with them)."""
+    shapes, points = model.shapes, model.points
+    key = (id(shapes), id(points))
+    entry = _SHAPE_CACHES.get(key)
+    if entry is not None and entry[0]() is shapes and entry[1]() is points:
+        return entry[2]
+    cache: dict = {}
+    _SHAPE_CACHES[key] = (weakref.ref(shapes), weakref.ref(points), cache)
+    weakref.finalize(shapes, _SHAPE_CACHES.pop, key, None)
+    return cache
 
 
 def save_model(model: ModalModel, path) -> None:

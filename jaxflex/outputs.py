@@ -25,7 +25,6 @@ another frame (:meth:`CupSet.rotated`, :meth:`StressSet.rotated`). SI units thro
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -33,20 +32,15 @@ import jax
 import numpy as np
 
 from jaxflex.errors import ModelError
+from jaxflex.validation import is_validated, validated
 
 VOIGT = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))  # xx, yy, zz, yz, xz, xy
 CUP_ROWS = ("F_x", "F_y", "F_z", "M_x", "M_y", "M_z")
 
 
-# Arrays _checked has returned (id -> array, gone with the array): a model derived from a
-# validated one (perturbed, rescaled, re-damped) shares its output maps, which are then not
-# copied and scanned again (the robust grid derives hundreds of models from one).
-_VALIDATED: weakref.WeakValueDictionary[int, np.ndarray] = weakref.WeakValueDictionary()
-
-
 def _checked(owner: str, name: str, value: Any, shape: tuple) -> np.ndarray:
     """``value`` as a read-only float64 array of ``shape`` (None entries: any size)."""
-    if _VALIDATED.get(id(value)) is value and _fits(value.shape, shape):
+    if is_validated(value) and _fits(value.shape, shape):
         return value
     try:
         arr = np.array(value, dtype=np.float64)
@@ -57,9 +51,7 @@ def _checked(owner: str, name: str, value: Any, shape: tuple) -> np.ndarray:
         raise ModelError(f"{owner}.{name}: expected shape {want}, got {arr.shape}")
     if not np.isfinite(arr).all():
         raise ModelError(f"{owner}.{name}: must be finite")
-    arr.setflags(write=False)
-    _VALIDATED[id(arr)] = arr
-    return arr
+    return validated(arr)
 
 
 def _fits(actual: tuple, shape: tuple) -> bool:

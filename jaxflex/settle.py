@@ -38,7 +38,7 @@ from jaxflex.deviation import block_bounds, blocks_of, point_norms, round_off_sl
 from jaxflex.engine import free_states, modal_forces, modal_states, states_between
 from jaxflex.errors import BudgetError
 from jaxflex.grid import grid_time
-from jaxflex.model import ModalModel
+from jaxflex.model import ModalModel, shape_cache
 from jaxflex.profile import as_move
 from jaxflex.validation import check_positive
 
@@ -105,18 +105,18 @@ class _SearchBudget:
 def _block_data(model: ModalModel):
     """NumPy block data of a model, cached on it: members (nB, b) with K for padding, centres
     (M, C, nB), radii (nB, M) and per-mode largest shape norm of the members (nB, M)."""
-    cache = model.__dict__
-    if "_settle_blocks" not in cache:
+    cache, key = shape_cache(model), "settle_blocks"
+    if key not in cache:
         blocks = blocks_of(model)
         members = np.asarray(blocks.index)
         padded = np.vstack([model.shape_norms, np.zeros((1, model.n_modes))])
-        cache["_settle_blocks"] = (
+        cache[key] = (
             members,
             np.asarray(blocks.centres),
             np.asarray(blocks.radius),
             padded[members].max(axis=1),
         )
-    return cache["_settle_blocks"]
+    return cache[key]
 
 
 class _ModalSignal:

@@ -6,6 +6,7 @@ import json
 import math
 import os
 import tomllib
+import weakref
 from pathlib import Path
 from typing import Any
 
@@ -117,3 +118,21 @@ def read_settings_file(field: str, path: str | os.PathLike) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise InputError(f"{field}: {path.name} must hold a table, got {type(data).__name__}")
     return data
+
+
+# Arrays the package has validated (id -> array; an entry goes with its array): a model
+# derived from a validated one (perturbed frequencies or damping: a robust grid derives
+# hundreds) shares its arrays, which are then neither copied nor scanned again.
+_VALIDATED: weakref.WeakValueDictionary[int, np.ndarray] = weakref.WeakValueDictionary()
+
+
+def validated(arr: np.ndarray) -> np.ndarray:
+    """``arr`` (a checked float64 array) made read-only and remembered as checked."""
+    arr.setflags(write=False)
+    _VALIDATED[id(arr)] = arr
+    return arr
+
+
+def is_validated(value: Any) -> bool:
+    """Whether ``value`` is an array that :func:`validated` returned."""
+    return _VALIDATED.get(id(value)) is value

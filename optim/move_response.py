@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex.deviation import block_model, max_norms, point_displacements
+from jaxflex.deviation import component_blocks, max_norms, point_displacements
 from jaxflex.engine import modal_forces, state_map
 from jaxflex.model import ModalModel
 
@@ -39,8 +39,7 @@ class MoveResponse:
         self.model = model
         self.coef = state_map(model, n_steps, dt_s, substeps)
         self.gamma = np.asarray(model.gamma)
-        self.shapes = np.asarray(model.shapes)[:, list(components), :]  # (K, C, M)
-        self.blocks = block_model(self.shapes, model.points)
+        self.shapes, self.blocks = component_blocks(model, components)  # shapes (K, C, M)
         self.dt_s, self.substeps = dt_s, substeps
 
     def sample_map(self, axes, index: int | slice = slice(None)) -> np.ndarray:

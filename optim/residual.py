@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from jaxflex.decay import amplitudes, envelope_horizon, free_rows
-from jaxflex.deviation import block_model, max_norms, point_displacements
+from jaxflex.deviation import component_blocks, max_norms, point_displacements
 from jaxflex.model import ModalModel
 
 SAMPLES_PER_PERIOD = 16  # dense check: time step 1 / (16 f_max)
@@ -54,11 +54,9 @@ class ResidualModel:
         self.components = components
         self.omega = np.asarray(model.omega)
         self.sigma = np.asarray(model.zeta) * self.omega
-        shapes = np.asarray(model.shapes)[:, list(components), :]  # (K, C, M)
-        self.shapes = shapes
-        self.n_points = shapes.shape[0]
-        self.weights = np.linalg.norm(shapes, axis=1)  # (K, M)
-        self.blocks = block_model(shapes, model.points)
+        self.shapes, self.blocks = component_blocks(model, components)  # shapes (K, C, M)
+        self.n_points = self.shapes.shape[0]
+        self.weights = np.linalg.norm(self.shapes, axis=1)  # (K, M)
         self.step_s = 1.0 / (SAMPLES_PER_PERIOD * np.max(np.asarray(model.freq_hz)))
 
     # -- closed-form free response -------------------------------------------------------

@@ -9,9 +9,11 @@ import zipfile
 import jax
 import numpy as np
 import pytest
+from conftest import random_model
 
 import jaxflex
 from jaxflex import model_file
+from jaxflex.deviation import blocks_of, component_blocks
 
 
 def fields(model):
@@ -198,3 +200,19 @@ def test_zip_is_plain_npz(tmp_path, small_model):
         assert "format.npy" in z.namelist()
     with np.load(path, allow_pickle=False) as data:
         assert str(data["format"]) == "jaxflex.modal_model"
+
+
+def test_derived_models_share_validated_arrays_and_point_blocks():
+    """A robust grid derives many models that differ only in frequencies and damping: their
+    shapes and points are the nominal model's arrays (validated once, not copied) and the
+    point blocks built from them are built once."""
+    nominal = random_model(3, n_points=40, n_modes=5)
+    derived = nominal.with_frequency_scale(1.1).with_damping(0.03)
+    assert derived.shapes is nominal.shapes and derived.points is nominal.points
+    assert not derived.shapes.flags.writeable
+    assert blocks_of(derived) is blocks_of(nominal)
+    assert component_blocks(derived, (2,))[1] is component_blocks(nominal, (2,))[1]
+    other = jaxflex.ModalModel(
+        nominal.freq_hz, nominal.zeta, nominal.gamma, np.array(nominal.shapes), nominal.points
+    )  # equal values in another array: its own blocks
+    assert blocks_of(other) is not blocks_of(nominal)
