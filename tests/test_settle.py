@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 import jaxflex
 from jaxflex.analytic import simply_supported_plate
+from jaxflex.grid import grid_time
 from jaxflex.profile import jerk_limited_move
 
 BRUTE_STEP_S = 1e-4
@@ -37,7 +38,7 @@ def deviation_at(model, acc, dt_s, t):
 
 def assert_exact_cycle_time(model, acc, dt_s, threshold_m):
     report = jaxflex.analyze_move(model, acc, dt_s, threshold_m)
-    t_n = (acc.shape[0] - 1) * dt_s
+    t_n = grid_time(acc.shape[0] - 1, dt_s)  # the transfer time as the report gives it
     t, d = dense_deviation(model, acc, dt_s, report.proof_horizon_s + 0.2)
     over = np.flatnonzero(d > threshold_m)
     brute_last = t[over[-1]] if over.size else 0.0
