@@ -70,12 +70,13 @@ def test_reactions_add_up_to_the_part_mass(plate_result):
 
 def test_a_stiff_part_loads_its_cups_with_m_a():
     """A part 10^6 times stiffer (modes 1000x higher) moved slowly is a rigid part: its cups
-    carry m a. The dynamic share is (f_move / f_1)^2 ~ 1e-9 of it."""
+    carry m a (plate, thin solid and shell). The dynamic share is (f_move / f_1)^2 ~ 1e-9 of it."""
     steel = fem.materials.PRESETS["steel"]
     stiff = fem.Material("stiff steel", steel.E_pa * 1e6, steel.nu, steel.rho_kg_m3)
     for part in (
         fem.rectangular_plate(0.6, 0.4, 1e-3, stiff, 0.05),
         fem.curved_panel(0.6, 0.4, 1e-3, stiff, 0.1),
+        fem.curved_panel(0.6, 0.4, 1e-3, stiff, 0.05, element="shell"),
     ):
         result = fem.modal_analysis(part, _cups(), n_modes=6, zeta=0.02)
         model = result.to_modal_model(points=10)
