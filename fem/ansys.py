@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from fem.eigen import factorize
 from fem.imported import ImportedModes, file_digest
 from fem.modal import solve_modes
 from fem.units import Units, resolve_units
@@ -333,6 +334,10 @@ def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid_tol_hz, pro
         progress=progress,
     )
     shapes = (observation @ modes.vectors).reshape(len(node_ids), 3, -1) * unit.shape_to_si
+    static = None  # per unit acceleration: s^2, the same in every consistent unit system
+    if not modes.rigid_freq_hz.size:
+        solved = factorize(K).solve(np.ascontiguousarray(M @ rigid))
+        static = -(observation @ solved).reshape(len(node_ids), 3, 3)
     coords, missing = None, ""
     if nodes is None:
         missing = (
@@ -363,6 +368,7 @@ def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid_tol_hz, pro
         node_ids=node_ids,
         zeta=zeta,
         mobile_mass_kg=modes.mobile_mass_kg * unit.mass_kg,
+        static_shapes=static,
         nodes_missing=missing,
         provenance=provenance,
     )

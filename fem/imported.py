@@ -19,7 +19,7 @@ from scipy.spatial import cKDTree
 from fem.damping import describe_damping, modal_zeta
 from fem.modal import select_node_indices
 from jaxflex.errors import InputError
-from jaxflex.model import ModalModel
+from jaxflex.model import MODES_ONLY_STATIC, ModalModel
 
 
 @dataclass(eq=False)
@@ -38,6 +38,10 @@ class ImportedModes:
         mobile_mass_kg: (3,) sum of Gamma^2 over all modes when known (else None).
         stress: (N, 6, M) nodal stresses per unit modal coordinate (Sx, Sy, Sz, Sxy, Syz,
             Sxz), Pa per (kg^0.5 m), where the source holds them; kept for later use.
+        static_shapes: (N, 3, 3) exact static displacement of the nodes per unit base
+            acceleration (m per m/s^2), where the source has a stiffness and a mass matrix
+            and the part is held (jaxflex.ModalModel.static_shapes), else None;
+            ``static_note`` says where it came from.
         provenance: what was read from where and what was derived how (the model's meta).
     """
 
@@ -49,6 +53,8 @@ class ImportedModes:
     zeta: Any = 0.02
     mobile_mass_kg: np.ndarray | None = None
     stress: np.ndarray | None = None
+    static_shapes: np.ndarray | None = None
+    static_note: str = "static solve of the source's stiffness and mass (exact)"
     gamma_missing: str = ""
     nodes_missing: str = ""
     provenance: dict[str, Any] = field(default_factory=dict)
@@ -98,6 +104,7 @@ class ImportedModes:
             points=nodes[idx],
             labels=labels,
             meta=self.meta(spec, len(idx)),
+            static_shapes=None if self.static_shapes is None else self.static_shapes[idx],
         )
 
     def meta(self, damping=None, n_points: int | None = None) -> dict[str, Any]:
@@ -107,6 +114,12 @@ class ImportedModes:
             **self.provenance,
             "damping": describe_damping(self.zeta if damping is None else damping),
             "n_points": n_points,
+            "static_response": (
+                self.static_note
+                if self.static_shapes is not None
+                else f"{MODES_ONLY_STATIC} (the source has no stiffness matrix, or the part is "
+                "not held)"
+            ),
         }
         if self.mobile_mass_kg is not None and self.gamma is not None:
             out["effective_mass"] = {

@@ -20,7 +20,7 @@ import scipy.sparse as sp
 
 from fem.damping import Rayleigh, check_damping, describe_damping, modal_zeta
 from fem.eigen import all_modes, factorize, lowest_modes
-from fem.outputs import modal_outputs
+from fem.outputs import modal_outputs, static_displacements, static_response
 from fem.parts import Part
 from fem.plate import assemble_plate
 from fem.shell import assemble_shell
@@ -178,9 +178,10 @@ class ModalResult:
         outputs: bool = True,
     ) -> ModalModel:
         """The jaxflex.ModalModel at the monitored points (see :meth:`select_nodes`); ``zeta``
-        overrides the damping (scalar, per mode or fem.Rayleigh). With ``outputs`` (default)
-        the model also carries the cup reactions and the surface stresses (fem.outputs; one
-        extra sparse solve), unless the part has rigid-body modes."""
+        overrides the damping (scalar, per mode or fem.Rayleigh). A held part's model carries
+        the points' exact static displacement per unit base acceleration (one extra sparse
+        solve, fem.outputs.static_response) and, with ``outputs`` (default), the cup
+        reactions and the surface stresses; a part with rigid-body modes has neither."""
         if self.n_modes == 0:
             raise InputError("to_modal_model: the analysis found no elastic mode")
         idx = self.select_nodes(points, key_points, key_tolerance_m)
@@ -191,8 +192,11 @@ class ModalResult:
         spec = self.damping if zeta is None else zeta
         zeta_arr = modal_zeta(spec, self.freq_hz)
         shapes = self.node_shapes()[idx]
-        cups = stress = None
-        if outputs and not self.rigid_freq_hz.size and self.system.outputs is not None:
+        cups = stress = static = None
+        held = not self.rigid_freq_hz.size
+        if held:
+            static = static_displacements(self, static_response(self), idx)
+        if outputs and held and self.system.outputs is not None:
             cups, stress = modal_outputs(self, spec if isinstance(spec, Rayleigh) else zeta_arr)
         return ModalModel(
             freq_hz=self.freq_hz,
@@ -204,6 +208,7 @@ class ModalResult:
             meta=self.meta(damping=spec, n_points=len(idx)),
             cups=cups,
             stress=stress,
+            static_shapes=static,
         )
 
     def meta(self, damping=None, n_points: int | None = None) -> dict[str, Any]:
@@ -235,6 +240,11 @@ class ModalResult:
                 "freq_hz": clean(self.rigid_freq_hz),
             },
             "damping": describe_damping(self.damping if damping is None else damping),
+            "static_response": (
+                "FE static solve (exact: sag under gravity, cup reactions and stresses at rest)"
+                if not self.rigid_freq_hz.size
+                else "none: the part is not held (rigid-body modes)"
+            ),
             "n_points": n_points,
             "timings_s": {k: round(v, 4) for k, v in self.timings_s.items()},
             **self.provenance,

@@ -22,7 +22,10 @@ modes correct it, z = -z_s a + Phi (q + Omega^-2 Gamma a), z'' = Phi q''. With
 q'' = -Gamma a - 2 Z Omega q' - Omega^2 q this gives
 
     Q = A_u Phi - A_acc Phi Omega^2,   V = A_v Phi - A_acc Phi 2 Z Omega,
-    A = A_b - A_u z_s + Q Omega^-2 Gamma.                                           (2)
+    S = A_b - A_u z_s  (the exact static response),   A = S + Q Omega^-2 Gamma.      (2)
+
+The model stores S (jaxflex.outputs derives A from the modes it keeps), and the points'
+exact static displacement -T z_s (:func:`static_displacements`, the model's static_shapes).
 
 Checks (tests): summed over the cups, A = m I - sum_i Gamma_i Gamma_i^T and Q = -Omega^2
 Gamma, so the reactions add up to m a + sum_i Gamma_i q_i'' at every instant (the part's
@@ -68,9 +71,9 @@ class PhysicalOutputs:
         return y
 
     def modal(self, result, static: np.ndarray, damping) -> LinearOutputs:
-        """Equation (2) for the modes of ``result`` (fem.ModalResult); ``static`` is z_s
-        (n_free, 3) = K_ff^-1 (M R)_free; ``damping`` a fem.Rayleigh or the per-mode damping
-        ratios (M,) of the model."""
+        """Equation (2) for the modes of ``result`` (fem.ModalResult): Q, V and the static
+        response S; ``static`` is z_s (n_free, 3) = K_ff^-1 (M R)_free; ``damping`` a
+        fem.Rayleigh or the per-mode damping ratios (M,) of the model."""
         phi = result.vectors
         omega = 2 * np.pi * result.freq_hz
         zeta = damping.zeta(result.freq_hz) if isinstance(damping, Rayleigh) else damping
@@ -84,12 +87,7 @@ class PhysicalOutputs:
         else:
             damp = stiff * (2 * zeta / omega)
         v_map = damp - inert * (2 * zeta * omega)
-        a_map = (
-            self.base
-            - np.asarray(self.stiffness @ static)
-            + q_map @ (result.gamma / omega[:, None] ** 2)
-        )
-        return LinearOutputs(q_map, v_map, a_map)
+        return LinearOutputs(q_map, v_map, self.base - np.asarray(self.stiffness @ static))
 
 
 def _cup_supports(result) -> list[int]:
@@ -186,13 +184,26 @@ def stress_outputs(result) -> tuple[np.ndarray, PhysicalOutputs]:
 
 def static_response(result) -> np.ndarray:
     """z_s (n_free, 3) = K_ff^-1 (M R)_free: the quasi-static deflection per unit base
-    acceleration (negated). Raises InputError when the part is not held (rigid modes)."""
+    acceleration (negated), one sparse solve (kept on ``result`` for the next call). Raises
+    InputError when the part is not held (rigid modes)."""
     if result.rigid_freq_hz.size:
         raise InputError(
             "supports: the part has rigid-body modes, so it has no static response and no "
             "cup reactions or stresses; hold it with three non-collinear cups"
         )
-    return factorize(result.K_free).solve(np.ascontiguousarray(result.load))
+    cached = result.__dict__.get("_static_response")
+    if cached is None:
+        cached = factorize(result.K_free).solve(np.ascontiguousarray(result.load))
+        result.__dict__["_static_response"] = cached
+    return cached
+
+
+def static_displacements(result, static: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """(K, 3, 3) exact static displacement of the nodes ``nodes`` (K,) per unit base
+    acceleration, m per m/s^2: -T z_s observed at the nodes (``static`` = z_s)."""
+    n_nodes = len(result.system.nodes)
+    values = -(result.observation @ static).reshape(n_nodes, 3, 3)
+    return values[nodes]
 
 
 def modal_outputs(result, damping) -> tuple[CupSet | None, StressSet]:

@@ -26,6 +26,7 @@ from jaxflex.errors import ModelError
 from jaxflex.model_file import ARRAY_FIELDS, VALUE_RANGES, read_model_file, write_model_file
 from jaxflex.outputs import (
     CupSet,
+    LinearOutputs,
     StressSet,
     checked_cups,
     checked_stress,
@@ -41,7 +42,13 @@ from jaxflex.validation import is_validated, validated
 # models a robust grid derives (other frequencies or damping) keep them (a validated array
 # is not copied). (id(shapes), id(points)) -> (weak references to both, the cache).
 _SHAPE_CACHES: dict[tuple[int, int], tuple[weakref.ref, weakref.ref, dict]] = {}
-OUTPUT_FIELDS = ("cups", "stress")  # optional pytree children after ARRAY_FIELDS
+OUTPUT_FIELDS = ("cups", "stress", "static_shapes")  # optional pytree children after ARRAY_FIELDS
+# meta["static_response"] of a model whose static displacement is not the FE's (an older file,
+# or a source without a stiffness matrix): what its gravity sag and quasi-static share are
+MODES_ONLY_STATIC = (
+    "from the kept modes only (no FE static solve): the sag under gravity and the quasi-static "
+    "share of the modes left out are truncated"
+)
 
 
 class _Annotations:
@@ -113,6 +120,14 @@ class ModalModel:
         meta: free JSON-serialisable description (source, material, gripper, mesh).
         cups: optional jaxflex.outputs.CupSet (the suction cups and their reactions).
         stress: optional jaxflex.outputs.StressSet (surface stresses).
+        static_shapes: optional (K, 3, 3) exact static displacement of the points per unit
+            base acceleration, m per m/s^2: column d is the part at rest under a constant
+            unit acceleration of its gripper along d (the FE's static solve, fem). The
+            displacement is then u_p = sum_i phi_i(p) q_i + D_p a with the static residual
+            D = static_shapes + Phi Omega^-2 Gamma (the quasi-static share of the modes not
+            kept: the mode-acceleration method), and gravity g sags the part at rest by
+            -static_shapes g. None: only the modes are known (D = 0; the sag from the modes,
+            truncated).
 
     Construction from concrete arrays validates every field and raises ModelError naming
     the field. Inside ``jax.jit``/``jax.vmap`` the model is a pytree and is not re-validated.
@@ -127,10 +142,20 @@ class ModalModel:
     meta: Mapping[str, Any] = field(default_factory=dict)
     cups: CupSet | None = None
     stress: StressSet | None = None
+    static_shapes: Any = None
 
     def __post_init__(self) -> None:
         leaves = jax.tree_util.tree_leaves(
-            (self.freq_hz, self.zeta, self.gamma, self.shapes, self.points, self.cups, self.stress)
+            (
+                self.freq_hz,
+                self.zeta,
+                self.gamma,
+                self.shapes,
+                self.points,
+                self.cups,
+                self.stress,
+                self.static_shapes,
+            )
         )
         if not all(_is_concrete(x) for x in leaves):
             return
@@ -168,7 +193,17 @@ class ModalModel:
                 f"got {shapes.shape}"
             )
         arrays = dict(zip(ARRAY_FIELDS, (freq, zeta, gamma, shapes, points), strict=True))
+        if self.static_shapes is not None:
+            static = _as_float_array("static_shapes", self.static_shapes, 3)
+            if static.shape != (n_points, 3, 3):
+                raise ModelError(
+                    f"ModalModel.static_shapes: expected shape (K, 3, 3) = ({n_points}, 3, 3), "
+                    f"got {static.shape}"
+                )
+            arrays["static_shapes"] = static
         for name in VALUE_RANGES:
+            if name not in arrays:
+                continue
             if arrays[name] is not getattr(self, name):  # else checked in the model it came from
                 _check_range(name, arrays[name])
         labels = self.labels
@@ -194,7 +229,7 @@ class ModalModel:
                         f"ModalModel.{name}: expected jaxflex.outputs.{kind.__name__} or None, "
                         f"got {type(value).__name__}"
                     )
-                object.__setattr__(self, name, check(value, n_modes))
+                object.__setattr__(self, name, check(value, freq, gamma))
         for name, value in (*arrays.items(), ("labels", labels), ("meta", meta)):
             object.__setattr__(self, name, value)
 
@@ -228,6 +263,26 @@ class ModalModel:
     def omega(self):
         """(M,) natural circular frequencies in rad/s."""
         return 2.0 * np.pi * self.freq_hz
+
+    @cached_property
+    def static_residual(self) -> np.ndarray | None:
+        """(K, 3, 3) D = static_shapes + Phi Omega^-2 Gamma, m per m/s^2: the quasi-static
+        displacement per unit base acceleration that the kept modes miss (u_p = Phi q + D a);
+        None where the model knows no static displacement."""
+        if self.static_shapes is None:
+            return None
+        omega = 2.0 * np.pi * np.asarray(self.freq_hz)
+        modal = np.asarray(self.shapes) @ (np.asarray(self.gamma) / omega[:, None] ** 2)
+        return validated(np.asarray(self.static_shapes) + modal)
+
+    def static_displacement(self, acceleration_m_s2) -> np.ndarray:
+        """(K, 3) m: the points at rest under a constant base acceleration (3,) m/s^2 (for
+        gravity g pass -g): static_shapes a, or from the modes, -Phi Omega^-2 Gamma a."""
+        a = np.asarray(acceleration_m_s2, dtype=np.float64)
+        if self.static_shapes is not None:
+            return np.asarray(self.static_shapes) @ a
+        omega = 2.0 * np.pi * np.asarray(self.freq_hz)
+        return -np.asarray(self.shapes) @ ((np.asarray(self.gamma) @ a) / omega**2)
 
     @cached_property
     def shape_norms(self) -> np.ndarray:
@@ -278,7 +333,7 @@ class ModalModel:
             shapes=self.shapes[:, :, keep],
             cups=cups,
             stress=stress,
-        )
+        )  # the static displacement stays: the dropped modes join the static residual
 
     def select_points(self, indices: Sequence[int] | np.ndarray) -> ModalModel:
         """Keep the points at ``indices`` (in that order)."""
@@ -294,22 +349,67 @@ class ModalModel:
                 f"got min {idx.min()}, max {idx.max()}"
             )
         labels = None if self.labels is None else tuple(self.labels[i] for i in idx)
-        return self._replace(shapes=self.shapes[idx], points=self.points[idx], labels=labels)
+        static = None if self.static_shapes is None else self.static_shapes[idx]
+        return self._replace(
+            shapes=self.shapes[idx], points=self.points[idx], labels=labels, static_shapes=static
+        )
 
     def with_damping(self, zeta: float | Sequence[float] | np.ndarray) -> ModalModel:
-        """Same model with damping ratio ``zeta`` (scalar for all modes, or one per mode)."""
-        z = np.broadcast_to(np.asarray(zeta, dtype=np.float64), (self.n_modes,))
-        return self._replace(zeta=z.copy())
+        """Same model with damping ratio ``zeta`` (scalar for all modes, or one per mode).
+
+        The damping force the cups carry (the outputs' v_map) scales with each mode's ratio;
+        where the model had none (zeta = 0) it becomes the stiffness-proportional share
+        2 zeta / omega Q that reproduces the ratio (fem.outputs)."""
+        z = np.broadcast_to(np.asarray(zeta, dtype=np.float64), (self.n_modes,)).copy()
+        old = np.asarray(self.zeta)
+        ratio = np.where(old > 0, z / np.where(old > 0, old, 1.0), 0.0)
+        from_stiffness = np.where(old > 0, 0.0, 2.0 * z / np.asarray(self.omega))
+
+        def damped(outputs: LinearOutputs) -> LinearOutputs:
+            if not from_stiffness.any():
+                return outputs.scaled(1.0, ratio, same_a_map=True)
+            v = np.asarray(outputs.v_map) * ratio + np.asarray(outputs.q_map) * from_stiffness
+            return LinearOutputs(outputs.q_map, v, outputs.static_map)
+
+        return self._replace(zeta=z, **self._mapped_outputs(damped))
 
     def with_frequency_scale(self, scale: float) -> ModalModel:
         """Same model with every natural frequency multiplied by ``scale`` (> 0).
 
-        Stiffness uncertainty at fixed mass: mode shapes and participation are unchanged (so
-        are the cup and stress maps: they describe the nominal model).
+        Stiffness uncertainty at fixed mass (K scaled by scale^2): mode shapes and
+        participation are unchanged; the static displacement scales by 1 / scale^2, the
+        outputs' stiffness share q_map by scale^2 and their damping share v_map by scale
+        (the same damping ratios), their static response stays (equilibrium).
         """
         if not scale > 0:
             raise ModelError(f"with_frequency_scale: scale must be > 0, got {scale}")
-        return self._replace(freq_hz=np.asarray(self.freq_hz) * float(scale))
+        s = float(scale)
+        static = self.static_shapes
+        return self._replace(
+            freq_hz=np.asarray(self.freq_hz) * s,
+            static_shapes=None if static is None else np.asarray(static) / s**2,
+            **self._mapped_outputs(lambda outputs: outputs.scaled(s * s, s, same_a_map=True)),
+        )
+
+    def _mapped_outputs(self, change) -> dict[str, Any]:
+        """{"cups": ..., "stress": ...} with ``change`` (LinearOutputs -> LinearOutputs)
+        applied to the maps of the outputs the model carries."""
+        out: dict[str, Any] = {}
+        if self.cups is not None:
+            c = self.cups
+            out["cups"] = CupSet(
+                c.centre_m, c.normal, c.radius_m, c.holding_force_n, c.friction, change(c.reaction)
+            )
+        if self.stress is not None:
+            out["stress"] = StressSet(self.stress.points_m, change(self.stress.stress))
+        return out
+
+    def without_outputs(self) -> ModalModel:
+        """Same model without its cups and stresses (what the response and the cycle time
+        need: models derived from it do not carry and scale the output maps)."""
+        if self.cups is None and self.stress is None:
+            return self
+        return self._replace(cups=None, stress=None)
 
     def with_meta(self, **entries: Any) -> ModalModel:
         """Same model with ``meta`` updated by ``entries``."""
@@ -334,7 +434,9 @@ class ModalModel:
         if np.linalg.det(r) < 0:
             raise ModelError("posed: rotation must be proper (determinant +1), not a reflection")
         offset = np.asarray(offset_m, dtype=np.float64).reshape(3)
+        static = self.static_shapes
         return self._replace(
+            static_shapes=None if static is None else r @ np.asarray(static) @ r.T,
             gamma=np.asarray(self.gamma) @ r.T,
             shapes=np.einsum("ij,kjm->kim", r, np.asarray(self.shapes)),
             points=np.asarray(self.points) @ r.T + offset,
@@ -354,6 +456,7 @@ class ModalModel:
             "meta": self.meta,
             "cups": self.cups,
             "stress": self.stress,
+            "static_shapes": self.static_shapes,
         }
         fields.update(changes)
         return ModalModel(**fields)
@@ -361,6 +464,8 @@ class ModalModel:
     def save(self, path) -> None:
         """Write the model to a versioned ``.npz`` file, atomically (jaxflex.model_file)."""
         arrays = {name: getattr(self, name) for name in ARRAY_FIELDS}
+        if self.static_shapes is not None:
+            arrays["static_shapes"] = self.static_shapes
         if self.cups is not None:
             arrays.update(cups_to_fields(self.cups))
         if self.stress is not None:
@@ -395,14 +500,34 @@ def load_model(path) -> ModalModel:
     """
     fields = read_model_file(path)
     optional = fields.pop("optional")
+    version = fields.pop("schema_version")
+    modes = (fields["freq_hz"], fields["gamma"])
     try:
+        if "static" in optional:
+            fields["static_shapes"] = optional["static"]["static_shapes"]
         if "cups" in optional:
-            fields["cups"] = cups_from_fields(optional["cups"])
+            fields["cups"] = cups_from_fields(optional["cups"], modes)
         if "stress" in optional:
-            fields["stress"] = stress_from_fields(optional["stress"])
+            fields["stress"] = stress_from_fields(optional["stress"], modes)
+        if version < 3:
+            fields["meta"] = {**fields["meta"], "static_response": _legacy_static(version)}
         return ModalModel(**fields)
     except ModelError as exc:
         raise ModelError(f"{str(path)!r}: {exc}") from exc
+
+
+def _legacy_static(version: int) -> str:
+    """meta["static_response"] of a model read from a schema-``version`` file (< 3)."""
+    text = (
+        f"schema {version} file (before the FE's static response was stored): points "
+        + MODES_ONLY_STATIC
+    )
+    if version == 2:
+        text += (
+            "; cup reactions and stresses at rest from the stored maps (exact for the modes "
+            "the file was written with)"
+        )
+    return text
 
 
 def stack_models(models: Sequence[ModalModel]) -> ModalModel:

@@ -1,14 +1,17 @@
 """The modal model file: a versioned ``.npz`` (numpy zip archive, no pickled objects).
 
-Schema version 2 holds the members of :data:`FIELDS`:
+Schema version 3 holds the members of :data:`FIELDS`:
     format          "jaxflex.modal_model"
-    schema_version  2
+    schema_version  3
     meta_json       JSON object (source, material, gripper, mesh statistics; SI units)
     freq_hz (M,) Hz, zeta (M,), gamma (M, 3) kg^0.5, shapes (K, 3, M) m/kg^0.5, points (K, 3) m,
     labels (K,) unicode (optional; empty strings: unlabelled points),
 and, optionally, the groups of fields marked with a ``group`` (all fields of a group or none;
-see jaxflex.outputs for their meaning): the cups and their reactions, the surface stresses.
-Version 1 files (the same without the groups) are read as well.
+see jaxflex.outputs and jaxflex.model for their meaning): the exact static displacement of
+the points per unit base acceleration, the cups and their reactions, the surface stresses.
+Version 2 files are read as well (they hold no static displacement, and the outputs' modal
+A instead of their static response S: jaxflex.outputs.legacy_static_map derives S), and
+version 1 files (the same without any group).
 
 Reading trusts nothing in the file. Only the members of :data:`FIELDS` are read (anything
 else in the archive is never decompressed), each one's npy header is checked against the
@@ -41,8 +44,8 @@ from jaxflex.atomic import atomic_open
 from jaxflex.errors import ModelFileError
 
 FORMAT_NAME = "jaxflex.modal_model"
-SCHEMA_VERSION = 2
-SUPPORTED_VERSIONS = (1, 2)
+SCHEMA_VERSION = 3
+SUPPORTED_VERSIONS = (1, 2, 3)
 ARRAY_FIELDS = ("freq_hz", "zeta", "gamma", "shapes", "points")
 # A member stored compressed may hold at most this many times its compressed size: modal
 # data are float64 noise (a ratio near 1; a flat part's zero in-plane shapes give about 3).
@@ -57,7 +60,8 @@ class Field:
     """One member of the archive: its name, the data it holds ("real": numbers, "integer",
     "text": unicode), its shape in the model's sizes (M modes, K points, C cups, S stress
     points; integers are fixed lengths), its unit, whether a file must have it, the first
-    schema version with it and the optional group it belongs to (all of a group or none)."""
+    and last schema version with it and the optional group it belongs to (all of a group's
+    fields of the file's version or none)."""
 
     name: str
     kind: str
@@ -66,19 +70,26 @@ class Field:
     required: bool = True
     since: int = 1
     group: str | None = None
+    until: int = SCHEMA_VERSION
+
+    def in_version(self, version: int) -> bool:
+        return self.since <= version <= self.until
 
 
-def _group(name: str, *fields: tuple[str, tuple, str]) -> tuple[Field, ...]:
-    return tuple(
-        Field(field, "real", dims, unit, required=False, since=2, group=name)
-        for field, dims, unit in fields
-    )
+def _group(name: str, *fields: tuple) -> tuple[Field, ...]:
+    """Fields (name, dims, unit[, since[, until]]) of an optional group (since 2 by default)."""
+    out = []
+    for field, dims, unit, *versions in fields:
+        since, until = (*versions, SCHEMA_VERSION)[:2] if versions else (2, SCHEMA_VERSION)
+        out.append(Field(field, "real", dims, unit, False, since, name, until))
+    return tuple(out)
 
 
 # The optional groups. Reactions: force (N) and moment about the cup centre (N m) that cup c
 # exerts on the part, rows (F_x, F_y, F_z, M_x, M_y, M_z); stresses: Voigt (xx, yy, zz, yz,
 # xz, xy) in Pa. "_q": per unit modal coordinate (kg^0.5 m), "_v": per unit modal velocity
-# (kg^0.5 m/s), "_a": per unit base acceleration (m/s^2).
+# (kg^0.5 m/s), "_s": the exact static output per unit base acceleration (m/s^2; schema 3),
+# "_a": schema 2's modal share per unit base acceleration (A = S + Q Omega^-2 Gamma).
 CUP_FIELDS = _group(
     "cups",
     ("cup_centre_m", ("C", 3), "m"),
@@ -88,14 +99,20 @@ CUP_FIELDS = _group(
     ("cup_friction", ("C",), "friction coefficient between cup and part"),
     ("cup_reaction_q", ("C", 6, "M"), "N or N m per unit modal coordinate"),
     ("cup_reaction_v", ("C", 6, "M"), "N or N m per unit modal velocity"),
-    ("cup_reaction_a", ("C", 6, 3), "N or N m per unit base acceleration"),
+    ("cup_reaction_a", ("C", 6, 3), "N or N m per unit base acceleration (modal)", 2, 2),
+    ("cup_reaction_s", ("C", 6, 3), "N or N m at rest per unit base acceleration", 3),
 )
 STRESS_FIELDS = _group(
     "stress",
     ("stress_points_m", ("S", 3), "m (surface points where the stress is known)"),
     ("stress_q", ("S", 6, "M"), "Pa per unit modal coordinate"),
     ("stress_v", ("S", 6, "M"), "Pa per unit modal velocity"),
-    ("stress_a", ("S", 6, 3), "Pa per unit base acceleration"),
+    ("stress_a", ("S", 6, 3), "Pa per unit base acceleration (modal)", 2, 2),
+    ("stress_s", ("S", 6, 3), "Pa at rest per unit base acceleration", 3),
+)
+STATIC_FIELDS = _group(
+    "static",
+    ("static_shapes", ("K", 3, 3), "m per unit base acceleration (m/s^2), at rest", 3),
 )
 FIELDS = (
     Field("format", "text", ()),
@@ -107,14 +124,16 @@ FIELDS = (
     Field("shapes", "real", ("K", 3, "M"), "m/kg^0.5"),
     Field("points", "real", ("K", 3), "m"),
     Field("labels", "text", ("K",), required=False),
+    *STATIC_FIELDS,
     *CUP_FIELDS,
     *STRESS_FIELDS,
 )
 FIELD_BY_NAME = {f.name: f for f in FIELDS}
 HEADER_FIELDS = ("format", "schema_version", "meta_json")  # read first, by name
+_GROUPS = (("static", STATIC_FIELDS), ("cups", CUP_FIELDS), ("stress", STRESS_FIELDS))
 OPTIONAL_FIELDS: dict[str, tuple[str, ...]] = {
-    "cups": tuple(f.name for f in CUP_FIELDS),
-    "stress": tuple(f.name for f in STRESS_FIELDS),
+    group: tuple(f.name for f in fields if f.in_version(SCHEMA_VERSION))
+    for group, fields in _GROUPS
 }
 
 # Physical ranges of the model's values (closed intervals; jaxflex.model checks them). They are
@@ -128,6 +147,7 @@ VALUE_RANGES: dict[str, tuple[float, float]] = {
     "gamma": (-1e6, 1e6),
     "shapes": (-1e6, 1e6),
     "points": (-1e6, 1e6),
+    "static_shapes": (-1e6, 1e6),
 }
 
 
@@ -266,7 +286,7 @@ def _read_fields(archive: _Archive) -> dict[str, Any]:
     values = {
         field.name: archive.read(field.name)
         for field in FIELDS
-        if field.name not in HEADER_FIELDS and field.since <= version
+        if field.name not in HEADER_FIELDS and field.in_version(version)
         if field.required or archive.has(field.name)
     }
     labels = values.get("labels")
@@ -274,15 +294,19 @@ def _read_fields(archive: _Archive) -> dict[str, Any]:
         **{name: values[name] for name in ARRAY_FIELDS},
         "labels": None if labels is None else tuple(str(s) for s in labels),
         "meta": meta,
-        "optional": _optional_groups(archive, values),
+        "optional": _optional_groups(archive, values, version),
+        "schema_version": version,
     }
 
 
-def _optional_groups(archive: _Archive, values: dict[str, np.ndarray]) -> dict[str, dict]:
-    """The groups of OPTIONAL_FIELDS that ``values`` hold, {group: {field: array}}; a group
-    is complete or absent."""
+def _optional_groups(
+    archive: _Archive, values: dict[str, np.ndarray], version: int
+) -> dict[str, dict]:
+    """The groups of optional fields that ``values`` hold, {group: {field: array}}; a group
+    is complete (in the file's schema ``version``) or absent."""
     groups = {}
-    for group, names in OPTIONAL_FIELDS.items():
+    for group in OPTIONAL_FIELDS:
+        names = [f.name for f in FIELDS if f.group == group and f.in_version(version)]
         present = [name for name in names if name in values]
         if not present:
             continue

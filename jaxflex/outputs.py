@@ -2,13 +2,19 @@
 
 Every such quantity obeys (Y rows, M modes; q, q' the modal state, a the base acceleration)
 
-    y(t) = Q q(t) + V q'(t) + A a(t)                                         (1)
+    y(t) = Q q(t) + V q'(t) + A a(t),      A = S + Q Omega^-2 Gamma              (1)
 
-:class:`LinearOutputs` holds (Q, V, A). The FE side (fem) derives them with the
-mode-acceleration method (the quasi-static response to a is exact, the modes correct it), so
-A carries the static share and Q, V the dynamic one. Gravity g (m/s^2, in the model's frame)
-acts like a constant base acceleration -g: its share is the constant offset -A g
-(:meth:`LinearOutputs.offset`).
+:class:`LinearOutputs` holds Q, V and the exact static response S (Y, 3): the output of the
+part at rest under a constant unit base acceleration along x, y, z, from the FE's static
+solve (the mode-acceleration method's quasi-static part: fem.outputs). A follows from S and
+the modes that are kept (the model that owns the outputs derives it:
+:meth:`LinearOutputs.with_modes`), so a mode dropped from the model responds quasi-statically
+and the static response stays exact whatever modes are kept. At rest under a constant a the
+modes settle at q = -Omega^-2 Gamma a and y = S a exactly.
+
+Gravity g (m/s^2, in the model's frame) acts like a constant base acceleration -g on a part
+that hangs at rest in it before the move: its share is the constant offset -S g
+(:meth:`LinearOutputs.offset`), the move's own response (from rest) comes on top.
 
 A model may carry (both optional, jaxflex.model_file stores them):
 
@@ -35,6 +41,7 @@ from jaxflex.errors import ModelError
 from jaxflex.validation import is_validated, validated
 
 VOIGT = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))  # xx, yy, zz, yz, xz, xy
+_ANY_MODES = ("kept by a scaling that leaves a_map as it is",)  # LinearOutputs.scaled
 CUP_ROWS = ("F_x", "F_y", "F_z", "M_x", "M_y", "M_z")
 
 
@@ -87,28 +94,73 @@ class LinearOutputs:
     """y = q_map q + v_map q' + a_map a (module docstring, equation (1)).
 
     q_map: (Y, M) per unit modal coordinate (kg^0.5 m); v_map: (Y, M) per unit modal
-    velocity; a_map: (Y, 3) per unit base acceleration (m/s^2). Units of y: those of the
+    velocity; static_map: (Y, 3) the exact static output per unit base acceleration (m/s^2);
+    a_map: (Y, 3) per unit base acceleration in the modal form, static_map + q_map Omega^-2
+    Gamma, derived by :meth:`with_modes` (None until then). Units of y: those of the
     quantity (N, N m, Pa).
     """
 
     q_map: Any
     v_map: Any
-    a_map: Any
+    static_map: Any
+    a_map: Any = None
 
     def check(self, owner: str, n_rows: int, n_modes: int) -> LinearOutputs:
-        """Validated copy (shapes (Y, M), (Y, M), (Y, 3), finite); ModelError naming the field."""
-        return LinearOutputs(
+        """Validated outputs (shapes (Y, M), (Y, M), (Y, 3), finite); ModelError naming the
+        field. Validated arrays are used as they are; a_map is kept (:meth:`with_modes`
+        decides whether it still holds)."""
+        return _same_or(
+            self,
             _checked(owner, "q_map", self.q_map, (n_rows, n_modes)),
             _checked(owner, "v_map", self.v_map, (n_rows, n_modes)),
-            _checked(owner, "a_map", self.a_map, (n_rows, 3)),
+            _checked(owner, "static_map", self.static_map, (n_rows, 3)),
         )
+
+    def with_modes(self, freq_hz, gamma) -> LinearOutputs:
+        """The outputs with a_map = static_map + q_map Omega^-2 Gamma for the modes of
+        frequencies ``freq_hz`` (M,) Hz and participation ``gamma`` (M, 3) (equation (1)).
+        Returns ``self`` when its a_map was derived from these very arrays (a model derived
+        from another with the same modes: nothing is computed again)."""
+        modes = getattr(self, "_modes", (None, None))
+        if self.a_map is not None and (
+            modes is _ANY_MODES or (modes[0] is freq_hz and modes[1] is gamma)
+        ):
+            if modes is _ANY_MODES:
+                object.__setattr__(self, "_modes", (freq_hz, gamma))
+            return self
+        omega = 2.0 * np.pi * np.asarray(freq_hz, dtype=np.float64)
+        a_map = np.asarray(self.static_map) + np.asarray(self.q_map) @ (
+            np.asarray(gamma) / omega[:, None] ** 2
+        )
+        out = LinearOutputs(self.q_map, self.v_map, self.static_map, validated(a_map))
+        object.__setattr__(out, "_modes", (freq_hz, gamma))  # what a_map was derived from
+        return out
 
     @property
     def n_rows(self) -> int:
-        return int(np.shape(self.a_map)[0])
+        return int(np.shape(self.static_map)[0])
 
     def take_modes(self, keep: np.ndarray) -> LinearOutputs:
-        return LinearOutputs(self.q_map[:, keep], self.v_map[:, keep], self.a_map)
+        """The outputs of the modes ``keep``; the dropped ones respond quasi-statically (their
+        share stays in the static response; a_map is derived again by the model)."""
+        return LinearOutputs(self.q_map[:, keep], self.v_map[:, keep], self.static_map)
+
+    def scaled(self, q_scale, v_scale, *, same_a_map: bool = False) -> LinearOutputs:
+        """The outputs with every mode's column of q_map and v_map multiplied by ``q_scale``
+        and ``v_scale`` (M,) (a model whose stiffness or damping is scaled: jaxflex.model).
+        With ``same_a_map`` the caller states that a_map stays what it is (stiffness scaled
+        by s^2 with frequencies by s: Q Omega^-2 is unchanged; damping: Q is): it is kept
+        instead of derived again. The products of validated maps and finite scales are not
+        copied or scanned again (they are checked finite here)."""
+        q = np.asarray(self.q_map) * np.asarray(q_scale)
+        v = np.asarray(self.v_map) * np.asarray(v_scale)
+        if not (np.isfinite(q).all() and np.isfinite(v).all()):
+            raise ModelError("outputs: scaling the maps overflowed (a scale out of range)")
+        kept = self.a_map if same_a_map else None
+        out = LinearOutputs(validated(q), validated(v), self.static_map, kept)
+        if kept is not None:
+            object.__setattr__(out, "_modes", _ANY_MODES)
+        return out
 
     def values(self, states, acc, xp: Any = np):
         """(T, Y) outputs for modal states (T, M, 2) and base accelerations (T, 3)."""
@@ -119,12 +171,14 @@ class LinearOutputs:
         )
 
     def offset(self, gravity_m_s2) -> np.ndarray:
-        """(Y,) the constant share of gravity ``gravity_m_s2`` (3,) (a base acceleration -g)."""
-        return -np.asarray(self.a_map) @ np.asarray(gravity_m_s2, dtype=np.float64)
+        """(Y,) the output of the part at rest under gravity ``gravity_m_s2`` (3,) (a constant
+        base acceleration -g): -S g, exact (module docstring)."""
+        return -np.asarray(self.static_map) @ np.asarray(gravity_m_s2, dtype=np.float64)
 
     def transformed(self, block: np.ndarray, rotation: np.ndarray) -> LinearOutputs:
         """The outputs in a frame rotated by ``rotation`` (3, 3): every group of b rows mapped
-        by ``block`` (b, b), the acceleration input by a_old = rotation^T a_new."""
+        by ``block`` (b, b), the acceleration input by a_old = rotation^T a_new (a_map is
+        derived again by the posed model, whose participation factors rotate too)."""
         b = block.shape[0]
 
         def rows(values: np.ndarray) -> np.ndarray:
@@ -133,8 +187,15 @@ class LinearOutputs:
             return np.einsum("ij,gjm->gim", block, grouped).reshape(values.shape)
 
         return LinearOutputs(
-            rows(self.q_map), rows(self.v_map), rows(self.a_map) @ np.asarray(rotation).T
+            rows(self.q_map), rows(self.v_map), rows(self.static_map) @ np.asarray(rotation).T
         )
+
+
+def _same_or(outputs: LinearOutputs, q_map, v_map, static_map) -> LinearOutputs:
+    """``outputs`` itself when it already holds these three arrays, else new outputs of them."""
+    if q_map is outputs.q_map and v_map is outputs.v_map and static_map is outputs.static_map:
+        return outputs
+    return LinearOutputs(q_map, v_map, static_map)
 
 
 def voigt_rotation(rotation: np.ndarray) -> np.ndarray:
@@ -234,19 +295,23 @@ class StressSet:
         )
 
 
-def checked_cups(cups: CupSet, n_modes: int) -> CupSet:
-    """``cups`` with its reaction maps validated against ``n_modes`` (ModelError)."""
-    reaction = cups.reaction.check("cups.reaction", 6 * cups.n_cups, n_modes)
+def checked_cups(cups: CupSet, freq_hz: np.ndarray, gamma: np.ndarray) -> CupSet:
+    """``cups`` with its reaction maps validated against the modes ``freq_hz`` (M,) Hz and
+    ``gamma`` (M, 3) and a_map derived from them (ModelError naming the field)."""
+    reaction = cups.reaction.check("cups.reaction", 6 * cups.n_cups, len(freq_hz))
+    reaction = reaction.with_modes(freq_hz, gamma)
+    if reaction is cups.reaction:
+        return cups
     return CupSet(
         cups.centre_m, cups.normal, cups.radius_m, cups.holding_force_n, cups.friction, reaction
     )
 
 
-def checked_stress(stress: StressSet, n_modes: int) -> StressSet:
-    """``stress`` with its maps validated against ``n_modes`` (ModelError)."""
-    return StressSet(
-        stress.points_m, stress.stress.check("stress.stress", 6 * stress.n_points, n_modes)
-    )
+def checked_stress(stress: StressSet, freq_hz: np.ndarray, gamma: np.ndarray) -> StressSet:
+    """``stress`` with its maps validated against the modes and a_map derived (ModelError)."""
+    maps = stress.stress.check("stress.stress", 6 * stress.n_points, len(freq_hz))
+    maps = maps.with_modes(freq_hz, gamma)
+    return stress if maps is stress.stress else StressSet(stress.points_m, maps)
 
 
 # -- the model file's flat fields (jaxflex.model_file.OPTIONAL_FIELDS) ----------------------
@@ -263,16 +328,34 @@ def cups_to_fields(cups: CupSet) -> dict[str, np.ndarray]:
         "cup_friction": np.asarray(cups.friction),
         "cup_reaction_q": np.asarray(r.q_map).reshape(c, 6, -1),
         "cup_reaction_v": np.asarray(r.v_map).reshape(c, 6, -1),
-        "cup_reaction_a": np.asarray(r.a_map).reshape(c, 6, 3),
+        "cup_reaction_s": np.asarray(r.static_map).reshape(c, 6, 3),
     }
 
 
-def cups_from_fields(f: dict[str, np.ndarray]) -> CupSet:
+def legacy_static_map(q_map, a_map, freq_hz, gamma) -> np.ndarray:
+    """(Y, 3) S = A - Q Omega^-2 Gamma: the static response of outputs stored by schema 2
+    (which kept A). Exact for the modes the outputs were computed with; a mode dropped
+    from the file after that leaves its quasi-static share out."""
+    omega = 2.0 * np.pi * np.asarray(freq_hz, dtype=np.float64)
+    return np.asarray(a_map) - np.asarray(q_map) @ (np.asarray(gamma) / omega[:, None] ** 2)
+
+
+def _static_of(f: dict[str, np.ndarray], prefix: str, rows: int, modes) -> np.ndarray:
+    """The static map of a group: stored (schema 3) or derived from schema 2's A."""
+    if f"{prefix}_s" in f:
+        return f[f"{prefix}_s"].reshape(rows, 3)
+    q = f[f"{prefix}_q"].reshape(rows, -1)
+    return legacy_static_map(q, f[f"{prefix}_a"].reshape(rows, 3), *modes)
+
+
+def cups_from_fields(f: dict[str, np.ndarray], modes: tuple) -> CupSet:
+    """The CupSet of the file's cup fields; ``modes`` = (freq_hz, gamma) of the model (for
+    a schema-2 file's static map)."""
     c = f["cup_centre_m"].shape[0]
     reaction = LinearOutputs(
         f["cup_reaction_q"].reshape(6 * c, -1),
         f["cup_reaction_v"].reshape(6 * c, -1),
-        f["cup_reaction_a"].reshape(6 * c, 3),
+        _static_of(f, "cup_reaction", 6 * c, modes),
     )
     return CupSet(
         f["cup_centre_m"],
@@ -290,15 +373,16 @@ def stress_to_fields(stress: StressSet) -> dict[str, np.ndarray]:
         "stress_points_m": np.asarray(stress.points_m),
         "stress_q": np.asarray(stress.stress.q_map).reshape(s, 6, -1),
         "stress_v": np.asarray(stress.stress.v_map).reshape(s, 6, -1),
-        "stress_a": np.asarray(stress.stress.a_map).reshape(s, 6, 3),
+        "stress_s": np.asarray(stress.stress.static_map).reshape(s, 6, 3),
     }
 
 
-def stress_from_fields(f: dict[str, np.ndarray]) -> StressSet:
+def stress_from_fields(f: dict[str, np.ndarray], modes: tuple) -> StressSet:
+    """The StressSet of the file's stress fields (``modes`` as :func:`cups_from_fields`)."""
     s = f["stress_points_m"].shape[0]
     maps = LinearOutputs(
         f["stress_q"].reshape(6 * s, -1),
         f["stress_v"].reshape(6 * s, -1),
-        f["stress_a"].reshape(6 * s, 3),
+        _static_of(f, "stress", 6 * s, modes),
     )
     return StressSet(f["stress_points_m"], maps)

@@ -51,7 +51,7 @@ def test_model_file_keeps_the_outputs(tmp_path, model):
     path = tmp_path / "part.npz"
     model.save(path)
     back = jaxflex.load_model(path)
-    for name in ("q_map", "v_map", "a_map"):
+    for name in ("q_map", "v_map", "static_map", "a_map"):
         np.testing.assert_array_equal(
             getattr(back.cups.reaction, name), getattr(model.cups.reaction, name)
         )
@@ -60,7 +60,32 @@ def test_model_file_keeps_the_outputs(tmp_path, model):
         )
     np.testing.assert_array_equal(back.cups.holding_force_n, model.cups.holding_force_n)
     with np.load(path) as data:
-        assert int(data["schema_version"]) == 2
+        assert int(data["schema_version"]) == 3
+
+
+def test_version_2_files_are_read_with_their_static_response_derived(tmp_path, model):
+    """Schema 2 stored the modal A = S + Q Omega^-2 Gamma instead of S: the reader derives S
+    (to round-off: one matrix product) and says where the static response came from."""
+    path = tmp_path / "old.npz"
+    model.save(path)
+    with np.load(path) as data:
+        contents = {k: data[k] for k in data.files}
+    contents["schema_version"] = np.asarray(2)
+    for new, old, outputs in (
+        ("cup_reaction_s", "cup_reaction_a", model.cups.reaction),
+        ("stress_s", "stress_a", model.stress.stress),
+    ):
+        contents[old] = np.asarray(outputs.a_map).reshape(contents.pop(new).shape)
+    np.savez(path, **contents)
+    back = jaxflex.load_model(path)
+    for new, old in (
+        (back.cups.reaction, model.cups.reaction),
+        (back.stress.stress, model.stress.stress),
+    ):
+        scale = np.abs(old.a_map).max()
+        np.testing.assert_allclose(new.static_map, old.static_map, atol=1e-12 * scale)
+        np.testing.assert_allclose(new.a_map, old.a_map, atol=1e-12 * scale)
+    assert "schema 2" in back.meta["static_response"]
 
 
 def test_version_1_files_are_read(tmp_path):
@@ -95,9 +120,21 @@ def test_outputs_are_validated(model):
 
 
 def test_truncation_keeps_the_outputs_consistent(model):
+    """Dropped modes respond quasi-statically: the static response stays, and the outputs at
+    rest under a constant acceleration (the kept modes at q = -Omega^-2 Gamma a) equal it."""
     kept = model.truncate_modes(3)
     assert np.shape(kept.cups.reaction.q_map) == (12, 3)
     assert np.shape(kept.stress.stress.q_map) == (30, 3)
+    a = np.array([0.3, -2.0, 9.81])
+    omega = 2 * np.pi * np.asarray(kept.freq_hz)
+    q_rest = -(np.asarray(kept.gamma) @ a) / omega**2
+    for outputs, full in (
+        (kept.cups.reaction, model.cups.reaction),
+        (kept.stress.stress, model.stress.stress),
+    ):
+        np.testing.assert_array_equal(outputs.static_map, full.static_map)
+        at_rest = outputs.values(np.stack([q_rest, 0 * q_rest], -1)[None], a[None])[0]
+        np.testing.assert_allclose(at_rest, np.asarray(full.static_map) @ a, rtol=1e-10, atol=1e-9)
 
 
 def test_posed_model_gives_the_rotated_response(model):
