@@ -58,6 +58,7 @@ from jaxflex.validation import check_positive
 AXES = ("x", "y", "z")
 GRAM_RATIO = 4  # channels / samples above which the SVD goes through the Gram matrix
 HEADER_DT_RTOL = 1e-6  # a header's times are printed with >= 9 significant digits
+FREE_FROM = 2  # the first sample after the hat (at t_1) is over: the modes alone from here
 
 
 def hat_responses(freq_hz, zeta, dt_s: float, n_steps: int) -> np.ndarray:
@@ -307,12 +308,13 @@ def _poles_to_modes(poles: np.ndarray, dt_s: float):
 
 
 def _refine(signals: np.ndarray, freq_hz, zeta, dt_s: float):
-    """Least squares of ``signals`` (r, N+1) by residues x hat responses over (f, zeta)."""
-    n_steps = signals.shape[1] - 1
+    """Least squares of ``signals`` (r, N + 1 - FREE_FROM: the samples from t_2 on) by
+    residues x hat responses over (f, zeta)."""
+    n_steps = signals.shape[1] - 1 + FREE_FROM
     m = freq_hz.size
 
     def residual(params):
-        basis = hat_responses(np.exp(params[:m]), params[m:], dt_s, n_steps)
+        basis = hat_responses(np.exp(params[:m]), params[m:], dt_s, n_steps)[FREE_FROM:]
         coef, *_ = np.linalg.lstsq(basis, signals.T, rcond=None)
         return (signals.T - basis @ coef).ravel()
 
@@ -382,11 +384,13 @@ def identify_r1(
     data = _data_matrix(r1)
     active = np.flatnonzero(np.any(data != 0, axis=1))
     data_active = data[active]
-    rel_s, threshold, rank, reason, signals = _compress(data_active, max_modes)
+    # the modes from t_2 on, where the hat is over (at t_1 the quasi-static share of modes
+    # beyond the fit adds to them: fitted with the residues below)
+    rel_s, threshold, rank, reason, signals = _compress(data_active[:, FREE_FROM:], max_modes)
     timings["order_s"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
-    poles = _era_poles(signals[:, 2:], 2 * rank)
+    poles = _era_poles(signals, 2 * rank)
     freq0, zeta0, dropped = _poles_to_modes(poles, dt_s)
     if freq0.size == 0:
         raise InputError("R1: no oscillating mode found; " + "; ".join(dropped))
@@ -399,9 +403,11 @@ def identify_r1(
     timings["refine_s"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
-    basis = hat_responses(freq, zeta, dt_s, n_t - 1)  # (N+1, M)
-    pinv = np.linalg.pinv(basis)  # (M, N+1)
-    residues = np.zeros((data.shape[0], freq.size))
+    # the modes' hat responses, and the quasi-static share D a(t) of the modes beyond the fit
+    # (their response to the hat is the hat itself: at its sample t_1 only)
+    basis = np.hstack([hat_responses(freq, zeta, dt_s, n_t - 1), np.eye(n_t)[:, 1:2]])
+    pinv = np.linalg.pinv(basis)  # (M + 1, N+1)
+    residues = np.zeros((data.shape[0], freq.size + 1))
     residues[active] = data_active @ pinv.T
     fitted_peak, sq_res, sq_data = 0.0, 0.0, 0.0
     for chunk in np.array_split(np.arange(active.size), max(1, active.size // 20000)):
@@ -414,7 +420,13 @@ def identify_r1(
     energy = np.sum(residues**2, axis=0) * np.sum(basis**2, axis=0) / sq_data
     timings["residues_s"] = time.perf_counter() - tick
 
+    residues, direct = residues[:, :-1], residues[:, -1].reshape(n_axes, n_points, 3)
+    basis = basis[:, :-1]
+    part_peak, energy = part_peak[:-1], energy[:-1]
     gamma, shapes, rank_one = _split(residues.reshape(n_axes, n_points, 3, -1), axes)
+    static = -shapes @ (gamma / (2 * np.pi * freq[:, None]) ** 2)  # (K, 3, 3): the modes'
+    for a, axis in enumerate(axes):
+        static[:, :, AXES.index(axis)] += direct[a]  # ... plus the quasi-static residual
     timings["total_s"] = time.perf_counter() - started
     fit = R1Fit(
         n_modes=int(freq.size),
@@ -446,6 +458,9 @@ def identify_r1(
             "gamma_unknown_axes": [a for a in AXES if a not in axes],
             "shapes": "residues (shape x participation) over the participation; the mass "
             "normalisation cannot be known from R1",
+            "static_response": f"along {', '.join(axes)}: the modes' static response plus the "
+            "quasi-static share of the modes beyond the fit (R1 at the hat's sample); along "
+            "the other axes unknown (zero participation)",
         },
     }
     return R1Identification(
@@ -455,6 +470,8 @@ def identify_r1(
         nodes=nodes,
         node_ids=np.arange(1, n_points + 1) if node_ids is None else np.asarray(node_ids),
         zeta=zeta,
+        static_shapes=static,
+        static_note=provenance["derived"]["static_response"],
         nodes_missing="R1 holds none; pass nodes= (--nodes) with a CSV of the R1 rows' x, y, z "
         "in m (or node, x, y, z)",
         provenance=provenance,
