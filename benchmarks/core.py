@@ -26,12 +26,10 @@ import numpy as np
 
 from benchmarks.timing import best_time_s, machine
 from jaxflex.convolution import convolve_unit_response, deviation_from_displacement, unit_response
-from jaxflex.deviation import deviation
-from jaxflex.engine import modal_states
 from jaxflex.model import ModalModel
 from jaxflex.progress import step
 from jaxflex.settle import cycle_time
-from jaxflex.simulate import on_device, simulate
+from jaxflex.simulate import move_deviation, on_device, simulate
 from jaxflex.surrogate import cycle_time_smooth
 
 
@@ -89,7 +87,7 @@ def run_bench(case: BenchCase = BenchCase(), *, progress: Callable[[str], None] 
 
     @jax.jit
     def forward(m, s, a):
-        return deviation(s, modal_states(m, a, dt_s)[..., 0])
+        return move_deviation(m, s, a, dt_s)
 
     grad_peak = jax.jit(jax.grad(lambda a, m, s: jnp.max(forward(m, s, a))))
     model32, blocks32 = on_device(model, "float32")

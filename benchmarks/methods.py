@@ -26,12 +26,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxflex.convolution import convolve_unit_response, deviation_from_displacement, unit_response
-from jaxflex.deviation import deviation
-from jaxflex.engine import modal_states, upsample
+from jaxflex.deviation import deviation, with_acceleration
+from jaxflex.engine import upsample
 from jaxflex.errors import InputError
 from jaxflex.integrators import central_difference_modal, newmark_modal
 from jaxflex.model import ModalModel
-from jaxflex.simulate import on_device
+from jaxflex.simulate import move_deviation, on_device
 
 METHODS = ("scan64", "scan32", "convolution", "newmark", "central_difference")
 LABELS = {
@@ -47,13 +47,14 @@ CD_STABILITY_MARGIN = 0.9  # central difference runs at omega_max h <= 0.9 * 2
 
 @jax.jit
 def _scan_deviation(model, blocks, acc, dt_s):
-    return deviation(blocks, modal_states(model, acc, dt_s)[..., 0])
+    return move_deviation(model, blocks, acc, dt_s)
 
 
 @partial(jax.jit, static_argnames=("integrator", "every"))
 def _integrator_deviation(model, blocks, acc_fine, h, integrator: str, every: int):
     step = newmark_modal if integrator == "newmark" else central_difference_modal
-    return deviation(blocks, step(model, acc_fine, h)[::every])
+    q = step(model, acc_fine, h)[::every]
+    return deviation(blocks, with_acceleration(model, q, acc_fine[::every], jnp))
 
 
 def stable_substeps(model: ModalModel, dt_s: float, margin: float = CD_STABILITY_MARGIN) -> int:

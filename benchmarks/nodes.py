@@ -34,12 +34,10 @@ from fem.modal import modal_analysis
 from fem.scenes import scene as built_in
 from jaxflex.analytic import simply_supported_plate
 from jaxflex.atomic import write_text_atomic
-from jaxflex.deviation import deviation
-from jaxflex.engine import modal_states
 from jaxflex.model import ModalModel
 from jaxflex.progress import step
 from jaxflex.settle import analyze_move, cycle_time
-from jaxflex.simulate import on_device
+from jaxflex.simulate import move_deviation, on_device
 
 RADII_M = (2.5, 1.2)
 TARGETS = {
@@ -104,7 +102,7 @@ def time_forward(model: ModalModel, case: ScaleCase, repeats: int = 5) -> dict:
 
     @jax.jit
     def forward(m, b, a):
-        return deviation(b, modal_states(m, a, dt)[..., 0])
+        return move_deviation(m, b, a, dt)
 
     start = time.perf_counter()
     d = jax.block_until_ready(forward(device_model, blocks, acc))
@@ -184,7 +182,7 @@ def run_reduction(
 
     @jax.jit
     def forward(m, b, a):
-        return deviation(b, modal_states(m, a, dt)[..., 0])
+        return move_deviation(m, b, a, dt)
 
     def measure(model: ModalModel, threshold_m: float | None) -> dict:
         device_model, blocks = on_device(model)

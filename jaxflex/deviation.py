@@ -4,6 +4,12 @@ u_p(t) = sum_i phi_i(p) q_i(t) with mode shapes ``shapes`` (K, C, M) in m per kg
 displacement components, or fewer: norms are then taken over those) and modal coordinates
 q (T, M) in kg^0.5 m.
 
+During a move a model with a static residual D (jaxflex.model: the quasi-static share of the
+modes it does not keep, u_p = Phi q + D_p a) adds D a(t): the evaluation treats the three
+acceleration components as three more coordinates with "shapes" D (:func:`response_shapes`,
+:func:`with_acceleration`, ``moving=True`` in :func:`blocks_of`), so every bound, the pruning
+and the gradient below hold unchanged. After the move a = 0 and only the modes remain.
+
 :func:`deviation` and :func:`deviation_point` are the JAX forms. They never materialise the
 (T, K, C) displacements: the points are grouped in spatially compact blocks
 (jaxflex.blocks) whose centre and per-mode radius bound every member,
@@ -36,6 +42,7 @@ from jaxflex.blocks import PointBlocks, point_blocks
 from jaxflex.engine import PAD_STEPS, padded_steps, states_at
 from jaxflex.model import shape_cache
 from jaxflex.profile import acceleration_at
+from jaxflex.validation import is_traced
 
 CHUNK_POINTS = 1024  # points per matrix product in the blocked NumPy evaluation
 UNIT_STEPS = 32  # steps evaluated together for one block
@@ -180,29 +187,76 @@ _build_blocks = jax.jit(point_blocks, static_argnames="block_points")
 _max_norms = jax.jit(deviation_point)
 
 
+def residual_of(model):
+    """The static residual D (K, 3, 3) of a concrete or traced model, or None where the model
+    knows no static displacement (jaxflex.model)."""
+    if model.static_shapes is None:
+        return None
+    if not is_traced(model):
+        return model.static_residual
+    omega = 2.0 * np.pi * model.freq_hz
+    return model.static_shapes + model.shapes @ (model.gamma / omega[:, None] ** 2)
+
+
+def response_shapes(model, xp=np):
+    """(K, 3, M) the mode shapes, or (K, 3, M + 3) with the static residual's columns where
+    the model has one: the shapes of the displacement during a move (module docstring)."""
+    residual = residual_of(model)
+    shapes = xp.asarray(model.shapes)
+    return shapes if residual is None else xp.concatenate([shapes, xp.asarray(residual)], axis=2)
+
+
+def with_acceleration(model, q, acc, xp=np):
+    """The coordinates of :func:`response_shapes`: q (T, M), followed by the base accelerations
+    ``acc`` (T, 3) m/s^2 at the same times where the model has a static residual."""
+    if residual_of(model) is None:
+        return q
+    return xp.concatenate([q, xp.asarray(acc, q.dtype)], axis=-1)
+
+
 def block_model(shapes, points, dtype: str = "float64") -> PointBlocks:
     """:class:`PointBlocks` of concrete ``shapes`` (K, C, M) at ``points`` (K, 3) m, for
     :func:`max_norms` (compiled once per size)."""
     return _build_blocks(jnp.asarray(shapes, dtype), jnp.asarray(points, jnp.float64))
 
 
-def blocks_of(model, dtype: str = "float64") -> PointBlocks:
+def _moving_cache(model) -> dict | None:
+    """The per-model cache of data built from :func:`response_shapes` (they depend on the
+    frequencies too), or None where the model has no static residual (the modes' data
+    serve)."""
+    if residual_of(model) is None:
+        return None
+    return model.__dict__.setdefault("_moving_blocks", {})
+
+
+def blocks_of(model, dtype: str = "float64", *, moving: bool = False) -> PointBlocks:
     """The :class:`PointBlocks` of a concrete model's shapes in ``dtype`` (built once, then
-    shared by the models with the same shapes and points: jaxflex.model.shape_cache)."""
+    shared by the models with the same shapes and points: jaxflex.model.shape_cache); with
+    ``moving`` those of :func:`response_shapes` (coordinates :func:`with_acceleration`)."""
+    moving_cache = _moving_cache(model) if moving else None
+    if moving_cache is not None:
+        if dtype not in moving_cache:
+            moving_cache[dtype] = block_model(response_shapes(model), model.points, dtype)
+        return moving_cache[dtype]
     cache = shape_cache(model).setdefault("blocks", {})
     if dtype not in cache:
         cache[dtype] = block_model(model.shapes, model.points, dtype)
     return cache[dtype]
 
 
-def component_blocks(model, components: tuple[int, ...]) -> tuple[np.ndarray, PointBlocks]:
+def component_blocks(
+    model, components: tuple[int, ...], *, moving: bool = False
+) -> tuple[np.ndarray, PointBlocks]:
     """The shapes (K, C, M) of a concrete model restricted to the displacement
     ``components`` it uses, and their :class:`PointBlocks` (float64), built once per shapes
-    and points (jaxflex.model.shape_cache: the scenarios of a robust grid share them)."""
-    cache = shape_cache(model)
+    and points (jaxflex.model.shape_cache: the scenarios of a robust grid share them); with
+    ``moving`` those of :func:`response_shapes` (K, C, M + 3 where there is a residual)."""
+    moving_cache = _moving_cache(model) if moving else None
+    cache = shape_cache(model) if moving_cache is None else moving_cache
     key = ("components", tuple(components))
     if key not in cache:
-        shapes = np.asarray(model.shapes)[:, list(components), :]
+        full = response_shapes(model) if moving_cache is not None else np.asarray(model.shapes)
+        shapes = full[:, list(components), :]
         cache[key] = (shapes, block_model(shapes, model.points))
     return cache[key]
 
@@ -295,7 +349,8 @@ def deviation_curve(
     after = max(1, int(np.ceil((until_s - n_steps * dt_s) / h)) + 1)
     t = np.concatenate([t_move, n_steps * dt_s + h * np.arange(after)])
     q = states_at(model, acc, dt_s, t)[..., 0]
-    return t, max_norms(blocks_of(model), q)[0]
+    q = with_acceleration(model, q, acceleration_at(acc, dt_s, t))
+    return t, max_norms(blocks_of(model, moving=True), q)[0]
 
 
 def outputs_at(model, outputs, acc, dt_s: float, t_s, offset=None) -> np.ndarray:

@@ -34,12 +34,20 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from jaxflex.decay import amplitudes, envelope, envelope_horizon
-from jaxflex.deviation import block_bounds, blocks_of, point_norms, round_off_slack
+from jaxflex.deviation import (
+    block_bounds,
+    blocks_of,
+    point_norms,
+    residual_of,
+    response_shapes,
+    round_off_slack,
+    with_acceleration,
+)
 from jaxflex.engine import free_states, modal_forces, modal_states, states_between
 from jaxflex.errors import BudgetError
 from jaxflex.grid import grid_time
 from jaxflex.model import ModalModel, shape_cache
-from jaxflex.profile import as_move
+from jaxflex.profile import acceleration_at, as_move
 from jaxflex.validation import check_positive
 
 SUBDIVISIONS = 16
@@ -102,14 +110,19 @@ class _SearchBudget:
             )
 
 
-def _block_data(model: ModalModel):
+def _block_data(model: ModalModel, moving: bool = False):
     """NumPy block data of a model, cached on it: members (nB, b) with K for padding, centres
-    (M, C, nB), radii (nB, M) and per-mode largest shape norm of the members (nB, M)."""
-    cache, key = shape_cache(model), "settle_blocks"
+    (M', C, nB), radii (nB, M') and per-coordinate largest shape norm of the members
+    (nB, M'); M' = M, or with ``moving`` M + 3 where the model has a static residual
+    (jaxflex.deviation.response_shapes)."""
+    moving = moving and residual_of(model) is not None
+    cache = model.__dict__.setdefault("_moving_blocks", {}) if moving else shape_cache(model)
+    key = "settle_blocks"
     if key not in cache:
-        blocks = blocks_of(model)
+        blocks = blocks_of(model, moving=moving)
         members = np.asarray(blocks.index)
-        padded = np.vstack([model.shape_norms, np.zeros((1, model.n_modes))])
+        norms = _norms(model, moving)
+        padded = np.vstack([norms, np.zeros((1, norms.shape[1]))])
         cache[key] = (
             members,
             np.asarray(blocks.centres),
@@ -119,20 +132,28 @@ def _block_data(model: ModalModel):
     return cache[key]
 
 
+def _norms(model: ModalModel, moving: bool) -> np.ndarray:
+    """(K, M') per-point norms of the shapes of :func:`_block_data`."""
+    if not moving:
+        return model.shape_norms
+    return np.linalg.norm(response_shapes(model), axis=1)
+
+
 class _ModalSignal:
     """Shared data of the closed-form response: per-point shape norms, the point blocks with
     their bounds, modal constants. Subclasses give the modal coordinates q(t)."""
 
-    def __init__(self, model: ModalModel) -> None:
+    def __init__(self, model: ModalModel, moving: bool = False) -> None:
         self.model = model
-        self.shapes = np.asarray(model.shapes)
-        self.weights = model.shape_norms  # (K, M)
+        moving = moving and residual_of(model) is not None
+        self.shapes = response_shapes(model) if moving else np.asarray(model.shapes)
+        self.weights = _norms(model, moving)  # (K, M')
         self.omega = np.asarray(model.omega)
         self.zeta = np.asarray(model.zeta)
         self.sigma = self.zeta * self.omega
         self.budget = _SearchBudget(self.weights.shape[0])
-        self.members, self.centres, self.radius, self.block_weights = _block_data(model)
-        self.slack = round_off_slack(model.n_modes, self.shapes.shape[1], np.float64)
+        self.members, self.centres, self.radius, self.block_weights = _block_data(model, moving)
+        self.slack = round_off_slack(self.shapes.shape[2], self.shapes.shape[1], np.float64)
 
     def modal(self, t: np.ndarray) -> np.ndarray:
         raise NotImplementedError
@@ -195,20 +216,27 @@ class _FreeDecay(_ModalSignal):
 
 
 class _ForcedMotion(_ModalSignal):
-    """Response during the move from the exact states at the samples (FOH in between)."""
+    """Response during the move from the exact states at the samples (FOH in between), with
+    the static residual's share D a(t) (the coordinates of
+    jaxflex.deviation.with_acceleration: a is linear within a step, so it adds no curvature
+    there)."""
 
-    def __init__(self, model: ModalModel, states: np.ndarray, force: np.ndarray, dt_s: float):
-        super().__init__(model)
-        self.states, self.force, self.dt_s = states, force, dt_s
+    def __init__(self, model: ModalModel, move, states: np.ndarray, force: np.ndarray):
+        super().__init__(model, moving=True)
+        self.acc = move.acc
+        self.states, self.force, self.dt_s = states, force, move.dt_s
         self.n_steps = states.shape[0] - 1
         step_force = np.maximum(np.abs(force[:-1]), np.abs(force[1:]))  # (n, M)
         radius = np.hypot(states[:-1, :, 1], self.omega * states[:-1, :, 0])  # r_i(t_k)
-        self.acc_bound = step_force + (1.0 + 2.0 * self.zeta) * self.omega * (
-            radius + dt_s * step_force
+        acc_bound = step_force + (1.0 + 2.0 * self.zeta) * self.omega * (
+            radius + move.dt_s * step_force
         )  # (n, M): sup |q_i''| on step k
+        extra = self.shapes.shape[2] - acc_bound.shape[1]
+        self.acc_bound = np.pad(acc_bound, ((0, 0), (0, extra)))  # (n, M')
 
     def modal(self, t: np.ndarray) -> np.ndarray:
-        return states_between(self.model, self.states, self.force, self.dt_s, t, np)[..., 0]
+        q = states_between(self.model, self.states, self.force, self.dt_s, t, np)[..., 0]
+        return with_acceleration(self.model, q, acceleration_at(self.acc, self.dt_s, t))
 
     def curvature(self, a: np.ndarray, b: np.ndarray, weights: np.ndarray) -> np.ndarray:
         k = np.clip(np.floor(0.5 * (a + b) / self.dt_s).astype(np.int64), 0, self.n_steps - 1)
@@ -323,7 +351,7 @@ def _prepare(model: ModalModel, acc, dt_s, threshold_m):
     move = as_move(acc, dt_s, at_rest=True)
     threshold_m = check_positive("threshold_m", threshold_m)
     states = modal_states(model, move.acc, move.dt_s, xp=np)
-    return states, modal_forces(model, move.acc, np), move.dt_s, threshold_m
+    return move, states, modal_forces(model, move.acc, np), threshold_m
 
 
 def analyze_move(
@@ -333,7 +361,8 @@ def analyze_move(
     at step ``dt_s`` (s) against ``threshold_m`` (m). With ``settle=False`` the search during
     the move is skipped (the cycle time does not need it) and settle_time_s is only exact if
     it lies after the move; otherwise it is reported as the transfer time."""
-    states, force, dt_s, threshold_m = _prepare(model, acc, dt_s, threshold_m)
+    move, states, force, threshold_m = _prepare(model, acc, dt_s, threshold_m)
+    dt_s = move.dt_s
     n_steps = states.shape[0] - 1
     t_n = grid_time(n_steps, dt_s)
     decay = _FreeDecay(model, states[-1], t_n)
@@ -343,7 +372,7 @@ def analyze_move(
     if tail is not None:
         settle_s = t_n + tail
     elif settle:
-        motion = _ForcedMotion(model, states, force, dt_s)
+        motion = _ForcedMotion(model, move, states, force)
         grid = dt_s * np.arange(n_steps + 1)
         all_blocks = np.arange(motion.members.shape[0])
         found = _last_exceedance_in_blocks(motion, all_blocks, grid, threshold_m)

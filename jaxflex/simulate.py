@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxflex.blocks import PointBlocks, point_blocks
-from jaxflex.deviation import blocks_of, deviation
+from jaxflex.deviation import blocks_of, deviation, response_shapes, with_acceleration
 from jaxflex.engine import HOLDS, free_states, modal_states
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
@@ -34,7 +34,8 @@ class Response:
     """Result of :func:`simulate`. T = n + 1 + n_free samples at t_k = k dt_s.
 
     t: (T,) s.   q, qd: (T, M) modal coordinates and velocities (kg^0.5 m, kg^0.5 m/s).
-    deviation: (T,) d_k = max_p |u_p(t_k)| in m.
+    deviation: (T,) d_k = max_p |u_p(t_k)| in m (u_p = sum_i phi_i(p) q_i + D_p a with the
+        model's static residual D, jaxflex.model).
     displacement: (T, K, 3) in m, or None unless requested.
     n_steps: number of motion steps n (the move ends at t[n_steps]).
     """
@@ -72,8 +73,11 @@ def _simulate(model, blocks, acc, dt_s, x0, n_free: int, want_displacement: bool
         states = jnp.concatenate([states, free_states(model, states[-1], tau)], axis=0)
     q, qd = states[..., 0], states[..., 1]
     t = dt_s * jnp.arange(q.shape[0], dtype=acc.dtype)
-    deviation_m = deviation(blocks, q)
-    displacement = jnp.einsum("kcm,tm->tkc", model.shapes, q) if want_displacement else None
+    base = jnp.concatenate([acc, jnp.zeros((n_free, 3), acc.dtype)], axis=0)
+    coords = with_acceleration(model, q, base, jnp)  # u = Phi q (+ D a: the static residual)
+    deviation_m = deviation(blocks, coords)
+    shapes = response_shapes(model, jnp)
+    displacement = jnp.einsum("kcm,tm->tkc", shapes, coords) if want_displacement else None
     return t, q, qd, deviation_m, displacement
 
 
@@ -84,8 +88,8 @@ def _check_dtype(dtype: str):
 
 
 def on_device(model: ModalModel, dtype: str = "float64") -> tuple[ModalModel, PointBlocks]:
-    """``model`` as JAX arrays of ``dtype`` plus its points in blocks for the deviation
-    (jaxflex.blocks.PointBlocks).
+    """``model`` as JAX arrays of ``dtype`` plus its points in blocks for the deviation during
+    and after a move (jaxflex.blocks.PointBlocks of jaxflex.deviation.response_shapes).
 
     For a concrete model the result is cached on the model, so repeated calls transfer and
     reorder nothing; traced models (inside jit/vmap) are converted on the fly.
@@ -96,7 +100,10 @@ def on_device(model: ModalModel, dtype: str = "float64") -> tuple[ModalModel, Po
     if cache is not None and dtype in cache:
         return cache[dtype]
     cast = jax.tree_util.tree_map(lambda x: jnp.asarray(x, jdtype), model)
-    blocks = point_blocks(cast.shapes, model.points) if traced else blocks_of(model, dtype)
+    if traced:
+        blocks = point_blocks(response_shapes(cast, jnp), model.points)
+    else:
+        blocks = blocks_of(model, dtype, moving=True)
     entry = (cast, blocks)
     if cache is not None:
         cache[dtype] = entry
@@ -152,9 +159,21 @@ def simulate(
     return Response(t=t, q=q, qd=qd, deviation=dev, displacement=disp, n_steps=acc.shape[0] - 1)
 
 
+def move_deviation(model, blocks, acc, dt_s):
+    """d (n+1,) m at the samples of ``acc`` ((n+1, 3) m/s^2, from rest) for the device model
+    and blocks of :func:`on_device`: the modal recursion, the static residual's share and the
+    pruned point evaluation. Traceable (the kernel of :func:`simulate`, for benchmarks and
+    batches)."""
+    q = modal_states(model, acc, dt_s)[..., 0]
+    return deviation(blocks, with_acceleration(model, q, acc, jnp))
+
+
 @jax.jit
 def _batch_deviation(models, blocks, accs, dt_s):
-    q = jax.vmap(lambda m, a: modal_states(m, a, dt_s)[..., 0])(models, accs)
+    def coordinates(m, a):
+        return with_acceleration(m, modal_states(m, a, dt_s)[..., 0], a, jnp)
+
+    q = jax.vmap(coordinates)(models, accs)
     return jax.lax.map(lambda args: deviation(*args), (blocks, q))
 
 
@@ -171,8 +190,8 @@ def batch_deviation(models: ModalModel, accs, dt_s: float):
             f"got {accs.shape}"
         )
     check_positive("dt_s", dt_s)
-    blocks = _stacked_blocks(jnp.asarray(models.shapes), jnp.asarray(models.points))
+    blocks = _stacked_blocks(models)
     return _batch_deviation(models, blocks, accs, jnp.asarray(dt_s, jnp.float64))
 
 
-_stacked_blocks = jax.jit(jax.vmap(point_blocks))
+_stacked_blocks = jax.jit(jax.vmap(lambda m: point_blocks(response_shapes(m, jnp), m.points)))

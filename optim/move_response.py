@@ -4,7 +4,9 @@ The modal coordinates during the move are linear in the modal forces at the samp
 (jaxflex.engine.state_map). :class:`MoveResponse` holds that map at every dt / substeps during
 the move, so that the deviation there is |shapes_p q(t)| with q linear in the samples: the exact
 route bounds it with tangent-plane rows, the gradient route with a soft maximum. The largest
-point at every time comes from the pruned blocked evaluation (jaxflex.deviation).
+point at every time comes from the pruned blocked evaluation (jaxflex.deviation). Where the
+model has a static residual D (u = Phi q + D a), the coordinates are q followed by the base
+acceleration a(t), linear in the samples as well (jaxflex.deviation.response_shapes).
 """
 
 from __future__ import annotations
@@ -31,7 +33,8 @@ class ClearancePeak:
 
 
 class MoveResponse:
-    """q(t_j) (T, M) = sum_i G[j, :, i] f_i at t_j = j dt / substeps, j = 0 .. n substeps."""
+    """q(t_j) (T, M) = sum_i G[j, :, i] f_i at t_j = j dt / substeps, j = 0 .. n substeps,
+    and a(t_j) (T, 3) = sum_i H[j, i] a_i where the model has a static residual."""
 
     def __init__(
         self, model: ModalModel, components, n_steps: int, dt_s: float, substeps: int = SUBSTEPS
@@ -39,17 +42,28 @@ class MoveResponse:
         self.model = model
         self.coef = state_map(model, n_steps, dt_s, substeps)
         self.gamma = np.asarray(model.gamma)
-        self.shapes, self.blocks = component_blocks(model, components)  # shapes (K, C, M)
+        # shapes (K, C, M'), M' = M or M + 3 (the static residual's columns)
+        self.shapes, self.blocks = component_blocks(model, components, moving=True)
+        self.with_acc = self.shapes.shape[2] > model.n_modes
+        self.hold = _interpolation(n_steps, substeps) if self.with_acc else None
         self.dt_s, self.substeps = dt_s, substeps
 
     def sample_map(self, axes, index: int | slice = slice(None)) -> np.ndarray:
-        """(T, M, n+1, d): q(t_j) = sum over samples and moving ``axes`` of map * a; with an
-        integer ``index`` only that time's (M, n+1, d)."""
-        return -np.einsum("...mi,mc->...mic", self.coef[index], self.gamma[:, list(axes)])
+        """(T, M', n+1, d): the coordinates at t_j = sum over samples and moving ``axes`` of
+        map * a; with an integer ``index`` only that time's (M', n+1, d)."""
+        axes = list(axes)
+        modal = -np.einsum("...mi,mc->...mic", self.coef[index], self.gamma[:, axes])
+        if not self.with_acc:
+            return modal
+        # a_c(t_j) = sum_i H[j, i] a_{i, c}: coordinate M + c sees axis c only
+        acc = np.einsum("...i,cd->...cid", self.hold[index], np.eye(3)[:, axes])
+        return np.concatenate([modal, acc], axis=-3)
 
     def modal(self, acc: np.ndarray) -> np.ndarray:
-        """q (T, M) for samples ``acc`` (n+1, 3)."""
-        return np.einsum("tmi,im->tm", self.coef, modal_forces(self.model, acc, np))
+        """The coordinates (T, M') for samples ``acc`` (n+1, 3): q, then a where the model has
+        a static residual."""
+        q = np.einsum("tmi,im->tm", self.coef, modal_forces(self.model, acc, np))
+        return np.concatenate([q, self.hold @ acc], axis=1) if self.with_acc else q
 
     def peaks(self, acc: np.ndarray, limit_m: float, tol: float = 1e-6, most: int = 40):
         """Local maxima in time of max_p |u_p| above ``limit_m`` (worst first)."""
@@ -68,6 +82,17 @@ class MoveResponse:
         """(n+1, d) coefficients r with sum r * a = c . u_p(t), c = u / |u| (a tangent cut)."""
         along = (peak.u / np.linalg.norm(peak.u)) @ self.shapes[peak.point]  # (M,)
         return np.einsum("m,mic->ic", along, self.sample_map(axes, peak.index))
+
+
+def _interpolation(n_steps: int, substeps: int) -> np.ndarray:
+    """(n S + 1, n+1) H with a(t_j) = sum_i H[j, i] a_i at t_j = j dt / S (linear in between)."""
+    j = np.arange(n_steps * substeps + 1)
+    k = np.minimum(j // substeps, n_steps - 1)
+    w = j / substeps - k
+    hold = np.zeros((j.size, n_steps + 1))
+    hold[j, k] = 1.0 - w
+    hold[j, k + 1] += w
+    return hold
 
 
 # The bound below holds for the continuous response; the clearance is checked at samples

@@ -21,11 +21,13 @@ def test_panel_reduced_model_against_full_order_fe():
     knots, reference = Richardson-extrapolated Newmark at omega_1 h = 0.5 (its plain fine run
     differs from it by 0.13 % of the peak).
 
-    Measured: 60 / 120 / 200 modes give L-inf 0.69 / 0.39 / 0.25 % (cups clamp a large share
-    of this small part: local deformation converges slowly with modes); with 200 modes
-    R^2 0.9999937 (deviation) / 0.9999978 (displacement), settle +0.04 ms. R^2 and settle
-    time meet the target; L-inf is 0.25 % against 0.2 %, at the level of the reference's own
-    error, so the bound below is 0.3 % (reported as not met in docs/bench.md)."""
+    Measured with the modes alone: 60 / 120 / 200 modes gave L-inf 0.69 / 0.39 / 0.25 % (cups
+    clamp a large share of this small part: local deformation converges slowly with modes).
+    With the static residual of the FE's static solve (the modes left out respond
+    quasi-statically: jaxflex.deviation.response_shapes) 60 and 200 modes both give 0.25 %,
+    the level of the reference's own error; with 200 modes R^2 0.9999937 (deviation) /
+    0.9999978 (displacement), settle +0.04 ms. R^2 and settle time meet the target; L-inf is
+    0.25 % against 0.2 %, so the bound below is 0.3 % (reported as not met in docs/bench.md)."""
     spec = replace(
         SMALL_PANEL,
         n_modes=200,
@@ -40,9 +42,9 @@ def test_panel_reduced_model_against_full_order_fe():
     threshold_m = settle_threshold(ref.t_s, ref.deviation_m, spec.rest_s)
     settle_ref = settle_from_samples(ref.t_s, ref.deviation_m, threshold_m)
     rows = agreement_by_modes(model, ref, spec, threshold_m, settle_ref)
-    coarse, fine = rows
-    # more modes, closer to the full-order model
-    assert fine["displacement_linf_rel_peak"] < 0.5 * coarse["displacement_linf_rel_peak"]
+    _coarse, fine = rows
     assert min(fine["deviation_r2"], fine["displacement_r2"]) >= TARGETS["r2"]
     assert abs(fine["settle_error_s"]) <= TARGETS["settle_error_s"]
-    assert max(fine["deviation_linf_rel_peak"], fine["displacement_linf_rel_peak"]) <= 0.003
+    # with the static residual even 60 modes are as close as the reference is to itself
+    for row in rows:
+        assert max(row["deviation_linf_rel_peak"], row["displacement_linf_rel_peak"]) <= 0.003

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -51,13 +53,15 @@ def test_reduced_model_matches_full_order_transient(reference):
     for n_modes, a in curve.items():
         print(f"{n_modes:5d}  {a['r2']:.8f}  {a['max_error_rel_peak']:.2e}")
     # the target, with enough modes: R^2 >= 0.9999 and max error <= 0.5 % of the peak
-    # (measured at 40 modes: R^2 0.999993, 0.35 %); what remains at 80 modes is Newmark's
-    # period error at h = 1e-4 s and the truncated quasi-static residual (~0.1 %)
+    # (measured with the modes alone at 40 modes: R^2 0.999993, 0.35 %). With the static
+    # residual (the modes left out respond quasi-statically) what remains is the dynamic
+    # share of the modes left out and Newmark's period error at h = 1e-4 s (measured: 5 / 10
+    # / 20 / 40 / 80 modes 0.34 / 0.10 / 0.056 / 0.040 / 0.040 %)
     assert curve[40]["r2"] >= 0.9999 and curve[40]["max_error_rel_peak"] <= 5e-3
     assert curve[80]["r2"] >= 0.99999 and curve[80]["max_error_rel_peak"] <= 2e-3
+    # more modes, no larger error (up to the reference's own 1e-4)
     errors = [curve[n]["max_error_rel_peak"] for n in MODE_COUNTS]
-    assert errors == sorted(errors, reverse=True), "more modes, smaller error"
-    assert curve[5]["max_error_rel_peak"] > 10 * curve[80]["max_error_rel_peak"]
+    assert all(b <= a + 1e-4 for a, b in itertools.pairwise(errors)), errors
 
 
 def test_transient_reference_shapes_and_rest(reference):
