@@ -25,6 +25,7 @@ A cell file is TOML or JSON (:func:`load_cell`)::
     [part]
     start_m = [0.0, 0.0, 0.3]          # part frame origin at A, cell coordinates
     rotation_deg = [0, 0, 0]           # part frame axes: rotations about x, y, z (in turn)
+    thickness_m = 0.001                # optional: the sheet's thickness (default: the model's)
     [path]
     end_m = [2.0, 0.0, 0.6]            # at B
     via = [{position_m = [1.0, 0.0, 0.8], mode = "blend", tolerance_m = 0.05}]
@@ -267,7 +268,8 @@ class Via:
 class Cell:
     """The cell (module docstring). ``obstacles``: Box, HalfSpace, TriangleMesh; ``start_m``,
     ``end_m`` (3,) the part frame's origin at A and B; ``rotation`` (3, 3) its axes;
-    ``via``: Via points; ``gravity_m_s2`` (3,) in cell coordinates."""
+    ``via``: Via points; ``gravity_m_s2`` (3,) in cell coordinates; ``thickness_m``: the
+    sheet's thickness (m) where the model does not state it (None: the model's)."""
 
     obstacles: tuple = ()
     start_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -275,8 +277,13 @@ class Cell:
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     via: tuple = ()
     gravity_m_s2: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_GRAVITY_M_S2))
+    thickness_m: float | None = None
 
     def __post_init__(self) -> None:
+        if self.thickness_m is not None:
+            object.__setattr__(
+                self, "thickness_m", check_positive("cell.part.thickness_m", self.thickness_m)
+            )
         for name in ("start_m", "end_m", "gravity_m_s2"):
             object.__setattr__(self, name, _vector(f"cell.{name}", getattr(self, name)))
         r = np.asarray(self.rotation, dtype=np.float64)
@@ -319,6 +326,7 @@ class Cell:
             "rotation": self.rotation.tolist(),
             "via": [v.describe() for v in self.via],
             "gravity_m_s2": self.gravity_m_s2.tolist(),
+            "thickness_m": self.thickness_m,
             "obstacles": [o.describe() for o in self.obstacles],
         }
 
@@ -370,7 +378,7 @@ def cell_from_dict(data: Mapping, folder: str | Path = ".") -> Cell:
         raise InputError(f"cell: unknown section(s) {sorted(unknown)}")
     part, path = dict(data.get("part", {})), dict(data.get("path", {}))
     for section, allowed, value in (
-        ("part", {"start_m", "rotation_deg"}, part),
+        ("part", {"start_m", "rotation_deg", "thickness_m"}, part),
         ("path", {"end_m", "via"}, path),
     ):
         extra = set(value) - allowed
@@ -393,6 +401,7 @@ def cell_from_dict(data: Mapping, folder: str | Path = ".") -> Cell:
         rotation=rotation_from_degrees(part.get("rotation_deg", (0, 0, 0))),
         via=tuple(via),
         gravity_m_s2=data.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2),
+        thickness_m=part.get("thickness_m"),
     )
 
 

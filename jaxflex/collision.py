@@ -1,23 +1,34 @@
 """Collision checking with the deforming part: the smallest distance to the cell's obstacles.
 
 The model is in cell coordinates at the start of the move (jaxflex.cell.Cell.posed): point
-p_k of the part is at
+p_k of the part's mid-surface is at
 
     p_k(t) = x_k + g_k + s(t) + u_k(t)
 
-with x_k the model's point, g_k its static deflection under gravity (mode displacement,
-sum_i phi_i(k) Gamma_i . g / omega_i^2; the deviation u of jaxflex is relative to the part at
-rest), s(t) the rigid path of the move (exact, jaxflex.profile) and u_k(t) the vibration
-(exact, jaxflex.engine). :func:`min_distance` finds min over t >= 0, points and obstacles of
-the distance (signed: negative inside a box or half-space) to within ``atol``, with where
-and when, by the branch and bound of jaxflex.peaks: a point moves at most at speed
-L = |s'| + sum_i |phi_i(k)| sup |q_i'| (the energy bound during the move, omega_i R_i
-e^{-sigma_i tau} after it), so on [a, b] its distance is at least
-(d(a) + d(b)) / 2 - L (b - a) / 2; after the move it is at least d_rest - E_k(tau) (the
-envelope of jaxflex.decay), so beyond a horizon nothing can come closer.
+with x_k the model's point, g_k its exact static deflection under gravity (the model's
+static displacement, jaxflex.model: the part hangs at rest in gravity before the move, and
+the deviation u of jaxflex is relative to that), s(t) the rigid path of the move (exact,
+jaxflex.profile) and u_k(t) = sum_i phi_i(k) q_i(t) + D_k a(t) the vibration with the static
+residual (exact, jaxflex.engine and jaxflex.deviation.response_shapes). The part is a sheet
+of thickness h: its two skins lie within h / 2 of the mid-surface, so the part at p_k keeps
+at least dist(p_k) - h / 2 from an obstacle (exact where the skin's normal faces the
+obstacle). :func:`min_distance` reports that, the distance of the skins.
 
-Monitored points are what is checked: the part's surface between them, and its thickness,
-are not (use all nodes, or a margin of the point spacing's sagitta).
+It finds min over t >= 0, points and obstacles of the distance (signed: negative inside a
+box or half-space) to within ``atol``, with where and when, by the branch and bound of
+jaxflex.peaks: a point moves at most at speed L = |s'| + sum_i |phi_i(k)| sup |q_i'| +
+|D_k| |a'| (the energy bound during the move, omega_i R_i e^{-sigma_i tau} after it), so on
+[a, b] its distance is at least (d(a) + d(b)) / 2 - L (b - a) / 2; after the move it is at
+least d_rest - E_k(tau) (the envelope of jaxflex.decay), so beyond a horizon nothing can come
+closer.
+
+Every point of the model is checked (models at every FE node are the default of fem:
+``jaxflex model --points``). During the move the points are first taken a block at a time
+(:class:`PartBlocks`: spatially compact groups; a block's centre point is evaluated exactly
+and bounds every member, d_p >= d_c - |X_p - X_c| - sum_i |phi_i(p) - phi_i(c)| |q_i|, the
+distance being 1-Lipschitz), and only the members of blocks that could come closer than the
+best distance found are searched point by point, so the cost grows with the part near the
+obstacles, not with the mesh.
 """
 
 from __future__ import annotations
@@ -28,19 +39,24 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from jaxflex.blocks import kd_order
 from jaxflex.cell import Cell
 from jaxflex.decay import amplitudes
-from jaxflex.engine import free_states, modal_forces, modal_states, states_between
+from jaxflex.deviation import response_shapes, with_acceleration
+from jaxflex.engine import free_states, modal_forces, modal_states, states_at, states_between
 from jaxflex.peaks import SAMPLES_PER_PERIOD, SearchState, certified_max, settling_windows
-from jaxflex.profile import as_move, kinematics_at
+from jaxflex.profile import acceleration_at, as_move, kinematics_at
+
+BLOCK_POINTS = 32
 
 
 @dataclass(frozen=True)
 class Clearance:
-    """The smallest distance found, ``distance_m`` (m; negative: inside an obstacle), at
-    ``time_s`` (s from the start; inf: the part at rest after settling), between point
-    ``point`` and obstacle ``obstacle`` (``obstacle_name``); the true minimum is at least
-    ``bound_m``."""
+    """The smallest distance found, ``distance_m`` (m, from the part's skins; negative:
+    inside an obstacle), at ``time_s`` (s from the start; inf: the part at rest after
+    settling), between point ``point`` and obstacle ``obstacle`` (``obstacle_name``); the
+    true minimum is at least ``bound_m``. ``half_thickness_m``: the share of the part's
+    thickness taken off the mid-surface's distance."""
 
     distance_m: float
     time_s: float
@@ -49,16 +65,39 @@ class Clearance:
     obstacle_name: str
     bound_m: float
     evaluations: int
+    half_thickness_m: float = 0.0
 
     def as_dict(self) -> dict:
         return asdict(self)
 
 
 def gravity_offset(model, gravity_m_s2) -> np.ndarray:
-    """(K, 3) static deflection of the points under gravity ``gravity_m_s2`` (3,), m."""
-    g = np.asarray(gravity_m_s2, dtype=np.float64)
-    q = (np.asarray(model.gamma) @ g) / np.asarray(model.omega) ** 2
-    return np.einsum("kcm,m->kc", np.asarray(model.shapes), q)
+    """(K, 3) static deflection of the points under gravity ``gravity_m_s2`` (3,), m: the
+    model's exact static displacement under the base acceleration -g (jaxflex.model)."""
+    return model.static_displacement(-np.asarray(gravity_m_s2, dtype=np.float64))
+
+
+def positions_at(model, acc, dt_s: float, t_s, gravity_m_s2, points=None, coords=None):
+    """(T, P, 3) exact mid-surface positions (m) of ``points`` (indices; default all) of
+    ``model`` (posed in the cell) at times ``t_s`` (T,) s of the move ``acc`` ((n+1, 3) m/s^2
+    at step ``dt_s``, from rest) and after it, hanging at rest in ``gravity_m_s2`` before it
+    (module docstring). ``coords``: the displacement coordinates at ``t_s`` when known
+    (:func:`displacement_coordinates`)."""
+    t = np.asarray(t_s, dtype=np.float64)
+    points = slice(None) if points is None else points
+    if coords is None:
+        coords = displacement_coordinates(model, acc, dt_s, t)
+    base = np.asarray(model.points)[points] + gravity_offset(model, gravity_m_s2)[points]
+    u = np.einsum("kcm,tm->tkc", response_shapes(model)[points], coords)
+    return base[None] + kinematics_at(acc, dt_s, t)[0][:, None] + u
+
+
+def displacement_coordinates(model, acc, dt_s: float, t_s) -> np.ndarray:
+    """(T, M') the coordinates of the displacement shapes (jaxflex.deviation.response_shapes:
+    q, then the base acceleration) at times ``t_s`` (T,) s of the move ``acc`` and after."""
+    t = np.asarray(t_s, dtype=np.float64)
+    q = states_at(model, acc, dt_s, t)[..., 0]
+    return with_acceleration(model, q, acceleration_at(acc, dt_s, t))
 
 
 def distances(obstacles, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -76,13 +115,57 @@ def distances(obstacles, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     return best, which, nearest
 
 
+class PartBlocks:
+    """The points of a model in spatially compact blocks of BLOCK_POINTS (jaxflex.blocks'
+    k-d order): ``members`` (nB, b) point indices (K for padding), ``centre`` (nB,) the
+    member nearest the block's mean position, and per block the spread of its members about
+    the centre: ``spread_shapes`` (nB, M') max_p |psi_j(p) - psi_j(c)| for the displacement
+    shapes psi (jaxflex.deviation.response_shapes: the modes, then the static residual)."""
+
+    def __init__(self, points: np.ndarray, shapes: np.ndarray) -> None:
+        n_points = len(points)
+        b = min(BLOCK_POINTS, n_points)
+        order = np.asarray(kd_order(points, b))
+        members = np.where(order < n_points, order, n_points).reshape(-1, b)
+        real = members < n_points
+        safe = np.where(real, members, 0)
+        mean = np.sum(np.where(real[..., None], points[safe], 0.0), axis=1) / real.sum(1)[:, None]
+        gap = np.linalg.norm(points[safe] - mean[:, None], axis=2)
+        centre = safe[np.arange(len(members)), np.argmin(np.where(real, gap, np.inf), axis=1)]
+        offset = np.linalg.norm(shapes[safe] - shapes[centre][:, None], axis=2)  # (nB, b, M')
+        self.members, self.real, self.centre = members, real, centre
+        self.spread_shapes = np.max(np.where(real[..., None], offset, 0.0), axis=1)
+
+    def spread_positions(self, positions: np.ndarray) -> np.ndarray:
+        """(nB,) max_p |X_p - X_c| of the members at rest ``positions`` (K, 3)."""
+        safe = np.where(self.real, self.members, 0)
+        gap = np.linalg.norm(positions[safe] - positions[self.centre][:, None], axis=2)
+        return np.max(np.where(self.real, gap, 0.0), axis=1)
+
+    def points_of(self, blocks: np.ndarray) -> np.ndarray:
+        """Sorted point indices of the members of ``blocks``."""
+        members = self.members[blocks][self.real[blocks]]
+        return np.sort(members)
+
+
+def part_blocks(model) -> PartBlocks:
+    """The :class:`PartBlocks` of a concrete model (built once per model: the shapes include
+    its static residual, which depends on its frequencies)."""
+    cache = model.__dict__.setdefault("_collision_blocks", {})
+    if "blocks" not in cache:
+        cache["blocks"] = PartBlocks(np.asarray(model.points), response_shapes(model))
+    return cache["blocks"]
+
+
 class _Motion:
     """Point positions of a posed model over a move and the settling (module docstring)."""
 
-    def __init__(self, model, obstacles, move, gravity_m_s2) -> None:
+    def __init__(self, model, obstacles, move, gravity_m_s2, half_thickness_m: float) -> None:
         self.model, self.obstacles = model, obstacles
         self.acc, self.dt_s = move.acc, move.dt_s
-        self.shapes = np.asarray(model.shapes)
+        self.half = float(half_thickness_m)
+        self.modes = np.asarray(model.shapes)  # (K, 3, M): after the move
+        self.shapes = response_shapes(model)  # (K, 3, M'): during it
         self.base = np.asarray(model.points) + gravity_offset(model, gravity_m_s2)
         self.states = modal_states(model, move.acc, move.dt_s, xp=np)
         self.force = modal_forces(model, move.acc, np)
@@ -90,37 +173,59 @@ class _Motion:
         omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
         self.omega, self.sigma = omega, zeta * omega
         self.weights = model.shape_norms  # (K, M)
+        self.moving_weights = np.linalg.norm(self.shapes, axis=1)  # (K, M')
+        extra = self.shapes.shape[2] - model.n_modes  # 3 where there is a static residual
         step_force = np.maximum(np.abs(self.force[:-1]), np.abs(self.force[1:]))
         radius = np.hypot(self.states[:-1, :, 1], omega * self.states[:-1, :, 0])
-        self.modal_speed = radius + move.dt_s * step_force  # (n, M) sup |q'| per step
+        speed = radius + move.dt_s * step_force  # (n, M) sup |q'| per step
+        jerk = np.abs(np.diff(move.acc, axis=0)) / move.dt_s  # (n, 3) |a'| per step
+        size = np.maximum(np.abs(move.acc[:-1]), np.abs(move.acc[1:]))  # (n, 3) sup |a|
+        self.coordinate_speed = np.hstack([speed, jerk[:, :extra]])  # (n, M')
+        self.coordinate_size = np.hstack([speed / omega, size[:, :extra]])  # (n, M') sup |c|
         pos, vel = kinematics_at(move.acc, move.dt_s, move.dt_s * np.arange(move.n_steps + 1))
-        speed = np.linalg.norm(vel, axis=1)
+        speed_path = np.linalg.norm(vel, axis=1)
         acc_norm = np.linalg.norm(move.acc, axis=1)
-        self.path_speed = np.maximum(speed[:-1], speed[1:]) + move.dt_s * np.maximum(
+        self.path_speed = np.maximum(speed_path[:-1], speed_path[1:]) + move.dt_s * np.maximum(
             acc_norm[:-1], acc_norm[1:]
         )
         self.end = pos[-1]
         self.amplitude = amplitudes(model, self.states[-1])
 
     def _distance(self, u: np.ndarray, path: np.ndarray, items: np.ndarray) -> np.ndarray:
-        """-(distance) (I, T) for displacements u (T, I, 3) and path positions (T, 3)."""
+        """-(distance of the skins) (I, T) for displacements u (T, I, 3), path (T, 3)."""
         points = self.base[items][None] + path[:, None] + u
         d, _, _ = distances(self.obstacles, points.reshape(-1, 3))
-        return -d.reshape(points.shape[:2]).T
+        return self.half - d.reshape(points.shape[:2]).T
+
+    def coordinates(self, t: np.ndarray) -> np.ndarray:
+        """(T, M') the displacement coordinates during the move (q, then a)."""
+        q = states_between(self.model, self.states, self.force, self.dt_s, t, np)[..., 0]
+        return with_acceleration(self.model, q, acceleration_at(self.acc, self.dt_s, t))
 
     def during(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
-        states = states_between(self.model, self.states, self.force, self.dt_s, t, np)
-        u = np.einsum("kcm,tm->tkc", self.shapes[items], states[..., 0])
+        u = np.einsum("kcm,tm->tkc", self.shapes[items], self.coordinates(t))
         return self._distance(u, kinematics_at(self.acc, self.dt_s, t)[0], items)
 
+    def _steps(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return np.clip(np.floor(0.5 * (a + b) / self.dt_s).astype(np.int64), 0, self.n_steps - 1)
+
     def during_bound(self, a, b, va, vb, items):
-        k = np.clip(np.floor(0.5 * (a + b) / self.dt_s).astype(np.int64), 0, self.n_steps - 1)
-        speed = self.weights[items] @ self.modal_speed[k].T + self.path_speed[k]  # (I, J)
+        k = self._steps(a, b)
+        speed = self.moving_weights[items] @ self.coordinate_speed[k].T + self.path_speed[k]
         return 0.5 * (va + vb) + 0.5 * speed * (b - a)
+
+    def block_bound(self, blocks: PartBlocks, spread: np.ndarray, t: np.ndarray, values):
+        """(nB, J) upper bound of -(distance) of every member of every block over the grid
+        intervals [t_j, t_j+1], from the exact values of the block centres ``values``
+        (nB, T) and the blocks' spread (``spread``: their rest positions, (nB,))."""
+        k = self._steps(t[:-1], t[1:])
+        centre = self.during_bound(t[:-1], t[1:], values[:, :-1], values[:, 1:], blocks.centre)
+        members = blocks.spread_shapes @ self.coordinate_size[k].T  # (nB, J)
+        return centre + spread[:, None] + members
 
     def after(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
         q = free_states(self.model, self.states[-1], t - self.t_end, np)[..., 0]
-        u = np.einsum("kcm,tm->tkc", self.shapes[items], q)
+        u = np.einsum("kcm,tm->tkc", self.modes[items], q)
         return self._distance(u, np.broadcast_to(self.end, (len(t), 3)), items)
 
     def envelope(self, items: np.ndarray, tau, power: int) -> np.ndarray:
@@ -133,9 +238,29 @@ class _Motion:
         return 0.5 * (va + vb) + 0.5 * speed * (b - a)
 
     def at_rest(self, items: np.ndarray) -> np.ndarray:
-        """(I,) -(distance) of the points at rest at the end (gravity deflection only)."""
+        """(I,) -(distance of the skins) of the points at rest at the end (gravity sag)."""
         d, _, _ = distances(self.obstacles, self.base[items] + self.end)
-        return -d
+        return self.half - d
+
+    def position(self, point: int, time_s: float) -> np.ndarray:
+        """(3,) the mid-surface point ``point`` at ``time_s`` (inf: at rest at the end)."""
+        if math.isinf(time_s):
+            return self.base[point] + self.end
+        t = np.array([time_s])
+        if time_s <= self.t_end:
+            u = self.shapes[point] @ self.coordinates(t)[0]
+        else:
+            q = free_states(self.model, self.states[-1], t - self.t_end, np)[0, :, 0]
+            u = self.modes[point] @ q
+        return self.base[point] + kinematics_at(self.acc, self.dt_s, t)[0][0] + u
+
+
+def part_half_thickness(model) -> float | None:
+    """Half the part's thickness (m) as its model states it (meta: part.thickness_m, from
+    fem), or None."""
+    part = dict(model.meta).get("part") or {}
+    thickness = part.get("thickness_m") if isinstance(part, dict) else None
+    return None if thickness is None else 0.5 * float(thickness)
 
 
 def min_distance(
@@ -145,23 +270,24 @@ def min_distance(
     dt_s: float,
     *,
     gravity_m_s2=(0.0, 0.0, -9.81),
+    half_thickness_m: float = 0.0,
     atol: float = 1e-5,
     limit_m: float | None = None,
 ) -> Clearance:
-    """The smallest distance (m) between the monitored points of ``model`` (posed in cell
-    coordinates) and ``obstacles`` (or a jaxflex.cell.Cell's) over the move ``acc`` ((n+1, 3)
-    m/s^2 in cell coordinates at step ``dt_s`` s, at rest at both ends) and the settling
-    after it, to within ``atol`` m (module docstring). With ``limit_m`` the search only
-    decides whether the distance stays above it (``bound_m`` >= limit_m certifies; below it
-    the minimum is located to ``atol``)."""
+    """The smallest distance (m) between the part (every point of ``model``, posed in cell
+    coordinates, its skins ``half_thickness_m`` off the mid-surface) and ``obstacles`` (or a
+    jaxflex.cell.Cell's) over the move ``acc`` ((n+1, 3) m/s^2 in cell coordinates at step
+    ``dt_s`` s, at rest at both ends) and the settling after it, to within ``atol`` m (module
+    docstring). With ``limit_m`` the search only decides whether the distance stays above it
+    (``bound_m`` >= limit_m certifies; below it the minimum is located to ``atol``)."""
     if isinstance(obstacles, Cell):
         obstacles = obstacles.obstacles
     obstacles = tuple(obstacles)
     if not obstacles:
-        return Clearance(math.inf, math.nan, -1, -1, "", math.inf, 0)
+        return Clearance(math.inf, math.nan, -1, -1, "", math.inf, 0, half_thickness_m)
     move = as_move(acc, dt_s, at_rest=True)
     with threadpool_limits(limits=1, user_api="blas"):
-        motion = _Motion(model, obstacles, move, gravity_m_s2)
+        motion = _Motion(model, obstacles, move, gravity_m_s2, half_thickness_m)
         best = SearchState()
 
         def tolerance(value: float) -> float:
@@ -169,22 +295,10 @@ def min_distance(
 
         items = np.arange(model.n_points)
         best.update(motion.at_rest(items)[:, None], np.array([math.inf]), items)
-        grid = dt_s * np.arange(move.n_steps + 1)
-        certified_max(motion.during, motion.during_bound, grid, items, tolerance, best)
+        _during(motion, part_blocks(model), best, tolerance)
         _settling(motion, best, tolerance)
     time_s, point = best.time, best.item
-    if math.isinf(time_s):
-        where = motion.base[[point]] + motion.end
-    else:
-        t = np.array([time_s])
-        states = (
-            states_between(model, motion.states, motion.force, dt_s, t, np)
-            if time_s <= motion.t_end
-            else free_states(model, motion.states[-1], t - motion.t_end, np)
-        )
-        path = kinematics_at(move.acc, dt_s, t)[0]
-        where = motion.base[[point]] + path + np.asarray(model.shapes)[point] @ states[0, :, 0]
-    _, which, _ = distances(obstacles, np.atleast_2d(where))
+    _, which, _ = distances(obstacles, motion.position(point, time_s)[None])
     obstacle = int(which[0])
     return Clearance(
         distance_m=-best.value,
@@ -194,7 +308,23 @@ def min_distance(
         obstacle_name=getattr(obstacles[obstacle], "name", str(obstacle)),
         bound_m=min(-best.value - tolerance(best.value), -best.unresolved),
         evaluations=best.evaluations,
+        half_thickness_m=float(half_thickness_m),
     )
+
+
+def _during(motion: _Motion, blocks: PartBlocks, best: SearchState, tolerance) -> None:
+    """The search during the move: the block centres on the sample grid, then the members of
+    the blocks whose bound can beat the best value, point by point (module docstring)."""
+    grid = motion.dt_s * np.arange(motion.n_steps + 1)
+    centres = blocks.centre
+    values = motion.during(grid, centres)
+    best.evaluations += values.size
+    best.update(values, grid, centres)
+    spread = blocks.spread_positions(motion.base)
+    bound = motion.block_bound(blocks, spread, grid, values)
+    alive = np.flatnonzero((bound > best.value + tolerance(best.value)).any(axis=1))
+    members = blocks.points_of(alive)
+    certified_max(motion.during, motion.during_bound, grid, members, tolerance, best)
 
 
 def _settling(motion: _Motion, best: SearchState, tolerance) -> None:

@@ -32,12 +32,20 @@ from dataclasses import dataclass
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from jaxflex.collision import Clearance, distances, gravity_offset, min_distance
-from jaxflex.deviation import outputs_at
+from jaxflex.collision import (
+    Clearance,
+    displacement_coordinates,
+    distances,
+    gravity_offset,
+    min_distance,
+    part_blocks,
+    positions_at,
+)
+from jaxflex.deviation import outputs_at, response_shapes
 from jaxflex.engine import state_maps_at, states_at
 from jaxflex.loads import CupUtilisation, VonMises
 from jaxflex.peaks import Peak, item_bounds, output_peak
-from jaxflex.profile import acceleration_at, kinematics_at, position_weights
+from jaxflex.profile import acceleration_at, position_weights
 
 ROW_MARGIN = 1e-3
 SCAN_RTOL = 1e-7  # a row's own limit is met up to the LP's feasibility tolerance (1e-9)
@@ -212,6 +220,14 @@ class LoadFamily:
     def holds(self, peak: Peak) -> bool:
         return peak.bound <= self.limit * (1 + BOUND_RTOL)
 
+    def failure_row(self, peak: Peak, acc: np.ndarray, dt_s: float, axes) -> Row:
+        """The cut at the certified worst point of a move that failed."""
+        return self.row(acc, dt_s, *self.worst(peak), axes)
+
+    def curve(self, acc, dt_s, t) -> np.ndarray:
+        """(T,) the largest load at times ``t`` (for plots)."""
+        return self.values(acc, dt_s, t).max(axis=1)
+
     def worst(self, peak: Peak) -> tuple[float, int]:
         """(time, item) of the certified peak (a finite time: the part at rest after the
         move is checked before the search, optim.optimize)."""
@@ -236,45 +252,77 @@ class LoadFamily:
 
 
 class DistanceFamily:
-    """Every monitored point at least ``margin_m`` from every obstacle (nominal model)."""
+    """The part (every point of the model, its skins ``half_thickness_m`` off the mid-surface)
+    at least ``margin_m`` from every obstacle (one model: the nominal, or one scenario)."""
 
     name = "distance to obstacles"
 
-    def __init__(self, model, obstacles, margin_m: float, gravity_m_s2) -> None:
+    def __init__(
+        self, model, obstacles, margin_m: float, gravity_m_s2, half_thickness_m: float = 0.0
+    ) -> None:
         self.model, self.obstacles, self.limit = model, tuple(obstacles), float(margin_m)
+        self.half = float(half_thickness_m)
         self.gravity = np.asarray(gravity_m_s2, dtype=np.float64)
         self.base = np.asarray(model.points) + gravity_offset(model, self.gravity)
-        self.shapes = np.asarray(model.shapes)
+        self.shapes = response_shapes(model)  # (K, 3, M'): the modes, then the static residual
+        self.blocks = part_blocks(model)
+        self.spread = self.blocks.spread_positions(self.base)
 
-    def positions(self, acc: np.ndarray, dt_s: float, t: np.ndarray) -> np.ndarray:
-        q = states_at(self.model, acc, dt_s, t)[..., 0]
-        u = np.einsum("kcm,tm->tkc", self.shapes, q)
-        return self.base[None] + kinematics_at(acc, dt_s, t)[0][:, None] + u
+    def positions(self, acc, dt_s, t, points=None, coords=None) -> np.ndarray:
+        """(T, P, 3) mid-surface positions of ``points`` (default all) at times ``t``."""
+        return positions_at(self.model, acc, dt_s, t, self.gravity, points, coords)
+
+    def _skin_distances(self, acc, dt_s, t, points, coords) -> np.ndarray:
+        """(T, P) distance of the skins of ``points`` at times ``t``."""
+        p = self.positions(acc, dt_s, t, points, coords)
+        d, _, _ = distances(self.obstacles, p.reshape(-1, 3))
+        return d.reshape(p.shape[:2]) - self.half
+
+    def near(self, acc: np.ndarray, dt_s: float, t: np.ndarray, within_m: float | None):
+        """(points (P,), their skin distances (T, P)): the points that may come closer than
+        ``within_m`` (None: than the nearest block centre at that time) at some time of
+        ``t``; every other point provably keeps it there (a block's centre bounds its
+        members: jaxflex.collision.PartBlocks)."""
+        coords = displacement_coordinates(self.model, acc, dt_s, t)
+        centres = self.blocks.centre
+        d_centre = self._skin_distances(acc, dt_s, t, centres, coords)  # (T, nB)
+        reach = self.spread[None] + np.abs(coords) @ self.blocks.spread_shapes.T
+        if within_m is None:
+            within_m = d_centre.min(axis=1, keepdims=True)
+        close = np.flatnonzero((d_centre - reach <= within_m).any(axis=0))
+        points = self.blocks.points_of(close)
+        return points, self._skin_distances(acc, dt_s, t, points, coords)
 
     def scan(self, acc: np.ndarray, dt_s: float, axes) -> list[Row]:
         t = check_times(self.model, acc.shape[0] - 1, dt_s)
-        points = self.positions(acc, dt_s, t)
-        d, _, _ = distances(self.obstacles, points.reshape(-1, 3))
-        d = d.reshape(points.shape[:2])
-        found = _local_peaks(-d, -self.limit * (1 + ROW_MARGIN - SCAN_RTOL))
-        return [r for j, k in found if (r := self.row(acc, dt_s, t[j], k, axes)) is not None]
+        threshold = self.limit * (1 + ROW_MARGIN - SCAN_RTOL)
+        points, d = self.near(acc, dt_s, t, threshold)
+        found = _local_peaks(-d, -threshold)
+        rows = (self.row(acc, dt_s, t[j], int(points[k]), axes) for j, k in found)
+        return [r for r in rows if r is not None]
 
     def row(self, acc: np.ndarray, dt_s: float, time_s: float, point: int, axes) -> Row | None:
         """The separating plane at (``time_s``, ``point``) (module docstring); None where the
         point touches the obstacle's surface exactly (no direction)."""
         n = acc.shape[0] - 1
         t = np.array([time_s])
-        p = self.positions(acc, dt_s, t)[0, point]
+        p = self.positions(acc, dt_s, t, [point])[0, 0]
         d, _, c = distances(self.obstacles, p[None])
         gap = p - c[0]
         if np.linalg.norm(gap) < 1e-12:
             return None
         normal = np.sign(d[0]) * gap / np.linalg.norm(gap)
-        maps = state_maps_at(self.model, n, dt_s, t)[0, :, 0]  # (M, n+1, 3)
-        along = normal @ self.shapes[point]  # (M,)
-        coef = np.einsum("m,mkc->kc", along, maps)
+        along = normal @ self.shapes[point]  # (M',)
+        coef = np.einsum(
+            "m,mkc->kc", along[: self.model.n_modes], state_maps_at(self.model, n, dt_s, t)[0, :, 0]
+        )
+        if along.size > self.model.n_modes and time_s < n * dt_s:  # D a(t), a linear in steps
+            k = min(int(time_s // dt_s), n - 1)
+            w = time_s / dt_s - k
+            coef[k] += (1 - w) * along[self.model.n_modes :]
+            coef[k + 1] += w * along[self.model.n_modes :]
         coef += np.outer(position_weights(n, dt_s, t)[0], normal)
-        margin = self.limit * (1 + ROW_MARGIN)
+        margin = self.limit * (1 + ROW_MARGIN) + self.half
         rhs = normal @ (self.base[point] - c[0]) - margin  # -(n . p) <= n . (base - c) - margin
         return Row(-coef[:, list(axes)] / self.limit, float(rhs / self.limit), time_s, point)
 
@@ -285,12 +333,17 @@ class DistanceFamily:
             acc,
             dt_s,
             gravity_m_s2=self.gravity,
+            half_thickness_m=self.half,
             atol=1e-6,
             limit_m=self.limit,
         )
 
     def holds(self, found: Clearance) -> bool:
         return found.bound_m >= self.limit * (1 - BOUND_RTOL)
+
+    def failure_row(self, found: Clearance, acc: np.ndarray, dt_s: float, axes) -> Row | None:
+        """The separating plane at the certified closest point of a move that failed."""
+        return self.row(acc, dt_s, *self.worst(found), axes)
 
     def worst(self, found: Clearance) -> tuple[float, int]:
         return found.time_s, found.point
@@ -308,17 +361,10 @@ class DistanceFamily:
             "where_m": np.asarray(self.model.points)[found.point].tolist()
             if found.point >= 0
             else None,
+            "points": self.model.n_points,
+            "half_thickness_m": self.half,
         }
 
     def curve(self, acc, dt_s, t):
-        """(T,) the smallest distance at times ``t`` (for plots)."""
-        points = self.positions(acc, dt_s, t)
-        d, _, _ = distances(self.obstacles, points.reshape(-1, 3))
-        return d.reshape(points.shape[:2]).min(axis=1)
-
-
-def family_curve(family, acc, dt_s, t) -> np.ndarray:
-    """(T,) what a family limits, at times ``t``: the largest load, or the smallest distance."""
-    if isinstance(family, DistanceFamily):
-        return family.curve(acc, dt_s, t)
-    return family.values(acc, dt_s, t).max(axis=1)
+        """(T,) the smallest skin distance at times ``t`` (for plots)."""
+        return self.near(acc, dt_s, t, None)[1].min(axis=1)
