@@ -3,9 +3,15 @@
 ``optim.optimize(model, None, limits, dt_s, threshold_m, cell=cell, min_distance_m=0.01,
 cup_safety=1.5, max_stress_pa="yield")``: the model is posed in the cell (its points at the
 part's place at A, accelerations in cell coordinates), the move goes from A through the via
-points to B, and each limit becomes a family of optim.cell_rows. What no move can change is
-checked first: the part at rest at A and at B (gravity deflection included) must keep the
-distance, and gravity alone must leave the cups and the stress within their limits.
+points to B, and each limit becomes a family of optim.cell_rows, for the nominal model and,
+with a robust grid, for every model of it (optim.cell_scenarios). What no move can change is
+checked first: the part at rest at A and at B (its exact sag under gravity included, its
+skins half its thickness off the mid-surface) must keep the distance, and gravity alone must
+leave the cups and the stress within their limits.
+
+The distance is that of the part's skins: the sheet's thickness comes from the cell file
+([part] thickness_m) or the model (fem writes it into the meta); a model that states none
+needs the cell's.
 """
 
 from __future__ import annotations
@@ -15,19 +21,22 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from jaxflex.cell import DEFAULT_GRAVITY_M_S2, Cell
-from jaxflex.collision import distances, gravity_offset
+from jaxflex.collision import distances, gravity_offset, part_half_thickness
 from jaxflex.errors import InputError
 from jaxflex.loads import DEFAULT_STRESS_SAFETY
 from jaxflex.model import ModalModel
 from jaxflex.outputs import CupSet
 from jaxflex.validation import check_positive
-from optim.cell_rows import DistanceFamily, LoadFamily, family_curve
+from optim.cell_rows import DistanceFamily, LoadFamily
+from optim.cell_scenarios import ScenarioFamily
 from optim.kinematics import clean_distance
+from optim.robust import RobustSpec
 
 
 @dataclass
 class CellSetup:
-    """The posed model, the move, gravity, via points and the constraint families."""
+    """The posed model, the move, gravity, via points and the constraint families; ``advice``
+    (jaxflex.advice pairs) says what the model cannot make exact."""
 
     model: ModalModel
     distance: np.ndarray
@@ -35,20 +44,28 @@ class CellSetup:
     via: list = field(default_factory=list)  # (offset (3,), mode, tolerance) from the start
     families: list = field(default_factory=list)
     cell: Cell | None = None
+    advice: list = field(default_factory=list)
 
     def describe_move(self, acc: np.ndarray, dt_s: float) -> list[dict]:
         """The certified value of every family for the move ``acc``."""
-        return [f.describe(f.certify(acc, dt_s)) for f in self.families]
+        return self.feasible(acc, dt_s)[1]
 
     def feasible(self, acc: np.ndarray, dt_s: float) -> tuple[bool, list[dict]]:
-        """(every family holds, the families' certified values) for the move ``acc``."""
-        found = [f.certify(acc, dt_s) for f in self.families]
+        """(every family holds, the families' certified values) for the move ``acc`` (every
+        model of a robust grid checked)."""
+        found = [_certify_all(f, acc, dt_s) for f in self.families]
         ok = all(f.holds(x) for f, x in zip(self.families, found, strict=True))
         return ok, [f.describe(x) for f, x in zip(self.families, found, strict=True)]
 
     def curves(self, acc: np.ndarray, dt_s: float, t: np.ndarray) -> dict[str, np.ndarray]:
-        """What each family limits at times ``t`` (for plots)."""
-        return {f.name: family_curve(f, acc, dt_s, t) for f in self.families}
+        """What each family limits at times ``t`` (for plots; the nominal model)."""
+        return {f.name: f.curve(acc, dt_s, t) for f in self.families}
+
+
+def _certify_all(family, acc: np.ndarray, dt_s: float):
+    if isinstance(family, ScenarioFamily):
+        return family.certify(acc, dt_s, complete=True)
+    return family.certify(acc, dt_s)
 
 
 def with_cup_rating(
@@ -91,8 +108,10 @@ def prepare_cell(
     min_distance_m: float | None = None,
     max_stress_pa: float | str | None = None,
     cup_safety: float | None = None,
+    robust: RobustSpec | None = None,
 ) -> CellSetup:
-    """The :class:`CellSetup` of ``optim.optimize``'s cell options (module docstring)."""
+    """The :class:`CellSetup` of ``optim.optimize``'s cell options (module docstring); with
+    ``robust`` every family holds on every model of its grid."""
     if cell is not None:
         if not isinstance(cell, Cell):
             raise InputError(f"cell: expected a jaxflex.cell.Cell, got {type(cell).__name__}")
@@ -112,42 +131,75 @@ def prepare_cell(
         gravity = np.array(DEFAULT_GRAVITY_M_S2)
         via = []
     setup = CellSetup(model, distance, gravity, via, cell=cell)
+    makers = []
     if min_distance_m is not None:
         if cell is None or not cell.obstacles:
             raise InputError("min_distance_m: needs a cell with obstacles (--cell FILE)")
         margin = check_positive("min_distance_m", min_distance_m)
-        setup.families.append(DistanceFamily(model, cell.obstacles, margin, gravity))
-        _check_rest(setup, margin)
+        half = _half_thickness(model, cell)
+        makers.append(lambda m: DistanceFamily(m, cell.obstacles, margin, gravity, half))
+        _check_rest(setup, margin, half)
     if cup_safety is not None:
         if model.cups is None:
             raise InputError(
                 "cup_safety: the model has no cup reactions (make it with fem or `jaxflex model`"
                 " of this version)"
             )
-        setup.families.append(
-            LoadFamily.cups(model, check_positive("cup_safety", cup_safety), gravity)
-        )
+        safety = check_positive("cup_safety", cup_safety)
+        makers.append(lambda m: LoadFamily.cups(m, safety, gravity))
     if max_stress_pa is not None:
         if model.stress is None:
             raise InputError(
                 "max_stress_pa: the model has no stresses (make it with fem or `jaxflex model` "
                 "of this version)"
             )
-        setup.families.append(
-            LoadFamily.stress(model, _stress_limit(model, max_stress_pa), gravity)
-        )
-    for family in setup.families:
+        limit = _stress_limit(model, max_stress_pa)
+        makers.append(lambda m: LoadFamily.stress(m, limit, gravity))
+    if makers:
+        note = str(dict(model.meta).get("static_response", "none recorded"))
+        if model.static_shapes is None or note.startswith("schema"):
+            setup.advice.append(
+                (
+                    "static_response",
+                    f"the model's static response is not the FE's ({note}); the cell's "
+                    "constraints use it as it is. Re-create the model (`jaxflex model`) for "
+                    "the exact sag and loads under gravity",
+                )
+            )
+    for make in makers:
+        family = make(model)
         if isinstance(family, LoadFamily):
             _check_static(family)
+        if robust is None:
+            setup.families.append(family)
+        else:
+            loads = isinstance(family, LoadFamily)
+            setup.families.append(ScenarioFamily(make, model, robust, outputs=loads))
     return setup
 
 
-def _check_rest(setup: CellSetup, margin: float) -> None:
-    """The part at rest at A and at B must keep ``margin`` from every obstacle."""
+def _half_thickness(model: ModalModel, cell: Cell) -> float:
+    """Half the sheet's thickness (m): the cell file's, else the model's (InputError if
+    neither states it: the distance is that of the part's skins)."""
+    if cell.thickness_m is not None:
+        return 0.5 * cell.thickness_m
+    half = part_half_thickness(model)
+    if half is None:
+        raise InputError(
+            "min_distance_m: the model does not state the part's thickness (a model from "
+            "modal results), and the distance is that of the part's skins; give it in the "
+            "cell file: [part] thickness_m = ..."
+        )
+    return half
+
+
+def _check_rest(setup: CellSetup, margin: float, half_thickness_m: float) -> None:
+    """The part (its skins) at rest at A and at B must keep ``margin`` from every obstacle."""
     base = np.asarray(setup.model.points) + gravity_offset(setup.model, setup.gravity_m_s2)
     obstacles = setup.cell.obstacles
     for where, shift in (("A (start)", np.zeros(3)), ("B (end)", setup.distance)):
         d, which, _ = distances(obstacles, base + shift)
+        d = d - half_thickness_m
         k = int(np.argmin(d))
         if d[k] < margin:
             name = getattr(obstacles[which[k]], "name", str(which[k]))

@@ -13,7 +13,9 @@
 With a cell (optim.cell_setup: obstacles, via points, cup and stress limits) the model is
 posed in the cell, the baselines follow the via points, only baselines that meet the cell's
 constraints bound the search and may be returned, and the exact route adds the constraints'
-rows (optim.cell_rows). The gradient route does not take them.
+rows (optim.cell_rows), for every model of the robust grid in robust mode
+(optim.cell_scenarios). The gradient route does not take them (refused, naming the exact
+route).
 
 Input that is allowed but probably not meant (a threshold above every deviation or below
 the model's resolution, a sparse robust grid) is reported as warnings (optim.advice).
@@ -79,6 +81,10 @@ def _check_model(model, robust: RobustSpec | None) -> None:
             )
 
 
+def _cell_limits(*limits) -> bool:
+    return any(limit is not None for limit in limits)
+
+
 def _as_robust(robust) -> RobustSpec | None:
     if robust is None or isinstance(robust, RobustSpec):
         return robust
@@ -131,11 +137,21 @@ def optimize(
     cup_safety: every cup's utilisation (jaxflex.loads) with this safety factor stays <= 1.
     max_stress_pa: the von Mises stress stays below this (Pa; "yield": the material's yield
         strength / 1.5).
-    The cell's constraints apply to the nominal model (not to every robust scenario).
+    With ``robust`` the cell's constraints hold for the nominal model and every model of the
+    robust grid (certified on each; the report names the model with the smallest margin).
     """
     start = time.perf_counter()
     robust = _as_robust(robust)
     _check_model(model, robust)
+    has_via = bool(getattr(cell, "via", ()))
+    if method == "gradient" and (
+        has_via or _cell_limits(min_distance_m, cup_safety, max_stress_pa)
+    ):
+        raise InputError(
+            "method: the gradient route does not take via points or the cell's constraints "
+            "(min_distance_m, cup_safety, max_stress_pa); the exact route does: method='exact' "
+            "(jaxflex optimize --method exact, the default)"
+        )
     setup = prepare_cell(
         model,
         distance_m,
@@ -143,6 +159,7 @@ def optimize(
         min_distance_m=min_distance_m,
         max_stress_pa=max_stress_pa,
         cup_safety=cup_safety,
+        robust=robust,
     )
     model, distance = setup.model, setup.distance
     limits = _as_limits(limits)
@@ -159,11 +176,6 @@ def optimize(
         raise InputError(f"solver: method {method!r} accepts {allowed}, got {solver!r}")
     if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 2:
         raise InputError(f"max_steps: must be an integer >= 2, got {max_steps!r}")
-    if (setup.families or setup.via) and method != "exact":
-        raise InputError(
-            "method: via points and the cell's constraints (min_distance_m, cup_safety, "
-            "max_stress_pa) need method='exact'"
-        )
     memory = default_memory_bytes() if max_memory_bytes is None else max_memory_bytes
     check_positive("max_memory_bytes", memory)
     shortest, allowed_steps = check_move_length(distance, limits, dt_s, max_duration_s, max_steps)
@@ -173,7 +185,7 @@ def optimize(
     steps_cap = check_memory(
         model.n_modes, shortest, allowed_steps, scenarios, clearance_m is not None, memory
     )
-    advice = issue(grid_advice(robust))
+    advice = issue(grid_advice(robust) + setup.advice)
 
     fractions: list[float] = []
     if setup.via:

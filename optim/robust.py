@@ -84,7 +84,12 @@ class RobustSpec:
         )
 
 
-def perturbed(model: ModalModel, scale: float, zeta: float | None) -> ModalModel:
-    """``model`` with frequencies scaled by ``scale`` and damping ``zeta`` (if given)."""
-    out = model.with_frequency_scale(scale)
+def perturbed(
+    model: ModalModel, scale: float, zeta: float | None, *, outputs: bool = False
+) -> ModalModel:
+    """``model`` with frequencies scaled by ``scale`` and damping ``zeta`` (if given); its
+    cup and stress maps (scaled with it) only with ``outputs``: the response and the cycle
+    time do not need them, and scaling large stress maps for every model of a grid costs
+    more than the cycle times."""
+    out = (model if outputs else model.without_outputs()).with_frequency_scale(scale)
     return out if zeta is None else out.with_damping(zeta)

@@ -300,8 +300,7 @@ def _certify_families(problem: Problem, acc: np.ndarray) -> int:
         if family.holds(found):
             continue
         failed += 1
-        time_s, item = family.worst(found)
-        row = family.row(acc, problem.dt_s, time_s, item, problem.axes)
+        row = family.failure_row(found, acc, problem.dt_s, problem.axes)
         if row is not None:
             problem.cell_rows.setdefault(acc.shape[0] - 1, []).append(row)
     return failed
