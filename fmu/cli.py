@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+import numpy as np
 from fmpy.validation import validate_fmu
 
 import jaxflex
@@ -16,6 +17,7 @@ from fmu.verify import verify
 from jaxflex.cell import load_cell
 from jaxflex.errors import InputError
 from jaxflex.fileset import read_set
+from jaxflex.points import downsample_to_count
 from jaxflex.trajectory_io import read_trajectory_csv
 from jaxflex.validation import check_output_file, check_positive
 from optim.result import RESULT_KIND
@@ -93,6 +95,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--stress",
         action="store_true",
         help="also output the von Mises stress (max_stress; FMI 3.0 point_stresses)",
+    )
+    parser.add_argument(
+        "--points",
+        type=int,
+        metavar="N",
+        help="export about N voxel-reduced points of the model instead of all of them (a "
+        "smaller resource and a faster FMU step; the FMU's deviation, settled flag and "
+        "distances then only cover those points)",
     )
     parser.add_argument(
         "--no-verify",
@@ -226,6 +236,12 @@ def run(args: argparse.Namespace) -> int:
     if args.ssp and (args.cell or args.stress):
         raise InputError("--cell / --stress: only for the FMU (-o), not for the SSP package")
     model = jaxflex.load_model(args.model)
+    if args.points is not None:
+        if args.points < 1:
+            raise InputError(f"--points: a count >= 1, got {args.points}")
+        kept = downsample_to_count(np.asarray(model.points), args.points)
+        print(f"{len(kept)} of {model.n_points} points kept for the FMU (voxel reduction)")
+        model = model.select_points(kept)
     trajectory, case = None, None
     if args.trajectory:
         acc, dt_s, case = load_case(Path(args.trajectory))

@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     timings: dict[str, float] = {}
 
     start = time.perf_counter()
-    model = fem.default_model(args.scene, n_modes=20, n_points=1000, zeta=0.02)
+    model = fem.default_model(args.scene, n_modes=20, zeta=0.02)
     timings["fe_model_s"] = time.perf_counter() - start
     print(
         f"part: {fem.describe_model(model)} -> {model.n_modes} modes "

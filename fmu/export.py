@@ -26,10 +26,11 @@ from fmu.archive import zip_folder
 from fmu.build import C_DIR as _C_DIR
 from fmu.build import BuildReport, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
-from fmu.resource import CellData, encode_resource, obstacle_records
+from fmu.resource import CellData, encode_resource, obstacle_records, static_count
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
 from jaxflex.atomic import write_text_atomic
 from jaxflex.cell import DEFAULT_GRAVITY_M_S2, Cell
+from jaxflex.collision import part_half_thickness
 from jaxflex.errors import InputError
 from jaxflex.loads import DEFAULT_CUP_SAFETY
 from jaxflex.model import ModalModel
@@ -172,6 +173,15 @@ def _write_sidecars(path: Path, acc, dt_s, summary, result_fields) -> tuple[Path
     return csv_path, json_path, case
 
 
+def _half_thickness(model: ModalModel, cell: Cell | None) -> float:
+    """Half the sheet's thickness (m) the FMU takes off the distance: the cell file's, else
+    the model's, else 0 (a model from modal results; said in the FMU's description)."""
+    if cell is not None and cell.thickness_m is not None:
+        return 0.5 * cell.thickness_m
+    half = part_half_thickness(model)
+    return 0.0 if half is None else half
+
+
 def export_fmu(
     model: ModalModel,
     path: str | os.PathLike,
@@ -224,6 +234,7 @@ def export_fmu(
         obstacle_records(() if cell is None else cell.obstacles),
         cups=model.cups is not None,
         stress=stress,
+        half_thickness_m=_half_thickness(model, cell),
     )
     n_cups = model.cups.n_cups if model.cups is not None else 0
     n_stress = model.stress.n_points if stress else 0
@@ -268,6 +279,7 @@ def export_fmu(
         n_cups=n_cups,
         n_stress=n_stress,
         n_obstacles=n_obstacles,
+        n_static=static_count(model),
     )
     resource = encode_resource(model, token, acc, dt_s, cell_data)
     with tempfile.TemporaryDirectory(prefix="jaxflex_fmu_") as tmp:

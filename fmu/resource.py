@@ -1,28 +1,33 @@
 """The FMU resource file ``resources/jaxflex_model.bin``: model data and trajectory.
 
-Format version 2, little-endian throughout (read by ``fmu/c/jxf_core.c``):
+Format version 3, little-endian throughout (read by ``fmu/c/jxf_core.c``):
 
     offset  type       content
     0       char[8]    magic "JXFLXFMU"
-    8       u32        format version (2)
+    8       u32        format version (3)
     12      u32        header size in bytes (128)
     16      char[64]   instantiation token (the GUID of modelDescription.xml), NUL padded
     80      u32 x 4    K points, M modes, N trajectory samples, C cups
     96      f64        trajectory sample step in s (0 without a trajectory)
     104     u64        payload size in bytes
-    112     u32 x 2    S stress points, O obstacle records; then 8 zero bytes
+    112     u32 x 3    S stress points, O obstacle records, R static-residual coordinates
+                       (3 where the model has a static residual, else 0); then 4 zero bytes
     128     f64 payload: freq_hz (M) Hz, zeta (M), gamma (M, 3) kg^0.5,
-                         shapes (M, 3, K) m/kg^0.5 (all x rows, then y, then z),
+                         shapes (M + R, 3, K) m/kg^0.5 (all x rows, then y, then z; the
+                         last R "modes" are the static residual D, m per m/s^2, whose
+                         coordinates are the base acceleration: u = Phi q + D a),
                          points (K, 3) m, trajectory (N, 3) m/s^2; then, when C + S + O > 0,
-                         the cell (:class:`CellData`): gravity (3) m/s^2, cup safety factor;
-                         cups: normals (C, 3), radii (C) m, holding forces (C) N,
-                         friction (C), reaction maps Q, V (6C, M) and A (6C, 3);
-                         stresses: Q, V (6S, M), A (6S, 3) Pa; obstacles: the points at rest
-                         under gravity (K, 3) m and the records (O, 16) of
+                         the cell (:class:`CellData`): gravity (3) m/s^2, cup safety factor,
+                         half the part's thickness (m); cups: normals (C, 3), radii (C) m,
+                         holding forces (C) N, friction (C), reaction maps Q, V (6C, M),
+                         A (6C, 3) and the reactions at rest under gravity (6C) N, N m;
+                         stresses: Q, V (6S, M), A (6S, 3), at rest (6S) Pa; obstacles: the
+                         points at rest under gravity (K, 3) m and the records (O, 16) of
                          :func:`obstacle_records`
     end     u32 CRC-32 (zlib) of everything before it, u32 0
 
-Version 1 (no cell; 0 in the counts C, S, O) is version 2 without the cell part.
+The outputs are y = Q q + V v + A a + y_rest (jaxflex.outputs: y_rest = -S g, exact), the
+distance that of the part's skins (the mid-surface's less half the thickness).
 """
 
 from __future__ import annotations
@@ -39,9 +44,9 @@ from jaxflex.errors import ModelFileError
 from jaxflex.model import ModalModel
 
 MAGIC = b"JXFLXFMU"
-FORMAT_VERSION = 2
-# magic, version, header bytes, token, K, M, N, C, dt_s, payload bytes, S, O (jxf_core.c)
-HEADER = struct.Struct("<8sII64sIIIIdQII8x")
+FORMAT_VERSION = 3
+# magic, version, header bytes, token, K, M, N, C, dt_s, payload bytes, S, O, R (jxf_core.c)
+HEADER = struct.Struct("<8sII64sIIIIdQIII4x")
 _TRAILER = struct.Struct("<II")
 TOKEN_BYTES = 64
 
@@ -49,14 +54,15 @@ TOKEN_BYTES = 64
 @dataclass(frozen=True)
 class CellData:
     """What the FMU needs for the cell's outputs: ``gravity_m_s2`` (3,) in the model's frame,
-    the cups' ``cup_safety`` factor, ``obstacles`` (O, 16) records, and whether to include the
-    model's cups and stresses."""
+    the cups' ``cup_safety`` factor, ``obstacles`` (O, 16) records, whether to include the
+    model's cups and stresses, and half the part's thickness (m, taken off the distance)."""
 
     gravity_m_s2: np.ndarray
     cup_safety: float
     obstacles: np.ndarray
     cups: bool = True
     stress: bool = True
+    half_thickness_m: float = 0.0
 
 
 def obstacle_records(obstacles) -> np.ndarray:
@@ -80,20 +86,18 @@ def _cell_parts(model: ModalModel, cell: CellData) -> tuple[list[np.ndarray], tu
     stress = model.stress if cell.stress else None
     if cups is None and stress is None and len(cell.obstacles) == 0:
         return [], (0, 0, 0)
-    parts = [np.asarray(cell.gravity_m_s2, "<f8"), np.array([cell.cup_safety], "<f8")]
+    gravity = np.asarray(cell.gravity_m_s2, "<f8")
+    parts = [gravity, np.array([cell.cup_safety, cell.half_thickness_m], "<f8")]
     if cups is not None:
-        r = cups.reaction
         parts += [
             np.asarray(cups.normal, "<f8"),
             np.asarray(cups.radius_m, "<f8"),
             np.asarray(cups.holding_force_n, "<f8"),
             np.asarray(cups.friction, "<f8"),
-            np.asarray(r.q_map, "<f8"),
-            np.asarray(r.v_map, "<f8"),
-            np.asarray(r.a_map, "<f8"),
+            *_output_maps(cups.reaction, gravity),
         ]
     if stress is not None:
-        parts += [np.asarray(getattr(stress.stress, k), "<f8") for k in ("q_map", "v_map", "a_map")]
+        parts += _output_maps(stress.stress, gravity)
     if len(cell.obstacles):
         rest = np.asarray(model.points) + gravity_offset(model, cell.gravity_m_s2)
         parts += [np.asarray(rest, "<f8"), np.asarray(cell.obstacles, "<f8")]
@@ -105,10 +109,38 @@ def _cell_parts(model: ModalModel, cell: CellData) -> tuple[list[np.ndarray], tu
     return parts, counts
 
 
+def _output_maps(outputs, gravity: np.ndarray) -> list[np.ndarray]:
+    """Q, V, A and the outputs at rest under ``gravity`` (-S g) of jaxflex LinearOutputs."""
+    maps = [np.asarray(getattr(outputs, k), "<f8") for k in ("q_map", "v_map", "a_map")]
+    return [*maps, np.asarray(outputs.offset(gravity), "<f8")]
+
+
+def static_count(model: ModalModel) -> int:
+    """R: the coordinates of the static residual (3) where the model has one, else 0."""
+    return 0 if model.static_residual is None else 3
+
+
+def resource_shapes(model: ModalModel) -> np.ndarray:
+    """(M + R, 3, K) the shapes the FMU evaluates: the modes, then the static residual."""
+    shapes = np.asarray(model.shapes)
+    if model.static_residual is not None:
+        shapes = np.concatenate([shapes, np.asarray(model.static_residual)], axis=2)
+    return np.transpose(shapes, (2, 1, 0))
+
+
+def payload_values(k: int, m: int, n: int, c: int, s: int, o: int, r: int) -> int:
+    """f64 values of the payload for the counts of the header (as jxf_core.c)."""
+    count = 5 * m + 3 * (m + r) * k + 3 * k + 3 * n
+    count += 5 * (c + s + o > 0) + (6 * c + 12 * c * m + 24 * c) + (12 * s * m + 24 * s)
+    return count + ((3 * k + 16 * o) if o else 0)
+
+
 @dataclass(frozen=True)
 class ResourceData:
     """Contents of a resource file. ``acc`` is (N, 3) m/s^2 at step ``dt_s`` or None;
-    ``counts``: (C cups, S stress points, O obstacle records) of the cell part."""
+    ``counts``: (C cups, S stress points, O obstacle records) of the cell part; ``model``
+    carries the static displacement its static residual gives (the cell's maps are not
+    read back)."""
 
     token: str
     model: ModalModel
@@ -135,7 +167,7 @@ def encode_resource(
         np.asarray(model.freq_hz, "<f8"),
         np.asarray(model.zeta, "<f8"),
         np.asarray(model.gamma, "<f8"),
-        np.transpose(np.asarray(model.shapes, "<f8"), (2, 1, 0)),
+        np.asarray(resource_shapes(model), "<f8"),
         np.asarray(model.points, "<f8"),
     ]
     if acc is not None:
@@ -155,6 +187,7 @@ def encode_resource(
         len(payload),
         counts[1],
         counts[2],
+        static_count(model),
     )
     body = header + payload
     return body + _TRAILER.pack(zlib.crc32(body), 0)
@@ -164,29 +197,38 @@ def decode_resource(data: bytes, *, source: str = "resource") -> ResourceData:
     """Parse and check a resource file; raises ModelFileError naming what is wrong."""
     if len(data) < HEADER.size + _TRAILER.size or data[:8] != MAGIC:
         raise ModelFileError(f"{source}: not a jaxflex FMU resource (bad magic or too short)")
-    _, version, header_size, raw_token, k, m, n, c, dt_s, payload, s, o = HEADER.unpack_from(data)
+    _, version, header_size, raw_token, k, m, n, c, dt_s, payload, s, o, r = HEADER.unpack_from(
+        data
+    )
     if version != FORMAT_VERSION or header_size != HEADER.size:
         raise ModelFileError(
             f"{source}: format version {version} is not supported (reads {FORMAT_VERSION}, as "
             "the FMU's binaries do)"
         )
-    cell_values = 4 * (c + s + o > 0) + (6 * c + 12 * c * m + 18 * c) + (12 * s * m + 18 * s)
-    cell_values += (3 * k + 16 * o) if o else 0
-    expected = 8 * (5 * m + 3 * m * k + 3 * k + 3 * n + cell_values)
+    if r not in (0, 3):
+        raise ModelFileError(f"{source}: {r} static-residual coordinates (0 or 3 allowed)")
+    expected = 8 * payload_values(k, m, n, c, s, o, r)
     if payload != expected or len(data) != HEADER.size + expected + _TRAILER.size:
         raise ModelFileError(f"{source}: truncated or padded ({len(data)} bytes)")
     crc, _ = _TRAILER.unpack_from(data, len(data) - _TRAILER.size)
     if zlib.crc32(data[: -_TRAILER.size]) != crc:
         raise ModelFileError(f"{source}: corrupt (CRC-32 mismatch)")
     values = np.frombuffer(data, "<f8", count=expected // 8, offset=HEADER.size)
-    sizes = [m, m, 3 * m, 3 * m * k, 3 * k, 3 * n]
+    sizes = [m, m, 3 * m, 3 * (m + r) * k, 3 * k, 3 * n]
     freq, zeta, gamma, shapes, points, traj = np.split(values[: sum(sizes)], np.cumsum(sizes)[:-1])
+    shapes = np.transpose(shapes.reshape(m + r, 3, k), (2, 1, 0))
+    gamma = gamma.reshape(m, 3)
+    static = None
+    if r:  # the model's static displacement from its residual D = S + Phi Omega^-2 Gamma
+        omega = 2 * np.pi * freq
+        static = shapes[:, :, m:] - shapes[:, :, :m] @ (gamma / omega[:, None] ** 2)
     model = ModalModel(
         freq_hz=freq,
         zeta=zeta,
-        gamma=gamma.reshape(m, 3),
-        shapes=np.transpose(shapes.reshape(m, 3, k), (2, 1, 0)),
+        gamma=gamma,
+        shapes=shapes[:, :, :m],
         points=points.reshape(k, 3),
+        static_shapes=static,
     )
     acc = traj.reshape(n, 3).copy() if n else None
     return ResourceData(

@@ -205,6 +205,7 @@ def config_header(
     n_cups: int = 0,
     n_stress: int = 0,
     n_obstacles: int = 0,
+    n_static: int = 0,
 ) -> str:
     """``jxf_config.h`` for one export: sizes, token, start values and value references,
     the same numbers that modelDescription.xml declares."""
@@ -225,6 +226,7 @@ def config_header(
         f"#define JXF_N_CUPS {int(n_cups)}",
         f"#define JXF_N_STRESS {int(n_stress)}",
         f"#define JXF_N_OBSTACLES {int(n_obstacles)}",
+        f"#define JXF_N_STATIC {int(n_static)}",
         f"#define JXF_START_THRESHOLD {float(threshold_m)!r}",
         f"#define JXF_START_DAMPING_SCALE {float(damping_scale)!r}",
     ]

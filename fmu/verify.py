@@ -27,7 +27,7 @@ from fmpy.validation import validate_fmu
 from fmu.master import Session, run_linear
 from fmu.resource import decode_resource
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE
-from jaxflex.deviation import point_displacements
+from jaxflex.deviation import point_displacements, response_shapes, with_acceleration
 from jaxflex.engine import modal_states, rest_padded
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.model import ModalModel
@@ -113,10 +113,13 @@ def reference_response(
 ):
     """Exact response at the communication points t_k = k dt_s, k = 0..n_steps, to the samples
     ``acc`` (linear between them, or each held over its step with ``hold="zero"``) and rest
-    after them: (deviation (n_steps + 1,) m, displacement (n_steps + 1, K, 3) m or None)."""
+    after them: (deviation (n_steps + 1,) m, displacement (n_steps + 1, K, 3) m or None).
+    The static residual's share D a uses the acceleration at the end of each step, as the
+    FMU reports it (with held inputs: the value held over the step just done)."""
     acc = rest_padded(np.asarray(acc, dtype=np.float64)[: n_steps + 1], n_steps)
     q = modal_states(model, acc, dt_s, hold=hold, xp=np)[..., 0]
-    disp = point_displacements(np.asarray(model.shapes), q)
+    a_end = acc if hold == "linear" else np.vstack([np.zeros((1, 3)), acc[:-1]])
+    disp = point_displacements(response_shapes(model), with_acceleration(model, q, a_end))
     return np.linalg.norm(disp, axis=2).max(axis=1), (disp if points else None)
 
 

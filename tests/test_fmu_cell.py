@@ -17,11 +17,9 @@ import jaxflex
 from fmu import export_fmu
 from fmu.master import Session
 from jaxflex.cell import Box, Cell, HalfSpace, TriangleMesh, rotation_from_degrees
-from jaxflex.collision import distances, gravity_offset
+from jaxflex.collision import distances, positions_at
 from jaxflex.deviation import outputs_at
-from jaxflex.engine import states_at
 from jaxflex.loads import CupUtilisation, VonMises
-from jaxflex.profile import kinematics_at
 
 DT = 0.01
 
@@ -48,11 +46,9 @@ def case():
 def _reference(model, cell, acc, t):
     posed = cell.posed(model)
     g = cell.gravity_m_s2
-    q = states_at(posed, acc, DT, t)[..., 0]
-    points = np.asarray(posed.points) + gravity_offset(posed, g)
-    points = points[None] + kinematics_at(acc, DT, t)[0][:, None]
-    points = points + np.einsum("kcm,tm->tkc", np.asarray(posed.shapes), q)
+    points = positions_at(posed, acc, DT, t, g)  # with the static residual's D a(t)
     dist = distances(cell.obstacles, points.reshape(-1, 3))[0].reshape(points.shape[:2])
+    dist -= 0.5 * posed.meta["part"]["thickness_m"]  # the skins
     cups = CupUtilisation(posed.cups, 1.7)
     y = outputs_at(posed, posed.cups.reaction, acc, DT, t, posed.cups.reaction.offset(g))
     util = cups.values(y.reshape(len(t), -1, 6), np.arange(cups.n_items))

@@ -22,7 +22,7 @@ import jaxflex
 from fmu import FmuBuildError, export_fmu
 from fmu.build import fmi_headers
 from fmu.export import model_identifier
-from fmu.resource import decode_resource, encode_resource
+from fmu.resource import FORMAT_VERSION, decode_resource, encode_resource
 from fmu.verify import read_fmu_resource
 from jaxflex.errors import InputError, ModelFileError
 
@@ -157,7 +157,7 @@ def test_resource_round_trip(exported, part):
         lambda b: b[:-9],  # truncated
         lambda b: b[:200] + bytes([b[200] ^ 0x40]) + b[201:],  # one bit flipped
         lambda b: b"XXXXXXXX" + b[8:],  # not our format
-        lambda b: b[:8] + (3).to_bytes(4, "little") + b[12:],  # newer format version
+        lambda b: b[:8] + (FORMAT_VERSION + 1).to_bytes(4, "little") + b[12:],  # newer version
     ],
     ids=["truncated", "bit-flip", "magic", "version"],
 )

@@ -1,11 +1,11 @@
-/* jaxflex FMU: the cell's outputs at the communication point (resource format 2).
+/* jaxflex FMU: the cell's outputs at the communication point (resource format 3).
  *
  * Cup reactions and stresses are linear in the modal state and the base acceleration,
- * y = Q q + V v + A (a - g) (jaxflex.outputs: g is gravity, a constant base acceleration -g);
- * they are evaluated when read, from m->q, m->v and m->a_now. The cup utilisation and the von
- * Mises stress are those of jaxflex.loads; the distance of a point (at rest under gravity,
- * moved by the path m->pos and the displacement m->u) to the nearest obstacle is that of
- * jaxflex.cell. Obstacle records of 16 values: type 1 box (centre 3, half edges 3, rotation
+ * y = Q q + V v + A a + y_rest (jaxflex.outputs: y_rest = -S g, the exact outputs of the part
+ * at rest under gravity); they are evaluated when read, from m->q, m->v and m->a_now. The cup
+ * utilisation and the von Mises stress are those of jaxflex.loads; the distance of a point
+ * (at rest under gravity, moved by the path m->pos and the displacement m->u) to the nearest
+ * obstacle is that of jaxflex.cell, less half the part's thickness (its skins). Obstacle records of 16 values: type 1 box (centre 3, half edges 3, rotation
  * 9 row-major: the box axes are its columns), type 2 half-space (unit normal 3, offset: the
  * solid is normal . x <= offset), type 3 triangle (corners 3 x 3). SI units.
  */
@@ -13,15 +13,15 @@
 
 #include "jxf_core.h"
 
-/* row `r` of the output block (Q, V, A) at the current state */
+/* row `r` of the output block (Q, V, A, at rest) at the current state */
 static double linear_output(const jxf_model *m, const double *q_map, const double *v_map,
-                            const double *a_map, size_t r) {
+                            const double *a_map, const double *rest, size_t r) {
     const int M = m->n_modes;
     const double *qr = q_map + r * (size_t)M, *vr = v_map + r * (size_t)M, *ar = a_map + 3 * r;
-    double y = 0.0;
+    double y = rest[r];
     int i;
     for (i = 0; i < M; ++i) y += qr[i] * m->q[i] + vr[i] * m->v[i];
-    for (i = 0; i < 3; ++i) y += ar[i] * (m->a_now[i] - m->gravity[i]);
+    for (i = 0; i < 3; ++i) y += ar[i] * m->a_now[i];
     return y;
 }
 
@@ -33,7 +33,8 @@ double jxf_cup_utilisation(const jxf_model *m, int c) {
     double y[6], pull, twist, shear[3], peel[3];
     int k;
     for (k = 0; k < 6; ++k)
-        y[k] = linear_output(m, m->cup_q, m->cup_v, m->cup_a, 6 * (size_t)c + (size_t)k);
+        y[k] = linear_output(m, m->cup_q, m->cup_v, m->cup_a, m->cup_rest,
+                             6 * (size_t)c + (size_t)k);
     pull = y[0] * n[0] + y[1] * n[1] + y[2] * n[2];
     twist = y[3] * n[0] + y[4] * n[1] + y[5] * n[2];
     for (k = 0; k < 3; ++k) {
@@ -49,7 +50,8 @@ double jxf_von_mises(const jxf_model *m, int s) {
     double y[6], sq;
     int k;
     for (k = 0; k < 6; ++k)
-        y[k] = linear_output(m, m->stress_q, m->stress_v, m->stress_a, 6 * (size_t)s + (size_t)k);
+        y[k] = linear_output(m, m->stress_q, m->stress_v, m->stress_a, m->stress_rest,
+                             6 * (size_t)s + (size_t)k);
     sq = 0.5 * ((y[0] - y[1]) * (y[0] - y[1]) + (y[1] - y[2]) * (y[1] - y[2]) +
                 (y[2] - y[0]) * (y[2] - y[0])) +
          3.0 * (y[3] * y[3] + y[4] * y[4] + y[5] * y[5]);
@@ -137,5 +139,5 @@ double jxf_point_distance(const jxf_model *m, int k) {
         }
         best = d < best ? d : best;
     }
-    return best;
+    return best - m->half_thickness;
 }

@@ -19,25 +19,28 @@
 
 #define JXF_PI 3.14159265358979323846
 
-/* Resource file, format version 2, little-endian throughout:
+/* Resource file, format version 3, little-endian throughout:
  *   0   char[8]  magic "JXFLXFMU"
- *   8   u32      format version (2)
+ *   8   u32      format version (3)
  *   12  u32      header size in bytes (128)
  *   16  char[64] instantiation token, NUL padded
  *   80  u32      K points, 84 u32 M modes, 88 u32 N trajectory samples, 92 u32 C cups
  *   96  f64      trajectory sample step in s (0 without a trajectory)
  *   104 u64      payload size in bytes
- *   112 u32      S stress points, 116 u32 O obstacle records, 120 8 zero bytes
- *   128 payload of f64: freq_hz (M), zeta (M), gamma (M, 3), shapes (M, 3, K),
+ *   112 u32      S stress points, 116 u32 O obstacle records, 120 u32 R static-residual
+ *                coordinates (0 or 3), 124 4 zero bytes
+ *   128 payload of f64: freq_hz (M), zeta (M), gamma (M, 3), shapes (M + R, 3, K: the
+ *                       last R rows the static residual, driven by the base acceleration),
  *                       points (K, 3), trajectory (N, 3), then, if C + S + O > 0:
- *                       gravity (3), cup safety factor (1); cups: normals (C, 3),
- *                       radii (C), holding forces (C), friction (C), Q (6C, M),
- *                       V (6C, M), A (6C, 3); stresses: Q (6S, M), V (6S, M), A (6S, 3);
- *                       obstacles: points at rest (K, 3), records (O, 16)
+ *                       gravity (3), cup safety factor (1), half thickness (1); cups:
+ *                       normals (C, 3), radii (C), holding forces (C), friction (C),
+ *                       Q (6C, M), V (6C, M), A (6C, 3), at rest (6C); stresses: Q (6S, M),
+ *                       V (6S, M), A (6S, 3), at rest (6S); obstacles: points at rest (K, 3),
+ *                       records (O, 16)
  *   end u32 CRC-32 (IEEE, as zlib) of everything before it, u32 0
  * fmu/resource.py writes the same layout. */
 #define JXF_MAGIC "JXFLXFMU"
-#define JXF_FORMAT_VERSION 2u
+#define JXF_FORMAT_VERSION 3u
 #define JXF_HEADER_BYTES 128u
 #define JXF_TOKEN_BYTES 64u
 #define JXF_TRAILER_BYTES 8u
@@ -190,11 +193,11 @@ static char *resource_file(const jxf_model *m, const char *location) {
 
 /* Number of f64 values in the payload (layout above). */
 static uint64_t payload_values(uint64_t K, uint64_t M, uint64_t N, uint64_t C, uint64_t S,
-                               uint64_t O) {
-    uint64_t count = 5u * M + 3u * M * K + 3u * K + 3u * N;
-    if (C + S + O > 0) count += 4u;
-    if (C > 0) count += 6u * C + 12u * C * M + 18u * C;
-    if (S > 0) count += 12u * S * M + 18u * S;
+                               uint64_t O, uint64_t R) {
+    uint64_t count = 5u * M + 3u * (M + R) * K + 3u * K + 3u * N;
+    if (C + S + O > 0) count += 5u;
+    if (C > 0) count += 6u * C + 12u * C * M + 24u * C;
+    if (S > 0) count += 12u * S * M + 24u * S;
     if (O > 0) count += 3u * K + 16u * O;
     return count;
 }
@@ -203,7 +206,7 @@ static uint64_t payload_values(uint64_t K, uint64_t M, uint64_t N, uint64_t C, u
 static size_t resource_bytes(void) {
     return JXF_HEADER_BYTES + JXF_TRAILER_BYTES +
            8 * (size_t)payload_values(JXF_N_POINTS, JXF_N_MODES, JXF_N_TRAJ, JXF_N_CUPS,
-                                      JXF_N_STRESS, JXF_N_OBSTACLES);
+                                      JXF_N_STRESS, JXF_N_OBSTACLES, JXF_N_STATIC);
 }
 
 /* Read the resource file; never allocates more than this build's resource size, so a
@@ -260,7 +263,7 @@ static unsigned char *read_file(const jxf_model *m, const char *name, size_t *si
 static int check_header(const jxf_model *m, const char *name, const unsigned char *data,
                         size_t size, const char *token) {
     char stored[JXF_TOKEN_BYTES + 1];
-    uint32_t n_points, n_modes, n_traj, n_cups, n_stress, n_obstacles;
+    uint32_t n_points, n_modes, n_traj, n_cups, n_stress, n_obstacles, n_static;
     uint64_t payload, expected;
     if (size < JXF_HEADER_BYTES + JXF_TRAILER_BYTES || memcmp(data, JXF_MAGIC, 8) != 0) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' is not a jaxflex FMU resource (bad magic or too short, "
@@ -297,17 +300,21 @@ static int check_header(const jxf_model *m, const char *name, const unsigned cha
     n_cups = read_u32(data + 92);
     n_stress = read_u32(data + 112);
     n_obstacles = read_u32(data + 116);
+    n_static = read_u32(data + 120);
     if (n_points != JXF_N_POINTS || n_modes != JXF_N_MODES || n_traj != JXF_N_TRAJ ||
-        n_cups != JXF_N_CUPS || n_stress != JXF_N_STRESS || n_obstacles != JXF_N_OBSTACLES) {
+        n_cups != JXF_N_CUPS || n_stress != JXF_N_STRESS || n_obstacles != JXF_N_OBSTACLES ||
+        n_static != JXF_N_STATIC) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' holds %lu points, %lu modes, %lu trajectory samples, "
-                "%lu cups, %lu stress points, %lu obstacle records but modelDescription.xml "
-                "declares %d, %d, %d, %d, %d, %d", name, (unsigned long)n_points,
-                (unsigned long)n_modes, (unsigned long)n_traj, (unsigned long)n_cups,
-                (unsigned long)n_stress, (unsigned long)n_obstacles, JXF_N_POINTS,
-                JXF_N_MODES, JXF_N_TRAJ, JXF_N_CUPS, JXF_N_STRESS, JXF_N_OBSTACLES);
+                "%lu cups, %lu stress points, %lu obstacle records, %lu static-residual "
+                "coordinates but modelDescription.xml declares %d, %d, %d, %d, %d, %d, %d", name,
+                (unsigned long)n_points, (unsigned long)n_modes, (unsigned long)n_traj,
+                (unsigned long)n_cups, (unsigned long)n_stress, (unsigned long)n_obstacles,
+                (unsigned long)n_static, JXF_N_POINTS, JXF_N_MODES, JXF_N_TRAJ, JXF_N_CUPS,
+                JXF_N_STRESS, JXF_N_OBSTACLES, JXF_N_STATIC);
         return -1;
     }
-    expected = 8u * payload_values(n_points, n_modes, n_traj, n_cups, n_stress, n_obstacles);
+    expected = 8u * payload_values(n_points, n_modes, n_traj, n_cups, n_stress, n_obstacles,
+                                   n_static);
     payload = read_u64(data + 104);
     if (payload != expected) {
         jxf_log(m, JXF_LOG_ERROR, "'%s': the header's payload size field says %lu bytes, the "
@@ -353,9 +360,9 @@ static int in_range(const jxf_model *m, const char *name, const char *what, cons
 /* Point the model's arrays into the payload (converted to host order) and check values. */
 static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
     const uint16_t probe = 1;
-    const int K = JXF_N_POINTS, M = JXF_N_MODES, N = JXF_N_TRAJ;
+    const int K = JXF_N_POINTS, M = JXF_N_MODES, N = JXF_N_TRAJ, R = JXF_N_STATIC;
     const int C = JXF_N_CUPS, S = JXF_N_STRESS, O = JXF_N_OBSTACLES;
-    const size_t count = (size_t)payload_values(K, M, N, C, S, O);
+    const size_t count = (size_t)payload_values(K, M, N, C, S, O, R);
     double *values = (double *)(void *)(data + JXF_HEADER_BYTES);
     const double *next;
     size_t i;
@@ -364,13 +371,14 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
         for (i = 0; i < count; ++i) values[i] = read_f64(data + JXF_HEADER_BYTES + 8 * i);
     m->n_points = K;
     m->n_modes = M;
+    m->n_static = R;
     m->n_traj = N;
     m->traj_dt = read_f64(data + 96);
     m->freq_hz = values;
     m->zeta = m->freq_hz + M;
     m->gamma = m->zeta + M;
     m->shapes = m->gamma + 3 * M;
-    m->points = m->shapes + 3 * (size_t)M * K;
+    m->points = m->shapes + 3 * (size_t)(M + R) * K;
     m->traj = m->points + 3 * (size_t)K;
     m->n_cups = C;
     m->n_stress = S;
@@ -379,7 +387,8 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
     if (C + S + O > 0) {
         m->gravity = next;
         m->cup_safety = next[3];
-        next += 4;
+        m->half_thickness = next[4];
+        next += 5;
     }
     if (C > 0) {
         m->cup_normal = next;
@@ -389,13 +398,15 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
         m->cup_q = m->cup_friction + C;
         m->cup_v = m->cup_q + 6 * (size_t)C * M;
         m->cup_a = m->cup_v + 6 * (size_t)C * M;
-        next = m->cup_a + 18 * (size_t)C;
+        m->cup_rest = m->cup_a + 18 * (size_t)C;
+        next = m->cup_rest + 6 * (size_t)C;
     }
     if (S > 0) {
         m->stress_q = next;
         m->stress_v = m->stress_q + 6 * (size_t)S * M;
         m->stress_a = m->stress_v + 6 * (size_t)S * M;
-        next = m->stress_a + 18 * (size_t)S;
+        m->stress_rest = m->stress_a + 18 * (size_t)S;
+        next = m->stress_rest + 6 * (size_t)S;
     }
     if (O > 0) {
         m->rest_points = next;
@@ -407,7 +418,8 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
     }
     if (!in_range(m, name, "frequency (Hz)", m->freq_hz, M, JXF_RANGE_FREQ_HZ) ||
         !in_range(m, name, "participation factor", m->gamma, 3 * (size_t)M, JXF_RANGE_GAMMA) ||
-        !in_range(m, name, "mode shape value", m->shapes, 3 * (size_t)M * K, JXF_RANGE_SHAPES) ||
+        !in_range(m, name, "mode shape value", m->shapes, 3 * (size_t)(M + R) * K,
+                  JXF_RANGE_SHAPES) ||
         !in_range(m, name, "point coordinate", m->points, 3 * (size_t)K, JXF_RANGE_POINTS))
         return -1;
     for (mode = 0; mode < M; ++mode) {
@@ -430,7 +442,8 @@ static int allocate_work(jxf_model *m) {
     int s;
     m->q = (double *)calloc(4 * M, sizeof(double));
     m->u = (double *)calloc(3 * (size_t)m->n_points, sizeof(double));
-    if (m->q == NULL || m->u == NULL) return -1;
+    m->coords = (double *)calloc(M + (size_t)m->n_static, sizeof(double));
+    if (m->q == NULL || m->u == NULL || m->coords == NULL) return -1;
     m->saved = m->q + 2 * M;
     m->v = m->q + M;
     for (s = 0; s < JXF_CACHE_SLOTS; ++s) {
@@ -494,6 +507,7 @@ void jxf_destroy(jxf_model *m) {
     for (s = 0; s < JXF_CACHE_SLOTS; ++s) free(m->cache[s].p11);
     free(m->q);
     free(m->u);
+    free(m->coords);
     free(m->buffer);
     free(m);
 }
@@ -535,7 +549,11 @@ static void update_outputs(jxf_model *m) {
     const double *ux, *uy, *uz;
     double best = 0.0;
     size_t p;
-    displacement(m->shapes, m->q, m->n_modes, 3 * K, m->u);
+    int i;
+    /* the coordinates of the shapes: q, then the base acceleration (the static residual) */
+    for (i = 0; i < m->n_modes; ++i) m->coords[i] = m->q[i];
+    for (i = 0; i < m->n_static; ++i) m->coords[m->n_modes + i] = m->a_now[i];
+    displacement(m->shapes, m->coords, m->n_modes + m->n_static, 3 * K, m->u);
     ux = m->u;
     uy = ux + K;
     uz = uy + K;

@@ -42,25 +42,30 @@ typedef struct {
 typedef struct jxf_model {
     /* model data from the resource file (views into `buffer`) */
     int n_points, n_modes, n_traj;
+    int n_static;           /* R: 3 where the shapes end with the static residual, else 0 */
     double traj_dt;
     const double *freq_hz;  /* (M) */
     const double *zeta;     /* (M) */
     const double *gamma;    /* (M, 3) */
-    const double *shapes;   /* (M, 3, K): x rows of all points, then y, then z */
+    const double *shapes;   /* (M + R, 3, K): x rows of all points, then y, then z */
     const double *points;   /* (K, 3) */
     const double *traj;     /* (N, 3) acceleration samples, m/s^2 */
     unsigned char *buffer;
 
-    /* the cell (resource format 2, all optional; jxf_cell.c): C cups, S stress points,
-     * O obstacle records. Outputs y = Q q + V v + A a - A g per cup (6 rows: force on the
-     * part N, moment about the cup centre N m) and per stress point (6 Voigt rows, Pa). */
+    /* the cell (resource format 3, all optional; jxf_cell.c): C cups, S stress points,
+     * O obstacle records. Outputs y = Q q + V v + A a + y_rest per cup (6 rows: force on the
+     * part N, moment about the cup centre N m) and per stress point (6 Voigt rows, Pa), with
+     * y_rest the exact outputs at rest under gravity. */
     int n_cups, n_stress, n_obstacles;
     const double *gravity;                    /* (3) m/s^2 */
     double cup_safety;                        /* safety factor of the cup utilisation */
+    double half_thickness;                    /* m: the skins' distance from the mid-surface */
     const double *cup_normal;                 /* (C, 3) from the part into the cup */
     const double *cup_radius, *cup_holding, *cup_friction; /* (C) m, N, - */
     const double *cup_q, *cup_v, *cup_a;      /* (6C, M), (6C, M), (6C, 3) */
+    const double *cup_rest;                   /* (6C) at rest under gravity */
     const double *stress_q, *stress_v, *stress_a; /* (6S, M), (6S, M), (6S, 3) */
+    const double *stress_rest;                /* (6S) at rest under gravity */
     const double *rest_points;                /* (K, 3) points at rest under gravity, m */
     const double *obstacles;                  /* (O, 16) records, see jxf_cell.c */
 
@@ -81,6 +86,7 @@ typedef struct jxf_model {
     double *q, *v;       /* (M) */
     double *saved;       /* (2M): q and v before a step, restored if it fails */
     double *u;           /* (3K) displacement, component-major like `shapes` */
+    double *coords;      /* (M + R) the shapes' coordinates: q, then a_now */
     double deviation;    /* max_p |u_p|, m */
     double a_now[3];     /* base acceleration at the communication point, m/s^2 */
     double pos[3], vel[3]; /* the path travelled since the start, m and m/s (exact) */
