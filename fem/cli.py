@@ -19,6 +19,7 @@ import numpy as np
 from fem import cli_imports
 from fem.damping import check_damping
 from fem.export import export_modes, plot_part
+from fem.materials import resolve_material
 from fem.mesh_io import CAD_SUFFIXES, FORMATS_HELP
 from fem.modal import modal_analysis
 from fem.parts import ELEMENTS, read_cad, read_mesh
@@ -133,9 +134,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "(STEP and IGES state their unit and are converted first)",
     )
     parser.add_argument("--material", default="steel", help="steel (default) or aluminium")
-    parser.add_argument("--E", dest="E_pa", type=float, help="Young's modulus in Pa")
-    parser.add_argument("--nu", type=float, help="Poisson ratio")
-    parser.add_argument("--rho", dest="rho_kg_m3", type=float, help="density in kg/m^3")
+    parser.add_argument(
+        "--E", dest="E_pa", type=float, help="Young's modulus in Pa (others from --material)"
+    )
+    parser.add_argument("--nu", type=float, help="Poisson ratio (others from --material)")
+    parser.add_argument(
+        "--rho", dest="rho_kg_m3", type=float, help="density in kg/m^3 (others from --material)"
+    )
     parser.add_argument(
         "--element",
         choices=ELEMENTS,
@@ -192,7 +197,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--points",
         type=_points,
         default=None,
-        help="monitored points: a count (voxel-reduced, default 1000) or 'all'",
+        help="monitored points: 'all' FE nodes (default: the deviation, settle time and "
+        "distances cover the whole part) or a count (voxel-reduced: a smaller file and faster "
+        "FMU steps, but only those points are checked)",
     )
     parser.add_argument("--plot", metavar="PNG", help="picture of the part, cups and modes")
     parser.add_argument("--vtu", metavar="FILE", help="mode shapes for ParaView (.vtu/.xdmf)")
@@ -269,10 +276,23 @@ SIZING_ONLY = (
 
 
 def _material(args):
-    given = {k: getattr(args, k) for k in ("E_pa", "nu", "rho_kg_m3")}
-    if any(v is not None for v in given.values()):
+    """The material of --material with the constants --E, --nu, --rho given replaced (those
+    left out, and the yield strength unless all three are given, stay the named one's)."""
+    given = {k: v for k in ("E_pa", "nu", "rho_kg_m3") if (v := getattr(args, k)) is not None}
+    if not given:
+        return args.material
+    base = resolve_material(args.material)
+    changed = ", ".join(f"{k.split('_')[0]} {v:g}" for k, v in given.items())
+    if len(given) == 3:
         return {**given, "name": "custom"}
-    return args.material
+    return {
+        "E_pa": base.E_pa,
+        "nu": base.nu,
+        "rho_kg_m3": base.rho_kg_m3,
+        "yield_pa": base.yield_pa,
+        **given,
+        "name": f"{base.name} with {changed}",
+    }
 
 
 def _defaults() -> dict:
@@ -328,8 +348,8 @@ def run(args: argparse.Namespace) -> int:
         allow_rigid_modes=args.allow_rigid_modes,
     )
     print(result.summary())
-    points = 1000 if args.points is None else args.points
-    model = result.to_modal_model(points=None if points == "all" else points)
+    points = None if args.points in (None, "all") else args.points
+    model = result.to_modal_model(points=points)
     _write(args, model, result)
     return 0
 

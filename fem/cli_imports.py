@@ -155,9 +155,9 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
             args.from_r1, args.dt, args.axis or ["z"], nodes=args.nodes, max_modes=n_modes
         )
     print(result.summary())
-    points = 1000 if args.points is None else args.points
+    points = None if args.points in (None, "all") else args.points
     zeta = None if args.from_r1 else args.zeta  # R1: the identified damping
-    model = result.to_modal_model(points=None if points == "all" else points, zeta=zeta)
+    model = result.to_modal_model(points=points, zeta=zeta)
     if args.from_r1 and args.report:
         write_text_atomic(args.report, json.dumps(result.fit.as_dict(), indent=2))
         print(f"wrote {args.report}")

@@ -9,6 +9,7 @@ import subprocess
 import sys
 from importlib.metadata import entry_points
 
+import numpy as np
 from conftest import run_jaxflex
 
 import jaxflex
@@ -119,3 +120,23 @@ def test_bad_option_gives_a_clear_error(tmp_path):
     proc = run_jaxflex("demo", "-o", str(tmp_path), "--threshold", "-1")
     assert proc.returncode == 2
     assert "--threshold" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_model_takes_one_material_constant(tmp_path):
+    """--E alone keeps the named material's nu, rho and yield strength: the frequencies
+    scale with sqrt(E) (x10 for E x100, to the eigen solver's 1e-9), the meta says what
+    changed."""
+    models = {}
+    for name, extra in (("steel", ()), ("stiff", ("--E", "2.1e13"))):
+        path = tmp_path / f"{name}.npz"
+        proc = run_jaxflex(
+            "model", "--scene", "plate", "--mesh-size", "0.1", "--n-modes", "3",
+            *extra, "-o", str(path), "--quiet",
+        )  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        models[name] = jaxflex.load_model(path)
+    ratio = np.asarray(models["stiff"].freq_hz) / np.asarray(models["steel"].freq_hz)
+    np.testing.assert_allclose(ratio, 10.0, rtol=1e-9)
+    material = models["stiff"].meta["material"]
+    assert material["nu"] == 0.3 and material["rho_kg_m3"] == 7850.0
+    assert material["yield_pa"] == 140e6 and "E" in material["name"]
