@@ -49,7 +49,8 @@ import numpy as np
 import scipy.optimize
 
 from fem.imported import ImportedModes, file_digest
-from jaxflex.convolution import read_unit_response_csv, unit_response_times
+from fem.r1_layout import detect_layout, steps_from_zero
+from jaxflex.convolution import read_unit_response_csv
 from jaxflex.engine import modal_states
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
@@ -57,7 +58,6 @@ from jaxflex.validation import check_positive
 
 AXES = ("x", "y", "z")
 GRAM_RATIO = 4  # channels / samples above which the SVD goes through the Gram matrix
-HEADER_DT_RTOL = 1e-6  # a header's times are printed with >= 9 significant digits
 
 
 def hat_responses(freq_hz, zeta, dt_s: float, n_steps: int) -> np.ndarray:
@@ -178,9 +178,11 @@ class R1Identification(ImportedModes):
     """ImportedModes identified from R1, with the fit report ``fit``."""
 
     fit: R1Fit | None = None
+    layouts: list[str] = field(default_factory=list)
 
     def summary(self) -> str:
-        return self.fit.summary() if self.fit is not None else super().summary()
+        text = self.fit.summary() if self.fit is not None else super().summary()
+        return "\n".join([*(f"read {line}" for line in self.layouts), text])
 
 
 def _data_matrix(r1: np.ndarray) -> np.ndarray:
@@ -516,18 +518,12 @@ def from_r1(
     axes = (axes,) if isinstance(axes, str) else tuple(axes)
     if len(paths) != len(axes):
         raise InputError(f"axis: {len(paths)} R1 file(s) need {len(paths)} axes, got {axes}")
-    arrays = []
+    arrays, layouts = [], []
     for path in paths:
-        arr = read_unit_response_csv(path)
-        times = unit_response_times(path)
-        if times is not None and times.size > 1:
-            step = float(np.median(np.diff(times)))
-            if abs(step - dt_s) > HEADER_DT_RTOL * step:
-                raise InputError(
-                    f"dt: {dt_s:g} s given, but the header of {str(path)!r} puts its steps "
-                    f"{step:.9g} s apart"
-                )
-        arrays.append(arr)
+        steps = read_unit_response_csv(path)
+        layout = detect_layout(path, steps, dt_s)
+        arrays.append(steps_from_zero(steps, layout))
+        layouts.append(layout)
     shapes = {a.shape for a in arrays}
     if len(shapes) != 1:
         raise InputError(f"R1 files differ in shape (steps, points, 3): {sorted(shapes)}")
@@ -545,7 +541,11 @@ def from_r1(
     }
     result.provenance["derived"]["dt_s"] = (
         "given; checked against the file's header times"
-        if any(unit_response_times(p) is not None for p in paths)
+        if any(layout.times_s is not None for layout in layouts)
         else "given; the file states no times, so it could not be checked"
     )
+    result.layouts = [
+        f"{Path(p).name}: {layout.describe()}" for p, layout in zip(paths, layouts, strict=True)
+    ]
+    result.provenance["derived"]["layout"] = result.layouts
     return result
