@@ -36,6 +36,7 @@ import scipy.sparse as sp
 
 from fem.imported import ImportedModes, file_digest
 from fem.modal import solve_modes
+from fem.solver_modes import user_gamma
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
 
@@ -431,24 +432,11 @@ def from_rst_modes(
         provenance=provenance,
     )
     if gamma is not None:
-        result.gamma = _user_gamma(gamma, freq.size)
+        result.gamma = user_gamma(gamma, freq.size)
         provenance["derived"]["gamma"] = "given by the user"
     if full_path is not None:
         _pair_with_full(result, rst, values, full_path, unit)
     return result
-
-
-def _user_gamma(gamma, n_modes: int) -> np.ndarray:
-    try:
-        arr = np.asarray(gamma, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"gamma: expected numbers, (M, 3) in kg^0.5 ({exc})") from exc
-    if arr.shape != (n_modes, 3) or not np.isfinite(arr).all():
-        raise InputError(
-            f"gamma: expected finite values of shape ({n_modes}, 3) in kg^0.5 (one row per "
-            f"kept mode, x y z), got {arr.shape}"
-        )
-    return arr
 
 
 def _dof_names(nodes: np.ndarray, labels: np.ndarray, limit: int = 4) -> str:
