@@ -36,7 +36,7 @@ import scipy.sparse as sp
 
 from fem.imported import ImportedModes, file_digest
 from fem.modal import solve_modes
-from fem.solver_modes import user_gamma
+from fem.solver_modes import rigid_mask, rigid_meta, user_gamma
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
 
@@ -266,6 +266,7 @@ def from_ansys(
     gamma=None,
     zeta=0.02,
     rigid_tol_hz: float = 0.01,
+    allow_rigid_modes: bool = False,
     progress: bool | None = None,
 ) -> ImportedModes:
     """Modes of an ANSYS model (SI units); ``.to_modal_model(points)`` gives the ModalModel.
@@ -286,7 +287,9 @@ def from_ansys(
         gamma: with a ``.rst`` alone: participation factors (M, 3) in kg^0.5, one row per
             kept mode (e.g. from MAPDL's participation factor listing).
         zeta: modal damping ratio (scalar, per mode or fem.Rayleigh).
-        rigid_tol_hz: modes below this frequency are rigid-body modes (dropped).
+        rigid_tol_hz: modes below this frequency are rigid-body modes.
+        allow_rigid_modes: accept a model with rigid-body modes (a free part): they are
+            left out of the model and reported; refused otherwise (the rule of every door).
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -299,7 +302,8 @@ def from_ansys(
             raise InputError("full: only with a .rst (the .full itself was given)")
         if gamma is not None:
             raise InputError("gamma: computed from the .full's mass matrix; do not pass it")
-        return _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid_tol_hz, progress)
+        rigid = (rigid_tol_hz, allow_rigid_modes)
+        return _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid, progress)
     if nodes is not None:
         raise InputError("nodes: a .rst holds its node coordinates")
     if full is not None and gamma is not None:
@@ -313,10 +317,12 @@ def from_ansys(
         gamma=gamma,
         zeta=zeta,
         rigid_tol_hz=rigid_tol_hz,
+        allow_rigid_modes=allow_rigid_modes,
     )
 
 
-def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid_tol_hz, progress):
+def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid, progress):
+    rigid_tol_hz, allow = rigid
     mats = read_full(path)
     unit = resolve_units(units, mats.units, f"{str(path)!r}")
     free, K, M, rigid = _free_system(mats)
@@ -333,6 +339,7 @@ def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid_tol_hz, pro
         rigid_tol_hz=rigid_tol_hz,
         progress=progress,
     )
+    rigid_mask(modes.rigid_freq_hz, rigid_tol_hz, allow, repr(str(path)))
     shapes = (observation @ modes.vectors).reshape(len(node_ids), 3, -1) * unit.shape_to_si
     coords, missing = None, ""
     if nodes is None:
@@ -353,7 +360,7 @@ def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid_tol_hz, pro
             "mass-normalised",
             "gamma": "phi^T M_ff R_f, R: unit translations of UX, UY, UZ",
         },
-        "rigid_modes": {"count": int(modes.rigid_freq_hz.size)},
+        "rigid_modes": rigid_meta(modes.rigid_freq_hz),
         "n_dof": {"total": len(mats.labels), "free": int(free.size)},
     }
     return ImportedModes(
@@ -391,11 +398,13 @@ def from_rst_modes(
     gamma=None,
     zeta=0.02,
     rigid_tol_hz: float = 0.01,
+    allow_rigid_modes: bool = False,
 ) -> ImportedModes:
     """The ImportedModes of modes read from a ``.rst`` (see :func:`from_ansys`)."""
     path, full_path = rst.path, full
     unit = resolve_units(units, rst.units, f"{str(path)!r}")
-    keep = rst.freq_hz >= rigid_tol_hz
+    rigid = rigid_mask(rst.freq_hz, rigid_tol_hz, allow_rigid_modes, repr(str(path)))
+    keep = ~rigid
     if max_freq_hz is not None:
         keep &= rst.freq_hz <= max_freq_hz
     kept = np.flatnonzero(keep)
@@ -413,7 +422,7 @@ def from_rst_modes(
             "modes": "frequencies and global x, y, z shapes from the .rst (MAPDL normalises "
             "modes to the mass matrix unless MODOPT NRMKEY=ON)",
         },
-        "rigid_modes": {"count": int(np.sum(rst.freq_hz < rigid_tol_hz))},
+        "rigid_modes": rigid_meta(rst.freq_hz[rigid]),
     }
     stress = None
     if rst.stress is not None:

@@ -2,8 +2,8 @@
 
 With ``--tolerance`` the mesh, the number of modes and the monitored points are chosen for a
 move (``--trajectory`` or ``--distance`` with limits) and a ``--threshold`` by fem.size_model.
-``--from-ansys``, ``--from-nastran`` and ``--from-r1`` build the model from a user's own
-finite-element results (fem.cli_imports).
+``--from-ansys``, ``--from-nastran``, ``--from-r1`` and ``--from-modes`` build the model
+from a user's own finite-element results (fem.cli_imports).
 """
 
 from __future__ import annotations
@@ -37,8 +37,8 @@ from jaxflex.validation import check_output_file
 
 COMMAND = "model"
 HELP = (
-    "build a modal model (.npz) from a built-in scene, a mesh file, or ANSYS, Nastran or R1 "
-    "results (SI units, m)"
+    "build a modal model (.npz) from a built-in scene, a mesh or CAD file, or ANSYS, Nastran, "
+    "R1 or other solvers' modal results (SI units, m)"
 )
 ORDER = 10
 
@@ -179,7 +179,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--allow-rigid-modes",
         action="store_true",
-        help="accept a gripper that leaves rigid-body modes (they are dropped)",
+        help="accept a part that is not held (free, or a gripper that leaves rigid-body "
+        "modes): the rigid-body modes are reported and left out of the model (every source)",
     )
     parser.add_argument(
         "--n-modes", type=int, help="number of modes (default 20, or all up to --max-freq)"
@@ -309,8 +310,11 @@ def run(args: argparse.Namespace) -> int:
         ]
     supports += [PointSupport(x, y) for x, y in args.point_supports]
     supports += [ClampedEdge(side) for side in args.clamped_edges]
-    if not supports:
-        raise InputError("--cups: a mesh or CAD part needs a gripper (--cups X,Y,R ...)")
+    if not supports and not args.allow_rigid_modes:
+        raise InputError(
+            "--cups: a mesh or CAD part needs a gripper (--cups X,Y,R ...), or "
+            "--allow-rigid-modes for the free part (its rigid-body modes are left out)"
+        )
     if args.tolerance is not None:
         return _run_sizing(args, part, supports)
     for name in SIZING_ONLY:

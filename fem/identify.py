@@ -50,6 +50,7 @@ import scipy.optimize
 
 from fem.imported import ImportedModes, file_digest
 from fem.r1_layout import detect_layout, steps_from_zero
+from fem.solver_modes import rigid_mask, rigid_meta
 from jaxflex.convolution import read_unit_response_csv
 from jaxflex.engine import modal_states
 from jaxflex.errors import InputError
@@ -341,11 +342,15 @@ def identify_r1(
     nodes=None,
     node_ids=None,
     max_modes: int | None = None,
+    allow_rigid_modes: bool = False,
+    rigid_tol_hz: float = 0.01,
 ) -> R1Identification:
     """Identify a modal model from unit responses ``r1`` ((A, N+1, K, 3) or (N+1, K, 3) for
     one axis) in m per m/s^2, sampled every ``dt_s`` s, for the acceleration ``axes``
     ("x", "y", "z"; one per R1). ``nodes`` (K, 3) m are the coordinates of the R1 rows
-    (None: unknown; needed for a model file). ``max_modes`` caps the order."""
+    (None: unknown; needed for a model file). ``max_modes`` caps the order. A free part's
+    rigid-body drift (poles of the realisation within ``rigid_tol_hz`` of z = 1, two per
+    rigid-body mode) is refused unless ``allow_rigid_modes``, then left out and reported."""
     started = time.perf_counter()
     dt_s = check_positive("dt", dt_s)
     axes = (axes,) if isinstance(axes, str) else tuple(axes)
@@ -389,7 +394,11 @@ def identify_r1(
 
     tick = time.perf_counter()
     poles = _era_poles(signals[:, 2:], 2 * rank)
-    freq0, zeta0, dropped = _poles_to_modes(poles, dt_s)
+    drift = np.abs(np.log(poles.astype(complex))) / dt_s < 2 * np.pi * rigid_tol_hz
+    rigid_mask(np.zeros(math.ceil(drift.sum() / 2)), 1.0, allow_rigid_modes, "R1")
+    freq0, zeta0, dropped = _poles_to_modes(poles[~drift], dt_s)
+    if drift.any():
+        dropped.append(f"{int(drift.sum())} pole(s) at z = 1: rigid-body drift, left out")
     if freq0.size == 0:
         raise InputError("R1: no oscillating mode found; " + "; ".join(dropped))
     timings["era_s"] = time.perf_counter() - tick
@@ -440,12 +449,14 @@ def identify_r1(
     )
     provenance = {
         "source": "fem.from_r1 (system identification of the unit response R1)",
+        "rigid_modes": rigid_meta(np.zeros(math.ceil(drift.sum() / 2))),
         "derived": {
             "identification": fit.as_dict(),
             "gamma": "1 kg^0.5 along the one excited axis"
             if n_axes == 1
             else "unit vector over the excited axes (rank-one split of the residues)",
             "gamma_unknown_axes": [a for a in AXES if a not in axes],
+            "rigid_body_poles": int(drift.sum()),
             "shapes": "residues (shape x participation) over the participation; the mass "
             "normalisation cannot be known from R1",
         },
@@ -508,6 +519,7 @@ def from_r1(
     *,
     nodes=None,
     max_modes: int | None = None,
+    allow_rigid_modes: bool = False,
 ) -> R1Identification:
     """Identify a modal model from R1 CSV files in the preprint's Table 2 layout (one per
     acceleration axis in ``axes``), sampled every ``dt_s`` s. ``nodes``: a CSV (x, y, z or
@@ -533,7 +545,13 @@ def from_r1(
         node_info = {"nodes": file_digest(nodes)}
         nodes, node_ids = _read_nodes(nodes)
     result = identify_r1(
-        np.stack(arrays), dt_s, axes, nodes=nodes, node_ids=node_ids, max_modes=max_modes
+        np.stack(arrays),
+        dt_s,
+        axes,
+        nodes=nodes,
+        node_ids=node_ids,
+        max_modes=max_modes,
+        allow_rigid_modes=allow_rigid_modes,
     )
     result.provenance["input"] = {
         "r1": [dict(file_digest(p), axis=a) for p, a in zip(paths, axes, strict=True)],
