@@ -170,3 +170,104 @@ def test_real_op2_files_of_pynastrans_model_library():
     ]:
         with pytest.raises(InputError, match=match):
             from_modes(models / name, units="SI")
+
+
+UFF55 = 2e-5  # pyuff writes dataset 55 as E13.5: 6 significant digits, 5e-6 of each value
+
+
+def _write_uff(path, sets) -> None:
+    import pyuff
+
+    uff = pyuff.UFF(str(path))
+    uff.write_sets(sets, mode="overwrite")
+
+
+def _uff_nodes(plate, length: float = 1.0) -> list[dict]:
+    import pyuff
+
+    nodes = plate.system.nodes / length
+    units = pyuff.prepare_164(
+        units_code=1 if length == 1 else 5,
+        units_description="SI" if length == 1 else "mm (milli-newton)",
+        temp_mode=2,
+        length=1 / length,
+        force=1 / length,
+        temp=1.0,
+        temp_offset=273.15,
+    )
+    grid = pyuff.prepare_15(
+        node_nums=_ids(plate),
+        def_cs=np.ones(len(nodes), dtype=int),
+        disp_cs=np.ones(len(nodes), dtype=int),
+        color=np.ones(len(nodes), dtype=int),
+        x=nodes[:, 0],
+        y=nodes[:, 1],
+        z=nodes[:, 2],
+    )
+    return [units, grid]
+
+
+def test_universal_file_modes_written_by_pyuff(tmp_path, plate):
+    # millimetres and milli-newtons (dataset 164: length and force factors 1000, so the mass
+    # unit is the kg): coordinates and shapes in mm, modal masses 1 (mass-normalised)
+    import pyuff
+
+    _, shapes, freq, gamma = _truth(plate)
+    sets = _uff_nodes(plate, length=1e-3)
+    for j, f in enumerate(freq):
+        sets.append(
+            pyuff.prepare_55(
+                model_type=1, analysis_type=2, data_ch=2, spec_data_type=8, data_type=2,
+                n_data_per_node=3, load_case=1, mode_n=j + 1, freq=f, modal_m=1.0,
+                modal_damp_vis=0.0, modal_damp_his=0.0, node_nums=_ids(plate),
+                r1=shapes[:, 0, j] * 1e3, r2=shapes[:, 1, j] * 1e3, r3=shapes[:, 2, j] * 1e3,
+            )
+        )  # fmt: skip
+    path = tmp_path / "plate.uff"
+    _write_uff(path, sets)
+    with pytest.raises(InputError, match=r"datasets 55\) holds no participation factors"):
+        from_modes(path).to_modal_model()
+    result = from_modes(path, gamma=gamma)
+    assert result.provenance["file_units"]["name"].startswith("UFF 164")
+    _same_model(result, plate, UFF55)
+    with pytest.raises(InputError, match=r"units: .* says otherwise"):
+        from_modes(path, gamma=gamma, units="SI")
+
+
+def test_universal_file_time_responses_are_identified(tmp_path, plate):
+    # dataset 58: the response of 40 nodes along z to the unit hat along z, from t = dt on
+    # (pyuff writes them in double precision), identified as the preprint's R1 (fem.identify)
+    import pyuff
+
+    from fem.identify import hat_responses
+    from jaxflex.convolution import unit_response
+
+    dt, steps = 0.005, 600
+    model = plate.to_modal_model()
+    rows = np.arange(0, model.n_points, max(1, model.n_points // 40))
+    r1 = unit_response(model, dt, steps)[2][:, rows]
+    sets = _uff_nodes(plate)[:1]
+    sets.append(_uff_nodes(plate)[1])
+    for k, row in enumerate(rows):
+        dataset = pyuff.prepare_58(
+            func_type=1, rsp_node=int(_ids(plate)[row]), rsp_dir=3, ref_node=0, ref_dir=3,
+            ord_data_type=4, num_pts=steps, abscissa_spacing=1, abscissa_min=dt,
+            abscissa_inc=dt, data=r1[1:, k, 2], x=dt * np.arange(1, steps + 1),
+            abscissa_spec_data_type=17, ordinate_spec_data_type=8, return_full_dict=True,
+        )  # fmt: skip
+        for key, value in dataset.items():  # the header fields pyuff leaves to the user
+            if value is None:
+                dataset[key] = (
+                    "NONE" if key.startswith("id") or key.endswith(("lab", "name")) else 0
+                )
+        sets.append(dataset)
+    path = tmp_path / "r1.uff"
+    _write_uff(path, sets)
+    result = from_modes(path)
+    assert "first sample at t = dt" in result.layouts[0]
+    g = hat_responses(model.freq_hz, model.zeta, dt, steps)
+    peak = np.abs(r1).max()
+    share = np.abs(model.shapes[rows, 2] * model.gamma[:, 2]).max(axis=0) * np.abs(g).max(0)
+    visible = share / peak >= 1e-6
+    np.testing.assert_allclose(result.freq_hz, model.freq_hz[visible], rtol=1e-6)
+    assert result.to_modal_model().n_points == rows.size
