@@ -19,6 +19,7 @@ import numpy as np
 from fem import cli_imports
 from fem.damping import check_damping
 from fem.export import export_modes, plot_part
+from fem.mesh_advice import coarse_mesh_warnings
 from fem.mesh_io import CAD_SUFFIXES, FORMATS_HELP
 from fem.modal import modal_analysis
 from fem.parts import ELEMENTS, read_cad, read_mesh
@@ -332,6 +333,8 @@ def run(args: argparse.Namespace) -> int:
         allow_rigid_modes=args.allow_rigid_modes,
     )
     print(result.summary())
+    for message in coarse_mesh_warnings(result):
+        print(f"warning: {message}", file=sys.stderr)
     points = 1000 if args.points is None else args.points
     model = result.to_modal_model(points=None if points == "all" else points)
     _write(args, model, result)
