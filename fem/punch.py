@@ -62,7 +62,7 @@ def read_punch_modes(path: str | os.PathLike) -> SolverModes:
                 eigenvalue = _value(match.group(1), path, number)
                 current = int(match.group(2))
                 modes[current] = (eigenvalue, {})
-            elif word not in ("SUBCASE ID", "ELEMENT TYPE") and "=" not in line:
+            elif word.replace(" ", "").replace("-", "").isalpha() and "=" not in line:
                 section = word
                 if section != "EIGENVECTOR":
                     other.add(section)
