@@ -271,3 +271,17 @@ def test_universal_file_time_responses_are_identified(tmp_path, plate):
     visible = share / peak >= 1e-6
     np.testing.assert_allclose(result.freq_hz, model.freq_hz[visible], rtol=1e-6)
     assert result.to_modal_model().n_points == rows.size
+
+
+def test_a_third_party_universal_file_with_one_mode():
+    # pyuff's example file (tests/data/README.md): 6 values per node, no coordinates, modal
+    # mass 0 (normalisation not stated); read as it is, with what is missing named
+    path = Path(__file__).parent / "data" / "uff55_translation_rotation.uff"
+    result = from_modes(path, units="SI", gamma=[[0.0, 0.0, 1.0]])
+    assert result.freq_hz.tolist() == [97.013]
+    assert result.shapes.shape == (43, 3, 1)
+    first = [[0.053569, 0.020271, 0.0046623], [0.052429, 0.018285, 0.0046623]]
+    np.testing.assert_allclose(result.shapes[:2, :, 0], first)  # as the file writes them
+    assert "not stated by the file" in result.provenance["derived"]["mass_normalisation"]
+    with pytest.raises(InputError, match=r"no coordinates \(dataset 15 or 2411\) for 43"):
+        result.to_modal_model()
