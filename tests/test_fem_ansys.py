@@ -249,3 +249,14 @@ def test_rotated_nodal_coordinate_systems_are_applied():
     # without the rotations the participation is wrong: the check can fail
     unturned = _free_system(full)[3]
     assert np.abs(modes.vectors.T @ (M @ unturned) - reference.gamma).max() > 1e-3 * scale
+
+
+def test_rigid_body_modes_of_a_rst_follow_the_rule_of_every_door(full_modes):
+    # issue 24: --from-ansys dropped six rigid modes silently and refused the option
+    freq = np.concatenate([[0.0, 1e-4], full_modes.freq_hz[2:]])
+    rst = synthetic_rst(full_modes, freq_hz=freq)
+    with pytest.raises(InputError, match=r"2 rigid-body mode\(s\) .*allow_rigid_modes"):
+        from_rst_modes(rst, units="BIN", n_modes=4)
+    result = from_rst_modes(rst, units="BIN", n_modes=4, allow_rigid_modes=True)
+    assert result.provenance["rigid_modes"] == {"count": 2, "freq_hz": [0.0, 1e-4]}
+    np.testing.assert_array_equal(result.freq_hz, full_modes.freq_hz[2:6])

@@ -220,3 +220,20 @@ def test_bad_r1_arrays_are_refused(r1):
         identify_r1(r1[:30], DT)
     with pytest.raises(InputError, match="all values are zero"):
         identify_r1(np.zeros_like(r1[:50]), DT)
+
+
+def test_a_free_parts_rigid_drift_follows_the_rule_of_every_door(r1):
+    # a free part's R1 carries the rigid-body drift of the hat: q'' = -h_1(t) gives
+    # q = -dt^2/6 at t_1 and -dt (t - dt) from t_2 on (a double pole at z = 1); refused
+    # unless allowed, then left out and reported, the elastic modes still identified
+    rows = slice(None, None, 40)
+    times = DT * np.arange(STEPS + 1)
+    drift = np.where(times >= 2 * DT, -DT * (times - DT), 0.0)
+    drift[1] = -(DT**2) / 6
+    data = r1[:, rows].copy()
+    data[:, :, 2] += 1e-3 * drift[:, None]
+    with pytest.raises(InputError, match=r"R1: 1 rigid-body mode\(s\)"):
+        identify_r1(data, DT)
+    result = identify_r1(data, DT, allow_rigid_modes=True)
+    assert result.provenance["rigid_modes"]["count"] == 1
+    assert any("rigid-body drift" in note for note in result.fit.dropped)

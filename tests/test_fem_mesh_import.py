@@ -368,3 +368,16 @@ def test_a_mesh_too_coarse_for_its_cups_or_modes_is_warned_about(tmp_path):
     assert abs(fine.freq_hz[0] / reference.freq_hz[0] - 1) < 0.01
     many = fem.modal_analysis(fem.read_mesh(tmp_path / "plate_0.03.msh", 1e-3), cups, 60)
     assert any(w.startswith("mode 60") for w in coarse_mesh_warnings(many))
+
+
+def test_the_mesh_door_takes_a_free_part_with_allow_rigid_modes(tmp_path):
+    # issue 24: --mesh refused a free part even with --allow-rigid-modes
+    path = tmp_path / "plate.msh"
+    points, blocks = _plate_blocks(0.6, 0.4, (12, 8))
+    meshio.write(path, meshio.Mesh(points, blocks), file_format="gmsh22", binary=False)
+    args = ["model", "--mesh", str(path), "--thickness", "1e-3", "--n-modes", "3"]
+    refused = run_jaxflex(*args, "-o", str(tmp_path / "m.npz"))
+    assert refused.returncode == 2 and "--allow-rigid-modes" in refused.stderr
+    free = run_jaxflex(*args, "--allow-rigid-modes", "-o", str(tmp_path / "m.npz"))
+    assert free.returncode == 0, free.stderr
+    assert "rigid-body modes kept out of the model: 3" in free.stdout
