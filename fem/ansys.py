@@ -16,8 +16,11 @@
   eigenproblem.
 
 Results are converted to SI with the unit system the file states or the user gives
-(fem.units). Nodes in rotated nodal coordinate systems are not supported for ``.full``
-alone (its DOFs are nodal): the rigid translations would be wrong.
+(fem.units). Nodes in rotated nodal coordinate systems (NROTAT, node angles): the DOFs of a
+``.full`` are nodal, so the rigid translations R and the shapes are turned with the node
+angles of the ``.cdb`` or ``.rst`` given for the coordinates (a CSV cannot state them); a
+``.rst``'s shapes are turned to global axes by ansys-mapdl-reader, and back to nodal axes
+where they are paired with a ``.full``.
 
 ansys-mapdl-reader loads pyvista and VTK (about 10 s on a loaded 2-core machine): it is
 imported where a file is read, so that `import fem` and `jaxflex model` for other parts do
@@ -37,6 +40,7 @@ import scipy.sparse as sp
 from fem.eigen import factorize
 from fem.imported import ImportedModes, file_digest
 from fem.modal import solve_modes
+from fem.solver_modes import rigid_mask, rigid_meta, user_gamma
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
 
@@ -75,7 +79,9 @@ class FullMatrices:
 @dataclass(eq=False)
 class RstModes:
     """Modes of an ``.rst`` file in file units: freq_hz (M,), node_ids (N,), nodes (N, 3),
-    labels (D,) DOF labels, values (N, D, M), stress (N, 6, M) or None, units name or None."""
+    labels (D,) DOF labels, values (N, D, M) with translations in global axes, stress
+    (N, 6, M) or None, units name or None, angles_deg (N, 3) the nodal coordinate systems'
+    angles (THXY, THYZ, THZX) or None."""
 
     freq_hz: np.ndarray
     node_ids: np.ndarray
@@ -85,6 +91,7 @@ class RstModes:
     stress: np.ndarray | None
     units: str | None
     path: str
+    angles_deg: np.ndarray | None = None
 
 
 def _binary(path, suffix: str):
@@ -190,7 +197,38 @@ def read_rst(path: str | os.PathLike) -> RstModes:
         stress,
         STATED_UNITS.get(rst._resultheader.get("units")),
         str(path),
+        _angles(rst.mesh),
     )
+
+
+def _angles(mesh) -> np.ndarray | None:
+    """(N, 3) node angles of a mesh of ansys-mapdl-reader, None if all zero or absent."""
+    angles = getattr(mesh, "node_angles", None)
+    if angles is None or not np.any(angles):
+        return None
+    return np.asarray(angles, dtype=float)[:, :3]
+
+
+def read_node_rotations(path: str | os.PathLike) -> dict[int, np.ndarray]:
+    """{node: T (3, 3)} of the rotated nodal coordinate systems (u_global = T u_nodal) of a
+    .cdb archive or a .rst (empty: none rotated, or a CSV, which cannot say)."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".rst":
+        modes = read_rst(path)
+        ids, angles = modes.node_ids, modes.angles_deg
+    elif suffix == ".cdb":
+        from ansys.mapdl.reader import Archive
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            archive = Archive(str(path), parse_vtk=False)
+        ids, angles = np.asarray(archive.nnum), _angles(archive)
+    else:
+        return {}
+    if angles is None:
+        return {}
+    turned = np.flatnonzero(np.any(angles != 0, axis=1))
+    return dict(zip(ids[turned].tolist(), nodal_rotations(angles[turned]), strict=True))
 
 
 def read_node_coordinates(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
@@ -232,27 +270,63 @@ def _read_csv_table(path: Path, width: int, name: str) -> np.ndarray:
     return table
 
 
-def _free_system(full: FullMatrices):
+def nodal_rotations(angles_deg) -> np.ndarray:
+    """(N, 3, 3) rotations T of MAPDL's nodal coordinate systems, u_global = T u_nodal, from
+    the node angles (N, 3) THXY, THYZ, THZX in degrees (rotations about z, then the new x,
+    then the new y: T = R_y(THZX) R_x(THYZ) R_z(THXY), as ansys-mapdl-reader turns .rst
+    results to global)."""
+    xy, yz, zx = np.radians(np.atleast_2d(np.asarray(angles_deg, dtype=float))).T
+
+    def rot(c, s, axes):
+        m = np.zeros((len(c), 3, 3))
+        (i, j), k = axes, 3 - sum(axes)
+        m[:, i, i], m[:, i, j], m[:, j, i], m[:, j, j] = c, -s, s, c
+        m[:, k, k] = 1.0
+        return m
+
+    rz = rot(np.cos(xy), np.sin(xy), (0, 1))
+    rx = rot(np.cos(yz), np.sin(yz), (1, 2))
+    ry = rot(np.cos(zx), np.sin(zx), (2, 0))
+    return ry @ rx @ rz
+
+
+def _dof_rotation(dof_nodes: np.ndarray, labels: np.ndarray, rotations: dict | None):
+    """(n, 3): for each DOF, the global components of its unit nodal translation (T[:, i] of
+    its node for UX, UY, UZ = i; zeros for rotations)."""
+    out = np.zeros((len(labels), 3))
+    for d, name in enumerate(TRANSLATIONS):
+        rows = np.flatnonzero(labels == name)
+        if rotations is None:
+            out[rows, d] = 1.0
+        else:
+            eye = np.eye(3)
+            out[rows] = np.array([rotations.get(int(n), eye)[:, d] for n in dof_nodes[rows]])
+    return out
+
+
+def _free_system(full: FullMatrices, rotations: dict | None = None):
+    """Free DOFs, K_ff, M_ff and R_f (unit global translations in the DOFs, which are nodal:
+    R[dof of node n along its axis i, d] = T_n[d, i])."""
     free = np.flatnonzero(~full.constrained)
     K = full.K[free][:, free].tocsr()
     M = full.M[free][:, free].tocsr()
-    rigid = np.zeros((free.size, 3))
-    for d, name in enumerate(TRANSLATIONS):
-        rigid[full.labels[free] == name, d] = 1.0
+    rigid = _dof_rotation(full.node_ids[free], full.labels[free], rotations)
     return free, K, M, rigid
 
 
-def _observation(node_ids: np.ndarray, dof_nodes: np.ndarray, labels: np.ndarray):
-    """Sparse (3N, n) selecting UX, UY, UZ of each node in ``node_ids`` among DOFs."""
+def _observation(node_ids: np.ndarray, dof_nodes: np.ndarray, labels: np.ndarray, rotations=None):
+    """Sparse (3N, n): global x, y, z displacements of each node in ``node_ids`` from the
+    DOFs (UX, UY, UZ in each node's nodal system; ``rotations`` {node: T} or None)."""
     row_of = {int(n): i for i, n in enumerate(node_ids)}
-    rows, cols = [], []
-    for col, (node, label) in enumerate(zip(dof_nodes, labels, strict=True)):
-        if label in TRANSLATIONS and int(node) in row_of:
-            rows.append(3 * row_of[int(node)] + TRANSLATIONS.index(label))
-            cols.append(col)
-    return sp.csr_matrix(
-        (np.ones(len(rows)), (rows, cols)), shape=(3 * len(node_ids), len(dof_nodes))
-    )
+    axes = _dof_rotation(dof_nodes, labels, rotations)
+    rows, cols, vals = [], [], []
+    for col, node in enumerate(dof_nodes):
+        if int(node) in row_of and axes[col].any():
+            for d in range(3):
+                rows.append(3 * row_of[int(node)] + d)
+                cols.append(col)
+                vals.append(axes[col, d])
+    return sp.csr_matrix((vals, (rows, cols)), shape=(3 * len(node_ids), len(dof_nodes)))
 
 
 def from_ansys(
@@ -266,6 +340,7 @@ def from_ansys(
     gamma=None,
     zeta=0.02,
     rigid_tol_hz: float = 0.01,
+    allow_rigid_modes: bool = False,
     progress: bool | None = None,
 ) -> ImportedModes:
     """Modes of an ANSYS model (SI units); ``.to_modal_model(points)`` gives the ModalModel.
@@ -286,7 +361,9 @@ def from_ansys(
         gamma: with a ``.rst`` alone: participation factors (M, 3) in kg^0.5, one row per
             kept mode (e.g. from MAPDL's participation factor listing).
         zeta: modal damping ratio (scalar, per mode or fem.Rayleigh).
-        rigid_tol_hz: modes below this frequency are rigid-body modes (dropped).
+        rigid_tol_hz: modes below this frequency are rigid-body modes.
+        allow_rigid_modes: accept a model with rigid-body modes (a free part): they are
+            left out of the model and reported; refused otherwise (the rule of every door).
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -299,7 +376,8 @@ def from_ansys(
             raise InputError("full: only with a .rst (the .full itself was given)")
         if gamma is not None:
             raise InputError("gamma: computed from the .full's mass matrix; do not pass it")
-        return _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid_tol_hz, progress)
+        rigid = (rigid_tol_hz, allow_rigid_modes)
+        return _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid, progress)
     if nodes is not None:
         raise InputError("nodes: a .rst holds its node coordinates")
     if full is not None and gamma is not None:
@@ -313,15 +391,18 @@ def from_ansys(
         gamma=gamma,
         zeta=zeta,
         rigid_tol_hz=rigid_tol_hz,
+        allow_rigid_modes=allow_rigid_modes,
     )
 
 
-def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid_tol_hz, progress):
+def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid, progress):
+    rigid_tol_hz, allow = rigid
     mats = read_full(path)
     unit = resolve_units(units, mats.units, f"{str(path)!r}")
-    free, K, M, rigid = _free_system(mats)
+    rotations = read_node_rotations(nodes) if nodes is not None else {}
+    free, K, M, rigid = _free_system(mats, rotations)
     node_ids = np.unique(mats.node_ids)
-    observation = _observation(node_ids, mats.node_ids[free], mats.labels[free])
+    observation = _observation(node_ids, mats.node_ids[free], mats.labels[free], rotations)
     modes = solve_modes(
         K,
         M,
@@ -333,6 +414,7 @@ def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid_tol_hz, pro
         rigid_tol_hz=rigid_tol_hz,
         progress=progress,
     )
+    rigid_mask(modes.rigid_freq_hz, rigid_tol_hz, allow, repr(str(path)))
     shapes = (observation @ modes.vectors).reshape(len(node_ids), 3, -1) * unit.shape_to_si
     static = None  # per unit acceleration: s^2, the same in every consistent unit system
     if not modes.rigid_freq_hz.size:
@@ -355,9 +437,18 @@ def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid_tol_hz, pro
             f"columns, {int(mats.constrained.sum())}) removed",
             "modes": "fem.eigen (shift-invert Lanczos, or dense for n_modes='all'), "
             "mass-normalised",
-            "gamma": "phi^T M_ff R_f, R: unit translations of UX, UY, UZ",
+            "gamma": "phi^T M_ff R_f, R: unit global translations in the nodal DOFs",
+            "nodal_coordinate_systems": f"{len(rotations)} node(s) rotated (node angles of "
+            "--nodes), applied to the shapes and to R"
+            if rotations
+            else "none rotated"
+            + (
+                " (a CSV cannot say: pass a .cdb or .rst to apply nodal rotations)"
+                if nodes is not None and Path(nodes).suffix.lower() not in (".cdb", ".rst")
+                else ""
+            ),
         },
-        "rigid_modes": {"count": int(modes.rigid_freq_hz.size)},
+        "rigid_modes": rigid_meta(modes.rigid_freq_hz),
         "n_dof": {"total": len(mats.labels), "free": int(free.size)},
     }
     return ImportedModes(
@@ -396,11 +487,13 @@ def from_rst_modes(
     gamma=None,
     zeta=0.02,
     rigid_tol_hz: float = 0.01,
+    allow_rigid_modes: bool = False,
 ) -> ImportedModes:
     """The ImportedModes of modes read from a ``.rst`` (see :func:`from_ansys`)."""
     path, full_path = rst.path, full
     unit = resolve_units(units, rst.units, f"{str(path)!r}")
-    keep = rst.freq_hz >= rigid_tol_hz
+    rigid = rigid_mask(rst.freq_hz, rigid_tol_hz, allow_rigid_modes, repr(str(path)))
+    keep = ~rigid
     if max_freq_hz is not None:
         keep &= rst.freq_hz <= max_freq_hz
     kept = np.flatnonzero(keep)
@@ -418,7 +511,7 @@ def from_rst_modes(
             "modes": "frequencies and global x, y, z shapes from the .rst (MAPDL normalises "
             "modes to the mass matrix unless MODOPT NRMKEY=ON)",
         },
-        "rigid_modes": {"count": int(np.sum(rst.freq_hz < rigid_tol_hz))},
+        "rigid_modes": rigid_meta(rst.freq_hz[rigid]),
     }
     stress = None
     if rst.stress is not None:
@@ -437,24 +530,11 @@ def from_rst_modes(
         provenance=provenance,
     )
     if gamma is not None:
-        result.gamma = _user_gamma(gamma, freq.size)
+        result.gamma = user_gamma(gamma, freq.size)
         provenance["derived"]["gamma"] = "given by the user"
     if full_path is not None:
         _pair_with_full(result, rst, values, full_path, unit)
     return result
-
-
-def _user_gamma(gamma, n_modes: int) -> np.ndarray:
-    try:
-        arr = np.asarray(gamma, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"gamma: expected numbers, (M, 3) in kg^0.5 ({exc})") from exc
-    if arr.shape != (n_modes, 3) or not np.isfinite(arr).all():
-        raise InputError(
-            f"gamma: expected finite values of shape ({n_modes}, 3) in kg^0.5 (one row per "
-            f"kept mode, x y z), got {arr.shape}"
-        )
-    return arr
 
 
 def _dof_names(nodes: np.ndarray, labels: np.ndarray, limit: int = 4) -> str:
@@ -491,6 +571,16 @@ def _pair_with_full(result: ImportedModes, rst: RstModes, values, full_path, uni
     col = {name: j for j, name in enumerate(rst.labels)}
     rows = np.array([row[int(n)] for n in full.node_ids])
     cols = np.array([col[name] for name in full.labels])
+    rotations = {}
+    if rst.angles_deg is not None:  # the .full's DOFs are nodal: turn the global values back
+        turned = np.flatnonzero(np.any(rst.angles_deg != 0, axis=1))
+        rotations = dict(
+            zip(rst.node_ids[turned].tolist(), nodal_rotations(rst.angles_deg[turned]), strict=True)
+        )
+        values = values.copy()
+        t_cols = [col[name] for name in TRANSLATIONS]
+        for node, T in rotations.items():
+            values[row[node], t_cols, :] = T.T @ values[row[node], t_cols, :]
     phi = values[rows, cols, :]  # (n_dof, M) in .full order, file units
     zero = np.all(phi == 0, axis=1)
     moving = full.constrained & ~zero
@@ -515,7 +605,7 @@ def _pair_with_full(result: ImportedModes, rst: RstModes, values, full_path, uni
             + f" ({int(full.constrained.sum())} DOFs constrained in the .full, "
             f"{int(zero.sum())} zero in the .rst modes)"
         )
-    free, K, M, rigid = _free_system(full)
+    free, K, M, rigid = _free_system(full, rotations)
     phi = phi[free]
     omega2 = (2 * np.pi * result.freq_hz) ** 2
     k_phi = K @ phi

@@ -2,13 +2,17 @@
 
 The file must hold surfaces (a sheet body: the part's mid-surface); a solid body is
 refused with what to export instead. STEP and IGES state their length unit: OpenCASCADE
-converts the coordinates to metres; BREP has none (its coordinates are taken as metres);
-``scale`` multiplies after that. Faces that touch are glued (coincident edges become
-one), so the mesh is continuous across their common edges (a flange meets its base). The
-surface is meshed with triangles (quadrilaterals for the thin solid) of ``mesh_size_m``,
-finer where curved (at least ``CURVATURE_ELEMENTS`` per full circle of the curvature
-radius) and refined around given discs (suction cups), the size growing by ``GROWTH`` of
-the distance, as the built-in parts are.
+converts the coordinates to metres (for IGES, gmsh sets that target unit only once its IGES
+translator has been initialised by a first import: an IGES is read once, dropped and read
+again; the unit and the model space scale of its global section are read here, fem.iges, the
+scale applied and the result checked against the largest coordinate the file states); BREP
+has none (its coordinates are taken as metres); ``scale`` multiplies after that. Faces that
+touch are glued (coincident edges become one), so the mesh is continuous across their
+common edges (a flange meets its base). The surface is meshed with triangles
+(quadrilaterals for the thin solid) of ``mesh_size_m``, finer where curved (at least
+``CURVATURE_ELEMENTS`` per full circle of the curvature radius) and refined around given
+discs (suction cups), the size growing by ``GROWTH`` of the distance, as the built-in parts
+are.
 
 gmsh is imported where a CAD file is read: its library needs X11 and OpenGL system
 libraries (libGLU, libXcursor, libXft, libXinerama) that a minimal system may lack, and
@@ -18,6 +22,7 @@ libraries (libGLU, libXcursor, libXft, libXinerama) that a minimal system may la
 from __future__ import annotations
 
 import os
+import sys
 import threading
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -25,12 +30,15 @@ from pathlib import Path
 
 import numpy as np
 
+from fem.iges import iges_units
 from fem.mesh_io import CAD_SUFFIXES, SheetMesh, sheet_from_cells
 from fem.meshing import GROWTH
 from jaxflex.errors import InputError
 
 CURVATURE_ELEMENTS = 12
 _TRIANGLE, _QUAD = 2, 3  # gmsh element types
+IGES_SUFFIXES = (".iges", ".igs")
+BOX_MARGIN_M = 1e-6  # gmsh's bounding boxes are enlarged by OpenCASCADE's tolerance, 1e-7
 _LOCK = threading.Lock()  # gmsh keeps one global state: one session at a time per process
 
 
@@ -70,6 +78,24 @@ def _session() -> Iterator[object]:
                 gmsh.model.setCurrent(previous)
 
 
+@contextmanager
+def _quiet_stdout(active: bool) -> Iterator[None]:
+    """Standard output of the process (file descriptor 1, where the OpenCASCADE library
+    writes) sent to /dev/null while ``active`` (under _LOCK)."""
+    if not active:
+        yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def _import(gmsh, path: str | os.PathLike, scale: float) -> None:
     if not os.path.isfile(path):
         raise InputError(f"cad: file {str(path)!r} does not exist")
@@ -78,10 +104,19 @@ def _import(gmsh, path: str | os.PathLike, scale: float) -> None:
             f"cad: {str(path)!r} is not a CAD file ({', '.join(CAD_SUFFIXES)}); mesh files go "
             "through read_mesh / --mesh"
         )
+    iges = iges_units(path) if Path(path).suffix.lower() in IGES_SUFFIXES else None
     try:
-        entities = gmsh.model.occ.importShapes(str(path))
+        with _quiet_stdout(iges is not None):  # OpenCASCADE's IGES reader prints counts
+            if iges is not None:  # the first import initialises gmsh's IGES translator
+                gmsh.option.setString("Geometry.OCCTargetUnit", "")
+                gmsh.model.occ.remove(gmsh.model.occ.importShapes(str(path)), recursive=True)
+                gmsh.option.setString("Geometry.OCCTargetUnit", "M")
+            entities = gmsh.model.occ.importShapes(str(path))
     except Exception as exc:  # gmsh raises a plain Exception with the kernel's message
         raise InputError(f"cad: cannot read {str(path)!r} ({exc})") from exc
+    if iges is not None:
+        _check_iges_extent(gmsh, entities, iges, path)
+        scale = scale / iges.model_scale
     if scale != 1.0:
         gmsh.model.occ.dilate(entities, 0, 0, 0, scale, scale, scale)
     gmsh.model.occ.synchronize()
@@ -97,6 +132,22 @@ def _import(gmsh, path: str | os.PathLike, scale: float) -> None:
         )
     if not gmsh.model.getEntities(2):
         raise InputError(f"cad: {str(path)!r} holds no surface (a sheet body is required)")
+
+
+def _check_iges_extent(gmsh, entities, iges, path) -> None:
+    """The coordinates read (m) must lie within the largest coordinate the IGES file states
+    (global parameter 20, in its unit; 0: not stated) and the tolerance it gives."""
+    if iges.max_coordinate <= 0:
+        return
+    gmsh.model.occ.synchronize()
+    box = np.array(gmsh.model.getBoundingBox(-1, -1))
+    stated_m = (iges.max_coordinate + iges.resolution) * iges.metres_per_unit
+    if np.abs(box).max() > stated_m * (1 + 1e-6) + BOX_MARGIN_M:
+        raise InputError(
+            f"cad: {str(path)!r} was read with coordinates up to {np.abs(box).max():.6g} m, "
+            f"but the file states {iges.max_coordinate:g} {iges.unit} as its largest "
+            "coordinate; the unit conversion failed (re-export it as STEP)"
+        )
 
 
 def _refine(gmsh, mesh_size_m: float, discs: Sequence[tuple[np.ndarray, float, float]]) -> None:
@@ -119,6 +170,16 @@ def _refine(gmsh, mesh_size_m: float, discs: Sequence[tuple[np.ndarray, float, f
     smallest = gmsh.model.mesh.field.add("Min")
     gmsh.model.mesh.field.setNumbers(smallest, "FieldsList", balls)
     gmsh.model.mesh.field.setAsBackgroundMesh(smallest)
+
+
+def cad_unit(path: str | os.PathLike) -> str:
+    """What the file says about its length unit, in words."""
+    suffix = Path(path).suffix.lower()
+    if suffix in IGES_SUFFIXES:
+        return iges_units(path).describe() + ", converted to m"
+    if suffix == ".brep":
+        return "BREP states no unit: coordinates taken as m"
+    return "STEP unit converted to m by OpenCASCADE"
 
 
 def cad_bounds(path: str | os.PathLike, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:

@@ -2,8 +2,8 @@
 
 With ``--tolerance`` the mesh, the number of modes and the monitored points are chosen for a
 move (``--trajectory`` or ``--distance`` with limits) and a ``--threshold`` by fem.size_model.
-``--from-ansys``, ``--from-nastran`` and ``--from-r1`` build the model from a user's own
-finite-element results (fem.cli_imports).
+``--from-ansys``, ``--from-nastran``, ``--from-r1`` and ``--from-modes`` build the model
+from a user's own finite-element results (fem.cli_imports).
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from fem import cli_imports
 from fem.damping import check_damping
 from fem.export import export_modes, plot_part
 from fem.materials import resolve_material
+from fem.mesh_advice import coarse_mesh_warnings
 from fem.mesh_io import CAD_SUFFIXES, FORMATS_HELP
 from fem.modal import modal_analysis
 from fem.parts import ELEMENTS, read_cad, read_mesh
@@ -38,8 +39,8 @@ from jaxflex.validation import check_output_file
 
 COMMAND = "model"
 HELP = (
-    "build a modal model (.npz) from a built-in scene, a mesh file, or ANSYS, Nastran or R1 "
-    "results (SI units, m)"
+    "build a modal model (.npz) from a built-in scene, a mesh or CAD file, or ANSYS, Nastran, "
+    "R1 or other solvers' modal results (SI units, m)"
 )
 ORDER = 10
 
@@ -184,7 +185,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--allow-rigid-modes",
         action="store_true",
-        help="accept a gripper that leaves rigid-body modes (they are dropped)",
+        help="accept a part that is not held (free, or a gripper that leaves rigid-body "
+        "modes): the rigid-body modes are reported and left out of the model (every source)",
     )
     parser.add_argument(
         "--n-modes", type=int, help="number of modes (default 20, or all up to --max-freq)"
@@ -329,8 +331,11 @@ def run(args: argparse.Namespace) -> int:
         ]
     supports += [PointSupport(x, y) for x, y in args.point_supports]
     supports += [ClampedEdge(side) for side in args.clamped_edges]
-    if not supports:
-        raise InputError("--cups: a mesh or CAD part needs a gripper (--cups X,Y,R ...)")
+    if not supports and not args.allow_rigid_modes:
+        raise InputError(
+            "--cups: a mesh or CAD part needs a gripper (--cups X,Y,R ...), or "
+            "--allow-rigid-modes for the free part (its rigid-body modes are left out)"
+        )
     if args.tolerance is not None:
         return _run_sizing(args, part, supports)
     for name in SIZING_ONLY:
@@ -348,6 +353,8 @@ def run(args: argparse.Namespace) -> int:
         allow_rigid_modes=args.allow_rigid_modes,
     )
     print(result.summary())
+    for message in coarse_mesh_warnings(result):
+        print(f"warning: {message}", file=sys.stderr)
     points = None if args.points in (None, "all") else args.points
     model = result.to_modal_model(points=points)
     _write(args, model, result)

@@ -1,6 +1,7 @@
-"""``jaxflex model --from-ansys | --from-nastran | --from-r1``: a modal model from a user's own
-finite-element results (fem.from_ansys, fem.from_nastran, fem.from_r1); the sources and
-options that fem.cli adds to the ``model`` command, and their run."""
+"""``jaxflex model --from-ansys | --from-nastran | --from-r1 | --from-modes``: a modal model
+from a user's own finite-element results (fem.from_ansys, fem.from_nastran, fem.from_r1,
+fem.from_modes); the sources and options that fem.cli adds to the ``model`` command, and
+their run."""
 
 from __future__ import annotations
 
@@ -11,12 +12,13 @@ from collections.abc import Callable
 import numpy as np
 
 from fem.ansys import from_ansys
+from fem.from_modes import from_modes
 from fem.identify import from_r1
 from fem.nastran import from_nastran
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
 
-SOURCES = ("from_ansys", "from_nastran", "from_r1")
+SOURCES = ("from_ansys", "from_nastran", "from_r1", "from_modes")
 IMPORT_ONLY = ("full", "nodes", "units", "gamma", "spc_id", "axis")
 # options of the built-in and meshed parts, of sizing and of the imports: each import uses
 # those ALLOWED names and refuses the others when they differ from their defaults
@@ -28,9 +30,10 @@ CHECKED = (
     *IMPORT_ONLY,
 )
 ALLOWED = {
-    "ansys": {"full", "nodes", "units", "gamma", "n_modes", "max_freq"},
+    "ansys": {"full", "nodes", "units", "gamma", "n_modes", "max_freq", "allow_rigid_modes"},
     "nastran": {"units", "spc_id", "cups", "element", "allow_rigid_modes", "n_modes", "max_freq"},
-    "r1": {"nodes", "axis", "dt", "report", "n_modes"},
+    "r1": {"nodes", "axis", "dt", "report", "n_modes", "allow_rigid_modes"},
+    "modes": {"nodes", "units", "gamma", "n_modes", "max_freq", "allow_rigid_modes", "report"},
 }
 
 
@@ -46,6 +49,13 @@ def add_sources(group) -> None:
         "--from-nastran", metavar="DECK", help="Nastran bulk-data deck solved by our shell model"
     )
     group.add_argument(
+        "--from-modes",
+        metavar="FILE",
+        help="modes another solver computed: Nastran OP2 (.op2) or punch (.pch), Universal "
+        "File (.uff/.unv: datasets 55 modes, or 58 time responses to a unit hat, identified "
+        "like R1); participation factors from the file or --gamma",
+    )
+    group.add_argument(
         "--from-r1",
         nargs="+",
         metavar="CSV",
@@ -56,7 +66,9 @@ def add_sources(group) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options only the imports use (all default to None)."""
-    group = parser.add_argument_group("imported results (--from-ansys, --from-nastran, --from-r1)")
+    group = parser.add_argument_group(
+        "imported results (--from-ansys, --from-nastran, --from-r1, --from-modes)"
+    )
     group.add_argument(
         "--full", metavar="FILE", help="--from-ansys .rst: the .full of the same model"
     )
@@ -64,17 +76,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--nodes",
         metavar="FILE",
         help="node coordinates: --from-ansys .full: a .cdb, .rst or CSV node,x,y,z of the same "
-        "mesh (file units); --from-r1: CSV x,y,z (or node,x,y,z) in m, one row per R1 row",
+        "mesh (file units); --from-r1: CSV x,y,z (or node,x,y,z) in m, one row per R1 row; "
+        "--from-modes: CSV node,x,y,z (file units) or a result file of the same run",
     )
     group.add_argument(
         "--units",
-        help="unit system of ANSYS/Nastran files that state none: SI, MPA (mm, t, s), BIN "
-        "(in, lbf s^2/in, s), BFT, CGS, UMKS",
+        help="unit system of ANSYS/Nastran files that state none (required for them): SI, MPA "
+        "(mm, t, s), BIN (in, lbf s^2/in, s), BFT, CGS, UMKS",
     )
     group.add_argument(
         "--gamma",
         metavar="CSV",
-        help="--from-ansys .rst: participation factors, one row x,y,z per mode in kg^0.5",
+        help="--from-ansys .rst, --from-modes: participation factors, one row x,y,z per kept "
+        "mode in kg^0.5 (where the file holds none)",
     )
     group.add_argument(
         "--spc-id",
@@ -99,7 +113,8 @@ def refuse_import_options(args: argparse.Namespace) -> None:
     for name in IMPORT_ONLY:
         if getattr(args, name) is not None:
             raise InputError(
-                f"--{name.replace('_', '-')}: only with --from-ansys/--from-nastran/--from-r1"
+                f"--{name.replace('_', '-')}: only with --from-ansys/--from-nastran/--from-r1/"
+                "--from-modes"
             )
 
 
@@ -120,7 +135,7 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
     """Import, print the summary, write the model; ``defaults``: the command's option
     defaults; ``write(args, model, result)``: fem.cli's writer of a model solved here."""
     n_modes = args.n_modes
-    if n_modes is None and args.max_freq is None and not args.from_r1:
+    if n_modes is None and args.max_freq is None and not (args.from_r1 or args.from_modes):
         n_modes = 20
     if args.from_ansys:
         _check_options(args, "ansys", defaults)
@@ -133,6 +148,19 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
             max_freq_hz=args.max_freq,
             gamma=None if args.gamma is None else _read_gamma(args.gamma),
             zeta=args.zeta,
+            allow_rigid_modes=args.allow_rigid_modes,
+        )
+    elif args.from_modes:
+        _check_options(args, "modes", defaults)
+        result = from_modes(
+            args.from_modes,
+            units=args.units,
+            gamma=None if args.gamma is None else _read_gamma(args.gamma),
+            nodes=args.nodes,
+            n_modes=n_modes,
+            max_freq_hz=args.max_freq,
+            zeta=args.zeta,
+            allow_rigid_modes=args.allow_rigid_modes,
         )
     elif args.from_nastran:
         _check_options(args, "nastran", defaults)
@@ -152,13 +180,22 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
         if args.dt is None:
             raise InputError("--dt: the time step of the R1 file(s) in s is required")
         result = from_r1(
-            args.from_r1, args.dt, args.axis or ["z"], nodes=args.nodes, max_modes=n_modes
+            args.from_r1,
+            args.dt,
+            args.axis or ["z"],
+            nodes=args.nodes,
+            max_modes=n_modes,
+            allow_rigid_modes=args.allow_rigid_modes,
         )
     print(result.summary())
+    _print_provenance(result.provenance)
     points = None if args.points in (None, "all") else args.points
-    zeta = None if args.from_r1 else args.zeta  # R1: the identified damping
+    identified = hasattr(result, "fit")  # R1 and measured responses: the identified damping
+    zeta = None if identified else args.zeta
     model = result.to_modal_model(points=points, zeta=zeta)
-    if args.from_r1 and args.report:
+    if args.report and not identified:
+        raise InputError("--report: the identification report of R1 or of measured responses")
+    if identified and args.report:
         write_text_atomic(args.report, json.dumps(result.fit.as_dict(), indent=2))
         print(f"wrote {args.report}")
     if args.from_nastran:
@@ -169,3 +206,17 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
     model.save(args.output)
     print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
     return 0
+
+
+def _print_provenance(provenance: dict) -> None:
+    """What an import found beyond its summary: mass normalisation, rigid-body modes, the
+    missing static response."""
+    derived = provenance.get("derived", {})
+    if "mass_normalisation" in derived:
+        print(f"mass normalisation: {derived['mass_normalisation']}")
+    rigid = provenance.get("rigid_modes", {}).get("count", 0)
+    if rigid:
+        shown = ", ".join(f"{f:.3g}" for f in provenance["rigid_modes"].get("freq_hz", []))
+        print(f"rigid-body modes kept out of the model: {rigid} ({shown} Hz)")
+    if "static_response" in provenance:
+        print(f"static response: {provenance['static_response']}")

@@ -49,7 +49,9 @@ import numpy as np
 import scipy.optimize
 
 from fem.imported import ImportedModes, file_digest
-from jaxflex.convolution import read_unit_response_csv, unit_response_times
+from fem.r1_layout import detect_layout, steps_from_zero
+from fem.solver_modes import rigid_mask, rigid_meta
+from jaxflex.convolution import read_unit_response_csv
 from jaxflex.engine import modal_states
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
@@ -57,7 +59,6 @@ from jaxflex.validation import check_positive
 
 AXES = ("x", "y", "z")
 GRAM_RATIO = 4  # channels / samples above which the SVD goes through the Gram matrix
-HEADER_DT_RTOL = 1e-6  # a header's times are printed with >= 9 significant digits
 FREE_FROM = 2  # the first sample after the hat (at t_1) is over: the modes alone from here
 
 
@@ -179,9 +180,11 @@ class R1Identification(ImportedModes):
     """ImportedModes identified from R1, with the fit report ``fit``."""
 
     fit: R1Fit | None = None
+    layouts: list[str] = field(default_factory=list)
 
     def summary(self) -> str:
-        return self.fit.summary() if self.fit is not None else super().summary()
+        text = self.fit.summary() if self.fit is not None else super().summary()
+        return "\n".join([*(f"read {line}" for line in self.layouts), text])
 
 
 def _data_matrix(r1: np.ndarray) -> np.ndarray:
@@ -341,11 +344,15 @@ def identify_r1(
     nodes=None,
     node_ids=None,
     max_modes: int | None = None,
+    allow_rigid_modes: bool = False,
+    rigid_tol_hz: float = 0.01,
 ) -> R1Identification:
     """Identify a modal model from unit responses ``r1`` ((A, N+1, K, 3) or (N+1, K, 3) for
     one axis) in m per m/s^2, sampled every ``dt_s`` s, for the acceleration ``axes``
     ("x", "y", "z"; one per R1). ``nodes`` (K, 3) m are the coordinates of the R1 rows
-    (None: unknown; needed for a model file). ``max_modes`` caps the order."""
+    (None: unknown; needed for a model file). ``max_modes`` caps the order. A free part's
+    rigid-body drift (poles of the realisation within ``rigid_tol_hz`` of z = 1, two per
+    rigid-body mode) is refused unless ``allow_rigid_modes``, then left out and reported."""
     started = time.perf_counter()
     dt_s = check_positive("dt", dt_s)
     axes = (axes,) if isinstance(axes, str) else tuple(axes)
@@ -391,7 +398,11 @@ def identify_r1(
 
     tick = time.perf_counter()
     poles = _era_poles(signals, 2 * rank)
-    freq0, zeta0, dropped = _poles_to_modes(poles, dt_s)
+    drift = np.abs(np.log(poles.astype(complex))) / dt_s < 2 * np.pi * rigid_tol_hz
+    rigid_mask(np.zeros(math.ceil(drift.sum() / 2)), 1.0, allow_rigid_modes, "R1")
+    freq0, zeta0, dropped = _poles_to_modes(poles[~drift], dt_s)
+    if drift.any():
+        dropped.append(f"{int(drift.sum())} pole(s) at z = 1: rigid-body drift, left out")
     if freq0.size == 0:
         raise InputError("R1: no oscillating mode found; " + "; ".join(dropped))
     timings["era_s"] = time.perf_counter() - tick
@@ -450,12 +461,14 @@ def identify_r1(
     )
     provenance = {
         "source": "fem.from_r1 (system identification of the unit response R1)",
+        "rigid_modes": rigid_meta(np.zeros(math.ceil(drift.sum() / 2))),
         "derived": {
             "identification": fit.as_dict(),
             "gamma": "1 kg^0.5 along the one excited axis"
             if n_axes == 1
             else "unit vector over the excited axes (rank-one split of the residues)",
             "gamma_unknown_axes": [a for a in AXES if a not in axes],
+            "rigid_body_poles": int(drift.sum()),
             "shapes": "residues (shape x participation) over the participation; the mass "
             "normalisation cannot be known from R1",
             "static_response": f"along {', '.join(axes)}: the modes' static response plus the "
@@ -523,6 +536,7 @@ def from_r1(
     *,
     nodes=None,
     max_modes: int | None = None,
+    allow_rigid_modes: bool = False,
 ) -> R1Identification:
     """Identify a modal model from R1 CSV files in the preprint's Table 2 layout (one per
     acceleration axis in ``axes``), sampled every ``dt_s`` s. ``nodes``: a CSV (x, y, z or
@@ -533,18 +547,12 @@ def from_r1(
     axes = (axes,) if isinstance(axes, str) else tuple(axes)
     if len(paths) != len(axes):
         raise InputError(f"axis: {len(paths)} R1 file(s) need {len(paths)} axes, got {axes}")
-    arrays = []
+    arrays, layouts = [], []
     for path in paths:
-        arr = read_unit_response_csv(path)
-        times = unit_response_times(path)
-        if times is not None and times.size > 1:
-            step = float(np.median(np.diff(times)))
-            if abs(step - dt_s) > HEADER_DT_RTOL * step:
-                raise InputError(
-                    f"dt: {dt_s:g} s given, but the header of {str(path)!r} puts its steps "
-                    f"{step:.9g} s apart"
-                )
-        arrays.append(arr)
+        steps = read_unit_response_csv(path)
+        layout = detect_layout(path, steps, dt_s)
+        arrays.append(steps_from_zero(steps, layout))
+        layouts.append(layout)
     shapes = {a.shape for a in arrays}
     if len(shapes) != 1:
         raise InputError(f"R1 files differ in shape (steps, points, 3): {sorted(shapes)}")
@@ -554,7 +562,13 @@ def from_r1(
         node_info = {"nodes": file_digest(nodes)}
         nodes, node_ids = _read_nodes(nodes)
     result = identify_r1(
-        np.stack(arrays), dt_s, axes, nodes=nodes, node_ids=node_ids, max_modes=max_modes
+        np.stack(arrays),
+        dt_s,
+        axes,
+        nodes=nodes,
+        node_ids=node_ids,
+        max_modes=max_modes,
+        allow_rigid_modes=allow_rigid_modes,
     )
     result.provenance["input"] = {
         "r1": [dict(file_digest(p), axis=a) for p, a in zip(paths, axes, strict=True)],
@@ -562,7 +576,11 @@ def from_r1(
     }
     result.provenance["derived"]["dt_s"] = (
         "given; checked against the file's header times"
-        if any(unit_response_times(p) is not None for p in paths)
+        if any(layout.times_s is not None for layout in layouts)
         else "given; the file states no times, so it could not be checked"
     )
+    result.layouts = [
+        f"{Path(p).name}: {layout.describe()}" for p, layout in zip(paths, layouts, strict=True)
+    ]
+    result.provenance["derived"]["layout"] = result.layouts
     return result

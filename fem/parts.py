@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from fem.cad import cad_bounds, mesh_cad
+from fem.cad import cad_bounds, cad_unit, mesh_cad
 from fem.geometry import CadSurface, GivenMesh, Rectangle, check_sheet_element
 from fem.materials import Material, resolve_material
 from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
@@ -180,7 +180,7 @@ def _describe_read(read: dict) -> str:
     text = f"read {read['source']}: {cells}"
     if linear:
         text += " -> " + ", ".join(f"{n} linear {k}" for k, n in linear.items() if n)
-    notes = [f"{read['n_nodes']} nodes"]
+    notes = [f"{read['n_nodes']} nodes"] + ([read["unit"]] if read.get("unit") else [])
     if read.get("skipped_cells"):
         notes.append("skipped " + ", ".join(f"{n} {k}" for k, n in read["skipped_cells"].items()))
     if read.get("welded_nodes"):
@@ -413,7 +413,7 @@ def read_cad(
         element = "morley" if base.is_flat else "shell"
     check_sheet_element(base, "shell" if element == "hex2" else element, repr(str(path)))
     description = {"shape": "CAD sheet body", "path": str(path), "scale": scale}
-    description["read"] = base.report
+    description["read"] = {**base.report, "unit": cad_unit(path)}
     part = Part(
         os.path.basename(str(path)),
         element,

@@ -18,7 +18,6 @@ from __future__ import annotations
 import csv
 import io
 import os
-import re
 import warnings
 from pathlib import Path
 
@@ -109,23 +108,6 @@ def write_unit_response_csv(
     for row in table:
         writer.writerow([repr(float(v)) for v in row])
     write_text_atomic(path, buf.getvalue())
-
-
-_STEP_TIME = re.compile(r"@\s*([-+0-9.eE]+)\s*s\s*$")
-
-
-def unit_response_times(path: str | os.PathLike) -> np.ndarray | None:
-    """Times in s of the N+1 steps of an R1 CSV whose header states them (``...@0.01s`` per
-    column, as :func:`write_unit_response_csv` writes with ``dt_s``), else None."""
-    with Path(path).open(newline="", encoding="utf-8") as handle:
-        first = next(csv.reader(handle), [])
-    matches = [_STEP_TIME.search(cell) for cell in first]
-    if not first or not all(matches) or len(first) % 3:
-        return None
-    times = np.array([float(m.group(1)) for m in matches]).reshape(-1, 3)
-    if np.ptp(times, axis=1).max() > 0:
-        raise InputError(f"{str(path)!r}: the header gives x, y, z of one step different times")
-    return times[:, 0]
 
 
 def read_unit_response_csv(path: str | os.PathLike) -> np.ndarray:

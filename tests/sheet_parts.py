@@ -2,8 +2,8 @@
 
 * A circular cylindrical panel (radius RADIUS_M, chord CHORD_M along x, depth DEPTH_M along
   y, crowned at x = CHORD_M / 2): nodes on the exact surface, as meshes of every cell type
-  (tri3, tri6, quad4, quad8, quad9, mixed, several blocks) and as a STEP file written by
-  gmsh's OpenCASCADE kernel.
+  (tri3, tri6, quad4, quad8, quad9, mixed, several blocks) and as STEP and IGES files
+  written by gmsh's OpenCASCADE kernel.
 * A folded L-bracket of quadrilaterals: a base [0, base] x [0, width] in the plane z = 0 and
   a flange along the edge x = 0, turned up by the fold angle (90 degrees: vertical).
 """
@@ -94,18 +94,46 @@ def _gmsh():
         gmsh.finalize()
 
 
+def _panel_surface(unit_m: float = 1.0) -> None:
+    """The panel in the current gmsh model, coordinates in units of ``unit_m`` metres: the
+    circular arc extruded along y (OpenCASCADE)."""
+    occ = gmsh.model.occ
+    ends = panel_points(np.array([0.0, 1.0]), np.zeros(2)) / unit_m
+    start = occ.addPoint(*ends[0])
+    centre = occ.addPoint(CHORD_M / 2 / unit_m, 0.0, -RADIUS_M / unit_m)
+    end = occ.addPoint(*ends[1])
+    arc = occ.addCircleArc(start, centre, end)
+    occ.extrude([(1, arc)], 0, DEPTH_M / unit_m, 0)
+    occ.synchronize()
+
+
 def write_panel_step(path: str | os.PathLike) -> None:
-    """The panel as a STEP surface: the circular arc extruded along y (OpenCASCADE)."""
+    """The panel as a STEP surface (OpenCASCADE)."""
     with _gmsh():
-        occ = gmsh.model.occ
-        ends = panel_points(np.array([0.0, 1.0]), np.zeros(2))
-        start = occ.addPoint(*ends[0])
-        centre = occ.addPoint(CHORD_M / 2, 0.0, -RADIUS_M)
-        end = occ.addPoint(*ends[1])
-        arc = occ.addCircleArc(start, centre, end)
-        occ.extrude([(1, arc)], 0, DEPTH_M, 0)
-        occ.synchronize()
+        _panel_surface()
         gmsh.write(str(path))
+
+
+def write_panel_iges(path: str | os.PathLike, unit: str = "MM", model_scale: int = 1) -> None:
+    """The panel as an IGES surface written by gmsh, whose IGES writer states millimetres
+    (units flag 2) for coordinates as they are: the panel is built in ``unit`` ("MM" or
+    "IN") times ``model_scale`` (1 to 9), and the global section's units flag, name and
+    model space scale (parameters 13 to 15) are set to say so."""
+    unit_m = {"MM": 1e-3, "IN": 0.0254}[unit]
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        _panel_surface(unit_m / model_scale)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    with open(path, encoding="latin-1") as handle:
+        text = handle.read()
+    flag = {"MM": 2, "IN": 1}[unit]
+    assert ",1.,2,2HMM," in text, "gmsh's IGES global section changed"
+    stated = text.replace(",1.,2,2HMM,", f",{model_scale}.,{flag},2H{unit},", 1)
+    with open(path, "w", encoding="latin-1") as handle:
+        handle.write(stated)
 
 
 def write_box_step(path: str | os.PathLike) -> None:

@@ -13,6 +13,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.linalg
+import scipy.sparse as sp
 from ansys.mapdl.reader import examples, read_binary
 
 import fem
@@ -195,3 +196,67 @@ def test_node_csv_and_missing_files(tmp_path, full_modes):
     bogus.write_bytes(b"not a full file" * 10)
     with pytest.raises(InputError, match=r"not a MAPDL \.full file"):
         fem.from_ansys(bogus, units="BIN")
+
+
+def test_rotated_nodal_coordinate_systems_are_applied():
+    # issue 24: a .full's DOFs are in each node's nodal system (NROTAT). Our shell's
+    # matrices (global DOFs, 6 per node) turned into random nodal systems, K_n = B^T K B,
+    # must give the same frequencies, global shapes and participation factors once the node
+    # rotations are applied (fem.ansys._free_system, _observation); the rotations follow
+    # ansys-mapdl-reader's own conversion of .rst results to global axes.
+    from ansys.mapdl.reader.common import rotate_to_global
+
+    from fem.ansys import FullMatrices, _free_system, _observation, nodal_rotations
+    from fem.modal import solve_modes
+
+    part = fem.rectangular_plate(0.3, 0.2, 1e-3, mesh_size=0.05, element="shell")
+    truth = fem.modal_analysis(part, [fem.ClampedEdge("x0")], 4, progress=False)
+    system = truth.system
+    n_nodes = len(system.nodes)
+    angles = np.random.default_rng(3).uniform(-90, 90, (n_nodes, 3))
+    turns = nodal_rotations(angles)
+    vectors = np.random.default_rng(4).normal(size=(n_nodes, 3))
+    theirs = np.einsum("nij,nj->ni", turns, vectors)
+    rotate_to_global(vectors, angles.T.copy())  # in place, ZXY as MAPDL
+    np.testing.assert_allclose(theirs, vectors, atol=1e-12)
+    blocks = [turns[n] for n in range(n_nodes) for _ in range(2)]  # translations, rotations
+    B = sp.block_diag(blocks, format="csr")
+    labels = np.tile(["UX", "UY", "UZ", "ROTX", "ROTY", "ROTZ"], n_nodes)
+    node_ids = np.repeat(np.arange(1, n_nodes + 1), 6)
+    constrained = np.zeros(system.n_dof, dtype=bool)
+    constrained[system.constraints.fixed] = True
+    full = FullMatrices(
+        (B.T @ system.K @ B).tocsr(), (B.T @ system.M @ B).tocsr(), node_ids, labels,
+        constrained, "SI", "rotated",
+    )  # fmt: skip
+    rotations = dict(zip(range(1, n_nodes + 1), turns, strict=True))
+    free, K, M, rigid = _free_system(full, rotations)
+    observation = _observation(np.arange(1, n_nodes + 1), node_ids[free], labels[free], rotations)
+    modes = solve_modes(K, M, M @ rigid, observation, 4, progress=False)
+    # the same model in global DOFs (a .full holds no mass coupling to the constrained DOFs:
+    # Gamma = phi^T M_ff R_f on both sides)
+    plain = FullMatrices(system.K, system.M, node_ids, labels, constrained, "SI", "global")
+    _, K0, M0, rigid0 = _free_system(plain)
+    ids = np.arange(1, n_nodes + 1)
+    observation0 = _observation(ids, node_ids[free], labels[free])
+    reference = solve_modes(K0, M0, M0 @ rigid0, observation0, 4, progress=False)
+    np.testing.assert_allclose(modes.freq_hz, truth.freq_hz, rtol=1e-9)
+    np.testing.assert_allclose(modes.freq_hz, reference.freq_hz, rtol=1e-9)
+    scale = np.abs(reference.gamma).max()
+    np.testing.assert_allclose(modes.gamma, reference.gamma, atol=1e-9 * scale)
+    shapes = (observation @ modes.vectors).reshape(n_nodes, 3, -1)
+    np.testing.assert_allclose(shapes, truth.node_shapes(), atol=1e-9 * np.abs(shapes).max())
+    # without the rotations the participation is wrong: the check can fail
+    unturned = _free_system(full)[3]
+    assert np.abs(modes.vectors.T @ (M @ unturned) - reference.gamma).max() > 1e-3 * scale
+
+
+def test_rigid_body_modes_of_a_rst_follow_the_rule_of_every_door(full_modes):
+    # issue 24: --from-ansys dropped six rigid modes silently and refused the option
+    freq = np.concatenate([[0.0, 1e-4], full_modes.freq_hz[2:]])
+    rst = synthetic_rst(full_modes, freq_hz=freq)
+    with pytest.raises(InputError, match=r"2 rigid-body mode\(s\) .*allow_rigid_modes"):
+        from_rst_modes(rst, units="BIN", n_modes=4)
+    result = from_rst_modes(rst, units="BIN", n_modes=4, allow_rigid_modes=True)
+    assert result.provenance["rigid_modes"] == {"count": 2, "freq_hz": [0.0, 1e-4]}
+    np.testing.assert_array_equal(result.freq_hz, full_modes.freq_hz[2:6])

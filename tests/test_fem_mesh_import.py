@@ -19,6 +19,7 @@ from sheet_parts import (
     bracket,
     panel_cells,
     write_box_step,
+    write_panel_iges,
     write_panel_step,
 )
 from test_fem_nastran import STEEL_SI, meshio_deck
@@ -304,3 +305,79 @@ def test_a_folded_part_can_be_plotted(tmp_path):
     result = fem.modal_analysis(part, fem.ClampedEdge("x1"), 2, progress=False)
     fem.plot_part(result, tmp_path / "bracket.png", n_modes=2)
     assert (tmp_path / "bracket.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize(("unit", "model_scale"), [("MM", 1), ("IN", 1), ("MM", 2)])
+def test_an_iges_sheet_body_is_the_same_part_as_the_step(tmp_path, panel_step, unit, model_scale):
+    # issue 24: gmsh 4.15 refused every IGES ("Could not set OpenCASCADE target unit 'M'").
+    # The panel written by gmsh as IGES in millimetres, in inches, and at model space scale 2
+    # (the global section says so), read after the STEP in the same process (OpenCASCADE
+    # keeps its unit between reads) and against it: the same surface (bounds, area, every
+    # node on the cylinder, to OpenCASCADE's tolerance 1e-7 m), and frequencies within the
+    # difference of two 50 mm meshes of it (IGES holds a B-spline, STEP the circle: gmsh
+    # places the nodes differently; measured 0.05 %, the shell's error at 50 mm ~0.5 %). A
+    # wrong unit (x 25.4 or x 1000 in size) changes them by orders of magnitude.
+    step = fem.read_cad(panel_step, THICKNESS_M, mesh_size=0.05)
+    path = tmp_path / "panel.igs"
+    write_panel_iges(path, unit, model_scale)
+    iges = fem.read_cad(path, THICKNESS_M, mesh_size=0.05)
+    for ours, theirs in zip(iges.bounds_m(), step.bounds_m(), strict=True):
+        np.testing.assert_allclose(ours, theirs, atol=1e-6)
+    assert iges.area_m2 == pytest.approx(step.area_m2, rel=1e-6)
+    read = iges.geometry.description["read"]["unit"]
+    assert read.startswith(f"IGES unit {unit} (units flag {1 if unit == 'IN' else 2})")
+    assert ("model space scale 2" in read) == (model_scale == 2)
+    nodes = iges.geometry.base.nodes
+    radial = np.hypot(nodes[:, 0] - CHORD_M / 2, nodes[:, 2] + RADIUS_M)
+    np.testing.assert_allclose(radial, RADIUS_M, atol=1e-6)
+    np.testing.assert_allclose(_free(iges).freq_hz, _free(step).freq_hz, rtol=5e-3)
+
+
+def test_a_mesh_too_coarse_for_its_cups_or_modes_is_warned_about(tmp_path):
+    # issue 24: a user's mesh is taken as it comes, so the command warns where it is too
+    # coarse (fem.mesh_advice), with the size it needs. Checked against what the warning
+    # claims: at 30 mm under 30 mm cups the first frequency is > 1 % off the built-in part
+    # refined at its cups; at the size the warning asks for, within 1 % and no cup warning.
+    import gmsh
+
+    from fem.mesh_advice import coarse_mesh_warnings
+
+    cups = [fem.SuctionCup(x, y, 0.03) for x in (0.12, 0.48) for y in (0.1, 0.3)]
+    reference = fem.modal_analysis(fem.rectangular_plate(0.6, 0.4, 1e-3), cups, 6)
+
+    def mesh(size_m: float):
+        path = tmp_path / f"plate_{size_m}.msh"
+        gmsh.initialize(readConfigFiles=False)
+        try:
+            gmsh.option.setNumber("General.Terminal", 0)
+            gmsh.model.occ.addRectangle(0, 0, 0, 0.6, 0.4)
+            gmsh.model.occ.synchronize()
+            gmsh.option.setNumber("Mesh.MeshSizeMax", size_m)
+            gmsh.model.mesh.generate(2)
+            gmsh.write(str(path))
+        finally:
+            gmsh.finalize()
+        result = fem.modal_analysis(fem.read_mesh(path, 1e-3), cups, 6, progress=False)
+        return result, coarse_mesh_warnings(result)
+
+    coarse, warned = mesh(0.03)
+    assert sum("a rigid cup needs about 7.5 mm" in w for w in warned) == 4, warned
+    assert abs(coarse.freq_hz[0] / reference.freq_hz[0] - 1) > 0.01
+    fine, quiet = mesh(0.0075)
+    assert not [w for w in quiet if "cup" in w], quiet
+    assert abs(fine.freq_hz[0] / reference.freq_hz[0] - 1) < 0.01
+    many = fem.modal_analysis(fem.read_mesh(tmp_path / "plate_0.03.msh", 1e-3), cups, 60)
+    assert any(w.startswith("mode 60") for w in coarse_mesh_warnings(many))
+
+
+def test_the_mesh_door_takes_a_free_part_with_allow_rigid_modes(tmp_path):
+    # issue 24: --mesh refused a free part even with --allow-rigid-modes
+    path = tmp_path / "plate.msh"
+    points, blocks = _plate_blocks(0.6, 0.4, (12, 8))
+    meshio.write(path, meshio.Mesh(points, blocks), file_format="gmsh22", binary=False)
+    args = ["model", "--mesh", str(path), "--thickness", "1e-3", "--n-modes", "3"]
+    refused = run_jaxflex(*args, "-o", str(tmp_path / "m.npz"))
+    assert refused.returncode == 2 and "--allow-rigid-modes" in refused.stderr
+    free = run_jaxflex(*args, "--allow-rigid-modes", "-o", str(tmp_path / "m.npz"))
+    assert free.returncode == 0, free.stderr
+    assert "rigid-body modes kept out of the model: 3" in free.stdout

@@ -76,3 +76,51 @@ def test_cup_held_plate_default_mesh_is_converged_to_1_5_percent():
     fine = fem.modal_analysis(fem.rectangular_plate(0.6, 0.4, mesh_size=0.00375), cups, 10)
     np.testing.assert_allclose(default.freq_hz, fine.freq_hz, rtol=1.5e-2)
     assert default.freq_hz[0] < fine.freq_hz[0]
+
+
+def test_argyris_on_a_users_unstructured_mesh_away_from_the_origin(tmp_path):
+    # issue 24: a gmsh mesh of a 1.2 x 0.6 m plate at 30 mm ended in "plate rigid motions:
+    # projection differs by 7.9e+04" (scikit-fem's global monomial basis, condition ~1e12;
+    # fem.argyris). Simply supported, against the closed form; the plate is shifted away
+    # from the origin, which made it worse. Argyris at 30 mm: O(h^4), measured < 1e-5.
+    import gmsh
+
+    width, height, shift = 1.2, 0.6, (3.0, -2.0)
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.occ.addRectangle(shift[0], shift[1], 0, width, height)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.03)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(tmp_path / "plate.msh"))
+    finally:
+        gmsh.finalize()
+    part = fem.read_mesh(tmp_path / "plate.msh", THICKNESS, element="argyris")
+    result = fem.modal_analysis(part, fem.SimplySupportedEdge(), 6, progress=False)
+    pairs = sorted((m / width) ** 2 + (n / height) ** 2 for m in range(1, 7) for n in range(1, 7))
+    rigidity = STEEL.bending_stiffness_nm(THICKNESS) / (STEEL.rho_kg_m3 * THICKNESS)
+    exact = np.pi / 2 * np.array(pairs[:6]) * np.sqrt(rigidity)
+    np.testing.assert_allclose(result.freq_hz, exact, rtol=1e-4)
+    # the rigid motions (cup reactions) are exact on this mesh too
+    x = result.system.outputs.linear_dofs()[:, 1]
+    assert np.abs(x[result.system.node_dofs[:, 2]] - part.geometry.sheet.nodes[:, 0]).max() < 1e-12
+
+
+def test_argyris_in_element_coordinates_is_scikit_fems_element():
+    # where scikit-fem's global basis is well conditioned (large elements near the origin)
+    # both give the same matrices (same element, other basis of the same space)
+    import skfem
+
+    from fem.argyris import ElementTriArgyrisLocal
+
+    mesh = skfem.MeshTri.init_symmetric().refined(1)
+    forms = {
+        "K": skfem.BilinearForm(lambda u, v, _: skfem.helpers.ddot(skfem.helpers.dd(u),
+                                                                     skfem.helpers.dd(v))),
+        "M": skfem.BilinearForm(lambda u, v, _: u * v),
+    }  # fmt: skip
+    for form in forms.values():
+        ours = form.assemble(skfem.Basis(mesh, ElementTriArgyrisLocal())).toarray()
+        theirs = form.assemble(skfem.Basis(mesh, skfem.ElementTriArgyris())).toarray()
+        np.testing.assert_allclose(ours, theirs, atol=1e-9 * np.abs(theirs).max())

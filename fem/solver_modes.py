@@ -1,0 +1,82 @@
+"""Modes as another solver's result file holds them (Nastran OP2 and punch, Universal File
+Format), in the file's units: what each reader returns and fem.from_modes turns into a
+model. What a file does not hold stays None, with the reason."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fem.units import Units
+from jaxflex.errors import InputError
+
+
+@dataclass(eq=False)
+class SolverModes:
+    """Real normal modes read from a result file (file units).
+
+    Attributes:
+        kind: what was read, e.g. "Nastran OP2 (LAMA, OUGV1)".
+        path: the file.
+        mode_ids: (M,) the solver's mode numbers.
+        freq_hz: (M,) natural frequencies, Hz.
+        node_ids: (N,) grid / node numbers.
+        shapes: (N, 3, M) translations x, y, z per mode in the basic (global) frame.
+        nodes: (N, 3) coordinates in the basic frame, or None (``nodes_missing`` says why).
+        generalized_mass: (M,) phi^T M phi as the file states it (1: mass-normalised), or
+            None where it states none.
+        gamma: (M, 3) participation factors phi^T M R / (phi^T M phi) along x, y, z as the
+            file states them, or None (``gamma_missing`` says why).
+        gamma_source: where ``gamma`` came from.
+        units: the unit system the file states (Units), or None.
+        notes: what else was found (tables skipped, ...), for the model's meta.
+    """
+
+    kind: str
+    path: str
+    mode_ids: np.ndarray
+    freq_hz: np.ndarray
+    node_ids: np.ndarray
+    shapes: np.ndarray
+    nodes: np.ndarray | None = None
+    generalized_mass: np.ndarray | None = None
+    gamma: np.ndarray | None = None
+    gamma_source: str = ""
+    gamma_missing: str = ""
+    nodes_missing: str = ""
+    units: Units | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+def rigid_mask(freq_hz: np.ndarray, rigid_tol_hz: float, allow: bool, source: str) -> np.ndarray:
+    """(M,) True for the rigid-body modes (below ``rigid_tol_hz``) among ``freq_hz``; the
+    same rule on every door: refused unless ``allow`` (allow_rigid_modes,
+    --allow-rigid-modes), then left out of the model and reported."""
+    rigid = np.asarray(freq_hz) < rigid_tol_hz
+    if rigid.any() and not allow:
+        raise InputError(
+            f"{source}: {int(rigid.sum())} rigid-body mode(s) (below {rigid_tol_hz:g} Hz): the "
+            "part is not held; pass allow_rigid_modes=True (--allow-rigid-modes) to leave them "
+            "out of the model"
+        )
+    return rigid
+
+
+def rigid_meta(freq_hz: np.ndarray) -> dict:
+    """The model meta's ``rigid_modes`` entry, as fem.modal_analysis writes it."""
+    return {"count": int(np.size(freq_hz)), "freq_hz": [float(f) for f in np.ravel(freq_hz)]}
+
+
+def user_gamma(gamma, n_modes: int) -> np.ndarray:
+    """Participation factors given by the user, checked: (n_modes, 3) finite, kg^0.5."""
+    try:
+        arr = np.asarray(gamma, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"gamma: expected numbers, (M, 3) in kg^0.5 ({exc})") from exc
+    if arr.shape != (n_modes, 3) or not np.isfinite(arr).all():
+        raise InputError(
+            f"gamma: expected finite values of shape ({n_modes}, 3) in kg^0.5 (one row per "
+            f"kept mode, x y z), got {arr.shape}"
+        )
+    return arr
