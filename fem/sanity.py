@@ -8,7 +8,9 @@ millimetres. The part is still built: the warning says what was read and what to
 
 from __future__ import annotations
 
+import sys
 import warnings
+from contextlib import contextmanager
 
 THICKNESS_PER_SPAN = (1 / 5000, 1 / 20)
 MASS_KG = (0.01, 1000.0)
@@ -51,3 +53,19 @@ def warn_units(part) -> None:
     """Issue every :func:`unit_warnings` of ``part`` as a PartWarning."""
     for message in unit_warnings(part):
         warnings.warn(f"{part.name}: {message}", PartWarning, stacklevel=3)
+
+
+@contextmanager
+def printed_part_warnings():
+    """Run the block and print each PartWarning it issued as ``warning: ...`` on stderr
+    (other warnings as Python shows them)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", PartWarning)
+        yield
+    for warning in caught:
+        if issubclass(warning.category, PartWarning):
+            print(f"warning: {warning.message}", file=sys.stderr)
+        else:
+            warnings.showwarning(
+                warning.message, warning.category, warning.filename, warning.lineno
+            )

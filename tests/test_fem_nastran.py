@@ -57,7 +57,7 @@ def test_deck_of_the_built_in_plate_gives_its_frequencies(tmp_path):
     model = result.to_modal_model(points=200)
     assert model.meta["input"]["deck"]["sha256"]
     assert model.meta["derived"]["units"]["name"] == "SI"
-    assert model.meta["derived"]["mat1_derived"] == {"MAT1 1": "G from E = 2 (1 + NU) G"}
+    assert model.meta["derived"]["material_notes"] == {"MAT1 1": "G from E = 2 (1 + NU) G"}
 
 
 WIDTH, HEIGHT = 0.6, 0.4
@@ -132,7 +132,7 @@ def test_wtmass_and_mat1_from_e_and_g(tmp_path, simply_supported):
     result = fem.from_nastran(path, units="SI", n_modes=6)
     # NU from a 14-digit G: 1e-13 off, frequencies move by far less than 1e-6
     np.testing.assert_allclose(result.freq_hz, simply_supported.freq_hz, rtol=1e-6)
-    assert result.provenance["derived"]["mat1_derived"] == {"MAT1 1": "NU from E = 2 (1 + NU) G"}
+    assert result.provenance["derived"]["material_notes"] == {"MAT1 1": "NU from E = 2 (1 + NU) G"}
     # PARAM WTMASS scales the mass: a quarter of it doubles every frequency (omega ~ 1/sqrt(m))
     path = meshio_deck(
         tmp_path / "wt.bdf", nodes, "quad", quads, ["PARAM,WTMASS,.25", *STEEL_SI, *boundary]
