@@ -10,19 +10,22 @@ DIR is a library of decks, e.g. the ``models/`` folder of pyNastran
   file of DIR INCLUDEs (resolved from the including deck's directory, as Nastran does, then
   beside the including file) and whose bulk data (with its INCLUDEs) holds a shell element
   card (CQUAD4, CTRIA3, CQUAD8, CTRIA6, CQUADR, CTRIAR); the selection is a text scan, the
-  same whatever fem reads.
+  same whatever fem reads. A **shell deck** holds no solid, fluid or axisymmetric element
+  card (CHEXA, CPENTA, CTETRA, CPYRAM, CFLUIDi, CHACAB, CAABSF, CQUADX, CTRIAX): its
+  structure is sheets, with beams, springs, masses and rigid elements.
 * Each deck goes through ``fem.from_nastran(deck, units="SI", n_modes=...)`` (frequencies
   do not depend on the unit system when the deck's units are consistent). A user follows
   the door's messages: a deck that leaves rigid-body modes is retried with
-  ``allow_rigid_modes=True``,
-  one with several SPC sets with the first set its case control selects (``--spc-id``).
-  The outcome is ``read``, ``refused`` (an InputError/ModelError: the message, and the
-  cards it names) or ``traceback`` (any other exception: a bug).
-* **Frequencies**: where an ``.f06`` with the deck's stem lies beside it and the deck's
-  solution computes normal modes (SOL 103, 111, 112, 145, 146), its REAL EIGENVALUES tables
-  are parsed and the elastic modes (above 0.1 Hz) compared with ours in
-  order: the relative difference of the first ``--modes`` of them. Several tables
-  (subcases) are compared with the one whose first frequency is nearest ours.
+  ``allow_rigid_modes=True``, one with several SPC sets with the first set its case control
+  selects (``--spc-id``). The outcome is ``read``, ``refused`` (an InputError/ModelError:
+  the message, and the cards it names) or ``traceback`` (any other exception: a bug); a
+  refusal for a deck without mass (a static deck: no RHO, no CONM) is counted apart.
+* **Frequencies**: where an ``.f06`` (else an ``.op2``) with the deck's stem lies beside it
+  and the deck's solution computes normal modes (SOL 103, 111, 112, 145, 146, 200), its
+  REAL EIGENVALUES tables (the OP2's LAMA records, found by their consistency) give the
+  solver's modes; the elastic ones (above 0.1 Hz) are compared with ours in order, the
+  relative difference of the first ``--modes``. Of several tables (subcases) the one whose
+  first frequency is nearest ours is compared (SOL 200: the first, the deck as given).
 """
 
 from __future__ import annotations
@@ -53,6 +56,10 @@ MODAL_SOLUTIONS = {
     *("145", "146", "SEFLUTTR", "SEAERO", "200", "DESOPT"),
 }
 RIGID_HZ = 0.1  # the solver's modes below this count as rigid-body modes
+_SOLID = re.compile(
+    r"^(CHEXA|CPENTA|CTETRA|CPYRAM|CFLUID\d|CHACAB|CAABSF|CQUADX\d*|CTRIAX\d*)[\s,*]",
+    re.IGNORECASE | re.MULTILINE,
+)
 _CARD_NAME = re.compile(r"\b([A-Z][A-Z0-9]{2,7})\b")
 
 
@@ -98,11 +105,17 @@ def _has_shell(path: Path) -> bool:
 
 
 def find_decks(root: Path) -> list[Path]:
-    """The shell decks under ``root`` (module docstring), sorted."""
+    """The decks under ``root`` (module docstring), sorted."""
     files = sorted(p.resolve() for p in root.rglob("*") if p.suffix.lower() in EXTENSIONS)
     trees = {p: _tree(p, p.parent, set()) for p in files}
     included = {q for p, tree in trees.items() for q in tree if q != p}
     return [p for p in files if p not in included and any(_has_shell(q) for q in trees[p])]
+
+
+def is_shell_deck(path: Path) -> bool:
+    """Whether the deck and its INCLUDEs hold no solid, fluid or axisymmetric element."""
+    files = _tree(path, path.parent, set())
+    return not any(_SOLID.search(f.read_text(encoding="utf-8", errors="replace")) for f in files)
 
 
 def f06_eigen_tables(path: Path) -> list[np.ndarray]:
@@ -130,6 +143,56 @@ def f06_eigen_tables(path: Path) -> list[np.ndarray]:
         elif table:
             merged.append(table)
     return [np.array([hz for _, hz in t]) for t in merged]
+
+
+def _lama_tables(data: bytes, start: int, dtype: str) -> list[np.ndarray]:
+    """Eigenvalue records (mode, order, eigenvalue, radians, cycles, mass, stiffness) found
+    after ``start``: runs of modes 1, 2, ... whose radians^2 is the eigenvalue and cycles
+    radians / 2 pi (the checks a stray word cannot pass)."""
+    width = np.dtype(dtype).itemsize
+    window = data[start : start + 400_000]
+    tables = []
+    for shift in range(0, width, 4):
+        usable = (len(window) - shift) // width * width
+        ints = np.frombuffer(window[shift : shift + usable], dtype=dtype.replace("f", "i"))
+        reals = np.frombuffer(window[shift : shift + usable], dtype=dtype)
+        for first in np.flatnonzero((ints[:-7] == 1) & (ints[1:-6] == 1)):
+            cycles, k, i = [], 1, first
+            while i + 7 <= len(ints) and ints[i] == k:
+                value, radians, hz = (float(v) for v in reals[i + 2 : i + 5])
+                if not (np.isfinite([value, radians, hz]).all() and radians >= 0):
+                    break
+                if abs(radians**2 - value) > 1e-4 * max(abs(value), 1e-12) or abs(
+                    2 * np.pi * hz - radians
+                ) > 1e-5 * max(radians, 1e-12):
+                    break
+                cycles.append(hz)
+                k, i = k + 1, i + 7
+            if cycles:
+                tables.append(np.array(cycles))
+    return tables
+
+
+def op2_eigen_tables(path: Path) -> list[np.ndarray]:
+    """The natural frequencies of an OP2 file, Hz: its LAMA (real eigenvalue) tables (little
+    or big endian, 32 or 64 bit words), found by their records' consistency (not a full
+    reader: no table but LAMA is looked at)."""
+    data = path.read_bytes()
+    tables: list[np.ndarray] = []
+    start = data.find(b"LAMA")
+    while start >= 0:
+        for dtype in ("<f4", ">f4", "<f8", ">f8"):
+            found = _lama_tables(data, start, dtype)
+            if found:
+                tables.extend(found)
+                break
+        start = data.find(b"LAMA", start + 4 + 400_000 * bool(tables))
+    tables = [t for t in tables if t.max() > 0]
+    unique: list[np.ndarray] = []
+    for table in tables:
+        if not any(len(t) == len(table) and np.allclose(t, table) for t in unique):
+            unique.append(table)
+    return unique
 
 
 def _solution(path: Path) -> str:
@@ -173,7 +236,7 @@ def _cards_named(message: str) -> list[str]:
 
 def try_deck(path: Path, n_modes: int) -> dict:
     """The outcome of one deck (module docstring)."""
-    record: dict = {"deck": str(path)}
+    record: dict = {"deck": str(path), "shell_deck": is_shell_deck(path)}
     options: dict = {}
     tick = time.perf_counter()
     for _ in range(3):
@@ -208,33 +271,51 @@ def try_deck(path: Path, n_modes: int) -> dict:
                 rigid_modes=int(result.rigid_freq_hz.size),
                 warnings=[str(w.message) for w in caught],
             )
-            f06 = path.with_suffix(".f06")
-            if f06.is_file() and _is_modal(path):
-                tables = f06_eigen_tables(f06)
+            f06, op2 = path.with_suffix(".f06"), path.with_suffix(".op2")
+            tables = f06_eigen_tables(f06) if f06.is_file() else []
+            source = "f06"
+            if not tables and op2.is_file():
+                tables, source = op2_eigen_tables(op2), "op2"
+            if tables and _is_modal(path):
                 if _solution(path) in ("200", "DESOPT"):  # the first design cycle's modes
                     tables = tables[:1]
-                record["f06"] = _compare(result.freq_hz, tables, n_modes)
+                record["solver"] = _compare(result.freq_hz, tables, n_modes)
+                if record["solver"]:
+                    record["solver"]["from"] = source
             break
     record["options"] = options
     record["wall_s"] = round(time.perf_counter() - tick, 3)
     return record
 
 
-def summarise(records: list[dict]) -> dict:
-    """Counts: decks tried, read, refused by card named, tracebacks; frequency agreement."""
+def _counts(records: list[dict]) -> dict:
     outcome = Counter(r["outcome"] for r in records)
-    reasons = Counter(
-        card for r in records if r["outcome"] == "refused" for card in r["cards"] or ["(none)"]
-    )
-    compared = [r for r in records if r.get("f06")]
+    static = sum(r["outcome"] == "refused" and "has no mass" in r["message"] for r in records)
     return {
         "tried": len(records),
         "read": outcome["read"],
         "refused": outcome["refused"],
+        "refused_no_mass": static,
         "tracebacks": outcome["traceback"],
+        "read_share": outcome["read"] / max(len(records), 1),
+        "read_share_of_decks_with_mass": outcome["read"] / max(len(records) - static, 1),
+    }
+
+
+def summarise(records: list[dict]) -> dict:
+    """Counts (all decks, shell decks), refusals by the cards they name, frequency agreement."""
+    reasons = Counter(
+        card for r in records if r["outcome"] == "refused" for card in r["cards"] or ["(none)"]
+    )
+    compared = [r for r in records if r.get("solver")]
+    return {
+        "all_decks": _counts(records),
+        "shell_decks": _counts([r for r in records if r["shell_deck"]]),
         "refusals_by_card": dict(reasons.most_common()),
         "frequencies_compared": len(compared),
-        "max_abs_rel_diff": {Path(r["deck"]).name: r["f06"]["max_abs_rel_diff"] for r in compared},
+        "max_abs_rel_diff": {
+            Path(r["deck"]).name: r["solver"]["max_abs_rel_diff"] for r in compared
+        },
     }
 
 
@@ -257,9 +338,9 @@ def main(argv: list[str] | None = None) -> int:
         records.append(record)
         name = deck.relative_to(args.root.resolve())
         detail = record.get("message", "")[:150] if record["outcome"] != "read" else ""
-        compared = record.get("f06")
+        compared = record.get("solver")
         if compared:
-            detail = f"vs f06: max {100 * compared['max_abs_rel_diff']:.2f} %"
+            detail = f"vs {compared['from']}: max {100 * compared['max_abs_rel_diff']:.2f} %"
         print(f"[{k}/{len(decks)}] {name}: {record['outcome']} {detail}", flush=True)
     summary = summarise(records)
     write_text_atomic(args.output, json.dumps({"summary": summary, "decks": records}, indent=1))

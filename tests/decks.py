@@ -49,12 +49,15 @@ def write(path, lines, executive: str = "") -> str:
     return str(path)
 
 
-def plate(nx: int, ny: int, width: float, height: float, *, first=1, eid=1, pid=1, z=0.0):
+def plate(nx: int, ny: int, width: float, height: float, *, first=1, eid=1, pid=1, z=0.0, skew=0.0):
     """(GRID and CQUAD4 cards, grid ids (ny + 1, nx + 1), coordinates (ny + 1, nx + 1, 3)) of a
-    flat nx x ny plate in the plane z."""
+    flat nx x ny plate in the plane z; ``skew``: x moves by skew x y (a parallelogram, whose
+    quads have a shorter diagonal: their split does not hang on round-off, as a rectangle's
+    does)."""
     xs, ys = np.linspace(0, width, nx + 1), np.linspace(0, height, ny + 1)
     ids = first + np.arange((nx + 1) * (ny + 1)).reshape(ny + 1, nx + 1)
     xyz = np.stack([*np.meshgrid(xs, ys), np.full((ny + 1, nx + 1), z)], axis=-1)
+    xyz[..., 0] += skew * xyz[..., 1]
     lines = [card("GRID", int(ids[j, i]), None, *map(float, xyz[j, i]))
              for j in range(ny + 1) for i in range(nx + 1)]  # fmt: skip
     for j in range(ny):

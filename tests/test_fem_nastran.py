@@ -11,6 +11,8 @@ from test_fem_bdf import SMALL
 
 import fem
 from fem import meshing
+from fem.sanity import PartWarning
+from fem.thick import kirchhoff_excess
 from jaxflex.errors import InputError
 
 STEEL_SI = ["PSHELL  1       1       1.-3    1", "MAT1    1       2.1+11          .3      7850."]
@@ -223,29 +225,82 @@ def test_deck_errors_are_named(tmp_path):
     free = meshio_deck(tmp_path / "free.bdf", nodes, "quad", quads, STEEL_SI)
     with pytest.raises(InputError, match="does not state its unit system"):
         fem.from_nastran(free)
-    with pytest.raises(InputError, match="no SPC and no cups"):
+    with pytest.raises(InputError, match=r"no SPC and no cups .* allow_rigid_modes=True"):
         fem.from_nastran(free, units="SI")
-    clamped = meshio_deck(tmp_path / "c.bdf", nodes, "quad", quads, [*STEEL_SI, "SPC1,1,123456,1"])
-    with pytest.raises(InputError, match=r"SPC1 1 \(c\.bdf line \d+\): grid 1 has its rotations"):
-        fem.from_nastran(clamped, units="SI")
     sets = meshio_deck(
         tmp_path / "s.bdf", nodes, "quad", quads, [*STEEL_SI, "SPC1,1,3,1", "SPC1,2,3,2"]
     )
     with pytest.raises(InputError, match=r"the deck has SPC sets \[1, 2\]; choose one"):
         fem.from_nastran(sets, units="SI")
-    pcomp = meshio_deck(
+    plies = meshio_deck(
         tmp_path / "p.bdf", nodes, "quad", quads, ["PCOMP,1", "MAT1,1,2.1+11,,.3,7850."]
     )
     with pytest.raises(
-        InputError, match=r"CQUAD4 1 \(p\.bdf line \d+, field 3 PID\): property 1 is a PCOMP"
+        InputError, match=r"PCOMP 1 \(p\.bdf line \d+, row 2 field 2 MID1\): required"
     ):
-        fem.from_nastran(pcomp, units="SI")
-    mat8 = meshio_deck(
-        tmp_path / "m.bdf", nodes, "quad", quads, ["PSHELL,1,1,1.-3,1", "MAT8,1,1.+11"]
-    )
-    with pytest.raises(
-        InputError, match=r"PSHELL 1 \(m\.bdf line \d+, field 3 MID1\): material 1 is a MAT8"
-    ):
-        fem.from_nastran(mat8, units="SI")
+        fem.from_nastran(plies, units="SI")
+    other = meshio_deck(tmp_path / "o.bdf", nodes, "quad", quads, ["PSHEAR,1,1,1.-3", STEEL_SI[1]])
+    with pytest.raises(InputError, match=r"CQUAD4 1 \(o\.bdf line \d+, field 3 PID\): property 1 "
+                       r"is a PSHEAR; shells take PSHELL, PCOMP, PCOMPG"):  # fmt: skip
+        fem.from_nastran(other, units="SI")
     with pytest.raises(InputError, match="does not exist"):
         fem.from_nastran(tmp_path / "none.bdf", units="SI")
+    static = meshio_deck(tmp_path / "st.bdf", nodes, "quad", quads,
+                         [STEEL_SI[0], "MAT1,1,2.1+11,,.3", "SPC1,1,123,1,4,9"])  # fmt: skip
+    with pytest.raises(InputError, match=r"no mass: RHO is blank or 0 on MAT1 1 .* static deck"):
+        fem.from_nastran(static, units="SI")
+
+
+def test_refusals_name_each_card_with_its_share_of_the_mass(tmp_path):
+    # the plate (0.3 x 0.2 m x 1 mm steel: 0.471 kg) and a steel block of CHEXA 0.1 x 0.1 x
+    # 0.02 m (1.57 kg) on it: the block holds 1.57 / (1.57 + 0.471) = 76.9 % of the mass
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 4), np.linspace(0, 0.2, 3))
+    corners = [(0, 0, 0), (0.1, 0, 0), (0.1, 0.1, 0), (0, 0.1, 0)]
+    corners += [(x, y, 0.02) for x, y, _ in corners]
+    block = [f"GRID,{900 + k},,{x},{y},{z}" for k, (x, y, z) in enumerate(corners)]
+    block += ["CHEXA,500,5,900,901,902,903,904,905,+", "+,906,907", "PSOLID,5,1",
+              "CGAP,600,,1,2"]  # fmt: skip
+    path = meshio_deck(tmp_path / "b.bdf", nodes, "quad", quads, [*STEEL_SI, *block])
+    with pytest.raises(InputError) as refused:
+        fem.from_nastran(path, units="SI")
+    message = str(refused.value)
+    share = 7850 * 0.1 * 0.1 * 0.02 / (7850 * 0.1 * 0.1 * 0.02 + 7850 * 1e-3 * 0.3 * 0.2)
+    assert f"CHEXA (1, {100 * share:.3g} % of the mass; first b.bdf line" in message
+    assert "CGAP (1, no mass;" in message
+    assert "jaxflex model --from-modes FILE" in message
+    # a card our element set has but a model option refuses: named before the work
+    mass = meshio_deck(tmp_path / "m.bdf", nodes, "quad", quads, [*STEEL_SI, "CONM2,7,1,,1.",
+                                                                   "SPC1,1,123,1,4,9"])  # fmt: skip
+    with pytest.raises(InputError, match=r"element: 'morley' takes a deck of one isotropic "
+                       r"sheet; this one has CONM2 \(1\)"):  # fmt: skip
+        fem.from_nastran(mass, units="SI", element="morley")
+
+
+def test_free_free_deck_and_the_warnings_of_a_thick_part(tmp_path):
+    # a free 0.3 x 0.2 m plate 25 mm thick (1/8 of its span): with allow_rigid_modes its six
+    # rigid-body modes are reported, not modelled, and its elastic modes are the mesh door's
+    # (fem.read_mesh of the same quads with the shell: the same model, 1e-9); the door warns
+    # about the thickness (as the mesh door) and notes the Kirchhoff element (fem.thick:
+    # about 5 % for 1/8)
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 7), np.linspace(0, 0.2, 5))
+    cards = ["PSHELL,1,1,.025,1", STEEL_SI[1]]
+    path = meshio_deck(tmp_path / "thick.bdf", nodes, "quad", quads, cards)
+    with pytest.raises(InputError, match=r"leave \d rigid-body mode.*allow_rigid_modes=True"):
+        fem.from_nastran(path, units="SI", element="shell", n_modes=4)
+    with pytest.warns(PartWarning) as caught:
+        result = fem.from_nastran(path, units="SI", element="shell", n_modes=4,
+                                  allow_rigid_modes=True)  # fmt: skip
+    messages = " ".join(str(w.message) for w in caught)
+    assert "thickness 0.025 m is 1/8 of the part's span 0.2 m" in messages
+    assert "Kirchhoff" in messages and "about 5.2 % lower" in messages
+    assert result.rigid_freq_hz.size == 6 and "rigid-body modes kept out" in result.summary()
+    mesh_file = tmp_path / "thick.vtu"
+    meshio.write(mesh_file, meshio.Mesh(np.column_stack([nodes, np.zeros(len(nodes))]),
+                                        [("quad", quads)]))  # fmt: skip
+    with pytest.warns(PartWarning):
+        part = fem.read_mesh(mesh_file, 0.025, "steel", element="shell")
+    reference = fem.modal_analysis(part, [], n_modes=4, allow_rigid_modes=True)
+    np.testing.assert_allclose(result.freq_hz, reference.freq_hz, rtol=1e-9)
+    assert fem.from_nastran.__doc__ and kirchhoff_excess(1 / 8, 1.0, 0.3) == pytest.approx(
+        0.052, abs=5e-4
+    )
