@@ -248,7 +248,8 @@ def try_deck(path: Path, n_modes: int) -> dict:
                 )
         except (InputError, ModelError) as exc:
             message = str(exc)
-            if "allow_rigid_modes" in message and "allow_rigid_modes" not in options:
+            unheld = "allow_rigid_modes" in message or "no SPC and no cups" in message
+            if unheld and "allow_rigid_modes" not in options:
                 options["allow_rigid_modes"] = True
                 continue
             sets = re.search(r"SPC sets \[(\d+)", message)

@@ -212,6 +212,23 @@ class BulkData:
             out[ident] = card
         return out
 
+    def referenced(self, cards: dict[int, Card], ident, allowed, user: Card, field) -> Card:
+        """The card ``ident`` of ``cards`` (by id) that field ``field`` = (index, label) of
+        ``user`` refers to; an error naming the field, what the id is in the deck (another
+        card or nothing) and the kinds ``allowed``, if it is not one of them."""
+        card = cards.get(ident)
+        if card is None or card.name not in allowed:
+            index, label = field
+            prefix = "MAT" if label.startswith("MID") else label[0]
+            other = card or self.find(ident, prefix)
+            kind = f"a {other.name}" if other else "not in the deck"
+            what = "material" if prefix == "MAT" else "property"
+            raise InputError(
+                f"deck: {user.where(index, label)}: {what} {ident} is {kind}; {user.name} "
+                f"takes {', '.join(allowed)}"
+            )
+        return card
+
     def find(self, ident: int, prefix: str) -> Card | None:
         """A card whose name starts with ``prefix`` ("P": a property, "MAT": a material)
         and whose id is ``ident``: named when an element refers to it."""

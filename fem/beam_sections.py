@@ -294,14 +294,7 @@ class BeamSections:
         self._read: dict[int, BeamSection] = {}
 
     def get(self, pid: int, user: Card, index: int, allowed: tuple[str, ...]) -> BeamSection:
-        card = self.cards.get(pid)
-        if card is None or card.name not in allowed:
-            other = card or self.bulk.find(pid, "P")
-            kind = f"a {other.name}" if other else "not in the deck"
-            raise InputError(
-                f"deck: {user.where(index, 'PID')}: property {pid} is {kind}; {user.name} "
-                f"takes {', '.join(allowed)}"
-            )
+        card = self.bulk.referenced(self.cards, pid, allowed, user, (index, "PID"))
         if pid not in self._read:
             material = self.materials.any(
                 card.required(card.integer(1, "MID"), 1, "MID"), card, 1, "MID", ("MAT1",)

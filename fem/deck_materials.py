@@ -153,14 +153,7 @@ class Materials:
 
     def any(self, mid: int, user: Card, index: int, label: str, allowed):
         """Material ``mid`` of an ``allowed`` kind (unchecked for shells)."""
-        card = self.cards.get(mid)
-        if card is None or card.name not in allowed:
-            other = card or self.bulk.find(mid, "MAT")
-            kind = f"a {other.name}" if other else "not in the deck"
-            raise InputError(
-                f"deck: {user.where(index, label)}: material {mid} is {kind}; supported here: "
-                f"{', '.join(allowed)}"
-            )
+        card = self.bulk.referenced(self.cards, mid, allowed, user, (index, label))
         if mid not in self._read:
             self._read[mid] = READERS[card.name](card)
         return self._read[mid]

@@ -187,12 +187,7 @@ def _cbush(card: Card, bulk, geometry: DeckGeometry, properties, out) -> None:
     ga = _grid(card, 2, "GA", bulk)
     gb = _grid(card, 3, "GB", bulk, required=False)
     pid = card.integer(1, "PID", card.integer(0, "EID"))
-    if pid not in properties:
-        other = bulk.find(pid, "P")
-        kind = f"a {other.name}" if other else "not in the deck"
-        raise InputError(
-            f"deck: {card.where(1, 'PID')}: property {pid} is {kind}; CBUSH takes PBUSH"
-        )
+    bulk.referenced({p: c for p, (_, c) in properties.items()}, pid, ("PBUSH",), card, (1, "PID"))
     k = properties[pid][0]
     axes = _bush_axes(card, ga, gb, geometry, bulk)
     xa = geometry.positions[ga]

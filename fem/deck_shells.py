@@ -102,14 +102,7 @@ class ShellSections:
 
     def get(self, element: ShellElement) -> ShellSection:
         pid = element.pid
-        card = self.cards.get(pid)
-        if card is None:
-            other = self.bulk.find(pid, "P")
-            kind = f"a {other.name}" if other else "not in the deck"
-            raise InputError(
-                f"deck: {element.card.where(1, 'PID')}: property {pid} is {kind}; shells take "
-                f"{', '.join(SHELL_PROPERTIES)}"
-            )
+        card = self.bulk.referenced(self.cards, pid, SHELL_PROPERTIES, element.card, (1, "PID"))
         if pid not in self.read:
             reader = pshell if card.name == "PSHELL" else laminate
             self.read[pid] = reader(card, self.materials)

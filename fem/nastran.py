@@ -48,7 +48,7 @@ from fem.materials import Material
 from fem.mesh_io import FLAT_RELATIVE, sheet_from_cells
 from fem.modal import ModalResult, check_request, modal_analysis, modal_result, solve_modes
 from fem.parts import part_from_mesh
-from fem.sanity import LARGEST_LIKELY_M, MASS_KG, THICKNESS_PER_SPAN, PartWarning
+from fem.sanity import PartWarning, unit_warnings
 from fem.supports import PointSupport, as_support_list, check_layout
 from fem.system import FESystem
 from fem.thick import kirchhoff_note
@@ -287,31 +287,9 @@ def _notes(parts) -> list[str]:
     return notes + parts.beam_sections.notes()
 
 
-def unit_warnings(part, unit: Units) -> list[str]:
-    """Warnings (as the mesh door's, fem.sanity) for a thickness, mass or size of a part
-    read from a deck that look like a wrong unit system."""
-    hint = f"check the unit system (the deck was read as {unit.name}: {unit.description})"
-    out = []
-    ratio = part.thickness_m / part.span_m
-    lo, hi = THICKNESS_PER_SPAN
-    if not lo <= ratio <= hi:
-        out.append(
-            f"thickness {part.thickness_m:.4g} m is 1/{1 / ratio:.4g} of the part's span "
-            f"{part.span_m:.4g} m (sheet metal: 1/{1 / hi:g} ... 1/{1 / lo:g}); {hint}"
-        )
-    if not MASS_KG[0] <= part.mass_kg <= MASS_KG[1]:
-        out.append(
-            f"the model weighs {part.mass_kg:.4g} kg (expected {MASS_KG[0]:g} ... "
-            f"{MASS_KG[1]:g} kg); {hint} and PARAM WTMASS"
-        )
-    lo_m, hi_m = part.bounds_m()
-    if float(max(hi_m - lo_m)) > LARGEST_LIKELY_M:
-        out.append(f"the part spans {float(max(hi_m - lo_m)):.4g} m; {hint}")
-    return out
-
-
 def _warn(part, unit: Units, nu: float, shear_flexible: bool) -> None:
-    for message in unit_warnings(part, unit):
+    hint = f"check the unit system (the deck was read as {unit.name}: {unit.description})"
+    for message in unit_warnings(part, hint):
         warnings.warn(f"{part.name}: {message}", PartWarning, stacklevel=3)
     note = kirchhoff_note(part.thickness_m, part.span_m, nu, part.element)
     if note:

@@ -21,31 +21,36 @@ class PartWarning(UserWarning):
     """A part's thickness, mass or size looks like a unit slip."""
 
 
-def unit_warnings(part) -> list[str]:
-    """The warnings for ``part`` (a fem.parts.Part), each naming the value and its unit."""
+def unit_warnings(part, hint: str | None = None) -> list[str]:
+    """The warnings for ``part`` (a fem.parts.Part), each naming the value and its unit;
+    ``hint`` replaces the advice on the units (a mesh's: metres and --scale)."""
     out = []
     ratio = part.thickness_m / part.span_m
     lo, hi = THICKNESS_PER_SPAN
     if not lo <= ratio <= hi:
         out.append(
             f"thickness {part.thickness_m:g} m is 1/{1 / ratio:.4g} of the part's span "
-            f"{part.span_m:.4g} m (sheet metal: 1/{1 / hi:g} ... 1/{1 / lo:g}); thickness is "
-            "read in metres (1 mm = 1e-3)"
+            f"{part.span_m:.4g} m (sheet metal: 1/{1 / hi:g} ... 1/{1 / lo:g}); "
+            + (hint or "thickness is read in metres (1 mm = 1e-3)")
         )
     mass = part.mass_kg
     if not MASS_KG[0] <= mass <= MASS_KG[1]:
         out.append(
             f"the part weighs {mass:.4g} kg (expected {MASS_KG[0]:g} ... {MASS_KG[1]:g} kg); "
-            "check the thickness (m), the coordinates' unit (m; scale=1e-3 / --scale 1e-3 for "
-            "millimetres) and the material"
+            + (
+                hint
+                or "check the thickness (m), the coordinates' unit (m; scale=1e-3 / --scale "
+                "1e-3 for millimetres) and the material"
+            )
         )
     lo_m, hi_m = part.bounds_m()
     extent = float(max(hi_m - lo_m))
     if extent > LARGEST_LIKELY_M:
         out.append(
-            f"the part spans {extent:.4g} m; coordinates are read in metres: for a mesh in "
-            "millimetres pass scale=1e-3 (--scale 1e-3)"
-        )
+            f"the part spans {extent:.4g} m; "
+            + (hint or "coordinates are read in metres: for a mesh in millimetres pass "
+               "scale=1e-3 (--scale 1e-3)")
+        )  # fmt: skip
     return out
 
 

@@ -241,7 +241,7 @@ def test_deck_errors_are_named(tmp_path):
         fem.from_nastran(plies, units="SI")
     other = meshio_deck(tmp_path / "o.bdf", nodes, "quad", quads, ["PSHEAR,1,1,1.-3", STEEL_SI[1]])
     with pytest.raises(InputError, match=r"CQUAD4 1 \(o\.bdf line \d+, field 3 PID\): property 1 "
-                       r"is a PSHEAR; shells take PSHELL, PCOMP, PCOMPG"):  # fmt: skip
+                       r"is a PSHEAR; CQUAD4 takes PSHELL, PCOMP, PCOMPG"):  # fmt: skip
         fem.from_nastran(other, units="SI")
     with pytest.raises(InputError, match="does not exist"):
         fem.from_nastran(tmp_path / "none.bdf", units="SI")
