@@ -13,6 +13,7 @@ import fem
 from fem import meshing
 from fem.sanity import PartWarning
 from fem.thick import kirchhoff_excess
+from jaxflex.cli import main
 from jaxflex.errors import InputError
 
 STEEL_SI = ["PSHELL  1       1       1.-3    1", "MAT1    1       2.1+11          .3      7850."]
@@ -304,3 +305,14 @@ def test_free_free_deck_and_the_warnings_of_a_thick_part(tmp_path):
     assert fem.from_nastran.__doc__ and kirchhoff_excess(1 / 8, 1.0, 0.3) == pytest.approx(
         0.052, abs=5e-4
     )
+
+
+def test_the_command_prints_the_door_warnings(tmp_path, capsys):
+    # jaxflex model --from-nastran prints the part's warnings as the mesh door does
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 4), np.linspace(0, 0.2, 3))
+    path = meshio_deck(tmp_path / "t.bdf", nodes, "quad", quads, ["PSHELL,1,1,.025,1", STEEL_SI[1]])
+    args = ["model", "--from-nastran", str(path), "--units", "SI", "--allow-rigid-modes"]
+    assert main([*args, "--n-modes", "2", "--quiet", "-o", str(tmp_path / "t.npz")]) == 0
+    err = capsys.readouterr().err
+    assert "warning: t.bdf: thickness 0.025 m is 1/8 of the part's span" in err
+    assert "warning: t.bdf: thickness/span 1/8: the 'morley' element is Kirchhoff" in err
