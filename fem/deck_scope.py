@@ -55,6 +55,7 @@ ADVICE = (
 )
 SOLIDS = {"CHEXA": 8, "CPENTA": 6, "CTETRA": 4, "CPYRAM": 5}
 MASSLESS = ("CGAP", "CWELD", "CFAST", "CSEAM", "CELAS3", "CELAS4", "CBUSH1D", "CBUSH2D")
+MASSLESS += ("BGSET", "BGADD", "BCTSET")  # glued and contact surfaces
 DENSITY_FIELD = {"MAT1": 4, "MAT2": 7, "MAT8": 7, "MAT9": 22, "MAT10": 2, "MAT3": 7}
 
 
