@@ -220,3 +220,20 @@ def test_rigid_element_errors_are_named(tmp_path):
     for name, (extra, message) in cases.items():
         with pytest.raises(InputError, match=message):
             solve(write(tmp_path / f"{name}.bdf", [*base, *extra]), n_modes=2, element="shell")
+
+
+def test_conm1_and_scalar_masses(tmp_path):
+    # CONM1: the CONM2's 6 x 6 mass matrix at grid 100 given whole (lower triangle, row by
+    # row); CMASS2 and CMASS1/PMASS: 0.3 kg on component 1 and 0.2 kg on component 3, which
+    # adds 0.3 e1 e1^T + 0.2 e3 e3^T to the closed form
+    whole = rigid_mass(MASS, conm2_inertia(), OFFSET)
+    lower = [float(whole[i, j]) for i in range(6) for j in range(i + 1)]
+    conm1 = card("CONM1", 60, 100, None, *lower)
+    scalars = [card("CMASS2", 61, 0.3, 100, 1), card("PMASS", 62, 0.2),
+               card("CMASS1", 63, 62, 100, 3)]  # fmt: skip
+    result = solve(write(tmp_path / "c1.bdf", rigid_plate([conm1, *scalars, *celas2()])),
+                   n_modes=6)  # fmt: skip
+    mass = plate_mass() + whole
+    mass[0, 0] += 0.3
+    mass[2, 2] += 0.2
+    np.testing.assert_allclose(result.freq_hz, rigid_frequencies(np.diag(SPRINGS), mass), rtol=1e-9)
