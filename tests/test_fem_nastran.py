@@ -316,3 +316,42 @@ def test_the_command_prints_the_door_warnings(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "warning: t.bdf: thickness 0.025 m is 1/8 of the part's span" in err
     assert "warning: t.bdf: thickness/span 1/8: the 'morley' element is Kirchhoff" in err
+
+
+def same_up_to_mode_signs(got, want, name):
+    """Maps (Y, M) per mode agree up to each mode's sign (a symmetric part's modes have
+    peaks of equal size: which one decides the sign hangs on round-off), to 1e-6 of the
+    largest entry; (Y, 3) maps per base acceleration agree as they are."""
+    got, want = np.asarray(got), np.asarray(want)
+    if name != "a_map":
+        got = got * np.sign(np.sum(got * want, axis=0))
+    np.testing.assert_allclose(got, want, atol=1e-6 * np.abs(want).max(), err_msg=name)
+
+
+def test_deck_model_outputs_are_the_mesh_doors(tmp_path):
+    # the curved panel with four cups (rigid, and compliant "flat" ones): the deck model's cup
+    # reactions and surface stresses are those of fem.read_mesh's shell of the same quads
+    # (the same model)
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.4, 9), np.linspace(0, 0.3, 7))
+    sag = 0.5 - np.sqrt(0.5**2 - (nodes[:, 0] - 0.2) ** 2)
+    xyz = np.column_stack([nodes, sag])
+    meshio.write(tmp_path / "panel.vtu", meshio.Mesh(xyz, [("quad", quads)]))
+    part = fem.read_mesh(tmp_path / "panel.vtu", 1e-3, "steel")
+    deck = meshio_deck(tmp_path / "panel.bdf", xyz, "quad", quads, STEEL_SI)
+    for stiffness in (None, "flat"):
+        cups = [fem.SuctionCup(x, y, 0.03, stiffness=stiffness)
+                for x in (0.1, 0.3) for y in (0.1, 0.2)]  # fmt: skip
+        ours = fem.from_nastran(deck, units="SI", cups=cups, n_modes=6).to_modal_model(50)
+        theirs = fem.modal_analysis(part, cups, n_modes=6).to_modal_model(50)
+        np.testing.assert_allclose(ours.freq_hz, theirs.freq_hz, rtol=1e-6)
+        for name in ("q_map", "v_map", "a_map"):
+            same_up_to_mode_signs(
+                getattr(ours.cups.reaction, name), getattr(theirs.cups.reaction, name), name
+            )
+        # stresses at the same points (the facets come in another order)
+        order = [np.lexsort(np.asarray(m.stress.points_m).T) for m in (ours, theirs)]
+        rows = [(6 * o[:, None] + np.arange(6)).ravel() for o in order]
+        for name in ("q_map", "a_map"):
+            got, want = (np.asarray(getattr(m.stress.stress, name))[r]
+                         for m, r in zip((ours, theirs), rows, strict=True))  # fmt: skip
+            same_up_to_mode_signs(got, want, name)
