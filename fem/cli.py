@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -24,7 +23,7 @@ from fem.mesh_advice import coarse_mesh_warnings
 from fem.mesh_io import CAD_SUFFIXES, FORMATS_HELP
 from fem.modal import modal_analysis
 from fem.parts import ELEMENTS, read_cad, read_mesh
-from fem.sanity import PartWarning
+from fem.sanity import printed_part_warnings
 from fem.scenes import scene
 from fem.sizing import size_model
 from fem.supports import ClampedEdge, PointSupport, SuctionCup
@@ -363,8 +362,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _read_part(args, material):
     """The part of --mesh or --cad; prints what was read and the unit warnings."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", PartWarning)
+    with printed_part_warnings():
         if args.mesh:
             if args.mesh_size is not None:
                 raise InputError("--mesh-size: only for --scene and --cad (a mesh is used as is)")
@@ -386,14 +384,7 @@ def _read_part(args, material):
                 element=args.element,
                 scale=args.scale,
             )
-    print(part.summary())
-    for warning in caught:
-        if issubclass(warning.category, PartWarning):
-            print(f"warning: {warning.message}", file=sys.stderr)
-        else:
-            warnings.showwarning(
-                warning.message, warning.category, warning.filename, warning.lineno
-            )
+        print(part.summary())
     return part
 
 

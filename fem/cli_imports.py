@@ -15,6 +15,7 @@ from fem.ansys import from_ansys
 from fem.from_modes import from_modes
 from fem.identify import from_r1
 from fem.nastran import from_nastran
+from fem.sanity import printed_part_warnings
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
 
@@ -46,7 +47,10 @@ def add_sources(group) -> None:
         "MAPDL computed them; participation from --full or --gamma)",
     )
     group.add_argument(
-        "--from-nastran", metavar="DECK", help="Nastran bulk-data deck solved by our shell model"
+        "--from-nastran",
+        metavar="DECK",
+        help="Nastran bulk-data deck solved by our models (shells, beams, springs, masses, "
+        "rigid elements)",
     )
     group.add_argument(
         "--from-modes",
@@ -164,17 +168,18 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
         )
     elif args.from_nastran:
         _check_options(args, "nastran", defaults)
-        result = from_nastran(
-            args.from_nastran,
-            units=args.units,
-            cups=list(args.cups or []),
-            spc_id=args.spc_id,
-            element=args.element,
-            n_modes=n_modes,
-            max_freq_hz=args.max_freq,
-            zeta=args.zeta,
-            allow_rigid_modes=args.allow_rigid_modes,
-        )
+        with printed_part_warnings():  # unit slips, a thick part, laminates (as --mesh)
+            result = from_nastran(
+                args.from_nastran,
+                units=args.units,
+                cups=list(args.cups or []),
+                spc_id=args.spc_id,
+                element=args.element,
+                n_modes=n_modes,
+                max_freq_hz=args.max_freq,
+                zeta=args.zeta,
+                allow_rigid_modes=args.allow_rigid_modes,
+            )
     else:
         _check_options(args, "r1", defaults)
         if args.dt is None:

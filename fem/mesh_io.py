@@ -135,10 +135,13 @@ def read_sheet(path: str | os.PathLike, scale: float = 1.0) -> SheetMesh:
     return sheet_from_cells(points, blocks, str(path))
 
 
-def sheet_from_cells(points: np.ndarray, blocks, source: str, *, weld: bool = True) -> SheetMesh:
+def sheet_from_cells(
+    points: np.ndarray, blocks, source: str, *, weld: bool = True, max_extent_m=MAX_EXTENT_M
+) -> SheetMesh:
     """A SheetMesh from points (N, 3) m and cell blocks [(meshio type, (C, k))]: merged,
     split into linear cells, welded (unless ``weld`` is False: nodes that are distinct by
-    identity, as Nastran grids, stay distinct), oriented (see the module)."""
+    identity, as Nastran grids, stay distinct), oriented (see the module); a part larger
+    than ``max_extent_m`` is refused (a file whose unit was stated passes inf)."""
     extent = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
     counts: dict[str, int] = {}
     skipped: dict[str, int] = {}
@@ -153,7 +156,7 @@ def sheet_from_cells(points: np.ndarray, blocks, source: str, *, weld: bool = Tr
             "mid-surface) or one layer of hexahedra (a volume mesh of a thicker part: export "
             "its mid-surface)"
         )
-    if extent > MAX_EXTENT_M:
+    if extent > max_extent_m:
         raise InputError(
             f"mesh: {source!r} spans {extent:g} m; coordinates must be in metres (pass "
             "scale=1e-3 / --scale 1e-3 for a mesh in millimetres)"

@@ -390,6 +390,24 @@ def solve_modes(
     )
 
 
+def check_request(n_modes, max_freq_hz, zeta) -> float | None:
+    """Check what a modal analysis is asked for (``n_modes``, ``max_freq_hz``, ``zeta``:
+    see :func:`modal_analysis`); returns max_freq_hz as a float (or None)."""
+    dense = isinstance(n_modes, str)
+    if dense and n_modes != "all":
+        raise InputError(f"n_modes: a count, 'all' or None, got {n_modes!r}")
+    if (
+        not dense
+        and n_modes is not None
+        and (not isinstance(n_modes, int | np.integer) or n_modes < 1)
+    ):
+        raise InputError(f"n_modes: must be an integer >= 1, got {n_modes!r}")
+    if n_modes is None and max_freq_hz is None:
+        raise InputError("n_modes: give a number of modes or max_freq_hz")
+    check_damping(zeta)
+    return None if max_freq_hz is None else check_positive("max_freq_hz", max_freq_hz)
+
+
 def modal_analysis(
     part: Part,
     supports,
@@ -425,21 +443,8 @@ def modal_analysis(
             f"read_mesh, read_cad), got {type(part).__name__}"
         )
     supports = as_support_list(supports)
-    dense = isinstance(n_modes, str)
-    if dense and n_modes != "all":
-        raise InputError(f"n_modes: a count, 'all' or None, got {n_modes!r}")
-    if (
-        not dense
-        and n_modes is not None
-        and (not isinstance(n_modes, int | np.integer) or n_modes < 1)
-    ):
-        raise InputError(f"n_modes: must be an integer >= 1, got {n_modes!r}")
-    if n_modes is None and max_freq_hz is None:
-        raise InputError("n_modes: give a number of modes or max_freq_hz")
-    if max_freq_hz is not None:
-        max_freq_hz = check_positive("max_freq_hz", max_freq_hz)
+    max_freq_hz = check_request(n_modes, max_freq_hz, zeta)
     check_positive("sigma_hz", sigma_hz)
-    check_damping(zeta)
     check_layout(supports, part, allow_rigid_modes=allow_rigid_modes)
     timings: dict[str, float] = {}
 
@@ -481,6 +486,15 @@ def modal_analysis(
         progress=progress,
     )
     timings.update(modes.timings_s)
+    reduced = (T, K_free, M_free, load, observation)
+    return modal_result(part, supports, system, reduced, modes, zeta, timings, t_start)
+
+
+def modal_result(part, supports, system, reduced, modes, zeta, timings, t_start) -> ModalResult:
+    """The ModalResult of ``modes`` (a ModeSolution) of ``system`` reduced to free
+    coordinates: ``reduced`` = (basis T, K_free, M_free, load, observation); ``timings``
+    completed with the total since ``t_start`` (time.perf_counter)."""
+    T, K_free, M_free, load, observation = reduced
     mass = float(np.max(np.einsum("id,id->d", system.rigid, system.M @ system.rigid)))
     timings["total_s"] = time.perf_counter() - t_start
     return ModalResult(

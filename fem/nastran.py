@@ -1,212 +1,301 @@
-"""Nastran bulk-data decks solved by our own shell models.
+"""Nastran bulk-data decks solved by our own models (SI units).
 
-A deck's GRID points and shell elements (CQUAD4, CTRIA3, CQUAD8, CTRIA6; the mid-side grids
-of the quadratic ones are dropped, our elements have their own edge DOFs), its PSHELL
-thickness and MAT1 material (fem.bdf reads them) become a fem part: a flat deck a Kirchhoff
-plate (triangles; quads are split), a curved or folded one the shell (fem.shell; or the
-one-layer thin solid on request, quads only). Grids are never merged, even where two share
-a location (a deck keeps such seams apart on purpose).
-Single-point constraints (the SPC/SPC1 set case control or ``spc_id`` selects, and GRID
-PS) become pinned points; the suction cups of the gripper may be given as well (``cups``).
-Nastran decks state no units: they are given (fem.units), everything is converted to SI
-before the analysis.
+A deck (fem.bdf reads it, fem.deck_coords places its grids) becomes one of two models:
+
+* **the deck model** (fem.deck_model, the default): six DOFs per grid in basic axes; its
+  shells as facets of our shell (DKT + OPT, Kirchhoff), any mix of properties (PSHELL,
+  PCOMP/PCOMPG) and materials (MAT1, MAT2, MAT8), corner thicknesses and offsets; beams and
+  rods, scalar springs, bushings and masses; rigid elements and MPCs as dependent
+  components, SPCs (translations and rotations, in the grids' displacement systems) as held
+  components, Nastran's AUTOSPC (fem.deck_reduce);
+* **our plate or thin solid** (``element`` "morley", "argyris" or "hex2"; a flat deck of
+  shells alone, one isotropic PSHELL without offsets or corner thicknesses, translations
+  held, is the Morley plate by default, as before): the part as fem.read_mesh would build
+  it, SPCs as pinned points.
+
+What the door leaves out or refuses is decided by fem.deck_scope (refusals name each card
+with its share of the mass). The suction cups of the gripper may be given as well
+(``cups``). Nastran decks state no units: they are given (fem.units). Grids are never
+merged, even where two share a location (a deck keeps such seams apart on purpose).
 """
 
 from __future__ import annotations
 
 import os
+import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from fem.bdf import SHELL_CARDS, BulkData, Shell, read_bulk
+from fem.bdf import BulkData, read_bulk
+from fem.deck_constraints import DeckConstraints, deck_constraints
+from fem.deck_coords import DeckGeometry
+from fem.deck_materials import Materials
+from fem.deck_model import (
+    FORMULATION,
+    assemble_deck,
+    deck_outputs,
+    read_parts,
+    sheet_part,
+    stats,
+)
+from fem.deck_reduce import reduce_deck
+from fem.deck_scope import MODELLED, classify, refuse_outside
+from fem.deck_shells import SHELL_CARDS, ShellSections, read_shell
 from fem.imported import file_digest
 from fem.materials import Material
-from fem.mesh_io import sheet_from_cells
-from fem.modal import ModalResult, modal_analysis
+from fem.mesh_io import FLAT_RELATIVE, sheet_from_cells
+from fem.modal import ModalResult, check_request, modal_analysis, modal_result, solve_modes
 from fem.parts import part_from_mesh
-from fem.supports import PointSupport, as_support_list
+from fem.sanity import PartWarning, unit_warnings
+from fem.supports import PointSupport, as_support_list, check_layout
+from fem.system import FESystem
+from fem.thick import kirchhoff_note
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
 
-
-def _one(values: dict, what: str):
-    """The one value of ``values`` ({value: card label}); several are refused by name."""
-    if len(values) != 1:
-        shown = "; ".join(f"{v} ({label})" for v, label in values.items())
-        raise InputError(f"deck: {what} differs between elements ({shown}); one is required")
-    return next(iter(values))
-
-
-def _material_of(bulk: BulkData, shells: list[Shell]):
-    """(thickness, (E, NU, RHO) of the bending material, description) in file units."""
-    thickness: dict = {}
-    material: dict = {}
-    notes: dict = {}
-    for pid in sorted({s.pid for s in shells}):
-        user = next(s for s in shells if s.pid == pid)
-        prop = bulk.pshells.get(pid)
-        if prop is None:
-            other = bulk.card_with_id(pid, "P")
-            kind = f"a {other.name}; only PSHELL is supported" if other else "not in the deck"
-            raise InputError(f"deck: {user.card.where(1, 'PID')}: property {pid} is {kind}")
-        if prop.t is None:
-            prop.card.required(None, 2, "T")
-        thickness[prop.t] = prop.card.label
-        mats = {}
-        for index, mid in ((1, prop.mid1), (3, prop.mid2)):
-            if mid is None:
-                continue
-            mat = bulk.mat1s.get(mid)
-            if mat is None:
-                other = bulk.card_with_id(mid, "MAT")
-                kind = f"a {other.name}; only MAT1 is supported" if other else "not in the deck"
-                label = f"MID{1 if index == 1 else 2}"
-                raise InputError(f"deck: {prop.card.where(index, label)}: material {mid} is {kind}")
-            mats[mid] = mat
-        values = {(m.e, m.nu, m.rho) for m in mats.values()}
-        if len(values) > 1:
-            raise InputError(
-                f"deck: {prop.card.where(None)}: membrane (MID1) and bending (MID2) materials "
-                "differ; an isotropic shell of one material is required"
-            )
-        bending = mats[prop.mid2]
-        material[(bending.e, bending.nu, bending.rho)] = bending.card.label
-        if bending.derived:
-            notes[bending.card.label] = f"{bending.derived} from E = 2 (1 + NU) G"
-    return (
-        _one(thickness, "PSHELL thickness T"),
-        _one(material, "material (E, NU, RHO)"),
-        notes,
-    )
+PART_ELEMENTS = ("morley", "argyris", "hex2")
+LAMINATE = (
+    "each laminate is an equivalent shell by classical lamination theory (its A, B, D, mass and "
+    "rotary inertia kept); lost: transverse shear flexibility (the shell is Kirchhoff), ply "
+    "stresses and failure indices (the model's stresses are those of a homogeneous section)"
+)
+NOT_HELD = (
+    "deck: no SPC and no cups hold the part; add SPC/SPC1 to the deck, give cups (--cups "
+    "X,Y,R ...) or pass allow_rigid_modes=True (--allow-rigid-modes: a free-free part, its "
+    "rigid-body modes reported and kept out of the model)"
+)
 
 
-def _selected_set(bulk: BulkData, spc_id: int | None) -> tuple[int | None, str]:
-    """The SPC set to apply and why."""
-    sets = sorted(bulk.spcs)
-    if spc_id is not None:
-        if spc_id not in bulk.spcs:
-            raise InputError(f"spc_id: no SPC set {spc_id} in the deck (it has {sets})")
-        return spc_id, "given"
-    if bulk.case_spc is not None:
-        if len(bulk.case_spc) > 1:
-            raise InputError(
-                f"spc_id: case control selects SPC sets {bulk.case_spc} in different subcases; "
-                "choose one (--spc-id)"
-            )
-        if not bulk.case_spc:
-            unused = f" (sets {sets} not applied, as in Nastran)" if sets else ""
-            return None, "case control selects none" + unused
-        chosen = bulk.case_spc[0]
-        if chosen not in bulk.spcs:
-            raise InputError(f"deck: case control selects SPC = {chosen}; the deck has {sets}")
-        return chosen, "selected by case control"
-    if len(sets) > 1:
-        raise InputError(f"spc_id: the deck has SPC sets {sets}; choose one (--spc-id)")
-    return (sets[0], "the deck's only set") if sets else (None, "none in the deck")
+def _simple(bulk: BulkData, shells, sections: ShellSections, constraints: DeckConstraints):
+    """Why the deck is not one sheet our plate or thin solid can take (empty: it is), and
+    its (thickness, MAT1 card) in file units when it is."""
+    reasons = [
+        f"{name} ({len(bulk.cards[name])})"
+        for name in MODELLED
+        if name not in SHELL_CARDS and name in bulk.cards
+    ]
+    if any(r.card.name == "MPC" for r in constraints.relations):
+        reasons.append("MPC")
+    props = {}
+    for element in shells:
+        section = sections.get(element)
+        props[element.pid] = section
+        if any(t is not None for t in element.corner_t):
+            reasons.append(f"corner thicknesses ({element.card.label})")
+        if element.zoffs:
+            reasons.append(f"offsets ({element.card.label})")
+        if reasons:
+            break
+    values = set()
+    material = None
+    for section in props.values():
+        card = section.card
+        if card.name != "PSHELL":
+            reasons.append(card.name)
+            continue
+        mids = {card.integer(k, "MID") for k in (1, 3)} - {None, 0}
+        mats = [sections.materials.get(m, card, 3, "MID") for m in mids]
+        if not all(m.isotropic for m in mats) or not card.integer(3, "MID2"):
+            reasons.append(f"{card.label} is not one isotropic bending material")
+            continue
+        if len({(m.e, m.nu, m.rho) for m in mats}) > 1 or section.thickness is None:
+            reasons.append(f"{card.label}: MID1 and MID2 differ or T is blank")
+            continue
+        if card.real(4, "12I/T**3", 1.0) != 1.0 or section.nsm or card.integer(10, "MID4"):
+            reasons.append(f"{card.label}: 12I/T**3, NSM or MID4")
+            continue
+        values.add((section.thickness, mats[0].e, mats[0].nu, mats[0].rho))
+        material = mats[0]
+    if len(values) > 1:
+        reasons.append("several shell properties")
+    rotations = sorted({g for (g, c) in constraints.held if c in (4, 5)})
+    if rotations:
+        reasons.append(f"rotations held (grid {rotations[0]}, ...)")
+    if any(bulk.grids[g].cd for g, _ in constraints.held):
+        reasons.append("held components in a displacement system (CD)")
+    return reasons, (next(iter(values))[0] if values else None, material)
 
 
-def _held_grids(bulk: BulkData, spc_id, flat: bool, part_grids: set, midside: set):
-    """Grid ids pinned (translations held) and a description of the constraints."""
-    chosen, reason = _selected_set(bulk, spc_id)
-    wanted: dict[int, tuple[set, str]] = {}
-    for grid in bulk.grids.values():
-        if grid.ps:
-            wanted[grid.id] = (set(grid.ps), grid.card.where(6, "PS"))
-    for con in bulk.spcs.get(chosen, []):
-        if con.grid not in bulk.grids:
-            raise InputError(f"deck: {con.card.where(None)}: grid {con.grid} is not in the deck")
-        comps, where = wanted.get(con.grid, (set(), ""))
-        wanted[con.grid] = (comps | set(con.components), where or con.card.where(None))
+def _pins(bulk, constraints, flat: bool, shell_grids: set, midside: set):
+    """Grid ids pinned (translations held) for our plate or thin solid, and counts."""
+    held: dict[int, set] = {}
+    for gid, comp in constraints.held:
+        held.setdefault(gid, set()).add(str(comp))
     pinned, ignored, on_midside = [], 0, 0
-    for gid, (comps, where) in sorted(wanted.items()):
-        if comps & {"4", "5"}:
-            raise InputError(
-                f"deck: {where}: grid {gid} has its rotations {''.join(sorted(comps))} held; our "
-                "shell models hold slopes through suction cups (cups=, --cups) or clamped "
-                "edges, not per grid: keep the translations (123) in the deck"
-            )
+    for gid, comps in sorted(held.items()):
         translations = comps & {"1", "2", "3"}
-        if gid in midside and gid not in part_grids:
+        if gid in midside and gid not in shell_grids:
             on_midside += 1
             continue
         if flat:
-            held = "3" in translations  # 1, 2 (in-plane) and 6 (drilling): not plate DOFs
+            keep = "3" in translations  # 1, 2 (in-plane) and 6 (drilling): not plate DOFs
         else:
             if translations and translations != {"1", "2", "3"}:
+                card = constraints.held[(gid, int(min(translations)))]
                 raise InputError(
-                    f"deck: {where}: grid {gid} holds translations {''.join(sorted(comps))}; "
-                    "the shell and the thin solid pin all three (123) at a point"
+                    f"deck: {card.where(None)}: grid {gid} holds translations "
+                    f"{''.join(sorted(comps))}; the thin solid pins all three (123) at a point"
                 )
-            held = bool(translations)
-        if not held:
+            keep = bool(translations)
+        if not keep:
             ignored += 1
             continue
-        if gid not in part_grids:
-            raise InputError(f"deck: {where}: grid {gid} is held but no shell element uses it")
+        if gid not in shell_grids:
+            card = next(c for (g, _), c in constraints.held.items() if g == gid)
+            raise InputError(f"deck: {card.where(None)}: grid {gid} is held but no shell uses it")
         pinned.append(gid)
-    info = {
-        "spc_set": chosen,
-        "spc_set_reason": reason,
-        "held_grids": len(pinned),
-        "constraints_without_effect": ignored,
-        "constraints_on_midside_grids": on_midside,
-    }
-    return pinned, info
+    return pinned, {"held_grids": len(pinned), "constraints_without_effect": ignored,
+                    "constraints_on_midside_grids": on_midside}  # fmt: skip
 
 
-def part_from_deck(
-    path: str | os.PathLike,
-    units: str | Units | None = None,
-    *,
-    element: str | None = None,
-    spc_id: int | None = None,
-):
-    """(part, pinned supports, grid ids of the part's nodes, description) from a deck."""
-    bulk = read_bulk(path)
-    unit = resolve_units(units, None, f"the Nastran deck {str(path)!r}")
-    if not bulk.shells:
-        raise InputError(f"deck: {str(path)!r} has no shell elements (CQUAD4, CTRIA3, ...)")
-    thickness, (e_mod, nu, rho), derived = _material_of(bulk, bulk.shells)
-    corners = [list(s.corners) for s in bulk.shells]
-    grid_ids = np.unique(np.concatenate(corners))
-    index = {int(g): i for i, g in enumerate(grid_ids)}
-    xyz = np.array([bulk.grids[int(g)].xyz for g in grid_ids]) * unit.length_m
+def _plate_part(path, bulk, geometry, unit, shells, element, simple, constraints):
+    """(part, pinned supports, info) of our plate or thin solid."""
+    thickness, mat = simple
+    if mat.rho * bulk.wtmass <= 0:
+        raise InputError(_massless(bulk))
+    grid_ids = sorted({g for s in shells for g in s.corners})
+    index = {g: i for i, g in enumerate(grid_ids)}
+    xyz = np.array([geometry.positions[g] for g in grid_ids]) * unit.length_m
     try:
         material = Material(
-            "deck MAT1",
-            e_mod * unit.modulus_to_si,
-            nu,
-            rho * bulk.wtmass * unit.density_to_si,
+            f"deck {mat.card.label}",
+            mat.e * unit.modulus_to_si,
+            mat.nu,
+            mat.rho * bulk.wtmass * unit.density_to_si,
         )
     except InputError as exc:
-        raise InputError(f"deck: MAT1 {exc}") from exc
-    counts = {t: sum(s.name == t for s in bulk.shells) for t in SHELL_CARDS}
-    description = {"shape": "Nastran deck", "path": str(path), "elements": counts}
+        raise InputError(f"deck: {mat.card.label} {exc}") from exc
     blocks = [
-        (kind, np.array([[index[g] for g in c] for c in corners if len(c) == n]))
+        (kind, np.array([[index[g] for g in s.corners] for s in shells if len(s.corners) == n]))
         for kind, n in (("triangle", 3), ("quad", 4))
-        if any(len(c) == n for c in corners)
+        if any(len(s.corners) == n for s in shells)
     ]
-    sheet = sheet_from_cells(xyz, blocks, str(path), weld=False)
-    flat = sheet.is_flat
-    element = element or ("morley" if flat else "shell")
+    sheet = sheet_from_cells(xyz, blocks, str(path), weld=False, max_extent_m=np.inf)
+    description = {"shape": "Nastran deck", "path": str(path)}
     part = part_from_mesh(
         sheet, thickness * unit.length_m, material, element, Path(path).name, description
     )
-    midside = {g for s in bulk.shells for g in s.grids[len(s.corners) :]}
-    held, spc = _held_grids(bulk, spc_id, bool(flat), set(index), midside)
-    supports = [PointSupport(*xyz[index[g]]) for g in held]
+    midside = {g for s in shells for g in s.midside}
+    pinned, info = _pins(bulk, constraints, bool(sheet.is_flat), set(index), midside)
+    return part, [PointSupport(*xyz[index[g]]) for g in pinned], info
+
+
+def _deck_result(
+    path, bulk, geometry, unit, shells, constraints, sections, cups, request, progress
+):
+    """Modal analysis of the deck model (module docstring)."""
+    n_modes, max_freq_hz, zeta, allow_rigid_modes = request
+    t_start = time.perf_counter()
+    timings: dict[str, float] = {}
+    parts = read_parts(bulk, geometry, shells, constraints, sections)
+    K, M = assemble_deck(parts, geometry, unit, bulk.wtmass, progress)
+    n_grids = len(parts.grid_ids)
+    rigid = np.zeros((6 * n_grids, 3))
+    for d in range(3):
+        rigid[d::6, d] = 1.0
+    mass = float(np.max(np.einsum("id,id->d", rigid, M @ rigid)))
+    if mass <= 0:
+        raise InputError(_massless(bulk))
+    timings["assembly_s"] = time.perf_counter() - t_start
+    part, mesh = sheet_part(parts, geometry, unit, str(path), mass, Path(path).name)
+    nodes = np.array([geometry.positions[int(g)] for g in parts.grid_ids]) * unit.length_m
+    outputs, dofs = deck_outputs(parts, part, mesh, nodes, unit)
+    supports = as_support_list(list(cups))
+    check_layout(supports, part, allow_rigid_modes=True)  # rigid modes: the solver says
+    index = parts.index
+    held = {k: c for k, c in constraints.held.items() if k[0] in index}
+    model_constraints = DeckConstraints(held, constraints.relations, constraints.info)
+    tick = time.perf_counter()
+    reduction = reduce_deck(
+        K,
+        M,
+        geometry.frames(parts.grid_ids),
+        lambda key: 6 * index[key[0]] + key[1] - 1,
+        model_constraints,
+        [s.hold_solid(dofs, i) for i, s in enumerate(supports)],
+        lambda g: f"component {g % 6 + 1} of grid {parts.grid_ids[g // 6]}",
+    )
+    timings["constraints_s"] = time.perf_counter() - tick
+    n_shell = parts.n_shell
+    system = FESystem(
+        K,
+        M,
+        rigid,
+        nodes[:n_shell],
+        6 * np.arange(n_shell)[:, None] + np.arange(3),
+        parts.facets.triangles,
+        "triangle",
+        reduction.constraints,
+        stats(parts, nodes),
+        FORMULATION,
+        outputs,
+        reduction.held_by_support,
+    )
+    T = reduction.basis
+    observation = (system.observation() @ T).tocsr()
+    load = T.T @ (M @ rigid)
+    count = n_modes
+    if isinstance(n_modes, int) and T.shape[1] <= n_modes + 8:  # a model of a few DOFs
+        count = "all"  # every mode, densely (the sparse solver needs more DOFs than modes)
+    try:
+        modes = solve_modes(
+            reduction.stiffness,
+            reduction.mass,
+            load,
+            observation,
+            count,
+            max_freq_hz=max_freq_hz,
+            rigid_count=6 if allow_rigid_modes else None,
+            rigid_message="supports: the deck's constraints and the cups leave {count} "
+            "rigid-body mode(s) (below {tol:g} Hz): the part is not held; add SPC or cups, or "
+            "pass allow_rigid_modes=True (--allow-rigid-modes)",
+            progress=progress,
+        )
+    except RuntimeError as exc:  # SuperLU: a singular mass or shifted stiffness matrix
+        raise InputError(
+            f"deck: the model cannot be solved ({exc}): a motion without mass or without "
+            "stiffness that spans several grids (point masses without rotary inertia on a rigid "
+            "element, a mechanism); give the masses inertia or hold the mechanism"
+        ) from None
+    timings.update(modes.timings_s)
+    reduced = (T, reduction.stiffness, reduction.mass, load, observation)
+    result = modal_result(part, supports, system, reduced, modes, zeta, timings, t_start)
     info = {
-        "units": unit.describe(),
-        "elements": counts,
-        **spc,
-        "wtmass": bulk.wtmass,
-        "mat1_derived": derived,
-        "ignored_cards": bulk.ignored,
-        "included_files": bulk.files[1:],
+        "grids": n_grids,
+        "shell_facets": len(parts.facets.triangles),
+        "held_components_without_effect": len(constraints.held) - len(held),
+        **reduction.info,
+        "notes": _notes(parts),
     }
-    return part, supports, grid_ids, info
+    return result, info, parts
+
+
+def _massless(bulk: BulkData) -> str:
+    """The refusal of a deck without mass, naming its materials."""
+    names = [c.label for c in bulk.named("MAT1", "MAT2", "MAT8")]
+    shown = ", ".join(names[:4]) + (", ..." if len(names) > 4 else "")
+    return (
+        f"deck: the model has no mass: RHO is blank or 0 on {shown or 'its materials'} and "
+        "there is no CONM1/CONM2/CMASS; a modal analysis needs the mass (a static deck?)"
+    )
+
+
+def _notes(parts) -> list[str]:
+    notes = [n for s in parts.shell_sections.read.values() for n in s.notes]
+    return notes + parts.beam_sections.notes()
+
+
+def _warn(part, unit: Units, nu: float, shear_flexible: bool) -> None:
+    hint = f"check the unit system (the deck was read as {unit.name}: {unit.description})"
+    for message in unit_warnings(part, hint):
+        warnings.warn(f"{part.name}: {message}", PartWarning, stacklevel=3)
+    note = kirchhoff_note(part.thickness_m, part.span_m, nu, part.element)
+    if note:
+        if shear_flexible:
+            note += " (the deck's MID3 gives Nastran's element that shear flexibility)"
+        warnings.warn(f"{part.name}: {note}", PartWarning, stacklevel=3)
 
 
 def from_nastran(
@@ -222,49 +311,102 @@ def from_nastran(
     allow_rigid_modes: bool = False,
     progress: bool | None = None,
 ) -> ModalResult:
-    """Modal analysis of a Nastran deck's part with our shell models (SI units).
+    """Modal analysis of a Nastran deck with our models (SI units; module docstring).
 
     Args:
         path: the deck (.bdf/.dat/.nas): bulk data, or executive and case control with
-            BEGIN BULK; INCLUDEd files are read.
+            BEGIN BULK; INCLUDEd files are read (relative to the deck's directory).
         units: its consistent unit system (fem.units.UNIT_SYSTEMS name), e.g. "SI" or
             "MPA" (mm, t, s, N, MPa); Nastran decks do not state one (PARAM WTMASS is
-            applied to the density).
+            applied to every mass).
         cups: suction cups (fem.SuctionCup) holding the part besides the deck's SPCs.
         spc_id: the SPC set to use (default: the one case control selects, or the deck's
             only set).
-        element: "morley" (default for flat decks), "argyris", "shell" (default for curved
-            and folded decks) or "hex2" (the thin solid, quads only).
+        element: "shell" (the deck model; the default), or "morley", "argyris", "hex2" (our
+            plate or thin solid, for a deck of one isotropic sheet; a flat one is "morley"
+            by default).
         n_modes, max_freq_hz, zeta, allow_rigid_modes, progress: as fem.modal_analysis.
     Returns the fem.ModalResult (``.to_modal_model(points)``); its meta records the deck,
-    its hash and the conversions.
+    its hash and what was read, left out and derived. Issues fem.sanity.PartWarning for a
+    thickness, mass or size that looks like a unit slip and for a thick part.
     """
-    part, pins, grid_ids, info = part_from_deck(path, units, element=element, spc_id=spc_id)
-    supports = as_support_list(list(cups)) + pins
-    if not supports and not allow_rigid_modes:
+    max_freq_hz = check_request(n_modes, max_freq_hz, zeta)
+    bulk = read_bulk(path)
+    unit = resolve_units(units, None, f"the Nastran deck {str(path)!r}")
+    geometry = DeckGeometry(bulk)
+    refused, left_out = classify(bulk)
+    if refused or bulk.parts:
+        refuse_outside(bulk, geometry, refused)
+    shells = [read_shell(card, bulk) for card in bulk.named(*SHELL_CARDS)]
+    if not shells:
+        raise InputError(f"deck: {str(path)!r} has no shell elements (CQUAD4, CTRIA3, ...)")
+    constraints = deck_constraints(bulk, geometry, spc_id)
+    sections = ShellSections(bulk, Materials(bulk))
+    reasons, simple = _simple(bulk, shells, sections, constraints)
+    flat = _is_flat(geometry, shells)
+    if element is None:
+        element = "morley" if flat and not reasons else "shell"
+    if element in PART_ELEMENTS and reasons:
         raise InputError(
-            "deck: no SPC and no cups hold the part; add SPC/SPC1 to the deck or give cups "
-            "(--cups X,Y,R ...)"
+            f"element: {element!r} takes a deck of one isotropic sheet; this one has "
+            f"{', '.join(reasons[:4])}: use element='shell' (the deck model, the default)"
         )
-    result = modal_analysis(
-        part,
-        supports,
-        n_modes=n_modes,
-        zeta=zeta,
-        max_freq_hz=max_freq_hz,
-        allow_rigid_modes=allow_rigid_modes,
-        progress=progress,
-    )
-    included = {"included": [file_digest(p) for p in info["included_files"]]}
+    if element not in (*PART_ELEMENTS, "shell"):
+        raise InputError(f"element: one of {('shell', *PART_ELEMENTS)}, got {element!r}")
+    info = {
+        "units": unit.describe(),
+        "elements": {n: len(bulk.cards[n]) for n in MODELLED if n in bulk.cards},
+        **constraints.info,
+        "wtmass": bulk.wtmass,
+        "ignored_cards": dict(sorted(left_out.items())),
+        **({"include_notes": bulk.include_notes} if bulk.include_notes else {}),
+        **({"duplicates_dropped": bulk.duplicates_dropped} if bulk.duplicates_dropped else {}),
+    }
+    if element == "shell":
+        request = (n_modes, max_freq_hz, zeta, allow_rigid_modes)
+        result, more, parts = _deck_result(
+            path, bulk, geometry, unit, shells, constraints, sections, cups, request, progress
+        )
+        info.update(more)
+        first = parts.shell_sections.read[int(parts.facets.pid[0])]
+        shear = any(s.shear_flexible for s in parts.shell_sections.read.values())
+        _warn(result.part, unit, first.poisson, shear)
+        laminates = [s.card.label for s in parts.shell_sections.read.values() if s.laminate]
+        if laminates:
+            message = f"{result.part.name}: {', '.join(laminates)}: {LAMINATE}"
+            warnings.warn(message, PartWarning, stacklevel=2)
+        described = "deck model: 6 DOFs per grid (fem.deck_model)"
+    else:
+        part, pins, pinned = _plate_part(
+            path, bulk, geometry, unit, shells, element, simple, constraints
+        )
+        info.update(pinned)
+        supports = as_support_list(list(cups)) + pins
+        if not supports and not allow_rigid_modes:
+            raise InputError(NOT_HELD)
+        _warn(part, unit, part.material.nu, any(s.shear_flexible for s in sections.read.values()))
+        result = modal_analysis(
+            part,
+            supports,
+            n_modes=n_modes,
+            zeta=zeta,
+            max_freq_hz=max_freq_hz,
+            allow_rigid_modes=allow_rigid_modes,
+            progress=progress,
+        )
+        described = f"{len(pins)} SPC grids pinned (translation held), {len(cups)} cups"
+    info["material_notes"] = sections.materials.notes()
+    included = {"included": [file_digest(p) for p in bulk.files[1:]]}
     result.provenance = {
-        "source": "fem.from_nastran (deck read by fem.bdf, solved by jaxflex's shell model)",
-        "input": {"deck": file_digest(path), **(included if info["included_files"] else {})},
-        "derived": {
-            "mesh": "deck GRIDs and shell corner grids (mid-side grids dropped); quads split "
-            "into triangles for the plate",
-            "supports": f"{len(pins)} SPC grids pinned (translation held), {len(cups)} cups",
-            **{k: v for k, v in info.items() if k != "included_files"},
-            "grids": int(grid_ids.size),
-        },
+        "source": "fem.from_nastran (deck read by fem.bdf, solved by jaxflex's models)",
+        "input": {"deck": file_digest(path), **(included if bulk.files[1:] else {})},
+        "derived": {"model": described, **info},
     }
     return result
+
+
+def _is_flat(geometry: DeckGeometry, shells) -> bool:
+    """Whether the shells' corner grids lie in a plane z = const (as fem.mesh_io)."""
+    xyz = np.array([geometry.positions[g] for s in shells for g in s.corners])
+    extent = float(np.ptp(xyz, axis=0).max())
+    return bool(np.ptp(xyz[:, 2]) <= FLAT_RELATIVE * max(extent, 1e-300))

@@ -8,7 +8,9 @@ millimetres. The part is still built: the warning says what was read and what to
 
 from __future__ import annotations
 
+import sys
 import warnings
+from contextlib import contextmanager
 
 THICKNESS_PER_SPAN = (1 / 5000, 1 / 20)
 MASS_KG = (0.01, 1000.0)
@@ -19,31 +21,36 @@ class PartWarning(UserWarning):
     """A part's thickness, mass or size looks like a unit slip."""
 
 
-def unit_warnings(part) -> list[str]:
-    """The warnings for ``part`` (a fem.parts.Part), each naming the value and its unit."""
+def unit_warnings(part, hint: str | None = None) -> list[str]:
+    """The warnings for ``part`` (a fem.parts.Part), each naming the value and its unit;
+    ``hint`` replaces the advice on the units (a mesh's: metres and --scale)."""
     out = []
     ratio = part.thickness_m / part.span_m
     lo, hi = THICKNESS_PER_SPAN
     if not lo <= ratio <= hi:
         out.append(
             f"thickness {part.thickness_m:g} m is 1/{1 / ratio:.4g} of the part's span "
-            f"{part.span_m:.4g} m (sheet metal: 1/{1 / hi:g} ... 1/{1 / lo:g}); thickness is "
-            "read in metres (1 mm = 1e-3)"
+            f"{part.span_m:.4g} m (sheet metal: 1/{1 / hi:g} ... 1/{1 / lo:g}); "
+            + (hint or "thickness is read in metres (1 mm = 1e-3)")
         )
     mass = part.mass_kg
     if not MASS_KG[0] <= mass <= MASS_KG[1]:
         out.append(
             f"the part weighs {mass:.4g} kg (expected {MASS_KG[0]:g} ... {MASS_KG[1]:g} kg); "
-            "check the thickness (m), the coordinates' unit (m; scale=1e-3 / --scale 1e-3 for "
-            "millimetres) and the material"
+            + (
+                hint
+                or "check the thickness (m), the coordinates' unit (m; scale=1e-3 / --scale "
+                "1e-3 for millimetres) and the material"
+            )
         )
     lo_m, hi_m = part.bounds_m()
     extent = float(max(hi_m - lo_m))
     if extent > LARGEST_LIKELY_M:
         out.append(
-            f"the part spans {extent:.4g} m; coordinates are read in metres: for a mesh in "
-            "millimetres pass scale=1e-3 (--scale 1e-3)"
-        )
+            f"the part spans {extent:.4g} m; "
+            + (hint or "coordinates are read in metres: for a mesh in millimetres pass "
+               "scale=1e-3 (--scale 1e-3)")
+        )  # fmt: skip
     return out
 
 
@@ -51,3 +58,19 @@ def warn_units(part) -> None:
     """Issue every :func:`unit_warnings` of ``part`` as a PartWarning."""
     for message in unit_warnings(part):
         warnings.warn(f"{part.name}: {message}", PartWarning, stacklevel=3)
+
+
+@contextmanager
+def printed_part_warnings():
+    """Run the block and print each PartWarning it issued as ``warning: ...`` on stderr
+    (other warnings as Python shows them)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", PartWarning)
+        yield
+    for warning in caught:
+        if issubclass(warning.category, PartWarning):
+            print(f"warning: {warning.message}", file=sys.stderr)
+        else:
+            warnings.showwarning(
+                warning.message, warning.category, warning.filename, warning.lineno
+            )

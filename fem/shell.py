@@ -173,42 +173,55 @@ class ShellOutputs:
     def stress_operator(self) -> tuple[np.ndarray, sp.csr_matrix]:
         """Stress at the centroid of every facet on its bottom and top surface per unit DOF:
         points (2 E, 3) m (facet e: rows 2 e and 2 e + 1), sparse (12 E, n_dof) Pa."""
-        layer, mat = self.layer, self.part.material
-        h = self.part.thickness_m
-        xyz = layer.nodes[layer.triangles]
-        frames, xy, _ = local_frames(xyz)
-        centroid = np.full((1, 3), 1 / 3)
-        n_el = len(xyz)
-        strain = np.zeros((n_el, 2, 3, 18))  # surface, (eps_xx, eps_yy, gamma_xy), local DOF
-        membrane = membrane_strain_matrix(xy, centroid, mat.nu)[:, 0]
-        curvature = curvature_matrix(xy, centroid)[:, 0]
-        for side, z in enumerate((-h / 2, h / 2)):
-            strain[:, side][..., MEMBRANE] = membrane
-            strain[:, side][..., BENDING] = -z * curvature
-        local = np.einsum("ab,esbj->esaj", plane_stress(mat.E_pa, mat.nu), strain)
-        # local plane stress (xx, yy, xy) -> global Voigt rows: sigma = F^T s F
-        e1, e2 = frames[:, 0], frames[:, 1]
-        turn = np.zeros((n_el, 6, 3))
-        for row, (i, j) in enumerate(VOIGT):
-            turn[:, row, 0] = e1[:, i] * e1[:, j]
-            turn[:, row, 1] = e2[:, i] * e2[:, j]
-            turn[:, row, 2] = e1[:, i] * e2[:, j] + e2[:, i] * e1[:, j]
-        # local DOFs = the frame applied to each node's translation and rotation triple
-        to_local = np.einsum("ab,eij->eaibj", np.eye(6), frames).reshape(n_el, 18, 18)
-        block = np.einsum("eva,esak,ekj->esvj", turn, local, to_local, optimize=True)
-        rows = np.arange(12 * n_el).reshape(n_el, 2, 6)[..., None]
-        cols = layer.element_dofs[:, None, None, :]
-        shape = block.shape
-        operator = sp.csr_matrix(
-            (
-                block.ravel(),
-                (np.broadcast_to(rows, shape).ravel(), np.broadcast_to(cols, shape).ravel()),
-            ),
-            shape=(12 * n_el, DOFS_PER_NODE * len(layer.nodes)),
-        )
-        offsets = np.array([-h / 2, h / 2])
-        points = xyz.mean(axis=1)[:, None] + offsets[None, :, None] * frames[:, None, 2]
-        return points.reshape(-1, 3), operator
+        layer, mat, h = self.layer, self.part.material, self.part.thickness_m
+        c = np.broadcast_to(plane_stress(mat.E_pa, mat.nu), (len(layer.triangles), 3, 3))
+        heights = np.broadcast_to([-h / 2, h / 2], (len(layer.triangles), 2))
+        n_dof = DOFS_PER_NODE * len(layer.nodes)
+        return surface_stress(layer.nodes, layer.triangles, n_dof, c, c, heights)
+
+
+def surface_stress(nodes, triangles, n_dof: int, c_membrane, c_bending, heights_m):
+    """Stress at the centroid of facets ``triangles`` (E, 3) of ``nodes`` (N, 3) m at
+    ``heights_m`` (E, 2) along their normals per unit DOF (6 per node, the first 6 N of
+    ``n_dof``): sigma = C_m eps_m - z C_b kappa (plane-stress matrices (E, 3, 3) Pa in the
+    facets' local axes; a homogeneous sheet: both its C, heights -h/2 and h/2). Returns
+    points (2 E, 3) m (facet e: rows 2 e and 2 e + 1) and the sparse (12 E, n_dof) Voigt
+    rows xx, yy, zz, yz, xz, xy in global axes, Pa."""
+    xyz = nodes[triangles]
+    frames, xy, _ = local_frames(xyz)
+    centroid = np.full((1, 3), 1 / 3)
+    n_el = len(xyz)
+    membrane = np.einsum("eab,ebj->eaj", c_membrane, membrane_strain_matrix(xy, centroid)[:, 0])
+    bending = np.einsum("eab,ebj->eaj", c_bending, curvature_matrix(xy, centroid)[:, 0])
+    local = np.zeros((n_el, 2, 3, 18))  # surface, (s_xx, s_yy, s_xy), local DOF
+    for side in range(2):
+        local[:, side][..., MEMBRANE] = membrane
+        local[:, side][..., BENDING] = -heights_m[:, side, None, None] * bending
+    # local plane stress (xx, yy, xy) -> global Voigt rows: sigma = F^T s F
+    e1, e2 = frames[:, 0], frames[:, 1]
+    turn = np.zeros((n_el, 6, 3))
+    for row, (i, j) in enumerate(VOIGT):
+        turn[:, row, 0] = e1[:, i] * e1[:, j]
+        turn[:, row, 1] = e2[:, i] * e2[:, j]
+        turn[:, row, 2] = e1[:, i] * e2[:, j] + e2[:, i] * e1[:, j]
+    # local DOFs = the frame applied to each node's translation and rotation triple
+    to_local = np.einsum("ab,eij->eaibj", np.eye(6), frames).reshape(n_el, 18, 18)
+    block = np.einsum("eva,esak,ekj->esvj", turn, local, to_local, optimize=True)
+    rows = np.arange(12 * n_el).reshape(n_el, 2, 6)[..., None]
+    element_dofs = (DOFS_PER_NODE * triangles[:, :, None] + np.arange(DOFS_PER_NODE)).reshape(
+        -1, 3 * DOFS_PER_NODE
+    )
+    cols = element_dofs[:, None, None, :]
+    shape = block.shape
+    operator = sp.csr_matrix(
+        (
+            block.ravel(),
+            (np.broadcast_to(rows, shape).ravel(), np.broadcast_to(cols, shape).ravel()),
+        ),
+        shape=(12 * n_el, n_dof),
+    )
+    points = xyz.mean(axis=1)[:, None] + heights_m[:, :, None] * frames[:, None, 2]
+    return points.reshape(-1, 3), operator
 
 
 class ShellMeshDofs:

@@ -86,10 +86,15 @@ def _edges(xy: np.ndarray):
     return d
 
 
-def _opt_parts(xy: np.ndarray, nu: float):
+def opt_beta0(nu: float) -> float:
+    """OPT's scaling of the higher-order stiffness for Poisson's ratio ``nu``:
+    (1 - 4 nu^2) / 2, at least 0.01 (Felippa 2003)."""
+    return max(0.5 * (1 - 4 * nu**2), 0.01)
+
+
+def _opt_parts(xy: np.ndarray):
     """Pieces of the OPT membrane shared by its stiffness and its strains: L (E, 9, 3)
-    (without the thickness), Te (E, 3, 3), Q1..Q3 (E, 3, 3), T_theta_u (E, 3, 9), area,
-    beta_0."""
+    (without the thickness), Te (E, 3, 3), Q1..Q3 (E, 3, 3), T_theta_u (E, 3, 9), area."""
     d = _edges(xy)
     x12, x21, x13, x31, x23, x32 = (d[k] for k in ("x12", "x21", "x13", "x31", "x23", "x32"))
     y12, y21, y13, y31, y23, y32 = (d[k] for k in ("y12", "y21", "y13", "y31", "y23", "y32"))
@@ -170,31 +175,36 @@ def _opt_parts(xy: np.ndarray, nu: float):
         [[b5, b6, b4], [b8, b9, b7], [b2, b3, b1]],
     ]
     q = [(2 * area / 3)[:, None, None] * inv * np.array(p)[None] for p in pattern]
-    beta0 = max(0.5 * (1 - 4 * nu**2), 0.01)
-    return L, te, q, t_theta_u, area, beta0
+    return L, te, q, t_theta_u, area
 
 
 def membrane_stiffness(xy: np.ndarray, thickness_m: float, E_pa: float, nu: float) -> np.ndarray:
     """(E, 9, 9) OPT membrane stiffness, N/m, DOFs (u, v, theta_z) per node, local."""
-    L, te, (q1, q2, q3), t_theta_u, area, beta0 = _opt_parts(xy, nu)
-    c = plane_stress(E_pa, nu)
-    volume = thickness_m * area
+    return membrane_stiffness_of(xy, thickness_m * plane_stress(E_pa, nu), opt_beta0(nu))
+
+
+def membrane_stiffness_of(xy: np.ndarray, a_n_m: np.ndarray, beta0) -> np.ndarray:
+    """(E, 9, 9) OPT membrane stiffness, N/m, DOFs (u, v, theta_z) per node, local, of a
+    membrane stiffness ``a_n_m`` (3, 3) or (E, 3, 3) N/m (thickness x plane-stress matrix)
+    in the elements' local axes; ``beta0`` scalar or (E,) (:func:`opt_beta0`)."""
+    L, te, (q1, q2, q3), t_theta_u, area = _opt_parts(xy)
+    a = np.broadcast_to(a_n_m, (len(xy), 3, 3))
     # basic: (1/V) L C L^T with L carrying the thickness
-    basic = thickness_m * np.einsum("eia,ab,ejb->eij", L, c, L) / area[:, None, None]
-    c_nat = np.einsum("eai,ab,ebj->eij", te, c, te)
+    basic = np.einsum("eia,eab,ejb->eij", L, a, L) / area[:, None, None]
+    c_nat = np.einsum("eai,eab,ebj->eij", te, a, te)
     k_theta = np.zeros_like(c_nat)
     for qm in ((q1 + q2) / 2, (q2 + q3) / 2, (q3 + q1) / 2):  # mid-side values
         k_theta += np.einsum("eai,eab,ebj->eij", qm, c_nat, qm)
-    k_theta *= (0.75 * beta0 * volume)[:, None, None]
+    k_theta *= (0.75 * np.asarray(beta0) * area)[:, None, None]
     higher = np.einsum("eai,eab,ebj->eij", t_theta_u, k_theta, t_theta_u)
     return basic + higher
 
 
-def membrane_strain_matrix(xy: np.ndarray, zeta: np.ndarray, nu: float) -> np.ndarray:
+def membrane_strain_matrix(xy: np.ndarray, zeta: np.ndarray) -> np.ndarray:
     """(E, P, 3, 9) membrane strains (eps_xx, eps_yy, gamma_xy) at area coordinates zeta
     (P, 3) per unit DOF (u, v, theta_z per node), local: the constant basic strain plus the
     OPT higher-order strain field (3/2) Te Q(zeta) T_theta_u, Q linear between the corners."""
-    L, te, (q1, q2, q3), t_theta_u, area, _ = _opt_parts(xy, nu)
+    L, te, (q1, q2, q3), t_theta_u, area = _opt_parts(xy)
     basic = np.transpose(L, (0, 2, 1)) / area[:, None, None]
     q = np.einsum("pk,keij->epij", zeta, np.stack([q1, q2, q3]))
     higher = 1.5 * np.einsum("eab,epbc,ecj->epaj", te, q, t_theta_u)
@@ -253,11 +263,24 @@ def curvature_matrix(xy: np.ndarray, zeta: np.ndarray) -> np.ndarray:
     return np.stack([ds[:, :, 0, 0], ds[:, :, 1, 1], ds[:, :, 0, 1] + ds[:, :, 1, 0]], axis=2)
 
 
-def bending_stiffness(xy: np.ndarray, thickness_m: float, E_pa: float, nu: float) -> np.ndarray:
-    """(E, 9, 9) DKT bending stiffness, DOFs (w, theta_x, theta_y) per node, local."""
+def bending_stiffness_of(xy: np.ndarray, d_nm: np.ndarray) -> np.ndarray:
+    """(E, 9, 9) DKT bending stiffness of a bending stiffness ``d_nm`` (3, 3) or (E, 3, 3)
+    N m in the elements' local axes, DOFs (w, theta_x, theta_y) per node, local."""
     b = curvature_matrix(xy, GAUSS3)
-    d = plane_stress(E_pa, nu) * thickness_m**3 / 12
-    return np.einsum("p,e,epai,ab,epbj->eij", GAUSS3_W, _area(xy), b, d, b, optimize=True)
+    d = np.broadcast_to(d_nm, (len(xy), 3, 3))
+    return np.einsum("p,e,epai,eab,epbj->eij", GAUSS3_W, _area(xy), b, d, b, optimize=True)
+
+
+def coupling_stiffness(xy: np.ndarray, b_n: np.ndarray) -> np.ndarray:
+    """(E, 9, 9) membrane-bending coupling of a section with N = B kappa_N, M = B^T eps
+    (``b_n`` (3, 3) or (E, 3, 3) N, local axes; kappa_N = -kappa, the curvature of the
+    Nastran convention eps(z) = eps + z kappa_N): rows the membrane DOFs (u, v, theta_z),
+    columns the bending DOFs (w, theta_x, theta_y), -int eps_m^T B kappa dA (3-point rule:
+    exact for the linear fields)."""
+    eps = membrane_strain_matrix(xy, GAUSS3)
+    kappa = curvature_matrix(xy, GAUSS3)
+    b = np.broadcast_to(b_n, (len(xy), 3, 3))
+    return -np.einsum("p,e,epai,eab,epbj->eij", GAUSS3_W, _area(xy), eps, b, kappa, optimize=True)
 
 
 def _area(xy: np.ndarray) -> np.ndarray:
@@ -326,19 +349,20 @@ def deflection_shape(xy: np.ndarray, zeta: np.ndarray) -> np.ndarray:
     return np.einsum("pm,emd->epd", _cubic_basis(zeta), coefficients)
 
 
-def mass_matrix(xy: np.ndarray, thickness_m: float, rho_kg_m3: float) -> np.ndarray:
-    """(E, 18, 18) consistent mass, kg, local DOFs (u, v, w, theta_x, theta_y, theta_z)."""
+def mass_matrix_of(xy: np.ndarray, mass_kg_m2: np.ndarray, inertia_kg: np.ndarray) -> np.ndarray:
+    """(E, 18, 18) consistent mass, kg, local DOFs (u, v, w, theta_x, theta_y, theta_z), of
+    a mass per area ``mass_kg_m2`` (E,) and a rotary inertia per area ``inertia_kg`` (E,)
+    (rho h^3 / 12 for a homogeneous sheet)."""
     area = _area(xy)
     n = xy.shape[0]
     linear = (np.full((3, 3), 1.0) + np.eye(3)) / 12  # int N_i N_j dA / A
     mass = np.zeros((n, 3, 6, 3, 6))
-    rho_h = rho_kg_m3 * thickness_m
-    inertia = rho_kg_m3 * thickness_m**3 / 12
+    rho_h, inertia = np.asarray(mass_kg_m2), np.asarray(inertia_kg)
     for comp, value in ((0, rho_h), (1, rho_h), (3, inertia), (4, inertia), (5, inertia)):
-        mass[:, :, comp, :, comp] = value * area[:, None, None] * linear
+        mass[:, :, comp, :, comp] = (value * area)[:, None, None] * linear
     zeta, weights = _mass_rule()
     shape = deflection_shape(xy, zeta)  # (E, P, 9)
-    m_w = rho_h * np.einsum("p,e,epi,epj->eij", weights, area, shape, shape)
+    m_w = np.einsum("p,e,epi,epj->eij", weights, rho_h * area, shape, shape)
     full = mass.reshape(n, 18, 18)
     full[np.ix_(np.arange(n), BENDING, BENDING)] += m_w
     return full
@@ -350,17 +374,36 @@ def element_matrices(
     """Stiffness and mass (E, 18, 18) in global DOFs (u_x, u_y, u_z, theta_x, theta_y,
     theta_z per node) of triangles xyz (E, 3, 3) m, and their frames (E, 3, 3)."""
     frames, xy, _ = local_frames(xyz)
-    n = xyz.shape[0]
+    c = plane_stress(E_pa, nu)
+    rho_h = np.full(len(xyz), rho_kg_m3 * thickness_m)
+    k, m = local_matrices(
+        xy,
+        thickness_m * c,
+        None,
+        c * thickness_m**3 / 12,
+        opt_beta0(nu),
+        rho_h,
+        rho_h * thickness_m**2 / 12,
+    )
+    return to_global(k, frames), to_global(m, frames), frames
+
+
+def local_matrices(xy, a_n_m, b_n, d_nm, beta0, mass_kg_m2, inertia_kg):
+    """Stiffness and mass (E, 18, 18) in the local DOFs of triangles ``xy`` (E, 3, 2) of a
+    section with membrane ``a_n_m``, coupling ``b_n`` (None: none; see
+    :func:`coupling_stiffness`) and bending ``d_nm`` stiffness ((3, 3) or (E, 3, 3), local
+    axes), OPT's ``beta0``, mass per area and rotary inertia per area (E,)."""
+    n = xy.shape[0]
     k = np.zeros((n, 18, 18))
     rows = np.arange(n)[:, None, None]
-    k[rows, MEMBRANE[None, :, None], MEMBRANE[None, None, :]] = membrane_stiffness(
-        xy, thickness_m, E_pa, nu
-    )
-    k[rows, BENDING[None, :, None], BENDING[None, None, :]] = bending_stiffness(
-        xy, thickness_m, E_pa, nu
-    )
-    m = mass_matrix(xy, thickness_m, rho_kg_m3)
-    return to_global(k, frames), to_global(m, frames), frames
+    mem, bend = MEMBRANE[None, :, None], BENDING[None, None, :]
+    k[rows, mem, MEMBRANE[None, None, :]] = membrane_stiffness_of(xy, a_n_m, beta0)
+    k[rows, BENDING[None, :, None], bend] = bending_stiffness_of(xy, d_nm)
+    if b_n is not None:
+        coupling = coupling_stiffness(xy, b_n)
+        k[rows, mem, bend] = coupling
+        k[rows, BENDING[None, :, None], MEMBRANE[None, None, :]] = np.swapaxes(coupling, 1, 2)
+    return k, mass_matrix_of(xy, mass_kg_m2, inertia_kg)
 
 
 def to_global(local: np.ndarray, frames: np.ndarray) -> np.ndarray:

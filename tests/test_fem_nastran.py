@@ -11,6 +11,9 @@ from test_fem_bdf import SMALL
 
 import fem
 from fem import meshing
+from fem.sanity import PartWarning
+from fem.thick import kirchhoff_excess
+from jaxflex.cli import main
 from jaxflex.errors import InputError
 
 STEEL_SI = ["PSHELL  1       1       1.-3    1", "MAT1    1       2.1+11          .3      7850."]
@@ -57,7 +60,7 @@ def test_deck_of_the_built_in_plate_gives_its_frequencies(tmp_path):
     model = result.to_modal_model(points=200)
     assert model.meta["input"]["deck"]["sha256"]
     assert model.meta["derived"]["units"]["name"] == "SI"
-    assert model.meta["derived"]["mat1_derived"] == {"MAT1 1": "G from E = 2 (1 + NU) G"}
+    assert model.meta["derived"]["material_notes"] == {"MAT1 1": "G from E = 2 (1 + NU) G"}
 
 
 WIDTH, HEIGHT = 0.6, 0.4
@@ -132,7 +135,7 @@ def test_wtmass_and_mat1_from_e_and_g(tmp_path, simply_supported):
     result = fem.from_nastran(path, units="SI", n_modes=6)
     # NU from a 14-digit G: 1e-13 off, frequencies move by far less than 1e-6
     np.testing.assert_allclose(result.freq_hz, simply_supported.freq_hz, rtol=1e-6)
-    assert result.provenance["derived"]["mat1_derived"] == {"MAT1 1": "NU from E = 2 (1 + NU) G"}
+    assert result.provenance["derived"]["material_notes"] == {"MAT1 1": "NU from E = 2 (1 + NU) G"}
     # PARAM WTMASS scales the mass: a quarter of it doubles every frequency (omega ~ 1/sqrt(m))
     path = meshio_deck(
         tmp_path / "wt.bdf", nodes, "quad", quads, ["PARAM,WTMASS,.25", *STEEL_SI, *boundary]
@@ -223,29 +226,132 @@ def test_deck_errors_are_named(tmp_path):
     free = meshio_deck(tmp_path / "free.bdf", nodes, "quad", quads, STEEL_SI)
     with pytest.raises(InputError, match="does not state its unit system"):
         fem.from_nastran(free)
-    with pytest.raises(InputError, match="no SPC and no cups"):
+    with pytest.raises(InputError, match=r"no SPC and no cups .* allow_rigid_modes=True"):
         fem.from_nastran(free, units="SI")
-    clamped = meshio_deck(tmp_path / "c.bdf", nodes, "quad", quads, [*STEEL_SI, "SPC1,1,123456,1"])
-    with pytest.raises(InputError, match=r"SPC1 1 \(c\.bdf line \d+\): grid 1 has its rotations"):
-        fem.from_nastran(clamped, units="SI")
     sets = meshio_deck(
         tmp_path / "s.bdf", nodes, "quad", quads, [*STEEL_SI, "SPC1,1,3,1", "SPC1,2,3,2"]
     )
     with pytest.raises(InputError, match=r"the deck has SPC sets \[1, 2\]; choose one"):
         fem.from_nastran(sets, units="SI")
-    pcomp = meshio_deck(
+    plies = meshio_deck(
         tmp_path / "p.bdf", nodes, "quad", quads, ["PCOMP,1", "MAT1,1,2.1+11,,.3,7850."]
     )
     with pytest.raises(
-        InputError, match=r"CQUAD4 1 \(p\.bdf line \d+, field 3 PID\): property 1 is a PCOMP"
+        InputError, match=r"PCOMP 1 \(p\.bdf line \d+, row 2 field 2 MID1\): required"
     ):
-        fem.from_nastran(pcomp, units="SI")
-    mat8 = meshio_deck(
-        tmp_path / "m.bdf", nodes, "quad", quads, ["PSHELL,1,1,1.-3,1", "MAT8,1,1.+11"]
-    )
-    with pytest.raises(
-        InputError, match=r"PSHELL 1 \(m\.bdf line \d+, field 3 MID1\): material 1 is a MAT8"
-    ):
-        fem.from_nastran(mat8, units="SI")
+        fem.from_nastran(plies, units="SI")
+    other = meshio_deck(tmp_path / "o.bdf", nodes, "quad", quads, ["PSHEAR,1,1,1.-3", STEEL_SI[1]])
+    with pytest.raises(InputError, match=r"CQUAD4 1 \(o\.bdf line \d+, field 3 PID\): property 1 "
+                       r"is a PSHEAR; CQUAD4 takes PSHELL, PCOMP, PCOMPG"):  # fmt: skip
+        fem.from_nastran(other, units="SI")
     with pytest.raises(InputError, match="does not exist"):
         fem.from_nastran(tmp_path / "none.bdf", units="SI")
+    static = meshio_deck(tmp_path / "st.bdf", nodes, "quad", quads,
+                         [STEEL_SI[0], "MAT1,1,2.1+11,,.3", "SPC1,1,123,1,4,9"])  # fmt: skip
+    with pytest.raises(InputError, match=r"no mass: RHO is blank or 0 on MAT1 1 .* static deck"):
+        fem.from_nastran(static, units="SI")
+
+
+def test_refusals_name_each_card_with_its_share_of_the_mass(tmp_path):
+    # the plate (0.3 x 0.2 m x 1 mm steel: 0.471 kg) and a steel block of CHEXA 0.1 x 0.1 x
+    # 0.02 m (1.57 kg) on it: the block holds 1.57 / (1.57 + 0.471) = 76.9 % of the mass
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 4), np.linspace(0, 0.2, 3))
+    corners = [(0, 0, 0), (0.1, 0, 0), (0.1, 0.1, 0), (0, 0.1, 0)]
+    corners += [(x, y, 0.02) for x, y, _ in corners]
+    block = [f"GRID,{900 + k},,{x},{y},{z}" for k, (x, y, z) in enumerate(corners)]
+    block += ["CHEXA,500,5,900,901,902,903,904,905,+", "+,906,907", "PSOLID,5,1",
+              "CGAP,600,,1,2"]  # fmt: skip
+    path = meshio_deck(tmp_path / "b.bdf", nodes, "quad", quads, [*STEEL_SI, *block])
+    with pytest.raises(InputError) as refused:
+        fem.from_nastran(path, units="SI")
+    message = str(refused.value)
+    share = 7850 * 0.1 * 0.1 * 0.02 / (7850 * 0.1 * 0.1 * 0.02 + 7850 * 1e-3 * 0.3 * 0.2)
+    assert f"CHEXA (1, {100 * share:.3g} % of the mass; first b.bdf line" in message
+    assert "CGAP (1, no mass;" in message
+    assert "jaxflex model --from-modes FILE" in message
+    # a card our element set has but a model option refuses: named before the work
+    mass = meshio_deck(tmp_path / "m.bdf", nodes, "quad", quads, [*STEEL_SI, "CONM2,7,1,,1.",
+                                                                   "SPC1,1,123,1,4,9"])  # fmt: skip
+    with pytest.raises(InputError, match=r"element: 'morley' takes a deck of one isotropic "
+                       r"sheet; this one has CONM2 \(1\)"):  # fmt: skip
+        fem.from_nastran(mass, units="SI", element="morley")
+
+
+def test_free_free_deck_and_the_warnings_of_a_thick_part(tmp_path):
+    # a free 0.3 x 0.2 m plate 25 mm thick (1/8 of its span): with allow_rigid_modes its six
+    # rigid-body modes are reported, not modelled, and its elastic modes are the mesh door's
+    # (fem.read_mesh of the same quads with the shell: the same model, 1e-9); the door warns
+    # about the thickness (as the mesh door) and notes the Kirchhoff element (fem.thick:
+    # about 5 % for 1/8)
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 7), np.linspace(0, 0.2, 5))
+    cards = ["PSHELL,1,1,.025,1", STEEL_SI[1]]
+    path = meshio_deck(tmp_path / "thick.bdf", nodes, "quad", quads, cards)
+    with pytest.raises(InputError, match=r"leave \d rigid-body mode.*allow_rigid_modes=True"):
+        fem.from_nastran(path, units="SI", element="shell", n_modes=4)
+    with pytest.warns(PartWarning) as caught:
+        result = fem.from_nastran(path, units="SI", element="shell", n_modes=4,
+                                  allow_rigid_modes=True)  # fmt: skip
+    messages = " ".join(str(w.message) for w in caught)
+    assert "thickness 0.025 m is 1/8 of the part's span 0.2 m" in messages
+    assert "Kirchhoff" in messages and "about 5.2 % lower" in messages
+    assert result.rigid_freq_hz.size == 6 and "rigid-body modes kept out" in result.summary()
+    mesh_file = tmp_path / "thick.vtu"
+    meshio.write(mesh_file, meshio.Mesh(np.column_stack([nodes, np.zeros(len(nodes))]),
+                                        [("quad", quads)]))  # fmt: skip
+    with pytest.warns(PartWarning):
+        part = fem.read_mesh(mesh_file, 0.025, "steel", element="shell")
+    reference = fem.modal_analysis(part, [], n_modes=4, allow_rigid_modes=True)
+    np.testing.assert_allclose(result.freq_hz, reference.freq_hz, rtol=1e-9)
+    assert fem.from_nastran.__doc__ and kirchhoff_excess(1 / 8, 1.0, 0.3) == pytest.approx(
+        0.052, abs=5e-4
+    )
+
+
+def test_the_command_prints_the_door_warnings(tmp_path, capsys):
+    # jaxflex model --from-nastran prints the part's warnings as the mesh door does
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 4), np.linspace(0, 0.2, 3))
+    path = meshio_deck(tmp_path / "t.bdf", nodes, "quad", quads, ["PSHELL,1,1,.025,1", STEEL_SI[1]])
+    args = ["model", "--from-nastran", str(path), "--units", "SI", "--allow-rigid-modes"]
+    assert main([*args, "--n-modes", "2", "--quiet", "-o", str(tmp_path / "t.npz")]) == 0
+    err = capsys.readouterr().err
+    assert "warning: t.bdf: thickness 0.025 m is 1/8 of the part's span" in err
+    assert "warning: t.bdf: thickness/span 1/8: the 'morley' element is Kirchhoff" in err
+
+
+def same_up_to_mode_signs(got, want, name):
+    """Maps (Y, M) per mode agree up to each mode's sign (a symmetric part's modes have
+    peaks of equal size: which one decides the sign hangs on round-off), to 1e-6 of the
+    largest entry; (Y, 3) maps per base acceleration agree as they are."""
+    got, want = np.asarray(got), np.asarray(want)
+    if name != "a_map":
+        got = got * np.sign(np.sum(got * want, axis=0))
+    np.testing.assert_allclose(got, want, atol=1e-6 * np.abs(want).max(), err_msg=name)
+
+
+def test_deck_model_outputs_are_the_mesh_doors(tmp_path):
+    # the curved panel with four cups (rigid, and compliant "flat" ones): the deck model's cup
+    # reactions and surface stresses are those of fem.read_mesh's shell of the same quads
+    # (the same model)
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.4, 9), np.linspace(0, 0.3, 7))
+    sag = 0.5 - np.sqrt(0.5**2 - (nodes[:, 0] - 0.2) ** 2)
+    xyz = np.column_stack([nodes, sag])
+    meshio.write(tmp_path / "panel.vtu", meshio.Mesh(xyz, [("quad", quads)]))
+    part = fem.read_mesh(tmp_path / "panel.vtu", 1e-3, "steel")
+    deck = meshio_deck(tmp_path / "panel.bdf", xyz, "quad", quads, STEEL_SI)
+    for stiffness in (None, "flat"):
+        cups = [fem.SuctionCup(x, y, 0.03, stiffness=stiffness)
+                for x in (0.1, 0.3) for y in (0.1, 0.2)]  # fmt: skip
+        ours = fem.from_nastran(deck, units="SI", cups=cups, n_modes=6).to_modal_model(50)
+        theirs = fem.modal_analysis(part, cups, n_modes=6).to_modal_model(50)
+        np.testing.assert_allclose(ours.freq_hz, theirs.freq_hz, rtol=1e-6)
+        for name in ("q_map", "v_map", "a_map"):
+            same_up_to_mode_signs(
+                getattr(ours.cups.reaction, name), getattr(theirs.cups.reaction, name), name
+            )
+        # stresses at the same points (the facets come in another order)
+        order = [np.lexsort(np.asarray(m.stress.points_m).T) for m in (ours, theirs)]
+        rows = [(6 * o[:, None] + np.arange(6)).ravel() for o in order]
+        for name in ("q_map", "a_map"):
+            got, want = (np.asarray(getattr(m.stress.stress, name))[r]
+                         for m, r in zip((ours, theirs), rows, strict=True))  # fmt: skip
+            same_up_to_mode_signs(got, want, name)

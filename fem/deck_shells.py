@@ -1,0 +1,266 @@
+"""The shell elements of a Nastran deck as flat facets of our shell (fem.shell_element).
+
+Cards: CQUAD4, CTRIA3, CQUADR, CTRIAR, CQUAD8, CTRIA6 (their mid-side grids are dropped:
+the facets are the corner triangles; constraints on mid-side grids then have no effect).
+A quad is cut along its shorter diagonal (as fem.meshing.split_quads), both triangles keep
+the element's node order, so the facet normal is the element's (the positive z of
+offsets, THETA and laminates). Per facet:
+
+* the section (fem.deck_materials) at the facet's mean thickness and mean cube of the
+  thickness (the corner thicknesses T1... of the element, TFLAG = 1: relative to the
+  PSHELL's T; linear over the facet: mean of t^3 = (sum t_i^3 + sum_{i != j} t_i^2 t_j +
+  t1 t2 t3) / 10);
+* the material axis (THETA degrees from the line G1-G2 about the element normal, or MCID:
+  its x axis projected on the facet) turned into the facet's axes;
+* ZOFFS: the reference plane lies at ZOFFS along the normal from the grids (rigid offset).
+
+Stiffness and mass come from fem.shell_element.local_matrices in blocks of facets.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fem.bdf import BulkData, Card
+from fem.deck_coords import DeckGeometry
+from fem.deck_materials import Materials, ShellSection, laminate, pshell, rotate
+from fem.offsets import offset_transform
+from fem.shell_element import local_frames, local_matrices, opt_beta0, to_global
+from jaxflex.errors import InputError
+
+# card: (corner grids, grids, THETA/MCID, ZOFFS, TFLAG, first corner thickness) field indices
+SHELL_LAYOUT = {
+    "CQUAD4": (4, 4, 6, 7, 9, 10),
+    "CQUADR": (4, 4, 6, 7, 9, 10),
+    "CTRIA3": (3, 3, 5, 6, 9, 10),
+    "CTRIAR": (3, 3, 5, 6, 9, 10),
+    "CQUAD8": (4, 8, 14, 15, 16, 10),
+    "CTRIA6": (3, 6, 8, 9, 13, 10),
+}
+SHELL_CARDS = tuple(SHELL_LAYOUT)
+SHELL_PROPERTIES = ("PSHELL", "PCOMP", "PCOMPG")
+
+
+@dataclass
+class ShellElement:
+    card: Card
+    pid: int
+    corners: tuple[int, ...]
+    midside: tuple[int, ...]
+    theta_deg: float
+    mcid: int | None
+    zoffs: float
+    corner_t: tuple[float | None, ...]
+    tflag: int
+
+
+def read_shell(card: Card, bulk: BulkData) -> ShellElement:
+    """A shell element card (grids checked to be in the deck)."""
+    corners, n_grids, orient, zoffs, tflag, first_t = SHELL_LAYOUT[card.name]
+    eid = card.required(card.integer(0, "EID"), 0, "EID")
+    grids = []
+    for k in range(n_grids):
+        label = f"G{k + 1}"
+        gid = card.integer(2 + k, label)
+        if gid is None or gid == 0:
+            if k < corners:
+                card.required(None, 2 + k, label)
+            continue
+        if gid not in bulk.grids:
+            raise InputError(f"deck: {card.where(2 + k, label)}: grid {gid} is not in the deck")
+        grids.append(gid)
+    text = card.text(orient)
+    mcid = None
+    theta = 0.0
+    if text and ("." in text or "E" in text.upper()):
+        theta = card.real(orient, "THETA", 0.0)
+    elif text:
+        mcid = card.integer(orient, "MCID")
+    thickness = tuple(card.real(first_t + k, f"T{k + 1}") for k in range(corners))
+    return ShellElement(
+        card,
+        card.integer(1, "PID", eid),  # blank PID: the element id (Quick Reference Guide)
+        tuple(grids[:corners]),
+        tuple(grids[corners:]),
+        theta,
+        mcid,
+        card.real(zoffs, "ZOFFS", 0.0),
+        thickness,
+        card.integer(tflag, "TFLAG", 0),
+    )
+
+
+class ShellSections:
+    """The shell properties (PSHELL, PCOMP, PCOMPG), read when first used."""
+
+    def __init__(self, bulk: BulkData, materials: Materials) -> None:
+        self.bulk, self.materials = bulk, materials
+        self.cards = bulk.by_id(*SHELL_PROPERTIES)
+        self.read: dict[int, ShellSection] = {}
+
+    def get(self, element: ShellElement) -> ShellSection:
+        pid = element.pid
+        card = self.bulk.referenced(self.cards, pid, SHELL_PROPERTIES, element.card, (1, "PID"))
+        if pid not in self.read:
+            reader = pshell if card.name == "PSHELL" else laminate
+            self.read[pid] = reader(card, self.materials)
+        return self.read[pid]
+
+
+def _corner_thickness(element: ShellElement, section: ShellSection) -> np.ndarray:
+    """The thickness at each corner: T1... of the element (TFLAG = 1: times the property's
+    T), else the property's T (a laminate: its plies' total)."""
+    base = section.thickness
+    values = []
+    for k, t in enumerate(element.corner_t):
+        if t is None or section.laminate is not None:
+            t = base
+        elif element.tflag == 1:
+            t = None if base is None else t * base
+        if t is None:
+            raise InputError(
+                f"deck: {element.card.where(None)}: no thickness: T of "
+                f"{section.card.label} and the corner thickness T{k + 1} are blank"
+            )
+        if t < 0:
+            raise InputError(f"deck: {element.card.where(None)}: corner thickness {t:g} < 0")
+        values.append(t)
+    if not any(values):
+        raise InputError(f"deck: {element.card.where(None)}: every corner thickness is 0")
+    return np.array(values)
+
+
+@dataclass
+class Facets:
+    """Triangles of the shell elements: ``triangles`` (F, 3) node indices, ``element``
+    (F,) index into ``elements``, ``t_mean``, ``t3_mean`` (F,) deck units, ``angle`` (F,)
+    rad of the material axis in the facet's axes (0 where isotropic), ``offset`` (F,)
+    ZOFFS, ``pid`` (F,)."""
+
+    elements: list[ShellElement]
+    triangles: np.ndarray
+    element: np.ndarray
+    t_mean: np.ndarray
+    t3_mean: np.ndarray
+    angle: np.ndarray
+    offset: np.ndarray
+    pid: np.ndarray
+
+
+def _material_directions(elements, xyz: np.ndarray, geometry: DeckGeometry) -> np.ndarray:
+    """(E, 3) the material axis 1 in basic of ``elements`` whose corners are ``xyz`` (E, 4,
+    3; a triangle's fourth repeats its first): THETA from the line G1-G2 about the element
+    normal, or MCID's axis 1 at the element's centre (before projection on a facet)."""
+    quad = np.array([len(e.corners) == 4 for e in elements])
+    normal = np.where(
+        quad[:, None],
+        np.cross(xyz[:, 2] - xyz[:, 0], xyz[:, 3] - xyz[:, 1]),
+        np.cross(xyz[:, 1] - xyz[:, 0], xyz[:, 2] - xyz[:, 0]),
+    )
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    edge = xyz[:, 1] - xyz[:, 0]
+    edge -= np.einsum("ei,ei->e", edge, normal)[:, None] * normal
+    edge /= np.linalg.norm(edge, axis=1, keepdims=True)
+    theta = np.radians([e.theta_deg for e in elements])[:, None]
+    out = np.cos(theta) * edge + np.sin(theta) * np.cross(normal, edge)
+    for mcid in {e.mcid for e in elements} - {None}:
+        rows = np.flatnonzero([e.mcid == mcid for e in elements])
+        first = elements[rows[0]]
+        system = geometry.system(mcid, first.card, SHELL_LAYOUT[first.card.name][2], "MCID")
+        centres = np.array([xyz[r, : len(elements[r].corners)].mean(axis=0) for r in rows])
+        out[rows] = system.frames(centres)[:, 0]
+    return out
+
+
+def _mean_cube(t: np.ndarray) -> np.ndarray:
+    """(F,) mean of t^3 over triangles whose thickness is linear between corner values
+    ``t`` (F, 3): (sum t_i^3 + sum_{i != j} t_i^2 t_j + t1 t2 t3) / 10."""
+    s1, s2, s3 = t.sum(axis=1), (t**2).sum(axis=1), (t**3).sum(axis=1)
+    return (s3 + (s2 * s1 - s3) + t.prod(axis=1)) / 10
+
+
+def facets(elements, sections: ShellSections, geometry: DeckGeometry, index: dict) -> Facets:
+    """The facets of ``elements`` (grid ids to node indices by ``index``), deck units."""
+    n = len(elements)
+    corners = np.full((n, 4), -1, dtype=np.int64)
+    thickness = np.zeros((n, 4))
+    for e, element in enumerate(elements):
+        k = len(element.corners)
+        corners[e, :k] = [index[g] for g in element.corners]
+        thickness[e, :k] = _corner_thickness(element, sections.get(element))
+    nodes = np.array([geometry.positions[g] for g in sorted(index, key=index.get)])
+    quad = corners[:, 3] >= 0
+    xyz = nodes[np.where(corners >= 0, corners, 0)]
+    short_ac = np.linalg.norm(xyz[:, 0] - xyz[:, 2], axis=1) <= np.linalg.norm(
+        xyz[:, 1] - xyz[:, 3], axis=1
+    )
+    first = np.where((quad & ~short_ac)[:, None], [0, 1, 3], [0, 1, 2])
+    second = np.where(short_ac[:, None], [0, 2, 3], [1, 2, 3])
+    owner = np.concatenate([np.arange(n), np.flatnonzero(quad)])
+    local = np.concatenate([first, second[quad]])
+    triangles = np.take_along_axis(corners[owner], local, axis=1)
+    t = np.take_along_axis(thickness[owner], local, axis=1)
+    order = np.argsort(owner, kind="stable")
+    owner, local, triangles, t = owner[order], local[order], triangles[order], t[order]
+    angle = np.zeros(len(owner))
+    oriented = np.array([sections.get(e).oriented for e in elements])
+    rows = np.flatnonzero(oriented[owner])
+    if rows.size:
+        chosen = np.flatnonzero(oriented)
+        direction = np.zeros((n, 3))
+        padded = np.where(corners[chosen] >= 0, corners[chosen], corners[chosen, :1])
+        direction[chosen] = _material_directions(
+            [elements[e] for e in chosen], nodes[padded], geometry
+        )
+        frames, _, _ = local_frames(nodes[triangles[rows]])
+        d = direction[owner[rows]]
+        angle[rows] = np.arctan2(
+            np.einsum("fi,fi->f", frames[:, 1], d), np.einsum("fi,fi->f", frames[:, 0], d)
+        )
+    return Facets(
+        elements,
+        triangles,
+        owner,
+        t.mean(axis=1),
+        _mean_cube(t),
+        angle,
+        np.array([elements[e].zoffs for e in owner]),
+        np.array([elements[e].pid for e in owner], dtype=np.int64),
+    )
+
+
+def facet_resultants(f: Facets, sections: ShellSections, chunk: np.ndarray):
+    """(A, B, D (C, 3, 3) in the facets' axes, beta0, mass, inertia (C,)) of facets
+    ``chunk``."""
+    n = len(chunk)
+    a, b, d = (np.zeros((n, 3, 3)) for _ in range(3))
+    beta0, mass, inertia = np.zeros(n), np.zeros(n), np.zeros(n)
+    pids = f.pid[chunk]
+    for pid in np.unique(pids):
+        rows = np.flatnonzero(pids == pid)
+        section = sections.read[int(pid)]
+        ra, rb, rd, rm, ri = section.resultants(f.t_mean[chunk[rows]], f.t3_mean[chunk[rows]])
+        angle = f.angle[chunk[rows]]
+        a[rows], b[rows], d[rows] = (rotate(m, angle) for m in (ra, rb, rd))
+        mass[rows], inertia[rows] = rm, ri
+        beta0[rows] = opt_beta0(section.poisson)
+    return a, b, d, beta0, mass, inertia
+
+
+def facet_matrices(f: Facets, sections: ShellSections, nodes: np.ndarray, chunk: np.ndarray):
+    """Stiffness and mass (C, 18, 18), global DOFs, of facets ``chunk`` (deck units)."""
+    xyz = nodes[f.triangles[chunk]]
+    frames, xy, _ = local_frames(xyz)
+    a, b, d, beta0, mass, inertia = facet_resultants(f, sections, chunk)
+    coupled = b if np.any(b) else None
+    k, m = local_matrices(xy, a, coupled, d, beta0, mass, inertia)
+    k, m = to_global(k, frames), to_global(m, frames)
+    offset = f.offset[chunk]
+    if np.any(offset):
+        arm = np.repeat((offset[:, None] * frames[:, 2])[:, None], 3, axis=1)
+        t = offset_transform(arm)
+        k = np.einsum("eai,eab,ebj->eij", t, k, t, optimize=True)
+        m = np.einsum("eai,eab,ebj->eij", t, m, t, optimize=True)
+    return k, m
