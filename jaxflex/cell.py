@@ -97,22 +97,26 @@ class Box:
 
     def closest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(signed distance (N,) m, closest boundary point (N, 3)) for points (N, 3)."""
-        local = (points - self.centre_m) @ self.rotation
+        aligned = np.array_equal(self.rotation, np.eye(3))
+        local = points - self.centre_m
+        if not aligned:
+            local = local @ self.rotation
         half = self.size_m / 2
         outside = np.abs(local) - half
-        clamped = np.clip(local, -half, half)
-        inside = (outside <= 0).all(axis=1)
-        distance = np.linalg.norm(np.maximum(outside, 0), axis=1)
-        # inside: the nearest face
-        face = np.argmax(outside, axis=1)
-        depth = outside[np.arange(len(local)), face]
-        on_face = local.copy()
-        on_face[np.arange(len(local)), face] = (
-            np.sign(local[np.arange(len(local)), face]) * half[face]
-        )
-        nearest = np.where(inside[:, None], on_face, clamped)
-        signed = np.where(inside, depth, distance)
-        return signed, nearest @ self.rotation.T + self.centre_m
+        nearest = np.clip(local, -half, half)
+        beyond = np.maximum(outside, 0.0)
+        signed = np.sqrt(np.einsum("ij,ij->i", beyond, beyond))
+        inside = np.flatnonzero((outside <= 0).all(axis=1))
+        if inside.size:  # the nearest face, at minus its depth
+            rows = np.arange(inside.size)
+            face = np.argmax(outside[inside], axis=1)
+            signed[inside] = outside[inside, face]
+            on_face = local[inside]
+            on_face[rows, face] = np.sign(on_face[rows, face]) * half[face]
+            nearest[inside] = on_face
+        if not aligned:
+            nearest = nearest @ self.rotation.T
+        return signed, nearest + self.centre_m
 
     def describe(self) -> dict:
         return {

@@ -138,14 +138,42 @@ class PartBlocks:
 
     def spread_positions(self, positions: np.ndarray) -> np.ndarray:
         """(nB,) max_p |X_p - X_c| of the members at rest ``positions`` (K, 3)."""
+        return np.linalg.norm(self.extents(positions), axis=1)
+
+    def extents(self, positions: np.ndarray) -> np.ndarray:
+        """(nB, 3) max_p |X_p,k - X_c,k| per axis k of the members at rest ``positions``."""
         safe = np.where(self.real, self.members, 0)
-        gap = np.linalg.norm(positions[safe] - positions[self.centre][:, None], axis=2)
-        return np.max(np.where(self.real, gap, 0.0), axis=1)
+        gap = np.abs(positions[safe] - positions[self.centre][:, None])  # (nB, b, 3)
+        return np.max(np.where(self.real[..., None], gap, 0.0), axis=1)
 
     def points_of(self, blocks: np.ndarray) -> np.ndarray:
         """Sorted point indices of the members of ``blocks``."""
         members = self.members[blocks][self.real[blocks]]
         return np.sort(members)
+
+
+def block_lower_bounds(obstacles, centres: np.ndarray, extents: np.ndarray, moving: np.ndarray):
+    """(T, nB) a lower bound of the distance of every member of every block to the nearest
+    obstacle, from the block centres' positions ``centres`` (T, nB, 3), the blocks' extents
+    at rest about their centre ``extents`` (nB, 3) and the bound of how far a member's
+    displacement differs from its centre's ``moving`` (T, nB). Each obstacle piece is
+    convex, so its (signed) distance is a convex function with the unit vector g from its
+    closest point as a subgradient at the centre: d(p) >= d(c) + g . (p - c) >= d(c) -
+    sum_k |g_k| e_k - moving. Tight where a face lies parallel to the part (g across the
+    sheet), where the 1-Lipschitz bound d(c) - |p - c| is not."""
+    flat = centres.reshape(-1, 3)
+    spread = np.broadcast_to(extents[None], centres.shape).reshape(-1, 3)
+    best = np.full(len(flat), np.inf)
+    for obstacle in obstacles:
+        d, closest = obstacle.closest(flat)
+        gap = flat - closest
+        norm = np.linalg.norm(gap, axis=1)
+        direction = np.abs(gap) / np.where(norm > 0, norm, 1.0)[:, None]
+        reach = np.where(
+            norm > 0, np.sum(direction * spread, axis=1), np.linalg.norm(spread, axis=1)
+        )
+        best = np.minimum(best, d - reach)
+    return best.reshape(centres.shape[:2]) - moving
 
 
 def part_blocks(model) -> PartBlocks:

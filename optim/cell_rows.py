@@ -34,6 +34,7 @@ from threadpoolctl import threadpool_limits
 
 from jaxflex.collision import (
     Clearance,
+    block_lower_bounds,
     displacement_coordinates,
     distances,
     gravity_offset,
@@ -45,7 +46,7 @@ from jaxflex.deviation import outputs_at, response_shapes
 from jaxflex.engine import state_maps_at, states_at
 from jaxflex.loads import CupUtilisation, VonMises
 from jaxflex.peaks import Peak, item_bounds, output_peak
-from jaxflex.profile import acceleration_at, position_weights
+from jaxflex.profile import acceleration_at, kinematics_at, position_weights
 
 ROW_MARGIN = 1e-3
 SCAN_RTOL = 1e-7  # a row's own limit is met up to the LP's feasibility tolerance (1e-9)
@@ -56,6 +57,7 @@ TAIL_PERIODS = 2.0
 PEAKS_PER_ROUND = 20  # violated local maxima in time
 ITEMS_PER_PEAK = 8  # rows at each: the worst items (points, cups) above the limit
 ROWS_PER_ROUND = 240  # loads: rows at the worst violated (time, item) samples
+PAIR_CHUNK = 100_000  # (time, point) pairs per evaluation of the distance
 
 
 @dataclass(frozen=True)
@@ -266,37 +268,47 @@ class DistanceFamily:
         self.base = np.asarray(model.points) + gravity_offset(model, self.gravity)
         self.shapes = response_shapes(model)  # (K, 3, M'): the modes, then the static residual
         self.blocks = part_blocks(model)
-        self.spread = self.blocks.spread_positions(self.base)
+        self.extents = self.blocks.extents(self.base)
 
     def positions(self, acc, dt_s, t, points=None, coords=None) -> np.ndarray:
         """(T, P, 3) mid-surface positions of ``points`` (default all) at times ``t``."""
         return positions_at(self.model, acc, dt_s, t, self.gravity, points, coords)
 
-    def _skin_distances(self, acc, dt_s, t, points, coords) -> np.ndarray:
-        """(T, P) distance of the skins of ``points`` at times ``t``."""
-        p = self.positions(acc, dt_s, t, points, coords)
-        d, _, _ = distances(self.obstacles, p.reshape(-1, 3))
-        return d.reshape(p.shape[:2]) - self.half
-
     def near(self, acc: np.ndarray, dt_s: float, t: np.ndarray, within_m: float | None):
         """(points (P,), their skin distances (T, P)): the points that may come closer than
         ``within_m`` (None: than the nearest block centre at that time) at some time of
-        ``t``; every other point provably keeps it there (a block's centre bounds its
-        members: jaxflex.collision.PartBlocks)."""
+        ``t``, evaluated at the times where they may (elsewhere inf: every point provably
+        keeps the distance there, its block's centre bounds it: jaxflex.collision.PartBlocks).
+        """
         coords = displacement_coordinates(self.model, acc, dt_s, t)
-        centres = self.blocks.centre
-        d_centre = self._skin_distances(acc, dt_s, t, centres, coords)  # (T, nB)
-        reach = self.spread[None] + np.abs(coords) @ self.blocks.spread_shapes.T
-        if within_m is None:
-            within_m = d_centre.min(axis=1, keepdims=True)
-        close = np.flatnonzero((d_centre - reach <= within_m).any(axis=0))
-        points = self.blocks.points_of(close)
-        return points, self._skin_distances(acc, dt_s, t, points, coords)
+        centres = self.positions(acc, dt_s, t, self.blocks.centre, coords)  # (T, nB, 3)
+        moving = np.abs(coords) @ self.blocks.spread_shapes.T
+        lower = block_lower_bounds(self.obstacles, centres, self.extents, moving) - self.half
+        if within_m is None:  # the nearest centre's distance: attained, so a bound of the min
+            d_centre, _, _ = distances(self.obstacles, centres.reshape(-1, 3))
+            within_m = (d_centre.reshape(centres.shape[:2]) - self.half).min(axis=1)[:, None]
+        close = lower <= within_m  # (T, nB)
+        points = self.blocks.points_of(np.flatnonzero(close.any(axis=0)))
+        times, blocks = np.nonzero(close)
+        members = self.blocks.members[blocks]  # (pairs, b)
+        real = members < len(self.base)
+        pair_t = np.broadcast_to(times[:, None], members.shape)[real]
+        pair_p = members[real]
+        d = np.full((len(t), len(points)), np.inf)
+        path = kinematics_at(acc, dt_s, t)[0]
+        for chunk in np.array_split(np.arange(len(pair_p)), max(1, len(pair_p) // PAIR_CHUNK)):
+            tt, pp = pair_t[chunk], pair_p[chunk]
+            u = np.einsum("kcm,km->kc", self.shapes[pp], coords[tt])
+            dist, _, _ = distances(self.obstacles, self.base[pp] + path[tt] + u)
+            d[tt, np.searchsorted(points, pp)] = dist - self.half
+        return points, d
 
     def scan(self, acc: np.ndarray, dt_s: float, axes) -> list[Row]:
         t = check_times(self.model, acc.shape[0] - 1, dt_s)
         threshold = self.limit * (1 + ROW_MARGIN - SCAN_RTOL)
         points, d = self.near(acc, dt_s, t, threshold)
+        if points.size == 0:  # the whole part provably keeps the distance
+            return []
         found = _local_peaks(-d, -threshold)
         rows = (self.row(acc, dt_s, t[j], int(points[k]), axes) for j, k in found)
         return [r for r in rows if r is not None]
