@@ -22,10 +22,9 @@ libraries (libGLU, libXcursor, libXft, libXinerama) that a minimal system may la
 from __future__ import annotations
 
 import os
-import sys
 import threading
 from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +33,7 @@ from fem.iges import iges_units
 from fem.mesh_io import CAD_SUFFIXES, SheetMesh, sheet_from_cells
 from fem.meshing import GROWTH
 from jaxflex.errors import InputError
+from jaxflex.stdout import silenced_stdout
 
 CURVATURE_ELEMENTS = 12
 _TRIANGLE, _QUAD = 2, 3  # gmsh element types
@@ -78,24 +78,6 @@ def _session() -> Iterator[object]:
                 gmsh.model.setCurrent(previous)
 
 
-@contextmanager
-def _quiet_stdout(active: bool) -> Iterator[None]:
-    """Standard output of the process (file descriptor 1, where the OpenCASCADE library
-    writes) sent to /dev/null while ``active`` (under _LOCK)."""
-    if not active:
-        yield
-        return
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 1)
-        yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-
-
 def _import(gmsh, path: str | os.PathLike, scale: float) -> None:
     if not os.path.isfile(path):
         raise InputError(f"cad: file {str(path)!r} does not exist")
@@ -105,8 +87,9 @@ def _import(gmsh, path: str | os.PathLike, scale: float) -> None:
             "through read_mesh / --mesh"
         )
     iges = iges_units(path) if Path(path).suffix.lower() in IGES_SUFFIXES else None
+    quiet = silenced_stdout() if iges is not None else nullcontext()  # IGES reader's counts
     try:
-        with _quiet_stdout(iges is not None):  # OpenCASCADE's IGES reader prints counts
+        with quiet:
             if iges is not None:  # the first import initialises gmsh's IGES translator
                 gmsh.option.setString("Geometry.OCCTargetUnit", "")
                 gmsh.model.occ.remove(gmsh.model.occ.importShapes(str(path)), recursive=True)

@@ -9,9 +9,6 @@ second solver.
 
 from __future__ import annotations
 
-import contextlib
-import os
-import sys
 import time
 from dataclasses import dataclass
 
@@ -21,6 +18,7 @@ import scipy.sparse as sp
 from scipy.optimize import linprog
 
 from jaxflex.errors import InputError
+from jaxflex.stdout import silenced_stdout
 
 LP_SOLVERS = ("highs", "casadi", "casadi-highs")
 # Feasibility tolerance asked of every back end (absolute, on rows of O(1) scale); the
@@ -145,20 +143,6 @@ def _solve_highs(lp: LinearProgram) -> LPSolution:
     )
 
 
-@contextlib.contextmanager
-def _quiet_stdout():
-    """Silence file descriptor 1 (C libraries' printf) for the duration of the block."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 1)
-            yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-
-
 def _solve_casadi(lp: LinearProgram, plugin: str) -> LPSolution:
     a = ca.DM(lp.matrix.tocsc())
     n = lp.cost.size
@@ -173,7 +157,7 @@ def _solve_casadi(lp: LinearProgram, plugin: str) -> LPSolution:
         options["clp"] = {"PrimalTolerance": TOLERANCE, "DualTolerance": TOLERANCE}
     solver = ca.conic("lp", plugin, {"a": a.sparsity(), "h": ca.Sparsity(n, n)}, options)
     start = time.perf_counter()
-    with _quiet_stdout():  # Clp logs to the C-level stdout and has no option to stop it
+    with silenced_stdout():  # Clp logs to the C-level stdout and has no option to stop it
         res = solver(g=lp.cost, a=a, lba=lp.row_lo, uba=lp.row_hi, lbx=lp.var_lo, ubx=lp.var_hi)
     wall = time.perf_counter() - start
     stats = solver.stats()
