@@ -38,6 +38,7 @@ from fem.imported import ImportedModes, file_digest
 from fem.modal import solve_modes
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
+from jaxflex.isolated import isolated
 
 DOF_LABELS = {1: "UX", 2: "UY", 3: "UZ", 4: "ROTX", 5: "ROTY", 6: "ROTZ"}
 TRANSLATIONS = ("UX", "UY", "UZ")
@@ -103,6 +104,7 @@ def _binary(path, suffix: str):
         ) from exc
 
 
+@isolated("--from-ansys", "ansys-mapdl-reader")
 def read_full(path: str | os.PathLike) -> FullMatrices:
     """K and M of a MAPDL ``.full`` file, symmetrised, with the DOF reference."""
     from ansys.mapdl.reader.common import read_table
@@ -152,6 +154,7 @@ def read_full(path: str | os.PathLike) -> FullMatrices:
     )
 
 
+@isolated("--from-ansys", "ansys-mapdl-reader")
 def read_rst(path: str | os.PathLike) -> RstModes:
     """Frequencies, shapes, coordinates and nodal stresses of a MAPDL modal ``.rst`` file."""
     from ansys.mapdl.reader.rst import Result
@@ -192,6 +195,7 @@ def read_rst(path: str | os.PathLike) -> RstModes:
     )
 
 
+@isolated("nodes", "ansys-mapdl-reader")
 def read_node_coordinates(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     """(node_ids (N,), coordinates (N, 3)) in file units from a MAPDL archive (.cdb), a
     result (.rst) or a CSV with rows ``node, x, y, z`` (an optional header row)."""

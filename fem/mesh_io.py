@@ -25,6 +25,7 @@ from fem.meshing import split_quads
 from jaxflex.errors import InputError
 
 MAX_EXTENT_M = 20.0  # a sheet-metal part larger than this is almost surely in millimetres
+MIN_EXTENT_M = 1e-3  # ... and one smaller than this is in another unit (or no part at all)
 WELD_RELATIVE = 1e-6  # nodes closer than this x the part's extent are one node
 FLAT_RELATIVE = 1e-6  # a part whose z spread is below this x its extent is flat
 # meshio cell type -> (corner count, sub-cells through the mid-side nodes as local indices;
@@ -135,6 +136,21 @@ def read_sheet(path: str | os.PathLike, scale: float = 1.0) -> SheetMesh:
     return sheet_from_cells(points, blocks, str(path))
 
 
+def check_extent(extent_m: float, source: str, field: str = "mesh") -> None:
+    """Refuse a part whose largest extent (m) is no sheet-metal part's: above MAX_EXTENT_M
+    (coordinates in millimetres read as metres) or below MIN_EXTENT_M."""
+    if extent_m > MAX_EXTENT_M:
+        raise InputError(
+            f"{field}: {source!r} spans {extent_m:g} m; coordinates must be in metres (pass "
+            "scale=1e-3 / --scale 1e-3 for a mesh in millimetres)"
+        )
+    if not extent_m >= MIN_EXTENT_M:
+        raise InputError(
+            f"{field}: {source!r} spans {extent_m:g} m; a sheet part spans at least "
+            f"{MIN_EXTENT_M * 1e3:g} mm: check the file's unit (scale, --scale)"
+        )
+
+
 def sheet_from_cells(points: np.ndarray, blocks, source: str, *, weld: bool = True) -> SheetMesh:
     """A SheetMesh from points (N, 3) m and cell blocks [(meshio type, (C, k))]: merged,
     split into linear cells, welded (unless ``weld`` is False: nodes that are distinct by
@@ -153,11 +169,7 @@ def sheet_from_cells(points: np.ndarray, blocks, source: str, *, weld: bool = Tr
             "mid-surface) or one layer of hexahedra (a volume mesh of a thicker part: export "
             "its mid-surface)"
         )
-    if extent > MAX_EXTENT_M:
-        raise InputError(
-            f"mesh: {source!r} spans {extent:g} m; coordinates must be in metres (pass "
-            "scale=1e-3 / --scale 1e-3 for a mesh in millimetres)"
-        )
+    check_extent(extent, source)
     if "hexahedron" in counts:
         if len(counts) > 1:
             raise InputError(

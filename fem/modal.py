@@ -22,11 +22,13 @@ from fem.damping import Rayleigh, check_damping, describe_damping, modal_zeta
 from fem.eigen import all_modes, factorize, lowest_modes
 from fem.outputs import modal_outputs
 from fem.parts import Part
+from fem.plan import fe_plan
 from fem.plate import assemble_plate
 from fem.shell import assemble_shell
 from fem.solid import assemble_solid
 from fem.supports import as_support_list, check_layout, contact_discs
 from fem.system import FESystem
+from jaxflex.budget import require
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.points import downsample_to_count, snap_key_points
@@ -431,6 +433,7 @@ def modal_analysis(
     check_positive("sigma_hz", sigma_hz)
     check_damping(zeta)
     check_layout(supports, part, allow_rigid_modes=allow_rigid_modes)
+    require(fe_plan(part, n_modes, supports).need())  # jaxflex.budget, before any meshing
     timings: dict[str, float] = {}
 
     tick = time.perf_counter()

@@ -46,7 +46,8 @@ import meshio
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.validation import check_positive, read_settings_file
+from jaxflex.inputs import read_settings_file
+from jaxflex.validation import check_positive
 
 VIA_MODES = ("stop", "blend")
 DEFAULT_GRAVITY_M_S2 = (0.0, 0.0, -9.81)

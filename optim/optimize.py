@@ -28,6 +28,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from jaxflex.advice import issue, model_resolution, threshold_advice
+from jaxflex.budget import current_budget, require
 from jaxflex.errors import BudgetError, InputError, JaxflexError
 from jaxflex.model import ModalModel
 from jaxflex.profile import as_move
@@ -36,7 +37,7 @@ from jaxflex.validation import check_positive
 from optim.advice import grid_advice
 from optim.baselines import baselines as compute_baselines
 from optim.baselines import via_baselines
-from optim.budget import MAX_STEPS, check_memory, check_move_length, default_memory_bytes
+from optim.budget import MAX_STEPS, check_memory, check_move_length, search_need
 from optim.cell_setup import prepare_cell
 from optim.choice import candidates, choose
 from optim.exact import POLISH_MARGIN, LPSubsolver
@@ -122,8 +123,9 @@ def optimize(
     clearance_m: optional limit on the deviation of the nominal model during the move (m,
         at exact samples every dt / 8), e.g. to keep the part clear of a fixture.
     max_steps, max_memory_bytes: the budgets of optim.budget (the longest move any LP is
-        built for; the search's memory, default half the machine's). A request that cannot
-        fit them is refused before any work with a BudgetError that says what it needs.
+        built for; the search's memory, default the process's budget, jaxflex.budget). A
+        request that cannot fit them, or the time budget, is refused before any work with a
+        BudgetError that says what it needs.
     cell: a jaxflex.cell.Cell (obstacles, the part's pose, via points, gravity); the move is
         then the cell's (``distance_m`` None or equal) and in cell coordinates.
     min_distance_m: every monitored point keeps this distance (m) from every obstacle of the
@@ -164,15 +166,16 @@ def optimize(
             "method: via points and the cell's constraints (min_distance_m, cup_safety, "
             "max_stress_pa) need method='exact'"
         )
-    memory = default_memory_bytes() if max_memory_bytes is None else max_memory_bytes
+    memory = current_budget().memory_bytes if max_memory_bytes is None else max_memory_bytes
     check_positive("max_memory_bytes", memory)
     shortest, allowed_steps = check_move_length(distance, limits, dt_s, max_duration_s, max_steps)
     if clearance_m is not None:
         _check_clearance(model, distance, clearance_m, max_duration_s)
-    scenarios = 1 if robust is None else len(robust.grid())
+    scenarios = 1 if robust is None else robust.n_scenarios
     steps_cap = check_memory(
         model.n_modes, shortest, allowed_steps, scenarios, clearance_m is not None, memory
     )
+    require(search_need(model.n_modes, model.n_points, shortest, steps_cap, scenarios))
     advice = issue(grid_advice(robust))
 
     fractions: list[float] = []

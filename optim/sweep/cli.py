@@ -6,6 +6,7 @@ import argparse
 
 from jaxflex.errors import InputError
 from jaxflex.progress import step
+from jaxflex.validation import check_output_dir
 from optim.sweep.run import run_sweep
 from optim.sweep.spec import EXAMPLE, load_spec
 
@@ -64,6 +65,7 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(
                 f"{option}: only for the embedded LocalCluster (not with --serial/--scheduler)"
             )
+    check_output_dir("-o/--output", args.output)
     spec = load_spec(args.spec)
     executor = "serial" if args.serial else "dask"
     where = args.scheduler or ("this process" if args.serial else "a local dask cluster")
