@@ -14,7 +14,6 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import meshio
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
@@ -23,6 +22,8 @@ from scipy.spatial import cKDTree
 from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
 from fem.meshing import split_quads
 from jaxflex.errors import InputError
+from jaxflex.inputs import check_input_file
+from jaxflex.meshfile import read_cells
 
 MAX_EXTENT_M = 20.0  # a sheet-metal part larger than this is almost surely in millimetres
 MIN_EXTENT_M = 1e-3  # ... and one smaller than this is in another unit (or no part at all)
@@ -104,36 +105,69 @@ class SheetMesh:
         return surface_from_quads(self.nodes, self.quads, source)
 
 
-def _read_meshio(path: str | os.PathLike) -> meshio.Mesh:
-    if not os.path.isfile(path):
-        raise InputError(f"mesh: file {str(path)!r} does not exist")
+def read_sheet(path: str | os.PathLike, scale: float = 1.0) -> SheetMesh:
+    """The sheet mid-surface of a mesh file (every block merged; see the module)."""
+    if check_input_file("mesh", path).stat().st_size == 0:
+        raise InputError(f"mesh: {str(path)!r} is empty (0 bytes)")
     if Path(path).suffix.lower() in CAD_SUFFIXES:
         raise InputError(
             f"mesh: {str(path)!r} is a CAD file, not a mesh; mesh its sheet body with gmsh: "
             "fem.read_cad(path, thickness, mesh_size=...) / jaxflex model --cad FILE "
             "--thickness T --mesh-size H"
         )
-    try:
-        return meshio.read(path)
-    # meshio raises many types (ReadError, KeyError, ValueError...) and, when no reader
-    # accepts the file, calls sys.exit(1)
-    except (Exception, SystemExit) as exc:
-        raise InputError(
-            f"mesh: cannot read {str(path)!r} ({type(exc).__name__}: {exc}); give a file of "
-            f"the {FORMATS_HELP}, or a CAD file through --cad"
-        ) from exc
-
-
-def read_sheet(path: str | os.PathLike, scale: float = 1.0) -> SheetMesh:
-    """The sheet mid-surface of a mesh file (every block merged; see the module)."""
-    data = _read_meshio(path)
-    points = np.asarray(data.points, dtype=float) * scale
-    if points.ndim != 2 or points.shape[0] == 0 or not np.isfinite(points).all():
-        raise InputError(f"mesh: {str(path)!r} has no valid points")
+    raw, blocks = read_cells(path)
+    points = check_points(raw, str(path)) * scale
     if points.shape[1] == 2:
         points = np.column_stack([points, np.zeros(len(points))])
-    blocks = [(block.type, np.asarray(block.data, dtype=np.int64)) for block in data.cells]
     return sheet_from_cells(points, blocks, str(path))
+
+
+def check_points(points: np.ndarray, source: str) -> np.ndarray:
+    """Node coordinates (N, 2 or 3) as float64, checked: at least one node, finite (the
+    first bad one named)."""
+    try:
+        points = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"mesh: {source!r}: node coordinates are not numbers ({exc})") from None
+    if points.size == 0:
+        raise InputError(f"mesh: {source!r} holds no nodes")
+    if points.ndim != 2 or points.shape[1] not in (2, 3):
+        raise InputError(
+            f"mesh: {source!r}: node coordinates of shape {points.shape}; expected (N, 2) or (N, 3)"
+        )
+    bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
+    if bad.size:
+        raise InputError(
+            f"mesh: {source!r}: node {int(bad[0])} of {len(points)} has coordinates "
+            f"{points[bad[0]].tolist()} ({bad.size} such node(s)); every coordinate must be "
+            "finite"
+        )
+    return points
+
+
+def check_connectivity(blocks, n_nodes: int, source: str) -> list[tuple[str, np.ndarray]]:
+    """The cell blocks [(meshio type, (C, k))] as int64 arrays, checked before any use: whole
+    numbers, every index a node of the mesh (0 ... n_nodes - 1; a negative index would wrap
+    around in numpy), the first bad cell named."""
+    checked = []
+    for kind, cells in blocks:
+        cells = np.asarray(cells)
+        if cells.size and not np.issubdtype(cells.dtype, np.integer):
+            raise InputError(
+                f"mesh: {source!r}: the {kind} cells hold {cells.dtype} node numbers, not integers"
+            )
+        cells = cells.astype(np.int64, copy=False).reshape(len(cells), -1)
+        bad = np.flatnonzero(((cells < 0) | (cells >= n_nodes)).any(axis=1))
+        if bad.size:
+            row = cells[bad[0]]
+            index = int(row[(row < 0) | (row >= n_nodes)][0])
+            raise InputError(
+                f"mesh: {source!r}: {kind} cell {int(bad[0])} refers to node {index}, but the "
+                f"mesh has {n_nodes} nodes (0 ... {n_nodes - 1}); {bad.size} cell(s) refer to "
+                "nodes it lacks"
+            )
+        checked.append((kind, cells))
+    return checked
 
 
 def check_extent(extent_m: float, source: str, field: str = "mesh") -> None:
@@ -155,6 +189,7 @@ def sheet_from_cells(points: np.ndarray, blocks, source: str, *, weld: bool = Tr
     """A SheetMesh from points (N, 3) m and cell blocks [(meshio type, (C, k))]: merged,
     split into linear cells, welded (unless ``weld`` is False: nodes that are distinct by
     identity, as Nastran grids, stay distinct), oriented (see the module)."""
+    blocks = check_connectivity(blocks, len(points), source)
     extent = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
     counts: dict[str, int] = {}
     skipped: dict[str, int] = {}
@@ -162,6 +197,9 @@ def sheet_from_cells(points: np.ndarray, blocks, source: str, *, weld: bool = Tr
         target = counts if kind in SHELL_CELLS + SOLID_CELLS else skipped
         target[kind] = target.get(kind, 0) + len(cells)
     unsupported = {k: v for k, v in skipped.items() if k not in SKIPPED_CELLS}
+    counts = {k: v for k, v in counts.items() if v}
+    if not counts and not any(skipped.values()):
+        raise InputError(f"mesh: {source!r} holds no cells (nodes only, or empty cell blocks)")
     if not counts or unsupported:
         raise InputError(
             f"mesh: {source!r} has cells {sorted(unsupported or skipped) or 'none'}; supported "

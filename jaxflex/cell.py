@@ -42,11 +42,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import meshio
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.inputs import read_settings_file
+from jaxflex.inputs import check_input_file, read_settings_file
+from jaxflex.meshfile import read_cells
 from jaxflex.validation import check_positive
 
 VIA_MODES = ("stop", "blend")
@@ -348,17 +348,22 @@ def _obstacle(spec: Mapping, index: int, folder: Path) -> Obstacle:
     except KeyError as exc:
         raise InputError(f"{where}: missing field {exc.args[0]!r}") from exc
     scale = check_positive(f"{where}.scale", spec.get("scale", 1.0))
+    check_input_file(f"{where}.path", path)
     try:
-        mesh = meshio.read(path)
-    except Exception as exc:  # meshio raises many types for unreadable files
-        raise InputError(f"{where}.path: cannot read {str(path)!r} ({exc})") from exc
-    triangles = [c.data for c in mesh.cells if c.type == "triangle"]
-    quads = [c.data for c in mesh.cells if c.type == "quad"]
-    for q in quads:
-        triangles.append(np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]]))
-    if not triangles:
+        points, blocks = read_cells(path)
+    except InputError as exc:
+        raise InputError(f"{where}.path: {exc}") from None
+    triangles = [np.asarray(c, dtype=np.int64) for kind, c in blocks if kind == "triangle"]
+    for kind, q in blocks:
+        if kind == "quad":
+            q = np.asarray(q, dtype=np.int64)
+            triangles.append(np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]]))
+    if not sum(len(t) for t in triangles):
         raise InputError(f"{where}.path: {str(path)!r} holds no triangles or quads")
-    points = np.asarray(mesh.points, dtype=np.float64)[:, :3] * scale
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] not in (2, 3):
+        raise InputError(f"{where}.path: {str(path)!r}: nodes of shape {points.shape}")
+    points = np.column_stack([points, np.zeros((len(points), 3 - points.shape[1]))]) * scale
     return TriangleMesh(points, np.concatenate(triangles), name)
 
 

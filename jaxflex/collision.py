@@ -30,7 +30,13 @@ from threadpoolctl import threadpool_limits
 
 from jaxflex.cell import Cell
 from jaxflex.decay import amplitudes
-from jaxflex.engine import free_states, modal_forces, modal_states, states_between
+from jaxflex.engine import (
+    derivative_bounds,
+    free_states,
+    modal_forces,
+    modal_states,
+    states_between,
+)
 from jaxflex.peaks import SAMPLES_PER_PERIOD, SearchState, certified_max, settling_windows
 from jaxflex.profile import as_move, kinematics_at
 
@@ -90,9 +96,8 @@ class _Motion:
         omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
         self.omega, self.sigma = omega, zeta * omega
         self.weights = model.shape_norms  # (K, M)
-        step_force = np.maximum(np.abs(self.force[:-1]), np.abs(self.force[1:]))
-        radius = np.hypot(self.states[:-1, :, 1], omega * self.states[:-1, :, 0])
-        self.modal_speed = radius + move.dt_s * step_force  # (n, M) sup |q'| per step
+        # (n, M) sup |q'| per step
+        self.modal_speed = derivative_bounds(model, self.states, self.force, move.dt_s)[0]
         pos, vel = kinematics_at(move.acc, move.dt_s, move.dt_s * np.arange(move.n_steps + 1))
         speed = np.linalg.norm(vel, axis=1)
         acc_norm = np.linalg.norm(move.acc, axis=1)

@@ -47,7 +47,7 @@ def check_input_file(field: str, path: str | os.PathLike) -> Path:
     try:
         mode = path.stat().st_mode
     except FileNotFoundError:
-        raise InputError(f"{field}: no such file {str(path)!r}") from None
+        raise InputError(f"{field}: file {str(path)!r} does not exist") from None
     except OSError as exc:
         raise InputError(f"{field}: cannot open {str(path)!r} ({exc.strerror or exc})") from None
     if not stat.S_ISREG(mode):

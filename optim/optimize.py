@@ -37,7 +37,13 @@ from jaxflex.validation import check_positive
 from optim.advice import grid_advice
 from optim.baselines import baselines as compute_baselines
 from optim.baselines import via_baselines
-from optim.budget import MAX_STEPS, check_memory, check_move_length, search_need
+from optim.budget import (
+    MAX_STEPS,
+    check_memory,
+    check_move_length,
+    distance_need,
+    search_need,
+)
 from optim.cell_setup import prepare_cell
 from optim.choice import candidates, choose
 from optim.exact import POLISH_MARGIN, LPSubsolver
@@ -175,7 +181,10 @@ def optimize(
     steps_cap = check_memory(
         model.n_modes, shortest, allowed_steps, scenarios, clearance_m is not None, memory
     )
-    require(search_need(model.n_modes, model.n_points, shortest, steps_cap, scenarios))
+    needs = [search_need(model.n_modes, model.n_points, shortest, steps_cap, scenarios)]
+    if cell is not None and min_distance_m is not None:
+        needs.append(distance_need(cell, model.n_points, shortest, steps_cap))
+    require(*needs)
     advice = issue(grid_advice(robust))
 
     fractions: list[float] = []
