@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from jaxflex.errors import InputError
+from jaxflex.inputs import read_text
 
 SHELL_CARDS = {"CQUAD4": 4, "CTRIA3": 3, "CQUAD8": 4, "CTRIA6": 3}  # card: corner grids
 # grids per element, then the flat field indices (0 = field 2 of the first row) of the
@@ -58,6 +59,7 @@ _BEGIN_BULK = re.compile(r"\s*BEGIN\s+BULK\b", re.IGNORECASE)
 _CEND = re.compile(r"\s*CEND\b", re.IGNORECASE)
 _CASE_SPC = re.compile(r"\s*SPC\s*=\s*(\d+)\s*$", re.IGNORECASE)
 _INCLUDE = re.compile(r"\s*INCLUDE\b", re.IGNORECASE)
+_FOREIGN = re.compile(r"[^A-Za-z0-9 +\-.*,=()/'\"_]")  # outside Nastran's character set
 
 
 def parse_real(text: str) -> float:
@@ -228,9 +230,7 @@ class BulkData:
 
 
 def _read_text(path: Path, context: str) -> list[str]:
-    if not path.is_file():
-        raise InputError(f"deck: {context}file {str(path)!r} does not exist")
-    return path.read_text(encoding="utf-8", errors="replace").splitlines()
+    return read_text(f"deck: {context}".rstrip(": "), path).splitlines()
 
 
 def _bulk_lines(path: Path, start: int, lines: list[str], stack: tuple[Path, ...], files):
@@ -264,6 +264,13 @@ def _bulk_lines(path: Path, start: int, lines: list[str], stack: tuple[Path, ...
             continue
         if text.upper().startswith("ENDDATA"):
             return True
+        foreign = _FOREIGN.search(text)
+        if foreign:  # named, not echoed: an INCLUDE may point at any file
+            raise InputError(
+                f"deck: {path.name} line {number}: the character {foreign.group()!r} is not "
+                "bulk data (letters, digits, blanks and + - . * , = ( ) / ' \" _); is "
+                f"{path.name} a Nastran deck?"
+            )
         yield str(path), number, text
     return False
 

@@ -5,6 +5,7 @@ options that fem.cli adds to the ``model`` command, and their run."""
 from __future__ import annotations
 
 import argparse
+import io
 import json
 from collections.abc import Callable
 
@@ -15,6 +16,7 @@ from fem.identify import from_r1
 from fem.nastran import from_nastran
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
+from jaxflex.inputs import read_text
 
 SOURCES = ("from_ansys", "from_nastran", "from_r1")
 IMPORT_ONLY = ("full", "nodes", "units", "gamma", "spc_id", "axis")
@@ -110,9 +112,10 @@ def _check_options(args, source: str, defaults: dict) -> None:
 
 
 def _read_gamma(path):
+    text = read_text("--gamma", path)
     try:
-        return np.loadtxt(path, delimiter=",", ndmin=2)
-    except (OSError, ValueError) as exc:
+        return np.loadtxt(io.StringIO(text), delimiter=",", ndmin=2)
+    except ValueError as exc:
         raise InputError(f"--gamma: cannot read {path!r} as rows x,y,z ({exc})") from exc
 
 

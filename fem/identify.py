@@ -42,7 +42,6 @@ import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -52,6 +51,7 @@ from fem.imported import ImportedModes, file_digest
 from jaxflex.convolution import read_unit_response_csv, unit_response_times
 from jaxflex.engine import modal_states
 from jaxflex.errors import InputError
+from jaxflex.inputs import check_text_file
 from jaxflex.model import ModalModel
 from jaxflex.validation import check_positive
 
@@ -480,9 +480,7 @@ def _split(residues: np.ndarray, axes: tuple[str, ...]):
 
 
 def _read_nodes(path) -> tuple[np.ndarray, np.ndarray | None]:
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"nodes: file {str(path)!r} does not exist")
+    path = check_text_file("nodes", path)
     try:
         table = np.loadtxt(path, delimiter=",", ndmin=2)
     except ValueError:

@@ -25,7 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from jaxflex.atomic import write_text_atomic
+from jaxflex.budget import Need, require
 from jaxflex.errors import InputError
+from jaxflex.inputs import check_text_file
 from jaxflex.model import ModalModel
 from jaxflex.simulate import simulate
 from jaxflex.validation import check_acc, check_positive
@@ -112,6 +114,10 @@ def write_unit_response_csv(
 
 
 _STEP_TIME = re.compile(r"@\s*([-+0-9.eE]+)\s*s\s*$")
+# reading an R1 table: about 8 characters per value or more ("1.25e-05,"), held as the
+# parser's rows, the table and its transpose
+MIN_CHARS_PER_VALUE = 8
+READ_COPIES = 3
 
 
 def unit_response_times(path: str | os.PathLike) -> np.ndarray | None:
@@ -136,9 +142,16 @@ def read_unit_response_csv(path: str | os.PathLike) -> np.ndarray:
     3 003 values, in well under a minute); a file it rejects is read again line by line to
     say where it is broken.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"R1 file {str(path)!r} does not exist")
+    path = check_text_file("R1 file", path)
+    values = path.stat().st_size / MIN_CHARS_PER_VALUE
+    require(
+        Need(
+            f"reading the R1 file {str(path)!r} (about {values:,.0f} values)",
+            READ_COPIES * 8.0 * values,
+            0.0,
+            "give the R1 of fewer points or steps",
+        )
+    )
     with path.open(newline="", encoding="utf-8") as handle:
         first = next(csv.reader(handle), [])
     try:

@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import codecs
 import json
 import os
 import stat
@@ -26,6 +27,7 @@ from jaxflex.errors import InputError
 MAX_TEXT_BYTES = 256 * 2**20  # settings, tables and decks larger than this are not text input
 MAX_NESTING = 64  # tables and lists within each other
 MAX_INTEGER = 2**63  # integers of settings files fit in 64 bits
+CHUNK_BYTES = 1 << 20  # text checked in pieces of this size
 
 
 def file_kind(mode: int) -> str:
@@ -57,6 +59,40 @@ def check_input_file(field: str, path: str | os.PathLike) -> Path:
     return path
 
 
+def _not_utf8(field: str, path: Path, data: bytes, start: int, line: int) -> InputError:
+    """The error for the byte ``data[start]`` that is not UTF-8, on ``line`` + the lines
+    before it in ``data``."""
+    line += data.count(b"\n", 0, start)
+    column = start - (data.rfind(b"\n", 0, start) + 1) + 1
+    return InputError(
+        f"{field}: {str(path)!r} is not UTF-8 text: byte 0x{data[start]:02x} at line {line}, "
+        f"column {column} (a binary file, or text in another encoding: save it as UTF-8)"
+    )
+
+
+def check_text_file(field: str, path: str | os.PathLike) -> Path:
+    """``path`` as a Path if it is a readable regular file of UTF-8 text, checked in chunks
+    (files of any size: an R1 table may hold gigabytes); InputError naming ``field``, and
+    the line and column of the first byte that is not UTF-8, otherwise."""
+    path = check_input_file(field, path)
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    line = 1
+    with path.open("rb") as handle:
+        while chunk := handle.read(CHUNK_BYTES):
+            try:
+                decoder.decode(chunk)
+            except UnicodeDecodeError as exc:
+                raise _not_utf8(field, path, chunk, max(exc.start, 0), line) from None
+            line += chunk.count(b"\n")
+        try:
+            decoder.decode(b"", final=True)
+        except UnicodeDecodeError:
+            raise InputError(
+                f"{field}: {str(path)!r} is not UTF-8 text: it ends inside a character"
+            ) from None
+    return path
+
+
 def read_text(field: str, path: str | os.PathLike) -> str:
     """The UTF-8 text of the regular file ``path`` (a byte-order mark dropped); InputError
     naming ``field`` for a path that is no readable file, a file above MAX_TEXT_BYTES or
@@ -75,13 +111,7 @@ def read_text(field: str, path: str | os.PathLike) -> str:
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        line = data.count(b"\n", 0, exc.start) + 1
-        column = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
-        raise InputError(
-            f"{field}: {str(path)!r} is not UTF-8 text: byte 0x{data[exc.start]:02x} at line "
-            f"{line}, column {column} (a binary file, or text in another encoding: save it "
-            "as UTF-8)"
-        ) from None
+        raise _not_utf8(field, path, data, exc.start, 1) from None
 
 
 def _nesting(text: str) -> tuple[int, int]:
