@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from fem.eigen import DENSE_SHARE
 from fem.meshing import GROWTH, cup_bands, graded_count
 from fem.supports import contact_discs
 from jaxflex.budget import Need
@@ -37,7 +38,7 @@ MEMORY_FIT = {"morley": (2.33e3, 1.04), "argyris": (1.45e4, 1.02), "shell": (490
 TIME_PER_DOF15 = {"morley": 1.55e-7, "argyris": 1.96e-6, "shell": 2.2e-7, "hex2": 5.0e-7}
 LANCZOS_S = 0.8e-6  # per DOF and mode, times (1 + M / 100)
 FLOOR_S = 0.3  # the smallest analysis
-DENSE_S = 3e-10  # a dense symmetric eigen decomposition: per DOF^3
+DENSE_S = 5e-10  # a dense generalized eigen decomposition, per DOF^3 (n = 2500: 4.4e-10)
 # gmsh meshing a CAD sheet and the checks of its cells (fem.mesh_io), per triangle: 444 204
 # triangles took 44 s and 522 MB on the 2-core machine
 CAD_S_PER_CELL = 1.0e-4
@@ -101,10 +102,10 @@ def cost(element: str, n_dof: float, n_modes: int) -> tuple[float, float]:
     n = max(float(n_dof), 1.0)
     a, p = MEMORY_FIT[element]
     memory = a * n**p + 16.0 * n * (2 * n_modes + 1)
-    seconds = (
-        FLOOR_S + TIME_PER_DOF15[element] * n**1.5 + LANCZOS_S * n * n_modes * (1 + n_modes / 100)
-    )
-    return memory, seconds
+    seconds = FLOOR_S + TIME_PER_DOF15[element] * n**1.5
+    if n_modes > DENSE_SHARE * n:  # fem.eigen solves densely: K and M dense, their factors
+        return memory + 3 * 8.0 * n**2, seconds + DENSE_S * n**3
+    return memory, seconds + LANCZOS_S * n * n_modes * (1 + n_modes / 100)
 
 
 def _cells(part, supports) -> float:
@@ -137,7 +138,7 @@ def plan_of_cells(
         seconds = FLOOR_S + DENSE_S * n_dof**3
         modes = int(n_dof)
     else:
-        modes = 20 if n_modes is None else int(n_modes)
+        modes = min(20 if n_modes is None else int(n_modes), max(int(n_dof), 1))
         memory, seconds = cost(element, n_dof, modes)
     return FePlan(int(cells), int(n_dof), memory, seconds, element, size_m, modes)
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import random_model, run_jaxflex, smooth_move
-from test_collision import dense_min_distance
+from test_collision import dense_distances
 from test_outputs import _dense_max, with_outputs
 
 import jaxflex
@@ -80,7 +80,7 @@ def test_stiff_distance_is_certified(stiff):
     acc = jaxflex.jerk_limited_move([1.2, 0.3, -0.4], 2, 10, 100, DT)
     obstacles = (Box([1.0, 0.8, 1.2], [0.4, 0.3, 0.6], name="post"), HalfSpace([0, 0, 1], 0.0))
     found = min_distance(model, obstacles, acc, DT, atol=1e-6)
-    dense, _, _ = dense_min_distance(model, obstacles, acc, acc.shape[0] * DT + 0.05)
+    dense = dense_distances(model, obstacles, acc, acc.shape[0] * DT + 0.05)[1].min()
     assert found.bound_m <= dense
     assert found.distance_m <= dense + 1e-6
     assert found.evaluations <= 4 * model.n_points * acc.shape[0]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from jaxflex.errors import InputError
 from jaxflex.progress import step
@@ -86,4 +87,18 @@ def run(args: argparse.Namespace) -> int:
     print(result.summary())
     for path in result.outputs:
         print(f"wrote {path}")
-    return 0
+    return _status(result)
+
+
+def _status(result) -> int:
+    """0, or 1 when every case of the spec is stored as an error (with the first error)."""
+    ok = result.records.count("ok")
+    if ok or not result.n_errors:
+        return 0
+    first = next(r for r in result.rows if r["status"] == "error")
+    print(
+        f"jaxflex sweep: every case failed ({result.n_errors} errors); the first, "
+        f"{first['layout']} / {first['move']}: {first['error']}",
+        file=sys.stderr,
+    )
+    return 1
