@@ -151,6 +151,25 @@ def fe_plan(part, n_modes: int | str | None, supports=()) -> FePlan:
     return plan_of_cells(part.element, _cells(part, supports), n_modes, size)
 
 
+# nodes per DOF of each formulation (shapes are reported at the nodes: vertices, or the
+# mid-surface of the thin solid); the model holds (K, 3, M) shapes, copied ~4 times while made
+NODES_PER_DOF = {"morley": 0.25, "argyris": 1 / 9, "shell": 1 / 6, "hex2": 1 / 9}
+MODEL_COPIES = 4
+
+
+def points_need(plan: FePlan, points: int | str | None) -> Need:
+    """What the model at ``points`` monitored points ("all": every node; a count: voxel
+    reduced to about that many) of an analysis of ``plan`` holds."""
+    nodes = NODES_PER_DOF[plan.element] * plan.n_dof
+    count = nodes if points == "all" else min(nodes, 1000 if points is None else int(points))
+    return Need(
+        f"the model at {count:,.0f} points and {plan.n_modes} modes",
+        MODEL_COPIES * 8.0 * count * (3 * plan.n_modes + 6),
+        0.0,
+        "monitor fewer points (--points N instead of all)",
+    )
+
+
 def cad_mesh_need(path, area_m2: float, size_m: float, quads: bool = False) -> Need:
     """What meshing a CAD sheet of ``area_m2`` at ``size_m`` m takes (gmsh and the mesh's
     checks; python -m benchmarks.budget's CAD figures)."""
