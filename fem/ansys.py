@@ -35,6 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fem.imported import ImportedModes, file_digest
+from fem.mapdl_check import check_mapdl_file
 from fem.modal import solve_modes
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
@@ -104,7 +105,7 @@ def _binary(path, suffix: str):
         ) from exc
 
 
-@isolated("--from-ansys", "ansys-mapdl-reader")
+@isolated("--from-ansys", "ansys-mapdl-reader", precheck=check_mapdl_file)
 def read_full(path: str | os.PathLike) -> FullMatrices:
     """K and M of a MAPDL ``.full`` file, symmetrised, with the DOF reference."""
     from ansys.mapdl.reader.common import read_table
@@ -154,7 +155,7 @@ def read_full(path: str | os.PathLike) -> FullMatrices:
     )
 
 
-@isolated("--from-ansys", "ansys-mapdl-reader")
+@isolated("--from-ansys", "ansys-mapdl-reader", precheck=check_mapdl_file)
 def read_rst(path: str | os.PathLike) -> RstModes:
     """Frequencies, shapes, coordinates and nodal stresses of a MAPDL modal ``.rst`` file."""
     from ansys.mapdl.reader.rst import Result
@@ -195,7 +196,7 @@ def read_rst(path: str | os.PathLike) -> RstModes:
     )
 
 
-@isolated("nodes", "ansys-mapdl-reader")
+@isolated("nodes", "ansys-mapdl-reader", precheck=check_mapdl_file)
 def read_node_coordinates(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     """(node_ids (N,), coordinates (N, 3)) in file units from a MAPDL archive (.cdb), a
     result (.rst) or a CSV with rows ``node, x, y, z`` (an optional header row)."""

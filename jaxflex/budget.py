@@ -182,7 +182,8 @@ def format_bytes(n: float) -> str:
     """``2.4 GB``, ``310 MB``, ``12 kB`` (decimal units)."""
     for unit, size in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
         if n >= size:
-            return f"{n / size:.3g} {unit}"
+            value = n / size
+            return f"{value:,.0f} {unit}" if value >= 1000 else f"{value:.3g} {unit}"
     return f"{n:.0f} B"
 
 
@@ -192,7 +193,8 @@ def format_seconds(s: float) -> str:
         return "forever"
     for unit, size in (("years", 3.15e7), ("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
         if s >= 2 * size or (unit == "min" and s >= size):
-            return f"{s / size:.3g} {unit}"
+            value = s / size
+            return f"{value:,.0f} {unit}" if value >= 1000 else f"{value:.3g} {unit}"
     return f"{s:.2g} s" if s < 10 else f"{s:.0f} s"
 
 

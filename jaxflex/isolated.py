@@ -36,6 +36,7 @@ from typing import Any, TypeVar
 
 from jaxflex.budget import current_budget, format_bytes, format_seconds
 from jaxflex.errors import BudgetError, InputError, JaxflexError
+from jaxflex.inputs import check_input_file
 
 F = TypeVar("F", bound=Callable[..., Any])
 _IN_CHILD = False
@@ -176,18 +177,24 @@ def _answer(out: bytes, err: bytes, returncode: int, field, reader, path, memory
     )
 
 
-def isolated(field: str, reader: str, path_arg: int = 0) -> Callable[[F], F]:
+def isolated(
+    field: str, reader: str, path_arg: int = 0, precheck: Callable[[Path], None] | None = None
+) -> Callable[[F], F]:
     """Decorator: the function (a module-level reader whose argument ``path_arg`` is the
     file) runs in a child interpreter (module docstring); ``field`` names the input in
-    messages (``mesh``, ``cad``, ``--from-ansys``), ``reader`` the library."""
+    messages (``mesh``, ``cad``, ``--from-ansys``), ``reader`` the library. The file is
+    checked to be a readable regular file first, and by ``precheck(path)`` (a structural
+    check of the format, raising InputError) where given."""
 
     def wrap(func: F) -> F:
         @functools.wraps(func)
         def call(*args, **kwargs):
             if _IN_CHILD:
                 return func(*args, **kwargs)
-            path = str(args[path_arg]) if len(args) > path_arg else "?"
-            return run_isolated(func, args, kwargs, field=field, reader=reader, path=path)
+            path = check_input_file(field, args[path_arg])
+            if precheck is not None:
+                precheck(path)
+            return run_isolated(func, args, kwargs, field=field, reader=reader, path=str(path))
 
         return call  # type: ignore[return-value]
 
