@@ -110,6 +110,8 @@ class Card:
         text = self.text(index)
         if not text:
             return default
+        if len(text) > 16:  # a field holds at most 16 characters; Nastran IDs have 8 digits
+            raise InputError(f"deck: {self.where(index, label)}: an integer of {len(text)} digits")
         if text.isascii() and text.isdigit():
             return int(text)
         if not _INT.fullmatch(text):

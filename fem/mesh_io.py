@@ -156,7 +156,8 @@ def check_connectivity(blocks, n_nodes: int, source: str) -> list[tuple[str, np.
             raise InputError(
                 f"mesh: {source!r}: the {kind} cells hold {cells.dtype} node numbers, not integers"
             )
-        cells = cells.astype(np.int64, copy=False).reshape(len(cells), -1)
+        cells = cells.astype(np.int64, copy=False)
+        cells = cells.reshape(len(cells), -1) if cells.size else cells.reshape(0, 0)
         bad = np.flatnonzero(((cells < 0) | (cells >= n_nodes)).any(axis=1))
         if bad.size:
             row = cells[bad[0]]

@@ -17,6 +17,7 @@ from jaxflex.budget import Need, require
 from jaxflex.cell import load_cell
 from jaxflex.errors import InputError
 from jaxflex.fileset import read_set
+from jaxflex.inputs import check_input_file
 from jaxflex.trajectory_io import read_trajectory_csv
 from jaxflex.validation import check_output_file, check_positive
 from optim.budget import obstacle_pieces
@@ -116,12 +117,10 @@ def load_case(path: Path) -> tuple[object, float, dict | None]:
                 f"--trajectory: folder {str(path)!r} has no trajectory.csv (expected the output "
                 "folder of `jaxflex optimize ... -o DIR`)"
             )
-    elif path.is_file():
-        csv = path
+    else:
+        csv = check_input_file("--trajectory", path)
         if not csv.with_name("report.json").exists():
             return (*read_trajectory_csv(csv), None)  # a trajectory on its own
-    else:
-        raise InputError(f"--trajectory: {str(path)!r} does not exist")
     members = read_set(csv.parent, RESULT_KIND, (csv.name, "report.json"), option="--trajectory")
     acc, dt_s = read_trajectory_csv(csv)
     report_path = members["report.json"]

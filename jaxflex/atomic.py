@@ -42,9 +42,15 @@ def make_output_dir(path: str | os.PathLike) -> Path:
     return target
 
 
-def check_target(target: Path) -> None:
-    """OutputError unless ``target`` can be written by a rename: its directory exists and it
-    is absent or a regular file (a device, FIFO, socket or directory would be replaced)."""
+def check_target(target: Path) -> Path:
+    """The path a rename writes ``target`` at (a symbolic link's target: the link stays);
+    OutputError unless its directory exists and it is absent or a regular file (a device,
+    FIFO, socket or directory would be replaced)."""
+    if target.is_symlink():
+        try:
+            target = target.resolve(strict=True)
+        except (OSError, RuntimeError) as exc:
+            raise OutputError(f"cannot write {str(target)!r}: a link to nothing ({exc})") from None
     if not target.parent.is_dir():
         raise OutputError(
             f"cannot write {str(target)!r}: the directory {str(target.parent)!r} does not exist "
@@ -53,7 +59,7 @@ def check_target(target: Path) -> None:
     try:
         mode = target.stat().st_mode
     except FileNotFoundError:
-        return
+        return target
     except OSError as exc:
         raise OutputError(f"cannot write {str(target)!r}: {exc}") from None
     if not stat.S_ISREG(mode):
@@ -61,6 +67,7 @@ def check_target(target: Path) -> None:
             f"cannot write {str(target)!r}: it is {file_kind(mode)}; only regular files are "
             "written (it is left as it is)"
         )
+    return target
 
 
 def _create_beside(target: Path, suffix: str) -> tuple[int, str]:
@@ -68,7 +75,7 @@ def _create_beside(target: Path, suffix: str) -> tuple[int, str]:
     with mode 0666 so that the umask decides its permissions. The name carries the writer's
     process id, so that :func:`remove_stale_temporaries` can tell a killed writer's file from
     a live one's. OutputError if ``target`` may not be written (:func:`check_target`)."""
-    check_target(target)
+    target = check_target(target)
     name = str(target.parent / f".{target.name}.{os.getpid()}-{secrets.token_hex(8)}{suffix}")
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
     try:
@@ -80,7 +87,7 @@ def _create_beside(target: Path, suffix: str) -> tuple[int, str]:
 def _replace(tmp_name: str, target: Path) -> None:
     """Rename the finished temporary file onto ``target`` (checked again: it may have
     changed meanwhile)."""
-    check_target(target)
+    target = check_target(target)
     try:
         os.replace(tmp_name, target)
     except OSError as exc:

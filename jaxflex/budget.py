@@ -20,6 +20,7 @@ seconds from seconds. Long work also checks its clock as it goes (:func:`check_t
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import math
 import os
 import resource
@@ -158,24 +159,26 @@ def _positive(option: str, value) -> float:
     return x
 
 
-_CURRENT: list[Budget] = []
+# the budget of the work at hand: per thread (and asyncio task), set by use_budget
+_CURRENT: contextvars.ContextVar[Budget | None] = contextvars.ContextVar("budget", default=None)
 
 
 def current_budget() -> Budget:
-    """The budget the process works under: the innermost :func:`use_budget`, else the
-    machine's default, its time counted from this call (a library caller's every call gets
-    the default anew)."""
-    return _CURRENT[-1] if _CURRENT else default_budget()
+    """The budget the work runs under: the innermost :func:`use_budget` of this thread, else
+    the machine's default, its time counted from this call (a library caller's every call
+    gets the default anew)."""
+    budget = _CURRENT.get()
+    return default_budget() if budget is None else budget
 
 
 @contextlib.contextmanager
 def use_budget(budget: Budget) -> Iterator[Budget]:
-    """Work inside the block is planned and checked against ``budget``."""
-    _CURRENT.append(budget)
+    """Work inside the block (in this thread) is planned and checked against ``budget``."""
+    token = _CURRENT.set(budget)
     try:
         yield budget
     finally:
-        _CURRENT.remove(budget)
+        _CURRENT.reset(token)
 
 
 def format_bytes(n: float) -> str:

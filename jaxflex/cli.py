@@ -153,6 +153,7 @@ def _main(argv: list[str]) -> int:
     args = build_parser(chosen).parse_args(argv)
     set_quiet(args.quiet)
     try:
+        _refuse_empty(args)
         budget = make_budget(args.max_memory, args.max_time)
     except JaxflexError as exc:
         print(f"jaxflex {args.command}: error: {exc}", file=sys.stderr)
@@ -182,6 +183,16 @@ def _main(argv: list[str]) -> int:
         interrupts.handled()
         if main_thread:
             signal.signal(signal.SIGINT, previous)
+
+
+def _refuse_empty(args: argparse.Namespace) -> None:
+    """InputError for an option given an empty text (a path "" would mean the current
+    directory, or nothing, and be taken for not given)."""
+    for name, value in vars(args).items():
+        values = value if isinstance(value, list) else [value]
+        if any(isinstance(v, str) and not v.strip() for v in values):
+            option = name if name in ("model", "spec") else f"--{name.replace('_', '-')}"
+            raise InputError(f"{option}: an empty value")
 
 
 def _silence_stdout() -> None:

@@ -117,6 +117,7 @@ _STEP_TIME = re.compile(r"@\s*([-+0-9.eE]+)\s*s\s*$")
 # reading an R1 table: about 8 characters per value or more ("1.25e-05,"), held as the
 # parser's rows, the table and its transpose
 MIN_CHARS_PER_VALUE = 8
+MAX_R1_M = 1e6  # m per m/s^2: far above any mode's static deflection, 1 / omega^2
 READ_COPIES = 3
 
 
@@ -170,6 +171,13 @@ def read_unit_response_csv(path: str | os.PathLike) -> np.ndarray:
         )
     if not np.isfinite(table).all():
         raise InputError(f"{str(path)!r}: contains non-finite values")
+    if np.abs(table).max() > MAX_R1_M:
+        row = int(np.argmax(np.abs(table).max(axis=1)))
+        raise InputError(
+            f"{str(path)!r}: data row {row + 1} holds {np.abs(table[row]).max():.3g} m per m/s^2; "
+            f"a unit response stays below {MAX_R1_M:g} (a 0.01 Hz mode deflects 253 m per "
+            "m/s^2)"
+        )
     return np.transpose(table.reshape(len(table), width // 3, 3), (1, 0, 2))
 
 

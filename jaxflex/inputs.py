@@ -45,6 +45,8 @@ def file_kind(mode: int) -> str:
 def check_input_file(field: str, path: str | os.PathLike) -> Path:
     """``path`` as a Path if it is a readable regular file; InputError naming ``field``
     and what the path is otherwise (module docstring)."""
+    if str(path) == "":
+        raise InputError(f"{field}: an empty path")
     path = Path(path)
     try:
         mode = path.stat().st_mode

@@ -5,6 +5,7 @@ jaxflex.cell read their files here."""
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import meshio
 import numpy as np
@@ -27,5 +28,26 @@ def read_cells(path: str | os.PathLike) -> tuple[np.ndarray, list[tuple[str, np.
             f"mesh: cannot read {str(path)!r} ({type(exc).__name__}: {exc}); give a mesh file "
             "meshio reads (gmsh .msh, .vtu/.vtk, .stl, .obj, Abaqus .inp, ...)"
         ) from None
+    if Path(path).suffix.lower() == ".msh":
+        _check_gmsh_nodes(path)
     blocks = [(block.type, np.asarray(block.data)) for block in data.cells]
     return np.asarray(data.points), blocks
+
+
+def _check_gmsh_nodes(path: str | os.PathLike) -> None:
+    """InputError if gmsh itself refuses the .msh file meshio read: meshio maps an element's
+    reference to node tag 0 (or below) onto the last node (a negative index wraps), so a
+    damaged file would be read as a different mesh; gmsh names the wrong node. Skipped where
+    gmsh's library cannot be loaded."""
+    try:
+        import gmsh
+    except OSError:
+        return
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(path))
+    except Exception as exc:  # gmsh raises plain Exceptions with its message
+        raise InputError(f"mesh: {str(path)!r} is damaged: gmsh refuses it ({exc})") from None
+    finally:
+        gmsh.finalize()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import stat
 import tempfile
 import weakref
 from pathlib import Path
@@ -14,6 +15,10 @@ import numpy as np
 
 from jaxflex.errors import InputError
 from jaxflex.inputs import file_kind
+
+# the longest file name an output may have: the system's 255 bytes less what its temporary
+# name beside it adds (jaxflex.atomic: a dot, the process id, 16 hex digits, a suffix)
+MAX_NAME_BYTES = 200
 
 
 def is_traced(*values: Any) -> bool:
@@ -83,17 +88,39 @@ def _check_writable_dir(option: str, path: Path, target: Path) -> None:
         ) from None
 
 
+def _output_mode(option: str, path: str | os.PathLike) -> tuple[Path, int | None]:
+    """(``path`` as a Path, the mode of what it names, None if nothing): a symbolic link is
+    followed; an empty path, a link to nothing, a loop or a name the system refuses (too
+    long) is an InputError naming ``option``."""
+    if str(path) == "":
+        raise InputError(f"{option}: an empty path")
+    target = Path(path)
+    if len(os.fsencode(target.name)) > MAX_NAME_BYTES:
+        raise InputError(
+            f"{option}: the name {target.name[:40]!r}... has {len(os.fsencode(target.name))} "
+            f"bytes; at most {MAX_NAME_BYTES} (the file is written through a temporary name "
+            "beside it)"
+        )
+    try:
+        return target, os.stat(target).st_mode
+    except FileNotFoundError:
+        if target.is_symlink():
+            raise InputError(f"{option}: {str(target)!r} is a symbolic link to nothing") from None
+        return target, None
+    except OSError as exc:
+        raise InputError(f"{option}: {str(target)!r}: {exc.strerror or exc}") from None
+
+
 def check_output_dir(option: str, path: str | os.PathLike) -> Path:
     """An output directory that can be written, checked before any work: ``path`` is a
     directory, or absent in an existing writable directory (it is created there, one level).
     Raises InputError naming ``option`` otherwise. Nothing is created."""
-    target = Path(path)
-    if target.exists() and not target.is_dir():
+    target, mode = _output_mode(option, path)
+    if mode is not None and not stat.S_ISDIR(mode):
         raise InputError(
-            f"{option}: {str(target)!r} exists and is {file_kind(target.stat().st_mode)}, "
-            "not a directory"
+            f"{option}: {str(target)!r} exists and is {file_kind(mode)}, not a directory"
         )
-    _check_writable_dir(option, target if target.is_dir() else target.parent, target)
+    _check_writable_dir(option, target if mode is not None else target.parent, target)
     return target
 
 
@@ -102,12 +129,12 @@ def check_output_file(option: str, path: str | os.PathLike) -> Path:
     regular file (never a directory, device, FIFO or socket, which a write would replace),
     in an existing writable directory. Raises InputError naming ``option`` otherwise.
     Nothing is created."""
-    target = Path(path)
-    if target.exists() and not target.is_file():
-        kind = file_kind(target.stat().st_mode)
+    target, mode = _output_mode(option, path)
+    if mode is not None and not stat.S_ISREG(mode):
+        kind = file_kind(mode)
         hint = "give a file name" if kind == "a directory" else "only regular files are written"
         raise InputError(f"{option}: {str(target)!r} is {kind}; {hint}")
-    _check_writable_dir(option, target.parent, target)
+    _check_writable_dir(option, target.resolve().parent, target)
     return target
 
 

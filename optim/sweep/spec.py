@@ -438,7 +438,8 @@ def parse_spec(data: Mapping, base: str | Path = ".") -> SweepSpec:
     d = _keys("", data, _TOP)
     part = _part(d.get("part", {}), Path(base))
     moves = tuple(_move(i, m) for i, m in enumerate(_list("moves", d.get("moves"))))
-    layouts = [_layout(i, lay) for i, lay in enumerate(d.get("layouts", []) or [])]
+    given = _list("layouts", d.get("layouts") or [], min_len=0)
+    layouts = [_layout(i, lay) for i, lay in enumerate(given)]
     grids = [
         _grid_values(i, g) for i, g in enumerate(_list("grids", d.get("grids") or [], min_len=0))
     ]
