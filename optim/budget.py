@@ -133,20 +133,29 @@ CERTIFY_S = 2e-8
 
 
 def search_need(
-    n_modes: int, n_points: int, floor_steps: int, max_steps: int, scenarios: int
+    n_modes: int,
+    n_points: int,
+    floor_steps: int,
+    max_steps: int,
+    scenarios: int,
+    lp_steps: int | None = None,
 ) -> Need:
     """What the search will at least take (a jaxflex.budget.Need): the bisection's tests
-    (log2 of the range of move lengths, and the polish) each solve an LP at the shortest
-    move and certify every scenario's cycle time."""
+    (log2 of the range of move lengths from ``floor_steps`` to ``max_steps``, and the
+    polish) each solve an LP of ``lp_steps`` steps (default the shortest move; after the
+    baselines, the best baseline's length: the first tests are near it) and certify every
+    scenario's cycle time."""
+    lp_steps = floor_steps if lp_steps is None else lp_steps
     tests = math.ceil(math.log2(max(max_steps - floor_steps, 2))) + 2
-    lp_s = LP_S_AT_1000 * (floor_steps / 1000) ** 2 * (1 + scenarios * n_modes / 200)
-    certify_s = CERTIFY_S * scenarios * n_points * floor_steps * n_modes
+    lp_s = LP_S_AT_1000 * (lp_steps / 1000) ** 2 * (1 + scenarios * n_modes / 200)
+    certify_s = CERTIFY_S * scenarios * n_points * lp_steps * n_modes
     return Need(
-        f"the search ({tests} tests of moves of {floor_steps} steps or more, {scenarios:,} "
+        f"the search ({tests} tests of moves of up to {lp_steps} steps, {scenarios:,} "
         f"scenario(s), {n_modes} modes, {n_points} points)",
         0.0,
         tests * (lp_s + certify_s),
-        "use a coarser --dt, fewer robust grid points (--grid), modes or points",
+        "use a coarser --dt, fewer robust grid points (--grid), modes or points, or a "
+        "shorter --max-duration",
     )
 
 

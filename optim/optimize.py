@@ -233,6 +233,9 @@ def optimize(
     sub = LPSubsolver(solver) if method == "exact" else GradientSubsolver(solver)
     bound = min((e.score() for e in feasible), default=steps_cap * dt_s)
     upper = math.ceil(bound / dt_s - 1e-9)
+    # the search's moves are now bracketed: its LPs reach up to the best baseline's length
+    bracket = min(upper, steps_cap)
+    require(search_need(model.n_modes, model.n_points, shortest, bracket, scenarios, bracket))
     best, history = bisect(
         problem, sub, base.floor_acc, upper, [e.acc for e in base.entries], progress=progress
     )
