@@ -144,6 +144,8 @@ def optimize(
     start = time.perf_counter()
     robust = _as_robust(robust)
     _check_model(model, robust)
+    if cell is not None and min_distance_m is not None:  # before the cell's set-up measures
+        _plan_distance(model, cell, _as_limits(limits), dt_s, max_duration_s, max_steps)
     setup = prepare_cell(
         model,
         distance_m,
@@ -181,10 +183,7 @@ def optimize(
     steps_cap = check_memory(
         model.n_modes, shortest, allowed_steps, scenarios, clearance_m is not None, memory
     )
-    needs = [search_need(model.n_modes, model.n_points, shortest, steps_cap, scenarios)]
-    if cell is not None and min_distance_m is not None:
-        needs.append(distance_need(cell, model.n_points, shortest, steps_cap))
-    require(*needs)
+    require(search_need(model.n_modes, model.n_points, shortest, steps_cap, scenarios))
     advice = issue(grid_advice(robust))
 
     fractions: list[float] = []
@@ -304,6 +303,16 @@ def optimize(
         constraints=setup.describe_move(acc, dt_s) if setup.families else [],
         cell=setup,
     )
+
+
+def _plan_distance(model, cell, limits, dt_s, max_duration_s, max_steps) -> None:
+    """Refuse a distance constraint whose certification cannot fit the time budget (optim.
+    budget.distance_need), before anything is measured against the obstacles."""
+    dt_s = check_positive("dt_s", dt_s)
+    shortest, allowed = check_move_length(
+        cell.distance_m, limits, dt_s, check_positive("max_duration_s", max_duration_s), max_steps
+    )
+    require(distance_need(cell, model.n_points, shortest, allowed))
 
 
 def _check_clearance(model, distance, clearance_m, max_duration_s) -> None:
