@@ -33,6 +33,7 @@ CHUNK_BYTES = 1 << 20  # text checked in pieces of this size
 def file_kind(mode: int) -> str:
     """What a file of ``mode`` (os.stat) is, for messages."""
     kinds = (
+        (stat.S_ISREG, "a regular file"),
         (stat.S_ISDIR, "a directory"),
         (stat.S_ISFIFO, "a FIFO (named pipe)"),
         (stat.S_ISCHR, "a character device"),

@@ -88,9 +88,14 @@ out.flush()
 
 
 def _packages(module: str) -> dict[str, str]:
-    """The top-level package of ``module`` and the project's core, by folder."""
+    """The top-level package of ``module`` (if it is in one) and the project's core, by
+    folder."""
     names = {module.split(".")[0], "jaxflex"}
-    return {name: str(Path(sys.modules[name].__file__).parent) for name in names}
+    return {
+        name: str(Path(sys.modules[name].__file__).parent)
+        for name in names
+        if hasattr(sys.modules[name], "__path__")
+    }
 
 
 def _signal_name(returncode: int) -> str:

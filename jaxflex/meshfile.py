@@ -23,6 +23,10 @@ def read_cells(path: str | os.PathLike) -> tuple[np.ndarray, list[tuple[str, np.
         data = meshio.read(path)
     # meshio raises many types (ReadError, KeyError, ValueError...) and, when no reader
     # accepts the file, calls sys.exit(1)
+    except ValueError as exc:
+        if "at least one array" not in str(exc):  # numpy's words for meshio's empty block
+            raise InputError(f"mesh: cannot read {str(path)!r} ({exc})") from None
+        raise InputError(f"mesh: {str(path)!r} holds an empty block of cells or nodes") from None
     except (Exception, SystemExit) as exc:
         raise InputError(
             f"mesh: cannot read {str(path)!r} ({type(exc).__name__}: {exc}); give a mesh file "
