@@ -40,8 +40,8 @@ def check_mapdl_file(path: Path) -> None:
     words = np.fromfile(path, dtype="<i4", count=HEADER_WORDS + 3)
     if words.size < HEADER_WORDS + 3 or words[0] != HEADER_WORDS:
         raise InputError(
-            f"--from-ansys: {str(path)!r} is not a MAPDL binary file: it does not start with "
-            f"MAPDL's standard header ({size} bytes)"
+            f"--from-ansys: {str(path)!r}: not a MAPDL {path.suffix.lower()} file: it does not "
+            f"start with MAPDL's standard header ({size} bytes)"
         )
     # item i is word i + 1 (after the record's length and flags): item 27, and items 97-98 as
     # one 64-bit number (low word first)
