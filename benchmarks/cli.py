@@ -8,6 +8,7 @@ from pathlib import Path
 from benchmarks.core import format_table
 from benchmarks.suite import run_suite, summary_lines
 from jaxflex.progress import step
+from jaxflex.validation import check_output_dir
 
 COMMAND = "bench"
 HELP = "speed and accuracy figures of every method as JSON + charts (SI units)"
@@ -43,6 +44,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.output)
     json_path = out if out.suffix == ".json" else None
     out_dir = out.parent if json_path is not None else out
+    check_output_dir("-o/--output", out_dir)
     report = run_suite(
         out_dir,
         size,

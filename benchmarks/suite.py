@@ -36,7 +36,7 @@ from benchmarks.core import BenchCase, run_bench
 from benchmarks.fe import SceneSpec
 from benchmarks.nodes import format_nodes, run_reduction, run_scale
 from benchmarks.stability import OMEGA_DT, run_stability
-from jaxflex.atomic import write_text_atomic
+from jaxflex.atomic import make_output_dir, write_text_atomic
 from jaxflex.errors import InputError
 from jaxflex.progress import step
 
@@ -183,8 +183,7 @@ def run_suite(
     if size not in SIZES:
         raise InputError(f"size: must be one of {list(SIZES)}, got {size!r}")
     cfg = SIZES[size]
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_output_dir(out_dir)
     start = time.perf_counter()
     report = run_bench(cfg["core"], progress=progress)
     report["size"] = size

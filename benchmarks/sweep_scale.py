@@ -11,19 +11,25 @@ process also runs the LocalCluster's scheduler) and its number of Python contain
 (after a garbage collection), and each worker's memory (the workers are found from the
 records' ``worker`` field, ``host:pid``); the store's cost is timed per record, and after
 the run, interleaved, into the full results directory and into an empty one.
-Memory figures are resident set sizes (MB): current, and the process's peak so far
-(``VmHWM``, Linux).
+Memory figures are resident set sizes (MB): current (the client's after returning freed
+heap memory to the system, ``malloc_trim``, where the C library has it), and the process's
+peak so far (``VmHWM``, Linux). What holding the records would cost is measured in the same
+run: the Python allocations (tracemalloc) of ``HOLD_CASES`` stored records loaded into a
+list, the yardstick of ``tests/test_sweep_scale.py``'s memory bound.
 """
 
 from __future__ import annotations
 
 import argparse
+import ctypes
+import ctypes.util
 import gc
 import json
 import os
 import sys
 import tempfile
 import time
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +42,16 @@ from optim.sweep.store import ResultStore
 
 SAMPLE_EVERY = 100  # records between two samples
 MB = 2**20
+HOLD_CASES = 1000  # records whose holding cost is measured (cases 500 ... 1 500)
+
+
+def _trim() -> None:
+    """Return the freed heap memory of this process to the system (glibc's malloc_trim),
+    so that its resident size follows what it holds; nothing where there is no such call."""
+    name = ctypes.util.find_library("c")
+    trim = getattr(ctypes.CDLL(name), "malloc_trim", None) if name else None
+    if trim is not None:
+        trim(0)
 
 
 def scale_spec(n_moves: int = 10) -> SweepSpec:
@@ -113,6 +129,7 @@ class Sampler:
                 "cpu_s": round(_cpu_s(process), 2),
             }
         gc.collect()
+        _trim()
         return {
             "cases": len(self.store_s),
             "elapsed_s": round(time.perf_counter() - self.start, 2),
@@ -172,6 +189,12 @@ def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> 
     )
     store = ResultStore(directory)
     stored_ms = store_cost_ms(store, store.load_record(run.cases[-1].case_id))
+    held = run.cases[len(run.cases) // 4 :][:HOLD_CASES]
+    tracemalloc.start()
+    records = [store.load_record(case.case_id) for case in held]
+    hold_mb = tracemalloc.get_traced_memory()[0] / MB
+    tracemalloc.stop()
+    del records
     tick = time.perf_counter()
     rerun = run_sweep(spec, directory, executor="serial", progress=False, plots=False)
     rerun_s = time.perf_counter() - tick
@@ -203,6 +226,8 @@ def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> 
         "store_ms_median_empty_dir": stored_ms["empty_dir"],
         "store_ms_median_full_dir": stored_ms["full_dir"],
         "record_bytes_mean": round(float(np.mean(sampler.record_bytes))),
+        "hold_cases": len(held),
+        "hold_mb": round(hold_mb, 2),
         "rerun_s": round(rerun_s, 2),
         "rerun_ms_per_stored_case": round(1e3 * rerun_s / max(rerun.skipped, 1), 3),
         "client_cpu_ms_per_case": round(
@@ -237,9 +262,15 @@ def main(argv: list[str] | None = None) -> int:
         "--moves", type=int, default=10, help="moves per layout (default 10: 2 000 cases)"
     )
     parser.add_argument("-o", "--output", help="also write the JSON here")
+    parser.add_argument(
+        "--keep", metavar="DIR", help="run into DIR (a new directory) and keep its results"
+    )
     args = parser.parse_args(argv)
-    with tempfile.TemporaryDirectory() as tmp:
-        report = measure(tmp, n_workers=args.workers, n_moves=args.moves)
+    if args.keep:
+        report = measure(args.keep, n_workers=args.workers, n_moves=args.moves)
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            report = measure(tmp, n_workers=args.workers, n_moves=args.moves)
     text = json.dumps(report, indent=2)
     print(text)
     if args.output:

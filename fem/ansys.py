@@ -39,10 +39,12 @@ import scipy.sparse as sp
 
 from fem.eigen import factorize
 from fem.imported import ImportedModes, file_digest
+from fem.mapdl_check import check_mapdl_file
 from fem.modal import solve_modes
 from fem.solver_modes import rigid_mask, rigid_meta, user_gamma
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
+from jaxflex.isolated import isolated
 
 DOF_LABELS = {1: "UX", 2: "UY", 3: "UZ", 4: "ROTX", 5: "ROTY", 6: "ROTZ"}
 TRANSLATIONS = ("UX", "UY", "UZ")
@@ -111,6 +113,7 @@ def _binary(path, suffix: str):
         ) from exc
 
 
+@isolated("--from-ansys", "ansys-mapdl-reader", precheck=check_mapdl_file)
 def read_full(path: str | os.PathLike) -> FullMatrices:
     """K and M of a MAPDL ``.full`` file, symmetrised, with the DOF reference."""
     from ansys.mapdl.reader.common import read_table
@@ -160,6 +163,7 @@ def read_full(path: str | os.PathLike) -> FullMatrices:
     )
 
 
+@isolated("--from-ansys", "ansys-mapdl-reader", precheck=check_mapdl_file)
 def read_rst(path: str | os.PathLike) -> RstModes:
     """Frequencies, shapes, coordinates and nodal stresses of a MAPDL modal ``.rst`` file."""
     from ansys.mapdl.reader.rst import Result
@@ -209,6 +213,7 @@ def _angles(mesh) -> np.ndarray | None:
     return np.asarray(angles, dtype=float)[:, :3]
 
 
+@isolated("nodes", "ansys-mapdl-reader", precheck=check_mapdl_file)
 def read_node_rotations(path: str | os.PathLike) -> dict[int, np.ndarray]:
     """{node: T (3, 3)} of the rotated nodal coordinate systems (u_global = T u_nodal) of a
     .cdb archive or a .rst (empty: none rotated, or a CSV, which cannot say)."""
@@ -231,6 +236,7 @@ def read_node_rotations(path: str | os.PathLike) -> dict[int, np.ndarray]:
     return dict(zip(ids[turned].tolist(), nodal_rotations(angles[turned]), strict=True))
 
 
+@isolated("nodes", "ansys-mapdl-reader", precheck=check_mapdl_file)
 def read_node_coordinates(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     """(node_ids (N,), coordinates (N, 3)) in file units from a MAPDL archive (.cdb), a
     result (.rst) or a CSV with rows ``node, x, y, z`` (an optional header row)."""

@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from jaxflex.errors import InputError
+from jaxflex.inputs import read_text
 
 _INT = re.compile(r"[+-]?\d+")
 _REAL = re.compile(
@@ -54,6 +55,7 @@ _CEND = re.compile(r"\s*CEND\b", re.IGNORECASE)
 _CASE_SET = re.compile(r"\s*(SPC|MPC)\s*=\s*(\d+)\s*$", re.IGNORECASE)
 _INCLUDE = re.compile(r"\s*INCLUDE\b", re.IGNORECASE)
 _SYMBOL = re.compile(r"([A-Za-z_][A-Za-z0-9_]+):(.*)")
+_FOREIGN = re.compile(r"[^A-Za-z0-9 +\-.*,=()/'\"_]")  # outside Nastran's character set
 
 
 def parse_real(text: str) -> float:
@@ -106,6 +108,8 @@ class Card:
         text = self.text(index)
         if not text:
             return default
+        if len(text) > 16:  # a field holds at most 16 characters; Nastran IDs have 8 digits
+            raise InputError(f"deck: {self.where(index, label)}: an integer of {len(text)} digits")
         if text.isascii() and text.isdigit():
             return int(text)
         if not _INT.fullmatch(text):
@@ -244,9 +248,7 @@ class BulkData:
 
 
 def _read_text(path: Path, context: str) -> list[str]:
-    if not path.is_file():
-        raise InputError(f"deck: {context}file {str(path)!r} does not exist")
-    return path.read_text(encoding="utf-8", errors="replace").splitlines()
+    return read_text(f"deck: {context}".rstrip(": "), path).splitlines()
 
 
 def _include_target(name: str, path: Path, job: Path, where: str, notes: list[str]) -> Path:
@@ -316,6 +318,13 @@ def _bulk_lines(path: Path, start: int, lines: list[str], stack, job: Path, bulk
             continue
         if text.upper().startswith("ENDDATA"):
             return True
+        foreign = _FOREIGN.search(text)
+        if foreign:  # named, not echoed: an INCLUDE may point at any file
+            raise InputError(
+                f"deck: {path.name} line {number}: the character {foreign.group()!r} is not "
+                "bulk data (letters, digits, blanks and + - . * , = ( ) / ' \" _); is "
+                f"{path.name} a Nastran deck?"
+            )
         yield str(path), number, text, None
     return False
 

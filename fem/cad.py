@@ -33,6 +33,7 @@ from fem.iges import iges_units
 from fem.mesh_io import CAD_SUFFIXES, SheetMesh, sheet_from_cells
 from fem.meshing import GROWTH
 from jaxflex.errors import InputError
+from jaxflex.isolated import isolated
 from jaxflex.stdout import silenced_stdout
 
 CURVATURE_ELEMENTS = 12
@@ -165,14 +166,18 @@ def cad_unit(path: str | os.PathLike) -> str:
     return "STEP unit converted to m by OpenCASCADE"
 
 
-def cad_bounds(path: str | os.PathLike, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """Lower and upper corners (3,) of the bounding box of a CAD file's sheet body, m."""
+@isolated("cad", "gmsh")
+def cad_bounds(path: str | os.PathLike, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray, float]:
+    """Lower and upper corners (3,) of the bounding box of a CAD file's sheet body, m, and
+    its area, m^2."""
     with _session() as gmsh:
         _import(gmsh, path, scale)
         box = np.array(gmsh.model.getBoundingBox(-1, -1))
-    return box[:3], box[3:]
+        area = sum(gmsh.model.occ.getMass(2, tag) for _, tag in gmsh.model.getEntities(2))
+    return box[:3], box[3:], float(area)
 
 
+@isolated("cad", "gmsh")
 def mesh_cad(
     path: str | os.PathLike,
     mesh_size_m: float,

@@ -23,11 +23,13 @@ from fem.mesh_advice import coarse_mesh_warnings
 from fem.mesh_io import CAD_SUFFIXES, FORMATS_HELP
 from fem.modal import modal_analysis
 from fem.parts import ELEMENTS, read_cad, read_mesh
+from fem.plan import fe_plan, points_need
 from fem.sanity import printed_part_warnings
 from fem.scenes import scene
 from fem.sizing import size_model
 from fem.supports import ClampedEdge, PointSupport, SuctionCup
 from jaxflex.advice import issue, model_resolution, threshold_advice
+from jaxflex.budget import require
 from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
 from jaxflex.deviation import deviation_curve
 from jaxflex.errors import InputError
@@ -343,6 +345,8 @@ def run(args: argparse.Namespace) -> int:
     n_modes = args.n_modes
     if n_modes is None and args.max_freq is None:
         n_modes = 20
+    plan = fe_plan(part, n_modes, supports)
+    require(plan.need(), points_need(plan, args.points))  # before any meshing
     result = modal_analysis(
         part,
         supports,

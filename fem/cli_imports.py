@@ -6,6 +6,7 @@ their run."""
 from __future__ import annotations
 
 import argparse
+import io
 import json
 from collections.abc import Callable
 
@@ -18,6 +19,7 @@ from fem.nastran import from_nastran
 from fem.sanity import printed_part_warnings
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
+from jaxflex.inputs import read_text
 
 SOURCES = ("from_ansys", "from_nastran", "from_r1", "from_modes")
 IMPORT_ONLY = ("full", "nodes", "units", "gamma", "spc_id", "axis")
@@ -129,9 +131,10 @@ def _check_options(args, source: str, defaults: dict) -> None:
 
 
 def _read_gamma(path):
+    text = read_text("--gamma", path)
     try:
-        return np.loadtxt(path, delimiter=",", ndmin=2)
-    except (OSError, ValueError) as exc:
+        return np.loadtxt(io.StringIO(text), delimiter=",", ndmin=2)
+    except ValueError as exc:
         raise InputError(f"--gamma: cannot read {path!r} as rows x,y,z ({exc})") from exc
 
 

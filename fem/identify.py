@@ -54,6 +54,7 @@ from fem.solver_modes import rigid_mask, rigid_meta
 from jaxflex.convolution import read_unit_response_csv
 from jaxflex.engine import modal_states
 from jaxflex.errors import InputError
+from jaxflex.inputs import check_text_file
 from jaxflex.model import ModalModel
 from jaxflex.validation import check_positive
 
@@ -510,9 +511,7 @@ def _split(residues: np.ndarray, axes: tuple[str, ...]):
 
 
 def _read_nodes(path) -> tuple[np.ndarray, np.ndarray | None]:
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"nodes: file {str(path)!r} does not exist")
+    path = check_text_file("nodes", path)
     try:
         table = np.loadtxt(path, delimiter=",", ndmin=2)
     except ValueError:

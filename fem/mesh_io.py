@@ -14,7 +14,6 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import meshio
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
@@ -22,9 +21,14 @@ from scipy.spatial import cKDTree
 
 from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
 from fem.meshing import split_quads
+from fem.plan import plan_of_cells
+from jaxflex.budget import Need, require
 from jaxflex.errors import InputError
+from jaxflex.inputs import check_input_file
+from jaxflex.meshfile import read_cells
 
 MAX_EXTENT_M = 20.0  # a sheet-metal part larger than this is almost surely in millimetres
+MIN_EXTENT_M = 1e-3  # ... and one smaller than this is in another unit (or no part at all)
 WELD_RELATIVE = 1e-6  # nodes closer than this x the part's extent are one node
 FLAT_RELATIVE = 1e-6  # a part whose z spread is below this x its extent is flat
 # meshio cell type -> (corner count, sub-cells through the mid-side nodes as local indices;
@@ -34,6 +38,10 @@ QUAD_SPLIT = [[0, 4, 8, 7], [4, 1, 5, 8], [8, 5, 2, 6], [7, 8, 6, 3]]
 SHELL_CELLS = ("triangle", "triangle6", "triangle7", "quad", "quad8", "quad9")
 SOLID_CELLS = ("hexahedron",)
 SKIPPED_CELLS = ("vertex", "line", "line3")  # gmsh's physical points and curves
+# merging, welding and orienting cells (fem.mesh_io, 2-core machine: 444 204 triangles of a
+# CAD sheet in 4.4 s, and ~1 kB each at the peak)
+MESH_S_PER_CELL = 1e-5
+MESH_BYTES_PER_CELL = 1e3
 CAD_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep")
 FORMATS_HELP = (
     "meshio formats: gmsh .msh, .vtu/.vtk, .xdmf, .stl, .obj, .ply, .off, Abaqus .inp, "
@@ -103,36 +111,103 @@ class SheetMesh:
         return surface_from_quads(self.nodes, self.quads, source)
 
 
-def _read_meshio(path: str | os.PathLike) -> meshio.Mesh:
-    if not os.path.isfile(path):
-        raise InputError(f"mesh: file {str(path)!r} does not exist")
+def read_sheet(path: str | os.PathLike, scale: float = 1.0) -> SheetMesh:
+    """The sheet mid-surface of a mesh file (every block merged; see the module)."""
+    if check_input_file("mesh", path).stat().st_size == 0:
+        raise InputError(f"mesh: {str(path)!r} is empty (0 bytes)")
     if Path(path).suffix.lower() in CAD_SUFFIXES:
         raise InputError(
             f"mesh: {str(path)!r} is a CAD file, not a mesh; mesh its sheet body with gmsh: "
             "fem.read_cad(path, thickness, mesh_size=...) / jaxflex model --cad FILE "
             "--thickness T --mesh-size H"
         )
-    try:
-        return meshio.read(path)
-    # meshio raises many types (ReadError, KeyError, ValueError...) and, when no reader
-    # accepts the file, calls sys.exit(1)
-    except (Exception, SystemExit) as exc:
-        raise InputError(
-            f"mesh: cannot read {str(path)!r} ({type(exc).__name__}: {exc}); give a file of "
-            f"the {FORMATS_HELP}, or a CAD file through --cad"
-        ) from exc
-
-
-def read_sheet(path: str | os.PathLike, scale: float = 1.0) -> SheetMesh:
-    """The sheet mid-surface of a mesh file (every block merged; see the module)."""
-    data = _read_meshio(path)
-    points = np.asarray(data.points, dtype=float) * scale
-    if points.ndim != 2 or points.shape[0] == 0 or not np.isfinite(points).all():
-        raise InputError(f"mesh: {str(path)!r} has no valid points")
+    raw, blocks = read_cells(path)
+    cells = sum(len(c) for kind, c in blocks if kind in SHELL_CELLS + SOLID_CELLS)
+    require(*sheet_needs(str(path), cells))
+    points = check_points(raw, str(path)) * scale
     if points.shape[1] == 2:
         points = np.column_stack([points, np.zeros(len(points))])
-    blocks = [(block.type, np.asarray(block.data, dtype=np.int64)) for block in data.cells]
     return sheet_from_cells(points, blocks, str(path))
+
+
+def sheet_needs(source: str, cells: int) -> list[Need]:
+    """What making a part of a mesh of ``cells`` cells takes at least: merging, welding and
+    orienting them (MESH_S_PER_CELL, MESH_BYTES_PER_CELL), and the cheapest analysis of
+    that many cells (a Morley plate, one mode: fem.plan)."""
+    sheet = Need(
+        f"merging, welding and orienting the {cells:,} cells of {source!r}",
+        MESH_BYTES_PER_CELL * cells,
+        MESH_S_PER_CELL * cells,
+        "give a coarser mesh",
+    )
+    return [sheet, plan_of_cells("morley", cells, 1, None).need(f"analysing {source!r}")]
+
+
+def check_points(points: np.ndarray, source: str) -> np.ndarray:
+    """Node coordinates (N, 2 or 3) as float64, checked: at least one node, finite (the
+    first bad one named)."""
+    try:
+        points = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"mesh: {source!r}: node coordinates are not numbers ({exc})") from None
+    if points.size == 0:
+        raise InputError(f"mesh: {source!r} holds no nodes")
+    if points.ndim != 2 or points.shape[1] not in (2, 3):
+        raise InputError(
+            f"mesh: {source!r}: node coordinates of shape {points.shape}; expected (N, 2) or (N, 3)"
+        )
+    bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
+    if bad.size:
+        raise InputError(
+            f"mesh: {source!r}: node {int(bad[0])} of {len(points)} has coordinates "
+            f"{points[bad[0]].tolist()} ({bad.size} such node(s)); every coordinate must be "
+            "finite"
+        )
+    return points
+
+
+def check_connectivity(blocks, n_nodes: int, source: str) -> list[tuple[str, np.ndarray]]:
+    """The cell blocks [(meshio type, (C, k))] as int64 arrays, checked before any use: whole
+    numbers, every index a node of the mesh (0 ... n_nodes - 1; a negative index would wrap
+    around in numpy), the first bad cell named."""
+    checked = []
+    for kind, cells in blocks:
+        cells = np.asarray(cells)
+        if cells.size and not np.issubdtype(cells.dtype, np.integer):
+            raise InputError(
+                f"mesh: {source!r}: the {kind} cells hold {cells.dtype} node numbers, not integers"
+            )
+        cells = cells.astype(np.int64, copy=False)
+        cells = cells.reshape(len(cells), -1) if cells.size else cells.reshape(0, 0)
+        bad = np.flatnonzero(((cells < 0) | (cells >= n_nodes)).any(axis=1))
+        if bad.size:
+            row = cells[bad[0]]
+            index = int(row[(row < 0) | (row >= n_nodes)][0])
+            raise InputError(
+                f"mesh: {source!r}: {kind} cell {int(bad[0])} refers to node {index}, but the "
+                f"mesh has {n_nodes} nodes (0 ... {n_nodes - 1}); {bad.size} cell(s) refer to "
+                "nodes it lacks"
+            )
+        checked.append((kind, cells))
+    return checked
+
+
+def check_extent(
+    extent_m: float, source: str, field: str = "mesh", max_extent_m: float = MAX_EXTENT_M
+) -> None:
+    """Refuse a part whose largest extent (m) is no sheet-metal part's: above ``max_extent_m``
+    (coordinates in millimetres read as metres; a file whose unit was stated passes inf) or
+    below MIN_EXTENT_M."""
+    if extent_m > max_extent_m:
+        raise InputError(
+            f"{field}: {source!r} spans {extent_m:g} m; coordinates must be in metres (pass "
+            "scale=1e-3 / --scale 1e-3 for a mesh in millimetres)"
+        )
+    if not extent_m >= MIN_EXTENT_M:
+        raise InputError(
+            f"{field}: {source!r} spans {extent_m:g} m; a sheet part spans at least "
+            f"{MIN_EXTENT_M * 1e3:g} mm: check the file's unit (scale, --scale)"
+        )
 
 
 def sheet_from_cells(
@@ -142,6 +217,7 @@ def sheet_from_cells(
     split into linear cells, welded (unless ``weld`` is False: nodes that are distinct by
     identity, as Nastran grids, stay distinct), oriented (see the module); a part larger
     than ``max_extent_m`` is refused (a file whose unit was stated passes inf)."""
+    blocks = check_connectivity(blocks, len(points), source)
     extent = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
     counts: dict[str, int] = {}
     skipped: dict[str, int] = {}
@@ -149,6 +225,9 @@ def sheet_from_cells(
         target = counts if kind in SHELL_CELLS + SOLID_CELLS else skipped
         target[kind] = target.get(kind, 0) + len(cells)
     unsupported = {k: v for k, v in skipped.items() if k not in SKIPPED_CELLS}
+    counts = {k: v for k, v in counts.items() if v}
+    if not counts and not any(skipped.values()):
+        raise InputError(f"mesh: {source!r} holds no cells (nodes only, or empty cell blocks)")
     if not counts or unsupported:
         raise InputError(
             f"mesh: {source!r} has cells {sorted(unsupported or skipped) or 'none'}; supported "
@@ -156,11 +235,7 @@ def sheet_from_cells(
             "mid-surface) or one layer of hexahedra (a volume mesh of a thicker part: export "
             "its mid-surface)"
         )
-    if extent > max_extent_m:
-        raise InputError(
-            f"mesh: {source!r} spans {extent:g} m; coordinates must be in metres (pass "
-            "scale=1e-3 / --scale 1e-3 for a mesh in millimetres)"
-        )
+    check_extent(extent, source, max_extent_m=max_extent_m)
     if "hexahedron" in counts:
         if len(counts) > 1:
             raise InputError(

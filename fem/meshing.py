@@ -12,6 +12,7 @@ import numpy as np
 from jaxflex.errors import InputError
 
 GROWTH = 0.3  # element size may grow by 30 % of the distance covered (smooth grading)
+COUNT_SAMPLES = 20_000  # samples of the spacing for a count (relative error ~1e-6)
 
 
 def graded_coordinates(
@@ -35,18 +36,39 @@ def graded_coordinates(
     return coords
 
 
-def cup_grid(
-    width_m: float, height_m: float, size_m: float, cups, fine_fraction: float = 0.25
-) -> tuple[np.ndarray, np.ndarray]:
-    """Grid lines (x, y) of a width x height footprint, refined around ``cups``: inside a band
-    of the cup diameter, the spacing is min(size, fine_fraction * radius)."""
+def graded_count(
+    length_m: float, size_m: float, bands: list[tuple[float, float]], fine_m: float
+) -> float:
+    """The number of intervals :func:`graded_coordinates` makes (the integral of 1 / spacing
+    over [0, length_m], at most ``COUNT_SAMPLES`` samples: for a plan, without the nodes)."""
+    s = np.linspace(0.0, length_m, COUNT_SAMPLES + 1)
+    target = np.full_like(s, size_m)
+    for lo, hi in bands:
+        distance = np.maximum(np.maximum(lo - s, s - hi), 0.0)
+        target = np.minimum(target, fine_m + GROWTH * distance)
+    density = 1.0 / target
+    return max(1.0, float(np.sum(0.5 * (density[1:] + density[:-1]) * np.diff(s))))
+
+
+def cup_bands(cups, size_m: float, fine_fraction: float):
+    """(bands along x, bands along y, fine spacing m) of a tensor grid refined around
+    ``cups``: inside a band of the cup diameter, the spacing is min(size, fine_fraction *
+    radius)."""
     bands_x, bands_y, fines = [], [], []
     for cup in cups:
         margin = cup.radius
         bands_x.append((cup.x - margin, cup.x + margin))
         bands_y.append((cup.y - margin, cup.y + margin))
         fines.append(min(size_m, fine_fraction * cup.radius))
-    fine = min(fines, default=size_m)
+    return bands_x, bands_y, min(fines, default=size_m)
+
+
+def cup_grid(
+    width_m: float, height_m: float, size_m: float, cups, fine_fraction: float = 0.25
+) -> tuple[np.ndarray, np.ndarray]:
+    """Grid lines (x, y) of a width x height footprint, refined around ``cups`` (bands of
+    :func:`cup_bands`)."""
+    bands_x, bands_y, fine = cup_bands(cups, size_m, fine_fraction)
     return (
         graded_coordinates(width_m, size_m, bands_x, fine),
         graded_coordinates(height_m, size_m, bands_y, fine),

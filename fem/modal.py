@@ -22,11 +22,13 @@ from fem.damping import Rayleigh, check_damping, describe_damping, modal_zeta
 from fem.eigen import all_modes, factorize, lowest_modes
 from fem.outputs import modal_outputs, static_displacements, static_response
 from fem.parts import Part
+from fem.plan import fe_plan
 from fem.plate import assemble_plate
 from fem.shell import assemble_shell
 from fem.solid import assemble_solid
 from fem.supports import as_support_list, check_layout, contact_discs
 from fem.system import FESystem
+from jaxflex.budget import require
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.points import downsample_to_count, snap_key_points
@@ -446,6 +448,7 @@ def modal_analysis(
     max_freq_hz = check_request(n_modes, max_freq_hz, zeta)
     check_positive("sigma_hz", sigma_hz)
     check_layout(supports, part, allow_rigid_modes=allow_rigid_modes)
+    require(fe_plan(part, n_modes, supports).need())  # jaxflex.budget, before any meshing
     timings: dict[str, float] = {}
 
     tick = time.perf_counter()

@@ -27,8 +27,10 @@ from fem.cad import cad_bounds, cad_unit, mesh_cad
 from fem.geometry import CadSurface, GivenMesh, Rectangle, check_sheet_element
 from fem.materials import Material, resolve_material
 from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
-from fem.mesh_io import SheetMesh, read_sheet
+from fem.mesh_io import SheetMesh, check_extent, read_sheet
+from fem.plan import cad_mesh_need, plan_of_cells, refined_cells
 from fem.sanity import warn_units
+from jaxflex.budget import require
 from jaxflex.errors import InputError
 from jaxflex.validation import check_positive
 
@@ -134,10 +136,15 @@ class Part:
         not fit on the part (it overhangs an edge, reaches over a fold), or None."""
         return self.geometry.disc_problem(np.asarray(centre, dtype=float), radius_m)
 
+    @property
+    def fine_fraction(self) -> float:
+        """Element size inside a cup band as a fraction of the cup radius."""
+        return self.cup_fine_fraction or CUP_FINE_FRACTION[self.element]
+
     def mesh(self, cups=()) -> PlateMesh | SurfaceMesh | ShellMesh:
         """The mesh used for analysis, refined around ``cups`` (contact discs; built-in and
         CAD parts)."""
-        fine = self.cup_fine_fraction or CUP_FINE_FRACTION[self.element]
+        fine = self.fine_fraction
         make = {
             "plate": self.geometry.plate_mesh,
             "shell": self.geometry.shell_mesh,
@@ -403,11 +410,18 @@ def read_cad(
     ("hex2" meshes quadrilaterals)."""
     scale = check_positive("scale", scale)
     _check_common(thickness, element or "shell", mesh_size, ELEMENTS)
-    lo, hi = cad_bounds(path, scale)
+    lo, hi, area = cad_bounds(path, scale)
+    check_extent(float(np.max(hi - lo)), str(path), "cad")
     # where points lie, the area and the span come from a mesh at the element size (or 1/40
     # of the diagonal: the facets' area then differs from the surface's by < 1e-4 for
     # curvature radii down to the part's size)
     probe = float(mesh_size) if mesh_size is not None else float(np.linalg.norm(hi - lo)) / 40
+    # before any meshing: the probe mesh, and an analysis at that size with the cheapest
+    # formulation and one mode (the least any analysis of this part will need)
+    cheapest = "morley" if element is None else element
+    cells = refined_cells(area, probe, (), quads=cheapest == "hex2")
+    analysis = plan_of_cells(cheapest, cells, 1, probe).need("the modal analysis of the sheet")
+    require(cad_mesh_need(path, area, probe), analysis)
     base = mesh_cad(path, probe, scale=scale)
     if element is None:
         element = "morley" if base.is_flat else "shell"

@@ -14,12 +14,15 @@ from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.export import export_fmu
 from fmu.ssp import export_ssp
 from fmu.verify import verify
+from jaxflex.budget import Need, require
 from jaxflex.cell import load_cell
 from jaxflex.errors import InputError
 from jaxflex.fileset import read_set
+from jaxflex.inputs import check_input_file
 from jaxflex.points import downsample_to_count
 from jaxflex.trajectory_io import read_trajectory_csv
 from jaxflex.validation import check_output_file, check_positive
+from optim.budget import obstacle_pieces
 from optim.result import RESULT_KIND
 
 COMMAND = "export"
@@ -124,12 +127,10 @@ def load_case(path: Path) -> tuple[object, float, dict | None]:
                 f"--trajectory: folder {str(path)!r} has no trajectory.csv (expected the output "
                 "folder of `jaxflex optimize ... -o DIR`)"
             )
-    elif path.is_file():
-        csv = path
+    else:
+        csv = check_input_file("--trajectory", path)
         if not csv.with_name("report.json").exists():
             return (*read_trajectory_csv(csv), None)  # a trajectory on its own
-    else:
-        raise InputError(f"--trajectory: {str(path)!r} does not exist")
     members = read_set(csv.parent, RESULT_KIND, (csv.name, "report.json"), option="--trajectory")
     acc, dt_s = read_trajectory_csv(csv)
     report_path = members["report.json"]
@@ -154,7 +155,33 @@ def _print_binaries(name: str, platforms, skipped: dict[str, str]) -> None:
         print(f"{name}: skipped {plat}: {reason}")
 
 
-def _export_fmu(args, model, trajectory, threshold_m, case, windows) -> int:
+# per point, mode (or obstacle piece) and step of the FMU's C, for each host the verification
+# runs (fmpy, ecospy, libcosimpy; 2-core machine); the build: gcc per platform
+STEP_S = 5e-9
+HOSTS = 3
+BUILD_S = 10.0
+
+
+def _need(model, trajectory, cell, *, verify: bool) -> Need:
+    """What exporting ``model`` (with the move ``trajectory`` = (acc, dt) or None, the
+    ``cell`` or None) and verifying it take: the resource (model, move, obstacles) held a few
+    times while written, and the simulations of the move in each host."""
+    pieces = 0 if cell is None else obstacle_pieces(cell)
+    samples = 0 if trajectory is None else len(trajectory[0])
+    values = model.n_modes * (5 + 3 * model.n_points) + 3 * model.n_points + 3 * samples
+    values += 12 * pieces
+    per_step = model.n_points * (model.n_modes + pieces)
+    seconds = BUILD_S + (HOSTS * samples * per_step * STEP_S if verify else 0.0)
+    return Need(
+        f"the FMU ({model.n_points} points, {model.n_modes} modes, {samples} samples of the "
+        f"move, {pieces:,} obstacle pieces)",
+        4 * 8.0 * values,
+        seconds,
+        "export fewer points (jaxflex model --points) or simpler obstacles, or --no-verify",
+    )
+
+
+def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> int:
     result = export_fmu(
         model,
         args.output,
@@ -165,7 +192,7 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows) -> int:
         damping_scale=args.damping_scale,
         model_name=args.name,
         windows=windows,
-        cell=None if args.cell is None else load_cell(args.cell),
+        cell=cell,
         cup_safety=args.cup_safety,
         stress=args.stress,
     )
@@ -251,9 +278,11 @@ def run(args: argparse.Namespace) -> int:
         threshold_m = (case or {}).get("threshold_m", 5e-4)
     threshold_m = check_positive("--threshold", threshold_m)
     windows = {"auto": None, "yes": True, "no": False}[args.windows]
+    cell = None if args.cell is None else load_cell(args.cell)
+    require(_need(model, trajectory, cell, verify=not args.no_verify))
     status = 0
     if args.output:
-        status = _export_fmu(args, model, trajectory, threshold_m, case, windows)
+        status = _export_fmu(args, model, trajectory, threshold_m, case, windows, cell)
     if args.ssp:
         status = max(status, _export_ssp(args, model, trajectory, threshold_m, case, windows))
     return status

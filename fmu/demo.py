@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -18,9 +17,9 @@ import fem
 import optim
 from fmu.export import export_fmu
 from fmu.verify import verify
-from jaxflex.atomic import write_text_atomic
+from jaxflex.atomic import make_output_dir, write_text_atomic
 from jaxflex.progress import step
-from jaxflex.validation import check_positive
+from jaxflex.validation import check_output_dir, check_positive
 
 COMMAND = "demo"
 HELP = "run the whole job on the built-in default part (FE model, optimised move, FMUs)"
@@ -58,8 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     threshold_m = check_positive("--threshold", args.threshold)
     dt_s = check_positive("--dt", args.dt)
-    out = Path(args.output)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_output_dir(check_output_dir("-o/--output", args.output))
     timings: dict[str, float] = {}
 
     start = time.perf_counter()

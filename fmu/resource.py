@@ -40,7 +40,7 @@ import numpy as np
 
 from jaxflex.cell import Box, HalfSpace
 from jaxflex.collision import gravity_offset
-from jaxflex.errors import ModelFileError
+from jaxflex.errors import InputError, ModelFileError
 from jaxflex.model import ModalModel
 
 MAGIC = b"JXFLXFMU"
@@ -49,6 +49,9 @@ FORMAT_VERSION = 3
 HEADER = struct.Struct("<8sII64sIIIIdQIII4x")
 _TRAILER = struct.Struct("<II")
 TOKEN_BYTES = 64
+# the sample steps (s) an embedded trajectory may have (JXF_TRAJ_DT_MIN/MAX in jxf_core.c):
+# finer than a microsecond or coarser than a quarter of an hour is no robot move's sampling
+TRAJECTORY_STEP_RANGE_S = (1e-6, 1e3)
 
 
 @dataclass(frozen=True)
@@ -149,6 +152,17 @@ class ResourceData:
     counts: tuple[int, int, int] = (0, 0, 0)
 
 
+def check_trajectory_step(dt_s, error: type[Exception], source: str) -> None:
+    """``error`` naming ``source`` unless the trajectory's sample step ``dt_s`` lies in
+    TRAJECTORY_STEP_RANGE_S (the FMU's C checks the same when it loads the resource)."""
+    low, high = TRAJECTORY_STEP_RANGE_S
+    if not low <= dt_s <= high:
+        raise error(
+            f"{source}: trajectory sample step {dt_s!r} s; the FMU replays steps of {low:g} ... "
+            f"{high:g} s"
+        )
+
+
 def encode_resource(
     model: ModalModel,
     token: str,
@@ -161,6 +175,8 @@ def encode_resource(
     raw_token = token.encode("ascii")
     if len(raw_token) >= TOKEN_BYTES:
         raise ValueError(f"token: at most {TOKEN_BYTES - 1} ASCII characters, got {token!r}")
+    if acc is not None:
+        check_trajectory_step(dt_s, InputError, "trajectory")
     n_traj = 0 if acc is None else int(np.shape(acc)[0])
     extra, counts = _cell_parts(model, cell) if cell is not None else ([], (0, 0, 0))
     parts = [
@@ -213,6 +229,10 @@ def decode_resource(data: bytes, *, source: str = "resource") -> ResourceData:
     crc, _ = _TRAILER.unpack_from(data, len(data) - _TRAILER.size)
     if zlib.crc32(data[: -_TRAILER.size]) != crc:
         raise ModelFileError(f"{source}: corrupt (CRC-32 mismatch)")
+    if n:
+        check_trajectory_step(dt_s, ModelFileError, source)
+    elif dt_s != 0.0:
+        raise ModelFileError(f"{source}: no trajectory but a sample step of {dt_s!r} s (need 0)")
     values = np.frombuffer(data, "<f8", count=expected // 8, offset=HEADER.size)
     sizes = [m, m, 3 * m, 3 * (m + r) * k, 3 * k, 3 * n]
     freq, zeta, gamma, shapes, points, traj = np.split(values[: sum(sizes)], np.cumsum(sizes)[:-1])

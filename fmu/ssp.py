@@ -197,6 +197,7 @@ def export_ssp(
     with tempfile.TemporaryDirectory(prefix="jaxflex_ssp_") as tmp:
         stage = Path(tmp) / "ssp"
         resources = stage / "resources"
+        resources.mkdir(parents=True)
         part = export_fmu(
             model,
             resources / f"{PART}.fmu",

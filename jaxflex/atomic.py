@@ -12,23 +12,86 @@ import contextlib
 import os
 import re
 import secrets
+import stat
 import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
 
+from jaxflex.errors import OutputError
+from jaxflex.inputs import file_kind
+
 STALE_AFTER_S = 3600.0
+
+
+def make_output_dir(path: str | os.PathLike) -> Path:
+    """The output directory ``path``, created if absent (one level: its parent must exist);
+    OutputError if it cannot be."""
+    target = Path(path)
+    try:
+        target.mkdir(exist_ok=True)
+    except FileNotFoundError:
+        raise OutputError(
+            f"cannot create the directory {str(target)!r}: {str(target.parent)!r} does not "
+            "exist (jaxflex writes only into existing directories)"
+        ) from None
+    except OSError as exc:
+        raise OutputError(f"cannot create the directory {str(target)!r}: {exc}") from None
+    if not target.is_dir():
+        raise OutputError(f"{str(target)!r} exists and is not a directory")
+    return target
+
+
+def check_target(target: Path) -> Path:
+    """The path a rename writes ``target`` at (a symbolic link's target: the link stays);
+    OutputError unless its directory exists and it is absent or a regular file (a device,
+    FIFO, socket or directory would be replaced)."""
+    if target.is_symlink():
+        try:
+            target = target.resolve(strict=True)
+        except (OSError, RuntimeError) as exc:
+            raise OutputError(f"cannot write {str(target)!r}: a link to nothing ({exc})") from None
+    if not target.parent.is_dir():
+        raise OutputError(
+            f"cannot write {str(target)!r}: the directory {str(target.parent)!r} does not exist "
+            "(jaxflex writes only into existing directories)"
+        )
+    try:
+        mode = target.stat().st_mode
+    except FileNotFoundError:
+        return target
+    except OSError as exc:
+        raise OutputError(f"cannot write {str(target)!r}: {exc}") from None
+    if not stat.S_ISREG(mode):
+        raise OutputError(
+            f"cannot write {str(target)!r}: it is {file_kind(mode)}; only regular files are "
+            "written (it is left as it is)"
+        )
+    return target
 
 
 def _create_beside(target: Path, suffix: str) -> tuple[int, str]:
     """A new, empty file with a random name beside ``target`` (descriptor, name), created
     with mode 0666 so that the umask decides its permissions. The name carries the writer's
     process id, so that :func:`remove_stale_temporaries` can tell a killed writer's file from
-    a live one's."""
-    target.parent.mkdir(parents=True, exist_ok=True)
+    a live one's. OutputError if ``target`` may not be written (:func:`check_target`)."""
+    target = check_target(target)
     name = str(target.parent / f".{target.name}.{os.getpid()}-{secrets.token_hex(8)}{suffix}")
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
-    return os.open(name, flags, 0o666), name
+    try:
+        return os.open(name, flags, 0o666), name
+    except OSError as exc:
+        raise OutputError(f"cannot write {str(target)!r}: {exc.strerror or exc}") from None
+
+
+def _replace(tmp_name: str, target: Path) -> None:
+    """Rename the finished temporary file onto ``target`` (checked again: it may have
+    changed meanwhile)."""
+    target = check_target(target)
+    try:
+        os.replace(tmp_name, target)
+    except OSError as exc:
+        raise OutputError(f"cannot write {str(target)!r}: {exc.strerror or exc}") from None
 
 
 def _writer_alive(entry: Path, pid: str | None) -> bool:
@@ -78,7 +141,7 @@ def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[str]:
     os.close(fd)
     try:
         yield tmp_name
-        os.replace(tmp_name, target)
+        _replace(tmp_name, target)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp_name)
@@ -100,7 +163,7 @@ def atomic_open(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
             yield handle
             handle.flush()
             os.fsync(handle.fileno())
-        os.replace(tmp_name, target)
+        _replace(tmp_name, target)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp_name)

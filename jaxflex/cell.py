@@ -39,15 +39,16 @@ A cell file is TOML or JSON (:func:`load_cell`)::
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import meshio
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.validation import check_positive, read_settings_file
+from jaxflex.inputs import check_input_file, read_settings_file
+from jaxflex.meshfile import read_cells
+from jaxflex.validation import check_positive
 
 VIA_MODES = ("stop", "blend")
 DEFAULT_GRAVITY_M_S2 = (0.0, 0.0, -9.81)
@@ -335,7 +336,25 @@ class Cell:
         }
 
 
+def _table(where: str, value) -> dict:
+    """``value`` as a dict, or InputError naming ``where``: a table was expected."""
+    if not isinstance(value, Mapping):
+        raise InputError(f"{where}: expected a table, got {type(value).__name__} {value!r:.40}")
+    return dict(value)
+
+
+def _number(where: str, value) -> float:
+    """``value`` as a float, or InputError naming ``where``."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.number):
+        raise InputError(f"{where}: expected a number, got {value!r:.40}")
+    try:
+        return float(value)
+    except OverflowError:
+        raise InputError(f"{where}: {value!r:.40} is too large") from None
+
+
 def _obstacle(spec: Mapping, index: int, folder: Path) -> Obstacle:
+    spec = _table(f"obstacles[{index}]", spec)
     kind = spec.get("type")
     name = str(spec.get("name", f"obstacles[{index}]"))
     where = f"obstacles[{index}] ({name})"
@@ -344,8 +363,8 @@ def _obstacle(spec: Mapping, index: int, folder: Path) -> Obstacle:
         "half_space": {"type", "name", "normal", "offset_m"},
         "mesh": {"type", "name", "path", "scale"},
     }
-    if kind not in known:
-        raise InputError(f"{where}.type: must be one of {sorted(known)}, got {kind!r}")
+    if not isinstance(kind, str) or kind not in known:
+        raise InputError(f"{where}.type: must be one of {sorted(known)}, got {kind!r:.40}")
     unknown = set(spec) - known[kind]
     if unknown:
         raise InputError(f"{where}: unknown field(s) {sorted(unknown)} for a {kind}")
@@ -354,33 +373,41 @@ def _obstacle(spec: Mapping, index: int, folder: Path) -> Obstacle:
             rotation = rotation_from_degrees(spec.get("rotation_deg", (0, 0, 0)))
             return Box(spec["centre_m"], spec["size_m"], rotation, name)
         if kind == "half_space":
-            return HalfSpace(spec["normal"], spec["offset_m"], name)
+            return HalfSpace(spec["normal"], _number(f"{where}.offset_m", spec["offset_m"]), name)
         path = folder / str(spec["path"])
     except KeyError as exc:
         raise InputError(f"{where}: missing field {exc.args[0]!r}") from exc
     scale = check_positive(f"{where}.scale", spec.get("scale", 1.0))
+    check_input_file(f"{where}.path", path)
     try:
-        mesh = meshio.read(path)
-    except Exception as exc:  # meshio raises many types for unreadable files
-        raise InputError(f"{where}.path: cannot read {str(path)!r} ({exc})") from exc
-    triangles = [c.data for c in mesh.cells if c.type == "triangle"]
-    quads = [c.data for c in mesh.cells if c.type == "quad"]
-    for q in quads:
-        triangles.append(np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]]))
-    if not triangles:
+        points, blocks = read_cells(path)
+    except InputError as exc:
+        raise InputError(f"{where}.path: {exc}") from None
+    triangles = [np.asarray(c, dtype=np.int64) for kind, c in blocks if kind == "triangle"]
+    for kind, q in blocks:
+        if kind == "quad":
+            q = np.asarray(q, dtype=np.int64)
+            triangles.append(np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]]))
+    if not sum(len(t) for t in triangles):
         raise InputError(f"{where}.path: {str(path)!r} holds no triangles or quads")
-    points = np.asarray(mesh.points, dtype=np.float64)[:, :3] * scale
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] not in (2, 3):
+        raise InputError(f"{where}.path: {str(path)!r}: nodes of shape {points.shape}")
+    points = np.column_stack([points, np.zeros((len(points), 3 - points.shape[1]))]) * scale
     return TriangleMesh(points, np.concatenate(triangles), name)
 
 
 def cell_from_dict(data: Mapping, folder: str | Path = ".") -> Cell:
     """A Cell from the mapping of a cell file (module docstring); paths relative to
     ``folder``. Raises InputError naming the field."""
-    data = dict(data)
+    data = _table("cell", data)
     unknown = set(data) - {"part", "path", "obstacles", "gravity_m_s2"}
     if unknown:
         raise InputError(f"cell: unknown section(s) {sorted(unknown)}")
-    part, path = dict(data.get("part", {})), dict(data.get("path", {}))
+    part, path = (
+        _table("cell.part", data.get("part", {})),
+        _table("cell.path", data.get("path", {})),
+    )
     for section, allowed, value in (
         ("part", {"start_m", "rotation_deg", "thickness_m"}, part),
         ("path", {"end_m", "via"}, path),
@@ -391,12 +418,16 @@ def cell_from_dict(data: Mapping, folder: str | Path = ".") -> Cell:
     if "end_m" not in path:
         raise InputError("cell.path.end_m: required (the part frame's origin at B, m)")
     via = []
-    for i, v in enumerate(path.get("via", [])):
+    vias = path.get("via", [])
+    if not isinstance(vias, list | tuple):
+        raise InputError(f"cell.path.via: expected a list of via points, got {vias!r:.40}")
+    for i, v in enumerate(vias):
         if not isinstance(v, Mapping) or "position_m" not in v:
             raise InputError(f"cell.path.via[{i}]: needs position_m (and mode, tolerance_m)")
-        via.append(Via(v["position_m"], v.get("mode", "blend"), v.get("tolerance_m", 0.0)))
+        tolerance = _number(f"cell.path.via[{i}].tolerance_m", v.get("tolerance_m", 0.0))
+        via.append(Via(v["position_m"], v.get("mode", "blend"), tolerance))
     obstacles = data.get("obstacles", [])
-    if not isinstance(obstacles, Sequence):
+    if not isinstance(obstacles, list | tuple):
         raise InputError("cell.obstacles: expected a list of obstacles")
     return Cell(
         obstacles=tuple(_obstacle(o, i, Path(folder)) for i, o in enumerate(obstacles)),

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from importlib.metadata import entry_points, version
 from pathlib import Path
 
+from jaxflex.budget import DEFAULT_TIME_S, make_budget, use_budget
 from jaxflex.errors import InputError, JaxflexError, JaxflexWarning
 from jaxflex.progress import set_quiet
 
@@ -95,6 +96,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
             help="no progress display and no step lines on stderr (results and warnings "
             "are still printed)",
         )
+        add_budget_arguments(cmd)
         if listed.name == command:
             module = importlib.import_module(listed.module)
             module.add_arguments(cmd)
@@ -150,6 +152,12 @@ def _main(argv: list[str]) -> int:
     chosen = next((arg for arg in argv if not arg.startswith("-")), None)
     args = build_parser(chosen).parse_args(argv)
     set_quiet(args.quiet)
+    try:
+        _refuse_empty(args)
+        budget = make_budget(args.max_memory, args.max_time)
+    except JaxflexError as exc:
+        print(f"jaxflex {args.command}: error: {exc}", file=sys.stderr)
+        return 2
     interrupts = _Interrupts()
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, interrupts) if main_thread else None
@@ -157,8 +165,14 @@ def _main(argv: list[str]) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("always", JaxflexWarning)
             warnings.showwarning = _warning_printer(args.command, warnings.showwarning)
-            return int(args._run(args) or 0)
+            with use_budget(budget):
+                return int(args._run(args) or 0)
     except JaxflexError as exc:
+        print(f"jaxflex {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        raise  # main: the reader went away
+    except OSError as exc:  # the system refused a file operation: disk full, permissions
         print(f"jaxflex {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
@@ -169,6 +183,16 @@ def _main(argv: list[str]) -> int:
         interrupts.handled()
         if main_thread:
             signal.signal(signal.SIGINT, previous)
+
+
+def _refuse_empty(args: argparse.Namespace) -> None:
+    """InputError for an option given an empty text (a path "" would mean the current
+    directory, or nothing, and be taken for not given)."""
+    for name, value in vars(args).items():
+        values = value if isinstance(value, list) else [value]
+        if any(isinstance(v, str) and not v.strip() for v in values):
+            option = name if name in ("model", "spec") else f"--{name.replace('_', '-')}"
+            raise InputError(f"{option}: an empty value")
 
 
 def _silence_stdout() -> None:
@@ -191,6 +215,26 @@ def _warning_printer(command: str, fallback):
             fallback(message, category, filename, lineno, file, line)
 
     return show
+
+
+def add_budget_arguments(parser: argparse.ArgumentParser) -> None:
+    """--max-memory and --max-time, the budget of every command (jaxflex.budget)."""
+    parser.add_argument(
+        "--max-memory",
+        type=float,
+        default=None,
+        metavar="GB",
+        help="budget: memory the command may use, GB (default: half of what this machine and "
+        "its limits allow); work that would need more is refused before it starts",
+    )
+    parser.add_argument(
+        "--max-time",
+        type=float,
+        default=None,
+        metavar="S",
+        help=f"budget: wall time the command may take, s (default {DEFAULT_TIME_S:g}); work "
+        "estimated to take longer is refused before it starts",
+    )
 
 
 def add_axis_limits(parser, *, with_defaults: bool, condition: str = "") -> None:

@@ -43,7 +43,14 @@ from jaxflex.blocks import kd_order
 from jaxflex.cell import Cell
 from jaxflex.decay import amplitudes
 from jaxflex.deviation import response_shapes, with_acceleration
-from jaxflex.engine import free_states, modal_forces, modal_states, states_at, states_between
+from jaxflex.engine import (
+    derivative_bounds,
+    free_states,
+    modal_forces,
+    modal_states,
+    states_at,
+    states_between,
+)
 from jaxflex.peaks import SAMPLES_PER_PERIOD, SearchState, certified_max, settling_windows
 from jaxflex.profile import acceleration_at, as_move, kinematics_at
 
@@ -205,11 +212,14 @@ class _Motion:
         extra = self.shapes.shape[2] - model.n_modes  # 3 where there is a static residual
         step_force = np.maximum(np.abs(self.force[:-1]), np.abs(self.force[1:]))
         radius = np.hypot(self.states[:-1, :, 1], omega * self.states[:-1, :, 0])
-        speed = radius + move.dt_s * step_force  # (n, M) sup |q'| per step
+        size = (radius + move.dt_s * step_force) / omega  # (n, M) sup |q| (energy radius)
+        # (n, M) sup |q'| per step: the smaller of the energy radius and the free vibration
+        # about the quasi-static response (stiff modes)
+        speed = derivative_bounds(model, self.states, self.force, move.dt_s)[0]
         jerk = np.abs(np.diff(move.acc, axis=0)) / move.dt_s  # (n, 3) |a'| per step
-        size = np.maximum(np.abs(move.acc[:-1]), np.abs(move.acc[1:]))  # (n, 3) sup |a|
+        acc_size = np.maximum(np.abs(move.acc[:-1]), np.abs(move.acc[1:]))  # (n, 3) sup |a|
         self.coordinate_speed = np.hstack([speed, jerk[:, :extra]])  # (n, M')
-        self.coordinate_size = np.hstack([speed / omega, size[:, :extra]])  # (n, M') sup |c|
+        self.coordinate_size = np.hstack([size, acc_size[:, :extra]])  # (n, M') sup |c|
         pos, vel = kinematics_at(move.acc, move.dt_s, move.dt_s * np.arange(move.n_steps + 1))
         speed_path = np.linalg.norm(vel, axis=1)
         acc_norm = np.linalg.norm(move.acc, axis=1)

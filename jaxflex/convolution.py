@@ -24,7 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from jaxflex.atomic import write_text_atomic
+from jaxflex.budget import Need, require
 from jaxflex.errors import InputError
+from jaxflex.inputs import check_text_file
 from jaxflex.model import ModalModel
 from jaxflex.simulate import simulate
 from jaxflex.validation import check_acc, check_positive
@@ -110,6 +112,13 @@ def write_unit_response_csv(
     write_text_atomic(path, buf.getvalue())
 
 
+# reading an R1 table: about 8 characters per value or more ("1.25e-05,"), held as the
+# parser's rows, the table and its transpose
+MIN_CHARS_PER_VALUE = 8
+MAX_R1_M = 1e6  # m per m/s^2: far above any mode's static deflection, 1 / omega^2
+READ_COPIES = 3
+
+
 def read_unit_response_csv(path: str | os.PathLike) -> np.ndarray:
     """Read an R1 CSV in the Table 2 layout (K rows, x/y/z per time step; an optional header
     row is skipped) as (N+1, K, 3). Raises InputError with the line for malformed files.
@@ -118,9 +127,16 @@ def read_unit_response_csv(path: str | os.PathLike) -> np.ndarray:
     3 003 values, in well under a minute); a file it rejects is read again line by line to
     say where it is broken.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"R1 file {str(path)!r} does not exist")
+    path = check_text_file("R1 file", path)
+    values = path.stat().st_size / MIN_CHARS_PER_VALUE
+    require(
+        Need(
+            f"reading the R1 file {str(path)!r} (about {values:,.0f} values)",
+            READ_COPIES * 8.0 * values,
+            0.0,
+            "give the R1 of fewer points or steps",
+        )
+    )
     with path.open(newline="", encoding="utf-8") as handle:
         first = next(csv.reader(handle), [])
     try:
@@ -139,6 +155,13 @@ def read_unit_response_csv(path: str | os.PathLike) -> np.ndarray:
         )
     if not np.isfinite(table).all():
         raise InputError(f"{str(path)!r}: contains non-finite values")
+    if np.abs(table).max() > MAX_R1_M:
+        row = int(np.argmax(np.abs(table).max(axis=1)))
+        raise InputError(
+            f"{str(path)!r}: data row {row + 1} holds {np.abs(table[row]).max():.3g} m per m/s^2; "
+            f"a unit response stays below {MAX_R1_M:g} (a 0.01 Hz mode deflects 253 m per "
+            "m/s^2)"
+        )
     return np.transpose(table.reshape(len(table), width // 3, 3), (1, 0, 2))
 
 

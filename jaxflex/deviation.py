@@ -337,16 +337,21 @@ def deviation_curves(
 
 
 def deviation_curve(
-    model, acc, dt_s: float, until_s: float, substeps: int = 8
+    model, acc, dt_s: float, until_s: float, substeps: int = 8, max_after: int | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """(t (T,) s, d (T,) m): the exact deviation every dt_s / ``substeps`` during the move
     ``acc`` ((n+1, 3) m/s^2) and after it, until at least ``until_s`` (and at least one step
-    past the end of the move). Exact samples of d(t), not interpolations; the points are
-    evaluated by the pruned blocked evaluation (:func:`max_norms`)."""
+    past the end of the move); with ``max_after``, at most that many samples after the move
+    (spread evenly: a picture of a settling of hours needs no millisecond samples). Exact
+    samples of d(t), not interpolations; the points are evaluated by the pruned blocked
+    evaluation (:func:`max_norms`)."""
     n_steps = np.shape(acc)[0] - 1
     h = dt_s / substeps
     t_move = h * np.arange(n_steps * substeps)
-    after = max(1, int(np.ceil((until_s - n_steps * dt_s) / h)) + 1)
+    span = until_s - n_steps * dt_s
+    if max_after is not None and span > h * max_after:
+        h = span / max_after
+    after = max(1, int(np.ceil(span / h)) + 1)
     t = np.concatenate([t_move, n_steps * dt_s + h * np.arange(after)])
     q = states_at(model, acc, dt_s, t)[..., 0]
     q = with_acceleration(model, q, acceleration_at(acc, dt_s, t))

@@ -96,6 +96,41 @@ def states_between(model, states, force, dt_s, t_s, xp: Any = np):
     return substep_state(prop, tau[:, None], states[k], force[k], slope, xp)
 
 
+def derivative_bounds(model, states, force, dt_s: float) -> tuple[np.ndarray, ...]:
+    """Bounds (n, M) of sup |q'|, |q''| and |q'''| over each step of a move, from the states
+    at the samples (n+1, M, 2) and the modal forces (n+1, M). NumPy.
+
+    Two bounds, the smaller taken: (a) the energy radius r = sqrt(q'^2 + omega^2 q^2) grows by
+    at most |f| per second; (b) within a step the force is linear, f = f_k + s t, so q is the
+    particular solution q_p = f / omega^2 - 2 zeta s / omega^3 (q_p' = s / omega^2, q_p'' = 0)
+    plus a free vibration whose energy radius r_h does not grow (zeta >= 0): |q''| <= (1 + 2
+    zeta) omega r_h, |q'''| <= (1 + 2 zeta (1 + 2 zeta)) omega^2 r_h. (b) is what keeps stiff
+    modes cheap: their response is quasi-static and r_h only the vibration the move excites,
+    while (a) grows with omega dt. r_h carries an allowance for the rounding of the
+    subtraction of q_p."""
+    omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
+    q, v = states[:-1, :, 0], states[:-1, :, 1]
+    step_force = np.maximum(np.abs(force[:-1]), np.abs(force[1:]))
+    slope = np.diff(force, axis=0) / dt_s
+    vel = np.hypot(v, omega * q) + dt_s * step_force
+    qdd = step_force + (1.0 + 2.0 * zeta) * omega * vel
+    qddd = np.abs(slope) + 2 * zeta * omega * qdd + omega**2 * vel
+    q_free = q - force[:-1] / omega**2 + 2 * zeta * slope / omega**3
+    v_free = v - slope / omega**2
+    scale = (
+        omega * np.abs(q)
+        + np.abs(force[:-1]) / omega
+        + (1 + 2 * zeta) * np.abs(slope) / omega**2
+        + np.abs(v)
+    )
+    free = np.hypot(v_free, omega * q_free) + 8 * np.finfo(float).eps * scale
+    return (
+        np.minimum(vel, np.abs(slope) / omega**2 + free),
+        np.minimum(qdd, (1 + 2 * zeta) * omega * free),
+        np.minimum(qddd, (1 + 2 * zeta * (1 + 2 * zeta)) * omega**2 * free),
+    )
+
+
 def free_propagators(model, tau_s, xp: Any = jnp) -> Propagators:
     """Propagators of the free vibration after times ``tau_s`` (T,): entries (T, M, ...)."""
     return propagators(model.omega[None, :], model.zeta[None, :], xp.asarray(tau_s)[:, None], xp)

@@ -17,6 +17,11 @@ class ModelFileError(JaxflexError, OSError):
     """A model file cannot be read: missing, truncated, corrupt or of an unknown schema."""
 
 
+class OutputError(JaxflexError, OSError):
+    """An output cannot be written where asked: the target is not a regular file, its
+    directory does not exist, or the file system refused the write."""
+
+
 class JaxflexWarning(UserWarning):
     """Input that is allowed but probably not meant (a threshold in mm given as m, a robust
     check grid of one point): the work goes on, the message says what looks wrong and why.

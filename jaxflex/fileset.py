@@ -25,7 +25,7 @@ import uuid
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from jaxflex.atomic import remove_stale_temporaries, write_text_atomic
+from jaxflex.atomic import make_output_dir, remove_stale_temporaries, write_text_atomic
 from jaxflex.errors import InputError
 
 MANIFEST = "manifest.json"
@@ -95,8 +95,7 @@ def writing(
     """Write a set of ``kind`` into ``directory`` (module docstring). ``possible`` names
     every member a set of this kind may have: those this run does not write are removed.
     The manifest is written when the block ends without an exception."""
-    root = Path(directory)
-    root.mkdir(parents=True, exist_ok=True)
+    root = make_output_dir(directory)
     with directory_lock(root):
         (root / MANIFEST).unlink(missing_ok=True)
         for name in (*possible, MANIFEST):

@@ -239,13 +239,17 @@ class _Archive:
                 field.name,
                 f"has shape {shape}; expected {len(field.dims)} dimension(s) {field.dims}",
             )
+        if any(size < 0 for size in shape):
+            raise self.fail(field.name, f"declares shape {shape}: a size below 0")
         for axis, (dim, size) in enumerate(zip(field.dims, shape, strict=True)):
+            if isinstance(dim, int) and size != dim:
+                raise self.fail(field.name, f"has shape {shape}; axis {axis} must be {dim}")
             expected = dim if isinstance(dim, int) else self.sizes.setdefault(dim, size)
             if size != expected:
                 raise self.fail(
                     field.name,
                     f"has shape {shape}; axis {axis} must be {dim} = {expected} "
-                    f"(as the other fields declare)",
+                    "(as the other fields declare)",
                 )
 
 

@@ -10,8 +10,10 @@ where (item) and when:
   the free vibration after the move); between two evaluation times a, b of one step the
   value is bounded by max(f(a), f(b)) + W . (b - a)^2 / 8 sup |y''|, with sup |y_j''| <=
   sum_i |Q_ji| sup |q_i''| + |V_ji| sup |q_i'''| (a is linear within a step, so A adds no
-  curvature). During the move the energy radius r_i = sqrt(q_i'^2 + omega_i^2 q_i^2) grows at
-  most like |f_i| (the modal force), which bounds |q_i'|, |q_i''| and |q_i'''| per step;
+  curvature). During the move jaxflex.engine.derivative_bounds bounds |q_i''| and |q_i'''|
+  per step (the energy radius r_i = sqrt(q_i'^2 + omega_i^2 q_i^2), which grows at most like
+  the modal force |f_i|, or the free vibration about the quasi-static response, whichever is
+  smaller);
   after it every mode decays, |q_i^(k)| <= omega_i^k R_i e^{-sigma_i tau};
 * after the move f_g(y) <= f_g(offset) + W_g . env(tau) with the decreasing envelope env_j =
   sum_i (|Q_ji| + |V_ji| omega_i) R_i e^{-sigma_i tau}: beyond the horizon where that bound is
@@ -37,7 +39,13 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from jaxflex.decay import amplitudes
-from jaxflex.engine import free_states, modal_forces, modal_states, states_between
+from jaxflex.engine import (
+    derivative_bounds,
+    free_states,
+    modal_forces,
+    modal_states,
+    states_between,
+)
 from jaxflex.profile import Move, acceleration_at, as_move
 
 SUBDIVISIONS = 16
@@ -133,12 +141,9 @@ class _Response:
         omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
         self.omega, self.sigma = omega, zeta * omega
         step_force = np.maximum(np.abs(self.force[:-1]), np.abs(self.force[1:]))
-        slope = np.abs(np.diff(self.force, axis=0)) / move.dt_s
         radius = np.hypot(self.states[:-1, :, 1], omega * self.states[:-1, :, 0])
-        vel = radius + move.dt_s * step_force  # sup |q'| on each step
-        qdd = step_force + (1.0 + 2.0 * zeta) * omega * vel
-        self.qdd, self.qddd = qdd, slope + 2 * zeta * omega * qdd + omega**2 * vel
-        self.vel = vel
+        self.vel = radius + move.dt_s * step_force  # sup |q'| on each step (energy radius)
+        _, self.qdd, self.qddd = derivative_bounds(model, self.states, self.force, move.dt_s)
         self.amplitude = amplitudes(model, self.states[-1])
 
     def rows(self, items: np.ndarray) -> np.ndarray:

@@ -11,6 +11,7 @@ acceleration only.
 
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 
@@ -19,6 +20,7 @@ import numpy as np
 from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
 from jaxflex.grid import grid_times
+from jaxflex.inputs import read_text
 from jaxflex.profile import integrate
 
 COLUMNS = (
@@ -54,17 +56,21 @@ def write_trajectory_csv(path: str | os.PathLike, acc, dt_s: float) -> None:
 def read_trajectory_csv(path: str | os.PathLike) -> tuple[np.ndarray, float]:
     """Read a trajectory CSV: returns (acc (n+1, 3) m/s^2, dt s). Only t and a are used."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"trajectory file {str(path)!r} does not exist")
-    with path.open(encoding="utf-8") as handle:
-        header = handle.readline().strip().split(",")
+    text = read_text("trajectory", path)
+    header = text.split("\n", 1)[0].strip().split(",")
     missing = [c for c in COLUMNS[:4] if c not in header]
     if missing:
         raise InputError(f"{str(path)!r}: missing columns {missing} (expected {list(COLUMNS)})")
     try:
-        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        table = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)
     except ValueError as exc:
         raise InputError(f"{str(path)!r}: malformed numbers ({exc})") from exc
+    bad = np.flatnonzero(~np.isfinite(table).all(axis=1))
+    if bad.size:
+        raise InputError(
+            f"{str(path)!r}: row {int(bad[0]) + 1} holds a value that is not finite (inf or "
+            "nan, or a number beyond 1e308)"
+        )
     cols = [header.index(c) for c in COLUMNS[:4]]
     t, acc = table[:, cols[0]], table[:, cols[1:]]
     if len(t) < 2:

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import json
 import math
 import os
-import tomllib
+import stat
+import tempfile
 import weakref
 from pathlib import Path
 from typing import Any
@@ -14,6 +14,11 @@ import jax
 import numpy as np
 
 from jaxflex.errors import InputError
+from jaxflex.inputs import file_kind
+
+# the longest file name an output may have: the system's 255 bytes less what its temporary
+# name beside it adds (jaxflex.atomic: a dot, the process id, 16 hex digits, a suffix)
+MAX_NAME_BYTES = 200
 
 
 def is_traced(*values: Any) -> bool:
@@ -58,66 +63,79 @@ def check_acc(acc: Any, *, name: str = "acc", rest_at_ends: bool = False) -> np.
     return arr
 
 
-def _first_existing(path: Path) -> Path:
-    """``path`` or its nearest ancestor that exists."""
-    for candidate in (path, *path.parents):
-        if candidate.exists():
-            return candidate
-    return Path.cwd()
-
-
 def _check_writable_dir(option: str, path: Path, target: Path) -> None:
+    """``path`` (the directory ``target`` goes into) exists, is a directory and takes a new
+    file: probed by creating and removing one, so that a read-only or pseudo file system
+    (/proc) is found before any work."""
+    if not path.exists():
+        raise InputError(
+            f"{option}: {str(target)!r} cannot be written: the directory {str(path)!r} does "
+            "not exist (jaxflex writes only into existing directories; create it first)"
+        )
     if not path.is_dir():
         raise InputError(
             f"{option}: {str(target)!r} cannot be created: {str(path)!r} is a file, not a directory"
         )
-    if not os.access(path, os.W_OK | os.X_OK):
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".jaxflex-probe-", dir=path)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
         raise InputError(
-            f"{option}: cannot write into {str(path)!r} (no permission, or a read-only file "
-            f"system), so {str(target)!r} cannot be written; choose another location"
+            f"{option}: cannot write into {str(path)!r} ({exc.strerror or exc}: no permission, "
+            f"a read-only or special file system), so {str(target)!r} cannot be written; "
+            "choose another location"
+        ) from None
+
+
+def _output_mode(option: str, path: str | os.PathLike) -> tuple[Path, int | None]:
+    """(``path`` as a Path, the mode of what it names, None if nothing): a symbolic link is
+    followed; an empty path, a link to nothing, a loop or a name the system refuses (too
+    long) is an InputError naming ``option``."""
+    if str(path) == "":
+        raise InputError(f"{option}: an empty path")
+    target = Path(path)
+    if len(os.fsencode(target.name)) > MAX_NAME_BYTES:
+        raise InputError(
+            f"{option}: the name {target.name[:40]!r}... has {len(os.fsencode(target.name))} "
+            f"bytes; at most {MAX_NAME_BYTES} (the file is written through a temporary name "
+            "beside it)"
         )
+    try:
+        return target, os.stat(target).st_mode
+    except FileNotFoundError:
+        if target.is_symlink():
+            raise InputError(f"{option}: {str(target)!r} is a symbolic link to nothing") from None
+        return target, None
+    except OSError as exc:
+        raise InputError(f"{option}: {str(target)!r}: {exc.strerror or exc}") from None
 
 
 def check_output_dir(option: str, path: str | os.PathLike) -> Path:
     """An output directory that can be written, checked before any work: ``path`` is a
-    directory or absent, and it (or the ancestor it will be created in) is writable.
+    directory, or absent in an existing writable directory (it is created there, one level).
     Raises InputError naming ``option`` otherwise. Nothing is created."""
-    target = Path(path)
-    if target.exists() and not target.is_dir():
-        raise InputError(f"{option}: {str(target)!r} exists and is not a directory")
-    _check_writable_dir(option, _first_existing(target), target)
+    target, mode = _output_mode(option, path)
+    if mode is not None and not stat.S_ISDIR(mode):
+        raise InputError(
+            f"{option}: {str(target)!r} exists and is {file_kind(mode)}, not a directory"
+        )
+    _check_writable_dir(option, target if mode is not None else target.parent, target)
     return target
 
 
 def check_output_file(option: str, path: str | os.PathLike) -> Path:
-    """An output file that can be written, checked before any work: ``path`` is not a
-    directory and its directory (or the ancestor it will be created in) is writable.
-    Raises InputError naming ``option`` otherwise. Nothing is created."""
-    target = Path(path)
-    if target.is_dir():
-        raise InputError(f"{option}: {str(target)!r} is a directory; give a file name")
-    _check_writable_dir(option, _first_existing(target.parent), target)
+    """An output file that can be written, checked before any work: ``path`` is absent or a
+    regular file (never a directory, device, FIFO or socket, which a write would replace),
+    in an existing writable directory. Raises InputError naming ``option`` otherwise.
+    Nothing is created."""
+    target, mode = _output_mode(option, path)
+    if mode is not None and not stat.S_ISREG(mode):
+        kind = file_kind(mode)
+        hint = "give a file name" if kind == "a directory" else "only regular files are written"
+        raise InputError(f"{option}: {str(target)!r} is {kind}; {hint}")
+    _check_writable_dir(option, target.resolve().parent, target)
     return target
-
-
-def read_settings_file(field: str, path: str | os.PathLike) -> dict[str, Any]:
-    """The table in a ``.toml`` or ``.json`` file (a cell, a sweep spec); InputError naming
-    ``field`` for a missing file, another suffix, invalid syntax or a top level that is not a
-    table."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{field}: no such file {str(path)!r}")
-    suffix = path.suffix.lower()
-    if suffix not in (".toml", ".json"):
-        raise InputError(f"{field}: expected a .toml or .json file, got {path.name!r}")
-    text = path.read_text(encoding="utf-8")
-    try:
-        data = tomllib.loads(text) if suffix == ".toml" else json.loads(text)
-    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise InputError(f"{field}: {path.name} is not valid {suffix[1:].upper()}: {exc}") from exc
-    if not isinstance(data, dict):
-        raise InputError(f"{field}: {path.name} must hold a table, got {type(data).__name__}")
-    return data
 
 
 # Arrays the package has validated (id -> array; an entry goes with its array): a model

@@ -12,17 +12,21 @@ during it.
   the modal end state (M x 2 x (n+1) x 3 values) and its rows in the LP, and with a clearance
   limit the response during the move at every dt / 8 (8n x M x (n+1) values).
   :func:`search_bytes` estimates them at n steps; the search never builds a problem above the
-  memory budget (``--max-memory``, default half the machine's memory), and a request whose
-  shortest move is already above it is refused up front.
+  memory budget (jaxflex.budget: ``--max-memory``, default half the machine's memory), and a
+  request whose shortest move is already above it is refused up front.
+* **Time.** :func:`search_need` estimates what the search takes at least (its LP tests at the
+  shortest move, the certification of every robust scenario) against the time budget
+  (``--max-time``).
 """
 
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 
+from jaxflex.budget import Need, current_budget, format_bytes
+from jaxflex.collision import BLOCK_POINTS
 from jaxflex.errors import BudgetError, InputError
 from optim.limits import Limits
 
@@ -30,14 +34,6 @@ MAX_STEPS = 5000
 # Copies of the dense end-state rows an LP holds: the builder's, the CSR matrix, the solver's.
 LP_COPIES = 3
 CLEARANCE_SUBSTEPS = 8
-
-
-def default_memory_bytes() -> int:
-    """Half the machine's physical memory (4 GB where it cannot be read)."""
-    try:
-        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") // 2
-    except (ValueError, OSError, AttributeError):
-        return 4 << 30
 
 
 def kinematic_lower_bound_s(distance_m: np.ndarray, limits: Limits) -> float:
@@ -121,10 +117,74 @@ def check_memory(
         need = search_bytes(n_modes, floor_steps, scenarios, clearance)
         what = " and the response during the move for the clearance" if clearance else ""
         raise BudgetError(
-            f"memory: the search needs about {need / 1e9:.3g} GB already at the shortest move "
-            f"of {floor_steps} steps ({n_modes} modes, {scenarios} scenario(s): the end-state "
-            f"maps and their LP rows{what}), more than --max-memory "
-            f"{budget_bytes / 1e9:.3g} GB; use a coarser --dt, fewer modes or robust grid "
-            "points (--grid), or raise --max-memory"
+            f"memory: the search needs about {format_bytes(need)} already at the shortest move "
+            f"of {floor_steps} steps ({n_modes} modes, {scenarios:,} scenario(s): the "
+            f"end-state maps and their LP rows{what}), more than the budget of "
+            f"{format_bytes(budget_bytes)} ({current_budget().memory_source}); use a coarser "
+            "--dt, fewer modes or robust grid points (--grid), or raise --max-memory"
         )
     return steps
+
+
+# The exact route's LP (HiGHS, 2-core machine; module docstring): seconds at 1 000 steps,
+# growing with the square of the steps; the end-state rows of each scenario add to it
+LP_S_AT_1000 = 0.9
+# certifying one move's exact cycle time: per point, step and mode (jaxflex.settle)
+CERTIFY_S = 2e-8
+
+
+def search_need(
+    n_modes: int,
+    n_points: int,
+    floor_steps: int,
+    max_steps: int,
+    scenarios: int,
+    lp_steps: int | None = None,
+) -> Need:
+    """What the search will at least take (a jaxflex.budget.Need): the bisection's tests
+    (log2 of the range of move lengths from ``floor_steps`` to ``max_steps``, and the
+    polish) each solve an LP of ``lp_steps`` steps (default the shortest move; after the
+    baselines, the best baseline's length: the first tests are near it) and certify every
+    scenario's cycle time."""
+    lp_steps = floor_steps if lp_steps is None else lp_steps
+    tests = math.ceil(math.log2(max(max_steps - floor_steps, 2))) + 2
+    lp_s = LP_S_AT_1000 * (lp_steps / 1000) ** 2 * (1 + scenarios * n_modes / 200)
+    certify_s = CERTIFY_S * scenarios * n_points * lp_steps * n_modes
+    return Need(
+        f"the search ({tests} tests of moves of up to {lp_steps} steps, {scenarios:,} "
+        f"scenario(s), {n_modes} modes, {n_points} points)",
+        0.0,
+        tests * (lp_s + certify_s),
+        "use a coarser --dt, fewer robust grid points (--grid), modes or points, or a "
+        "shorter --max-duration",
+    )
+
+
+# the distance of a point to one obstacle piece (a triangle of a mesh, a box, a half-space),
+# NumPy (jaxflex.cell; 2-core machine): 0.73 us per point and triangle, 0.35 us per box
+PIECE_S = 7e-7
+
+
+def obstacle_pieces(cell) -> int:
+    """The convex pieces of a cell's obstacles (a mesh's triangles, a box, a half-space)."""
+    return sum(len(getattr(obstacle, "triangles", (0,))) for obstacle in cell.obstacles)
+
+
+def distance_need(cell, n_points: int, floor_steps: int, max_steps: int) -> Need:
+    """What keeping the distance to ``cell``'s obstacles takes at least: every test of the
+    search bounds the distance of every block of points (jaxflex.collision.BLOCK_POINTS: a
+    block's supporting-plane bound rules most (time, block) pairs out) to every piece at each
+    sample of a move of at least ``floor_steps`` steps."""
+    pieces = obstacle_pieces(cell)
+    tests = math.ceil(math.log2(max(max_steps - floor_steps, 2))) + 2
+    blocks = math.ceil(n_points / BLOCK_POINTS)
+    pairs = float(blocks) * pieces * (floor_steps + 1)
+    return Need(
+        f"the distance to the cell's obstacles ({pieces:,} piece(s): triangles, boxes, "
+        f"half-spaces; {n_points} points in {blocks} blocks at each of at least "
+        f"{floor_steps + 1} samples, {tests} tests)",
+        0.0,
+        tests * pairs * PIECE_S,
+        "simplify the obstacles (fewer triangles: a coarser mesh, or boxes), or use fewer "
+        "monitored points",
+    )

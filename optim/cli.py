@@ -151,13 +151,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"budget: most steps of any move an LP is built for (default {MAX_STEPS}; LP time "
         "grows with their square)",
     )
-    parser.add_argument(
-        "--max-memory",
-        type=float,
-        default=None,
-        metavar="GB",
-        help="budget: memory of the search in GB (default: half the machine's memory)",
-    )
     parser.add_argument("-o", "--output", required=True, help="output directory")
 
 
@@ -204,9 +197,6 @@ def run(args: argparse.Namespace) -> int:
         if args.clearance is None
         else check_positive("--clearance", args.clearance),
         max_steps=args.max_steps,
-        max_memory_bytes=None
-        if args.max_memory is None
-        else int(check_positive("--max-memory", args.max_memory) * 1e9),
         cell=cell,
         min_distance_m=args.min_distance,
         cup_safety=args.cup_safety,

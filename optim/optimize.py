@@ -30,6 +30,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from jaxflex.advice import issue, model_resolution, threshold_advice
+from jaxflex.budget import current_budget, require
 from jaxflex.errors import BudgetError, InputError, JaxflexError
 from jaxflex.model import ModalModel
 from jaxflex.profile import as_move
@@ -38,7 +39,13 @@ from jaxflex.validation import check_positive
 from optim.advice import grid_advice
 from optim.baselines import baselines as compute_baselines
 from optim.baselines import via_baselines
-from optim.budget import MAX_STEPS, check_memory, check_move_length, default_memory_bytes
+from optim.budget import (
+    MAX_STEPS,
+    check_memory,
+    check_move_length,
+    distance_need,
+    search_need,
+)
 from optim.cell_setup import prepare_cell
 from optim.choice import candidates, choose
 from optim.exact import POLISH_MARGIN, LPSubsolver
@@ -128,8 +135,9 @@ def optimize(
     clearance_m: optional limit on the deviation of the nominal model during the move (m,
         at exact samples every dt / 8), e.g. to keep the part clear of a fixture.
     max_steps, max_memory_bytes: the budgets of optim.budget (the longest move any LP is
-        built for; the search's memory, default half the machine's). A request that cannot
-        fit them is refused before any work with a BudgetError that says what it needs.
+        built for; the search's memory, default the process's budget, jaxflex.budget). A
+        request that cannot fit them, or the time budget, is refused before any work with a
+        BudgetError that says what it needs.
     cell: a jaxflex.cell.Cell (obstacles, the part's pose, via points, gravity); the move is
         then the cell's (``distance_m`` None or equal) and in cell coordinates.
     min_distance_m: every monitored point keeps this distance (m) from every obstacle of the
@@ -152,6 +160,8 @@ def optimize(
             "(min_distance_m, cup_safety, max_stress_pa); the exact route does: method='exact' "
             "(jaxflex optimize --method exact, the default)"
         )
+    if cell is not None and min_distance_m is not None:  # before the cell's set-up measures
+        _plan_distance(model, cell, _as_limits(limits), dt_s, max_duration_s, max_steps)
     setup = prepare_cell(
         model,
         distance_m,
@@ -176,15 +186,16 @@ def optimize(
         raise InputError(f"solver: method {method!r} accepts {allowed}, got {solver!r}")
     if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 2:
         raise InputError(f"max_steps: must be an integer >= 2, got {max_steps!r}")
-    memory = default_memory_bytes() if max_memory_bytes is None else max_memory_bytes
+    memory = current_budget().memory_bytes if max_memory_bytes is None else max_memory_bytes
     check_positive("max_memory_bytes", memory)
     shortest, allowed_steps = check_move_length(distance, limits, dt_s, max_duration_s, max_steps)
     if clearance_m is not None:
         _check_clearance(model, distance, clearance_m, max_duration_s)
-    scenarios = 1 if robust is None else len(robust.grid())
+    scenarios = 1 if robust is None else robust.n_scenarios
     steps_cap = check_memory(
         model.n_modes, shortest, allowed_steps, scenarios, clearance_m is not None, memory
     )
+    require(search_need(model.n_modes, model.n_points, shortest, steps_cap, scenarios))
     advice = issue(grid_advice(robust) + setup.advice)
 
     fractions: list[float] = []
@@ -233,6 +244,9 @@ def optimize(
     sub = LPSubsolver(solver) if method == "exact" else GradientSubsolver(solver)
     bound = min((e.score() for e in feasible), default=steps_cap * dt_s)
     upper = math.ceil(bound / dt_s - 1e-9)
+    # the search's moves are now bracketed: its LPs reach up to the best baseline's length
+    bracket = min(upper, steps_cap)
+    require(search_need(model.n_modes, model.n_points, shortest, bracket, scenarios, bracket))
     best, history = bisect(
         problem, sub, base.floor_acc, upper, [e.acc for e in base.entries], progress=progress
     )
@@ -301,6 +315,16 @@ def optimize(
         constraints=setup.describe_move(acc, dt_s) if setup.families else [],
         cell=setup,
     )
+
+
+def _plan_distance(model, cell, limits, dt_s, max_duration_s, max_steps) -> None:
+    """Refuse a distance constraint whose certification cannot fit the time budget (optim.
+    budget.distance_need), before anything is measured against the obstacles."""
+    dt_s = check_positive("dt_s", dt_s)
+    shortest, allowed = check_move_length(
+        cell.distance_m, limits, dt_s, check_positive("max_duration_s", max_duration_s), max_steps
+    )
+    require(distance_need(cell, model.n_points, shortest, allowed))
 
 
 def _check_clearance(model, distance, clearance_m, max_duration_s) -> None:

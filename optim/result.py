@@ -45,6 +45,7 @@ from optim.plots import (
 from optim.robust import RobustSpec, perturbed
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
+PLOT_AFTER = 20_000  # plots: at most this many samples of the settling (a long baseline's)
 RESULT_KIND = "jaxflex.optimize"
 RESULT_FILES = (
     "trajectory.csv",
@@ -321,7 +322,7 @@ class OptimizationResult:
         until = 1.15 * max(self.cycle_time_s, *(b.cycle_time_s for b in self.baselines.entries))
         curves: dict[str, dict] = {}
         for label, acc in moves.items():
-            t, _ = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS)
+            t, _ = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS, PLOT_AFTER)
             for name, values in self.cell.curves(acc, self.dt_s, t).items():
                 curves.setdefault(name, {})[label] = (t, values)
         limits = {c["name"]: c["limit"] for c in self.constraints}
@@ -335,7 +336,7 @@ class OptimizationResult:
         until = 1.15 * max(cycle for _, _, cycle, _ in moves) + self.dt_s
         traces = []
         for label, acc, cycle, worst in moves:
-            t, d = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS)
+            t, d = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS, PLOT_AFTER)
             traces.append(Trace(label, t, d, cycle, worst))
         floor_s = self.baselines.kinematic_floor_s
         title = "Deviation of the optimised move and the baselines (nominal model)"
@@ -346,7 +347,7 @@ class OptimizationResult:
         if self.worst_case is not None:
             scale, zeta = self.worst_case["freq_scale"], self.worst_case["zeta"]
             worst_model = perturbed(self.model, scale, zeta)
-            t, d = deviation_curve(worst_model, self.acc, self.dt_s, until, SUBSTEPS)
+            t, d = deviation_curve(worst_model, self.acc, self.dt_s, until, SUBSTEPS, PLOT_AFTER)
             label = f"{self._label()} at f x{scale:g}" + (
                 "" if zeta is None else f", zeta {zeta:g}"
             )

@@ -54,6 +54,14 @@ class RobustSpec:
                 raise InputError(f"{name}: must be an integer >= 1, got {value!r}")
             object.__setattr__(self, name, int(value))
 
+    @property
+    def n_scenarios(self) -> int:
+        """The number of models on the check grid (what :meth:`grid` lists, without
+        building the list)."""
+        n_scale = self.n_freq if self.freq_scale[1] > self.freq_scale[0] else 1
+        n_zeta = 1 if self.zeta is None or self.zeta[1] <= self.zeta[0] else self.n_zeta
+        return n_scale * n_zeta
+
     def grid(self) -> list[tuple[float, float | None]]:
         """(frequency scale, zeta or None) of every model on the check grid."""
         lo, hi = self.freq_scale

@@ -72,7 +72,9 @@ def run_jaxflex(*args: str, cwd=None, timeout_s: float = 600) -> subprocess.Comp
 # results accepted, per category, printed at the end of the run (also under xdist: every
 # worker appends to one file in the session's temporary root) -------------------------------
 TALLY_FILE = "fuzz-tally.jsonl"
-TALLY_COLUMNS = ("tried", "clear_errors", "crashes_or_hangs", "corrupt_accepted")
+# crashes: a traceback (an exception other than the door's own error) or a signal; hangs: no
+# answer within the case's time limit
+TALLY_COLUMNS = ("tried", "clear_errors", "crashes", "hangs", "corrupt_accepted")
 
 
 def _session_root(basetemp: Path) -> Path:
@@ -81,7 +83,7 @@ def _session_root(basetemp: Path) -> Path:
 
 @pytest.fixture
 def fuzz_tally(tmp_path_factory):
-    """``record(category, tried=, clear_errors=, crashes_or_hangs=, corrupt_accepted=)``."""
+    """``record(category, tried=, clear_errors=, crashes=, hangs=, corrupt_accepted=)``."""
     path = _session_root(tmp_path_factory.getbasetemp()) / TALLY_FILE
 
     def record(category: str, **counts: int) -> None:

@@ -82,30 +82,33 @@ def scene():
     return model, acc, obstacles
 
 
-def dense_min_distance(model, obstacles, acc, until_s, step_s=1e-4):
-    """The 0.1 ms grid of the tests: every point, every obstacle."""
+def dense_distances(model, obstacles, acc, until_s, step_s=1e-4):
+    """The 0.1 ms grid of the tests: (times (T,), distances (T, K) of every point to the
+    nearest obstacle)."""
     t = np.arange(0.0, until_s, step_s)
     q = states_at(model, acc, DT, t)[..., 0]
     u = np.einsum("kcm,tm->tkc", np.asarray(model.shapes), q)
     base = np.asarray(model.points) + gravity_offset(model, [0, 0, -9.81])
     points = base[None] + kinematics_at(acc, DT, t)[0][:, None] + u
     d, _, _ = distances(obstacles, points.reshape(-1, 3))
-    d = d.reshape(points.shape[:2])
-    i = np.unravel_index(np.argmin(d), d.shape)
-    return d.min(), t[i[0]], i[1]
+    return t, d.reshape(points.shape[:2])
 
 
 def test_min_distance_against_a_dense_grid(scene):
     """Certified: the 0.1 ms grid over the move and 6 s of settling finds nothing below the
     bound, and the minimum found is attained (a grid value within the grid's resolution,
-    max speed 2 m/s x 0.05 ms, above it)."""
+    max speed 2 m/s x 0.05 ms, above it) by the point named, at the time named (its grid
+    value at the nearest sample: which point and time among near-equal minima is not
+    asked)."""
     model, acc, obstacles = scene
     found = min_distance(model, obstacles, acc, DT, atol=1e-6)
-    dense, when, point = dense_min_distance(model, obstacles, acc, 6.0 + acc.shape[0] * DT)
+    t, d = dense_distances(model, obstacles, acc, 6.0 + acc.shape[0] * DT)
+    dense, resolution = d.min(), 2.0 * 5e-5
     assert found.bound_m <= dense
     assert found.distance_m <= dense + 1e-6
-    assert found.distance_m >= dense - 2.0 * 5e-5 - 1e-6
-    assert found.point == point and abs(found.time_s - when) < 1e-3
+    assert found.distance_m >= dense - resolution - 1e-6
+    at = int(np.argmin(np.abs(t - found.time_s)))
+    assert d[at, found.point] <= dense + resolution + 1e-6
     assert found.obstacle_name == "post"
 
 

@@ -166,7 +166,9 @@ def test_numpy_deviation_forms_agree_with_the_jax_one(small_model):
     _close(point_norms(shapes, q).max(axis=0), res.deviation)
     _close(curves.subsets[0], point_norms(shapes[:5], q).max(axis=0))
     norms = point_norms(shapes, q)
-    assert np.array_equal(curves.argmax, np.argmax(norms, axis=0))
+    # the point named attains the largest norm (which one among equal norms is not asked)
+    columns = np.arange(norms.shape[1])
+    np.testing.assert_allclose(norms[curves.argmax, columns], norms.max(axis=0), rtol=1e-12)
 
 
 def test_deviation_curve_samples_the_exact_response(small_model):

@@ -59,7 +59,14 @@ def test_shell_stress_of_a_curved_panel_against_the_thin_solid():
     kPa). The shell converges from below with its centroid sampling, about first order
     (measured 105.2, 108.6, 109.7 kPa at 20, 10, 5 mm): at 10 mm it lies 1.0 % below its
     5 mm value and ~1.3 % below its own extrapolation, which agrees with the solid's to
-    0.3 %; tolerance 2 %. The peak lies at the crown, on the same surface."""
+    0.3 %; tolerance 2 %.
+
+    The peak lies in the corners (the panel is symmetric about both mid-lines: the four are
+    equal, 108.0 kPa each in the solid, so which one the arg-max names is chance); what is
+    compared is that both peaks lie within an element (10 mm) and a half of a corner, and
+    the stress at the crown, where there is no tie (37.1 kPa in the shell, 37.2 in the
+    solid at 10 mm: the field is flat there, the sampling points' 7 mm apart change it by
+    ~0.1 %), within the same 2 %."""
 
     def static_von_mises(element: str, size_m: float):
         part = fem.curved_panel(
@@ -73,15 +80,21 @@ def test_shell_stress_of_a_curved_panel_against_the_thin_solid():
             np.asarray(model.gamma) / np.asarray(model.omega)[:, None] ** 2
         )
         values = von_mises(static[:, 2].reshape(-1, 6))
-        return values.max(), np.asarray(model.stress.points_m)[np.argmax(values)]
+        points = np.asarray(model.stress.points_m)
+        crown = np.argmin(np.hypot(points[:, 0] - 0.25, points[:, 1] - 0.2))
+        return values.max(), points[np.argmax(values)], values[crown]
+
+    def corner_distance(where) -> float:
+        corners = np.array([[x, y] for x in (0.0, 0.5) for y in (0.0, 0.4)])
+        return float(np.min(np.hypot(*(corners - where[:2]).T)))
 
     solid = [static_von_mises("hex2", h) for h in (0.0125, 0.01)]
     ratio = (0.0125 / 0.01) ** 2
     converged = solid[1][0] + (solid[1][0] - solid[0][0]) / (ratio - 1)
-    shell, where = static_von_mises("shell", 0.01)
+    shell, where, crown = static_von_mises("shell", 0.01)
     assert abs(shell / converged - 1) <= 0.02
-    np.testing.assert_allclose(where[:2], solid[1][1][:2], atol=0.03)  # crown, element size
-    assert np.sign(where[2] - solid[1][1][2]) in (0.0, np.sign(where[2]))
+    assert corner_distance(where) <= 0.015 and corner_distance(solid[1][1]) <= 0.015
+    assert abs(crown / solid[1][2] - 1) <= 0.02
 
 
 def test_compliant_cups_stiff_shell_on_springs():

@@ -50,6 +50,7 @@ def write_result_set(folder, acc, report) -> None:
 def test_export_from_an_optimize_folder_verifies_the_fmu(inputs, capsys):
     root, acc, report = inputs
     out = root / "out" / "part.fmu"
+    out.parent.mkdir(exist_ok=True)  # jaxflex writes only into existing directories
     args = ["export", str(root / "model.npz"), "--fmi", "2", "--trajectory", str(root / "opt")]
     assert main([*args, "-o", str(out)]) == 0
     captured = capsys.readouterr()

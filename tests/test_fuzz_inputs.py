@@ -180,7 +180,7 @@ def test_model_files_load_valid_or_raise_a_named_error(tmp_path, fuzz_tally):
             assert refuse is not False, f"{what}: a valid file refused: {exc}"
             return
         except Exception:
-            counts["crashes_or_hangs"] += 1
+            counts["crashes"] += 1
             raise
         if refuse:
             counts["corrupt_accepted"] += 1
@@ -194,7 +194,7 @@ def test_model_files_load_valid_or_raise_a_named_error(tmp_path, fuzz_tally):
         fuzz_tally("model files (hypothesis)", **{k: counts[k] for k in _COLUMNS})
 
 
-_COLUMNS = ("tried", "clear_errors", "crashes_or_hangs", "corrupt_accepted")
+_COLUMNS = ("tried", "clear_errors", "crashes", "hangs", "corrupt_accepted")
 
 # numbers across many decades, negative, zero and the non-finite ones, as a user types them
 NUMBERS = st.one_of(
@@ -246,7 +246,7 @@ def test_optimize_options_work_or_give_one_clean_error(tmp_path, fuzz_tally):
                 except SystemExit as exc:  # argparse: usage and one error line, status 2
                     code = exc.code
         except Exception:
-            counts["crashes_or_hangs"] += 1
+            counts["crashes"] += 1
             raise
         lines = err.getvalue().strip().splitlines()
         if code == 0:

@@ -137,7 +137,8 @@ def test_optimize_killed_at_any_point_leaves_a_whole_set_or_none(tmp_path, fuzz_
         "kill -9 of optimize",
         tried=len(states),
         clear_errors=sum(s == "refused" for s in states.values()),
-        crashes_or_hangs=0,
+        crashes=0,
+        hangs=0,
         corrupt_accepted=0,
     )
     assert killed == len(OPTIMIZE_KILLS), states
@@ -180,7 +181,8 @@ def test_sweep_killed_at_any_point_restarts_with_the_missing_cases(
         "kill -9 of sweep",
         tried=len(kills),
         clear_errors=0,
-        crashes_or_hangs=len(kills) - killed,
+        crashes=len(kills) - killed,  # ended before its kill point
+        hangs=0,
         corrupt_accepted=int((out / "rejected").exists()),  # a killed run's record refused
     )
     assert killed == len(kills)

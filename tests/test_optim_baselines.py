@@ -102,7 +102,8 @@ def test_the_number_of_shaped_modes_is_the_best_one(model, base):
         acc = shaped_grid_move(continuous, train, DISTANCE, LIMITS, DT)
         cycles.append(analyze_move(model, acc, DT, THRESHOLD).cycle_time_s)
     assert zv.cycle_time_s == pytest.approx(min(cycles), abs=1e-9)
-    assert len(zv.shaped_freq_hz) == int(np.argmin(cycles)) + 1
+    # the count chosen attains the shortest cycle (counts with equal cycles are all right)
+    assert cycles[len(zv.shaped_freq_hz) - 1] == pytest.approx(min(cycles), abs=1e-9)
 
 
 def test_robust_baselines_report_their_worst_case(model):

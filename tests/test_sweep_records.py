@@ -119,7 +119,8 @@ def test_bad_records_and_models_are_reported_and_recomputed(serial_sweep, tmp_pa
         "sweep records",
         tried=len(damaged) + 1,
         clear_errors=len(named) + model_named,
-        crashes_or_hangs=0,
+        crashes=0,
+        hangs=0,
         corrupt_accepted=len(damaged) - len(named) + (not model_named),
     )
     assert named == set(damaged), messages

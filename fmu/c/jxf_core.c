@@ -52,6 +52,11 @@
 #define JXF_STEP_RTOL 1e-12
 /* Trajectory breakpoints closer than this fraction of the sample step count as reached. */
 #define JXF_SNAP 1e-9
+/* the trajectory's sample step, s, as fmu.resource.TRAJECTORY_STEP_RANGE_S: steps outside
+ * cannot be replayed against the FMU's time (5e-324 s: every time is past the end; 1e300 s:
+ * the move never leaves its first sample) */
+#define JXF_TRAJ_DT_MIN 1e-6
+#define JXF_TRAJ_DT_MAX 1e3
 /* Modal states below this magnitude are set to 0: a decaying high mode would otherwise reach
  * the subnormal range (after ~1400 free 10 ms steps at 400 Hz, zeta 0.02), where every
  * multiplication costs ~100x. 1e-250 kg^0.5 m is far below anything measurable. */
@@ -429,9 +434,15 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
             return -1;
         }
     }
-    if (N > 0 && !(N >= 2 && isfinite(m->traj_dt) && m->traj_dt > 0.0)) {
+    if (N == 0 && m->traj_dt != 0.0) {
+        jxf_log(m, JXF_LOG_ERROR, "'%s': no trajectory but a sample step of %g s (need 0)",
+                name, m->traj_dt);
+        return -1;
+    }
+    if (N > 0 && !(N >= 2 && m->traj_dt >= JXF_TRAJ_DT_MIN && m->traj_dt <= JXF_TRAJ_DT_MAX)) {
         jxf_log(m, JXF_LOG_ERROR, "'%s': trajectory of %d samples with step %g s (need >= 2 "
-                "samples and a step > 0)", name, N, m->traj_dt);
+                "samples and a step of %g ... %g s)", name, N, m->traj_dt, JXF_TRAJ_DT_MIN,
+                JXF_TRAJ_DT_MAX);
         return -1;
     }
     return 0;

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from jaxflex.errors import InputError
 from jaxflex.progress import step
+from jaxflex.validation import check_output_dir
 from optim.sweep.run import run_sweep
 from optim.sweep.spec import EXAMPLE, load_spec
 
@@ -64,6 +66,7 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(
                 f"{option}: only for the embedded LocalCluster (not with --serial/--scheduler)"
             )
+    check_output_dir("-o/--output", args.output)
     spec = load_spec(args.spec)
     executor = "serial" if args.serial else "dask"
     where = args.scheduler or ("this process" if args.serial else "a local dask cluster")
@@ -84,4 +87,18 @@ def run(args: argparse.Namespace) -> int:
     print(result.summary())
     for path in result.outputs:
         print(f"wrote {path}")
-    return 0
+    return _status(result)
+
+
+def _status(result) -> int:
+    """0, or 1 when every case of the spec is stored as an error (with the first error)."""
+    ok = result.records.count("ok")
+    if ok or not result.n_errors:
+        return 0
+    first = next(r for r in result.rows if r["status"] == "error")
+    print(
+        f"jaxflex sweep: every case failed ({result.n_errors} errors); the first, "
+        f"{first['layout']} / {first['move']}: {first['error']}",
+        file=sys.stderr,
+    )
+    return 1

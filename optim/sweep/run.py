@@ -32,6 +32,7 @@ from pathlib import Path
 
 from distributed import as_completed
 
+from jaxflex.budget import check_time, require
 from jaxflex.errors import InputError
 from jaxflex.fileset import directory_lock
 from jaxflex.model import ModalModel
@@ -39,6 +40,7 @@ from jaxflex.progress import progress_bar
 from optim.sweep.best import MoveBest, best_layouts, move_limits
 from optim.sweep.cases import Case, case_job, expand, layout_job
 from optim.sweep.cluster import ClusterError, connect
+from optim.sweep.plan import sweep_needs, workers
 from optim.sweep.plots import plot_sweep
 from optim.sweep.spec import SweepSpec
 from optim.sweep.store import ResultStore, StoredRecords, is_final
@@ -167,6 +169,7 @@ def run_sweep(
             spec,
             store,
             executor=executor,
+            n_workers=workers(n_workers, executor),
             connect_to=lambda: connect(scheduler, notify=notify, **where),
             retry_errors=retry_errors,
             progress=progress,
@@ -175,7 +178,9 @@ def run_sweep(
         )
 
 
-def _run_locked(spec, store, *, executor, connect_to, retry_errors, progress, plots, on_record):
+def _run_locked(
+    spec, store, *, executor, n_workers, connect_to, retry_errors, progress, plots, on_record
+):
     """run_sweep's work, with the results directory locked against other sweeps."""
     store.remove_temporaries()
     store.save_spec(spec.source)
@@ -195,6 +200,9 @@ def _run_locked(spec, store, *, executor, connect_to, retry_errors, progress, pl
         else:
             pending[case.case_id] = case
     run.skipped = len(run.records)
+    if pending:  # before the first case: a sweep that cannot run within the budget is refused
+        layouts = len({case.layout_id for case in pending.values()})
+        require(*sweep_needs(spec, len(pending), layouts, n_workers))
     start = time.perf_counter()
     bar = progress_bar(len(pending), spec.name, progress, unit="case")
 
@@ -210,6 +218,10 @@ def _run_locked(spec, store, *, executor, connect_to, retry_errors, progress, pl
                 bar.set_postfix_str(f"errors={run.n_errors}")
                 if on_record is not None:
                     on_record(record, store_s)
+                check_time(
+                    f"the sweep ({run.computed} of {len(pending)} cases computed)",
+                    "the computed cases are stored: the same command computes the rest",
+                )
 
     try:
         if executor == "serial":

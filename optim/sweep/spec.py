@@ -22,11 +22,13 @@ from typing import Any
 
 from fem.imported import file_digest
 from fem.parts import ELEMENTS
+from jaxflex.budget import require
 from jaxflex.cli import AXIS_LIMITS
 from jaxflex.errors import InputError
-from jaxflex.validation import read_settings_file
+from jaxflex.inputs import read_settings_file
 from optim.robust import RobustSpec
 from optim.sweep.part import build_part, footprint_box
+from optim.sweep.plan import spec_need
 
 SHAPES = ("plate", "panel")
 METHODS = ("exact", "gradient")
@@ -376,9 +378,8 @@ def _layout(i: int, data: Any) -> LayoutSpec:
 _GRID_FIELDS = ("nx", "ny", "inset_x", "inset_y", "radius_m")
 
 
-def _grid(i: int, data: Any, box: tuple[float, float, float, float]) -> list[LayoutSpec]:
-    """Every combination of the grid's values as a layout named ``name/nx3-ny2-...``; the
-    insets are fractions of the footprint box (x_min, y_min, x_max, y_max)."""
+def _grid_values(i: int, data: Any) -> tuple[str, dict[str, list]]:
+    """(name, the checked lists of values of each field) of ``grids[i]``."""
     where = f"grids[{i}]"
     d = _keys(where, data, ("name", *_GRID_FIELDS))
     values: dict[str, list] = {}
@@ -398,7 +399,12 @@ def _grid(i: int, data: Any, box: tuple[float, float, float, float]) -> list[Lay
                     f"{where}.{key}[{bad[0]}]: a fraction of the side in (0, 0.5), "
                     f"got {values[key][bad[0]]}"
                 )
-    name = _name(f"{where}.name", d.get("name", f"grid{i}"))
+    return _name(f"{where}.name", d.get("name", f"grid{i}")), values
+
+
+def _grid_layouts(name: str, values: dict[str, list], box) -> list[LayoutSpec]:
+    """Every combination of the grid's values as a layout named ``name/nx3-ny2-...``; the
+    insets are fractions of the footprint box (x_min, y_min, x_max, y_max)."""
     layouts = []
     x0, y0, x1, y1 = box
     for nx, ny, fx, fy, r in itertools.product(*(values[k] for k in _GRID_FIELDS)):
@@ -432,11 +438,16 @@ def parse_spec(data: Mapping, base: str | Path = ".") -> SweepSpec:
     d = _keys("", data, _TOP)
     part = _part(d.get("part", {}), Path(base))
     moves = tuple(_move(i, m) for i, m in enumerate(_list("moves", d.get("moves"))))
-    layouts = [_layout(i, lay) for i, lay in enumerate(d.get("layouts", []) or [])]
-    grids = d.get("grids", []) or []
+    given = _list("layouts", d.get("layouts") or [], min_len=0)
+    layouts = [_layout(i, lay) for i, lay in enumerate(given)]
+    grids = [
+        _grid_values(i, g) for i, g in enumerate(_list("grids", d.get("grids") or [], min_len=0))
+    ]
+    count = len(layouts) + sum(math.prod(map(len, values.values())) for _, values in grids)
+    require(spec_need(count, len(moves)))
     box = _box(part) if grids else None
-    for i, g in enumerate(grids):
-        layouts.extend(_grid(i, g, box))
+    for name, values in grids:
+        layouts.extend(_grid_layouts(name, values, box))
     if not layouts:
         raise InputError("layouts: give at least one layout (layouts = [...] or grids = [...])")
     for kind, items in (("moves", moves), ("layouts", layouts)):

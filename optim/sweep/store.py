@@ -24,7 +24,7 @@ import warnings
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
-from jaxflex.atomic import remove_stale_temporaries, write_text_atomic
+from jaxflex.atomic import make_output_dir, remove_stale_temporaries, write_text_atomic
 from jaxflex.errors import InputError, JaxflexWarning, ModelError, ModelFileError
 from jaxflex.model import ModalModel, load_model
 from optim.sweep.records import RecordError, as_stored, check_fe_summary, check_record
@@ -48,8 +48,8 @@ class ResultStore:
         self.cases_dir = self.root / "cases"
         self.models_dir = self.root / "models"
         self.dt_s = dt_s
-        self.cases_dir.mkdir(parents=True, exist_ok=True)
-        self.models_dir.mkdir(parents=True, exist_ok=True)
+        for folder in (self.root, self.cases_dir, self.models_dir):
+            make_output_dir(folder)
 
     def remove_temporaries(self) -> None:
         """Remove the temporary files a killed run left (call while holding the lock)."""

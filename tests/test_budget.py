@@ -1,0 +1,170 @@
+"""One budget for all work (jaxflex.budget): every command takes --max-memory and --max-time,
+plans its work from its inputs and refuses what does not fit, before any of it.
+
+The hostile requests of issue 23 (benchmarks.budget.refusal_cases: robust grids of
+100 000 x 100 000, a monitor grid of 10^10 points, 6.35 M sweep cases, meshes of 10^10
+cells, 120 m CAD sheets, 2 000 000 triangles, 10 000 obstacles) run as commands under a hard
+address-space limit (``ulimit -v``: a command that tried to go beyond its budget would die
+or raise MemoryError there) and must exit with status 2 and one line saying what the work
+would need, without a traceback, before any case or analysis is computed. Their times and
+peak memories are what ``python -m benchmarks.budget --refusals`` reports; nothing here
+asserts a time.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+
+import numpy as np
+import pytest
+from conftest import random_model, run_jaxflex
+from sweep_cases import SPEC
+
+from benchmarks.budget import refusal_cases, run_limited
+from jaxflex.budget import (
+    Budget,
+    Need,
+    check_time,
+    current_budget,
+    format_bytes,
+    format_seconds,
+    make_budget,
+    require,
+    use_budget,
+)
+from jaxflex.errors import BudgetError, InputError
+from optim.robust import RobustSpec
+
+
+@pytest.mark.slow
+def test_hostile_requests_are_refused_within_a_hard_memory_limit(tmp_path, fuzz_tally):
+    cases = refusal_cases(tmp_path)
+    runs = {label: run_limited(argv, tmp_path) for label, argv in cases.items()}
+    refused = {
+        label: run
+        for label, run in runs.items()
+        if run.status == 2
+        and "Traceback" not in run.stderr
+        and "MemoryError" not in run.stderr
+        and run.stderr.strip().splitlines()[-1].startswith("jaxflex ")
+    }
+    fuzz_tally(
+        "budget refusals (ulimit -v 4 GB)",
+        tried=len(runs),
+        clear_errors=len(refused),
+        crashes=sum(run.status < 0 or "Traceback" in run.stderr for run in runs.values()),
+        hangs=0,
+        corrupt_accepted=sum(run.status == 0 for run in runs.values()),
+    )
+    assert refused.keys() == runs.keys(), {k: r.stderr[-400:] for k, r in runs.items()}
+    for label, run in runs.items():
+        message = run.stderr.strip().splitlines()[-1]
+        assert "memory:" in message or "time:" in message or "spans 120 m" in message, label
+        assert "needs about" in message or "spans" in message, label
+    # refused before the first case: no record, no stored model
+    assert not list(tmp_path.glob("out_*/cases/*.json"))
+    assert not list(tmp_path.glob("out_*/models/*.npz"))
+
+
+def test_every_command_takes_the_budget_options():
+    for command in ("model", "optimize", "sweep", "export", "demo", "bench"):
+        out = run_jaxflex(command, "--help")
+        assert "--max-memory GB" in out.stdout and "--max-time S" in out.stdout, command
+
+
+def test_budget_options_are_checked(tmp_path):
+    for option, value in (("--max-memory", "0"), ("--max-time", "-1"), ("--max-memory", "nan")):
+        out = run_jaxflex("model", "--scene", "plate", "-o", str(tmp_path / "m.npz"), option, value)
+        assert out.returncode == 2 and f"{option}: must be a finite number > 0" in out.stderr
+
+
+def test_require_names_the_stage_its_need_and_the_budget():
+    small = Need("reading", 1e5, 1.0)
+    big = Need("the analysis (5 cells)", 3e6, 2.0, "use a coarser mesh")
+    with pytest.raises(
+        BudgetError,
+        match=r"memory: the analysis \(5 cells\) needs about 3 MB, "
+        r"more than the budget of 1 MB \(--max-memory\); use a coarser mesh",
+    ):
+        require(small, big, budget=Budget(1_000_000, 10.0))  # fmt: skip
+    # times add up over the stages; memory is the largest stage's
+    now = time.monotonic()
+    require(small, Need("b", 1e6, 8.0), budget=Budget(1_000_000, 3600.0, start_s=now))
+    with pytest.raises(
+        BudgetError, match=r"time: b needs about 66.7 min on this machine \(all the "
+    ):
+        require(small, Need("b", 0, 4000.0), budget=Budget(1_000_000, 3600.0, start_s=now))
+    assert format_bytes(1.34e15) == "1,340 TB" and format_bytes(2.5e9) == "2.5 GB"
+    assert format_seconds(30) == "30 s" and format_seconds(7200) == "2 h"
+
+
+def test_the_process_budget_is_per_thread_and_the_clock_runs():
+    import threading
+
+    seen = {}
+    with use_budget(make_budget(0.5, 100.0)):
+        assert current_budget().memory_bytes == 500_000_000
+        thread = threading.Thread(target=lambda: seen.update(m=current_budget().memory_bytes))
+        thread.start()
+        thread.join()
+    assert seen["m"] != 500_000_000  # the other thread works under the machine's default
+    with use_budget(make_budget(None, 1e-9)), pytest.raises(BudgetError, match="ran out"):
+        check_time("the work")
+    with pytest.raises(InputError, match="--max-time"):
+        make_budget(None, 0.0)
+
+
+def test_a_spec_whose_grids_are_absurd_is_refused_while_it_is_read():
+    from optim.sweep.spec import parse_spec
+
+    spec = {**SPEC, "grids": [{**SPEC["grids"][0], "nx": list(range(1, 400)),
+                                "ny": list(range(1, 400)), "radius_m": [0.01] * 100}]}  # fmt: skip
+    with pytest.raises(BudgetError, match=r"cases \(at least"):
+        parse_spec(spec)
+
+
+def test_robust_grid_is_counted_not_built():
+    spec = RobustSpec((0.9, 1.1), (0.01, 0.03), 100_000, 100_000)
+    assert spec.n_scenarios == 10**10
+    assert RobustSpec((1.0, 1.0), None, 50, 7).n_scenarios == 1
+    assert RobustSpec().n_scenarios == len(RobustSpec().grid())
+
+
+def test_a_sweep_whose_cases_all_failed_exits_non_zero(tmp_path):
+    spec = {**SPEC, "layouts": [SPEC["layouts"][0]], "grids": []}  # one layout, off the part
+    path = tmp_path / "spec.json"
+    path.write_text(json.dumps(spec), encoding="utf-8")
+    out = run_jaxflex("sweep", str(path), "--serial", "--no-plots", "-o", str(tmp_path / "o"))
+    assert out.returncode == 1, out.stderr
+    assert "every case failed (2 errors)" in out.stderr and "off part" in out.stderr
+
+
+def test_an_optimisation_that_cannot_fit_the_time_budget_is_refused(tmp_path):
+    """A lone 0.01 Hz mode: its search needs moves of up to 30 s (3 000 LP steps), about
+    2 min of LPs: refused under --max-time 30 once the baselines bracket it."""
+    model = random_model(n_points=4, n_modes=1, f_min_hz=0.01, f_max_hz=0.01)
+    path = tmp_path / "lone.npz"
+    model.save(path)
+    out = run_jaxflex(
+        "optimize", str(path), "--distance", "0", "0", "1", "--threshold", "5e-4",
+        "--max-time", "30", "-o", str(tmp_path / "o"),
+    )  # fmt: skip
+    assert out.returncode == 2, out.stderr
+    assert "time: the search" in out.stderr and "3000 steps" in out.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_more_modes_than_dofs_are_said_and_solved_densely():
+    """--n-modes 100000 on a plate of a few hundred DOFs: a warning names both numbers and
+    the lowest modes come from a dense solve (equal to the iterative solve's first ones)."""
+    import fem
+
+    part = fem.rectangular_plate(0.6, 0.4, 1e-3, mesh_size=0.2)
+    supports = fem.SimplySupportedEdge("all")
+    with pytest.warns(UserWarning, match=r"n_modes: 100000 modes asked .* free DOFs"):
+        dense = fem.modal_analysis(part, supports, n_modes=100_000)
+    iterative = fem.modal_analysis(part, supports, n_modes=6)
+    assert dense.n_modes > 6
+    # both solve the same eigenproblem to machine precision (relative 1e-10, measured 1e-13)
+    np.testing.assert_allclose(dense.freq_hz[:6], iterative.freq_hz, rtol=1e-10)
