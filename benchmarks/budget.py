@@ -188,7 +188,7 @@ def refusal_cases(folder: Path) -> dict[str, list[str]]:
     cups = ["--cups", "0.3,0.2,0.04", "0.9,0.2,0.04", "0.6,0.6,0.04"]
     boxes = [{"type": "box", "centre_m": [5 + 0.01 * i, 0, 0], "size_m": [0.005] * 3}
              for i in range(10_000)]  # fmt: skip
-    cell = {"part": {"start_m": [0, 0, 0.5]}, "path": {"end_m": [0, 0, 1.5]},
+    cell = {"part": {"start_m": [0, 0, 0.5], "thickness_m": 1e-3}, "path": {"end_m": [0, 0, 1.5]},
             "obstacles": boxes}  # fmt: skip
     (folder / "boxes.json").write_text(json.dumps(cell), encoding="utf-8")
     big = _triangle_mesh(folder / "obstacle.msh", 2_000_000)

@@ -220,3 +220,11 @@ def test_a_sweep_over_the_users_own_part_file(tmp_path):
         parse_spec({**data, "part": {"path": "parts/plate.vtu"}}, tmp_path)
     with pytest.raises(InputError, match=r"part\.scale: only with part\.path"):
         parse_spec({**BASE, "part": {"scale": 1e-3}})
+
+
+def test_grid_values_equal_to_six_digits_are_distinct_layouts():
+    # hypothesis found it: names formatted with %g made 0.05 and 0.0500001 one name, and the
+    # spec was refused as naming a layout twice
+    grid = {"nx": [2], "ny": [2], "inset_x": [0.05, 0.0500001], "inset_y": [0.25], "radius_m": 0.02}
+    spec = parse_spec({**BASE, "layouts": [], "grids": [grid]})
+    assert len({layout.name for layout in spec.layouts}) == 2

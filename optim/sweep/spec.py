@@ -411,7 +411,9 @@ def _grid_layouts(name: str, values: dict[str, list], box) -> list[LayoutSpec]:
         xs = _spread(x0 + fx * (x1 - x0), x1 - fx * (x1 - x0), nx)
         ys = _spread(y0 + fy * (y1 - y0), y1 - fy * (y1 - y0), ny)
         cups = tuple((x, y, r) for y in ys for x in xs)
-        label = f"{name}/nx{nx}-ny{ny}-ix{fx:g}-iy{fy:g}-r{r:g}"
+        # repr: the shortest text that reads back as the value, so distinct values give
+        # distinct names (0.05 and 0.0500001 are two layouts)
+        label = f"{name}/nx{nx}-ny{ny}-ix{float(fx)!r}-iy{float(fy)!r}-r{float(r)!r}"
         layouts.append(LayoutSpec(name=label, cups=cups))
     return layouts
 
