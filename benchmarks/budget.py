@@ -235,7 +235,7 @@ def refusal_cases(folder: Path) -> dict[str, list[str]]:
         ],
         "optimize --cell: 10 000 boxes": [
             "optimize", str(model), "--cell", str(folder / "boxes.json"), "--min-distance",
-            "0.01", "--threshold", "5e-4", "--max-time", "60", "-o", str(folder / "opt"),
+            "0.01", "--threshold", "5e-4", "--max-time", "20", "-o", str(folder / "opt"),
         ],
         "optimize --cell: a 2 000 000-triangle obstacle": [
             "optimize", str(model), "--cell", str(folder / "mesh_obstacle.json"),

@@ -40,6 +40,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from jaxflex.blocks import kd_order
+from jaxflex.budget import check_time
 from jaxflex.cell import Cell
 from jaxflex.decay import amplitudes
 from jaxflex.deviation import response_shapes, with_acceleration
@@ -55,6 +56,9 @@ from jaxflex.peaks import SAMPLES_PER_PERIOD, SearchState, certified_max, settli
 from jaxflex.profile import acceleration_at, as_move, kinematics_at
 
 BLOCK_POINTS = 32
+# what a run out of its time budget (jaxflex.budget) was doing, and what to do about it
+CHECKING = "checking the part's distance to the cell's obstacles"
+SIMPLER_CELL = "simplify the obstacles (fewer triangles or boxes) or raise --max-time"
 
 
 @dataclass(frozen=True)
@@ -110,6 +114,7 @@ def displacement_coordinates(model, acc, dt_s: float, t_s) -> np.ndarray:
 def distances(obstacles, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(distance (N,), obstacle index (N,), closest obstacle point (N, 3)) of points (N, 3):
     the nearest obstacle of ``obstacles``."""
+    check_time(CHECKING, SIMPLER_CELL)
     best = np.full(len(points), np.inf)
     which = np.zeros(len(points), dtype=np.int64)
     nearest = np.zeros_like(points)
@@ -168,6 +173,7 @@ def block_lower_bounds(obstacles, centres: np.ndarray, extents: np.ndarray, movi
     closest point as a subgradient at the centre: d(p) >= d(c) + g . (p - c) >= d(c) -
     sum_k |g_k| e_k - moving. Tight where a face lies parallel to the part (g across the
     sheet), where the 1-Lipschitz bound d(c) - |p - c| is not."""
+    check_time(CHECKING, SIMPLER_CELL)
     flat = centres.reshape(-1, 3)
     spread = np.broadcast_to(extents[None], centres.shape).reshape(-1, 3)
     best = np.full(len(flat), np.inf)
