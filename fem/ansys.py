@@ -253,12 +253,20 @@ def read_node_coordinates(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarr
                 archive = Archive(str(path), parse_vtk=False)
         except Exception as exc:
             raise InputError(f"nodes: cannot read the archive {str(path)!r} ({exc})") from exc
-        return np.asarray(archive.nnum), np.asarray(archive.nodes, dtype=float)[:, :3]
-    if suffix == ".rst":
+        ids, xyz = np.asarray(archive.nnum), np.asarray(archive.nodes, dtype=float)[:, :3]
+    elif suffix == ".rst":
         modes = read_rst(path)
-        return modes.node_ids, modes.nodes
-    table = _read_csv_table(path, 4, "nodes")
-    return table[:, 0].astype(np.int64), table[:, 1:4]
+        ids, xyz = modes.node_ids, modes.nodes
+    else:
+        table = _read_csv_table(path, 4, "nodes")
+        ids, xyz = table[:, 0].astype(np.int64), table[:, 1:4]
+    bad = np.flatnonzero(~np.isfinite(xyz).all(axis=1))
+    if bad.size:
+        raise InputError(
+            f"nodes: {str(path)!r}: node {int(ids[bad[0]])} has coordinates "
+            f"{xyz[bad[0]].tolist()} ({bad.size} such node(s)); every coordinate must be finite"
+        )
+    return ids, xyz
 
 
 def _read_csv_table(path: Path, width: int, name: str) -> np.ndarray:

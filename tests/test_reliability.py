@@ -245,3 +245,20 @@ def test_model_file_shapes_are_reported_as_they_are(tmp_path):
         jaxflex.load_model(_with_member(tmp_path, "freq_hz", (-1,)))
     with pytest.raises(ModelFileError, match=r"has shape \(3, 4\); axis 1 must be 3$"):
         jaxflex.load_model(_with_member(tmp_path, "gamma", (3, 4)))
+
+
+def test_node_coordinates_that_are_not_numbers_are_refused(tmp_path):
+    # the fuzz suite's ANSYS door: a bit flipped in a .cdb's node block read as a non-finite
+    # coordinate and was accepted
+    from ansys.mapdl.reader import examples
+
+    from fem.ansys import read_node_coordinates
+
+    text = Path(examples.hexarchivefile).read_text(encoding="utf-8")
+    node_2 = "        2        0        0 1.0000000000000E+000"
+    assert node_2 in text
+    archive = tmp_path / "hex.cdb"
+    overflow = node_2.replace("E+000", "E+999")  # read as inf
+    archive.write_text(text.replace(node_2, overflow), encoding="utf-8")
+    with pytest.raises(InputError, match="node 2 has coordinates"):
+        read_node_coordinates(archive)
