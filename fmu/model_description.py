@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 
 import jaxflex
-from fmu.build import sources_for
+from fmu.build import compiled_files
 from fmu.variables import Variable, available_data, input_description, variables_for
 
 LOG_CATEGORIES = (
@@ -50,11 +50,6 @@ class Description:
         if isinstance(dim, int):
             return dim
         return {"points": self.n_points, "cups": self.n_cups, "stress_points": self.n_stress}[dim]
-
-
-def _c_files(fmi_version: int) -> list[str]:
-    """The C files compiled into the FMU (the headers are only included)."""
-    return [name for name in sources_for(fmi_version) if name.endswith(".c")]
 
 
 def _fmt(x: float) -> str:
@@ -165,7 +160,7 @@ def _fmi2(d: Description, variables: list[Variable]) -> ET.Element:
         providesDirectionalDerivative="false",
     )
     files = ET.SubElement(cs, "SourceFiles")
-    for name in _c_files(2):
+    for name in compiled_files(2):
         ET.SubElement(files, "File", name=name)
     mv = _after_interface(root, d)
     for v in variables:
@@ -235,7 +230,7 @@ def build_description(model_identifier: str, source_files: tuple[str, ...] | Non
     root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
     config = ET.SubElement(root, "BuildConfiguration", modelIdentifier=model_identifier)
     files = ET.SubElement(config, "SourceFileSet", language="C99")
-    for name in source_files or _c_files(3):
+    for name in source_files or compiled_files(3):
         ET.SubElement(files, "SourceFile", name=name)
     ET.SubElement(files, "IncludeDirectory", name=".")
     ET.SubElement(config, "Library", name="m", description="C math library (libm)")

@@ -7,9 +7,9 @@ derivative is provided (``maxOutputDerivativeOrder = 1``: ``fmi2GetRealOutputDer
 ``fmi3GetOutputDerivatives``) as the slope of the segment that begins at t, so an FMI 2.0
 importer that forwards it to the part's ``fmi2SetRealInputDerivatives`` drives the part with
 exactly the piecewise-linear move jaxflex optimised; an importer that copies values only
-holds each sample over the step. The samples are compiled into the binary (C sources in
-``fmu/c/jxf_source*.c``, data in the generated ``sources/jxf_source_data.h``); the FMU has no
-resources.
+holds each sample over the step. The samples are compiled into the binary (the core
+``fmu/c/jxf_source.c`` under the FMI bindings every jaxflex FMU shares, data in the generated
+``sources/jxf_source_data.h``); the FMU has no resources.
 """
 
 from __future__ import annotations
@@ -26,17 +26,12 @@ import numpy as np
 
 import jaxflex
 from fmu.archive import zip_folder
-from fmu.build import C_DIR, build_binaries
+from fmu.build import C_DIR, SOURCE_CORE, build_binaries, compiled_files, sources_for
 from fmu.export import model_identifier
 from fmu.model_description import build_description
 from jaxflex.errors import InputError
 from jaxflex.profile import as_move
 
-SOURCE_FILES = {
-    2: ("jxf_source.c", "jxf_source_fmi2.c"),
-    3: ("jxf_source.c", "jxf_source_fmi3.c"),
-}
-HEADER_FILES = ("jxf_source.h", "jxf_text.h")
 DATA_FILE = "jxf_source_data.h"
 OUTPUTS = ("ax", "ay", "az")  # value references 1, 2, 3
 _OUTPUT_TEXT = (
@@ -139,7 +134,7 @@ def source_model_description(
             root, "CoSimulation", capabilities, canNotUseMemoryManagementFunctions="true"
         )
         files = ET.SubElement(cs, "SourceFiles")
-        for name in SOURCE_FILES[2]:
+        for name in compiled_files(2, SOURCE_CORE):
             ET.SubElement(files, "File", name=name)
     else:
         ET.SubElement(
@@ -215,20 +210,25 @@ def export_source_fmu(
         stage = Path(tmp) / "fmu"
         sources = stage / "sources"
         sources.mkdir(parents=True)
-        for name in (*SOURCE_FILES[fmi_version], *HEADER_FILES):
+        for name in sources_for(fmi_version, SOURCE_CORE):
             (sources / name).write_bytes((C_DIR / name).read_bytes())
         (sources / DATA_FILE).write_text(
             source_data_header(fmi_version, token, acc, dt_s), encoding="utf-8"
         )
         if fmi_version == 3:
             (sources / "buildDescription.xml").write_text(
-                build_description(ident, SOURCE_FILES[3]), encoding="utf-8"
+                build_description(ident, compiled_files(3, SOURCE_CORE)), encoding="utf-8"
             )
         (stage / "modelDescription.xml").write_text(
             source_model_description(fmi_version, token, ident, len(acc), dt_s), encoding="utf-8"
         )
         built = build_binaries(
-            sources, stage / "binaries", fmi_version, ident, windows, SOURCE_FILES[fmi_version]
+            sources,
+            stage / "binaries",
+            fmi_version,
+            ident,
+            windows,
+            compiled_files(fmi_version, SOURCE_CORE),
         )
         zip_folder(stage, path)
     return SourceResult(
