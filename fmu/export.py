@@ -26,7 +26,8 @@ from fmu.archive import zip_folder
 from fmu.build import C_DIR as _C_DIR
 from fmu.build import BuildReport, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
-from fmu.resource import CellData, encode_resource, obstacle_records, static_count
+from fmu.obstacles import obstacle_records
+from fmu.resource import CellData, encode_resource, static_count
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
 from jaxflex.atomic import write_text_atomic
 from jaxflex.cell import DEFAULT_GRAVITY_M_S2, Cell

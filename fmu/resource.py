@@ -23,7 +23,7 @@ Format version 3, little-endian throughout (read by ``fmu/c/jxf_core.c``):
                          A (6C, 3) and the reactions at rest under gravity (6C) N, N m;
                          stresses: Q, V (6S, M), A (6S, 3), at rest (6S) Pa; obstacles: the
                          points at rest under gravity (K, 3) m and the records (O, 16) of
-                         :func:`obstacle_records`
+                         :func:`fmu.obstacles.obstacle_records`
     end     u32 CRC-32 (zlib) of everything before it, u32 0
 
 The outputs are y = Q q + V v + A a + y_rest (jaxflex.outputs: y_rest = -S g, exact), the
@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex.cell import Box, HalfSpace
+from fmu.obstacles import RECORD_VALUES, allowed_kinds, unknown_codes
 from jaxflex.collision import gravity_offset
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.model import ModalModel
@@ -57,8 +57,9 @@ TRAJECTORY_STEP_RANGE_S = (1e-6, 1e3)
 @dataclass(frozen=True)
 class CellData:
     """What the FMU needs for the cell's outputs: ``gravity_m_s2`` (3,) in the model's frame,
-    the cups' ``cup_safety`` factor, ``obstacles`` (O, 16) records, whether to include the
-    model's cups and stresses, and half the part's thickness (m, taken off the distance)."""
+    the cups' ``cup_safety`` factor, ``obstacles`` (O, 16) records (fmu.obstacles), whether
+    to include the model's cups and stresses, and half the part's thickness (m, taken off the
+    distance)."""
 
     gravity_m_s2: np.ndarray
     cup_safety: float
@@ -66,21 +67,6 @@ class CellData:
     cups: bool = True
     stress: bool = True
     half_thickness_m: float = 0.0
-
-
-def obstacle_records(obstacles) -> np.ndarray:
-    """(O, 16) records of jaxflex.cell obstacles: type 1 box (centre, half edges, rotation
-    row-major), type 2 half-space (normal, offset), type 3 triangle (its corners), one per
-    triangle of a mesh."""
-    rows = []
-    for o in obstacles:
-        if isinstance(o, Box):
-            rows.append([1, *o.centre_m, *(o.size_m / 2), *o.rotation.ravel()])
-        elif isinstance(o, HalfSpace):
-            rows.append([2, *o.normal, o.offset_m] + [0.0] * 11)
-        else:
-            rows.extend([3, *corners.ravel()] + [0.0] * 6 for corners in o.vertices[o.triangles])
-    return np.array(rows, dtype=np.float64).reshape(-1, 16)
 
 
 def _cell_parts(model: ModalModel, cell: CellData) -> tuple[list[np.ndarray], tuple[int, int, int]]:
@@ -135,7 +121,7 @@ def payload_values(k: int, m: int, n: int, c: int, s: int, o: int, r: int) -> in
     """f64 values of the payload for the counts of the header (as jxf_core.c)."""
     count = 5 * m + 3 * (m + r) * k + 3 * k + 3 * n
     count += 5 * (c + s + o > 0) + (6 * c + 12 * c * m + 24 * c) + (12 * s * m + 24 * s)
-    return count + ((3 * k + 16 * o) if o else 0)
+    return count + ((3 * k + RECORD_VALUES * o) if o else 0)
 
 
 @dataclass(frozen=True)
@@ -234,6 +220,12 @@ def decode_resource(data: bytes, *, source: str = "resource") -> ResourceData:
     elif dt_s != 0.0:
         raise ModelFileError(f"{source}: no trajectory but a sample step of {dt_s!r} s (need 0)")
     values = np.frombuffer(data, "<f8", count=expected // 8, offset=HEADER.size)
+    if o:  # the records end the payload
+        unknown = unknown_codes(values[-RECORD_VALUES * o :].reshape(o, RECORD_VALUES))
+        if unknown:
+            raise ModelFileError(
+                f"{source}: obstacle kind code(s) {unknown} (allowed: {allowed_kinds()})"
+            )
     sizes = [m, m, 3 * m, 3 * (m + r) * k, 3 * k, 3 * n]
     freq, zeta, gamma, shapes, points, traj = np.split(values[: sum(sizes)], np.cumsum(sizes)[:-1])
     shapes = np.transpose(shapes.reshape(m + r, 3, k), (2, 1, 0))

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from fmu import obstacles
 from jaxflex.model_file import VALUE_RANGES
 
 RESOURCE_FILE = "jaxflex_model.bin"
@@ -234,6 +235,7 @@ def config_header(
         f"#define JXF_RANGE_{name.upper()} {float(low)!r}, {float(high)!r}"
         for name, (low, high) in VALUE_RANGES.items()
     ]
+    lines += obstacles.config_lines()  # the kinds of obstacle records (fmu.obstacles)
     lines += [f"#define JXF_VR_{v.macro} {v.vr}u" for v in variables]
     table = ", ".join(f'{{{v.vr}u, "{v.name}"}}' for v in variables)
     lines += [f"#define JXF_VARIABLE_TABLE {{{table}}}", "struct jxf_model;"]

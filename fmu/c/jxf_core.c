@@ -34,7 +34,7 @@
  *                       normals (C, 3), radii (C), holding forces (C), friction (C),
  *                       Q (6C, M), V (6C, M), A (6C, 3), at rest (6C); stresses: Q (6S, M),
  *                       V (6S, M), A (6S, 3), at rest (6S); obstacles: points at rest (K, 3),
- *                       records (O, 16)
+ *                       records (O, 16: fmu/obstacles.py, jxf_cell.c)
  *   end u32 CRC-32 (IEEE, as zlib) of everything before it, u32 0
  * fmu/resource.py writes the same layout. */
 #define JXF_MAGIC "JXFLXFMU"
@@ -197,7 +197,7 @@ static uint64_t payload_values(uint64_t K, uint64_t M, uint64_t N, uint64_t C, u
     if (C + S + O > 0) count += 5u;
     if (C > 0) count += 6u * C + 12u * C * M + 24u * C;
     if (S > 0) count += 12u * S * M + 24u * S;
-    if (O > 0) count += 3u * K + 16u * O;
+    if (O > 0) count += 3u * K + (uint64_t)JXF_OBSTACLE_VALUES * O;
     return count;
 }
 
@@ -419,7 +419,8 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
         !in_range(m, name, "participation factor", m->gamma, 3 * (size_t)M, JXF_RANGE_GAMMA) ||
         !in_range(m, name, "mode shape value", m->shapes, 3 * (size_t)(M + R) * K,
                   JXF_RANGE_SHAPES) ||
-        !in_range(m, name, "point coordinate", m->points, 3 * (size_t)K, JXF_RANGE_POINTS))
+        !in_range(m, name, "point coordinate", m->points, 3 * (size_t)K, JXF_RANGE_POINTS) ||
+        jxf_check_obstacles(m, name) != 0)
         return -1;
     for (mode = 0; mode < M; ++mode) {
         if (!(m->zeta[mode] >= 0.0 && m->zeta[mode] < 1.0)) {

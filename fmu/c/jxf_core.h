@@ -100,6 +100,9 @@ struct jxf_model {
 double jxf_cup_utilisation(const jxf_model *m, int c);
 double jxf_von_mises(const jxf_model *m, int s);
 double jxf_point_distance(const jxf_model *m, int k);
+/* 0 if every obstacle record has a kind of the table (fmu/obstacles.py), else -1 after
+ * logging the first that has not (`name`: the resource file, for the message). */
+int jxf_check_obstacles(const jxf_model *m, const char *name);
 
 /* Format a message and send it to the model's logger (printf-style). */
 void jxf_log(const jxf_model *m, int level, const char *format, ...);
