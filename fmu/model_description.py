@@ -8,7 +8,8 @@ from datetime import UTC, datetime
 
 import jaxflex
 from fmu.build import compiled_files
-from fmu.variables import Variable, available_data, input_description, variables_for
+from fmu.resource import Counts
+from fmu.variables import DIMENSIONS, Variable, input_description, variables_for
 
 LOG_CATEGORIES = (
     ("logStatusError", "Errors: bad inputs or parameters, missing or corrupt resources"),
@@ -32,24 +33,17 @@ class Description:
     model_identifier: str
     token: str
     description: str
-    n_points: int
-    n_modes: int
-    n_trajectory: int
+    counts: Counts
     threshold_m: float
     damping_scale: float
     damping_scale_max: float
     start_time_s: float
     stop_time_s: float
     step_s: float
-    n_cups: int = 0
-    n_stress: int = 0
-    n_obstacles: int = 0
 
     def size(self, dim) -> int:
         """The size of an array dimension of fmu.variables."""
-        if isinstance(dim, int):
-            return dim
-        return {"points": self.n_points, "cups": self.n_cups, "stress_points": self.n_stress}[dim]
+        return dim if isinstance(dim, int) else getattr(self.counts, DIMENSIONS[dim])
 
 
 def _fmt(x: float) -> str:
@@ -218,8 +212,7 @@ def _to_text(root: ET.Element) -> str:
 
 def model_description(d: Description) -> str:
     """modelDescription.xml text for the FMI version in ``d``."""
-    available = available_data(d.n_cups, d.n_stress, d.n_obstacles)
-    variables = variables_for(d.fmi_version, d.n_trajectory > 0, available)
+    variables = variables_for(d.fmi_version, d.counts.trajectory > 0, d.counts.available())
     build = _fmi2 if d.fmi_version == 2 else _fmi3
     return _to_text(build(d, variables))
 

@@ -55,6 +55,27 @@ TRAJECTORY_STEP_RANGE_S = (1e-6, 1e3)
 
 
 @dataclass(frozen=True)
+class Counts:
+    """The sizes of one export, stated once for the resource header, ``jxf_config.h``,
+    modelDescription.xml and the export's result: K ``points``, M ``modes``, N
+    ``trajectory`` samples, C ``cups``, S ``stress`` points, O ``obstacles`` records and R
+    ``static``-residual coordinates (3 or 0)."""
+
+    points: int
+    modes: int
+    trajectory: int = 0
+    cups: int = 0
+    stress: int = 0
+    obstacles: int = 0
+    static: int = 0
+
+    def available(self) -> frozenset[str]:
+        """Which optional groups of variables ("cups", "stress", "obstacles") exist."""
+        groups = (("cups", self.cups), ("stress", self.stress), ("obstacles", self.obstacles))
+        return frozenset(name for name, count in groups if count > 0)
+
+
+@dataclass(frozen=True)
 class CellData:
     """What the FMU needs for the cell's outputs: ``gravity_m_s2`` (3,) in the model's frame,
     the cups' ``cup_safety`` factor, ``obstacles`` (O, 16) records (fmu.obstacles), whether
@@ -69,12 +90,27 @@ class CellData:
     half_thickness_m: float = 0.0
 
 
-def _cell_parts(model: ModalModel, cell: CellData) -> tuple[list[np.ndarray], tuple[int, int, int]]:
-    """The cell part of the payload and the counts (C, S, O)."""
-    cups = model.cups if cell.cups else None
-    stress = model.stress if cell.stress else None
-    if cups is None and stress is None and len(cell.obstacles) == 0:
-        return [], (0, 0, 0)
+def resource_counts(model: ModalModel, acc: np.ndarray | None, cell: CellData | None) -> Counts:
+    """The counts of the resource of ``model`` with the trajectory ``acc`` and ``cell``."""
+    with_cups = cell is not None and cell.cups and model.cups is not None
+    with_stress = cell is not None and cell.stress and model.stress is not None
+    return Counts(
+        points=model.n_points,
+        modes=model.n_modes,
+        trajectory=0 if acc is None else int(np.shape(acc)[0]),
+        cups=model.cups.n_cups if with_cups else 0,
+        stress=model.stress.n_points if with_stress else 0,
+        obstacles=0 if cell is None else len(cell.obstacles),
+        static=static_count(model),
+    )
+
+
+def _cell_parts(model: ModalModel, cell: CellData, counts: Counts) -> list[np.ndarray]:
+    """The cell part of the payload."""
+    cups = model.cups if counts.cups else None
+    stress = model.stress if counts.stress else None
+    if cups is None and stress is None and counts.obstacles == 0:
+        return []
     gravity = np.asarray(cell.gravity_m_s2, "<f8")
     parts = [gravity, np.array([cell.cup_safety, cell.half_thickness_m], "<f8")]
     if cups is not None:
@@ -87,15 +123,10 @@ def _cell_parts(model: ModalModel, cell: CellData) -> tuple[list[np.ndarray], tu
         ]
     if stress is not None:
         parts += _output_maps(stress.stress, gravity)
-    if len(cell.obstacles):
+    if counts.obstacles:
         rest = np.asarray(model.points) + gravity_offset(model, cell.gravity_m_s2)
         parts += [np.asarray(rest, "<f8"), np.asarray(cell.obstacles, "<f8")]
-    counts = (
-        0 if cups is None else cups.n_cups,
-        0 if stress is None else stress.n_points,
-        len(cell.obstacles),
-    )
-    return parts, counts
+    return parts
 
 
 def _output_maps(outputs, gravity: np.ndarray) -> list[np.ndarray]:
@@ -163,8 +194,8 @@ def encode_resource(
         raise ValueError(f"token: at most {TOKEN_BYTES - 1} ASCII characters, got {token!r}")
     if acc is not None:
         check_trajectory_step(dt_s, InputError, "trajectory")
-    n_traj = 0 if acc is None else int(np.shape(acc)[0])
-    extra, counts = _cell_parts(model, cell) if cell is not None else ([], (0, 0, 0))
+    counts = resource_counts(model, acc, cell)
+    extra = _cell_parts(model, cell, counts) if cell is not None else []
     parts = [
         np.asarray(model.freq_hz, "<f8"),
         np.asarray(model.zeta, "<f8"),
@@ -181,15 +212,15 @@ def encode_resource(
         FORMAT_VERSION,
         HEADER.size,
         raw_token,
-        model.n_points,
-        model.n_modes,
-        n_traj,
-        counts[0],
+        counts.points,
+        counts.modes,
+        counts.trajectory,
+        counts.cups,
         float(dt_s) if acc is not None else 0.0,
         len(payload),
-        counts[1],
-        counts[2],
-        static_count(model),
+        counts.stress,
+        counts.obstacles,
+        counts.static,
     )
     body = header + payload
     return body + _TRAILER.pack(zlib.crc32(body), 0)
