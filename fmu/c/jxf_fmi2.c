@@ -133,11 +133,7 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
     return fmi2OK;
 }
 
-/* Generated definitions: unused parameters are part of the standard's signatures. */
-#if defined(__GNUC__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#endif
+JXF_SIGNATURES_BEGIN
 
 #define NO_VARIABLES(name, ...)                                                       \
     fmi2Status name(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,      \
@@ -231,6 +227,4 @@ UNSUPPORTED(fmi2GetEventIndicators, ME, fmi2Real indicators[], size_t ni)
 UNSUPPORTED(fmi2GetContinuousStates, ME, fmi2Real x[], size_t nx)
 UNSUPPORTED(fmi2GetNominalsOfContinuousStates, ME, fmi2Real nominals[], size_t nx)
 
-#if defined(__GNUC__)
-#pragma GCC diagnostic pop
-#endif
+JXF_SIGNATURES_END

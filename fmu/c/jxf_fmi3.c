@@ -135,11 +135,7 @@ fmi3Status fmi3SetBoolean(fmi3Instance instance, const fmi3ValueReference valueR
     return fmi3OK;
 }
 
-/* Generated definitions: unused parameters are part of the standard's signatures. */
-#if defined(__GNUC__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#endif
+JXF_SIGNATURES_BEGIN
 
 #define NO_VARIABLES(name, ...)                                                       \
     fmi3Status name(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, \
@@ -287,6 +283,4 @@ UNSUPPORTED(fmi3GetNumberOfContinuousStates, ME, size_t *n)
 UNSUPPORTED(fmi3ActivateModelPartition, "scheduled execution", fmi3ValueReference clock,
             fmi3Float64 activation_time)
 
-#if defined(__GNUC__)
-#pragma GCC diagnostic pop
-#endif
+JXF_SIGNATURES_END

@@ -120,6 +120,17 @@ int jxf_set_input_rates(jxf_instance *inst, const char *function, const unsigned
 /* Booleans (whose C type differs between FMI 2.0 and 3.0) are read and written by the
  * bindings with jxf_model_get_bool / jxf_model_set_bool after jxf_allowed. */
 
+/* Around the bindings' generated definitions: unused parameters are part of the standard's
+ * signatures. */
+#if defined(__GNUC__)
+#define JXF_SIGNATURES_BEGIN \
+    _Pragma("GCC diagnostic push") _Pragma("GCC diagnostic ignored \"-Wunused-parameter\"")
+#define JXF_SIGNATURES_END _Pragma("GCC diagnostic pop")
+#else
+#define JXF_SIGNATURES_BEGIN
+#define JXF_SIGNATURES_END
+#endif
+
 #ifdef __cplusplus
 }
 #endif
