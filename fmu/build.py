@@ -53,6 +53,28 @@ class BuildReport:
     skipped: dict[str, str] = field(default_factory=dict)
     messages: str = ""
 
+    def written(self) -> dict:
+        """The fields of :class:`WrittenFmu` this report fills."""
+        return {
+            "platforms": tuple(self.platforms),
+            "skipped": dict(self.skipped),
+            "compiler_messages": self.messages,
+        }
+
+
+@dataclass(frozen=True, kw_only=True)
+class WrittenFmu:
+    """An FMU written (the part's or the trajectory source's). ``platforms`` are folder
+    names under binaries/; ``skipped`` maps platforms that were not built to the reason."""
+
+    fmu_path: Path
+    fmi_version: int
+    token: str
+    model_identifier: str
+    platforms: tuple[str, ...]
+    skipped: dict[str, str] = field(default_factory=dict)
+    compiler_messages: str = ""
+
 
 def fmi_headers() -> Path:
     """Directory with the FMI 2.0 and 3.0 C headers (shipped with fmpy)."""

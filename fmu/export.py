@@ -16,7 +16,7 @@ import re
 import shutil
 import tempfile
 import uuid
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +24,7 @@ import numpy as np
 
 from fmu.archive import zip_folder
 from fmu.build import C_DIR as _C_DIR
-from fmu.build import BuildReport, build_binaries, sources_for
+from fmu.build import BuildReport, WrittenFmu, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
 from fmu.obstacles import obstacle_records
 from fmu.resource import CellData, Counts, encode_resource, resource_counts
@@ -45,20 +45,13 @@ CASE_FORMAT = "jaxflex.fmu_case"
 _CASE_TIMES = ("cycle_time_s", "transfer_time_s", "settle_time_s")
 
 
-@dataclass(frozen=True)
-class ExportResult:
-    """What :func:`export_fmu` wrote. ``platforms`` are folder names under binaries/;
-    ``skipped`` maps platforms that were not built to the reason."""
+@dataclass(frozen=True, kw_only=True)
+class ExportResult(WrittenFmu):
+    """What :func:`export_fmu` wrote: the FMU (WrittenFmu), its counts and resource size,
+    and with a trajectory the files beside it and the case."""
 
-    fmu_path: Path
-    fmi_version: int
-    token: str
-    model_identifier: str
     counts: Counts
     resource_bytes: int
-    platforms: tuple[str, ...]
-    skipped: dict[str, str] = field(default_factory=dict)
-    compiler_messages: str = ""
     input_csv: Path | None = None
     case_json: Path | None = None
     case: dict[str, Any] | None = None
@@ -288,9 +281,7 @@ def export_fmu(
         model_identifier=ident,
         counts=counts,
         resource_bytes=len(resource),
-        platforms=tuple(built.platforms),
-        skipped=dict(built.skipped),
-        compiler_messages=built.messages,
+        **built.written(),
         input_csv=csv_path,
         case_json=json_path,
         case=case_out,

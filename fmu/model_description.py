@@ -136,26 +136,57 @@ def _after_interface(root: ET.Element, d: Description) -> ET.Element:
     return ET.SubElement(root, "ModelVariables")
 
 
+def cosimulation(
+    root: ET.Element,
+    fmi_version: int,
+    ident: str,
+    c_files: tuple[str, ...],
+    *,
+    output_derivatives: int,
+    interpolates_inputs: bool,
+) -> ET.Element:
+    """The CoSimulation element of a jaxflex FMU (the part's and the trajectory source's:
+    the same FMI bindings, so the same capabilities but for the output derivatives' order and
+    the FMI 2.0 input derivatives); FMI 2.0 lists the ``c_files`` as its SourceFiles."""
+    attrs = {
+        "modelIdentifier": ident,
+        "canHandleVariableCommunicationStepSize": "true",
+        "canBeInstantiatedOnlyOncePerProcess": "false",
+        "maxOutputDerivativeOrder": str(output_derivatives),
+    }
+    if fmi_version == 2:
+        attrs |= {
+            "needsExecutionTool": "false",
+            "canInterpolateInputs": "true" if interpolates_inputs else "false",
+            "canRunAsynchronuously": "false",
+            "canNotUseMemoryManagementFunctions": "true",
+            "canGetAndSetFMUstate": "false",
+            "canSerializeFMUstate": "false",
+            "providesDirectionalDerivative": "false",
+        }
+    else:
+        attrs |= {
+            "canGetAndSetFMUState": "false",
+            "canSerializeFMUState": "false",
+            "providesDirectionalDerivatives": "false",
+            "providesAdjointDerivatives": "false",
+            "providesIntermediateUpdate": "false",
+            "hasEventMode": "false",
+        }
+    element = ET.SubElement(root, "CoSimulation", attrs)
+    if fmi_version == 2:
+        files = ET.SubElement(element, "SourceFiles")
+        for name in c_files:
+            ET.SubElement(files, "File", name=name)
+    return element
+
+
 def _fmi2(d: Description, variables: list[Variable]) -> ET.Element:
     root = _root(d, "guid", numberOfEventIndicators="0")
-    cs = ET.SubElement(
-        root,
-        "CoSimulation",
-        modelIdentifier=d.model_identifier,
-        needsExecutionTool="false",
-        canHandleVariableCommunicationStepSize="true",
-        canInterpolateInputs="true",
-        maxOutputDerivativeOrder="0",
-        canRunAsynchronuously="false",
-        canBeInstantiatedOnlyOncePerProcess="false",
-        canNotUseMemoryManagementFunctions="true",
-        canGetAndSetFMUstate="false",
-        canSerializeFMUstate="false",
-        providesDirectionalDerivative="false",
-    )
-    files = ET.SubElement(cs, "SourceFiles")
-    for name in compiled_files(2):
-        ET.SubElement(files, "File", name=name)
+    cosimulation(
+        root, 2, d.model_identifier, compiled_files(2), output_derivatives=0,
+        interpolates_inputs=True,
+    )  # fmt: skip
     mv = _after_interface(root, d)
     for v in variables:
         sv = ET.SubElement(mv, "ScalarVariable", _variable_attributes(v, d))
@@ -174,20 +205,10 @@ def _fmi2(d: Description, variables: list[Variable]) -> ET.Element:
 
 def _fmi3(d: Description, variables: list[Variable]) -> ET.Element:
     root = _root(d, "instantiationToken")
-    ET.SubElement(
-        root,
-        "CoSimulation",
-        modelIdentifier=d.model_identifier,
-        canHandleVariableCommunicationStepSize="true",
-        canBeInstantiatedOnlyOncePerProcess="false",
-        canGetAndSetFMUState="false",
-        canSerializeFMUState="false",
-        providesDirectionalDerivatives="false",
-        providesAdjointDerivatives="false",
-        maxOutputDerivativeOrder="0",
-        providesIntermediateUpdate="false",
-        hasEventMode="false",
-    )
+    cosimulation(
+        root, 3, d.model_identifier, compiled_files(3), output_derivatives=0,
+        interpolates_inputs=False,
+    )  # fmt: skip
     mv = _after_interface(root, d)
     for v in variables:
         attrs = _variable_attributes(v, d)

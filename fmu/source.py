@@ -18,7 +18,7 @@ import os
 import tempfile
 import uuid
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -26,9 +26,9 @@ import numpy as np
 
 import jaxflex
 from fmu.archive import zip_folder
-from fmu.build import C_DIR, SOURCE_CORE, build_binaries, compiled_files, sources_for
+from fmu.build import C_DIR, SOURCE_CORE, WrittenFmu, build_binaries, compiled_files, sources_for
 from fmu.export import model_identifier
-from fmu.model_description import build_description
+from fmu.model_description import build_description, cosimulation
 from jaxflex.errors import InputError
 from jaxflex.profile import as_move
 
@@ -41,20 +41,13 @@ _OUTPUT_TEXT = (
 )
 
 
-@dataclass(frozen=True)
-class SourceResult:
-    """What :func:`export_source_fmu` wrote. ``platforms`` are folder names under binaries/;
-    ``skipped`` maps platforms that were not built to the reason."""
+@dataclass(frozen=True, kw_only=True)
+class SourceResult(WrittenFmu):
+    """What :func:`export_source_fmu` wrote: the FMU (WrittenFmu) playing ``n_samples``
+    samples every ``dt_s`` s."""
 
-    fmu_path: Path
-    fmi_version: int
-    token: str
-    model_identifier: str
     n_samples: int
     dt_s: float
-    platforms: tuple[str, ...]
-    skipped: dict[str, str] = field(default_factory=dict)
-    compiler_messages: str = ""
 
 
 def source_data_header(fmi_version: int, token: str, acc: np.ndarray, dt_s: float) -> str:
@@ -123,27 +116,10 @@ def source_model_description(
 ) -> str:
     """modelDescription.xml of the trajectory source (FMI 2.0 or 3.0)."""
     root = _root(fmi_version, token, ident, n_samples, dt_s)
-    capabilities = {
-        "modelIdentifier": ident,
-        "canHandleVariableCommunicationStepSize": "true",
-        "maxOutputDerivativeOrder": "1",
-        "canBeInstantiatedOnlyOncePerProcess": "false",
-    }
-    if fmi_version == 2:
-        cs = ET.SubElement(
-            root, "CoSimulation", capabilities, canNotUseMemoryManagementFunctions="true"
-        )
-        files = ET.SubElement(cs, "SourceFiles")
-        for name in compiled_files(2, SOURCE_CORE):
-            ET.SubElement(files, "File", name=name)
-    else:
-        ET.SubElement(
-            root,
-            "CoSimulation",
-            capabilities,
-            hasEventMode="false",
-            providesIntermediateUpdate="false",
-        )
+    cosimulation(
+        root, fmi_version, ident, compiled_files(fmi_version, SOURCE_CORE),
+        output_derivatives=1, interpolates_inputs=False,
+    )  # fmt: skip
     variables = _common(root, n_samples, dt_s)
     if fmi_version == 3:
         ET.SubElement(
@@ -238,7 +214,5 @@ def export_source_fmu(
         model_identifier=ident,
         n_samples=len(acc),
         dt_s=dt_s,
-        platforms=tuple(built.platforms),
-        skipped=dict(built.skipped),
-        compiler_messages=built.messages,
+        **built.written(),
     )
