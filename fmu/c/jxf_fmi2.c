@@ -195,22 +195,13 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
     fmi2Status name(fmi2Component c) {                                                \
         return STATUS(jxf_unsupported(INST(c), #name " (" why ")"));                  \
     }
-#define NO_STATE "canGetAndSetFMUstate is false"
-#define NO_SERIAL "canSerializeFMUstate is false"
 #define ME "model exchange"
 
 UNSUPPORTED0(fmi2CancelStep, "doStep never returns fmi2Pending")
 UNSUPPORTED(fmi2GetStatus, "doStep is synchronous", const fmi2StatusKind s, fmi2Status *value)
 UNSUPPORTED(fmi2GetIntegerStatus, "no such status", const fmi2StatusKind s, fmi2Integer *value)
 UNSUPPORTED(fmi2GetStringStatus, "no such status", const fmi2StatusKind s, fmi2String *value)
-UNSUPPORTED(fmi2GetFMUstate, NO_STATE, fmi2FMUstate *state)
-UNSUPPORTED(fmi2SetFMUstate, NO_STATE, fmi2FMUstate state)
-UNSUPPORTED(fmi2FreeFMUstate, NO_STATE, fmi2FMUstate *state)
-UNSUPPORTED(fmi2SerializedFMUstateSize, NO_SERIAL, fmi2FMUstate state, size_t *size)
-UNSUPPORTED(fmi2SerializeFMUstate, NO_SERIAL, fmi2FMUstate state, fmi2Byte serialized[],
-            size_t size)
-UNSUPPORTED(fmi2DeSerializeFMUstate, NO_SERIAL, const fmi2Byte serialized[], size_t size,
-            fmi2FMUstate *state)
+JXF_NO_FMU_STATE(fmi2, s, fmi2DeSerializeFMUstate)
 UNSUPPORTED(fmi2GetDirectionalDerivative, "providesDirectionalDerivative is false",
             const fmi2ValueReference unknown[], size_t n_unknown,
             const fmi2ValueReference known[], size_t n_known, const fmi2Real seed[],

@@ -222,8 +222,6 @@ fmi3Instance fmi3InstantiateScheduledExecution(
         return STATUS(jxf_unsupported(INST(instance), #name " (" why ")"));           \
     }
 #define NO_EVENTS "hasEventMode is false"
-#define NO_STATE "canGetAndSetFMUState is false"
-#define NO_SERIAL "canSerializeFMUState is false"
 #define NO_CLOCKS "no clocks"
 #define ME "model exchange"
 #define VRS const fmi3ValueReference vr[], size_t nvr
@@ -238,14 +236,7 @@ UNSUPPORTED(fmi3GetNumberOfVariableDependencies, "not provided", fmi3ValueRefere
 UNSUPPORTED(fmi3GetVariableDependencies, "not provided", fmi3ValueReference dependent,
             size_t element_dep[], fmi3ValueReference independents[], size_t element_ind[],
             fmi3DependencyKind kinds[], size_t n)
-UNSUPPORTED(fmi3GetFMUState, NO_STATE, fmi3FMUState *state)
-UNSUPPORTED(fmi3SetFMUState, NO_STATE, fmi3FMUState state)
-UNSUPPORTED(fmi3FreeFMUState, NO_STATE, fmi3FMUState *state)
-UNSUPPORTED(fmi3SerializedFMUStateSize, NO_SERIAL, fmi3FMUState state, size_t *size)
-UNSUPPORTED(fmi3SerializeFMUState, NO_SERIAL, fmi3FMUState state, fmi3Byte serialized[],
-            size_t size)
-UNSUPPORTED(fmi3DeserializeFMUState, NO_SERIAL, const fmi3Byte serialized[], size_t size,
-            fmi3FMUState *state)
+JXF_NO_FMU_STATE(fmi3, S, fmi3DeserializeFMUState)
 UNSUPPORTED(fmi3GetDirectionalDerivative, "providesDirectionalDerivative is false",
             const fmi3ValueReference unknowns[], size_t n_unknowns,
             const fmi3ValueReference knowns[], size_t n_knowns, const fmi3Float64 seed[],

@@ -131,6 +131,26 @@ int jxf_set_input_rates(jxf_instance *inst, const char *function, const unsigned
 #define JXF_SIGNATURES_END
 #endif
 
+/* The FMU-state functions, unsupported in both versions (canGetAndSetFMUstate and
+ * canSerializeFMUstate are false): the same six functions, written once for the bindings'
+ * UNSUPPORTED(name, why, parameters...). P is the prefix (fmi2, fmi3), S the case of the "s"
+ * of "FMUstate" in the version's names (s, S), DESERIALIZE the deserializing function. */
+#define JXF_PASTE4(a, b, c, d) a##b##c##d
+#define JXF_STATE(P, S) JXF_PASTE4(P, FMU, S, tate)
+#define JXF_NO_FMU_STATE(P, S, DESERIALIZE)                                                 \
+    UNSUPPORTED(JXF_PASTE4(P, GetFMU, S, tate), "canGetAndSetFMU" #S "tate is false",       \
+                JXF_STATE(P, S) * state)                                                    \
+    UNSUPPORTED(JXF_PASTE4(P, SetFMU, S, tate), "canGetAndSetFMU" #S "tate is false",       \
+                JXF_STATE(P, S) state)                                                      \
+    UNSUPPORTED(JXF_PASTE4(P, FreeFMU, S, tate), "canGetAndSetFMU" #S "tate is false",      \
+                JXF_STATE(P, S) * state)                                                    \
+    UNSUPPORTED(JXF_PASTE4(P, SerializedFMU, S, tateSize), "canSerializeFMU" #S "tate is "  \
+                "false", JXF_STATE(P, S) state, size_t *size)                               \
+    UNSUPPORTED(JXF_PASTE4(P, SerializeFMU, S, tate), "canSerializeFMU" #S "tate is false", \
+                JXF_STATE(P, S) state, P##Byte serialized[], size_t size)                   \
+    UNSUPPORTED(DESERIALIZE, "canSerializeFMU" #S "tate is false",                          \
+                const P##Byte serialized[], size_t size, JXF_STATE(P, S) * state)
+
 #ifdef __cplusplus
 }
 #endif
