@@ -15,8 +15,12 @@ import fmpy
 from jaxflex.errors import JaxflexError
 
 C_DIR = Path(__file__).resolve().parent / "c"
-CORE_FILES = ("jxf_core.h", "jxf_text.h", "jxf_core.c", "jxf_values.c", "jxf_cell.c")
-GLUE_FILE = {2: "jxf_fmi2.c", 3: "jxf_fmi3.c"}
+# every FMU: the instance (life cycle, checks, logging) and one FMI binding per version, over
+# the core interface jxf_model_* (fmu/c/jxf_fmu.h) that one of the cores implements
+INSTANCE_FILES = ("jxf_fmu.h", "jxf_text.h", "jxf_fmu.c")
+BINDING_FILE = {2: "jxf_fmi2.c", 3: "jxf_fmi3.c"}
+PART_CORE = ("jxf_core.h", "jxf_core.c", "jxf_values.c", "jxf_cell.c")
+SOURCE_CORE = ("jxf_source.c",)  # the trajectory source (fmu.source)
 CFLAGS = ("-std=c99", "-O2", "-fvisibility=hidden", "-Wall", "-Wextra")
 WINDOWS_COMPILER = "x86_64-w64-mingw32-gcc"
 _MINGW_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64"
@@ -49,6 +53,28 @@ class BuildReport:
     skipped: dict[str, str] = field(default_factory=dict)
     messages: str = ""
 
+    def written(self) -> dict:
+        """The fields of :class:`WrittenFmu` this report fills."""
+        return {
+            "platforms": tuple(self.platforms),
+            "skipped": dict(self.skipped),
+            "compiler_messages": self.messages,
+        }
+
+
+@dataclass(frozen=True, kw_only=True)
+class WrittenFmu:
+    """An FMU written (the part's or the trajectory source's). ``platforms`` are folder
+    names under binaries/; ``skipped`` maps platforms that were not built to the reason."""
+
+    fmu_path: Path
+    fmi_version: int
+    token: str
+    model_identifier: str
+    platforms: tuple[str, ...]
+    skipped: dict[str, str] = field(default_factory=dict)
+    compiler_messages: str = ""
+
 
 def fmi_headers() -> Path:
     """Directory with the FMI 2.0 and 3.0 C headers (shipped with fmpy)."""
@@ -79,9 +105,15 @@ def windows_target() -> Target | None:
     return Target("win64", "x86_64-windows", WINDOWS_COMPILER, ".dll", flags)
 
 
-def sources_for(fmi_version: int) -> tuple[str, ...]:
-    """C files copied into the FMU's sources/ folder (besides the generated jxf_config.h)."""
-    return (*CORE_FILES, GLUE_FILE[fmi_version])
+def sources_for(fmi_version: int, core: tuple[str, ...] = PART_CORE) -> tuple[str, ...]:
+    """C files of an FMU with ``core`` (the part's, or SOURCE_CORE) copied into its sources/
+    folder (besides the generated header: jxf_config.h or jxf_source_data.h)."""
+    return (*core, *INSTANCE_FILES, BINDING_FILE[fmi_version])
+
+
+def compiled_files(fmi_version: int, core: tuple[str, ...] = PART_CORE) -> tuple[str, ...]:
+    """The C files of :func:`sources_for` that are compiled (the headers are included)."""
+    return tuple(name for name in sources_for(fmi_version, core) if name.endswith(".c"))
 
 
 def compile_library(
@@ -98,7 +130,7 @@ def compile_library(
     if shutil.which(target.compiler) is None:
         raise FmuBuildError(f"C compiler {target.compiler!r} not found on PATH (install gcc)")
     out_file.parent.mkdir(parents=True, exist_ok=True)
-    names = c_files or [name for name in sources_for(fmi_version) if name.endswith(".c")]
+    names = c_files or compiled_files(fmi_version)
     c_files = [str(sources_dir / name) for name in names]
     cmd = [
         target.compiler,

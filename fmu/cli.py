@@ -198,18 +198,18 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
     )
     print(
         f"wrote {result.fmu_path}: FMI {result.fmi_version}.0 co-simulation, "
-        f"{result.n_points} points, {result.n_modes} modes, resource "
+        f"{result.counts.points} points, {result.counts.modes} modes, resource "
         f"{result.resource_bytes / 1e6:.2f} MB"
     )
-    if result.n_cups or result.n_stress or result.n_obstacles:
+    if result.counts.available():
         print(
-            f"cell outputs: {result.n_cups} cups, {result.n_stress} stress points, "
-            f"{result.n_obstacles} obstacle records"
+            f"cell outputs: {result.counts.cups} cups, {result.counts.stress} stress points, "
+            f"{result.counts.obstacles} obstacle records"
         )
     _print_binaries(result.fmu_path.name, result.platforms, result.skipped)
     if result.case is not None:
         print(
-            f"embedded move: {result.n_trajectory} samples, dt {result.case['dt_s']:g} s, "
+            f"embedded move: {result.counts.trajectory} samples, dt {result.case['dt_s']:g} s, "
             f"cycle time {result.case['cycle_time_s']:.3f} s at threshold "
             f"{threshold_m * 1e3:g} mm; wrote {result.input_csv.name}, {result.case_json.name}"
         )
@@ -238,9 +238,9 @@ def _export_ssp(args, model, trajectory, threshold_m, case, windows) -> int:
     )
     part, source = result.part, result.source
     print(
-        f"wrote {result.ssp_path}: SSP 1.0, part FMU ({part.n_points} points, {part.n_modes} "
-        f"modes) driven by a trajectory source FMU ({source.n_samples} samples every "
-        f"{source.dt_s:g} s), FMI {result.fmi_version}.0, parameters "
+        f"wrote {result.ssp_path}: SSP 1.0, part FMU ({part.counts.points} points, "
+        f"{part.counts.modes} modes) driven by a trajectory source FMU ({source.n_samples} "
+        f"samples every {source.dt_s:g} s), FMI {result.fmi_version}.0, parameters "
         + ", ".join(f"{k} = {v:g}" for k, v in result.parameters.items())
     )
     _print_binaries("part.fmu", result.part.platforms, result.part.skipped)

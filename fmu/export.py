@@ -16,7 +16,7 @@ import re
 import shutil
 import tempfile
 import uuid
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -24,9 +24,10 @@ import numpy as np
 
 from fmu.archive import zip_folder
 from fmu.build import C_DIR as _C_DIR
-from fmu.build import BuildReport, build_binaries, sources_for
+from fmu.build import BuildReport, WrittenFmu, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
-from fmu.resource import CellData, encode_resource, obstacle_records, static_count
+from fmu.obstacles import obstacle_records
+from fmu.resource import CellData, Counts, encode_resource, resource_counts
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
 from jaxflex.atomic import write_text_atomic
 from jaxflex.cell import DEFAULT_GRAVITY_M_S2, Cell
@@ -44,28 +45,16 @@ CASE_FORMAT = "jaxflex.fmu_case"
 _CASE_TIMES = ("cycle_time_s", "transfer_time_s", "settle_time_s")
 
 
-@dataclass(frozen=True)
-class ExportResult:
-    """What :func:`export_fmu` wrote. ``platforms`` are folder names under binaries/;
-    ``skipped`` maps platforms that were not built to the reason."""
+@dataclass(frozen=True, kw_only=True)
+class ExportResult(WrittenFmu):
+    """What :func:`export_fmu` wrote: the FMU (WrittenFmu), its counts and resource size,
+    and with a trajectory the files beside it and the case."""
 
-    fmu_path: Path
-    fmi_version: int
-    token: str
-    model_identifier: str
-    n_points: int
-    n_modes: int
-    n_trajectory: int
+    counts: Counts
     resource_bytes: int
-    platforms: tuple[str, ...]
-    skipped: dict[str, str] = field(default_factory=dict)
-    compiler_messages: str = ""
     input_csv: Path | None = None
     case_json: Path | None = None
     case: dict[str, Any] | None = None
-    n_cups: int = 0
-    n_stress: int = 0
-    n_obstacles: int = 0
 
 
 def model_identifier(path: Path) -> str:
@@ -236,16 +225,13 @@ def export_fmu(
         stress=stress,
         half_thickness_m=_half_thickness(model, cell),
     )
-    n_cups = model.cups.n_cups if model.cups is not None else 0
-    n_stress = model.stress.n_points if stress else 0
-    n_obstacles = len(cell_data.obstacles)
     acc, dt_s = _check_trajectory(trajectory)
+    counts = resource_counts(model, acc, cell_data)
     if case is not None and acc is None:
         raise InputError("case: describes a trajectory, so it needs trajectory=(acc, dt_s)")
     summary = _case_summary(model, acc, dt_s, threshold_m, case) if acc is not None else None
     ident = model_identifier(path)
     token = "{" + str(uuid.uuid4()) + "}"
-    n_traj = 0 if acc is None else int(acc.shape[0])
     zeta_max = float(np.max(model.zeta))
     desc = Description(
         fmi_version=fmi_version,
@@ -255,31 +241,20 @@ def export_fmu(
         description=description
         or f"Flexible sheet-metal part carried by a robot: exact modal response of "
         f"{model.n_modes} modes at {model.n_points} points (jaxflex)",
-        n_points=model.n_points,
-        n_modes=model.n_modes,
-        n_trajectory=n_traj,
+        counts=counts,
         threshold_m=threshold_m,
         damping_scale=damping_scale,
         damping_scale_max=(1.0 / zeta_max) * (1 - 1e-12) if zeta_max > 0 else 1e6,
         start_time_s=0.0,
         stop_time_s=_stop_time(acc, dt_s, summary),
         step_s=dt_s or DEFAULT_STEP_S,
-        n_cups=n_cups,
-        n_stress=n_stress,
-        n_obstacles=n_obstacles,
     )
     config = config_header(
         fmi_version=fmi_version,
         token=token,
-        n_points=model.n_points,
-        n_modes=model.n_modes,
-        n_trajectory=n_traj,
+        counts=counts,
         threshold_m=threshold_m,
         damping_scale=damping_scale,
-        n_cups=n_cups,
-        n_stress=n_stress,
-        n_obstacles=n_obstacles,
-        n_static=static_count(model),
     )
     resource = encode_resource(model, token, acc, dt_s, cell_data)
     with tempfile.TemporaryDirectory(prefix="jaxflex_fmu_") as tmp:
@@ -293,8 +268,8 @@ def export_fmu(
         "fmu": path.name,
         "fmi_version": fmi_version,
         "instantiation_token": token,
-        "n_points": model.n_points,
-        "n_modes": model.n_modes,
+        "n_points": counts.points,
+        "n_modes": counts.modes,
     }
     csv_path = json_path = case_out = None
     if acc is not None:
@@ -304,16 +279,9 @@ def export_fmu(
         fmi_version=fmi_version,
         token=token,
         model_identifier=ident,
-        n_points=model.n_points,
-        n_modes=model.n_modes,
-        n_trajectory=n_traj,
+        counts=counts,
         resource_bytes=len(resource),
-        n_cups=n_cups,
-        n_stress=n_stress,
-        n_obstacles=n_obstacles,
-        platforms=tuple(built.platforms),
-        skipped=dict(built.skipped),
-        compiler_messages=built.messages,
+        **built.written(),
         input_csv=csv_path,
         case_json=json_path,
         case=case_out,

@@ -7,8 +7,9 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 
 import jaxflex
-from fmu.build import sources_for
-from fmu.variables import Variable, available_data, input_description, variables_for
+from fmu.build import compiled_files
+from fmu.resource import Counts
+from fmu.variables import DIMENSIONS, Variable, input_description, variables_for
 
 LOG_CATEGORIES = (
     ("logStatusError", "Errors: bad inputs or parameters, missing or corrupt resources"),
@@ -32,29 +33,17 @@ class Description:
     model_identifier: str
     token: str
     description: str
-    n_points: int
-    n_modes: int
-    n_trajectory: int
+    counts: Counts
     threshold_m: float
     damping_scale: float
     damping_scale_max: float
     start_time_s: float
     stop_time_s: float
     step_s: float
-    n_cups: int = 0
-    n_stress: int = 0
-    n_obstacles: int = 0
 
     def size(self, dim) -> int:
         """The size of an array dimension of fmu.variables."""
-        if isinstance(dim, int):
-            return dim
-        return {"points": self.n_points, "cups": self.n_cups, "stress_points": self.n_stress}[dim]
-
-
-def _c_files(fmi_version: int) -> list[str]:
-    """The C files compiled into the FMU (the headers are only included)."""
-    return [name for name in sources_for(fmi_version) if name.endswith(".c")]
+        return dim if isinstance(dim, int) else getattr(self.counts, DIMENSIONS[dim])
 
 
 def _fmt(x: float) -> str:
@@ -147,26 +136,57 @@ def _after_interface(root: ET.Element, d: Description) -> ET.Element:
     return ET.SubElement(root, "ModelVariables")
 
 
+def cosimulation(
+    root: ET.Element,
+    fmi_version: int,
+    ident: str,
+    c_files: tuple[str, ...],
+    *,
+    output_derivatives: int,
+    interpolates_inputs: bool,
+) -> ET.Element:
+    """The CoSimulation element of a jaxflex FMU (the part's and the trajectory source's:
+    the same FMI bindings, so the same capabilities but for the output derivatives' order and
+    the FMI 2.0 input derivatives); FMI 2.0 lists the ``c_files`` as its SourceFiles."""
+    attrs = {
+        "modelIdentifier": ident,
+        "canHandleVariableCommunicationStepSize": "true",
+        "canBeInstantiatedOnlyOncePerProcess": "false",
+        "maxOutputDerivativeOrder": str(output_derivatives),
+    }
+    if fmi_version == 2:
+        attrs |= {
+            "needsExecutionTool": "false",
+            "canInterpolateInputs": "true" if interpolates_inputs else "false",
+            "canRunAsynchronuously": "false",
+            "canNotUseMemoryManagementFunctions": "true",
+            "canGetAndSetFMUstate": "false",
+            "canSerializeFMUstate": "false",
+            "providesDirectionalDerivative": "false",
+        }
+    else:
+        attrs |= {
+            "canGetAndSetFMUState": "false",
+            "canSerializeFMUState": "false",
+            "providesDirectionalDerivatives": "false",
+            "providesAdjointDerivatives": "false",
+            "providesIntermediateUpdate": "false",
+            "hasEventMode": "false",
+        }
+    element = ET.SubElement(root, "CoSimulation", attrs)
+    if fmi_version == 2:
+        files = ET.SubElement(element, "SourceFiles")
+        for name in c_files:
+            ET.SubElement(files, "File", name=name)
+    return element
+
+
 def _fmi2(d: Description, variables: list[Variable]) -> ET.Element:
     root = _root(d, "guid", numberOfEventIndicators="0")
-    cs = ET.SubElement(
-        root,
-        "CoSimulation",
-        modelIdentifier=d.model_identifier,
-        needsExecutionTool="false",
-        canHandleVariableCommunicationStepSize="true",
-        canInterpolateInputs="true",
-        maxOutputDerivativeOrder="0",
-        canRunAsynchronuously="false",
-        canBeInstantiatedOnlyOncePerProcess="false",
-        canNotUseMemoryManagementFunctions="true",
-        canGetAndSetFMUstate="false",
-        canSerializeFMUstate="false",
-        providesDirectionalDerivative="false",
-    )
-    files = ET.SubElement(cs, "SourceFiles")
-    for name in _c_files(2):
-        ET.SubElement(files, "File", name=name)
+    cosimulation(
+        root, 2, d.model_identifier, compiled_files(2), output_derivatives=0,
+        interpolates_inputs=True,
+    )  # fmt: skip
     mv = _after_interface(root, d)
     for v in variables:
         sv = ET.SubElement(mv, "ScalarVariable", _variable_attributes(v, d))
@@ -185,20 +205,10 @@ def _fmi2(d: Description, variables: list[Variable]) -> ET.Element:
 
 def _fmi3(d: Description, variables: list[Variable]) -> ET.Element:
     root = _root(d, "instantiationToken")
-    ET.SubElement(
-        root,
-        "CoSimulation",
-        modelIdentifier=d.model_identifier,
-        canHandleVariableCommunicationStepSize="true",
-        canBeInstantiatedOnlyOncePerProcess="false",
-        canGetAndSetFMUState="false",
-        canSerializeFMUState="false",
-        providesDirectionalDerivatives="false",
-        providesAdjointDerivatives="false",
-        maxOutputDerivativeOrder="0",
-        providesIntermediateUpdate="false",
-        hasEventMode="false",
-    )
+    cosimulation(
+        root, 3, d.model_identifier, compiled_files(3), output_derivatives=0,
+        interpolates_inputs=False,
+    )  # fmt: skip
     mv = _after_interface(root, d)
     for v in variables:
         attrs = _variable_attributes(v, d)
@@ -223,8 +233,7 @@ def _to_text(root: ET.Element) -> str:
 
 def model_description(d: Description) -> str:
     """modelDescription.xml text for the FMI version in ``d``."""
-    available = available_data(d.n_cups, d.n_stress, d.n_obstacles)
-    variables = variables_for(d.fmi_version, d.n_trajectory > 0, available)
+    variables = variables_for(d.fmi_version, d.counts.trajectory > 0, d.counts.available())
     build = _fmi2 if d.fmi_version == 2 else _fmi3
     return _to_text(build(d, variables))
 
@@ -235,7 +244,7 @@ def build_description(model_identifier: str, source_files: tuple[str, ...] | Non
     root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
     config = ET.SubElement(root, "BuildConfiguration", modelIdentifier=model_identifier)
     files = ET.SubElement(config, "SourceFileSet", language="C99")
-    for name in source_files or _c_files(3):
+    for name in source_files or compiled_files(3):
         ET.SubElement(files, "SourceFile", name=name)
     ET.SubElement(files, "IncludeDirectory", name=".")
     ET.SubElement(config, "Library", name="m", description="C math library (libm)")

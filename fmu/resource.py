@@ -23,7 +23,7 @@ Format version 3, little-endian throughout (read by ``fmu/c/jxf_core.c``):
                          A (6C, 3) and the reactions at rest under gravity (6C) N, N m;
                          stresses: Q, V (6S, M), A (6S, 3), at rest (6S) Pa; obstacles: the
                          points at rest under gravity (K, 3) m and the records (O, 16) of
-                         :func:`obstacle_records`
+                         :func:`fmu.obstacles.obstacle_records`
     end     u32 CRC-32 (zlib) of everything before it, u32 0
 
 The outputs are y = Q q + V v + A a + y_rest (jaxflex.outputs: y_rest = -S g, exact), the
@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex.cell import Box, HalfSpace
+from fmu.obstacles import RECORD_VALUES, allowed_kinds, unknown_codes
 from jaxflex.collision import gravity_offset
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.model import ModalModel
@@ -55,10 +55,32 @@ TRAJECTORY_STEP_RANGE_S = (1e-6, 1e3)
 
 
 @dataclass(frozen=True)
+class Counts:
+    """The sizes of one export, stated once for the resource header, ``jxf_config.h``,
+    modelDescription.xml and the export's result: K ``points``, M ``modes``, N
+    ``trajectory`` samples, C ``cups``, S ``stress`` points, O ``obstacles`` records and R
+    ``static``-residual coordinates (3 or 0)."""
+
+    points: int
+    modes: int
+    trajectory: int = 0
+    cups: int = 0
+    stress: int = 0
+    obstacles: int = 0
+    static: int = 0
+
+    def available(self) -> frozenset[str]:
+        """Which optional groups of variables ("cups", "stress", "obstacles") exist."""
+        groups = (("cups", self.cups), ("stress", self.stress), ("obstacles", self.obstacles))
+        return frozenset(name for name, count in groups if count > 0)
+
+
+@dataclass(frozen=True)
 class CellData:
     """What the FMU needs for the cell's outputs: ``gravity_m_s2`` (3,) in the model's frame,
-    the cups' ``cup_safety`` factor, ``obstacles`` (O, 16) records, whether to include the
-    model's cups and stresses, and half the part's thickness (m, taken off the distance)."""
+    the cups' ``cup_safety`` factor, ``obstacles`` (O, 16) records (fmu.obstacles), whether
+    to include the model's cups and stresses, and half the part's thickness (m, taken off the
+    distance)."""
 
     gravity_m_s2: np.ndarray
     cup_safety: float
@@ -68,27 +90,27 @@ class CellData:
     half_thickness_m: float = 0.0
 
 
-def obstacle_records(obstacles) -> np.ndarray:
-    """(O, 16) records of jaxflex.cell obstacles: type 1 box (centre, half edges, rotation
-    row-major), type 2 half-space (normal, offset), type 3 triangle (its corners), one per
-    triangle of a mesh."""
-    rows = []
-    for o in obstacles:
-        if isinstance(o, Box):
-            rows.append([1, *o.centre_m, *(o.size_m / 2), *o.rotation.ravel()])
-        elif isinstance(o, HalfSpace):
-            rows.append([2, *o.normal, o.offset_m] + [0.0] * 11)
-        else:
-            rows.extend([3, *corners.ravel()] + [0.0] * 6 for corners in o.vertices[o.triangles])
-    return np.array(rows, dtype=np.float64).reshape(-1, 16)
+def resource_counts(model: ModalModel, acc: np.ndarray | None, cell: CellData | None) -> Counts:
+    """The counts of the resource of ``model`` with the trajectory ``acc`` and ``cell``."""
+    with_cups = cell is not None and cell.cups and model.cups is not None
+    with_stress = cell is not None and cell.stress and model.stress is not None
+    return Counts(
+        points=model.n_points,
+        modes=model.n_modes,
+        trajectory=0 if acc is None else int(np.shape(acc)[0]),
+        cups=model.cups.n_cups if with_cups else 0,
+        stress=model.stress.n_points if with_stress else 0,
+        obstacles=0 if cell is None else len(cell.obstacles),
+        static=static_count(model),
+    )
 
 
-def _cell_parts(model: ModalModel, cell: CellData) -> tuple[list[np.ndarray], tuple[int, int, int]]:
-    """The cell part of the payload and the counts (C, S, O)."""
-    cups = model.cups if cell.cups else None
-    stress = model.stress if cell.stress else None
-    if cups is None and stress is None and len(cell.obstacles) == 0:
-        return [], (0, 0, 0)
+def _cell_parts(model: ModalModel, cell: CellData, counts: Counts) -> list[np.ndarray]:
+    """The cell part of the payload."""
+    cups = model.cups if counts.cups else None
+    stress = model.stress if counts.stress else None
+    if cups is None and stress is None and counts.obstacles == 0:
+        return []
     gravity = np.asarray(cell.gravity_m_s2, "<f8")
     parts = [gravity, np.array([cell.cup_safety, cell.half_thickness_m], "<f8")]
     if cups is not None:
@@ -101,15 +123,10 @@ def _cell_parts(model: ModalModel, cell: CellData) -> tuple[list[np.ndarray], tu
         ]
     if stress is not None:
         parts += _output_maps(stress.stress, gravity)
-    if len(cell.obstacles):
+    if counts.obstacles:
         rest = np.asarray(model.points) + gravity_offset(model, cell.gravity_m_s2)
         parts += [np.asarray(rest, "<f8"), np.asarray(cell.obstacles, "<f8")]
-    counts = (
-        0 if cups is None else cups.n_cups,
-        0 if stress is None else stress.n_points,
-        len(cell.obstacles),
-    )
-    return parts, counts
+    return parts
 
 
 def _output_maps(outputs, gravity: np.ndarray) -> list[np.ndarray]:
@@ -135,7 +152,7 @@ def payload_values(k: int, m: int, n: int, c: int, s: int, o: int, r: int) -> in
     """f64 values of the payload for the counts of the header (as jxf_core.c)."""
     count = 5 * m + 3 * (m + r) * k + 3 * k + 3 * n
     count += 5 * (c + s + o > 0) + (6 * c + 12 * c * m + 24 * c) + (12 * s * m + 24 * s)
-    return count + ((3 * k + 16 * o) if o else 0)
+    return count + ((3 * k + RECORD_VALUES * o) if o else 0)
 
 
 @dataclass(frozen=True)
@@ -177,8 +194,8 @@ def encode_resource(
         raise ValueError(f"token: at most {TOKEN_BYTES - 1} ASCII characters, got {token!r}")
     if acc is not None:
         check_trajectory_step(dt_s, InputError, "trajectory")
-    n_traj = 0 if acc is None else int(np.shape(acc)[0])
-    extra, counts = _cell_parts(model, cell) if cell is not None else ([], (0, 0, 0))
+    counts = resource_counts(model, acc, cell)
+    extra = _cell_parts(model, cell, counts) if cell is not None else []
     parts = [
         np.asarray(model.freq_hz, "<f8"),
         np.asarray(model.zeta, "<f8"),
@@ -195,15 +212,15 @@ def encode_resource(
         FORMAT_VERSION,
         HEADER.size,
         raw_token,
-        model.n_points,
-        model.n_modes,
-        n_traj,
-        counts[0],
+        counts.points,
+        counts.modes,
+        counts.trajectory,
+        counts.cups,
         float(dt_s) if acc is not None else 0.0,
         len(payload),
-        counts[1],
-        counts[2],
-        static_count(model),
+        counts.stress,
+        counts.obstacles,
+        counts.static,
     )
     body = header + payload
     return body + _TRAILER.pack(zlib.crc32(body), 0)
@@ -234,6 +251,12 @@ def decode_resource(data: bytes, *, source: str = "resource") -> ResourceData:
     elif dt_s != 0.0:
         raise ModelFileError(f"{source}: no trajectory but a sample step of {dt_s!r} s (need 0)")
     values = np.frombuffer(data, "<f8", count=expected // 8, offset=HEADER.size)
+    if o:  # the records end the payload
+        unknown = unknown_codes(values[-RECORD_VALUES * o :].reshape(o, RECORD_VALUES))
+        if unknown:
+            raise ModelFileError(
+                f"{source}: obstacle kind code(s) {unknown} (allowed: {allowed_kinds()})"
+            )
     sizes = [m, m, 3 * m, 3 * (m + r) * k, 3 * k, 3 * n]
     freq, zeta, gamma, shapes, points, traj = np.split(values[: sum(sizes)], np.cumsum(sizes)[:-1])
     shapes = np.transpose(shapes.reshape(m + r, 3, k), (2, 1, 0))

@@ -7,9 +7,9 @@ derivative is provided (``maxOutputDerivativeOrder = 1``: ``fmi2GetRealOutputDer
 ``fmi3GetOutputDerivatives``) as the slope of the segment that begins at t, so an FMI 2.0
 importer that forwards it to the part's ``fmi2SetRealInputDerivatives`` drives the part with
 exactly the piecewise-linear move jaxflex optimised; an importer that copies values only
-holds each sample over the step. The samples are compiled into the binary (C sources in
-``fmu/c/jxf_source*.c``, data in the generated ``sources/jxf_source_data.h``); the FMU has no
-resources.
+holds each sample over the step. The samples are compiled into the binary (the core
+``fmu/c/jxf_source.c`` under the FMI bindings every jaxflex FMU shares, data in the generated
+``sources/jxf_source_data.h``); the FMU has no resources.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import os
 import tempfile
 import uuid
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -26,17 +26,12 @@ import numpy as np
 
 import jaxflex
 from fmu.archive import zip_folder
-from fmu.build import C_DIR, build_binaries
+from fmu.build import C_DIR, SOURCE_CORE, WrittenFmu, build_binaries, compiled_files, sources_for
 from fmu.export import model_identifier
-from fmu.model_description import build_description
+from fmu.model_description import build_description, cosimulation
 from jaxflex.errors import InputError
 from jaxflex.profile import as_move
 
-SOURCE_FILES = {
-    2: ("jxf_source.c", "jxf_source_fmi2.c"),
-    3: ("jxf_source.c", "jxf_source_fmi3.c"),
-}
-HEADER_FILES = ("jxf_source.h", "jxf_text.h")
 DATA_FILE = "jxf_source_data.h"
 OUTPUTS = ("ax", "ay", "az")  # value references 1, 2, 3
 _OUTPUT_TEXT = (
@@ -46,20 +41,13 @@ _OUTPUT_TEXT = (
 )
 
 
-@dataclass(frozen=True)
-class SourceResult:
-    """What :func:`export_source_fmu` wrote. ``platforms`` are folder names under binaries/;
-    ``skipped`` maps platforms that were not built to the reason."""
+@dataclass(frozen=True, kw_only=True)
+class SourceResult(WrittenFmu):
+    """What :func:`export_source_fmu` wrote: the FMU (WrittenFmu) playing ``n_samples``
+    samples every ``dt_s`` s."""
 
-    fmu_path: Path
-    fmi_version: int
-    token: str
-    model_identifier: str
     n_samples: int
     dt_s: float
-    platforms: tuple[str, ...]
-    skipped: dict[str, str] = field(default_factory=dict)
-    compiler_messages: str = ""
 
 
 def source_data_header(fmi_version: int, token: str, acc: np.ndarray, dt_s: float) -> str:
@@ -128,27 +116,10 @@ def source_model_description(
 ) -> str:
     """modelDescription.xml of the trajectory source (FMI 2.0 or 3.0)."""
     root = _root(fmi_version, token, ident, n_samples, dt_s)
-    capabilities = {
-        "modelIdentifier": ident,
-        "canHandleVariableCommunicationStepSize": "true",
-        "maxOutputDerivativeOrder": "1",
-        "canBeInstantiatedOnlyOncePerProcess": "false",
-    }
-    if fmi_version == 2:
-        cs = ET.SubElement(
-            root, "CoSimulation", capabilities, canNotUseMemoryManagementFunctions="true"
-        )
-        files = ET.SubElement(cs, "SourceFiles")
-        for name in SOURCE_FILES[2]:
-            ET.SubElement(files, "File", name=name)
-    else:
-        ET.SubElement(
-            root,
-            "CoSimulation",
-            capabilities,
-            hasEventMode="false",
-            providesIntermediateUpdate="false",
-        )
+    cosimulation(
+        root, fmi_version, ident, compiled_files(fmi_version, SOURCE_CORE),
+        output_derivatives=1, interpolates_inputs=False,
+    )  # fmt: skip
     variables = _common(root, n_samples, dt_s)
     if fmi_version == 3:
         ET.SubElement(
@@ -215,20 +186,25 @@ def export_source_fmu(
         stage = Path(tmp) / "fmu"
         sources = stage / "sources"
         sources.mkdir(parents=True)
-        for name in (*SOURCE_FILES[fmi_version], *HEADER_FILES):
+        for name in sources_for(fmi_version, SOURCE_CORE):
             (sources / name).write_bytes((C_DIR / name).read_bytes())
         (sources / DATA_FILE).write_text(
             source_data_header(fmi_version, token, acc, dt_s), encoding="utf-8"
         )
         if fmi_version == 3:
             (sources / "buildDescription.xml").write_text(
-                build_description(ident, SOURCE_FILES[3]), encoding="utf-8"
+                build_description(ident, compiled_files(3, SOURCE_CORE)), encoding="utf-8"
             )
         (stage / "modelDescription.xml").write_text(
             source_model_description(fmi_version, token, ident, len(acc), dt_s), encoding="utf-8"
         )
         built = build_binaries(
-            sources, stage / "binaries", fmi_version, ident, windows, SOURCE_FILES[fmi_version]
+            sources,
+            stage / "binaries",
+            fmi_version,
+            ident,
+            windows,
+            compiled_files(fmi_version, SOURCE_CORE),
         )
         zip_folder(stage, path)
     return SourceResult(
@@ -238,7 +214,5 @@ def export_source_fmu(
         model_identifier=ident,
         n_samples=len(acc),
         dt_s=dt_s,
-        platforms=tuple(built.platforms),
-        skipped=dict(built.skipped),
-        compiler_messages=built.messages,
+        **built.written(),
     )

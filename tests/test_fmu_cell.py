@@ -67,7 +67,7 @@ def test_cell_outputs_match_jaxflex(case, tmp_path, version):
     )  # fmt: skip
     assert result.compiler_messages == ""
     assert validate_fmu(str(result.fmu_path)) == []
-    assert (result.n_cups, result.n_obstacles) == (4, 3)
+    assert (result.counts.cups, result.counts.obstacles) == (4, 3)
     n = acc.shape[0] + 20
     got = []
     with Session(result.fmu_path) as session:

@@ -100,6 +100,8 @@ def test_archive_layout(exported, version):
         "sources/jxf_core.c",
         "sources/jxf_core.h",
         "sources/jxf_text.h",
+        "sources/jxf_fmu.h",
+        "sources/jxf_fmu.c",
         "sources/jxf_values.c",
         "sources/jxf_cell.c",
         "sources/jxf_config.h",

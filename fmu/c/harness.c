@@ -56,6 +56,41 @@ static void *need(void *lib, const char *name) {
     return f;
 }
 
+/* The FMI functions the harness calls: api.<field> = FMI<Function>, loaded from the library
+ * (X-macro: X(field, Function); the names that differ between the versions are macros). */
+#if HARNESS_FMI == 2
+#define FMI fmi2
+#define INSTANTIATE Instantiate
+#define SET_REAL SetReal
+#define GET_REAL GetReal
+#define API_EXTRA(X) X(setup, SetupExperiment) X(set_rates, SetRealInputDerivatives)
+#else
+#define FMI fmi3
+#define INSTANTIATE InstantiateCoSimulation
+#define SET_REAL SetFloat64
+#define GET_REAL GetFloat64
+#define API_EXTRA(X)
+#endif
+#define API(X)                                                                             \
+    X(instantiate, INSTANTIATE) X(free_instance, FreeInstance)                             \
+    X(enter_init, EnterInitializationMode) X(exit_init, ExitInitializationMode)            \
+    X(set_real, SET_REAL) X(get_real, GET_REAL) X(get_bool, GetBoolean)                    \
+    X(set_bool, SetBoolean) X(do_step, DoStep) X(reset, Reset) X(terminate, Terminate)     \
+    API_EXTRA(X)
+#define CAT3_(a, b, c) a##b##c
+#define CAT3(a, b, c) CAT3_(a, b, c)
+#define NAME_(x) #x
+#define NAME(x) NAME_(x)
+#define API_FIELD(field, function) CAT3(FMI, function, TYPE) *field;
+#define API_LOAD(field, function) \
+    api.field = (CAT3(FMI, function, TYPE) *)need(lib, NAME(CAT3(FMI, function, )));
+
+static struct {
+    API(API_FIELD)
+} api;
+
+static void load(void *lib) { API(API_LOAD) }
+
 #if HARNESS_FMI == 2
 static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
                    fmi2String category, fmi2String message, ...) {
@@ -69,36 +104,6 @@ static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status sta
     fputc('\n', stderr);
 }
 static const fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
-static struct {
-    fmi2InstantiateTYPE *instantiate;
-    fmi2FreeInstanceTYPE *free_instance;
-    fmi2SetupExperimentTYPE *setup;
-    fmi2EnterInitializationModeTYPE *enter_init;
-    fmi2ExitInitializationModeTYPE *exit_init;
-    fmi2SetRealTYPE *set_real;
-    fmi2GetRealTYPE *get_real;
-    fmi2SetRealInputDerivativesTYPE *set_rates;
-    fmi2GetBooleanTYPE *get_bool;
-    fmi2SetBooleanTYPE *set_bool;
-    fmi2DoStepTYPE *do_step;
-    fmi2ResetTYPE *reset;
-    fmi2TerminateTYPE *terminate;
-} api;
-static void load(void *lib) {
-    api.instantiate = (fmi2InstantiateTYPE *)need(lib, "fmi2Instantiate");
-    api.free_instance = (fmi2FreeInstanceTYPE *)need(lib, "fmi2FreeInstance");
-    api.setup = (fmi2SetupExperimentTYPE *)need(lib, "fmi2SetupExperiment");
-    api.enter_init = (fmi2EnterInitializationModeTYPE *)need(lib, "fmi2EnterInitializationMode");
-    api.exit_init = (fmi2ExitInitializationModeTYPE *)need(lib, "fmi2ExitInitializationMode");
-    api.set_real = (fmi2SetRealTYPE *)need(lib, "fmi2SetReal");
-    api.get_real = (fmi2GetRealTYPE *)need(lib, "fmi2GetReal");
-    api.set_rates = (fmi2SetRealInputDerivativesTYPE *)need(lib, "fmi2SetRealInputDerivatives");
-    api.get_bool = (fmi2GetBooleanTYPE *)need(lib, "fmi2GetBoolean");
-    api.set_bool = (fmi2SetBooleanTYPE *)need(lib, "fmi2SetBoolean");
-    api.do_step = (fmi2DoStepTYPE *)need(lib, "fmi2DoStep");
-    api.reset = (fmi2ResetTYPE *)need(lib, "fmi2Reset");
-    api.terminate = (fmi2TerminateTYPE *)need(lib, "fmi2Terminate");
-}
 static void *instantiate(const char *resources, const char *token) {
     return api.instantiate("harness", fmi2CoSimulation, token, resources, &callbacks, fmi2False,
                            fmi2False);
@@ -146,32 +151,6 @@ static void logger(fmi3InstanceEnvironment env, fmi3Status status, fmi3String ca
     (void)env, (void)status, (void)category;
     ++logged;
     if (!quiet) fprintf(stderr, "%s\n", message);
-}
-static struct {
-    fmi3InstantiateCoSimulationTYPE *instantiate;
-    fmi3FreeInstanceTYPE *free_instance;
-    fmi3EnterInitializationModeTYPE *enter_init;
-    fmi3ExitInitializationModeTYPE *exit_init;
-    fmi3SetFloat64TYPE *set_real;
-    fmi3GetFloat64TYPE *get_real;
-    fmi3GetBooleanTYPE *get_bool;
-    fmi3SetBooleanTYPE *set_bool;
-    fmi3DoStepTYPE *do_step;
-    fmi3ResetTYPE *reset;
-    fmi3TerminateTYPE *terminate;
-} api;
-static void load(void *lib) {
-    api.instantiate = (fmi3InstantiateCoSimulationTYPE *)need(lib, "fmi3InstantiateCoSimulation");
-    api.free_instance = (fmi3FreeInstanceTYPE *)need(lib, "fmi3FreeInstance");
-    api.enter_init = (fmi3EnterInitializationModeTYPE *)need(lib, "fmi3EnterInitializationMode");
-    api.exit_init = (fmi3ExitInitializationModeTYPE *)need(lib, "fmi3ExitInitializationMode");
-    api.set_real = (fmi3SetFloat64TYPE *)need(lib, "fmi3SetFloat64");
-    api.get_real = (fmi3GetFloat64TYPE *)need(lib, "fmi3GetFloat64");
-    api.get_bool = (fmi3GetBooleanTYPE *)need(lib, "fmi3GetBoolean");
-    api.set_bool = (fmi3SetBooleanTYPE *)need(lib, "fmi3SetBoolean");
-    api.do_step = (fmi3DoStepTYPE *)need(lib, "fmi3DoStep");
-    api.reset = (fmi3ResetTYPE *)need(lib, "fmi3Reset");
-    api.terminate = (fmi3TerminateTYPE *)need(lib, "fmi3Terminate");
 }
 static void *instantiate(const char *resources, const char *token) {
     return api.instantiate("harness", token, resources, fmi3False, fmi3False, fmi3False,

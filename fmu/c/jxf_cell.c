@@ -5,13 +5,39 @@
  * at rest under gravity); they are evaluated when read, from m->q, m->v and m->a_now. The cup
  * utilisation and the von Mises stress are those of jaxflex.loads; the distance of a point
  * (at rest under gravity, moved by the path m->pos and the displacement m->u) to the nearest
- * obstacle is that of jaxflex.cell, less half the part's thickness (its skins). Obstacle records of 16 values: type 1 box (centre 3, half edges 3, rotation
- * 9 row-major: the box axes are its columns), type 2 half-space (unit normal 3, offset: the
- * solid is normal . x <= offset), type 3 triangle (corners 3 x 3). SI units.
+ * obstacle is that of jaxflex.cell, less half the part's thickness (its skins). SI units.
+ *
+ * Obstacle records of JXF_OBSTACLE_VALUES values: a kind code, then the kind's values. The
+ * kinds are one table, fmu/obstacles.py, which jxf_config.h carries as JXF_OBSTACLE_* macros:
+ * box (centre 3, half edges 3, rotation 9 row-major: the box axes are its columns),
+ * half_space (unit normal 3, offset: the solid is normal . x <= offset), triangle (corners
+ * 3 x 3). A record of another kind is refused when the resource is loaded
+ * (jxf_check_obstacles).
  */
 #include <math.h>
 
 #include "jxf_core.h"
+
+/* every kind of the table is implemented below: a kind added there must be added here */
+#if JXF_OBSTACLE_KIND_COUNT != 3 || !defined(JXF_OBSTACLE_BOX) || \
+    !defined(JXF_OBSTACLE_HALF_SPACE) || !defined(JXF_OBSTACLE_TRIANGLE)
+#error "the obstacle kinds of fmu/obstacles.py differ from those jxf_cell.c implements"
+#endif
+
+int jxf_check_obstacles(const jxf_model *m, const char *name) {
+    static const int codes[] = JXF_OBSTACLE_CODES;
+    int o, k, known;
+    for (o = 0; o < m->n_obstacles; ++o) {
+        const double code = m->obstacles[JXF_OBSTACLE_VALUES * (size_t)o];
+        for (known = 0, k = 0; k < JXF_OBSTACLE_KIND_COUNT; ++k) known |= code == codes[k];
+        if (!known) {
+            jxf_log(m, JXF_LOG_ERROR, "'%s': obstacle record %d has the kind code %g; this FMU "
+                    "reads " JXF_OBSTACLE_ALLOWED, name, o, code);
+            return -1;
+        }
+    }
+    return 0;
+}
 
 /* row `r` of the output block (Q, V, A, at rest) at the current state */
 static double linear_output(const jxf_model *m, const double *q_map, const double *v_map,
@@ -124,17 +150,20 @@ double jxf_point_distance(const jxf_model *m, int k) {
     int o, i;
     for (i = 0; i < 3; ++i) p[i] = m->rest_points[3 * (size_t)k + i] + m->pos[i] + m->u[i * K + k];
     for (o = 0; o < m->n_obstacles; ++o) {
-        const double *rec = m->obstacles + 16 * (size_t)o;
+        const double *rec = m->obstacles + JXF_OBSTACLE_VALUES * (size_t)o;
         double d;
-        switch ((int)rec[0]) {
-            case 1:
+        switch ((int)rec[0]) { /* the codes are checked when the resource is loaded */
+            case JXF_OBSTACLE_BOX:
                 d = box_distance(rec + 1, p);
                 break;
-            case 2:
+            case JXF_OBSTACLE_HALF_SPACE:
                 d = dot3(rec + 1, p) - rec[4];
                 break;
-            default:
+            case JXF_OBSTACLE_TRIANGLE:
                 d = triangle_distance(rec + 1, p);
+                break;
+            default:
+                d = HUGE_VAL;
                 break;
         }
         best = d < best ? d : best;

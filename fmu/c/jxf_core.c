@@ -9,8 +9,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "jxf_text.h"
-
 #if defined(_MSC_VER)
 #define JXF_RESTRICT __restrict
 #else
@@ -36,7 +34,7 @@
  *                       normals (C, 3), radii (C), holding forces (C), friction (C),
  *                       Q (6C, M), V (6C, M), A (6C, 3), at rest (6C); stresses: Q (6S, M),
  *                       V (6S, M), A (6S, 3), at rest (6S); obstacles: points at rest (K, 3),
- *                       records (O, 16)
+ *                       records (O, 16: fmu/obstacles.py, jxf_cell.c)
  *   end u32 CRC-32 (IEEE, as zlib) of everything before it, u32 0
  * fmu/resource.py writes the same layout. */
 #define JXF_MAGIC "JXFLXFMU"
@@ -63,14 +61,10 @@
 #define JXF_TINY 1e-250
 
 void jxf_log(const jxf_model *m, int level, const char *format, ...) {
-    char message[1024], text[4 * sizeof message];
     va_list args;
-    if (m == NULL || m->log == NULL || (level == JXF_LOG_INFO && !m->debug)) return;
     va_start(args, format);
-    vsnprintf(message, sizeof message, format, args);
+    jxf_vlogf(m ? m->log : NULL, level, format, args);
     va_end(args);
-    jxf_escape(text, sizeof text, message);
-    m->log(m->log_context, level, text);
 }
 
 /* ---- little-endian decoding and CRC-32 ----------------------------------------------- */
@@ -203,7 +197,7 @@ static uint64_t payload_values(uint64_t K, uint64_t M, uint64_t N, uint64_t C, u
     if (C + S + O > 0) count += 5u;
     if (C > 0) count += 6u * C + 12u * C * M + 24u * C;
     if (S > 0) count += 12u * S * M + 24u * S;
-    if (O > 0) count += 3u * K + 16u * O;
+    if (O > 0) count += 3u * K + (uint64_t)JXF_OBSTACLE_VALUES * O;
     return count;
 }
 
@@ -425,7 +419,8 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
         !in_range(m, name, "participation factor", m->gamma, 3 * (size_t)M, JXF_RANGE_GAMMA) ||
         !in_range(m, name, "mode shape value", m->shapes, 3 * (size_t)(M + R) * K,
                   JXF_RANGE_SHAPES) ||
-        !in_range(m, name, "point coordinate", m->points, 3 * (size_t)K, JXF_RANGE_POINTS))
+        !in_range(m, name, "point coordinate", m->points, 3 * (size_t)K, JXF_RANGE_POINTS) ||
+        jxf_check_obstacles(m, name) != 0)
         return -1;
     for (mode = 0; mode < M; ++mode) {
         if (!(m->zeta[mode] >= 0.0 && m->zeta[mode] < 1.0)) {
@@ -474,35 +469,33 @@ static int allocate_work(jxf_model *m) {
 
 static void restart(jxf_model *m);
 
-jxf_model *jxf_create(const char *resource_location, const char *token, jxf_log_fn log,
-                      void *log_context, int debug) {
+jxf_model *jxf_model_create(const char *resource_location, const char *token,
+                            const jxf_logger *log) {
     jxf_model *m = (jxf_model *)calloc(1, sizeof(jxf_model));
     char *name;
     size_t size = 0;
     if (m == NULL) {
-        if (log) log(log_context, JXF_LOG_ERROR, "out of memory creating the instance");
+        jxf_logf(log, JXF_LOG_ERROR, "out of memory creating the instance");
         return NULL;
     }
     m->log = log;
-    m->log_context = log_context;
-    m->debug = debug;
     name = resource_file(m, resource_location);
     if (name == NULL) {
-        jxf_destroy(m);
+        jxf_model_free(m);
         return NULL;
     }
     m->buffer = read_file(m, name, &size);
     if (m->buffer == NULL || check_header(m, name, m->buffer, size, token) != 0 ||
         attach_payload(m, name, m->buffer) != 0) {
         free(name);
-        jxf_destroy(m);
+        jxf_model_free(m);
         return NULL;
     }
     if (allocate_work(m) != 0) {
         jxf_log(m, JXF_LOG_ERROR, "out of memory allocating the state of %d modes, %d points",
                 m->n_modes, m->n_points);
         free(name);
-        jxf_destroy(m);
+        jxf_model_free(m);
         return NULL;
     }
     jxf_log(m, JXF_LOG_INFO, "loaded '%s': %d points, %d modes, %d trajectory samples", name,
@@ -512,7 +505,7 @@ jxf_model *jxf_create(const char *resource_location, const char *token, jxf_log_
     return m;
 }
 
-void jxf_destroy(jxf_model *m) {
+void jxf_model_free(jxf_model *m) {
     int s;
     if (m == NULL) return;
     for (s = 0; s < JXF_CACHE_SLOTS; ++s) free(m->cache[s].p11);
@@ -602,10 +595,18 @@ static void restart(jxf_model *m) {
     }
     m->clock = 0;
     m->recomputations = 0;
-    m->state = JXF_INSTANTIATED;
-    m->setup_time = 0.0;
+    m->started = 0;
     rest(m, 0.0);
 }
+
+void jxf_model_reset(jxf_model *m) { restart(m); }
+
+void jxf_model_start(jxf_model *m, double start_time) {
+    rest(m, start_time);
+    m->started = 1;
+}
+
+double jxf_model_time(const jxf_model *m) { return m->time; }
 
 /* ---- variables --------------------------------------------------------------------- */
 
@@ -660,12 +661,12 @@ static int no_such(const jxf_model *m, const char *action, const char *type, uns
     return -1;
 }
 
-size_t jxf_real_size(unsigned vr) {
+size_t jxf_model_real_size(unsigned vr) {
     const real_value *v = real_value_of(vr);
     return v == NULL ? 1 : v->size;
 }
 
-int jxf_get_real(const jxf_model *m, unsigned vr, double *value) {
+int jxf_model_get_real(const jxf_model *m, unsigned vr, double *value) {
     const real_value *v = real_value_of(vr);
     if (v == NULL) return no_such(m, "get", "real", vr);
     v->get(m, value);
@@ -679,7 +680,7 @@ static double largest_zeta(const jxf_model *m) {
     return zeta_max;
 }
 
-int jxf_set_real(jxf_model *m, unsigned vr, double value, int apply) {
+int jxf_model_set_real(jxf_model *m, unsigned vr, double value, int apply) {
     const int axis = axis_of(vr);
     if (axis >= 0) {
         if (!isfinite(value)) return not_finite(m, vr, "input ", value);
@@ -708,7 +709,8 @@ int jxf_set_real(jxf_model *m, unsigned vr, double value, int apply) {
     return 0;
 }
 
-int jxf_set_input_rate(jxf_model *m, unsigned vr, int order, double value, int apply) {
+int jxf_model_set_input_rate(jxf_model *m, unsigned vr, int order, double value,
+                             int apply) {
     const int axis = axis_of(vr);
     if (axis < 0 || order != 1) {
         jxf_log(m, JXF_LOG_ERROR, "input derivatives: only the first derivative of ax, ay, az "
@@ -720,7 +722,14 @@ int jxf_set_input_rate(jxf_model *m, unsigned vr, int order, double value, int a
     return 0;
 }
 
-int jxf_get_bool(const jxf_model *m, unsigned vr, int *value) {
+int jxf_model_get_output_rate(const jxf_model *m, unsigned vr, int order, double *value) {
+    (void)value;
+    jxf_log(m, JXF_LOG_ERROR, "no output derivatives (maxOutputDerivativeOrder is 0): "
+            "derivative of order %d of value reference %u (%s)", order, vr, name_of(vr));
+    return -1;
+}
+
+int jxf_model_get_bool(const jxf_model *m, unsigned vr, int *value) {
     size_t i;
     for (i = 0; i < sizeof BOOL_VALUES / sizeof BOOL_VALUES[0]; ++i) {
         if (BOOL_VALUES[i].vr == vr) {
@@ -731,10 +740,10 @@ int jxf_get_bool(const jxf_model *m, unsigned vr, int *value) {
     return no_such(m, "get", "Boolean", vr);
 }
 
-int jxf_set_bool(jxf_model *m, unsigned vr, int value, int apply) {
+int jxf_model_set_bool(jxf_model *m, unsigned vr, int value, int apply) {
 #ifdef JXF_VR_USE_TRAJECTORY
     if (vr == JXF_VR_USE_TRAJECTORY) {
-        if (m->state & (JXF_STEP | JXF_TERMINATED)) {
+        if (m->started) {
             jxf_log(m, JXF_LOG_ERROR, "use_embedded_trajectory is a fixed parameter: set it "
                     "before leaving initialization mode");
             return -1;
@@ -745,74 +754,6 @@ int jxf_set_bool(jxf_model *m, unsigned vr, int value, int apply) {
 #endif
     (void)value, (void)apply;
     return no_such(m, "set", "Boolean", vr);
-}
-
-/* ---- life cycle --------------------------------------------------------------------- */
-
-int jxf_allowed(jxf_model *m, const char *function, int states) {
-    if (m == NULL) return 0;
-    if (m->state & states) return 1;
-    jxf_log(m, JXF_LOG_ERROR, "%s is not allowed in the current state", function);
-    return 0;
-}
-
-int jxf_unsupported(jxf_model *m, const char *function) {
-    jxf_log(m, JXF_LOG_ERROR, "%s is not supported by this co-simulation FMU", function);
-    return -1;
-}
-
-int jxf_set_logging(jxf_model *m, const char *function, int on, size_t n_categories,
-                    const char *const categories[]) {
-    static const char *known[] = {"logStatusError", "logStatusWarning", "logAll"};
-    size_t i;
-    int k, found;
-    if (!jxf_allowed(m, function, JXF_ANY_STATE)) return -1;
-    for (i = 0; i < n_categories; ++i) {
-        const char *name = categories ? categories[i] : NULL;
-        for (found = 0, k = 0; k < 3; ++k) found |= name != NULL && !strcmp(name, known[k]);
-        if (!found) {
-            jxf_log(m, JXF_LOG_ERROR, "%s: unknown log category '%s' (known: logStatusError, "
-                    "logStatusWarning, logAll)", function, name ? name : "(null)");
-            return -1;
-        }
-    }
-    m->debug = on != 0;
-    return 0;
-}
-
-int jxf_setup(jxf_model *m, const char *function, double start_time) {
-    if (!jxf_allowed(m, function, JXF_INSTANTIATED)) return -1;
-    if (!isfinite(start_time)) {
-        jxf_log(m, JXF_LOG_ERROR, "%s: startTime %g is not finite", function, start_time);
-        return -1;
-    }
-    m->setup_time = start_time;
-    return 0;
-}
-
-int jxf_enter_initialization(jxf_model *m, const char *function) {
-    if (!jxf_allowed(m, function, JXF_INSTANTIATED)) return -1;
-    m->state = JXF_INITIALIZATION;
-    return 0;
-}
-
-int jxf_exit_initialization(jxf_model *m, const char *function) {
-    if (!jxf_allowed(m, function, JXF_INITIALIZATION)) return -1;
-    rest(m, m->setup_time);
-    m->state = JXF_STEP;
-    return 0;
-}
-
-int jxf_terminate(jxf_model *m, const char *function) {
-    if (!jxf_allowed(m, function, JXF_STEP)) return -1;
-    m->state = JXF_TERMINATED;
-    return 0;
-}
-
-int jxf_reset(jxf_model *m, const char *function) {
-    if (!jxf_allowed(m, function, JXF_ANY_STATE)) return -1;
-    restart(m);
-    return 0;
 }
 
 /* ---- the exact step ----------------------------------------------------------------- */
@@ -987,27 +928,14 @@ static int replay(jxf_model *m, double tau, double h) {
     return advance(m, end - from, a0, a1);
 }
 
-int jxf_do_step(jxf_model *m, double t, double h) {
+/* Refused (the state restored, logged) when the exact solution is not finite. The work is
+ * bounded: one exact step per embedded trajectory sample crossed (integer sample indices,
+ * never accumulated time), at most N + 1. */
+int jxf_model_do_step(jxf_model *m, double t, double h) {
     const size_t M = (size_t)m->n_modes;
     const double end = t + h, time = m->time;
     double settle_time, path[3][3]; /* pos, vel, a_now before the step */
     int status, settled;
-    if (!(isfinite(h) && h > 0.0) || !isfinite(t) || !isfinite(end)) {
-        jxf_log(m, JXF_LOG_ERROR, "doStep(currentCommunicationPoint = %g s, step = %g s): the "
-                "step must be a finite number > 0 ending at a finite time; state unchanged", t,
-                h);
-        return -1;
-    }
-    if (!(end > t)) {
-        jxf_log(m, JXF_LOG_ERROR, "doStep(currentCommunicationPoint = %.17g s, step = %g s): "
-                "the step is below the resolution of the time in double precision, so the time "
-                "would not advance; state unchanged", t, h);
-        return -1;
-    }
-    if (fabs(t - m->time) > 1e-9 * (fabs(t) + h)) {
-        jxf_log(m, JXF_LOG_WARNING, "doStep: currentCommunicationPoint %.17g s differs from the "
-                "end of the previous step %.17g s; continuing from %.17g s", t, m->time, t);
-    }
     memcpy(m->saved, m->q, 2 * M * sizeof(double));
     memcpy(path[0], m->pos, sizeof path[0]);
     memcpy(path[1], m->vel, sizeof path[1]);

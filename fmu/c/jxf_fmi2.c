@@ -1,24 +1,24 @@
-/* FMI 2.0 co-simulation interface of the jaxflex FMU core (jxf_core.h).
+/* FMI 2.0 co-simulation binding of every jaxflex FMU, over the instance of jxf_fmu.h (and so
+ * over the core linked with it: the part, jxf_core.c, or the trajectory source,
+ * jxf_source.c).
  *
- * Inputs ax, ay, az (m/s^2) are linear over a communication step when the importer sets
- * their time derivatives with fmi2SetRealInputDerivatives (order 1; they stay in effect until
- * set again) and held over the step otherwise. Every FMI 2.0 function is exported; those that
- * do not apply to a co-simulation FMU without FMU-state support log and return fmi2Error.
+ * Every FMI 2.0 function is exported; those that do not apply to a co-simulation FMU without
+ * FMU-state support (model exchange, FMU state, directional derivatives, asynchronous steps)
+ * log and return fmi2Error. Variable types an FMU does not have accept empty requests only.
  */
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
-#include "jxf_core.h"
+#include "jxf_fmu.h"
 
 typedef struct {
-    jxf_model *model;
+    jxf_instance core; /* first: the component is also a jxf_instance */
     fmi2CallbackFunctions callbacks;
     char *name;
 } Instance;
 
-#define MODEL(c) ((c) != NULL ? ((Instance *)(c))->model : NULL)
+#define INST(c) ((jxf_instance *)(c))
 #define STATUS(result) ((result) == 0 ? fmi2OK : fmi2Error)
 
 static void forward_log(void *context, int level, const char *message) {
@@ -32,18 +32,6 @@ static void forward_log(void *context, int level, const char *message) {
                                "%s", message);
 }
 
-static char *copy_string(const char *s) {
-    const char *text = s ? s : "";
-    char *out = (char *)malloc(strlen(text) + 1);
-    if (out) strcpy(out, text);
-    return out;
-}
-
-static fmi2Status unsupported(fmi2Component c, const char *function) {
-    jxf_unsupported(MODEL(c), function);
-    return fmi2Error;
-}
-
 /* ---- common functions --------------------------------------------------------------- */
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
@@ -52,7 +40,7 @@ const char *fmi2GetVersion(void) { return fmi2Version; }
 
 fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
                                const fmi2String categories[]) {
-    return STATUS(jxf_set_logging(MODEL(c), "fmi2SetDebugLogging", loggingOn != fmi2False,
+    return STATUS(jxf_set_logging(INST(c), "fmi2SetDebugLogging", loggingOn != fmi2False,
                                   nCategories, categories));
 }
 
@@ -61,32 +49,31 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               const fmi2CallbackFunctions *functions, fmi2Boolean visible,
                               fmi2Boolean loggingOn) {
     Instance *inst = (Instance *)calloc(1, sizeof(Instance));
+    const char *name = instanceName ? instanceName : "";
     (void)visible;
     if (inst == NULL) return NULL;
     if (functions != NULL) inst->callbacks = *functions;
-    inst->name = copy_string(instanceName);
-    if (inst->name == NULL) {
-        free(inst);
-        return NULL;
+    inst->core.log.emit = forward_log;
+    inst->core.log.context = inst;
+    inst->core.log.debug = loggingOn != fmi2False;
+    inst->name = (char *)malloc(strlen(name) + 1);
+    if (inst->name != NULL) {
+        strcpy(inst->name, name);
+        if (fmuType != fmi2CoSimulation)
+            jxf_logf(&inst->core.log, JXF_LOG_ERROR, "this FMU supports co-simulation only "
+                     "(fmi2CoSimulation)");
+        else if (jxf_instance_create(&inst->core, fmuResourceLocation, fmuGUID) == 0)
+            return inst;
     }
-    if (fmuType != fmi2CoSimulation) {
-        forward_log(inst, JXF_LOG_ERROR, "this FMU supports co-simulation only (fmi2CoSimulation)");
-    } else {
-        inst->model = jxf_create(fmuResourceLocation, fmuGUID, forward_log, inst,
-                                 loggingOn != fmi2False);
-    }
-    if (inst->model == NULL) {
-        free(inst->name);
-        free(inst);
-        return NULL;
-    }
-    return inst;
+    free(inst->name);
+    free(inst);
+    return NULL;
 }
 
 void fmi2FreeInstance(fmi2Component c) {
     Instance *inst = (Instance *)c;
     if (inst == NULL) return;
-    jxf_destroy(inst->model);
+    jxf_instance_free(&inst->core);
     free(inst->name);
     free(inst);
 }
@@ -95,63 +82,40 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
                                fmi2Real tolerance, fmi2Real startTime,
                                fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
     (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
-    return STATUS(jxf_setup(MODEL(c), "fmi2SetupExperiment", startTime));
+    return STATUS(jxf_setup(INST(c), "fmi2SetupExperiment", startTime));
 }
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
-    return STATUS(jxf_enter_initialization(MODEL(c), "fmi2EnterInitializationMode"));
+    return STATUS(jxf_enter_initialization(INST(c), "fmi2EnterInitializationMode"));
 }
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
-    return STATUS(jxf_exit_initialization(MODEL(c), "fmi2ExitInitializationMode"));
+    return STATUS(jxf_exit_initialization(INST(c), "fmi2ExitInitializationMode"));
 }
 
-fmi2Status fmi2Terminate(fmi2Component c) {
-    return STATUS(jxf_terminate(MODEL(c), "fmi2Terminate"));
-}
+fmi2Status fmi2Terminate(fmi2Component c) { return STATUS(jxf_terminate(INST(c), "fmi2Terminate")); }
 
-fmi2Status fmi2Reset(fmi2Component c) { return STATUS(jxf_reset(MODEL(c), "fmi2Reset")); }
+fmi2Status fmi2Reset(fmi2Component c) { return STATUS(jxf_reset(INST(c), "fmi2Reset")); }
 
 /* ---- variables ---------------------------------------------------------------------- */
 
-static fmi2Status no_variables(fmi2Component c, const char *function, size_t nvr) {
-    if (!jxf_allowed(MODEL(c), function, JXF_ANY_STATE)) return fmi2Error;
-    if (nvr == 0) return fmi2OK;
-    jxf_log(MODEL(c), JXF_LOG_ERROR, "%s: this FMU has no variables of this type", function);
-    return fmi2Error;
-}
-
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[]) {
-    jxf_model *m = MODEL(c);
-    size_t i;
-    if (!jxf_allowed(m, "fmi2GetReal", JXF_ANY_STATE)) return fmi2Error;
-    for (i = 0; i < nvr; ++i)
-        if (jxf_get_real(m, vr[i], &value[i])) return fmi2Error;
-    return fmi2OK;
+    return STATUS(jxf_get_reals(INST(c), "fmi2GetReal", vr, nvr, value, nvr));
 }
 
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        const fmi2Real value[]) {
-    jxf_model *m = MODEL(c);
-    size_t i;
-    int apply;
-    if (!jxf_allowed(m, "fmi2SetReal", JXF_LIVE)) return fmi2Error;
-    /* check all, then store all: a rejected call changes nothing */
-    for (apply = 0; apply < 2; ++apply)
-        for (i = 0; i < nvr; ++i)
-            if (jxf_set_real(m, vr[i], value[i], apply)) return fmi2Error;
-    return fmi2OK;
+    return STATUS(jxf_set_reals(INST(c), "fmi2SetReal", vr, nvr, value, nvr));
 }
 
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Boolean value[]) {
-    jxf_model *m = MODEL(c);
     size_t i;
     int flag;
-    if (!jxf_allowed(m, "fmi2GetBoolean", JXF_ANY_STATE)) return fmi2Error;
+    if (!jxf_allowed(INST(c), "fmi2GetBoolean", JXF_ANY_STATE)) return fmi2Error;
     for (i = 0; i < nvr; ++i) {
-        if (jxf_get_bool(m, vr[i], &flag)) return fmi2Error;
+        if (jxf_model_get_bool(INST(c)->model, vr[i], &flag)) return fmi2Error;
         value[i] = flag ? fmi2True : fmi2False;
     }
     return fmi2OK;
@@ -159,194 +123,99 @@ fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           const fmi2Boolean value[]) {
-    jxf_model *m = MODEL(c);
     size_t i;
     int apply;
-    if (!jxf_allowed(m, "fmi2SetBoolean", JXF_LIVE)) return fmi2Error;
-    for (apply = 0; apply < 2; ++apply)
+    if (!jxf_allowed(INST(c), "fmi2SetBoolean", JXF_LIVE)) return fmi2Error;
+    for (apply = 0; apply < 2; ++apply) /* check all, then store all */
         for (i = 0; i < nvr; ++i)
-            if (jxf_set_bool(m, vr[i], value[i] != fmi2False, apply)) return fmi2Error;
+            if (jxf_model_set_bool(INST(c)->model, vr[i], value[i] != fmi2False, apply))
+                return fmi2Error;
     return fmi2OK;
 }
 
-fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          fmi2Integer value[]) {
-    (void)vr, (void)value;
-    return no_variables(c, "fmi2GetInteger", nvr);
-}
+JXF_SIGNATURES_BEGIN
 
-fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          const fmi2Integer value[]) {
-    (void)vr, (void)value;
-    return no_variables(c, "fmi2SetInteger", nvr);
-}
+#define NO_VARIABLES(name, ...)                                                       \
+    fmi2Status name(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,      \
+                    __VA_ARGS__) {                                                    \
+        return STATUS(jxf_no_variables(INST(c), #name, nvr));                         \
+    }
 
-fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                         fmi2String value[]) {
-    (void)vr, (void)value;
-    return no_variables(c, "fmi2GetString", nvr);
-}
-
-fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                         const fmi2String value[]) {
-    (void)vr, (void)value;
-    return no_variables(c, "fmi2SetString", nvr);
-}
+NO_VARIABLES(fmi2GetInteger, fmi2Integer value[])
+NO_VARIABLES(fmi2SetInteger, const fmi2Integer value[])
+NO_VARIABLES(fmi2GetString, fmi2String value[])
+NO_VARIABLES(fmi2SetString, const fmi2String value[])
 
 /* ---- co-simulation ------------------------------------------------------------------ */
 
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
                                        size_t nvr, const fmi2Integer order[],
                                        const fmi2Real value[]) {
-    jxf_model *m = MODEL(c);
-    size_t i;
-    int apply;
-    if (!jxf_allowed(m, "fmi2SetRealInputDerivatives", JXF_LIVE)) return fmi2Error;
-    for (apply = 0; apply < 2; ++apply)
-        for (i = 0; i < nvr; ++i)
-            if (jxf_set_input_rate(m, vr[i], order[i], value[i], apply)) return fmi2Error;
-    return fmi2OK;
+    return STATUS(jxf_set_input_rates(INST(c), "fmi2SetRealInputDerivatives", vr, nvr, order,
+                                      value));
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                        size_t nvr, const fmi2Integer order[], fmi2Real value[]) {
+    return STATUS(jxf_get_output_rates(INST(c), "fmi2GetRealOutputDerivatives", vr, nvr, order,
+                                       value, nvr));
 }
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
                       fmi2Real communicationStepSize,
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
-    jxf_model *m = MODEL(c);
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (!jxf_allowed(m, "fmi2DoStep", JXF_STEP)) return fmi2Error;
-    return STATUS(jxf_do_step(m, currentCommunicationPoint, communicationStepSize));
+    return STATUS(jxf_do_step(INST(c), "fmi2DoStep", currentCommunicationPoint,
+                              communicationStepSize));
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
-    jxf_model *m = MODEL(c);
-    if (!jxf_allowed(m, "fmi2GetRealStatus", JXF_ANY_STATE)) return fmi2Error;
-    if (s != fmi2LastSuccessfulTime) return unsupported(c, "fmi2GetRealStatus (this kind)");
-    *value = m->time;
+    if (!jxf_allowed(INST(c), "fmi2GetRealStatus", JXF_ANY_STATE)) return fmi2Error;
+    if (s != fmi2LastSuccessfulTime) return STATUS(jxf_unsupported(INST(c), "fmi2GetRealStatus "
+                                                                   "(this kind)"));
+    *value = jxf_model_time(INST(c)->model);
     return fmi2OK;
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
-    if (!jxf_allowed(MODEL(c), "fmi2GetBooleanStatus", JXF_ANY_STATE)) return fmi2Error;
-    if (s != fmi2Terminated) return unsupported(c, "fmi2GetBooleanStatus (this kind)");
+    if (!jxf_allowed(INST(c), "fmi2GetBooleanStatus", JXF_ANY_STATE)) return fmi2Error;
+    if (s != fmi2Terminated) return STATUS(jxf_unsupported(INST(c), "fmi2GetBooleanStatus "
+                                                           "(this kind)"));
     *value = fmi2False;
     return fmi2OK;
 }
 
-fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
-                                        size_t nvr, const fmi2Integer order[], fmi2Real value[]) {
-    (void)vr, (void)nvr, (void)order, (void)value;
-    return unsupported(c, "fmi2GetRealOutputDerivatives (maxOutputDerivativeOrder is 0)");
-}
+/* ---- functions that do not apply ---------------------------------------------------- */
 
-fmi2Status fmi2CancelStep(fmi2Component c) {
-    return unsupported(c, "fmi2CancelStep (doStep never returns fmi2Pending)");
-}
+#define UNSUPPORTED(name, why, ...)                                                   \
+    fmi2Status name(fmi2Component c, __VA_ARGS__) {                                   \
+        return STATUS(jxf_unsupported(INST(c), #name " (" why ")"));                  \
+    }
+#define UNSUPPORTED0(name, why)                                                       \
+    fmi2Status name(fmi2Component c) {                                                \
+        return STATUS(jxf_unsupported(INST(c), #name " (" why ")"));                  \
+    }
+#define ME "model exchange"
 
-fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
-    (void)s, (void)value;
-    return unsupported(c, "fmi2GetStatus (doStep is synchronous)");
-}
+UNSUPPORTED0(fmi2CancelStep, "doStep never returns fmi2Pending")
+UNSUPPORTED(fmi2GetStatus, "doStep is synchronous", const fmi2StatusKind s, fmi2Status *value)
+UNSUPPORTED(fmi2GetIntegerStatus, "no such status", const fmi2StatusKind s, fmi2Integer *value)
+UNSUPPORTED(fmi2GetStringStatus, "no such status", const fmi2StatusKind s, fmi2String *value)
+JXF_NO_FMU_STATE(fmi2, s, fmi2DeSerializeFMUstate)
+UNSUPPORTED(fmi2GetDirectionalDerivative, "providesDirectionalDerivative is false",
+            const fmi2ValueReference unknown[], size_t n_unknown,
+            const fmi2ValueReference known[], size_t n_known, const fmi2Real seed[],
+            fmi2Real sensitivity[])
+UNSUPPORTED0(fmi2EnterEventMode, ME)
+UNSUPPORTED(fmi2NewDiscreteStates, ME, fmi2EventInfo *info)
+UNSUPPORTED0(fmi2EnterContinuousTimeMode, ME)
+UNSUPPORTED(fmi2CompletedIntegratorStep, ME, fmi2Boolean no_set_state, fmi2Boolean *enter_event,
+            fmi2Boolean *terminate)
+UNSUPPORTED(fmi2SetTime, ME, fmi2Real time)
+UNSUPPORTED(fmi2SetContinuousStates, ME, const fmi2Real x[], size_t nx)
+UNSUPPORTED(fmi2GetDerivatives, ME, fmi2Real derivatives[], size_t nx)
+UNSUPPORTED(fmi2GetEventIndicators, ME, fmi2Real indicators[], size_t ni)
+UNSUPPORTED(fmi2GetContinuousStates, ME, fmi2Real x[], size_t nx)
+UNSUPPORTED(fmi2GetNominalsOfContinuousStates, ME, fmi2Real nominals[], size_t nx)
 
-fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
-    (void)s, (void)value;
-    return unsupported(c, "fmi2GetIntegerStatus");
-}
-
-fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
-    (void)s, (void)value;
-    return unsupported(c, "fmi2GetStringStatus");
-}
-
-/* ---- functions that do not apply (FMU state, derivatives, model exchange) ----------- */
-
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
-    (void)FMUstate;
-    return unsupported(c, "fmi2GetFMUstate (canGetAndSetFMUstate is false)");
-}
-
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
-    (void)FMUstate;
-    return unsupported(c, "fmi2SetFMUstate (canGetAndSetFMUstate is false)");
-}
-
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
-    (void)FMUstate;
-    return unsupported(c, "fmi2FreeFMUstate (canGetAndSetFMUstate is false)");
-}
-
-fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size) {
-    (void)FMUstate, (void)size;
-    return unsupported(c, "fmi2SerializedFMUstateSize (canSerializeFMUstate is false)");
-}
-
-fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate,
-                                 fmi2Byte serializedState[], size_t size) {
-    (void)FMUstate, (void)serializedState, (void)size;
-    return unsupported(c, "fmi2SerializeFMUstate (canSerializeFMUstate is false)");
-}
-
-fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[],
-                                   size_t size, fmi2FMUstate *FMUstate) {
-    (void)serializedState, (void)size, (void)FMUstate;
-    return unsupported(c, "fmi2DeSerializeFMUstate (canSerializeFMUstate is false)");
-}
-
-fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[],
-                                        size_t nUnknown, const fmi2ValueReference vKnown_ref[],
-                                        size_t nKnown, const fmi2Real dvKnown[],
-                                        fmi2Real dvUnknown[]) {
-    (void)vUnknown_ref, (void)nUnknown, (void)vKnown_ref, (void)nKnown, (void)dvKnown;
-    (void)dvUnknown;
-    return unsupported(c, "fmi2GetDirectionalDerivative (providesDirectionalDerivative is false)");
-}
-
-fmi2Status fmi2EnterEventMode(fmi2Component c) {
-    return unsupported(c, "fmi2EnterEventMode (model exchange)");
-}
-
-fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
-    (void)eventInfo;
-    return unsupported(c, "fmi2NewDiscreteStates (model exchange)");
-}
-
-fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
-    return unsupported(c, "fmi2EnterContinuousTimeMode (model exchange)");
-}
-
-fmi2Status fmi2CompletedIntegratorStep(fmi2Component c,
-                                       fmi2Boolean noSetFMUStatePriorToCurrentPoint,
-                                       fmi2Boolean *enterEventMode,
-                                       fmi2Boolean *terminateSimulation) {
-    (void)noSetFMUStatePriorToCurrentPoint, (void)enterEventMode, (void)terminateSimulation;
-    return unsupported(c, "fmi2CompletedIntegratorStep (model exchange)");
-}
-
-fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
-    (void)time;
-    return unsupported(c, "fmi2SetTime (model exchange)");
-}
-
-fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx) {
-    (void)x, (void)nx;
-    return unsupported(c, "fmi2SetContinuousStates (model exchange)");
-}
-
-fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx) {
-    (void)derivatives, (void)nx;
-    return unsupported(c, "fmi2GetDerivatives (model exchange)");
-}
-
-fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni) {
-    (void)eventIndicators, (void)ni;
-    return unsupported(c, "fmi2GetEventIndicators (model exchange)");
-}
-
-fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx) {
-    (void)x, (void)nx;
-    return unsupported(c, "fmi2GetContinuousStates (model exchange)");
-}
-
-fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx) {
-    (void)x_nominal, (void)nx;
-    return unsupported(c, "fmi2GetNominalsOfContinuousStates (model exchange)");
-}
+JXF_SIGNATURES_END

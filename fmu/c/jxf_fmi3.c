@@ -1,25 +1,25 @@
-/* FMI 3.0 co-simulation interface of the jaxflex FMU core (jxf_core.h).
+/* FMI 3.0 co-simulation binding of every jaxflex FMU, over the instance of jxf_fmu.h (and so
+ * over the core linked with it: the part, jxf_core.c, or the trajectory source,
+ * jxf_source.c).
  *
- * FMI 3.0 has no input derivatives: inputs ax, ay, az (m/s^2) are held over a communication
- * step. The embedded trajectory (use_embedded_trajectory) is replayed exactly, linear between
- * its samples. Besides the scalar outputs the FMU provides the displaced coordinates of all
- * points (K x 3 array, m) and the undeformed coordinates (calculated parameter, K x 3, m).
- * Every FMI 3.0 function is exported; those that do not apply (model exchange, scheduled
- * execution, clocks, FMU state, derivatives, other variable types) log and return fmi3Error.
+ * FMI 3.0 has no input derivatives: inputs are held over a communication step. Float64
+ * variables may be arrays (the part's K x 3 points). Every FMI 3.0 function is exported;
+ * those that do not apply (model exchange, scheduled execution, clocks, FMU state,
+ * derivatives) log and return fmi3Error, and the two other kinds of instantiation return
+ * NULL. Variable types an FMU does not have accept empty requests only.
  */
-#include <math.h>
 #include <stdlib.h>
 
 #include "fmi3Functions.h"
-#include "jxf_core.h"
+#include "jxf_fmu.h"
 
 typedef struct {
-    jxf_model *model;
+    jxf_instance core; /* first: the instance is also a jxf_instance */
     fmi3InstanceEnvironment environment;
     fmi3LogMessageCallback log_message;
 } Instance;
 
-#define MODEL(c) ((c) != NULL ? ((Instance *)(c))->model : NULL)
+#define INST(c) ((jxf_instance *)(c))
 #define STATUS(result) ((result) == 0 ? fmi3OK : fmi3Error)
 
 static void forward_log(void *context, int level, const char *message) {
@@ -31,18 +31,13 @@ static void forward_log(void *context, int level, const char *message) {
     if (inst->log_message != NULL) inst->log_message(inst->environment, status, category, message);
 }
 
-static fmi3Status unsupported(fmi3Instance instance, const char *function) {
-    jxf_unsupported(MODEL(instance), function);
-    return fmi3Error;
-}
-
 /* ---- common functions --------------------------------------------------------------- */
 
 const char *fmi3GetVersion(void) { return fmi3Version; }
 
 fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, size_t nCategories,
                                const fmi3String categories[]) {
-    return STATUS(jxf_set_logging(MODEL(instance), "fmi3SetDebugLogging", loggingOn, nCategories,
+    return STATUS(jxf_set_logging(INST(instance), "fmi3SetDebugLogging", loggingOn, nCategories,
                                   categories));
 }
 
@@ -58,18 +53,145 @@ fmi3Instance fmi3InstantiateCoSimulation(
     if (inst == NULL) return NULL;
     inst->environment = instanceEnvironment;
     inst->log_message = logMessage;
-    if (eventModeUsed) {
-        forward_log(inst, JXF_LOG_ERROR, "event mode is not supported (hasEventMode is false)");
-    } else if (nRequiredIntermediateVariables > 0) {
-        forward_log(inst, JXF_LOG_ERROR, "intermediate variables are not supported");
-    } else {
-        inst->model = jxf_create(resourcePath, instantiationToken, forward_log, inst, loggingOn);
+    inst->core.log.emit = forward_log;
+    inst->core.log.context = inst;
+    inst->core.log.debug = loggingOn;
+    if (eventModeUsed)
+        jxf_logf(&inst->core.log, JXF_LOG_ERROR, "event mode is not supported (hasEventMode is "
+                 "false)");
+    else if (nRequiredIntermediateVariables > 0)
+        jxf_logf(&inst->core.log, JXF_LOG_ERROR, "intermediate variables are not supported");
+    else if (jxf_instance_create(&inst->core, resourcePath, instantiationToken) == 0)
+        return inst;
+    free(inst);
+    return NULL;
+}
+
+void fmi3FreeInstance(fmi3Instance instance) {
+    if (instance == NULL) return;
+    jxf_instance_free(INST(instance));
+    free(instance);
+}
+
+fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean toleranceDefined,
+                                       fmi3Float64 tolerance, fmi3Float64 startTime,
+                                       fmi3Boolean stopTimeDefined, fmi3Float64 stopTime) {
+    (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
+    return STATUS(jxf_setup(INST(instance), "fmi3EnterInitializationMode", startTime) ||
+                  jxf_enter_initialization(INST(instance), "fmi3EnterInitializationMode"));
+}
+
+fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
+    return STATUS(jxf_exit_initialization(INST(instance), "fmi3ExitInitializationMode"));
+}
+
+fmi3Status fmi3Terminate(fmi3Instance instance) {
+    return STATUS(jxf_terminate(INST(instance), "fmi3Terminate"));
+}
+
+fmi3Status fmi3Reset(fmi3Instance instance) {
+    return STATUS(jxf_reset(INST(instance), "fmi3Reset"));
+}
+
+/* ---- variables ---------------------------------------------------------------------- */
+
+fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                          size_t nValueReferences, fmi3Float64 values[], size_t nValues) {
+    return STATUS(jxf_get_reals(INST(instance), "fmi3GetFloat64", valueReferences,
+                                nValueReferences, values, nValues));
+}
+
+fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                          size_t nValueReferences, const fmi3Float64 values[], size_t nValues) {
+    return STATUS(jxf_set_reals(INST(instance), "fmi3SetFloat64", valueReferences,
+                                nValueReferences, values, nValues));
+}
+
+fmi3Status fmi3GetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                          size_t nValueReferences, fmi3Boolean values[], size_t nValues) {
+    size_t i;
+    int flag;
+    if (!jxf_allowed(INST(instance), "fmi3GetBoolean", JXF_ANY_STATE)) return fmi3Error;
+    if (nValues != nValueReferences)
+        return STATUS(jxf_unsupported(INST(instance), "fmi3GetBoolean of arrays"));
+    for (i = 0; i < nValueReferences; ++i) {
+        if (jxf_model_get_bool(INST(instance)->model, valueReferences[i], &flag)) return fmi3Error;
+        values[i] = flag != 0;
     }
-    if (inst->model == NULL) {
-        free(inst);
-        return NULL;
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                          size_t nValueReferences, const fmi3Boolean values[], size_t nValues) {
+    size_t i;
+    int apply;
+    if (!jxf_allowed(INST(instance), "fmi3SetBoolean", JXF_LIVE)) return fmi3Error;
+    if (nValues != nValueReferences)
+        return STATUS(jxf_unsupported(INST(instance), "fmi3SetBoolean of arrays"));
+    for (apply = 0; apply < 2; ++apply) /* check all, then store all */
+        for (i = 0; i < nValueReferences; ++i)
+            if (jxf_model_set_bool(INST(instance)->model, valueReferences[i], values[i], apply))
+                return fmi3Error;
+    return fmi3OK;
+}
+
+JXF_SIGNATURES_BEGIN
+
+#define NO_VARIABLES(name, ...)                                                       \
+    fmi3Status name(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, \
+                    __VA_ARGS__) {                                                    \
+        return STATUS(jxf_no_variables(INST(instance), #name, nvr));                  \
     }
-    return inst;
+#define NO_GET_SET(Type)                                                              \
+    NO_VARIABLES(fmi3Get##Type, fmi3##Type values[], size_t nValues)                  \
+    NO_VARIABLES(fmi3Set##Type, const fmi3##Type values[], size_t nValues)
+
+NO_GET_SET(Float32)
+NO_GET_SET(Int8)
+NO_GET_SET(UInt8)
+NO_GET_SET(Int16)
+NO_GET_SET(UInt16)
+NO_GET_SET(Int32)
+NO_GET_SET(UInt32)
+NO_GET_SET(Int64)
+NO_GET_SET(UInt64)
+NO_GET_SET(String)
+NO_VARIABLES(fmi3GetBinary, size_t sizes[], fmi3Binary values[], size_t nValues)
+NO_VARIABLES(fmi3SetBinary, const size_t sizes[], const fmi3Binary values[], size_t nValues)
+NO_VARIABLES(fmi3GetClock, fmi3Clock values[])
+NO_VARIABLES(fmi3SetClock, const fmi3Clock values[])
+
+/* ---- co-simulation ------------------------------------------------------------------ */
+
+fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference vr[],
+                                    size_t nvr, const fmi3Int32 orders[], fmi3Float64 values[],
+                                    size_t nValues) {
+    return STATUS(jxf_get_output_rates(INST(instance), "fmi3GetOutputDerivatives", vr, nvr,
+                                       orders, values, nValues));
+}
+
+fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint,
+                      fmi3Float64 communicationStepSize,
+                      fmi3Boolean noSetFMUStatePriorToCurrentPoint,
+                      fmi3Boolean *eventHandlingNeeded, fmi3Boolean *terminateSimulation,
+                      fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime) {
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (jxf_do_step(INST(instance), "fmi3DoStep", currentCommunicationPoint,
+                    communicationStepSize))
+        return fmi3Error;
+    if (eventHandlingNeeded) *eventHandlingNeeded = fmi3False;
+    if (terminateSimulation) *terminateSimulation = fmi3False;
+    if (earlyReturn) *earlyReturn = fmi3False;
+    if (lastSuccessfulTime) *lastSuccessfulTime = jxf_model_time(INST(instance)->model);
+    return fmi3OK;
+}
+
+/* ---- functions that do not apply ---------------------------------------------------- */
+
+static fmi3Instance refuse_instantiation(fmi3InstanceEnvironment environment,
+                                         fmi3LogMessageCallback log_message, const char *text) {
+    if (log_message != NULL) log_message(environment, fmi3Error, "logStatusError", text);
+    return NULL;
 }
 
 fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName,
@@ -78,12 +200,8 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName,
                                           fmi3Boolean loggingOn,
                                           fmi3InstanceEnvironment instanceEnvironment,
                                           fmi3LogMessageCallback logMessage) {
-    (void)instanceName, (void)instantiationToken, (void)resourcePath, (void)visible;
-    (void)loggingOn;
-    if (logMessage != NULL)
-        logMessage(instanceEnvironment, fmi3Error, "logStatusError",
-                   "this FMU supports co-simulation only (no model exchange)");
-    return NULL;
+    return refuse_instantiation(instanceEnvironment, logMessage,
+                                "this FMU supports co-simulation only (no model exchange)");
 }
 
 fmi3Instance fmi3InstantiateScheduledExecution(
@@ -91,409 +209,69 @@ fmi3Instance fmi3InstantiateScheduledExecution(
     fmi3Boolean visible, fmi3Boolean loggingOn, fmi3InstanceEnvironment instanceEnvironment,
     fmi3LogMessageCallback logMessage, fmi3ClockUpdateCallback clockUpdate,
     fmi3LockPreemptionCallback lockPreemption, fmi3UnlockPreemptionCallback unlockPreemption) {
-    (void)instanceName, (void)instantiationToken, (void)resourcePath, (void)visible;
-    (void)loggingOn, (void)clockUpdate, (void)lockPreemption, (void)unlockPreemption;
-    if (logMessage != NULL)
-        logMessage(instanceEnvironment, fmi3Error, "logStatusError",
-                   "this FMU supports co-simulation only (no scheduled execution)");
-    return NULL;
+    return refuse_instantiation(instanceEnvironment, logMessage,
+                                "this FMU supports co-simulation only (no scheduled execution)");
 }
 
-void fmi3FreeInstance(fmi3Instance instance) {
-    Instance *inst = (Instance *)instance;
-    if (inst == NULL) return;
-    jxf_destroy(inst->model);
-    free(inst);
-}
-
-fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean toleranceDefined,
-                                       fmi3Float64 tolerance, fmi3Float64 startTime,
-                                       fmi3Boolean stopTimeDefined, fmi3Float64 stopTime) {
-    jxf_model *m = MODEL(instance);
-    (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
-    return STATUS(jxf_setup(m, "fmi3EnterInitializationMode", startTime) ||
-                  jxf_enter_initialization(m, "fmi3EnterInitializationMode"));
-}
-
-fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
-    return STATUS(jxf_exit_initialization(MODEL(instance), "fmi3ExitInitializationMode"));
-}
-
-fmi3Status fmi3Terminate(fmi3Instance instance) {
-    return STATUS(jxf_terminate(MODEL(instance), "fmi3Terminate"));
-}
-
-fmi3Status fmi3Reset(fmi3Instance instance) {
-    return STATUS(jxf_reset(MODEL(instance), "fmi3Reset"));
-}
-
-/* ---- Float64 and Boolean variables -------------------------------------------------- */
-
-fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                          size_t nValueReferences, fmi3Float64 values[], size_t nValues) {
-    jxf_model *m = MODEL(instance);
-    size_t i, k = 0;
-    if (!jxf_allowed(m, "fmi3GetFloat64", JXF_ANY_STATE)) return fmi3Error;
-    for (i = 0; i < nValueReferences; ++i) {
-        const fmi3ValueReference vr = valueReferences[i];
-        const size_t size = jxf_real_size(vr);
-        if (k + size > nValues) {
-            jxf_log(m, JXF_LOG_ERROR, "fmi3GetFloat64: nValues = %lu is too small for "
-                    "the requested variables", (unsigned long)nValues);
-            return fmi3Error;
-        }
-        if (jxf_get_real(m, vr, values + k)) return fmi3Error;
-        k += size;
+#define UNSUPPORTED(name, why, ...)                                                   \
+    fmi3Status name(fmi3Instance instance, __VA_ARGS__) {                             \
+        return STATUS(jxf_unsupported(INST(instance), #name " (" why ")"));           \
     }
-    if (k != nValues) {
-        jxf_log(m, JXF_LOG_ERROR, "fmi3GetFloat64: nValues = %lu, but the variables "
-                "hold %lu values", (unsigned long)nValues, (unsigned long)k);
-        return fmi3Error;
+#define UNSUPPORTED0(name, why)                                                       \
+    fmi3Status name(fmi3Instance instance) {                                          \
+        return STATUS(jxf_unsupported(INST(instance), #name " (" why ")"));           \
     }
-    return fmi3OK;
-}
+#define NO_EVENTS "hasEventMode is false"
+#define NO_CLOCKS "no clocks"
+#define ME "model exchange"
+#define VRS const fmi3ValueReference vr[], size_t nvr
 
-fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                          size_t nValueReferences, const fmi3Float64 values[], size_t nValues) {
-    jxf_model *m = MODEL(instance);
-    size_t i;
-    int apply;
-    if (!jxf_allowed(m, "fmi3SetFloat64", JXF_LIVE)) return fmi3Error;
-    if (nValues != nValueReferences) {
-        jxf_log(m, JXF_LOG_ERROR, "fmi3SetFloat64: only scalar variables can be set "
-                "(nValues %lu != nValueReferences %lu)", (unsigned long)nValues,
-                (unsigned long)nValueReferences);
-        return fmi3Error;
-    }
-    for (apply = 0; apply < 2; ++apply) /* check all, then store all */
-        for (i = 0; i < nValueReferences; ++i)
-            if (jxf_set_real(m, valueReferences[i], values[i], apply)) return fmi3Error;
-    return fmi3OK;
-}
+UNSUPPORTED0(fmi3EnterEventMode, NO_EVENTS)
+UNSUPPORTED0(fmi3EnterStepMode, NO_EVENTS)
+UNSUPPORTED0(fmi3EvaluateDiscreteStates, NO_EVENTS)
+UNSUPPORTED(fmi3UpdateDiscreteStates, NO_EVENTS, fmi3Boolean *need_update,
+            fmi3Boolean *terminate, fmi3Boolean *nominals_changed, fmi3Boolean *values_changed,
+            fmi3Boolean *next_event_defined, fmi3Float64 *next_event_time)
+UNSUPPORTED(fmi3GetNumberOfVariableDependencies, "not provided", fmi3ValueReference vr, size_t *n)
+UNSUPPORTED(fmi3GetVariableDependencies, "not provided", fmi3ValueReference dependent,
+            size_t element_dep[], fmi3ValueReference independents[], size_t element_ind[],
+            fmi3DependencyKind kinds[], size_t n)
+JXF_NO_FMU_STATE(fmi3, S, fmi3DeserializeFMUState)
+UNSUPPORTED(fmi3GetDirectionalDerivative, "providesDirectionalDerivative is false",
+            const fmi3ValueReference unknowns[], size_t n_unknowns,
+            const fmi3ValueReference knowns[], size_t n_knowns, const fmi3Float64 seed[],
+            size_t n_seed, fmi3Float64 sensitivity[], size_t n_sensitivity)
+UNSUPPORTED(fmi3GetAdjointDerivative, "providesAdjointDerivatives is false",
+            const fmi3ValueReference unknowns[], size_t n_unknowns,
+            const fmi3ValueReference knowns[], size_t n_knowns, const fmi3Float64 seed[],
+            size_t n_seed, fmi3Float64 sensitivity[], size_t n_sensitivity)
+UNSUPPORTED0(fmi3EnterConfigurationMode, "no structural parameters")
+UNSUPPORTED0(fmi3ExitConfigurationMode, "no structural parameters")
+UNSUPPORTED(fmi3GetIntervalDecimal, NO_CLOCKS, VRS, fmi3Float64 intervals[],
+            fmi3IntervalQualifier qualifiers[])
+UNSUPPORTED(fmi3GetIntervalFraction, NO_CLOCKS, VRS, fmi3UInt64 counters[],
+            fmi3UInt64 resolutions[], fmi3IntervalQualifier qualifiers[])
+UNSUPPORTED(fmi3GetShiftDecimal, NO_CLOCKS, VRS, fmi3Float64 shifts[])
+UNSUPPORTED(fmi3GetShiftFraction, NO_CLOCKS, VRS, fmi3UInt64 counters[],
+            fmi3UInt64 resolutions[])
+UNSUPPORTED(fmi3SetIntervalDecimal, NO_CLOCKS, VRS, const fmi3Float64 intervals[])
+UNSUPPORTED(fmi3SetIntervalFraction, NO_CLOCKS, VRS, const fmi3UInt64 counters[],
+            const fmi3UInt64 resolutions[])
+UNSUPPORTED(fmi3SetShiftDecimal, NO_CLOCKS, VRS, const fmi3Float64 shifts[])
+UNSUPPORTED(fmi3SetShiftFraction, NO_CLOCKS, VRS, const fmi3UInt64 counters[],
+            const fmi3UInt64 resolutions[])
+UNSUPPORTED0(fmi3EnterContinuousTimeMode, ME)
+UNSUPPORTED(fmi3CompletedIntegratorStep, ME, fmi3Boolean no_set_state, fmi3Boolean *enter_event,
+            fmi3Boolean *terminate)
+UNSUPPORTED(fmi3SetTime, ME, fmi3Float64 time)
+UNSUPPORTED(fmi3SetContinuousStates, ME, const fmi3Float64 x[], size_t nx)
+UNSUPPORTED(fmi3GetContinuousStateDerivatives, ME, fmi3Float64 derivatives[], size_t nx)
+UNSUPPORTED(fmi3GetEventIndicators, ME, fmi3Float64 indicators[], size_t ni)
+UNSUPPORTED(fmi3GetContinuousStates, ME, fmi3Float64 x[], size_t nx)
+UNSUPPORTED(fmi3GetNominalsOfContinuousStates, ME, fmi3Float64 nominals[], size_t nx)
+UNSUPPORTED(fmi3GetNumberOfEventIndicators, ME, size_t *n)
+UNSUPPORTED(fmi3GetNumberOfContinuousStates, ME, size_t *n)
+UNSUPPORTED(fmi3ActivateModelPartition, "scheduled execution", fmi3ValueReference clock,
+            fmi3Float64 activation_time)
 
-fmi3Status fmi3GetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                          size_t nValueReferences, fmi3Boolean values[], size_t nValues) {
-    jxf_model *m = MODEL(instance);
-    size_t i;
-    int flag;
-    if (!jxf_allowed(m, "fmi3GetBoolean", JXF_ANY_STATE)) return fmi3Error;
-    if (nValues != nValueReferences) return unsupported(instance, "fmi3GetBoolean of arrays");
-    for (i = 0; i < nValueReferences; ++i) {
-        if (jxf_get_bool(m, valueReferences[i], &flag)) return fmi3Error;
-        values[i] = flag != 0;
-    }
-    return fmi3OK;
-}
-
-fmi3Status fmi3SetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                          size_t nValueReferences, const fmi3Boolean values[], size_t nValues) {
-    jxf_model *m = MODEL(instance);
-    size_t i;
-    int apply;
-    if (!jxf_allowed(m, "fmi3SetBoolean", JXF_LIVE)) return fmi3Error;
-    if (nValues != nValueReferences) return unsupported(instance, "fmi3SetBoolean of arrays");
-    for (apply = 0; apply < 2; ++apply)
-        for (i = 0; i < nValueReferences; ++i)
-            if (jxf_set_bool(m, valueReferences[i], values[i], apply)) return fmi3Error;
-    return fmi3OK;
-}
-
-/* Variable types this FMU does not have: fine for an empty request, an error otherwise. */
-static fmi3Status no_variables(fmi3Instance instance, const char *function, size_t n) {
-    if (!jxf_allowed(MODEL(instance), function, JXF_ANY_STATE)) return fmi3Error;
-    if (n == 0) return fmi3OK;
-    jxf_log(MODEL(instance), JXF_LOG_ERROR, "%s: this FMU has no variables of this type",
-            function);
-    return fmi3Error;
-}
-
-#define JXF_NO_GETTER(Type)                                                                  \
-    fmi3Status fmi3Get##Type(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, \
-                             fmi3##Type values[], size_t nValues) {                          \
-        (void)vr, (void)values, (void)nValues;                                               \
-        return no_variables(instance, "fmi3Get" #Type, nvr);                                 \
-    }
-#define JXF_NO_SETTER(Type)                                                                  \
-    fmi3Status fmi3Set##Type(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, \
-                             const fmi3##Type values[], size_t nValues) {                    \
-        (void)vr, (void)values, (void)nValues;                                               \
-        return no_variables(instance, "fmi3Set" #Type, nvr);                                 \
-    }
-#define JXF_NO_VARIABLES(Type) JXF_NO_GETTER(Type) JXF_NO_SETTER(Type)
-
-JXF_NO_VARIABLES(Float32)
-JXF_NO_VARIABLES(Int8)
-JXF_NO_VARIABLES(UInt8)
-JXF_NO_VARIABLES(Int16)
-JXF_NO_VARIABLES(UInt16)
-JXF_NO_VARIABLES(Int32)
-JXF_NO_VARIABLES(UInt32)
-JXF_NO_VARIABLES(Int64)
-JXF_NO_VARIABLES(UInt64)
-JXF_NO_VARIABLES(String)
-
-fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
-                         size_t valueSizes[], fmi3Binary values[], size_t nValues) {
-    (void)vr, (void)valueSizes, (void)values, (void)nValues;
-    return no_variables(instance, "fmi3GetBinary", nvr);
-}
-
-fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
-                         const size_t valueSizes[], const fmi3Binary values[], size_t nValues) {
-    (void)vr, (void)valueSizes, (void)values, (void)nValues;
-    return no_variables(instance, "fmi3SetBinary", nvr);
-}
-
-fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
-                        fmi3Clock values[]) {
-    (void)vr, (void)values;
-    return no_variables(instance, "fmi3GetClock", nvr);
-}
-
-fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
-                        const fmi3Clock values[]) {
-    (void)vr, (void)values;
-    return no_variables(instance, "fmi3SetClock", nvr);
-}
-
-/* ---- co-simulation ------------------------------------------------------------------ */
-
-fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint,
-                      fmi3Float64 communicationStepSize,
-                      fmi3Boolean noSetFMUStatePriorToCurrentPoint,
-                      fmi3Boolean *eventHandlingNeeded, fmi3Boolean *terminateSimulation,
-                      fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime) {
-    jxf_model *m = MODEL(instance);
-    (void)noSetFMUStatePriorToCurrentPoint;
-    if (!jxf_allowed(m, "fmi3DoStep", JXF_STEP)) return fmi3Error;
-    if (jxf_do_step(m, currentCommunicationPoint, communicationStepSize)) return fmi3Error;
-    if (eventHandlingNeeded) *eventHandlingNeeded = fmi3False;
-    if (terminateSimulation) *terminateSimulation = fmi3False;
-    if (earlyReturn) *earlyReturn = fmi3False;
-    if (lastSuccessfulTime) *lastSuccessfulTime = m->time;
-    return fmi3OK;
-}
-
-fmi3Status fmi3EnterStepMode(fmi3Instance instance) {
-    return unsupported(instance, "fmi3EnterStepMode (hasEventMode is false)");
-}
-
-fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
-    return unsupported(instance, "fmi3EnterEventMode (hasEventMode is false)");
-}
-
-fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference vr[],
-                                    size_t nvr, const fmi3Int32 orders[], fmi3Float64 values[],
-                                    size_t nValues) {
-    (void)vr, (void)nvr, (void)orders, (void)values, (void)nValues;
-    return unsupported(instance, "fmi3GetOutputDerivatives (maxOutputDerivativeOrder is 0)");
-}
-
-/* ---- functions that do not apply ---------------------------------------------------- */
-
-fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance instance,
-                                               fmi3ValueReference valueReference,
-                                               size_t *nDependencies) {
-    (void)valueReference, (void)nDependencies;
-    return unsupported(instance, "fmi3GetNumberOfVariableDependencies");
-}
-
-fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference dependent,
-                                       size_t elementIndicesOfDependent[],
-                                       fmi3ValueReference independents[],
-                                       size_t elementIndicesOfIndependents[],
-                                       fmi3DependencyKind dependencyKinds[],
-                                       size_t nDependencies) {
-    (void)dependent, (void)elementIndicesOfDependent, (void)independents;
-    (void)elementIndicesOfIndependents, (void)dependencyKinds, (void)nDependencies;
-    return unsupported(instance, "fmi3GetVariableDependencies");
-}
-
-fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *FMUState) {
-    (void)FMUState;
-    return unsupported(instance, "fmi3GetFMUState (canGetAndSetFMUState is false)");
-}
-
-fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState) {
-    (void)FMUState;
-    return unsupported(instance, "fmi3SetFMUState (canGetAndSetFMUState is false)");
-}
-
-fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *FMUState) {
-    (void)FMUState;
-    return unsupported(instance, "fmi3FreeFMUState (canGetAndSetFMUState is false)");
-}
-
-fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState FMUState,
-                                      size_t *size) {
-    (void)FMUState, (void)size;
-    return unsupported(instance, "fmi3SerializedFMUStateSize (canSerializeFMUState is false)");
-}
-
-fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState FMUState,
-                                 fmi3Byte serializedState[], size_t size) {
-    (void)FMUState, (void)serializedState, (void)size;
-    return unsupported(instance, "fmi3SerializeFMUState (canSerializeFMUState is false)");
-}
-
-fmi3Status fmi3DeserializeFMUState(fmi3Instance instance, const fmi3Byte serializedState[],
-                                   size_t size, fmi3FMUState *FMUState) {
-    (void)serializedState, (void)size, (void)FMUState;
-    return unsupported(instance, "fmi3DeserializeFMUState (canSerializeFMUState is false)");
-}
-
-fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[],
-                                        size_t nUnknowns, const fmi3ValueReference knowns[],
-                                        size_t nKnowns, const fmi3Float64 seed[], size_t nSeed,
-                                        fmi3Float64 sensitivity[], size_t nSensitivity) {
-    (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed;
-    (void)sensitivity, (void)nSensitivity;
-    return unsupported(instance, "fmi3GetDirectionalDerivative");
-}
-
-fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[],
-                                    size_t nUnknowns, const fmi3ValueReference knowns[],
-                                    size_t nKnowns, const fmi3Float64 seed[], size_t nSeed,
-                                    fmi3Float64 sensitivity[], size_t nSensitivity) {
-    (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed;
-    (void)sensitivity, (void)nSensitivity;
-    return unsupported(instance, "fmi3GetAdjointDerivative");
-}
-
-fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance) {
-    return unsupported(instance, "fmi3EnterConfigurationMode (no structural parameters)");
-}
-
-fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) {
-    return unsupported(instance, "fmi3ExitConfigurationMode (no structural parameters)");
-}
-
-fmi3Status fmi3GetIntervalDecimal(fmi3Instance instance, const fmi3ValueReference vr[],
-                                  size_t nvr, fmi3Float64 intervals[],
-                                  fmi3IntervalQualifier qualifiers[]) {
-    (void)vr, (void)nvr, (void)intervals, (void)qualifiers;
-    return unsupported(instance, "fmi3GetIntervalDecimal (no clocks)");
-}
-
-fmi3Status fmi3GetIntervalFraction(fmi3Instance instance, const fmi3ValueReference vr[],
-                                   size_t nvr, fmi3UInt64 counters[], fmi3UInt64 resolutions[],
-                                   fmi3IntervalQualifier qualifiers[]) {
-    (void)vr, (void)nvr, (void)counters, (void)resolutions, (void)qualifiers;
-    return unsupported(instance, "fmi3GetIntervalFraction (no clocks)");
-}
-
-fmi3Status fmi3GetShiftDecimal(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
-                               fmi3Float64 shifts[]) {
-    (void)vr, (void)nvr, (void)shifts;
-    return unsupported(instance, "fmi3GetShiftDecimal (no clocks)");
-}
-
-fmi3Status fmi3GetShiftFraction(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
-                                fmi3UInt64 counters[], fmi3UInt64 resolutions[]) {
-    (void)vr, (void)nvr, (void)counters, (void)resolutions;
-    return unsupported(instance, "fmi3GetShiftFraction (no clocks)");
-}
-
-fmi3Status fmi3SetIntervalDecimal(fmi3Instance instance, const fmi3ValueReference vr[],
-                                  size_t nvr, const fmi3Float64 intervals[]) {
-    (void)vr, (void)nvr, (void)intervals;
-    return unsupported(instance, "fmi3SetIntervalDecimal (no clocks)");
-}
-
-fmi3Status fmi3SetIntervalFraction(fmi3Instance instance, const fmi3ValueReference vr[],
-                                   size_t nvr, const fmi3UInt64 counters[],
-                                   const fmi3UInt64 resolutions[]) {
-    (void)vr, (void)nvr, (void)counters, (void)resolutions;
-    return unsupported(instance, "fmi3SetIntervalFraction (no clocks)");
-}
-
-fmi3Status fmi3SetShiftDecimal(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
-                               const fmi3Float64 shifts[]) {
-    (void)vr, (void)nvr, (void)shifts;
-    return unsupported(instance, "fmi3SetShiftDecimal (no clocks)");
-}
-
-fmi3Status fmi3SetShiftFraction(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
-                                const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]) {
-    (void)vr, (void)nvr, (void)counters, (void)resolutions;
-    return unsupported(instance, "fmi3SetShiftFraction (no clocks)");
-}
-
-fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance) {
-    return unsupported(instance, "fmi3EvaluateDiscreteStates (hasEventMode is false)");
-}
-
-fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discreteStatesNeedUpdate,
-                                    fmi3Boolean *terminateSimulation,
-                                    fmi3Boolean *nominalsOfContinuousStatesChanged,
-                                    fmi3Boolean *valuesOfContinuousStatesChanged,
-                                    fmi3Boolean *nextEventTimeDefined,
-                                    fmi3Float64 *nextEventTime) {
-    (void)discreteStatesNeedUpdate, (void)terminateSimulation;
-    (void)nominalsOfContinuousStatesChanged, (void)valuesOfContinuousStatesChanged;
-    (void)nextEventTimeDefined, (void)nextEventTime;
-    return unsupported(instance, "fmi3UpdateDiscreteStates (hasEventMode is false)");
-}
-
-fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance) {
-    return unsupported(instance, "fmi3EnterContinuousTimeMode (model exchange)");
-}
-
-fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
-                                       fmi3Boolean noSetFMUStatePriorToCurrentPoint,
-                                       fmi3Boolean *enterEventMode,
-                                       fmi3Boolean *terminateSimulation) {
-    (void)noSetFMUStatePriorToCurrentPoint, (void)enterEventMode, (void)terminateSimulation;
-    return unsupported(instance, "fmi3CompletedIntegratorStep (model exchange)");
-}
-
-fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time) {
-    (void)time;
-    return unsupported(instance, "fmi3SetTime (model exchange)");
-}
-
-fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 continuousStates[],
-                                   size_t nContinuousStates) {
-    (void)continuousStates, (void)nContinuousStates;
-    return unsupported(instance, "fmi3SetContinuousStates (model exchange)");
-}
-
-fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 derivatives[],
-                                             size_t nContinuousStates) {
-    (void)derivatives, (void)nContinuousStates;
-    return unsupported(instance, "fmi3GetContinuousStateDerivatives (model exchange)");
-}
-
-fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndicators[],
-                                  size_t nEventIndicators) {
-    (void)eventIndicators, (void)nEventIndicators;
-    return unsupported(instance, "fmi3GetEventIndicators (model exchange)");
-}
-
-fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 continuousStates[],
-                                   size_t nContinuousStates) {
-    (void)continuousStates, (void)nContinuousStates;
-    return unsupported(instance, "fmi3GetContinuousStates (model exchange)");
-}
-
-fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 nominals[],
-                                             size_t nContinuousStates) {
-    (void)nominals, (void)nContinuousStates;
-    return unsupported(instance, "fmi3GetNominalsOfContinuousStates (model exchange)");
-}
-
-fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventIndicators) {
-    (void)nEventIndicators;
-    return unsupported(instance, "fmi3GetNumberOfEventIndicators (model exchange)");
-}
-
-fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *nContinuousStates) {
-    (void)nContinuousStates;
-    return unsupported(instance, "fmi3GetNumberOfContinuousStates (model exchange)");
-}
-
-fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference clockReference,
-                                      fmi3Float64 activationTime) {
-    (void)clockReference, (void)activationTime;
-    return unsupported(instance, "fmi3ActivateModelPartition (scheduled execution)");
-}
+JXF_SIGNATURES_END
