@@ -31,9 +31,10 @@ from dataclasses import dataclass
 from importlib.metadata import entry_points, version
 from pathlib import Path
 
+from jaxflex import compile_cache
 from jaxflex.budget import DEFAULT_TIME_S, make_budget, use_budget
 from jaxflex.errors import InputError, JaxflexError, JaxflexWarning
-from jaxflex.progress import set_quiet
+from jaxflex.progress import set_quiet, step
 
 GROUP = "jaxflex.commands"
 DESCRIPTION = (
@@ -152,6 +153,9 @@ def _main(argv: list[str]) -> int:
     chosen = next((arg for arg in argv if not arg.startswith("-")), None)
     args = build_parser(chosen).parse_args(argv)
     set_quiet(args.quiet)
+    cache_dir, cache_note = compile_cache.enable()
+    if cache_dir is None and cache_note.startswith("off:"):
+        step(f"compilation cache {cache_note}; compiling every program")
     try:
         _refuse_empty(args)
         budget = make_budget(args.max_memory, args.max_time)
