@@ -11,9 +11,10 @@ A command module defines ``COMMAND`` (its name, the entry point's), ``HELP`` (on
 ``run(args) -> exit status``.
 
 Only the module of the command being run is imported. Importing ``fem.cli`` runs
-``fem/__init__.py``, which loads scikit-fem and matplotlib (optim: scipy.optimize, casadi;
-optim.sweep: dask), seconds in all; so the list that ``jaxflex --help`` prints is read from
-the literals in each command module's source, without running it.
+``fem/__init__.py``, which loads scikit-fem (optim: scipy.optimize, ruckig; optim.sweep: dask
+and matplotlib), seconds in all; so the list that ``jaxflex --help`` prints is read from the
+literals in each command module's source, without running it. Every command runs with JAX's
+persistent compilation cache (jaxflex.compile_cache).
 """
 
 from __future__ import annotations

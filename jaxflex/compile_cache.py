@@ -90,16 +90,18 @@ def _install(directory: Path) -> None:
     jax.config.update("jax_compilation_cache_dir", str(directory))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
-    try:
+    try:  # JAX's cache module (private; checked with jax 0.10)
         from jax._src import compilation_cache as jax_cache
         from jax._src.compilation_cache_interface import CacheInterface
-    except ImportError:  # another JAX layout: its own file store (writes in place)
+
+        mutex = jax_cache._cache_initialized_mutex
+    except (ImportError, AttributeError):  # another layout: JAX's own file store
         return
 
     class AtomicFileStore(_FileStore, CacheInterface):
         pass
 
-    with jax_cache._cache_initialized_mutex:
+    with mutex:
         if not jax_cache._cache_initialized:
             jax_cache._cache = AtomicFileStore(directory, jax_cache.decompress_executable)
             jax_cache._cache_initialized = True
