@@ -11,7 +11,10 @@ Sections of ``bench.json`` (SI units; times in s unless the key says ms):
   chart ``stability.png``;
 * ``nodes``: every node, no reduction (:mod:`benchmarks.nodes`): forward deviation and
   exact cycle time at full-mesh sizes (``scale``) and what voxel reduction of the monitored
-  points costs in peak deviation and settle time (``reduction``).
+  points costs in peak deviation and settle time (``reduction``);
+* ``commands``: wall and CPU time of ``jaxflex optimize`` as a user runs it, with an empty
+  JAX compilation cache (cold) and again (warm), and of ``jaxflex demo`` in the full run
+  (:mod:`benchmarks.commands`).
 
 Four sizes: ``full`` (the built-in scenes, minutes), ``medium`` (small scenes, the sweeps
 of the full run; about a minute), ``quick`` (CI: small scenes, a few points per sweep) and
@@ -31,10 +34,12 @@ import numpy as np
 
 from benchmarks.accuracy import run_scene
 from benchmarks.charts import pareto_chart, stability_chart
+from benchmarks.commands import format_commands, run_commands
 from benchmarks.core import QUICK as QUICK_CORE
 from benchmarks.core import BenchCase, run_bench
 from benchmarks.fe import SceneSpec
 from benchmarks.nodes import format_nodes, run_reduction, run_scale
+from benchmarks.optim import scene_model
 from benchmarks.stability import OMEGA_DT, run_stability
 from jaxflex.atomic import make_output_dir, write_text_atomic
 from jaxflex.errors import InputError
@@ -128,6 +133,7 @@ SIZES = {
         "min_time_s": 0.01,
         "nodes": {"sizes": (1_099, 5_000), "large": None, "reduction": (("plate", 0.1),)},
         "reduction_counts": (100, 30),
+        "commands": {"model": "few-mode", "repeats": 1, "demo": False},
     },
     "medium": {
         "core": QUICK_CORE,
@@ -140,6 +146,7 @@ SIZES = {
         "min_time_s": 0.05,
         "nodes": {"sizes": (1_099, 66_308), "large": None, "reduction": (("plate", None),)},
         "reduction_counts": (1_099, 300, 100),
+        "commands": {"model": "fem-plate", "repeats": 1, "demo": False},
     },
     "full": {
         "core": BenchCase(),
@@ -166,6 +173,8 @@ SIZES = {
             "reduction": (("plate", None), ("panel", None)),
         },
         "reduction_counts": (1_099, 300, 100),
+        # the figures: the demo plate, three rounds, and the demo
+        "commands": {"model": "fem-plate", "repeats": 3, "demo": True},
     },
 }
 
@@ -203,6 +212,12 @@ def run_suite(
     report["charts"]["stability"] = "stability.png"
     if "nodes" in cfg:  # not in the notebook's "tiny" size
         report["nodes"] = run_nodes(cfg["nodes"], cfg["reduction_counts"], progress=progress)
+    if "commands" in cfg:  # not in the notebook's "tiny" size
+        spec = cfg["commands"]
+        model = scene_model(spec["model"])
+        report["commands"] = run_commands(
+            model, repeats=spec["repeats"], demo=spec["demo"], progress=progress
+        )
     report["wall_s"] = time.perf_counter() - start
     path = Path(json_path) if json_path is not None else out / "bench.json"
     write_text_atomic(path, json.dumps(report, indent=1, default=_json_default))
@@ -264,6 +279,8 @@ def summary_lines(report: dict) -> list[str]:
         )
     if "nodes" in report:
         lines.extend(format_nodes(report["nodes"]).splitlines())
+    if "commands" in report:
+        lines.extend(format_commands(report["commands"]))
     stab = report.get("stability")
     if stab:
         for key, values in stab["breaks_at_omega_dt"].items():

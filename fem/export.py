@@ -11,15 +11,12 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import matplotlib.tri as mtri
-import meshio
 import numpy as np
 
 from fem.modal import ModalResult
 from fem.transient import TransientResult
 from jaxflex.atomic import atomic_path
 from jaxflex.errors import InputError
-from jaxflex.plots import plt, save_figure
 
 FORMATS = (".vtu", ".vtk", ".xdmf", ".xmf")
 
@@ -33,6 +30,8 @@ def _atomic_path(path: str | os.PathLike):
 
 
 def _write(path, points, cells, point_data, field_data=None) -> None:
+    import meshio  # ~0.1 s: only when writing (as in export_transient)
+
     with _atomic_path(path) as tmp:
         if Path(tmp).suffix.lower() in (".xdmf", ".xmf"):
             # meshio's static XDMF writer needs h5py; one step of a time series does not
@@ -74,6 +73,8 @@ def export_transient(
         cells = [(result.system.cell_type, result.system.cells)]
     else:
         cells = [("vertex", np.arange(len(transient.points))[:, None])]
+    import meshio
+
     with _atomic_path(path) as tmp, meshio.xdmf.TimeSeriesWriter(tmp, data_format="XML") as w:
         w.write_points_cells(transient.points, cells)
         for t, u in zip(transient.t_s, transient.displacement_m, strict=True):
@@ -93,6 +94,10 @@ def _triangles(result: ModalResult) -> np.ndarray:
 def plot_part(result: ModalResult, path: str | os.PathLike, n_modes: int = 4) -> None:
     """PNG: the part's footprint with its supports, and contour plots of the normal (z)
     displacement of the first ``n_modes`` modes."""
+    import matplotlib.tri as mtri  # matplotlib: only when drawing
+
+    from jaxflex.plots import plt, save_figure
+
     nodes = result.system.nodes
     tri = mtri.Triangulation(nodes[:, 0], nodes[:, 1], _triangles(result))
     n = min(int(n_modes), result.n_modes)

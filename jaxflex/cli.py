@@ -11,9 +11,10 @@ A command module defines ``COMMAND`` (its name, the entry point's), ``HELP`` (on
 ``run(args) -> exit status``.
 
 Only the module of the command being run is imported. Importing ``fem.cli`` runs
-``fem/__init__.py``, which loads scikit-fem and matplotlib (optim: scipy.optimize, casadi;
-optim.sweep: dask), seconds in all; so the list that ``jaxflex --help`` prints is read from
-the literals in each command module's source, without running it.
+``fem/__init__.py``, which loads scikit-fem (optim: scipy.optimize, ruckig; optim.sweep: dask
+and matplotlib), seconds in all; so the list that ``jaxflex --help`` prints is read from the
+literals in each command module's source, without running it. Every command runs with JAX's
+persistent compilation cache (jaxflex.compile_cache).
 """
 
 from __future__ import annotations
@@ -31,9 +32,10 @@ from dataclasses import dataclass
 from importlib.metadata import entry_points, version
 from pathlib import Path
 
+from jaxflex import compile_cache
 from jaxflex.budget import DEFAULT_TIME_S, make_budget, use_budget
 from jaxflex.errors import InputError, JaxflexError, JaxflexWarning
-from jaxflex.progress import set_quiet
+from jaxflex.progress import set_quiet, step
 
 GROUP = "jaxflex.commands"
 DESCRIPTION = (
@@ -152,6 +154,9 @@ def _main(argv: list[str]) -> int:
     chosen = next((arg for arg in argv if not arg.startswith("-")), None)
     args = build_parser(chosen).parse_args(argv)
     set_quiet(args.quiet)
+    cache_dir, cache_note = compile_cache.enable()
+    if cache_dir is None and cache_note.startswith("off:"):
+        step(f"compilation cache {cache_note}; compiling every program")
     try:
         _refuse_empty(args)
         budget = make_budget(args.max_memory, args.max_time)

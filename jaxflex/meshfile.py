@@ -7,7 +7,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import meshio
 import numpy as np
 
 from jaxflex.errors import InputError
@@ -19,6 +18,8 @@ def read_cells(path: str | os.PathLike) -> tuple[np.ndarray, list[tuple[str, np.
     """(points (N, d) as read, [(meshio cell type, connectivity (C, k) int64)]) of a mesh
     file, read by meshio in a child process (jaxflex.isolated: a damaged binary file cannot
     take this process down); InputError naming the file when meshio cannot read it."""
+    import meshio  # ~0.1 s: only where a mesh is read
+
     try:
         data = meshio.read(path)
     # meshio raises many types (ReadError, KeyError, ValueError...) and, when no reader

@@ -152,6 +152,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "grows with their square)",
     )
     parser.add_argument("-o", "--output", required=True, help="output directory")
+    parser.add_argument(
+        "--no-plots",
+        action="store_true",
+        help="write the trajectory and the report only, no pictures (they are drawn after "
+        "the answer is printed and take about a second)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -202,7 +208,7 @@ def run(args: argparse.Namespace) -> int:
         cup_safety=args.cup_safety,
         max_stress_pa=max_stress,
     )
-    paths = result.save(args.output)
-    print(result.summary())
+    print(result.summary(), flush=True)  # the answer first, then the files and pictures
+    paths = result.save(args.output, plots=not args.no_plots)
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import time
 
-import casadi as ca
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -193,6 +192,8 @@ class ClearanceTerm(SmoothTerm):
 
 def _casadi_term(term: SmoothTerm, beta: float, name: str):
     """``term`` as a casadi Callback with an exact Jacobian callback."""
+    import casadi as ca  # ~0.1 s: only for Ipopt
+
     size = term.map.shape[0]
 
     class Gradient(ca.Callback):
@@ -247,6 +248,8 @@ def _casadi_term(term: SmoothTerm, beta: float, name: str):
 
 
 def _ipopt(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: float):
+    import casadi as ca  # ~0.1 s: only for Ipopt
+
     x = ca.MX.sym("x", program.cost.size)
     f_cb = _casadi_term(objective, beta, "surrogate")
     g = [ca.mtimes(ca.DM(program.matrix.tocsc()), x)]

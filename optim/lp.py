@@ -12,7 +12,6 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
@@ -144,6 +143,8 @@ def _solve_highs(lp: LinearProgram) -> LPSolution:
 
 
 def _solve_casadi(lp: LinearProgram, plugin: str) -> LPSolution:
+    import casadi as ca  # ~0.1 s: only for the casadi back ends
+
     a = ca.DM(lp.matrix.tocsc())
     n = lp.cost.size
     options = {"verbose": False, "print_time": False, "error_on_fail": False}

@@ -34,14 +34,6 @@ from jaxflex.settle import SettleReport
 from jaxflex.trajectory_io import write_trajectory_csv
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
-from optim.plots import (
-    Trace,
-    plot_comparison,
-    plot_constraints,
-    plot_profiles,
-    plot_robust,
-    plot_worst_case,
-)
 from optim.robust import RobustSpec, perturbed
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
@@ -291,31 +283,40 @@ class OptimizationResult:
             after = f"the deviation stays below {mm} from {settle:.3f} s on, {when} the stop"
         return f"transfer {transfer:.3f} s; {after}; cycle {self.cycle_time_s:.3f} s (exact)"
 
-    def save(self, directory: str | os.PathLike) -> list[Path]:
-        """Write trajectory.csv, report.json and the plots into ``directory`` (module
-        docstring) as one set (jaxflex.fileset): each file atomically, the manifest last,
-        the files of an earlier run that this one does not write removed. Returns the paths
-        written (manifest.json last)."""
+    def save(self, directory: str | os.PathLike, *, plots: bool = True) -> list[Path]:
+        """Write trajectory.csv, report.json and (with ``plots``) the pictures into
+        ``directory`` (module docstring) as one set (jaxflex.fileset): each file atomically,
+        the manifest last, the files of an earlier run that this one does not write removed.
+        Returns the paths written (manifest.json last)."""
         with writing(directory, RESULT_KIND, RESULT_FILES) as files:
             files.add("trajectory.csv", lambda p: write_trajectory_csv(p, self.acc, self.dt_s))
             files.add_text("report.json", json.dumps(self.report(), indent=2))
-            files.add("profiles.png", lambda p: plot_profiles(p, self.acc, self.dt_s, self.limits))
-            self._plot_deviation(files)
-            if self.constraints:
-                files.add("constraints.png", self._plot_constraints)
-            if self.worst_case is not None:
-                series = {self._label(): self.worst_case["grid"]}
-                for b in self.baselines.entries:
-                    if b.worst_grid is not None:
-                        series[b.name] = b.worst_grid
-                title = "Exact cycle time across the uncertainty range"
-                files.add("robust.png", lambda p: plot_robust(p, series, title))
+            if plots:
+                self._plot(files)
         return [files.directory / name for name in (*files.members, MANIFEST)]
+
+    def _plot(self, files: SetWriter) -> None:
+        """The pictures of the module docstring, added to ``files``."""
+        from optim.plots import plot_profiles, plot_robust  # matplotlib: only when drawing
+
+        files.add("profiles.png", lambda p: plot_profiles(p, self.acc, self.dt_s, self.limits))
+        self._plot_deviation(files)
+        if self.constraints:
+            files.add("constraints.png", self._plot_constraints)
+        if self.worst_case is not None:
+            series = {self._label(): self.worst_case["grid"]}
+            for b in self.baselines.entries:
+                if b.worst_grid is not None:
+                    series[b.name] = b.worst_grid
+            title = "Exact cycle time across the uncertainty range"
+            files.add("robust.png", lambda p: plot_robust(p, series, title))
 
     def _label(self) -> str:
         return "optimised" if self.source in ("optimised", "search") else f"{self.source} (chosen)"
 
     def _plot_constraints(self, path: Path) -> None:
+        from optim.plots import plot_constraints
+
         moves = {self._label(): self.acc}
         for b in self.baselines.entries:
             moves[b.name] = b.acc
@@ -329,6 +330,8 @@ class OptimizationResult:
         plot_constraints(path, curves, limits)
 
     def _plot_deviation(self, files: SetWriter) -> None:
+        from optim.plots import Trace, plot_comparison, plot_worst_case
+
         moves = [(self._label(), self.acc, self.cycle_time_s, self.worst_cycle_time_s)]
         for b in self.baselines.entries:
             if not (self.source == b.name and np.array_equal(b.acc, self.acc)):

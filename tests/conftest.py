@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +15,18 @@ import pytest
 
 import jaxflex
 from jaxflex.analytic import simply_supported_plate
+from jaxflex.compile_cache import ENV_VAR as COMPILE_CACHE_VAR
+
+
+def pytest_configure(config):
+    """JAX's compilation cache (jaxflex.compile_cache) in a directory of this session, never
+    the user's: the commands run in-process and the subprocesses (which inherit it, as the
+    xdist workers do) share it, as concurrent runs of a user's commands share theirs."""
+    if hasattr(config, "workerinput"):
+        return
+    directory = tempfile.mkdtemp(prefix="jaxflex-test-jax-cache-")
+    os.environ[COMPILE_CACHE_VAR] = directory
+    config.add_cleanup(lambda: shutil.rmtree(directory, ignore_errors=True))
 
 
 def random_model(

@@ -163,6 +163,14 @@ def test_quick_bench_writes_every_method_and_chart(tmp_path):
     # a subset of points never sees more than all of them
     assert all(r["peak_deviation_m"] <= rows[0]["peak_deviation_m"] * (1 + 1e-12) for r in rows)
     assert not list(out.rglob("*.tmp"))
+    # whole commands from outside, cold and warm (figures only: no wall-clock assert); the
+    # warm run loads what the cold one compiled and gives the same answer
+    (run,) = saved["commands"]["optimize"]["rounds"]
+    assert run["cache_entries"] > 0
+    assert run["cold"]["answer"].startswith("best move: ")
+    assert run["warm"]["answer"] == run["warm_no_plots"]["answer"] == run["cold"]["answer"]
+    assert all(run[k]["cpu_s"] > 0 for k in ("cold", "warm", "warm_no_plots"))
+    assert "commands (load average" in proc.stdout
 
     # FE-agreement target on the plate: the built-in plate (1.5 x 0.8 m, 4 cups) on a 100 mm
     # Morley mesh, 40 modes against its own full-order FE transient (Richardson-extrapolated

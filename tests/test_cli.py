@@ -63,6 +63,26 @@ def test_help_lists_every_command_without_importing_one():
         assert f"{command.name} {command.help}" in words
 
 
+# third-party modules each command's module may load on import (the rest, e.g. matplotlib for
+# the pictures, casadi for its solvers, meshio and gmsh for mesh files, is imported where used)
+NEEDED = {
+    "fmu.demo": {"skfem", "ruckig", "fmpy"},
+    "fem.cli": {"skfem"},
+    "optim.cli": {"ruckig"},
+    "fmu.cli": {"skfem", "ruckig", "fmpy"},
+}
+OPTIONAL = ("matplotlib", "casadi", "meshio", "gmsh", "skfem", "ruckig", "fmpy", "pyuff", "dask")
+
+
+def test_commands_import_heavy_modules_only_where_they_are_used():
+    for module, needed in NEEDED.items():
+        code = f"import json, sys, {module}\n"
+        code += f"print(json.dumps([m for m in {OPTIONAL!r} if m in sys.modules]))"
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr
+        assert set(json.loads(proc.stdout)) <= needed, module
+
+
 def test_interrupted_command_exits_130(monkeypatch, capsys):
     def interrupted(args):
         raise KeyboardInterrupt

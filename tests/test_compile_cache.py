@@ -1,0 +1,184 @@
+"""JAX's persistent compilation cache of the commands (jaxflex.compile_cache): a second
+process loads what the first compiled, a damaged entry is recompiled and replaced, an
+unwritable or disabled cache leaves the results as they are, concurrent writers never leave
+a half-written entry."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import pytest
+from test_optim_optimize import few_mode_model
+
+from jaxflex import compile_cache
+from jaxflex.compile_cache import ENV_VAR, SUFFIX, _evict, _FileStore, _writable
+
+# runs the command in a fresh interpreter and prints JAX's own count of its compilation-cache
+# events (jax.monitoring) as the last line: what was asked of the cache, found, written
+WITH_EVENTS = """
+import json, sys
+import jax.monitoring
+events = {}
+def count(name, **_):
+    if name.startswith("/jax/compilation_cache/"):
+        key = name.rsplit("/", 1)[1]
+        events[key] = events.get(key, 0) + 1
+jax.monitoring.register_event_listener(count)
+from jaxflex.cli import main
+status = main(sys.argv[1:])
+print("EVENTS " + json.dumps(events))
+sys.exit(status)
+"""
+
+
+@pytest.fixture(scope="module")
+def model_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("model") / "part.npz"
+    few_mode_model().save(path)
+    return path
+
+
+def optimize(model_file: Path, out: Path, cache: str, *extra: str):
+    """``jaxflex optimize`` of the test part with the cache at ``cache``: (process, events)."""
+    args = [str(model_file), "--distance", "0", "0", "0.8", "--threshold", "1e-3"]
+    args += ["--max-memory", "4", "--no-plots", "-o", str(out), *extra]
+    proc = subprocess.run(
+        [sys.executable, "-c", WITH_EVENTS, "optimize", *args],
+        capture_output=True,
+        text=True,
+        env={**os.environ, ENV_VAR: cache},
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr
+    line = proc.stdout.strip().splitlines()[-1]
+    assert line.startswith("EVENTS "), proc.stdout
+    return proc, json.loads(line.removeprefix("EVENTS "))
+
+
+def entries(directory: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in directory.iterdir() if p.name.endswith(SUFFIX)}
+
+
+def test_a_second_process_loads_what_the_first_compiled(model_file, tmp_path):
+    cache = tmp_path / "cache"
+    first, events = optimize(model_file, tmp_path / "a", str(cache), "-q")
+    written = entries(cache)
+    # every program went through the cache and was written (however quick to compile)
+    assert events.get("compile_requests_use_cache", 0) > 0
+    assert events.get("cache_hits", 0) == 0
+    assert events.get("cache_misses", 0) == len(written) > 0
+    assert all(not p.name.startswith(".") for p in cache.iterdir())  # no temporaries left
+    assert oct(cache.stat().st_mode & 0o777) == oct(0o700)
+
+    second, events = optimize(model_file, tmp_path / "b", str(cache), "-q")
+    assert events.get("cache_hits", 0) == events["compile_requests_use_cache"] > 0
+    assert events.get("cache_misses", 0) == 0  # nothing compiled, nothing written
+    assert entries(cache) == written
+    assert (tmp_path / "a" / "trajectory.csv").read_bytes() == (
+        tmp_path / "b" / "trajectory.csv"
+    ).read_bytes()
+    assert first.stdout.splitlines()[0] == second.stdout.splitlines()[0]
+
+    # damaged entries (a disk error, a killed writer of another JAX): recompiled and replaced,
+    # without a warning, with the same answer
+    for name, data in written.items():
+        (cache / name).write_bytes(data[: len(data) // 2])
+    third, events = optimize(model_file, tmp_path / "c", str(cache))
+    assert "compilation cache" not in third.stderr, third.stderr
+    assert events.get("cache_hits", 0) == 0
+    assert events.get("cache_misses", 0) == len(written)
+    assert set(entries(cache)) == set(written)
+    assert (tmp_path / "c" / "trajectory.csv").read_bytes() == (
+        tmp_path / "a" / "trajectory.csv"
+    ).read_bytes()
+    _, events = optimize(model_file, tmp_path / "d", str(cache), "-q")
+    assert events.get("cache_hits", 0) == events["compile_requests_use_cache"] > 0
+
+
+@pytest.mark.parametrize("kind", ["unwritable", "off"])
+def test_a_run_without_a_usable_cache_gives_the_same_answer(model_file, tmp_path, kind):
+    reference, _ = optimize(model_file, tmp_path / "ref", str(tmp_path / "cache"), "-q")
+    blocker = tmp_path / "a file"
+    blocker.write_text("not a directory")
+    cache = str(blocker / "cache") if kind == "unwritable" else "off"
+    proc, events = optimize(model_file, tmp_path / "out", cache)
+    assert events.get("cache_hits", 0) == events.get("cache_misses", 0) == 0
+    if kind == "unwritable":
+        # one step line says so (stderr, not with -q); nothing else complains
+        assert "compilation cache off: " in proc.stderr and "not writable" in proc.stderr
+        assert "Traceback" not in proc.stderr and "Error" not in proc.stderr
+    else:
+        assert "compilation cache" not in proc.stderr
+    assert proc.stdout.splitlines()[0] == reference.stdout.splitlines()[0]
+    assert (tmp_path / "out" / "trajectory.csv").read_bytes() == (
+        tmp_path / "ref" / "trajectory.csv"
+    ).read_bytes()
+
+
+def test_the_directory_comes_from_the_environment(monkeypatch, tmp_path):
+    monkeypatch.setenv(ENV_VAR, str(tmp_path / "mine"))
+    assert compile_cache.chosen_dir() == tmp_path / "mine"
+    monkeypatch.setenv(ENV_VAR, "OFF")
+    assert compile_cache.chosen_dir() is None
+    monkeypatch.delenv(ENV_VAR)
+    if sys.platform.startswith("linux"):  # platformdirs follows XDG there
+        monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+        assert compile_cache.chosen_dir() == tmp_path / "xdg" / "jaxflex" / "jax"
+    assert _writable(tmp_path / "new" / "jax") is None  # created, parents too
+    blocker = tmp_path / "file"
+    blocker.write_bytes(b"")
+    assert "not writable" in _writable(blocker / "jax")
+
+
+def _check_entry(data: bytes) -> None:
+    if data[:1] != data[-1:] or len(set(data)) != 1:
+        raise ValueError("a half-written entry")
+
+
+def test_concurrent_writers_and_readers_see_whole_entries(tmp_path):
+    # writers replace one entry with values of different lengths while readers read it; a
+    # write in place (JAX's own file store) lets a reader see a mixture or a truncated file
+    store = _FileStore(tmp_path, _check_entry)
+    values = [bytes([i]) * (2_000_000 + 100_000 * i) for i in range(1, 5)]
+    seen, failures = [], []
+
+    def write(value: bytes) -> None:
+        for _ in range(15):
+            store.put("key", value)
+
+    def read() -> None:
+        for _ in range(300):
+            try:
+                data = (tmp_path / f"key{SUFFIX}").read_bytes()
+            except FileNotFoundError:  # not written yet
+                continue
+            seen.append(len(data))
+            if data not in values:
+                failures.append(len(data))
+
+    threads = [threading.Thread(target=write, args=(v,)) for v in values]
+    threads += [threading.Thread(target=read) for _ in range(2)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert seen and not failures
+    assert store.get("key") in values
+    assert [p.name for p in tmp_path.iterdir()] == [f"key{SUFFIX}"]
+
+
+def test_least_recently_used_entries_go_first(tmp_path):
+    for i, name in enumerate(("old", "middle", "new")):
+        path = tmp_path / f"{name}{SUFFIX}"
+        path.write_bytes(b"x" * 1000)
+        os.utime(path, (1_000_000 + i, 1_000_000 + i))
+    stale = tmp_path / ".new-cache.123-0123456789abcdef.tmp"
+    stale.write_bytes(b"partial")
+    os.utime(stale, (1_000_000, 1_000_000))
+    _evict(tmp_path, 2500)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f"middle{SUFFIX}", f"new{SUFFIX}"]
