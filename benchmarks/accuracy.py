@@ -23,11 +23,9 @@ from benchmarks.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_of
 from benchmarks.methods import METHODS, prepare, stable_substeps
 from benchmarks.metrics import compare, curve_errors, settle_from_samples
 from benchmarks.timing import best_time_s
-from jaxflex.engine import upsample
-from jaxflex.points import voxel_downsample
-from jaxflex.progress import progress_bar, step
-from jaxflex.settle import analyze_move
-from jaxflex.simulate import simulate
+from jaxflex import analyze_move, simulate, upsample
+from jaxflex.response import voxel_downsample
+from jaxflex.runtime import progress_bar, step
 
 OURS = ("scan64", "scan32")
 SETTLE_SHARE_OF_PEAK = 0.05

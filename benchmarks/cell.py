@@ -31,13 +31,10 @@ import numpy as np
 import fem
 import optim
 from fem.outputs import reaction_outputs, stress_outputs
-from jaxflex.atomic import write_text_atomic
-from jaxflex.cell import Box, Cell, load_cell
-from jaxflex.collision import min_distance
-from jaxflex.deviation import outputs_at
-from jaxflex.loads import CupUtilisation, VonMises
-from jaxflex.peaks import output_peak
-from jaxflex.profile import acceleration_at
+from jaxflex.files import write_text_atomic
+from jaxflex.geometry import Box, Cell, min_distance
+from jaxflex.response import CupUtilisation, VonMises, acceleration_at, output_peak, outputs_at
+from optim.cell_file import load_cell
 from optim.ruckig_move import kinematic_floor_move
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

@@ -25,12 +25,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from benchmarks.timing import best_time_s, machine
-from jaxflex.convolution import convolve_unit_response, deviation_from_displacement, unit_response
-from jaxflex.model import ModalModel
-from jaxflex.progress import step
-from jaxflex.settle import cycle_time
-from jaxflex.simulate import move_deviation, on_device, simulate
-from jaxflex.surrogate import cycle_time_smooth
+from jaxflex import ModalModel, cycle_time, cycle_time_smooth, simulate
+from jaxflex.reference import convolve_unit_response, deviation_from_displacement, unit_response
+from jaxflex.response import move_deviation, on_device
+from jaxflex.runtime import step
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,7 @@ import numpy as np
 
 import fem
 import jaxflex
-from jaxflex.atomic import write_text_atomic
+from jaxflex.files import write_text_atomic
 
 CASES = ("plate", "solid", "scenes", "transient")
 

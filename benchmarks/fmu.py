@@ -41,8 +41,8 @@ from fmu.windows import (
     windows_path,
     windows_resource_location,
 )
-from jaxflex.model import ModalModel
-from jaxflex.progress import step
+from jaxflex import ModalModel
+from jaxflex.runtime import step
 
 STEP_TARGET_US = 30.0
 INSTANTIATE_TARGET_US = 10_000.0

@@ -43,8 +43,8 @@ from pathlib import Path
 import numpy as np
 
 import fem
-from jaxflex.atomic import write_text_atomic
-from jaxflex.errors import InputError, ModelError
+from jaxflex import InputError, ModelError
+from jaxflex.files import write_text_atomic
 
 EXTENSIONS = {".bdf", ".dat", ".nas", ".bulk", ".blk", ".inc"}
 _SHELL = re.compile(r"^(CQUAD4|CTRIA3|CQUAD8|CTRIA6|CQUADR|CTRIAR)[\s,*]", re.IGNORECASE)

@@ -32,12 +32,11 @@ from benchmarks.core import sine_move
 from benchmarks.timing import best_time_s
 from fem.modal import modal_analysis
 from fem.scenes import scene as built_in
-from jaxflex.analytic import simply_supported_plate
-from jaxflex.atomic import write_text_atomic
-from jaxflex.model import ModalModel
-from jaxflex.progress import step
-from jaxflex.settle import analyze_move, cycle_time
-from jaxflex.simulate import move_deviation, on_device
+from jaxflex import ModalModel, analyze_move, cycle_time
+from jaxflex.files import write_text_atomic
+from jaxflex.reference import simply_supported_plate
+from jaxflex.response import move_deviation, on_device
+from jaxflex.runtime import step
 
 RADII_M = (2.5, 1.2)
 TARGETS = {

@@ -29,11 +29,9 @@ import time
 import numpy as np
 
 import fem
-from jaxflex import load_model
-from jaxflex.analytic import simply_supported_plate
-from jaxflex.atomic import write_text_atomic
-from jaxflex.errors import InputError
-from jaxflex.model import ModalModel
+from jaxflex import InputError, ModalModel, load_model
+from jaxflex.files import write_text_atomic
+from jaxflex.reference import simply_supported_plate
 from optim.baselines import worst_case
 from optim.limits import Limits
 from optim.optimize import optimize

@@ -29,8 +29,8 @@ import numpy as np
 import fem
 from fem.mesh_io import sheet_from_cells
 from fem.parts import part_from_mesh
-from jaxflex.analytic import cylindrical_panel_frequencies_hz
-from jaxflex.atomic import write_text_atomic
+from jaxflex.files import write_text_atomic
+from jaxflex.reference import cylindrical_panel_frequencies_hz
 
 CASES = ("doors", "leissa", "donnell", "locking", "bracket", "scene")
 STEEL = fem.PRESETS["steel"]

@@ -36,9 +36,9 @@ from benchmarks.core import BenchCase, run_bench
 from benchmarks.fe import SceneSpec
 from benchmarks.nodes import format_nodes, run_reduction, run_scale
 from benchmarks.stability import OMEGA_DT, run_stability
-from jaxflex.atomic import make_output_dir, write_text_atomic
-from jaxflex.errors import InputError
-from jaxflex.progress import step
+from jaxflex import InputError
+from jaxflex.files import make_output_dir, write_text_atomic
+from jaxflex.runtime import step
 
 SMALL_PLATE = SceneSpec(
     "plate",

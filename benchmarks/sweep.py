@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxflex.atomic import write_text_atomic
-from jaxflex.model import ModalModel
-from jaxflex.model_file import ARRAY_FIELDS
+from jaxflex import ModalModel
+from jaxflex.files import write_text_atomic
+from jaxflex.response import ARRAY_FIELDS
 from optim.limits import Limits
 from optim.optimize import optimize
 from optim.robust import RobustSpec

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import psutil
 
-from jaxflex.atomic import write_text_atomic
+from jaxflex.files import write_text_atomic
 from optim.sweep.run import run_sweep
 from optim.sweep.spec import SweepSpec, parse_spec
 from optim.sweep.store import ResultStore

@@ -40,8 +40,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from jaxflex.errors import InputError
-from jaxflex.inputs import read_text
+from jaxflex import InputError
+from jaxflex.files import read_text
 
 _INT = re.compile(r"[+-]?\d+")
 _REAL = re.compile(

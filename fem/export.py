@@ -17,8 +17,8 @@ import numpy as np
 
 from fem.modal import ModalResult
 from fem.transient import TransientResult
-from jaxflex.atomic import atomic_path
-from jaxflex.errors import InputError
+from jaxflex import InputError
+from jaxflex.files import atomic_path
 from jaxflex.plots import plt, save_figure
 
 FORMATS = (".vtu", ".vtk", ".xdmf", ".xmf")

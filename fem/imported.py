@@ -18,8 +18,8 @@ from scipy.spatial import cKDTree
 
 from fem.damping import describe_damping, modal_zeta
 from fem.modal import select_node_indices
-from jaxflex.errors import InputError
-from jaxflex.model import MODES_ONLY_STATIC, ModalModel
+from jaxflex import InputError, ModalModel
+from jaxflex.response import MODES_ONLY_STATIC
 
 
 @dataclass(eq=False)

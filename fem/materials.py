@@ -7,7 +7,7 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from jaxflex.errors import InputError
+from jaxflex import InputError
 
 
 @dataclass(frozen=True)

@@ -44,8 +44,8 @@ import scipy.sparse as sp
 
 from fem.damping import Rayleigh
 from fem.eigen import factorize
-from jaxflex.errors import InputError
-from jaxflex.outputs import CupSet, LinearOutputs, StressSet
+from jaxflex import InputError
+from jaxflex.response import CupSet, LinearOutputs, StressSet
 
 
 @dataclass(eq=False)

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from fem.eigen import DENSE_SHARE
 from fem.meshing import GROWTH, cup_bands, graded_count
 from fem.supports import contact_discs
-from jaxflex.budget import Need
+from jaxflex.runtime import Need
 
 CELLS_PER_H2 = 2.31  # equilateral triangles of side h per h^2: 4 / sqrt(3)
 DOF_PER_CELL = {"morley": 2.0, "argyris": 4.5, "shell": 3.0, "hex2": 36.0}

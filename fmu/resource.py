@@ -38,10 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex.cell import Box, HalfSpace
-from jaxflex.collision import gravity_offset
-from jaxflex.errors import InputError, ModelFileError
-from jaxflex.model import ModalModel
+from jaxflex import InputError, ModalModel, ModelFileError
+from jaxflex.geometry import Box, HalfSpace, gravity_offset
 
 MAGIC = b"JXFLXFMU"
 FORMAT_VERSION = 3

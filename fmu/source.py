@@ -29,8 +29,8 @@ from fmu.archive import zip_folder
 from fmu.build import C_DIR, build_binaries
 from fmu.export import model_identifier
 from fmu.model_description import build_description
-from jaxflex.errors import InputError
-from jaxflex.profile import as_move
+from jaxflex import InputError
+from jaxflex.response import as_move
 
 SOURCE_FILES = {
     2: ("jxf_source.c", "jxf_source_fmi2.c"),

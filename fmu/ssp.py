@@ -35,8 +35,7 @@ import jaxflex
 from fmu.archive import zip_folder
 from fmu.export import DEFAULT_THRESHOLD_M, ExportResult, export_fmu
 from fmu.source import OUTPUTS, SourceResult, export_source_fmu
-from jaxflex.errors import InputError
-from jaxflex.model import ModalModel
+from jaxflex import InputError, ModalModel
 
 PART, SOURCE = "part", "trajectory"
 PARAMETER_SET = "case"

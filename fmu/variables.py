@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from jaxflex.model_file import VALUE_RANGES
+from jaxflex.response import VALUE_RANGES
 
 RESOURCE_FILE = "jaxflex_model.bin"
 INPUT_COLUMNS = ("time", "ax", "ay", "az")  # input CSV / fmpy signal: s, m/s^2

@@ -16,6 +16,7 @@ from jaxflex.errors import (  # noqa: E402
     BudgetError,
     InputError,
     JaxflexError,
+    JaxflexWarning,
     ModelError,
     ModelFileError,
 )
@@ -29,6 +30,7 @@ __all__ = [
     "BudgetError",
     "InputError",
     "JaxflexError",
+    "JaxflexWarning",
     "ModalModel",
     "ModelError",
     "ModelFileError",

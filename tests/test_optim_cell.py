@@ -20,11 +20,12 @@ from independent import (
 
 import fem
 import optim
-from jaxflex.cell import Box, Cell, HalfSpace, Via, load_cell
+from jaxflex.cell import Box, Cell, HalfSpace, Via
 from jaxflex.collision import distances, min_distance
 from jaxflex.errors import InputError
 from jaxflex.loads import CupUtilisation, VonMises
 from jaxflex.profile import integrate
+from optim.cell_file import load_cell
 from optim.ruckig_move import kinematic_floor_move
 
 DT = 0.01

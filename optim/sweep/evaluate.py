@@ -25,9 +25,8 @@ from collections.abc import Sequence
 import numpy as np
 
 import jaxflex
-from jaxflex.engine import padded_steps, rest_padded, upsample
-from jaxflex.errors import InputError
-from jaxflex.model import ModalModel, stack_models
+from jaxflex import InputError, ModalModel, stack_models, upsample
+from jaxflex.response import padded_steps, rest_padded
 
 METHODS = ("batched", "loop")
 

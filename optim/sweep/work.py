@@ -20,8 +20,7 @@ import warnings
 import numpy as np
 
 import fem
-from jaxflex.errors import JaxflexError, JaxflexWarning
-from jaxflex.model import ModalModel
+from jaxflex import JaxflexError, JaxflexWarning, ModalModel
 from optim.limits import Limits
 from optim.optimize import optimize
 from optim.robust import RobustSpec

@@ -1,0 +1,45 @@
+"""A run's surroundings, for the layers above the core: progress on long work (progress),
+time and memory budgets (budget), advice to the user (advice) and a silenced stdout for
+chatty third-party code (stdout). Public: these names are kept stable; the modules they come
+from are private.
+"""
+
+from __future__ import annotations
+
+from jaxflex.advice import (
+    Advice,
+    issue,
+    model_resolution,
+    threshold_advice,
+)
+from jaxflex.budget import (
+    Need,
+    check_time,
+    current_budget,
+    format_bytes,
+    require,
+)
+from jaxflex.progress import (
+    note,
+    progress_bar,
+    step,
+)
+from jaxflex.stdout import (
+    silenced_stdout,
+)
+
+__all__ = [
+    "Advice",
+    "Need",
+    "check_time",
+    "current_budget",
+    "format_bytes",
+    "issue",
+    "model_resolution",
+    "note",
+    "progress_bar",
+    "require",
+    "silenced_stdout",
+    "step",
+    "threshold_advice",
+]
