@@ -3,6 +3,22 @@
 The core (this package) holds the modal model, the exact discrete-time modal recursion in
 JAX, deviation, settle and cycle time and their gradients. SI units throughout.
 float64 is enabled on import (``jax_enable_x64``); float32 is available on request.
+
+The public interface, the only way the layers above (fem, optim, fmu) and users enter the
+core, each module's names in its ``__all__`` (tests/test_public_core.py checks it):
+
+* ``jaxflex``: the model, moves, the response, settle and cycle time, the errors;
+* ``jaxflex.response``: the building blocks of the certified response (state maps,
+  deviation, outputs and loads, decay, peaks, the move's kinematics, point sets);
+* ``jaxflex.geometry``: the cell's geometry (obstacles, pose, path) and the certified clearance;
+* ``jaxflex.files``: input checks, readers in a child process, atomic outputs, file sets,
+  the trajectory and unit-response CSV files;
+* ``jaxflex.runtime``: progress, time and memory budgets, advice, a silenced stdout;
+* ``jaxflex.reference``: closed forms and independent methods (convolution, integrators);
+* ``jaxflex.plots``: pictures (atomic saving, the deviation axis);
+* ``jaxflex.cli``: the ``jaxflex`` command and what a subcommand's module may use.
+
+Every other submodule is private to the core and free to change.
 """
 
 from importlib.metadata import version

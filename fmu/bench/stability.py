@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.signal
 
-from benchmarks.metrics import settle_from_samples
+from fmu.bench.metrics import settle_from_samples
 from jaxflex import ModalModel, analyze_move, simulate, upsample
 from jaxflex.reference import central_difference_modal, newmark_modal
 

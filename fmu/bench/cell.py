@@ -1,6 +1,6 @@
 """The real cell's figures, as JSON: obstacles and via points, cup forces, stress, compliant cups.
 
-    python -m benchmarks.cell [--cases press accuracy constraints cups convergence]
+    python -m fmu.bench.cell [--cases press accuracy constraints cups convergence]
                               [-o cell_bench.json]
 
 * press: the built-in plate (1.5 x 0.8 m, 20 modes) laid into a press opening through a via
@@ -242,7 +242,7 @@ def convergence(sizes=(0.05, 0.0354, 0.025, 0.0177)) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.cell", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m fmu.bench.cell", description=__doc__)
     parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
     parser.add_argument("-o", "--output", default="cell_bench.json", help="JSON results")
     args = parser.parse_args(argv)

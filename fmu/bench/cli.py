@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from benchmarks.core import format_table
-from benchmarks.suite import run_suite, summary_lines
+from fmu.bench.core import format_table
+from fmu.bench.suite import run_suite, summary_lines
 from jaxflex.files import check_output_dir
 from jaxflex.runtime import step
 

@@ -24,7 +24,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from benchmarks.timing import best_time_s, machine
+from fmu.bench.timing import best_time_s, machine
 from jaxflex import ModalModel, cycle_time, cycle_time_smooth, simulate
 from jaxflex.reference import convolve_unit_response, deviation_from_displacement, unit_response
 from jaxflex.response import move_deviation, on_device
@@ -60,7 +60,7 @@ def synthetic_model(case: BenchCase) -> ModalModel:
         gamma=gamma,
         shapes=shapes,
         points=points,
-        meta={"source": "benchmarks.core synthetic model"},
+        meta={"source": "fmu.bench.core synthetic model"},
     )
 
 

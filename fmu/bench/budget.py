@@ -13,8 +13,8 @@
 
 JSON on stdout (and ``-o FILE``)::
 
-    python -m benchmarks.budget -o budget.json
-    python -m benchmarks.budget --refusals -o refusals.json
+    python -m fmu.bench.budget -o budget.json
+    python -m fmu.bench.budget --refusals -o refusals.json
 """
 
 from __future__ import annotations
@@ -282,7 +282,7 @@ def main(argv: list[str] | None = None) -> int:
     for element, sizes in CASES.items():
         for size in sizes:
             out = subprocess.run(
-                [sys.executable, "-m", "benchmarks.budget", "--case", element, str(size)],
+                [sys.executable, "-m", "fmu.bench.budget", "--case", element, str(size)],
                 capture_output=True,
                 text=True,
                 check=True,
