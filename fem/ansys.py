@@ -43,8 +43,8 @@ from fem.mapdl_check import check_mapdl_file
 from fem.modal import solve_modes
 from fem.solver_modes import rigid_mask, rigid_meta, user_gamma
 from fem.units import Units, resolve_units
-from jaxflex import InputError
-from jaxflex.files import isolated
+from jaxflex.errors import InputError
+from jaxflex.isolated import isolated
 
 DOF_LABELS = {1: "UX", 2: "UY", 3: "UZ", 4: "ROTX", 5: "ROTY", 6: "ROTZ"}
 TRANSLATIONS = ("UX", "UY", "UZ")

@@ -40,7 +40,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import read_text
 
 _INT = re.compile(r"[+-]?\d+")

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from fem.offsets import offset_transform
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 PLANE1 = np.array([1, 5, 7, 11])  # v, theta_z at A and B
 PLANE2 = np.array([2, 4, 8, 10])  # w, theta_y at A and B

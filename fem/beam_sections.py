@@ -24,7 +24,7 @@ import numpy as np
 
 from fem.bdf import BulkData, Card
 from fem.deck_materials import Material, Materials
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 BEAM_PROPERTIES = ("PBAR", "PBARL", "PBEAM", "PBEAML", "PROD", "PTUBE")
 LIBRARY_DIMENSIONS = {

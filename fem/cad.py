@@ -32,9 +32,9 @@ import numpy as np
 from fem.iges import iges_units
 from fem.mesh_io import CAD_SUFFIXES, SheetMesh, sheet_from_cells
 from fem.meshing import GROWTH
-from jaxflex import InputError
-from jaxflex.files import isolated
-from jaxflex.runtime import silenced_stdout
+from jaxflex.errors import InputError
+from jaxflex.isolated import isolated
+from jaxflex.stdout import silenced_stdout
 
 CURVATURE_ELEMENTS = 12
 _TRIANGLE, _QUAD = 2, 3  # gmsh element types

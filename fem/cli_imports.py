@@ -17,7 +17,7 @@ from fem.from_modes import from_modes
 from fem.identify import from_r1
 from fem.nastran import from_nastran
 from fem.sanity import printed_part_warnings
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import read_text, write_text_atomic
 
 SOURCES = ("from_ansys", "from_nastran", "from_r1", "from_modes")

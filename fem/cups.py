@@ -41,7 +41,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 
 DEFAULT_VACUUM_PA = 60e3  # 60 % relative vacuum, the makers' reference for holding forces

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 
 

@@ -26,7 +26,7 @@ import numpy as np
 from fem.bdf import BulkData, Card
 from fem.deck_coords import DeckGeometry
 from fem.offsets import offset_transform
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 RIGID_CARDS = ("RBE2", "RBE3", "RBAR", "RBAR1", "RROD")
 

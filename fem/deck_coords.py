@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fem.bdf import BulkData, Card
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 KINDS = {"CORD2R": "R", "CORD2C": "C", "CORD2S": "S", "CORD1R": "R", "CORD1C": "C"}
 KINDS["CORD1S"] = "S"

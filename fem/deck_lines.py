@@ -20,7 +20,7 @@ from fem.bdf import BulkData, Card
 from fem.beam_element import local_matrices, release, to_global
 from fem.beam_sections import BeamSection, BeamSections
 from fem.deck_coords import DeckGeometry
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 BEAMS = {"CBAR": ("PBAR", "PBARL"), "CBEAM": ("PBEAM", "PBEAML", "PBAR", "PBARL")}
 RODS = {"CROD": ("PROD",), "CTUBE": ("PTUBE",)}

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fem.bdf import BulkData, Card
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 SHELL_MATERIALS = ("MAT1", "MAT2", "MAT8")
 

@@ -34,7 +34,7 @@ from fem.shell import ShellLayer, ShellMeshDofs, ShellOutputs, surface_stress
 from fem.shell_element import local_frames
 from fem.system import mesh_stats, rigid_motions
 from fem.units import Units
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 FORMULATION = (
     "Nastran deck, 6 DOFs per grid: shell facets (DKT bending + ANDES OPT membrane, "

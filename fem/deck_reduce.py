@@ -27,7 +27,7 @@ from scipy.sparse.linalg import splu
 
 from fem.deck_constraints import DeckConstraints
 from fem.system import Constraints, Spring
-from jaxflex import BudgetError, InputError
+from jaxflex.errors import BudgetError, InputError
 
 AUTOSPC_RATIO = 1e-8  # Nastran's EPZERO for grid-point singularities
 CONDENSATION_BUDGET = 25_000_000  # entries of the dense block of massless components

@@ -30,7 +30,7 @@ from fem.deck_coords import DeckGeometry
 from fem.deck_lines import BEAMS, LINE_CARDS, RODS
 from fem.deck_materials import Materials
 from fem.deck_shells import SHELL_CARDS, ShellSections, read_shell
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 POINT_CARDS = ("CONM1", "CONM2", "CMASS1", "CMASS2", "CELAS1", "CELAS2", "CBUSH")
 MODELLED = (*SHELL_CARDS, *LINE_CARDS, *POINT_CARDS, *RIGID_CARDS)

@@ -28,7 +28,7 @@ from fem.deck_coords import DeckGeometry
 from fem.deck_materials import Materials, ShellSection, laminate, pshell, rotate
 from fem.offsets import offset_transform
 from fem.shell_element import local_frames, local_matrices, opt_beta0, to_global
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 # card: (corner grids, grids, THETA/MCID, ZOFFS, TFLAG, first corner thickness) field indices
 SHELL_LAYOUT = {

@@ -24,7 +24,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from threadpoolctl import threadpool_limits
 
-from jaxflex import InputError, JaxflexWarning
+from jaxflex.errors import InputError, JaxflexWarning
 from jaxflex.runtime import progress_bar, step
 
 DENSE_MAX_DOF = 6000

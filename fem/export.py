@@ -17,7 +17,7 @@ import numpy as np
 
 from fem.modal import ModalResult
 from fem.transient import TransientResult
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import atomic_path
 from jaxflex.plots import plt, save_figure
 

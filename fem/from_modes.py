@@ -37,7 +37,7 @@ from fem.r1_layout import R1Layout, steps_from_zero
 from fem.solver_modes import SolverModes, rigid_mask, rigid_meta, user_gamma
 from fem.uff_modes import UffResponses, read_uff
 from fem.units import Units, resolve_units
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 READERS = {
     ".op2": read_op2_modes,

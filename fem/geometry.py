@@ -24,7 +24,7 @@ from fem.cad import mesh_cad
 from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
 from fem.mesh_io import SheetMesh
 from fem.surface_index import SurfaceIndex
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 AREA_SAMPLES = 400  # midpoint rule per side for the area of a built-in curved surface
 

@@ -14,7 +14,7 @@ import os
 import re
 from dataclasses import dataclass
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 # units flag -> (name, metres per unit); flag 3: the name of parameter 15 decides
 UNIT_FLAGS = {

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 HEADER_WORDS = 100
 SUFFIXES = (".full", ".rst")

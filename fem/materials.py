@@ -7,7 +7,7 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
 from fem.meshfile import read_cells
 from fem.meshing import split_quads
 from fem.plan import plan_of_cells
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import check_input_file
 from jaxflex.runtime import Need, require
 

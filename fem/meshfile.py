@@ -10,8 +10,8 @@ from pathlib import Path
 import meshio
 import numpy as np
 
-from jaxflex import InputError
-from jaxflex.files import isolated
+from jaxflex.errors import InputError
+from jaxflex.isolated import isolated
 
 
 @isolated("mesh", "meshio")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 GROWTH = 0.3  # element size may grow by 30 % of the distance covered (smooth grading)
 COUNT_SAMPLES = 20_000  # samples of the spacing for a count (relative error ~1e-6)

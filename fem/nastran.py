@@ -53,7 +53,7 @@ from fem.supports import PointSupport, as_support_list, check_layout
 from fem.system import FESystem
 from fem.thick import kirchhoff_note
 from fem.units import Units, resolve_units
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 PART_ELEMENTS = ("morley", "argyris", "hex2")
 LAMINATE = (

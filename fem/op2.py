@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 
 @dataclass(eq=False)

@@ -28,7 +28,7 @@ import numpy as np
 
 from fem.op2 import Op2Contents, Op2Table, read_op2
 from fem.solver_modes import SolverModes
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 GRID_KEY = (4501, 45, 1)
 EIGENVECTOR_TABLES = ("BOUGV1", "OUGV1")  # preferred first: basic system

@@ -44,7 +44,7 @@ import scipy.sparse as sp
 
 from fem.damping import Rayleigh
 from fem.eigen import factorize
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.response import CupSet, LinearOutputs, StressSet
 
 

@@ -24,7 +24,7 @@ from fem.argyris import ElementTriArgyrisLocal
 from fem.mesh import PlateMesh
 from fem.supports import Support
 from fem.system import Constraints, FESystem, Spring, mesh_stats
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.runtime import progress_bar
 
 ELEMENT_CLASSES = {"morley": skfem.ElementTriMorley, "argyris": ElementTriArgyrisLocal}

@@ -22,7 +22,7 @@ import re
 import numpy as np
 
 from fem.solver_modes import SolverModes
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 _EIGENVALUE = re.compile(r"\$EIGENVALUE\s*=\s*(\S+)\s+MODE\s*=\s*(\d+)", re.IGNORECASE)
 

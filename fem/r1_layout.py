@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 _NUMBER = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][-+]?\d+)?)"
 _TIME = (

@@ -33,7 +33,7 @@ import numpy as np
 from skfem.quadrature import get_quadrature
 from skfem.refdom import RefTri
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 MEMBRANE = np.array([0, 1, 5, 6, 7, 11, 12, 13, 17])  # u, v, theta_z of each node
 BENDING = np.array([2, 3, 4, 8, 9, 10, 14, 15, 16])  # w, theta_x, theta_y of each node

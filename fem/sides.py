@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 SHARP_CORNER_COS = np.cos(np.radians(30.0))
 

@@ -22,7 +22,7 @@ from fem.mesh import SurfaceMesh
 from fem.sides import side_nodes
 from fem.supports import Support
 from fem.system import Constraints, FESystem, Spring, mesh_stats, rigid_motions
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 FORMULATION = (
     "thin solid, one layer of 27-node hexahedra (ElementHex2 shape functions), "

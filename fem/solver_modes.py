@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fem.units import Units
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 
 @dataclass(eq=False)

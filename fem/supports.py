@@ -33,7 +33,7 @@ import numpy as np
 
 from fem.cups import DEFAULT_FRICTION, DEFAULT_VACUUM_PA, CupStiffness
 from fem.system import Constraints
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 
 SIDES = ("all", "x0", "x1", "y0", "y1")

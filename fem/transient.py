@@ -20,7 +20,7 @@ import numpy as np
 from fem.damping import Rayleigh
 from fem.eigen import factorize
 from fem.modal import ModalResult
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.response import as_move
 from jaxflex.runtime import progress_bar
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from fem.solver_modes import SolverModes
 from fem.units import Units
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 NORMAL_MODE, REAL, TIME_RESPONSE = 2, 2, 1
 GLOBAL_SYSTEMS = (0, 1)

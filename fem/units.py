@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 _LBF_N = 4.4482216152605
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import fmpy
 
-from jaxflex import JaxflexError
+from jaxflex.errors import JaxflexError
 
 C_DIR = Path(__file__).resolve().parent / "c"
 CORE_FILES = ("jxf_core.h", "jxf_text.h", "jxf_core.c", "jxf_values.c", "jxf_cell.c")

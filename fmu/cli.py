@@ -14,7 +14,7 @@ from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.export import export_fmu
 from fmu.ssp import export_ssp
 from fmu.verify import verify
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import (
     check_input_file,
     check_output_file,

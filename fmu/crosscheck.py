@@ -37,7 +37,7 @@ from fmu import importers
 from fmu.master import Session, run_chained
 from fmu.ssp import PART, SOURCE, SSD_FILE, held_samples, read_parameters, steps_for, stop_time_of
 from fmu.verify import read_fmu_resource, reference_response, simulated_model
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 DEFAULT_RTOL = 1e-9
 FMU_HOSTS = ("ecospy", "libcosimpy")

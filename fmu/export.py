@@ -28,7 +28,8 @@ from fmu.build import BuildReport, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
 from fmu.resource import CellData, encode_resource, obstacle_records, static_count
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
-from jaxflex import InputError, ModalModel, analyze_move
+from jaxflex import ModalModel, analyze_move
+from jaxflex.errors import InputError
 from jaxflex.files import check_positive, write_text_atomic
 from jaxflex.geometry import DEFAULT_GRAVITY_M_S2, Cell, part_half_thickness
 from jaxflex.response import DEFAULT_CUP_SAFETY, as_move

@@ -35,7 +35,7 @@ from fmpy.ssp.simulation import simulate_ssp
 from fmpy.ssp.ssd import Parameter, ParameterSet
 
 from fmu.ssp import package_fmi_version, read_parameters
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 REAL_OUTPUTS = ("deviation", "settle_time")
 BOOL_OUTPUTS = ("settled",)

@@ -38,7 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex import InputError, ModalModel, ModelFileError
+from jaxflex import ModalModel
+from jaxflex.errors import InputError, ModelFileError
 from jaxflex.geometry import Box, HalfSpace, gravity_offset
 
 MAGIC = b"JXFLXFMU"

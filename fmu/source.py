@@ -29,7 +29,7 @@ from fmu.archive import zip_folder
 from fmu.build import C_DIR, build_binaries
 from fmu.export import model_identifier
 from fmu.model_description import build_description
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.response import as_move
 
 SOURCE_FILES = {

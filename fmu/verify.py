@@ -27,7 +27,8 @@ from fmpy.validation import validate_fmu
 from fmu.master import Session, run_linear
 from fmu.resource import decode_resource
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE
-from jaxflex import InputError, ModalModel, ModelFileError, modal_states
+from jaxflex import ModalModel, modal_states
+from jaxflex.errors import InputError, ModelFileError
 from jaxflex.response import (
     as_move,
     point_displacements,

@@ -13,10 +13,13 @@ core, each module's names in its ``__all__`` (tests/test_public_core.py checks i
 * ``jaxflex.geometry``: the cell's geometry (obstacles, pose, path) and the certified clearance;
 * ``jaxflex.files``: input checks, readers in a child process, atomic outputs, file sets,
   the trajectory and unit-response CSV files;
-* ``jaxflex.runtime``: progress, time and memory budgets, advice, a silenced stdout;
+* ``jaxflex.runtime``: progress, time and memory budgets, advice;
 * ``jaxflex.reference``: closed forms and independent methods (convolution, integrators);
 * ``jaxflex.plots``: pictures (atomic saving, the deviation axis);
-* ``jaxflex.cli``: the ``jaxflex`` command and what a subcommand's module may use.
+* ``jaxflex.cli``: the ``jaxflex`` command and what a subcommand's module may use;
+* ``jaxflex.errors``, ``jaxflex.isolated``, ``jaxflex.stdout``: the errors, a reader run in
+  a child process, C libraries' stdout kept off ours; light (no JAX), so that a reader's
+  child process (jaxflex.isolated) imports only what it needs.
 
 Every other submodule is private to the core and free to change.
 """

@@ -1,7 +1,8 @@
 """Files in and out, for the layers above the core: input files checked before reading
-(inputs, validation), readers run in a child process (isolated), outputs written atomically
-and file sets with a manifest (atomic, fileset), the trajectory and unit-response CSV files.
-Public: these names are kept stable; the modules they come from are private.
+(inputs, validation), outputs written atomically and file sets with a manifest (atomic,
+fileset), the trajectory and unit-response CSV files. Readers that run in a child process
+use jaxflex.isolated (light: the child does not import JAX). Public: these names are kept
+stable; the modules they come from are private.
 """
 
 from __future__ import annotations
@@ -29,9 +30,6 @@ from jaxflex.inputs import (
     read_settings_file,
     read_text,
 )
-from jaxflex.isolated import (
-    isolated,
-)
 from jaxflex.trajectory_io import (
     read_trajectory_csv,
     write_trajectory_csv,
@@ -53,7 +51,6 @@ __all__ = [
     "check_positive",
     "check_text_file",
     "directory_lock",
-    "isolated",
     "make_output_dir",
     "read_set",
     "read_settings_file",

@@ -1,6 +1,7 @@
 """A run's surroundings, for the layers above the core: progress on long work (progress),
-time and memory budgets (budget), advice to the user (advice) and a silenced stdout for
-chatty third-party code (stdout). Public: these names are kept stable; the modules they come
+time and memory budgets (budget), and advice to the user (advice); a silenced
+stdout for chatty C libraries is jaxflex.stdout (light, for readers in a child process).
+Public: these names are kept stable; the modules they come
 from are private.
 """
 
@@ -24,9 +25,6 @@ from jaxflex.progress import (
     progress_bar,
     step,
 )
-from jaxflex.stdout import (
-    silenced_stdout,
-)
 
 __all__ = [
     "Advice",
@@ -39,7 +37,6 @@ __all__ = [
     "note",
     "progress_bar",
     "require",
-    "silenced_stdout",
     "step",
     "threshold_advice",
 ]

@@ -13,12 +13,14 @@ Public interface (SI units throughout):
 """
 
 from optim.baselines import Baseline, BaselineSet, baselines, worst_case
+from optim.cell_file import load_cell
 from optim.limits import ConstraintCheck, Limits, Violation, check_profile
 from optim.optimize import optimize
 from optim.result import OptimizationResult
 from optim.robust import RobustSpec
 
 __all__ = [
+    "load_cell",
     "Baseline",
     "BaselineSet",
     "ConstraintCheck",

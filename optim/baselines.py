@@ -24,7 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jaxflex import InputError, ModalModel, SettleReport, analyze_move
+from jaxflex import ModalModel, SettleReport, analyze_move
+from jaxflex.errors import InputError
 from jaxflex.response import as_move
 from jaxflex.runtime import progress_bar
 from optim.budget import MAX_STEPS

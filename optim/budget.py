@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from jaxflex import BudgetError, InputError
+from jaxflex.errors import BudgetError, InputError
 from jaxflex.geometry import BLOCK_POINTS
 from jaxflex.runtime import Need, current_budget, format_bytes
 from optim.limits import Limits

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from fem.meshfile import read_cells
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import check_input_file, check_positive, read_settings_file
 from jaxflex.geometry import (
     DEFAULT_GRAVITY_M_S2,

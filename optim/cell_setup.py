@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jaxflex import InputError, ModalModel
+from jaxflex import ModalModel
+from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 from jaxflex.geometry import (
     DEFAULT_GRAVITY_M_S2,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 
 import jaxflex
-from jaxflex import InputError
 from jaxflex.cli import add_axis_limits, axis_limit_values
+from jaxflex.errors import InputError
 from jaxflex.files import check_output_dir, check_positive
 from jaxflex.runtime import step
 from optim.budget import MAX_STEPS

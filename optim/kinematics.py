@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from optim.limits import Limits
 from optim.lp import LPBuilder
 from optim.polytope import ball_normals, support, worst_normals

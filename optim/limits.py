@@ -16,7 +16,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from jaxflex import InputError, integrate
+from jaxflex import integrate
+from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 from jaxflex.response import as_move, axis_limits
 

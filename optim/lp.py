@@ -17,8 +17,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
 
-from jaxflex import InputError
-from jaxflex.runtime import silenced_stdout
+from jaxflex.errors import InputError
+from jaxflex.stdout import silenced_stdout
 
 LP_SOLVERS = ("highs", "casadi", "casadi-highs")
 # Feasibility tolerance asked of every back end (absolute, on rows of O(1) scale); the

@@ -29,7 +29,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from jaxflex import BudgetError, InputError, JaxflexError, ModalModel, analyze_move
+from jaxflex import ModalModel, analyze_move
+from jaxflex.errors import BudgetError, InputError, JaxflexError
 from jaxflex.files import check_positive
 from jaxflex.response import as_move
 from jaxflex.runtime import current_budget, issue, model_resolution, require, threshold_advice

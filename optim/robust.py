@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex import InputError, ModalModel
+from jaxflex import ModalModel
+from jaxflex.errors import InputError
 from jaxflex.response import grid_values
 
 

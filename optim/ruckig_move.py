@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.response import enforce_end_state
 from optim.kinematics import add_cuts, add_move, clean_distance, path_cuts
 from optim.limits import Limits

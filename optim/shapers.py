@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import root
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 EI_VTOL = 0.05
 

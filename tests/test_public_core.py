@@ -13,6 +13,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PUBLIC = (
     "jaxflex",
+    "jaxflex.errors",
+    "jaxflex.isolated",
+    "jaxflex.stdout",
     "jaxflex.response",
     "jaxflex.geometry",
     "jaxflex.files",

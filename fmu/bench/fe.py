@@ -19,7 +19,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 import fem
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 KNOT_S = 0.1  # knot spacing of the move: a multiple of every swept dt (10, 20, 25 ms)
 BASE_S = 0.005  # the move is handed to the FE transient at this step (divides 10, 20, 25 ms)

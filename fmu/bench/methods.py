@@ -25,7 +25,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxflex import InputError, ModalModel, upsample
+from jaxflex import ModalModel, upsample
+from jaxflex.errors import InputError
 from jaxflex.reference import (
     central_difference_modal,
     convolve_unit_response,

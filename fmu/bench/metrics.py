@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 
 
 def curve_errors(reference_m, estimate_m, peak_m: float | None = None) -> dict[str, float]:

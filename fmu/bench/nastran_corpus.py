@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 import fem
-from jaxflex import InputError, ModelError
+from jaxflex.errors import InputError, ModelError
 from jaxflex.files import write_text_atomic
 
 EXTENSIONS = {".bdf", ".dat", ".nas", ".bulk", ".blk", ".inc"}

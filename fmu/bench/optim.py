@@ -29,7 +29,8 @@ import time
 import numpy as np
 
 import fem
-from jaxflex import InputError, ModalModel, load_model
+from jaxflex import ModalModel, load_model
+from jaxflex.errors import InputError
 from jaxflex.files import write_text_atomic
 from jaxflex.reference import simply_supported_plate
 from optim.baselines import worst_case

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from fem.from_modes import SUFFIXES, from_modes
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import write_text_atomic
 
 _F06_ROW = re.compile(r"^\s+(\d+)\s+\d+\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$")

@@ -36,7 +36,7 @@ from fmu.bench.core import BenchCase, run_bench
 from fmu.bench.fe import SceneSpec
 from fmu.bench.nodes import format_nodes, run_reduction, run_scale
 from fmu.bench.stability import OMEGA_DT, run_stability
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import make_output_dir, write_text_atomic
 from jaxflex.runtime import step
 

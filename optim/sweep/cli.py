@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from jaxflex import InputError
+from jaxflex.errors import InputError
 from jaxflex.files import check_output_dir
 from jaxflex.runtime import step
 from optim.sweep.run import run_sweep

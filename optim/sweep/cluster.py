@@ -33,7 +33,7 @@ from distributed import Client, LocalCluster
 from distributed.diagnostics.plugin import WorkerPlugin
 
 import jaxflex
-from jaxflex import InputError, JaxflexError
+from jaxflex.errors import InputError, JaxflexError
 from jaxflex.runtime import note
 
 # One thread per worker process for every numeric library (the workers are the parallelism).

@@ -25,7 +25,8 @@ from collections.abc import Sequence
 import numpy as np
 
 import jaxflex
-from jaxflex import InputError, ModalModel, stack_models, upsample
+from jaxflex import ModalModel, stack_models, upsample
+from jaxflex.errors import InputError
 from jaxflex.response import padded_steps, rest_padded
 
 METHODS = ("batched", "loop")

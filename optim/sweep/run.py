@@ -32,7 +32,8 @@ from pathlib import Path
 
 from distributed import as_completed
 
-from jaxflex import InputError, ModalModel
+from jaxflex import ModalModel
+from jaxflex.errors import InputError
 from jaxflex.files import directory_lock
 from jaxflex.runtime import check_time, progress_bar, require
 from optim.sweep.best import MoveBest, best_layouts, move_limits

@@ -22,8 +22,8 @@ from typing import Any
 
 from fem.imported import file_digest
 from fem.parts import ELEMENTS
-from jaxflex import InputError
 from jaxflex.cli import AXIS_LIMITS
+from jaxflex.errors import InputError
 from jaxflex.files import read_settings_file
 from jaxflex.runtime import require
 from optim.robust import RobustSpec

@@ -24,7 +24,8 @@ import warnings
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
-from jaxflex import InputError, JaxflexWarning, ModalModel, ModelError, ModelFileError, load_model
+from jaxflex import ModalModel, load_model
+from jaxflex.errors import InputError, JaxflexWarning, ModelError, ModelFileError
 from jaxflex.files import make_output_dir, remove_stale_temporaries, write_text_atomic
 from optim.sweep.records import RecordError, as_stored, check_fe_summary, check_record
 

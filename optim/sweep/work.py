@@ -20,7 +20,8 @@ import warnings
 import numpy as np
 
 import fem
-from jaxflex import JaxflexError, JaxflexWarning, ModalModel
+from jaxflex import ModalModel
+from jaxflex.errors import JaxflexError, JaxflexWarning
 from optim.limits import Limits
 from optim.optimize import optimize
 from optim.robust import RobustSpec
