@@ -20,7 +20,6 @@ from optim.result import OptimizationResult
 from optim.robust import RobustSpec
 
 __all__ = [
-    "load_cell",
     "Baseline",
     "BaselineSet",
     "ConstraintCheck",
@@ -30,6 +29,7 @@ __all__ = [
     "Violation",
     "baselines",
     "check_profile",
+    "load_cell",
     "optimize",
     "worst_case",
 ]
