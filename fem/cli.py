@@ -28,11 +28,10 @@ from fem.sanity import printed_part_warnings
 from fem.scenes import scene
 from fem.sizing import size_model
 from fem.supports import ClampedEdge, PointSupport, SuctionCup
-from jaxflex import analyze_move, jerk_limited_move
 from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
 from jaxflex.errors import InputError
 from jaxflex.files import check_output_file, read_trajectory_csv
-from jaxflex.response import deviation_curve
+from jaxflex.response import analyze_move, deviation_curve, jerk_limited_move
 from jaxflex.runtime import issue, model_resolution, require, threshold_advice
 
 COMMAND = "model"

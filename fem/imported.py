@@ -18,9 +18,8 @@ from scipy.spatial import cKDTree
 
 from fem.damping import describe_damping, modal_zeta
 from fem.modal import select_node_indices
-from jaxflex import ModalModel
 from jaxflex.errors import InputError
-from jaxflex.response import MODES_ONLY_STATIC
+from jaxflex.model import MODES_ONLY_STATIC, ModalModel
 
 
 @dataclass(eq=False)

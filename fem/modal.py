@@ -28,9 +28,9 @@ from fem.shell import assemble_shell
 from fem.solid import assemble_solid
 from fem.supports import as_support_list, check_layout, contact_discs
 from fem.system import FESystem
-from jaxflex import ModalModel
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
+from jaxflex.model import ModalModel
 from jaxflex.response import downsample_to_count, snap_key_points
 from jaxflex.runtime import require, step
 

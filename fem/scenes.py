@@ -12,8 +12,8 @@ from __future__ import annotations
 from fem.modal import modal_analysis
 from fem.parts import Part, curved_panel, rectangular_plate
 from fem.supports import SuctionCup
-from jaxflex import ModalModel
 from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
 
 SCENES = ("plate", "panel")
 CUP_RADIUS_M = 0.04

@@ -55,10 +55,10 @@ from fem.sizing_curves import (
 from fem.sizing_residual import TruncationResidual
 from fem.sizing_result import Row, SizingResult
 from fem.supports import contact_discs
-from jaxflex import ModalModel, analyze_move
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
-from jaxflex.response import as_move, deviation_curves, voxel_downsample
+from jaxflex.model import ModalModel
+from jaxflex.response import analyze_move, as_move, deviation_curves, voxel_downsample
 from jaxflex.runtime import progress_bar
 
 # Refinement sequence: multiples of the part's element size, coarse to fine (a factor sqrt 2

@@ -16,7 +16,8 @@ from functools import cached_property
 
 import numpy as np
 
-from jaxflex import ModalModel, SettleReport, analyze_move, modal_states, upsample
+from jaxflex.model import ModalModel
+from jaxflex.response import SettleReport, analyze_move, modal_states, upsample
 
 
 @dataclass(frozen=True)

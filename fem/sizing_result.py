@@ -16,8 +16,8 @@ import numpy as np
 
 from fem.modal import ModalResult
 from fem.sizing_curves import SettleCheck
-from jaxflex import ModalModel
 from jaxflex.files import write_text_atomic
+from jaxflex.model import ModalModel
 
 
 @dataclass(frozen=True)

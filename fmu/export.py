@@ -28,11 +28,11 @@ from fmu.build import BuildReport, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
 from fmu.resource import CellData, encode_resource, obstacle_records, static_count
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
-from jaxflex import ModalModel, analyze_move
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive, write_text_atomic
 from jaxflex.geometry import DEFAULT_GRAVITY_M_S2, Cell, part_half_thickness
-from jaxflex.response import DEFAULT_CUP_SAFETY, as_move
+from jaxflex.model import ModalModel
+from jaxflex.response import DEFAULT_CUP_SAFETY, analyze_move, as_move
 
 DEFAULT_THRESHOLD_M = 5e-4
 DEFAULT_STEP_S = 0.01

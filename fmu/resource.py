@@ -38,9 +38,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex import ModalModel
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.geometry import Box, HalfSpace, gravity_offset
+from jaxflex.model import ModalModel
 
 MAGIC = b"JXFLXFMU"
 FORMAT_VERSION = 3

@@ -35,8 +35,8 @@ import jaxflex
 from fmu.archive import zip_folder
 from fmu.export import DEFAULT_THRESHOLD_M, ExportResult, export_fmu
 from fmu.source import OUTPUTS, SourceResult, export_source_fmu
-from jaxflex import ModalModel
 from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
 
 PART, SOURCE = "part", "trajectory"
 PARAMETER_SET = "case"

@@ -27,10 +27,11 @@ from fmpy.validation import validate_fmu
 from fmu.master import Session, run_linear
 from fmu.resource import decode_resource
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE
-from jaxflex import ModalModel, modal_states
 from jaxflex.errors import InputError, ModelFileError
+from jaxflex.model import ModalModel
 from jaxflex.response import (
     as_move,
+    modal_states,
     point_displacements,
     response_shapes,
     rest_padded,

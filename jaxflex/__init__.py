@@ -8,6 +8,7 @@ The public interface, the only way the layers above (fem, optim, fmu) and users 
 core, each module's names in its ``__all__`` (tests/test_public_core.py checks it):
 
 * ``jaxflex``: the model, moves, the response, settle and cycle time, the errors;
+* ``jaxflex.model``: the modal model, its files, ``stack_models``;
 * ``jaxflex.response``: the building blocks of the certified response (state maps,
   deviation, outputs and loads, decay, peaks, the move's kinematics, point sets);
 * ``jaxflex.geometry``: the cell's geometry (obstacles, pose, path) and the certified clearance;
@@ -20,6 +21,10 @@ core, each module's names in its ``__all__`` (tests/test_public_core.py checks i
 * ``jaxflex.errors``, ``jaxflex.isolated``, ``jaxflex.stdout``: the errors, a reader run in
   a child process, C libraries' stdout kept off ours; light (no JAX), so that a reader's
   child process (jaxflex.isolated) imports only what it needs.
+
+The layers above take names from these submodules (``from jaxflex.model import
+ModalModel``), not from this package's ``__init__``, which a reader's child process does not
+run; the submodules re-export what they need of this package's names.
 
 Every other submodule is private to the core and free to change.
 """

@@ -29,11 +29,13 @@ from jaxflex.deviation import (
 from jaxflex.engine import (
     end_state_map,
     modal_forces,
+    modal_states,
     padded_steps,
     rest_padded,
     state_map,
     state_maps_at,
     states_at,
+    upsample,
 )
 from jaxflex.grid import (
     grid_values,
@@ -43,9 +45,6 @@ from jaxflex.loads import (
     DEFAULT_STRESS_SAFETY,
     CupUtilisation,
     VonMises,
-)
-from jaxflex.model import (
-    MODES_ONLY_STATIC,
 )
 from jaxflex.model_file import (
     ARRAY_FIELDS,
@@ -71,9 +70,12 @@ from jaxflex.profile import (
     as_move,
     axis_limits,
     enforce_end_state,
+    integrate,
+    jerk_limited_move,
     kinematics_at,
     position_weights,
 )
+from jaxflex.settle import SettleReport, analyze_move
 from jaxflex.simulate import (
     move_deviation,
     on_device,
@@ -83,16 +85,17 @@ __all__ = [
     "ARRAY_FIELDS",
     "DEFAULT_CUP_SAFETY",
     "DEFAULT_STRESS_SAFETY",
-    "MODES_ONLY_STATIC",
     "VALUE_RANGES",
     "CupSet",
     "CupUtilisation",
     "LinearOutputs",
     "Peak",
+    "SettleReport",
     "StressSet",
     "VonMises",
     "acceleration_at",
     "amplitudes",
+    "analyze_move",
     "as_move",
     "axis_limits",
     "component_blocks",
@@ -105,10 +108,13 @@ __all__ = [
     "envelope_horizon",
     "free_rows",
     "grid_values",
+    "integrate",
     "item_bounds",
+    "jerk_limited_move",
     "kinematics_at",
     "max_norms",
     "modal_forces",
+    "modal_states",
     "move_deviation",
     "on_device",
     "output_peak",
@@ -122,6 +128,7 @@ __all__ = [
     "state_map",
     "state_maps_at",
     "states_at",
+    "upsample",
     "voxel_downsample",
     "with_acceleration",
 ]

@@ -24,9 +24,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jaxflex import ModalModel, SettleReport, analyze_move
 from jaxflex.errors import InputError
-from jaxflex.response import as_move
+from jaxflex.model import ModalModel
+from jaxflex.response import SettleReport, analyze_move, as_move
 from jaxflex.runtime import progress_bar
 from optim.budget import MAX_STEPS
 from optim.kinematics import clean_distance

@@ -20,7 +20,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jaxflex import ModalModel
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 from jaxflex.geometry import (
@@ -30,6 +29,7 @@ from jaxflex.geometry import (
     gravity_offset,
     part_half_thickness,
 )
+from jaxflex.model import ModalModel
 from jaxflex.response import DEFAULT_STRESS_SAFETY, CupSet
 from optim.cell_rows import DistanceFamily, LoadFamily
 from optim.cell_scenarios import ScenarioFamily

@@ -16,10 +16,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from jaxflex import integrate
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
-from jaxflex.response import as_move, axis_limits
+from jaxflex.response import as_move, axis_limits, integrate
 
 AXES = "xyz"
 # A limit counts as broken only beyond this relative excess: float64 round-off of the

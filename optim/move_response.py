@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex import ModalModel
+from jaxflex.model import ModalModel
 from jaxflex.response import (
     component_blocks,
     max_norms,

@@ -29,10 +29,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from jaxflex import ModalModel, analyze_move
 from jaxflex.errors import BudgetError, InputError, JaxflexError
 from jaxflex.files import check_positive
-from jaxflex.response import as_move
+from jaxflex.model import ModalModel
+from jaxflex.response import analyze_move, as_move
 from jaxflex.runtime import current_budget, issue, model_resolution, require, threshold_advice
 from optim.advice import grid_advice
 from optim.baselines import baselines as compute_baselines

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import matplotlib.pyplot as plt
 import numpy as np
 
-from jaxflex import integrate
 from jaxflex.plots import PLAIN, deviation_axes, save_figure
+from jaxflex.response import integrate
 from optim.limits import AXES, Limits
 
 OPTIMISED_COLOR = "tab:blue"

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex import ModalModel
+from jaxflex.model import ModalModel
 from jaxflex.response import (
     amplitudes,
     component_blocks,

@@ -26,9 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from jaxflex import ModalModel, SettleReport, integrate
 from jaxflex.files import MANIFEST, SetWriter, write_trajectory_csv, writing
-from jaxflex.response import deviation_curve
+from jaxflex.model import ModalModel
+from jaxflex.response import SettleReport, deviation_curve, integrate
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
 from optim.plots import (

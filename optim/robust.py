@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex import ModalModel
 from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
 from jaxflex.response import grid_values
 
 

@@ -32,8 +32,8 @@ from typing import Protocol
 
 import numpy as np
 
-from jaxflex import ModalModel, SettleReport, analyze_move
-from jaxflex.response import as_move, end_state_map, enforce_end_state
+from jaxflex.model import ModalModel
+from jaxflex.response import SettleReport, analyze_move, as_move, end_state_map, enforce_end_state
 from jaxflex.runtime import progress_bar
 from optim.cell_rows import Row
 from optim.kinematics import ViaRow, moving_axes

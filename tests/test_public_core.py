@@ -6,6 +6,8 @@ private and free to change. Read from the sources (ast), nothing imported."""
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -13,6 +15,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PUBLIC = (
     "jaxflex",
+    "jaxflex.model",
     "jaxflex.errors",
     "jaxflex.isolated",
     "jaxflex.stdout",
@@ -129,3 +132,28 @@ def test_upper_layers_use_only_the_public_core(layer):
         if (found := private_uses(path.read_text(encoding="utf-8")))
     }
     assert bad == {}
+
+
+def test_readers_load_in_their_child_process():
+    """A reader run by jaxflex.isolated is imported in a child where the packages are bare
+    namespaces (their __init__ does not run): neither it nor what it imports may take names
+    from a package's __init__ (e.g. ``from jaxflex import X``)."""
+    readers = sorted(
+        ".".join(path.relative_to(ROOT).with_suffix("").parts)
+        for layer in UPPER
+        for path in (ROOT / layer).rglob("*.py")
+        if "@isolated(" in path.read_text(encoding="utf-8")
+    )
+    assert readers  # fem's ANSYS, CAD and mesh-file readers at least
+    program = (
+        "import importlib, sys, types\n"
+        f"sys.path.insert(0, {str(ROOT)!r})\n"
+        f"for name in ('jaxflex', *{UPPER!r}):\n"
+        "    package = types.ModuleType(name)\n"
+        f"    package.__path__ = [{str(ROOT)!r} + '/' + name]\n"
+        "    sys.modules[name] = package\n"
+        f"for module in {readers!r}:\n"
+        "    importlib.import_module(module)\n"
+    )
+    done = subprocess.run([sys.executable, "-I", "-c", program], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]

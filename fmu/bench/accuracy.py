@@ -23,8 +23,8 @@ from fmu.bench.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_of
 from fmu.bench.methods import METHODS, prepare, stable_substeps
 from fmu.bench.metrics import compare, curve_errors, settle_from_samples
 from fmu.bench.timing import best_time_s
-from jaxflex import analyze_move, simulate, upsample
-from jaxflex.response import voxel_downsample
+from jaxflex import simulate
+from jaxflex.response import analyze_move, upsample, voxel_downsample
 from jaxflex.runtime import progress_bar, step
 
 OURS = ("scan64", "scan32")

@@ -25,7 +25,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from fmu.bench.timing import best_time_s, machine
-from jaxflex import ModalModel, cycle_time, cycle_time_smooth, simulate
+from jaxflex import cycle_time, cycle_time_smooth, simulate
+from jaxflex.model import ModalModel
 from jaxflex.reference import convolve_unit_response, deviation_from_displacement, unit_response
 from jaxflex.response import move_deviation, on_device
 from jaxflex.runtime import step

@@ -41,7 +41,7 @@ from fmu.windows import (
     windows_path,
     windows_resource_location,
 )
-from jaxflex import ModalModel
+from jaxflex.model import ModalModel
 from jaxflex.runtime import step
 
 STEP_TARGET_US = 30.0

@@ -28,9 +28,9 @@ import fem
 import jaxflex
 from fem.bdf import read_bulk
 from fem.identify import round_significant
-from jaxflex import jerk_limited_move
 from jaxflex.files import write_text_atomic
 from jaxflex.reference import convolve_unit_response, unit_response
+from jaxflex.response import jerk_limited_move
 
 IMPORTS = ("r1", "nastran")
 

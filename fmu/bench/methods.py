@@ -25,8 +25,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxflex import ModalModel, upsample
 from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
 from jaxflex.reference import (
     central_difference_modal,
     convolve_unit_response,
@@ -34,7 +34,7 @@ from jaxflex.reference import (
     newmark_modal,
     unit_response,
 )
-from jaxflex.response import deviation, move_deviation, on_device, with_acceleration
+from jaxflex.response import deviation, move_deviation, on_device, upsample, with_acceleration
 
 METHODS = ("scan64", "scan32", "convolution", "newmark", "central_difference")
 LABELS = {

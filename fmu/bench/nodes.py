@@ -32,10 +32,11 @@ from fem.modal import modal_analysis
 from fem.scenes import scene as built_in
 from fmu.bench.core import sine_move
 from fmu.bench.timing import best_time_s
-from jaxflex import ModalModel, analyze_move, cycle_time
+from jaxflex import cycle_time
 from jaxflex.files import write_text_atomic
+from jaxflex.model import ModalModel
 from jaxflex.reference import simply_supported_plate
-from jaxflex.response import move_deviation, on_device
+from jaxflex.response import analyze_move, move_deviation, on_device
 from jaxflex.runtime import step
 
 RADII_M = (2.5, 1.2)

@@ -29,9 +29,9 @@ import time
 import numpy as np
 
 import fem
-from jaxflex import ModalModel, load_model
 from jaxflex.errors import InputError
 from jaxflex.files import write_text_atomic
+from jaxflex.model import ModalModel, load_model
 from jaxflex.reference import simply_supported_plate
 from optim.baselines import worst_case
 from optim.limits import Limits

@@ -25,8 +25,10 @@ import numpy as np
 import scipy.signal
 
 from fmu.bench.metrics import settle_from_samples
-from jaxflex import ModalModel, analyze_move, simulate, upsample
+from jaxflex import simulate
+from jaxflex.model import ModalModel
 from jaxflex.reference import central_difference_modal, newmark_modal
+from jaxflex.response import analyze_move, upsample
 
 DT_S = 0.01
 OMEGA_DT = tuple(float(x) for x in np.round(np.logspace(-1.5, 1.5, 25), 4))

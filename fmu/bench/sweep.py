@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxflex import ModalModel
 from jaxflex.files import write_text_atomic
+from jaxflex.model import ModalModel
 from jaxflex.response import ARRAY_FIELDS
 from optim.limits import Limits
 from optim.optimize import optimize

@@ -25,9 +25,9 @@ from collections.abc import Sequence
 import numpy as np
 
 import jaxflex
-from jaxflex import ModalModel, stack_models, upsample
 from jaxflex.errors import InputError
-from jaxflex.response import padded_steps, rest_padded
+from jaxflex.model import ModalModel, stack_models
+from jaxflex.response import padded_steps, rest_padded, upsample
 
 METHODS = ("batched", "loop")
 

@@ -32,9 +32,9 @@ from pathlib import Path
 
 from distributed import as_completed
 
-from jaxflex import ModalModel
 from jaxflex.errors import InputError
 from jaxflex.files import directory_lock
+from jaxflex.model import ModalModel
 from jaxflex.runtime import check_time, progress_bar, require
 from optim.sweep.best import MoveBest, best_layouts, move_limits
 from optim.sweep.cases import Case, case_job, expand, layout_job

@@ -20,8 +20,8 @@ import warnings
 import numpy as np
 
 import fem
-from jaxflex import ModalModel
 from jaxflex.errors import JaxflexError, JaxflexWarning
+from jaxflex.model import ModalModel
 from optim.limits import Limits
 from optim.optimize import optimize
 from optim.robust import RobustSpec
