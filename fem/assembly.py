@@ -13,7 +13,7 @@ from collections.abc import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from jaxflex.progress import progress_bar
+from jaxflex.runtime import progress_bar
 
 
 class BlockPattern:

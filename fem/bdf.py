@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from jaxflex.errors import InputError
-from jaxflex.inputs import read_text
+from jaxflex.files import read_text
 
 _INT = re.compile(r"[+-]?\d+")
 _REAL = re.compile(

@@ -28,15 +28,11 @@ from fem.sanity import printed_part_warnings
 from fem.scenes import scene
 from fem.sizing import size_model
 from fem.supports import ClampedEdge, PointSupport, SuctionCup
-from jaxflex.advice import issue, model_resolution, threshold_advice
-from jaxflex.budget import require
 from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
-from jaxflex.deviation import deviation_curve
 from jaxflex.errors import InputError
-from jaxflex.profile import jerk_limited_move
-from jaxflex.settle import analyze_move
-from jaxflex.trajectory_io import read_trajectory_csv
-from jaxflex.validation import check_output_file
+from jaxflex.files import check_output_file, read_trajectory_csv
+from jaxflex.response import analyze_move, deviation_curve, jerk_limited_move
+from jaxflex.runtime import issue, model_resolution, require, threshold_advice
 
 COMMAND = "model"
 HELP = (

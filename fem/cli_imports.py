@@ -17,9 +17,8 @@ from fem.from_modes import from_modes
 from fem.identify import from_r1
 from fem.nastran import from_nastran
 from fem.sanity import printed_part_warnings
-from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
-from jaxflex.inputs import read_text
+from jaxflex.files import read_text, write_text_atomic
 
 SOURCES = ("from_ansys", "from_nastran", "from_r1", "from_modes")
 IMPORT_ONLY = ("full", "nodes", "units", "gamma", "spc_id", "axis")

@@ -42,7 +42,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.validation import check_positive
+from jaxflex.files import check_positive
 
 DEFAULT_VACUUM_PA = 60e3  # 60 % relative vacuum, the makers' reference for holding forces
 DEFAULT_FRICTION = 0.5  # dry metal (Schmalz reference values)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.validation import check_positive
+from jaxflex.files import check_positive
 
 
 def rayleigh_zeta(freq_hz, alpha_per_s: float, beta_s: float) -> np.ndarray:

@@ -25,7 +25,7 @@ import scipy.sparse.linalg as sla
 from threadpoolctl import threadpool_limits
 
 from jaxflex.errors import InputError, JaxflexWarning
-from jaxflex.progress import progress_bar, step
+from jaxflex.runtime import progress_bar, step
 
 DENSE_MAX_DOF = 6000
 DENSE_SHARE = 0.25  # more modes than this share of the DOFs: a dense solve of the lowest ones

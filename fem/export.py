@@ -15,8 +15,8 @@ import numpy as np
 
 from fem.modal import ModalResult
 from fem.transient import TransientResult
-from jaxflex.atomic import atomic_path
 from jaxflex.errors import InputError
+from jaxflex.files import atomic_path
 
 FORMATS = (".vtu", ".vtk", ".xdmf", ".xmf")
 

@@ -51,12 +51,10 @@ import scipy.optimize
 from fem.imported import ImportedModes, file_digest
 from fem.r1_layout import detect_layout, steps_from_zero
 from fem.solver_modes import rigid_mask, rigid_meta
-from jaxflex.convolution import read_unit_response_csv
-from jaxflex.engine import modal_states
 from jaxflex.errors import InputError
-from jaxflex.inputs import check_text_file
+from jaxflex.files import check_positive, check_text_file, read_unit_response_csv
 from jaxflex.model import ModalModel
-from jaxflex.validation import check_positive
+from jaxflex.response import modal_states
 
 AXES = ("x", "y", "z")
 GRAM_RATIO = 4  # channels / samples above which the SVD goes through the Gram matrix

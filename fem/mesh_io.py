@@ -20,12 +20,12 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
 from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
+from fem.meshfile import read_cells
 from fem.meshing import split_quads
 from fem.plan import plan_of_cells
-from jaxflex.budget import Need, require
 from jaxflex.errors import InputError
-from jaxflex.inputs import check_input_file
-from jaxflex.meshfile import read_cells
+from jaxflex.files import check_input_file
+from jaxflex.runtime import Need, require
 
 MAX_EXTENT_M = 20.0  # a sheet-metal part larger than this is almost surely in millimetres
 MIN_EXTENT_M = 1e-3  # ... and one smaller than this is in another unit (or no part at all)

@@ -28,12 +28,11 @@ from fem.shell import assemble_shell
 from fem.solid import assemble_solid
 from fem.supports import as_support_list, check_layout, contact_discs
 from fem.system import FESystem
-from jaxflex.budget import require
 from jaxflex.errors import InputError
+from jaxflex.files import check_positive
 from jaxflex.model import ModalModel
-from jaxflex.points import downsample_to_count, snap_key_points
-from jaxflex.progress import step
-from jaxflex.validation import check_positive
+from jaxflex.response import downsample_to_count, snap_key_points
+from jaxflex.runtime import require, step
 
 RIGID_MODES = {"plate": 3, "solid": 6, "shell": 6}
 

@@ -45,7 +45,7 @@ import scipy.sparse as sp
 from fem.damping import Rayleigh
 from fem.eigen import factorize
 from jaxflex.errors import InputError
-from jaxflex.outputs import CupSet, LinearOutputs, StressSet
+from jaxflex.response import CupSet, LinearOutputs, StressSet
 
 
 @dataclass(eq=False)

@@ -30,9 +30,9 @@ from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
 from fem.mesh_io import SheetMesh, check_extent, read_sheet
 from fem.plan import cad_mesh_need, plan_of_cells, refined_cells
 from fem.sanity import warn_units
-from jaxflex.budget import require
 from jaxflex.errors import InputError
-from jaxflex.validation import check_positive
+from jaxflex.files import check_positive
+from jaxflex.runtime import require
 
 PLATE_ELEMENTS = ("morley", "argyris")
 ELEMENTS = (*PLATE_ELEMENTS, "shell", "hex2")

@@ -25,7 +25,7 @@ from fem.mesh import PlateMesh
 from fem.supports import Support
 from fem.system import Constraints, FESystem, Spring, mesh_stats
 from jaxflex.errors import InputError
-from jaxflex.progress import progress_bar
+from jaxflex.runtime import progress_bar
 
 ELEMENT_CLASSES = {"morley": skfem.ElementTriMorley, "argyris": ElementTriArgyrisLocal}
 FORMULATION = {

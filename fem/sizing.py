@@ -55,14 +55,11 @@ from fem.sizing_curves import (
 from fem.sizing_residual import TruncationResidual
 from fem.sizing_result import Row, SizingResult
 from fem.supports import contact_discs
-from jaxflex.deviation import deviation_curves
 from jaxflex.errors import InputError
+from jaxflex.files import check_positive
 from jaxflex.model import ModalModel
-from jaxflex.points import voxel_downsample
-from jaxflex.profile import as_move
-from jaxflex.progress import progress_bar
-from jaxflex.settle import analyze_move
-from jaxflex.validation import check_positive
+from jaxflex.response import analyze_move, as_move, deviation_curves, voxel_downsample
+from jaxflex.runtime import progress_bar
 
 # Refinement sequence: multiples of the part's element size, coarse to fine (a factor sqrt 2
 # per level); the cup element size is CUP_RATIO x the base size (measured on the 1.5 x 0.8 m

@@ -16,9 +16,8 @@ from functools import cached_property
 
 import numpy as np
 
-from jaxflex.engine import modal_states, upsample
 from jaxflex.model import ModalModel
-from jaxflex.settle import SettleReport, analyze_move
+from jaxflex.response import SettleReport, analyze_move, modal_states, upsample
 
 
 @dataclass(frozen=True)

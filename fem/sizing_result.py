@@ -16,7 +16,7 @@ import numpy as np
 
 from fem.modal import ModalResult
 from fem.sizing_curves import SettleCheck
-from jaxflex.atomic import write_text_atomic
+from jaxflex.files import write_text_atomic
 from jaxflex.model import ModalModel
 
 

@@ -34,7 +34,7 @@ import numpy as np
 from fem.cups import DEFAULT_FRICTION, DEFAULT_VACUUM_PA, CupStiffness
 from fem.system import Constraints
 from jaxflex.errors import InputError
-from jaxflex.validation import check_positive
+from jaxflex.files import check_positive
 
 SIDES = ("all", "x0", "x1", "y0", "y1")
 # a point given in space lands on the surface to rounding: this x the part's size is "on it"

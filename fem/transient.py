@@ -21,8 +21,8 @@ from fem.damping import Rayleigh
 from fem.eigen import factorize
 from fem.modal import ModalResult
 from jaxflex.errors import InputError
-from jaxflex.profile import as_move
-from jaxflex.progress import progress_bar
+from jaxflex.response import as_move
+from jaxflex.runtime import progress_bar
 
 DEFAULT_OMEGA_H = 0.05  # omega h at the reference mode: Newmark period error ~ 2e-4
 REFERENCE_MODE = 10  # the default step resolves the 10th mode (higher modes respond

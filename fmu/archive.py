@@ -6,7 +6,7 @@ import os
 import zipfile
 from pathlib import Path
 
-from jaxflex.atomic import atomic_open
+from jaxflex.files import atomic_open
 
 
 def zip_folder(folder: Path, path: str | os.PathLike) -> None:

@@ -14,15 +14,18 @@ from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.export import export_fmu
 from fmu.ssp import export_ssp
 from fmu.verify import verify
-from jaxflex.budget import Need, require
-from jaxflex.cell import load_cell
 from jaxflex.errors import InputError
-from jaxflex.fileset import read_set
-from jaxflex.inputs import check_input_file
-from jaxflex.points import downsample_to_count
-from jaxflex.trajectory_io import read_trajectory_csv
-from jaxflex.validation import check_output_file, check_positive
+from jaxflex.files import (
+    check_input_file,
+    check_output_file,
+    check_positive,
+    read_set,
+    read_trajectory_csv,
+)
+from jaxflex.response import downsample_to_count
+from jaxflex.runtime import Need, require
 from optim.budget import obstacle_pieces
+from optim.cell_file import load_cell
 from optim.result import RESULT_KIND
 
 COMMAND = "export"

@@ -17,9 +17,8 @@ import fem
 import optim
 from fmu.export import export_fmu
 from fmu.verify import verify
-from jaxflex.atomic import make_output_dir, write_text_atomic
-from jaxflex.progress import step
-from jaxflex.validation import check_output_dir, check_positive
+from jaxflex.files import check_output_dir, check_positive, make_output_dir, write_text_atomic
+from jaxflex.runtime import step
 
 COMMAND = "demo"
 HELP = "run the whole job on the built-in default part (FE model, optimised move, FMUs)"

@@ -29,15 +29,11 @@ from fmu.model_description import Description, build_description, model_descript
 from fmu.obstacles import obstacle_records
 from fmu.resource import CellData, Counts, encode_resource, resource_counts
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
-from jaxflex.atomic import write_text_atomic
-from jaxflex.cell import DEFAULT_GRAVITY_M_S2, Cell
-from jaxflex.collision import part_half_thickness
 from jaxflex.errors import InputError
-from jaxflex.loads import DEFAULT_CUP_SAFETY
+from jaxflex.files import check_positive, write_text_atomic
+from jaxflex.geometry import DEFAULT_GRAVITY_M_S2, Cell, part_half_thickness
 from jaxflex.model import ModalModel
-from jaxflex.profile import as_move
-from jaxflex.settle import analyze_move
-from jaxflex.validation import check_positive
+from jaxflex.response import DEFAULT_CUP_SAFETY, analyze_move, as_move
 
 DEFAULT_THRESHOLD_M = 5e-4
 DEFAULT_STEP_S = 0.01

@@ -39,8 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from fmu.obstacles import RECORD_VALUES, allowed_kinds, unknown_codes
-from jaxflex.collision import gravity_offset
 from jaxflex.errors import InputError, ModelFileError
+from jaxflex.geometry import gravity_offset
 from jaxflex.model import ModalModel
 
 MAGIC = b"JXFLXFMU"

@@ -30,7 +30,7 @@ from fmu.build import C_DIR, SOURCE_CORE, WrittenFmu, build_binaries, compiled_f
 from fmu.export import model_identifier
 from fmu.model_description import build_description, cosimulation
 from jaxflex.errors import InputError
-from jaxflex.profile import as_move
+from jaxflex.response import as_move
 
 DATA_FILE = "jxf_source_data.h"
 OUTPUTS = ("ax", "ay", "az")  # value references 1, 2, 3

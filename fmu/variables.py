@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 from fmu import obstacles
 from fmu.resource import Counts
-from jaxflex.model_file import VALUE_RANGES
+from jaxflex.response import VALUE_RANGES
 
 RESOURCE_FILE = "jaxflex_model.bin"
 INPUT_COLUMNS = ("time", "ax", "ay", "az")  # input CSV / fmpy signal: s, m/s^2

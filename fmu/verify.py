@@ -27,11 +27,16 @@ from fmpy.validation import validate_fmu
 from fmu.master import Session, run_linear
 from fmu.resource import decode_resource
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE
-from jaxflex.deviation import point_displacements, response_shapes, with_acceleration
-from jaxflex.engine import modal_states, rest_padded
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.model import ModalModel
-from jaxflex.profile import as_move
+from jaxflex.response import (
+    as_move,
+    modal_states,
+    point_displacements,
+    response_shapes,
+    rest_padded,
+    with_acceleration,
+)
 
 DEFAULT_RTOL = 1e-9
 MODES = ("embedded", "linear", "held")

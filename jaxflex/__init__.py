@@ -3,6 +3,30 @@
 The core (this package) holds the modal model, the exact discrete-time modal recursion in
 JAX, deviation, settle and cycle time and their gradients. SI units throughout.
 float64 is enabled on import (``jax_enable_x64``); float32 is available on request.
+
+The public interface, the only way the layers above (fem, optim, fmu) and users enter the
+core, each module's names in its ``__all__`` (tests/test_public_core.py checks it):
+
+* ``jaxflex``: the model, moves, the response, settle and cycle time, the errors;
+* ``jaxflex.model``: the modal model, its files, ``stack_models``;
+* ``jaxflex.response``: the building blocks of the certified response (state maps,
+  deviation, outputs and loads, decay, peaks, the move's kinematics, point sets);
+* ``jaxflex.geometry``: the cell's geometry (obstacles, pose, path) and the certified clearance;
+* ``jaxflex.files``: input checks, readers in a child process, atomic outputs, file sets,
+  the trajectory and unit-response CSV files;
+* ``jaxflex.runtime``: progress, time and memory budgets, advice;
+* ``jaxflex.reference``: closed forms and independent methods (convolution, integrators);
+* ``jaxflex.plots``: pictures (atomic saving, the deviation axis);
+* ``jaxflex.cli``: the ``jaxflex`` command and what a subcommand's module may use;
+* ``jaxflex.errors``, ``jaxflex.isolated``, ``jaxflex.stdout``: the errors, a reader run in
+  a child process, C libraries' stdout kept off ours; light (no JAX), so that a reader's
+  child process (jaxflex.isolated) imports only what it needs.
+
+The layers above take names from these submodules (``from jaxflex.model import
+ModalModel``), not from this package's ``__init__``, which a reader's child process does not
+run; the submodules re-export what they need of this package's names.
+
+Every other submodule is private to the core and free to change.
 """
 
 from importlib.metadata import version
@@ -16,6 +40,7 @@ from jaxflex.errors import (  # noqa: E402
     BudgetError,
     InputError,
     JaxflexError,
+    JaxflexWarning,
     ModelError,
     ModelFileError,
 )
@@ -29,6 +54,7 @@ __all__ = [
     "BudgetError",
     "InputError",
     "JaxflexError",
+    "JaxflexWarning",
     "ModalModel",
     "ModelError",
     "ModelFileError",

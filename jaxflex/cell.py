@@ -19,35 +19,17 @@ Every obstacle is convex or made of convex pieces (the triangles), and gives for
 distance and the closest obstacle point: the tangent plane there separates the point from
 the piece, which is what the optimiser's linear rows use.
 
-A cell file is TOML or JSON (:func:`load_cell`)::
-
-    gravity_m_s2 = [0, 0, -9.81]
-    [part]
-    start_m = [0.0, 0.0, 0.3]          # part frame origin at A, cell coordinates
-    rotation_deg = [0, 0, 0]           # part frame axes: rotations about x, y, z (in turn)
-    thickness_m = 0.001                # optional: the sheet's thickness (default: the model's)
-    [path]
-    end_m = [2.0, 0.0, 0.6]            # at B
-    via = [{position_m = [1.0, 0.0, 0.8], mode = "blend", tolerance_m = 0.05}]
-    [[obstacles]]
-    type = "box"                       # or "half_space" (normal, offset_m), "mesh" (path, scale)
-    name = "lower die"
-    centre_m = [2.3, 0.0, 0.3]
-    size_m = [1.2, 1.2, 0.5]
+A cell file (TOML or JSON) is read by optim.cell_file into a :class:`Cell`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.inputs import check_input_file, read_settings_file
-from jaxflex.meshfile import read_cells
 from jaxflex.validation import check_positive
 
 VIA_MODES = ("stop", "blend")
@@ -303,9 +285,7 @@ class Cell:
                 )
         for i, v in enumerate(self.via):
             if not isinstance(v, Via):
-                raise InputError(
-                    f"cell.via[{i}]: expected jaxflex.cell.Via, got {type(v).__name__}"
-                )
+                raise InputError(f"cell.via[{i}]: expected Via, got {type(v).__name__}")
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
         object.__setattr__(self, "via", tuple(self.via))
         if not np.any(self.end_m - self.start_m) and not self.via:
@@ -334,114 +314,3 @@ class Cell:
             "thickness_m": self.thickness_m,
             "obstacles": [o.describe() for o in self.obstacles],
         }
-
-
-def _table(where: str, value) -> dict:
-    """``value`` as a dict, or InputError naming ``where``: a table was expected."""
-    if not isinstance(value, Mapping):
-        raise InputError(f"{where}: expected a table, got {type(value).__name__} {value!r:.40}")
-    return dict(value)
-
-
-def _number(where: str, value) -> float:
-    """``value`` as a float, or InputError naming ``where``."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.number):
-        raise InputError(f"{where}: expected a number, got {value!r:.40}")
-    try:
-        return float(value)
-    except OverflowError:
-        raise InputError(f"{where}: {value!r:.40} is too large") from None
-
-
-def _obstacle(spec: Mapping, index: int, folder: Path) -> Obstacle:
-    spec = _table(f"obstacles[{index}]", spec)
-    kind = spec.get("type")
-    name = str(spec.get("name", f"obstacles[{index}]"))
-    where = f"obstacles[{index}] ({name})"
-    known = {
-        "box": {"type", "name", "centre_m", "size_m", "rotation_deg"},
-        "half_space": {"type", "name", "normal", "offset_m"},
-        "mesh": {"type", "name", "path", "scale"},
-    }
-    if not isinstance(kind, str) or kind not in known:
-        raise InputError(f"{where}.type: must be one of {sorted(known)}, got {kind!r:.40}")
-    unknown = set(spec) - known[kind]
-    if unknown:
-        raise InputError(f"{where}: unknown field(s) {sorted(unknown)} for a {kind}")
-    try:
-        if kind == "box":
-            rotation = rotation_from_degrees(spec.get("rotation_deg", (0, 0, 0)))
-            return Box(spec["centre_m"], spec["size_m"], rotation, name)
-        if kind == "half_space":
-            return HalfSpace(spec["normal"], _number(f"{where}.offset_m", spec["offset_m"]), name)
-        path = folder / str(spec["path"])
-    except KeyError as exc:
-        raise InputError(f"{where}: missing field {exc.args[0]!r}") from exc
-    scale = check_positive(f"{where}.scale", spec.get("scale", 1.0))
-    check_input_file(f"{where}.path", path)
-    try:
-        points, blocks = read_cells(path)
-    except InputError as exc:
-        raise InputError(f"{where}.path: {exc}") from None
-    triangles = [np.asarray(c, dtype=np.int64) for kind, c in blocks if kind == "triangle"]
-    for kind, q in blocks:
-        if kind == "quad":
-            q = np.asarray(q, dtype=np.int64)
-            triangles.append(np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]]))
-    if not sum(len(t) for t in triangles):
-        raise InputError(f"{where}.path: {str(path)!r} holds no triangles or quads")
-    points = np.asarray(points, dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] not in (2, 3):
-        raise InputError(f"{where}.path: {str(path)!r}: nodes of shape {points.shape}")
-    points = np.column_stack([points, np.zeros((len(points), 3 - points.shape[1]))]) * scale
-    return TriangleMesh(points, np.concatenate(triangles), name)
-
-
-def cell_from_dict(data: Mapping, folder: str | Path = ".") -> Cell:
-    """A Cell from the mapping of a cell file (module docstring); paths relative to
-    ``folder``. Raises InputError naming the field."""
-    data = _table("cell", data)
-    unknown = set(data) - {"part", "path", "obstacles", "gravity_m_s2"}
-    if unknown:
-        raise InputError(f"cell: unknown section(s) {sorted(unknown)}")
-    part, path = (
-        _table("cell.part", data.get("part", {})),
-        _table("cell.path", data.get("path", {})),
-    )
-    for section, allowed, value in (
-        ("part", {"start_m", "rotation_deg", "thickness_m"}, part),
-        ("path", {"end_m", "via"}, path),
-    ):
-        extra = set(value) - allowed
-        if extra:
-            raise InputError(f"cell.{section}: unknown field(s) {sorted(extra)}")
-    if "end_m" not in path:
-        raise InputError("cell.path.end_m: required (the part frame's origin at B, m)")
-    via = []
-    vias = path.get("via", [])
-    if not isinstance(vias, list | tuple):
-        raise InputError(f"cell.path.via: expected a list of via points, got {vias!r:.40}")
-    for i, v in enumerate(vias):
-        if not isinstance(v, Mapping) or "position_m" not in v:
-            raise InputError(f"cell.path.via[{i}]: needs position_m (and mode, tolerance_m)")
-        tolerance = _number(f"cell.path.via[{i}].tolerance_m", v.get("tolerance_m", 0.0))
-        via.append(Via(v["position_m"], v.get("mode", "blend"), tolerance))
-    obstacles = data.get("obstacles", [])
-    if not isinstance(obstacles, list | tuple):
-        raise InputError("cell.obstacles: expected a list of obstacles")
-    return Cell(
-        obstacles=tuple(_obstacle(o, i, Path(folder)) for i, o in enumerate(obstacles)),
-        start_m=part.get("start_m", (0.0, 0.0, 0.0)),
-        end_m=path["end_m"],
-        rotation=rotation_from_degrees(part.get("rotation_deg", (0, 0, 0))),
-        via=tuple(via),
-        gravity_m_s2=data.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2),
-        thickness_m=part.get("thickness_m"),
-    )
-
-
-def load_cell(path: str | Path) -> Cell:
-    """Read a cell file (``.toml`` or ``.json``; module docstring)."""
-    path = Path(path)
-    data = read_settings_file("cell", path)
-    return cell_from_dict(data, path.parent)

@@ -37,6 +37,8 @@ from jaxflex.budget import DEFAULT_TIME_S, make_budget, use_budget
 from jaxflex.errors import InputError, JaxflexError, JaxflexWarning
 from jaxflex.progress import set_quiet, step
 
+# the command plugin interface (public): what a subcommand's module may use
+__all__ = ["AXIS_LIMITS", "add_axis_limits", "axis_limit_values", "main"]
 GROUP = "jaxflex.commands"
 DESCRIPTION = (
     "Cycle time of robot transfers of thin, vibrating sheet-metal parts. "

@@ -1,5 +1,15 @@
 """Error types users see. Every message names the offending field and what is allowed."""
 
+__all__ = [
+    "BudgetError",
+    "InputError",
+    "JaxflexError",
+    "JaxflexWarning",
+    "ModelError",
+    "ModelFileError",
+    "OutputError",
+]
+
 
 class JaxflexError(Exception):
     """Base class of every error jaxflex raises on purpose."""

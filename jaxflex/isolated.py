@@ -38,6 +38,9 @@ from jaxflex.budget import current_budget, format_bytes, format_seconds
 from jaxflex.errors import BudgetError, InputError, JaxflexError
 from jaxflex.inputs import check_input_file
 
+__all__ = ["isolated"]
+
+
 F = TypeVar("F", bound=Callable[..., Any])
 _IN_CHILD = False
 STDERR_TAIL = 300  # characters of the child's stderr quoted in a crash message

@@ -45,6 +45,8 @@ _SHAPE_CACHES: dict[tuple[int, int], tuple[weakref.ref, weakref.ref, dict]] = {}
 OUTPUT_FIELDS = ("cups", "stress", "static_shapes")  # optional pytree children after ARRAY_FIELDS
 # meta["static_response"] of a model whose static displacement is not the FE's (an older file,
 # or a source without a stiffness matrix): what its gravity sag and quasi-static share are
+__all__ = ["MODES_ONLY_STATIC", "ModalModel", "load_model", "save_model", "stack_models"]
+
 MODES_ONLY_STATIC = (
     "from the kept modes only (no FE static solve): the sag under gravity and the quasi-static "
     "share of the modes left out are truncated"

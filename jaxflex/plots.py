@@ -13,6 +13,8 @@ from matplotlib.ticker import FuncFormatter
 
 from jaxflex.atomic import atomic_open
 
+__all__ = ["PLAIN", "PLAIN_MINOR", "deviation_axes", "plt", "save_figure"]
+
 
 def save_figure(fig, path: str | os.PathLike) -> None:
     """Save ``fig`` as PNG atomically and close it."""

@@ -9,6 +9,8 @@ import os
 import sys
 from collections.abc import Iterator
 
+__all__ = ["silenced_stdout"]
+
 
 @contextlib.contextmanager
 def silenced_stdout() -> Iterator[None]:

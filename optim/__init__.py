@@ -13,6 +13,7 @@ Public interface (SI units throughout):
 """
 
 from optim.baselines import Baseline, BaselineSet, baselines, worst_case
+from optim.cell_file import load_cell
 from optim.limits import ConstraintCheck, Limits, Violation, check_profile
 from optim.optimize import optimize
 from optim.result import OptimizationResult
@@ -28,6 +29,7 @@ __all__ = [
     "Violation",
     "baselines",
     "check_profile",
+    "load_cell",
     "optimize",
     "worst_case",
 ]

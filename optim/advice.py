@@ -5,7 +5,7 @@ checked at too few points. ``optim.optimize`` puts every advice on its result (r
 
 from __future__ import annotations
 
-from jaxflex.advice import Advice
+from jaxflex.runtime import Advice
 from optim.robust import RobustSpec
 
 # Fewest check-grid points over a range with width: the cycle time jumps with the frequency

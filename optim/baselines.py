@@ -26,9 +26,8 @@ import numpy as np
 
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
-from jaxflex.profile import as_move
-from jaxflex.progress import progress_bar
-from jaxflex.settle import SettleReport, analyze_move
+from jaxflex.response import SettleReport, analyze_move, as_move
+from jaxflex.runtime import progress_bar
 from optim.budget import MAX_STEPS
 from optim.kinematics import clean_distance
 from optim.limits import Limits

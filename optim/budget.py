@@ -25,9 +25,9 @@ import math
 
 import numpy as np
 
-from jaxflex.budget import Need, current_budget, format_bytes
-from jaxflex.collision import BLOCK_POINTS
 from jaxflex.errors import BudgetError, InputError
+from jaxflex.geometry import BLOCK_POINTS
+from jaxflex.runtime import Need, current_budget, format_bytes
 from optim.limits import Limits
 
 MAX_STEPS = 5000

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from jaxflex.collision import (
+from jaxflex.geometry import (
     Clearance,
     block_lower_bounds,
     displacement_coordinates,
@@ -42,11 +42,20 @@ from jaxflex.collision import (
     part_blocks,
     positions_at,
 )
-from jaxflex.deviation import outputs_at, response_shapes
-from jaxflex.engine import state_maps_at, states_at
-from jaxflex.loads import CupUtilisation, VonMises
-from jaxflex.peaks import Peak, item_bounds, output_peak
-from jaxflex.profile import acceleration_at, kinematics_at, position_weights
+from jaxflex.response import (
+    CupUtilisation,
+    Peak,
+    VonMises,
+    acceleration_at,
+    item_bounds,
+    kinematics_at,
+    output_peak,
+    outputs_at,
+    position_weights,
+    response_shapes,
+    state_maps_at,
+    states_at,
+)
 
 ROW_MARGIN = 1e-3
 SCAN_RTOL = 1e-7  # a row's own limit is met up to the LP's feasibility tolerance (1e-9)

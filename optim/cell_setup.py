@@ -20,13 +20,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jaxflex.cell import DEFAULT_GRAVITY_M_S2, Cell
-from jaxflex.collision import distances, gravity_offset, part_half_thickness
 from jaxflex.errors import InputError
-from jaxflex.loads import DEFAULT_STRESS_SAFETY
+from jaxflex.files import check_positive
+from jaxflex.geometry import (
+    DEFAULT_GRAVITY_M_S2,
+    Cell,
+    distances,
+    gravity_offset,
+    part_half_thickness,
+)
 from jaxflex.model import ModalModel
-from jaxflex.outputs import CupSet
-from jaxflex.validation import check_positive
+from jaxflex.response import DEFAULT_STRESS_SAFETY, CupSet
 from optim.cell_rows import DistanceFamily, LoadFamily
 from optim.cell_scenarios import ScenarioFamily
 from optim.kinematics import clean_distance

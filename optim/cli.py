@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 
 import jaxflex
-from jaxflex.cell import load_cell
 from jaxflex.cli import add_axis_limits, axis_limit_values
 from jaxflex.errors import InputError
-from jaxflex.progress import step
-from jaxflex.validation import check_output_dir, check_positive
+from jaxflex.files import check_output_dir, check_positive
+from jaxflex.runtime import step
 from optim.budget import MAX_STEPS
+from optim.cell_file import load_cell
 from optim.cell_setup import with_cup_rating
 from optim.limits import Limits
 from optim.optimize import optimize

@@ -34,7 +34,7 @@ import scipy.sparse as sp
 from scipy.optimize import LinearConstraint, NonlinearConstraint, minimize
 
 from jaxflex.errors import InputError
-from jaxflex.profile import integrate
+from jaxflex.response import integrate
 from optim.kinematics import add_cuts, add_move, path_cuts
 from optim.lp import LPBuilder
 from optim.ruckig_move import fit_to_grid

@@ -17,8 +17,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.profile import as_move, axis_limits, integrate
-from jaxflex.validation import check_positive
+from jaxflex.files import check_positive
+from jaxflex.response import as_move, axis_limits, integrate
 
 AXES = "xyz"
 # A limit counts as broken only beyond this relative excess: float64 round-off of the

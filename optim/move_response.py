@@ -15,9 +15,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex.deviation import component_blocks, max_norms, point_displacements
-from jaxflex.engine import modal_forces, state_map
 from jaxflex.model import ModalModel
+from jaxflex.response import (
+    component_blocks,
+    max_norms,
+    modal_forces,
+    point_displacements,
+    state_map,
+)
 
 SUBSTEPS = 8
 

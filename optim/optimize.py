@@ -29,13 +29,11 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from jaxflex.advice import issue, model_resolution, threshold_advice
-from jaxflex.budget import current_budget, require
 from jaxflex.errors import BudgetError, InputError, JaxflexError
+from jaxflex.files import check_positive
 from jaxflex.model import ModalModel
-from jaxflex.profile import as_move
-from jaxflex.settle import analyze_move
-from jaxflex.validation import check_positive
+from jaxflex.response import analyze_move, as_move
+from jaxflex.runtime import current_budget, issue, model_resolution, require, threshold_advice
 from optim.advice import grid_advice
 from optim.baselines import baselines as compute_baselines
 from optim.baselines import via_baselines

@@ -22,7 +22,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from jaxflex.plots import PLAIN, deviation_axes, save_figure
-from jaxflex.profile import integrate
+from jaxflex.response import integrate
 from optim.limits import AXES, Limits
 
 OPTIMISED_COLOR = "tab:blue"

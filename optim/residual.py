@@ -20,9 +20,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex.decay import amplitudes, envelope_horizon, free_rows
-from jaxflex.deviation import component_blocks, max_norms, point_displacements
 from jaxflex.model import ModalModel
+from jaxflex.response import (
+    amplitudes,
+    component_blocks,
+    envelope_horizon,
+    free_rows,
+    max_norms,
+    point_displacements,
+)
 
 SAMPLES_PER_PERIOD = 16  # dense check: time step 1 / (16 f_max)
 REFINE_SAMPLES = 33  # sub-samples over two grid steps around every candidate peak

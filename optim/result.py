@@ -26,12 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from jaxflex.deviation import deviation_curve
-from jaxflex.fileset import MANIFEST, SetWriter, writing
+from jaxflex.files import MANIFEST, SetWriter, write_trajectory_csv, writing
 from jaxflex.model import ModalModel
-from jaxflex.profile import integrate
-from jaxflex.settle import SettleReport
-from jaxflex.trajectory_io import write_trajectory_csv
+from jaxflex.response import SettleReport, deviation_curve, integrate
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
 from optim.robust import RobustSpec, perturbed

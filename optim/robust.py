@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.grid import grid_values
 from jaxflex.model import ModalModel
+from jaxflex.response import grid_values
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
 
 from jaxflex.errors import InputError
-from jaxflex.profile import enforce_end_state
+from jaxflex.response import enforce_end_state
 from optim.kinematics import add_cuts, add_move, clean_distance, path_cuts
 from optim.limits import Limits
 from optim.lp import LPBuilder, solve_lp

@@ -32,11 +32,9 @@ from typing import Protocol
 
 import numpy as np
 
-from jaxflex.engine import end_state_map
 from jaxflex.model import ModalModel
-from jaxflex.profile import as_move, enforce_end_state
-from jaxflex.progress import progress_bar
-from jaxflex.settle import SettleReport, analyze_move
+from jaxflex.response import SettleReport, analyze_move, as_move, end_state_map, enforce_end_state
+from jaxflex.runtime import progress_bar
 from optim.cell_rows import Row
 from optim.kinematics import ViaRow, moving_axes
 from optim.limits import Limits

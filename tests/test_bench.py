@@ -1,4 +1,4 @@
-"""benchmarks: metrics against hand-computed values, the methods against each other, the
+"""fmu.bench: metrics against hand-computed values, the methods against each other, the
 test move, and a quick run of the whole bench (JSON with every method, PNG charts)."""
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from conftest import random_model, run_jaxflex, smooth_move
 
-from benchmarks.accuracy import dominance, pareto_front
-from benchmarks.fe import knot_move
-from benchmarks.methods import METHODS, prepare, stable_substeps
-from benchmarks.metrics import compare, curve_errors, settle_from_samples
+from fmu.bench.accuracy import dominance, pareto_front
+from fmu.bench.fe import knot_move
+from fmu.bench.methods import METHODS, prepare, stable_substeps
+from fmu.bench.metrics import compare, curve_errors, settle_from_samples
 from jaxflex.errors import InputError
 
 

@@ -8,10 +8,10 @@ from dataclasses import replace
 
 import pytest
 
-from benchmarks.accuracy import TARGETS, agreement_by_modes, settle_threshold
-from benchmarks.fe import build_scene, fe_reference
-from benchmarks.metrics import settle_from_samples
-from benchmarks.suite import SMALL_PANEL
+from fmu.bench.accuracy import TARGETS, agreement_by_modes, settle_threshold
+from fmu.bench.fe import build_scene, fe_reference
+from fmu.bench.metrics import settle_from_samples
+from fmu.bench.suite import SMALL_PANEL
 
 
 @pytest.mark.slow

@@ -25,10 +25,10 @@ COMMANDS = {
     "optimize": "optim.cli",
     "sweep": "optim.sweep.cli",
     "export": "fmu.cli",
-    "bench": "benchmarks.cli",
+    "bench": "fmu.bench.cli",
 }
 # what the packages behind the commands load on import; listing the commands loads none
-HEAVY = ("fem", "optim", "fmu", "benchmarks", "skfem", "matplotlib", "distributed", "casadi")
+HEAVY = ("fem", "optim", "fmu", "skfem", "matplotlib", "distributed", "casadi")
 
 
 def test_each_package_registers_its_commands():

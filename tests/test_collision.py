@@ -12,10 +12,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import jaxflex
-from jaxflex.cell import Box, Cell, HalfSpace, TriangleMesh, Via, load_cell, rotation_from_degrees
+from jaxflex.cell import Box, Cell, HalfSpace, TriangleMesh, Via, rotation_from_degrees
 from jaxflex.collision import distances, gravity_offset, min_distance
 from jaxflex.engine import states_at
 from jaxflex.profile import kinematics_at
+from optim.cell_file import load_cell
 
 DT = 0.01
 coords = st.floats(-2.0, 2.0)

@@ -2,7 +2,7 @@
 tests/data/nastran/README.md), and the whole library when it is at hand.
 
 ``JAXFLEX_NASTRAN_CORPUS=/path/to/pyNastran/models`` runs every deck of that library
-through the door (as ``python -m benchmarks.nastran_corpus DIR`` does) and checks the
+through the door (as ``python -m fmu.bench.nastran_corpus DIR`` does) and checks the
 issue's targets: no traceback, at least half of the shell decks read, every refusal naming
 a card, those of cards outside our element set with their share of the mass.
 """
@@ -18,10 +18,10 @@ import pytest
 from decks import solve
 
 import fem
-from benchmarks.nastran_corpus import find_decks, try_deck
 from fem.bdf import read_bulk
 from fem.deck_coords import DeckGeometry
 from fem.sanity import PartWarning
+from fmu.bench.nastran_corpus import find_decks, try_deck
 
 DATA = Path(__file__).parent / "data" / "nastran"
 

@@ -47,10 +47,10 @@ import fem
 from fem.ansys import read_full, read_node_coordinates, read_rst
 from fem.nastran import from_nastran
 from jaxflex.budget import make_budget, require, use_budget
-from jaxflex.cell import load_cell
 from jaxflex.cli import main
 from jaxflex.convolution import unit_response, write_unit_response_csv
 from jaxflex.errors import BudgetError, JaxflexError
+from optim.cell_file import load_cell
 from optim.sweep.plan import sweep_needs
 from optim.sweep.spec import load_spec
 

@@ -11,7 +11,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 # bottom to top; a module belongs to the longest of these names that its own name starts with
-LAYERS = ("jaxflex", "fem", "optim", "optim.sweep", "fmu", "benchmarks")
+LAYERS = ("jaxflex", "fem", "optim", "optim.sweep", "fmu")
 
 
 def _layer(module: str) -> int | None:

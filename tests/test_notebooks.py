@@ -24,7 +24,7 @@ NOTEBOOK_DIR = ROOT / "notebooks"
 NOTEBOOKS = sorted(NOTEBOOK_DIR.glob("*.ipynb"))
 QUICK_ENV = "JAXFLEX_NOTEBOOK_QUICK"
 KERNEL = "python3"
-PROJECT = ("jaxflex", "fem", "optim", "fmu", "benchmarks")
+PROJECT = ("jaxflex", "fem", "optim", "fmu")
 CELL_TIMEOUT_S = 600  # generous: the machine may be shared; the quick budget is ~60 s in all
 
 

@@ -20,11 +20,12 @@ from independent import (
 
 import fem
 import optim
-from jaxflex.cell import Box, Cell, HalfSpace, Via, load_cell
+from jaxflex.cell import Box, Cell, HalfSpace, Via
 from jaxflex.collision import distances, min_distance
 from jaxflex.errors import InputError
 from jaxflex.loads import CupUtilisation, VonMises
 from jaxflex.profile import integrate
+from optim.cell_file import load_cell
 from optim.ruckig_move import kinematic_floor_move
 
 DT = 0.01
@@ -299,7 +300,7 @@ size_m = [1.4, 1.2, 0.5]
 
 
 def test_the_example_cell_is_a_press_opening():
-    """examples/press_cell.toml (the README's and benchmarks.cell's scene) still describes
+    """examples/press_cell.toml (the README's and fmu.bench.cell's scene) still describes
     what they say: for the built-in plate's rigid footprint (1.5 x 0.8 m, in its frame),
     A, the via point and B are clear of every obstacle by more than the 10 mm margin, and
     the straight line from A to B runs into the lower die."""

@@ -23,10 +23,10 @@ from sweep_cases import SPEC
 import fem
 import jaxflex
 from jaxflex.atomic import write_text_atomic
-from jaxflex.cell import load_cell
 from jaxflex.errors import BudgetError, InputError, ModelFileError, OutputError
 from jaxflex.isolated import isolated
 from jaxflex.trajectory_io import read_trajectory_csv
+from optim.cell_file import load_cell
 from optim.sweep import load_spec
 
 CUPS = ["--cups", "0.1,0.1,0.02", "0.5,0.1,0.02", "0.3,0.35,0.02"]

@@ -1,7 +1,7 @@
-"""A sweep of 2 000 small cases on a LocalCluster of 2 workers (benchmarks.sweep_scale): every
+"""A sweep of 2 000 small cases on a LocalCluster of 2 workers (fmu.bench.sweep_scale): every
 case stored once, tasks in bounded batches, and the memory of the client and of the workers
 flat once the run is under way. The figures (throughput, memory, store cost) are in
-docs/sweep.md, measured with ``python -m benchmarks.sweep_scale``; this test asserts no time.
+docs/sweep.md, measured with ``python -m fmu.bench.sweep_scale``; this test asserts no time.
 The run is the benchmark's command in a fresh interpreter: the client's memory is then its
 own, not that of a pytest worker that ran other tests before (a 3.5 GB process whose heap
 moves by megabytes on its own).
@@ -15,7 +15,7 @@ import sys
 
 import pytest
 
-from benchmarks.sweep_scale import HOLD_CASES, SAMPLE_EVERY
+from fmu.bench.sweep_scale import HOLD_CASES, SAMPLE_EVERY
 from optim.sweep import read_table
 from optim.sweep.cluster import TASKS_PER_THREAD
 from optim.sweep.store import FINAL_STAGES
@@ -28,7 +28,7 @@ WARM = 500  # cases after which every worker has compiled every move length it m
 def test_two_thousand_cases_in_bounded_batches_and_flat_memory(tmp_path):
     out = tmp_path / "report.json"
     subprocess.run(
-        [sys.executable, "-m", "benchmarks.sweep_scale", "--keep", str(tmp_path / "run"),
+        [sys.executable, "-m", "fmu.bench.sweep_scale", "--keep", str(tmp_path / "run"),
          "-o", str(out)],
         check=True,
         capture_output=True,

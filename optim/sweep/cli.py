@@ -6,8 +6,8 @@ import argparse
 import sys
 
 from jaxflex.errors import InputError
-from jaxflex.progress import step
-from jaxflex.validation import check_output_dir
+from jaxflex.files import check_output_dir
+from jaxflex.runtime import step
 from optim.sweep.run import run_sweep
 from optim.sweep.spec import EXAMPLE, load_spec
 

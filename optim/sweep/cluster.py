@@ -34,7 +34,7 @@ from distributed.diagnostics.plugin import WorkerPlugin
 
 import jaxflex
 from jaxflex.errors import InputError, JaxflexError
-from jaxflex.progress import note
+from jaxflex.runtime import note
 
 # One thread per worker process for every numeric library (the workers are the parallelism).
 WORKER_ENV = {

@@ -25,9 +25,9 @@ from collections.abc import Sequence
 import numpy as np
 
 import jaxflex
-from jaxflex.engine import padded_steps, rest_padded, upsample
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel, stack_models
+from jaxflex.response import padded_steps, rest_padded, upsample
 
 METHODS = ("batched", "loop")
 

@@ -20,8 +20,8 @@ from dataclasses import asdict
 
 from fem.plan import fe_plan
 from fem.supports import SuctionCup
-from jaxflex.budget import Need, current_budget
 from jaxflex.errors import InputError
+from jaxflex.runtime import Need, current_budget
 from optim.budget import MAX_STEPS, check_memory, check_move_length, search_bytes, search_need
 from optim.limits import Limits
 from optim.robust import RobustSpec

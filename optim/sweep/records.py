@@ -22,7 +22,7 @@ import hashlib
 import json
 import math
 
-from jaxflex.model_file import VALUE_RANGES
+from jaxflex.response import VALUE_RANGES
 
 SEAL = "sha256"
 STATUSES = ("ok", "error")

@@ -32,11 +32,10 @@ from pathlib import Path
 
 from distributed import as_completed
 
-from jaxflex.budget import check_time, require
 from jaxflex.errors import InputError
-from jaxflex.fileset import directory_lock
+from jaxflex.files import directory_lock
 from jaxflex.model import ModalModel
-from jaxflex.progress import progress_bar
+from jaxflex.runtime import check_time, progress_bar, require
 from optim.sweep.best import MoveBest, best_layouts, move_limits
 from optim.sweep.cases import Case, case_job, expand, layout_job
 from optim.sweep.cluster import ClusterError, connect

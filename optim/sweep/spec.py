@@ -22,10 +22,10 @@ from typing import Any
 
 from fem.imported import file_digest
 from fem.parts import ELEMENTS
-from jaxflex.budget import require
 from jaxflex.cli import AXIS_LIMITS
 from jaxflex.errors import InputError
-from jaxflex.inputs import read_settings_file
+from jaxflex.files import read_settings_file
+from jaxflex.runtime import require
 from optim.robust import RobustSpec
 from optim.sweep.part import build_part, footprint_box
 from optim.sweep.plan import spec_need

@@ -24,8 +24,8 @@ import warnings
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
-from jaxflex.atomic import make_output_dir, remove_stale_temporaries, write_text_atomic
 from jaxflex.errors import InputError, JaxflexWarning, ModelError, ModelFileError
+from jaxflex.files import make_output_dir, remove_stale_temporaries, write_text_atomic
 from jaxflex.model import ModalModel, load_model
 from optim.sweep.records import RecordError, as_stored, check_fe_summary, check_record
 

@@ -24,7 +24,7 @@ import csv
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
-from jaxflex.atomic import atomic_open
+from jaxflex.files import atomic_open
 from optim.sweep.cases import Case
 
 _CASE = (

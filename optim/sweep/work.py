@@ -20,9 +20,9 @@ import warnings
 import numpy as np
 
 import fem
-from jaxflex import compile_cache
 from jaxflex.errors import JaxflexError, JaxflexWarning
 from jaxflex.model import ModalModel
+from jaxflex.runtime import enable_compile_cache
 from optim.limits import Limits
 from optim.optimize import optimize
 from optim.robust import RobustSpec
@@ -114,7 +114,7 @@ def optimise_case(fe: dict, job: dict) -> dict:
     base = {"case_id": job["case_id"], "finished_unix_s": None}
     if fe["status"] != "ok":
         return {**base, **{k: v for k, v in fe.items() if k != "model"}, "fe": None}
-    compile_cache.enable()  # a worker process loads what the others compiled (once a process)
+    enable_compile_cache()  # a worker process loads what the others compiled (once a process)
     start, cpu = time.perf_counter(), time.process_time()
     settings, move = job["optimization"], job["move"]
     try:

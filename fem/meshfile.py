@@ -1,6 +1,6 @@
 """Mesh files read by meshio in a child process (jaxflex.isolated), so that a damaged file
 cannot take the reading process down: the parts of fem.mesh_io and the obstacles of
-jaxflex.cell read their files here."""
+optim.cell_file read their files here."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """The real cell's figures, as JSON: obstacles and via points, cup forces, stress, compliant cups.
 
-    python -m benchmarks.cell [--cases press accuracy constraints cups convergence]
+    python -m fmu.bench.cell [--cases press accuracy constraints cups convergence]
                               [-o cell_bench.json]
 
 * press: the built-in plate (1.5 x 0.8 m, 20 modes) laid into a press opening through a via
@@ -31,13 +31,10 @@ import numpy as np
 import fem
 import optim
 from fem.outputs import reaction_outputs, stress_outputs
-from jaxflex.atomic import write_text_atomic
-from jaxflex.cell import Box, Cell, load_cell
-from jaxflex.collision import min_distance
-from jaxflex.deviation import outputs_at
-from jaxflex.loads import CupUtilisation, VonMises
-from jaxflex.peaks import output_peak
-from jaxflex.profile import acceleration_at
+from jaxflex.files import write_text_atomic
+from jaxflex.geometry import Box, Cell, min_distance
+from jaxflex.response import CupUtilisation, VonMises, acceleration_at, output_peak, outputs_at
+from optim.cell_file import load_cell
 from optim.ruckig_move import kinematic_floor_move
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -245,7 +242,7 @@ def convergence(sizes=(0.05, 0.0354, 0.025, 0.0177)) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.cell", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m fmu.bench.cell", description=__doc__)
     parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
     parser.add_argument("-o", "--output", default="cell_bench.json", help="JSON results")
     args = parser.parse_args(argv)

@@ -5,10 +5,10 @@ times many instantiations and a long run of communication steps (inputs and inpu
 derivatives set and the deviation read every step; timed in chunks of 100 steps, so the
 median is robust against other processes on the machine), and prints the figures as JSON.
 
-    python -m benchmarks.fmu            # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
-    python -m benchmarks.fmu --windows  # also: the Windows DLL under wine (fmu.windows)
-    python -m benchmarks.fmu --hosts    # also: FMU and SSP in other hosts (fmu.crosscheck)
-    python -m benchmarks.fmu --points 66308 --fmi 3 --array  # every node, read each step
+    python -m fmu.bench.fmu            # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
+    python -m fmu.bench.fmu --windows  # also: the Windows DLL under wine (fmu.windows)
+    python -m fmu.bench.fmu --hosts    # also: FMU and SSP in other hosts (fmu.crosscheck)
+    python -m fmu.bench.fmu --points 66308 --fmi 3 --array  # every node, read each step
 
 Targets (docs/design.md): one step <= 30 us (the preprint's FMU: 0.85 ms per 10 ms step),
 instantiation with a ~1 MB resource <= 10 ms.
@@ -42,7 +42,7 @@ from fmu.windows import (
     windows_resource_location,
 )
 from jaxflex.model import ModalModel
-from jaxflex.progress import step
+from jaxflex.runtime import step
 
 STEP_TARGET_US = 30.0
 INSTANTIATE_TARGET_US = 10_000.0
@@ -58,7 +58,7 @@ def bench_model(n_points: int, n_modes: int, seed: int = 0) -> ModalModel:
         gamma=rng.normal(size=(n_modes, 3)),
         shapes=rng.normal(size=(n_points, 3, n_modes)) * 0.05,
         points=rng.uniform(size=(n_points, 3)),
-        meta={"source": "benchmarks.fmu"},
+        meta={"source": "fmu.bench.fmu"},
     )
 
 
@@ -160,7 +160,7 @@ def run(
     say = progress or (lambda msg: None)
     model = bench_model(n_points, n_modes)
     report: dict[str, Any] = {
-        "command": f"{Path(sys.executable).name} -m benchmarks.fmu",
+        "command": f"{Path(sys.executable).name} -m fmu.bench.fmu",
         "n_points": n_points,
         "n_modes": n_modes,
         "dt_s": dt_s,
@@ -212,7 +212,7 @@ def run(
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.fmu", description=__doc__.split("\n")[0]
+        prog="python -m fmu.bench.fmu", description=__doc__.split("\n")[0]
     )
     parser.add_argument(
         "--points", type=int, default=1099, help="monitored points K (default 1099)"

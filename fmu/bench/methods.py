@@ -25,13 +25,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxflex.convolution import convolve_unit_response, deviation_from_displacement, unit_response
-from jaxflex.deviation import deviation, with_acceleration
-from jaxflex.engine import upsample
 from jaxflex.errors import InputError
-from jaxflex.integrators import central_difference_modal, newmark_modal
 from jaxflex.model import ModalModel
-from jaxflex.simulate import move_deviation, on_device
+from jaxflex.reference import (
+    central_difference_modal,
+    convolve_unit_response,
+    deviation_from_displacement,
+    newmark_modal,
+    unit_response,
+)
+from jaxflex.response import deviation, move_deviation, on_device, upsample, with_acceleration
 
 METHODS = ("scan64", "scan32", "convolution", "newmark", "central_difference")
 LABELS = {

@@ -24,12 +24,11 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.signal
 
-from benchmarks.metrics import settle_from_samples
-from jaxflex.engine import upsample
-from jaxflex.integrators import central_difference_modal, newmark_modal
+from fmu.bench.metrics import settle_from_samples
+from jaxflex import simulate
 from jaxflex.model import ModalModel
-from jaxflex.settle import analyze_move
-from jaxflex.simulate import simulate
+from jaxflex.reference import central_difference_modal, newmark_modal
+from jaxflex.response import analyze_move, upsample
 
 DT_S = 0.01
 OMEGA_DT = tuple(float(x) for x in np.round(np.logspace(-1.5, 1.5, 25), 4))

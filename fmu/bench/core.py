@@ -24,13 +24,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from benchmarks.timing import best_time_s, machine
-from jaxflex.convolution import convolve_unit_response, deviation_from_displacement, unit_response
+from fmu.bench.timing import best_time_s, machine
+from jaxflex import cycle_time, cycle_time_smooth, simulate
 from jaxflex.model import ModalModel
-from jaxflex.progress import step
-from jaxflex.settle import cycle_time
-from jaxflex.simulate import move_deviation, on_device, simulate
-from jaxflex.surrogate import cycle_time_smooth
+from jaxflex.reference import convolve_unit_response, deviation_from_displacement, unit_response
+from jaxflex.response import move_deviation, on_device
+from jaxflex.runtime import step
 
 
 @dataclass(frozen=True)
@@ -62,7 +61,7 @@ def synthetic_model(case: BenchCase) -> ModalModel:
         gamma=gamma,
         shapes=shapes,
         points=points,
-        meta={"source": "benchmarks.core synthetic model"},
+        meta={"source": "fmu.bench.core synthetic model"},
     )
 
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from benchmarks.core import format_table
-from benchmarks.suite import run_suite, summary_lines
-from jaxflex.progress import step
-from jaxflex.validation import check_output_dir
+from fmu.bench.core import format_table
+from fmu.bench.suite import run_suite, summary_lines
+from jaxflex.files import check_output_dir
+from jaxflex.runtime import step
 
 COMMAND = "bench"
 HELP = "speed and accuracy figures of every method as JSON + charts (SI units)"

@@ -26,8 +26,9 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from jaxflex.compile_cache import ENV_VAR, SUFFIX
 from jaxflex.errors import JaxflexError
+from jaxflex.runtime import COMPILE_CACHE_ENV as ENV_VAR
+from jaxflex.runtime import COMPILE_CACHE_SUFFIX as SUFFIX
 
 # the command line (the demo's move), quiet
 OPTIMIZE_ARGS = (

@@ -1,8 +1,8 @@
 """Sweep benchmark: throughput serial vs dask LocalCluster, per-case cost split, compiled-code
 reuse, batched vs looped evaluation. JSON on stdout (and ``-o FILE``).
 
-    python -m benchmarks.sweep                       # the example spec (34 cases), 2 workers
-    python -m benchmarks.sweep --spec sweep.toml --workers 2 --robust -o sweep_bench.json
+    python -m fmu.bench.sweep                       # the example spec (34 cases), 2 workers
+    python -m fmu.bench.sweep --spec sweep.toml --workers 2 --robust -o sweep_bench.json
 
 Every run starts from an empty results directory (nothing skipped). Throughput counts the
 computed cases over the wall time of the computation, which for dask includes starting the
@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxflex.atomic import write_text_atomic
+from jaxflex.files import write_text_atomic
 from jaxflex.model import ModalModel
-from jaxflex.model_file import ARRAY_FIELDS
+from jaxflex.response import ARRAY_FIELDS
 from optim.limits import Limits
 from optim.optimize import optimize
 from optim.robust import RobustSpec

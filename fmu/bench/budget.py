@@ -13,8 +13,8 @@
 
 JSON on stdout (and ``-o FILE``)::
 
-    python -m benchmarks.budget -o budget.json
-    python -m benchmarks.budget --refusals -o refusals.json
+    python -m fmu.bench.budget -o budget.json
+    python -m fmu.bench.budget --refusals -o refusals.json
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxflex.atomic import write_text_atomic
+from jaxflex.files import write_text_atomic
 
 CASES = {
     "morley": (0.03, 0.015, 0.0075, 0.005),
@@ -181,7 +181,7 @@ def _triangle_mesh(path: Path, n_triangles: int) -> str:
 def refusal_cases(folder: Path) -> dict[str, list[str]]:
     """The hostile requests of issue 23 as command lines (files made in ``folder``); each
     must be refused before its work with a message saying what it would need."""
-    from jaxflex.analytic import simply_supported_plate
+    from jaxflex.reference import simply_supported_plate
 
     model = folder / "plate.npz"
     simply_supported_plate(n_modes=12, zeta=0.02, points=150).save(model)
@@ -282,7 +282,7 @@ def main(argv: list[str] | None = None) -> int:
     for element, sizes in CASES.items():
         for size in sizes:
             out = subprocess.run(
-                [sys.executable, "-m", "benchmarks.budget", "--case", element, str(size)],
+                [sys.executable, "-m", "fmu.bench.budget", "--case", element, str(size)],
                 capture_output=True,
                 text=True,
                 check=True,

@@ -28,16 +28,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from benchmarks.core import sine_move
-from benchmarks.timing import best_time_s
 from fem.modal import modal_analysis
 from fem.scenes import scene as built_in
-from jaxflex.analytic import simply_supported_plate
-from jaxflex.atomic import write_text_atomic
+from fmu.bench.core import sine_move
+from fmu.bench.timing import best_time_s
+from jaxflex import cycle_time
+from jaxflex.files import write_text_atomic
 from jaxflex.model import ModalModel
-from jaxflex.progress import step
-from jaxflex.settle import analyze_move, cycle_time
-from jaxflex.simulate import move_deviation, on_device
+from jaxflex.reference import simply_supported_plate
+from jaxflex.response import analyze_move, move_deviation, on_device
+from jaxflex.runtime import step
 
 RADII_M = (2.5, 1.2)
 TARGETS = {
@@ -77,7 +77,7 @@ def curved_part(n_points: int, n_modes: int = 40, seed: int = 0) -> ModalModel:
         gamma=gamma,
         shapes=shapes,
         points=points,
-        meta={"source": "benchmarks.nodes curved analytic part"},
+        meta={"source": "fmu.bench.nodes curved analytic part"},
     )
 
 
@@ -248,9 +248,9 @@ def format_nodes(report: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m benchmarks.nodes [--large K] [--scenes plate panel]``: this section alone,
+    """``python -m fmu.bench.nodes [--large K] [--scenes plate panel]``: this section alone,
     figures as text and JSON (``-o FILE``)."""
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.nodes", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m fmu.bench.nodes", description=__doc__)
     parser.add_argument("--large", type=int, default=1_000_000, help="points of the large case")
     parser.add_argument("--no-large", action="store_true", help="skip the large case")
     parser.add_argument("--scenes", nargs="*", default=["plate"], choices=["plate", "panel"])

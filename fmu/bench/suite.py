@@ -3,13 +3,13 @@
 Sections of ``bench.json`` (SI units; times in s unless the key says ms):
 
 * ``case``, ``machine``, ``targets``, ``results``: the core speed figures
-  (:mod:`benchmarks.core`; K=1099 points, M=40 modes, N=1000 steps in the full run);
+  (:mod:`fmu.bench.core`; K=1099 points, M=40 modes, N=1000 steps in the full run);
 * ``accuracy``: per scene (plate, panel) every accuracy-time point of every method, the
   reduced-vs-full-order FE agreement per mode count and the dominance check
-  (:mod:`benchmarks.accuracy`); charts ``pareto_plate.png``, ``pareto_panel.png``;
-* ``stability``: where each method breaks against omega dt (:mod:`benchmarks.stability`);
+  (:mod:`fmu.bench.accuracy`); charts ``pareto_plate.png``, ``pareto_panel.png``;
+* ``stability``: where each method breaks against omega dt (:mod:`fmu.bench.stability`);
   chart ``stability.png``;
-* ``nodes``: every node, no reduction (:mod:`benchmarks.nodes`): forward deviation and
+* ``nodes``: every node, no reduction (:mod:`fmu.bench.nodes`): forward deviation and
   exact cycle time at full-mesh sizes (``scale``) and what voxel reduction of the monitored
   points costs in peak deviation and settle time (``reduction``);
 * ``commands``: wall and CPU time of ``jaxflex optimize`` as a user runs it, with an empty
@@ -32,18 +32,18 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.accuracy import run_scene
-from benchmarks.charts import pareto_chart, stability_chart
-from benchmarks.commands import format_commands, run_commands
-from benchmarks.core import QUICK as QUICK_CORE
-from benchmarks.core import BenchCase, run_bench
-from benchmarks.fe import SceneSpec
-from benchmarks.nodes import format_nodes, run_reduction, run_scale
-from benchmarks.optim import scene_model
-from benchmarks.stability import OMEGA_DT, run_stability
-from jaxflex.atomic import make_output_dir, write_text_atomic
+from fmu.bench.accuracy import run_scene
+from fmu.bench.charts import pareto_chart, stability_chart
+from fmu.bench.commands import format_commands, run_commands
+from fmu.bench.core import QUICK as QUICK_CORE
+from fmu.bench.core import BenchCase, run_bench
+from fmu.bench.fe import SceneSpec
+from fmu.bench.nodes import format_nodes, run_reduction, run_scale
+from fmu.bench.optim import scene_model
+from fmu.bench.stability import OMEGA_DT, run_stability
 from jaxflex.errors import InputError
-from jaxflex.progress import step
+from jaxflex.files import make_output_dir, write_text_atomic
+from jaxflex.runtime import step
 
 SMALL_PLATE = SceneSpec(
     "plate",

@@ -2,7 +2,7 @@
 refused and why, and frequencies against the solver's own printout where it lies beside the
 file (the .f06 of an .op2), as JSON.
 
-    python -m benchmarks.solver_files DIR [--units SI] [-o solver_files.json]
+    python -m fmu.bench.solver_files DIR [--units SI] [-o solver_files.json]
 
 Measured on pyNastran's model library (``models/`` of github.com/SteveDoyle2/pyNastran,
 BSD-3-Clause) and pyuff's example files (``data/`` of github.com/ladisk/pyuff, MIT); the
@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from fem.from_modes import SUFFIXES, from_modes
-from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
+from jaxflex.files import write_text_atomic
 
 _F06_ROW = re.compile(r"^\s+(\d+)\s+\d+\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$")
 
@@ -82,7 +82,7 @@ def try_file(path: Path, units: str) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.solver_files", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m fmu.bench.solver_files", description=__doc__)
     parser.add_argument("directory", help="searched recursively for .op2, .pch, .uff, .unv")
     parser.add_argument("--units", default="SI", help="for files that state none")
     parser.add_argument("-o", "--output", default="solver_files.json")

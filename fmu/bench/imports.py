@@ -1,6 +1,6 @@
 """Wall time of the imports at the preprint's size, as JSON.
 
-    python -m benchmarks.imports [--nodes 66308] [--steps 1000] [--imports r1 nastran]
+    python -m fmu.bench.imports [--nodes 66308] [--steps 1000] [--imports r1 nastran]
                                  [--dir DIR] [-o imports_bench.json]
 
 * R1: the built-in plate meshed finely enough for ``--nodes`` nodes (every mode below 40 Hz,
@@ -10,7 +10,7 @@
 * Nastran: the same plate mesh as a bulk-data deck (meshio's writer: GRID* large field,
   CTRIA3) with its cups, then timed: fem.from_nastran (fem.bdf read, our plate, 20 modes).
 ANSYS files of that size cannot be made here (no MAPDL); the .full import is read + our
-eigen solve, which benchmarks.fem times.
+eigen solve, which fmu.bench.fem times.
 """
 
 from __future__ import annotations
@@ -28,9 +28,9 @@ import fem
 import jaxflex
 from fem.bdf import read_bulk
 from fem.identify import round_significant
-from jaxflex.atomic import write_text_atomic
-from jaxflex.convolution import convolve_unit_response, unit_response
-from jaxflex.profile import jerk_limited_move
+from jaxflex.files import write_text_atomic
+from jaxflex.reference import convolve_unit_response, unit_response
+from jaxflex.response import jerk_limited_move
 
 IMPORTS = ("r1", "nastran")
 
@@ -132,7 +132,7 @@ def _nastran_import(result, mesh, cups, workdir: Path) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.imports", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m fmu.bench.imports", description=__doc__)
     parser.add_argument("--nodes", type=int, default=66308, help="R1 rows / deck grids")
     parser.add_argument("--steps", type=int, default=1000, help="R1 time steps of 10 ms")
     parser.add_argument("--dir", help="where to write the R1 CSV and the deck (default: temp)")

@@ -1,7 +1,7 @@
 """Accuracy against time of every method on one FE scene (the Pareto data of ``jaxflex bench``).
 
-For a scene (:mod:`benchmarks.fe`) the full-order FE transient is the reference. The
-reduced methods (:mod:`benchmarks.methods`) run on the scene's modal model, each at its
+For a scene (:mod:`fmu.bench.fe`) the full-order FE transient is the reference. The
+reduced methods (:mod:`fmu.bench.methods`) run on the scene's modal model, each at its
 own native step, over three sweeps from the base case (all modes, all points, dt = 10 ms):
 number of modes, number of points (voxel size) and dt (10, 20, 25 ms). The FE transient
 itself is a method too, at coarser steps than the reference. Each run gives one point:
@@ -19,15 +19,13 @@ from collections.abc import Callable
 import numpy as np
 
 import fem
-from benchmarks.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_of
-from benchmarks.methods import METHODS, prepare, stable_substeps
-from benchmarks.metrics import compare, curve_errors, settle_from_samples
-from benchmarks.timing import best_time_s
-from jaxflex.engine import upsample
-from jaxflex.points import voxel_downsample
-from jaxflex.progress import progress_bar, step
-from jaxflex.settle import analyze_move
-from jaxflex.simulate import simulate
+from fmu.bench.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_of
+from fmu.bench.methods import METHODS, prepare, stable_substeps
+from fmu.bench.metrics import compare, curve_errors, settle_from_samples
+from fmu.bench.timing import best_time_s
+from jaxflex import simulate
+from jaxflex.response import analyze_move, upsample, voxel_downsample
+from jaxflex.runtime import progress_bar, step
 
 OURS = ("scan64", "scan32")
 SETTLE_SHARE_OF_PEAK = 0.05

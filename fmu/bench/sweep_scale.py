@@ -2,7 +2,7 @@
 throughput, the memory of the client and of each worker, and the record store's cost per
 case do not grow with the number of finished cases. JSON on stdout (and ``-o FILE``).
 
-    python -m benchmarks.sweep_scale -o sweep_scale.json       # 2 000 cases, 2 workers
+    python -m fmu.bench.sweep_scale -o sweep_scale.json       # 2 000 cases, 2 workers
 
 The spec (:func:`scale_spec`): a 0.6 x 0.4 m aluminium plate with 100 mm elements, 4 modes,
 6 monitored points; 200 rectangular layouts (2 or 3 cups per side, 5 x 5 insets, 2 radii)
@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import psutil
 
-from jaxflex.atomic import write_text_atomic
+from jaxflex.files import write_text_atomic
 from optim.sweep.run import run_sweep
 from optim.sweep.spec import SweepSpec, parse_spec
 from optim.sweep.store import ResultStore

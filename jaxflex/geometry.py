@@ -1,0 +1,52 @@
+"""The robot cell's geometry and the certified clearance, for the layers above the core: the
+obstacles (Box, HalfSpace, TriangleMesh), the cell (the part's pose, the path's via points,
+gravity) and the minimum distance of the part to the obstacles over a move and its settling.
+Coordinates are the cell's, in m. Reading a cell file is optim.cell_file's job. Public:
+these names are kept stable; the modules they come from (cell, collision) are private.
+"""
+
+from __future__ import annotations
+
+from jaxflex.cell import (
+    DEFAULT_GRAVITY_M_S2,
+    Box,
+    Cell,
+    HalfSpace,
+    Obstacle,
+    TriangleMesh,
+    Via,
+    rotation_from_degrees,
+)
+from jaxflex.collision import (
+    BLOCK_POINTS,
+    Clearance,
+    block_lower_bounds,
+    displacement_coordinates,
+    distances,
+    gravity_offset,
+    min_distance,
+    part_blocks,
+    part_half_thickness,
+    positions_at,
+)
+
+__all__ = [
+    "BLOCK_POINTS",
+    "DEFAULT_GRAVITY_M_S2",
+    "Box",
+    "Cell",
+    "Clearance",
+    "HalfSpace",
+    "Obstacle",
+    "TriangleMesh",
+    "Via",
+    "block_lower_bounds",
+    "displacement_coordinates",
+    "distances",
+    "gravity_offset",
+    "min_distance",
+    "part_blocks",
+    "part_half_thickness",
+    "positions_at",
+    "rotation_from_degrees",
+]

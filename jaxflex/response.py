@@ -1,0 +1,134 @@
+"""The building blocks of the certified response, for the layers above the core (fem, optim,
+fmu): the exact modal state maps (engine), deviation and outputs at points (deviation,
+outputs, loads), the decay envelopes and certified peaks (decay, peaks), the move's samples
+(profile, grid) and the point sets (points). Public: these names are kept stable for the
+upper layers; the modules they come from are private to the core.
+
+Units and shapes: each function's docstring (SI units throughout; a move ``acc`` is
+(n+1, 3) m/s^2 at step ``dt_s`` s).
+"""
+
+from __future__ import annotations
+
+from jaxflex.decay import (
+    amplitudes,
+    envelope_horizon,
+    free_rows,
+)
+from jaxflex.deviation import (
+    component_blocks,
+    deviation,
+    deviation_curve,
+    deviation_curves,
+    max_norms,
+    outputs_at,
+    point_displacements,
+    response_shapes,
+    with_acceleration,
+)
+from jaxflex.engine import (
+    end_state_map,
+    modal_forces,
+    modal_states,
+    padded_steps,
+    rest_padded,
+    state_map,
+    state_maps_at,
+    states_at,
+    upsample,
+)
+from jaxflex.grid import (
+    grid_values,
+)
+from jaxflex.loads import (
+    DEFAULT_CUP_SAFETY,
+    DEFAULT_STRESS_SAFETY,
+    CupUtilisation,
+    VonMises,
+)
+from jaxflex.model_file import (
+    ARRAY_FIELDS,
+    VALUE_RANGES,
+)
+from jaxflex.outputs import (
+    CupSet,
+    LinearOutputs,
+    StressSet,
+)
+from jaxflex.peaks import (
+    Peak,
+    item_bounds,
+    output_peak,
+)
+from jaxflex.points import (
+    downsample_to_count,
+    snap_key_points,
+    voxel_downsample,
+)
+from jaxflex.profile import (
+    acceleration_at,
+    as_move,
+    axis_limits,
+    enforce_end_state,
+    integrate,
+    jerk_limited_move,
+    kinematics_at,
+    position_weights,
+)
+from jaxflex.settle import SettleReport, analyze_move
+from jaxflex.simulate import (
+    move_deviation,
+    on_device,
+)
+
+__all__ = [
+    "ARRAY_FIELDS",
+    "DEFAULT_CUP_SAFETY",
+    "DEFAULT_STRESS_SAFETY",
+    "VALUE_RANGES",
+    "CupSet",
+    "CupUtilisation",
+    "LinearOutputs",
+    "Peak",
+    "SettleReport",
+    "StressSet",
+    "VonMises",
+    "acceleration_at",
+    "amplitudes",
+    "analyze_move",
+    "as_move",
+    "axis_limits",
+    "component_blocks",
+    "deviation",
+    "deviation_curve",
+    "deviation_curves",
+    "downsample_to_count",
+    "end_state_map",
+    "enforce_end_state",
+    "envelope_horizon",
+    "free_rows",
+    "grid_values",
+    "integrate",
+    "item_bounds",
+    "jerk_limited_move",
+    "kinematics_at",
+    "max_norms",
+    "modal_forces",
+    "modal_states",
+    "move_deviation",
+    "on_device",
+    "output_peak",
+    "outputs_at",
+    "padded_steps",
+    "point_displacements",
+    "position_weights",
+    "response_shapes",
+    "rest_padded",
+    "snap_key_points",
+    "state_map",
+    "state_maps_at",
+    "states_at",
+    "upsample",
+    "voxel_downsample",
+    "with_acceleration",
+]

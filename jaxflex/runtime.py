@@ -1,0 +1,50 @@
+"""A run's surroundings, for the layers above the core: progress on long work (progress),
+time and memory budgets (budget), and advice to the user (advice); a silenced
+stdout for chatty C libraries is jaxflex.stdout (light, for readers in a child process);
+JAX's persistent compilation cache (compile_cache: enable_compile_cache, its environment
+variable COMPILE_CACHE_ENV and entry suffix COMPILE_CACHE_SUFFIX).
+Public: these names are kept stable; the modules they come
+from are private.
+"""
+
+from __future__ import annotations
+
+from jaxflex.advice import (
+    Advice,
+    issue,
+    model_resolution,
+    threshold_advice,
+)
+from jaxflex.budget import (
+    Need,
+    check_time,
+    current_budget,
+    format_bytes,
+    require,
+)
+from jaxflex.compile_cache import ENV_VAR as COMPILE_CACHE_ENV
+from jaxflex.compile_cache import SUFFIX as COMPILE_CACHE_SUFFIX
+from jaxflex.compile_cache import enable as enable_compile_cache
+from jaxflex.progress import (
+    note,
+    progress_bar,
+    step,
+)
+
+__all__ = [
+    "COMPILE_CACHE_ENV",
+    "COMPILE_CACHE_SUFFIX",
+    "Advice",
+    "Need",
+    "check_time",
+    "current_budget",
+    "enable_compile_cache",
+    "format_bytes",
+    "issue",
+    "model_resolution",
+    "note",
+    "progress_bar",
+    "require",
+    "step",
+    "threshold_advice",
+]

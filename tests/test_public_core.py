@@ -1,0 +1,159 @@
+"""The upper layers (fem, optim, fmu) enter the core only through its public interface:
+`jaxflex` and the submodules listed in jaxflex/__init__.py's docstring (docs/design.md,
+"The public core"), each name in that module's ``__all__``. Every other core module is
+private and free to change. Read from the sources (ast), nothing imported."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PUBLIC = (
+    "jaxflex",
+    "jaxflex.model",
+    "jaxflex.errors",
+    "jaxflex.isolated",
+    "jaxflex.stdout",
+    "jaxflex.response",
+    "jaxflex.geometry",
+    "jaxflex.files",
+    "jaxflex.runtime",
+    "jaxflex.reference",
+    "jaxflex.plots",
+    "jaxflex.cli",
+)
+UPPER = ("fem", "optim", "fmu")
+
+
+def _source(module: str) -> Path:
+    path = ROOT / module.replace(".", "/")
+    return path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
+
+
+def _declared(module: str) -> set[str]:
+    """The names in ``module``'s literal ``__all__``."""
+    for node in ast.parse(_source(module).read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.Assign) and any(
+            isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets
+        ):
+            return set(ast.literal_eval(node.value))
+    raise AssertionError(f"{module}: no literal __all__")
+
+
+def _defined(module: str) -> set[str]:
+    """Names bound at the top level of ``module`` (definitions, assignments, imports)."""
+    names = set()
+    for node in ast.parse(_source(module).read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.FunctionDef | ast.ClassDef):
+            names.add(node.name)
+        elif isinstance(node, ast.Assign):
+            names.update(t.id for t in node.targets if isinstance(t, ast.Name))
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            names.add(node.target.id)
+        elif isinstance(node, ast.ImportFrom | ast.Import):
+            names.update((a.asname or a.name).split(".")[0] for a in node.names)
+    return names
+
+
+def core_uses(source: str) -> set[tuple[str, str]]:
+    """(module, name) of every core name ``source`` uses: ``from jaxflex.X import Y``,
+    ``import jaxflex.X`` (name ""), and ``jaxflex.Y`` / ``jaxflex.X.Y`` attributes."""
+    uses = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            if node.module.split(".")[0] == "jaxflex":
+                uses.update((node.module, a.name) for a in node.names)
+        elif isinstance(node, ast.Import):
+            uses.update((a.name, "") for a in node.names if a.name.startswith("jaxflex."))
+        elif isinstance(node, ast.Attribute):
+            chain = [node.attr]
+            value = node.value
+            while isinstance(value, ast.Attribute):
+                chain.append(value.attr)
+                value = value.value
+            if not (isinstance(value, ast.Name) and value.id == "jaxflex"):
+                continue
+            if len(chain) == 1 and f"jaxflex.{chain[0]}" not in PUBLIC:
+                uses.add(("jaxflex", chain[0]))  # jaxflex.y; jaxflex.x alone: a module
+            elif len(chain) > 1 and f"jaxflex.{chain[-1]}" in PUBLIC:
+                uses.add((f"jaxflex.{chain[-1]}", chain[-2]))  # jaxflex.x.y
+    return uses
+
+
+def private_uses(source: str) -> list[str]:
+    """The uses in ``source`` of a core module or name that is not public."""
+    bad = []
+    for module, name in sorted(core_uses(source)):
+        if module not in PUBLIC:
+            bad.append(f"{module} (a private module)")
+        elif name and name != "__version__" and name not in _declared(module):
+            bad.append(f"{module}.{name} (not in its __all__)")
+    return bad
+
+
+def test_the_scan_finds_private_uses():
+    source = (
+        "import jaxflex\nimport jaxflex.engine\nfrom jaxflex.engine import state_map\n"
+        "from jaxflex import simulate, _private\nfrom jaxflex.response import state_map\n"
+        "jaxflex.collision.min_distance()\njaxflex.simulate()\n"
+    )
+    assert private_uses(source) == [
+        "jaxflex._private (not in its __all__)",
+        "jaxflex.collision (not in its __all__)",
+        "jaxflex.engine (a private module)",
+        "jaxflex.engine (a private module)",
+    ]
+
+
+@pytest.mark.parametrize("module", PUBLIC)
+def test_public_modules_declare_what_they_define(module):
+    declared = _declared(module)
+    assert declared and not declared - _defined(module)
+    assert all(not name.startswith("_") for name in declared)
+
+
+def test_public_modules_are_documented():
+    doc = ast.get_docstring(ast.parse(_source("jaxflex").read_text(encoding="utf-8")))
+    design = (ROOT / "docs" / "design.md").read_text(encoding="utf-8")
+    for module in PUBLIC[1:]:
+        assert f"``{module}``" in doc and f"`{module}`" in design, module
+
+
+@pytest.mark.parametrize("layer", UPPER)
+def test_upper_layers_use_only_the_public_core(layer):
+    bad = {
+        str(path.relative_to(ROOT)): found
+        for path in sorted((ROOT / layer).rglob("*.py"))
+        if (found := private_uses(path.read_text(encoding="utf-8")))
+    }
+    assert bad == {}
+
+
+def test_readers_load_in_their_child_process():
+    """A reader run by jaxflex.isolated is imported in a child where the packages are bare
+    namespaces (their __init__ does not run): neither it nor what it imports may take names
+    from a package's __init__ (e.g. ``from jaxflex import X``)."""
+    readers = sorted(
+        ".".join(path.relative_to(ROOT).with_suffix("").parts)
+        for layer in UPPER
+        for path in (ROOT / layer).rglob("*.py")
+        if "@isolated(" in path.read_text(encoding="utf-8")
+    )
+    assert readers  # fem's ANSYS, CAD and mesh-file readers at least
+    program = (
+        "import importlib, sys, types\n"
+        f"sys.path.insert(0, {str(ROOT)!r})\n"
+        f"for name in ('jaxflex', *{UPPER!r}):\n"
+        "    package = types.ModuleType(name)\n"
+        f"    package.__path__ = [{str(ROOT)!r} + '/' + name]\n"
+        "    sys.modules[name] = package\n"
+        f"for module in {readers!r}:\n"
+        "    importlib.import_module(module)\n"
+    )
+    done = subprocess.run([sys.executable, "-I", "-c", program], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
