@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex.cell import Box, HalfSpace, TriangleMesh
 from jaxflex.errors import InputError
+from jaxflex.geometry import Box, HalfSpace, TriangleMesh
 
 RECORD_VALUES = 16
 

@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 
-from fem.meshfile import read_cells
 from jaxflex.errors import InputError
 from jaxflex.files import check_input_file, check_positive, read_settings_file
 from jaxflex.geometry import (
@@ -85,6 +84,8 @@ def _obstacle(spec: Mapping, index: int, folder: Path) -> Obstacle:
     scale = check_positive(f"{where}.scale", spec.get("scale", 1.0))
     check_input_file(f"{where}.path", path)
     try:
+        from fem.meshfile import read_cells  # fem's package (scikit-fem): only for a mesh
+
         points, blocks = read_cells(path)
     except InputError as exc:
         raise InputError(f"{where}.path: {exc}") from None

@@ -14,7 +14,7 @@ Sections of ``bench.json`` (SI units; times in s unless the key says ms):
   points costs in peak deviation and settle time (``reduction``);
 * ``commands``: wall and CPU time of ``jaxflex optimize`` as a user runs it, with an empty
   JAX compilation cache (cold) and again (warm), and of ``jaxflex demo`` in the full run
-  (:mod:`benchmarks.commands`).
+  (:mod:`fmu.bench.commands`).
 
 Four sizes: ``full`` (the built-in scenes, minutes), ``medium`` (small scenes, the sweeps
 of the full run; about a minute), ``quick`` (CI: small scenes, a few points per sweep) and
