@@ -3,18 +3,21 @@
 from __future__ import annotations
 
 import argparse
+import time
 
 import jaxflex
 from jaxflex.cell import load_cell
 from jaxflex.cli import add_axis_limits, axis_limit_values
+from jaxflex.defaults import DT_S, MAX_DURATION_S
 from jaxflex.errors import InputError
 from jaxflex.progress import step
-from jaxflex.validation import check_output_dir, check_positive
+from jaxflex.validation import check_output_dir
 from optim.budget import MAX_STEPS
 from optim.cell_setup import with_cup_rating
 from optim.limits import Limits
-from optim.optimize import optimize
-from optim.robust import RobustSpec
+from optim.optimize import run as run_request
+from optim.request import Request
+from optim.robust import FREQ_SCALE, GRID, ZETA, RobustSpec
 
 COMMAND = "optimize"
 HELP = "shortest cycle time move under vmax/amax/jmax limits (trajectory CSV, JSON, plots)"
@@ -88,7 +91,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--threshold", type=float, required=True, help="deviation threshold, m (e.g. 0.0005)"
     )
-    parser.add_argument("--dt", type=float, default=0.01, help="sample step, s (default 0.01)")
+    parser.add_argument("--dt", type=float, default=DT_S, help=f"sample step, s (default {DT_S:g})")
     parser.add_argument(
         "--clearance",
         type=float,
@@ -116,15 +119,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     for flag, default, metavar, kind, text in (
         (
             "--freq-scale",
-            (0.9, 1.1),
+            FREQ_SCALE,
             ("MIN", "MAX"),
             float,
             "range of the factor on every natural frequency",
         ),
-        ("--zeta", (0.01, 0.03), ("MIN", "MAX"), float, "range of the damping ratio of every mode"),
+        ("--zeta", ZETA, ("MIN", "MAX"), float, "range of the damping ratio of every mode"),
         (
             "--grid",
-            (21, 3),
+            GRID,
             ("NF", "NZ"),
             int,
             "check-grid points over the frequency and damping ranges",
@@ -141,8 +144,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--max-duration",
         type=float,
-        default=30.0,
-        help="longest move considered, s (default 30)",
+        default=MAX_DURATION_S,
+        help=f"longest move considered, s (default {MAX_DURATION_S:g})",
     )
     parser.add_argument(
         "--max-steps",
@@ -155,10 +158,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    start = time.perf_counter()
     check_output_dir("-o/--output", args.output)
-    threshold_m = check_positive("--threshold", args.threshold)
-    dt_s = check_positive("--dt", args.dt)
-    max_duration = check_positive("--max-duration", args.max_duration)
     limits = Limits(**axis_limit_values(args), vpath=args.vpath, apath=args.apath, jpath=args.jpath)
     robust = None
     if args.robust:
@@ -183,25 +184,24 @@ def run(args: argparse.Namespace) -> int:
         f"{args.model}: {model.n_modes} modes, {model.n_points} points; "
         f"{'robust' if robust else 'nominal'} optimisation ({args.method})"
     )
-    result = optimize(
+    request = Request(
         model,
         args.distance,
         limits,
-        dt_s,
-        threshold_m,
+        args.dt,
+        args.threshold,
         method=args.method,
         solver=args.solver,
         robust=robust,
-        max_duration_s=max_duration,
-        clearance_m=None
-        if args.clearance is None
-        else check_positive("--clearance", args.clearance),
+        max_duration_s=args.max_duration,
+        clearance_m=args.clearance,
         max_steps=args.max_steps,
         cell=cell,
         min_distance_m=args.min_distance,
         cup_safety=args.cup_safety,
         max_stress_pa=max_stress,
     )
+    result = run_request(request, start)
     paths = result.save(args.output)
     print(result.summary())
     print("wrote " + ", ".join(str(p) for p in paths))
