@@ -31,6 +31,7 @@ from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
 from jaxflex.atomic import write_text_atomic
 from jaxflex.cell import DEFAULT_GRAVITY_M_S2, Cell
 from jaxflex.collision import part_half_thickness
+from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.loads import DEFAULT_CUP_SAFETY
 from jaxflex.model import ModalModel
@@ -38,8 +39,6 @@ from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
 from jaxflex.validation import check_positive
 
-DEFAULT_THRESHOLD_M = 5e-4
-DEFAULT_STEP_S = 0.01
 CASE_FORMAT = "jaxflex.fmu_case"
 _CASE_TIMES = ("cycle_time_s", "transfer_time_s", "settle_time_s")
 
@@ -187,7 +186,7 @@ def export_fmu(
     path: str | os.PathLike,
     fmi_version: int = 2,
     trajectory: tuple[Any, float] | None = None,
-    threshold_m: float = DEFAULT_THRESHOLD_M,
+    threshold_m: float = THRESHOLD_M,
     case: dict[str, Any] | None = None,
     *,
     damping_scale: float = 1.0,
@@ -263,7 +262,7 @@ def export_fmu(
         damping_scale_max=(1.0 / zeta_max) * (1 - 1e-12) if zeta_max > 0 else 1e6,
         start_time_s=0.0,
         stop_time_s=_stop_time(acc, dt_s, summary),
-        step_s=dt_s or DEFAULT_STEP_S,
+        step_s=dt_s or DT_S,
         n_cups=n_cups,
         n_stress=n_stress,
         n_obstacles=n_obstacles,
