@@ -26,6 +26,16 @@ ORDER = 20
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", help="modal model file (.npz, from `jaxflex model`)")
+    _add_move(parser)
+    _add_cell(parser)
+    _add_search(parser)
+    _add_robust(parser)
+    _add_budget(parser)
+    parser.add_argument("-o", "--output", required=True, help="output directory")
+
+
+def _add_move(parser: argparse.ArgumentParser) -> None:
+    """The move, the robot's limits, the threshold and the step."""
     parser.add_argument(
         "--distance",
         nargs=3,
@@ -34,6 +44,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar=("X", "Y", "Z"),
         help="move from rest to rest by this displacement, m (or the path of --cell)",
     )
+    add_axis_limits(parser, with_defaults=True)
+    for name, unit in (("vpath", "m/s"), ("apath", "m/s^2"), ("jpath", "m/s^3")):
+        parser.add_argument(
+            f"--{name}",
+            type=float,
+            default=None,
+            help=f"optional limit on the norm over the axes, {unit}",
+        )
+    parser.add_argument(
+        "--threshold", type=float, required=True, help="deviation threshold, m (e.g. 0.0005)"
+    )
+    parser.add_argument("--dt", type=float, default=DT_S, help=f"sample step, s (default {DT_S:g})")
+
+
+def _add_cell(parser: argparse.ArgumentParser) -> None:
+    """The robot cell and its constraints."""
     parser.add_argument(
         "--cell",
         default=None,
@@ -80,18 +106,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="PA",
         help="limit the von Mises stress, Pa (without a value: the material's yield / 1.5)",
     )
-    add_axis_limits(parser, with_defaults=True)
-    for name, unit in (("vpath", "m/s"), ("apath", "m/s^2"), ("jpath", "m/s^3")):
-        parser.add_argument(
-            f"--{name}",
-            type=float,
-            default=None,
-            help=f"optional limit on the norm over the axes, {unit}",
-        )
-    parser.add_argument(
-        "--threshold", type=float, required=True, help="deviation threshold, m (e.g. 0.0005)"
-    )
-    parser.add_argument("--dt", type=float, default=DT_S, help=f"sample step, s (default {DT_S:g})")
+
+
+def _add_search(parser: argparse.ArgumentParser) -> None:
+    """The clearance during the move, the method and its solver."""
     parser.add_argument(
         "--clearance",
         type=float,
@@ -110,6 +128,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="exact: highs (default), casadi (Clp) or casadi-highs; gradient: ipopt "
         "(default) or slsqp",
     )
+
+
+def _add_robust(parser: argparse.ArgumentParser) -> None:
+    """The robust mode and its uncertainty range."""
     parser.add_argument(
         "--robust",
         action="store_true",
@@ -141,6 +163,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             metavar=metavar,
             help=f"robust: {text} (default {default[0]:g} {default[1]:g})",
         )
+
+
+def _add_budget(parser: argparse.ArgumentParser) -> None:
+    """The longest move and the LP budget."""
     parser.add_argument(
         "--max-duration",
         type=float,
@@ -154,7 +180,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"budget: most steps of any move an LP is built for (default {MAX_STEPS}; LP time "
         "grows with their square)",
     )
-    parser.add_argument("-o", "--output", required=True, help="output directory")
 
 
 def run(args: argparse.Namespace) -> int:
