@@ -79,7 +79,7 @@ class Problem:
     """Everything a search needs: data, scenarios, training set and the row pool."""
 
     model: ModalModel
-    distance: np.ndarray
+    distance_m: np.ndarray  # (3,) m
     limits: Limits
     threshold_m: float
     dt_s: float
@@ -113,7 +113,7 @@ class Problem:
     @property
     def axes(self) -> tuple[int, ...]:
         """The axes the move uses (distance or via points)."""
-        return moving_axes(self.distance, [ViaRow(0, v[0], v[1], v[2]) for v in self.via])
+        return moving_axes(self.distance_m, [ViaRow(0, v[0], v[1], v[2]) for v in self.via])
 
     @property
     def clearance_limit_m(self) -> float:
@@ -160,7 +160,7 @@ def active_components(model: ModalModel) -> tuple[int, ...]:
 
 def make_problem(
     model: ModalModel,
-    distance: np.ndarray,
+    distance_m: np.ndarray,
     limits: Limits,
     dt_s: float,
     threshold_m: float,
@@ -173,7 +173,7 @@ def make_problem(
     grid, training = scenarios(model, robust, threshold_m)
     comps = active_components(model)
     return Problem(
-        model, distance, limits, threshold_m, dt_s, max_steps, robust, grid, training, comps,
+        model, distance_m, limits, threshold_m, dt_s, max_steps, robust, grid, training, comps,
         clearance_m,
     )  # fmt: skip
 
@@ -356,7 +356,7 @@ def attempt(
             added += len(rows)
         if added:
             continue
-        acc = enforce_end_state(acc, problem.dt_s, problem.distance)
+        acc = enforce_end_state(acc, problem.dt_s, problem.distance_m)
         timings, failures = _certify(problem, acc)
         if not failures:
             failures = _certify_families(problem, acc)

@@ -110,7 +110,7 @@ def plan(request: Request) -> Plan:
     )
     model = setup.model
     shortest, allowed = check_move_length(
-        setup.distance, r.limits, r.dt_s, r.max_duration_s, r.max_steps
+        setup.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
     )
     if r.clearance_m is not None:
         _check_clearance(setup, r.clearance_m, r.max_duration_s)
@@ -128,7 +128,7 @@ def _check_clearance(setup: CellSetup, clearance_m: float, max_duration_s: float
     moves."""
     model = setup.model
     comps = active_components(model)
-    t_min, mode = shortest_clearance_move_s(model, comps, setup.distance, clearance_m)
+    t_min, mode = shortest_clearance_move_s(model, comps, setup.distance_m, clearance_m)
     if t_min > max_duration_s:
         raise InputError(
             f"clearance_m: no move of at most max_duration_s = {max_duration_s:g} s keeps the "
@@ -147,12 +147,12 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     if setup.via:
         via = [v[0] for v in setup.via]
         moves, fractions = via_baselines(
-            setup.model, setup.distance, via, r.limits, r.dt_s, r.threshold_m,
+            setup.model, setup.distance_m, via, r.limits, r.dt_s, r.threshold_m,
             robust=r.robust, max_steps=plan.steps_cap,
         )  # fmt: skip
     else:
         moves = compute_baselines(
-            setup.model, setup.distance, r.limits, r.dt_s, r.threshold_m,
+            setup.model, setup.distance_m, r.limits, r.dt_s, r.threshold_m,
             robust=r.robust, max_shaped_modes=r.max_shaped_modes, max_steps=plan.steps_cap,
             progress=r.progress,
         )  # fmt: skip
@@ -161,7 +161,7 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     floor = moves.entries[0]  # the fastest move there is on the grid (along the path)
     deviation = deviation_summary(setup.model, floor.acc, r.dt_s)
     peak = deviation["peak_during_move_m"]
-    resolution = model_resolution(setup.model, setup.distance)
+    resolution = model_resolution(setup.model, setup.distance_m)
     advice = threshold_advice(r.threshold_m, floor.timing.settle_time_s, peak, resolution)
     feasible = [e for e in moves.entries if e.constraints_ok]
     return Baselines(moves, fractions, feasible, deviation, issue(advice))
@@ -174,7 +174,7 @@ def _problem(request: Request, plan: Plan, fractions: list[float]) -> Problem:
     grid, training = scenarios(setup.model, r.robust, r.threshold_m)
     comps = active_components(setup.model)
     return Problem(
-        setup.model, setup.distance, r.limits, r.threshold_m, r.dt_s, plan.steps_cap, r.robust,
+        setup.model, setup.distance_m, r.limits, r.threshold_m, r.dt_s, plan.steps_cap, r.robust,
         grid, training, comps, r.clearance_m, via=via, families=setup.families,
     )  # fmt: skip
 
@@ -247,7 +247,7 @@ def choose(request: Request, plan: Plan, base: Baselines, found: Search) -> Choi
     """The best certified move seen (the search's, the polish pass's, the baselines that meet
     the cell's constraints: the search's moves meet them by construction) that passes the
     exact limits check (optim.choice)."""
-    r, distance = request, plan.setup.distance
+    r, distance = request, plan.setup.distance_m
     moves = candidates(
         found.problem, found.history, found.final, base.moves, eligible=lambda e: e.constraints_ok
     )
@@ -327,7 +327,7 @@ def report(
     return OptimizationResult(
         clearance_m=r.clearance_m,
         model=setup.model,
-        distance_m=setup.distance,
+        distance_m=setup.distance_m,
         dt_s=r.dt_s,
         threshold_m=r.threshold_m,
         limits=r.limits,
