@@ -15,7 +15,6 @@ import numpy as np
 
 from fem.parts import Part
 from fem.scenes import SCENES, scene
-from jaxflex.defaults import DT_S
 from jaxflex.errors import InputError
 from jaxflex.profile import as_move
 from jaxflex.validation import check_positive
@@ -65,23 +64,23 @@ def _part_and_supports(part: Any, supports: Any) -> tuple[Part, list]:
 class SizingRequest:
     """The arguments of ``fem.size_model`` (see there) in their final form: ``part`` a Part,
     ``supports`` a list, ``acc`` (n+1, 3) m/s^2 at rest at both ends every ``dt_s`` s,
-    ``shares`` three floats, numbers checked."""
+    ``shares`` three floats, numbers checked. The defaults are size_model's."""
 
     part: Part | str
     supports: Any
     acc: Any
-    dt_s: float = DT_S
-    threshold_m: float | None = None
-    tolerance: float = 0.01
-    zeta: Any = 0.02
-    mesh_sizes_m: Sequence[float] | None = None
-    reference_modes: int = 40
-    max_modes: int = 160
-    key_points: Any = None
-    shares: Sequence[float] = DEFAULT_SHARES
-    eval_step_s: float | None = None
-    allow_rigid_modes: bool = False
-    progress: bool | None = None
+    dt_s: float
+    threshold_m: float | None
+    tolerance: float
+    zeta: Any
+    mesh_sizes_m: Sequence[float] | None
+    reference_modes: int
+    max_modes: int
+    key_points: Any
+    shares: Sequence[float]
+    eval_step_s: float | None
+    allow_rigid_modes: bool
+    progress: bool | None
 
     def __post_init__(self) -> None:
         part, supports = _part_and_supports(self.part, self.supports)
