@@ -133,7 +133,9 @@ def derivative_bounds(model, states, force, dt_s: float) -> tuple[np.ndarray, ..
 
 def free_propagators(model, tau_s, xp: Any = jnp) -> Propagators:
     """Propagators of the free vibration after times ``tau_s`` (T,): entries (T, M, ...)."""
-    return propagators(model.omega_rad_s[None, :], model.zeta[None, :], xp.asarray(tau_s)[:, None], xp)
+    return propagators(
+        model.omega_rad_s[None, :], model.zeta[None, :], xp.asarray(tau_s)[:, None], xp
+    )
 
 
 def free_states(model, x_start, tau_s, xp: Any = jnp):
@@ -160,7 +162,9 @@ def states_at(model, acc, dt_s: float, t_s) -> np.ndarray:
 
 def _power_terms(model, n_steps: int, dt_s: float):
     """Phi^l G0 and Phi^l G1 for l = 0..n: two (n+1, M, 2) arrays (Phi^l = Phi(l dt_s))."""
-    powers = propagators(model.omega_rad_s, model.zeta, dt_s * np.arange(n_steps + 1)[:, None], np).phi
+    powers = propagators(
+        model.omega_rad_s, model.zeta, dt_s * np.arange(n_steps + 1)[:, None], np
+    ).phi
     _, g0, g1 = step_matrices(model, dt_s, xp=np)
     return np.einsum("lmab,mb->lma", powers, g0), np.einsum("lmab,mb->lma", powers, g1)
 

@@ -212,7 +212,11 @@ def baselines(
         )
     ]
     order = dominant_modes(model, distance)[:max_shaped_modes]
-    freq, omega, zeta = np.asarray(model.freq_hz), np.asarray(model.omega_rad_s), np.asarray(model.zeta)
+    freq, omega, zeta = (
+        np.asarray(model.freq_hz),
+        np.asarray(model.omega_rad_s),
+        np.asarray(model.zeta),
+    )
     kinds = list(SHAPERS)
     skipped: dict[str, str] = {}
     bar = progress_bar(len(kinds) * len(order), "baselines", progress, unit="move")

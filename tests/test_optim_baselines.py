@@ -154,7 +154,9 @@ def test_a_shaper_registered_outside_optim_is_one_of_the_optimisers_baselines(
     order = dominant_modes(model, np.array(DISTANCE))
     cycles = []
     for count in range(1, model.n_modes + 1):
-        train = convolve(*(shaper("ZVDD", model.omega_rad_s[i], model.zeta[i]) for i in order[:count]))
+        train = convolve(
+            *(shaper("ZVDD", model.omega_rad_s[i], model.zeta[i]) for i in order[:count])
+        )
         acc = shaped_grid_move(continuous, train, DISTANCE, LIMITS, DT)
         cycles.append(analyze_move(model, acc, DT, THRESHOLD).cycle_time_s)
     assert zvdd.cycle_time_s == pytest.approx(min(cycles), abs=1e-9)
