@@ -34,6 +34,7 @@ from fem.outputs import reaction_outputs, stress_outputs
 from jaxflex.atomic import write_text_atomic
 from jaxflex.cell import Box, Cell, load_cell
 from jaxflex.collision import min_distance
+from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.deviation import outputs_at
 from jaxflex.loads import CupUtilisation, VonMises
 from jaxflex.peaks import output_peak
@@ -43,8 +44,8 @@ from optim.ruckig_move import kinematic_floor_move
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 CASES = ("press", "accuracy", "constraints", "cups", "convergence")
 LIMITS = optim.Limits(2.0, 10.0, 100.0)
-DT = 0.01
-THRESHOLD = 5e-4
+DT = DT_S
+THRESHOLD = THRESHOLD_M
 GRAVITY = np.array([0.0, 0.0, -9.81])
 KINDS = (None, "flat", "bellows")
 

@@ -25,13 +25,13 @@ import numpy as np
 import scipy.signal
 
 from benchmarks.metrics import settle_from_samples
+from jaxflex.defaults import DT_S
 from jaxflex.engine import upsample
 from jaxflex.integrators import central_difference_modal, newmark_modal
 from jaxflex.model import ModalModel
 from jaxflex.settle import analyze_move
 from jaxflex.simulate import simulate
 
-DT_S = 0.01
 OMEGA_DT = tuple(float(x) for x in np.round(np.logspace(-1.5, 1.5, 25), 4))
 DRIFT_STEPS = (1_000, 10_000, 100_000)
 DENSE_FACTOR = 64
