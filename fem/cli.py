@@ -29,6 +29,7 @@ from fem.scenes import scene
 from fem.sizing import size_model
 from fem.supports import ClampedEdge, PointSupport, SuctionCup
 from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
+from jaxflex.defaults import DT_S
 from jaxflex.errors import InputError
 from jaxflex.files import check_output_file, read_trajectory_csv
 from jaxflex.response import analyze_move, deviation_curve, jerk_limited_move
@@ -234,7 +235,7 @@ def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--dt",
         type=float,
-        help="--distance: sample step in s (default 0.01); --from-r1: the R1 time step in s",
+        help=f"--distance: sample step in s (default {DT_S:g}); --from-r1: the R1 time step in s",
     )
     group.add_argument("--threshold", type=float, help="settle threshold in m (e.g. 0.0005)")
     group.add_argument(
@@ -412,7 +413,7 @@ def _move(args):
         return read_trajectory_csv(path / "trajectory.csv" if path.is_dir() else path)
     if args.distance is None:
         raise InputError("--tolerance: give the move, --trajectory FILE or --distance X Y Z")
-    dt_s = 0.01 if args.dt is None else args.dt
+    dt_s = DT_S if args.dt is None else args.dt
     return jerk_limited_move(args.distance, dt_s=dt_s, **limits), dt_s
 
 

@@ -33,51 +33,25 @@ Every candidate is listed with its cost and errors (SizingResult.summary()).
 
 from __future__ import annotations
 
-import dataclasses
-import itertools
 import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from fem.modal import ModalResult, modal_analysis
-from fem.parts import CUP_FINE_FRACTION, Part
-from fem.scenes import SCENES, scene
-from fem.sizing_curves import (
-    SettleReference,
-    TimeGrid,
-    curve_error,
-    modal_coordinates,
-    truncation_curves,
-)
-from fem.sizing_residual import TruncationResidual
+from fem.parts import Part
+from fem.sizing_curves import SettleReference, curve_error, truncation_curves
+from fem.sizing_levels import Level, SizingRun
+from fem.sizing_report import sizing_result
+from fem.sizing_request import DEFAULT_SHARES, SizingRequest
 from fem.sizing_result import Row, SizingResult
-from fem.supports import contact_discs
-from jaxflex.errors import InputError
-from jaxflex.files import check_positive
+from jaxflex.defaults import DT_S
 from jaxflex.model import ModalModel
-from jaxflex.response import analyze_move, as_move, deviation_curves, voxel_downsample
+from jaxflex.response import analyze_move, deviation_curves, voxel_downsample
 from jaxflex.runtime import progress_bar
 
-# Refinement sequence: multiples of the part's element size, coarse to fine (a factor sqrt 2
-# per level); the cup element size is CUP_RATIO x the base size (measured on the 1.5 x 0.8 m
-# plate: with r/4 cups at 15 mm, the cup clamp dominated the error; base / 3 balances both).
-_ROOT2 = math.sqrt(2.0)
-REFINEMENT = {
-    "morley": (4.0, 2.0 * _ROOT2, 2.0, _ROOT2, 1.0, 1.0 / _ROOT2, 0.5),
-    "argyris": (4.0, 2.0 * _ROOT2, 2.0, _ROOT2, 1.0, 1.0 / _ROOT2, 0.5),
-    "shell": (4.0, 2.0 * _ROOT2, 2.0, _ROOT2, 1.0, 1.0 / _ROOT2, 0.5),
-    "hex2": (4.0, 2.0 * _ROOT2, 2.0, _ROOT2, 1.0),
-}
-CUP_RATIO = {"morley": 1 / 3, "argyris": 1 / 3, "shell": 1 / 3, "hex2": 1 / 2}
-# Shares of the tolerance: mesh, points, modes. The mesh is by far the most expensive to
-# refine (offline minutes); points and modes cost little online, so they get less.
-DEFAULT_SHARES = (0.7, 0.1, 0.2)
-SAMPLES_PER_PERIOD = 16  # evaluation grid: 16 samples per period of the GRID_MODE-th mode
-GRID_MODE = 10
-TAIL_PERIODS = 2.0  # curves are compared up to the later cycle time + 2 first-mode periods
 HOT_POINTS = 8  # nodes where the deviation peaks, always monitored
 REFERENCE_MODES_SHARE = 0.5  # quasi-static residual allowed in the modes' share
 MODES_GROWTH = 1.5  # eigen solves get dearer with the mode count: do not overshoot by 2x
@@ -85,82 +59,29 @@ FINAL_RETRIES = 3
 MAX_ORDER = 2.0  # Richardson: displacement order of Morley; the cup clamp converges at 1
 
 
-class _Level:
-    """One mesh of the refinement sequence: modal analysis with every node as a point."""
+@dataclass(frozen=True)
+class MeshChoice:
+    """Stage 1's answer: the chosen mesh, the reference (the next finer one, or the chosen
+    if it is the finest), the reference's estimated error and whether the sequence met the
+    mesh share."""
 
-    def __init__(self, part: Part, supports: list, n_modes: int, options: dict) -> None:
-        start = time.perf_counter()
-        self.part = part
-        self.result: ModalResult = modal_analysis(part, supports, n_modes=n_modes, **options)
-        self.model: ModalModel = self.result.to_modal_model(points=None, outputs=False)
-        self.wall_s = time.perf_counter() - start
-        self.residual = TruncationResidual(self.result)
-        self._q: dict[int, np.ndarray] = {}
-        self._curves: dict[int, Any] = {}
-        self.settle: SettleReference | None = None
-
-    @property
-    def n_dof(self) -> int:
-        return int(self.result.system.n_dof)
-
-    @property
-    def f1_hz(self) -> float:
-        return float(self.result.freq_hz[0])
-
-    def describe(self) -> str:
-        if self.part.mesh_is_given:
-            return "mesh from file"
-        cup = _cup_element_m(self.part, self.result.supports)
-        text = f"{1e3 * self.part.element_size_m:.3g} mm"
-        return text + (f" (cups {1e3 * cup:.3g} mm)" if cup is not None else "")
-
-    def q(self, grid: TimeGrid, n_samples: int) -> np.ndarray:
-        if n_samples not in self._q:
-            self._q = {n_samples: modal_coordinates(self.model, grid, n_samples)}
-        return self._q[n_samples]
-
-    def curves(self, grid: TimeGrid, n_samples: int):
-        if n_samples not in self._curves:
-            q = self.q(grid, n_samples)
-            self._curves = {n_samples: deviation_curves(np.asarray(self.model.shapes), q)}
-        return self._curves[n_samples]
+    level: Level
+    reference: Level
+    estimate: dict[str, Any]
+    ok: bool
 
 
-def _cup_element_m(part: Part, supports) -> float | None:
-    """Element size inside the contact discs (cups) of ``supports``, m (None: no disc)."""
-    discs = contact_discs(supports)
-    if not discs:
-        return None
-    fraction = part.cup_fine_fraction or CUP_FINE_FRACTION[part.element]
-    return min(part.element_size_m, fraction * min(d.radius for d in discs))
+@dataclass(frozen=True)
+class Final:
+    """The combined choice (model, point indices, voxel size) and its check against the
+    reference: ``err`` (curve_error with the reference's ``peak_m``), ``settle``, ``ok``."""
 
-
-def _refinement_parts(part: Part, mesh_sizes_m, radius_m: float | None) -> list[Part]:
-    """The parts of the refinement sequence, coarse to fine, with cup elements of CUP_RATIO x
-    the base size (``radius_m``: the smallest cup radius, None without cups); a part read
-    from a mesh file is used as is."""
-    if part.mesh_is_given:
-        if mesh_sizes_m is not None:
-            raise InputError("mesh_sizes_m: a part read from a mesh file is used as is")
-        return [part]
-    if mesh_sizes_m is None:
-        sizes = [part.element_size_m * f for f in REFINEMENT[part.element]]
-    else:
-        sizes = [check_positive(f"mesh_sizes_m[{i}]", h) for i, h in enumerate(mesh_sizes_m)]
-        if len(sizes) < 2 or any(b >= a for a, b in itertools.pairwise(sizes)):
-            raise InputError(
-                f"mesh_sizes_m: give at least two element sizes in m, coarse to fine (strictly "
-                f"decreasing), got {list(mesh_sizes_m)}"
-            )
-    ratio = CUP_RATIO[part.element]
-    return [
-        dataclasses.replace(
-            part,
-            mesh_size_m=h,
-            cup_fine_fraction=None if radius_m is None else ratio * h / radius_m,
-        )
-        for h in sizes
-    ]
+    model: ModalModel
+    idx: np.ndarray
+    voxel: float | None
+    err: dict
+    settle: Any
+    ok: bool
 
 
 def _richardson(deltas: list[float], ratios: list[float]) -> tuple[float, float | None, str]:
@@ -182,440 +103,266 @@ def _richardson(deltas: list[float], ratios: list[float]) -> tuple[float, float 
     return delta / (r - 1.0), None, note
 
 
-class _Sizer:
-    def __init__(
-        self,
-        part: Part,
-        supports: list,
-        acc: np.ndarray,
-        dt_s: float,
-        threshold_m: float,
-        tolerance: float,
-        *,
-        zeta,
-        mesh_sizes_m,
-        reference_modes: int,
-        max_modes: int,
-        key_points,
-        shares: tuple[float, float, float],
-        eval_step_s: float | None,
-        allow_rigid_modes: bool,
-        progress: bool | None,
-        log: Callable[[str], None] | None,
-    ) -> None:
-        self.supports = supports
-        self.acc, self.dt_s, self.threshold_m = acc, dt_s, threshold_m
-        self.tol, self.shares = tolerance, shares
-        self.n_modes, self.max_modes = reference_modes, max_modes
-        self.modal_options = {
-            "zeta": zeta,
-            "allow_rigid_modes": allow_rigid_modes,
-            "progress": progress,
-        }
-        self.key_points, self.eval_step_s = key_points, eval_step_s
-        radii = [d.radius for d in contact_discs(supports)]
-        self.parts = _refinement_parts(part, mesh_sizes_m, min(radii, default=None))
-        self.progress, self.log = progress, log or (lambda text: None)
-        self.rows: list[Row] = []
-        self.notes: list[str] = []
-        self.timings: dict[str, float] = {}
-        self.grid: TimeGrid | None = None
-
-    # -- helpers ---------------------------------------------------------------------------
-    def _row(self, row: Row) -> None:
-        self.rows.append(row)
-        verdict = {True: "accepted", False: "rejected", None: ""}[row.accepted]
-        settle = f", settle {row.settle.describe()}" if row.settle is not None else ""
-        linf = "" if row.linf is None else f": L-inf {100 * row.linf:.3g} % of the peak"
-        self.log(
-            f"[{row.stage}] {row.candidate} ({row.cost}) vs {row.against}{linf}{settle} "
-            f"{verdict}" + (f" ({row.note})" if row.note else "")
-        )
-        self.bar.update(1)
-        self.bar.set_postfix_str(f"{row.stage}: {row.candidate}")
-
-    def _level(self, index: int) -> _Level:
-        part = self.parts[index]
-        level = _Level(part, self.supports, self.n_modes, self.modal_options)
-        if self.grid is None:
-            f_grid = level.result.freq_hz[min(GRID_MODE, level.result.n_modes) - 1]
-            if self.eval_step_s is None:
-                factor = math.ceil(self.dt_s * SAMPLES_PER_PERIOD * f_grid - 1e-9)
-            else:
-                factor = math.ceil(self.dt_s / self.eval_step_s - 1e-9)
-            self.grid = TimeGrid(self.acc, self.dt_s, max(1, factor))
-        level.settle = SettleReference(level.model, self.grid, self.threshold_m)
-        if not np.isfinite(level.settle.cycle_s):
-            raise InputError("zeta: the deviation never settles (undamped modes); give zeta > 0")
-        self.log(
-            f"[mesh] {level.describe()}: {level.n_dof} DOFs, {level.result.n_modes} modes "
-            f"({level.result.freq_hz[0]:.4g}-{level.result.freq_hz[-1]:.4g} Hz), "
-            f"{level.model.n_points} nodes, {level.wall_s:.2f} s; settle "
-            f"{level.settle.settle_s:.4f} s"
-        )
-        return level
-
-    def _window(self, *levels: _Level, cycle_s: float = 0.0) -> int:
-        """Samples up to the latest cycle time + TAIL_PERIODS periods of the first mode."""
-        t_end = max(cycle_s, *(level.settle.cycle_s for level in levels))
-        f1 = min(level.f1_hz for level in levels)
-        return self.grid.samples_until(t_end + TAIL_PERIODS / f1)
-
-    def _peak(self, level: _Level) -> float:
-        n = self._window(level)
-        peak = float(level.curves(self.grid, n).all.max())
-        if peak <= 0:
-            raise InputError(
-                "acc: the move does not deflect the part (peak deviation 0); a Kirchhoff plate "
-                "(flat part) only responds to acceleration along z"
+def _reference_modes(run: SizingRun, level: Level, index: int) -> Level:
+    """Raise the computed mode count until the quasi-static residual of the truncated modes
+    is within half the modes' share of the tolerance (or max_modes is reached)."""
+    r = run.request
+    limit = REFERENCE_MODES_SHARE * r.shares[2] * r.tolerance
+    while True:
+        peak = run.peak(level)
+        residual = level.residual.quasi_static_error_m(r.acc, level.result.n_modes) / peak
+        enough = residual <= limit
+        exhausted = level.result.n_modes < run.n_modes  # the mesh has no more modes
+        done = enough or exhausted or run.n_modes >= r.max_modes
+        run.row(
+            Row(
+                "modes",
+                f"compute {level.result.n_modes} modes",
+                f"up to {level.result.freq_hz[-1]:.4g} Hz",
+                "quasi-static residual",
+                linf=residual,
+                accepted=done,
+                note=f"limit {100 * limit:.3g} %" + ("" if enough else ", too large"),
             )
-        return peak
+        )
+        if done:
+            if not enough:
+                run.notes.append(
+                    f"the quasi-static residual of {level.result.n_modes} computed modes is "
+                    f"{100 * residual:.3g} % of the peak (limit {100 * limit:.3g} %); raise "
+                    "max_modes"
+                )
+            return level
+        run.n_modes = min(math.ceil(MODES_GROWTH * run.n_modes), r.max_modes)
+        level = run.level(index)
 
-    # -- reference modes ---------------------------------------------------------------------
-    def _reference_modes(self, level: _Level, index: int) -> _Level:
-        """Raise the computed mode count until the quasi-static residual of the truncated modes
-        is within half the modes' share of the tolerance (or max_modes is reached)."""
-        limit = REFERENCE_MODES_SHARE * self.shares[2] * self.tol
-        while True:
-            peak = self._peak(level)
-            residual = level.residual.quasi_static_error_m(self.acc, level.result.n_modes) / peak
-            enough = residual <= limit
-            exhausted = level.result.n_modes < self.n_modes  # the mesh has no more modes
-            done = enough or exhausted or self.n_modes >= self.max_modes
-            self._row(
-                Row(
+
+def _mesh_stage(run: SizingRun) -> MeshChoice:
+    """Stage 1: the coarsest mesh of the sequence within the mesh share (module docstring)
+    and the next finer one, the reference of the later stages."""
+    r = run.request
+    share = r.shares[0] * r.tolerance
+    coarse = _reference_modes(run, run.level(0), 0)
+    if len(run.parts) == 1:
+        run.row(Row("mesh", coarse.describe(), f"{coarse.n_dof} DOFs", "-", note="not refined"))
+        estimate = {"mesh": None, "order": None, "mesh_note": "mesh from file, not refined"}
+        return MeshChoice(coarse, coarse, estimate, True)
+    deltas: list[float] = []
+    ratios: list[float] = []
+    for index in range(1, len(run.parts)):
+        fine = run.level(index)
+        n = run.window(coarse, fine)
+        err = curve_error(coarse.curves(run.grid, n).all, fine.curves(run.grid, n).all)
+        deltas.append(err["linf"])
+        ratios.append(coarse.part.element_size_m / fine.part.element_size_m)
+        estimate, order, note = _richardson(deltas, ratios)
+        # the coarse level's estimated error against the converged mesh
+        measured = err["linf"] + estimate
+        settle = fine.settle.check(coarse.settle.settle_s, r.shares[0] * r.tolerance)
+        ok = measured <= share and settle.ok
+        run.row(
+            Row.compared(
+                "mesh",
+                coarse.describe(),
+                f"{coarse.n_dof} DOFs",
+                fine.describe(),
+                err,
+                settle,
+                ok,
+                note=f"est. error of the finer {100 * estimate:.3g} %",
+            )
+        )
+        info = {"mesh": estimate, "order": order, "mesh_note": note}
+        if ok:
+            if "coincidental" in note:
+                run.notes.append(
+                    f"the mesh differences fell from {100 * deltas[-2]:.3g} % to "
+                    f"{100 * deltas[-1]:.3g} % in one step, faster than the formulation "
+                    "converges: the agreement may be coincidental; check with finer "
+                    "mesh_sizes_m"
+                )
+            return MeshChoice(coarse, fine, info, True)
+        coarse = fine
+    run.notes.append(
+        f"the mesh sequence did not converge to {100 * share:.3g} % (the mesh share of the "
+        "tolerance): the finest mesh is used; give finer mesh_sizes_m"
+    )
+    return MeshChoice(coarse, coarse, info, False)
+
+
+def _hot_nodes(curves) -> np.ndarray:
+    """Nodes where the deviation has its local maxima (the largest HOT_POINTS)."""
+    d = curves.all
+    peaks = np.flatnonzero((d[1:-1] >= d[:-2]) & (d[1:-1] >= d[2:])) + 1
+    peaks = np.union1d(peaks, [int(np.argmax(d))])
+    order = peaks[np.argsort(-d[peaks], kind="stable")]
+    hot: list[int] = []
+    for t in order:
+        node = int(curves.argmax[t])
+        if node not in hot:
+            hot.append(node)
+        if len(hot) == HOT_POINTS:
+            break
+    return np.asarray(hot, dtype=np.int64)
+
+
+def _points_stage(run: SizingRun, level: Level, share: float) -> tuple[np.ndarray, float | None]:
+    """Stage 2: the coarsest voxel size whose points reproduce the deviation over every
+    node (its point indices and voxel size; every node and None if none does)."""
+    r = run.request
+    nodes = np.asarray(level.model.points)
+    n = run.window(level)
+    curves = level.curves(run.grid, n)
+    keys = _hot_nodes(curves)
+    if r.key_points is not None:
+        keys = np.union1d(keys, level.result.select_nodes(r.key_points))
+    extent = float((nodes.max(axis=0) - nodes.min(axis=0)).max())
+    candidates: list[tuple[float, np.ndarray]] = []
+    voxel = extent
+    while True:
+        idx = voxel_downsample(nodes, voxel, key_points=nodes[keys], key_tolerance_m=voxel)
+        if len(idx) >= len(nodes) // 2:
+            break
+        if not candidates or len(idx) > len(candidates[-1][1]):
+            candidates.append((voxel, idx))
+        voxel /= math.sqrt(2.0)
+    sub = deviation_curves(
+        np.asarray(level.model.shapes), level.q(run.grid, n), [c[1] for c in candidates]
+    ).subsets
+    against = f"all {len(nodes)} nodes"
+    for (voxel, idx), curve in zip(candidates, sub, strict=True):
+        err = curve_error(curve, curves.all)
+        settle, ok = None, err["linf"] <= share
+        if ok:
+            model = level.model.select_points(idx)
+            report = analyze_move(model, run.grid.acc, run.grid.dt_s, r.threshold_m)
+            settle = level.settle.check(report.settle_time_s, share)
+            ok = settle.ok
+        label = f"voxel {1e3 * voxel:.3g} mm"
+        run.row(
+            Row.compared(
+                "points",
+                label,
+                f"{len(idx)} points",
+                against,
+                err,
+                settle,
+                ok,
+            )
+        )
+        if ok:
+            return idx, voxel
+    run.row(Row("points", "every node", f"{len(nodes)} points", "-", accepted=True))
+    return np.arange(len(nodes)), None
+
+
+def _modes_stage(run: SizingRun, level: Level, idx: np.ndarray, share: float) -> int:
+    """Stage 3: the lowest mode count whose deviation matches that of every computed mode."""
+    r = run.request
+    model = level.model.select_points(idx)
+    n = run.window(level)
+    q = level.q(run.grid, n)
+    curves = truncation_curves(np.asarray(model.shapes), q)
+    reference = SettleReference(model, run.grid, r.threshold_m)
+    total = level.result.n_modes
+    against = f"{total} modes"
+    shown = {1, 2, 3, 5, 8, 12, 20, 30, 50, 80, 120, 200}
+    for count in range(1, total + 1):
+        err = curve_error(curves[count - 1], curves[-1])
+        settle, ok = None, err["linf"] <= share
+        if ok and count < total:
+            truncated = model.truncate_modes(count)
+            report = analyze_move(truncated, run.grid.acc, run.grid.dt_s, r.threshold_m)
+            settle = reference.check(report.settle_time_s, share)
+            ok = settle.ok
+        if ok or settle is not None or count in shown or count == total:
+            freq = level.result.freq_hz[count - 1]
+            run.row(
+                Row.compared(
                     "modes",
-                    f"compute {level.result.n_modes} modes",
-                    f"up to {level.result.freq_hz[-1]:.4g} Hz",
-                    "quasi-static residual",
-                    linf=residual,
-                    accepted=done,
-                    note=f"limit {100 * limit:.3g} %" + ("" if enough else ", too large"),
-                )
-            )
-            if done:
-                if not enough:
-                    self.notes.append(
-                        f"the quasi-static residual of {level.result.n_modes} computed modes is "
-                        f"{100 * residual:.3g} % of the peak (limit {100 * limit:.3g} %); raise "
-                        "max_modes"
-                    )
-                return level
-            self.n_modes = min(math.ceil(MODES_GROWTH * self.n_modes), self.max_modes)
-            level = self._level(index)
-
-    # -- stage 1: mesh ---------------------------------------------------------------------
-    def _mesh_stage(self) -> tuple[_Level, _Level, dict[str, Any], bool]:
-        share = self.shares[0] * self.tol
-        coarse = self._reference_modes(self._level(0), 0)
-        if len(self.parts) == 1:
-            self._row(
-                Row("mesh", coarse.describe(), f"{coarse.n_dof} DOFs", "-", note="not refined")
-            )
-            estimate = {"mesh": None, "order": None, "mesh_note": "mesh from file, not refined"}
-            return coarse, coarse, estimate, True
-        deltas: list[float] = []
-        ratios: list[float] = []
-        for index in range(1, len(self.parts)):
-            fine = self._level(index)
-            n = self._window(coarse, fine)
-            err = curve_error(coarse.curves(self.grid, n).all, fine.curves(self.grid, n).all)
-            deltas.append(err["linf"])
-            ratios.append(coarse.part.element_size_m / fine.part.element_size_m)
-            estimate, order, note = _richardson(deltas, ratios)
-            # the coarse level's estimated error against the converged mesh
-            measured = err["linf"] + estimate
-            settle = fine.settle.check(coarse.settle.settle_s, self.shares[0] * self.tol)
-            ok = measured <= share and settle.ok
-            self._row(
-                Row.compared(
-                    "mesh",
-                    coarse.describe(),
-                    f"{coarse.n_dof} DOFs",
-                    fine.describe(),
-                    err,
-                    settle,
-                    ok,
-                    note=f"est. error of the finer {100 * estimate:.3g} %",
-                )
-            )
-            info = {"mesh": estimate, "order": order, "mesh_note": note}
-            if ok:
-                if "coincidental" in note:
-                    self.notes.append(
-                        f"the mesh differences fell from {100 * deltas[-2]:.3g} % to "
-                        f"{100 * deltas[-1]:.3g} % in one step, faster than the formulation "
-                        "converges: the agreement may be coincidental; check with finer "
-                        "mesh_sizes_m"
-                    )
-                return coarse, fine, info, True
-            coarse = fine
-        self.notes.append(
-            f"the mesh sequence did not converge to {100 * share:.3g} % (the mesh share of the "
-            "tolerance): the finest mesh is used; give finer mesh_sizes_m"
-        )
-        return coarse, coarse, info, False
-
-    # -- stage 2: points -------------------------------------------------------------------
-    def _hot_nodes(self, curves) -> np.ndarray:
-        """Nodes where the deviation has its local maxima (the largest HOT_POINTS)."""
-        d = curves.all
-        peaks = np.flatnonzero((d[1:-1] >= d[:-2]) & (d[1:-1] >= d[2:])) + 1
-        peaks = np.union1d(peaks, [int(np.argmax(d))])
-        order = peaks[np.argsort(-d[peaks], kind="stable")]
-        hot: list[int] = []
-        for t in order:
-            node = int(curves.argmax[t])
-            if node not in hot:
-                hot.append(node)
-            if len(hot) == HOT_POINTS:
-                break
-        return np.asarray(hot, dtype=np.int64)
-
-    def _points_stage(self, level: _Level, share: float) -> tuple[np.ndarray, float | None]:
-        nodes = np.asarray(level.model.points)
-        n = self._window(level)
-        curves = level.curves(self.grid, n)
-        keys = self._hot_nodes(curves)
-        if self.key_points is not None:
-            keys = np.union1d(keys, level.result.select_nodes(self.key_points))
-        extent = float((nodes.max(axis=0) - nodes.min(axis=0)).max())
-        candidates: list[tuple[float, np.ndarray]] = []
-        voxel = extent
-        while True:
-            idx = voxel_downsample(nodes, voxel, key_points=nodes[keys], key_tolerance_m=voxel)
-            if len(idx) >= len(nodes) // 2:
-                break
-            if not candidates or len(idx) > len(candidates[-1][1]):
-                candidates.append((voxel, idx))
-            voxel /= math.sqrt(2.0)
-        sub = deviation_curves(
-            np.asarray(level.model.shapes), level.q(self.grid, n), [c[1] for c in candidates]
-        ).subsets
-        against = f"all {len(nodes)} nodes"
-        for (voxel, idx), curve in zip(candidates, sub, strict=True):
-            err = curve_error(curve, curves.all)
-            settle, ok = None, err["linf"] <= share
-            if ok:
-                model = level.model.select_points(idx)
-                report = analyze_move(model, self.grid.acc, self.grid.dt_s, self.threshold_m)
-                settle = level.settle.check(report.settle_time_s, share)
-                ok = settle.ok
-            label = f"voxel {1e3 * voxel:.3g} mm"
-            self._row(
-                Row.compared(
-                    "points",
-                    label,
-                    f"{len(idx)} points",
+                    f"{count} mode" + ("s" if count > 1 else ""),
+                    f"up to {freq:.4g} Hz",
                     against,
                     err,
                     settle,
                     ok,
                 )
             )
-            if ok:
-                return idx, voxel
-        self._row(Row("points", "every node", f"{len(nodes)} points", "-", accepted=True))
-        return np.arange(len(nodes)), None
+        if ok:
+            return count
+    return total
 
-    # -- stage 3: modes --------------------------------------------------------------------
-    def _modes_stage(self, level: _Level, idx: np.ndarray, share: float) -> int:
-        model = level.model.select_points(idx)
-        n = self._window(level)
-        q = level.q(self.grid, n)
-        curves = truncation_curves(np.asarray(model.shapes), q)
-        reference = SettleReference(model, self.grid, self.threshold_m)
-        total = level.result.n_modes
-        against = f"{total} modes"
-        shown = {1, 2, 3, 5, 8, 12, 20, 30, 50, 80, 120, 200}
-        for count in range(1, total + 1):
-            err = curve_error(curves[count - 1], curves[-1])
-            settle, ok = None, err["linf"] <= share
-            if ok and count < total:
-                truncated = model.truncate_modes(count)
-                report = analyze_move(truncated, self.grid.acc, self.grid.dt_s, self.threshold_m)
-                settle = reference.check(report.settle_time_s, share)
-                ok = settle.ok
-            if ok or settle is not None or count in shown or count == total:
-                freq = level.result.freq_hz[count - 1]
-                self._row(
-                    Row.compared(
-                        "modes",
-                        f"{count} mode" + ("s" if count > 1 else ""),
-                        f"up to {freq:.4g} Hz",
-                        against,
-                        err,
-                        settle,
-                        ok,
-                    )
-                )
-            if ok:
-                return count
-        return total
 
-    # -- final check and the whole run -------------------------------------------------------
-    def _final(self, level: _Level, ref: _Level, idx, n_modes: int):
-        model = level.model.select_points(idx).truncate_modes(n_modes)
-        report = analyze_move(model, self.grid.acc, self.grid.dt_s, self.threshold_m)
-        n = self._window(ref, level, cycle_s=report.cycle_time_s)
-        q = level.q(self.grid, n)[:, :n_modes]
-        curve = deviation_curves(np.asarray(model.shapes), q).all
-        reference = ref.curves(self.grid, n).all
-        err = dict(curve_error(curve, reference), peak_m=float(reference.max()))
-        settle = ref.settle.check(report.settle_time_s, self.tol)
-        ok = err["linf"] <= self.tol and settle.ok
-        self._row(
-            Row.compared(
-                "final",
-                f"{level.describe()}, {len(idx)} pts, {n_modes} modes",
-                f"{len(idx) * n_modes} K x M",
-                f"{ref.describe()}, all",
-                err,
-                settle,
-                ok,
-            )
+def _final(
+    run: SizingRun, mesh: MeshChoice, idx: np.ndarray, voxel: float | None, n_modes: int
+) -> Final:
+    """The combined choice against the reference (the finer mesh, every node and mode)."""
+    r, level, ref = run.request, mesh.level, mesh.reference
+    model = level.model.select_points(idx).truncate_modes(n_modes)
+    report = analyze_move(model, run.grid.acc, run.grid.dt_s, r.threshold_m)
+    n = run.window(ref, level, cycle_s=report.cycle_time_s)
+    q = level.q(run.grid, n)[:, :n_modes]
+    curve = deviation_curves(np.asarray(model.shapes), q).all
+    reference = ref.curves(run.grid, n).all
+    err = dict(curve_error(curve, reference), peak_m=float(reference.max()))
+    settle = ref.settle.check(report.settle_time_s, r.tolerance)
+    ok = err["linf"] <= r.tolerance and settle.ok
+    run.row(
+        Row.compared(
+            "final",
+            f"{level.describe()}, {len(idx)} pts, {n_modes} modes",
+            f"{len(idx) * n_modes} K x M",
+            f"{ref.describe()}, all",
+            err,
+            settle,
+            ok,
         )
-        return model, err, settle, ok
+    )
+    return Final(model, idx, voxel, err, settle, ok)
 
-    def run(self) -> SizingResult:
-        start = time.perf_counter()
-        with progress_bar(None, "model sizing", self.progress, unit="candidate") as self.bar:
-            level, ref, mesh_estimate, mesh_ok = self._mesh_stage()
-            self.timings["mesh_s"] = time.perf_counter() - start
-            scale = 1.0
-            for attempt in range(FINAL_RETRIES + 1):
-                tick = time.perf_counter()
-                if attempt < FINAL_RETRIES:
-                    idx, voxel = self._points_stage(level, scale * self.shares[1] * self.tol)
-                    n_modes = self._modes_stage(level, idx, scale * self.shares[2] * self.tol)
-                else:  # give up reducing: every node, every computed mode
-                    idx, voxel = np.arange(level.model.n_points), None
-                    n_modes = level.result.n_modes
-                self.timings["points_modes_s"] = time.perf_counter() - tick
-                model, err, settle, ok = self._final(level, ref, idx, n_modes)
-                if ok:
-                    break
-                scale *= 0.5
-                self.notes.append(
-                    "the combined choice missed the tolerance against the reference; points and "
-                    f"modes were chosen again with {100 * scale:.3g} % of their shares"
-                )
-        return self._result(
-            level, ref, mesh_estimate, mesh_ok and ok, model, idx, voxel, err, settle, start
+
+def _reduce(run: SizingRun, mesh: MeshChoice) -> Final:
+    """Stages 2 and 3 on the chosen mesh, then the final check; on a miss both again with
+    half their shares, at last every node and every computed mode."""
+    r, level = run.request, mesh.level
+    scale = 1.0
+    for attempt in range(FINAL_RETRIES + 1):
+        tick = time.perf_counter()
+        if attempt < FINAL_RETRIES:
+            idx, voxel = _points_stage(run, level, scale * r.shares[1] * r.tolerance)
+            n_modes = _modes_stage(run, level, idx, scale * r.shares[2] * r.tolerance)
+        else:  # give up reducing: every node, every computed mode
+            idx, voxel = np.arange(level.model.n_points), None
+            n_modes = level.result.n_modes
+        run.timings["points_modes_s"] = time.perf_counter() - tick
+        final = _final(run, mesh, idx, voxel, n_modes)
+        if final.ok:
+            return final
+        scale *= 0.5
+        run.notes.append(
+            "the combined choice missed the tolerance against the reference; points and "
+            f"modes were chosen again with {100 * scale:.3g} % of their shares"
         )
-
-    def _result(self, level, ref, mesh_estimate, met, model, idx, voxel, err, settle, start):
-        n_modes = model.n_modes
-        ref_peak = err["peak_m"]
-        modes_estimate = ref.residual.quasi_static_error_m(self.acc, ref.result.n_modes) / ref_peak
-        mesh_est = mesh_estimate["mesh"]
-        estimated = err["linf"] + (mesh_est or 0.0) + modes_estimate
-        if mesh_est is None:
-            self.notes.append("the mesh error is not estimated (a single mesh)")
-        if level.part.mesh_is_given:
-            mesh_size = cup = None
-        else:
-            mesh_size = level.part.element_size_m
-            cup = _cup_element_m(level.part, self.supports)
-        choice = {
-            "describe": f"mesh {level.describe()}, {len(idx)} points"
-            + (f" (voxel {1e3 * voxel:.3g} mm)" if voxel is not None else " (every node)")
-            + f", {n_modes} modes up to {level.result.freq_hz[n_modes - 1]:.4g} Hz",
-            "mesh_size_m": mesh_size,
-            "cup_element_m": cup,
-            "cup_fine_fraction": level.part.cup_fine_fraction,
-            "element": level.part.element,
-            "n_dof": level.n_dof,
-            "n_modes": n_modes,
-            "max_freq_hz": float(level.result.freq_hz[n_modes - 1]),
-            "n_points": len(idx),
-            "voxel_size_m": voxel,
-            "modal_analysis_s": level.wall_s,
-        }
-        reference = {
-            "describe": f"mesh {ref.describe()}, {ref.model.n_points} nodes, "
-            f"{ref.result.n_modes} modes",
-            "mesh_size_m": None if mesh_size is None else ref.part.element_size_m,
-            "cup_fine_fraction": ref.part.cup_fine_fraction,
-            "n_dof": ref.n_dof,
-            "n_modes": ref.result.n_modes,
-            "n_points": ref.model.n_points,
-            "peak_m": ref_peak,
-            "settle_s": ref.settle.settle_s,
-            "cycle_s": ref.settle.cycle_s,
-            "modal_analysis_s": ref.wall_s,
-        }
-        error = {
-            "linf": err["linf"],
-            "r2": err["r2"],
-            "settle_s": settle.settle_s,
-            "settle_reference_s": settle.reference_s,
-            "settle_error_s": settle.error_s,
-            "settle_ok": settle.ok,
-            "reference_estimate": {
-                "mesh": mesh_est,
-                "mesh_order": mesh_estimate["order"],
-                "mesh_note": mesh_estimate["mesh_note"],
-                "modes": modes_estimate,
-            },
-            "estimated": estimated,
-        }
-        peak = ref_peak
-        checks = {
-            "effective_mass_fraction": level.residual.effective_mass_fraction(n_modes),
-            "static_residual_fraction": level.residual.static_residual_fraction(n_modes),
-            "quasi_static": level.residual.quasi_static_error_m(self.acc, n_modes, idx) / peak,
-        }
-        move = {
-            "n_steps": int(self.acc.shape[0] - 1),
-            "dt_s": self.dt_s,
-            "threshold_m": self.threshold_m,
-            "eval_step_s": self.grid.step_s,
-        }
-        self.timings["total_s"] = time.perf_counter() - start
-        out = SizingResult(
-            model=model,
-            result=level.result,
-            tolerance=self.tol,
-            met=bool(met),
-            choice=choice,
-            reference=reference,
-            error=error,
-            checks=checks,
-            rows=self.rows,
-            move=move,
-            notes=self.notes,
-            timings_s=self.timings,
-        )
-        meta = level.result.meta(n_points=len(idx))
-        out.model = model.with_meta(**meta, sizing=out.as_dict(rows=False))
-        return out
+    return final
 
 
-def _check_shares(shares) -> tuple[float, float, float]:
-    try:
-        values = tuple(float(s) for s in shares)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"shares: three numbers (mesh, points, modes), got {shares!r}") from exc
-    if len(values) != 3 or any(not (0 < s <= 1) for s in values) or sum(values) > 1 + 1e-12:
-        raise InputError(
-            f"shares: three fractions of the tolerance in (0, 1] for mesh, points and modes, "
-            f"summing to at most 1, got {shares!r}"
-        )
-    return values  # type: ignore[return-value]
-
-
-def _check_count(name: str, value, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
-        raise InputError(f"{name}: must be an integer >= {minimum}, got {value!r}")
-    return int(value)
+def size(request: SizingRequest, log: Callable[[str], None] | None = None) -> SizingResult:
+    """The stages (module docstring) on a checked request: mesh, then points and modes,
+    then the final check, and the result."""
+    start = time.perf_counter()
+    run = SizingRun(request, log)
+    with progress_bar(None, "model sizing", request.progress, unit="candidate") as run.bar:
+        mesh = _mesh_stage(run)
+        run.timings["mesh_s"] = time.perf_counter() - start
+        final = _reduce(run, mesh)
+    return sizing_result(run, mesh, final, start)
 
 
 def size_model(
     part: Part | str,
     supports=None,
     acc=None,
-    dt_s: float = 0.01,
+    dt_s: float = DT_S,
     threshold_m: float | None = None,
     tolerance: float = 0.01,
     *,
@@ -653,55 +400,9 @@ def size_model(
         progress: progress bars (None: on a terminal); ``log``: called with one line per
             candidate (e.g. print).
     """
-    if isinstance(part, str):
-        if part not in SCENES:
-            raise InputError(f"part: a fem part or a scene in {list(SCENES)}, got {part!r}")
-        part, default = scene(part)
-        supports = default if supports is None else supports
-    elif not isinstance(part, Part):
-        raise InputError(
-            "part: expected a fem part (rectangular_plate, curved_panel, read_mesh) or a scene "
-            f"name, got {type(part).__name__}"
-        )
-    if supports is None:
-        raise InputError("supports: a part needs its gripper (fem.SuctionCup, ...)")
-    if acc is None:
-        raise InputError("acc: the move's acceleration samples (n+1, 3) in m/s^2 are required")
-    move = as_move(acc, dt_s, at_rest=True)
-    acc, dt_s = move.acc, move.dt_s
-    if not np.any(acc):
-        raise InputError("acc: every sample is 0; the part does not move")
-    if threshold_m is None:
-        raise InputError("threshold_m: the settle threshold in m is required")
-    threshold_m = check_positive("threshold_m", threshold_m)
-    tolerance = check_positive("tolerance", tolerance)
-    if tolerance >= 0.5:
-        raise InputError(
-            f"tolerance: a fraction in (0, 0.5) (0.01 = 1 %), got {tolerance!r}"
-            + (f"; did you mean {tolerance / 100:g}?" if tolerance < 50 else "")
-        )
-    reference_modes = _check_count("reference_modes", reference_modes, 2)
-    max_modes = _check_count("max_modes", max_modes, reference_modes)
-    if eval_step_s is not None:
-        eval_step_s = check_positive("eval_step_s", eval_step_s)
-    if isinstance(zeta, int | float) and not zeta > 0:  # arrays, Rayleigh: fem.modal checks
-        raise InputError(f"zeta: must be > 0 for the deviation to settle, got {zeta!r}")
-    sizer = _Sizer(
-        part,
-        list(supports) if isinstance(supports, list | tuple) else supports,
-        acc,
-        dt_s,
-        threshold_m,
-        tolerance,
-        zeta=zeta,
-        mesh_sizes_m=mesh_sizes_m,
-        reference_modes=reference_modes,
-        max_modes=max_modes,
-        key_points=key_points,
-        shares=_check_shares(shares),
-        eval_step_s=eval_step_s,
-        allow_rigid_modes=bool(allow_rigid_modes),
-        progress=progress,
-        log=log,
-    )
-    return sizer.run()
+    request = SizingRequest(
+        part, supports, acc, dt_s, threshold_m, tolerance, zeta, mesh_sizes_m,
+        reference_modes, max_modes, key_points, shares, eval_step_s, allow_rigid_modes,
+        progress,
+    )  # fmt: skip
+    return size(request, log)

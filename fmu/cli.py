@@ -14,6 +14,7 @@ from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.export import export_fmu
 from fmu.ssp import export_ssp
 from fmu.verify import verify
+from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import (
     check_input_file,
@@ -278,7 +279,7 @@ def run(args: argparse.Namespace) -> int:
         trajectory = (acc, dt_s)
     threshold_m = args.threshold
     if threshold_m is None:
-        threshold_m = (case or {}).get("threshold_m", 5e-4)
+        threshold_m = (case or {}).get("threshold_m", THRESHOLD_M)
     threshold_m = check_positive("--threshold", threshold_m)
     windows = {"auto": None, "yes": True, "no": False}[args.windows]
     cell = None if args.cell is None else load_cell(args.cell)

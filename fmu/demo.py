@@ -17,6 +17,7 @@ import fem
 import optim
 from fmu.export import export_fmu
 from fmu.verify import verify
+from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import check_output_dir, check_positive, make_output_dir, write_text_atomic
 from jaxflex.runtime import step
 
@@ -41,9 +42,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "(~15 s of CPU)",
     )
     parser.add_argument(
-        "--threshold", type=float, default=5e-4, help="deviation threshold in m (default 0.5 mm)"
+        "--threshold",
+        type=float,
+        default=THRESHOLD_M,
+        help=f"deviation threshold in m (default {THRESHOLD_M * 1e3:g} mm)",
     )
-    parser.add_argument("--dt", type=float, default=0.01, help="sample step in s (default 0.01)")
+    parser.add_argument(
+        "--dt", type=float, default=DT_S, help=f"sample step in s (default {DT_S:g})"
+    )
     parser.add_argument(
         "--nominal",
         action="store_true",

@@ -29,14 +29,13 @@ from fmu.model_description import Description, build_description, model_descript
 from fmu.obstacles import obstacle_records
 from fmu.resource import CellData, Counts, encode_resource, resource_counts
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
+from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive, write_text_atomic
 from jaxflex.geometry import DEFAULT_GRAVITY_M_S2, Cell, part_half_thickness
 from jaxflex.model import ModalModel
 from jaxflex.response import DEFAULT_CUP_SAFETY, analyze_move, as_move
 
-DEFAULT_THRESHOLD_M = 5e-4
-DEFAULT_STEP_S = 0.01
 CASE_FORMAT = "jaxflex.fmu_case"
 _CASE_TIMES = ("cycle_time_s", "transfer_time_s", "settle_time_s")
 
@@ -172,7 +171,7 @@ def export_fmu(
     path: str | os.PathLike,
     fmi_version: int = 2,
     trajectory: tuple[Any, float] | None = None,
-    threshold_m: float = DEFAULT_THRESHOLD_M,
+    threshold_m: float = THRESHOLD_M,
     case: dict[str, Any] | None = None,
     *,
     damping_scale: float = 1.0,
@@ -243,7 +242,7 @@ def export_fmu(
         damping_scale_max=(1.0 / zeta_max) * (1 - 1e-12) if zeta_max > 0 else 1e6,
         start_time_s=0.0,
         stop_time_s=_stop_time(acc, dt_s, summary),
-        step_s=dt_s or DEFAULT_STEP_S,
+        step_s=dt_s or DT_S,
     )
     config = config_header(
         fmi_version=fmi_version,

@@ -33,8 +33,9 @@ from fmpy.ssp.ssd import read_ssd
 
 import jaxflex
 from fmu.archive import zip_folder
-from fmu.export import DEFAULT_THRESHOLD_M, ExportResult, export_fmu
+from fmu.export import ExportResult, export_fmu
 from fmu.source import OUTPUTS, SourceResult, export_source_fmu
+from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 
@@ -178,7 +179,7 @@ def export_ssp(
     path: str | os.PathLike,
     fmi_version: int = 2,
     trajectory: tuple[Any, float] | None = None,
-    threshold_m: float = DEFAULT_THRESHOLD_M,
+    threshold_m: float = THRESHOLD_M,
     case: dict[str, Any] | None = None,
     *,
     damping_scale: float = 1.0,

@@ -9,6 +9,7 @@ core, each module's names in its ``__all__`` (tests/test_public_core.py checks i
 
 * ``jaxflex``: the model, moves, the response, settle and cycle time, the errors;
 * ``jaxflex.model``: the modal model, its files, ``stack_models``;
+* ``jaxflex.defaults``: the defaults every layer shares (``DT_S``, ``THRESHOLD_M``, ...);
 * ``jaxflex.response``: the building blocks of the certified response (state maps,
   deviation, outputs and loads, decay, peaks, the move's kinematics, point sets);
 * ``jaxflex.geometry``: the cell's geometry (obstacles, pose, path) and the certified clearance;

@@ -211,7 +211,7 @@ class _Motion:
         self.states = modal_states(model, move.acc, move.dt_s, xp=np)
         self.force = modal_forces(model, move.acc, np)
         self.n_steps, self.t_end = move.n_steps, move.duration_s
-        omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
+        omega, zeta = np.asarray(model.omega_rad_s), np.asarray(model.zeta)
         self.omega, self.sigma = omega, zeta * omega
         self.weights = model.shape_norms  # (K, M)
         self.moving_weights = np.linalg.norm(self.shapes, axis=1)  # (K, M')

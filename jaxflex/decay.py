@@ -23,7 +23,7 @@ HORIZON_REL_TOL = 1e-12
 
 def amplitudes(model, x_end: np.ndarray) -> np.ndarray:
     """R_i (M,): amplitude of each mode's free decay from the state ``x_end`` (M, 2)."""
-    omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
+    omega, zeta = np.asarray(model.omega_rad_s), np.asarray(model.zeta)
     sigma = zeta * omega
     omega_d = omega * np.sqrt(1.0 - zeta**2)
     q0, v0 = x_end[:, 0], x_end[:, 1]

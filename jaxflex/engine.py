@@ -42,7 +42,7 @@ def step_matrices(model, dt_s, *, hold: str = "linear", xp: Any = jnp):
     """(Phi (M, 2, 2), G0 (M, 2), G1 (M, 2)) of one step of ``dt_s`` s for ``hold``."""
     if hold not in HOLDS:
         raise InputError(f"hold: must be one of {list(HOLDS)}, got {hold!r}")
-    phi, g0, g1 = foh_coefficients(model.omega, model.zeta, dt_s, xp)
+    phi, g0, g1 = foh_coefficients(model.omega_rad_s, model.zeta, dt_s, xp)
     if hold == "zero":
         return phi, g0 + g1, xp.zeros_like(g1)
     return phi, g0, g1
@@ -91,7 +91,7 @@ def states_between(model, states, force, dt_s, t_s, xp: Any = np):
     t_s = xp.asarray(t_s)
     k = xp.clip(xp.floor(t_s / dt_s).astype(int), 0, n_steps - 1)
     tau = t_s - k * dt_s
-    prop = propagators(model.omega, model.zeta, tau[:, None], xp)
+    prop = propagators(model.omega_rad_s, model.zeta, tau[:, None], xp)
     slope = (force[k + 1] - force[k]) / dt_s
     return substep_state(prop, tau[:, None], states[k], force[k], slope, xp)
 
@@ -108,7 +108,7 @@ def derivative_bounds(model, states, force, dt_s: float) -> tuple[np.ndarray, ..
     modes cheap: their response is quasi-static and r_h only the vibration the move excites,
     while (a) grows with omega dt. r_h carries an allowance for the rounding of the
     subtraction of q_p."""
-    omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
+    omega, zeta = np.asarray(model.omega_rad_s), np.asarray(model.zeta)
     q, v = states[:-1, :, 0], states[:-1, :, 1]
     step_force = np.maximum(np.abs(force[:-1]), np.abs(force[1:]))
     slope = np.diff(force, axis=0) / dt_s
@@ -133,7 +133,9 @@ def derivative_bounds(model, states, force, dt_s: float) -> tuple[np.ndarray, ..
 
 def free_propagators(model, tau_s, xp: Any = jnp) -> Propagators:
     """Propagators of the free vibration after times ``tau_s`` (T,): entries (T, M, ...)."""
-    return propagators(model.omega[None, :], model.zeta[None, :], xp.asarray(tau_s)[:, None], xp)
+    return propagators(
+        model.omega_rad_s[None, :], model.zeta[None, :], xp.asarray(tau_s)[:, None], xp
+    )
 
 
 def free_states(model, x_start, tau_s, xp: Any = jnp):
@@ -160,7 +162,9 @@ def states_at(model, acc, dt_s: float, t_s) -> np.ndarray:
 
 def _power_terms(model, n_steps: int, dt_s: float):
     """Phi^l G0 and Phi^l G1 for l = 0..n: two (n+1, M, 2) arrays (Phi^l = Phi(l dt_s))."""
-    powers = propagators(model.omega, model.zeta, dt_s * np.arange(n_steps + 1)[:, None], np).phi
+    powers = propagators(
+        model.omega_rad_s, model.zeta, dt_s * np.arange(n_steps + 1)[:, None], np
+    ).phi
     _, g0, g1 = step_matrices(model, dt_s, xp=np)
     return np.einsum("lmab,mb->lma", powers, g0), np.einsum("lmab,mb->lma", powers, g1)
 
@@ -186,7 +190,7 @@ def state_map(model, n_steps: int, dt_s: float, substeps: int) -> np.ndarray:
     state = np.where((lag >= 1)[..., None, None], c0[np.clip(lag - 1, 0, n)], 0.0)
     state += np.where(((lag >= 0) & (i >= 1))[..., None, None], c1[np.clip(lag, 0, n)], 0.0)
     tau = dt_s * np.arange(substeps) / substeps
-    sub = propagators(model.omega, model.zeta, tau[:, None], np)  # (S, M, ...)
+    sub = propagators(model.omega_rad_s, model.zeta, tau[:, None], np)  # (S, M, ...)
     ramp = (tau[:, None] * sub.j0[..., 0] - sub.j1[..., 0]) / dt_s  # (S, M)
     q = np.einsum("sma,kima->ksmi", sub.phi[:, :, 0, :], state[:n])  # (n, S, M, n+1)
     steps = np.arange(n)
@@ -214,7 +218,7 @@ def state_maps_at(model, n_steps: int, dt_s: float, t_s) -> np.ndarray:
         k = min(int(np.floor(t / dt_s)), n_steps - 1)
         tau = t - k * dt_s
         out[j, :, :, : k + 1] = end_state_map(model, k, dt_s) if k > 0 else 0.0
-        prop = propagators(model.omega, model.zeta, tau, np)  # entries (M, ...)
+        prop = propagators(model.omega_rad_s, model.zeta, tau, np)  # entries (M, ...)
         out[j] = np.einsum("mab,mbkc->makc", prop.phi, out[j])
         ramp = (tau * prop.j0 - prop.j1) / dt_s  # (M, 2), per unit slope of the force
         here = prop.j0 - ramp  # coefficient of f_k

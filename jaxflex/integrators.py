@@ -28,7 +28,7 @@ from jaxflex.model import ModalModel
 @partial(jax.jit, static_argnames=("beta", "gamma"))
 def newmark_modal(model: ModalModel, acc, dt_s, beta: float = 0.25, gamma: float = 0.5):
     """Newmark-beta on each mode: modal coordinates q (n+1, M) at t_k = k dt."""
-    omega = model.omega
+    omega = model.omega_rad_s
     damping = 2.0 * model.zeta * omega
     stiffness = omega**2
     force = modal_forces(model, acc)
@@ -57,7 +57,7 @@ def newmark_modal(model: ModalModel, acc, dt_s, beta: float = 0.25, gamma: float
 @jax.jit
 def central_difference_modal(model: ModalModel, acc, dt_s):
     """Explicit central difference on each mode: q (n+1, M); unstable if w h > 2."""
-    omega = model.omega
+    omega = model.omega_rad_s
     sigma_h = model.zeta * omega * dt_s
     force = modal_forces(model, acc)
     q0 = jnp.zeros_like(omega)

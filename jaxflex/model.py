@@ -262,7 +262,7 @@ class ModalModel:
         return int(np.shape(self.points)[-2])
 
     @property
-    def omega(self):
+    def omega_rad_s(self):
         """(M,) natural circular frequencies in rad/s."""
         return 2.0 * np.pi * self.freq_hz
 
@@ -365,7 +365,7 @@ class ModalModel:
         z = np.broadcast_to(np.asarray(zeta, dtype=np.float64), (self.n_modes,)).copy()
         old = np.asarray(self.zeta)
         ratio = np.where(old > 0, z / np.where(old > 0, old, 1.0), 0.0)
-        from_stiffness = np.where(old > 0, 0.0, 2.0 * z / np.asarray(self.omega))
+        from_stiffness = np.where(old > 0, 0.0, 2.0 * z / np.asarray(self.omega_rad_s))
 
         def damped(outputs: LinearOutputs) -> LinearOutputs:
             if not from_stiffness.any():

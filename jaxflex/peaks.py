@@ -138,7 +138,7 @@ class _Response:
         self.force = modal_forces(model, move.acc, np)
         self.n_steps = move.n_steps
         self.t_end = move.duration_s
-        omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
+        omega, zeta = np.asarray(model.omega_rad_s), np.asarray(model.zeta)
         self.omega, self.sigma = omega, zeta * omega
         step_force = np.maximum(np.abs(self.force[:-1]), np.abs(self.force[1:]))
         radius = np.hypot(self.states[:-1, :, 1], omega * self.states[:-1, :, 0])

@@ -148,7 +148,7 @@ class _ModalSignal:
         moving = moving and residual_of(model) is not None
         self.shapes = response_shapes(model) if moving else np.asarray(model.shapes)
         self.weights = _norms(model, moving)  # (K, M')
-        self.omega = np.asarray(model.omega)
+        self.omega = np.asarray(model.omega_rad_s)
         self.zeta = np.asarray(model.zeta)
         self.sigma = self.zeta * self.omega
         self.budget = _SearchBudget(self.weights.shape[0])

@@ -35,7 +35,7 @@ _NEWTON_STEPS = 40
 def _envelope_terms(model: ModalModel, x_end, threshold_m):
     """Point weights |phi_i(p)| (K, M), amplitudes R_i (M,) and decay rates sigma_i (M,),
     with floors that only ever raise the envelope (so the bound is kept)."""
-    omega = model.omega
+    omega = model.omega_rad_s
     sigma = model.zeta * omega
     omega_d = omega * jnp.sqrt(1.0 - model.zeta**2)
     weights = jnp.linalg.norm(model.shapes, axis=1)  # (K, M)

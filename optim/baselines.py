@@ -112,8 +112,7 @@ def via_baselines(
     threshold_m: float,
     *,
     robust: RobustSpec | None = None,
-    max_steps: int = 3000,
-    solver: str = "highs",
+    max_steps: int = MAX_STEPS,
 ) -> tuple[BaselineSet, list[float]]:
     """The baseline of a path through the via points ``via_offsets`` ((3,) m from the start,
     in order) to ``distance_m`` (module docstring), and the fraction of its steps at which it
@@ -124,7 +123,7 @@ def via_baselines(
     for i, (a, b) in enumerate(itertools.pairwise(stops)):
         if not np.any(np.abs(b - a) > 1e-12):
             raise InputError(f"via: point {i} and the next point of the path coincide")
-        segment = kinematic_floor_move(b - a, limits, dt_s, max_steps, solver=solver).acc
+        segment = kinematic_floor_move(b - a, limits, dt_s, max_steps).acc
         pieces.append(segment if not pieces else segment[1:])
         steps += segment.shape[0] - 1
         fractions.append(steps)
@@ -141,7 +140,7 @@ def via_baselines(
         entry.worst_cycle_time_s, entry.worst_case, entry.worst_grid = worst_case(
             model, acc, dt_s, threshold_m, robust.grid()
         )
-    floor = kinematic_floor_move(distance, limits, dt_s, max_steps, solver=solver)
+    floor = kinematic_floor_move(distance, limits, dt_s, max_steps)
     continuous = time_optimal_move(distance, limits)
     return BaselineSet(continuous.duration_s, floor.acc, [entry]), [
         f / steps for f in fractions[:-1]
@@ -151,7 +150,7 @@ def via_baselines(
 def dominant_modes(model: ModalModel, distance: np.ndarray) -> np.ndarray:
     """Mode indices, most important first (module docstring)."""
     unit = distance / np.linalg.norm(distance)
-    omega = np.asarray(model.omega)
+    omega = np.asarray(model.omega_rad_s)
     deflection = model.shape_norms.max(axis=0) * np.abs(np.asarray(model.gamma) @ unit) / omega**2
     return np.argsort(-deflection, kind="stable")
 
@@ -189,13 +188,12 @@ def baselines(
     robust: RobustSpec | None = None,
     max_shaped_modes: int = MAX_SHAPED_MODES,
     max_steps: int = MAX_STEPS,
-    solver: str = "highs",
     progress: bool | None = False,
 ) -> BaselineSet:
     """Every baseline for the move ``distance_m`` (3,) m (module docstring). In robust mode
     each entry also carries its worst cycle time over ``robust``'s check grid."""
     distance = clean_distance(distance_m)
-    floor = kinematic_floor_move(distance, limits, dt_s, max_steps, solver=solver)
+    floor = kinematic_floor_move(distance, limits, dt_s, max_steps)
     continuous = time_optimal_move(distance, limits)
     select_grid = None if robust is None else _selection_grid(robust)
 
@@ -213,7 +211,11 @@ def baselines(
         )
     ]
     order = dominant_modes(model, distance)[:max_shaped_modes]
-    freq, omega, zeta = np.asarray(model.freq_hz), np.asarray(model.omega), np.asarray(model.zeta)
+    freq, omega, zeta = (
+        np.asarray(model.freq_hz),
+        np.asarray(model.omega_rad_s),
+        np.asarray(model.zeta),
+    )
     kinds = list(SHAPERS)
     skipped: dict[str, str] = {}
     bar = progress_bar(len(kinds) * len(order), "baselines", progress, unit="move")
@@ -236,9 +238,7 @@ def baselines(
                     f"more than the {max_steps} steps allowed",
                 )
                 break  # more modes only make it longer
-            acc = shaped_grid_move(
-                continuous, train, distance, limits, dt_s, max_steps=max_steps, solver=solver
-            )
+            acc = shaped_grid_move(continuous, train, distance, limits, dt_s, max_steps=max_steps)
             if acc is None:
                 continue
             entry = evaluate(f"{kind} x{count}", acc, [float(freq[i]) for i in modes])

@@ -43,7 +43,7 @@ class CellSetup:
     (jaxflex.advice pairs) says what the model cannot make exact."""
 
     model: ModalModel
-    distance: np.ndarray
+    distance_m: np.ndarray  # (3,) m, the move from A to B
     gravity_m_s2: np.ndarray
     via: list = field(default_factory=list)  # (offset (3,), mode, tolerance) from the start
     families: list = field(default_factory=list)
@@ -201,7 +201,7 @@ def _check_rest(setup: CellSetup, margin: float, half_thickness_m: float) -> Non
     """The part (its skins) at rest at A and at B must keep ``margin`` from every obstacle."""
     base = np.asarray(setup.model.points) + gravity_offset(setup.model, setup.gravity_m_s2)
     obstacles = setup.cell.obstacles
-    for where, shift in (("A (start)", np.zeros(3)), ("B (end)", setup.distance)):
+    for where, shift in (("A (start)", np.zeros(3)), ("B (end)", setup.distance_m)):
         d, which, _ = distances(obstacles, base + shift)
         d = d - half_thickness_m
         k = int(np.argmin(d))

@@ -3,18 +3,21 @@
 from __future__ import annotations
 
 import argparse
+import time
 
 import jaxflex
 from jaxflex.cli import add_axis_limits, axis_limit_values
+from jaxflex.defaults import DT_S, MAX_DURATION_S
 from jaxflex.errors import InputError
-from jaxflex.files import check_output_dir, check_positive
+from jaxflex.files import check_output_dir
 from jaxflex.runtime import step
 from optim.budget import MAX_STEPS
 from optim.cell_file import load_cell
 from optim.cell_setup import with_cup_rating
 from optim.limits import Limits
-from optim.optimize import optimize
-from optim.robust import RobustSpec
+from optim.optimize import run as run_request
+from optim.request import Request
+from optim.robust import FREQ_SCALE, GRID, ZETA, RobustSpec
 
 COMMAND = "optimize"
 HELP = "shortest cycle time move under vmax/amax/jmax limits (trajectory CSV, JSON, plots)"
@@ -23,6 +26,16 @@ ORDER = 20
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", help="modal model file (.npz, from `jaxflex model`)")
+    _add_move(parser)
+    _add_cell(parser)
+    _add_search(parser)
+    _add_robust(parser)
+    _add_budget(parser)
+    parser.add_argument("-o", "--output", required=True, help="output directory")
+
+
+def _add_move(parser: argparse.ArgumentParser) -> None:
+    """The move, the robot's limits, the threshold and the step."""
     parser.add_argument(
         "--distance",
         nargs=3,
@@ -31,6 +44,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar=("X", "Y", "Z"),
         help="move from rest to rest by this displacement, m (or the path of --cell)",
     )
+    add_axis_limits(parser, with_defaults=True)
+    for name, unit in (("vpath", "m/s"), ("apath", "m/s^2"), ("jpath", "m/s^3")):
+        parser.add_argument(
+            f"--{name}",
+            type=float,
+            default=None,
+            help=f"optional limit on the norm over the axes, {unit}",
+        )
+    parser.add_argument(
+        "--threshold", type=float, required=True, help="deviation threshold, m (e.g. 0.0005)"
+    )
+    parser.add_argument("--dt", type=float, default=DT_S, help=f"sample step, s (default {DT_S:g})")
+
+
+def _add_cell(parser: argparse.ArgumentParser) -> None:
+    """The robot cell and its constraints."""
     parser.add_argument(
         "--cell",
         default=None,
@@ -77,18 +106,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="PA",
         help="limit the von Mises stress, Pa (without a value: the material's yield / 1.5)",
     )
-    add_axis_limits(parser, with_defaults=True)
-    for name, unit in (("vpath", "m/s"), ("apath", "m/s^2"), ("jpath", "m/s^3")):
-        parser.add_argument(
-            f"--{name}",
-            type=float,
-            default=None,
-            help=f"optional limit on the norm over the axes, {unit}",
-        )
-    parser.add_argument(
-        "--threshold", type=float, required=True, help="deviation threshold, m (e.g. 0.0005)"
-    )
-    parser.add_argument("--dt", type=float, default=0.01, help="sample step, s (default 0.01)")
+
+
+def _add_search(parser: argparse.ArgumentParser) -> None:
+    """The clearance during the move, the method and its solver."""
     parser.add_argument(
         "--clearance",
         type=float,
@@ -107,6 +128,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="exact: highs (default), casadi (Clp) or casadi-highs; gradient: ipopt "
         "(default) or slsqp",
     )
+
+
+def _add_robust(parser: argparse.ArgumentParser) -> None:
+    """The robust mode and its uncertainty range."""
     parser.add_argument(
         "--robust",
         action="store_true",
@@ -116,15 +141,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     for flag, default, metavar, kind, text in (
         (
             "--freq-scale",
-            (0.9, 1.1),
+            FREQ_SCALE,
             ("MIN", "MAX"),
             float,
             "range of the factor on every natural frequency",
         ),
-        ("--zeta", (0.01, 0.03), ("MIN", "MAX"), float, "range of the damping ratio of every mode"),
+        ("--zeta", ZETA, ("MIN", "MAX"), float, "range of the damping ratio of every mode"),
         (
             "--grid",
-            (21, 3),
+            GRID,
             ("NF", "NZ"),
             int,
             "check-grid points over the frequency and damping ranges",
@@ -138,11 +163,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             metavar=metavar,
             help=f"robust: {text} (default {default[0]:g} {default[1]:g})",
         )
+
+
+def _add_budget(parser: argparse.ArgumentParser) -> None:
+    """The longest move and the LP budget."""
     parser.add_argument(
         "--max-duration",
         type=float,
-        default=30.0,
-        help="longest move considered, s (default 30)",
+        default=MAX_DURATION_S,
+        help=f"longest move considered, s (default {MAX_DURATION_S:g})",
     )
     parser.add_argument(
         "--max-steps",
@@ -151,7 +180,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"budget: most steps of any move an LP is built for (default {MAX_STEPS}; LP time "
         "grows with their square)",
     )
-    parser.add_argument("-o", "--output", required=True, help="output directory")
     parser.add_argument(
         "--no-plots",
         action="store_true",
@@ -161,10 +189,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    start = time.perf_counter()
     check_output_dir("-o/--output", args.output)
-    threshold_m = check_positive("--threshold", args.threshold)
-    dt_s = check_positive("--dt", args.dt)
-    max_duration = check_positive("--max-duration", args.max_duration)
     limits = Limits(**axis_limit_values(args), vpath=args.vpath, apath=args.apath, jpath=args.jpath)
     robust = None
     if args.robust:
@@ -189,25 +215,24 @@ def run(args: argparse.Namespace) -> int:
         f"{args.model}: {model.n_modes} modes, {model.n_points} points; "
         f"{'robust' if robust else 'nominal'} optimisation ({args.method})"
     )
-    result = optimize(
+    request = Request(
         model,
         args.distance,
         limits,
-        dt_s,
-        threshold_m,
+        args.dt,
+        args.threshold,
         method=args.method,
         solver=args.solver,
         robust=robust,
-        max_duration_s=max_duration,
-        clearance_m=None
-        if args.clearance is None
-        else check_positive("--clearance", args.clearance),
+        max_duration_s=args.max_duration,
+        clearance_m=args.clearance,
         max_steps=args.max_steps,
         cell=cell,
         min_distance_m=args.min_distance,
         cup_safety=args.cup_safety,
         max_stress_pa=max_stress,
     )
+    result = run_request(request, start)
     print(result.summary(), flush=True)  # the answer first, then the files and pictures
     paths = result.save(args.output, plots=not args.no_plots)
     print("wrote " + ", ".join(str(p) for p in paths))

@@ -63,7 +63,7 @@ class LPSubsolver:
         builder = LPBuilder()
         limits = problem.limits.shrunk(self.margin) if self.margin else problem.limits
         layout = add_move(
-            builder, n_steps, problem.dt_s, problem.distance, limits, problem.via_rows(n_steps)
+            builder, n_steps, problem.dt_s, problem.distance_m, limits, problem.via_rows(n_steps)
         )
         if not polish:
             add_cuts(builder, self._cuts.get(n_steps, []))

@@ -386,7 +386,7 @@ class GradientSubsolver:
 
     def solve(self, problem: Problem, n_steps: int, warm: np.ndarray) -> SubResult:
         builder = LPBuilder()
-        layout = add_move(builder, n_steps, problem.dt_s, problem.distance, problem.limits)
+        layout = add_move(builder, n_steps, problem.dt_s, problem.distance_m, problem.limits)
         add_cuts(builder, self._cuts.get(n_steps, []))
         first = builder.n_vars
         add_end_states(builder, problem, layout)
@@ -429,7 +429,7 @@ class GradientSubsolver:
         stats["jax_s"] = sum(t.jax_s for t in terms)
         # Snap the NLP's answer (interior-point tolerances) exactly onto the limits and
         # boundary conditions: the closest grid move in L1, a change of solver-tolerance size.
-        acc = fit_to_grid(layout.acceleration(x), problem.dt_s, problem.distance, problem.limits)
+        acc = fit_to_grid(layout.acceleration(x), problem.dt_s, problem.distance_m, problem.limits)
         if acc is None:
             return SubResult("infeasible", None, np.inf, stats)
         z = [problem.end_state(j, acc) / problem.scenarios[j].zscale for j in problem.training]

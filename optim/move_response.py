@@ -127,7 +127,7 @@ def shortest_clearance_move_s(
     gain = np.abs(np.linalg.pinv(phi)).sum(axis=1)  # (M,) max|q_i| per unit max|u|
     force = np.abs(np.asarray(model.gamma) @ np.asarray(distance_m, dtype=np.float64))
     ratio = force / (gain * SAMPLING_ALLOWANCE * clearance_m)  # >= 1 + 2 z w T + w^2 T^2 / 2
-    omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
+    omega, zeta = np.asarray(model.omega_rad_s), np.asarray(model.zeta)
     need = np.maximum(ratio - 1.0, 0.0)
     t_min = (np.sqrt((2 * zeta * omega) ** 2 + 2 * omega**2 * need) - 2 * zeta * omega) / omega**2
     mode = int(np.argmax(t_min))

@@ -34,13 +34,15 @@ BASELINE_COLORS = ("tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brow
 @dataclass(frozen=True)
 class Trace:
     """One move in the pictures: label, deviation curve (t (T,) s, d (T,) m) and its cycle
-    time (s); ``worst_s``: its worst case over the robust grid (robust mode)."""
+    time (s); ``worst_s``: its worst case over the robust grid (robust mode); ``acc``: its
+    samples ((n+1, 3) m/s^2), for plots of other responses over the same ``t``."""
 
     label: str
     t: np.ndarray
     d: np.ndarray
     cycle_s: float
     worst_s: float | None = None
+    acc: np.ndarray | None = None
 
     @property
     def objective_s(self) -> float:

@@ -58,7 +58,7 @@ class ResidualModel:
     def __init__(self, model: ModalModel, components: tuple[int, ...]) -> None:
         self.model = model
         self.components = components
-        self.omega = np.asarray(model.omega)
+        self.omega = np.asarray(model.omega_rad_s)
         self.sigma = np.asarray(model.zeta) * self.omega
         self.shapes, self.blocks = component_blocks(model, components)  # shapes (K, C, M)
         self.n_points = self.shapes.shape[0]

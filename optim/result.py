@@ -100,6 +100,7 @@ class OptimizationResult:
     warnings: list[dict] = field(default_factory=list)  # optim.advice: {"kind", "message"}
     constraints: list[dict] = field(default_factory=list)  # the cell's, certified
     cell: Any = None  # optim.cell_setup.CellSetup (posed model, via points, families)
+    _traces: list = field(default_factory=list, repr=False, compare=False)  # _responses()
 
     @property
     def n_steps(self) -> int:
@@ -311,33 +312,42 @@ class OptimizationResult:
     def _label(self) -> str:
         return "optimised" if self.source in ("optimised", "search") else f"{self.source} (chosen)"
 
-    def _plot_constraints(self, path: Path) -> None:
-        from optim.plots import plot_constraints
+    def _responses(self) -> list:
+        """The deviation curves (optim.plots.Trace) of the returned move and of every other
+        baseline (nominal model), each simulated once for every plot that shows it."""
+        from optim.plots import Trace  # matplotlib: only when drawing
 
-        moves = {self._label(): self.acc}
-        for b in self.baselines.entries:
-            moves[b.name] = b.acc
-        until = 1.15 * max(self.cycle_time_s, *(b.cycle_time_s for b in self.baselines.entries))
+        if not self._traces:
+            moves = [(self._label(), self.acc, self.cycle_time_s, self.worst_cycle_time_s)]
+            for b in self.baselines.entries:
+                if not (self.source == b.name and np.array_equal(b.acc, self.acc)):
+                    moves.append((b.name, b.acc, b.cycle_time_s, b.worst_cycle_time_s))
+            until = self._until()
+            for label, acc, cycle, worst in moves:
+                t, d = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS, PLOT_AFTER)
+                self._traces.append(Trace(label, t, d, cycle, worst, acc))
+        return self._traces
+
+    def _until(self) -> float:
+        """The end of the plots' time axis (s): past every shown move's cycle."""
+        cycles = [self.cycle_time_s, *(b.cycle_time_s for b in self.baselines.entries)]
+        return 1.15 * max(cycles) + self.dt_s
+
+    def _plot_constraints(self, path: Path) -> None:
+        from optim.plots import plot_constraints  # matplotlib: only when drawing
+
         curves: dict[str, dict] = {}
-        for label, acc in moves.items():
-            t, _ = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS, PLOT_AFTER)
-            for name, values in self.cell.curves(acc, self.dt_s, t).items():
-                curves.setdefault(name, {})[label] = (t, values)
+        for trace in self._responses():
+            for name, values in self.cell.curves(trace.acc, self.dt_s, trace.t).items():
+                curves.setdefault(name, {})[trace.label] = (trace.t, values)
         limits = {c["name"]: c["limit"] for c in self.constraints}
         plot_constraints(path, curves, limits)
 
     def _plot_deviation(self, files: SetWriter) -> None:
-        from optim.plots import Trace, plot_comparison, plot_worst_case
+        from optim.plots import Trace, plot_comparison, plot_worst_case  # when drawing
 
-        moves = [(self._label(), self.acc, self.cycle_time_s, self.worst_cycle_time_s)]
-        for b in self.baselines.entries:
-            if not (self.source == b.name and np.array_equal(b.acc, self.acc)):
-                moves.append((b.name, b.acc, b.cycle_time_s, b.worst_cycle_time_s))
-        until = 1.15 * max(cycle for _, _, cycle, _ in moves) + self.dt_s
-        traces = []
-        for label, acc, cycle, worst in moves:
-            t, d = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS, PLOT_AFTER)
-            traces.append(Trace(label, t, d, cycle, worst))
+        traces = self._responses()
+        until = self._until()
         floor_s = self.baselines.kinematic_floor_s
         title = "Deviation of the optimised move and the baselines (nominal model)"
         files.add(

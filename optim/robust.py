@@ -17,6 +17,10 @@ from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.response import grid_values
 
+FREQ_SCALE = (0.9, 1.1)  # default range of the factor on every natural frequency
+ZETA = (0.01, 0.03)  # default range of the damping ratio
+GRID = (21, 3)  # default check-grid points over the frequency and damping ranges
+
 
 @dataclass(frozen=True)
 class RobustSpec:
@@ -28,10 +32,10 @@ class RobustSpec:
     n_freq, n_zeta: points of the check grid over each range (end points included).
     """
 
-    freq_scale: tuple[float, float] = (0.9, 1.1)
-    zeta: tuple[float, float] | None = (0.01, 0.03)
-    n_freq: int = 21
-    n_zeta: int = 3
+    freq_scale: tuple[float, float] = FREQ_SCALE
+    zeta: tuple[float, float] | None = ZETA
+    n_freq: int = GRID[0]
+    n_zeta: int = GRID[1]
 
     def __post_init__(self) -> None:
         lo, hi = (float(v) for v in self.freq_scale)

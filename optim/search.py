@@ -77,7 +77,7 @@ class Problem:
     """Everything a search needs: data, scenarios, training set and the row pool."""
 
     model: ModalModel
-    distance: np.ndarray
+    distance_m: np.ndarray  # (3,) m
     limits: Limits
     threshold_m: float
     dt_s: float
@@ -111,7 +111,7 @@ class Problem:
     @property
     def axes(self) -> tuple[int, ...]:
         """The axes the move uses (distance or via points)."""
-        return moving_axes(self.distance, [ViaRow(0, v[0], v[1], v[2]) for v in self.via])
+        return moving_axes(self.distance_m, [ViaRow(0, v[0], v[1], v[2]) for v in self.via])
 
     @property
     def clearance_limit_m(self) -> float:
@@ -158,7 +158,7 @@ def active_components(model: ModalModel) -> tuple[int, ...]:
 
 def make_problem(
     model: ModalModel,
-    distance: np.ndarray,
+    distance_m: np.ndarray,
     limits: Limits,
     dt_s: float,
     threshold_m: float,
@@ -166,35 +166,37 @@ def make_problem(
     robust: RobustSpec | None,
     clearance_m: float | None = None,
 ) -> Problem:
+    """The problem of a move without via points or cell constraints (optim.stages builds
+    the full one from :func:`scenarios`)."""
+    grid, training = scenarios(model, robust, threshold_m)
+    comps = active_components(model)
+    return Problem(
+        model, distance_m, limits, threshold_m, dt_s, max_steps, robust, grid, training, comps,
+        clearance_m,
+    )  # fmt: skip
+
+
+def scenarios(
+    model: ModalModel, robust: RobustSpec | None, threshold_m: float
+) -> tuple[list[Scenario], list[int]]:
+    """The models every move is certified on (the nominal one, or the robust grid's) and
+    the indices of those the search starts training on."""
     comps = active_components(model)
     grid = [(1.0, None)] if robust is None else robust.grid()
-    scenarios = []
+    found = []
     for scale, zeta in grid:
         m = perturbed(model, scale, zeta) if robust is not None else model
         res = ResidualModel(m, comps)
         zq = threshold_m / np.where(res.weights.max(axis=0) > 0, res.weights.max(axis=0), 1.0)
         label = "nominal" if robust is None else f"f x{scale:.3f}, zeta {zeta}"
-        scenarios.append(Scenario(label, scale, zeta, m, res, np.stack([zq, res.omega * zq], -1)))
+        found.append(Scenario(label, scale, zeta, m, res, np.stack([zq, res.omega * zq], -1)))
     if robust is None:
-        training = [0]
-    else:  # start from the corners and the middle of the frequency range at the lowest zeta
-        scales = sorted({s for s, _ in grid})
-        zmin = min(z for _, z in grid) if robust.zeta is not None else None
-        wanted = {scales[0], scales[len(scales) // 2], scales[-1]}
-        training = [i for i, (s, z) in enumerate(grid) if s in wanted and z == zmin]
-    return Problem(
-        model,
-        distance,
-        limits,
-        threshold_m,
-        dt_s,
-        max_steps,
-        robust,
-        scenarios,
-        training,
-        comps,
-        clearance_m,
-    )
+        return found, [0]
+    # start from the corners and the middle of the frequency range at the lowest zeta
+    scales = sorted({s for s, _ in grid})
+    zmin = min(z for _, z in grid) if robust.zeta is not None else None
+    wanted = {scales[0], scales[len(scales) // 2], scales[-1]}
+    return found, [i for i, (s, z) in enumerate(grid) if s in wanted and z == zmin]
 
 
 def add_end_states(builder, problem: Problem, layout) -> dict[int, np.ndarray]:
@@ -352,7 +354,7 @@ def attempt(
             added += len(rows)
         if added:
             continue
-        acc = enforce_end_state(acc, problem.dt_s, problem.distance)
+        acc = enforce_end_state(acc, problem.dt_s, problem.distance_m)
         timings, failures = _certify(problem, acc)
         if not failures:
             failures = _certify_families(problem, acc)

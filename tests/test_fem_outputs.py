@@ -61,7 +61,7 @@ def test_reactions_add_up_to_the_part_mass(plate_result):
     t = DT * np.arange(acc.shape[0])
     forces = outputs_at(model, cups.reaction, acc, DT, t).reshape(len(t), -1, 6)[..., :3]
     states = jaxflex.engine.states_at(model, acc, DT, t)
-    omega, zeta = np.asarray(model.omega), np.asarray(model.zeta)
+    omega, zeta = np.asarray(model.omega_rad_s), np.asarray(model.zeta)
     qdd = -acc @ gamma.T - 2 * zeta * omega * states[..., 1] - omega**2 * states[..., 0]
     np.testing.assert_allclose(
         forces.sum(axis=1), result.mass_kg * acc + qdd @ gamma, atol=1e-8 * result.mass_kg * 20

@@ -77,7 +77,7 @@ def test_shell_stress_of_a_curved_panel_against_the_thin_solid():
         stress = model.stress.stress
         # the quasi-static output per unit a: A + Q q_static, q_static = -Omega^-2 Gamma a
         static = np.asarray(stress.a_map) - np.asarray(stress.q_map) @ (
-            np.asarray(model.gamma) / np.asarray(model.omega)[:, None] ** 2
+            np.asarray(model.gamma) / np.asarray(model.omega_rad_s)[:, None] ** 2
         )
         values = von_mises(static[:, 2].reshape(-1, 6))
         points = np.asarray(model.stress.points_m)

@@ -98,7 +98,7 @@ def test_the_number_of_shaped_modes_is_the_best_one(model, base):
     cycles = []
     for count in range(1, model.n_modes + 1):
         modes = order[:count]
-        train = convolve(*(shaper("ZV", model.omega[i], model.zeta[i]) for i in modes))
+        train = convolve(*(shaper("ZV", model.omega_rad_s[i], model.zeta[i]) for i in modes))
         acc = shaped_grid_move(continuous, train, DISTANCE, LIMITS, DT)
         cycles.append(analyze_move(model, acc, DT, THRESHOLD).cycle_time_s)
     assert zv.cycle_time_s == pytest.approx(min(cycles), abs=1e-9)
@@ -140,7 +140,7 @@ def test_a_shaper_registered_outside_optim_is_one_of_the_optimisers_baselines(
 ):
     # the test's shaper meets its defining condition, a triple root of V at w_n:
     # V(w_n +- h) = O((h / w_n)^3), 3.5e-9 at h = 1e-3 w_n (ZVD's double root: 2.3e-6)
-    omega, zeta = model.omega[0], model.zeta[0]
+    omega, zeta = model.omega_rad_s[0], model.zeta[0]
     design = shaper("ZVDD", omega, zeta)
     h = 1e-3 * omega
     v = design.residual_vibration(np.array([omega - h, omega, omega + h]), zeta)
@@ -154,7 +154,9 @@ def test_a_shaper_registered_outside_optim_is_one_of_the_optimisers_baselines(
     order = dominant_modes(model, np.array(DISTANCE))
     cycles = []
     for count in range(1, model.n_modes + 1):
-        train = convolve(*(shaper("ZVDD", model.omega[i], model.zeta[i]) for i in order[:count]))
+        train = convolve(
+            *(shaper("ZVDD", model.omega_rad_s[i], model.zeta[i]) for i in order[:count])
+        )
         acc = shaped_grid_move(continuous, train, DISTANCE, LIMITS, DT)
         cycles.append(analyze_move(model, acc, DT, THRESHOLD).cycle_time_s)
     assert zvdd.cycle_time_s == pytest.approx(min(cycles), abs=1e-9)

@@ -16,6 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PUBLIC = (
     "jaxflex",
     "jaxflex.model",
+    "jaxflex.defaults",
     "jaxflex.errors",
     "jaxflex.isolated",
     "jaxflex.stdout",

@@ -43,7 +43,7 @@ def test_derivative_bounds_hold_between_the_samples(stiff):
     bounds = derivative_bounds(stiff, states, force, DT)
     t = np.arange(0.0, 40 * DT, 2e-6)
     x = states_at(stiff, acc, DT, t)
-    omega, zeta = np.asarray(stiff.omega), np.asarray(stiff.zeta)
+    omega, zeta = np.asarray(stiff.omega_rad_s), np.asarray(stiff.zeta)
     k = np.minimum((t / DT).astype(int), 39)
     w = t / DT - k
     f = (1 - w)[:, None] * force[k] + w[:, None] * force[k + 1]

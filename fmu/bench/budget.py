@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from jaxflex.defaults import THRESHOLD_M
 from jaxflex.files import write_text_atomic
 
 CASES = {
@@ -207,7 +208,7 @@ def refusal_cases(folder: Path) -> dict[str, list[str]]:
             "--serial", "-o", str(folder / "out_robust"),
         ],
         "optimize --robust --grid 100000 100000": [
-            "optimize", str(model), "--distance", "0", "0", "1", "--threshold", "5e-4",
+            "optimize", str(model), "--distance", "0", "0", "1", "--threshold", f"{THRESHOLD_M:g}",
             "--robust", "--grid", "100000", "100000", "-o", str(folder / "opt"),
         ],
         "sweep: monitor grid 100 000 x 100 000": [
@@ -235,11 +236,12 @@ def refusal_cases(folder: Path) -> dict[str, list[str]]:
         ],
         "optimize --cell: 10 000 boxes": [
             "optimize", str(model), "--cell", str(folder / "boxes.json"), "--min-distance",
-            "0.01", "--threshold", "5e-4", "--max-time", "20", "-o", str(folder / "opt"),
+            "0.01", "--threshold", f"{THRESHOLD_M:g}", "--max-time", "20", "-o",
+            str(folder / "opt"),
         ],
         "optimize --cell: a 2 000 000-triangle obstacle": [
             "optimize", str(model), "--cell", str(folder / "mesh_obstacle.json"),
-            "--min-distance", "0.01", "--threshold", "5e-4", "-o", str(folder / "opt"),
+            "--min-distance", "0.01", "--threshold", f"{THRESHOLD_M:g}", "-o", str(folder / "opt"),
         ],
         "sweep: grid of 254 016 layouts": [
             "sweep", _spec(folder, "layouts", layouts=[], grids=[grid]), "--serial",

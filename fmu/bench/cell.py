@@ -31,6 +31,7 @@ import numpy as np
 import fem
 import optim
 from fem.outputs import reaction_outputs, stress_outputs
+from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import write_text_atomic
 from jaxflex.geometry import Box, Cell, min_distance
 from jaxflex.response import CupUtilisation, VonMises, acceleration_at, output_peak, outputs_at
@@ -40,8 +41,8 @@ from optim.ruckig_move import kinematic_floor_move
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 CASES = ("press", "accuracy", "constraints", "cups", "convergence")
 LIMITS = optim.Limits(2.0, 10.0, 100.0)
-DT = 0.01
-THRESHOLD = 5e-4
+DT = DT_S
+THRESHOLD = THRESHOLD_M
 GRAVITY = np.array([0.0, 0.0, -9.81])
 KINDS = (None, "flat", "bellows")
 

@@ -26,6 +26,7 @@ import numpy as np
 
 from fmu.bench.timing import best_time_s, machine
 from jaxflex import cycle_time, cycle_time_smooth, simulate
+from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.model import ModalModel
 from jaxflex.reference import convolve_unit_response, deviation_from_displacement, unit_response
 from jaxflex.response import move_deviation, on_device
@@ -37,8 +38,8 @@ class BenchCase:
     n_points: int = 1099
     n_modes: int = 40
     n_steps: int = 1000
-    dt_s: float = 0.01
-    threshold_m: float = 5e-4
+    dt_s: float = DT_S
+    threshold_m: float = THRESHOLD_M
     seed: int = 0
 
 

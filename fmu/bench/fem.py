@@ -20,6 +20,7 @@ import numpy as np
 
 import fem
 import jaxflex
+from jaxflex.defaults import DT_S
 from jaxflex.files import write_text_atomic
 
 CASES = ("plate", "solid", "scenes", "transient")
@@ -77,7 +78,7 @@ def case_scenes() -> dict:
 
 def case_transient() -> dict:
     """Reduced modal model vs the full-order Newmark transient: error against mode count."""
-    dt_s, n_move, n_rest = 0.01, 30, 30
+    dt_s, n_move, n_rest = DT_S, 30, 30
     t = np.arange(n_move + 1) * dt_s
     shape = 2 * np.pi / (n_move * dt_s) ** 2 * np.sin(2 * np.pi * t / (n_move * dt_s))
     acc = np.outer(shape, [0.3, 0.0, 1.0])

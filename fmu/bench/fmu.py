@@ -41,6 +41,7 @@ from fmu.windows import (
     windows_path,
     windows_resource_location,
 )
+from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.model import ModalModel
 from jaxflex.runtime import step
 
@@ -81,7 +82,7 @@ def host_figures(model: ModalModel, version: int, folder: Path, dt_s: float) -> 
     part FMU inside it, run in every available host: max |deviation - jaxflex| / peak per
     host (see fmu.crosscheck for which reference each host gets)."""
     folder.mkdir(parents=True, exist_ok=True)
-    ssp = export_ssp(model, folder / "case.ssp", version, (smooth_move(dt_s), dt_s), 5e-4)
+    ssp = export_ssp(model, folder / "case.ssp", version, (smooth_move(dt_s), dt_s), THRESHOLD_M)
     with zipfile.ZipFile(ssp.ssp_path) as zf:
         part = Path(zf.extract("resources/part.fmu", folder))
     figures: dict[str, Any] = {"n_steps": None}
@@ -146,7 +147,7 @@ def run(
     n_points: int = 1099,
     n_modes: int = 40,
     n_steps: int = 20_000,
-    dt_s: float = 0.01,
+    dt_s: float = DT_S,
     repeats: int = 50,
     fmi_versions: tuple[int, ...] = (2, 3),
     progress: Callable[[str], None] | None = None,

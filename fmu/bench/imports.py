@@ -28,6 +28,7 @@ import fem
 import jaxflex
 from fem.bdf import read_bulk
 from fem.identify import round_significant
+from jaxflex.defaults import DT_S
 from jaxflex.files import write_text_atomic
 from jaxflex.reference import convolve_unit_response, unit_response
 from jaxflex.response import jerk_limited_move
@@ -76,7 +77,7 @@ def _r1_import(result, n_nodes: int, n_steps: int, workdir: Path) -> dict:
     nodes = result.system.nodes
     keep = np.sort(np.random.default_rng(0).choice(len(nodes), n_nodes, replace=False))
     model = result.to_modal_model(points=nodes[keep])
-    r1 = round_significant(unit_response(model, 0.01, n_steps)[2], 7)
+    r1 = round_significant(unit_response(model, DT_S, n_steps)[2], 7)
     table = np.transpose(r1, (1, 0, 2)).reshape(n_nodes, -1)
     csv_path = workdir / "r1_z.csv"
     tick = time.perf_counter()
@@ -100,7 +101,7 @@ def _r1_import(result, n_nodes: int, n_steps: int, workdir: Path) -> dict:
     match = [np.argmin(np.abs(true_f - f)) for f in identified.freq_hz]
     out["r1_freq_rel_err_max"] = float(np.max(np.abs(identified.freq_hz / true_f[match] - 1)))
     out["r1_zeta_rel_err_max"] = float(np.max(np.abs(identified.zeta / model.zeta[match] - 1)))
-    acc = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=0.01)
+    acc = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=DT_S)
     direct = convolve_unit_response(r1[None], acc, axes=(2,))
     full = identified.to_modal_model()
     modal = np.asarray(jaxflex.simulate(full, acc, 0.01, displacement=True).displacement)

@@ -62,7 +62,7 @@ def _integrator_deviation(model, blocks, acc_fine, h, integrator: str, every: in
 
 def stable_substeps(model: ModalModel, dt_s: float, margin: float = CD_STABILITY_MARGIN) -> int:
     """Fewest central-difference steps per sample interval with omega_max h <= 2 margin."""
-    omega_max = float(np.max(model.omega))
+    omega_max = float(np.max(model.omega_rad_s))
     return max(1, math.ceil(omega_max * dt_s / (2.0 * margin)))
 
 

@@ -33,6 +33,7 @@ from fem.scenes import scene as built_in
 from fmu.bench.core import sine_move
 from fmu.bench.timing import best_time_s
 from jaxflex import cycle_time
+from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import write_text_atomic
 from jaxflex.model import ModalModel
 from jaxflex.reference import simply_supported_plate
@@ -53,7 +54,7 @@ class ScaleCase:
     n_points: int
     n_steps: int
     n_modes: int = 40
-    dt_s: float = 0.01
+    dt_s: float = DT_S
     dtype: str = "float64"
 
 
@@ -136,7 +137,7 @@ def run_scale(
         out["forward"].append(time_forward(model, ScaleCase(n_points=model.n_points, n_steps=1000)))
     progress(f"all-node scale: exact cycle time K={model.n_points} ...")
     move = sine_move(80, 0.01)
-    threshold_m = 5e-4
+    threshold_m = THRESHOLD_M
     report = analyze_move(model, move, 0.01, threshold_m, settle=False)
     out["cycle_time"] = {
         "n_points": model.n_points,
@@ -176,7 +177,7 @@ def run_reduction(
     progress(f"reduction study: FE modes of the {scene} ...")
     part, supports = built_in(scene, mesh_size=mesh_size_m)
     result = modal_analysis(part, supports, n_modes=n_modes, zeta=0.02, progress=False)
-    dt = 0.01
+    dt = DT_S
     acc = sine_move(80, dt)
     acc_j = jnp.asarray(np.concatenate([acc, np.zeros((120, 3))]))
 

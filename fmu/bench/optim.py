@@ -29,9 +29,11 @@ import time
 import numpy as np
 
 import fem
+from jaxflex import load_model
+from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import write_text_atomic
-from jaxflex.model import ModalModel, load_model
+from jaxflex.model import ModalModel
 from jaxflex.reference import simply_supported_plate
 from optim.baselines import worst_case
 from optim.limits import Limits
@@ -98,8 +100,8 @@ def run(
     *,
     distance_m=(0.0, 0.0, 1.0),
     limits: Limits | None = None,
-    threshold_m: float = 5e-4,
-    dt_s: float = 0.01,
+    threshold_m: float = THRESHOLD_M,
+    dt_s: float = DT_S,
     robust: RobustSpec | None = None,
     nominal_routes=NOMINAL_ROUTES,
     robust_routes=ROBUST_ROUTES,
@@ -197,7 +199,9 @@ def main(argv: list[str] | None = None) -> int:
     source.add_argument(
         "--scene", default="fem-plate", help="fem-plate (default), analytic-plate or few-mode"
     )
-    parser.add_argument("--threshold", type=float, default=5e-4, help="m (default 0.0005)")
+    parser.add_argument(
+        "--threshold", type=float, default=THRESHOLD_M, help=f"m (default {THRESHOLD_M:g})"
+    )
     parser.add_argument(
         "--quick",
         action="store_true",

@@ -26,11 +26,11 @@ import scipy.signal
 
 from fmu.bench.metrics import settle_from_samples
 from jaxflex import simulate
+from jaxflex.defaults import DT_S
 from jaxflex.model import ModalModel
 from jaxflex.reference import central_difference_modal, newmark_modal
 from jaxflex.response import analyze_move, upsample
 
-DT_S = 0.01
 OMEGA_DT = tuple(float(x) for x in np.round(np.logspace(-1.5, 1.5, 25), 4))
 DRIFT_STEPS = (1_000, 10_000, 100_000)
 DENSE_FACTOR = 64

@@ -164,9 +164,7 @@ def run_sweep(
     store = ResultStore(directory, dt_s=spec.optimization.dt_s)
     with directory_lock(store.root, option="-o/--output"):
         where = {"n_workers": n_workers, "dashboard_address": dashboard_address}
-        return _run_locked(
-            spec,
-            store,
+        options = _Options(
             executor=executor,
             n_workers=workers(n_workers, executor),
             connect_to=lambda: connect(scheduler, notify=notify, **where),
@@ -175,16 +173,28 @@ def run_sweep(
             plots=plots,
             on_record=on_record,
         )
+        return _run_locked(spec, store, options)
 
 
-def _run_locked(
-    spec, store, *, executor, n_workers, connect_to, retry_errors, progress, plots, on_record
-):
+@dataclass(frozen=True)
+class _Options:
+    """run_sweep's options, checked (``connect_to`` opens the dask cluster)."""
+
+    executor: str
+    n_workers: int
+    connect_to: Callable
+    retry_errors: bool
+    progress: bool | None
+    plots: bool
+    on_record: Callable[[dict, float], None] | None
+
+
+def _run_locked(spec: SweepSpec, store: ResultStore, options: _Options) -> SweepRun:
     """run_sweep's work, with the results directory locked against other sweeps."""
     store.remove_temporaries()
     store.save_spec(spec.source)
     cases = expand(spec)
-    run = SweepRun(spec, store.root, cases, StoredRecords(store), executor=executor)
+    run = SweepRun(spec, store.root, cases, StoredRecords(store), executor=options.executor)
     pending: dict[str, Case] = {}
     for case in cases:
         if case.case_id in run.records or case.case_id in pending:
@@ -193,7 +203,7 @@ def _run_locked(
         if (
             record is not None
             and is_final(record)
-            and not (retry_errors and record["status"] != "ok")
+            and not (options.retry_errors and record["status"] != "ok")
         ):
             run.records.add(record)
         else:
@@ -201,9 +211,9 @@ def _run_locked(
     run.skipped = len(run.records)
     if pending:  # before the first case: a sweep that cannot run within the budget is refused
         layouts = len({case.layout_id for case in pending.values()})
-        require(*sweep_needs(spec, len(pending), layouts, n_workers))
+        require(*sweep_needs(spec, len(pending), layouts, options.n_workers))
     start = time.perf_counter()
-    bar = progress_bar(len(pending), spec.name, progress, unit="case")
+    bar = progress_bar(len(pending), spec.name, options.progress, unit="case")
 
     def consume(stream: Iterator[dict]) -> None:
         with contextlib.closing(stream):
@@ -215,25 +225,25 @@ def _run_locked(
                 run.computed += 1
                 bar.update()
                 bar.set_postfix_str(f"errors={run.n_errors}")
-                if on_record is not None:
-                    on_record(record, store_s)
+                if options.on_record is not None:
+                    options.on_record(record, store_s)
                 check_time(
                     f"the sweep ({run.computed} of {len(pending)} cases computed)",
                     "the computed cases are stored: the same command computes the rest",
                 )
 
     try:
-        if executor == "serial":
+        if options.executor == "serial":
             consume(_run_serial(spec, store, list(pending.values())))
         elif pending:
-            with connect_to() as cluster:
+            with options.connect_to() as cluster:
                 _on_cluster(cluster, run, store, list(pending.values()), consume)
     finally:
         bar.close()
         run.wall_s = time.perf_counter() - start
         write_table(store.root / "results.csv", table_rows(cases, run.records))
     run.outputs.append(str(store.root / "results.csv"))
-    if plots:
+    if options.plots:
         run.outputs += plot_sweep(run, store)
     return run
 

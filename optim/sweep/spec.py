@@ -23,10 +23,11 @@ from typing import Any
 from fem.imported import file_digest
 from fem.parts import ELEMENTS
 from jaxflex.cli import AXIS_LIMITS
+from jaxflex.defaults import DT_S, MAX_DURATION_S, THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import read_settings_file
 from jaxflex.runtime import require
-from optim.robust import RobustSpec
+from optim.robust import FREQ_SCALE, ZETA, RobustSpec
 from optim.sweep.part import build_part, footprint_box
 from optim.sweep.plan import spec_need
 
@@ -127,10 +128,10 @@ class ModelSpec:
 class OptimizationSpec:
     """Settings of optim.optimize shared by every case; ``robust`` None or a RobustSpec dict."""
 
-    dt_s: float = 0.01
-    threshold_m: float = 5e-4
+    dt_s: float = DT_S
+    threshold_m: float = THRESHOLD_M
     method: str = "exact"
-    max_duration_s: float = 30.0
+    max_duration_s: float = MAX_DURATION_S
     robust: dict | None = None
 
 
@@ -302,7 +303,7 @@ def _robust(value: Any) -> dict | None:
         return RobustSpec().as_dict()
     d = _keys("optimization.robust", value, ("freq_scale", "zeta", "n_freq", "n_zeta"))
     try:
-        return RobustSpec.from_dict({"freq_scale": (0.9, 1.1), "zeta": (0.01, 0.03), **d}).as_dict()
+        return RobustSpec.from_dict({"freq_scale": FREQ_SCALE, "zeta": ZETA, **d}).as_dict()
     except (InputError, TypeError, ValueError) as exc:
         raise InputError(f"optimization.robust.{exc}") from exc
 

@@ -1,0 +1,160 @@
+"""``optim.Request``: one optimisation request, checked once, where it enters.
+
+Every argument of ``optim.optimize`` is a field; the constructor converts the loose forms
+(limits and the robust range as mappings, ``robust=True``) and refuses what no run can use,
+with an InputError naming the field and, for the fields the command sets, its option of
+``jaxflex optimize`` (``threshold_m (--threshold): ...``). The stages after it
+(optim.stages) take its values as they are. What needs the model posed in the cell (the
+move's length, the memory, the clearance) is checked by the plan stage.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from jaxflex.defaults import MAX_DURATION_S
+from jaxflex.errors import InputError
+from jaxflex.files import check_positive
+from jaxflex.model import ModalModel
+from jaxflex.runtime import current_budget
+from optim.baselines import MAX_SHAPED_MODES
+from optim.budget import MAX_STEPS
+from optim.gradient import GRADIENT_SOLVERS
+from optim.limits import Limits
+from optim.lp import LP_SOLVERS
+from optim.robust import RobustSpec
+
+METHODS = {"exact": ("highs", LP_SOLVERS), "gradient": ("ipopt", GRADIENT_SOLVERS)}
+# the option of `jaxflex optimize` that sets each field (named in its errors)
+OPTIONS = {
+    "threshold_m": "--threshold",
+    "dt_s": "--dt",
+    "max_duration_s": "--max-duration",
+    "clearance_m": "--clearance",
+    "max_steps": "--max-steps",
+    "max_memory_bytes": "--max-memory",
+}
+
+
+def _label(field: str) -> str:
+    option = OPTIONS.get(field)
+    return field if option is None else f"{field} ({option})"
+
+
+def _as_limits(limits: Any) -> Limits:
+    if isinstance(limits, Limits):
+        return limits
+    if isinstance(limits, Mapping):
+        if "vmax_m_s" in limits:
+            return Limits.from_dict(dict(limits))
+        return Limits(**limits)
+    raise InputError(
+        f"limits: expected optim.Limits(vmax, amax, jmax, ...) or a mapping, got {limits!r}"
+    )
+
+
+def _as_robust(robust: Any) -> RobustSpec | None:
+    if robust is None or isinstance(robust, RobustSpec):
+        return robust
+    if robust is True:
+        return RobustSpec()
+    if isinstance(robust, Mapping):
+        return RobustSpec.from_dict(dict(robust))
+    raise InputError(f"robust: expected None, True or optim.RobustSpec(...), got {robust!r}")
+
+
+def _check_model(model: Any, robust: RobustSpec | None) -> None:
+    if not isinstance(model, ModalModel):
+        raise InputError(f"model: expected a jaxflex.ModalModel, got {type(model).__name__}")
+    zeta = np.asarray(model.zeta)
+    if robust is None or robust.zeta is None:
+        undamped = np.flatnonzero(zeta <= 0)
+        if undamped.size:
+            i = int(undamped[0])
+            raise InputError(
+                f"model.zeta: mode {i} ({float(model.freq_hz[i]):.4g} Hz) is undamped (zeta = 0); "
+                "its vibration never decays, so no cycle time exists. Set a damping ratio "
+                "(model.with_damping) or a robust zeta range"
+            )
+
+
+@dataclass(frozen=True)
+class Request:
+    """The arguments of ``optim.optimize`` (see there), checked and in their final form:
+    ``limits`` a Limits, ``robust`` None or a RobustSpec, ``solver`` the method's default if
+    not given, ``max_memory_bytes`` the process's budget if not given, numbers as floats."""
+
+    model: ModalModel
+    distance_m: Any  # (3,) m, or None with a cell (then the cell's move)
+    limits: Limits
+    dt_s: float
+    threshold_m: float
+    method: str = "exact"
+    solver: str | None = None
+    robust: RobustSpec | None = None
+    progress: bool | None = None
+    max_duration_s: float = MAX_DURATION_S
+    max_shaped_modes: int = MAX_SHAPED_MODES
+    clearance_m: float | None = None
+    max_steps: int = MAX_STEPS
+    max_memory_bytes: int | None = None
+    cell: Any = None  # a jaxflex.cell.Cell
+    min_distance_m: float | None = None
+    cup_safety: float | None = None
+    max_stress_pa: float | str | None = None
+
+    def __post_init__(self) -> None:
+        robust = _as_robust(self.robust)
+        _check_model(self.model, robust)
+        self._set("robust", robust)
+        self._set("limits", _as_limits(self.limits))
+        for field in ("threshold_m", "dt_s", "max_duration_s"):
+            self._set(field, check_positive(_label(field), getattr(self, field)))
+        if self.clearance_m is not None:
+            self._set("clearance_m", check_positive(_label("clearance_m"), self.clearance_m))
+        self._check_route()
+        steps = self.max_steps
+        if isinstance(steps, bool) or not isinstance(steps, int) or steps < 2:
+            raise InputError(f"{_label('max_steps')}: must be an integer >= 2, got {steps!r}")
+        memory = self.max_memory_bytes
+        memory = current_budget().memory_bytes if memory is None else memory
+        check_positive(_label("max_memory_bytes"), memory)
+        self._set("max_memory_bytes", memory)
+
+    def _set(self, field: str, value: Any) -> None:
+        object.__setattr__(self, field, value)
+
+    def _check_route(self) -> None:
+        """The method and its solver; the gradient route refuses the cell's constraints."""
+        if self.method not in METHODS:
+            raise InputError(f"method: must be one of {sorted(METHODS)}, got {self.method!r}")
+        default_solver, allowed = METHODS[self.method]
+        solver = default_solver if self.solver is None else self.solver
+        if solver not in allowed:
+            raise InputError(f"solver: method {self.method!r} accepts {allowed}, got {solver!r}")
+        self._set("solver", solver)
+        if self.method == "gradient" and (self.has_via or self.has_cell_limits):
+            raise InputError(
+                "method: the gradient route does not take via points or the cell's constraints "
+                "(min_distance_m, cup_safety, max_stress_pa); the exact route does: "
+                "method='exact' (jaxflex optimize --method exact, the default)"
+            )
+
+    @property
+    def has_via(self) -> bool:
+        return bool(getattr(self.cell, "via", ()))
+
+    @property
+    def has_cell_limits(self) -> bool:
+        """Whether any of the cell's constraints is asked for."""
+        limits = (self.min_distance_m, self.cup_safety, self.max_stress_pa)
+        return any(limit is not None for limit in limits)
+
+    @property
+    def n_scenarios(self) -> int:
+        """The models every move is certified on: 1, or the robust grid's."""
+        return 1 if self.robust is None else self.robust.n_scenarios

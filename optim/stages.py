@@ -1,0 +1,370 @@
+"""The stages of ``optim.optimize``, one job each, on a checked ``optim.request.Request``.
+
+plan -> baselines -> search -> choose -> certify -> report:
+
+* :func:`plan`: the cell set-up (optim.cell_setup) and the budgets (optim.budget): the
+  longest move the search may try, refused before any work if it cannot fit;
+* :func:`baselines`: the baseline moves (optim.baselines), which of them meet the cell's
+  constraints, the threshold's advice;
+* :func:`search`: the problem (built once, with the cell's rows and via points), the
+  bisection over the number of steps (optim.search) and, on the exact route, the polish pass;
+* :func:`choose`: the best certified move seen that passes the limits check (optim.choice);
+* :func:`certify`: the chosen move's exact nominal timing (a baseline's is reused) and, in
+  robust mode, its worst case (the search's certified grid is reused);
+* :func:`report`: the OptimizationResult.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+from jaxflex.errors import BudgetError, InputError, JaxflexError
+from jaxflex.response import SettleReport, analyze_move, as_move
+from jaxflex.runtime import issue, model_resolution, require, threshold_advice
+from optim.advice import grid_advice
+from optim.baselines import Baseline, BaselineSet, via_baselines
+from optim.baselines import baselines as compute_baselines
+from optim.budget import check_memory, check_move_length, distance_need, search_need
+from optim.cell_setup import CellSetup, prepare_cell
+from optim.choice import Candidate, candidates
+from optim.choice import choose as choose_candidate
+from optim.exact import POLISH_MARGIN, LPSubsolver
+from optim.gradient import GradientSubsolver
+from optim.limits import ConstraintCheck, check_profile
+from optim.move_response import SAMPLING_ALLOWANCE, shortest_clearance_move_s
+from optim.request import Request
+from optim.result import OptimizationResult, deviation_summary
+from optim.search import Attempt, Problem, active_components, attempt, bisect, scenarios
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The cell set-up and the search's budget: ``shortest`` the fewest steps any move can
+    have, ``steps_cap`` the most steps a search's move may have."""
+
+    setup: CellSetup
+    shortest: int
+    steps_cap: int
+    advice: list[dict]
+
+
+@dataclass(frozen=True)
+class Baselines:
+    """The baselines, where the via points fall (fractions of the move) and the baselines
+    that meet the cell's constraints."""
+
+    moves: BaselineSet
+    via_fractions: list[float]
+    feasible: list[Baseline]
+    floor_deviation: dict  # deviation_summary of the kinematic floor (entries[0])
+    advice: list[dict]
+
+
+@dataclass
+class Search:
+    """The search's problem, its subsolver, every attempt and its final move (None if it
+    found none)."""
+
+    problem: Problem
+    subsolver: LPSubsolver | GradientSubsolver
+    history: list[Attempt]
+    final: Attempt | None
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Choice:
+    move: Candidate
+    check: ConstraintCheck
+    notes: list[str]
+
+
+@dataclass(frozen=True)
+class Certified:
+    timing: SettleReport
+    deviation: dict
+    worst_case: dict | None
+
+
+def plan(request: Request) -> Plan:
+    """Pose the model in the cell and fix the search's budget; refuse (InputError,
+    BudgetError) what cannot fit before any work."""
+    r = request
+    if r.cell is not None and r.min_distance_m is not None:  # before the set-up measures
+        shortest, allowed = check_move_length(
+            r.cell.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
+        )
+        require(distance_need(r.cell, r.model.n_points, shortest, allowed))
+    setup = prepare_cell(
+        r.model,
+        r.distance_m,
+        cell=r.cell,
+        min_distance_m=r.min_distance_m,
+        max_stress_pa=r.max_stress_pa,
+        cup_safety=r.cup_safety,
+        robust=r.robust,
+    )
+    model = setup.model
+    shortest, allowed = check_move_length(
+        setup.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
+    )
+    if r.clearance_m is not None:
+        _check_clearance(setup, r.clearance_m, r.max_duration_s)
+    clearance = r.clearance_m is not None
+    steps_cap = check_memory(
+        model.n_modes, shortest, allowed, r.n_scenarios, clearance, r.max_memory_bytes
+    )
+    require(search_need(model.n_modes, model.n_points, shortest, steps_cap, r.n_scenarios))
+    return Plan(setup, shortest, steps_cap, issue(grid_advice(r.robust) + setup.advice))
+
+
+def _check_clearance(setup: CellSetup, clearance_m: float, max_duration_s: float) -> None:
+    """Refuse a clearance no move within max_duration_s can meet (a necessary condition,
+    optim.move_response.shortest_clearance_move_s), before the search tries ever longer
+    moves."""
+    model = setup.model
+    comps = active_components(model)
+    t_min, mode = shortest_clearance_move_s(model, comps, setup.distance_m, clearance_m)
+    if t_min > max_duration_s:
+        raise InputError(
+            f"clearance_m: no move of at most max_duration_s = {max_duration_s:g} s keeps the "
+            f"deviation during it below {clearance_m:.3g} m: mode {mode} "
+            f"({float(model.freq_hz[mode]):.4g} Hz) alone needs a move of at least "
+            f"{t_min:.4g} s to stay within even {SAMPLING_ALLOWANCE:g} times that (--clearance, "
+            "--max-duration)"
+        )
+
+
+def baselines(request: Request, plan: Plan) -> Baselines:
+    """The baselines (along the via points, if any), each marked whether it meets the cell's
+    constraints, and the advice on the threshold from the kinematic floor's response."""
+    r, setup = request, plan.setup
+    fractions: list[float] = []
+    if setup.via:
+        via = [v[0] for v in setup.via]
+        moves, fractions = via_baselines(
+            setup.model, setup.distance_m, via, r.limits, r.dt_s, r.threshold_m,
+            robust=r.robust, max_steps=plan.steps_cap,
+        )  # fmt: skip
+    else:
+        moves = compute_baselines(
+            setup.model, setup.distance_m, r.limits, r.dt_s, r.threshold_m,
+            robust=r.robust, max_shaped_modes=r.max_shaped_modes, max_steps=plan.steps_cap,
+            progress=r.progress,
+        )  # fmt: skip
+    for entry in moves.entries:
+        entry.constraints_ok, entry.constraints = setup.feasible(entry.acc, r.dt_s)
+    floor = moves.entries[0]  # the fastest move there is on the grid (along the path)
+    deviation = deviation_summary(setup.model, floor.acc, r.dt_s)
+    peak = deviation["peak_during_move_m"]
+    resolution = model_resolution(setup.model, setup.distance_m)
+    advice = threshold_advice(r.threshold_m, floor.timing.settle_time_s, peak, resolution)
+    feasible = [e for e in moves.entries if e.constraints_ok]
+    return Baselines(moves, fractions, feasible, deviation, issue(advice))
+
+
+def _problem(request: Request, plan: Plan, fractions: list[float]) -> Problem:
+    """The search's problem with the cell's constraint families and via points."""
+    r, setup = request, plan.setup
+    via = [(o, m, t, f) for (o, m, t), f in zip(setup.via, fractions, strict=True)]
+    grid, training = scenarios(setup.model, r.robust, r.threshold_m)
+    comps = active_components(setup.model)
+    return Problem(
+        setup.model, setup.distance_m, r.limits, r.threshold_m, r.dt_s, plan.steps_cap, r.robust,
+        grid, training, comps, r.clearance_m, via=via, families=setup.families,
+    )  # fmt: skip
+
+
+def search(request: Request, plan: Plan, base: Baselines) -> Search:
+    """Bisect over the number of steps below the best feasible baseline (optim.search),
+    then, on the exact route, smooth the search's move (:func:`_polish`). Refuses a request
+    no move can meet (no move found and no baseline to fall back on)."""
+    r, model = request, plan.setup.model
+    problem = _problem(r, plan, base.via_fractions)
+    sub = LPSubsolver(r.solver) if r.method == "exact" else GradientSubsolver(r.solver)
+    bound = min((e.score() for e in base.feasible), default=plan.steps_cap * r.dt_s)
+    upper = math.ceil(bound / r.dt_s - 1e-9)
+    # the search's moves are now bracketed: its LPs reach up to the best baseline's length
+    bracket = min(upper, plan.steps_cap)
+    require(
+        search_need(model.n_modes, model.n_points, plan.shortest, bracket, r.n_scenarios, bracket)
+    )
+    moves = base.moves
+    best, history = bisect(
+        problem, sub, moves.floor_acc, upper, [e.acc for e in moves.entries], progress=r.progress
+    )
+    if best is None and not (plan.setup.families and base.feasible):
+        raise _no_move(r, plan)
+    if r.method != "exact" or best is None:
+        return Search(problem, sub, history, best)
+    final, notes = _polish(problem, sub, best, history)
+    return Search(problem, sub, history, final, notes)
+
+
+def _no_move(request: Request, plan: Plan) -> JaxflexError:
+    """The error for a search that found no move: the budget's (BudgetError) if longer
+    moves were cut off by it, else the request's (InputError)."""
+    r, cap = request, plan.steps_cap
+    during = "" if r.clearance_m is None else f" (and below {r.clearance_m * 1e3:g} mm during it)"
+    during += " within the cell's constraints" if plan.setup.families else ""
+    if cap < math.floor(r.max_duration_s / r.dt_s + 1e-9):
+        return BudgetError(
+            f"no move of at most {cap} steps ({cap * r.dt_s:g} s) keeps the "
+            f"deviation below {r.threshold_m * 1e3:g} mm after it{during}; longer moves "
+            f"exceed the budget (--max-steps {r.max_steps}, --max-memory "
+            f"{r.max_memory_bytes / 1e9:.3g} GB); raise them, use a coarser --dt or raise the "
+            "threshold"
+        )
+    return InputError(
+        f"threshold_m: no move of at most max_duration_s = {r.max_duration_s:g} s keeps the "
+        f"deviation below {r.threshold_m * 1e3:g} mm after it{during}; raise "
+        "max_duration_s, threshold_m" + ("" if r.clearance_m is None else " or clearance_m")
+    )
+
+
+def _polish(problem: Problem, sub: LPSubsolver, best: Attempt, history: list[Attempt]) -> tuple:
+    """The final solve of the exact route: the smoothest move of the search's length that
+    keeps (nearly) its margin, every limit held a little inside (POLISH_MARGIN), or exactly
+    on the limits where the reserve rules the length out (the kinematic floor, when the
+    vibration does not limit the move). Returns (the smoothed attempt, or ``best`` if both
+    fail, and notes)."""
+    for margin in (POLISH_MARGIN, 0.0):
+        polished = attempt(problem, sub.polishing(margin), best.n_steps, best.acc)
+        history.append(polished)
+        if polished.feasible:
+            return polished, []
+    return best, [
+        f"the smoothing pass found no move of {best.n_steps} steps; the search's move is "
+        "returned as found"
+    ]
+
+
+def choose(request: Request, plan: Plan, base: Baselines, found: Search) -> Choice:
+    """The best certified move seen (the search's, the polish pass's, the baselines that meet
+    the cell's constraints: the search's moves meet them by construction) that passes the
+    exact limits check (optim.choice)."""
+    r, distance = request, plan.setup.distance_m
+    moves = candidates(
+        found.problem, found.history, found.final, base.moves, eligible=lambda e: e.constraints_ok
+    )
+    try:
+        move, check, notes = choose_candidate(
+            moves, lambda acc: check_profile(acc, r.dt_s, r.limits, distance)
+        )
+    except ValueError as exc:
+        raise JaxflexError(str(exc)) from exc
+    return Choice(move, check, found.notes + notes)
+
+
+def certify(request: Request, plan: Plan, base: Baselines, found: Search, choice: Choice):
+    """The chosen move's exact nominal timing and deviation, and in robust mode its worst
+    exact cycle time over the check grid; what the baselines or the search already
+    certified for this move is reused (a baseline's timing, the floor's deviation, the
+    search's grid of cycle times)."""
+    r, model, move = request, plan.setup.model, choice.move
+    entries = base.moves.entries
+    known = next((e for e in entries if move.kind == "baseline" and e.name == move.name), None)
+    timing = known.timing if known else analyze_move(model, move.acc, r.dt_s, r.threshold_m)
+    deviation = base.floor_deviation if known is entries[0] else None
+    if deviation is None:
+        deviation = deviation_summary(model, move.acc, r.dt_s)
+    worst = None
+    if r.robust is not None:
+        worst = _worst_case(found.problem, move, r.dt_s, r.threshold_m)
+    return Certified(timing, deviation, worst)
+
+
+def _worst_case(problem: Problem, move: Candidate, dt_s: float, threshold_m: float) -> dict:
+    """Worst exact cycle time over the robust check grid (the move's certified grid if it
+    has one, else computed on the problem's scenarios)."""
+    grid = move.grid
+    if grid is None:
+        samples = as_move(move.acc, dt_s, at_rest=True)  # checked once for the whole grid
+        grid = [
+            (
+                s.scale,
+                s.zeta,
+                analyze_move(s.model, samples, dt_s, threshold_m, settle=False).cycle_time_s,
+            )
+            for s in problem.scenarios
+        ]
+    scale, zeta, cycle = max(grid, key=lambda g: g[2])
+    return {
+        "cycle_time_s": cycle,
+        "freq_scale": scale,
+        "zeta": zeta,
+        "grid": [{"freq_scale": s, "zeta": z, "cycle_time_s": c} for s, z, c in grid],
+    }
+
+
+def report(
+    request: Request,
+    plan: Plan,
+    base: Baselines,
+    found: Search,
+    choice: Choice,
+    certified: Certified,
+    start_s: float,
+) -> OptimizationResult:
+    """The OptimizationResult: the chosen move, what is certified about it, the baselines,
+    the advice and the search's statistics; its wall time counted from ``start_s`` (a
+    ``time.perf_counter()``)."""
+    r, setup, move = request, plan.setup, choice.move
+    history, problem = found.history, found.problem
+    stats = {
+        "route": found.subsolver.name,
+        "attempts": [a.summary() for a in history],
+        "subproblems": sum(len(a.solver_stats) for a in history),
+        "pooled_rows": len(problem.pool),
+        "training_scenarios": [problem.scenarios[i].as_dict() for i in problem.training],
+        "totals": _totals(history),
+        "notes": choice.notes,
+    }
+    return OptimizationResult(
+        clearance_m=r.clearance_m,
+        model=setup.model,
+        distance_m=setup.distance_m,
+        dt_s=r.dt_s,
+        threshold_m=r.threshold_m,
+        limits=r.limits,
+        method=r.method,
+        solver=r.solver,
+        robust=r.robust,
+        acc=move.acc,
+        timing=certified.timing,
+        deviation=certified.deviation,
+        constraint_check=choice.check,
+        source=move.name if move.kind == "baseline" else move.kind,
+        warnings=plan.advice + base.advice,
+        solver_stats=stats,
+        wall_time_s=time.perf_counter() - start_s,
+        baselines=base.moves,
+        worst_case=certified.worst_case,
+        constraints=setup.describe_move(move.acc, r.dt_s) if setup.families else [],
+        cell=setup,
+    )
+
+
+_SUMMED = (
+    "lp_solves",
+    "lp_wall_s",
+    "lp_iterations",
+    "nlp_solves",
+    "nlp_wall_s",
+    "iterations",
+    "jax_evaluations",
+    "jax_s",
+)
+
+
+def _totals(history: list[Attempt]) -> dict:
+    """Solver work summed over every subproblem of the search; for the gradient route also
+    whether every Ipopt / SLSQP run reported success (casadi ``stats()['success']``)."""
+    every = [s for a in history for s in a.solver_stats]
+    totals = {key: sum(s.get(key, 0) for s in every) for key in _SUMMED}
+    totals = {k: v for k, v in totals.items() if v}
+    if any("success" in s for s in every):
+        totals["all_nlp_success"] = all(s.get("success", True) for s in every)
+    return totals
