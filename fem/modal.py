@@ -24,6 +24,7 @@ from fem.outputs import modal_outputs, static_displacements, static_response
 from fem.parts import Part
 from fem.plan import fe_plan
 from fem.plate import assemble_plate
+from fem.rotation_integrals import rotational_inertia
 from fem.shell import assemble_shell
 from fem.solid import assemble_solid
 from fem.supports import as_support_list, check_layout, contact_discs
@@ -182,7 +183,9 @@ class ModalResult:
         overrides the damping (scalar, per mode or fem.Rayleigh). A held part's model carries
         the points' exact static displacement per unit base acceleration (one extra sparse
         solve, fem.outputs.static_response) and, with ``outputs`` (default), the cup
-        reactions and the surface stresses; a part with rigid-body modes has neither."""
+        reactions and the surface stresses; a part with rigid-body modes has neither. Plate,
+        thin-solid and shell models carry the inertia data of turning moves
+        (fem.rotation_integrals)."""
         if self.n_modes == 0:
             raise InputError("to_modal_model: the analysis found no elastic mode")
         idx = self.select_nodes(points, key_points, key_tolerance_m)
@@ -210,6 +213,7 @@ class ModalResult:
             cups=cups,
             stress=stress,
             static_shapes=static,
+            rotation=rotational_inertia(self),
         )
 
     def meta(self, damping=None, n_points: int | None = None) -> dict[str, Any]:

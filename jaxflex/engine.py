@@ -48,13 +48,6 @@ def step_matrices(model, dt_s, *, hold: str = "linear", xp: Any = jnp):
     return phi, g0, g1
 
 
-def _drive(model, acc, dt_s, hold, xp):
-    phi, g0, g1 = step_matrices(model, dt_s, hold=hold, xp=xp)
-    force = modal_forces(model, acc, xp)
-    drive = g0[None] * force[:-1, :, None] + g1[None] * force[1:, :, None]  # (n, M, 2)
-    return phi, drive
-
-
 def modal_states(model, acc, dt_s, *, x0=None, hold: str = "linear", xp: Any = jnp):
     """Modal states at every sample: (n+1, M, 2) with [..., 0] = q (kg^0.5 m) and [..., 1] = q'.
 
@@ -62,7 +55,15 @@ def modal_states(model, acc, dt_s, *, x0=None, hold: str = "linear", xp: Any = j
     is a ``lax.scan`` (traceable); with ``xp=numpy`` a loop over the steps (~3 us per step for
     40 modes, and nothing to compile).
     """
-    phi, drive = _drive(model, acc, dt_s, hold, xp)
+    return forced_states(model, modal_forces(model, acc, xp), dt_s, x0=x0, hold=hold, xp=xp)
+
+
+def forced_states(model, force, dt_s, *, x0=None, hold: str = "linear", xp: Any = jnp):
+    """:func:`modal_states` for given modal forces ``force`` (n+1, M) in kg^0.5 m/s^2 at the
+    samples (linear in between): the recursion of any forcing (jaxflex.turning)."""
+    phi, g0, g1 = step_matrices(model, dt_s, hold=hold, xp=xp)
+    force = xp.asarray(force)
+    drive = g0[None] * force[:-1, :, None] + g1[None] * force[1:, :, None]  # (n, M, 2)
     p11, p12, p21, p22 = phi[:, 0, 0], phi[:, 0, 1], phi[:, 1, 0], phi[:, 1, 1]
     n_steps, n_modes = drive.shape[0], drive.shape[1]
     x0 = xp.zeros((n_modes, 2), drive.dtype) if x0 is None else xp.asarray(x0, drive.dtype)

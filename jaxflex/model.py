@@ -35,6 +35,7 @@ from jaxflex.outputs import (
     stress_from_fields,
     stress_to_fields,
 )
+from jaxflex.rotation import RotationalInertia, checked_rotation
 from jaxflex.validation import is_validated, validated
 
 # Data derived from a concrete model's shapes and points alone (the point blocks of
@@ -42,7 +43,8 @@ from jaxflex.validation import is_validated, validated
 # models a robust grid derives (other frequencies or damping) keep them (a validated array
 # is not copied). (id(shapes), id(points)) -> (weak references to both, the cache).
 _SHAPE_CACHES: dict[tuple[int, int], tuple[weakref.ref, weakref.ref, dict]] = {}
-OUTPUT_FIELDS = ("cups", "stress", "static_shapes")  # optional pytree children after ARRAY_FIELDS
+# optional pytree children after ARRAY_FIELDS
+OUTPUT_FIELDS = ("cups", "stress", "static_shapes", "rotation")
 # meta["static_response"] of a model whose static displacement is not the FE's (an older file,
 # or a source without a stiffness matrix): what its gravity sag and quasi-static share are
 __all__ = ["MODES_ONLY_STATIC", "ModalModel", "load_model", "save_model", "stack_models"]
@@ -130,6 +132,9 @@ class ModalModel:
             kept: the mode-acceleration method), and gravity g sags the part at rest by
             -static_shapes g. None: only the modes are known (D = 0; the sag from the modes,
             truncated).
+        rotation: optional jaxflex.rotation.RotationalInertia (inertia shape integrals and
+            the rigid inertia: what moves that turn the part need). None: the model cannot
+            turn the part.
 
     Construction from concrete arrays validates every field and raises ModelError naming
     the field. Inside ``jax.jit``/``jax.vmap`` the model is a pytree and is not re-validated.
@@ -145,6 +150,7 @@ class ModalModel:
     cups: CupSet | None = None
     stress: StressSet | None = None
     static_shapes: Any = None
+    rotation: RotationalInertia | None = None
 
     def __post_init__(self) -> None:
         leaves = jax.tree_util.tree_leaves(
@@ -157,6 +163,7 @@ class ModalModel:
                 self.cups,
                 self.stress,
                 self.static_shapes,
+                self.rotation,
             )
         )
         if not all(_is_concrete(x) for x in leaves):
@@ -232,6 +239,8 @@ class ModalModel:
                         f"got {type(value).__name__}"
                     )
                 object.__setattr__(self, name, check(value, freq, gamma))
+        if self.rotation is not None:
+            object.__setattr__(self, "rotation", checked_rotation(self.rotation, n_modes))
         for name, value in (*arrays.items(), ("labels", labels), ("meta", meta)):
             object.__setattr__(self, name, value)
 
@@ -335,6 +344,7 @@ class ModalModel:
             shapes=self.shapes[:, :, keep],
             cups=cups,
             stress=stress,
+            rotation=None if self.rotation is None else self.rotation.take_modes(keep),
         )  # the static displacement stays: the dropped modes join the static residual
 
     def select_points(self, indices: Sequence[int] | np.ndarray) -> ModalModel:
@@ -444,6 +454,9 @@ class ModalModel:
             points=np.asarray(self.points) @ r.T + offset,
             cups=None if self.cups is None else self.cups.rotated(r, offset),
             stress=None if self.stress is None else self.stress.rotated(r, offset),
+            rotation=None
+            if self.rotation is None
+            else self.rotation.posed(r, offset, np.asarray(self.gamma)),
             meta={**dict(self.meta), "pose": {"rotation": r.tolist(), "offset_m": offset.tolist()}},
         )
 
@@ -459,6 +472,7 @@ class ModalModel:
             "cups": self.cups,
             "stress": self.stress,
             "static_shapes": self.static_shapes,
+            "rotation": self.rotation,
         }
         fields.update(changes)
         return ModalModel(**fields)
@@ -472,6 +486,8 @@ class ModalModel:
             arrays.update(cups_to_fields(self.cups))
         if self.stress is not None:
             arrays.update(stress_to_fields(self.stress))
+        if self.rotation is not None:
+            arrays.update(self.rotation.to_fields())
         write_model_file(path, arrays, self.labels, dict(self.meta))
 
 
@@ -511,6 +527,8 @@ def load_model(path) -> ModalModel:
             fields["cups"] = cups_from_fields(optional["cups"], modes)
         if "stress" in optional:
             fields["stress"] = stress_from_fields(optional["stress"], modes)
+        if "rotation" in optional:
+            fields["rotation"] = RotationalInertia.from_fields(optional["rotation"])
         if version < 3:
             fields["meta"] = {**fields["meta"], "static_response": _legacy_static(version)}
         return ModalModel(**fields)

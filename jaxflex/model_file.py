@@ -8,7 +8,8 @@ Schema version 3 holds the members of :data:`FIELDS`:
     labels (K,) unicode (optional; empty strings: unlabelled points),
 and, optionally, the groups of fields marked with a ``group`` (all fields of a group or none;
 see jaxflex.outputs and jaxflex.model for their meaning): the exact static displacement of
-the points per unit base acceleration, the cups and their reactions, the surface stresses.
+the points per unit base acceleration, the cups and their reactions, the surface stresses,
+the inertia data of turning moves (jaxflex.rotation; files without it cannot turn the part).
 Version 2 files are read as well (they hold no static displacement, and the outputs' modal
 A instead of their static response S: jaxflex.outputs.legacy_static_map derives S), and
 version 1 files (the same without any group).
@@ -114,6 +115,14 @@ STATIC_FIELDS = _group(
     "static",
     ("static_shapes", ("K", 3, 3), "m per unit base acceleration (m/s^2), at rest", 3),
 )
+# The inertia shape integrals and the rigid inertia for turning moves (jaxflex.rotation).
+ROTATION_GROUP = _group(
+    "rotation",
+    ("rotation_shape_integrals", ("M", 3, 3), "kg^0.5 m: phi^T M (e_j r_i)", 3),
+    ("rotation_mass_kg", (1,), "kg", 3),
+    ("rotation_centre_m", (3,), "m (centre of mass)", 3),
+    ("rotation_inertia_kg_m2", (3, 3), "kg m^2 about the model frame's origin", 3),
+)
 FIELDS = (
     Field("format", "text", ()),
     Field("schema_version", "integer", ()),
@@ -127,10 +136,16 @@ FIELDS = (
     *STATIC_FIELDS,
     *CUP_FIELDS,
     *STRESS_FIELDS,
+    *ROTATION_GROUP,
 )
 FIELD_BY_NAME = {f.name: f for f in FIELDS}
 HEADER_FIELDS = ("format", "schema_version", "meta_json")  # read first, by name
-_GROUPS = (("static", STATIC_FIELDS), ("cups", CUP_FIELDS), ("stress", STRESS_FIELDS))
+_GROUPS = (
+    ("static", STATIC_FIELDS),
+    ("cups", CUP_FIELDS),
+    ("stress", STRESS_FIELDS),
+    ("rotation", ROTATION_GROUP),
+)
 OPTIONAL_FIELDS: dict[str, tuple[str, ...]] = {
     group: tuple(f.name for f in fields if f.in_version(SCHEMA_VERSION))
     for group, fields in _GROUPS

@@ -1,0 +1,221 @@
+"""The response to moves that turn the part (floating frame of reference).
+
+In the body frame of the gripper (the model frame, origin O) a point r of the part moves by
+the elastic displacement u, and the frame by the acceleration a_O of its origin, the angular
+velocity w and the angular acceleration alpha (body components; jaxflex.pose). With gravity
+g (body components g_b = R^T g, turning with the part) the FE equation reads
+
+    M u'' + C u' + K u = -M [a_O - g_b + alpha x r + w x (w x r)]            (kept)
+                         -M [2 w x u' + alpha x u + w x (w x u)]             (neglected)
+
+The first line is the modal forcing this module integrates, through the inertia shape
+integrals S (jaxflex.rotation):
+
+    f_m = -Gamma_m . (a_O - g_b) - Gamma_rot,m . alpha - tr(A(w) S_m),   A(w) = w w^T - |w|^2 I,
+
+sampled at the pose samples and advanced by the engine's exact first-order-hold recursion
+(jaxflex.engine.forced_states): exact for the sampled forcing, like a straight move. The
+translation is the acceleration of a pivot (world components), moved to O by the rigid
+rotation terms.
+
+**Deviation about the equilibrium at the current pose**: the part starts at rest sagging
+under gravity in its start pose (q_0 = Omega^-2 Gamma g_b(0)), and the deviation is measured
+from the static sag of the pose it is in, u_eq(t) = -static_shapes g_b(t), so a part tilted
+at B settles to its sag at B. With the mode-acceleration split (jaxflex.model) the deviation
+is u - u_eq = Phi p + D a_O with p = q - Omega^-2 Gamma g_b(t): the model's static residual
+D stays the translation's. The quasi-static share of the modes left out under the Euler and
+centrifugal loads is not included (with every mode kept it is zero; with truncated modes it
+is the static flexibility of the modes left out times alpha r and w^2 r).
+
+**Neglected terms, bounded.** The second line (Coriolis/gyroscopic 2 w x u', the Euler term
+on the deformation alpha x u, spin softening w x (w x u)) is left out and its effect bounded
+(:func:`neglected_bound`): the error e = u_true - u obeys the full equation with the
+neglected loads of the computed u as forcing, plus those of e itself. The gyroscopic load of
+e does no work (M [w]x is skew for a mass matrix M_s (x) I_3), the other two are at most
+(|alpha| + |w|^2) |e|_M <= (|alpha| + |w|^2) / omega_1 E, so the error's energy norm
+E = sqrt(|e'|_M^2 + |e|_K^2) obeys E' <= G(t) + c(t) E with G = 2 |w| |q'| + (|alpha| +
+|w|^2) |q| (modal norms of the computed response) and c = (|alpha| + |w|^2) / omega_1; hence
+E(t) <= exp(int c) int G, which does not grow after the move (w = alpha = 0, damping only
+takes energy out). A point moves at most E sqrt(sum_m |phi_m(p)|^2 / omega_m^2) (Cauchy-
+Schwarz over the kept modes). The integrals are taken with the larger of the two samples
+of each step (the path's rates are smooth between samples).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxflex.deviation import blocks_of, deviation, with_acceleration
+from jaxflex.engine import forced_states, free_states
+from jaxflex.errors import InputError
+from jaxflex.pose import PosePath
+from jaxflex.rotation import LEVI_CIVITA, require_rotation
+
+GRAVITY_M_S2 = (0.0, 0.0, -9.81)
+
+
+def body_loads(path: PosePath, acc_m_s2, gravity_m_s2, pivot_m, xp=np):
+    """(a_O (n+1, 3), g_b (n+1, 3)) m/s^2 in body components: the acceleration of the model
+    frame's origin when the pivot ``pivot_m`` (3,) m (model frame) moves with the world
+    acceleration samples ``acc_m_s2`` (n+1, 3), and gravity ``gravity_m_s2`` (3,) (world)."""
+    rot = xp.asarray(path.rotation)
+    w, alpha = xp.asarray(path.omega_rad_s), xp.asarray(path.alpha_rad_s2)
+    c = xp.asarray(pivot_m)
+    a_pivot = xp.einsum("kji,kj->ki", rot, xp.asarray(acc_m_s2))
+    arm = -c[None]  # from the pivot to the origin
+    a_origin = a_pivot + xp.cross(alpha, arm) + xp.cross(w, xp.cross(w, arm))
+    gravity = xp.einsum("kji,j->ki", rot, xp.asarray(gravity_m_s2))
+    return a_origin, gravity
+
+
+def turning_forces(model, path: PosePath, a_origin, gravity, xp=np):
+    """(n+1, M) modal forces (kg^0.5 m/s^2) of the kept loads (module docstring)."""
+    s = xp.asarray(model.rotation.shape_integrals)
+    gamma = xp.asarray(model.gamma)
+    w, alpha = xp.asarray(path.omega_rad_s), xp.asarray(path.alpha_rad_s2)
+    gamma_rot = xp.einsum("kij,mij->mk", xp.asarray(LEVI_CIVITA), s)
+    spin = xp.einsum("ki,kj->kij", w, w) - xp.einsum("k,ij->kij", xp.sum(w * w, axis=1), xp.eye(3))
+    return -(a_origin - gravity) @ gamma.T - alpha @ gamma_rot.T - xp.einsum("kji,mij->km", spin, s)
+
+
+def gravity_coordinates(model, gravity, xp=np):
+    """(T, M) Omega^-2 Gamma g_b: the modal sag under gravity ``gravity`` (T, 3) (body)."""
+    omega = 2.0 * np.pi * xp.asarray(model.freq_hz)
+    return (xp.asarray(gravity) @ xp.asarray(model.gamma).T) / omega**2
+
+
+def _turning_coordinates(model, path, acc, gravity_m_s2, pivot_m, dt_s, xp):
+    a_origin, gravity = body_loads(path, acc, gravity_m_s2, pivot_m, xp)
+    force = turning_forces(model, path, a_origin, gravity, xp)
+    sag = gravity_coordinates(model, gravity, xp)
+    x0 = xp.stack([sag[0], xp.zeros_like(sag[0])], axis=-1)
+    states = forced_states(model, force, dt_s, x0=x0, xp=xp)
+    return states, sag, a_origin, gravity
+
+
+@jax.jit
+def _turning_deviation(model, blocks, path, acc, gravity_m_s2, pivot_m, dt_s):
+    states, sag, a_origin, _ = _turning_coordinates(
+        model, path, acc, gravity_m_s2, pivot_m, dt_s, jnp
+    )
+    return deviation(blocks, with_acceleration(model, states[..., 0] - sag, a_origin, jnp))
+
+
+def turning_deviation(model, path: PosePath, acc, *, gravity_m_s2=GRAVITY_M_S2, pivot_m=(0, 0, 0)):
+    """d (n+1,) m at the samples of the turning move (JAX, compiled once per length): the
+    kernel of :func:`simulate_turning`, for timing and batches. Concrete ``model``."""
+    require_rotation(model)
+    blocks = blocks_of(model, moving=True)
+    device_path = jax.tree_util.tree_map(jnp.asarray, path)
+    return _turning_deviation(
+        model,
+        blocks,
+        device_path,
+        jnp.asarray(acc, jnp.float64),
+        jnp.asarray(gravity_m_s2, jnp.float64),
+        jnp.asarray(pivot_m, jnp.float64),
+        path.dt_s,
+    )
+
+
+@dataclass(frozen=True)
+class TurningResponse:
+    """Response to a turning move (SI units).
+
+    t_s (T,); q, qd (T, M): the modal deviation coordinates p = q - Omega^-2 Gamma g_b and
+    the modal velocity; deviation_m (T,) from the equilibrium at the current pose;
+    acc_body_m_s2, gravity_body_m_s2 (n+1, 3): the frame origin's acceleration and gravity
+    in body components at the move's samples; neglected_bound_m: bound on what the
+    gyroscopic, Euler-on-deformation and spin-softening terms change at any point at any
+    time (module docstring), neglected_energy: its energy-norm bound E (kg^0.5 m/s).
+    """
+
+    t_s: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    deviation_m: np.ndarray
+    acc_body_m_s2: np.ndarray
+    gravity_body_m_s2: np.ndarray
+    neglected_bound_m: float
+    neglected_energy: float
+
+    @property
+    def end_state(self) -> np.ndarray:
+        """(M, 2) deviation state at the end of the move (free vibration afterwards)."""
+        n = self.acc_body_m_s2.shape[0] - 1
+        return np.stack([self.q[n], self.qd[n]], axis=-1)
+
+
+def neglected_bound(model, path: PosePath, states: np.ndarray) -> tuple[float, float]:
+    """(bound on any point's displacement change, m; energy-norm bound E) of the neglected
+    terms for the computed total modal states ``states`` (n+1, M, 2) (module docstring)."""
+    w = np.linalg.norm(path.omega_rad_s, axis=1)
+    alpha = np.linalg.norm(path.alpha_rad_s2, axis=1)
+    omega = 2.0 * np.pi * np.asarray(model.freq_hz)
+    q_norm = np.linalg.norm(states[..., 0], axis=1)
+    v_norm = np.linalg.norm(states[..., 1], axis=1)
+    load = 2.0 * w * v_norm + (alpha + w**2) * q_norm
+    growth = (alpha + w**2) / omega.min()
+    step = lambda x: np.maximum(x[:-1], x[1:]).sum() * path.dt_s  # noqa: E731
+    energy = math.exp(step(growth)) * step(load)
+    flex = np.sqrt(np.max(np.sum(np.asarray(model.shape_norms) ** 2 / omega**2, axis=1)))
+    return float(energy * flex), float(energy)
+
+
+def simulate_turning(
+    model,
+    path: PosePath,
+    acc,
+    *,
+    gravity_m_s2=GRAVITY_M_S2,
+    pivot_m=(0.0, 0.0, 0.0),
+    extend_s: float = 0.0,
+) -> TurningResponse:
+    """Response of ``model`` (with jaxflex.rotation data) to the turning ``path`` while the
+    pivot ``pivot_m`` (model frame, m) moves with world acceleration samples ``acc``
+    ((n+1, 3) m/s^2 at the path's dt_s), under ``gravity_m_s2`` (world, default -9.81 m/s^2
+    along z; (0, 0, 0) for none). With ``extend_s`` the free vibration after the move
+    follows (whole steps; the path must end at rest). NumPy (nothing to compile)."""
+    require_rotation(model)
+    acc = np.asarray(acc, dtype=np.float64)
+    n = path.n_steps
+    if acc.shape != (n + 1, 3):
+        raise InputError(f"acc: expected shape ({n + 1}, 3) like the pose path, got {acc.shape}")
+    states, sag, a_origin, gravity = _turning_coordinates(
+        model, path, acc, np.asarray(gravity_m_s2, float), np.asarray(pivot_m, float), path.dt_s, np
+    )
+    bound, energy = neglected_bound(model, path, states)
+    omega = 2.0 * np.pi * np.asarray(model.freq_hz)
+    # p' = q' + Omega^-2 Gamma (w x g_b): gravity seen from the turning frame
+    dsag = np.cross(path.omega_rad_s, gravity) @ np.asarray(model.gamma).T / omega**2
+    p = np.stack([states[..., 0] - sag, states[..., 1] + dsag], axis=-1)
+    base = a_origin
+    if extend_s:
+        rate_scale = 1e-9 * max(1.0, float(np.abs(path.omega_rad_s).max()))
+        if (
+            np.abs(path.omega_rad_s[-1]).max() > rate_scale
+            or acc[-1].any()
+            or path.alpha_rad_s2[-1].any()
+        ):
+            raise InputError("extend_s: the move must end at rest (acceleration and rate 0)")
+        n_free = int(np.ceil(extend_s / path.dt_s - 1e-9))
+        tau = path.dt_s * np.arange(1, n_free + 1)
+        p = np.concatenate([p, free_states(model, p[-1], tau, np)], axis=0)
+        base = np.concatenate([a_origin, np.zeros((n_free, 3))])
+    coords = with_acceleration(model, p[..., 0], base, np)
+    dev = np.asarray(deviation(blocks_of(model, moving=True), jnp.asarray(coords)))
+    return TurningResponse(
+        t_s=path.dt_s * np.arange(p.shape[0]),
+        q=p[..., 0],
+        qd=p[..., 1],
+        deviation_m=dev,
+        acc_body_m_s2=a_origin,
+        gravity_body_m_s2=gravity,
+        neglected_bound_m=bound,
+        neglected_energy=energy,
+    )
