@@ -24,7 +24,7 @@ import numpy as np
 from fem.plate import PlateOutputs
 from fem.shell import DOFS_PER_NODE, ShellOutputs
 from fem.solid import SolidOutputs
-from jaxflex.rotation import LEVI_CIVITA, RotationalInertia
+from jaxflex.response import LEVI_CIVITA, RotationalInertia
 
 
 def linear_fields(system) -> np.ndarray | None:

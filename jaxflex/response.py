@@ -1,8 +1,9 @@
 """The building blocks of the certified response, for the layers above the core (fem, optim,
 fmu): the exact modal state maps (engine), deviation and outputs at points (deviation,
 outputs, loads), the decay envelopes and certified peaks (decay, peaks), the move's samples
-(profile, grid) and the point sets (points). Public: these names are kept stable for the
-upper layers; the modules they come from are private to the core.
+(profile, grid), the point sets (points), and turning moves (pose, rotation, turning: a
+turn about a fixed axis, the model's rotational inertia data). Public: these names are
+kept stable for the upper layers; the modules they come from are private to the core.
 
 Units and shapes: each function's docstring (SI units throughout; a move ``acc`` is
 (n+1, 3) m/s^2 at step ``dt_s`` s).
@@ -65,6 +66,7 @@ from jaxflex.points import (
     snap_key_points,
     voxel_downsample,
 )
+from jaxflex.pose import PosePath, fixed_axis_path, turn_acceleration
 from jaxflex.profile import (
     acceleration_at,
     as_move,
@@ -75,23 +77,29 @@ from jaxflex.profile import (
     kinematics_at,
     position_weights,
 )
+from jaxflex.rotation import LEVI_CIVITA, RotationalInertia
 from jaxflex.settle import SettleReport, analyze_move
 from jaxflex.simulate import (
     move_deviation,
     on_device,
 )
+from jaxflex.turning import TurningResponse, simulate_turning
 
 __all__ = [
     "ARRAY_FIELDS",
     "DEFAULT_CUP_SAFETY",
     "DEFAULT_STRESS_SAFETY",
+    "LEVI_CIVITA",
     "VALUE_RANGES",
     "CupSet",
     "CupUtilisation",
     "LinearOutputs",
     "Peak",
+    "PosePath",
+    "RotationalInertia",
     "SettleReport",
     "StressSet",
+    "TurningResponse",
     "VonMises",
     "acceleration_at",
     "amplitudes",
@@ -106,6 +114,7 @@ __all__ = [
     "end_state_map",
     "enforce_end_state",
     "envelope_horizon",
+    "fixed_axis_path",
     "free_rows",
     "grid_values",
     "integrate",
@@ -124,10 +133,12 @@ __all__ = [
     "position_weights",
     "response_shapes",
     "rest_padded",
+    "simulate_turning",
     "snap_key_points",
     "state_map",
     "state_maps_at",
     "states_at",
+    "turn_acceleration",
     "upsample",
     "voxel_downsample",
     "with_acceleration",
