@@ -36,19 +36,16 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from fem.parts import Part
 from fem.sizing_curves import SettleReference, curve_error, truncation_curves
-from fem.sizing_levels import Level, SizingRun
+from fem.sizing_levels import Final, Level, MeshChoice, SizingRun
 from fem.sizing_report import sizing_result
 from fem.sizing_request import DEFAULT_SHARES, SizingRequest
 from fem.sizing_result import Row, SizingResult
 from jaxflex.defaults import DT_S
-from jaxflex.model import ModalModel
 from jaxflex.response import analyze_move, deviation_curves, voxel_downsample
 from jaxflex.runtime import progress_bar
 
@@ -57,31 +54,6 @@ REFERENCE_MODES_SHARE = 0.5  # quasi-static residual allowed in the modes' share
 MODES_GROWTH = 1.5  # eigen solves get dearer with the mode count: do not overshoot by 2x
 FINAL_RETRIES = 3
 MAX_ORDER = 2.0  # Richardson: displacement order of Morley; the cup clamp converges at 1
-
-
-@dataclass(frozen=True)
-class MeshChoice:
-    """Stage 1's answer: the chosen mesh, the reference (the next finer one, or the chosen
-    if it is the finest), the reference's estimated error and whether the sequence met the
-    mesh share."""
-
-    level: Level
-    reference: Level
-    estimate: dict[str, Any]
-    ok: bool
-
-
-@dataclass(frozen=True)
-class Final:
-    """The combined choice (model, point indices, voxel size) and its check against the
-    reference: ``err`` (curve_error with the reference's ``peak_m``), ``settle``, ``ok``."""
-
-    model: ModalModel
-    idx: np.ndarray
-    voxel: float | None
-    err: dict
-    settle: Any
-    ok: bool
 
 
 def _richardson(deltas: list[float], ratios: list[float]) -> tuple[float, float | None, str]:

@@ -13,6 +13,7 @@ import itertools
 import math
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -191,3 +192,28 @@ class SizingRun:
                 "(flat part) only responds to acceleration along z"
             )
         return peak
+
+
+@dataclass(frozen=True)
+class MeshChoice:
+    """Stage 1's answer: the chosen mesh, the reference (the next finer one, or the chosen
+    if it is the finest), the reference's estimated error and whether the sequence met the
+    mesh share."""
+
+    level: Level
+    reference: Level
+    estimate: dict[str, Any]
+    ok: bool
+
+
+@dataclass(frozen=True)
+class Final:
+    """The combined choice (model, point indices, voxel size) and its check against the
+    reference: ``err`` (curve_error with the reference's ``peak_m``), ``settle``, ``ok``."""
+
+    model: ModalModel
+    idx: np.ndarray
+    voxel: float | None
+    err: dict
+    settle: Any
+    ok: bool

@@ -4,13 +4,10 @@ errors (measured, and the reference's own estimated error), the physical checks,
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from fem.sizing_levels import Level, SizingRun, cup_element_m
+from fem.sizing_levels import Final, Level, MeshChoice, SizingRun, cup_element_m
 from fem.sizing_result import SizingResult
-
-if TYPE_CHECKING:  # fem.sizing imports this module
-    from fem.sizing import Final, MeshChoice
 
 
 def _choice(run: SizingRun, level: Level, final: Final) -> dict[str, Any]:

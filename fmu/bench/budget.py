@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fmu.bench.emit import emit_json
 from jaxflex.defaults import THRESHOLD_M
-from jaxflex.files import write_text_atomic
 
 CASES = {
     "morley": (0.03, 0.015, 0.0075, 0.005),
@@ -275,11 +275,7 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(one_case(args.case[0], float(args.case[1]))))
         return 0
     if args.refusals:
-        text = json.dumps(refusals(), indent=2)
-        print(text)
-        if args.output:
-            write_text_atomic(args.output, text + "\n")
-        return 0
+        return emit_json(refusals(), args.output)
     rows = []
     for element, sizes in CASES.items():
         for size in sizes:
@@ -291,11 +287,7 @@ def main(argv: list[str] | None = None) -> int:
             )
             rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
             print(json.dumps(rows[-1]), file=sys.stderr)
-    text = json.dumps(rows, indent=2)
-    print(text)
-    if args.output:
-        write_text_atomic(args.output, text + "\n")
-    return 0
+    return emit_json(rows, args.output)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,6 @@ cluster and each worker's imports and JIT compilation (plots are not drawn).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import tempfile
 import time
@@ -22,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxflex.files import write_text_atomic
+from fmu.bench.emit import emit_json
 from jaxflex.model import ModalModel
 from jaxflex.response import ARRAY_FIELDS
 from optim.limits import Limits
@@ -141,11 +140,7 @@ def main(argv: list[str] | None = None) -> int:
     report["serial"] = {k: v for k, v in serial.items() if k != "run"}
     report["local_cluster"] = {k: v for k, v in local.items() if k != "run"}
     report["speedup_local_cluster"] = round(local["cases_per_min"] / serial["cases_per_min"], 2)
-    text = json.dumps(report, indent=2)
-    print(text)
-    if args.output:
-        write_text_atomic(args.output, text + "\n")
-    return 0
+    return emit_json(report, args.output)
 
 
 if __name__ == "__main__":

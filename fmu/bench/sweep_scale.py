@@ -24,7 +24,6 @@ import argparse
 import ctypes
 import ctypes.util
 import gc
-import json
 import os
 import sys
 import tempfile
@@ -35,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import psutil
 
-from jaxflex.files import write_text_atomic
+from fmu.bench.emit import emit_json
 from optim.sweep.run import run_sweep
 from optim.sweep.spec import SweepSpec, parse_spec
 from optim.sweep.store import ResultStore
@@ -271,11 +270,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         with tempfile.TemporaryDirectory() as tmp:
             report = measure(tmp, n_workers=args.workers, n_moves=args.moves)
-    text = json.dumps(report, indent=2)
-    print(text)
-    if args.output:
-        write_text_atomic(args.output, text + "\n")
-    return 0
+    return emit_json(report, args.output)
 
 
 if __name__ == "__main__":
