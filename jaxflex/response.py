@@ -83,7 +83,7 @@ from jaxflex.simulate import (
     move_deviation,
     on_device,
 )
-from jaxflex.turning import TurningResponse, simulate_turning
+from jaxflex.turning import TurningResponse, simulate_turning, turning_settle
 
 __all__ = [
     "ARRAY_FIELDS",
@@ -139,6 +139,7 @@ __all__ = [
     "state_maps_at",
     "states_at",
     "turn_acceleration",
+    "turning_settle",
     "upsample",
     "voxel_downsample",
     "with_acceleration",

@@ -391,6 +391,35 @@ def analyze_move(
     )
 
 
+def settle_after(
+    model: ModalModel, x_end, t_end_s: float, threshold_m: float, during_m=None
+) -> SettleReport:
+    """Exact settle and cycle time of a move that ends at ``t_end_s`` (s) in the modal
+    deviation state ``x_end`` (M, 2) and leaves the model's free vibration after it (a
+    turning move: jaxflex.turning). After the move the search is the one of
+    :func:`analyze_move` (certified); a settling inside the move is the last sample of
+    ``during_m`` (deviation at the move's samples, m) above the threshold (sampled: the cycle
+    time does not depend on it)."""
+    threshold_m = check_positive("threshold_m", threshold_m)
+    decay = _FreeDecay(model, np.asarray(x_end, dtype=np.float64), t_end_s)
+    tail, horizon = _tail_settle(decay, threshold_m)
+    if tail is not None:
+        settle_s = t_end_s + tail
+    else:
+        above = np.flatnonzero(np.asarray([] if during_m is None else during_m) > threshold_m)
+        n_samples = 1 if during_m is None else len(during_m)
+        settle_s = 0.0 if above.size == 0 else t_end_s * above[-1] / max(n_samples - 1, 1)
+    return SettleReport(
+        transfer_time_s=t_end_s,
+        settle_time_s=settle_s,
+        cycle_time_s=max(t_end_s, settle_s),
+        threshold_m=threshold_m,
+        residual_m=decay.peak(t_end_s),
+        proof_horizon_s=float(t_end_s + horizon),
+        evaluations=decay.budget.count,
+    )
+
+
 def cycle_time(model: ModalModel, acc, dt_s: float, threshold_m: float) -> float:
     """Exact cycle time max(n dt_s, t_s) in s (see module docstring); inf if undamped modes
     keep the deviation above ``threshold_m`` (m) forever."""

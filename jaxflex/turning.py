@@ -55,6 +55,7 @@ from jaxflex.engine import forced_states, free_states
 from jaxflex.errors import InputError
 from jaxflex.pose import PosePath
 from jaxflex.rotation import LEVI_CIVITA, require_rotation
+from jaxflex.settle import settle_after
 
 GRAVITY_M_S2 = (0.0, 0.0, -9.81)
 
@@ -218,4 +219,15 @@ def simulate_turning(
         gravity_body_m_s2=gravity,
         neglected_bound_m=bound,
         neglected_energy=energy,
+    )
+
+
+def turning_settle(path: PosePath, model, response: TurningResponse, threshold_m: float):
+    """Exact settle and cycle time (jaxflex.settle.SettleReport) of the turning move of
+    ``response`` (from :func:`simulate_turning` on ``path``): after the move the part, at rest
+    in its final pose, vibrates freely about its sag there, so the certified search of a
+    straight move applies to the end state; a settling inside the move is sampled."""
+    n = path.n_steps
+    return settle_after(
+        model, response.end_state, n * path.dt_s, threshold_m, response.deviation_m[: n + 1]
     )
