@@ -120,24 +120,21 @@ class PlateOutputs:
 
     def linear_dofs(self) -> np.ndarray:
         """(n_dof, 3) DOF vectors of w = 1, x, y: values at the vertices, gradients (Argyris),
-        normal slopes on the edges. The orientation of each edge's normal is read from an L2
-        projection of x and y; the vectors are then checked exactly: the fields they give
-        must be 1, x and y at every quadrature point."""
+        normal slopes on the edges. Each edge's normal slope (its sign is the element's
+        convention) is solved from one element next to it: the field of that element's other
+        DOFs plus its three edge DOFs must be x (and y) at its quadrature points (a 3-unknown
+        least-squares fit, exact in exact arithmetic; an L2 projection of x over the whole
+        mesh is ill-conditioned through the second-derivative DOFs); the vectors are then
+        checked exactly: the fields they give must be 1, x and y at every quadrature point."""
         if self._linear is None:
             basis = skfem.Basis(self.mesh, self.elem, intorder=4)
-            projected = np.column_stack(
-                [basis.project(lambda x: x[0]), basis.project(lambda x: x[1])]
-            )
-            p, facets = self.mesh.p, self.mesh.facets
+            p = self.mesh.p
             out = np.zeros((basis.N, 3))
             out[self.nodal[0], 0] = 1.0
             out[self.nodal[0], 1:] = p.T
             if self.element == "argyris":
                 out[self.nodal[1], 1] = out[self.nodal[2], 2] = 1.0
-            d = p[:, facets[1]] - p[:, facets[0]]
-            normal = np.stack([d[1], -d[0]]) / np.hypot(d[0], d[1])
-            sign = np.sign(np.einsum("fc,cf->f", projected[self.facet_dofs], normal))
-            out[self.facet_dofs, 1:] = (sign * normal).T
+            self._edge_slopes(basis, out)
             x, y = np.asarray(basis.global_coordinates())  # (E, Q) each
             error = max(
                 np.abs(np.asarray(basis.interpolate(out[:, k])) - target).max()
@@ -147,6 +144,29 @@ class PlateOutputs:
                 raise RuntimeError(f"plate rigid motions: 1, x, y are missed by {error:.1e}")
             self._linear = out
         return self._linear
+
+    def _edge_slopes(self, basis, out: np.ndarray) -> None:
+        """Fill the edge DOFs of columns x, y of ``out`` (the other DOFs set) by the local fit
+        of :meth:`linear_dofs`, element by element (each edge from its first element)."""
+        element_dofs = basis.element_dofs  # (n_local, E)
+        is_edge = np.zeros(basis.N, dtype=bool)
+        is_edge[self.facet_dofs] = True
+        local_edge = np.flatnonzero(is_edge[element_dofs[:, 0]])
+        # local basis values at the quadrature points: (n_local, E, Q)
+        values = np.stack([np.asarray(b[0].value) for b in basis.basis])
+        x, y = np.asarray(basis.global_coordinates())
+        done = np.zeros(basis.N, dtype=bool)
+        for e in range(element_dofs.shape[1]):
+            dofs = element_dofs[:, e]
+            edges = dofs[local_edge]
+            if done[edges].all():
+                continue
+            known = np.setdiff1d(np.arange(len(dofs)), local_edge)
+            a = values[local_edge, e].T  # (Q, 3)
+            for k, target in ((1, x[e]), (2, y[e])):
+                rest = target - out[dofs[known], k] @ values[known, e]
+                out[edges, k] = np.linalg.lstsq(a, rest, rcond=None)[0]
+            done[edges] = True
 
     def rigid_motion(self, centre_m: np.ndarray) -> np.ndarray:
         """(n_dof, 6): the deflection w of unit rigid motions; a plate has no DOFs for the
