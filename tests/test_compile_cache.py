@@ -145,27 +145,34 @@ def test_concurrent_writers_and_readers_see_whole_entries(tmp_path):
     # write in place (JAX's own file store) lets a reader see a mixture or a truncated file
     store = _FileStore(tmp_path, _check_entry)
     values = [bytes([i]) * (2_000_000 + 100_000 * i) for i in range(1, 5)]
+    store.put("key", values[0])  # the readers always find an entry, however the threads run
     seen, failures = [], []
+    writing = threading.Event()
+    writing.set()
 
     def write(value: bytes) -> None:
         for _ in range(15):
             store.put("key", value)
 
     def read() -> None:
-        for _ in range(300):
-            try:
-                data = (tmp_path / f"key{SUFFIX}").read_bytes()
-            except FileNotFoundError:  # not written yet
-                continue
+        # reads for as long as anyone writes (and at least 20 times): no count that a loaded
+        # machine's scheduling can make miss the writes
+        count = 0
+        while writing.is_set() or count < 20:
+            data = (tmp_path / f"key{SUFFIX}").read_bytes()
             seen.append(len(data))
             if data not in values:
                 failures.append(len(data))
+            count += 1
 
-    threads = [threading.Thread(target=write, args=(v,)) for v in values]
-    threads += [threading.Thread(target=read) for _ in range(2)]
-    for thread in threads:
+    writers = [threading.Thread(target=write, args=(v,)) for v in values]
+    readers = [threading.Thread(target=read) for _ in range(2)]
+    for thread in readers + writers:
         thread.start()
-    for thread in threads:
+    for thread in writers:
+        thread.join()
+    writing.clear()
+    for thread in readers:
         thread.join()
     assert seen and not failures
     assert store.get("key") in values
