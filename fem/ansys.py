@@ -41,6 +41,7 @@ from fem.eigen import factorize
 from fem.imported import ImportedModes, file_digest
 from fem.mapdl_check import check_mapdl_file
 from fem.modal import solve_modes
+from fem.rotation_integrals import imported_inertia, nodal_fields
 from fem.solver_modes import rigid_mask, rigid_meta, user_gamma
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
@@ -48,6 +49,7 @@ from jaxflex.isolated import isolated
 
 DOF_LABELS = {1: "UX", 2: "UY", 3: "UZ", 4: "ROTX", 5: "ROTY", 6: "ROTZ"}
 TRANSLATIONS = ("UX", "UY", "UZ")
+ROTATIONS = ("ROTX", "ROTY", "ROTZ")
 STATED_UNITS = {
     "SI": "SI",
     "MKS": "SI",
@@ -304,18 +306,37 @@ def nodal_rotations(angles_deg) -> np.ndarray:
     return ry @ rx @ rz
 
 
-def _dof_rotation(dof_nodes: np.ndarray, labels: np.ndarray, rotations: dict | None):
+def _dof_rotation(
+    dof_nodes: np.ndarray, labels: np.ndarray, rotations: dict | None, names=TRANSLATIONS
+):
     """(n, 3): for each DOF, the global components of its unit nodal translation (T[:, i] of
-    its node for UX, UY, UZ = i; zeros for rotations)."""
+    its node for UX, UY, UZ = i; zeros for rotations); with ``names`` ROTATIONS those of its
+    unit nodal rotation (zeros for translations)."""
     out = np.zeros((len(labels), 3))
-    for d, name in enumerate(TRANSLATIONS):
+    for d, name in enumerate(names):
         rows = np.flatnonzero(labels == name)
+        if rows.size == 0:
+            continue
         if rotations is None:
             out[rows, d] = 1.0
         else:
             eye = np.eye(3)
             out[rows] = np.array([rotations.get(int(n), eye)[:, d] for n in dof_nodes[rows]])
     return out
+
+
+def _rotation_data(full: FullMatrices, free, M, vectors, node_ids, coords, rotations, unit):
+    """The turning moves' RotationalInertia (jaxflex.rotation) of the modes ``vectors``
+    (free DOFs, file units) from the .full's mass matrix ``M`` and the coordinates ``coords``
+    (file units) of ``node_ids`` (fem.rotation_integrals.imported_inertia)."""
+    dof_nodes, labels = full.node_ids[free], full.labels[free]
+    where = {int(n): i for i, n in enumerate(node_ids)}
+    points = coords[[where[int(n)] for n in dof_nodes]]
+    translations = _dof_rotation(dof_nodes, labels, rotations)
+    axes = _dof_rotation(dof_nodes, labels, rotations, ROTATIONS)
+    return imported_inertia(
+        M, vectors, nodal_fields(points, translations, axes), translations, unit
+    )
 
 
 def _free_system(full: FullMatrices, rotations: dict | None = None):
@@ -434,14 +455,16 @@ def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid, progress):
     if not modes.rigid_freq_hz.size:
         solved = factorize(K).solve(np.ascontiguousarray(M @ rigid))
         static = -(observation @ solved).reshape(len(node_ids), 3, 3)
-    coords, missing = None, ""
+    coords, missing, rotation = None, "", None
     if nodes is None:
         missing = (
             f"{str(path)!r} holds none; pass nodes= (--nodes) with a .cdb archive, a .rst or a "
             "CSV node,x,y,z of the same mesh"
         )
     else:
-        coords = _coordinates_for(node_ids, nodes) * unit.length_m
+        coords = _coordinates_for(node_ids, nodes)
+        rotation = _rotation_data(mats, free, M, modes.vectors, node_ids, coords, rotations, unit)
+        coords = coords * unit.length_m
     provenance = {
         "source": "fem.from_ansys (.full: modes computed by jaxflex)",
         "input": {"full": file_digest(path), **({"nodes": file_digest(nodes)} if nodes else {})},
@@ -476,6 +499,7 @@ def _from_full(path, nodes, units, n_modes, max_freq_hz, zeta, rigid, progress):
         static_shapes=static,
         nodes_missing=missing,
         provenance=provenance,
+        rotation=rotation,
     )
 
 
@@ -637,6 +661,7 @@ def _pair_with_full(result: ImportedModes, rst: RstModes, values, full_path, uni
     result.shapes = result.shapes * scale
     result.gamma = (phi.T @ (M @ rigid)) * unit.gamma_to_si
     result.mobile_mass_kg = np.einsum("id,id->d", rigid, M @ rigid) * unit.mass_kg
+    result.rotation = _rotation_data(full, free, M, phi, rst.node_ids, rst.nodes, rotations, unit)
     result.provenance["input"]["full"] = file_digest(full_path)
     result.provenance["derived"]["gamma"] = (
         "phi^T M_ff R_f with M from the .full (nodes, DOFs, constraints checked; eigen "

@@ -20,6 +20,7 @@ from fem.damping import describe_damping, modal_zeta
 from fem.modal import select_node_indices
 from jaxflex.errors import InputError
 from jaxflex.model import MODES_ONLY_STATIC, ModalModel
+from jaxflex.response import RotationalInertia
 
 
 @dataclass(eq=False)
@@ -43,6 +44,8 @@ class ImportedModes:
             and the part is held (jaxflex.ModalModel.static_shapes), else None;
             ``static_note`` says where it came from.
         provenance: what was read from where and what was derived how (the model's meta).
+        rotation: the turning moves' inertia data (jaxflex.rotation.RotationalInertia) where
+            the source has a mass matrix and node coordinates, else None.
     """
 
     freq_hz: np.ndarray
@@ -58,6 +61,7 @@ class ImportedModes:
     gamma_missing: str = ""
     nodes_missing: str = ""
     provenance: dict[str, Any] = field(default_factory=dict)
+    rotation: RotationalInertia | None = None
 
     @property
     def n_modes(self) -> int:
@@ -105,6 +109,7 @@ class ImportedModes:
             labels=labels,
             meta=self.meta(spec, len(idx)),
             static_shapes=None if self.static_shapes is None else self.static_shapes[idx],
+            rotation=self.rotation,
         )
 
     def meta(self, damping=None, n_points: int | None = None) -> dict[str, Any]:

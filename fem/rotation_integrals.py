@@ -9,18 +9,22 @@ linear fields u = e_j r_i (component j equal to the coordinate r_i, m, in the mo
   unrotated, an O(h^2 / L^2) share of the rotary inertia);
 * Kirchhoff plate: the deflection w only (fields along z: w = x, y or the mid-plane height);
   a plate has no in-plane DOFs, so in-plane loads (a turn about its normal) do not deform
-  it, exactly as its x and y participation is zero.
+  it, exactly as its x and y participation is zero;
+* a Nastran deck (fem.deck_model.DeckOutputs) and an ANSYS ``.full`` with its node
+  coordinates: nodal translations and rotations as for the shell (:func:`nodal_fields`; an
+  ANSYS DOF in a rotated nodal system takes the field's component along its own axis).
 
 Every formulation's fields are checked against its own rigid rotations (eps_kij e_j r_i =
-e_k x r: fem.system.FormulationOutputs.rigid_motion) before use. Systems of other sources
-(Nastran decks, ANSYS, R1) get no data: :func:`rotational_inertia` returns None and their
-models refuse turning moves (jaxflex.rotation.require_rotation).
+e_k x r: fem.system.FormulationOutputs.rigid_motion) before use. Sources without a mass
+matrix and coordinates (R1 matrices, ``.rst`` results alone, modal results from other
+solvers) get no data: their models refuse turning moves (jaxflex.rotation.require_rotation).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from fem.deck_model import DeckOutputs
 from fem.plate import PlateOutputs
 from fem.shell import DOFS_PER_NODE, ShellOutputs
 from fem.solid import SolidOutputs
@@ -37,12 +41,11 @@ def linear_fields(system) -> np.ndarray | None:
         points = outputs.layer.points
         for j in range(3):
             out[j::3, :, j] = points
-    elif isinstance(outputs, ShellOutputs):
-        nodes = outputs.layer.nodes
-        for j in range(3):
-            out[j::DOFS_PER_NODE, :, j] = nodes
-        for axis in range(3):  # rotation about `axis` = eps_axis,i,j / 2
-            out[3 + axis :: DOFS_PER_NODE] = 0.5 * LEVI_CIVITA[axis][None]
+    elif isinstance(outputs, ShellOutputs | DeckOutputs):
+        nodes = outputs.layer.nodes if isinstance(outputs, ShellOutputs) else outputs.nodes_m
+        if DOFS_PER_NODE * len(nodes) != n_dof:  # scalar points besides the grids
+            return None
+        out = nodal_fields(*six_dof_axes(nodes))
     elif isinstance(outputs, PlateOutputs):
         ones, x, y = outputs.linear_dofs().T
         out[:, 0, 2], out[:, 1, 2], out[:, 2, 2] = x, y, outputs.z0 * ones
@@ -54,6 +57,51 @@ def linear_fields(system) -> np.ndarray | None:
     if error > 1e-9:  # both are exact sums of coordinates: only round-off differs
         raise RuntimeError(f"linear fields miss the rigid rotations by {error:.1e}")
     return out
+
+
+def nodal_fields(points_m: np.ndarray, translation: np.ndarray, rotation: np.ndarray):
+    """(n, 3, 3) DOF vectors F[:, i, j] of u = e_j r_i for DOFs that are nodal translations
+    and rotations: ``points_m`` (n, 3) the position of each DOF's node (any length unit),
+    ``translation`` (n, 3) the global direction a translation DOF moves along (zeros for a
+    rotation DOF), ``rotation`` (n, 3) the global axis of a rotation DOF (zeros else). A
+    translation takes the field's component along it, a rotation the component of the
+    field's infinitesimal rotation 1/2 curl(e_j r_i) = 1/2 eps_kij e_k along its axis."""
+    return translation[:, None, :] * points_m[:, :, None] + 0.5 * np.einsum(
+        "nk,kij->nij", rotation, LEVI_CIVITA
+    )
+
+
+def six_dof_axes(nodes_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The :func:`nodal_fields` arguments of six DOFs per node (translations x, y, z, then
+    rotations about x, y, z, global axes) at ``nodes_m`` (N, 3)."""
+    eye = np.eye(3)
+    zero = np.zeros((3, 3))
+    translation = np.tile(np.vstack([eye, zero]), (len(nodes_m), 1))
+    rotation = np.tile(np.vstack([zero, eye]), (len(nodes_m), 1))
+    return np.repeat(nodes_m, DOFS_PER_NODE, axis=0), translation, rotation
+
+
+def rigid_inertia(mass_matrix, fields: np.ndarray, translations: np.ndarray):
+    """(mass, centre (3,), inertia (3, 3) about the origin) of ``mass_matrix`` (n, n) from
+    its linear ``fields`` (n, 3, 3) and ``translations`` (n, 3), the DOF vectors of unit
+    translations along x, y, z (zero columns where the DOFs have none: a plate's x, y).
+
+    The rigid rotations are eps_kij F[:, i, j] = e_k x r, so the inertia is exact, and so is
+    the centre, from the coupling t_d^T M (e_k x r) = m eps_dki c_i of translations and
+    rotations: a point mass off its grid (a CONM2 offset) counts where it is. Where only the
+    vertical translation exists (a plate) its height is the fields' (exact for a sheet)."""
+    lift = mass_matrix @ translations
+    mass = float(translations[:, 2] @ lift[:, 2])
+    rotations = np.einsum("kij,nij->nk", LEVI_CIVITA, fields)
+    coupling = lift.T @ rotations  # (3, 3): C[d, k] = m eps_dki c_i
+    inertia = rotations.T @ (mass_matrix @ rotations)
+    if translations[:, :2].any():
+        rows = LEVI_CIVITA.reshape(9, 3) * mass
+        centre = np.linalg.lstsq(rows, coupling.reshape(9), rcond=None)[0]
+    else:
+        height = lift[:, 2] @ fields[:, 2, 2] / mass
+        centre = np.array([coupling[2, 0], -coupling[2, 1], mass * height]) / mass
+    return mass, centre, 0.5 * (inertia + inertia.T)
 
 
 def rotational_inertia(result) -> RotationalInertia | None:
@@ -69,11 +117,26 @@ def rotational_inertia(result) -> RotationalInertia | None:
     flat = fields.reshape(n_dof, 9)
     reduced = result.basis.T @ (system.M @ flat)  # (n_free, 9)
     shape_integrals = (result.vectors.T @ reduced).reshape(-1, 3, 3)
-    mass = float(result.mass_kg)
-    lift = system.M @ system.rigid[:, 2]  # M times the unit translation along z
-    centre = (lift @ fields[:, :, 2]) / mass
-    rigid_rot = system.outputs.rigid_motion(np.zeros(3))[:, 3:]
-    inertia = rigid_rot.T @ (system.M @ rigid_rot)
+    _, centre, inertia = rigid_inertia(system.M, fields, system.rigid)
     if not system.outputs.moves_in_plane:  # flat plate: about z from x and y
         inertia[2, 2] = inertia[0, 0] + inertia[1, 1]
-    return RotationalInertia(shape_integrals, np.float64(mass), centre, 0.5 * (inertia + inertia.T))
+    return RotationalInertia(shape_integrals, np.float64(result.mass_kg), centre, inertia)
+
+
+def imported_inertia(
+    mass_matrix, vectors: np.ndarray, fields: np.ndarray, translations: np.ndarray, unit
+) -> RotationalInertia:
+    """The RotationalInertia (SI) of modes ``vectors`` (n, M) of an imported ``mass_matrix``
+    (n, n) with the :func:`nodal_fields` ``fields`` of its DOFs and the DOF vectors
+    ``translations`` (n, 3) of unit translations along x, y, z, all in the file's consistent units
+    ``unit`` (fem.units.Units). The mass is the matrix's: without the DOFs the file
+    constrains (the mass the modes can move, like the participation factors)."""
+    flat = fields.reshape(len(fields), 9)
+    shape_integrals = (vectors.T @ (mass_matrix @ flat)).reshape(-1, 3, 3)
+    mass, centre, inertia = rigid_inertia(mass_matrix, fields, translations)
+    return RotationalInertia(
+        shape_integrals * unit.gamma_to_si * unit.length_m,
+        np.float64(mass * unit.mass_kg),
+        centre * unit.length_m,
+        inertia * unit.mass_kg * unit.length_m**2,
+    )
