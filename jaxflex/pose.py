@@ -10,6 +10,9 @@ is carried along unchanged) with a piecewise-linear angular acceleration, the sa
 as the translation's: the angle and the rate are then exact (piecewise cubic and
 quadratic, jaxflex.profile.integrate). :func:`turn_acceleration` gives the jerk-limited,
 time-optimal-on-the-grid angular acceleration of a turn by an angle.
+:func:`orientation_path` goes through a sequence of orientations (rotation vectors or
+matrices, e.g. a robot's tool orientations at via points), each segment the shortest turn
+(the geodesic: a fixed axis) from rest to rest, jerk-limited: exact like a single turn.
 """
 
 from __future__ import annotations
@@ -100,3 +103,66 @@ def turn_acceleration(
     limits = [check_positive(n, v) for n, v in (("rate", rate_rad_s), ("acc", acc_rad_s2))]
     jerk = check_positive("jerk", jerk_rad_s3)
     return jerk_limited_move([float(angle_rad), 0.0, 0.0], *limits, jerk, dt_s)[:, 0]
+
+
+def as_rotation(value, name: str) -> np.ndarray:
+    """``value`` as a (3, 3) rotation matrix (body to world): a rotation vector (3,) in rad
+    (axis times angle) or a (3, 3) matrix; InputError naming ``name`` otherwise."""
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape == (3,) and np.isfinite(arr).all():
+        angle = float(np.linalg.norm(arr))
+        return axis_rotation(arr / angle, np.array([angle]))[0] if angle > 0 else np.eye(3)
+    finite = arr.shape == (3, 3) and np.isfinite(arr).all()
+    if finite and np.allclose(arr @ arr.T, np.eye(3), atol=1e-9) and np.linalg.det(arr) > 0:
+        return arr
+    raise InputError(
+        f"{name}: a rotation vector (three finite numbers, rad) or a 3 x 3 rotation matrix "
+        f"(orthonormal, determinant +1), got {np.array2string(arr.reshape(-1)[:9])}"
+    )
+
+
+def axis_angle(rotation: np.ndarray) -> tuple[np.ndarray, float]:
+    """(unit axis (3,), angle in [0, pi] rad) of a rotation matrix; axis z for no turn."""
+    cos = np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0)
+    angle = float(np.arccos(cos))
+    if angle < 1e-12:
+        return np.array([0.0, 0.0, 1.0]), 0.0
+    if np.pi - angle > 1e-6:
+        axis = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0],
+                         rotation[1, 0] - rotation[0, 1]])  # fmt: skip
+        return axis / np.linalg.norm(axis), angle  # 2 sin(angle) a: well scaled short of pi
+    # a half turn: R = 2 a a^T - I, the axis from the largest diagonal entry
+    outer = 0.5 * (rotation + np.eye(3))
+    k = int(np.argmax(np.diag(outer)))
+    axis = outer[:, k] / np.sqrt(outer[k, k])
+    skew = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0],
+                     rotation[1, 0] - rotation[0, 1]])  # fmt: skip
+    return (-axis if axis @ skew < 0 else axis), angle  # the sense of a turn just short of pi
+
+
+def orientation_path(
+    orientations, rate_rad_s: float, acc_rad_s2: float, jerk_rad_s3: float, dt_s: float
+) -> PosePath:
+    """The path through ``orientations`` (a sequence of at least two rotation vectors (3,)
+    rad or (3, 3) matrices, body to world; the first is the start) segment by segment: each
+    the shortest turn (a fixed axis in the body) from rest to rest, jerk-limited within the
+    rate, acceleration and jerk limits (:func:`turn_acceleration`), corners on the dt grid.
+    A segment starts where the previous one ended (no jump)."""
+    poses = [as_rotation(o, f"orientations[{i}]") for i, o in enumerate(orientations)]
+    if len(poses) < 2:
+        raise InputError("orientations: at least two (a start and a goal)")
+    pieces: list[PosePath] = []
+    current = poses[0]
+    for goal in poses[1:]:
+        axis, angle = axis_angle(current.T @ goal)
+        alpha = turn_acceleration(angle, rate_rad_s, acc_rad_s2, jerk_rad_s3, dt_s)
+        piece = fixed_axis_path(axis, alpha, dt_s, start=current)
+        pieces.append(piece)
+        current = piece.rotation[-1]
+    first, rest = pieces[0], pieces[1:]
+    return PosePath(
+        np.concatenate([first.rotation, *(p.rotation[1:] for p in rest)]),
+        np.concatenate([first.omega_rad_s, *(p.omega_rad_s[1:] for p in rest)]),
+        np.concatenate([first.alpha_rad_s2, *(p.alpha_rad_s2[1:] for p in rest)]),
+        float(dt_s),
+    )

@@ -66,7 +66,7 @@ from jaxflex.points import (
     snap_key_points,
     voxel_downsample,
 )
-from jaxflex.pose import PosePath, fixed_axis_path, turn_acceleration
+from jaxflex.pose import PosePath, fixed_axis_path, orientation_path, turn_acceleration
 from jaxflex.profile import (
     acceleration_at,
     as_move,
@@ -126,6 +126,7 @@ __all__ = [
     "modal_states",
     "move_deviation",
     "on_device",
+    "orientation_path",
     "output_peak",
     "outputs_at",
     "padded_steps",
