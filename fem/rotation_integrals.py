@@ -100,7 +100,7 @@ def rigid_inertia(mass_matrix, fields: np.ndarray, translations: np.ndarray):
         centre = np.linalg.lstsq(rows, coupling.reshape(9), rcond=None)[0]
     else:
         height = lift[:, 2] @ fields[:, 2, 2] / mass
-        centre = np.array([coupling[2, 0], -coupling[2, 1], mass * height]) / mass
+        centre = np.array([-coupling[2, 1], coupling[2, 0], mass * height]) / mass
     return mass, centre, 0.5 * (inertia + inertia.T)
 
 
