@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from jaxflex.model import ModalModel
-from jaxflex.validation import check_positive
+from jaxflex.scalars import check_positive
 
 STEEL = {"E_pa": 210e9, "nu": 0.3, "rho_kg_m3": 7850.0}
 

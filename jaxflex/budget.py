@@ -29,7 +29,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from jaxflex.errors import BudgetError, InputError
+from jaxflex.errors import BudgetError
+from jaxflex.scalars import check_positive
 
 DEFAULT_TIME_S = 3600.0
 MEMORY_SHARE = 0.5  # of what the process may use
@@ -142,21 +143,11 @@ def make_budget(memory_gb: float | None = None, time_s: float | None = None) -> 
     default = default_budget()
     memory, memory_source = default.memory_bytes, default.memory_source
     if memory_gb is not None:
-        memory, memory_source = int(_positive("--max-memory", memory_gb) * GB), "--max-memory"
+        memory, memory_source = int(check_positive("--max-memory", memory_gb) * GB), "--max-memory"
     seconds, time_source = default.time_s, default.time_source
     if time_s is not None:
-        seconds, time_source = _positive("--max-time", time_s), "--max-time"
+        seconds, time_source = check_positive("--max-time", time_s), "--max-time"
     return Budget(memory, seconds, memory_source, time_source, time.monotonic())
-
-
-def _positive(option: str, value) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{option}: must be a number > 0, got {value!r}") from exc
-    if not math.isfinite(x) or x <= 0:
-        raise InputError(f"{option}: must be a finite number > 0, got {value!r}")
-    return x
 
 
 # the budget of the work at hand: per thread (and asyncio task), set by use_budget

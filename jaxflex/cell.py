@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.validation import check_positive
+from jaxflex.scalars import check_positive
 
 VIA_MODES = ("stop", "blend")
 DEFAULT_GRAVITY_M_S2 = (0.0, 0.0, -9.81)

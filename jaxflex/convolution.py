@@ -28,8 +28,9 @@ from jaxflex.budget import Need, require
 from jaxflex.errors import InputError
 from jaxflex.inputs import check_text_file
 from jaxflex.model import ModalModel
+from jaxflex.scalars import check_positive
 from jaxflex.simulate import simulate
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.validation import check_acc
 
 
 def unit_response(model: ModalModel, dt_s: float, n_steps: int) -> np.ndarray:

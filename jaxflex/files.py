@@ -30,6 +30,7 @@ from jaxflex.inputs import (
     read_settings_file,
     read_text,
 )
+from jaxflex.scalars import check_positive
 from jaxflex.trajectory_io import (
     read_trajectory_csv,
     write_trajectory_csv,
@@ -37,7 +38,6 @@ from jaxflex.trajectory_io import (
 from jaxflex.validation import (
     check_output_dir,
     check_output_file,
-    check_positive,
 )
 
 __all__ = [

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from jaxflex.outputs import CupSet
-from jaxflex.validation import check_positive
+from jaxflex.scalars import check_positive
 
 DEFAULT_CUP_SAFETY = 1.5  # the makers' minimum for smooth, dense parts (fem.cups)
 DEFAULT_STRESS_SAFETY = 1.5  # yield / this is the default stress limit

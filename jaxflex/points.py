@@ -12,7 +12,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from jaxflex.errors import InputError
-from jaxflex.validation import check_positive
+from jaxflex.scalars import check_positive
 
 
 def _as_points(name: str, points) -> np.ndarray:

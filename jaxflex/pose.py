@@ -24,7 +24,7 @@ import numpy as np
 
 from jaxflex.errors import InputError
 from jaxflex.profile import integrate, jerk_limited_move
-from jaxflex.validation import check_positive
+from jaxflex.scalars import check_positive
 
 
 @jax.tree_util.register_pytree_node_class

@@ -20,7 +20,8 @@ import numpy as np
 
 from jaxflex.errors import InputError
 from jaxflex.grid import grid_time
-from jaxflex.validation import check_acc, check_positive
+from jaxflex.scalars import check_positive
+from jaxflex.validation import check_acc
 
 
 @dataclass(frozen=True, eq=False)

@@ -48,7 +48,7 @@ from jaxflex.errors import BudgetError
 from jaxflex.grid import grid_time
 from jaxflex.model import ModalModel, shape_cache
 from jaxflex.profile import acceleration_at, as_move
-from jaxflex.validation import check_positive
+from jaxflex.scalars import check_positive
 
 SUBDIVISIONS = 16
 TIME_TOL_S = 1e-9

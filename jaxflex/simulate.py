@@ -23,7 +23,8 @@ from jaxflex.engine import HOLDS, free_states, modal_states
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.profile import Move
-from jaxflex.validation import check_acc, check_positive, is_traced
+from jaxflex.scalars import check_positive
+from jaxflex.validation import check_acc, is_traced
 
 _DTYPES = {"float64": jnp.float64, "float32": jnp.float32}
 

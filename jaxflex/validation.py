@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import os
 import stat
 import tempfile
@@ -24,17 +23,6 @@ MAX_NAME_BYTES = 200
 def is_traced(*values: Any) -> bool:
     """True if any value is a JAX tracer (inside jit/grad/vmap), where checks are impossible."""
     return any(isinstance(v, jax.core.Tracer) for v in jax.tree_util.tree_leaves(values))
-
-
-def check_positive(name: str, value: Any) -> float:
-    """A finite scalar > 0, returned as float."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name}: must be a number > 0, got {value!r}") from exc
-    if not math.isfinite(x) or x <= 0:
-        raise InputError(f"{name}: must be a finite number > 0, got {value!r}")
-    return x
 
 
 def check_acc(acc: Any, *, name: str = "acc", rest_at_ends: bool = False) -> np.ndarray:
