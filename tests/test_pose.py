@@ -38,7 +38,7 @@ def test_path_reaches_every_orientation_and_moves_like_a_rigid_rotation():
     goals = [
         np.eye(3),
         Rotation.from_euler("z", 90, degrees=True).as_matrix(),
-        Rotation.from_euler("zx", [90, 30], degrees=True).as_matrix(),
+        Rotation.from_euler("ZX", [90, 30], degrees=True).as_matrix(),
         np.zeros(3),
     ]
     path = orientation_path(goals, *LIMITS, DT)
