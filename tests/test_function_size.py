@@ -1,0 +1,43 @@
+"""The house rule of the optimiser and the sizing (docs/design.md, Conventions): no function
+longer than 80 lines or with more than 8 parameters, except the public entry points listed
+here, which only gather one keyword option per command-line option into a checked request."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+MAX_LINES, MAX_PARAMETERS = 80, 8
+ENTRY_POINTS = {  # (file, function): why it may take more
+    ("optim/optimize.py", "optimize"): "public: one keyword per `jaxflex optimize` option",
+    ("optim/baselines.py", "baselines"): "public: the baselines of a move still to be found",
+    ("optim/sweep/run.py", "run_sweep"): "public: one keyword per `jaxflex sweep` option",
+    ("fem/sizing.py", "size_model"): "public: one keyword per `jaxflex model --size` option",
+}
+
+
+def _functions():
+    files = [*sorted((ROOT / "optim").rglob("*.py")), *sorted((ROOT / "fem").glob("sizing*.py"))]
+    for path in files:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                args = node.args
+                names = [a.arg for a in (*args.posonlyargs, *args.args, *args.kwonlyargs)]
+                names = [n for n in names if n not in ("self", "cls")]
+                lines = node.end_lineno - node.lineno + 1
+                yield str(path.relative_to(ROOT)), node.name, lines, len(names)
+
+
+def test_functions_are_short_and_take_few_parameters():
+    over = [
+        f"{file}:{name} ({lines} lines, {count} parameters)"
+        for file, name, lines, count in _functions()
+        if (lines > MAX_LINES or count > MAX_PARAMETERS) and (file, name) not in ENTRY_POINTS
+    ]
+    assert not over, "split these or list them as entry points with a reason: " + ", ".join(over)
+
+
+def test_listed_entry_points_exist():
+    found = {(file, name) for file, name, _, _ in _functions()}
+    assert set(ENTRY_POINTS) <= found
