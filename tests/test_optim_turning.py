@@ -143,10 +143,8 @@ def test_command_writes_the_turn(plate, tmp_path):
     assert report["turn"]["neglected_bound_m"] > 0
     assert (out / "turn.png").stat().st_size > 0
     straight = tmp_path / "straight"
-    proc = run_jaxflex(
-        "optimize", str(model_file), *"--distance 0 0 1 --threshold 5e-4 --no-plots".split(),
-        "-o", str(straight),
-    )  # fmt: skip
+    args = ["--distance", "0", "0", "1", "--threshold", "5e-4", "--no-plots"]
+    proc = run_jaxflex("optimize", str(model_file), *args, "-o", str(straight))
     assert proc.returncode == 0, proc.stderr
     assert "turn" not in (straight / "trajectory.csv").read_text().split("\n", 1)[0]
 
@@ -167,7 +165,7 @@ def test_command_writes_the_turn(plate, tmp_path):
 def test_bad_turns_exit_with_status_2(plate, tmp_path, args, message):
     model_file = tmp_path / "plate.npz"
     plate.save(model_file)
-    base = "--distance 0 0 1 --threshold 5e-4".split()
+    base = ["--distance", "0", "0", "1", "--threshold", "5e-4"]
     proc = run_jaxflex("optimize", str(model_file), *base, *args.split(), "-o", str(tmp_path / "o"))
     assert proc.returncode == 2, proc.stdout + proc.stderr
     assert message in proc.stderr
@@ -176,7 +174,7 @@ def test_bad_turns_exit_with_status_2(plate, tmp_path, args, message):
 def test_model_without_rotation_data_is_refused(plate, tmp_path):
     model_file = tmp_path / "bare.npz"
     plate._replace(rotation=None).save(model_file)
-    args = "--distance 0 0 1 --threshold 5e-4 --rotate z 90".split()
+    args = ["--distance", "0", "0", "1", "--threshold", "5e-4", "--rotate", "z", "90"]
     proc = run_jaxflex("optimize", str(model_file), *args, "-o", str(tmp_path / "o"))
     assert proc.returncode == 2
     assert "inertia shape integrals" in proc.stderr
