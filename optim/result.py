@@ -225,7 +225,8 @@ class OptimizationResult:
         """The turn, its schedule's heuristic and the neglected terms' bound (optim.turn)."""
         return {
             **self.turn.as_dict(),
-            "schedule": "ruckig's turn stretched to the move, fixed per move length",
+            "schedule": "fixed per move length: ruckig's turn stretched to the move, or shaped "
+            "like the best shaped baselines and stretched (optim.turn)",
             "neglected_bound_m": self.deviation["neglected_bound_m"],
             "angular_acc_rad_s2": self.angular_acc.tolist(),
         }

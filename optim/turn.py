@@ -188,7 +188,7 @@ class TurnSchedule:
     def __init__(self, spec: TurnSpec, dt_s: float, trains: list[Shaper] = ()) -> None:
         self.spec = spec
         self.dt_s = dt_s
-        self.trains = [None, *trains]
+        self.trains = [None] if spec.angle_rad == 0.0 else [None, *trains]
         self.variant = 0
         self._alpha: dict[tuple[int, int], np.ndarray | None] = {}
         self._cache: dict[tuple, np.ndarray] = {}

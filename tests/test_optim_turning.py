@@ -171,6 +171,24 @@ def test_bad_turns_exit_with_status_2(plate, tmp_path, args, message):
     assert message in proc.stderr
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"rotate": "z"}, "rotate"),
+        ({"rotate": ((0, 0, 0), 30)}, "rotate"),
+        ({"rotate": ("z", float("inf"))}, "rotate"),
+        ({"rotate": ("z", 30), "angular_limits": (3, 0, 200)}, "acc_rad_s2"),
+        ({"rotate": ("z", 30), "pivot_m": (0, 0)}, "pivot_m"),
+        ({"rotate": ("z", 30), "method": "gradient"}, "not yet for turning moves"),
+        ({"pivot_m": (0, 0, 0)}, "only with rotate"),
+    ],
+)
+def test_request_checks_the_turn(plate, kwargs, message):
+    """The Python API: optim.Request checks the turn once, naming the field."""
+    with pytest.raises(jaxflex.InputError, match=message):
+        optim.optimize(plate, (0, 0, 1), LIMITS, DT, THRESHOLD, **kwargs)
+
+
 def test_model_without_rotation_data_is_refused(plate, tmp_path):
     model_file = tmp_path / "bare.npz"
     plate._replace(rotation=None).save(model_file)
@@ -182,3 +200,20 @@ def test_model_without_rotation_data_is_refused(plate, tmp_path):
         optim.optimize(
             jaxflex.load_model(model_file), (0, 0, 1), LIMITS, DT, THRESHOLD, rotate=("z", 90)
         )
+
+
+@pytest.mark.slow
+def test_demo_tilt_scene(tmp_path):
+    """`jaxflex demo --scene tilt`: the built-in plate tilted 30 degrees while it is lifted
+    1 m; the optimum no worse than each baseline, the plots and the turn written, no FMU."""
+    out = tmp_path / "tilt"
+    proc = run_jaxflex("demo", "--scene", "tilt", "-o", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert "turned 30 deg about x" in proc.stdout and "ZVD (1 mode)" in proc.stdout
+    summary = json.loads((out / "demo.json").read_text())
+    assert summary["fmus"] == {}
+    assert all(summary["cycle_time_s"] <= c for c in summary["baselines_cycle_time_s"].values())
+    for name in ("deviation.png", "turn.png", "profiles.png"):
+        assert (out / "optimized" / name).stat().st_size > 0, name
+    table = np.loadtxt(out / "optimized" / "trajectory.csv", delimiter=",", skiprows=1)
+    assert table[-1, -3] == pytest.approx(np.radians(30.0), rel=1e-9)  # turn_angle_rad
