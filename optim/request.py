@@ -20,7 +20,7 @@ from jaxflex.defaults import MAX_DURATION_S
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 from jaxflex.model import ModalModel
-from jaxflex.rotation import require_rotation
+from jaxflex.response import require_rotation
 from jaxflex.runtime import current_budget
 from optim.baselines import MAX_SHAPED_MODES
 from optim.budget import MAX_STEPS

@@ -25,10 +25,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.pose import PosePath, fixed_axis_path, unit_axis
-from jaxflex.response import SettleReport
-from jaxflex.rotation import require_rotation
-from jaxflex.turning import GRAVITY_M_S2, TurningResponse, simulate_turning, turning_settle
+from jaxflex.response import (
+    GRAVITY_M_S2,
+    PosePath,
+    SettleReport,
+    TurningResponse,
+    fixed_axis_path,
+    require_rotation,
+    simulate_turning,
+    turning_settle,
+    unit_axis,
+)
 from optim.limits import Limits
 from optim.ruckig_move import fit_to_grid, grid_steps, shaped_acceleration, time_optimal_move
 from optim.shapers import Shaper
