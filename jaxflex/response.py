@@ -66,7 +66,13 @@ from jaxflex.points import (
     snap_key_points,
     voxel_downsample,
 )
-from jaxflex.pose import PosePath, fixed_axis_path, orientation_path, turn_acceleration
+from jaxflex.pose import (
+    PosePath,
+    fixed_axis_path,
+    orientation_path,
+    turn_acceleration,
+    unit_axis,
+)
 from jaxflex.profile import (
     acceleration_at,
     as_move,
@@ -77,18 +83,19 @@ from jaxflex.profile import (
     kinematics_at,
     position_weights,
 )
-from jaxflex.rotation import LEVI_CIVITA, RotationalInertia
+from jaxflex.rotation import LEVI_CIVITA, RotationalInertia, require_rotation
 from jaxflex.settle import SettleReport, analyze_move
 from jaxflex.simulate import (
     move_deviation,
     on_device,
 )
-from jaxflex.turning import TurningResponse, simulate_turning, turning_settle
+from jaxflex.turning import GRAVITY_M_S2, TurningResponse, simulate_turning, turning_settle
 
 __all__ = [
     "ARRAY_FIELDS",
     "DEFAULT_CUP_SAFETY",
     "DEFAULT_STRESS_SAFETY",
+    "GRAVITY_M_S2",
     "LEVI_CIVITA",
     "VALUE_RANGES",
     "CupSet",
@@ -132,6 +139,7 @@ __all__ = [
     "padded_steps",
     "point_displacements",
     "position_weights",
+    "require_rotation",
     "response_shapes",
     "rest_padded",
     "simulate_turning",
@@ -141,6 +149,7 @@ __all__ = [
     "states_at",
     "turn_acceleration",
     "turning_settle",
+    "unit_axis",
     "upsample",
     "voxel_downsample",
     "with_acceleration",

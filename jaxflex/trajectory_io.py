@@ -7,6 +7,10 @@ on [t_k, t_{k+1}) in row k, and 0 in the last row (at rest after the move). Time
 decimal multiples of the step (jaxflex.grid: 0.82, not 0.8200000000000001); every value is
 written as the shortest decimal that reads back as the same float. Reading needs t and the
 acceleration only.
+
+A move that turns the part (a turn about a fixed axis, jaxflex.pose) adds the turn's
+columns after these: turn_angle_rad, turn_rate_rad_s, turn_acc_rad_s2 (the angle and its
+exact integrals, like the translation's); straight moves' files are unchanged.
 """
 
 from __future__ import annotations
@@ -38,17 +42,27 @@ COLUMNS = (
     "jy_m_s3",
     "jz_m_s3",
 )
+TURN_COLUMNS = ("turn_angle_rad", "turn_rate_rad_s", "turn_acc_rad_s2")
 
 
-def write_trajectory_csv(path: str | os.PathLike, acc, dt_s: float) -> None:
+def write_trajectory_csv(path: str | os.PathLike, acc, dt_s: float, turn_acc_rad_s2=None) -> None:
     """Write samples ``acc`` ((n+1, 3) m/s^2 at step ``dt_s`` s) with velocity, position and
-    jerk (module docstring)."""
+    jerk (module docstring), and with ``turn_acc_rad_s2`` ((n+1,) rad/s^2, a turn about a
+    fixed axis) the turn's angle, rate and angular acceleration."""
     vel, pos = integrate(acc, dt_s)
     acc = np.asarray(acc, dtype=np.float64)
     jerk = np.vstack([np.diff(acc, axis=0) / dt_s, np.zeros((1, 3))])
     t = grid_times(acc.shape[0] - 1, dt_s)
-    table = np.column_stack([t, acc, vel, pos, jerk]) + 0.0  # + 0.0: no "-0.0" cells
-    lines = [",".join(COLUMNS)]
+    columns = [t, acc, vel, pos, jerk]
+    names = list(COLUMNS)
+    if turn_acc_rad_s2 is not None:
+        alpha = np.zeros_like(acc)
+        alpha[:, 0] = turn_acc_rad_s2
+        rate, angle = integrate(alpha, dt_s)
+        columns += [angle[:, 0], rate[:, 0], alpha[:, 0]]
+        names += TURN_COLUMNS
+    table = np.column_stack(columns) + 0.0  # + 0.0: no "-0.0" cells
+    lines = [",".join(names)]
     lines += [",".join(map(repr, row)) for row in table.tolist()]
     write_text_atomic(path, "\n".join(lines) + "\n")
 

@@ -56,6 +56,8 @@ class Baseline:
     worst_grid: list[dict] | None = None  # cycle time at every point of the check grid
     constraints_ok: bool = True  # meets the cell's constraints (optim.cell_setup)
     constraints: list[dict] | None = None  # their certified values for this move
+    angular_acc: np.ndarray | None = None  # (n+1,) rad/s^2: the turn with the move, if any
+    neglected_bound_m: float | None = None  # turning moves: jaxflex.turning's bound
 
     @property
     def cycle_time_s(self) -> float:
@@ -76,6 +78,7 @@ class Baseline:
             "worst_case": self.worst_case,
             "constraints_ok": self.constraints_ok,
             "constraints": self.constraints,
+            **({} if self.angular_acc is None else {"neglected_bound_m": self.neglected_bound_m}),
         }
 
 

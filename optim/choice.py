@@ -40,6 +40,7 @@ class Candidate:
     acc: np.ndarray
     objective_s: float
     grid: list[tuple[float, float | None, float]] | None
+    angular_acc: np.ndarray | None = None  # (n+1,) rad/s^2: the turn with the move, if any
 
     @property
     def n_steps(self) -> int:
@@ -54,7 +55,7 @@ def _from_attempt(problem: Problem, attempt: Attempt, kind: str, name: str) -> C
     grid = None
     if problem.robust is not None:
         grid = [(s.scale, s.zeta, c) for s, c in zip(problem.scenarios, cycles, strict=True)]
-    return Candidate(kind, name, attempt.acc, max(cycles), grid)
+    return Candidate(kind, name, attempt.acc, max(cycles), grid, attempt.turn_acc)
 
 
 def candidates(
@@ -79,7 +80,9 @@ def candidates(
         grid = None
         if entry.worst_grid is not None:
             grid = [(g["freq_scale"], g["zeta"], g["cycle_time_s"]) for g in entry.worst_grid]
-        found.append(Candidate("baseline", entry.name, entry.acc, entry.score(), grid))
+        found.append(
+            Candidate("baseline", entry.name, entry.acc, entry.score(), grid, entry.angular_acc)
+        )
     return sorted(found, key=Candidate.rank)
 
 

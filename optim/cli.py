@@ -18,6 +18,7 @@ from optim.limits import Limits
 from optim.optimize import run as run_request
 from optim.request import Request
 from optim.robust import FREQ_SCALE, GRID, ZETA, RobustSpec
+from optim.turn import ANGULAR_LIMITS
 
 COMMAND = "optimize"
 HELP = "shortest cycle time move under vmax/amax/jmax limits (trajectory CSV, JSON, plots)"
@@ -56,6 +57,34 @@ def _add_move(parser: argparse.ArgumentParser) -> None:
         "--threshold", type=float, required=True, help="deviation threshold, m (e.g. 0.0005)"
     )
     parser.add_argument("--dt", type=float, default=DT_S, help=f"sample step, s (default {DT_S:g})")
+    parser.add_argument(
+        "--rotate",
+        nargs="+",
+        default=None,
+        metavar="AXIS ANGLE_DEG",
+        help="also turn the part by ANGLE_DEG degrees about AXIS (x, y, z or three numbers; "
+        "model frame, through the gripper origin) under gravity -9.81 m/s^2 along z; the "
+        "model needs its rotation data (see docs/optim.md, Moves that turn the part)",
+    )
+    parser.add_argument(
+        "--angular-limits",
+        nargs=3,
+        type=float,
+        default=None,
+        metavar=("W", "A", "J"),
+        help="limits of the turn: rate rad/s, acceleration rad/s^2, jerk rad/s^3 (default "
+        + " ".join(f"{v:g}" for v in ANGULAR_LIMITS)
+        + ": the robot rates of issue 26, jerk 10 x the acceleration)",
+    )
+    parser.add_argument(
+        "--pivot",
+        nargs=3,
+        type=float,
+        default=None,
+        metavar=("X", "Y", "Z"),
+        help="with --rotate: the point the axis passes through, m, model frame (default the "
+        "origin); --distance is then this point's move",
+    )
 
 
 def _add_cell(parser: argparse.ArgumentParser) -> None:
@@ -188,6 +217,25 @@ def _add_budget(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def rotate_argument(values: list[str] | None):
+    """``--rotate``'s words as (axis, angle_deg): AXIS ANGLE or X Y Z ANGLE (checked by
+    optim.turn.TurnSpec through the request)."""
+    if values is None:
+        return None
+    if len(values) not in (2, 4):
+        raise InputError(
+            "--rotate: AXIS ANGLE_DEG with AXIS x, y, z or three numbers (e.g. --rotate z 90 or "
+            f"--rotate 0 0 1 90), got {' '.join(values)!r}"
+        )
+    axis: str | list[float] = values[0]
+    if len(values) == 4:
+        try:
+            axis = [float(v) for v in values[:3]]
+        except ValueError as exc:
+            raise InputError(f"--rotate: the axis must be three numbers, got {values[:3]}") from exc
+    return axis, values[-1]
+
+
 def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     check_output_dir("-o/--output", args.output)
@@ -231,6 +279,9 @@ def run(args: argparse.Namespace) -> int:
         min_distance_m=args.min_distance,
         cup_safety=args.cup_safety,
         max_stress_pa=max_stress,
+        rotate=rotate_argument(args.rotate),
+        angular_limits=args.angular_limits,
+        pivot_m=args.pivot,
     )
     result = run_request(request, start)
     print(result.summary(), flush=True)  # the answer first, then the files and pictures

@@ -59,6 +59,9 @@ def optimize(
     min_distance_m: float | None = None,
     cup_safety: float | None = None,
     max_stress_pa: float | str | None = None,
+    rotate=None,
+    angular_limits=None,
+    pivot_m=None,
 ) -> OptimizationResult:
     """The move over ``distance_m`` ((3,) m) within ``limits`` with the shortest cycle time
     (move plus settling below ``threshold_m`` m), on the ``dt_s`` grid.
@@ -84,12 +87,21 @@ def optimize(
         strength / 1.5).
     With ``robust`` the cell's constraints hold for the nominal model and every model of the
     robust grid (certified on each; the report names the model with the smallest margin).
+    rotate: (axis, angle_deg): the part also turns by the angle (degrees) about the axis
+        ("x", "y", "z" or three numbers, model frame, through the gripper origin) under
+        gravity -9.81 m/s^2 along z, the turn on a fixed schedule per move length
+        (optim.turn; the model needs its rotation data, jaxflex.rotation). Nominal model,
+        exact route, no cell or clearance (refused).
+    angular_limits: (rate rad/s, acceleration rad/s^2, jerk rad/s^3) of the turn, default
+        optim.turn.ANGULAR_LIMITS (3, 20, 200).
+    pivot_m: (3,) m, the point (model frame) the turn's axis passes through and whose
+        acceleration the move's samples are (default the origin).
     """
     start = time.perf_counter()
     request = Request(
         model, distance_m, limits, dt_s, threshold_m, method, solver, robust, progress,
         max_duration_s, max_shaped_modes, clearance_m, max_steps, max_memory_bytes, cell,
-        min_distance_m, cup_safety, max_stress_pa,
+        min_distance_m, cup_safety, max_stress_pa, rotate, angular_limits, pivot_m,
     )  # fmt: skip
     return run(request, start)
 

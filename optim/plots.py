@@ -7,7 +7,9 @@
   saving over the best baseline written on both;
 * ``robust.png``: the exact cycle time across the robust grid, one panel per damping ratio,
   every move with its own line style and marker, one legend;
-* ``deviation_worst_case.png``: the optimum at its worst point of the grid.
+* ``deviation_worst_case.png``: the optimum at its worst point of the grid;
+* ``turn.png`` (moves that turn the part): the angle and the angular rate of the optimum
+  and of every baseline.
 
 Each picture is one function of plain data (``Trace``, grids of dicts), so a new output
 (another constraint, another move to compare) is one more trace or one more panel.
@@ -293,4 +295,27 @@ def plot_constraints(
         ax.legend(fontsize=7, loc="best")
     axes[-1, 0].set_xlabel("time [s]")
     axes[0, 0].set_title("cell constraints: optimised move and baselines (dashed: limit)")
+    save_figure(fig, path)
+
+
+def plot_turn(path: str | os.PathLike, traces: list[Trace], turns: list[np.ndarray], dt_s: float):
+    """Angle (degrees) and angular rate (rad/s) against time of each move of ``traces``
+    (their labels and cycle times) with its angular acceleration samples ``turns`` (n+1,)
+    rad/s^2, the optimum first."""
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, layout="constrained")
+    styles = _styles(len(traces))
+    for trace, alpha, style in zip(traces, turns, styles, strict=True):
+        padded = np.zeros((alpha.size, 3))
+        padded[:, 0] = alpha
+        rate, angle = (v[:, 0] for v in integrate(padded, dt_s))
+        t = dt_s * np.arange(alpha.size)
+        label = f"{trace.label} (cycle {trace.cycle_s:.3f} s)"
+        every = max(1, alpha.size // 10)
+        top.plot(t, np.degrees(angle), label=label, markevery=every, **style)
+        bottom.plot(t, rate, markevery=every, **style)
+    top.set_ylabel("angle [deg]")
+    bottom.set_ylabel("angular rate [rad/s]")
+    bottom.set_xlabel("time [s]")
+    top.legend(loc="lower right", fontsize=8)
+    top.set_title("The turn of the optimised move and of the baselines", fontsize=10)
     save_figure(fig, path)

@@ -20,6 +20,7 @@ from jaxflex.defaults import MAX_DURATION_S
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 from jaxflex.model import ModalModel
+from jaxflex.response import require_rotation
 from jaxflex.runtime import current_budget
 from optim.baselines import MAX_SHAPED_MODES
 from optim.budget import MAX_STEPS
@@ -27,6 +28,7 @@ from optim.gradient import GRADIENT_SOLVERS
 from optim.limits import Limits
 from optim.lp import LP_SOLVERS
 from optim.robust import RobustSpec
+from optim.turn import TurnSpec
 
 METHODS = {"exact": ("highs", LP_SOLVERS), "gradient": ("ipopt", GRADIENT_SOLVERS)}
 # the option of `jaxflex optimize` that sets each field (named in its errors)
@@ -37,6 +39,9 @@ OPTIONS = {
     "clearance_m": "--clearance",
     "max_steps": "--max-steps",
     "max_memory_bytes": "--max-memory",
+    "rotate": "--rotate",
+    "angular_limits": "--angular-limits",
+    "pivot_m": "--pivot",
 }
 
 
@@ -106,6 +111,9 @@ class Request:
     min_distance_m: float | None = None
     cup_safety: float | None = None
     max_stress_pa: float | str | None = None
+    rotate: Any = None  # (axis, angle_deg) or an optim.turn.TurnSpec; a TurnSpec once checked
+    angular_limits: Any = None  # (rate rad/s, acc rad/s^2, jerk rad/s^3); ANGULAR_LIMITS
+    pivot_m: Any = None  # (3,) m: the point the turn's axis passes through (default origin)
 
     def __post_init__(self) -> None:
         robust = _as_robust(self.robust)
@@ -117,6 +125,7 @@ class Request:
         if self.clearance_m is not None:
             self._set("clearance_m", check_positive(_label("clearance_m"), self.clearance_m))
         self._check_route()
+        self._check_turn()
         steps = self.max_steps
         if isinstance(steps, bool) or not isinstance(steps, int) or steps < 2:
             raise InputError(f"{_label('max_steps')}: must be an integer >= 2, got {steps!r}")
@@ -143,6 +152,40 @@ class Request:
                 "(min_distance_m, cup_safety, max_stress_pa); the exact route does: "
                 "method='exact' (jaxflex optimize --method exact, the default)"
             )
+
+    def _check_turn(self) -> None:
+        """The turn (optim.turn.TurnSpec), for a model with the rotation data; what turning
+        moves do not take yet is refused, naming it."""
+        rotate = self.rotate
+        if rotate is None:
+            if self.angular_limits is not None or self.pivot_m is not None:
+                raise InputError(
+                    "angular_limits (--angular-limits), pivot_m (--pivot): only with rotate "
+                    "(--rotate)"
+                )
+            return
+        if not isinstance(rotate, TurnSpec):
+            if isinstance(rotate, str) or not hasattr(rotate, "__len__") or len(rotate) != 2:
+                raise InputError(
+                    "rotate (--rotate AXIS ANGLE_DEG): (axis, angle in degrees), the axis "
+                    f"'x', 'y', 'z' or three numbers; got {rotate!r}"
+                )
+            rotate = TurnSpec.checked(rotate[0], rotate[1], self.angular_limits, self.pivot_m)
+        require_rotation(self.model)
+        unsupported = {
+            "robust (--robust)": self.robust is not None,
+            "method='gradient' (--method gradient)": self.method != "exact",
+            "cell (--cell)": self.cell is not None,
+            "clearance_m (--clearance)": self.clearance_m is not None,
+            "min_distance_m, cup_safety, max_stress_pa": self.has_cell_limits,
+        }
+        refused = [name for name, asked in unsupported.items() if asked]
+        if refused:
+            raise InputError(
+                f"rotate (--rotate): {', '.join(refused)} not yet for turning moves; turning "
+                "moves take the nominal model on the exact route, without a cell"
+            )
+        self._set("rotate", rotate)
 
     @property
     def has_via(self) -> bool:

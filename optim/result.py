@@ -12,6 +12,9 @@ accept the files only as that set):
 * ``robust.png`` and ``deviation_worst_case.png`` (robust mode) — cycle time across the
   uncertainty range for the optimum and the baselines; the optimum's deviation at its worst
   case;
+* ``turn.png`` (moves that turn the part, optim.turn) — the angle and angular rate of the
+  optimum and the baselines; trajectory.csv then also holds the turn's angle, rate and
+  angular acceleration, the report the turn and the bound on the neglected terms;
 * ``constraints.png`` (with cell constraints) — the largest cup utilisation, the largest von
   Mises stress and the smallest distance to the obstacles against time, with the limits.
 """
@@ -44,6 +47,7 @@ RESULT_FILES = (
     "constraints.png",
     "robust.png",
     "deviation_worst_case.png",
+    "turn.png",
 )
 
 
@@ -100,6 +104,8 @@ class OptimizationResult:
     warnings: list[dict] = field(default_factory=list)  # optim.advice: {"kind", "message"}
     constraints: list[dict] = field(default_factory=list)  # the cell's, certified
     cell: Any = None  # optim.cell_setup.CellSetup (posed model, via points, families)
+    turn: Any = None  # optim.turn.TurnSpec of a move that turns the part
+    angular_acc: np.ndarray | None = None  # (n+1,) rad/s^2: the turn's schedule
     _traces: list = field(default_factory=list, repr=False, compare=False)  # _responses()
 
     @property
@@ -200,6 +206,7 @@ class OptimizationResult:
             if self.cell is None or self.cell.cell is None
             else self.cell.cell.describe(),
             "constraints": self.constraints,
+            "turn": None if self.turn is None else self._turn_report(),
             "n_steps": self.n_steps,
             "transfer_time_s": self.transfer_time_s,
             "settle_time_s": self.settle_time_s,
@@ -214,6 +221,27 @@ class OptimizationResult:
             "wall_time_s": self.wall_time_s,
         }
 
+    def _turn_report(self) -> dict:
+        """The turn, its schedule's heuristic and the neglected terms' bound (optim.turn)."""
+        return {
+            **self.turn.as_dict(),
+            "schedule": "fixed per move length: ruckig's turn stretched to the move, or shaped "
+            "like the best shaped baselines and stretched (optim.turn)",
+            "neglected_bound_m": self.deviation["neglected_bound_m"],
+            "angular_acc_rad_s2": self.angular_acc.tolist(),
+        }
+
+    def _turn_line(self) -> str:
+        spec = self.turn.as_dict()
+        axis = ", ".join(f"{v:g}" for v in spec["axis"])
+        bound = self.deviation["neglected_bound_m"]
+        return (
+            f"  turn: {spec['angle_deg']:g} deg about ({axis}) within {spec['rate_rad_s']:g} "
+            f"rad/s, {spec['acc_rad_s2']:g} rad/s^2, {spec['jerk_rad_s3']:g} rad/s^3; the "
+            f"neglected gyroscopic and spin-softening terms change the deviation by at most "
+            f"{bound * 1e3:.3g} mm"
+        )
+
     def summary(self) -> str:
         """The answer first (ruckig-style: one line), then the details, for the terminal."""
         lines = [self.headline(), f"  {self._timeline()}"]
@@ -227,6 +255,8 @@ class OptimizationResult:
         peak = self.deviation["peak_during_move_m"]
         clear = "" if self.clearance_m is None else f" (clearance {self.clearance_m * 1e3:g} mm)"
         lines.append(f"  peak deviation during the move: {peak * 1e3:.3f} mm{clear}")
+        if self.turn is not None:
+            lines.append(self._turn_line())
         for c in self.constraints:
             lines.append("  " + constraint_line(c))
         base = self.baselines
@@ -287,7 +317,10 @@ class OptimizationResult:
         the manifest last, the files of an earlier run that this one does not write removed.
         Returns the paths written (manifest.json last)."""
         with writing(directory, RESULT_KIND, RESULT_FILES) as files:
-            files.add("trajectory.csv", lambda p: write_trajectory_csv(p, self.acc, self.dt_s))
+            files.add(
+                "trajectory.csv",
+                lambda p: write_trajectory_csv(p, self.acc, self.dt_s, self.angular_acc),
+            )
             files.add_text("report.json", json.dumps(self.report(), indent=2))
             if plots:
                 self._plot(files)
@@ -299,6 +332,8 @@ class OptimizationResult:
 
         files.add("profiles.png", lambda p: plot_profiles(p, self.acc, self.dt_s, self.limits))
         self._plot_deviation(files)
+        if self.turn is not None:
+            files.add("turn.png", self._plot_turn)
         if self.constraints:
             files.add("constraints.png", self._plot_constraints)
         if self.worst_case is not None:
@@ -318,15 +353,46 @@ class OptimizationResult:
         from optim.plots import Trace  # matplotlib: only when drawing
 
         if not self._traces:
-            moves = [(self._label(), self.acc, self.cycle_time_s, self.worst_cycle_time_s)]
-            for b in self.baselines.entries:
-                if not (self.source == b.name and np.array_equal(b.acc, self.acc)):
-                    moves.append((b.name, b.acc, b.cycle_time_s, b.worst_cycle_time_s))
+            label = self._label()
+            moves = [(label, self.acc, self.cycle_time_s, self.worst_cycle_time_s)]
+            for b in self._other_baselines():
+                moves.append((b.name, b.acc, b.cycle_time_s, b.worst_cycle_time_s))
             until = self._until()
             for label, acc, cycle, worst in moves:
-                t, d = deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS, PLOT_AFTER)
+                t, d = self._curve(acc, self._turn_of(label), until)
                 self._traces.append(Trace(label, t, d, cycle, worst, acc))
         return self._traces
+
+    def _other_baselines(self) -> list:
+        """The baselines shown besides the returned move (not the returned one again)."""
+        return [
+            b
+            for b in self.baselines.entries
+            if not (self.source == b.name and np.array_equal(b.acc, self.acc))
+        ]
+
+    def _turn_of(self, label: str) -> np.ndarray | None:
+        """The angular acceleration samples of the shown move ``label`` (None: straight)."""
+        if self.turn is None:
+            return None
+        found = [b.angular_acc for b in self._other_baselines() if b.name == label]
+        return found[0] if found else self.angular_acc
+
+    def _curve(self, acc, angular_acc, until: float) -> tuple[np.ndarray, np.ndarray]:
+        """Deviation against time up to ``until`` s: exact samples every dt / SUBSTEPS for a
+        straight move, at the samples for a turning one (jaxflex.turning)."""
+        if angular_acc is None:
+            return deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS, PLOT_AFTER)
+        extend = max(0.0, until - (acc.shape[0] - 1) * self.dt_s)
+        response = self.turn.response(self.model, angular_acc, acc, self.dt_s, extend)
+        return response.t_s, response.deviation_m
+
+    def _plot_turn(self, path: Path) -> None:
+        from optim.plots import plot_turn  # matplotlib: only when drawing
+
+        traces = self._responses()
+        turns = [self._turn_of(trace.label) for trace in traces]
+        plot_turn(path, traces, turns, self.dt_s)
 
     def _until(self) -> float:
         """The end of the plots' time axis (s): past every shown move's cycle."""

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -92,6 +92,7 @@ class Problem:
     pool: list[PoolRow] = field(default_factory=list)
     clearance_pool: dict[int, list[ClearancePeak]] = field(default_factory=dict)
     cell_rows: dict[int, list[Row]] = field(default_factory=dict)
+    turn: Any = None  # optim.turn.TurnSchedule: a fixed turn with the move (affine end state)
     _maps: dict = field(default_factory=dict)
     _move_maps: dict = field(default_factory=dict)
 
@@ -129,10 +130,29 @@ class Problem:
         if key not in self._maps:
             _forget_lengths(self._maps, n_steps, lambda key: key[1])
             self._maps[key] = end_state_map(self.scenarios[scenario].model, n_steps, self.dt_s)
+        if self.turn is not None:
+            return self.turn.rotated_map(self._maps[key], n_steps, scenario)
         return self._maps[key]
 
+    def end_offset(self, scenario: int, n_steps: int) -> np.ndarray:
+        """(M, 2) end state with the translation at rest: zero, or the turn's own."""
+        model = self.scenarios[scenario].model
+        if self.turn is None:
+            return np.zeros((model.n_modes, 2))
+        return self.turn.end_offset(model, n_steps, scenario)
+
     def end_state(self, scenario: int, acc: np.ndarray) -> np.ndarray:
-        return np.einsum("mikc,kc->mi", self.end_map(scenario, acc.shape[0] - 1), acc)
+        n_steps = acc.shape[0] - 1
+        linear = np.einsum("mikc,kc->mi", self.end_map(scenario, n_steps), acc)
+        return linear + self.end_offset(scenario, n_steps)
+
+    def timing(self, scenario: int, move, acc: np.ndarray) -> SettleReport:
+        """Exact cycle time of the move ``move`` (jaxflex.response.as_move of ``acc``) for
+        one scenario: the straight move's, or the turning move's (optim.turn)."""
+        model = self.scenarios[scenario].model
+        if self.turn is None:
+            return analyze_move(model, move, move.dt_s, self.threshold_m, settle=False)
+        return self.turn.timing(model, acc, self.threshold_m)
 
     def add_peak(self, scenario: int, peak: Peak) -> None:
         coef = self.scenarios[scenario].residual.row(peak)
@@ -209,10 +229,12 @@ def add_end_states(builder, problem: Problem, layout) -> dict[int, np.ndarray]:
         emap = problem.end_map(i, layout.n_steps)[..., list(layout.axes)]  # (M, 2, n+1, d)
         m = emap.shape[0]
         e_flat = np.transpose(emap, (0, 1, 3, 2)).reshape(2 * m, -1)
-        e_flat = e_flat / problem.scenarios[i].zscale.reshape(-1, 1)
+        zscale = problem.scenarios[i].zscale.reshape(-1)
+        e_flat = e_flat / zscale[:, None]
+        offset = problem.end_offset(i, layout.n_steps).reshape(-1) / zscale
         z = builder.variables(2 * m)
         builder.dense_rows(
-            np.hstack([np.eye(2 * m), -e_flat]), np.concatenate([z, a_cols]), 0.0, 0.0
+            np.hstack([np.eye(2 * m), -e_flat]), np.concatenate([z, a_cols]), offset, offset
         )
         z_cols[i] = z
     return z_cols
@@ -249,6 +271,7 @@ class Attempt:
     wall_s: float
     reason: str
     solver_stats: list[dict]
+    turn_acc: np.ndarray | None = None  # (n+1,) rad/s^2: the turn's schedule (optim.turn)
 
     def summary(self) -> dict:
         return {
@@ -270,8 +293,8 @@ def _certify(problem: Problem, acc: np.ndarray):
     transfer = move.duration_s
     timings: dict[int, SettleReport] = {}
     failed = []
-    for i, scen in enumerate(problem.scenarios):
-        timing = analyze_move(scen.model, move, move.dt_s, problem.threshold_m, settle=False)
+    for i in range(len(problem.scenarios)):
+        timing = problem.timing(i, move, acc)
         timings[i] = timing
         if timing.cycle_time_s > transfer * (1 + TIME_RTOL):
             failed.append(i)
@@ -318,7 +341,24 @@ def attempt(
     n_steps: int,
     warm: np.ndarray,
 ) -> Attempt:
-    """Is there a certified move of ``n_steps`` steps? (module docstring)."""
+    """Is there a certified move of ``n_steps`` steps? (module docstring). With a turn,
+    each of its schedules for n steps in order (optim.turn.TurnSchedule) until one is."""
+    turn = problem.turn
+    if turn is None:
+        return _attempt(problem, solver, n_steps, warm)
+    start = time.perf_counter()
+    found = _rejected(n_steps, np.inf, 0, start, "the turn does not fit in the move", [])
+    for variant in turn.variants(n_steps):
+        turn.variant = variant
+        found = _attempt(problem, solver, n_steps, warm)
+        if found.feasible:
+            found.turn_acc = turn.angular_acc(n_steps)
+            break
+    return found
+
+
+def _attempt(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray) -> Attempt:
+    """One certified-move test of :func:`attempt` (with the turn's active schedule)."""
     start = time.perf_counter()
     stats: list[dict] = []
     value = np.inf

@@ -37,6 +37,8 @@ from optim.move_response import SAMPLING_ALLOWANCE, shortest_clearance_move_s
 from optim.request import Request
 from optim.result import OptimizationResult, deviation_summary
 from optim.search import Attempt, Problem, active_components, attempt, bisect, scenarios
+from optim.turn import TurnSchedule, turn_deviation
+from optim.turn_baselines import turn_baselines
 
 
 @dataclass(frozen=True)
@@ -60,6 +62,7 @@ class Baselines:
     feasible: list[Baseline]
     floor_deviation: dict  # deviation_summary of the kinematic floor (entries[0])
     advice: list[dict]
+    turn_trains: list = field(default_factory=list)  # shapers of the turn's schedules
 
 
 @dataclass
@@ -142,7 +145,13 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     constraints, and the advice on the threshold from the kinematic floor's response."""
     r, setup = request, plan.setup
     fractions: list[float] = []
-    if setup.via:
+    trains = []
+    if r.rotate is not None:
+        moves, trains = turn_baselines(
+            setup.model, setup.distance_m, r.rotate, r.limits, r.dt_s, r.threshold_m,
+            max_shaped_modes=r.max_shaped_modes, max_steps=plan.steps_cap, progress=r.progress,
+        )  # fmt: skip
+    elif setup.via:
         via = [v[0] for v in setup.via]
         moves, fractions = via_baselines(
             setup.model, setup.distance_m, via, r.limits, r.dt_s, r.threshold_m,
@@ -157,23 +166,25 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     for entry in moves.entries:
         entry.constraints_ok, entry.constraints = setup.feasible(entry.acc, r.dt_s)
     floor = moves.entries[0]  # the fastest move there is on the grid (along the path)
-    deviation = deviation_summary(setup.model, floor.acc, r.dt_s)
+    deviation = _deviation(r, setup.model, floor.acc, floor.angular_acc)
     peak = deviation["peak_during_move_m"]
     resolution = model_resolution(setup.model, setup.distance_m)
     advice = threshold_advice(r.threshold_m, floor.timing.settle_time_s, peak, resolution)
     feasible = [e for e in moves.entries if e.constraints_ok]
-    return Baselines(moves, fractions, feasible, deviation, issue(advice))
+    return Baselines(moves, fractions, feasible, deviation, issue(advice), trains)
 
 
-def _problem(request: Request, plan: Plan, fractions: list[float]) -> Problem:
-    """The search's problem with the cell's constraint families and via points."""
-    r, setup = request, plan.setup
+def _problem(request: Request, plan: Plan, base: Baselines) -> Problem:
+    """The search's problem with the cell's constraint families and via points, or the
+    turn's schedules."""
+    r, setup, fractions = request, plan.setup, base.via_fractions
     via = [(o, m, t, f) for (o, m, t), f in zip(setup.via, fractions, strict=True)]
     grid, training = scenarios(setup.model, r.robust, r.threshold_m)
     comps = active_components(setup.model)
     return Problem(
         setup.model, setup.distance_m, r.limits, r.threshold_m, r.dt_s, plan.steps_cap, r.robust,
         grid, training, comps, r.clearance_m, via=via, families=setup.families,
+        turn=None if r.rotate is None else TurnSchedule(r.rotate, r.dt_s, base.turn_trains),
     )  # fmt: skip
 
 
@@ -182,7 +193,7 @@ def search(request: Request, plan: Plan, base: Baselines) -> Search:
     then, on the exact route, smooth the search's move (:func:`_polish`). Refuses a request
     no move can meet (no move found and no baseline to fall back on)."""
     r, model = request, plan.setup.model
-    problem = _problem(r, plan, base.via_fractions)
+    problem = _problem(r, plan, base)
     sub = LPSubsolver(r.solver) if r.method == "exact" else GradientSubsolver(r.solver)
     bound = min((e.score() for e in base.feasible), default=plan.steps_cap * r.dt_s)
     upper = math.ceil(bound / r.dt_s - 1e-9)
@@ -266,14 +277,27 @@ def certify(request: Request, plan: Plan, base: Baselines, found: Search, choice
     r, model, move = request, plan.setup.model, choice.move
     entries = base.moves.entries
     known = next((e for e in entries if move.kind == "baseline" and e.name == move.name), None)
-    timing = known.timing if known else analyze_move(model, move.acc, r.dt_s, r.threshold_m)
+    if known:
+        timing = known.timing
+    elif r.rotate is not None:
+        timing = r.rotate.timing(model, move.angular_acc, move.acc, r.dt_s, r.threshold_m)[0]
+    else:
+        timing = analyze_move(model, move.acc, r.dt_s, r.threshold_m)
     deviation = base.floor_deviation if known is entries[0] else None
     if deviation is None:
-        deviation = deviation_summary(model, move.acc, r.dt_s)
+        deviation = _deviation(r, model, move.acc, move.angular_acc)
     worst = None
     if r.robust is not None:
         worst = _worst_case(found.problem, move, r.dt_s, r.threshold_m)
     return Certified(timing, deviation, worst)
+
+
+def _deviation(request: Request, model, acc, angular_acc) -> dict:
+    """The deviation summary of a move (optim.result; a turning move's from optim.turn)."""
+    if request.rotate is None:
+        return deviation_summary(model, acc, request.dt_s)
+    response = request.rotate.response(model, angular_acc, acc, request.dt_s)
+    return turn_deviation(response, acc.shape[0] - 1, request.dt_s)
 
 
 def _worst_case(problem: Problem, move: Candidate, dt_s: float, threshold_m: float) -> dict:
@@ -344,6 +368,8 @@ def report(
         worst_case=certified.worst_case,
         constraints=setup.describe_move(move.acc, r.dt_s) if setup.families else [],
         cell=setup,
+        turn=r.rotate,
+        angular_acc=move.angular_acc,
     )
 
 

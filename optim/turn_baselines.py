@@ -1,0 +1,147 @@
+"""Baselines of a move that turns the part (optim.turn), each with its exact cycle time
+(jaxflex.turning.turning_settle) and the bound on the terms the turning engine neglects.
+
+* "ruckig + free decay": ruckig's time-optimal motion of every axis, the angle as a fourth
+  synchronised axis: the translation and the turn both stretched by ruckig to the slower
+  one's duration T (ruckig's time synchronisation), on the grid (optim.ruckig_move's L1 fit,
+  the angular limits met exactly); its length is the kinematic floor of the turning moves,
+  and the search starts there;
+* input shaping of every axis, the angle included: each shaper of optim.shapers.SHAPERS for
+  the dominant modes, convolved with the synchronised motion of every axis, on the grid;
+  the number of shaped modes with the shortest cycle is kept.
+
+Dominant modes are ranked by their share of the synchronised ruckig move's residual
+vibration, max_p |phi_i(p)| R_i (R_i the amplitude of mode i's free decay from the end
+state): a turn loads modes that the translation's quasi-static deflection does not rank.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
+from jaxflex.response import amplitudes
+from jaxflex.runtime import progress_bar
+from optim.baselines import Baseline, BaselineSet
+from optim.kinematics import clean_distance
+from optim.limits import Limits
+from optim.ruckig_move import (
+    MAX_EXTRA_STEPS,
+    fit_to_grid,
+    grid_steps,
+    shaped_grid_move,
+    time_optimal_move,
+)
+from optim.search import pad_to
+from optim.shapers import SHAPERS, Shaper, convolve, shaper
+from optim.turn import TurnSpec
+
+SHAPED_SCHEDULES = 2  # the search's shaped turn schedules: those of the best 2 baselines
+
+
+def _evaluate(model, turn: TurnSpec, name, acc, alpha, dt_s, threshold_m, freqs) -> Baseline:
+    timing, response = turn.timing(model, alpha, acc, dt_s, threshold_m)
+    return Baseline(
+        name,
+        acc,
+        timing,
+        freqs,
+        angular_acc=alpha,
+        neglected_bound_m=response.neglected_bound_m,
+    )
+
+
+def synchronised_floor(
+    distance: np.ndarray, turn: TurnSpec, limits: Limits, dt_s: float, max_steps: int
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """(translation samples (n+1, 3), angular acceleration (n+1,), T s): the fewest steps
+    n >= ceil(T / dt) at which both, stretched by ruckig to n dt, have grid versions."""
+    duration = max(time_optimal_move(distance, limits).duration_s, turn.fastest_s())
+    start = grid_steps(duration, dt_s)
+    for n_steps in range(start, min(max_steps, start + MAX_EXTRA_STEPS) + 1):
+        stretched = time_optimal_move(distance, limits, minimum_duration_s=n_steps * dt_s)
+        reference = stretched.acceleration(dt_s * np.arange(n_steps + 1))
+        acc = fit_to_grid(reference, dt_s, distance, limits)
+        alpha = turn.stretched(n_steps, dt_s)
+        if acc is not None and alpha is not None:
+            return acc, alpha, duration
+    raise InputError(
+        f"distance_m / rotate: the move and the turn need at least {duration:.3f} s at these "
+        f"limits (time-optimal jerk-limited motion), more than the {max_steps} steps of "
+        f"{dt_s:g} s allowed; raise max_duration_s or the limits"
+    )
+
+
+def _shaped_turn(turn: TurnSpec, train, duration_s: float, dt_s: float, max_steps: int):
+    """The turn stretched to ``duration_s`` and convolved with ``train`` on the grid
+    ((n+1,) rad/s^2; zeros for no turn; None if no grid version exists)."""
+    if turn.angle_rad == 0.0:
+        return np.zeros(grid_steps(duration_s + train.duration_s, dt_s) + 1)
+    motion = time_optimal_move(turn.angle_move, turn.limits, minimum_duration_s=duration_s)
+    acc = shaped_grid_move(motion, train, turn.angle_move, turn.limits, dt_s, max_steps=max_steps)
+    return None if acc is None else acc[:, 0]
+
+
+def turn_baselines(
+    model: ModalModel,
+    distance_m,
+    turn: TurnSpec,
+    limits: Limits,
+    dt_s: float,
+    threshold_m: float,
+    *,
+    max_shaped_modes: int,
+    max_steps: int,
+    progress: bool | None = False,
+) -> tuple[BaselineSet, list[Shaper]]:
+    """Every baseline of the turning move (module docstring; ``kinematic_floor_s`` is the
+    synchronised continuous duration T) and the shapers of the best SHAPED_SCHEDULES shaped
+    baselines, best first (the search's shaped turn schedules, optim.turn.TurnSchedule)."""
+    distance = clean_distance(distance_m)
+    floor_acc, floor_alpha, duration = synchronised_floor(distance, turn, limits, dt_s, max_steps)
+    floor = _evaluate(
+        model, turn, "ruckig + free decay", floor_acc, floor_alpha, dt_s, threshold_m, []
+    )
+    entries = [floor]
+    end = turn.response(model, floor_alpha, floor_acc, dt_s).end_state
+    share = np.asarray(model.shape_norms).max(axis=0) * amplitudes(model, end)
+    order = np.argsort(-share, kind="stable")[:max_shaped_modes]
+    freq, omega, zeta = (np.asarray(v) for v in (model.freq_hz, model.omega_rad_s, model.zeta))
+    stretched = time_optimal_move(distance, limits, minimum_duration_s=duration)
+    skipped: dict[str, str] = {}
+    trains: dict[str, Shaper] = {}
+    bar = progress_bar(len(SHAPERS) * len(order), "turning baselines", progress, unit="move")
+    for kind in SHAPERS:
+        best: Baseline | None = None
+        for count in range(1, len(order) + 1):
+            bar.update(1)
+            modes = order[:count]
+            try:
+                train = convolve(*(shaper(kind, omega[i], zeta[i]) for i in modes))
+            except InputError as exc:  # no such shaper for these modes (EI near zeta = 1)
+                skipped.setdefault(kind, str(exc))
+                break
+            if best is not None and duration + train.duration_s >= best.score():
+                continue  # the move alone is longer than the best cycle so far
+            if grid_steps(duration + train.duration_s, dt_s) > max_steps:
+                skipped.setdefault(kind, f"{kind} x{count} needs more than {max_steps} steps")
+                break
+            acc = shaped_grid_move(stretched, train, distance, limits, dt_s, max_steps=max_steps)
+            alpha = _shaped_turn(turn, train, duration, dt_s, max_steps)
+            if acc is None or alpha is None:
+                continue
+            n_steps = max(acc.shape[0], alpha.size) - 1
+            acc, alpha = pad_to(acc, n_steps), np.pad(alpha, (0, n_steps + 1 - alpha.size))
+            freqs = [float(freq[i]) for i in modes]
+            entry = _evaluate(model, turn, f"{kind} x{count}", acc, alpha, dt_s, threshold_m, freqs)
+            if best is None or entry.score() < best.score():
+                best, trains[kind] = entry, train
+        if best is not None:
+            count = len(best.shaped_freq_hz)
+            best.name = f"{kind} ({count} mode{'s' if count > 1 else ''})"
+            trains[best.name] = trains.pop(kind)
+            entries.append(best)
+    bar.close()
+    shaped = sorted(entries[1:], key=Baseline.score)[:SHAPED_SCHEDULES]
+    return BaselineSet(duration, floor_acc, entries, skipped), [trains[e.name] for e in shaped]
