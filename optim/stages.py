@@ -147,10 +147,7 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     fractions: list[float] = []
     trains = []
     if r.rotate is not None:
-        moves, trains = turn_baselines(
-            setup.model, setup.distance_m, r.rotate, r.limits, r.dt_s, r.threshold_m,
-            max_shaped_modes=r.max_shaped_modes, max_steps=plan.steps_cap, progress=r.progress,
-        )  # fmt: skip
+        moves, trains = turn_baselines(r, setup.model, setup.distance_m, plan.steps_cap)
     elif setup.via:
         via = [v[0] for v in setup.via]
         moves, fractions = via_baselines(

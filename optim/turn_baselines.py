@@ -26,6 +26,7 @@ from jaxflex.runtime import progress_bar
 from optim.baselines import Baseline, BaselineSet
 from optim.kinematics import clean_distance
 from optim.limits import Limits
+from optim.request import Request
 from optim.ruckig_move import (
     MAX_EXTRA_STEPS,
     fit_to_grid,
@@ -84,20 +85,15 @@ def _shaped_turn(turn: TurnSpec, train, duration_s: float, dt_s: float, max_step
 
 
 def turn_baselines(
-    model: ModalModel,
-    distance_m,
-    turn: TurnSpec,
-    limits: Limits,
-    dt_s: float,
-    threshold_m: float,
-    *,
-    max_shaped_modes: int,
-    max_steps: int,
-    progress: bool | None = False,
+    request: Request, model: ModalModel, distance_m, max_steps: int
 ) -> tuple[BaselineSet, list[Shaper]]:
-    """Every baseline of the turning move (module docstring; ``kinematic_floor_s`` is the
-    synchronised continuous duration T) and the shapers of the best SHAPED_SCHEDULES shaped
-    baselines, best first (the search's shaped turn schedules, optim.turn.TurnSchedule)."""
+    """Every baseline of the turning move of ``request`` (its turn, limits, step, threshold,
+    number of shaped modes and progress) for ``model`` over ``distance_m`` within
+    ``max_steps`` (module docstring; ``kinematic_floor_s`` is the synchronised continuous
+    duration T) and the shapers of the best SHAPED_SCHEDULES shaped baselines, best first
+    (the search's shaped turn schedules, optim.turn.TurnSchedule)."""
+    turn, limits, dt_s = request.rotate, request.limits, request.dt_s
+    threshold_m, max_shaped_modes = request.threshold_m, request.max_shaped_modes
     distance = clean_distance(distance_m)
     floor_acc, floor_alpha, duration = synchronised_floor(distance, turn, limits, dt_s, max_steps)
     floor = _evaluate(
@@ -111,7 +107,9 @@ def turn_baselines(
     stretched = time_optimal_move(distance, limits, minimum_duration_s=duration)
     skipped: dict[str, str] = {}
     trains: dict[str, Shaper] = {}
-    bar = progress_bar(len(SHAPERS) * len(order), "turning baselines", progress, unit="move")
+    bar = progress_bar(
+        len(SHAPERS) * len(order), "turning baselines", request.progress, unit="move"
+    )
     for kind in SHAPERS:
         best: Baseline | None = None
         for count in range(1, len(order) + 1):
