@@ -31,6 +31,7 @@ import jaxflex
 from fmu import export_fmu
 from fmu.master import Session
 from fmu.variables import POSE_INPUT_NAMES
+from jaxflex.cli import main
 from jaxflex.errors import InputError, ModelError
 from jaxflex.pose import fixed_axis_path, turn_acceleration
 from jaxflex.turning import body_loads, simulate_turning, turning_forces
@@ -202,3 +203,20 @@ def test_a_zero_quaternion_is_refused_with_the_state_kept(fmus):
             session.step(DT, DT)
         assert session.get("deviation") == before
         assert any("no direction" in text for _, text in session.messages)
+
+
+def test_export_command_with_turning(panel, tmp_path, capsys):
+    """`jaxflex export --turning --pivot`: the FMU validates and says what its inputs are; a
+    model file without rotation data gets one line and exit status 2, no FMU."""
+    panel.save(tmp_path / "panel.npz")
+    panel._replace(rotation=None).save(tmp_path / "bare.npz")
+    out = tmp_path / "t.fmu"
+    argv = ["export", str(tmp_path / "panel.npz"), "--turning", "--pivot", "0.3", "0.2", "0"]
+    assert main([*argv, "--fmi", "3", "--windows", "no", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "fmpy validation: clean" in text and "quat_w..quat_z (body to world)" in text
+    bare = ["export", str(tmp_path / "bare.npz"), "--turning", "-o", str(tmp_path / "b.fmu")]
+    assert main(bare) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("jaxflex export: error: turning:") and err.count("\n") == 1
+    assert not (tmp_path / "b.fmu").exists()
