@@ -30,11 +30,11 @@ from fmu.obstacles import obstacle_records
 from fmu.resource import CellData, Counts, TurningData, encode_resource, resource_counts
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
 from jaxflex.defaults import DT_S, THRESHOLD_M
-from jaxflex.errors import InputError, ModelError
+from jaxflex.errors import InputError
 from jaxflex.files import check_positive, write_text_atomic
 from jaxflex.geometry import DEFAULT_GRAVITY_M_S2, Cell, part_half_thickness
 from jaxflex.model import ModalModel
-from jaxflex.response import DEFAULT_CUP_SAFETY, analyze_move, as_move
+from jaxflex.response import DEFAULT_CUP_SAFETY, analyze_move, as_move, require_rotation
 
 CASE_FORMAT = "jaxflex.fmu_case"
 _CASE_TIMES = ("cycle_time_s", "transfer_time_s", "settle_time_s")
@@ -173,15 +173,7 @@ def _turning_data(
     turning part's FMU cannot do, naming the option."""
     if not turning:
         return None
-    if model.rotation is None:
-        source = dict(model.meta).get("source", "this model")
-        raise ModelError(
-            f"turning: an FMU that takes the pose as inputs needs the part's inertia shape "
-            f"integrals (phi^T M (e_j r_i), the model's rotation data), which {source} does not "
-            "hold; build the model with `jaxflex model` (plate, thin solid, shell) or import a "
-            "source with a mass matrix; R1 matrices, .rst results and model files written "
-            "before turning moves cannot turn the part"
-        )
+    require_rotation(model)  # ModelError saying what the model lacks
     refused = [
         name
         for name, given in (("trajectory", trajectory is not None), ("cell", cell is not None),

@@ -77,7 +77,7 @@ from jaxflex.profile import (
     kinematics_at,
     position_weights,
 )
-from jaxflex.rotation import LEVI_CIVITA, RotationalInertia
+from jaxflex.rotation import LEVI_CIVITA, RotationalInertia, require_rotation
 from jaxflex.settle import SettleReport, analyze_move
 from jaxflex.simulate import (
     move_deviation,
@@ -131,6 +131,7 @@ __all__ = [
     "padded_steps",
     "point_displacements",
     "position_weights",
+    "require_rotation",
     "response_shapes",
     "rest_padded",
     "simulate_turning",

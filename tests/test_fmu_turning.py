@@ -219,7 +219,7 @@ def test_export_command_with_turning(panel, tmp_path, capsys):
     bare = ["export", str(tmp_path / "bare.npz"), "--turning", "-o", str(tmp_path / "b.fmu")]
     assert main(bare) == 2
     err = capsys.readouterr().err
-    assert err.startswith("jaxflex export: error: turning:") and err.count("\n") == 1
+    assert err.startswith("jaxflex export: error: turning moves need") and err.count("\n") == 1
     assert not (tmp_path / "b.fmu").exists()
 
 
