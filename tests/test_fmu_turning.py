@@ -18,6 +18,11 @@ a translation of the pivot), driven by fmpy:
 
 from __future__ import annotations
 
+import struct
+import subprocess
+import zipfile
+import zlib
+
 import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
@@ -29,6 +34,8 @@ from scipy.spatial.transform import Rotation
 import fem
 import jaxflex
 from fmu import export_fmu
+from fmu.build import compile_library, host_target
+from fmu.harness import SANITIZE_FLAGS, compile_harness, resource_location
 from fmu.master import Session
 from fmu.variables import POSE_INPUT_NAMES
 from fmu.verify import read_fmu_resource
@@ -242,3 +249,49 @@ def test_without_turning_the_pose_inputs_give_the_straight_response(panel, fmus)
     assert np.abs(np.array(got) - reference).max() <= ROUNDING * reference.max()
     stored = read_fmu_resource(fmus[3].fmu_path).turning
     assert np.array_equal(stored.pivot_m, PIVOT) and np.array_equal(stored.gravity_m_s2, GRAVITY)
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_turning_fmu_under_sanitizers(fmus, version, tmp_path):
+    """The turning FMU's C built with ASan and UBSan, driven by the C harness with its pose
+    inputs (a turn about z): the life-cycle checks pass (NaN input refused, state kept, reset
+    and re-run identical, two instances independent), a long run is clean, and damaged
+    turning resources (the turning field cleared, a NaN in the inertia shape integrals, the
+    payload cut short) are refused with a logged reason, the intact one accepted."""
+    folder = tmp_path / "x"
+    with zipfile.ZipFile(fmus[version].fmu_path) as zf:
+        zf.extractall(folder)
+    library = tmp_path / "asan.so"
+    compile_library(host_target(), folder / "sources", version, library, extra_flags=SANITIZE_FLAGS)
+    harness = compile_harness(version, tmp_path / "harness", sanitize=True, turning=True)
+    token = fmus[version].token
+    location = resource_location(version, folder / "resources")
+    for mode in (["check", "50", repr(DT)], ["bench", "400", repr(DT), "3"]):
+        proc = subprocess.run(
+            [str(harness), str(library), location, token, *mode], capture_output=True, text=True
+        )
+        assert proc.returncode == 0, proc.stderr[-3000:]
+    data = (folder / "resources" / "jaxflex_model.bin").read_bytes()
+    body = bytearray(data[:-8])
+    cases = {"intact": bytes(body)}
+    cases["turning field cleared"] = bytes(body[:124] + bytes(4) + body[128:])
+    m = fmus[version].counts.modes
+    at = len(body) - 8 * (9 * m + 6)  # the first inertia shape integral
+    cases["NaN shape integral"] = bytes(body[:at] + struct.pack("<d", np.nan) + body[at + 8 :])
+    cases["cut short"] = bytes(body[:-8])
+    lines = []
+    for i, content in enumerate(cases.values()):
+        (tmp_path / f"c{i}").mkdir()
+        (tmp_path / f"c{i}" / "jaxflex_model.bin").write_bytes(
+            content + struct.pack("<II", zlib.crc32(content), 0)
+        )
+        lines.append(resource_location(version, tmp_path / f"c{i}"))
+    (tmp_path / "list.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    argv = [str(harness), str(library), "-", token, "fuzz", "20", repr(DT), "-"]
+    proc = subprocess.run([*argv, str(tmp_path / "list.txt")], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    outcome = dict(zip(cases, proc.stdout.splitlines(), strict=True))
+    assert outcome.pop("intact").split()[::3] == ["accepted", "0"]  # no faults
+    for label, line in outcome.items():
+        refused, logged = line.split()
+        assert (refused, int(logged) > 0) == ("refused", True), label
