@@ -19,7 +19,7 @@ C_DIR = Path(__file__).resolve().parent / "c"
 # the core interface jxf_model_* (fmu/c/jxf_fmu.h) that one of the cores implements
 INSTANCE_FILES = ("jxf_fmu.h", "jxf_text.h", "jxf_fmu.c")
 BINDING_FILE = {2: "jxf_fmi2.c", 3: "jxf_fmi3.c"}
-PART_CORE = ("jxf_core.h", "jxf_core.c", "jxf_values.c", "jxf_cell.c")
+PART_CORE = ("jxf_core.h", "jxf_core.c", "jxf_values.c", "jxf_cell.c", "jxf_turning.c")
 SOURCE_CORE = ("jxf_source.c",)  # the trajectory source (fmu.source)
 CFLAGS = ("-std=c99", "-O2", "-fvisibility=hidden", "-Wall", "-Wextra")
 WINDOWS_COMPILER = "x86_64-w64-mingw32-gcc"

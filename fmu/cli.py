@@ -104,6 +104,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="also output the von Mises stress (max_stress; FMI 3.0 point_stresses)",
     )
     parser.add_argument(
+        "--turning",
+        action="store_true",
+        help="the part turns: the FMU takes the pose as inputs too (orientation quaternion "
+        "quat_w..quat_z body to world, angular velocity omega_x..z in rad/s and acceleration "
+        "alpha_x..z in rad/s^2 in body components; ax, ay, az the world acceleration of the "
+        "pivot) and outputs the deviation about the current pose's sag; needs a model with "
+        "rotation data; not with --trajectory, --cell, --stress, --ssp",
+    )
+    parser.add_argument(
+        "--pivot",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        help="with --turning: the point of the part (model frame, m) whose acceleration the "
+        "inputs ax, ay, az are, e.g. the robot's tool centre point (default: the origin)",
+    )
+    parser.add_argument(
         "--points",
         type=int,
         metavar="N",
@@ -199,6 +216,8 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
         cell=cell,
         cup_safety=args.cup_safety,
         stress=args.stress,
+        turning=args.turning,
+        pivot_m=args.pivot or (0.0, 0.0, 0.0),
     )
     print(
         f"wrote {result.fmu_path}: FMI {result.fmi_version}.0 co-simulation, "
@@ -209,6 +228,11 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
         print(
             f"cell outputs: {result.counts.cups} cups, {result.counts.stress} stress points, "
             f"{result.counts.obstacles} obstacle records"
+        )
+    if result.counts.turning:
+        print(
+            "turning part: inputs ax, ay, az (pivot, world), quat_w..quat_z (body to world), "
+            "omega_x..z, alpha_x..z (body); no cup outputs"
         )
     _print_binaries(result.fmu_path.name, result.platforms, result.skipped)
     if result.case is not None:
@@ -264,8 +288,12 @@ def run(args: argparse.Namespace) -> int:
             check_output_file(option, value)
     if args.ssp and not args.trajectory:
         raise InputError("--ssp: the package plays a move; give --trajectory as well")
-    if args.ssp and (args.cell or args.stress):
-        raise InputError("--cell / --stress: only for the FMU (-o), not for the SSP package")
+    if args.ssp and (args.cell or args.stress or args.turning):
+        raise InputError(
+            "--cell / --stress / --turning: only for the FMU (-o), not for the SSP package"
+        )
+    if args.pivot is not None and not args.turning:
+        raise InputError("--pivot: only with --turning (the point the inputs ax, ay, az move)")
     model = jaxflex.load_model(args.model)
     if args.points is not None:
         if args.points < 1:

@@ -27,14 +27,14 @@ from fmu.build import C_DIR as _C_DIR
 from fmu.build import BuildReport, WrittenFmu, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
 from fmu.obstacles import obstacle_records
-from fmu.resource import CellData, Counts, encode_resource, resource_counts
+from fmu.resource import CellData, Counts, TurningData, encode_resource, resource_counts
 from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive, write_text_atomic
 from jaxflex.geometry import DEFAULT_GRAVITY_M_S2, Cell, part_half_thickness
 from jaxflex.model import ModalModel
-from jaxflex.response import DEFAULT_CUP_SAFETY, analyze_move, as_move
+from jaxflex.response import DEFAULT_CUP_SAFETY, analyze_move, as_move, require_rotation
 
 CASE_FORMAT = "jaxflex.fmu_case"
 _CASE_TIMES = ("cycle_time_s", "transfer_time_s", "settle_time_s")
@@ -166,6 +166,35 @@ def _half_thickness(model: ModalModel, cell: Cell | None) -> float:
     return 0.0 if half is None else half
 
 
+def _turning_data(
+    model: ModalModel, turning: bool, pivot_m, gravity_m_s2, trajectory, cell, stress
+) -> TurningData | None:
+    """The pose inputs' data of a turning part (None when ``turning`` is off); refuses what a
+    turning part's FMU cannot do, naming the option."""
+    if not turning:
+        return None
+    require_rotation(model)  # ModelError saying what the model lacks
+    refused = [
+        name
+        for name, given in (("trajectory", trajectory is not None), ("cell", cell is not None),
+                            ("stress", stress))
+        if given
+    ]  # fmt: skip
+    if refused:
+        raise InputError(
+            f"turning: not with {', '.join(refused)}: a turning part's FMU takes its pose as "
+            "inputs and outputs the deviation; an embedded move of poses, and the distances, "
+            "cup loads and stresses of a turning part (the world pose of every point, the "
+            "static response to the Euler and centrifugal loads) are not in the FMU yet"
+        )
+    pivot = np.asarray(pivot_m, dtype=np.float64)
+    gravity = np.asarray(gravity_m_s2, dtype=np.float64)
+    for name, value in (("pivot_m", pivot), ("gravity_m_s2", gravity)):
+        if value.shape != (3,) or not np.isfinite(value).all():
+            raise InputError(f"{name}: three finite numbers, got {value.tolist()!r}")
+    return TurningData(pivot, gravity)
+
+
 def export_fmu(
     model: ModalModel,
     path: str | os.PathLike,
@@ -181,6 +210,9 @@ def export_fmu(
     cell: Cell | None = None,
     cup_safety: float = DEFAULT_CUP_SAFETY,
     stress: bool = False,
+    turning: bool = False,
+    pivot_m=(0.0, 0.0, 0.0),
+    gravity_m_s2=DEFAULT_GRAVITY_M_S2,
 ) -> ExportResult:
     """Write ``model`` as an FMI 2.0 or 3.0 co-simulation FMU at ``path`` (atomically).
 
@@ -204,10 +236,18 @@ def export_fmu(
             also ``cup_utilisations``), present when the model has cup reactions.
         stress: also the von Mises outputs (``max_stress``; FMI 3.0 ``point_stresses``; the
             stress maps can make the resource large: 1.9 kB per stress point at 20 modes).
+        turning: the part turns: the FMU takes the pose as inputs as well (the orientation
+            quaternion quat_w..quat_z body -> world, the angular velocity omega_x..z and
+            acceleration alpha_x..z in body components; ax, ay, az the world acceleration of
+            ``pivot_m``) and is forced as jaxflex.turning (needs the model's rotation data; not
+            with a trajectory, a cell or stresses, and without cup outputs).
+        pivot_m: (3,) m, model frame: the point whose acceleration ax, ay, az are (turning).
+        gravity_m_s2: (3,) m/s^2 in world components (turning; the cell's otherwise).
     """
     path, threshold_m, damping_scale = _check_arguments(
         model, path, fmi_version, threshold_m, damping_scale
     )
+    turning_data = _turning_data(model, turning, pivot_m, gravity_m_s2, trajectory, cell, stress)
     if cell is not None:
         model = cell.posed(model)
     if stress and model.stress is None:
@@ -216,12 +256,12 @@ def export_fmu(
         DEFAULT_GRAVITY_M_S2 if cell is None else cell.gravity_m_s2,
         check_positive("cup_safety", cup_safety),
         obstacle_records(() if cell is None else cell.obstacles),
-        cups=model.cups is not None,
+        cups=model.cups is not None and turning_data is None,
         stress=stress,
         half_thickness_m=_half_thickness(model, cell),
     )
     acc, dt_s = _check_trajectory(trajectory)
-    counts = resource_counts(model, acc, cell_data)
+    counts = resource_counts(model, acc, cell_data, turning_data)
     if case is not None and acc is None:
         raise InputError("case: describes a trajectory, so it needs trajectory=(acc, dt_s)")
     summary = _case_summary(model, acc, dt_s, threshold_m, case) if acc is not None else None
@@ -235,7 +275,8 @@ def export_fmu(
         token=token,
         description=description
         or f"Flexible sheet-metal part carried by a robot: exact modal response of "
-        f"{model.n_modes} modes at {model.n_points} points (jaxflex)",
+        f"{model.n_modes} modes at {model.n_points} points (jaxflex)"
+        + (", turning: the pose as inputs, no cup outputs" if turning_data else ""),
         counts=counts,
         threshold_m=threshold_m,
         damping_scale=damping_scale,
@@ -251,7 +292,7 @@ def export_fmu(
         threshold_m=threshold_m,
         damping_scale=damping_scale,
     )
-    resource = encode_resource(model, token, acc, dt_s, cell_data)
+    resource = encode_resource(model, token, acc, dt_s, cell_data, turning_data)
     with tempfile.TemporaryDirectory(prefix="jaxflex_fmu_") as tmp:
         stage = Path(tmp) / "fmu"
         _stage(stage, fmi_version, ident, config, model_description(desc), resource)

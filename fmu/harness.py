@@ -32,17 +32,20 @@ def compile_harness(
     windows: bool = False,
     array_points: int | None = None,
     sanitize: bool = False,
+    turning: bool = False,
 ) -> Path:
     """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``: for this machine, or
     (``windows=True``) as a static Windows x86_64 executable with mingw-w64, run under wine
     by fmu.windows. With ``array_points`` (FMI 3.0) it also reads the displaced-points array
     output (K x 3) after every step. With ``sanitize`` it is instrumented with SANITIZE_FLAGS,
-    to load an FMU library built with them."""
+    to load an FMU library built with them. With ``turning`` its bench mode also sets the
+    pose inputs of a turning part's FMU (export_fmu(turning=True))."""
     if windows and shutil.which(WINDOWS_COMPILER) is None:
         raise FmuBuildError(f"{WINDOWS_COMPILER} is not installed ({WINE_HINT})")
     compiler = WINDOWS_COMPILER if windows else host_target().compiler
     link = ["-static", "-lm"] if windows else ["-ldl", "-lm"]
     array = [f"-DHARNESS_ARRAY_POINTS={array_points}"] if array_points else []
+    array += ["-DHARNESS_TURNING"] if turning else []
     cmd = [
         compiler,
         *(SANITIZE_FLAGS if sanitize else ()),

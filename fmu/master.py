@@ -144,15 +144,17 @@ class Session:
             return np.asarray(s.getFloat64([var.valueReference], int(np.prod(dims)))).reshape(dims)
         return s.getFloat64([var.valueReference])[0]
 
-    def set_inputs(self, acc, rate=None) -> None:
+    def set_inputs(self, acc, rate=None, names=("ax", "ay", "az")) -> None:
         """Accelerations (3,) m/s^2 at the communication point; ``rate`` (3,) m/s^3 makes them
-        linear over the next step (FMI 2.0 input derivatives)."""
-        vrs = [self._vr(n) for n in ("ax", "ay", "az")]
+        linear over the next step (FMI 2.0 input derivatives). Other inputs by their
+        ``names`` (a turning part's pose: fmu.variables.POSE_INPUT_NAMES)."""
+        vrs = [self._vr(n) for n in names]
         values = [float(a) for a in acc]
         if self.fmi_version == 2:
             self._slave.setReal(vrs, values)
             if rate is not None:
-                self._slave.setRealInputDerivatives(vrs, [1, 1, 1], [float(r) for r in rate])
+                orders = [1] * len(vrs)
+                self._slave.setRealInputDerivatives(vrs, orders, [float(r) for r in rate])
         else:
             if rate is not None:
                 raise ValueError("FMI 3.0 has no input derivatives: inputs are held over a step")

@@ -20,6 +20,8 @@ _UNITS = {
     "m": {"m": "1"},
     "s": {"s": "1"},
     "m/s2": {"m": "1", "s": "-2"},
+    "rad/s": {"rad": "1", "s": "-1"},
+    "rad/s2": {"rad": "1", "s": "-2"},
     "Pa": {"kg": "1", "m": "-1", "s": "-2"},
 }
 
@@ -70,7 +72,7 @@ def _description_of(v: Variable, d: Description) -> str:
 
 def _start(v: Variable, d: Description) -> str | None:
     if v.causality == "input":
-        return "0.0"
+        return "1.0" if v.name == "quat_w" else "0.0"  # at rest, identity orientation
     return {
         "threshold": _fmt(d.threshold_m),
         "damping_scale": _fmt(d.damping_scale),
@@ -233,7 +235,7 @@ def _to_text(root: ET.Element) -> str:
 
 def model_description(d: Description) -> str:
     """modelDescription.xml text for the FMI version in ``d``."""
-    variables = variables_for(d.fmi_version, d.counts.trajectory > 0, d.counts.available())
+    variables = variables_for(d.fmi_version, d.counts.trajectory > 0, d.counts.variable_groups())
     build = _fmi2 if d.fmi_version == 2 else _fmi3
     return _to_text(build(d, variables))
 

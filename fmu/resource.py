@@ -10,8 +10,9 @@ Format version 3, little-endian throughout (read by ``fmu/c/jxf_core.c``):
     80      u32 x 4    K points, M modes, N trajectory samples, C cups
     96      f64        trajectory sample step in s (0 without a trajectory)
     104     u64        payload size in bytes
-    112     u32 x 3    S stress points, O obstacle records, R static-residual coordinates
-                       (3 where the model has a static residual, else 0); then 4 zero bytes
+    112     u32 x 4    S stress points, O obstacle records, R static-residual coordinates
+                       (3 where the model has a static residual, else 0), T turning (1: the
+                       part takes the pose as inputs, else 0; zero bytes before turning parts)
     128     f64 payload: freq_hz (M) Hz, zeta (M), gamma (M, 3) kg^0.5,
                          shapes (M + R, 3, K) m/kg^0.5 (all x rows, then y, then z; the
                          last R "modes" are the static residual D, m per m/s^2, whose
@@ -23,7 +24,10 @@ Format version 3, little-endian throughout (read by ``fmu/c/jxf_core.c``):
                          A (6C, 3) and the reactions at rest under gravity (6C) N, N m;
                          stresses: Q, V (6S, M), A (6S, 3), at rest (6S) Pa; obstacles: the
                          points at rest under gravity (K, 3) m and the records (O, 16) of
-                         :func:`fmu.obstacles.obstacle_records`
+                         :func:`fmu.obstacles.obstacle_records`; then, when T = 1, the
+                         turning part (:class:`TurningData`): the inertia shape integrals
+                         S (M, 3, 3) kg^0.5 m (jaxflex.rotation), the pivot (3) m in the
+                         model frame and gravity (3) m/s^2 in world components
     end     u32 CRC-32 (zlib) of everything before it, u32 0
 
 The outputs are y = Q q + V v + A a + y_rest (jaxflex.outputs: y_rest = -S g, exact), the
@@ -45,8 +49,8 @@ from jaxflex.model import ModalModel
 
 MAGIC = b"JXFLXFMU"
 FORMAT_VERSION = 3
-# magic, version, header bytes, token, K, M, N, C, dt_s, payload bytes, S, O, R (jxf_core.c)
-HEADER = struct.Struct("<8sII64sIIIIdQIII4x")
+# magic, version, header bytes, token, K, M, N, C, dt_s, payload bytes, S, O, R, T (jxf_core.c)
+HEADER = struct.Struct("<8sII64sIIIIdQIIII")
 _TRAILER = struct.Struct("<II")
 TOKEN_BYTES = 64
 # the sample steps (s) an embedded trajectory may have (JXF_TRAJ_DT_MIN/MAX in jxf_core.c):
@@ -68,11 +72,29 @@ class Counts:
     stress: int = 0
     obstacles: int = 0
     static: int = 0
+    turning: int = 0
 
     def available(self) -> frozenset[str]:
-        """Which optional groups of variables ("cups", "stress", "obstacles") exist."""
+        """Which optional groups of the cell's variables ("cups", "stress", "obstacles")
+        exist."""
         groups = (("cups", self.cups), ("stress", self.stress), ("obstacles", self.obstacles))
         return frozenset(name for name, count in groups if count > 0)
+
+    def variable_groups(self) -> frozenset[str]:
+        """Every optional group of variables that exists: :meth:`available` and "turning"
+        (the pose inputs)."""
+        return self.available() | ({"turning"} if self.turning else set())
+
+
+@dataclass(frozen=True)
+class TurningData:
+    """What a turning part's FMU needs besides the model (the forcing of jaxflex.turning):
+    the ``pivot_m`` (3,) m in the model frame, whose world acceleration the inputs ax, ay, az
+    are, and ``gravity_m_s2`` (3,) in world components; the inertia shape integrals come
+    from the model's rotation data."""
+
+    pivot_m: np.ndarray
+    gravity_m_s2: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -90,8 +112,14 @@ class CellData:
     half_thickness_m: float = 0.0
 
 
-def resource_counts(model: ModalModel, acc: np.ndarray | None, cell: CellData | None) -> Counts:
-    """The counts of the resource of ``model`` with the trajectory ``acc`` and ``cell``."""
+def resource_counts(
+    model: ModalModel,
+    acc: np.ndarray | None,
+    cell: CellData | None,
+    turning: TurningData | None = None,
+) -> Counts:
+    """The counts of the resource of ``model`` with the trajectory ``acc``, ``cell`` and
+    ``turning``."""
     with_cups = cell is not None and cell.cups and model.cups is not None
     with_stress = cell is not None and cell.stress and model.stress is not None
     return Counts(
@@ -102,6 +130,7 @@ def resource_counts(model: ModalModel, acc: np.ndarray | None, cell: CellData | 
         stress=model.stress.n_points if with_stress else 0,
         obstacles=0 if cell is None else len(cell.obstacles),
         static=static_count(model),
+        turning=int(turning is not None),
     )
 
 
@@ -148,11 +177,11 @@ def resource_shapes(model: ModalModel) -> np.ndarray:
     return np.transpose(shapes, (2, 1, 0))
 
 
-def payload_values(k: int, m: int, n: int, c: int, s: int, o: int, r: int) -> int:
+def payload_values(k: int, m: int, n: int, c: int, s: int, o: int, r: int, t: int = 0) -> int:
     """f64 values of the payload for the counts of the header (as jxf_core.c)."""
     count = 5 * m + 3 * (m + r) * k + 3 * k + 3 * n
     count += 5 * (c + s + o > 0) + (6 * c + 12 * c * m + 24 * c) + (12 * s * m + 24 * s)
-    return count + ((3 * k + RECORD_VALUES * o) if o else 0)
+    return count + ((3 * k + RECORD_VALUES * o) if o else 0) + (9 * m + 6) * t
 
 
 @dataclass(frozen=True)
@@ -160,13 +189,15 @@ class ResourceData:
     """Contents of a resource file. ``acc`` is (N, 3) m/s^2 at step ``dt_s`` or None;
     ``counts``: (C cups, S stress points, O obstacle records) of the cell part; ``model``
     carries the static displacement its static residual gives (the cell's maps are not
-    read back)."""
+    read back); ``turning``: a turning part's pivot and gravity (its shape integrals are
+    not read back)."""
 
     token: str
     model: ModalModel
     acc: np.ndarray | None
     dt_s: float | None
     counts: tuple[int, int, int] = (0, 0, 0)
+    turning: TurningData | None = None
 
 
 def check_trajectory_step(dt_s, error: type[Exception], source: str) -> None:
@@ -186,16 +217,23 @@ def encode_resource(
     acc: np.ndarray | None = None,
     dt_s: float | None = None,
     cell: CellData | None = None,
+    turning: TurningData | None = None,
 ) -> bytes:
-    """The resource file for ``model`` (and the trajectory ``acc`` sampled at ``dt_s``, and
-    the ``cell``'s outputs)."""
+    """The resource file for ``model`` (and the trajectory ``acc`` sampled at ``dt_s``, the
+    ``cell``'s outputs, the ``turning`` part's data)."""
     raw_token = token.encode("ascii")
     if len(raw_token) >= TOKEN_BYTES:
         raise ValueError(f"token: at most {TOKEN_BYTES - 1} ASCII characters, got {token!r}")
     if acc is not None:
         check_trajectory_step(dt_s, InputError, "trajectory")
-    counts = resource_counts(model, acc, cell)
+    counts = resource_counts(model, acc, cell, turning)
     extra = _cell_parts(model, cell, counts) if cell is not None else []
+    if turning is not None:
+        extra += [
+            np.asarray(model.rotation.shape_integrals, "<f8"),
+            np.asarray(turning.pivot_m, "<f8"),
+            np.asarray(turning.gravity_m_s2, "<f8"),
+        ]
     parts = [
         np.asarray(model.freq_hz, "<f8"),
         np.asarray(model.zeta, "<f8"),
@@ -221,6 +259,7 @@ def encode_resource(
         counts.stress,
         counts.obstacles,
         counts.static,
+        counts.turning,
     )
     body = header + payload
     return body + _TRAILER.pack(zlib.crc32(body), 0)
@@ -230,7 +269,7 @@ def decode_resource(data: bytes, *, source: str = "resource") -> ResourceData:
     """Parse and check a resource file; raises ModelFileError naming what is wrong."""
     if len(data) < HEADER.size + _TRAILER.size or data[:8] != MAGIC:
         raise ModelFileError(f"{source}: not a jaxflex FMU resource (bad magic or too short)")
-    _, version, header_size, raw_token, k, m, n, c, dt_s, payload, s, o, r = HEADER.unpack_from(
+    _, version, header_size, raw_token, k, m, n, c, dt_s, payload, s, o, r, t = HEADER.unpack_from(
         data
     )
     if version != FORMAT_VERSION or header_size != HEADER.size:
@@ -240,7 +279,9 @@ def decode_resource(data: bytes, *, source: str = "resource") -> ResourceData:
         )
     if r not in (0, 3):
         raise ModelFileError(f"{source}: {r} static-residual coordinates (0 or 3 allowed)")
-    expected = 8 * payload_values(k, m, n, c, s, o, r)
+    if t not in (0, 1):
+        raise ModelFileError(f"{source}: turning field {t} (0 or 1 allowed)")
+    expected = 8 * payload_values(k, m, n, c, s, o, r, t)
     if payload != expected or len(data) != HEADER.size + expected + _TRAILER.size:
         raise ModelFileError(f"{source}: truncated or padded ({len(data)} bytes)")
     crc, _ = _TRAILER.unpack_from(data, len(data) - _TRAILER.size)
@@ -251,7 +292,12 @@ def decode_resource(data: bytes, *, source: str = "resource") -> ResourceData:
     elif dt_s != 0.0:
         raise ModelFileError(f"{source}: no trajectory but a sample step of {dt_s!r} s (need 0)")
     values = np.frombuffer(data, "<f8", count=expected // 8, offset=HEADER.size)
-    if o:  # the records end the payload
+    turning = None
+    if t:  # the turning part ends the payload
+        tail = values[len(values) - (9 * m + 6) :]
+        turning = TurningData(tail[9 * m : 9 * m + 3].copy(), tail[9 * m + 3 :].copy())
+        values = values[: len(values) - (9 * m + 6)]
+    if o:  # the records end the cell
         unknown = unknown_codes(values[-RECORD_VALUES * o :].reshape(o, RECORD_VALUES))
         if unknown:
             raise ModelFileError(
@@ -280,4 +326,5 @@ def decode_resource(data: bytes, *, source: str = "resource") -> ResourceData:
         acc=acc,
         dt_s=float(dt_s) if n else None,
         counts=(c, s, o),
+        turning=turning,
     )

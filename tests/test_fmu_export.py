@@ -104,6 +104,7 @@ def test_archive_layout(exported, version):
         "sources/jxf_fmu.c",
         "sources/jxf_values.c",
         "sources/jxf_cell.c",
+        "sources/jxf_turning.c",
         "sources/jxf_config.h",
         f"sources/jxf_fmi{version}.c",
     }

@@ -9,6 +9,7 @@ median is robust against other processes on the machine), and prints the figures
     python -m fmu.bench.fmu --windows  # also: the Windows DLL under wine (fmu.windows)
     python -m fmu.bench.fmu --hosts    # also: FMU and SSP in other hosts (fmu.crosscheck)
     python -m fmu.bench.fmu --points 66308 --fmi 3 --array  # every node, read each step
+    python -m fmu.bench.fmu --turning  # a turning part: the pose inputs set every step too
 
 Targets (docs/design.md): one step <= 30 us (the preprint's FMU: 0.85 ms per 10 ms step),
 instantiation with a ~1 MB resource <= 10 ms.
@@ -43,6 +44,7 @@ from fmu.windows import (
 )
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.model import ModalModel
+from jaxflex.response import RotationalInertia
 from jaxflex.runtime import step
 
 STEP_TARGET_US = 30.0
@@ -50,9 +52,14 @@ INSTANTIATE_TARGET_US = 10_000.0
 PREPRINT_STEP_US = 850.0
 
 
-def bench_model(n_points: int, n_modes: int, seed: int = 0) -> ModalModel:
-    """A model of the benchmark size: frequencies 2-400 Hz, random shapes and participation."""
+def bench_model(n_points: int, n_modes: int, seed: int = 0, turning: bool = False) -> ModalModel:
+    """A model of the benchmark size: frequencies 2-400 Hz, random shapes and participation
+    (``turning``: and random inertia shape integrals of a 1 kg part)."""
     rng = np.random.default_rng(seed)
+    rotation = None
+    if turning:
+        integrals = rng.normal(size=(n_modes, 3, 3)) * 0.1
+        rotation = RotationalInertia(integrals, 1.0, np.zeros(3), np.eye(3) * 0.1)
     return ModalModel(
         freq_hz=np.geomspace(2.0, 400.0, n_modes),
         zeta=np.full(n_modes, 0.02),
@@ -60,6 +67,7 @@ def bench_model(n_points: int, n_modes: int, seed: int = 0) -> ModalModel:
         shapes=rng.normal(size=(n_points, 3, n_modes)) * 0.05,
         points=rng.uniform(size=(n_points, 3)),
         meta={"source": "fmu.bench.fmu"},
+        rotation=rotation,
     )
 
 
@@ -154,18 +162,21 @@ def run(
     windows: bool = False,
     hosts: bool = False,
     read_array: bool = False,
+    turning: bool = False,
 ) -> dict[str, Any]:
     """Export a K x M model, time it with the C harness; figures per FMI version (with
     ``windows``, also :func:`windows_figures`; with ``hosts``, :func:`host_figures`; with
-    ``read_array``, FMI 3.0 also reads the displaced points of every node after each step)."""
+    ``read_array``, FMI 3.0 also reads the displaced points of every node after each step;
+    with ``turning``, a turning part's FMU with its pose inputs set every step)."""
     say = progress or (lambda msg: None)
-    model = bench_model(n_points, n_modes)
+    model = bench_model(n_points, n_modes, turning=turning)
     report: dict[str, Any] = {
         "command": f"{Path(sys.executable).name} -m fmu.bench.fmu",
         "n_points": n_points,
         "n_modes": n_modes,
         "dt_s": dt_s,
         "reads_displaced_points_array": read_array,
+        "turning": turning,
         "targets": {
             "step_us": STEP_TARGET_US,
             "instantiate_us": INSTANTIATE_TARGET_US,
@@ -176,10 +187,14 @@ def run(
         tmp = Path(tmp)
         for version in fmi_versions:
             say(f"FMI {version}.0: export K={n_points}, M={n_modes}")
-            result = export_fmu(model, tmp / f"bench{version}.fmu", fmi_version=version)
+            result = export_fmu(
+                model, tmp / f"bench{version}.fmu", fmi_version=version, turning=turning
+            )
             library, resources, token = unpack(result.fmu_path, tmp / f"fmu{version}")
             array = n_points if read_array and version == 3 else None
-            harness = compile_harness(version, tmp / f"harness{version}", array_points=array)
+            harness = compile_harness(
+                version, tmp / f"harness{version}", array_points=array, turning=turning
+            )
             say(f"FMI {version}.0: {repeats} instantiations, {n_steps} steps")
             cmd = [
                 str(harness),
@@ -242,7 +257,14 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="FMI 3.0: also read the displaced points of every node (K x 3 array) each step",
     )
+    parser.add_argument(
+        "--turning",
+        action="store_true",
+        help="a turning part's FMU (export_fmu(turning=True)): the pose inputs set every step",
+    )
     args = parser.parse_args(argv)
+    if args.turning and (args.windows or args.hosts):
+        parser.error("--turning: not with --windows or --hosts (they replay an embedded move)")
     for name in ("points", "modes", "steps"):
         if getattr(args, name) < 1:
             parser.error(f"--{name}: must be at least 1, got {getattr(args, name)}")
@@ -255,6 +277,7 @@ def main(argv: list[str] | None = None) -> int:
         windows=args.windows,
         hosts=args.hosts,
         read_array=args.array,
+        turning=args.turning,
     )
     print(json.dumps(report, indent=2))
     return 0

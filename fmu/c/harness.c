@@ -5,7 +5,8 @@
  *
  *   harness LIBRARY RESOURCES TOKEN bench N_STEPS DT REPEATS
  *       time REPEATS instantiations and N_STEPS communication steps (inputs set and the
- *       deviation read every step); prints one JSON line
+ *       deviation read every step; built with -DHARNESS_TURNING, the pose inputs of a
+ *       turning part too: a turn about z); prints one JSON line
  *   harness LIBRARY RESOURCES TOKEN check N_STEPS DT
  *       exercise the life cycle (two instances, NaN input, bad step, reset and re-run,
  *       missing resources); exit status 0 when every expectation holds
@@ -40,6 +41,12 @@
 #endif
 
 #define VR_AX 1u
+#define VR_POSE 40u /* quat_w .. alpha_z of a turning part (fmu/variables.py), 10 inputs */
+#ifdef HARNESS_TURNING
+#define N_INPUTS 13
+#else
+#define N_INPUTS 3
+#endif
 #define VR_DEVIATION 10u
 #define VR_DISPLACED_POINTS 30u /* FMI 3.0 array output (K x 3); read every step when the
                                    harness is built with -DHARNESS_ARRAY_POINTS=K */
@@ -128,10 +135,15 @@ static int get_values(void *c, unsigned vr, int n, double *out) {
     const fmi2ValueReference ref = vr;
     return n != 1 || api.get_real(c, &ref, 1, out); /* FMI 2.0 has scalars only */
 }
+static void drive(const double a[3], const double rate[3], double in[], double in_rate[]);
 static int set_inputs(void *c, const double a[3], const double rate[3]) {
-    static const fmi2ValueReference vr[3] = {VR_AX, VR_AX + 1, VR_AX + 2};
-    static const fmi2Integer order[3] = {1, 1, 1};
-    return api.set_real(c, vr, 3, a) || api.set_rates(c, vr, 3, order, rate);
+    fmi2ValueReference vr[N_INPUTS];
+    fmi2Integer order[N_INPUTS];
+    double in[N_INPUTS], in_rate[N_INPUTS];
+    int i;
+    for (i = 0; i < N_INPUTS; ++i) vr[i] = i < 3 ? VR_AX + i : VR_POSE + (i - 3), order[i] = 1;
+    drive(a, rate, in, in_rate);
+    return api.set_real(c, vr, N_INPUTS, in) || api.set_rates(c, vr, N_INPUTS, order, in_rate);
 }
 static int step(void *c, double t, double h) { return api.do_step(c, t, h, fmi2True); }
 static double deviation(void *c) {
@@ -174,10 +186,14 @@ static int get_values(void *c, unsigned vr, int n, double *out) {
     const fmi3ValueReference ref = vr;
     return api.get_real(c, &ref, 1, out, (size_t)n);
 }
+static void drive(const double a[3], const double rate[3], double in[], double in_rate[]);
 static int set_inputs(void *c, const double a[3], const double rate[3]) {
-    static const fmi3ValueReference vr[3] = {VR_AX, VR_AX + 1, VR_AX + 2};
-    (void)rate; /* FMI 3.0: inputs are held over the step */
-    return api.set_real(c, vr, 3, a, 3);
+    fmi3ValueReference vr[N_INPUTS];
+    double in[N_INPUTS], in_rate[N_INPUTS]; /* FMI 3.0: inputs are held over the step */
+    int i;
+    for (i = 0; i < N_INPUTS; ++i) vr[i] = i < 3 ? VR_AX + i : VR_POSE + (i - 3);
+    drive(a, rate, in, in_rate);
+    return api.set_real(c, vr, N_INPUTS, in, N_INPUTS);
 }
 static int step(void *c, double t, double h) {
     fmi3Boolean event, terminate, early;
@@ -203,6 +219,21 @@ static void finish(void *c) {
     api.free_instance(c);
 }
 #endif
+
+/* The inputs (and their rates) of the acceleration a (m/s^2) and its rate: a itself and,
+ * for a turning part, a turn about z whose angle, rate and angular acceleration follow a
+ * (quaternion w, x, y, z; angular velocity; angular acceleration). */
+static void drive(const double a[3], const double rate[3], double in[], double in_rate[]) {
+    int i;
+    for (i = 0; i < N_INPUTS; ++i) in[i] = in_rate[i] = 0.0;
+    for (i = 0; i < 3; ++i) in[i] = a[i], in_rate[i] = rate[i];
+#ifdef HARNESS_TURNING
+    in[3] = cos(0.05 * a[0]), in[6] = sin(0.05 * a[0]);
+    in_rate[3] = -0.05 * rate[0] * in[6], in_rate[6] = 0.05 * rate[0] * in[3];
+    in[9] = 0.1 * a[0], in_rate[9] = 0.1 * rate[0];
+    in[12] = 0.1 * rate[0];
+#endif
+}
 
 /* A smooth rest-to-rest acceleration profile sampled at step k of n (m/s^2). */
 static void profile(int k, int n, double a[3], double rate[3], double dt) {

@@ -26,7 +26,7 @@
  *   96  f64      trajectory sample step in s (0 without a trajectory)
  *   104 u64      payload size in bytes
  *   112 u32      S stress points, 116 u32 O obstacle records, 120 u32 R static-residual
- *                coordinates (0 or 3), 124 4 zero bytes
+ *                coordinates (0 or 3), 124 u32 T turning (0 or 1)
  *   128 payload of f64: freq_hz (M), zeta (M), gamma (M, 3), shapes (M + R, 3, K: the
  *                       last R rows the static residual, driven by the base acceleration),
  *                       points (K, 3), trajectory (N, 3), then, if C + S + O > 0:
@@ -34,7 +34,8 @@
  *                       normals (C, 3), radii (C), holding forces (C), friction (C),
  *                       Q (6C, M), V (6C, M), A (6C, 3), at rest (6C); stresses: Q (6S, M),
  *                       V (6S, M), A (6S, 3), at rest (6S); obstacles: points at rest (K, 3),
- *                       records (O, 16: fmu/obstacles.py, jxf_cell.c)
+ *                       records (O, 16: fmu/obstacles.py, jxf_cell.c); then, if T = 1:
+ *                       inertia shape integrals (M, 3, 3), pivot (3), world gravity (3)
  *   end u32 CRC-32 (IEEE, as zlib) of everything before it, u32 0
  * fmu/resource.py writes the same layout. */
 #define JXF_MAGIC "JXFLXFMU"
@@ -192,12 +193,13 @@ static char *resource_file(const jxf_model *m, const char *location) {
 
 /* Number of f64 values in the payload (layout above). */
 static uint64_t payload_values(uint64_t K, uint64_t M, uint64_t N, uint64_t C, uint64_t S,
-                               uint64_t O, uint64_t R) {
+                               uint64_t O, uint64_t R, uint64_t T) {
     uint64_t count = 5u * M + 3u * (M + R) * K + 3u * K + 3u * N;
     if (C + S + O > 0) count += 5u;
     if (C > 0) count += 6u * C + 12u * C * M + 24u * C;
     if (S > 0) count += 12u * S * M + 24u * S;
     if (O > 0) count += 3u * K + (uint64_t)JXF_OBSTACLE_VALUES * O;
+    if (T > 0) count += 9u * M + 6u;
     return count;
 }
 
@@ -205,7 +207,8 @@ static uint64_t payload_values(uint64_t K, uint64_t M, uint64_t N, uint64_t C, u
 static size_t resource_bytes(void) {
     return JXF_HEADER_BYTES + JXF_TRAILER_BYTES +
            8 * (size_t)payload_values(JXF_N_POINTS, JXF_N_MODES, JXF_N_TRAJ, JXF_N_CUPS,
-                                      JXF_N_STRESS, JXF_N_OBSTACLES, JXF_N_STATIC);
+                                      JXF_N_STRESS, JXF_N_OBSTACLES, JXF_N_STATIC,
+                                      JXF_TURNING);
 }
 
 /* Read the resource file; never allocates more than this build's resource size, so a
@@ -262,7 +265,7 @@ static unsigned char *read_file(const jxf_model *m, const char *name, size_t *si
 static int check_header(const jxf_model *m, const char *name, const unsigned char *data,
                         size_t size, const char *token) {
     char stored[JXF_TOKEN_BYTES + 1];
-    uint32_t n_points, n_modes, n_traj, n_cups, n_stress, n_obstacles, n_static;
+    uint32_t n_points, n_modes, n_traj, n_cups, n_stress, n_obstacles, n_static, turning;
     uint64_t payload, expected;
     if (size < JXF_HEADER_BYTES + JXF_TRAILER_BYTES || memcmp(data, JXF_MAGIC, 8) != 0) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' is not a jaxflex FMU resource (bad magic or too short, "
@@ -300,20 +303,22 @@ static int check_header(const jxf_model *m, const char *name, const unsigned cha
     n_stress = read_u32(data + 112);
     n_obstacles = read_u32(data + 116);
     n_static = read_u32(data + 120);
+    turning = read_u32(data + 124);
     if (n_points != JXF_N_POINTS || n_modes != JXF_N_MODES || n_traj != JXF_N_TRAJ ||
         n_cups != JXF_N_CUPS || n_stress != JXF_N_STRESS || n_obstacles != JXF_N_OBSTACLES ||
-        n_static != JXF_N_STATIC) {
+        n_static != JXF_N_STATIC || turning != JXF_TURNING) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' holds %lu points, %lu modes, %lu trajectory samples, "
                 "%lu cups, %lu stress points, %lu obstacle records, %lu static-residual "
-                "coordinates but modelDescription.xml declares %d, %d, %d, %d, %d, %d, %d", name,
-                (unsigned long)n_points, (unsigned long)n_modes, (unsigned long)n_traj,
-                (unsigned long)n_cups, (unsigned long)n_stress, (unsigned long)n_obstacles,
-                (unsigned long)n_static, JXF_N_POINTS, JXF_N_MODES, JXF_N_TRAJ, JXF_N_CUPS,
-                JXF_N_STRESS, JXF_N_OBSTACLES, JXF_N_STATIC);
+                "coordinates, turning %lu but modelDescription.xml declares %d, %d, %d, %d, %d, "
+                "%d, %d, %d", name, (unsigned long)n_points, (unsigned long)n_modes,
+                (unsigned long)n_traj, (unsigned long)n_cups, (unsigned long)n_stress,
+                (unsigned long)n_obstacles, (unsigned long)n_static, (unsigned long)turning,
+                JXF_N_POINTS, JXF_N_MODES, JXF_N_TRAJ, JXF_N_CUPS, JXF_N_STRESS,
+                JXF_N_OBSTACLES, JXF_N_STATIC, JXF_TURNING);
         return -1;
     }
     expected = 8u * payload_values(n_points, n_modes, n_traj, n_cups, n_stress, n_obstacles,
-                                   n_static);
+                                   n_static, turning);
     payload = read_u64(data + 104);
     if (payload != expected) {
         jxf_log(m, JXF_LOG_ERROR, "'%s': the header's payload size field says %lu bytes, the "
@@ -360,8 +365,8 @@ static int in_range(const jxf_model *m, const char *name, const char *what, cons
 static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
     const uint16_t probe = 1;
     const int K = JXF_N_POINTS, M = JXF_N_MODES, N = JXF_N_TRAJ, R = JXF_N_STATIC;
-    const int C = JXF_N_CUPS, S = JXF_N_STRESS, O = JXF_N_OBSTACLES;
-    const size_t count = (size_t)payload_values(K, M, N, C, S, O, R);
+    const int C = JXF_N_CUPS, S = JXF_N_STRESS, O = JXF_N_OBSTACLES, T = JXF_TURNING;
+    const size_t count = (size_t)payload_values(K, M, N, C, S, O, R, T);
     double *values = (double *)(void *)(data + JXF_HEADER_BYTES);
     const double *next;
     size_t i;
@@ -410,6 +415,13 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
     if (O > 0) {
         m->rest_points = next;
         m->obstacles = m->rest_points + 3 * (size_t)K;
+        next = m->obstacles + (size_t)JXF_OBSTACLE_VALUES * O;
+    }
+    m->turning = T;
+    if (T > 0) {
+        m->shape_integrals = next;
+        m->pivot = m->shape_integrals + 9 * (size_t)M;
+        m->world_gravity = m->pivot + 3;
     }
     if (!all_finite(values, count)) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' contains NaN or infinite values", name);
@@ -446,12 +458,14 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
 static int allocate_work(jxf_model *m) {
     const size_t M = (size_t)m->n_modes;
     int s;
-    m->q = (double *)calloc(4 * M, sizeof(double));
+    m->q = (double *)calloc(6 * M, sizeof(double));
     m->u = (double *)calloc(3 * (size_t)m->n_points, sizeof(double));
     m->coords = (double *)calloc(M + (size_t)m->n_static, sizeof(double));
     if (m->q == NULL || m->u == NULL || m->coords == NULL) return -1;
     m->saved = m->q + 2 * M;
     m->v = m->q + M;
+    m->f0 = m->q + 4 * M;
+    m->f1 = m->q + 5 * M;
     for (s = 0; s < JXF_CACHE_SLOTS; ++s) {
         jxf_coeffs *c = &m->cache[s];
         c->p11 = (double *)calloc(8 * M, sizeof(double));
@@ -548,14 +562,23 @@ static void update_settled(jxf_model *m) {
     m->settled = now;
 }
 
+/* Modal sag of mode i under gravity in the current pose (0 for a part that does not turn:
+ * its state is measured from the sag), kg^0.5 m. */
+static double sag(const jxf_model *m, int i) {
+    const double omega = 2.0 * JXF_PI * m->freq_hz[i], *g = m->gamma + 3 * i;
+    if (!m->turning) return 0.0;
+    return (g[0] * m->g_now[0] + g[1] * m->g_now[1] + g[2] * m->g_now[2]) / (omega * omega);
+}
+
 static void update_outputs(jxf_model *m) {
     const size_t K = (size_t)m->n_points;
     const double *ux, *uy, *uz;
     double best = 0.0;
     size_t p;
     int i;
-    /* the coordinates of the shapes: q, then the base acceleration (the static residual) */
-    for (i = 0; i < m->n_modes; ++i) m->coords[i] = m->q[i];
+    /* the coordinates of the shapes: q (a turning part: less its sag in the current pose,
+     * Omega^-2 gamma . g_b), then the base acceleration (the static residual) */
+    for (i = 0; i < m->n_modes; ++i) m->coords[i] = m->q[i] - sag(m, i);
     for (i = 0; i < m->n_static; ++i) m->coords[m->n_modes + i] = m->a_now[i];
     displacement(m->shapes, m->coords, m->n_modes + m->n_static, 3 * K, m->u);
     ux = m->u;
@@ -569,10 +592,25 @@ static void update_outputs(jxf_model *m) {
     update_settled(m);
 }
 
-/* At rest at `start_time`, outputs evaluated. */
+/* At rest at `start_time`, outputs evaluated. A turning part rests sagging in the pose of
+ * its inputs (their orientation; the identity, with a warning, when it has no direction),
+ * so that its deviation starts at 0. */
 static void rest(jxf_model *m, double start_time) {
+    int i;
     memset(m->q, 0, 2 * (size_t)m->n_modes * sizeof(double));
     memset(m->a_now, 0, sizeof m->a_now);
+    memset(m->g_now, 0, sizeof m->g_now);
+    if (m->turning) {
+        double pose[JXF_IN_COUNT];
+        memcpy(pose, m->in, sizeof pose);
+        if (jxf_drive_forces(m, pose, m->f0, m->a_now, m->g_now) != 0) {
+            jxf_log(m, JXF_LOG_WARNING, "at rest in the identity orientation instead");
+            memset(pose + JXF_IN_QUAT, 0, 4 * sizeof(double));
+            pose[JXF_IN_QUAT] = 1.0;
+            jxf_drive_forces(m, pose, m->f0, m->a_now, m->g_now);
+        }
+        for (i = 0; i < m->n_modes; ++i) m->q[i] = sag(m, i);
+    }
     memset(m->pos, 0, sizeof m->pos);
     memset(m->vel, 0, sizeof m->vel);
     m->start_time = start_time;
@@ -587,8 +625,9 @@ static void restart(jxf_model *m) {
     m->threshold = JXF_START_THRESHOLD;
     m->damping_scale = JXF_START_DAMPING_SCALE;
     m->use_trajectory = 0;
-    memset(m->acc, 0, sizeof m->acc);
-    memset(m->acc_rate, 0, sizeof m->acc_rate);
+    memset(m->in, 0, sizeof m->in);
+    memset(m->in_rate, 0, sizeof m->in_rate);
+    m->in[JXF_IN_QUAT] = 1.0; /* the identity orientation */
     for (s = 0; s < JXF_CACHE_SLOTS; ++s) {
         m->cache[s].h = 0.0;
         m->cache[s].stamp = 0;
@@ -645,8 +684,13 @@ static const char *name_of(unsigned vr) {
     return "(unknown)";
 }
 
-static int axis_of(unsigned vr) {
-    return vr == JXF_VR_AX ? 0 : vr == JXF_VR_AY ? 1 : vr == JXF_VR_AZ ? 2 : -1;
+/* The input's index in the drive (JXF_IN_*), -1 if `vr` is not an input. */
+static int input_of(unsigned vr) {
+    static const unsigned inputs[] = JXF_INPUT_VRS;
+    int i;
+    for (i = 0; i < (int)(sizeof inputs / sizeof inputs[0]); ++i)
+        if (inputs[i] == vr) return i;
+    return -1;
 }
 
 static int not_finite(const jxf_model *m, unsigned vr, const char *what, double value) {
@@ -681,10 +725,10 @@ static double largest_zeta(const jxf_model *m) {
 }
 
 int jxf_model_set_real(jxf_model *m, unsigned vr, double value, int apply) {
-    const int axis = axis_of(vr);
-    if (axis >= 0) {
+    const int input = input_of(vr);
+    if (input >= 0) {
         if (!isfinite(value)) return not_finite(m, vr, "input ", value);
-        if (apply) m->acc[axis] = value;
+        if (apply) m->in[input] = value;
     } else if (vr == JXF_VR_THRESHOLD) {
         if (!(isfinite(value) && value > 0.0)) {
             jxf_log(m, JXF_LOG_ERROR, "threshold = %g m: must be a finite number > 0", value);
@@ -711,14 +755,16 @@ int jxf_model_set_real(jxf_model *m, unsigned vr, double value, int apply) {
 
 int jxf_model_set_input_rate(jxf_model *m, unsigned vr, int order, double value,
                              int apply) {
-    const int axis = axis_of(vr);
-    if (axis < 0 || order != 1) {
-        jxf_log(m, JXF_LOG_ERROR, "input derivatives: only the first derivative of ax, ay, az "
-                "is accepted (got value reference %u (%s), order %d)", vr, name_of(vr), order);
+    const int input = input_of(vr);
+    if (input < 0 || order != 1) {
+        jxf_log(m, JXF_LOG_ERROR, "input derivatives: only the first derivative of an input "
+                "(ax, ay, az%s) is accepted (got value reference %u (%s), order %d)",
+                m->turning ? ", the quaternion, angular velocity and acceleration" : "", vr,
+                name_of(vr), order);
         return -1;
     }
     if (!isfinite(value)) return not_finite(m, vr, "time derivative of input ", value);
-    if (apply) m->acc_rate[axis] = value;
+    if (apply) m->in_rate[input] = value;
     return 0;
 }
 
@@ -854,23 +900,26 @@ static const jxf_coeffs *coefficients(jxf_model *m, double h) {
     return slot;
 }
 
-/* One exact step of `h` s with the acceleration going linearly from a0 to a1 (m/s^2); the
- * path (position and velocity of the gripper, from the start) follows exactly as well. -1
- * (logged) if the coefficients or the new state are not finite (the caller restores the
- * state). */
-static int advance(jxf_model *m, double h, const double a0[3], const double a1[3]) {
+/* One exact step of `h` s with the modal forces linear between those of the drives d0 and
+ * d1 (jxf_drive_forces: first-order hold; for a part that does not turn the acceleration is
+ * linear from a0 to a1); the path (position and velocity of the gripper, from the start)
+ * follows exactly as well. -1 (logged) if the forces, the coefficients or the new state are
+ * not finite (the caller restores the state). */
+static int advance(jxf_model *m, double h, const double d0[JXF_IN_COUNT],
+                   const double d1[JXF_IN_COUNT]) {
     const jxf_coeffs *c = coefficients(m, h);
+    const double *a0 = d0 + JXF_IN_ACC, *a1 = d1 + JXF_IN_ACC;
+    double body[3], gravity[3];
     int i;
-    if (c == NULL) return -1;
+    if (c == NULL || jxf_drive_forces(m, d0, m->f0, body, gravity) != 0 ||
+        jxf_drive_forces(m, d1, m->f1, m->a_now, m->g_now) != 0)
+        return -1;
     for (i = 0; i < 3; ++i) {
         m->pos[i] += h * m->vel[i] + h * h * (2.0 * a0[i] + a1[i]) / 6.0;
         m->vel[i] += 0.5 * h * (a0[i] + a1[i]);
-        m->a_now[i] = a1[i];
     }
     for (i = 0; i < m->n_modes; ++i) {
-        const double *g = m->gamma + 3 * i;
-        const double f0 = -(a0[0] * g[0] + a0[1] * g[1] + a0[2] * g[2]);
-        const double f1 = -(a1[0] * g[0] + a1[1] * g[1] + a1[2] * g[2]);
+        const double f0 = m->f0[i], f1 = m->f1[i];
         const double q = m->q[i], v = m->v[i];
         const double qn = c->p11[i] * q + c->p12[i] * v + (c->g0q[i] * f0 + c->g1q[i] * f1);
         const double vn = c->p21[i] * q + c->p22[i] * v + (c->g0v[i] * f0 + c->g1v[i] * f1);
@@ -886,8 +935,9 @@ static int advance(jxf_model *m, double h, const double a0[3], const double a1[3
     return 0;
 }
 
-/* Embedded trajectory at `tau` s after the start: linear between samples, 0 outside. */
-static void trajectory_at(const jxf_model *m, double tau, double a[3]) {
+/* Embedded trajectory at `tau` s after the start: linear between samples, 0 outside. The
+ * drive `a` (JXF_IN_COUNT) gets the acceleration; its other inputs are left as they are. */
+static void trajectory_at(const jxf_model *m, double tau, double a[JXF_IN_COUNT]) {
     const double x = tau / m->traj_dt;
     long k;
     double w;
@@ -912,8 +962,10 @@ static int replay(jxf_model *m, double tau, double h) {
     const double dt = m->traj_dt, end = tau + h, last = (double)(m->n_traj - 1);
     const double first_x = floor(tau / dt + JXF_SNAP) + 1.0; /* first breakpoint after tau */
     const double last_x = ceil(end / dt - JXF_SNAP) - 1.0;   /* last one before the end */
-    double a0[3], a1[3], from = tau;
+    double a0[JXF_IN_COUNT], a1[JXF_IN_COUNT], from = tau;
     long k, k_first, k_last;
+    memcpy(a0, m->in, sizeof a0); /* the pose inputs of a turning part (none embedded) */
+    memcpy(a1, m->in, sizeof a1);
     k_first = first_x < 0.0 ? 0 : first_x > last ? m->n_traj : (long)first_x;
     k_last = last_x > last ? m->n_traj - 1 : last_x < 0.0 ? -1 : (long)last_x;
     trajectory_at(m, tau, a0);
@@ -934,21 +986,22 @@ static int replay(jxf_model *m, double tau, double h) {
 int jxf_model_do_step(jxf_model *m, double t, double h) {
     const size_t M = (size_t)m->n_modes;
     const double end = t + h, time = m->time;
-    double settle_time, path[3][3]; /* pos, vel, a_now before the step */
+    double settle_time, path[4][3]; /* pos, vel, a_now, g_now before the step */
     int status, settled;
     memcpy(m->saved, m->q, 2 * M * sizeof(double));
     memcpy(path[0], m->pos, sizeof path[0]);
     memcpy(path[1], m->vel, sizeof path[1]);
     memcpy(path[2], m->a_now, sizeof path[2]);
+    memcpy(path[3], m->g_now, sizeof path[3]);
     settled = m->settled;
     settle_time = m->settle_time;
     if (m->use_trajectory) {
         status = replay(m, t - m->start_time, h);
     } else {
-        double a1[3];
+        double d1[JXF_IN_COUNT];
         int c;
-        for (c = 0; c < 3; ++c) a1[c] = m->acc[c] + h * m->acc_rate[c];
-        status = advance(m, h, m->acc, a1);
+        for (c = 0; c < JXF_IN_COUNT; ++c) d1[c] = m->in[c] + h * m->in_rate[c];
+        status = advance(m, h, m->in, d1);
     }
     if (status == 0) {
         m->time = end;
@@ -964,6 +1017,7 @@ int jxf_model_do_step(jxf_model *m, double t, double h) {
         memcpy(m->pos, path[0], sizeof path[0]);
         memcpy(m->vel, path[1], sizeof path[1]);
         memcpy(m->a_now, path[2], sizeof path[2]);
+        memcpy(m->g_now, path[3], sizeof path[3]);
         m->time = time;
         update_outputs(m);
         m->settled = settled;

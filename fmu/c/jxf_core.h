@@ -8,9 +8,13 @@
  * (the same discretisation as jaxflex.discretize: closed form for omega h >= 0.1, a 16-term
  * series of the matrix exponential below). A held input is the special case f(h) = f(0).
  *
+ * A turning part (JXF_TURNING, jxf_turning.c) takes its pose as inputs as well and is forced
+ * in its body frame as in jaxflex.turning: f = -gamma . (a_O - g_b) - gamma_rot . alpha
+ * - tr(A(w) S), with the same first-order hold of f over a step.
+ *
  * This is the part FMU's implementation of the core interface jxf_model_* of jxf_fmu.h,
  * under the FMI bindings jxf_fmi2.c and jxf_fmi3.c; jxf_values.c holds one reading function
- * per variable, jxf_cell.c the cell's outputs.
+ * per variable, jxf_cell.c the cell's outputs, jxf_turning.c the forcing of the inputs.
  * SI units: m, s, m/s^2, Hz; modal coordinates in kg^0.5 m.
  */
 #ifndef JXF_CORE_H
@@ -35,6 +39,13 @@ typedef struct {
 } jxf_coeffs;
 
 #define JXF_CACHE_SLOTS 4
+
+/* The inputs that drive the part at one instant (a "drive"), in the order of the input
+ * variables of fmu/variables.py (JXF_INPUT_VRS): the acceleration of the gripper (m/s^2; of
+ * the pivot in world components for a turning part), then, for a turning part only, the
+ * orientation quaternion body -> world (w, x, y, z), the angular velocity (rad/s) and the
+ * angular acceleration (rad/s^2), both in body components. */
+enum { JXF_IN_ACC = 0, JXF_IN_QUAT = 3, JXF_IN_OMEGA = 7, JXF_IN_ALPHA = 10, JXF_IN_COUNT = 13 };
 
 struct jxf_model {
     /* model data from the resource file (views into `buffer`) */
@@ -66,24 +77,33 @@ struct jxf_model {
     const double *rest_points;                /* (K, 3) points at rest under gravity, m */
     const double *obstacles;                  /* (O, 16) records, see jxf_cell.c */
 
+    /* a turning part (resource field T = 1; jxf_turning.c) */
+    int turning;
+    const double *shape_integrals; /* (M, 3, 3) S_m[i][j] = phi_m^T M (e_j r_i), kg^0.5 m */
+    const double *pivot;           /* (3) m, model frame: the point the acceleration is of */
+    const double *world_gravity;   /* (3) m/s^2, world components */
+
     /* parameters */
     double threshold;     /* m */
     double damping_scale; /* multiplies every zeta */
     int use_trajectory;   /* replay the embedded trajectory instead of the inputs */
     int started;          /* initialization left (fixed parameters can no longer change) */
 
-    /* inputs: value at the communication point and its time derivative */
-    double acc[3];
-    double acc_rate[3];
+    /* inputs (the drive, JXF_IN_*): value at the communication point and time derivative */
+    double in[JXF_IN_COUNT];
+    double in_rate[JXF_IN_COUNT];
+    double *f0, *f1;     /* (M) modal forces at the ends of a step, kg^0.5 m/s^2 */
 
     /* state and outputs */
     double start_time, time;
     double *q, *v;       /* (M) */
     double *saved;       /* (2M): q and v before a step, restored if it fails */
     double *u;           /* (3K) displacement, component-major like `shapes` */
-    double *coords;      /* (M + R) the shapes' coordinates: q, then a_now */
+    double *coords;      /* (M + R) the shapes' coordinates: q (less the sag), then a_now */
     double deviation;    /* max_p |u_p|, m */
-    double a_now[3];     /* base acceleration at the communication point, m/s^2 */
+    double a_now[3];     /* base acceleration at the communication point, m/s^2 (a turning
+                          * part: of the model frame's origin, body components) */
+    double g_now[3];     /* a turning part: gravity in body components there, m/s^2 */
     double pos[3], vel[3]; /* the path travelled since the start, m and m/s (exact) */
     int settled;         /* deviation <= threshold at the current communication point */
     double settle_time;  /* time the settled flag last went true, s */
@@ -103,6 +123,13 @@ double jxf_point_distance(const jxf_model *m, int k);
 /* 0 if every obstacle record has a kind of the table (fmu/obstacles.py), else -1 after
  * logging the first that has not (`name`: the resource file, for the message). */
 int jxf_check_obstacles(const jxf_model *m, const char *name);
+
+/* The modal forces `f` (M) of the drive `in` (JXF_IN_COUNT inputs), the acceleration of the
+ * model frame's origin `a_body` and gravity `g_body` (body components, m/s^2; zero for a part
+ * that does not turn, whose state is measured from its sag). jxf_turning.c. 0, or -1 after
+ * logging when the orientation quaternion has no direction (zero or not finite). */
+int jxf_drive_forces(const jxf_model *m, const double in[JXF_IN_COUNT], double *f,
+                     double a_body[3], double g_body[3]);
 
 /* Format a message and send it to the model's logger (printf-style). */
 void jxf_log(const jxf_model *m, int level, const char *format, ...);

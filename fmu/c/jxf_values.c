@@ -16,11 +16,25 @@
 
 void jxf_value_time(const jxf_model *m, double *out) { *out = m->time; }
 
-void jxf_value_ax(const jxf_model *m, double *out) { *out = m->acc[0]; }
+void jxf_value_ax(const jxf_model *m, double *out) { *out = m->in[JXF_IN_ACC]; }
 
-void jxf_value_ay(const jxf_model *m, double *out) { *out = m->acc[1]; }
+void jxf_value_ay(const jxf_model *m, double *out) { *out = m->in[JXF_IN_ACC + 1]; }
 
-void jxf_value_az(const jxf_model *m, double *out) { *out = m->acc[2]; }
+void jxf_value_az(const jxf_model *m, double *out) { *out = m->in[JXF_IN_ACC + 2]; }
+
+/* the pose inputs of a turning part (jxf_core.h, the drive) */
+#define JXF_POSE_VALUE(name, index) \
+    void jxf_value_##name(const jxf_model *m, double *out) { *out = m->in[index]; }
+JXF_POSE_VALUE(quat_w, JXF_IN_QUAT)
+JXF_POSE_VALUE(quat_x, JXF_IN_QUAT + 1)
+JXF_POSE_VALUE(quat_y, JXF_IN_QUAT + 2)
+JXF_POSE_VALUE(quat_z, JXF_IN_QUAT + 3)
+JXF_POSE_VALUE(omega_x, JXF_IN_OMEGA)
+JXF_POSE_VALUE(omega_y, JXF_IN_OMEGA + 1)
+JXF_POSE_VALUE(omega_z, JXF_IN_OMEGA + 2)
+JXF_POSE_VALUE(alpha_x, JXF_IN_ALPHA)
+JXF_POSE_VALUE(alpha_y, JXF_IN_ALPHA + 1)
+JXF_POSE_VALUE(alpha_z, JXF_IN_ALPHA + 2)
 
 void jxf_value_deviation(const jxf_model *m, double *out) { *out = m->deviation; }
 

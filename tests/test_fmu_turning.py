@@ -1,0 +1,297 @@
+"""The FMU of a turning part (export_fmu(turning=True)): the pose as inputs, the body-frame
+forcing of jaxflex.turning, the deviation about the current pose's sag.
+
+Along a swivel about the vertical and a tilt about an in-plane axis under gravity (each with
+a translation of the pivot), driven by fmpy:
+
+* FMI 2.0 with the inputs linear over each step (the master sets every input's sample and the
+  slope to the next sample, fmi2SetRealInputDerivatives): the FMU evaluates the forcing at
+  the same pose samples as jaxflex.turning.simulate_turning and advances it by the same exact
+  first-order-hold recursion, so the two agree to rounding: a few ulps per step (the
+  quaternion round trip of the rotation, the step matrices in C, another summation order),
+  accumulated over ~1000 damped steps, far below the 1e-9 of the peak asserted (the bound the
+  other FMU tests use for "to rounding").
+* FMI 2.0 and 3.0 in fmpy.simulate_fmu with held inputs (FMI 3.0 has no input derivatives):
+  the forcing of the samples held over each step; compared with that zero-order hold
+  written here with scipy's matrix exponential (exact for a held forcing): to rounding again.
+"""
+
+from __future__ import annotations
+
+import struct
+import subprocess
+import zipfile
+import zlib
+
+import numpy as np
+import pytest
+from fmpy import read_model_description, simulate_fmu
+from fmpy.fmi1 import FMICallException
+from fmpy.validation import validate_fmu
+from scipy.linalg import expm
+from scipy.spatial.transform import Rotation
+
+import fem
+import jaxflex
+from fmu import export_fmu
+from fmu.build import compile_library, host_target
+from fmu.harness import SANITIZE_FLAGS, compile_harness, resource_location
+from fmu.master import Session
+from fmu.variables import POSE_INPUT_NAMES
+from fmu.verify import read_fmu_resource
+from jaxflex.cli import main
+from jaxflex.errors import InputError, ModelError
+from jaxflex.pose import fixed_axis_path, turn_acceleration
+from jaxflex.turning import body_loads, simulate_turning, turning_forces
+
+DT = 2e-3
+PIVOT = np.array([0.3, 0.2, 0.05])  # m, model frame: near the panel's middle, above it
+GRAVITY = np.array([0.0, 0.0, -9.81])
+ROUNDING = 1e-9  # of the peak: rounding only (module docstring)
+
+
+@pytest.fixture(scope="module")
+def panel():
+    """The curved shell panel on four cups, 6 modes at 30 points, with its rotation data and
+    static residual."""
+    part = fem.curved_panel(0.6, 0.4, 1e-3, "steel", 0.1, element="shell")
+    cups = [fem.SuctionCup(x, y, 0.03) for x in (0.15, 0.45) for y in (0.1, 0.3)]
+    result = fem.modal_analysis(part, cups, n_modes=6, zeta=0.02, progress=False)
+    return result.to_modal_model(points=30)
+
+
+def _move(kind):
+    """(path, acc): a 90 degree swivel about the vertical or a 30 degree tilt about x, at 3
+    rad/s and 20 rad/s^2, while the pivot moves 0.4 m along x (world), then 0.1 s at rest."""
+    angle, axis = {"swivel": (90.0, "z"), "tilt": (30.0, "x")}[kind]
+    alpha = turn_acceleration(np.radians(angle), 3.0, 20.0, 400.0, DT)
+    acc = jaxflex.jerk_limited_move([0.4, 0.0, 0.0], 1.5, 10.0, 200.0, DT)
+    n = max(len(alpha), len(acc)) + round(0.1 / DT)
+    alpha = np.pad(alpha, (0, n - len(alpha)))
+    acc = np.pad(acc, ((0, n - len(acc)), (0, 0)))
+    start = Rotation.from_euler("z", 20, degrees=True).as_matrix()  # not the identity
+    return fixed_axis_path(axis, alpha, DT, start=start), acc
+
+
+def _inputs(path, acc):
+    """(n+1, 13) the FMU's inputs at the samples: ax, ay, az, quat_w..z, omega_x..z,
+    alpha_x..z."""
+    quat = Rotation.from_matrix(path.rotation).as_quat(scalar_first=True)
+    return np.hstack([acc, quat, path.omega_rad_s, path.alpha_rad_s2])
+
+
+NAMES = ("ax", "ay", "az", *POSE_INPUT_NAMES)
+
+
+@pytest.fixture(scope="module")
+def fmus(panel, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("turning")
+    return {
+        v: export_fmu(
+            panel, folder / f"turn{v}.fmu", v, turning=True, pivot_m=PIVOT,
+            gravity_m_s2=GRAVITY, windows=False,
+        )
+        for v in (2, 3)
+    }  # fmt: skip
+
+
+def test_exported_fmus_validate_and_take_the_pose(fmus):
+    for version, result in fmus.items():
+        assert result.compiler_messages == ""
+        assert validate_fmu(str(result.fmu_path)) == []
+        md = read_model_description(str(result.fmu_path))
+        inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+        assert inputs == list(NAMES), version
+        starts = {v.name: float(v.start) for v in md.modelVariables if v.causality == "input"}
+        assert starts["quat_w"] == 1.0 and starts["omega_x"] == 0.0
+        # a turning part has no cup outputs (the Euler and centrifugal loads' static response
+        # is not in the model)
+        assert "cup_utilisation" not in {v.name for v in md.modelVariables}
+
+
+@pytest.mark.parametrize("kind", ["swivel", "tilt"])
+def test_linear_inputs_agree_with_simulate_turning(panel, fmus, kind):
+    path, acc = _move(kind)
+    reference = simulate_turning(panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    samples = _inputs(path, acc)
+    rates = np.diff(samples, axis=0) / DT
+    got = []
+    with Session(fmus[2].fmu_path) as session:
+        session.start(0.0, dict(zip(NAMES, samples[0], strict=True)))
+        got.append(session.get("deviation"))
+        for k in range(len(samples) - 1):
+            session.set_inputs(samples[k], rates[k], names=NAMES)
+            session.step(k * DT, DT)
+            got.append(session.get("deviation"))
+    peak = reference.deviation_m.max()
+    assert peak > 2e-6  # the moves bend the part (measured: 5 um swivel, 12 um tilt)
+    assert got[0] == 0.0  # at rest in its start pose, sagging
+    assert np.abs(np.array(got) - reference.deviation_m).max() <= ROUNDING * peak
+
+
+def _held_reference(model, path, acc):
+    """Deviation at t_1 .. t_n for the forcing of each sample held over the next step: the
+    exact zero-order hold (scipy's matrix exponential, per mode), the state started at rest
+    in the first pose, the deviation about the sag of the held pose, with the static
+    residual's share D a_O."""
+    a_origin, gravity = body_loads(path, acc, GRAVITY, PIVOT)
+    force = turning_forces(model, path, a_origin, gravity)
+    omega = 2 * np.pi * np.asarray(model.freq_hz)
+    sag = gravity @ np.asarray(model.gamma).T / omega**2
+    steps = []
+    for w, z in zip(omega, np.asarray(model.zeta), strict=True):
+        a = np.array([[0.0, 1.0], [-(w**2), -2 * z * w]])
+        phi = expm(a * DT)
+        steps.append((phi, np.linalg.solve(a, phi - np.eye(2))[:, 1]))
+    q = np.stack([sag[0], np.zeros_like(sag[0])], axis=1)
+    coords = []
+    for k in range(len(acc) - 1):
+        q = np.stack([phi @ x + g * f for (phi, g), x, f in zip(steps, q, force[k], strict=True)])
+        coords.append(np.concatenate([q[:, 0] - sag[k], a_origin[k]]))
+    shapes = np.concatenate([np.asarray(model.shapes), np.asarray(model.static_residual)], axis=2)
+    u = np.einsum("pcm,km->kpc", shapes, np.array(coords))
+    return np.linalg.norm(u, axis=2).max(axis=1)
+
+
+@pytest.mark.parametrize("version", [2, 3])
+@pytest.mark.parametrize("kind", ["swivel", "tilt"])
+def test_held_inputs_in_fmpy_are_the_exact_zero_order_hold(panel, fmus, version, kind):
+    path, acc = _move(kind)
+    samples = _inputs(path, acc)
+    signal = np.zeros(len(samples), dtype=[("time", float)] + [(n, float) for n in NAMES])
+    signal["time"] = DT * np.arange(len(samples))
+    for i, name in enumerate(NAMES):
+        signal[name] = samples[:, i]
+    outputs = ["deviation"] + (["displaced_points"] if version == 3 else [])
+    result = simulate_fmu(
+        str(fmus[version].fmu_path), input=signal, output=outputs, output_interval=DT,
+        stop_time=DT * (len(samples) - 1),
+    )  # fmt: skip
+    expected = _held_reference(panel, path, acc)
+    got = result["deviation"][1 : len(expected) + 1]
+    assert len(got) == len(expected)
+    peak = expected.max()
+    assert np.abs(got - expected).max() <= ROUNDING * peak
+    if version == 3:  # body-frame coordinates: the points plus their deviation
+        moved = result["displaced_points"][1 : len(expected) + 1] - np.asarray(panel.points)
+        assert np.abs(np.linalg.norm(moved, axis=2).max(axis=1) - got).max() <= ROUNDING * peak
+
+
+def test_without_rotation_data_turning_is_refused(panel, tmp_path):
+    bare = panel._replace(rotation=None)
+    with pytest.raises(ModelError, match="inertia shape integrals"):
+        export_fmu(bare, tmp_path / "bare.fmu", 2, turning=True, windows=False)
+    assert not (tmp_path / "bare.fmu").exists()
+
+
+def test_turning_with_a_move_or_stresses_is_refused(panel, tmp_path):
+    acc = jaxflex.jerk_limited_move([0.4, 0.0, 0.0], 1.5, 10.0, 200.0, DT)
+    with pytest.raises(InputError, match="not with trajectory"):
+        export_fmu(panel, tmp_path / "a.fmu", 2, (acc, DT), turning=True, windows=False)
+    with pytest.raises(InputError, match="not with stress"):
+        export_fmu(panel, tmp_path / "b.fmu", 3, turning=True, stress=True, windows=False)
+
+
+def test_straight_fmus_keep_their_variables(panel, tmp_path):
+    """Without turning the FMU has the inputs ax, ay, az only (the connections of existing
+    projects), whatever rotation data the model carries."""
+    result = export_fmu(panel, tmp_path / "straight.fmu", 2, windows=False)
+    md = read_model_description(str(result.fmu_path))
+    assert [v.name for v in md.modelVariables if v.causality == "input"] == ["ax", "ay", "az"]
+    assert result.counts.turning == 0
+
+
+def test_a_zero_quaternion_is_refused_with_the_state_kept(fmus):
+    with Session(fmus[3].fmu_path) as session:
+        session.start(0.0)
+        session.step(0.0, DT)
+        before = session.get("deviation")
+        session.set("quat_w", 0.0)
+        with pytest.raises(FMICallException):
+            session.step(DT, DT)
+        assert session.get("deviation") == before
+        assert any("no direction" in text for _, text in session.messages)
+
+
+def test_export_command_with_turning(panel, tmp_path, capsys):
+    """`jaxflex export --turning --pivot`: the FMU validates and says what its inputs are; a
+    model file without rotation data gets one line and exit status 2, no FMU."""
+    panel.save(tmp_path / "panel.npz")
+    panel._replace(rotation=None).save(tmp_path / "bare.npz")
+    out = tmp_path / "t.fmu"
+    argv = ["export", str(tmp_path / "panel.npz"), "--turning", "--pivot", "0.3", "0.2", "0"]
+    assert main([*argv, "--fmi", "3", "--windows", "no", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "fmpy validation: clean" in text and "quat_w..quat_z (body to world)" in text
+    bare = ["export", str(tmp_path / "bare.npz"), "--turning", "-o", str(tmp_path / "b.fmu")]
+    assert main(bare) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("jaxflex export: error: turning moves need") and err.count("\n") == 1
+    assert not (tmp_path / "b.fmu").exists()
+
+
+def test_without_turning_the_pose_inputs_give_the_straight_response(panel, fmus):
+    """The turning FMU held in a fixed pose (the identity: gravity along -z of the model, as
+    for a straight move) and driven by a translation only gives jaxflex.simulate's deviation
+    of the straight move (another code path of jaxflex: the state about the rest sag, the
+    static residual's share D a), to rounding; its resource says what it was exported with."""
+    acc = jaxflex.jerk_limited_move([0.3, -0.2, 0.1], 1.5, 10.0, 200.0, DT)
+    reference = np.asarray(jaxflex.simulate(panel, acc, DT).deviation)
+    rates = np.diff(acc, axis=0) / DT
+    got = []
+    with Session(fmus[2].fmu_path) as session:
+        session.start(0.0)
+        got.append(session.get("deviation"))
+        for k in range(len(acc) - 1):
+            session.set_inputs(acc[k], rates[k])
+            session.step(k * DT, DT)
+            got.append(session.get("deviation"))
+    assert np.abs(np.array(got) - reference).max() <= ROUNDING * reference.max()
+    stored = read_fmu_resource(fmus[3].fmu_path).turning
+    assert np.array_equal(stored.pivot_m, PIVOT) and np.array_equal(stored.gravity_m_s2, GRAVITY)
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_turning_fmu_under_sanitizers(fmus, version, tmp_path):
+    """The turning FMU's C built with ASan and UBSan, driven by the C harness with its pose
+    inputs (a turn about z): the life-cycle checks pass (NaN input refused, state kept, reset
+    and re-run identical, two instances independent), a long run is clean, and damaged
+    turning resources (the turning field cleared, a NaN in the inertia shape integrals, the
+    payload cut short) are refused with a logged reason, the intact one accepted."""
+    folder = tmp_path / "x"
+    with zipfile.ZipFile(fmus[version].fmu_path) as zf:
+        zf.extractall(folder)
+    library = tmp_path / "asan.so"
+    compile_library(host_target(), folder / "sources", version, library, extra_flags=SANITIZE_FLAGS)
+    harness = compile_harness(version, tmp_path / "harness", sanitize=True, turning=True)
+    token = fmus[version].token
+    location = resource_location(version, folder / "resources")
+    for mode in (["check", "50", repr(DT)], ["bench", "400", repr(DT), "3"]):
+        proc = subprocess.run(
+            [str(harness), str(library), location, token, *mode], capture_output=True, text=True
+        )
+        assert proc.returncode == 0, proc.stderr[-3000:]
+    data = (folder / "resources" / "jaxflex_model.bin").read_bytes()
+    body = bytearray(data[:-8])
+    cases = {"intact": bytes(body)}
+    cases["turning field cleared"] = bytes(body[:124] + bytes(4) + body[128:])
+    m = fmus[version].counts.modes
+    at = len(body) - 8 * (9 * m + 6)  # the first inertia shape integral
+    cases["NaN shape integral"] = bytes(body[:at] + struct.pack("<d", np.nan) + body[at + 8 :])
+    cases["cut short"] = bytes(body[:-8])
+    lines = []
+    for i, content in enumerate(cases.values()):
+        (tmp_path / f"c{i}").mkdir()
+        (tmp_path / f"c{i}" / "jaxflex_model.bin").write_bytes(
+            content + struct.pack("<II", zlib.crc32(content), 0)
+        )
+        lines.append(resource_location(version, tmp_path / f"c{i}"))
+    (tmp_path / "list.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    argv = [str(harness), str(library), "-", token, "fuzz", "20", repr(DT), "-"]
+    proc = subprocess.run([*argv, str(tmp_path / "list.txt")], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    outcome = dict(zip(cases, proc.stdout.splitlines(), strict=True))
+    assert outcome.pop("intact").split()[::3] == ["accepted", "0"]  # no faults
+    for label, line in outcome.items():
+        refused, logged = line.split()
+        assert (refused, int(logged) > 0) == ("refused", True), label
