@@ -213,7 +213,9 @@ class ModalResult:
             cups=cups,
             stress=stress,
             static_shapes=static,
-            rotation=rotational_inertia(self),
+            rotation=rotational_inertia(
+                self, idx if held else None, outputs=cups is not None or stress is not None
+            ),
         )
 
     def meta(self, damping=None, n_points: int | None = None) -> dict[str, Any]:
