@@ -17,6 +17,7 @@ from jaxflex.cell import Box, HalfSpace
 from jaxflex.errors import JaxflexWarning
 from jaxflex.pose import axis_rotation, fixed_axis_path, turn_acceleration
 from jaxflex.profile import jerk_limited_move, kinematics_at
+from jaxflex.rotation_residual import rotation_residual
 from jaxflex.turning import simulate_turning
 from jaxflex.turning_collision import turning_min_distance
 from jaxflex.turning_outputs import TurningInputs, output_values, turning_inputs, turning_loads
@@ -92,17 +93,13 @@ def test_cups_carry_newton_euler_during_a_turning_move(stiff):
     a_world = np.pad(acc, ((0, n_all - len(acc)), (0, 0)))
     arm = -pivot
     a_origin = (
-        np.einsum("kji,kj->ki", rot, a_world)
-        + np.cross(alpha, arm)
-        + np.cross(w, np.cross(w, arm))
+        np.einsum("kji,kj->ki", rot, a_world) + np.cross(alpha, arm) + np.cross(w, np.cross(w, arm))
     )
     g_body = np.einsum("kji,j->ki", rot, G_WORLD)
     a_centre = a_origin + np.cross(alpha, centre) + np.cross(w, np.cross(w, centre))
     force = mass * (a_centre - g_body)
     moment = (
-        alpha @ inertia.T
-        + np.cross(w, w @ inertia.T)
-        + mass * np.cross(centre, a_origin - g_body)
+        alpha @ inertia.T + np.cross(w, w @ inertia.T) + mass * np.cross(centre, a_origin - g_body)
     )
     reactions = loads.reactions
     cup_centres = np.asarray(model.cups.centre_m)
@@ -155,13 +152,7 @@ def test_static_response_against_a_sparse_solve(element, case):
     inputs = _rest_inputs(model, g_body, b)
     coords = np.concatenate([inputs.q[0], inputs.base[0], b])
     shapes = np.concatenate(
-        [
-            np.asarray(model.shapes),
-            np.asarray(model.static_residual),
-            np.asarray(model.rotation.static_shapes).reshape(-1, 3, 9)
-            + np.asarray(model.shapes)
-            @ (np.asarray(model.rotation.shape_integrals).reshape(-1, 9) / model.omega_rad_s[:, None] ** 2),
-        ],
+        [np.asarray(model.shapes), np.asarray(model.static_residual), rotation_residual(model)],
         axis=2,
     )
     got = shapes @ coords
@@ -236,11 +227,7 @@ def _brute_force_distance(model, obstacles, path, acc, pivot, half, extend_s, re
     fine = fixed_axis_path(axis, alpha, fine_dt, start=path.rotation[0])
     fine_acc = np.column_stack([np.interp(grid, coarse, acc[:, c]) for c in range(3)])
     inputs = turning_inputs(model, fine, fine_acc, pivot_m=pivot, extend_s=extend_s)
-    s = np.asarray(model.rotation.shape_integrals).reshape(-1, 9)
-    omega = np.asarray(model.omega_rad_s)
-    rot_shapes = np.asarray(model.rotation.static_shapes).reshape(-1, 3, 9) + np.asarray(
-        model.shapes
-    ) @ (s / omega[:, None] ** 2)
+    rot_shapes = rotation_residual(model)
     u = (
         np.einsum("kcm,tm->tkc", np.asarray(model.shapes), inputs.q)
         + np.einsum("kcm,tm->tkc", np.asarray(model.static_residual), inputs.base)
