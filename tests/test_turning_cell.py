@@ -15,6 +15,7 @@ import fem
 import jaxflex
 from jaxflex.cell import Box, HalfSpace
 from jaxflex.errors import JaxflexWarning
+from jaxflex.outputs import voigt_rotation
 from jaxflex.pose import axis_rotation, fixed_axis_path, turn_acceleration
 from jaxflex.profile import jerk_limited_move, kinematics_at
 from jaxflex.rotation_residual import rotation_residual
@@ -269,3 +270,36 @@ def test_clearance_of_the_turning_part_against_brute_force():
     assert clearance.distance_m >= brute - 2.5e-4
     assert clearance.bound_m <= clearance.distance_m
     assert clearance.obstacle_name == "post"
+
+
+def test_posed_model_keeps_the_static_response_to_the_rotational_loads():
+    """The part posed in another frame (turned 40 degrees about a skew axis and shifted), at
+    rest under a constant spin about a pivot: its points, cup reactions and stresses are the
+    original's turned into that frame (the same physical state: w' = R w, pivot' = R c + o),
+    to 1e-9 of their size (round-off of the frame change)."""
+    model = _sheet("morley", n_modes=4).to_modal_model(points=30)
+    rot = axis_rotation(np.array([0.2, 0.5, 0.8]) / np.linalg.norm([0.2, 0.5, 0.8]), [0.7])[0]
+    offset = np.array([0.3, -0.1, 0.2])
+    posed = model.posed(rot, offset)
+    w, pivot = np.array([0.5, -1.2, 2.0]), np.array([0.1, 0.2, 0.0])
+
+    def at_rest(m, w, pivot):
+        spin = np.outer(w, w) - (w @ w) * np.eye(3)
+        inputs = _rest_inputs(m, spin @ pivot, spin.T.reshape(9))  # a_O = -B c: no gravity
+        coords = np.concatenate([inputs.q[0], inputs.base[0], inputs.coefficients[0]])
+        shapes = np.concatenate(
+            [np.asarray(m.shapes), np.asarray(m.static_residual), rotation_residual(m)], axis=2
+        )
+        cups = output_values(m, m.cups.reaction, m.rotation.cup_static, inputs)[0]
+        stress = output_values(m, m.stress.stress, m.rotation.stress_static, inputs)[0]
+        return shapes @ coords, cups.reshape(-1, 3), stress.reshape(-1, 6)
+
+    points, cups, stress = at_rest(model, w, pivot)
+    points_p, cups_p, stress_p = at_rest(posed, rot @ w, rot @ pivot + offset)
+    voigt = voigt_rotation(rot)
+    for got, want in (
+        (points_p, points @ rot.T),
+        (cups_p, cups @ rot.T),
+        (stress_p, stress @ voigt.T),
+    ):
+        assert np.abs(got - want).max() <= 1e-9 * np.abs(want).max()
