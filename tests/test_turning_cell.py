@@ -13,6 +13,7 @@ import scipy.sparse.linalg as sla
 
 import fem
 import jaxflex
+from fem.solid import SolidOutputs
 from jaxflex.cell import Box, HalfSpace
 from jaxflex.errors import JaxflexWarning
 from jaxflex.outputs import voigt_rotation
@@ -303,3 +304,74 @@ def test_posed_model_keeps_the_static_response_to_the_rotational_loads():
         (stress_p, stress @ voigt.T),
     ):
         assert np.abs(got - want).max() <= 1e-9 * np.abs(want).max()
+
+
+def _mass_moments(result):
+    """(mass, int rho r (3,), int rho r r^T (3, 3)) from the FE mass matrix and the node
+    coordinates of a thin solid (x, y, z per node) or a shell (the translations of its 6 DOFs
+    per node): the translational inertia, without the shell's rotary inertia."""
+    system = result.system
+    if isinstance(system.outputs, SolidOutputs):
+        coords, per_node = system.outputs.layer.points, 3
+    else:
+        coords, per_node = system.outputs.layer.nodes, 6
+    block = np.zeros((4, 4))
+    for j in range(3):  # component j of the fields (r, 1)
+        fields = np.zeros((system.n_dof, 4))
+        fields[j::per_node, :3] = coords
+        fields[j::per_node, 3] = 1.0
+        block += fields.T @ (system.M @ fields)
+    return block[3, 3] / 3, block[:3, 3] / 3, block[:3, :3] / 3
+
+
+@pytest.mark.parametrize(
+    ("part", "stiffness", "moment_rtol"),
+    [
+        ("plate", None, 1e-9),
+        ("plate", "bellows", 1e-9),
+        ("thin solid", None, 1e-9),
+        # the shell's linear fields leave a symmetric field's director unrotated: the rotary
+        # inertia rho h^3 / 12 of its rotations, (h / L)^2 / 12 ~ 1e-5 of the moment, differs
+        ("shell", None, 1e-4),
+    ],
+)
+def test_cups_balance_the_rotational_loads_at_rest(part, stiffness, moment_rtol):
+    """Held at rest under a constant field B r (an Euler and a centrifugal load, no gravity)
+    with 4 modes kept, the cup reactions (rigid or compliant bellows cups) balance the part's
+    inertia: forces sum to B (m c) and their moments about the origin to eps_kab B_bc
+    Sigma_ac, Sigma = int rho r r^T from the mass matrix and the node coordinates (the flat
+    plate's in closed form: it has no in-plane DOFs), to 1e-9 (one sparse solve's
+    round-off)."""
+    builders = {
+        "plate": lambda: fem.rectangular_plate(0.6, 0.4, 1e-3, "steel", 0.05),
+        "thin solid": lambda: fem.curved_panel(0.6, 0.4, 1e-3, "steel", 0.1),
+        "shell": lambda: fem.curved_panel(0.6, 0.4, 1e-3, "steel", 0.05, element="shell"),
+    }
+    cups = [
+        fem.SuctionCup(x, y, 0.03, stiffness=stiffness) for x in (0.15, 0.45) for y in (0.1, 0.3)
+    ]
+    result = fem.modal_analysis(builders[part](), cups, n_modes=4, zeta=0.02, progress=False)
+    model = result.to_modal_model(points=10)
+    if part == "plate":
+        z0 = float(result.system.nodes[0, 2])
+        mass = 7850.0 * 0.6 * 0.4 * 1e-3
+        first = mass * np.array([0.3, 0.2, z0])
+        second = mass * np.array(
+            [[0.12, 0.06, 0.3 * z0], [0.06, 0.4**2 / 3, 0.2 * z0], [0.3 * z0, 0.2 * z0, z0**2]]
+        )
+    else:
+        mass, first, second = _mass_moments(result)
+    w, alpha = np.array([0.3, -0.5, 1.0]), np.array([2.0, 1.0, -3.0])
+    b_matrix = _skew(alpha) + np.outer(w, w) - (w @ w) * np.eye(3)
+    inputs = _rest_inputs(model, np.zeros(3), b_matrix.T.reshape(9))
+    reactions = output_values(model, model.cups.reaction, model.rotation.cup_static, inputs)
+    reactions = reactions[0].reshape(-1, 6)
+    cup_centres = np.asarray(model.cups.centre_m)
+    force = reactions[:, :3].sum(axis=0)
+    moment = (reactions[:, 3:] + np.cross(cup_centres, reactions[:, :3])).sum(axis=0)
+    assert np.abs(force - b_matrix @ first).max() <= 1e-9 * np.abs(force).max()
+    eps = np.zeros((3, 3, 3))
+    for k, i, j in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        eps[k, i, j], eps[k, j, i] = 1.0, -1.0
+    expected = np.einsum("kab,bc,ac->k", eps, b_matrix, second)
+    assert np.abs(moment - expected).max() <= moment_rtol * np.abs(expected).max()
