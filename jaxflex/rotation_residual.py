@@ -27,12 +27,27 @@ D_rot after those of jaxflex.deviation.response_shapes (:func:`turning_shapes`,
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
 
 from jaxflex.deviation import block_model, response_shapes, with_acceleration
+from jaxflex.errors import JaxflexWarning
 from jaxflex.rotation import LEVI_CIVITA
+
+MISSING_STATIC = (
+    "the model holds no static response to the rotational loads (a model file written "
+    "before it was stored): the quasi-static share of the modes left out under the Euler "
+    "and centrifugal loads is missing from the {what} of this turning move; build the model "
+    "again with `jaxflex model` for it"
+)
+
+
+def warn_missing_static(what: str, stacklevel: int = 3) -> None:
+    """JaxflexWarning that the static response to the rotational loads is missing from
+    ``what`` (e.g. "deviation")."""
+    warnings.warn(MISSING_STATIC.format(what=what), JaxflexWarning, stacklevel=stacklevel)
 
 
 def load_tensor(omega_rad_s, alpha_rad_s2, xp: Any = np):

@@ -57,7 +57,12 @@ from jaxflex.engine import forced_states, free_states
 from jaxflex.errors import InputError
 from jaxflex.pose import PosePath
 from jaxflex.rotation import LEVI_CIVITA, require_rotation
-from jaxflex.rotation_residual import load_coefficients, turning_blocks, turning_coordinates
+from jaxflex.rotation_residual import (
+    load_coefficients,
+    turning_blocks,
+    turning_coordinates,
+    warn_missing_static,
+)
 from jaxflex.settle import settle_after
 
 GRAVITY_M_S2 = (0.0, 0.0, -9.81)
@@ -197,7 +202,9 @@ def simulate_turning(
     ((n+1, 3) m/s^2 at the path's dt_s), under ``gravity_m_s2`` (world, default -9.81 m/s^2
     along z; (0, 0, 0) for none). With ``extend_s`` the free vibration after the move
     follows (whole steps; the path must end at rest). NumPy (nothing to compile)."""
-    require_rotation(model)
+    rotation = require_rotation(model)
+    if model.static_shapes is not None and rotation.static_shapes is None:
+        warn_missing_static("deviation")
     acc = np.asarray(acc, dtype=np.float64)
     n = path.n_steps
     if acc.shape != (n + 1, 3):

@@ -38,7 +38,7 @@ from jaxflex.engine import derivative_bounds, free_states, states_between
 from jaxflex.pose import PosePath
 from jaxflex.profile import kinematics_at
 from jaxflex.rotation import LEVI_CIVITA, require_rotation
-from jaxflex.rotation_residual import turning_coordinates, turning_shapes
+from jaxflex.rotation_residual import turning_coordinates, turning_shapes, warn_missing_static
 from jaxflex.turning import GRAVITY_M_S2, turning_forces
 from jaxflex.turning_outputs import turning_inputs
 
@@ -205,7 +205,9 @@ def turning_min_distance(
     while the pivot moves with the world accelerations ``acc`` ((n+1, 3) m/s^2 at the path's
     dt_s, at rest at both ends, rate 0 at the end), and the settling after it, to within
     ``atol`` m; ``limit_m`` as jaxflex.collision.min_distance (module docstring)."""
-    require_rotation(model)
+    rotation = require_rotation(model)
+    if model.static_shapes is not None and rotation.static_shapes is None:
+        warn_missing_static("clearance")
     if isinstance(obstacles, Cell):
         obstacles = obstacles.obstacles
     obstacles = tuple(obstacles)

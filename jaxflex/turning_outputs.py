@@ -24,25 +24,17 @@ JaxflexWarning says so and the result's ``static_complete`` is False.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from jaxflex.engine import free_states
-from jaxflex.errors import InputError, JaxflexWarning, ModelError
+from jaxflex.errors import InputError, ModelError
 from jaxflex.loads import DEFAULT_CUP_SAFETY, CupUtilisation, VonMises
 from jaxflex.pose import PosePath
 from jaxflex.rotation import require_rotation
-from jaxflex.rotation_residual import load_coefficients, output_residual
+from jaxflex.rotation_residual import load_coefficients, output_residual, warn_missing_static
 from jaxflex.turning import GRAVITY_M_S2, _turning_coordinates, check_ends_at_rest
-
-MISSING_STATIC = (
-    "the model holds no static response to the rotational loads (a model file written "
-    "before it was stored): the quasi-static share of the modes left out under the Euler "
-    "and centrifugal loads is missing from the cup reactions and stresses of this turning "
-    "move; build the model again with `jaxflex model` for it"
-)
 
 
 @dataclass(frozen=True)
@@ -146,7 +138,7 @@ def turning_loads(
         and (model.stress is None or rotation.stress_static is not None)
     )
     if not complete:
-        warnings.warn(MISSING_STATIC, JaxflexWarning, stacklevel=2)
+        warn_missing_static("cup reactions and stresses")
     inputs = turning_inputs(
         model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m, extend_s=extend_s
     )

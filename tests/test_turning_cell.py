@@ -169,8 +169,9 @@ def test_static_response_against_a_sparse_solve(element, case):
 
 def test_model_file_keeps_the_static_response(tmp_path):
     """Saved and read back, the model keeps its static response to the rotational loads;
-    a file without it (written before) still turns the part, and the cups and stresses of a
-    turning move then come with a warning that the modes left out are missing."""
+    a file without it (written before) still turns the part, and the deviation, cups and
+    stresses of a turning move then come with a warning that the quasi-static share of the
+    modes left out is missing."""
     result = _sheet("morley", n_modes=4)
     model = result.to_modal_model(points=20)
     model.save(tmp_path / "m.npz")
@@ -188,6 +189,12 @@ def test_model_file_keeps_the_static_response(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert turning_loads(back, path, acc).static_complete
+        simulate_turning(back, path, acc)
+    older = model._replace(rotation=model.rotation.replace(static_shapes=None))
+    older.save(tmp_path / "older.npz")
+    older = jaxflex.load_model(tmp_path / "older.npz")
+    with pytest.warns(JaxflexWarning, match="missing from the deviation"):
+        simulate_turning(older, path, acc)
 
 
 @pytest.mark.slow
