@@ -137,11 +137,6 @@ class RotationalInertia:
             statics[name] = None if value is None or moved is None else moved(value, r, o)
         return RotationalInertia(s, np.float64(m), c_new, j_new, **statics)
 
-    @property
-    def has_static(self) -> bool:
-        """Whether the points' static response to the rotational loads is known."""
-        return self.static_shapes is not None
-
     def to_fields(self) -> dict[str, np.ndarray]:
         """The model file's ``rotation`` group and the static response's groups
         (jaxflex.model_file)."""
