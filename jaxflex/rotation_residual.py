@@ -16,7 +16,8 @@ mode-acceleration split of jaxflex.model extends from the translation to the rot
 at q = -Omega^-2 S b), the modes left out respond quasi-statically. An output y (cup
 reactions, stresses) likewise gains A_rot b with A_rot = static_rot + Q Omega^-2 S.
 
-A model without that static response (a file written before it was stored) has D_rot = 0:
+A model without that static response (a file written before it was stored, an import that
+does not compute it) has D_rot = 0:
 the share of the modes it keeps is in q, the share of the modes left out is missing
 (:func:`rotation_residual` returns None and callers say so).
 
@@ -38,9 +39,9 @@ from jaxflex.rotation import LEVI_CIVITA
 
 MISSING_STATIC = (
     "the model holds no static response to the rotational loads (a model file written "
-    "before it was stored): the quasi-static share of the modes left out under the Euler "
-    "and centrifugal loads is missing from the {what} of this turning move; build the model "
-    "again with `jaxflex model` for it"
+    "before it was stored, or a source that does not compute it): the quasi-static share of "
+    "the modes left out under the Euler and centrifugal loads is missing from the {what} of "
+    "this turning move; a part built with `jaxflex model` (plate, thin solid, shell) has it"
 )
 
 
