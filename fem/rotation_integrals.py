@@ -112,7 +112,10 @@ def rotation_statics(
     B_ji (1/s^2) of the field B r; ``fields`` (n_dof, 3, 3) from :func:`linear_fields`."""
     system = result.system
     flat = fields.reshape(system.n_dof, 9)
-    z_rot = static_solve(result, result.basis.T @ (system.M @ flat))  # (n_free, 9)
+    z_rot = result.__dict__.get("_rotation_static_response")  # (n_free, 9), once per result
+    if z_rot is None:
+        z_rot = static_solve(result, result.basis.T @ (system.M @ flat))
+        result.__dict__["_rotation_static_response"] = z_rot
     n_nodes = len(system.nodes)
     points = -(result.observation @ z_rot).reshape(n_nodes, 3, 3, 3)
     out = {"static_shapes": points[nodes]}
