@@ -202,6 +202,10 @@ class ModalResult:
             static = static_displacements(self, static_response(self), idx)
         if outputs and held and self.system.outputs is not None:
             cups, stress = modal_outputs(self, spec if isinstance(spec, Rayleigh) else zeta_arr)
+        rotation = rotational_inertia(
+            self, idx if held else None, outputs=cups is not None or stress is not None
+        )
+        self.__dict__.pop("_stiffness_factor", None)  # K_ff's LU is not kept with the result
         return ModalModel(
             freq_hz=self.freq_hz,
             zeta=zeta_arr,
@@ -213,7 +217,7 @@ class ModalResult:
             cups=cups,
             stress=stress,
             static_shapes=static,
-            rotation=rotational_inertia(self),
+            rotation=rotation,
         )
 
     def meta(self, damping=None, n_points: int | None = None) -> dict[str, Any]:

@@ -111,8 +111,7 @@ def reaction_outputs(result) -> PhysicalOutputs:
     centres, _ = cup_frames(result)
     pads = system.constraints.pad_columns(system.n_dof)
     springs = system.constraints.springs
-    stiffness, inertia, base = [], [], []
-    rigid = system.rigid
+    stiffness, inertia = [], []
     for c, i in enumerate(cups):
         held = system.support_constraints[i]
         if held.springs:
@@ -125,31 +124,55 @@ def reaction_outputs(result) -> PhysicalOutputs:
                 sp.csr_matrix((k_rows.ravel(), (rows.ravel(), cols.ravel())), (6, T.shape[1]))
             )
             inertia.append(sp.csr_matrix((6, T.shape[1])))
-            base.append(np.zeros((6, 3)))
         else:
             dofs = held.fixed
             motions = sp.csr_matrix(system.outputs.rigid_motion(centres[c])[dofs].T)  # (6, H)
             stiffness.append(motions @ system.K[dofs] @ T)
             inertia.append(motions @ system.M[dofs] @ T)
-            base.append(np.asarray(motions @ (system.M[dofs] @ rigid)))
-    base = np.concatenate(base)
+    base = held_inertia(result, system.rigid)
     if not system.outputs.moves_in_plane:
-        base += _in_plane_share(result, cups, centres)
+        load = np.zeros((3, 3))
+        load[0, 0] = load[1, 1] = result.mass_kg  # (F_x, F_y, M_z) per unit a
+        base += in_plane_share(result, load)
     return PhysicalOutputs(
         sp.vstack(stiffness).tocsr(), sp.vstack(inertia).tocsr(), base, damped=True
     )
 
 
-def _in_plane_share(result, cups: list[int], centres: np.ndarray) -> np.ndarray:
-    """(6 C, 3) reactions of a part that is rigid in its plane (a Kirchhoff plate) to the
-    base accelerations along x and y: the part on lateral and torsion springs at the cups
-    (module docstring), in equilibrium with its inertia m a at its centre of mass."""
+def held_inertia(result, fields: np.ndarray) -> np.ndarray:
+    """(6 C, F) the share of the cup reactions that the mass on the held DOFs of the rigidly
+    clamped cups carries when the DOFs accelerate by ``fields`` (n_dof, F): V^T M_H fields
+    (equation (1)'s A_b for the rigid translations; zero for a compliant cup)."""
     system = result.system
-    mass = result.mass_kg
-    lift = system.rigid[:, 2]
+    centres, _ = cup_frames(result)
+    out = []
+    for c, i in enumerate(_cup_supports(result)):
+        held = system.support_constraints[i]
+        if held.springs:
+            out.append(np.zeros((6, fields.shape[1])))
+        else:
+            dofs = held.fixed
+            motions = sp.csr_matrix(system.outputs.rigid_motion(centres[c])[dofs].T)  # (6, H)
+            out.append(np.asarray(motions @ (system.M[dofs] @ fields)))
+    return np.concatenate(out)
+
+
+def plate_centre(result) -> np.ndarray:
+    """(2,) x, y of the centre of mass of a Kirchhoff plate (from its deflection DOFs), m."""
+    system = result.system
     origin = system.outputs.rigid_motion(np.zeros(3))
-    weighted = system.M @ lift
-    centre = np.array([-(weighted @ origin[:, 4]), weighted @ origin[:, 3]]) / mass
+    weighted = system.M @ system.rigid[:, 2]
+    return np.array([-(weighted @ origin[:, 4]), weighted @ origin[:, 3]]) / result.mass_kg
+
+
+def in_plane_share(result, load: np.ndarray) -> np.ndarray:
+    """(6 C, F) reactions of a part that is rigid in its plane (a Kirchhoff plate) carrying
+    the in-plane loads ``load`` (3, F): the resultant (F_x, F_y, M_z about its centre of
+    mass) that its inertia needs per unit input, on lateral and torsion springs at the cups
+    (module docstring)."""
+    cups = _cup_supports(result)
+    centres, _ = cup_frames(result)
+    centre = plate_centre(result)
     lateral, torsion = [], []
     for i in cups:
         support = result.supports[i]
@@ -166,13 +189,11 @@ def _in_plane_share(result, cups: list[int], centres: np.ndarray) -> np.ndarray:
     maps[:, 0, 2], maps[:, 1, 2] = -arms[:, 1], arms[:, 0]
     k3 = np.einsum("c,cia,cib->ab", lateral, maps, maps)
     k3[2, 2] += sum(torsion)
-    load = np.zeros((3, 3))
-    load[0, 0] = load[1, 1] = mass  # (F_x, F_y, M_z) the supports carry per unit a
-    motion = -np.linalg.solve(k3, load)  # part motion per unit base acceleration
-    out = np.zeros((len(cups), 6, 3))
+    motion = -np.linalg.solve(k3, load)  # part motion per unit input
+    out = np.zeros((len(cups), 6, load.shape[1]))
     out[:, :2] = -np.einsum("c,cia,ab->cib", lateral, maps, motion)
     out[:, 5] = -np.outer(torsion, motion[2])
-    return out.reshape(-1, 3)
+    return out.reshape(-1, load.shape[1])
 
 
 def stress_outputs(result) -> tuple[np.ndarray, PhysicalOutputs]:
@@ -193,9 +214,19 @@ def static_response(result) -> np.ndarray:
         )
     cached = result.__dict__.get("_static_response")
     if cached is None:
-        cached = factorize(result.K_free).solve(np.ascontiguousarray(result.load))
+        cached = static_solve(result, result.load)
         result.__dict__["_static_response"] = cached
     return cached
+
+
+def static_solve(result, loads: np.ndarray) -> np.ndarray:
+    """(n_free, F) K_ff^-1 ``loads`` (n_free, F) with the factorisation of the free stiffness,
+    made once per ``result``."""
+    factor = result.__dict__.get("_stiffness_factor")
+    if factor is None:
+        factor = factorize(result.K_free)
+        result.__dict__["_stiffness_factor"] = factor
+    return factor.solve(np.ascontiguousarray(loads))
 
 
 def static_displacements(result, static: np.ndarray, nodes: np.ndarray) -> np.ndarray:
@@ -206,12 +237,29 @@ def static_displacements(result, static: np.ndarray, nodes: np.ndarray) -> np.nd
     return values[nodes]
 
 
+def has_cups(result) -> bool:
+    """Whether ``result`` holds the part with suction cups (which have reactions)."""
+    return bool(_cup_supports(result))
+
+
+def physical_outputs(result) -> tuple[PhysicalOutputs | None, np.ndarray, PhysicalOutputs]:
+    """(the cups' reactions or None, the stress points, the stresses) of ``result`` as
+    equation (1), built once per ``result``."""
+    cached = result.__dict__.get("_physical_outputs")
+    if cached is None:
+        reactions = reaction_outputs(result) if _cup_supports(result) else None
+        cached = (reactions, *stress_outputs(result))
+        result.__dict__["_physical_outputs"] = cached
+    return cached
+
+
 def modal_outputs(result, damping) -> tuple[CupSet | None, StressSet]:
     """The CupSet (None without suction cups) and the StressSet of ``result`` with
     ``damping`` (fem.Rayleigh or per-mode ratios (M,))."""
     static = static_response(result)
+    reactions, points, stress = physical_outputs(result)
     cups = None
-    if _cup_supports(result):
+    if reactions is not None:
         centres, normals = cup_frames(result)
         ratings = [result.supports[i].cup_rating for i in _cup_supports(result)]
         cups = CupSet(
@@ -220,7 +268,6 @@ def modal_outputs(result, damping) -> tuple[CupSet | None, StressSet]:
             [r.radius_m for r in ratings],
             [r.holding_force_n for r in ratings],
             [r.friction for r in ratings],
-            reaction_outputs(result).modal(result, static, damping),
+            reactions.modal(result, static, damping),
         )
-    points, stress = stress_outputs(result)
     return cups, StressSet(points, stress.modal(result, static, damping))

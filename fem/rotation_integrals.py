@@ -14,6 +14,15 @@ linear fields u = e_j r_i (component j equal to the coordinate r_i, m, in the mo
   coordinates: nodal translations and rotations as for the shell (:func:`nodal_fields`; an
   ANSYS DOF in a rotated nodal system takes the field's component along its own axis).
 
+The part's exact static response to the nine unit loads M (e_j r_i) (one sparse solve with
+the translation's factorisation, fem.outputs) gives the points', the cup reactions' and the
+stresses' static response to the rotational loads (:func:`rotation_statics`), exactly as
+fem.outputs does for the translation: z_r = K_ff^-1 (M F)_free, the points' -T z_r, the
+outputs' A_b,r - A_u z_r with A_b,r = V^T M_H F the inertia of the held DOFs (rigid cups).
+A plate's in-plane share (F_x, F_y, M_z) is that of a part rigid in its plane on the cups'
+springs (fem.outputs.in_plane_share) carrying the in-plane resultant of each field: force
+m c_i e_j, moment about the centre of mass from the mass's second moments.
+
 Every formulation's fields are checked against its own rigid rotations (eps_kij e_j r_i =
 e_k x r: fem.system.FormulationOutputs.rigid_motion) before use. Sources without a mass
 matrix and coordinates (R1 matrices, ``.rst`` results alone, modal results from other
@@ -25,6 +34,14 @@ from __future__ import annotations
 import numpy as np
 
 from fem.deck_model import DeckOutputs
+from fem.outputs import (
+    has_cups,
+    held_inertia,
+    in_plane_share,
+    physical_outputs,
+    plate_centre,
+    static_solve,
+)
 from fem.plate import PlateOutputs
 from fem.shell import DOFS_PER_NODE, ShellOutputs
 from fem.solid import SolidOutputs
@@ -104,11 +121,15 @@ def rigid_inertia(mass_matrix, fields: np.ndarray, translations: np.ndarray):
     return mass, centre, 0.5 * (inertia + inertia.T)
 
 
-def rotational_inertia(result) -> RotationalInertia | None:
+def rotational_inertia(
+    result, nodes: np.ndarray | None = None, *, outputs: bool = False
+) -> RotationalInertia | None:
     """The RotationalInertia of ``result`` (fem.ModalResult) about the model frame's origin:
     shape integrals of its elastic modes, the rigid mass, centre and inertia tensor of the
     FE mass matrix (the plate's: of its deflection DOFs, J_zz = J_xx + J_yy of a flat
-    sheet); None where the formulation gives no linear fields."""
+    sheet); None where the formulation gives no linear fields. With ``nodes`` (K,) (a held
+    part) the static response to the rotational loads at those nodes, and with ``outputs``
+    the cup reactions' and stresses' (:func:`rotation_statics`)."""
     system = result.system
     fields = linear_fields(system)
     if fields is None:
@@ -120,7 +141,55 @@ def rotational_inertia(result) -> RotationalInertia | None:
     _, centre, inertia = rigid_inertia(system.M, fields, system.rigid)
     if not system.outputs.moves_in_plane:  # flat plate: about z from x and y
         inertia[2, 2] = inertia[0, 0] + inertia[1, 1]
-    return RotationalInertia(shape_integrals, np.float64(result.mass_kg), centre, inertia)
+    statics = {} if nodes is None else rotation_statics(result, fields, nodes, outputs=outputs)
+    return RotationalInertia(
+        shape_integrals, np.float64(result.mass_kg), centre, inertia, **statics
+    )
+
+
+def rotation_statics(
+    result, fields: np.ndarray, nodes: np.ndarray, *, outputs: bool
+) -> dict[str, np.ndarray]:
+    """The static response to the nine unit inertia loads M (e_j r_i) (module docstring):
+    {"static_shapes": (K, 3, 3, 3) at ``nodes``, and with ``outputs`` "cup_static"
+    (6 C, 3, 3) where there are suction cups and "stress_static" (6 S, 3, 3)}, per unit
+    B_ji (1/s^2) of the field B r; ``fields`` (n_dof, 3, 3) from :func:`linear_fields`."""
+    system = result.system
+    flat = fields.reshape(system.n_dof, 9)
+    z_rot = result.__dict__.get("_rotation_static_response")  # (n_free, 9), once per result
+    if z_rot is None:
+        z_rot = static_solve(result, result.basis.T @ (system.M @ flat))
+        result.__dict__["_rotation_static_response"] = z_rot
+    n_nodes = len(system.nodes)
+    points = -(result.observation @ z_rot).reshape(n_nodes, 3, 3, 3)
+    out = {"static_shapes": points[nodes]}
+    if not outputs or system.outputs is None:
+        return out
+    reactions, _, stress = physical_outputs(result)
+    out["stress_static"] = -np.asarray(stress.stiffness @ z_rot).reshape(-1, 3, 3)
+    if reactions is not None and has_cups(result):
+        base = held_inertia(result, flat)
+        if not system.outputs.moves_in_plane:
+            base += in_plane_share(result, _in_plane_loads(result, fields))
+        cups = base - np.asarray(reactions.stiffness @ z_rot)
+        out["cup_static"] = cups.reshape(-1, 3, 3)
+    return out
+
+
+def _in_plane_loads(result, fields: np.ndarray) -> np.ndarray:
+    """(3, 9) the in-plane resultant (F_x, F_y, M_z about the centre of mass) of the inertia
+    of a plate's mass under each unit field e_j r_i (column 3 i + j): force m c_i e_j,
+    moment int rho r_i ((r - c) x e_j)_z, from the second moments int rho r_i r_k of its
+    deflection DOFs (the fields along z are r_i)."""
+    along_z = fields[:, :, 2]  # (n_dof, 3): w = x, y, z0
+    second = along_z.T @ (result.system.M @ along_z)  # int rho r_i r_k
+    first = (result.system.M @ result.system.rigid[:, 2]) @ along_z  # m c_i
+    c_x, c_y = plate_centre(result)
+    load = np.zeros((3, 3, 3))  # (resultant, i, j)
+    load[0, :, 0] = load[1, :, 1] = first
+    load[2, :, 0] = -(second[:, 1] - first * c_y)
+    load[2, :, 1] = second[:, 0] - first * c_x
+    return load.reshape(3, 9)
 
 
 def imported_inertia(

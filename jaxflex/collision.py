@@ -332,15 +332,23 @@ def min_distance(
     move = as_move(acc, dt_s, at_rest=True)
     with threadpool_limits(limits=1, user_api="blas"):
         motion = _Motion(model, obstacles, move, gravity_m_s2, half_thickness_m)
-        best = SearchState()
+        return search_clearance(motion, part_blocks(model), atol, limit_m)
 
-        def tolerance(value: float) -> float:
-            return atol if limit_m is None else max(atol, -limit_m - value)
 
-        items = np.arange(model.n_points)
-        best.update(motion.at_rest(items)[:, None], np.array([math.inf]), items)
-        _during(motion, part_blocks(model), best, tolerance)
-        _settling(motion, best, tolerance)
+def search_clearance(motion, blocks: PartBlocks, atol: float, limit_m: float | None):
+    """The :class:`Clearance` of the points of ``motion`` (a ``_Motion`` or one with the same
+    methods: jaxflex.turning_collision) with ``blocks``: at rest at the end, during the move
+    and over the settling (:func:`min_distance`'s search)."""
+    obstacles = motion.obstacles
+    best = SearchState()
+
+    def tolerance(value: float) -> float:
+        return atol if limit_m is None else max(atol, -limit_m - value)
+
+    items = np.arange(len(motion.base))
+    best.update(motion.at_rest(items)[:, None], np.array([math.inf]), items)
+    _during(motion, blocks, best, tolerance)
+    _settling(motion, best, tolerance)
     time_s, point = best.time, best.item
     _, which, _ = distances(obstacles, motion.position(point, time_s)[None])
     obstacle = int(which[0])
@@ -352,7 +360,7 @@ def min_distance(
         obstacle_name=getattr(obstacles[obstacle], "name", str(obstacle)),
         bound_m=min(-best.value - tolerance(best.value), -best.unresolved),
         evaluations=best.evaluations,
-        half_thickness_m=float(half_thickness_m),
+        half_thickness_m=motion.half,
     )
 
 

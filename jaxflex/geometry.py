@@ -1,8 +1,10 @@
 """The robot cell's geometry and the certified clearance, for the layers above the core: the
 obstacles (Box, HalfSpace, TriangleMesh), the cell (the part's pose, the path's via points,
-gravity) and the minimum distance of the part to the obstacles over a move and its settling.
+gravity) and the minimum distance of the part to the obstacles over a move and its settling
+(turning_min_distance: of a part that turns).
 Coordinates are the cell's, in m. Reading a cell file is optim.cell_file's job. Public:
-these names are kept stable; the modules they come from (cell, collision) are private.
+these names are kept stable; the modules they come from (cell, collision,
+turning_collision) are private.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from jaxflex.collision import (
     part_half_thickness,
     positions_at,
 )
+from jaxflex.turning_collision import turning_min_distance
 
 __all__ = [
     "BLOCK_POINTS",
@@ -49,4 +52,5 @@ __all__ = [
     "part_half_thickness",
     "positions_at",
     "rotation_from_degrees",
+    "turning_min_distance",
 ]

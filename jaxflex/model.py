@@ -34,8 +34,9 @@ from jaxflex.outputs import (
     cups_to_fields,
     stress_from_fields,
     stress_to_fields,
+    voigt_rotation,
 )
-from jaxflex.rotation import RotationalInertia, checked_rotation
+from jaxflex.rotation import RotationalInertia, checked_rotation, posed_tensor
 from jaxflex.validation import is_validated, validated
 
 # Data derived from a concrete model's shapes and points alone (the point blocks of
@@ -240,7 +241,12 @@ class ModalModel:
                     )
                 object.__setattr__(self, name, check(value, freq, gamma))
         if self.rotation is not None:
-            object.__setattr__(self, "rotation", checked_rotation(self.rotation, n_modes))
+            rows = (
+                None if self.static_shapes is None else n_points,
+                None if self.cups is None else 6 * self.cups.n_cups,
+                None if self.stress is None else 6 * self.stress.n_points,
+            )
+            object.__setattr__(self, "rotation", checked_rotation(self.rotation, n_modes, rows))
         for name, value in (*arrays.items(), ("labels", labels), ("meta", meta)):
             object.__setattr__(self, name, value)
 
@@ -362,8 +368,15 @@ class ModalModel:
             )
         labels = None if self.labels is None else tuple(self.labels[i] for i in idx)
         static = None if self.static_shapes is None else self.static_shapes[idx]
+        rotation = self.rotation
+        if rotation is not None and rotation.static_shapes is not None:
+            rotation = rotation.replace(static_shapes=np.asarray(rotation.static_shapes)[idx])
         return self._replace(
-            shapes=self.shapes[idx], points=self.points[idx], labels=labels, static_shapes=static
+            shapes=self.shapes[idx],
+            points=self.points[idx],
+            labels=labels,
+            static_shapes=static,
+            rotation=rotation,
         )
 
     def with_damping(self, zeta: float | Sequence[float] | np.ndarray) -> ModalModel:
@@ -397,9 +410,13 @@ class ModalModel:
             raise ModelError(f"with_frequency_scale: scale must be > 0, got {scale}")
         s = float(scale)
         static = self.static_shapes
+        rotation = self.rotation
+        if rotation is not None and rotation.static_shapes is not None:
+            rotation = rotation.replace(static_shapes=np.asarray(rotation.static_shapes) / s**2)
         return self._replace(
             freq_hz=np.asarray(self.freq_hz) * s,
             static_shapes=None if static is None else np.asarray(static) / s**2,
+            rotation=rotation,
             **self._mapped_outputs(lambda outputs: outputs.scaled(s * s, s, same_a_map=True)),
         )
 
@@ -456,9 +473,30 @@ class ModalModel:
             stress=None if self.stress is None else self.stress.rotated(r, offset),
             rotation=None
             if self.rotation is None
-            else self.rotation.posed(r, offset, np.asarray(self.gamma)),
+            else self.rotation.posed(r, offset, np.asarray(self.gamma), self._static_posers()),
             meta={**dict(self.meta), "pose": {"rotation": r.tolist(), "offset_m": offset.tolist()}},
         )
+
+    def _static_posers(self) -> dict[str, Any]:
+        """For RotationalInertia.posed: how each static response to the rotational loads
+        moves to another frame (jaxflex.rotation.posed_tensor with the translation's static
+        response of the same quantity and the rotation of its rows)."""
+        out: dict[str, Any] = {}
+        if self.static_shapes is not None:
+            static = np.asarray(self.static_shapes)
+
+            def points(values, r, o):
+                return np.einsum("ab,kb...->ka...", r, posed_tensor(values, static, r, o))
+
+            out["static_shapes"] = points
+        for name, owner, block in (
+            ("cup_static", self.cups, lambda r: r),
+            ("stress_static", self.stress, voigt_rotation),
+        ):
+            if owner is not None:
+                maps = owner.reaction if name == "cup_static" else owner.stress
+                out[name] = _rows_poser(np.asarray(maps.static_map), block)
+        return out
 
     def _replace(self, **changes: Any) -> ModalModel:
         fields = {
@@ -489,6 +527,19 @@ class ModalModel:
         if self.rotation is not None:
             arrays.update(self.rotation.to_fields())
         write_model_file(path, arrays, self.labels, dict(self.meta))
+
+
+def _rows_poser(translation: np.ndarray, block):
+    """RotationalInertia.posed's function for outputs (Y, 3, 3) whose translation's static
+    map is ``translation`` (Y, 3) and whose groups of b rows turn by ``block(r)`` (b, b)."""
+
+    def posed(values, r, o):
+        moved = posed_tensor(values, translation, r, o)  # (Y, 3, 3)
+        b = block(r)
+        grouped = moved.reshape(-1, b.shape[0], 3, 3)
+        return np.einsum("ab,gbij->gaij", b, grouped).reshape(moved.shape)
+
+    return posed
 
 
 def shape_cache(model: ModalModel) -> dict:
@@ -528,7 +579,10 @@ def load_model(path) -> ModalModel:
         if "stress" in optional:
             fields["stress"] = stress_from_fields(optional["stress"], modes)
         if "rotation" in optional:
-            fields["rotation"] = RotationalInertia.from_fields(optional["rotation"])
+            rotation_fields = dict(optional["rotation"])
+            for group in ("rotation_static", "rotation_cups", "rotation_stress"):
+                rotation_fields.update(optional.get(group, {}))
+            fields["rotation"] = RotationalInertia.from_fields(rotation_fields)
         if version < 3:
             fields["meta"] = {**fields["meta"], "static_response": _legacy_static(version)}
         return ModalModel(**fields)

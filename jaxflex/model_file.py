@@ -9,7 +9,9 @@ Schema version 3 holds the members of :data:`FIELDS`:
 and, optionally, the groups of fields marked with a ``group`` (all fields of a group or none;
 see jaxflex.outputs and jaxflex.model for their meaning): the exact static displacement of
 the points per unit base acceleration, the cups and their reactions, the surface stresses,
-the inertia data of turning moves (jaxflex.rotation; files without it cannot turn the part).
+the inertia data of turning moves (jaxflex.rotation; files without it cannot turn the part)
+and their static response to the rotational loads (points, cups, stresses: three groups;
+files without them turn the part without the quasi-static share of the modes left out).
 Version 2 files are read as well (they hold no static displacement, and the outputs' modal
 A instead of their static response S: jaxflex.outputs.legacy_static_map derives S), and
 version 1 files (the same without any group).
@@ -123,6 +125,21 @@ ROTATION_GROUP = _group(
     ("rotation_centre_m", (3,), "m (centre of mass)", 3),
     ("rotation_inertia_kg_m2", (3, 3), "kg m^2 about the model frame's origin", 3),
 )
+# Their optional static response to the nine unit inertia loads f_ij = M (e_j r_i), at rest
+# per unit B_ji (1/s^2) of the rigid-motion field B r (jaxflex.rotation): the points', the cup
+# reactions', the stresses' (each its own group: a model without cups has no cup part).
+ROTATION_STATIC_GROUP = _group(
+    "rotation_static",
+    ("rotation_static_shapes", ("K", 3, 3, 3), "m per unit B_ji (1/s^2), at rest", 3),
+)
+ROTATION_CUP_GROUP = _group(
+    "rotation_cups",
+    ("rotation_cup_static", ("C", 6, 3, 3), "N or N m per unit B_ji (1/s^2), at rest", 3),
+)
+ROTATION_STRESS_GROUP = _group(
+    "rotation_stress",
+    ("rotation_stress_static", ("S", 6, 3, 3), "Pa per unit B_ji (1/s^2), at rest", 3),
+)
 FIELDS = (
     Field("format", "text", ()),
     Field("schema_version", "integer", ()),
@@ -137,6 +154,9 @@ FIELDS = (
     *CUP_FIELDS,
     *STRESS_FIELDS,
     *ROTATION_GROUP,
+    *ROTATION_STATIC_GROUP,
+    *ROTATION_CUP_GROUP,
+    *ROTATION_STRESS_GROUP,
 )
 FIELD_BY_NAME = {f.name: f for f in FIELDS}
 HEADER_FIELDS = ("format", "schema_version", "meta_json")  # read first, by name
@@ -145,6 +165,9 @@ _GROUPS = (
     ("cups", CUP_FIELDS),
     ("stress", STRESS_FIELDS),
     ("rotation", ROTATION_GROUP),
+    ("rotation_static", ROTATION_STATIC_GROUP),
+    ("rotation_cups", ROTATION_CUP_GROUP),
+    ("rotation_stress", ROTATION_STRESS_GROUP),
 )
 OPTIONAL_FIELDS: dict[str, tuple[str, ...]] = {
     group: tuple(f.name for f in fields if f.in_version(SCHEMA_VERSION))

@@ -1,9 +1,11 @@
 """The building blocks of the certified response, for the layers above the core (fem, optim,
 fmu): the exact modal state maps (engine), deviation and outputs at points (deviation,
 outputs, loads), the decay envelopes and certified peaks (decay, peaks), the move's samples
-(profile, grid), the point sets (points), and turning moves (pose, rotation, turning: a
-turn about a fixed axis, the model's rotational inertia data). Public: these names are
-kept stable for the upper layers; the modules they come from are private to the core.
+(profile, grid), the point sets (points), and turning moves (pose, rotation, turning,
+rotation_residual, turning_outputs: a turn about a fixed axis, the model's rotational
+inertia data, the rotational loads' static residual, cups and stresses of a turning part).
+Public: these names are kept stable for the upper layers; the modules they come from are
+private to the core.
 
 Units and shapes: each function's docstring (SI units throughout; a move ``acc`` is
 (n+1, 3) m/s^2 at step ``dt_s`` s).
@@ -84,12 +86,14 @@ from jaxflex.profile import (
     position_weights,
 )
 from jaxflex.rotation import LEVI_CIVITA, RotationalInertia, require_rotation
+from jaxflex.rotation_residual import load_coefficients, rotation_residual
 from jaxflex.settle import SettleReport, analyze_move
 from jaxflex.simulate import (
     move_deviation,
     on_device,
 )
 from jaxflex.turning import GRAVITY_M_S2, TurningResponse, simulate_turning, turning_settle
+from jaxflex.turning_outputs import TurningLoads, turning_loads
 
 __all__ = [
     "ARRAY_FIELDS",
@@ -106,6 +110,7 @@ __all__ = [
     "RotationalInertia",
     "SettleReport",
     "StressSet",
+    "TurningLoads",
     "TurningResponse",
     "VonMises",
     "acceleration_at",
@@ -128,6 +133,7 @@ __all__ = [
     "item_bounds",
     "jerk_limited_move",
     "kinematics_at",
+    "load_coefficients",
     "max_norms",
     "modal_forces",
     "modal_states",
@@ -142,12 +148,14 @@ __all__ = [
     "require_rotation",
     "response_shapes",
     "rest_padded",
+    "rotation_residual",
     "simulate_turning",
     "snap_key_points",
     "state_map",
     "state_maps_at",
     "states_at",
     "turn_acceleration",
+    "turning_loads",
     "turning_settle",
     "unit_axis",
     "upsample",

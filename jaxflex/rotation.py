@@ -17,6 +17,15 @@ tensor about the frame origin (kg m^2) complete the data (Newton-Euler of the wh
 :class:`RotationalInertia` holds them, ``None`` on a model that does not know them (an R1
 matrix, a modal result without a mass matrix, a file written before): such a model refuses
 turning moves (:func:`require_rotation`).
+
+**Static response to the rotational loads** (optional, from the FE's static solve like the
+translation's static response of jaxflex.model): the load of the field B r is the sum of
+B_ji times the nine unit cases f_ij = M (e_j r_i), and the part's exact static response to
+them, at rest per unit B_ji (1/s^2), is stored for the points (``static_shapes`` (K, 3, 3, 3)
+m s^2: [k, c, i, j] component c of point k), the cup reactions (``cup_static`` (6 C, 3, 3):
+N s^2 or N m s^2 per row of jaxflex.outputs.CupSet) and the stresses (``stress_static``
+(6 S, 3, 3) Pa s^2). With them the modes left out respond quasi-statically to the Euler and
+centrifugal loads too (jaxflex.rotation_residual); without them that share is missing.
 """
 
 from __future__ import annotations
@@ -40,6 +49,13 @@ ROTATION_FIELDS = (
     "rotation_centre_m",
     "rotation_inertia_kg_m2",
 )
+# the optional static response to the nine unit inertia loads (module docstring): the file's
+# groups "rotation_static", "rotation_cups", "rotation_stress" (jaxflex.model_file)
+STATIC_FIELDS = {
+    "static_shapes": "rotation_static_shapes",
+    "cup_static": "rotation_cup_static",
+    "stress_static": "rotation_stress_static",
+}
 
 
 @jax.tree_util.register_pytree_node_class
@@ -52,19 +68,37 @@ class RotationalInertia:
         mass_kg: () the part's mass, kg.
         centre_m: (3,) its centre of mass in the model frame, m.
         inertia_kg_m2: (3, 3) its inertia tensor about the model frame's origin, kg m^2.
+        static_shapes, cup_static, stress_static: the optional static response to the unit
+            inertia loads (module docstring), (K, 3, 3, 3), (6 C, 3, 3), (6 S, 3, 3) or None.
     """
 
     shape_integrals: Any
     mass_kg: Any
     centre_m: Any
     inertia_kg_m2: Any
+    static_shapes: Any = None
+    cup_static: Any = None
+    stress_static: Any = None
 
     def tree_flatten(self):
-        return (self.shape_integrals, self.mass_kg, self.centre_m, self.inertia_kg_m2), None
+        return (
+            self.shape_integrals,
+            self.mass_kg,
+            self.centre_m,
+            self.inertia_kg_m2,
+            self.static_shapes,
+            self.cup_static,
+            self.stress_static,
+        ), None
 
     @classmethod
     def tree_unflatten(cls, aux, children):
         return cls(*children)
+
+    def replace(self, **changes: Any) -> RotationalInertia:
+        """The same data with the fields ``changes`` replaced."""
+        names = ROTATION_ATTRIBUTES + tuple(STATIC_FIELDS)
+        return RotationalInertia(**{n: changes.get(n, getattr(self, n)) for n in names})
 
     @property
     def gamma_rot(self):
@@ -72,49 +106,96 @@ class RotationalInertia:
         return np.einsum("kij,mij->mk", LEVI_CIVITA, np.asarray(self.shape_integrals))
 
     def take_modes(self, keep) -> RotationalInertia:
-        """The same data for the modes ``keep`` (indices)."""
-        return RotationalInertia(
-            np.asarray(self.shape_integrals)[keep], self.mass_kg, self.centre_m, self.inertia_kg_m2
-        )
+        """The same data for the modes ``keep`` (indices); the static response stays (the
+        modes dropped join its quasi-static residual)."""
+        return self.replace(shape_integrals=np.asarray(self.shape_integrals)[keep])
 
-    def posed(self, rotation: np.ndarray, offset_m: np.ndarray, gamma: np.ndarray):
+    def posed(
+        self,
+        rotation: np.ndarray,
+        offset_m: np.ndarray,
+        gamma: np.ndarray,
+        translation: dict[str, Any] | None = None,
+    ):
         """The data in a frame where x is at ``rotation`` x + ``offset_m`` ((3, 3), (3,) m);
         ``gamma`` (M, 3): the modes' translational participation in the model's own frame.
-        S' = R S R^T + o (R Gamma)^T per mode; the inertia by the parallel-axis theorem."""
+        S' = R S R^T + o (R Gamma)^T per mode; the inertia by the parallel-axis theorem.
+        ``translation`` maps the names of STATIC_FIELDS to functions (values, rotation,
+        offset) -> posed values (jaxflex.model.ModalModel.posed: :func:`posed_tensor` with
+        the translation's static response and the output rows' own rotation); a static
+        response without one is dropped."""
         r, o = np.asarray(rotation), np.asarray(offset_m)
-        s = np.einsum("ia,mab,jb->mij", r, np.asarray(self.shape_integrals), r)
-        s = s + np.einsum("i,mj->mij", o, np.asarray(gamma) @ r.T)
+        s = posed_tensor(self.shape_integrals, np.asarray(gamma), r, o)
         m, c = float(self.mass_kg), np.asarray(self.centre_m)
         j_c = np.asarray(self.inertia_kg_m2) - m * (c @ c * np.eye(3) - np.outer(c, c))
         c_new = r @ c + o
         j_new = r @ j_c @ r.T + m * (c_new @ c_new * np.eye(3) - np.outer(c_new, c_new))
-        return RotationalInertia(s, np.float64(m), c_new, j_new)
+        statics = {}
+        for name in STATIC_FIELDS:
+            value = getattr(self, name)
+            moved = None if translation is None else translation.get(name)
+            statics[name] = None if value is None or moved is None else moved(value, r, o)
+        return RotationalInertia(s, np.float64(m), c_new, j_new, **statics)
 
     def to_fields(self) -> dict[str, np.ndarray]:
-        """The model file's ``rotation`` group (jaxflex.model_file)."""
+        """The model file's ``rotation`` group and the static response's groups
+        (jaxflex.model_file)."""
         values = (
             self.shape_integrals,
             np.reshape(self.mass_kg, 1),
             self.centre_m,
             self.inertia_kg_m2,
         )
-        return {k: np.asarray(v) for k, v in zip(ROTATION_FIELDS, values, strict=True)}
+        out = {k: np.asarray(v) for k, v in zip(ROTATION_FIELDS, values, strict=True)}
+        for name, field in STATIC_FIELDS.items():
+            value = getattr(self, name)
+            if value is not None:
+                value = np.asarray(value)
+                out[field] = value if name == "static_shapes" else value.reshape(-1, 6, 3, 3)
+        return out
 
     @classmethod
     def from_fields(cls, fields: dict[str, np.ndarray]) -> RotationalInertia:
-        """Inverse of :meth:`to_fields`."""
+        """Inverse of :meth:`to_fields` (the static response's fields optional)."""
+        statics = {}
+        for name, field in STATIC_FIELDS.items():
+            value = fields.get(field)
+            if value is not None and name != "static_shapes":
+                value = value.reshape(-1, 3, 3)
+            statics[name] = value
         return cls(
             fields["rotation_shape_integrals"],
             np.float64(fields["rotation_mass_kg"][0]),
             fields["rotation_centre_m"],
             fields["rotation_inertia_kg_m2"],
+            **statics,
         )
 
 
-def checked_rotation(value: Any, n_modes: int) -> RotationalInertia:
-    """``value`` as a RotationalInertia of float64 arrays whose shapes fit ``n_modes``;
-    ModelError naming the field otherwise (finite values, a positive mass, a symmetric
-    inertia tensor)."""
+ROTATION_ATTRIBUTES = ("shape_integrals", "mass_kg", "centre_m", "inertia_kg_m2")
+
+
+def posed_tensor(values, translation, rotation: np.ndarray, offset_m: np.ndarray) -> np.ndarray:
+    """Values per unit inertia load B_ji (..., 3, 3) in a frame where x is at ``rotation`` x
+    + ``offset_m``, from those in the model's frame and ``translation`` (..., 3) the same
+    quantity per unit base acceleration there: the field B' r' is, in the model's frame,
+    (R^T B' R) r plus the translation R^T B' o, so V' = R V R^T + o (R T)^T over the last two
+    axes. The leading axes are not transformed (the caller maps output rows)."""
+    r, o = np.asarray(rotation), np.asarray(offset_m)
+    v = np.einsum("ia,...ab,jb->...ij", r, np.asarray(values), r)
+    return v + np.einsum("i,...j->...ij", o, np.asarray(translation) @ r.T)
+
+
+def checked_rotation(
+    value: Any, n_modes: int, static_rows: tuple = (None, None, None)
+) -> RotationalInertia:
+    """``value`` as a RotationalInertia of float64 arrays whose shapes fit ``n_modes`` and,
+    for its static responses, the model's ``static_rows`` (K points with static shapes,
+    6 C cup rows, 6 S stress rows; None: the model has none, and the static response of
+    that quantity to the rotational loads goes with it, as a model without static shapes
+    knows only its modes); ModelError naming the field otherwise (finite values, a positive
+    mass, a symmetric inertia tensor)."""
+    value_in = value
     if not isinstance(value, RotationalInertia):
         raise ModelError(
             "ModalModel.rotation: expected jaxflex.rotation.RotationalInertia or None, got "
@@ -139,6 +220,19 @@ def checked_rotation(value: Any, n_modes: int) -> RotationalInertia:
     inertia = out[3]
     if not np.allclose(inertia, inertia.T, rtol=1e-9, atol=1e-12 * np.abs(inertia).max()):
         raise ModelError("ModalModel.rotation.inertia_kg_m2: must be symmetric")
+    for name, rows in zip(STATIC_FIELDS, static_rows, strict=True):
+        given = getattr(value_in, name)
+        if given is None or rows is None:  # a model without the quantity has no share of it
+            out.append(None)
+            continue
+        shape = (rows, 3, 3, 3) if name == "static_shapes" else (rows, 3, 3)
+        arr = np.array(given, dtype=np.float64)
+        if arr.shape != shape:
+            raise ModelError(f"ModalModel.rotation.{name}: expected shape {shape}, got {arr.shape}")
+        if not np.isfinite(arr).all():
+            raise ModelError(f"ModalModel.rotation.{name}: must be finite")
+        arr.setflags(write=False)
+        out.append(arr)
     return RotationalInertia(*out)
 
 

@@ -22,10 +22,12 @@ rotation terms.
 under gravity in its start pose (q_0 = Omega^-2 Gamma g_b(0)), and the deviation is measured
 from the static sag of the pose it is in, u_eq(t) = -static_shapes g_b(t), so a part tilted
 at B settles to its sag at B. With the mode-acceleration split (jaxflex.model) the deviation
-is u - u_eq = Phi p + D a_O with p = q - Omega^-2 Gamma g_b(t): the model's static residual
-D stays the translation's. The quasi-static share of the modes left out under the Euler and
-centrifugal loads is not included (with every mode kept it is zero; with truncated modes it
-is the static flexibility of the modes left out times alpha r and w^2 r).
+is u - u_eq = Phi p + D a_O + D_rot b with p = q - Omega^-2 Gamma g_b(t), D the static
+residual of the translation and D_rot that of the Euler and centrifugal loads
+(jaxflex.rotation_residual: the modes left out respond quasi-statically to them too). A
+model without the static response to the rotational loads (a file written before it was
+stored) leaves that share out (with every mode kept it is zero; with truncated modes it is
+the static flexibility of the modes left out times alpha r and w^2 r).
 
 **Neglected terms, bounded.** The second line (Coriolis/gyroscopic 2 w x u', the Euler term
 on the deformation alpha x u, spin softening w x (w x u)) is left out and its effect bounded
@@ -50,11 +52,17 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxflex.deviation import blocks_of, deviation, with_acceleration
+from jaxflex.deviation import deviation
 from jaxflex.engine import forced_states, free_states
 from jaxflex.errors import InputError
 from jaxflex.pose import PosePath
 from jaxflex.rotation import LEVI_CIVITA, require_rotation
+from jaxflex.rotation_residual import (
+    load_coefficients,
+    turning_blocks,
+    turning_coordinates,
+    warn_missing_static,
+)
 from jaxflex.settle import settle_after
 
 GRAVITY_M_S2 = (0.0, 0.0, -9.81)
@@ -104,14 +112,15 @@ def _turning_deviation(model, blocks, path, acc, gravity_m_s2, pivot_m, dt_s):
     states, sag, a_origin, _ = _turning_coordinates(
         model, path, acc, gravity_m_s2, pivot_m, dt_s, jnp
     )
-    return deviation(blocks, with_acceleration(model, states[..., 0] - sag, a_origin, jnp))
+    b = load_coefficients(path.omega_rad_s, path.alpha_rad_s2, jnp)
+    return deviation(blocks, turning_coordinates(model, states[..., 0] - sag, a_origin, b, jnp))
 
 
 def turning_deviation(model, path: PosePath, acc, *, gravity_m_s2=GRAVITY_M_S2, pivot_m=(0, 0, 0)):
     """d (n+1,) m at the samples of the turning move (JAX, compiled once per length): the
     kernel of :func:`simulate_turning`, for timing and batches. Concrete ``model``."""
     require_rotation(model)
-    blocks = blocks_of(model, moving=True)
+    blocks = turning_blocks(model)
     device_path = jax.tree_util.tree_map(jnp.asarray, path)
     return _turning_deviation(
         model,
@@ -168,6 +177,17 @@ def neglected_bound(model, path: PosePath, states: np.ndarray) -> tuple[float, f
     return float(energy * flex), float(energy)
 
 
+def check_ends_at_rest(path: PosePath, acc: np.ndarray) -> None:
+    """InputError unless the move ends at rest (the free vibration may follow it)."""
+    rate_scale = 1e-9 * max(1.0, float(np.abs(path.omega_rad_s).max()))
+    if (
+        np.abs(path.omega_rad_s[-1]).max() > rate_scale
+        or acc[-1].any()
+        or path.alpha_rad_s2[-1].any()
+    ):
+        raise InputError("extend_s: the move must end at rest (acceleration and rate 0)")
+
+
 def simulate_turning(
     model,
     path: PosePath,
@@ -182,7 +202,9 @@ def simulate_turning(
     ((n+1, 3) m/s^2 at the path's dt_s), under ``gravity_m_s2`` (world, default -9.81 m/s^2
     along z; (0, 0, 0) for none). With ``extend_s`` the free vibration after the move
     follows (whole steps; the path must end at rest). NumPy (nothing to compile)."""
-    require_rotation(model)
+    rotation = require_rotation(model)
+    if model.static_shapes is not None and rotation.static_shapes is None:
+        warn_missing_static("deviation")
     acc = np.asarray(acc, dtype=np.float64)
     n = path.n_steps
     if acc.shape != (n + 1, 3):
@@ -196,20 +218,16 @@ def simulate_turning(
     dsag = np.cross(path.omega_rad_s, gravity) @ np.asarray(model.gamma).T / omega**2
     p = np.stack([states[..., 0] - sag, states[..., 1] + dsag], axis=-1)
     base = a_origin
+    b = load_coefficients(path.omega_rad_s, path.alpha_rad_s2)
     if extend_s:
-        rate_scale = 1e-9 * max(1.0, float(np.abs(path.omega_rad_s).max()))
-        if (
-            np.abs(path.omega_rad_s[-1]).max() > rate_scale
-            or acc[-1].any()
-            or path.alpha_rad_s2[-1].any()
-        ):
-            raise InputError("extend_s: the move must end at rest (acceleration and rate 0)")
+        check_ends_at_rest(path, acc)
         n_free = int(np.ceil(extend_s / path.dt_s - 1e-9))
         tau = path.dt_s * np.arange(1, n_free + 1)
         p = np.concatenate([p, free_states(model, p[-1], tau, np)], axis=0)
         base = np.concatenate([a_origin, np.zeros((n_free, 3))])
-    coords = with_acceleration(model, p[..., 0], base, np)
-    dev = np.asarray(deviation(blocks_of(model, moving=True), jnp.asarray(coords)))
+        b = np.concatenate([b, np.zeros((n_free, 9))])
+    coords = turning_coordinates(model, p[..., 0], base, b)
+    dev = np.asarray(deviation(turning_blocks(model), jnp.asarray(coords)))
     return TurningResponse(
         t_s=path.dt_s * np.arange(p.shape[0]),
         q=p[..., 0],
