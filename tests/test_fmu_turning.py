@@ -18,8 +18,10 @@ a translation of the pivot), driven by fmpy:
 
 from __future__ import annotations
 
+import dataclasses
 import struct
 import subprocess
+import warnings
 import zipfile
 import zlib
 
@@ -40,7 +42,7 @@ from fmu.master import Session
 from fmu.variables import POSE_INPUT_NAMES
 from fmu.verify import read_fmu_resource
 from jaxflex.cli import main
-from jaxflex.errors import InputError, ModelError
+from jaxflex.errors import InputError, JaxflexWarning, ModelError
 from jaxflex.pose import fixed_axis_path, turn_acceleration
 from jaxflex.turning import body_loads, simulate_turning, turning_forces
 
@@ -111,8 +113,21 @@ def test_exported_fmus_validate_and_take_the_pose(fmus):
 
 @pytest.mark.parametrize("kind", ["swivel", "tilt"])
 def test_linear_inputs_agree_with_simulate_turning(panel, fmus, kind):
+    """The FMU's deviation equals jaxflex's to rounding for the model without the static
+    response to the rotational loads, which the FMU does not carry yet (docs/fmu.md); with
+    it, jaxflex differs by the quasi-static share of the modes left out under the Euler and
+    centrifugal loads (measured on this 6-mode panel: 4.7 % of the peak for the swivel,
+    8.4 % for the tilt; held below 10 % so that a change of either side is seen)."""
     path, acc = _move(kind)
-    reference = simulate_turning(panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    modal_only = panel._replace(
+        rotation=dataclasses.replace(
+            panel.rotation, static_shapes=None, cup_static=None, stress_static=None
+        )
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", JaxflexWarning)  # the missing static share, said
+        reference = simulate_turning(modal_only, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    complete = simulate_turning(panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
     samples = _inputs(path, acc)
     rates = np.diff(samples, axis=0) / DT
     got = []
@@ -127,6 +142,9 @@ def test_linear_inputs_agree_with_simulate_turning(panel, fmus, kind):
     assert peak > 2e-6  # the moves bend the part (measured: 5 um swivel, 12 um tilt)
     assert got[0] == 0.0  # at rest in its start pose, sagging
     assert np.abs(np.array(got) - reference.deviation_m).max() <= ROUNDING * peak
+    gap = np.abs(np.array(got) - complete.deviation_m).max() / peak
+    print(f"{kind}: FMU against jaxflex with the rotational static response: {gap:.2e}")
+    assert gap <= 0.1
 
 
 def _held_reference(model, path, acc):
