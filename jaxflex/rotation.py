@@ -208,13 +208,7 @@ def checked_rotation(
         ("centre_m", (3,)),
         ("inertia_kg_m2", (3, 3)),
     ):
-        arr = np.array(getattr(value, name), dtype=np.float64)
-        if arr.shape != shape:
-            raise ModelError(f"ModalModel.rotation.{name}: expected shape {shape}, got {arr.shape}")
-        if not np.isfinite(arr).all():
-            raise ModelError(f"ModalModel.rotation.{name}: must be finite")
-        arr.setflags(write=False)
-        out.append(arr)
+        out.append(_checked_field(name, getattr(value, name), shape))
     if not out[1] > 0:
         raise ModelError(f"ModalModel.rotation.mass_kg: must be > 0 kg, got {float(out[1])}")
     inertia = out[3]
@@ -226,14 +220,20 @@ def checked_rotation(
             out.append(None)
             continue
         shape = (rows, 3, 3, 3) if name == "static_shapes" else (rows, 3, 3)
-        arr = np.array(given, dtype=np.float64)
-        if arr.shape != shape:
-            raise ModelError(f"ModalModel.rotation.{name}: expected shape {shape}, got {arr.shape}")
-        if not np.isfinite(arr).all():
-            raise ModelError(f"ModalModel.rotation.{name}: must be finite")
-        arr.setflags(write=False)
-        out.append(arr)
+        out.append(_checked_field(name, given, shape))
     return RotationalInertia(*out)
+
+
+def _checked_field(name: str, value: Any, shape: tuple) -> np.ndarray:
+    """``value`` as a read-only float64 array of ``shape``, finite; ModelError naming the
+    field of ModalModel.rotation otherwise."""
+    arr = np.array(value, dtype=np.float64)
+    if arr.shape != shape:
+        raise ModelError(f"ModalModel.rotation.{name}: expected shape {shape}, got {arr.shape}")
+    if not np.isfinite(arr).all():
+        raise ModelError(f"ModalModel.rotation.{name}: must be finite")
+    arr.setflags(write=False)
+    return arr
 
 
 def require_rotation(model) -> RotationalInertia:

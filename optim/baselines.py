@@ -181,6 +181,21 @@ def _selection_grid(robust: RobustSpec):
     return coarse.grid()
 
 
+def mode_trains(kind: str, order, omega, zeta, skipped: dict[str, str], bar):
+    """(count, modes, shaper train) of the shaper ``kind`` for the first 1, 2, ... modes of
+    ``order`` (omega rad/s, zeta per mode), one step of ``bar`` each; stops where no such
+    shaper exists (EI near zeta = 1), saying why in ``skipped``."""
+    for count in range(1, len(order) + 1):
+        bar.update(1)
+        modes = order[:count]
+        try:
+            train = convolve(*(shaper(kind, omega[i], zeta[i]) for i in modes))
+        except InputError as exc:
+            skipped.setdefault(kind, str(exc))
+            return
+        yield count, modes, train
+
+
 def baselines(
     model: ModalModel,
     distance_m,
@@ -224,14 +239,7 @@ def baselines(
     bar = progress_bar(len(kinds) * len(order), "baselines", progress, unit="move")
     for kind in kinds:
         best: Baseline | None = None
-        for count in range(1, len(order) + 1):
-            bar.update(1)
-            modes = order[:count]
-            try:
-                train = convolve(*(shaper(kind, omega[i], zeta[i]) for i in modes))
-            except InputError as exc:  # no such shaper for these modes (EI near zeta = 1)
-                skipped.setdefault(kind, str(exc))
-                break
+        for count, modes, train in mode_trains(kind, order, omega, zeta, skipped, bar):
             if best is not None and continuous.duration_s + train.duration_s >= best.score():
                 continue  # the move alone is longer than the best cycle so far
             if grid_steps(continuous.duration_s + train.duration_s, dt_s) > max_steps:

@@ -23,7 +23,7 @@ from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.response import amplitudes
 from jaxflex.runtime import progress_bar
-from optim.baselines import Baseline, BaselineSet
+from optim.baselines import Baseline, BaselineSet, mode_trains
 from optim.kinematics import clean_distance
 from optim.limits import Limits
 from optim.request import Request
@@ -35,7 +35,7 @@ from optim.ruckig_move import (
     time_optimal_move,
 )
 from optim.search import pad_to
-from optim.shapers import SHAPERS, Shaper, convolve, shaper
+from optim.shapers import SHAPERS, Shaper
 from optim.turn import TurnSpec
 
 SHAPED_SCHEDULES = 2  # the search's shaped turn schedules: those of the best 2 baselines
@@ -112,14 +112,7 @@ def turn_baselines(
     )
     for kind in SHAPERS:
         best: Baseline | None = None
-        for count in range(1, len(order) + 1):
-            bar.update(1)
-            modes = order[:count]
-            try:
-                train = convolve(*(shaper(kind, omega[i], zeta[i]) for i in modes))
-            except InputError as exc:  # no such shaper for these modes (EI near zeta = 1)
-                skipped.setdefault(kind, str(exc))
-                break
+        for count, modes, train in mode_trains(kind, order, omega, zeta, skipped, bar):
             if best is not None and duration + train.duration_s >= best.score():
                 continue  # the move alone is longer than the best cycle so far
             if grid_steps(duration + train.duration_s, dt_s) > max_steps:
