@@ -11,12 +11,15 @@ Format version 3, little-endian throughout (read by ``fmu/c/jxf_core.c``):
     96      f64        trajectory sample step in s (0 without a trajectory)
     104     u64        payload size in bytes
     112     u32 x 4    S stress points, O obstacle records, R static-residual coordinates
-                       (3 where the model has a static residual, else 0), T turning (1: the
+                       (3 where the model has a static residual, 12 for a turning part
+                       that has the rotational one too, else 0), T turning (1: the
                        part takes the pose as inputs, else 0; zero bytes before turning parts)
     128     f64 payload: freq_hz (M) Hz, zeta (M), gamma (M, 3) kg^0.5,
                          shapes (M + R, 3, K) m/kg^0.5 (all x rows, then y, then z; the
                          last R "modes" are the static residual D, m per m/s^2, whose
-                         coordinates are the base acceleration: u = Phi q + D a),
+                         coordinates are the base acceleration: u = Phi q + D a; for
+                         R = 12 then D_rot, m s^2, whose coordinates are the rotational
+                         load coefficients b: + D_rot b, jaxflex.rotation_residual),
                          points (K, 3) m, trajectory (N, 3) m/s^2; then, when C + S + O > 0,
                          the cell (:class:`CellData`): gravity (3) m/s^2, cup safety factor,
                          half the part's thickness (m); cups: normals (C, 3), radii (C) m,
@@ -46,6 +49,7 @@ from fmu.obstacles import RECORD_VALUES, allowed_kinds, unknown_codes
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.geometry import gravity_offset
 from jaxflex.model import ModalModel
+from jaxflex.response import rotation_residual
 
 MAGIC = b"JXFLXFMU"
 FORMAT_VERSION = 3
@@ -129,7 +133,7 @@ def resource_counts(
         cups=model.cups.n_cups if with_cups else 0,
         stress=model.stress.n_points if with_stress else 0,
         obstacles=0 if cell is None else len(cell.obstacles),
-        static=static_count(model),
+        static=static_count(model, turning is not None),
         turning=int(turning is not None),
     )
 
@@ -164,16 +168,24 @@ def _output_maps(outputs, gravity: np.ndarray) -> list[np.ndarray]:
     return [*maps, np.asarray(outputs.offset(gravity), "<f8")]
 
 
-def static_count(model: ModalModel) -> int:
-    """R: the coordinates of the static residual (3) where the model has one, else 0."""
-    return 0 if model.static_residual is None else 3
+def static_count(model: ModalModel, turning: bool = False) -> int:
+    """R: the coordinates of the static residual: 3 where the model has one (driven by the
+    base acceleration), 12 for a turning part whose model also has the static response to
+    the rotational loads (then the nine load coefficients b of jaxflex.rotation_residual
+    follow), else 0."""
+    if model.static_residual is None:
+        return 0
+    return 12 if turning and rotation_residual(model) is not None else 3
 
 
-def resource_shapes(model: ModalModel) -> np.ndarray:
-    """(M + R, 3, K) the shapes the FMU evaluates: the modes, then the static residual."""
+def resource_shapes(model: ModalModel, turning: bool = False) -> np.ndarray:
+    """(M + R, 3, K) the shapes the FMU evaluates: the modes, then the static residual (and,
+    for a turning part, the rotational one, jaxflex.rotation_residual)."""
     shapes = np.asarray(model.shapes)
     if model.static_residual is not None:
         shapes = np.concatenate([shapes, np.asarray(model.static_residual)], axis=2)
+        if static_count(model, turning) == 12:
+            shapes = np.concatenate([shapes, rotation_residual(model)], axis=2)
     return np.transpose(shapes, (2, 1, 0))
 
 
@@ -238,7 +250,7 @@ def encode_resource(
         np.asarray(model.freq_hz, "<f8"),
         np.asarray(model.zeta, "<f8"),
         np.asarray(model.gamma, "<f8"),
-        np.asarray(resource_shapes(model), "<f8"),
+        np.asarray(resource_shapes(model, turning is not None), "<f8"),
         np.asarray(model.points, "<f8"),
     ]
     if acc is not None:
@@ -277,8 +289,10 @@ def decode_resource(data: bytes, *, source: str = "resource") -> ResourceData:
             f"{source}: format version {version} is not supported (reads {FORMAT_VERSION}, as "
             "the FMU's binaries do)"
         )
-    if r not in (0, 3):
-        raise ModelFileError(f"{source}: {r} static-residual coordinates (0 or 3 allowed)")
+    if r not in (0, 3) and not (r == 12 and t == 1):
+        raise ModelFileError(
+            f"{source}: {r} static-residual coordinates (0 or 3 allowed; 12 for a turning part)"
+        )
     if t not in (0, 1):
         raise ModelFileError(f"{source}: turning field {t} (0 or 1 allowed)")
     expected = 8 * payload_values(k, m, n, c, s, o, r, t)
@@ -310,7 +324,7 @@ def decode_resource(data: bytes, *, source: str = "resource") -> ResourceData:
     static = None
     if r:  # the model's static displacement from its residual D = S + Phi Omega^-2 Gamma
         omega = 2 * np.pi * freq
-        static = shapes[:, :, m:] - shapes[:, :, :m] @ (gamma / omega[:, None] ** 2)
+        static = shapes[:, :, m : m + 3] - shapes[:, :, :m] @ (gamma / omega[:, None] ** 2)
     model = ModalModel(
         freq_hz=freq,
         zeta=zeta,

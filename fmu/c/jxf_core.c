@@ -26,9 +26,10 @@
  *   96  f64      trajectory sample step in s (0 without a trajectory)
  *   104 u64      payload size in bytes
  *   112 u32      S stress points, 116 u32 O obstacle records, 120 u32 R static-residual
- *                coordinates (0 or 3), 124 u32 T turning (0 or 1)
+ *                coordinates (0, 3, or 12 turning), 124 u32 T turning (0 or 1)
  *   128 payload of f64: freq_hz (M), zeta (M), gamma (M, 3), shapes (M + R, 3, K: the
- *                       last R rows the static residual, driven by the base acceleration),
+ *                       last R rows the static residual, driven by the base acceleration
+ *                       and, R = 12, by the rotational load coefficients b),
  *                       points (K, 3), trajectory (N, 3), then, if C + S + O > 0:
  *                       gravity (3), cup safety factor (1), half thickness (1); cups:
  *                       normals (C, 3), radii (C), holding forces (C), friction (C),
@@ -577,9 +578,11 @@ static void update_outputs(jxf_model *m) {
     size_t p;
     int i;
     /* the coordinates of the shapes: q (a turning part: less its sag in the current pose,
-     * Omega^-2 gamma . g_b), then the base acceleration (the static residual) */
+     * Omega^-2 gamma . g_b), then the base acceleration (the static residual) and, R = 12,
+     * the rotational load coefficients (jaxflex.rotation_residual) */
     for (i = 0; i < m->n_modes; ++i) m->coords[i] = m->q[i] - sag(m, i);
-    for (i = 0; i < m->n_static; ++i) m->coords[m->n_modes + i] = m->a_now[i];
+    for (i = 0; i < m->n_static; ++i)
+        m->coords[m->n_modes + i] = i < 3 ? m->a_now[i] : m->b_now[i - 3];
     displacement(m->shapes, m->coords, m->n_modes + m->n_static, 3 * K, m->u);
     ux = m->u;
     uy = ux + K;
@@ -600,14 +603,15 @@ static void rest(jxf_model *m, double start_time) {
     memset(m->q, 0, 2 * (size_t)m->n_modes * sizeof(double));
     memset(m->a_now, 0, sizeof m->a_now);
     memset(m->g_now, 0, sizeof m->g_now);
+    memset(m->b_now, 0, sizeof m->b_now);
     if (m->turning) {
         double pose[JXF_IN_COUNT];
         memcpy(pose, m->in, sizeof pose);
-        if (jxf_drive_forces(m, pose, m->f0, m->a_now, m->g_now) != 0) {
+        if (jxf_drive_forces(m, pose, m->f0, m->a_now, m->g_now, m->b_now) != 0) {
             jxf_log(m, JXF_LOG_WARNING, "at rest in the identity orientation instead");
             memset(pose + JXF_IN_QUAT, 0, 4 * sizeof(double));
             pose[JXF_IN_QUAT] = 1.0;
-            jxf_drive_forces(m, pose, m->f0, m->a_now, m->g_now);
+            jxf_drive_forces(m, pose, m->f0, m->a_now, m->g_now, m->b_now);
         }
         for (i = 0; i < m->n_modes; ++i) m->q[i] = sag(m, i);
     }
@@ -911,8 +915,8 @@ static int advance(jxf_model *m, double h, const double d0[JXF_IN_COUNT],
     const double *a0 = d0 + JXF_IN_ACC, *a1 = d1 + JXF_IN_ACC;
     double body[3], gravity[3];
     int i;
-    if (c == NULL || jxf_drive_forces(m, d0, m->f0, body, gravity) != 0 ||
-        jxf_drive_forces(m, d1, m->f1, m->a_now, m->g_now) != 0)
+    if (c == NULL || jxf_drive_forces(m, d0, m->f0, body, gravity, NULL) != 0 ||
+        jxf_drive_forces(m, d1, m->f1, m->a_now, m->g_now, m->b_now) != 0)
         return -1;
     for (i = 0; i < 3; ++i) {
         m->pos[i] += h * m->vel[i] + h * h * (2.0 * a0[i] + a1[i]) / 6.0;
@@ -987,12 +991,14 @@ int jxf_model_do_step(jxf_model *m, double t, double h) {
     const size_t M = (size_t)m->n_modes;
     const double end = t + h, time = m->time;
     double settle_time, path[4][3]; /* pos, vel, a_now, g_now before the step */
+    double loads[9];                /* b_now before the step */
     int status, settled;
     memcpy(m->saved, m->q, 2 * M * sizeof(double));
     memcpy(path[0], m->pos, sizeof path[0]);
     memcpy(path[1], m->vel, sizeof path[1]);
     memcpy(path[2], m->a_now, sizeof path[2]);
     memcpy(path[3], m->g_now, sizeof path[3]);
+    memcpy(loads, m->b_now, sizeof loads);
     settled = m->settled;
     settle_time = m->settle_time;
     if (m->use_trajectory) {
@@ -1018,6 +1024,7 @@ int jxf_model_do_step(jxf_model *m, double t, double h) {
         memcpy(m->vel, path[1], sizeof path[1]);
         memcpy(m->a_now, path[2], sizeof path[2]);
         memcpy(m->g_now, path[3], sizeof path[3]);
+        memcpy(m->b_now, loads, sizeof loads);
         m->time = time;
         update_outputs(m);
         m->settled = settled;

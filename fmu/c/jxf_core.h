@@ -104,6 +104,7 @@ struct jxf_model {
     double a_now[3];     /* base acceleration at the communication point, m/s^2 (a turning
                           * part: of the model frame's origin, body components) */
     double g_now[3];     /* a turning part: gravity in body components there, m/s^2 */
+    double b_now[9];     /* a turning part: the rotational load coefficients there, 1/s^2 */
     double pos[3], vel[3]; /* the path travelled since the start, m and m/s (exact) */
     int settled;         /* deviation <= threshold at the current communication point */
     double settle_time;  /* time the settled flag last went true, s */
@@ -126,10 +127,13 @@ int jxf_check_obstacles(const jxf_model *m, const char *name);
 
 /* The modal forces `f` (M) of the drive `in` (JXF_IN_COUNT inputs), the acceleration of the
  * model frame's origin `a_body` and gravity `g_body` (body components, m/s^2; zero for a part
- * that does not turn, whose state is measured from its sag). jxf_turning.c. 0, or -1 after
- * logging when the orientation quaternion has no direction (zero or not finite). */
+ * that does not turn, whose state is measured from its sag) and, unless NULL, the rotational
+ * load coefficients `b` (9: b[3 i + j] = B_ji, B = [alpha]_x + w w^T - |w|^2 I, 1/s^2, as
+ * jaxflex.rotation_residual.load_coefficients; zero for a part that does not turn).
+ * jxf_turning.c. 0, or -1 after logging when the orientation quaternion has no direction
+ * (zero or not finite). */
 int jxf_drive_forces(const jxf_model *m, const double in[JXF_IN_COUNT], double *f,
-                     double a_body[3], double g_body[3]);
+                     double a_body[3], double g_body[3], double b[9]);
 
 /* Format a message and send it to the model's logger (printf-style). */
 void jxf_log(const jxf_model *m, int level, const char *format, ...);

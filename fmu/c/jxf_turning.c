@@ -9,7 +9,9 @@
  *     a_O = R^T a + alpha x (-c) + w x (w x (-c)),   g_b = R^T g,
  *     f_m = -gamma_m . (a_O - g_b) - gamma_rot,m . alpha - tr(A(w) S_m),
  * with A(w) = w w^T - |w|^2 I, S_m[i][j] = phi_m^T M (e_j r_i) the inertia shape integrals
- * and gamma_rot,m[k] = eps_kij S_m[i][j]. SI units.
+ * and gamma_rot,m[k] = eps_kij S_m[i][j]. The coefficients b[3 i + j] = B_ji of the
+ * rotational loads (B = [alpha]_x + A(w)) drive the static response to them, the last nine
+ * residual coordinates where the resource has R = 12 (jaxflex.rotation_residual). SI units.
  */
 #include <math.h>
 
@@ -42,7 +44,7 @@ static void cross(const double a[3], const double b[3], double out[3]) {
 }
 
 int jxf_drive_forces(const jxf_model *m, const double in[JXF_IN_COUNT], double *f,
-                     double a_body[3], double g_body[3]) {
+                     double a_body[3], double g_body[3], double b[9]) {
     const double *a = in + JXF_IN_ACC, *w = in + JXF_IN_OMEGA, *alpha = in + JXF_IN_ALPHA;
     double r[9], arm[3], euler[3], spin[3], whirl[3], load[3], spin_tensor[9], w2;
     int i, j;
@@ -52,6 +54,8 @@ int jxf_drive_forces(const jxf_model *m, const double in[JXF_IN_COUNT], double *
             f[i] = -(a[0] * g[0] + a[1] * g[1] + a[2] * g[2]);
         }
         for (j = 0; j < 3; ++j) a_body[j] = a[j], g_body[j] = 0.0;
+        if (b != NULL)
+            for (j = 0; j < 9; ++j) b[j] = 0.0;
         return 0;
     }
     if (rotation_of(in + JXF_IN_QUAT, r) != 0) {
@@ -73,6 +77,12 @@ int jxf_drive_forces(const jxf_model *m, const double in[JXF_IN_COUNT], double *
     w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
     for (i = 0; i < 3; ++i)
         for (j = 0; j < 3; ++j) spin_tensor[3 * i + j] = w[i] * w[j] - (i == j ? w2 : 0.0);
+    if (b != NULL) { /* b[3 i + j] = B_ji = eps_kij alpha_k + w_i w_j - |w|^2 delta_ij */
+        for (j = 0; j < 9; ++j) b[j] = spin_tensor[j];
+        b[1] += alpha[2], b[3] -= alpha[2]; /* (i, j) = (x, y), (y, x) */
+        b[5] += alpha[0], b[7] -= alpha[0]; /* (y, z), (z, y) */
+        b[6] += alpha[1], b[2] -= alpha[1]; /* (z, x), (x, z) */
+    }
     for (i = 0; i < m->n_modes; ++i) {
         const double *g = m->gamma + 3 * i, *s = m->shape_integrals + 9 * (size_t)i;
         const double rot[3] = {s[5] - s[7], s[6] - s[2], s[1] - s[3]}; /* eps_kij S_ij */
