@@ -188,6 +188,54 @@ def check_ends_at_rest(path: PosePath, acc: np.ndarray) -> None:
         raise InputError("extend_s: the move must end at rest (acceleration and rate 0)")
 
 
+@dataclass(frozen=True)
+class TurningInputs:
+    """The inputs of the turning response at the samples t_s (T,) s: q, qd (T, M) total
+    modal state, base (T, 3) a_O - g_b, coefficients (T, 9) of the rotational loads
+    (jaxflex.rotation_residual), gravity_body_m_s2 (T, 3) g_b (m/s^2, 1/s^2)."""
+
+    t_s: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    base: np.ndarray
+    coefficients: np.ndarray
+    gravity_body_m_s2: np.ndarray | None = None
+
+
+def turning_inputs(
+    model, path: PosePath, acc, *, gravity_m_s2=GRAVITY_M_S2, pivot_m=(0.0, 0.0, 0.0), extend_s=0.0
+) -> TurningInputs:
+    """The :class:`TurningInputs` for the turning ``path`` while the pivot ``pivot_m`` (model
+    frame, m) moves with world accelerations ``acc`` ((n+1, 3) m/s^2) under ``gravity_m_s2``
+    (world); with ``extend_s`` the free vibration after the move follows (the path must end
+    at rest), whole steps. NumPy."""
+    require_rotation(model)
+    acc = np.asarray(acc, dtype=np.float64)
+    n = path.n_steps
+    if acc.shape != (n + 1, 3):
+        raise InputError(f"acc: expected shape ({n + 1}, 3) like the pose path, got {acc.shape}")
+    gravity_world = np.asarray(gravity_m_s2, float)
+    states, _, a_origin, gravity = _turning_coordinates(
+        model, path, acc, gravity_world, np.asarray(pivot_m, float), path.dt_s, np
+    )
+    q, qd = states[..., 0], states[..., 1]
+    base = a_origin - gravity
+    b = load_coefficients(path.omega_rad_s, path.alpha_rad_s2)
+    if extend_s:
+        check_ends_at_rest(path, acc)
+        n_free = int(np.ceil(extend_s / path.dt_s - 1e-9))
+        tau = path.dt_s * np.arange(1, n_free + 1)
+        omega = np.asarray(model.omega_rad_s)
+        sag = (gravity[-1] @ np.asarray(model.gamma).T) / omega**2  # rest in the final pose
+        free = free_states(model, states[-1] - np.stack([sag, 0 * sag], -1), tau, np)
+        q = np.concatenate([q, sag + free[..., 0]])
+        qd = np.concatenate([qd, free[..., 1]])
+        base = np.concatenate([base, np.broadcast_to(-gravity[-1], (n_free, 3))])
+        b = np.concatenate([b, np.zeros((n_free, 9))])
+        gravity = np.concatenate([gravity, np.broadcast_to(gravity[-1], (n_free, 3))])
+    return TurningInputs(path.dt_s * np.arange(q.shape[0]), q, qd, base, b, gravity)
+
+
 def simulate_turning(
     model,
     path: PosePath,
@@ -205,36 +253,29 @@ def simulate_turning(
     rotation = require_rotation(model)
     if model.static_shapes is not None and rotation.static_shapes is None:
         warn_missing_static("deviation")
-    acc = np.asarray(acc, dtype=np.float64)
-    n = path.n_steps
-    if acc.shape != (n + 1, 3):
-        raise InputError(f"acc: expected shape ({n + 1}, 3) like the pose path, got {acc.shape}")
-    states, sag, a_origin, gravity = _turning_coordinates(
-        model, path, acc, np.asarray(gravity_m_s2, float), np.asarray(pivot_m, float), path.dt_s, np
+    inputs = turning_inputs(
+        model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m, extend_s=extend_s
     )
+    n = path.n_steps
+    gravity = inputs.gravity_body_m_s2
+    states = np.stack([inputs.q[: n + 1], inputs.qd[: n + 1]], axis=-1)
     bound, energy = neglected_bound(model, path, states)
-    omega = 2.0 * np.pi * np.asarray(model.freq_hz)
-    # p' = q' + Omega^-2 Gamma (w x g_b): gravity seen from the turning frame
-    dsag = np.cross(path.omega_rad_s, gravity) @ np.asarray(model.gamma).T / omega**2
-    p = np.stack([states[..., 0] - sag, states[..., 1] + dsag], axis=-1)
-    base = a_origin
-    b = load_coefficients(path.omega_rad_s, path.alpha_rad_s2)
-    if extend_s:
-        check_ends_at_rest(path, acc)
-        n_free = int(np.ceil(extend_s / path.dt_s - 1e-9))
-        tau = path.dt_s * np.arange(1, n_free + 1)
-        p = np.concatenate([p, free_states(model, p[-1], tau, np)], axis=0)
-        base = np.concatenate([a_origin, np.zeros((n_free, 3))])
-        b = np.concatenate([b, np.zeros((n_free, 9))])
-    coords = turning_coordinates(model, p[..., 0], base, b)
+    # about the sag of the current pose: p = q - Omega^-2 Gamma g_b, and p' = q' + Omega^-2
+    # Gamma (w x g_b) (gravity seen from the turning frame; at rest after the move)
+    omega_rad_s = np.zeros_like(gravity)
+    omega_rad_s[: n + 1] = path.omega_rad_s
+    p_q = inputs.q - gravity_coordinates(model, gravity)
+    p_qd = inputs.qd + gravity_coordinates(model, np.cross(omega_rad_s, gravity))
+    a_origin = inputs.base + gravity  # the deviation's static residual takes a_O alone
+    coords = turning_coordinates(model, p_q, a_origin, inputs.coefficients)
     dev = np.asarray(deviation(turning_blocks(model), jnp.asarray(coords)))
     return TurningResponse(
-        t_s=path.dt_s * np.arange(p.shape[0]),
-        q=p[..., 0],
-        qd=p[..., 1],
+        t_s=inputs.t_s,
+        q=p_q,
+        qd=p_qd,
         deviation_m=dev,
-        acc_body_m_s2=a_origin,
-        gravity_body_m_s2=gravity,
+        acc_body_m_s2=a_origin[: n + 1],
+        gravity_body_m_s2=gravity[: n + 1],
         neglected_bound_m=bound,
         neglected_energy=energy,
     )

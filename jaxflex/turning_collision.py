@@ -39,8 +39,7 @@ from jaxflex.pose import PosePath
 from jaxflex.profile import kinematics_at
 from jaxflex.rotation import LEVI_CIVITA, require_rotation
 from jaxflex.rotation_residual import turning_coordinates, turning_shapes, warn_missing_static
-from jaxflex.turning import GRAVITY_M_S2, turning_forces
-from jaxflex.turning_outputs import turning_inputs
+from jaxflex.turning import GRAVITY_M_S2, turning_forces, turning_inputs
 
 
 def rotations_between(path: PosePath, t_s: np.ndarray) -> np.ndarray:

@@ -28,13 +28,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex.engine import free_states
-from jaxflex.errors import InputError, ModelError
+from jaxflex.errors import ModelError
 from jaxflex.loads import DEFAULT_CUP_SAFETY, CupUtilisation, VonMises
 from jaxflex.pose import PosePath
 from jaxflex.rotation import require_rotation
-from jaxflex.rotation_residual import load_coefficients, output_residual, warn_missing_static
-from jaxflex.turning import GRAVITY_M_S2, _turning_coordinates, check_ends_at_rest
+from jaxflex.rotation_residual import output_residual, warn_missing_static
+from jaxflex.turning import GRAVITY_M_S2, TurningInputs, turning_inputs
 
 
 @dataclass(frozen=True)
@@ -54,51 +53,6 @@ class TurningLoads:
     stress_pa: np.ndarray | None
     von_mises_pa: np.ndarray | None
     static_complete: bool
-
-
-@dataclass(frozen=True)
-class TurningInputs:
-    """The inputs of equation (1) at the samples: q, qd (T, M) total modal state, base (T, 3)
-    a_O - g_b, coefficients (T, 9) of the rotational loads (m/s^2, 1/s^2)."""
-
-    t_s: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    base: np.ndarray
-    coefficients: np.ndarray
-
-
-def turning_inputs(
-    model, path: PosePath, acc, *, gravity_m_s2=GRAVITY_M_S2, pivot_m=(0.0, 0.0, 0.0), extend_s=0.0
-) -> TurningInputs:
-    """The inputs of equation (1) for the turning ``path`` while the pivot ``pivot_m`` (model
-    frame, m) moves with world accelerations ``acc`` ((n+1, 3) m/s^2) under ``gravity_m_s2``
-    (world); with ``extend_s`` the free vibration after the move follows (the path must end
-    at rest), whole steps. NumPy."""
-    require_rotation(model)
-    acc = np.asarray(acc, dtype=np.float64)
-    n = path.n_steps
-    if acc.shape != (n + 1, 3):
-        raise InputError(f"acc: expected shape ({n + 1}, 3) like the pose path, got {acc.shape}")
-    gravity_world = np.asarray(gravity_m_s2, float)
-    states, _, a_origin, gravity = _turning_coordinates(
-        model, path, acc, gravity_world, np.asarray(pivot_m, float), path.dt_s, np
-    )
-    q, qd = states[..., 0], states[..., 1]
-    base = a_origin - gravity
-    b = load_coefficients(path.omega_rad_s, path.alpha_rad_s2)
-    if extend_s:
-        check_ends_at_rest(path, acc)
-        n_free = int(np.ceil(extend_s / path.dt_s - 1e-9))
-        tau = path.dt_s * np.arange(1, n_free + 1)
-        omega = np.asarray(model.omega_rad_s)
-        sag = (gravity[-1] @ np.asarray(model.gamma).T) / omega**2  # rest in the final pose
-        free = free_states(model, states[-1] - np.stack([sag, 0 * sag], -1), tau, np)
-        q = np.concatenate([q, sag + free[..., 0]])
-        qd = np.concatenate([qd, free[..., 1]])
-        base = np.concatenate([base, np.broadcast_to(-gravity[-1], (n_free, 3))])
-        b = np.concatenate([b, np.zeros((n_free, 9))])
-    return TurningInputs(path.dt_s * np.arange(q.shape[0]), q, qd, base, b)
 
 
 def output_values(model, outputs, static_rot, inputs: TurningInputs) -> np.ndarray:
