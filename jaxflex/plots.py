@@ -17,9 +17,12 @@ __all__ = ["PLAIN", "PLAIN_MINOR", "deviation_axes", "plt", "save_figure"]
 
 
 def save_figure(fig, path: str | os.PathLike) -> None:
-    """Save ``fig`` as PNG atomically and close it."""
+    """Save ``fig`` as PNG atomically and close it. A figure without a layout engine is
+    trimmed to its drawn extent (bbox "tight": one more draw); a constrained layout already
+    fits its page, and is drawn once."""
+    trim = None if fig.get_layout_engine() is not None else "tight"
     with atomic_open(path, "wb") as handle:
-        fig.savefig(handle, format="png", dpi=120, bbox_inches="tight")
+        fig.savefig(handle, format="png", dpi=120, bbox_inches=trim)
     plt.close(fig)
 
 
