@@ -13,8 +13,8 @@ bounds every member by the triangle inequality:
 
 Mode shapes are continuous fields over the part, so on a mesh the radius is small against
 the displacement and the bound is tight; for shapes without spatial order it stays true but
-prunes nothing. Everything is ``jax.numpy`` (traceable: the same code builds the blocks of a
-concrete model once, jaxflex.deviation.blocks_of, and of a traced one inside jit/vmap).
+prunes nothing. The same code builds the blocks of a concrete model once with NumPy
+(jaxflex.deviation.blocks_of: no compilation) and of a traced one with jax.numpy inside jit/vmap.
 """
 
 from __future__ import annotations
@@ -88,57 +88,82 @@ def _split_levels(n_blocks: int) -> list[np.ndarray]:
     return levels
 
 
+def _segment_extent(xp, values, seg, n_seg: int):
+    """(n_seg, 3) lowest and highest ``values`` (N, 3) over each segment ``seg`` (N,) of
+    consecutive entries (sorted ids 0 ... n_seg - 1)."""
+    if xp is np:
+        starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
+        return np.minimum.reduceat(values, starts), np.maximum.reduceat(values, starts)
+    low = jax.ops.segment_min(values, seg, num_segments=n_seg, indices_are_sorted=True)
+    high = jax.ops.segment_max(values, seg, num_segments=n_seg, indices_are_sorted=True)
+    return low, high
+
+
+def _namespace(*arrays):
+    """numpy for concrete NumPy input (built in milliseconds, nothing to compile), else
+    jax.numpy (traceable, for traced models inside jit/vmap)."""
+    return np if all(isinstance(a, np.ndarray) for a in arrays) else jnp
+
+
 def kd_order(points, block_points: int = BLOCK_POINTS):
     """(nB b,) order of the points (K, 3) m into nB = ceil(K / b) spatially compact blocks of
     b = ``block_points`` consecutive entries; entries >= K are padding (at the end of the
-    bisection's last segments). Traceable."""
-    points = jnp.asarray(points)
+    bisection's last segments). NumPy in, NumPy out; otherwise traceable jax.numpy (both
+    sorts are stable: the same order)."""
+    xp = _namespace(points)
     n_points = points.shape[0]
     n_blocks = -(-n_points // block_points)
     pad = n_blocks * block_points - n_points
-    far = jnp.max(points, axis=0) + 1.0  # padding sorts last along every axis
-    coords = jnp.concatenate([points, jnp.broadcast_to(far, (pad, 3))], axis=0)
-    order = jnp.arange(n_blocks * block_points)
+    far = xp.max(points, axis=0) + 1.0  # padding sorts last along every axis
+    coords = xp.concatenate([points, xp.broadcast_to(far, (pad, 3))], axis=0)
+    order = xp.arange(n_blocks * block_points)
     for seg_of_block in _split_levels(n_blocks):
-        seg = jnp.asarray(np.repeat(seg_of_block, block_points))
-        n_seg = int(seg_of_block.max()) + 1
+        seg = xp.asarray(np.repeat(seg_of_block, block_points))
         here = coords[order]
-        low = jax.ops.segment_min(here, seg, num_segments=n_seg)
-        high = jax.ops.segment_max(here, seg, num_segments=n_seg)
-        axis = jnp.argmax(high - low, axis=1)[seg]
-        key = jnp.take_along_axis(here, axis[:, None], axis=1)[:, 0]
-        order = order[jnp.lexsort((key, seg))]
+        low, high = _segment_extent(xp, here, seg, int(seg_of_block.max()) + 1)
+        axis = xp.argmax(high - low, axis=1)[seg]
+        key = xp.take_along_axis(here, axis[:, None], axis=1)[:, 0]
+        order = order[xp.lexsort((key, seg))]
     return order
 
 
+def _slots(xp, order, n_points: int):
+    """(K,) the slot of every original point in the blocks' ``order`` (padding dropped)."""
+    slots = xp.arange(order.shape[0], dtype=xp.int32)
+    if xp is np:
+        slot = np.zeros(n_points, np.int32)
+        real = order < n_points
+        slot[order[real]] = slots[real]
+        return slot
+    return jnp.zeros(n_points, jnp.int32).at[order].set(slots, mode="drop")
+
+
 def point_blocks(shapes, points, block_points: int = BLOCK_POINTS) -> PointBlocks:
-    """:class:`PointBlocks` of ``shapes`` (K, C, M) at ``points`` (K, 3). Traceable; the
-    centres and radii only steer the pruning and carry no gradient."""
-    shapes = jnp.asarray(shapes)
+    """:class:`PointBlocks` of ``shapes`` (K, C, M) at ``points`` (K, 3). NumPy arrays in:
+    built with NumPy (concrete models: nothing to compile), NumPy arrays out; otherwise
+    traceable jax.numpy, where the centres and radii only steer the pruning and carry no
+    gradient."""
+    xp = _namespace(shapes, points)
+    freeze = (lambda x: x) if xp is np else jax.lax.stop_gradient
     n_points, n_comp, n_modes = shapes.shape
     b = int(min(block_points, n_points))
     order = kd_order(points, b)
     n_blocks = order.shape[0] // b
     real = (order < n_points).reshape(n_blocks, b)
-    index = jnp.where(real, order.reshape(n_blocks, b), n_points)
-    padded = jnp.concatenate([shapes, jnp.zeros((1, n_comp, n_modes), shapes.dtype)], axis=0)
+    index = xp.where(real, order.reshape(n_blocks, b), n_points)
+    padded = xp.concatenate([shapes, xp.zeros((1, n_comp, n_modes), shapes.dtype)], axis=0)
     members = padded[index]  # (nB, b, C, M)
-    frozen = jax.lax.stop_gradient(members)
-    mean = jnp.sum(frozen, axis=1) / jnp.sum(real, axis=1)[:, None, None]
-    spread = jnp.sum((frozen - mean[:, None]) ** 2, axis=(2, 3))
-    centre = jnp.argmin(jnp.where(real, spread, jnp.inf), axis=1)  # (nB,)
-    centre_shape = jnp.take_along_axis(frozen, centre[:, None, None, None], axis=1)[:, 0]
-    offset = jnp.sqrt(jnp.sum((frozen - centre_shape[:, None]) ** 2, axis=2))  # (nB, b, M)
-    radius = jnp.max(jnp.where(real[..., None], offset, 0.0), axis=1)
-    slot = (
-        jnp.zeros(n_points, jnp.int32)
-        .at[order]
-        .set(jnp.arange(order.shape[0], dtype=jnp.int32), mode="drop")
-    )
+    frozen = freeze(members)
+    mean = xp.sum(frozen, axis=1) / xp.sum(real, axis=1)[:, None, None]
+    spread = xp.sum((frozen - mean[:, None]) ** 2, axis=(2, 3))
+    centre = xp.argmin(xp.where(real, spread, xp.inf), axis=1)  # (nB,)
+    centre_shape = xp.take_along_axis(frozen, centre[:, None, None, None], axis=1)[:, 0]
+    offset = xp.sqrt(xp.sum((frozen - centre_shape[:, None]) ** 2, axis=2))  # (nB, b, M)
+    radius = xp.max(xp.where(real[..., None], offset, 0.0), axis=1)
     return PointBlocks(
-        shapes=jnp.transpose(members, (0, 3, 2, 1)).reshape(n_blocks, n_modes, n_comp * b),
-        index=index.astype(jnp.int32),
-        centres=jnp.transpose(centre_shape, (2, 1, 0)),
-        radius=radius,
-        slot=slot,
+        shapes=xp.transpose(members, (0, 3, 2, 1)).reshape(n_blocks, n_modes, n_comp * b),
+        index=index.astype(xp.int32),
+        centres=xp.transpose(centre_shape, (2, 1, 0)),
+        radius=radius.astype(shapes.dtype),
+        slot=_slots(xp, order, n_points),
     )

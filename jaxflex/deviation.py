@@ -183,7 +183,6 @@ def deviation(blocks: PointBlocks, q):
     return deviation_point(blocks, q)[0]
 
 
-_build_blocks = jax.jit(point_blocks, static_argnames="block_points")
 _max_norms = jax.jit(deviation_point)
 
 
@@ -216,8 +215,9 @@ def with_acceleration(model, q, acc, xp=np):
 
 def block_model(shapes, points, dtype: str = "float64") -> PointBlocks:
     """:class:`PointBlocks` of concrete ``shapes`` (K, C, M) at ``points`` (K, 3) m, for
-    :func:`max_norms` (compiled once per size)."""
-    return _build_blocks(jnp.asarray(shapes, dtype), jnp.asarray(points, jnp.float64))
+    :func:`max_norms`, built with NumPy (nothing to compile) and placed on the device."""
+    blocks = point_blocks(np.asarray(shapes, dtype), np.asarray(points, np.float64))
+    return jax.tree_util.tree_map(jnp.asarray, blocks)
 
 
 def _moving_cache(model) -> dict | None:

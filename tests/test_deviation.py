@@ -221,3 +221,18 @@ def test_kd_blocks_hold_every_point_once_and_bound_their_members():
         members = members[members < 333]
         spread = np.linalg.norm(shapes[members] - centres[b], axis=1)  # (b, M)
         assert (spread <= np.asarray(blocks.radius)[b] * (1 + 1e-12)).all()
+
+
+def test_blocks_built_with_numpy_equal_the_traceable_ones():
+    """A concrete model's blocks are built with NumPy (nothing to compile), a traced one's
+    with jax.numpy: both stable sorts and the same arithmetic, so the same blocks (the
+    traced path is what vmap over a robust grid of models uses)."""
+    model = random_model(seed=4, n_points=517, n_modes=5)
+    shapes, points = np.asarray(model.shapes), np.asarray(model.points)
+    concrete = point_blocks(shapes, points)
+    traced = jax.jit(point_blocks)(jnp.asarray(shapes), jnp.asarray(points))
+    for name in ("index", "slot"):
+        np.testing.assert_array_equal(getattr(concrete, name), getattr(traced, name))
+    for name in ("shapes", "centres", "radius"):
+        # the same float64 operations; XLA may fuse the sums differently: 1e-13 relative
+        np.testing.assert_allclose(getattr(concrete, name), getattr(traced, name), rtol=1e-13)
