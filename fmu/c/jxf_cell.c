@@ -16,7 +16,9 @@
  */
 #include <math.h>
 
-#include "jxf_core.h"
+#include "jxf_cell.h"
+#include "jxf_config.h"
+#include "jxf_model.h"
 
 /* every kind of the table is implemented below: a kind added there must be added here */
 #if JXF_OBSTACLE_KIND_COUNT != 3 || !defined(JXF_OBSTACLE_BOX) || \
@@ -41,10 +43,10 @@ int jxf_check_obstacles(const jxf_model *m, const char *name) {
 
 /* row `r` of the output block (Q, V, A, at rest) at the current state */
 static double linear_output(const jxf_model *m, const double *q_map, const double *v_map,
-                            const double *a_map, const double *rest, size_t r) {
+                            const double *a_map, const double *at_rest, size_t r) {
     const int M = m->n_modes;
     const double *qr = q_map + r * (size_t)M, *vr = v_map + r * (size_t)M, *ar = a_map + 3 * r;
-    double y = rest[r];
+    double y = at_rest[r];
     int i;
     for (i = 0; i < M; ++i) y += qr[i] * m->q[i] + vr[i] * m->v[i];
     for (i = 0; i < 3; ++i) y += ar[i] * m->a_now[i];

@@ -1,4 +1,4 @@
-/* jaxflex FMU: the modal forces of the inputs (the drive, jxf_core.h), straight or turning.
+/* jaxflex FMU: the modal forces of the inputs (the drive, jxf_model.h), straight or turning.
  *
  * A part that does not turn: f_m = -gamma_m . a, a the gripper's acceleration (m/s^2).
  *
@@ -15,7 +15,8 @@
  */
 #include <math.h>
 
-#include "jxf_core.h"
+#include "jxf_model.h"
+#include "jxf_turning.h"
 
 /* R (row-major, body -> world) of the quaternion q = (w, x, y, z), normalised; -1 if q has no
  * direction. */
