@@ -22,6 +22,7 @@ import struct
 import subprocess
 import zipfile
 import zlib
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -37,13 +38,14 @@ from fmu import export_fmu
 from fmu.build import compile_library, host_target
 from fmu.harness import SANITIZE_FLAGS, compile_harness, resource_location
 from fmu.master import Session
+from fmu.resource import decode_resource
 from fmu.variables import POSE_INPUT_NAMES
 from fmu.verify import read_fmu_resource
 from jaxflex.cli import main
 from jaxflex.errors import InputError, ModelError
 from jaxflex.pose import fixed_axis_path, turn_acceleration
 from jaxflex.response import rotation_residual
-from jaxflex.turning import body_loads, simulate_turning, turning_forces
+from jaxflex.turning import body_loads, simulate_turning, turning_forces, turning_settle
 
 DT = 2e-3
 PIVOT = np.array([0.3, 0.2, 0.05])  # m, model frame: near the panel's middle, above it
@@ -197,12 +199,10 @@ def test_without_rotation_data_turning_is_refused(panel, tmp_path):
     assert not (tmp_path / "bare.fmu").exists()
 
 
-def test_turning_with_a_move_or_stresses_is_refused(panel, tmp_path):
-    acc = jaxflex.jerk_limited_move([0.4, 0.0, 0.0], 1.5, 10.0, 200.0, DT)
-    with pytest.raises(InputError, match="not with trajectory"):
-        export_fmu(panel, tmp_path / "a.fmu", 2, (acc, DT), turning=True, windows=False)
+def test_turning_with_stresses_or_a_cell_is_refused(panel, tmp_path):
     with pytest.raises(InputError, match="not with stress"):
         export_fmu(panel, tmp_path / "b.fmu", 3, turning=True, stress=True, windows=False)
+    assert not (tmp_path / "b.fmu").exists()
 
 
 def test_straight_fmus_keep_their_variables(panel, tmp_path):
@@ -308,3 +308,153 @@ def test_turning_fmu_under_sanitizers(fmus, version, tmp_path):
     for label, line in outcome.items():
         refused, logged = line.split()
         assert (refused, int(logged) > 0) == ("refused", True), label
+
+
+# ---- the embedded move of poses (export_fmu(..., trajectory, turning=True, pose=...)) -------
+
+
+@pytest.fixture(scope="module")
+def embedded(panel, tmp_path_factory):
+    """Turning FMUs with the swivel and the tilt embedded (FMI 2.0 and 3.0)."""
+    folder = tmp_path_factory.mktemp("embedded")
+    out = {}
+    for kind in ("swivel", "tilt"):
+        path, acc = _move(kind)
+        for version in (2, 3):
+            out[kind, version] = export_fmu(
+                panel, folder / f"{kind}{version}.fmu", version, (acc, DT), turning=True,
+                pivot_m=PIVOT, gravity_m_s2=GRAVITY, pose=path, windows=False,
+            )  # fmt: skip
+    return out
+
+
+@pytest.mark.parametrize("version", [2, 3])
+@pytest.mark.parametrize("kind", ["swivel", "tilt"])
+def test_embedded_turning_move_agrees_with_simulate_turning(panel, embedded, version, kind):
+    """The FMU replays its move of poses by itself (use_embedded_trajectory, no inputs): at
+    communication steps of one sample, of two samples (the FMU splits each step at the sample
+    between) and of 2.5 samples (communication points between samples: the forcing there is
+    linear between the samples', as jaxflex's recursion assumes), its deviation at every
+    communication point on a sample equals simulate_turning's to rounding (the same bound as
+    the inputs' test above); the free vibration after the move too."""
+    path, acc = _move(kind)
+    result = embedded[kind, version]
+    assert result.compiler_messages == "" and validate_fmu(str(result.fmu_path)) == []
+    reference = simulate_turning(
+        panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT, extend_s=0.1
+    )
+    peak = reference.deviation_m.max()
+    stop = (len(reference.t_s) - 1) * DT
+    for interval in (DT, 2 * DT, 2.5 * DT):
+        run = simulate_fmu(
+            str(result.fmu_path), start_values={"use_embedded_trajectory": True},
+            output_interval=interval, stop_time=stop, output=["deviation"],
+        )  # fmt: skip
+        k = np.round(run["time"] / DT).astype(int)
+        on_sample = np.abs(run["time"] - k * DT) < 1e-9 * DT
+        assert on_sample.sum() >= len(run["time"]) // 2
+        got = run["deviation"][on_sample]
+        assert got[0] == 0.0  # at rest, sagging in the move's first pose
+        assert np.abs(got - reference.deviation_m[k[on_sample]]).max() <= ROUNDING * peak
+
+
+def test_embedded_move_in_the_resource_and_case(panel, embedded):
+    """The resource holds the move's samples (translation and the poses: quaternion, angular
+    velocity and acceleration) as given, its checksum and lengths checked on reading; the
+    case beside the FMU has jaxflex's exact cycle time of the turning move and the input CSV
+    the 13 inputs."""
+    path, acc = _move("tilt")
+    result = embedded["tilt", 3]
+    stored = read_fmu_resource(result.fmu_path)
+    assert np.array_equal(stored.acc, acc) and stored.dt_s == DT
+    quat = Rotation.from_matrix(path.rotation).as_quat(scalar_first=True)
+    poses = stored.turning.pose_samples
+    assert poses.shape == (len(acc), 10)
+    assert np.array_equal(poses[:, 4:], np.hstack([path.omega_rad_s, path.alpha_rad_s2]))
+    assert np.abs(poses[:, :4] - quat).max() <= 1e-15
+    response = simulate_turning(panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    settle = turning_settle(path, panel, response, 5e-4)
+    assert result.case["cycle_time_s"] == settle.cycle_time_s
+    header = result.input_csv.read_text().split("\n", 1)[0].split(",")
+    assert header == ["time", *NAMES]
+
+
+def test_damaged_embedded_poses_are_refused(embedded, tmp_path):
+    """A resource whose pose samples lost a quaternion (zero) is refused by the reader in
+    Python and by the FMU at instantiation, with the CRC recomputed (so only the value
+    check can catch it)."""
+    result = embedded["swivel", 2]
+    folder = tmp_path / "x"
+    with zipfile.ZipFile(result.fmu_path) as zf:
+        zf.extractall(folder)
+    resource = folder / "resources" / "jaxflex_model.bin"
+    body = bytearray(resource.read_bytes()[:-8])
+    at = len(body) - 8 * 10 * result.counts.trajectory  # the first pose sample's quat_w
+    body[at : at + 32] = bytes(32)
+    resource.write_bytes(bytes(body) + struct.pack("<II", zlib.crc32(bytes(body)), 0))
+    with pytest.raises(jaxflex.ModelFileError, match="quaternion is zero"):
+        decode_resource(resource.read_bytes())
+    with pytest.raises(Exception, match="instantiate"):  # fmpy: the FMU returned NULL
+        Session(folder, unzip_dir=folder)
+
+
+def test_inconsistent_embedded_moves_are_refused(panel, tmp_path):
+    """A pose path that does not fit the trajectory (length, step), is missing, or does not
+    end at rest is refused naming ``pose``, before anything is written."""
+    path, acc = _move("swivel")
+    moving = replace(path, omega_rad_s=path.omega_rad_s.copy())
+    moving.omega_rad_s[-1] = (0.0, 0.0, 1.0)
+    cases = {
+        "pose: .* samples": (path, acc[:-1]),
+        "pose: sampled every": (replace(path, dt_s=1e-3), acc),
+        "pose: a turning part's embedded move needs": (None, acc),
+        "pose: the turn must start and end at rest": (moving, acc),
+    }
+    for message, (pose, samples) in cases.items():
+        with pytest.raises(InputError, match=message):
+            export_fmu(
+                panel, tmp_path / "bad.fmu", 2, (samples, DT), turning=True, pose=pose,
+                windows=False,
+            )  # fmt: skip
+    with pytest.raises(InputError, match="pose: only for a turning part"):
+        export_fmu(panel, tmp_path / "bad.fmu", 2, (acc, DT), pose=path, windows=False)
+    assert not (tmp_path / "bad.fmu").exists()
+
+
+@pytest.mark.slow
+def test_export_command_embeds_an_optimised_turning_move(panel, tmp_path, capsys):
+    """`jaxflex optimize --rotate z 90 --pivot ...` then `jaxflex export --turning
+    --trajectory RUN`: the FMU plays the optimised swivel by itself and the command's own
+    check (fmpy against jaxflex.simulate_turning) passes; the same run without --turning,
+    with another pivot, or its trajectory.csv without report.json is refused (exit status 2,
+    one line naming the option, no FMU)."""
+    model_file, run = tmp_path / "panel.npz", tmp_path / "run"
+    panel.save(model_file)
+    limits = ["--vmax", "1.5", "--amax", "10", "--jmax", "200", "--dt", "0.01"]
+    turn = ["--rotate", "z", "90", "--pivot", "0.3", "0.2", "0.05"]
+    optimize = ["optimize", str(model_file), "--distance", "0.4", "0", "0", *limits, *turn]
+    assert main([*optimize, "--threshold", "2e-6", "--no-plots", "-o", str(run)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "swivel.fmu"
+    export = ["export", str(model_file), "--trajectory", str(run), "--windows", "no"]
+    assert main([*export, "--turning", "--fmi", "3", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "deviation vs jaxflex.simulate_turning" in text and text.rstrip().endswith("OK")
+    relative = float(text.split("relative ")[1].split()[0])
+    assert relative <= ROUNDING
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    (bare / "trajectory.csv").write_bytes((run / "trajectory.csv").read_bytes())
+    refused = {
+        "--turning": [*export, "-o", str(tmp_path / "a.fmu")],
+        "--pivot": [*export, "--turning", "--pivot", "0", "0", "0", "-o", str(tmp_path / "b.fmu")],
+        "report.json's turn": [
+            "export", str(model_file), "--trajectory", str(bare / "trajectory.csv"),
+            "--turning", "-o", str(tmp_path / "c.fmu"),
+        ],
+    }  # fmt: skip
+    for name, argv in refused.items():
+        assert main(argv) == 2, name
+        err = capsys.readouterr().err
+        assert name in err and err.count("\n") == 1, err
+    assert not any((tmp_path / f"{c}.fmu").exists() for c in "abc")
