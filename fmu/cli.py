@@ -115,7 +115,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "alpha_x..z in rad/s^2 in body components; ax, ay, az the world acceleration of the "
         "pivot) and outputs the deviation about the current pose's sag; needs a model with "
         "rotation data; with --trajectory the move of `jaxflex optimize --rotate` (its turn "
-        "and pivot) is embedded; not with --cell, --stress, --ssp",
+        "and pivot) is embedded; with --cell / --stress the cell's outputs of the turning "
+        "part; not with --ssp",
     )
     parser.add_argument(
         "--pivot",
@@ -291,7 +292,7 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
     if result.counts.turning:
         print(
             "turning part: inputs ax, ay, az (pivot, world), quat_w..quat_z (body to world), "
-            "omega_x..z, alpha_x..z (body); no cup outputs"
+            "omega_x..z, alpha_x..z (body)"
         )
     _print_binaries(result.fmu_path.name, result.platforms, result.skipped)
     if result.case is not None:

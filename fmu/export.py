@@ -204,7 +204,7 @@ def _half_thickness(model: ModalModel, cell: Cell | None) -> float:
 
 
 def _turning_data(
-    model: ModalModel, turning: bool, pivot_m, gravity_m_s2, acc, dt_s, pose, cell, stress
+    model: ModalModel, turning: bool, pivot_m, gravity_m_s2, acc, dt_s, pose
 ) -> TurningData | None:
     """The data of a turning part (None when ``turning`` is off): pivot, gravity and, with a
     trajectory ``acc`` at ``dt_s``, the poses of the PosePath ``pose`` at its samples; refuses
@@ -214,12 +214,6 @@ def _turning_data(
             raise InputError("pose: only for a turning part (turning=True, --turning)")
         return None
     require_rotation(model)  # ModelError saying what the model lacks
-    refused = [name for name, given in (("cell", cell is not None), ("stress", stress)) if given]
-    if refused:
-        raise InputError(
-            f"turning: not with {', '.join(refused)}: the distances, cup loads and stresses of "
-            "a turning part (the world pose of every point) are not in the FMU yet"
-        )
     pivot = np.asarray(pivot_m, dtype=np.float64)
     gravity = np.asarray(gravity_m_s2, dtype=np.float64)
     for name, value in (("pivot_m", pivot), ("gravity_m_s2", gravity)):
@@ -313,9 +307,12 @@ def export_fmu(
         turning: the part turns: the FMU takes the pose as inputs as well (the orientation
             quaternion quat_w..quat_z body -> world, the angular velocity omega_x..z and
             acceleration alpha_x..z in body components; ax, ay, az the world acceleration of
-            ``pivot_m``) and is forced as jaxflex.turning (needs the model's rotation data; not
-            with a cell or stresses, and without cup outputs). With a ``trajectory`` it
-            embeds the move of poses: ``acc`` the pivot's world acceleration and ``pose``.
+            ``pivot_m``) and is forced as jaxflex.turning (needs the model's rotation data).
+            With a ``trajectory`` it embeds the move of poses: ``acc`` the pivot's world
+            acceleration and ``pose``. The cell's outputs follow the turning part
+            (jaxflex.turning_outputs, jaxflex.turning_collision; with a ``cell`` the pivot
+            is in its coordinates at the start, the posed model's frame, and gravity the
+            cell's).
         pivot_m: (3,) m, model frame: the point whose acceleration ax, ay, az are (turning).
         gravity_m_s2: (3,) m/s^2 in world components (turning; the cell's otherwise).
         pose: a turning part's embedded orientation path (jaxflex.pose.PosePath at the
@@ -326,9 +323,9 @@ def export_fmu(
         model, path, fmi_version, threshold_m, damping_scale
     )
     acc, dt_s = _check_trajectory(trajectory)
-    turning_data = _turning_data(
-        model, turning, pivot_m, gravity_m_s2, acc, dt_s, pose, cell, stress
-    )
+    if turning and cell is not None:  # the turning part's gravity is the cell's
+        gravity_m_s2 = cell.gravity_m_s2
+    turning_data = _turning_data(model, turning, pivot_m, gravity_m_s2, acc, dt_s, pose)
     if cell is not None:
         model = cell.posed(model)
     if stress and model.stress is None:
@@ -337,7 +334,7 @@ def export_fmu(
         DEFAULT_GRAVITY_M_S2 if cell is None else cell.gravity_m_s2,
         check_positive("cup_safety", cup_safety),
         obstacle_records(() if cell is None else cell.obstacles),
-        cups=model.cups is not None and turning_data is None,
+        cups=model.cups is not None,
         stress=stress,
         half_thickness_m=_half_thickness(model, cell),
     )
@@ -358,7 +355,7 @@ def export_fmu(
         description=description
         or f"Flexible sheet-metal part carried by a robot: exact modal response of "
         f"{model.n_modes} modes at {model.n_points} points (jaxflex)"
-        + (", turning: the pose as inputs, no cup outputs" if turning_data else ""),
+        + (", turning: the pose as inputs" if turning_data else ""),
         counts=counts,
         threshold_m=threshold_m,
         damping_scale=damping_scale,

@@ -191,6 +191,12 @@ VARIABLES: tuple[Variable, ...] = (
         "Von Mises stress at every stress point of the part's surface, S values, Pa",
         "POINT_STRESSES", fmi=(3,), dims=("stress_points",), needs="stress",
     ),
+    Variable(
+        "cup_reactions", 35, "real", "output", "continuous", "calculated", None,
+        "Reaction of every suction cup on the part, C x 6: force (N) and moment about the cup "
+        "centre (N m), in the part's (body) frame",
+        "CUP_REACTIONS", fmi=(3,), dims=("cups", 6), needs="cups",
+    ),
 )  # fmt: skip
 # the counts of an export (fmu.resource.Counts fields) -> their C macros (jxf_config.h)
 COUNT_MACROS = {

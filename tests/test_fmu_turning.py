@@ -31,6 +31,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
 from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
+from test_turning_cell import newton_euler, skew_turn, stiff_sheet
 
 import fem
 import jaxflex
@@ -41,11 +42,22 @@ from fmu.master import Session
 from fmu.resource import decode_resource
 from fmu.variables import POSE_INPUT_NAMES
 from fmu.verify import read_fmu_resource
+from jaxflex.cell import Box, Cell, HalfSpace
 from jaxflex.cli import main
+from jaxflex.collision import distances
 from jaxflex.errors import InputError, ModelError
 from jaxflex.pose import fixed_axis_path, turn_acceleration
+from jaxflex.profile import kinematics_at
 from jaxflex.response import rotation_residual
-from jaxflex.turning import body_loads, simulate_turning, turning_forces, turning_settle
+from jaxflex.turning import (
+    body_loads,
+    simulate_turning,
+    turning_forces,
+    turning_inputs,
+    turning_settle,
+)
+from jaxflex.turning_collision import turning_min_distance
+from jaxflex.turning_outputs import turning_loads
 
 DT = 2e-3
 PIVOT = np.array([0.3, 0.2, 0.05])  # m, model frame: near the panel's middle, above it
@@ -107,9 +119,8 @@ def test_exported_fmus_validate_and_take_the_pose(fmus):
         assert inputs == list(NAMES), version
         starts = {v.name: float(v.start) for v in md.modelVariables if v.causality == "input"}
         assert starts["quat_w"] == 1.0 and starts["omega_x"] == 0.0
-        # a turning part has no cup outputs (the Euler and centrifugal loads' static response
-        # is not in the model)
-        assert "cup_utilisation" not in {v.name for v in md.modelVariables}
+        # the panel's cups: their utilisation is an output of the turning part too
+        assert "cup_utilisation" in {v.name for v in md.modelVariables}
 
 
 @pytest.mark.parametrize("kind", ["swivel", "tilt"])
@@ -458,3 +469,99 @@ def test_export_command_embeds_an_optimised_turning_move(panel, tmp_path, capsys
         err = capsys.readouterr().err
         assert name in err and err.count("\n") == 1, err
     assert not any((tmp_path / f"{c}.fmu").exists() for c in "abc")
+
+
+# ---- the cell's outputs of a turning part (cups, stresses, distances) -------------------
+
+
+def _world_points(model, path, acc):
+    """(n+1, K, 3) every point's position in the cell at the move's samples, written here:
+    c + s + R (x - c + u), u the whole elastic displacement (modes, static residual of the
+    translation and of the rotational loads) of jaxflex.turning's state, s the pivot's
+    exact path."""
+    inputs = turning_inputs(model, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    u = (
+        np.einsum("kcm,tm->tkc", np.asarray(model.shapes), inputs.q)
+        + np.einsum("kcm,tm->tkc", np.asarray(model.static_residual), inputs.base)
+        + np.einsum("kcm,tm->tkc", rotation_residual(model), inputs.coefficients)
+    )
+    s = kinematics_at(acc, DT, inputs.t_s)[0]
+    local = np.asarray(model.points)[None] - PIVOT + u
+    return PIVOT + s[:, None] + np.einsum("tab,tkb->tka", path.rotation, local)
+
+
+OBSTACLES = (
+    Box(np.array([1.15, 0.2, 0.0]), np.array([0.1, 0.1, 0.2]), name="post"),
+    HalfSpace(np.array([0.0, 0.0, 1.0]), -0.15, name="floor"),
+)
+HALF = 0.5e-3  # m: half the 1 mm sheet
+
+
+@pytest.mark.parametrize("kind", ["swivel", "tilt"])
+def test_cell_outputs_of_the_turning_part_agree_with_jaxflex(panel, kind, tmp_path):
+    """The turning panel with its move embedded, posed in a cell (a post and a floor) with
+    stresses: at every communication point on a sample (steps of 1 and 2.5 samples) the cup
+    utilisations and von Mises stresses equal jaxflex.turning_outputs.turning_loads' and
+    every point's distance the distance of its position written here (_world_points), to
+    rounding (1e-9 of the peak, as above); the smallest distance over the samples lies above
+    the certified minimum of jaxflex.turning_collision over the whole move by at most what a
+    point travels in half a sample (< 3.5 m/s: 1.5 m/s of the pivot, 3 rad/s x 0.6 m)."""
+    path, acc = _move(kind)
+    cell = Cell(obstacles=OBSTACLES, end_m=np.array([0.4, 0.0, 0.0]), thickness_m=2 * HALF)
+    loads = turning_loads(panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    world = _world_points(panel, path, acc)
+    want = distances(OBSTACLES, world.reshape(-1, 3))[0].reshape(world.shape[:2]) - HALF
+    certified = turning_min_distance(
+        panel, OBSTACLES, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT, half_thickness_m=HALF,
+        atol=1e-7,
+    )  # fmt: skip
+    stop = (len(acc) - 1) * DT
+    names = ["cup_utilisations", "point_stresses", "point_distances", "min_distance"]
+    result = export_fmu(
+        panel, tmp_path / "cell.fmu", 3, (acc, DT), turning=True, pivot_m=PIVOT, pose=path,
+        cell=cell, stress=True, windows=False,
+    )  # fmt: skip
+    assert result.counts.cups == 4 and result.counts.obstacles == 2
+    for interval in (DT, 2.5 * DT):
+        run = simulate_fmu(
+            str(result.fmu_path), start_values={"use_embedded_trajectory": True},
+            output_interval=interval, stop_time=stop, output=names,
+        )  # fmt: skip
+        k = np.round(run["time"] / DT).astype(int)
+        on = np.abs(run["time"] - k * DT) < 1e-9 * DT
+        for got, ref in (
+            (run["cup_utilisations"], loads.utilisation),
+            (run["point_stresses"], loads.von_mises_pa),
+            (run["point_distances"], want),
+        ):
+            assert np.abs(got[on] - ref[k[on]]).max() <= ROUNDING * np.abs(ref).max()
+        assert np.array_equal(run["min_distance"], run["point_distances"].min(axis=1))
+    sampled = float(want.min())
+    assert certified.distance_m - 1e-7 <= sampled <= certified.distance_m + 3.5 * DT / 2
+
+
+def test_turning_fmu_cups_carry_newton_euler(tmp_path):
+    """A stiff part (first mode in the hundreds of kHz) turned about a skew axis from a tilted
+    start while its pivot moves, the move embedded: the FMU's cup reactions (FMI 3.0
+    cup_reactions) add up, at every sample, to Newton-Euler in closed form (force m (a_c -
+    g), moment J alpha + w x J w + m c x (a_O - g) about the gripper origin,
+    tests/test_turning_cell.py) to 1e-6 of the peak (the dynamic remainder of a part this
+    stiff, as there)."""
+    result, model = stiff_sheet()
+    path, acc, pivot = skew_turn()
+    exported = export_fmu(
+        model, tmp_path / "stiff.fmu", 3, (acc, path.dt_s), turning=True, pivot_m=pivot,
+        pose=path, windows=False,
+    )  # fmt: skip
+    stop = (len(acc) - 1) * path.dt_s
+    run = simulate_fmu(
+        str(exported.fmu_path), start_values={"use_embedded_trajectory": True},
+        output_interval=path.dt_s, stop_time=stop, output=["cup_reactions"],
+    )  # fmt: skip
+    reactions = np.asarray(run["cup_reactions"]).reshape(len(run["time"]), -1, 6)
+    force, moment = newton_euler(result, path, acc, pivot, len(acc))
+    centres = np.asarray(model.cups.centre_m)
+    got_force = reactions[..., :3].sum(axis=1)
+    got_moment = (reactions[..., 3:] + np.cross(centres[None], reactions[..., :3])).sum(axis=1)
+    assert np.abs(got_force - force).max() <= 1e-6 * np.abs(force).max()
+    assert np.abs(got_moment - moment).max() <= 1e-6 * np.abs(moment).max()

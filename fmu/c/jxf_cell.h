@@ -12,6 +12,9 @@ extern "C" {
 /* Utilisation of cup c, von Mises stress at stress point s (Pa), distance of point k to the
  * nearest obstacle (m). */
 double jxf_cup_utilisation(const jxf_model *m, int c);
+/* The reaction `y` (6: force N, moment about the cup centre N m; the part's frame) of cup c
+ * on the part. */
+void jxf_cup_reaction(const jxf_model *m, int c, double y[6]);
 double jxf_von_mises(const jxf_model *m, int s);
 double jxf_point_distance(const jxf_model *m, int k);
 /* 0 if every obstacle record has a kind of the table (fmu/obstacles.py), else -1 after

@@ -43,7 +43,9 @@
  *                       records (O, 16: fmu/obstacles.py, jxf_cell.c); then, if T = 1:
  *                       inertia shape integrals (M, 3, 3), pivot (3), world gravity (3),
  *                       the trajectory's poses (N, 10: quaternion body -> world w, x, y, z,
- *                       angular velocity 3, angular acceleration 3; body components)
+ *                       angular velocity 3, angular acceleration 3; body components), the
+ *                       maps of the rotational loads A_rot of the cups (6C, 9) and of the
+ *                       stresses (6S, 9)
  *   end u32 CRC-32 (IEEE, as zlib) of everything before it, u32 0
  * fmu/resource.py writes the same layout. */
 #define JXF_MAGIC "JXFLXFMU"
@@ -200,7 +202,7 @@ static uint64_t payload_values(uint64_t K, uint64_t M, uint64_t N, uint64_t C, u
     if (C > 0) count += 6u * C + 12u * C * M + 24u * C;
     if (S > 0) count += 12u * S * M + 24u * S;
     if (O > 0) count += 3u * K + (uint64_t)JXF_OBSTACLE_VALUES * O;
-    if (T > 0) count += 9u * M + 6u + (uint64_t)JXF_POSE_VALUES * N;
+    if (T > 0) count += 9u * M + 6u + (uint64_t)JXF_POSE_VALUES * N + 54u * (C + S);
     return count;
 }
 
@@ -424,6 +426,8 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
         m->pivot = m->shape_integrals + 9 * (size_t)M;
         m->world_gravity = m->pivot + 3;
         m->traj_pose = m->world_gravity + 3;
+        m->cup_rot = m->traj_pose + (size_t)JXF_POSE_VALUES * N;
+        m->stress_rot = m->cup_rot + 54 * (size_t)C;
     }
     if (!all_finite(values, count)) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' contains NaN or infinite values", name);
@@ -546,9 +550,10 @@ void jxf_model_free(jxf_model *m) {
 
 /* What the forcing at one instant gives besides the modal forces: the gripper's (pivot's)
  * acceleration `acc` (world, m/s^2; the path), the model frame origin's acceleration and
- * gravity in body components and the rotational load coefficients (jxf_turning.h). */
+ * gravity in body components, the rotational load coefficients and the orientation
+ * (jxf_turning.h). */
 typedef struct {
-    double acc[3], a_body[3], g_body[3], b[9];
+    double acc[3], a_body[3], g_body[3], b[9], rotation[9];
 } jxf_loads;
 
 /* The modal forces `f` (M) and the loads of the drive `d` (JXF_IN_COUNT inputs); 0, or -1
@@ -556,7 +561,7 @@ typedef struct {
 static int drive_loads(const jxf_model *m, const double d[JXF_IN_COUNT], double *f,
                        jxf_loads *l) {
     memcpy(l->acc, d + JXF_IN_ACC, sizeof l->acc);
-    return jxf_drive_forces(m, d, f, l->a_body, l->g_body, l->b);
+    return jxf_drive_forces(m, d, f, l->a_body, l->g_body, l->b, l->rotation);
 }
 
 /* The drive of sample k of the embedded move: its acceleration and, for a turning part, its
@@ -575,9 +580,38 @@ static void sample_drive(const jxf_model *m, long k, int moving, double d[JXF_IN
     }
 }
 
+/* The orientation `r` (9, row-major, body -> world; it holds sample k's on entry) at the
+ * fraction `w` of the step after sample k of the embedded move: R_k exp([phi]_x) with
+ * phi = w_k s + alpha_k s^2 / 2 + (alpha_k+1 - alpha_k) s^3 / (6 dt), s = w dt (body
+ * components; exact for a turn about a fixed axis, as jaxflex.turning_collision). */
+static void turn_between(const jxf_model *m, long k, double w, double r[9]) {
+    const double *now = m->traj_pose + JXF_POSE_VALUES * k, *next = now + JXF_POSE_VALUES;
+    const double s = w * m->traj_dt;
+    double phi[3], angle, sn, cs, e[9], out[9];
+    int i, j, c;
+    for (i = 0; i < 3; ++i)
+        phi[i] = now[4 + i] * s + now[7 + i] * s * s / 2.0 +
+                 (next[7 + i] - now[7 + i]) * s * s * s / (6.0 * m->traj_dt);
+    angle = sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]);
+    if (angle == 0.0) return;
+    for (i = 0; i < 3; ++i) phi[i] /= angle;
+    sn = sin(angle), cs = 1.0 - cos(angle);
+    for (i = 0; i < 3; ++i) /* Rodrigues: I + sin [n]_x + (1 - cos) (n n^T - I) */
+        for (j = 0; j < 3; ++j)
+            e[3 * i + j] = (i == j ? 1.0 : 0.0) + cs * (phi[i] * phi[j] - (i == j ? 1.0 : 0.0));
+    e[1] -= sn * phi[2], e[2] += sn * phi[1], e[3] += sn * phi[2];
+    e[5] -= sn * phi[0], e[6] -= sn * phi[1], e[7] += sn * phi[0];
+    for (i = 0; i < 3; ++i)
+        for (j = 0; j < 3; ++j)
+            for (out[3 * i + j] = 0.0, c = 0; c < 3; ++c)
+                out[3 * i + j] += r[3 * i + c] * e[3 * c + j];
+    memcpy(r, out, sizeof out);
+}
+
 /* The embedded move at `tau` s after the start: the modal forces `f` (M) and the loads,
  * linear in time between those of the samples (the first-order hold of the forcing that
- * jaxflex's recursion assumes), at rest in the first / last sample's pose outside. The
+ * jaxflex's recursion assumes; the orientation turns exactly, turn_between), at rest in the
+ * first / last sample's pose outside. The
  * samples' quaternions are checked when the resource is loaded, so this cannot fail. */
 static void trajectory_at(jxf_model *m, double tau, double *f, jxf_loads *l) {
     const double x = tau / m->traj_dt;
@@ -606,6 +640,7 @@ static void trajectory_at(jxf_model *m, double tau, double *f, jxf_loads *l) {
         l->g_body[i] = (1.0 - w) * l->g_body[i] + w * next.g_body[i];
     }
     for (i = 0; i < 9; ++i) l->b[i] = (1.0 - w) * l->b[i] + w * next.b[i];
+    if (m->turning) turn_between(m, k, w, l->rotation);
 }
 
 /* ---- outputs ------------------------------------------------------------------------ */
@@ -681,6 +716,8 @@ static void rest(jxf_model *m, double start_time) {
     memset(m->a_now, 0, sizeof m->a_now);
     memset(m->g_now, 0, sizeof m->g_now);
     memset(m->b_now, 0, sizeof m->b_now);
+    memset(m->rot_now, 0, sizeof m->rot_now);
+    m->rot_now[0] = m->rot_now[4] = m->rot_now[8] = 1.0;
     if (m->turning) {
         double pose[JXF_IN_COUNT];
         jxf_loads l;
@@ -696,6 +733,7 @@ static void rest(jxf_model *m, double start_time) {
         memcpy(m->a_now, l.a_body, sizeof m->a_now);
         memcpy(m->g_now, l.g_body, sizeof m->g_now);
         memcpy(m->b_now, l.b, sizeof m->b_now);
+        memcpy(m->rot_now, l.rotation, sizeof m->rot_now);
         for (i = 0; i < m->n_modes; ++i) m->q[i] = sag(m, i);
     }
     memset(m->pos, 0, sizeof m->pos);
@@ -1000,6 +1038,7 @@ static int advance(jxf_model *m, double h, const jxf_loads *l0, const jxf_loads 
     memcpy(m->a_now, l1->a_body, sizeof m->a_now);
     memcpy(m->g_now, l1->g_body, sizeof m->g_now);
     memcpy(m->b_now, l1->b, sizeof m->b_now);
+    memcpy(m->rot_now, l1->rotation, sizeof m->rot_now);
     for (i = 0; i < 3; ++i) {
         m->pos[i] += h * m->vel[i] + h * h * (2.0 * a0[i] + a1[i]) / 6.0;
         m->vel[i] += 0.5 * h * (a0[i] + a1[i]);
@@ -1069,14 +1108,15 @@ int jxf_model_do_step(jxf_model *m, double t, double h) {
     const size_t M = (size_t)m->n_modes;
     const double end = t + h, time = m->time;
     double settle_time, path[4][3]; /* pos, vel, a_now, g_now before the step */
-    double loads[9];                /* b_now before the step */
+    double loads[2][9];             /* b_now, rot_now before the step */
     int status, settled;
     memcpy(m->saved, m->q, 2 * M * sizeof(double));
     memcpy(path[0], m->pos, sizeof path[0]);
     memcpy(path[1], m->vel, sizeof path[1]);
     memcpy(path[2], m->a_now, sizeof path[2]);
     memcpy(path[3], m->g_now, sizeof path[3]);
-    memcpy(loads, m->b_now, sizeof loads);
+    memcpy(loads[0], m->b_now, sizeof loads[0]);
+    memcpy(loads[1], m->rot_now, sizeof loads[1]);
     settled = m->settled;
     settle_time = m->settle_time;
     status = m->use_trajectory ? replay(m, t - m->start_time, h) : input_step(m, h);
@@ -1095,7 +1135,8 @@ int jxf_model_do_step(jxf_model *m, double t, double h) {
         memcpy(m->vel, path[1], sizeof path[1]);
         memcpy(m->a_now, path[2], sizeof path[2]);
         memcpy(m->g_now, path[3], sizeof path[3]);
-        memcpy(m->b_now, loads, sizeof loads);
+        memcpy(m->b_now, loads[0], sizeof loads[0]);
+        memcpy(m->rot_now, loads[1], sizeof loads[1]);
         m->time = time;
         update_outputs(m);
         m->settled = settled;

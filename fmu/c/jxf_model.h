@@ -93,6 +93,8 @@ struct jxf_model {
     const double *pivot;           /* (3) m, model frame: the point the acceleration is of */
     const double *world_gravity;   /* (3) m/s^2, world components */
     const double *traj_pose;       /* (N, JXF_POSE_VALUES) the embedded move's poses */
+    const double *cup_rot;         /* (6C, 9) the cups' maps A_rot of the rotational loads b */
+    const double *stress_rot;      /* (6S, 9) the stresses' maps A_rot */
 
     /* parameters */
     double threshold;     /* m */
@@ -117,6 +119,7 @@ struct jxf_model {
                           * part: of the model frame's origin, body components) */
     double g_now[3];     /* a turning part: gravity in body components there, m/s^2 */
     double b_now[9];     /* a turning part: the rotational load coefficients there, 1/s^2 */
+    double rot_now[9];   /* a turning part: the orientation there (body -> world, row-major) */
     double pos[3], vel[3]; /* the path travelled since the start, m and m/s (exact) */
     int settled;         /* deviation <= threshold at the current communication point */
     double settle_time;  /* time the settled flag last went true, s */

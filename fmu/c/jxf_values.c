@@ -84,6 +84,12 @@ void jxf_value_cup_utilisations(const jxf_model *m, double *out) {
     for (c = 0; c < m->n_cups; ++c) out[c] = jxf_cup_utilisation(m, c);
 }
 
+/* (C, 6) row-major: force N, moment about the cup centre N m */
+void jxf_value_cup_reactions(const jxf_model *m, double *out) {
+    int c;
+    for (c = 0; c < m->n_cups; ++c) jxf_cup_reaction(m, c, out + 6 * c);
+}
+
 void jxf_value_max_stress(const jxf_model *m, double *out) {
     int s;
     *out = 0.0;
