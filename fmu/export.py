@@ -208,7 +208,7 @@ def _turning_data(
 ) -> TurningData | None:
     """The data of a turning part (None when ``turning`` is off): pivot, gravity and, with a
     trajectory ``acc`` at ``dt_s``, the poses of the PosePath ``pose`` at its samples; refuses
-    what a turning part's FMU cannot do or inconsistent inputs, naming the option."""
+    inconsistent inputs, naming the option."""
     if not turning:
         if pose is not None:
             raise InputError("pose: only for a turning part (turning=True, --turning)")
