@@ -17,9 +17,19 @@ from jaxflex.errors import JaxflexError
 C_DIR = Path(__file__).resolve().parent / "c"
 # every FMU: the instance (life cycle, checks, logging) and one FMI binding per version, over
 # the core interface jxf_model_* (fmu/c/jxf_fmu.h) that one of the cores implements
-INSTANCE_FILES = ("jxf_fmu.h", "jxf_text.h", "jxf_fmu.c")
+# (logging: jxf_log.c, used by the instance and every core alike)
+INSTANCE_FILES = ("jxf_fmu.h", "jxf_log.h", "jxf_text.h", "jxf_fmu.c", "jxf_log.c")
 BINDING_FILE = {2: "jxf_fmi2.c", 3: "jxf_fmi3.c"}
-PART_CORE = ("jxf_core.h", "jxf_core.c", "jxf_values.c", "jxf_cell.c", "jxf_turning.c")
+# the part: its state (jxf_model.h), the core (jxf_core.c) and the modules it calls down into
+PART_CORE = (
+    "jxf_model.h",
+    "jxf_core.c",
+    "jxf_values.c",
+    "jxf_cell.h",
+    "jxf_cell.c",
+    "jxf_turning.h",
+    "jxf_turning.c",
+)
 SOURCE_CORE = ("jxf_source.c",)  # the trajectory source (fmu.source)
 CFLAGS = ("-std=c99", "-O2", "-fvisibility=hidden", "-Wall", "-Wextra")
 WINDOWS_COMPILER = "x86_64-w64-mingw32-gcc"

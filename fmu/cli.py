@@ -14,6 +14,7 @@ from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.export import export_fmu
 from fmu.ssp import export_ssp
 from fmu.verify import verify
+from fmu.verify_turning import verify_turning
 from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import (
@@ -22,8 +23,10 @@ from jaxflex.files import (
     check_positive,
     read_set,
     read_trajectory_csv,
+    read_turn_csv,
 )
-from jaxflex.response import downsample_to_count
+from jaxflex.geometry import DEFAULT_GRAVITY_M_S2
+from jaxflex.response import downsample_to_count, fixed_axis_path, integrate
 from jaxflex.runtime import Need, require
 from optim.budget import obstacle_pieces
 from optim.cell_file import load_cell
@@ -44,6 +47,7 @@ CASE_KEYS = (
     "cycle_time_s",
     "transfer_time_s",
     "settle_time_s",
+    "turn",  # a move that turns the part (`jaxflex optimize --rotate`)
 )
 
 
@@ -110,7 +114,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "quat_w..quat_z body to world, angular velocity omega_x..z in rad/s and acceleration "
         "alpha_x..z in rad/s^2 in body components; ax, ay, az the world acceleration of the "
         "pivot) and outputs the deviation about the current pose's sag; needs a model with "
-        "rotation data; not with --trajectory, --cell, --stress, --ssp",
+        "rotation data; with --trajectory the move of `jaxflex optimize --rotate` (its turn "
+        "and pivot) is embedded; with --cell / --stress the cell's outputs of the turning "
+        "part; not with --ssp",
     )
     parser.add_argument(
         "--pivot",
@@ -118,7 +124,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         nargs=3,
         metavar=("X", "Y", "Z"),
         help="with --turning: the point of the part (model frame, m) whose acceleration the "
-        "inputs ax, ay, az are, e.g. the robot's tool centre point (default: the origin)",
+        "inputs ax, ay, az are, e.g. the robot's tool centre point (default: the origin; with "
+        "--trajectory the pivot the move was optimised about)",
     )
     parser.add_argument(
         "--points",
@@ -135,23 +142,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def trajectory_file(path: Path) -> Path:
+    """The trajectory CSV of ``--trajectory`` (a folder of `jaxflex optimize -o DIR` or the
+    CSV itself)."""
+    if not path.is_dir():
+        return check_input_file("--trajectory", path)
+    csv = path / "trajectory.csv"
+    if not csv.is_file():
+        raise InputError(
+            f"--trajectory: folder {str(path)!r} has no trajectory.csv (expected the output "
+            "folder of `jaxflex optimize ... -o DIR`)"
+        )
+    return csv
+
+
 def load_case(path: Path) -> tuple[object, float, dict | None]:
     """(acc (n+1, 3) m/s^2, dt s, report dict or None) from an optimize folder or a CSV.
 
     The trajectory and its report are used together only as members of one complete result
     set (jaxflex.fileset: the manifest lists both with their hashes): a folder whose run was
     interrupted, or a CSV beside a report of another run, is refused naming the file."""
-    if path.is_dir():
-        csv = path / "trajectory.csv"
-        if not csv.is_file():
-            raise InputError(
-                f"--trajectory: folder {str(path)!r} has no trajectory.csv (expected the output "
-                "folder of `jaxflex optimize ... -o DIR`)"
-            )
-    else:
-        csv = check_input_file("--trajectory", path)
-        if not csv.with_name("report.json").exists():
-            return (*read_trajectory_csv(csv), None)  # a trajectory on its own
+    csv = trajectory_file(path)
+    if not path.is_dir() and not csv.with_name("report.json").exists():
+        return (*read_trajectory_csv(csv), None)  # a trajectory on its own
     members = read_set(csv.parent, RESULT_KIND, (csv.name, "report.json"), option="--trajectory")
     acc, dt_s = read_trajectory_csv(csv)
     report_path = members["report.json"]
@@ -168,6 +181,50 @@ def load_case(path: Path) -> tuple[object, float, dict | None]:
             f"sampled every {dt_s} s; they do not belong together"
         )
     return acc, dt_s, {key: report[key] for key in CASE_KEYS if key in report}
+
+
+def turning_move(path: Path, acc, dt_s: float, case: dict | None, pivot_m) -> dict:
+    """The embedded move of a turning part from ``--trajectory`` ``path``: ``pose`` (the
+    jaxflex.pose.PosePath at the samples ``acc`` (n+1, 3) m/s^2, step ``dt_s``), ``pivot_m``
+    and ``gravity_m_s2``: the turn of `jaxflex optimize --rotate` (trajectory.csv's turn
+    columns, report.json's axis, pivot and gravity), or no turn for a straight move (about
+    ``pivot_m``, default the origin). Inconsistent inputs are refused naming the option."""
+    turn_acc = read_turn_csv(trajectory_file(path))
+    spec = (case or {}).get("turn")
+    if turn_acc is None and spec is None:  # a straight move: the part keeps its orientation
+        pose = fixed_axis_path("z", np.zeros(len(acc)), dt_s)
+        pivot = (0.0, 0.0, 0.0) if pivot_m is None else pivot_m
+        return {"pose": pose, "pivot_m": pivot, "gravity_m_s2": DEFAULT_GRAVITY_M_S2}
+    if turn_acc is None or not isinstance(spec, dict) or "axis" not in spec:
+        missing = "report.json's turn (axis, pivot)" if turn_acc is not None else "its turn columns"
+        raise InputError(
+            f"--trajectory: a turning move needs the turn columns of trajectory.csv and the turn "
+            f"of report.json of the same `jaxflex optimize --rotate` run; {missing} missing"
+        )
+    reported = np.asarray(spec.get("angular_acc_rad_s2", turn_acc), dtype=np.float64)
+    scale = 1e-9 * max(1.0, float(np.abs(turn_acc).max()))
+    if reported.shape != turn_acc.shape or np.abs(reported - turn_acc).max() > scale:
+        raise InputError(
+            "--trajectory: the turn's angular acceleration in trajectory.csv and report.json "
+            "differ; they do not belong together"
+        )
+    pivot = np.asarray(spec.get("pivot_m", (0.0, 0.0, 0.0)), dtype=np.float64)
+    if pivot_m is not None and not np.array_equal(np.asarray(pivot_m, np.float64), pivot):
+        raise InputError(
+            f"--pivot: the move was optimised about the pivot {pivot.tolist()} m "
+            "(report.json's turn); leave --pivot out or give the same point"
+        )
+    pose = fixed_axis_path(spec["axis"], turn_acc, dt_s)
+    padded = np.zeros((len(turn_acc), 3))
+    padded[:, 0] = turn_acc
+    angle = float(np.degrees(integrate(padded, dt_s)[1][-1, 0]))  # exact, as the CSV's
+    if "angle_deg" in spec and abs(angle - float(spec["angle_deg"])) > 1e-6:
+        raise InputError(
+            f"--trajectory: the turn columns turn the part by {angle:.9g} deg, report.json says "
+            f"{spec['angle_deg']} deg; they do not belong together"
+        )
+    gravity = spec.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2)
+    return {"pose": pose, "pivot_m": pivot, "gravity_m_s2": np.asarray(gravity, np.float64)}
 
 
 def _print_binaries(name: str, platforms, skipped: dict[str, str]) -> None:
@@ -203,6 +260,9 @@ def _need(model, trajectory, cell, *, verify: bool) -> Need:
 
 
 def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> int:
+    move = None
+    if args.turning and trajectory is not None:
+        move = turning_move(Path(args.trajectory), *trajectory, case, args.pivot)
     result = export_fmu(
         model,
         args.output,
@@ -217,7 +277,7 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
         cup_safety=args.cup_safety,
         stress=args.stress,
         turning=args.turning,
-        pivot_m=args.pivot or (0.0, 0.0, 0.0),
+        **(move or {"pivot_m": args.pivot or (0.0, 0.0, 0.0)}),
     )
     print(
         f"wrote {result.fmu_path}: FMI {result.fmi_version}.0 co-simulation, "
@@ -232,7 +292,7 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
     if result.counts.turning:
         print(
             "turning part: inputs ax, ay, az (pivot, world), quat_w..quat_z (body to world), "
-            "omega_x..z, alpha_x..z (body); no cup outputs"
+            "omega_x..z, alpha_x..z (body)"
         )
     _print_binaries(result.fmu_path.name, result.platforms, result.skipped)
     if result.case is not None:
@@ -245,6 +305,14 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
         problems = validate_fmu(str(result.fmu_path))
         print("fmpy validation: " + ("clean" if not problems else "; ".join(problems)))
         return 0 if not problems else 1
+    if move is not None:  # other hosts' checks replay a straight move: fmpy only
+        duration = result.case["duration_s"]  # and a quarter more, as the FMU's stop time
+        extend_s = 1.25 * max(duration, result.case["cycle_time_s"]) - duration
+        report = verify_turning(
+            result.fmu_path, model, acc=trajectory[0], extend_s=extend_s, **move
+        )
+        print(report.summary())
+        return 0 if report.ok else 1
     report = verify(result.fmu_path)
     print(report.summary())
     hosts = crosscheck_fmu(result.fmu_path)
@@ -305,6 +373,11 @@ def run(args: argparse.Namespace) -> int:
     if args.trajectory:
         acc, dt_s, case = load_case(Path(args.trajectory))
         trajectory = (acc, dt_s)
+        if not args.turning and (case or {}).get("turn") is not None:
+            raise InputError(
+                "--trajectory: the move turns the part (report.json's turn); export it with "
+                "--turning (the straight part's FMU would replay the translation only)"
+            )
     threshold_m = args.threshold
     if threshold_m is None:
         threshold_m = (case or {}).get("threshold_m", THRESHOLD_M)

@@ -27,14 +27,35 @@ from fmu.build import C_DIR as _C_DIR
 from fmu.build import BuildReport, WrittenFmu, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
 from fmu.obstacles import obstacle_records
-from fmu.resource import CellData, Counts, TurningData, encode_resource, resource_counts
-from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE, config_header
+from fmu.resource import (
+    CellData,
+    Counts,
+    TurningData,
+    encode_resource,
+    pose_samples,
+    resource_counts,
+)
+from fmu.variables import (
+    INPUT_COLUMNS,
+    POSE_INPUT_NAMES,
+    RESOURCE_FILE,
+    config_header,
+    pose_unit,
+)
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive, write_text_atomic
 from jaxflex.geometry import DEFAULT_GRAVITY_M_S2, Cell, part_half_thickness
 from jaxflex.model import ModalModel
-from jaxflex.response import DEFAULT_CUP_SAFETY, analyze_move, as_move, require_rotation
+from jaxflex.response import (
+    DEFAULT_CUP_SAFETY,
+    PosePath,
+    analyze_move,
+    as_move,
+    require_rotation,
+    simulate_turning,
+    turning_settle,
+)
 
 CASE_FORMAT = "jaxflex.fmu_case"
 _CASE_TIMES = ("cycle_time_s", "transfer_time_s", "settle_time_s")
@@ -94,8 +115,9 @@ def _check_trajectory(trajectory) -> tuple[np.ndarray | None, float | None]:
     return move.acc, move.dt_s
 
 
-def _case_summary(model, acc, dt_s, threshold_m, case) -> dict[str, Any]:
-    """Limits, threshold and the exact cycle time of the exported move."""
+def _case_summary(model, acc, dt_s, threshold_m, case, turning, pose) -> dict[str, Any]:
+    """Limits, threshold and the exact cycle time of the exported move (a turning part's:
+    of its ``pose`` path with jaxflex.turning)."""
     case = dict(case or {})
     summary: dict[str, Any] = {
         "threshold_m": threshold_m,
@@ -107,7 +129,13 @@ def _case_summary(model, acc, dt_s, threshold_m, case) -> dict[str, Any]:
     case_threshold = case.pop("threshold_m", threshold_m)
     times = {key: case.pop(key) for key in _CASE_TIMES if key in case}
     if len(times) < len(_CASE_TIMES) or not math.isclose(case_threshold, threshold_m):
-        report = analyze_move(model, acc, dt_s, threshold_m)
+        if turning is None:
+            report = analyze_move(model, acc, dt_s, threshold_m)
+        else:
+            response = simulate_turning(
+                model, pose, acc, gravity_m_s2=turning.gravity_m_s2, pivot_m=turning.pivot_m
+            )
+            report = turning_settle(pose, model, response, threshold_m)
         times = {key: float(getattr(report, key)) for key in _CASE_TIMES}
     summary.update(times)
     summary["optimisation"] = case  # everything else the optimiser reported, unchanged
@@ -134,18 +162,27 @@ def _stage(stage: Path, fmi_version: int, ident: str, config: str, xml: str, res
     (stage / "modelDescription.xml").write_text(xml, encoding="utf-8")
 
 
-def _write_sidecars(path: Path, acc, dt_s, summary, result_fields) -> tuple[Path, Path, dict]:
+def _write_sidecars(
+    path: Path, acc, dt_s, summary, result_fields, poses=None
+) -> tuple[Path, Path, dict]:
+    """The input CSV (a turning part's with the pose columns: ``poses`` (N, 10)) and the
+    case JSON beside the FMU."""
     csv_path, json_path = sidecar_paths(path)
     t = dt_s * np.arange(acc.shape[0])
-    lines = [",".join(INPUT_COLUMNS)]
-    lines += [",".join(f"{x:.17g}" for x in (ti, *a)) for ti, a in zip(t, acc, strict=True)]
+    names, values = list(INPUT_COLUMNS), np.column_stack([t, acc])
+    if poses is not None:
+        names += POSE_INPUT_NAMES
+        values = np.column_stack([values, poses])
+    lines = [",".join(names)]
+    lines += [",".join(f"{x:.17g}" for x in row) for row in values]
     write_text_atomic(csv_path, "\n".join(lines) + "\n")
     case = {
         "format": CASE_FORMAT,
         "schema_version": 1,
         **result_fields,
         "input_csv": csv_path.name,
-        "input_units": dict(zip(INPUT_COLUMNS, ("s", "m/s2", "m/s2", "m/s2"), strict=True)),
+        "input_units": dict(zip(INPUT_COLUMNS, ("s", "m/s2", "m/s2", "m/s2"), strict=True))
+        | ({} if poses is None else {name: pose_unit(name) for name in POSE_INPUT_NAMES}),
         "replay": (
             "set the parameter use_embedded_trajectory = true for the exact replay, or feed "
             f"{csv_path.name} as input with a communication step of dt_s (FMI 2.0: with input "
@@ -167,32 +204,62 @@ def _half_thickness(model: ModalModel, cell: Cell | None) -> float:
 
 
 def _turning_data(
-    model: ModalModel, turning: bool, pivot_m, gravity_m_s2, trajectory, cell, stress
+    model: ModalModel, turning: bool, pivot_m, gravity_m_s2, acc, dt_s, pose
 ) -> TurningData | None:
-    """The pose inputs' data of a turning part (None when ``turning`` is off); refuses what a
-    turning part's FMU cannot do, naming the option."""
+    """The data of a turning part (None when ``turning`` is off): pivot, gravity and, with a
+    trajectory ``acc`` at ``dt_s``, the poses of the PosePath ``pose`` at its samples; refuses
+    inconsistent inputs, naming the option."""
     if not turning:
+        if pose is not None:
+            raise InputError("pose: only for a turning part (turning=True, --turning)")
         return None
     require_rotation(model)  # ModelError saying what the model lacks
-    refused = [
-        name
-        for name, given in (("trajectory", trajectory is not None), ("cell", cell is not None),
-                            ("stress", stress))
-        if given
-    ]  # fmt: skip
-    if refused:
-        raise InputError(
-            f"turning: not with {', '.join(refused)}: a turning part's FMU takes its pose as "
-            "inputs and outputs the deviation; an embedded move of poses, and the distances, "
-            "cup loads and stresses of a turning part (the world pose of every point, the "
-            "static response to the Euler and centrifugal loads) are not in the FMU yet"
-        )
     pivot = np.asarray(pivot_m, dtype=np.float64)
     gravity = np.asarray(gravity_m_s2, dtype=np.float64)
     for name, value in (("pivot_m", pivot), ("gravity_m_s2", gravity)):
         if value.shape != (3,) or not np.isfinite(value).all():
             raise InputError(f"{name}: three finite numbers, got {value.tolist()!r}")
-    return TurningData(pivot, gravity)
+    if acc is None:
+        if pose is not None:
+            raise InputError("pose: the orientation path of an embedded move needs trajectory")
+        return TurningData(pivot, gravity)
+    if pose is None:
+        raise InputError(
+            "pose: a turning part's embedded move needs its orientation path (a "
+            "jaxflex.pose.PosePath at the trajectory's samples; --trajectory: the turn of "
+            "`jaxflex optimize --rotate`)"
+        )
+    return TurningData(pivot, gravity, pose_samples(check_pose(pose, acc.shape[0], dt_s)))
+
+
+def check_pose(pose: PosePath, n_samples: int, dt_s: float) -> PosePath:
+    """``pose`` if it is an orientation path of ``n_samples`` samples at step ``dt_s`` (s)
+    that starts and ends at rest with rotations (orthonormal, det +1), else InputError
+    naming ``pose`` and what is wrong."""
+    if not isinstance(pose, PosePath):
+        raise InputError(f"pose: expected a jaxflex.pose.PosePath, got {type(pose).__name__}")
+    shapes = [np.shape(pose.rotation), np.shape(pose.omega_rad_s), np.shape(pose.alpha_rad_s2)]
+    if shapes != [(n_samples, 3, 3), (n_samples, 3), (n_samples, 3)]:
+        raise InputError(
+            f"pose: {shapes[0][0] if shapes[0] else 0} samples of shapes {shapes}; the "
+            f"trajectory has {n_samples} samples (rotation (n, 3, 3), rates (n, 3))"
+        )
+    if not math.isclose(pose.dt_s, dt_s, rel_tol=1e-12):
+        raise InputError(f"pose: sampled every {pose.dt_s!r} s, the trajectory every {dt_s!r} s")
+    rot = np.asarray(pose.rotation, dtype=np.float64)
+    rates = np.concatenate([pose.omega_rad_s, pose.alpha_rad_s2], axis=1)
+    if not (np.isfinite(rot).all() and np.isfinite(rates).all()):
+        raise InputError("pose: a rotation, angular velocity or acceleration is not finite")
+    gram = np.einsum("kij,kil->kjl", rot, rot) - np.eye(3)
+    if np.abs(gram).max() > 1e-9 or (np.linalg.det(rot) <= 0).any():
+        raise InputError("pose: every rotation must be orthonormal with determinant +1")
+    scale = 1e-9 * max(1.0, float(np.abs(rates).max()))
+    if np.abs(rates[[0, -1]]).max() > scale:
+        raise InputError(
+            "pose: the turn must start and end at rest (angular velocity and acceleration 0 at "
+            "the first and last sample)"
+        )
+    return pose
 
 
 def export_fmu(
@@ -213,6 +280,7 @@ def export_fmu(
     turning: bool = False,
     pivot_m=(0.0, 0.0, 0.0),
     gravity_m_s2=DEFAULT_GRAVITY_M_S2,
+    pose: PosePath | None = None,
 ) -> ExportResult:
     """Write ``model`` as an FMI 2.0 or 3.0 co-simulation FMU at ``path`` (atomically).
 
@@ -239,15 +307,25 @@ def export_fmu(
         turning: the part turns: the FMU takes the pose as inputs as well (the orientation
             quaternion quat_w..quat_z body -> world, the angular velocity omega_x..z and
             acceleration alpha_x..z in body components; ax, ay, az the world acceleration of
-            ``pivot_m``) and is forced as jaxflex.turning (needs the model's rotation data; not
-            with a trajectory, a cell or stresses, and without cup outputs).
+            ``pivot_m``) and is forced as jaxflex.turning (needs the model's rotation data).
+            With a ``trajectory`` it embeds the move of poses: ``acc`` the pivot's world
+            acceleration and ``pose``. The cell's outputs follow the turning part
+            (jaxflex.turning_outputs, jaxflex.turning_collision; with a ``cell`` the pivot
+            is in its coordinates at the start, the posed model's frame, and gravity the
+            cell's).
         pivot_m: (3,) m, model frame: the point whose acceleration ax, ay, az are (turning).
         gravity_m_s2: (3,) m/s^2 in world components (turning; the cell's otherwise).
+        pose: a turning part's embedded orientation path (jaxflex.pose.PosePath at the
+            trajectory's samples and step, starting and ending at rest), replayed with
+            ``acc`` as jaxflex.simulate_turning does (the forcing linear between samples).
     """
     path, threshold_m, damping_scale = _check_arguments(
         model, path, fmi_version, threshold_m, damping_scale
     )
-    turning_data = _turning_data(model, turning, pivot_m, gravity_m_s2, trajectory, cell, stress)
+    acc, dt_s = _check_trajectory(trajectory)
+    if turning and cell is not None:  # the turning part's gravity is the cell's
+        gravity_m_s2 = cell.gravity_m_s2
+    turning_data = _turning_data(model, turning, pivot_m, gravity_m_s2, acc, dt_s, pose)
     if cell is not None:
         model = cell.posed(model)
     if stress and model.stress is None:
@@ -256,15 +334,16 @@ def export_fmu(
         DEFAULT_GRAVITY_M_S2 if cell is None else cell.gravity_m_s2,
         check_positive("cup_safety", cup_safety),
         obstacle_records(() if cell is None else cell.obstacles),
-        cups=model.cups is not None and turning_data is None,
+        cups=model.cups is not None,
         stress=stress,
         half_thickness_m=_half_thickness(model, cell),
     )
-    acc, dt_s = _check_trajectory(trajectory)
     counts = resource_counts(model, acc, cell_data, turning_data)
     if case is not None and acc is None:
         raise InputError("case: describes a trajectory, so it needs trajectory=(acc, dt_s)")
-    summary = _case_summary(model, acc, dt_s, threshold_m, case) if acc is not None else None
+    summary = None
+    if acc is not None:
+        summary = _case_summary(model, acc, dt_s, threshold_m, case, turning_data, pose)
     ident = model_identifier(path)
     token = "{" + str(uuid.uuid4()) + "}"
     zeta_max = float(np.max(model.zeta))
@@ -276,7 +355,7 @@ def export_fmu(
         description=description
         or f"Flexible sheet-metal part carried by a robot: exact modal response of "
         f"{model.n_modes} modes at {model.n_points} points (jaxflex)"
-        + (", turning: the pose as inputs, no cup outputs" if turning_data else ""),
+        + (", turning: the pose as inputs" if turning_data else ""),
         counts=counts,
         threshold_m=threshold_m,
         damping_scale=damping_scale,
@@ -309,7 +388,8 @@ def export_fmu(
     }
     csv_path = json_path = case_out = None
     if acc is not None:
-        csv_path, json_path, case_out = _write_sidecars(path, acc, dt_s, summary, fields)
+        poses = None if turning_data is None else turning_data.pose_samples
+        csv_path, json_path, case_out = _write_sidecars(path, acc, dt_s, summary, fields, poses)
     return ExportResult(
         fmu_path=path,
         fmi_version=fmi_version,

@@ -30,7 +30,11 @@ Format version 3, little-endian throughout (read by ``fmu/c/jxf_core.c``):
                          :func:`fmu.obstacles.obstacle_records`; then, when T = 1, the
                          turning part (:class:`TurningData`): the inertia shape integrals
                          S (M, 3, 3) kg^0.5 m (jaxflex.rotation), the pivot (3) m in the
-                         model frame and gravity (3) m/s^2 in world components
+                         model frame, gravity (3) m/s^2 in world components, the
+                         embedded move's poses (N, 10: :func:`pose_samples`) and the maps
+                         A_rot (jaxflex.rotation_residual.output_residual) of the cups
+                         (6C, 9) and stresses (6S, 9); a turning part's cell has no rest
+                         terms (zeros: its state carries the sag)
     end     u32 CRC-32 (zlib) of everything before it, u32 0
 
 The outputs are y = Q q + V v + A a + y_rest (jaxflex.outputs: y_rest = -S g, exact), the
@@ -44,12 +48,13 @@ import zlib
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from fmu.obstacles import RECORD_VALUES, allowed_kinds, unknown_codes
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.geometry import gravity_offset
 from jaxflex.model import ModalModel
-from jaxflex.response import rotation_residual
+from jaxflex.response import output_residual, rotation_residual
 
 MAGIC = b"JXFLXFMU"
 FORMAT_VERSION = 3
@@ -94,11 +99,28 @@ class Counts:
 class TurningData:
     """What a turning part's FMU needs besides the model (the forcing of jaxflex.turning):
     the ``pivot_m`` (3,) m in the model frame, whose world acceleration the inputs ax, ay, az
-    are, and ``gravity_m_s2`` (3,) in world components; the inertia shape integrals come
-    from the model's rotation data."""
+    are, and ``gravity_m_s2`` (3,) in world components; with an embedded move its poses
+    ``pose_samples`` (N, 10) (:func:`pose_samples`, at the trajectory's samples). The
+    inertia shape integrals come from the model's rotation data."""
 
     pivot_m: np.ndarray
     gravity_m_s2: np.ndarray
+    pose_samples: np.ndarray | None = None
+
+    def pose_count(self) -> int:
+        """The embedded poses' samples (N of the trajectory, or 0 without one)."""
+        return 0 if self.pose_samples is None else int(self.pose_samples.shape[0])
+
+
+POSE_VALUES = 10  # per pose sample: quaternion (w, x, y, z), omega (3), alpha (3); jxf_model.h
+
+
+def pose_samples(path) -> np.ndarray:
+    """(n+1, 10) the samples of the jaxflex.pose.PosePath ``path`` as the FMU embeds them:
+    the orientation as a unit quaternion body -> world, scalar first (w, x, y, z, Hamilton),
+    then the angular velocity (rad/s) and acceleration (rad/s^2) in body components."""
+    quat = Rotation.from_matrix(np.asarray(path.rotation)).as_quat(scalar_first=True)
+    return np.column_stack([quat, path.omega_rad_s, path.alpha_rad_s2]).astype(np.float64)
 
 
 @dataclass(frozen=True)
@@ -146,18 +168,21 @@ def _cell_parts(model: ModalModel, cell: CellData, counts: Counts) -> list[np.nd
         return []
     gravity = np.asarray(cell.gravity_m_s2, "<f8")
     parts = [gravity, np.array([cell.cup_safety, cell.half_thickness_m], "<f8")]
+    # a turning part's outputs have no rest term (its state carries the sag: y_rest = 0)
+    # and its points no sag at rest (the FMU adds the current one)
+    rest_gravity = np.zeros(3) if counts.turning else gravity
     if cups is not None:
         parts += [
             np.asarray(cups.normal, "<f8"),
             np.asarray(cups.radius_m, "<f8"),
             np.asarray(cups.holding_force_n, "<f8"),
             np.asarray(cups.friction, "<f8"),
-            *_output_maps(cups.reaction, gravity),
+            *_output_maps(cups.reaction, rest_gravity),
         ]
     if stress is not None:
-        parts += _output_maps(stress.stress, gravity)
+        parts += _output_maps(stress.stress, rest_gravity)
     if counts.obstacles:
-        rest = np.asarray(model.points) + gravity_offset(model, cell.gravity_m_s2)
+        rest = np.asarray(model.points) + gravity_offset(model, rest_gravity)
         parts += [np.asarray(rest, "<f8"), np.asarray(cell.obstacles, "<f8")]
     return parts
 
@@ -193,7 +218,13 @@ def payload_values(k: int, m: int, n: int, c: int, s: int, o: int, r: int, t: in
     """f64 values of the payload for the counts of the header (as jxf_core.c)."""
     count = 5 * m + 3 * (m + r) * k + 3 * k + 3 * n
     count += 5 * (c + s + o > 0) + (6 * c + 12 * c * m + 24 * c) + (12 * s * m + 24 * s)
-    return count + ((3 * k + RECORD_VALUES * o) if o else 0) + (9 * m + 6) * t
+    return count + ((3 * k + RECORD_VALUES * o) if o else 0) + _turning_values(m, n, c, s) * t
+
+
+def _turning_values(m: int, n: int, c: int, s: int) -> int:
+    """f64 values of a turning part's block: shape integrals, pivot, gravity, poses, the
+    cups' and stresses' maps of the rotational loads."""
+    return 9 * m + 6 + POSE_VALUES * n + 54 * (c + s)
 
 
 @dataclass(frozen=True)
@@ -241,11 +272,23 @@ def encode_resource(
     counts = resource_counts(model, acc, cell, turning)
     extra = _cell_parts(model, cell, counts) if cell is not None else []
     if turning is not None:
+        if turning.pose_count() != counts.trajectory:
+            raise ValueError(
+                f"turning: {turning.pose_count()} pose samples for {counts.trajectory} "
+                "trajectory samples"
+            )
         extra += [
             np.asarray(model.rotation.shape_integrals, "<f8"),
             np.asarray(turning.pivot_m, "<f8"),
             np.asarray(turning.gravity_m_s2, "<f8"),
         ]
+        if turning.pose_samples is not None:
+            extra.append(np.asarray(turning.pose_samples, "<f8"))
+        rotation = model.rotation  # the maps A_rot of the rotational loads b
+        if counts.cups:
+            extra.append(output_residual(model.cups.reaction, rotation.cup_static, model))
+        if counts.stress:
+            extra.append(output_residual(model.stress.stress, rotation.stress_static, model))
     parts = [
         np.asarray(model.freq_hz, "<f8"),
         np.asarray(model.zeta, "<f8"),
@@ -308,9 +351,15 @@ def decode_resource(data: bytes, *, source: str = "resource") -> ResourceData:
     values = np.frombuffer(data, "<f8", count=expected // 8, offset=HEADER.size)
     turning = None
     if t:  # the turning part ends the payload
-        tail = values[len(values) - (9 * m + 6) :]
-        turning = TurningData(tail[9 * m : 9 * m + 3].copy(), tail[9 * m + 3 :].copy())
-        values = values[: len(values) - (9 * m + 6)]
+        tail = values[len(values) - _turning_values(m, n, c, s) :]
+        poses = tail[9 * m + 6 : 9 * m + 6 + POSE_VALUES * n].reshape(n, POSE_VALUES).copy()
+        poses = poses if n else None
+        if poses is not None and not (np.sum(poses[:, :4] ** 2, axis=1) > 0).all():
+            raise ModelFileError(f"{source}: a trajectory sample's quaternion is zero")
+        turning = TurningData(
+            tail[9 * m : 9 * m + 3].copy(), tail[9 * m + 3 : 9 * m + 6].copy(), poses
+        )
+        values = values[: len(values) - _turning_values(m, n, c, s)]
     if o:  # the records end the cell
         unknown = unknown_codes(values[-RECORD_VALUES * o :].reshape(o, RECORD_VALUES))
         if unknown:

@@ -75,7 +75,7 @@ def _input(axis: str, vr: int) -> Variable:
 
 
 # the pose inputs of a turning part (export with turning=True), in the order of the C's drive
-# (jxf_core.h: acceleration, quaternion, angular velocity, angular acceleration)
+# (jxf_model.h: acceleration, quaternion, angular velocity, angular acceleration)
 _POSE_INPUTS = (
     ("quat_w", "1", "Orientation of the gripper (body to world) as a quaternion, scalar part"),
     ("quat_x", "1", "Orientation quaternion (body to world), x of the vector part"),
@@ -89,6 +89,11 @@ _POSE_INPUTS = (
     ("alpha_z", "rad/s2", "Angular acceleration of the gripper, z in body components, rad/s^2"),
 )
 POSE_INPUT_NAMES = tuple(name for name, _, _ in _POSE_INPUTS)
+
+
+def pose_unit(name: str) -> str:
+    """The unit of the pose input ``name`` ("1" for the quaternion's components)."""
+    return next(unit for n, unit, _ in _POSE_INPUTS if n == name)
 
 
 def _pose_input(index: int) -> Variable:
@@ -186,6 +191,12 @@ VARIABLES: tuple[Variable, ...] = (
         "Von Mises stress at every stress point of the part's surface, S values, Pa",
         "POINT_STRESSES", fmi=(3,), dims=("stress_points",), needs="stress",
     ),
+    Variable(
+        "cup_reactions", 35, "real", "output", "continuous", "calculated", None,
+        "Reaction of every suction cup on the part, C x 6: force (N) and moment about the cup "
+        "centre (N m), in the part's (body) frame",
+        "CUP_REACTIONS", fmi=(3,), dims=("cups", 6), needs="cups",
+    ),
 )  # fmt: skip
 # the counts of an export (fmu.resource.Counts fields) -> their C macros (jxf_config.h)
 COUNT_MACROS = {
@@ -264,7 +275,7 @@ def config_header(
     ]
     lines += obstacles.config_lines()  # the kinds of obstacle records (fmu.obstacles)
     lines += [f"#define JXF_VR_{v.macro} {v.vr}u" for v in variables]
-    lines += [f"#define JXF_INPUT_VRS {{{inputs}}}"]  # the drive's order (jxf_core.h)
+    lines += [f"#define JXF_INPUT_VRS {{{inputs}}}"]  # the drive's order (jxf_model.h)
     table = ", ".join(f'{{{v.vr}u, "{v.name}"}}' for v in variables)
     lines += [f"#define JXF_VARIABLE_TABLE {{{table}}}", "struct jxf_model;"]
     lines += [

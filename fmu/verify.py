@@ -144,7 +144,8 @@ def settle_time_at_points(t: np.ndarray, deviation: np.ndarray, threshold_m: flo
     return float(t[rises[-1]]) if rises.size else float(t[0])
 
 
-def _relative(diff: float, scale: float) -> float:
+def relative_difference(diff: float, scale: float) -> float:
+    """``diff`` relative to ``scale`` (``diff`` itself for a zero scale)."""
     return diff / scale if scale > 0 else diff
 
 
@@ -251,7 +252,7 @@ def verify(
     if points:
         disp = np.asarray(result["displaced_points"]) - np.asarray(stored.model.points)[None]
         diff_p = float(np.max(np.abs(disp - ref_disp)))
-        rel_p = _relative(diff_p, float(np.max(np.abs(ref_disp))))
+        rel_p = relative_difference(diff_p, float(np.max(np.abs(ref_disp))))
     t = np.asarray(result["time"])
     notes = []
     if mode == "held":
@@ -269,7 +270,7 @@ def verify(
         dt_s=dt_s,
         stop_time_s=stop,
         max_abs_diff_m=diff,
-        max_rel_diff=_relative(diff, float(np.max(np.abs(ref_dev)))),
+        max_rel_diff=relative_difference(diff, float(np.max(np.abs(ref_dev)))),
         max_abs_diff_points_m=diff_p,
         max_rel_diff_points=rel_p,
         settle_time_fmu_s=float(result["settle_time"][-1]),

@@ -33,6 +33,7 @@ from jaxflex.inputs import (
 from jaxflex.scalars import check_positive
 from jaxflex.trajectory_io import (
     read_trajectory_csv,
+    read_turn_csv,
     write_trajectory_csv,
 )
 from jaxflex.validation import (
@@ -56,6 +57,7 @@ __all__ = [
     "read_settings_file",
     "read_text",
     "read_trajectory_csv",
+    "read_turn_csv",
     "read_unit_response_csv",
     "remove_stale_temporaries",
     "write_text_atomic",

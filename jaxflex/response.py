@@ -86,7 +86,7 @@ from jaxflex.profile import (
     position_weights,
 )
 from jaxflex.rotation import LEVI_CIVITA, RotationalInertia, require_rotation
-from jaxflex.rotation_residual import load_coefficients, rotation_residual
+from jaxflex.rotation_residual import load_coefficients, output_residual, rotation_residual
 from jaxflex.settle import SettleReport, analyze_move
 from jaxflex.simulate import (
     move_deviation,
@@ -141,6 +141,7 @@ __all__ = [
     "on_device",
     "orientation_path",
     "output_peak",
+    "output_residual",
     "outputs_at",
     "padded_steps",
     "point_displacements",

@@ -69,6 +69,30 @@ def write_trajectory_csv(path: str | os.PathLike, acc, dt_s: float, turn_acc_rad
 
 def read_trajectory_csv(path: str | os.PathLike) -> tuple[np.ndarray, float]:
     """Read a trajectory CSV: returns (acc (n+1, 3) m/s^2, dt s). Only t and a are used."""
+    path, header, table = _read_table(path)
+    cols = [header.index(c) for c in COLUMNS[:4]]
+    t, acc = table[:, cols[0]], table[:, cols[1:]]
+    if len(t) < 2:
+        raise InputError(f"{str(path)!r}: needs at least two samples")
+    steps = np.diff(t)
+    dt_s = float(np.mean(steps))
+    if dt_s <= 0 or np.max(np.abs(steps - dt_s)) > 1e-9 * max(1.0, t[-1]):
+        raise InputError(f"{str(path)!r}: samples must be equally spaced in t_s")
+    return acc, _written_step(t, dt_s)
+
+
+def read_turn_csv(path: str | os.PathLike) -> np.ndarray | None:
+    """The turn's angular acceleration samples ((n+1,) rad/s^2, column turn_acc_rad_s2) of a
+    trajectory CSV, or None for a move that does not turn (no turn columns)."""
+    path, header, table = _read_table(path)
+    if TURN_COLUMNS[-1] not in header:
+        return None
+    return table[:, header.index(TURN_COLUMNS[-1])].copy()
+
+
+def _read_table(path: str | os.PathLike) -> tuple[Path, list[str], np.ndarray]:
+    """(path, column names, values (rows, columns)) of a trajectory CSV with at least t and
+    a, every value finite; InputError naming the file otherwise."""
     path = Path(path)
     text = read_text("trajectory", path)
     header = text.split("\n", 1)[0].strip().split(",")
@@ -85,15 +109,7 @@ def read_trajectory_csv(path: str | os.PathLike) -> tuple[np.ndarray, float]:
             f"{str(path)!r}: row {int(bad[0]) + 1} holds a value that is not finite (inf or "
             "nan, or a number beyond 1e308)"
         )
-    cols = [header.index(c) for c in COLUMNS[:4]]
-    t, acc = table[:, cols[0]], table[:, cols[1:]]
-    if len(t) < 2:
-        raise InputError(f"{str(path)!r}: needs at least two samples")
-    steps = np.diff(t)
-    dt_s = float(np.mean(steps))
-    if dt_s <= 0 or np.max(np.abs(steps - dt_s)) > 1e-9 * max(1.0, t[-1]):
-        raise InputError(f"{str(path)!r}: samples must be equally spaced in t_s")
-    return acc, _written_step(t, dt_s)
+    return path, header, table
 
 
 def _written_step(t: np.ndarray, mean_step_s: float) -> float:

@@ -22,6 +22,7 @@ import struct
 import subprocess
 import zipfile
 import zlib
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -30,6 +31,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
 from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
+from test_turning_cell import newton_euler, skew_turn, stiff_sheet
 
 import fem
 import jaxflex
@@ -37,13 +39,25 @@ from fmu import export_fmu
 from fmu.build import compile_library, host_target
 from fmu.harness import SANITIZE_FLAGS, compile_harness, resource_location
 from fmu.master import Session
+from fmu.resource import decode_resource
 from fmu.variables import POSE_INPUT_NAMES
 from fmu.verify import read_fmu_resource
+from jaxflex.cell import Box, Cell, HalfSpace
 from jaxflex.cli import main
+from jaxflex.collision import distances
 from jaxflex.errors import InputError, ModelError
 from jaxflex.pose import fixed_axis_path, turn_acceleration
+from jaxflex.profile import kinematics_at
 from jaxflex.response import rotation_residual
-from jaxflex.turning import body_loads, simulate_turning, turning_forces
+from jaxflex.turning import (
+    body_loads,
+    simulate_turning,
+    turning_forces,
+    turning_inputs,
+    turning_settle,
+)
+from jaxflex.turning_collision import turning_min_distance
+from jaxflex.turning_outputs import turning_loads
 
 DT = 2e-3
 PIVOT = np.array([0.3, 0.2, 0.05])  # m, model frame: near the panel's middle, above it
@@ -105,9 +119,8 @@ def test_exported_fmus_validate_and_take_the_pose(fmus):
         assert inputs == list(NAMES), version
         starts = {v.name: float(v.start) for v in md.modelVariables if v.causality == "input"}
         assert starts["quat_w"] == 1.0 and starts["omega_x"] == 0.0
-        # a turning part has no cup outputs (the Euler and centrifugal loads' static response
-        # is not in the model)
-        assert "cup_utilisation" not in {v.name for v in md.modelVariables}
+        # the panel's cups: their utilisation is an output of the turning part too
+        assert "cup_utilisation" in {v.name for v in md.modelVariables}
 
 
 @pytest.mark.parametrize("kind", ["swivel", "tilt"])
@@ -197,14 +210,6 @@ def test_without_rotation_data_turning_is_refused(panel, tmp_path):
     assert not (tmp_path / "bare.fmu").exists()
 
 
-def test_turning_with_a_move_or_stresses_is_refused(panel, tmp_path):
-    acc = jaxflex.jerk_limited_move([0.4, 0.0, 0.0], 1.5, 10.0, 200.0, DT)
-    with pytest.raises(InputError, match="not with trajectory"):
-        export_fmu(panel, tmp_path / "a.fmu", 2, (acc, DT), turning=True, windows=False)
-    with pytest.raises(InputError, match="not with stress"):
-        export_fmu(panel, tmp_path / "b.fmu", 3, turning=True, stress=True, windows=False)
-
-
 def test_straight_fmus_keep_their_variables(panel, tmp_path):
     """Without turning the FMU has the inputs ax, ay, az only (the connections of existing
     projects), whatever rotation data the model carries."""
@@ -288,8 +293,8 @@ def test_turning_fmu_under_sanitizers(fmus, version, tmp_path):
     body = bytearray(data[:-8])
     cases = {"intact": bytes(body)}
     cases["turning field cleared"] = bytes(body[:124] + bytes(4) + body[128:])
-    m = fmus[version].counts.modes
-    at = len(body) - 8 * (9 * m + 6)  # the first inertia shape integral
+    m, c = fmus[version].counts.modes, fmus[version].counts.cups
+    at = len(body) - 8 * (9 * m + 6 + 54 * c)  # the first inertia shape integral
     cases["NaN shape integral"] = bytes(body[:at] + struct.pack("<d", np.nan) + body[at + 8 :])
     cases["cut short"] = bytes(body[:-8])
     lines = []
@@ -308,3 +313,250 @@ def test_turning_fmu_under_sanitizers(fmus, version, tmp_path):
     for label, line in outcome.items():
         refused, logged = line.split()
         assert (refused, int(logged) > 0) == ("refused", True), label
+
+
+# ---- the embedded move of poses (export_fmu(..., trajectory, turning=True, pose=...)) -------
+
+
+@pytest.fixture(scope="module")
+def embedded(panel, tmp_path_factory):
+    """Turning FMUs with the swivel and the tilt embedded (FMI 2.0 and 3.0)."""
+    folder = tmp_path_factory.mktemp("embedded")
+    out = {}
+    for kind in ("swivel", "tilt"):
+        path, acc = _move(kind)
+        for version in (2, 3):
+            out[kind, version] = export_fmu(
+                panel, folder / f"{kind}{version}.fmu", version, (acc, DT), turning=True,
+                pivot_m=PIVOT, gravity_m_s2=GRAVITY, pose=path, windows=False,
+            )  # fmt: skip
+    return out
+
+
+@pytest.mark.parametrize("version", [2, 3])
+@pytest.mark.parametrize("kind", ["swivel", "tilt"])
+def test_embedded_turning_move_agrees_with_simulate_turning(panel, embedded, version, kind):
+    """The FMU replays its move of poses by itself (use_embedded_trajectory, no inputs): at
+    communication steps of one sample, of two samples (the FMU splits each step at the sample
+    between) and of 2.5 samples (communication points between samples: the forcing there is
+    linear between the samples', as jaxflex's recursion assumes), its deviation at every
+    communication point on a sample equals simulate_turning's to rounding (the same bound as
+    the inputs' test above); the free vibration after the move too."""
+    path, acc = _move(kind)
+    result = embedded[kind, version]
+    assert result.compiler_messages == "" and validate_fmu(str(result.fmu_path)) == []
+    reference = simulate_turning(
+        panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT, extend_s=0.1
+    )
+    peak = reference.deviation_m.max()
+    stop = (len(reference.t_s) - 1) * DT
+    for interval in (DT, 2 * DT, 2.5 * DT):
+        run = simulate_fmu(
+            str(result.fmu_path), start_values={"use_embedded_trajectory": True},
+            output_interval=interval, stop_time=stop, output=["deviation"],
+        )  # fmt: skip
+        k = np.round(run["time"] / DT).astype(int)
+        on_sample = np.abs(run["time"] - k * DT) < 1e-9 * DT
+        assert on_sample.sum() >= len(run["time"]) // 2
+        got = run["deviation"][on_sample]
+        assert got[0] == 0.0  # at rest, sagging in the move's first pose
+        assert np.abs(got - reference.deviation_m[k[on_sample]]).max() <= ROUNDING * peak
+
+
+def test_embedded_move_in_the_resource_and_case(panel, embedded):
+    """The resource holds the move's samples (translation and the poses: quaternion, angular
+    velocity and acceleration) as given, its checksum and lengths checked on reading; the
+    case beside the FMU has jaxflex's exact cycle time of the turning move and the input CSV
+    the 13 inputs."""
+    path, acc = _move("tilt")
+    result = embedded["tilt", 3]
+    stored = read_fmu_resource(result.fmu_path)
+    assert np.array_equal(stored.acc, acc) and stored.dt_s == DT
+    quat = Rotation.from_matrix(path.rotation).as_quat(scalar_first=True)
+    poses = stored.turning.pose_samples
+    assert poses.shape == (len(acc), 10)
+    assert np.array_equal(poses[:, 4:], np.hstack([path.omega_rad_s, path.alpha_rad_s2]))
+    assert np.abs(poses[:, :4] - quat).max() <= 1e-15
+    response = simulate_turning(panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    settle = turning_settle(path, panel, response, 5e-4)
+    assert result.case["cycle_time_s"] == settle.cycle_time_s
+    header = result.input_csv.read_text().split("\n", 1)[0].split(",")
+    assert header == ["time", *NAMES]
+
+
+def test_damaged_embedded_poses_are_refused(embedded, tmp_path):
+    """A resource whose pose samples lost a quaternion (zero) is refused by the reader in
+    Python and by the FMU at instantiation, with the CRC recomputed (so only the value
+    check can catch it)."""
+    result = embedded["swivel", 2]
+    folder = tmp_path / "x"
+    with zipfile.ZipFile(result.fmu_path) as zf:
+        zf.extractall(folder)
+    resource = folder / "resources" / "jaxflex_model.bin"
+    body = bytearray(resource.read_bytes()[:-8])
+    counts = result.counts  # the poses, then the cups' and stresses' maps end the resource
+    at = len(body) - 8 * (10 * counts.trajectory + 54 * (counts.cups + counts.stress))
+    body[at : at + 32] = bytes(32)
+    resource.write_bytes(bytes(body) + struct.pack("<II", zlib.crc32(bytes(body)), 0))
+    with pytest.raises(jaxflex.ModelFileError, match="quaternion is zero"):
+        decode_resource(resource.read_bytes())
+    with pytest.raises(Exception, match="instantiate"):  # fmpy: the FMU returned NULL
+        Session(folder, unzip_dir=folder)
+
+
+def test_inconsistent_embedded_moves_are_refused(panel, tmp_path):
+    """A pose path that does not fit the trajectory (length, step), is missing, or does not
+    end at rest is refused naming ``pose``, before anything is written."""
+    path, acc = _move("swivel")
+    moving = replace(path, omega_rad_s=path.omega_rad_s.copy())
+    moving.omega_rad_s[-1] = (0.0, 0.0, 1.0)
+    cases = {
+        "pose: .* samples": (path, acc[:-1]),
+        "pose: sampled every": (replace(path, dt_s=1e-3), acc),
+        "pose: a turning part's embedded move needs": (None, acc),
+        "pose: the turn must start and end at rest": (moving, acc),
+    }
+    for message, (pose, samples) in cases.items():
+        with pytest.raises(InputError, match=message):
+            export_fmu(
+                panel, tmp_path / "bad.fmu", 2, (samples, DT), turning=True, pose=pose,
+                windows=False,
+            )  # fmt: skip
+    with pytest.raises(InputError, match="pose: only for a turning part"):
+        export_fmu(panel, tmp_path / "bad.fmu", 2, (acc, DT), pose=path, windows=False)
+    assert not (tmp_path / "bad.fmu").exists()
+
+
+@pytest.mark.slow
+def test_export_command_embeds_an_optimised_turning_move(panel, tmp_path, capsys):
+    """`jaxflex optimize --rotate z 90 --pivot ...` then `jaxflex export --turning
+    --trajectory RUN`: the FMU plays the optimised swivel by itself and the command's own
+    check (fmpy against jaxflex.simulate_turning) passes; the same run without --turning,
+    with another pivot, or its trajectory.csv without report.json is refused (exit status 2,
+    one line naming the option, no FMU)."""
+    model_file, run = tmp_path / "panel.npz", tmp_path / "run"
+    panel.save(model_file)
+    limits = ["--vmax", "1.5", "--amax", "10", "--jmax", "200", "--dt", "0.01"]
+    turn = ["--rotate", "z", "90", "--pivot", "0.3", "0.2", "0.05"]
+    optimize = ["optimize", str(model_file), "--distance", "0.4", "0", "0", *limits, *turn]
+    assert main([*optimize, "--threshold", "2e-6", "--no-plots", "-o", str(run)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "swivel.fmu"
+    export = ["export", str(model_file), "--trajectory", str(run), "--windows", "no"]
+    assert main([*export, "--turning", "--fmi", "3", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "deviation vs jaxflex.simulate_turning" in text and text.rstrip().endswith("OK")
+    relative = float(text.split("relative ")[1].split()[0])
+    assert relative <= ROUNDING
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    (bare / "trajectory.csv").write_bytes((run / "trajectory.csv").read_bytes())
+    refused = {
+        "--turning": [*export, "-o", str(tmp_path / "a.fmu")],
+        "--pivot": [*export, "--turning", "--pivot", "0", "0", "0", "-o", str(tmp_path / "b.fmu")],
+        "report.json's turn": [
+            "export", str(model_file), "--trajectory", str(bare / "trajectory.csv"),
+            "--turning", "-o", str(tmp_path / "c.fmu"),
+        ],
+    }  # fmt: skip
+    for name, argv in refused.items():
+        assert main(argv) == 2, name
+        err = capsys.readouterr().err
+        assert name in err and err.count("\n") == 1, err
+    assert not any((tmp_path / f"{c}.fmu").exists() for c in "abc")
+
+
+# ---- the cell's outputs of a turning part (cups, stresses, distances) -------------------
+
+
+def _world_points(model, path, acc):
+    """(n+1, K, 3) every point's position in the cell at the move's samples, written here:
+    c + s + R (x - c + u), u the whole elastic displacement (modes, static residual of the
+    translation and of the rotational loads) of jaxflex.turning's state, s the pivot's
+    exact path."""
+    inputs = turning_inputs(model, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    u = (
+        np.einsum("kcm,tm->tkc", np.asarray(model.shapes), inputs.q)
+        + np.einsum("kcm,tm->tkc", np.asarray(model.static_residual), inputs.base)
+        + np.einsum("kcm,tm->tkc", rotation_residual(model), inputs.coefficients)
+    )
+    s = kinematics_at(acc, DT, inputs.t_s)[0]
+    local = np.asarray(model.points)[None] - PIVOT + u
+    return PIVOT + s[:, None] + np.einsum("tab,tkb->tka", path.rotation, local)
+
+
+OBSTACLES = (
+    Box(np.array([1.15, 0.2, 0.0]), np.array([0.1, 0.1, 0.2]), name="post"),
+    HalfSpace(np.array([0.0, 0.0, 1.0]), -0.15, name="floor"),
+)
+HALF = 0.5e-3  # m: half the 1 mm sheet
+
+
+@pytest.mark.parametrize("kind", ["swivel", "tilt"])
+def test_cell_outputs_of_the_turning_part_agree_with_jaxflex(panel, kind, tmp_path):
+    """The turning panel with its move embedded, posed in a cell (a post and a floor) with
+    stresses: at every communication point on a sample (steps of 1 and 2.5 samples) the cup
+    utilisations and von Mises stresses equal jaxflex.turning_outputs.turning_loads' and
+    every point's distance the distance of its position written here (_world_points), to
+    rounding (1e-9 of the peak, as above); the smallest distance over the samples lies above
+    the certified lower bound of jaxflex.turning_collision's minimum over the whole move and
+    above its minimum by at most what a point travels in half a sample (< 3.5 m/s: 1.5 m/s
+    of the pivot, 3 rad/s x 0.6 m)."""
+    path, acc = _move(kind)
+    cell = Cell(obstacles=OBSTACLES, end_m=np.array([0.4, 0.0, 0.0]), thickness_m=2 * HALF)
+    loads = turning_loads(panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    world = _world_points(panel, path, acc)
+    want = distances(OBSTACLES, world.reshape(-1, 3))[0].reshape(world.shape[:2]) - HALF
+    certified = turning_min_distance(
+        panel, OBSTACLES, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT, half_thickness_m=HALF
+    )
+    stop = (len(acc) - 1) * DT
+    names = ["cup_utilisations", "point_stresses", "point_distances", "min_distance"]
+    result = export_fmu(
+        panel, tmp_path / "cell.fmu", 3, (acc, DT), turning=True, pivot_m=PIVOT, pose=path,
+        cell=cell, stress=True, windows=False,
+    )  # fmt: skip
+    assert result.counts.cups == 4 and result.counts.obstacles == 2
+    for interval in (DT, 2.5 * DT):
+        run = simulate_fmu(
+            str(result.fmu_path), start_values={"use_embedded_trajectory": True},
+            output_interval=interval, stop_time=stop, output=names,
+        )  # fmt: skip
+        k = np.round(run["time"] / DT).astype(int)
+        on = np.abs(run["time"] - k * DT) < 1e-9 * DT
+        for got, ref in (
+            (run["cup_utilisations"], loads.utilisation),
+            (run["point_stresses"], loads.von_mises_pa),
+            (run["point_distances"], want),
+        ):
+            assert np.abs(got[on] - ref[k[on]]).max() <= ROUNDING * np.abs(ref).max()
+        assert np.array_equal(run["min_distance"], run["point_distances"].min(axis=1))
+    sampled = float(want.min())
+    assert certified.bound_m <= sampled <= certified.distance_m + 3.5 * DT / 2
+
+
+def test_turning_fmu_cups_carry_newton_euler(tmp_path):
+    """A stiff part (first mode in the hundreds of kHz) turned about a skew axis from a tilted
+    start while its pivot moves, the move embedded: the FMU's cup reactions (FMI 3.0
+    cup_reactions) add up, at every sample, to Newton-Euler in closed form (force m (a_c -
+    g), moment J alpha + w x J w + m c x (a_O - g) about the gripper origin,
+    tests/test_turning_cell.py) to 1e-6 of the peak (the dynamic remainder of a part this
+    stiff, as there)."""
+    result, model = stiff_sheet()
+    path, acc, pivot = skew_turn()
+    exported = export_fmu(
+        model, tmp_path / "stiff.fmu", 3, (acc, path.dt_s), turning=True, pivot_m=pivot,
+        pose=path, windows=False,
+    )  # fmt: skip
+    stop = (len(acc) - 1) * path.dt_s
+    run = simulate_fmu(
+        str(exported.fmu_path), start_values={"use_embedded_trajectory": True},
+        output_interval=path.dt_s, stop_time=stop, output=["cup_reactions"],
+    )  # fmt: skip
+    reactions = np.asarray(run["cup_reactions"]).reshape(len(run["time"]), -1, 6)
+    force, moment = newton_euler(result, path, acc, pivot, len(acc))
+    centres = np.asarray(model.cups.centre_m)
+    got_force = reactions[..., :3].sum(axis=1)
+    got_moment = (reactions[..., 3:] + np.cross(centres[None], reactions[..., :3])).sum(axis=1)
+    assert np.abs(got_force - force).max() <= 1e-6 * np.abs(force).max()
+    assert np.abs(got_moment - moment).max() <= 1e-6 * np.abs(moment).max()

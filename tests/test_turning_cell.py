@@ -56,13 +56,17 @@ def _move(axis, angle_deg, distance_m, start=None):
     return fixed_axis_path(axis, alpha, DT, start=start), acc
 
 
-@pytest.fixture(scope="module")
-def stiff():
-    """A 0.4 x 0.3 m, 2 mm thin solid of a steel a million times stiffer (first mode in the
-    hundreds of kHz), on four cups."""
+def stiff_sheet():
+    """(modal result, model): a 0.4 x 0.3 m, 2 mm thin solid of a steel a million times
+    stiffer (first mode in the hundreds of kHz), on four cups."""
     material = fem.Material("stiff steel", 2.1e17, 0.3, 7850.0)
     result = _sheet("hex2", material)
     return result, result.to_modal_model(points=8)
+
+
+@pytest.fixture(scope="module")
+def stiff():
+    return stiff_sheet()
 
 
 def test_cups_carry_newton_euler_during_a_turning_move(stiff):
@@ -72,6 +76,33 @@ def test_cups_carry_newton_euler_during_a_turning_move(stiff):
     of the peak (the modes' dynamic remainder of a part this stiff is (w_move / omega_1)^2 ~
     1e-9; mass, centre and inertia in closed form from the sheet's dimensions)."""
     result, model = stiff
+    path, acc, pivot = skew_turn()
+    loads = turning_loads(model, path, acc, pivot_m=pivot, extend_s=0.02)
+    force, moment = newton_euler(result, path, acc, pivot, len(loads.t_s))
+    reactions = loads.reactions
+    cup_centres = np.asarray(model.cups.centre_m)
+    got_force = reactions[..., :3].sum(axis=1)
+    got_moment = (reactions[..., 3:] + np.cross(cup_centres[None], reactions[..., :3])).sum(1)
+    assert np.abs(got_force - force).max() <= 1e-6 * np.abs(force).max()
+    assert np.abs(got_moment - moment).max() <= 1e-6 * np.abs(moment).max()
+    assert loads.static_complete
+    assert loads.utilisation.shape == (len(loads.t_s), 4) and (loads.utilisation > 0).all()
+
+
+def skew_turn():
+    """(path, acc, pivot): the stiff part's move: 90 degrees about a skew axis from a start
+    tilted 20 degrees about x, while the pivot (0.1, 0.05, 0.02) m moves by (0.5, 0.2, 0.3)
+    m."""
+    start = axis_rotation(np.array([1.0, 0.0, 0.0]), np.array([np.radians(20.0)]))[0]
+    path, acc = _move((0.3, -0.2, 1.0), 90.0, (0.5, 0.2, 0.3), start=start)
+    return path, acc, np.array([0.1, 0.05, 0.02])
+
+
+def newton_euler(result, path, acc, pivot, n_all):
+    """(force (T, 3) N, moment about the gripper origin (T, 3) N m) the cups of the stiff
+    2 mm sheet of ``result`` carry at the T = ``n_all`` samples of the move (and rest after
+    it), body components: m (a_c - g) and J alpha + w x J w + m c x (a_O - g), with mass,
+    centre and inertia in closed form from the sheet's dimensions."""
     t = 2e-3
     z0 = float(np.mean(result.system.nodes[:, 2]))
     mass = 7850.0 * WIDTH * HEIGHT * t
@@ -84,11 +115,6 @@ def test_cups_carry_newton_euler_during_a_turning_move(stiff):
         ]
     )
     inertia = np.trace(second) * np.eye(3) - second
-    start = axis_rotation(np.array([1.0, 0.0, 0.0]), np.array([np.radians(20.0)]))[0]
-    path, acc = _move((0.3, -0.2, 1.0), 90.0, (0.5, 0.2, 0.3), start=start)
-    pivot = np.array([0.1, 0.05, 0.02])
-    loads = turning_loads(model, path, acc, pivot_m=pivot, extend_s=0.02)
-    n_all = len(loads.t_s)
     w = np.pad(path.omega_rad_s, ((0, n_all - len(acc)), (0, 0)))
     alpha = np.pad(path.alpha_rad_s2, ((0, n_all - len(acc)), (0, 0)))
     rot = np.concatenate([path.rotation, np.repeat(path.rotation[-1:], n_all - len(acc), 0)])
@@ -103,14 +129,7 @@ def test_cups_carry_newton_euler_during_a_turning_move(stiff):
     moment = (
         alpha @ inertia.T + np.cross(w, w @ inertia.T) + mass * np.cross(centre, a_origin - g_body)
     )
-    reactions = loads.reactions
-    cup_centres = np.asarray(model.cups.centre_m)
-    got_force = reactions[..., :3].sum(axis=1)
-    got_moment = (reactions[..., 3:] + np.cross(cup_centres[None], reactions[..., :3])).sum(1)
-    assert np.abs(got_force - force).max() <= 1e-6 * np.abs(force).max()
-    assert np.abs(got_moment - moment).max() <= 1e-6 * np.abs(moment).max()
-    assert loads.static_complete
-    assert loads.utilisation.shape == (n_all, 4) and (loads.utilisation > 0).all()
+    return force, moment
 
 
 def _rest_inputs(model, g_body, b):

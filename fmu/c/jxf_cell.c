@@ -16,7 +16,9 @@
  */
 #include <math.h>
 
-#include "jxf_core.h"
+#include "jxf_cell.h"
+#include "jxf_config.h"
+#include "jxf_model.h"
 
 /* every kind of the table is implemented below: a kind added there must be added here */
 #if JXF_OBSTACLE_KIND_COUNT != 3 || !defined(JXF_OBSTACLE_BOX) || \
@@ -39,28 +41,38 @@ int jxf_check_obstacles(const jxf_model *m, const char *name) {
     return 0;
 }
 
-/* row `r` of the output block (Q, V, A, at rest) at the current state */
+/* row `r` of the output block (Q, V, A, at rest; a turning part: A_rot) at the current
+ * state: Q q + V v + A (a - g_b) + A_rot b + y_rest (a part that does not turn: g_b = 0,
+ * b = 0; a turning part: y_rest = 0, its q the total state, gravity in its forcing) */
 static double linear_output(const jxf_model *m, const double *q_map, const double *v_map,
-                            const double *a_map, const double *rest, size_t r) {
+                            const double *a_map, const double *at_rest, const double *rot_map,
+                            size_t r) {
     const int M = m->n_modes;
     const double *qr = q_map + r * (size_t)M, *vr = v_map + r * (size_t)M, *ar = a_map + 3 * r;
-    double y = rest[r];
+    double y = at_rest[r];
     int i;
     for (i = 0; i < M; ++i) y += qr[i] * m->q[i] + vr[i] * m->v[i];
-    for (i = 0; i < 3; ++i) y += ar[i] * m->a_now[i];
+    for (i = 0; i < 3; ++i) y += ar[i] * (m->a_now[i] - m->g_now[i]);
+    if (m->turning)
+        for (i = 0; i < 9; ++i) y += rot_map[9 * r + i] * m->b_now[i];
     return y;
 }
 
 static double norm3(const double v[3]) { return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+
+void jxf_cup_reaction(const jxf_model *m, int c, double y[6]) {
+    int k;
+    for (k = 0; k < 6; ++k)
+        y[k] = linear_output(m, m->cup_q, m->cup_v, m->cup_a, m->cup_rest, m->cup_rot,
+                             6 * (size_t)c + (size_t)k);
+}
 
 double jxf_cup_utilisation(const jxf_model *m, int c) {
     const double *n = m->cup_normal + 3 * c;
     const double mu = m->cup_friction[c], r = m->cup_radius[c];
     double y[6], pull, twist, shear[3], peel[3];
     int k;
-    for (k = 0; k < 6; ++k)
-        y[k] = linear_output(m, m->cup_q, m->cup_v, m->cup_a, m->cup_rest,
-                             6 * (size_t)c + (size_t)k);
+    jxf_cup_reaction(m, c, y);
     pull = y[0] * n[0] + y[1] * n[1] + y[2] * n[2];
     twist = y[3] * n[0] + y[4] * n[1] + y[5] * n[2];
     for (k = 0; k < 3; ++k) {
@@ -77,7 +89,7 @@ double jxf_von_mises(const jxf_model *m, int s) {
     int k;
     for (k = 0; k < 6; ++k)
         y[k] = linear_output(m, m->stress_q, m->stress_v, m->stress_a, m->stress_rest,
-                             6 * (size_t)s + (size_t)k);
+                             m->stress_rot, 6 * (size_t)s + (size_t)k);
     sq = 0.5 * ((y[0] - y[1]) * (y[0] - y[1]) + (y[1] - y[2]) * (y[1] - y[2]) +
                 (y[2] - y[0]) * (y[2] - y[0])) +
          3.0 * (y[3] * y[3] + y[4] * y[4] + y[5] * y[5]);
@@ -144,11 +156,38 @@ static double triangle_distance(const double *rec, const double p[3]) {
     return norm3(q);
 }
 
+/* Where point k of a turning part is (cell coordinates, m): c + s + R (x_k - c + u_k), the
+ * pivot c moved by the path s, R the orientation and u_k the whole elastic displacement
+ * (the sag in the current pose included): Phi q + D (a_O - g_b) + D_rot b, q the total
+ * modal state (jaxflex.turning_collision). */
+static void turning_point(const jxf_model *m, int k, double p[3]) {
+    const size_t K = (size_t)m->n_points;
+    const int M = m->n_modes;
+    double local[3];
+    int i, c;
+    for (c = 0; c < 3; ++c) {
+        const double *shape = m->shapes + (size_t)c * K + (size_t)k; /* row i: + 3 K i */
+        double u = 0.0;
+        for (i = 0; i < M; ++i) u += shape[3 * K * (size_t)i] * m->q[i];
+        for (i = 0; i < m->n_static; ++i)
+            u += shape[3 * K * (size_t)(M + i)] *
+                 (i < 3 ? m->a_now[i] - m->g_now[i] : m->b_now[i - 3]);
+        local[c] = m->points[3 * (size_t)k + c] - m->pivot[c] + u;
+    }
+    for (c = 0; c < 3; ++c)
+        p[c] = m->pivot[c] + m->pos[c] + m->rot_now[3 * c] * local[0] +
+               m->rot_now[3 * c + 1] * local[1] + m->rot_now[3 * c + 2] * local[2];
+}
+
 double jxf_point_distance(const jxf_model *m, int k) {
     const size_t K = (size_t)m->n_points;
     double p[3], best = HUGE_VAL;
     int o, i;
-    for (i = 0; i < 3; ++i) p[i] = m->rest_points[3 * (size_t)k + i] + m->pos[i] + m->u[i * K + k];
+    if (m->turning)
+        turning_point(m, k, p);
+    else
+        for (i = 0; i < 3; ++i)
+            p[i] = m->rest_points[3 * (size_t)k + i] + m->pos[i] + m->u[i * K + k];
     for (o = 0; o < m->n_obstacles; ++o) {
         const double *rec = m->obstacles + JXF_OBSTACLE_VALUES * (size_t)o;
         double d;

@@ -1,13 +1,18 @@
-/* jaxflex FMU core: resource loading, exact modal step, outputs. See jxf_core.h. */
-#include "jxf_core.h"
-
+/* jaxflex part FMU core: resource loading, exact modal step, outputs; the part's
+ * implementation of the core interface jxf_model_* (jxf_fmu.h). The recursion and the state
+ * are described in jxf_model.h. */
 #include <limits.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "jxf_cell.h"
+#include "jxf_config.h"
+#include "jxf_fmu.h"
+#include "jxf_model.h"
+#include "jxf_turning.h"
 
 #if defined(_MSC_VER)
 #define JXF_RESTRICT __restrict
@@ -36,7 +41,11 @@
  *                       Q (6C, M), V (6C, M), A (6C, 3), at rest (6C); stresses: Q (6S, M),
  *                       V (6S, M), A (6S, 3), at rest (6S); obstacles: points at rest (K, 3),
  *                       records (O, 16: fmu/obstacles.py, jxf_cell.c); then, if T = 1:
- *                       inertia shape integrals (M, 3, 3), pivot (3), world gravity (3)
+ *                       inertia shape integrals (M, 3, 3), pivot (3), world gravity (3),
+ *                       the trajectory's poses (N, 10: quaternion body -> world w, x, y, z,
+ *                       angular velocity 3, angular acceleration 3; body components), the
+ *                       maps of the rotational loads A_rot of the cups (6C, 9) and of the
+ *                       stresses (6S, 9)
  *   end u32 CRC-32 (IEEE, as zlib) of everything before it, u32 0
  * fmu/resource.py writes the same layout. */
 #define JXF_MAGIC "JXFLXFMU"
@@ -61,13 +70,6 @@
  * the subnormal range (after ~1400 free 10 ms steps at 400 Hz, zeta 0.02), where every
  * multiplication costs ~100x. 1e-250 kg^0.5 m is far below anything measurable. */
 #define JXF_TINY 1e-250
-
-void jxf_log(const jxf_model *m, int level, const char *format, ...) {
-    va_list args;
-    va_start(args, format);
-    jxf_vlogf(m ? m->log : NULL, level, format, args);
-    va_end(args);
-}
 
 /* ---- little-endian decoding and CRC-32 ----------------------------------------------- */
 
@@ -200,7 +202,7 @@ static uint64_t payload_values(uint64_t K, uint64_t M, uint64_t N, uint64_t C, u
     if (C > 0) count += 6u * C + 12u * C * M + 24u * C;
     if (S > 0) count += 12u * S * M + 24u * S;
     if (O > 0) count += 3u * K + (uint64_t)JXF_OBSTACLE_VALUES * O;
-    if (T > 0) count += 9u * M + 6u;
+    if (T > 0) count += 9u * M + 6u + (uint64_t)JXF_POSE_VALUES * N + 54u * (C + S);
     return count;
 }
 
@@ -423,6 +425,9 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
         m->shape_integrals = next;
         m->pivot = m->shape_integrals + 9 * (size_t)M;
         m->world_gravity = m->pivot + 3;
+        m->traj_pose = m->world_gravity + 3;
+        m->cup_rot = m->traj_pose + (size_t)JXF_POSE_VALUES * N;
+        m->stress_rot = m->cup_rot + 54 * (size_t)C;
     }
     if (!all_finite(values, count)) {
         jxf_log(m, JXF_LOG_ERROR, "'%s' contains NaN or infinite values", name);
@@ -447,6 +452,15 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
                 name, m->traj_dt);
         return -1;
     }
+    for (i = 0; T > 0 && i < (size_t)N; ++i) {
+        const double *quat = m->traj_pose + JXF_POSE_VALUES * i;
+        if (!(quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2] + quat[3] * quat[3] >
+              0.0)) {
+            jxf_log(m, JXF_LOG_ERROR, "'%s': the orientation quaternion of trajectory sample %lu "
+                    "is zero (it has no direction)", name, (unsigned long)i);
+            return -1;
+        }
+    }
     if (N > 0 && !(N >= 2 && m->traj_dt >= JXF_TRAJ_DT_MIN && m->traj_dt <= JXF_TRAJ_DT_MAX)) {
         jxf_log(m, JXF_LOG_ERROR, "'%s': trajectory of %d samples with step %g s (need >= 2 "
                 "samples and a step of %g ... %g s)", name, N, m->traj_dt, JXF_TRAJ_DT_MIN,
@@ -459,7 +473,7 @@ static int attach_payload(jxf_model *m, const char *name, unsigned char *data) {
 static int allocate_work(jxf_model *m) {
     const size_t M = (size_t)m->n_modes;
     int s;
-    m->q = (double *)calloc(6 * M, sizeof(double));
+    m->q = (double *)calloc(7 * M, sizeof(double));
     m->u = (double *)calloc(3 * (size_t)m->n_points, sizeof(double));
     m->coords = (double *)calloc(M + (size_t)m->n_static, sizeof(double));
     if (m->q == NULL || m->u == NULL || m->coords == NULL) return -1;
@@ -467,6 +481,7 @@ static int allocate_work(jxf_model *m) {
     m->v = m->q + M;
     m->f0 = m->q + 4 * M;
     m->f1 = m->q + 5 * M;
+    m->f_next = m->q + 6 * M;
     for (s = 0; s < JXF_CACHE_SLOTS; ++s) {
         jxf_coeffs *c = &m->cache[s];
         c->p11 = (double *)calloc(8 * M, sizeof(double));
@@ -529,6 +544,103 @@ void jxf_model_free(jxf_model *m) {
     free(m->coords);
     free(m->buffer);
     free(m);
+}
+
+/* ---- the forcing: of the inputs, of the embedded move ----------------------------- */
+
+/* What the forcing at one instant gives besides the modal forces: the gripper's (pivot's)
+ * acceleration `acc` (world, m/s^2; the path), the model frame origin's acceleration and
+ * gravity in body components, the rotational load coefficients and the orientation
+ * (jxf_turning.h). */
+typedef struct {
+    double acc[3], a_body[3], g_body[3], b[9], rotation[9];
+} jxf_loads;
+
+/* The modal forces `f` (M) and the loads of the drive `d` (JXF_IN_COUNT inputs); 0, or -1
+ * (logged) when the orientation has no direction. */
+static int drive_loads(const jxf_model *m, const double d[JXF_IN_COUNT], double *f,
+                       jxf_loads *l) {
+    memcpy(l->acc, d + JXF_IN_ACC, sizeof l->acc);
+    return jxf_drive_forces(m, d, f, l->a_body, l->g_body, l->b, l->rotation);
+}
+
+/* The drive of sample k of the embedded move: its acceleration and, for a turning part, its
+ * pose (quaternion, angular velocity and acceleration); `moving` 0: at rest in that pose
+ * (acceleration and rates 0), as before the start and after the last sample. */
+static void sample_drive(const jxf_model *m, long k, int moving, double d[JXF_IN_COUNT]) {
+    int c;
+    memset(d, 0, JXF_IN_COUNT * sizeof(double));
+    d[JXF_IN_QUAT] = 1.0;
+    if (moving)
+        for (c = 0; c < 3; ++c) d[JXF_IN_ACC + c] = m->traj[3 * k + c];
+    if (m->turning) {
+        const double *pose = m->traj_pose + JXF_POSE_VALUES * k;
+        memcpy(d + JXF_IN_QUAT, pose, 4 * sizeof(double));
+        if (moving) memcpy(d + JXF_IN_OMEGA, pose + 4, 6 * sizeof(double));
+    }
+}
+
+/* The orientation `r` (9, row-major, body -> world; it holds sample k's on entry) at the
+ * fraction `w` of the step after sample k of the embedded move: R_k exp([phi]_x) with
+ * phi = w_k s + alpha_k s^2 / 2 + (alpha_k+1 - alpha_k) s^3 / (6 dt), s = w dt (body
+ * components; exact for a turn about a fixed axis, as jaxflex.turning_collision). */
+static void turn_between(const jxf_model *m, long k, double w, double r[9]) {
+    const double *now = m->traj_pose + JXF_POSE_VALUES * k, *next = now + JXF_POSE_VALUES;
+    const double s = w * m->traj_dt;
+    double phi[3], angle, sn, cs, e[9], out[9];
+    int i, j, c;
+    for (i = 0; i < 3; ++i)
+        phi[i] = now[4 + i] * s + now[7 + i] * s * s / 2.0 +
+                 (next[7 + i] - now[7 + i]) * s * s * s / (6.0 * m->traj_dt);
+    angle = sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]);
+    if (angle == 0.0) return;
+    for (i = 0; i < 3; ++i) phi[i] /= angle;
+    sn = sin(angle), cs = 1.0 - cos(angle);
+    for (i = 0; i < 3; ++i) /* Rodrigues: I + sin [n]_x + (1 - cos) (n n^T - I) */
+        for (j = 0; j < 3; ++j)
+            e[3 * i + j] = (i == j ? 1.0 : 0.0) + cs * (phi[i] * phi[j] - (i == j ? 1.0 : 0.0));
+    e[1] -= sn * phi[2], e[2] += sn * phi[1], e[3] += sn * phi[2];
+    e[5] -= sn * phi[0], e[6] -= sn * phi[1], e[7] += sn * phi[0];
+    for (i = 0; i < 3; ++i)
+        for (j = 0; j < 3; ++j)
+            for (out[3 * i + j] = 0.0, c = 0; c < 3; ++c)
+                out[3 * i + j] += r[3 * i + c] * e[3 * c + j];
+    memcpy(r, out, sizeof out);
+}
+
+/* The embedded move at `tau` s after the start: the modal forces `f` (M) and the loads,
+ * linear in time between those of the samples (the first-order hold of the forcing that
+ * jaxflex's recursion assumes; the orientation turns exactly, turn_between), at rest in the
+ * first / last sample's pose outside. The
+ * samples' quaternions are checked when the resource is loaded, so this cannot fail. */
+static void trajectory_at(jxf_model *m, double tau, double *f, jxf_loads *l) {
+    const double x = tau / m->traj_dt;
+    double d[JXF_IN_COUNT], w;
+    jxf_loads next;
+    long k;
+    int i;
+    if (!(x >= 0.0) || x > (double)(m->n_traj - 1) * (1.0 + JXF_SNAP)) {
+        sample_drive(m, x > 0.0 ? m->n_traj - 1 : 0, 0, d);
+        (void)drive_loads(m, d, f, l);
+        return;
+    }
+    k = (long)floor(x);
+    if (k >= m->n_traj - 1) k = m->n_traj - 2;
+    w = x - (double)k;
+    if (w > 1.0) w = 1.0;
+    sample_drive(m, k, 1, d);
+    (void)drive_loads(m, d, f, l);
+    if (w == 0.0) return;
+    sample_drive(m, k + 1, 1, d);
+    (void)drive_loads(m, d, m->f_next, &next);
+    for (i = 0; i < m->n_modes; ++i) f[i] = (1.0 - w) * f[i] + w * m->f_next[i];
+    for (i = 0; i < 3; ++i) {
+        l->acc[i] = (1.0 - w) * l->acc[i] + w * next.acc[i];
+        l->a_body[i] = (1.0 - w) * l->a_body[i] + w * next.a_body[i];
+        l->g_body[i] = (1.0 - w) * l->g_body[i] + w * next.g_body[i];
+    }
+    for (i = 0; i < 9; ++i) l->b[i] = (1.0 - w) * l->b[i] + w * next.b[i];
+    if (m->turning) turn_between(m, k, w, l->rotation);
 }
 
 /* ---- outputs ------------------------------------------------------------------------ */
@@ -596,23 +708,32 @@ static void update_outputs(jxf_model *m) {
 }
 
 /* At rest at `start_time`, outputs evaluated. A turning part rests sagging in the pose of
- * its inputs (their orientation; the identity, with a warning, when it has no direction),
- * so that its deviation starts at 0. */
+ * its inputs (their orientation; the identity, with a warning, when it has no direction) or,
+ * replaying its embedded move, in the move's first pose, so that its deviation starts at 0. */
 static void rest(jxf_model *m, double start_time) {
     int i;
     memset(m->q, 0, 2 * (size_t)m->n_modes * sizeof(double));
     memset(m->a_now, 0, sizeof m->a_now);
     memset(m->g_now, 0, sizeof m->g_now);
     memset(m->b_now, 0, sizeof m->b_now);
+    memset(m->rot_now, 0, sizeof m->rot_now);
+    m->rot_now[0] = m->rot_now[4] = m->rot_now[8] = 1.0;
     if (m->turning) {
         double pose[JXF_IN_COUNT];
+        jxf_loads l;
         memcpy(pose, m->in, sizeof pose);
-        if (jxf_drive_forces(m, pose, m->f0, m->a_now, m->g_now, m->b_now) != 0) {
+        if (m->use_trajectory && m->n_traj > 0) {
+            trajectory_at(m, 0.0, m->f0, &l); /* the embedded move's first pose */
+        } else if (drive_loads(m, pose, m->f0, &l) != 0) {
             jxf_log(m, JXF_LOG_WARNING, "at rest in the identity orientation instead");
             memset(pose + JXF_IN_QUAT, 0, 4 * sizeof(double));
             pose[JXF_IN_QUAT] = 1.0;
-            jxf_drive_forces(m, pose, m->f0, m->a_now, m->g_now, m->b_now);
+            (void)drive_loads(m, pose, m->f0, &l);
         }
+        memcpy(m->a_now, l.a_body, sizeof m->a_now);
+        memcpy(m->g_now, l.g_body, sizeof m->g_now);
+        memcpy(m->b_now, l.b, sizeof m->b_now);
+        memcpy(m->rot_now, l.rotation, sizeof m->rot_now);
         for (i = 0; i < m->n_modes; ++i) m->q[i] = sag(m, i);
     }
     memset(m->pos, 0, sizeof m->pos);
@@ -904,20 +1025,20 @@ static const jxf_coeffs *coefficients(jxf_model *m, double h) {
     return slot;
 }
 
-/* One exact step of `h` s with the modal forces linear between those of the drives d0 and
- * d1 (jxf_drive_forces: first-order hold; for a part that does not turn the acceleration is
- * linear from a0 to a1); the path (position and velocity of the gripper, from the start)
- * follows exactly as well. -1 (logged) if the forces, the coefficients or the new state are
- * not finite (the caller restores the state). */
-static int advance(jxf_model *m, double h, const double d0[JXF_IN_COUNT],
-                   const double d1[JXF_IN_COUNT]) {
+/* One exact step of `h` s with the modal forces linear between m->f0 and m->f1 (first-order
+ * hold) and the loads l0, l1 at its ends; the path (position and velocity of the gripper,
+ * from the start) follows exactly as well, and the loads at the end become the current
+ * ones. -1 (logged) if the coefficients or the new state are not finite (the caller restores
+ * the state). */
+static int advance(jxf_model *m, double h, const jxf_loads *l0, const jxf_loads *l1) {
     const jxf_coeffs *c = coefficients(m, h);
-    const double *a0 = d0 + JXF_IN_ACC, *a1 = d1 + JXF_IN_ACC;
-    double body[3], gravity[3];
+    const double *a0 = l0->acc, *a1 = l1->acc;
     int i;
-    if (c == NULL || jxf_drive_forces(m, d0, m->f0, body, gravity, NULL) != 0 ||
-        jxf_drive_forces(m, d1, m->f1, m->a_now, m->g_now, m->b_now) != 0)
-        return -1;
+    if (c == NULL) return -1;
+    memcpy(m->a_now, l1->a_body, sizeof m->a_now);
+    memcpy(m->g_now, l1->g_body, sizeof m->g_now);
+    memcpy(m->b_now, l1->b, sizeof m->b_now);
+    memcpy(m->rot_now, l1->rotation, sizeof m->rot_now);
     for (i = 0; i < 3; ++i) {
         m->pos[i] += h * m->vel[i] + h * h * (2.0 * a0[i] + a1[i]) / 6.0;
         m->vel[i] += 0.5 * h * (a0[i] + a1[i]);
@@ -939,49 +1060,45 @@ static int advance(jxf_model *m, double h, const double d0[JXF_IN_COUNT],
     return 0;
 }
 
-/* Embedded trajectory at `tau` s after the start: linear between samples, 0 outside. The
- * drive `a` (JXF_IN_COUNT) gets the acceleration; its other inputs are left as they are. */
-static void trajectory_at(const jxf_model *m, double tau, double a[JXF_IN_COUNT]) {
-    const double x = tau / m->traj_dt;
-    long k;
-    double w;
-    int c;
-    if (!(x >= 0.0) || x > (double)(m->n_traj - 1) * (1.0 + JXF_SNAP)) {
-        a[0] = a[1] = a[2] = 0.0;
-        return;
-    }
-    k = (long)floor(x);
-    if (k >= m->n_traj - 1) k = m->n_traj - 2;
-    w = x - (double)k;
-    if (w > 1.0) w = 1.0;
-    for (c = 0; c < 3; ++c) a[c] = (1.0 - w) * m->traj[3 * k + c] + w * m->traj[3 * (k + 1) + c];
-}
-
 /* Replay the embedded trajectory over [tau, tau + h] (s after the start), split at its
  * sample times k dt, k = 0 .. N-1, that lie inside (breakpoints within JXF_SNAP dt of an end
  * count as that end). The breakpoints are integers times dt, so the number of exact steps is
- * at most N + 1 whatever tau and h are (before the start and after the last sample the
- * acceleration is 0: one step). */
+ * at most N + 1 whatever tau and h are (before the start and after the last sample the part
+ * rests in the end pose: one step). */
 static int replay(jxf_model *m, double tau, double h) {
     const double dt = m->traj_dt, end = tau + h, last = (double)(m->n_traj - 1);
     const double first_x = floor(tau / dt + JXF_SNAP) + 1.0; /* first breakpoint after tau */
     const double last_x = ceil(end / dt - JXF_SNAP) - 1.0;   /* last one before the end */
-    double a0[JXF_IN_COUNT], a1[JXF_IN_COUNT], from = tau;
+    const size_t forces = (size_t)m->n_modes * sizeof(double);
+    jxf_loads l0, l1;
+    double from = tau;
     long k, k_first, k_last;
-    memcpy(a0, m->in, sizeof a0); /* the pose inputs of a turning part (none embedded) */
-    memcpy(a1, m->in, sizeof a1);
     k_first = first_x < 0.0 ? 0 : first_x > last ? m->n_traj : (long)first_x;
     k_last = last_x > last ? m->n_traj - 1 : last_x < 0.0 ? -1 : (long)last_x;
-    trajectory_at(m, tau, a0);
+    trajectory_at(m, tau, m->f0, &l0);
     for (k = k_first; k <= k_last; ++k) {
         const double next = (double)k * dt;
-        trajectory_at(m, next, a1);
-        if (advance(m, next - from, a0, a1)) return -1;
-        memcpy(a0, a1, sizeof a0);
+        trajectory_at(m, next, m->f1, &l1);
+        if (advance(m, next - from, &l0, &l1)) return -1;
+        memcpy(m->f0, m->f1, forces);
+        l0 = l1;
         from = next;
     }
-    trajectory_at(m, end, a1);
-    return advance(m, end - from, a0, a1);
+    trajectory_at(m, end, m->f1, &l1);
+    return advance(m, end - from, &l0, &l1);
+}
+
+/* One step of `h` s driven by the inputs: linear from their values to the values their
+ * slopes give at the end (held without slopes); -1 (logged) as advance, or when an
+ * orientation has no direction. */
+static int input_step(jxf_model *m, double h) {
+    double d1[JXF_IN_COUNT];
+    jxf_loads l0, l1;
+    int c;
+    for (c = 0; c < JXF_IN_COUNT; ++c) d1[c] = m->in[c] + h * m->in_rate[c];
+    if (drive_loads(m, m->in, m->f0, &l0) != 0 || drive_loads(m, d1, m->f1, &l1) != 0)
+        return -1;
+    return advance(m, h, &l0, &l1);
 }
 
 /* Refused (the state restored, logged) when the exact solution is not finite. The work is
@@ -991,24 +1108,18 @@ int jxf_model_do_step(jxf_model *m, double t, double h) {
     const size_t M = (size_t)m->n_modes;
     const double end = t + h, time = m->time;
     double settle_time, path[4][3]; /* pos, vel, a_now, g_now before the step */
-    double loads[9];                /* b_now before the step */
+    double loads[2][9];             /* b_now, rot_now before the step */
     int status, settled;
     memcpy(m->saved, m->q, 2 * M * sizeof(double));
     memcpy(path[0], m->pos, sizeof path[0]);
     memcpy(path[1], m->vel, sizeof path[1]);
     memcpy(path[2], m->a_now, sizeof path[2]);
     memcpy(path[3], m->g_now, sizeof path[3]);
-    memcpy(loads, m->b_now, sizeof loads);
+    memcpy(loads[0], m->b_now, sizeof loads[0]);
+    memcpy(loads[1], m->rot_now, sizeof loads[1]);
     settled = m->settled;
     settle_time = m->settle_time;
-    if (m->use_trajectory) {
-        status = replay(m, t - m->start_time, h);
-    } else {
-        double d1[JXF_IN_COUNT];
-        int c;
-        for (c = 0; c < JXF_IN_COUNT; ++c) d1[c] = m->in[c] + h * m->in_rate[c];
-        status = advance(m, h, m->in, d1);
-    }
+    status = m->use_trajectory ? replay(m, t - m->start_time, h) : input_step(m, h);
     if (status == 0) {
         m->time = end;
         update_outputs(m);
@@ -1024,7 +1135,8 @@ int jxf_model_do_step(jxf_model *m, double t, double h) {
         memcpy(m->vel, path[1], sizeof path[1]);
         memcpy(m->a_now, path[2], sizeof path[2]);
         memcpy(m->g_now, path[3], sizeof path[3]);
-        memcpy(m->b_now, loads, sizeof loads);
+        memcpy(m->b_now, loads[0], sizeof loads[0]);
+        memcpy(m->rot_now, loads[1], sizeof loads[1]);
         m->time = time;
         update_outputs(m);
         m->settled = settled;

@@ -3,11 +3,12 @@
  *
  * 1. The core interface jxf_model_*: what one FMU computes (create, reset, start, set inputs
  *    and parameters, step, get outputs, free), with no FMI in it. Each FMU's core implements
- *    it once: the part in jxf_core.c (+ jxf_values.c, jxf_cell.c), the trajectory source in
- *    jxf_source.c. An FMU links exactly one core.
+ *    it once: the part in jxf_core.c (+ jxf_values.c, jxf_cell.c, jxf_turning.c), the
+ *    trajectory source in jxf_source.c. An FMU links exactly one core.
  * 2. The instance jxf_instance (jxf_fmu.c): what every FMU does the same way in FMI 2.0 and
  *    3.0: the life cycle (which call is allowed in which state), the checks of a step,
- *    variable access in batches (every value checked before any is stored) and logging.
+ *    variable access in batches (every value checked before any is stored); logging is
+ *    jxf_log.c's.
  *
  * The FMI bindings jxf_fmi2.c and jxf_fmi3.c, each written once, translate the standard's
  * functions into calls of the instance. SI units: s, m, m/s^2.
@@ -15,33 +16,20 @@
 #ifndef JXF_FMU_H
 #define JXF_FMU_H
 
-#include <stdarg.h>
 #include <stddef.h>
+
+#include "jxf_log.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/* ---- logging ------------------------------------------------------------------------- */
-
-enum { JXF_LOG_INFO = 0, JXF_LOG_WARNING = 1, JXF_LOG_ERROR = 2 };
-
-/* Receives every message (already escaped, see jxf_text.h); level is one of JXF_LOG_*. */
-typedef void (*jxf_log_fn)(void *context, int level, const char *message);
-
-typedef struct {
-    jxf_log_fn emit;
-    void *context;
-    int debug; /* pass JXF_LOG_INFO messages too */
-} jxf_logger;
-
-/* Format a message (printf-style) and send it to `log` (NULL: dropped). */
-void jxf_logf(const jxf_logger *log, int level, const char *format, ...);
-void jxf_vlogf(const jxf_logger *log, int level, const char *format, va_list args);
-
 /* ---- the core interface (one implementation per FMU) --------------------------------- */
 
+#ifndef JXF_MODEL_TYPEDEF /* also in the part's jxf_model.h */
+#define JXF_MODEL_TYPEDEF
 typedef struct jxf_model jxf_model;
+#endif
 
 /* A model at rest at time 0 with the start values of its parameters, for the importer's
  * `token`, with its data from `resource_location` (a file: URI or a directory path) where it

@@ -2,8 +2,8 @@
  * bytes from outside (an instantiation token, a resource path, a damaged resource file) reach
  * the importer's log or terminal as text, never as control sequences. Printable ASCII and
  * well-formed UTF-8 (other than the C1 controls U+0080..U+009F) pass unchanged; every other
- * byte is written as \xNN. Shared by the part FMU (jxf_core.c) and the trajectory source FMU
- * (jxf_source.c). */
+ * byte is written as \xNN. Used by jxf_log.c, the logging of every FMU (the part and the
+ * trajectory source). */
 #ifndef JXF_TEXT_H
 #define JXF_TEXT_H
 

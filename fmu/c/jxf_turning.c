@@ -1,4 +1,4 @@
-/* jaxflex FMU: the modal forces of the inputs (the drive, jxf_core.h), straight or turning.
+/* jaxflex FMU: the modal forces of the inputs (the drive, jxf_model.h), straight or turning.
  *
  * A part that does not turn: f_m = -gamma_m . a, a the gripper's acceleration (m/s^2).
  *
@@ -15,7 +15,8 @@
  */
 #include <math.h>
 
-#include "jxf_core.h"
+#include "jxf_model.h"
+#include "jxf_turning.h"
 
 /* R (row-major, body -> world) of the quaternion q = (w, x, y, z), normalised; -1 if q has no
  * direction. */
@@ -44,9 +45,9 @@ static void cross(const double a[3], const double b[3], double out[3]) {
 }
 
 int jxf_drive_forces(const jxf_model *m, const double in[JXF_IN_COUNT], double *f,
-                     double a_body[3], double g_body[3], double b[9]) {
+                     double a_body[3], double g_body[3], double b[9], double rotation[9]) {
     const double *a = in + JXF_IN_ACC, *w = in + JXF_IN_OMEGA, *alpha = in + JXF_IN_ALPHA;
-    double r[9], arm[3], euler[3], spin[3], whirl[3], load[3], spin_tensor[9], w2;
+    double *r = rotation, arm[3], euler[3], spin[3], whirl[3], load[3], spin_tensor[9], w2;
     int i, j;
     if (!m->turning) {
         for (i = 0; i < m->n_modes; ++i) {
@@ -54,8 +55,7 @@ int jxf_drive_forces(const jxf_model *m, const double in[JXF_IN_COUNT], double *
             f[i] = -(a[0] * g[0] + a[1] * g[1] + a[2] * g[2]);
         }
         for (j = 0; j < 3; ++j) a_body[j] = a[j], g_body[j] = 0.0;
-        if (b != NULL)
-            for (j = 0; j < 9; ++j) b[j] = 0.0;
+        for (j = 0; j < 9; ++j) b[j] = 0.0, r[j] = j % 4 == 0 ? 1.0 : 0.0;
         return 0;
     }
     if (rotation_of(in + JXF_IN_QUAT, r) != 0) {
@@ -77,12 +77,11 @@ int jxf_drive_forces(const jxf_model *m, const double in[JXF_IN_COUNT], double *
     w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
     for (i = 0; i < 3; ++i)
         for (j = 0; j < 3; ++j) spin_tensor[3 * i + j] = w[i] * w[j] - (i == j ? w2 : 0.0);
-    if (b != NULL) { /* b[3 i + j] = B_ji = eps_kij alpha_k + w_i w_j - |w|^2 delta_ij */
-        for (j = 0; j < 9; ++j) b[j] = spin_tensor[j];
-        b[1] += alpha[2], b[3] -= alpha[2]; /* (i, j) = (x, y), (y, x) */
-        b[5] += alpha[0], b[7] -= alpha[0]; /* (y, z), (z, y) */
-        b[6] += alpha[1], b[2] -= alpha[1]; /* (z, x), (x, z) */
-    }
+    /* b[3 i + j] = B_ji = eps_kij alpha_k + w_i w_j - |w|^2 delta_ij */
+    for (j = 0; j < 9; ++j) b[j] = spin_tensor[j];
+    b[1] += alpha[2], b[3] -= alpha[2]; /* (i, j) = (x, y), (y, x) */
+    b[5] += alpha[0], b[7] -= alpha[0]; /* (y, z), (z, y) */
+    b[6] += alpha[1], b[2] -= alpha[1]; /* (z, x), (x, z) */
     for (i = 0; i < m->n_modes; ++i) {
         const double *g = m->gamma + 3 * i, *s = m->shape_integrals + 9 * (size_t)i;
         const double rot[3] = {s[5] - s[7], s[6] - s[2], s[1] - s[3]}; /* eps_kij S_ij */

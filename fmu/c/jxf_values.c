@@ -12,7 +12,9 @@
 #include <math.h>
 #include <string.h>
 
-#include "jxf_core.h"
+#include "jxf_cell.h"
+#include "jxf_config.h"
+#include "jxf_model.h"
 
 void jxf_value_time(const jxf_model *m, double *out) { *out = m->time; }
 
@@ -22,7 +24,7 @@ void jxf_value_ay(const jxf_model *m, double *out) { *out = m->in[JXF_IN_ACC + 1
 
 void jxf_value_az(const jxf_model *m, double *out) { *out = m->in[JXF_IN_ACC + 2]; }
 
-/* the pose inputs of a turning part (jxf_core.h, the drive) */
+/* the pose inputs of a turning part (jxf_model.h, the drive) */
 #define JXF_POSE_VALUE(name, index) \
     void jxf_value_##name(const jxf_model *m, double *out) { *out = m->in[index]; }
 JXF_POSE_VALUE(quat_w, JXF_IN_QUAT)
@@ -80,6 +82,12 @@ void jxf_value_cup_utilisation(const jxf_model *m, double *out) {
 void jxf_value_cup_utilisations(const jxf_model *m, double *out) {
     int c;
     for (c = 0; c < m->n_cups; ++c) out[c] = jxf_cup_utilisation(m, c);
+}
+
+/* (C, 6) row-major: force N, moment about the cup centre N m */
+void jxf_value_cup_reactions(const jxf_model *m, double *out) {
+    int c;
+    for (c = 0; c < m->n_cups; ++c) jxf_cup_reaction(m, c, out + 6 * c);
 }
 
 void jxf_value_max_stress(const jxf_model *m, double *out) {

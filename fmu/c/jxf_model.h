@@ -1,4 +1,4 @@
-/* jaxflex FMU core: the exact discrete-time modal recursion of a flexible part.
+/* jaxflex part FMU: the state of the exact discrete-time modal recursion of a flexible part.
  *
  * Per mode i (state q_i, v_i = dq_i/dt) the part obeys
  *     q'' + 2 zeta_i omega_i q' + omega_i^2 q = -gamma_i . a(t)
@@ -6,27 +6,34 @@
  * acceleration that is linear in time (first-order hold) the state advances exactly as
  *     x(h) = Phi x(0) + G0 f(0) + G1 f(h),    G0 = J1 / h,  G1 = J0 - G0
  * (the same discretisation as jaxflex.discretize: closed form for omega h >= 0.1, a 16-term
- * series of the matrix exponential below). A held input is the special case f(h) = f(0).
+ * series of the matrix exponential; jxf_core.c). A held input is the special case
+ * f(h) = f(0).
  *
  * A turning part (JXF_TURNING, jxf_turning.c) takes its pose as inputs as well and is forced
  * in its body frame as in jaxflex.turning: f = -gamma . (a_O - g_b) - gamma_rot . alpha
  * - tr(A(w) S), with the same first-order hold of f over a step.
  *
- * This is the part FMU's implementation of the core interface jxf_model_* of jxf_fmu.h,
- * under the FMI bindings jxf_fmi2.c and jxf_fmi3.c; jxf_values.c holds one reading function
- * per variable, jxf_cell.c the cell's outputs, jxf_turning.c the forcing of the inputs.
+ * This header holds the part's state, struct jxf_model, and only that: the part FMU's
+ * implementation of the core interface jxf_model_* of jxf_fmu.h (jxf_core.c, under the FMI
+ * bindings jxf_fmi2.c and jxf_fmi3.c) calls down into the modules that read it: jxf_values.c
+ * (one reading function per variable), jxf_cell.c (the cell's outputs, jxf_cell.h) and
+ * jxf_turning.c (the forcing of the inputs, jxf_turning.h); none of them calls the core.
  * SI units: m, s, m/s^2, Hz; modal coordinates in kg^0.5 m.
  */
-#ifndef JXF_CORE_H
-#define JXF_CORE_H
+#ifndef JXF_MODEL_H
+#define JXF_MODEL_H
 
 #include <stddef.h>
 
-#include "jxf_config.h"
-#include "jxf_fmu.h"
+#include "jxf_log.h"
 
 #ifdef __cplusplus
 extern "C" {
+#endif
+
+#ifndef JXF_MODEL_TYPEDEF /* also in jxf_fmu.h */
+#define JXF_MODEL_TYPEDEF
+typedef struct jxf_model jxf_model;
 #endif
 
 /* Coefficients of the exact step for one step length, all modes. */
@@ -46,6 +53,9 @@ typedef struct {
  * orientation quaternion body -> world (w, x, y, z), the angular velocity (rad/s) and the
  * angular acceleration (rad/s^2), both in body components. */
 enum { JXF_IN_ACC = 0, JXF_IN_QUAT = 3, JXF_IN_OMEGA = 7, JXF_IN_ALPHA = 10, JXF_IN_COUNT = 13 };
+/* Values per sample of a turning part's embedded poses: quaternion, omega, alpha (as the
+ * drive's from JXF_IN_QUAT). */
+#define JXF_POSE_VALUES 10
 
 struct jxf_model {
     /* model data from the resource file (views into `buffer`) */
@@ -82,6 +92,9 @@ struct jxf_model {
     const double *shape_integrals; /* (M, 3, 3) S_m[i][j] = phi_m^T M (e_j r_i), kg^0.5 m */
     const double *pivot;           /* (3) m, model frame: the point the acceleration is of */
     const double *world_gravity;   /* (3) m/s^2, world components */
+    const double *traj_pose;       /* (N, JXF_POSE_VALUES) the embedded move's poses */
+    const double *cup_rot;         /* (6C, 9) the cups' maps A_rot of the rotational loads b */
+    const double *stress_rot;      /* (6S, 9) the stresses' maps A_rot */
 
     /* parameters */
     double threshold;     /* m */
@@ -93,6 +106,7 @@ struct jxf_model {
     double in[JXF_IN_COUNT];
     double in_rate[JXF_IN_COUNT];
     double *f0, *f1;     /* (M) modal forces at the ends of a step, kg^0.5 m/s^2 */
+    double *f_next;      /* (M) scratch: the forces of the next embedded sample */
 
     /* state and outputs */
     double start_time, time;
@@ -105,6 +119,7 @@ struct jxf_model {
                           * part: of the model frame's origin, body components) */
     double g_now[3];     /* a turning part: gravity in body components there, m/s^2 */
     double b_now[9];     /* a turning part: the rotational load coefficients there, 1/s^2 */
+    double rot_now[9];   /* a turning part: the orientation there (body -> world, row-major) */
     double pos[3], vel[3]; /* the path travelled since the start, m and m/s (exact) */
     int settled;         /* deviation <= threshold at the current communication point */
     double settle_time;  /* time the settled flag last went true, s */
@@ -113,33 +128,14 @@ struct jxf_model {
     unsigned long clock;
     unsigned long recomputations;
 
-    const jxf_logger *log; /* the instance's (jxf_fmu.h) */
+    const jxf_logger *log; /* the instance's (jxf_fmu.h, jxf_log.h) */
 };
 
-/* The cell's outputs at the communication point (jxf_cell.c): utilisation of cup c, von
- * Mises stress at stress point s (Pa), distance of point k to the nearest obstacle (m). */
-double jxf_cup_utilisation(const jxf_model *m, int c);
-double jxf_von_mises(const jxf_model *m, int s);
-double jxf_point_distance(const jxf_model *m, int k);
-/* 0 if every obstacle record has a kind of the table (fmu/obstacles.py), else -1 after
- * logging the first that has not (`name`: the resource file, for the message). */
-int jxf_check_obstacles(const jxf_model *m, const char *name);
-
-/* The modal forces `f` (M) of the drive `in` (JXF_IN_COUNT inputs), the acceleration of the
- * model frame's origin `a_body` and gravity `g_body` (body components, m/s^2; zero for a part
- * that does not turn, whose state is measured from its sag) and, unless NULL, the rotational
- * load coefficients `b` (9: b[3 i + j] = B_ji, B = [alpha]_x + w w^T - |w|^2 I, 1/s^2, as
- * jaxflex.rotation_residual.load_coefficients; zero for a part that does not turn).
- * jxf_turning.c. 0, or -1 after logging when the orientation quaternion has no direction
- * (zero or not finite). */
-int jxf_drive_forces(const jxf_model *m, const double in[JXF_IN_COUNT], double *f,
-                     double a_body[3], double g_body[3], double b[9]);
-
-/* Format a message and send it to the model's logger (printf-style). */
-void jxf_log(const jxf_model *m, int level, const char *format, ...);
+/* Format a message (printf-style) and send it to the model's logger (jxf_log.h). */
+#define jxf_log(m, ...) jxf_logf((m)->log, __VA_ARGS__)
 
 #ifdef __cplusplus
 }
 #endif
 
-#endif /* JXF_CORE_H */
+#endif /* JXF_MODEL_H */
