@@ -23,6 +23,15 @@ A plate's in-plane share (F_x, F_y, M_z) is that of a part rigid in its plane on
 springs (fem.outputs.in_plane_share) carrying the in-plane resultant of each field: force
 m c_i e_j, moment about the centre of mass from the mass's second moments.
 
+The couplings of the deformation, G_k = phi^T M X_k phi and P_kl = phi^T M X_k X_l phi with
+X_k the DOF operator of u -> e_k x u (:func:`coupling_matrices`; the neglected terms' bound of
+jaxflex.turning): the thin solid's X_k turns each node's translation; the shell's turns its
+translation and its rotation vector (both are vectors turning with the frame); a Kirchhoff
+plate's deflection w e_z turned about any axis is in its plane (G_k = 0) and e_k x (e_l x
+w e_z) has the z component (d_kz d_lz - d_kl) w, so P_kl = (d_kz d_lz - d_kl) phi^T M phi
+(its kinetic energy has no rotary inertia: exact); decks and ANSYS imports get none (their
+DOFs may be in rotated nodal systems), and jaxflex.turning falls back to its energy bound.
+
 Every formulation's fields are checked against its own rigid rotations (eps_kij e_j r_i =
 e_k x r: fem.system.FormulationOutputs.rigid_motion) before use. Sources without a mass
 matrix and coordinates (R1 matrices, ``.rst`` results alone, modal results from other
@@ -142,9 +151,43 @@ def rotational_inertia(
     if not system.outputs.moves_in_plane:  # flat plate: about z from x and y
         inertia[2, 2] = inertia[0, 0] + inertia[1, 1]
     statics = {} if nodes is None else rotation_statics(result, fields, nodes, outputs=outputs)
+    couplings = coupling_matrices(result)
+    if couplings is not None:
+        statics["gyroscopic"], statics["spin"] = couplings
     return RotationalInertia(
         shape_integrals, np.float64(result.mass_kg), centre, inertia, **statics
     )
+
+
+def coupling_matrices(result) -> tuple[np.ndarray, np.ndarray] | None:
+    """(G (3, M, M), P (3, 3, M, M)) = (phi^T M X_k phi, phi^T M X_k X_l phi) of the modes
+    of ``result`` (fem.ModalResult), X_k the DOF operator of u -> e_k x u (module
+    docstring); None for a formulation without it."""
+    system = result.system
+    outputs = system.outputs
+    phi = result.basis @ result.vectors  # (n_dof, M) the modes on every DOF
+    mass_phi = system.M @ phi
+    if isinstance(outputs, PlateOutputs):
+        n = phi.shape[1]
+        spin = np.einsum("kl,mn->klmn", np.diag([0.0, 0.0, 1.0]) - np.eye(3), phi.T @ mass_phi)
+        return np.zeros((3, n, n)), spin
+    if not isinstance(outputs, SolidOutputs | ShellOutputs):
+        return None
+    # the solid's nodes hold one vector (x, y, z), the shell's two (translation, rotation)
+    vectors = phi.reshape(-1, 3, phi.shape[1])  # (vectors, 3, M)
+
+    def turned(k: int, v: np.ndarray) -> np.ndarray:  # e_k x v for every vector
+        return np.cross(np.eye(3)[k][None, :, None], v, axis=1)
+
+    crossed = [turned(k, vectors) for k in range(3)]
+    gyroscopic = np.stack([mass_phi.T @ c.reshape(phi.shape) for c in crossed])
+    spin = np.stack(
+        [
+            np.stack([mass_phi.T @ turned(k, c).reshape(phi.shape) for c in crossed])
+            for k in range(3)
+        ]
+    )
+    return gyroscopic, spin
 
 
 def rotation_statics(

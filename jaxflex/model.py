@@ -580,7 +580,12 @@ def load_model(path) -> ModalModel:
             fields["stress"] = stress_from_fields(optional["stress"], modes)
         if "rotation" in optional:
             rotation_fields = dict(optional["rotation"])
-            for group in ("rotation_static", "rotation_cups", "rotation_stress"):
+            for group in (
+                "rotation_static",
+                "rotation_cups",
+                "rotation_stress",
+                "rotation_coupling",
+            ):
                 rotation_fields.update(optional.get(group, {}))
             fields["rotation"] = RotationalInertia.from_fields(rotation_fields)
         if version < 3:

@@ -11,7 +11,9 @@ see jaxflex.outputs and jaxflex.model for their meaning): the exact static displ
 the points per unit base acceleration, the cups and their reactions, the surface stresses,
 the inertia data of turning moves (jaxflex.rotation; files without it cannot turn the part)
 and their static response to the rotational loads (points, cups, stresses: three groups;
-files without them turn the part without the quasi-static share of the modes left out).
+files without them turn the part without the quasi-static share of the modes left out), and
+the modes' gyroscopic and spin couplings (one group; files without them get the looser
+energy bound of the neglected terms).
 Version 2 files are read as well (they hold no static displacement, and the outputs' modal
 A instead of their static response S: jaxflex.outputs.legacy_static_map derives S), and
 version 1 files (the same without any group).
@@ -140,6 +142,14 @@ ROTATION_STRESS_GROUP = _group(
     "rotation_stress",
     ("rotation_stress_static", ("S", 6, 3, 3), "Pa per unit B_ji (1/s^2), at rest", 3),
 )
+# The optional couplings of the deformation (jaxflex.rotation): G_k = phi^T M X_k phi and
+# P_kl = phi^T M X_k X_l phi, X_k the DOF operator of u -> e_k x u (the neglected terms'
+# a-posteriori bound, jaxflex.turning).
+ROTATION_COUPLING_GROUP = _group(
+    "rotation_coupling",
+    ("rotation_gyroscopic", (3, "M", "M"), "1: phi^T M (e_k x phi)", 3),
+    ("rotation_spin", (3, 3, "M", "M"), "1: phi^T M (e_k x (e_l x phi))", 3),
+)
 FIELDS = (
     Field("format", "text", ()),
     Field("schema_version", "integer", ()),
@@ -157,6 +167,7 @@ FIELDS = (
     *ROTATION_STATIC_GROUP,
     *ROTATION_CUP_GROUP,
     *ROTATION_STRESS_GROUP,
+    *ROTATION_COUPLING_GROUP,
 )
 FIELD_BY_NAME = {f.name: f for f in FIELDS}
 HEADER_FIELDS = ("format", "schema_version", "meta_json")  # read first, by name
@@ -168,6 +179,7 @@ _GROUPS = (
     ("rotation_static", ROTATION_STATIC_GROUP),
     ("rotation_cups", ROTATION_CUP_GROUP),
     ("rotation_stress", ROTATION_STRESS_GROUP),
+    ("rotation_coupling", ROTATION_COUPLING_GROUP),
 )
 OPTIONAL_FIELDS: dict[str, tuple[str, ...]] = {
     group: tuple(f.name for f in fields if f.in_version(SCHEMA_VERSION))

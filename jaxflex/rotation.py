@@ -26,6 +26,15 @@ m s^2: [k, c, i, j] component c of point k), the cup reactions (``cup_static`` (
 N s^2 or N m s^2 per row of jaxflex.outputs.CupSet) and the stresses (``stress_static``
 (6 S, 3, 3) Pa s^2). With them the modes left out respond quasi-statically to the Euler and
 centrifugal loads too (jaxflex.rotation_residual); without them that share is missing.
+
+**Couplings of the deformation** (optional, from the FE): the loads the turning engine
+neglects, -M [2 w x u' + alpha x u + w x (w x u)] (jaxflex.turning), in the kept modes:
+``gyroscopic`` (3, M, M) G_k = phi^T M X_k phi and ``spin`` (3, 3, M, M) P_kl =
+phi^T M X_k X_l phi (dimensionless), X_k the DOF operator of u -> e_k x u (fem.
+rotation_integrals). The modal load of the neglected terms is then -(2 G(w) q' + G(alpha) q
++ P(w) q) with G(v) = sum_k v_k G_k and P(w) = sum_kl w_k w_l P_kl; with them
+jaxflex.turning bounds the neglected terms' effect a posteriori, without them by an energy
+estimate alone.
 """
 
 from __future__ import annotations
@@ -56,6 +65,9 @@ STATIC_FIELDS = {
     "cup_static": "rotation_cup_static",
     "stress_static": "rotation_stress_static",
 }
+# the optional couplings of the deformation (module docstring): the file's group
+# "rotation_coupling" (jaxflex.model_file)
+COUPLING_FIELDS = {"gyroscopic": "rotation_gyroscopic", "spin": "rotation_spin"}
 
 
 @jax.tree_util.register_pytree_node_class
@@ -70,6 +82,8 @@ class RotationalInertia:
         inertia_kg_m2: (3, 3) its inertia tensor about the model frame's origin, kg m^2.
         static_shapes, cup_static, stress_static: the optional static response to the unit
             inertia loads (module docstring), (K, 3, 3, 3), (6 C, 3, 3), (6 S, 3, 3) or None.
+        gyroscopic, spin: the optional couplings of the deformation (module docstring),
+            (3, M, M) and (3, 3, M, M) or None.
     """
 
     shape_integrals: Any
@@ -79,6 +93,8 @@ class RotationalInertia:
     static_shapes: Any = None
     cup_static: Any = None
     stress_static: Any = None
+    gyroscopic: Any = None
+    spin: Any = None
 
     def tree_flatten(self):
         return (
@@ -89,6 +105,8 @@ class RotationalInertia:
             self.static_shapes,
             self.cup_static,
             self.stress_static,
+            self.gyroscopic,
+            self.spin,
         ), None
 
     @classmethod
@@ -97,7 +115,7 @@ class RotationalInertia:
 
     def replace(self, **changes: Any) -> RotationalInertia:
         """The same data with the fields ``changes`` replaced."""
-        names = ROTATION_ATTRIBUTES + tuple(STATIC_FIELDS)
+        names = ROTATION_ATTRIBUTES + tuple(STATIC_FIELDS) + tuple(COUPLING_FIELDS)
         return RotationalInertia(**{n: changes.get(n, getattr(self, n)) for n in names})
 
     @property
@@ -107,8 +125,13 @@ class RotationalInertia:
 
     def take_modes(self, keep) -> RotationalInertia:
         """The same data for the modes ``keep`` (indices); the static response stays (the
-        modes dropped join its quasi-static residual)."""
-        return self.replace(shape_integrals=np.asarray(self.shape_integrals)[keep])
+        modes dropped join its quasi-static residual), the couplings among the kept stay."""
+        keep = np.asarray(keep)
+        couplings = {
+            name: None if value is None else np.asarray(value)[..., keep[:, None], keep]
+            for name, value in ((n, getattr(self, n)) for n in COUPLING_FIELDS)
+        }
+        return self.replace(shape_integrals=np.asarray(self.shape_integrals)[keep], **couplings)
 
     def posed(
         self,
@@ -123,7 +146,8 @@ class RotationalInertia:
         ``translation`` maps the names of STATIC_FIELDS to functions (values, rotation,
         offset) -> posed values (jaxflex.model.ModalModel.posed: :func:`posed_tensor` with
         the translation's static response and the output rows' own rotation); a static
-        response without one is dropped."""
+        response without one is dropped. The couplings turn with the axes: G'_k = R_ka G_a,
+        P'_kl = R_ka P_ab R_lb (they do not depend on the origin)."""
         r, o = np.asarray(rotation), np.asarray(offset_m)
         s = posed_tensor(self.shape_integrals, np.asarray(gamma), r, o)
         m, c = float(self.mass_kg), np.asarray(self.centre_m)
@@ -135,6 +159,9 @@ class RotationalInertia:
             value = getattr(self, name)
             moved = None if translation is None else translation.get(name)
             statics[name] = None if value is None or moved is None else moved(value, r, o)
+        if self.gyroscopic is not None:
+            statics["gyroscopic"] = np.einsum("ka,a...->k...", r, np.asarray(self.gyroscopic))
+            statics["spin"] = np.einsum("ka,lb,ab...->kl...", r, r, np.asarray(self.spin))
         return RotationalInertia(s, np.float64(m), c_new, j_new, **statics)
 
     def to_fields(self) -> dict[str, np.ndarray]:
@@ -152,17 +179,23 @@ class RotationalInertia:
             if value is not None:
                 value = np.asarray(value)
                 out[field] = value if name == "static_shapes" else value.reshape(-1, 6, 3, 3)
+        for name, field in COUPLING_FIELDS.items():
+            if getattr(self, name) is not None:
+                out[field] = np.asarray(getattr(self, name))
         return out
 
     @classmethod
     def from_fields(cls, fields: dict[str, np.ndarray]) -> RotationalInertia:
-        """Inverse of :meth:`to_fields` (the static response's fields optional)."""
+        """Inverse of :meth:`to_fields` (the static response's and couplings' fields
+        optional)."""
         statics = {}
         for name, field in STATIC_FIELDS.items():
             value = fields.get(field)
             if value is not None and name != "static_shapes":
                 value = value.reshape(-1, 3, 3)
             statics[name] = value
+        for name, field in COUPLING_FIELDS.items():
+            statics[name] = fields.get(field)
         return cls(
             fields["rotation_shape_integrals"],
             np.float64(fields["rotation_mass_kg"][0]),
@@ -221,7 +254,16 @@ def checked_rotation(
             continue
         shape = (rows, 3, 3, 3) if name == "static_shapes" else (rows, 3, 3)
         out.append(_checked_field(name, given, shape))
-    return RotationalInertia(*out)
+    couplings = [getattr(value_in, name) for name in COUPLING_FIELDS]
+    if all(c is not None for c in couplings):  # both or none (the file's group)
+        shapes = ((3, n_modes, n_modes), (3, 3, n_modes, n_modes))
+        couplings = [
+            _checked_field(name, c, shape)
+            for name, c, shape in zip(COUPLING_FIELDS, couplings, shapes, strict=True)
+        ]
+    else:
+        couplings = [None, None]
+    return RotationalInertia(*out, *couplings)
 
 
 def _checked_field(name: str, value: Any, shape: tuple) -> np.ndarray:

@@ -105,9 +105,12 @@ def test_turning_optimum_beats_baselines_and_is_certified(plate, axis, angle_deg
     assert settle <= result.cycle_time_s + DT
     if result.settle_time_s > result.transfer_time_s:
         assert settle >= result.cycle_time_s - DT
-    # the bound's integrals take the larger of each step's two samples: finer steps give
-    # a bound no larger (measured 1.66 mm fine vs 1.86 mm reported for the tilt)
-    assert 0 < response.neglected_bound_m <= result.deviation["neglected_bound_m"] * (1 + 1e-3)
+    # the a-posteriori bound (jaxflex.turning) integrates the sampled neglected load: the
+    # fine evaluation's differs by the hold's O(dt^2) (measured +1.1 % for the (1, 1, 0)
+    # turn); the flat plate's swivel about its normal neglects nothing (both exactly 0)
+    reported = result.deviation["neglected_bound_m"]
+    assert response.neglected_bound_m <= 1.05 * reported
+    assert (response.neglected_bound_m == 0) == (reported == 0) == (axis == "z")
 
 
 def test_zero_angle_turn_gives_the_straight_answer(plate):
