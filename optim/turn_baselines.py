@@ -27,6 +27,7 @@ from optim.baselines import Baseline, BaselineSet, mode_trains
 from optim.kinematics import clean_distance
 from optim.limits import Limits
 from optim.request import Request
+from optim.robust import perturbed
 from optim.ruckig_move import (
     MAX_EXTRA_STEPS,
     fit_to_grid,
@@ -41,9 +42,11 @@ from optim.turn import TurnSpec
 SHAPED_SCHEDULES = 2  # the search's shaped turn schedules: those of the best 2 baselines
 
 
-def _evaluate(model, turn: TurnSpec, name, acc, alpha, dt_s, threshold_m, freqs) -> Baseline:
+def _evaluate(model, request: Request, name, acc, alpha, freqs) -> Baseline:
+    """The baseline ``name`` with its exact timing and, in robust mode, its worst case."""
+    turn, dt_s, threshold_m = request.rotate, request.dt_s, request.threshold_m
     timing, response = turn.timing(model, alpha, acc, dt_s, threshold_m)
-    return Baseline(
+    entry = Baseline(
         name,
         acc,
         timing,
@@ -51,6 +54,26 @@ def _evaluate(model, turn: TurnSpec, name, acc, alpha, dt_s, threshold_m, freqs)
         angular_acc=alpha,
         neglected_bound_m=response.neglected_bound_m,
     )
+    if request.robust is not None:
+        entry.worst_cycle_time_s, entry.worst_case, entry.worst_grid = turn_worst_case(
+            model, turn, acc, alpha, dt_s, threshold_m, request.robust.grid()
+        )
+    return entry
+
+
+def turn_worst_case(
+    model: ModalModel, turn: TurnSpec, acc, alpha, dt_s: float, threshold_m: float, grid
+) -> tuple[float, dict, list[dict]]:
+    """The turning move's largest exact cycle time (jaxflex.turning.turning_settle) over the
+    (frequency scale, zeta) points of ``grid``: (worst, where, every point), as
+    optim.baselines.worst_case of a straight move."""
+    points = []
+    for scale, zeta in grid:
+        timing = turn.timing(perturbed(model, scale, zeta), alpha, acc, dt_s, threshold_m)[0]
+        points.append({"freq_scale": scale, "zeta": zeta, "cycle_time_s": timing.cycle_time_s})
+    worst = max(points, key=lambda p: p["cycle_time_s"])
+    where = {"freq_scale": worst["freq_scale"], "zeta": worst["zeta"]}
+    return float(worst["cycle_time_s"]), where, points
 
 
 def synchronised_floor(
@@ -93,12 +116,10 @@ def turn_baselines(
     duration T) and the shapers of the best SHAPED_SCHEDULES shaped baselines, best first
     (the search's shaped turn schedules, optim.turn.TurnSchedule)."""
     turn, limits, dt_s = request.rotate, request.limits, request.dt_s
-    threshold_m, max_shaped_modes = request.threshold_m, request.max_shaped_modes
+    max_shaped_modes = request.max_shaped_modes
     distance = clean_distance(distance_m)
     floor_acc, floor_alpha, duration = synchronised_floor(distance, turn, limits, dt_s, max_steps)
-    floor = _evaluate(
-        model, turn, "ruckig + free decay", floor_acc, floor_alpha, dt_s, threshold_m, []
-    )
+    floor = _evaluate(model, request, "ruckig + free decay", floor_acc, floor_alpha, [])
     entries = [floor]
     end = turn.response(model, floor_alpha, floor_acc, dt_s).end_state
     share = np.asarray(model.shape_norms).max(axis=0) * amplitudes(model, end)
@@ -125,7 +146,7 @@ def turn_baselines(
             n_steps = max(acc.shape[0], alpha.size) - 1
             acc, alpha = pad_to(acc, n_steps), np.pad(alpha, (0, n_steps + 1 - alpha.size))
             freqs = [float(freq[i]) for i in modes]
-            entry = _evaluate(model, turn, f"{kind} x{count}", acc, alpha, dt_s, threshold_m, freqs)
+            entry = _evaluate(model, request, f"{kind} x{count}", acc, alpha, freqs)
             if best is None or entry.score() < best.score():
                 best, trains[kind] = entry, train
         if best is not None:
