@@ -196,14 +196,13 @@ class Request:
             )
         unsupported = {
             "clearance_m (--clearance)": self.clearance_m is not None,
-            "via points in the cell (cell.path.via)": self.has_via,
         }
         refused = [name for name, asked in unsupported.items() if asked]
         if refused:
             raise InputError(
                 f"rotate (--rotate): {', '.join(refused)} not yet for turning moves; turning "
-                "moves take the exact route, the robust grid, a cell without via points and "
-                "its constraints (min_distance_m, cup_safety, max_stress_pa)"
+                "moves take the exact route, the robust grid, a cell (via points, "
+                "min_distance_m, cup_safety, max_stress_pa)"
             )
         self._set("rotate", _in_cell(rotate, self.cell))
 

@@ -38,7 +38,7 @@ from optim.request import Request
 from optim.result import OptimizationResult, deviation_summary
 from optim.search import Attempt, Problem, active_components, attempt, bisect, scenarios
 from optim.turn import TurnSchedule, turn_deviation
-from optim.turn_baselines import turn_baselines, turn_worst_case
+from optim.turn_baselines import turn_baselines, turn_via_baselines, turn_worst_case
 
 
 @dataclass(frozen=True)
@@ -147,7 +147,10 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     r, setup = request, plan.setup
     fractions: list[float] = []
     trains = []
-    if r.rotate is not None:
+    if r.rotate is not None and setup.via:
+        via = [v[0] for v in setup.via]
+        moves, fractions = turn_via_baselines(r, setup.model, setup.distance_m, via, plan.steps_cap)
+    elif r.rotate is not None:
         moves, trains = turn_baselines(r, setup.model, setup.distance_m, plan.steps_cap)
     elif setup.via:
         via = [v[0] for v in setup.via]

@@ -23,7 +23,7 @@ from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.response import amplitudes
 from jaxflex.runtime import progress_bar
-from optim.baselines import Baseline, BaselineSet, mode_trains
+from optim.baselines import Baseline, BaselineSet, mode_trains, via_baselines
 from optim.kinematics import clean_distance
 from optim.limits import Limits
 from optim.request import Request
@@ -157,3 +157,39 @@ def turn_baselines(
     bar.close()
     shaped = sorted(entries[1:], key=Baseline.score)[:SHAPED_SCHEDULES]
     return BaselineSet(duration, floor_acc, entries, skipped), [trains[e.name] for e in shaped]
+
+
+def turn_via_baselines(
+    request: Request, model: ModalModel, distance_m, via_offsets, max_steps: int
+) -> tuple[BaselineSet, list[float]]:
+    """The baseline of a turning move along a cell's via points: ruckig through the via
+    points, stopping at each (optim.baselines.via_baselines), with the turn stretched by
+    ruckig over the whole path on the grid (padded with rest where the turn alone takes
+    longer), plus free decay; and the fractions of its steps at which it passes each via
+    point (the search's via rows). The kinematic floor is the longer of the path's and the
+    turn's."""
+    turn, dt_s = request.rotate, request.dt_s
+    moves, fractions = via_baselines(
+        model, distance_m, via_offsets, request.limits, dt_s, request.threshold_m,
+        max_steps=max_steps,
+    )  # fmt: skip
+    path_steps = moves.entries[0].acc.shape[0] - 1
+    start = max(path_steps, grid_steps(turn.fastest_s(), dt_s))
+    for n_steps in range(start, min(max_steps, start + MAX_EXTRA_STEPS) + 1):
+        alpha = turn.stretched(n_steps, dt_s)
+        if alpha is not None:
+            break
+    else:
+        raise InputError(
+            f"rotate: the turn does not fit in {max_steps} steps of {dt_s:g} s along the via "
+            "points; raise max_duration_s or the angular limits"
+        )
+    acc = pad_to(moves.entries[0].acc, n_steps)
+    entry = _evaluate(model, request, "ruckig via points + turn + free decay", acc, alpha, [])
+    floor_steps = max(moves.floor_acc.shape[0] - 1, grid_steps(turn.fastest_s(), dt_s))
+    floor_s = max(moves.kinematic_floor_s, turn.fastest_s())
+    scale = path_steps / n_steps  # the via points' samples stay where the path passes them
+    return (
+        BaselineSet(floor_s, pad_to(moves.floor_acc, floor_steps), [entry]),
+        [f * scale for f in fractions],
+    )
