@@ -53,12 +53,12 @@ from jaxflex.engine import free_states, state_maps_at, states_between
 from jaxflex.geometry import distances
 from jaxflex.peaks import Peak, SearchState, certified_max, settling_windows
 from jaxflex.profile import kinematics_at, position_weights
-from jaxflex.rotation_residual import turning_coordinates, turning_shapes
+from jaxflex.rotation_residual import output_residual, turning_coordinates, turning_shapes
 from jaxflex.turning import TurningInputs, turning_forces, turning_inputs
 from jaxflex.turning_collision import rotations_between, turning_min_distance
-from jaxflex.turning_outputs import output_values
 from optim.cell_rows import (
     BOUND_RTOL,
+    ITEM_BLOCK,
     ROW_MARGIN,
     SCAN_RTOL,
     SUBSTEPS,
@@ -224,7 +224,8 @@ class TurnLoadFamily(LoadFamily):
 
     def __init__(self, name, model, outputs, static_rot, functional, limit, source) -> None:
         super().__init__(name, model, outputs, functional, limit, np.zeros(3))
-        self.static_rot, self.source = static_rot, source
+        self.source = source
+        self.a_rot = output_residual(outputs, static_rot, model)  # (Y, 9)
 
     @classmethod
     def cups(cls, model, safety: float, source) -> TurnLoadFamily:
@@ -248,31 +249,43 @@ class TurnLoadFamily(LoadFamily):
         alpha = self.source.angular_acc(acc.shape[0] - 1)
         return TurnMotion(self.model, self.source.spec, alpha, acc, dt_s, during, tau)
 
-    def outputs_of(self, motion: TurnMotion) -> np.ndarray:
-        """(T, Y) the outputs at the motion's times (jaxflex.turning_outputs, equation 1)."""
-        return output_values(self.model, self.outputs, self.static_rot, motion.inputs)
+    def outputs_of(self, motion: TurnMotion, rows=None, times=slice(None)) -> np.ndarray:
+        """(T, Y) the outputs ``rows`` (default all) at the motion's ``times`` (default all):
+        jaxflex.turning_outputs' equation (1), y = Q q + V q' + A (a_O - g_b) + A_rot b."""
+        rows = slice(None) if rows is None else rows
+        inputs = motion.inputs
+        return (
+            inputs.q[times] @ self.q_map[rows].T
+            + inputs.qd[times] @ self.v_map[rows].T
+            + inputs.base[times] @ self.a_map[rows].T
+            + inputs.coefficients[times] @ self.a_rot[rows].T
+        )
 
     def evaluate(self, motion: TurnMotion, items: np.ndarray | None = None) -> np.ndarray:
-        """(T, I) the functional of ``items`` (default all) at the motion's times."""
+        """(T, I) the functional of ``items`` (default all) at the motion's times, in blocks
+        of ITEM_BLOCK items."""
         if items is None:
             items = np.arange(self.functional.n_items)
-        y = self.outputs_of(motion)
         r = self.functional.rows_per_item
-        rows = (r * items[:, None] + np.arange(r)).ravel()
+        out = [np.zeros((len(motion.t_s), 0))]
         with threadpool_limits(limits=1, user_api="blas"):
-            return self.functional.values(y[:, rows].reshape(len(y), len(items), r), items)
+            for start in range(0, len(items), ITEM_BLOCK):
+                block = items[start : start + ITEM_BLOCK]
+                y = self.outputs_of(motion, (r * block[:, None] + np.arange(r)).ravel())
+                out.append(self.functional.values(y.reshape(len(y), len(block), r), block))
+        return np.concatenate(out, axis=1)
 
     def scan(self, acc: np.ndarray, dt_s: float, axes) -> list[Row]:
         above = self.limit * (1 - ROW_MARGIN + SCAN_RTOL)
         during = move_times(acc.shape[0] - 1, dt_s)
         motion = self.motion(acc, dt_s, during, tail_times(self.model))
-        y = self.outputs_of(motion)
         found = _worst_samples(self.evaluate(motion), above)
-        return [self._turn_row(motion, y, j, item, axes) for j, item in found]
+        return [self._turn_row(motion, j, item, axes) for j, item in found]
 
-    def _turn_row(self, motion: TurnMotion, y_all: np.ndarray, j: int, item: int, axes) -> Row:
+    def _turn_row(self, motion: TurnMotion, j: int, item: int, axes) -> Row:
+        """The cut at time index ``j`` and ``item`` (module docstring)."""
         rows = self._rows_of(item)
-        y = y_all[j, rows]
+        y = self.outputs_of(motion, rows, slice(j, j + 1))[0]
         g = self.functional.cut(y, item)
         maps = motion.state_map(j)
         coef = np.einsum("m,mkc->kc", g @ self.q_map[rows], maps[:, 0])
@@ -301,7 +314,7 @@ class TurnLoadFamily(LoadFamily):
 
     def failure_row(self, peak: Peak, acc: np.ndarray, dt_s: float, axes) -> Row:
         motion = self._motion_at(acc, dt_s, peak.time_s)
-        return self._turn_row(motion, self.outputs_of(motion), 0, peak.item, axes)
+        return self._turn_row(motion, 0, peak.item, axes)
 
     def _motion_at(self, acc: np.ndarray, dt_s: float, time_s: float) -> TurnMotion:
         """The motion at the one time ``time_s`` (s from the start; inf: at rest at B)."""

@@ -123,7 +123,7 @@ def test_rows_are_exact_for_the_schedule(plate):
     during = move_times(n, DT)
     j, item = 333, 2  # a time between samples, within the move
     motion = cups.motion(first, DT, during, [])
-    row = cups._turn_row(motion, cups.outputs_of(motion), j, item, axes)
+    row = cups._turn_row(motion, j, item, axes)
     g = cups.functional.cut(cups.outputs_of(motion)[j, cups._rows_of(item)], item)
     again = cups.motion(second, DT, during, [])
     value = g @ cups.outputs_of(again)[j, cups._rows_of(item)]
