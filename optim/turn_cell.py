@@ -275,12 +275,35 @@ class TurnLoadFamily(LoadFamily):
                 out.append(self.functional.values(y.reshape(len(y), len(block), r), block))
         return np.concatenate(out, axis=1)
 
+    def item_bounds(self, motion: TurnMotion) -> np.ndarray:
+        """(I,) each item's bound over the motion's times: f(y) <= W . |y| (f positively
+        homogeneous, Lipschitz with the row weights W) and |y_j| <= sum over the inputs of
+        |map_j| times the input's largest magnitude over the times. Cheap (no outputs)."""
+        inputs = motion.inputs
+        size = sum(
+            np.abs(m) @ np.abs(x).max(axis=0)
+            for m, x in (
+                (self.q_map, inputs.q),
+                (self.v_map, inputs.qd),
+                (self.a_map, inputs.base),
+                (self.a_rot, inputs.coefficients),
+            )
+        )
+        items = np.arange(self.functional.n_items)
+        weights = self.functional.weights(items)
+        return np.einsum("ir,ir->i", weights, size.reshape(weights.shape))
+
     def scan(self, acc: np.ndarray, dt_s: float, axes) -> list[Row]:
+        """Rows at the worst sampled violations; only the items whose bound
+        (:meth:`item_bounds`) reaches the row threshold are evaluated."""
         above = self.limit * (1 - ROW_MARGIN + SCAN_RTOL)
         during = move_times(acc.shape[0] - 1, dt_s)
         motion = self.motion(acc, dt_s, during, tail_times(self.model))
-        found = _worst_samples(self.evaluate(motion), above)
-        return [self._turn_row(motion, j, item, axes) for j, item in found]
+        candidates = np.flatnonzero(self.item_bounds(motion) > above)
+        if candidates.size == 0:
+            return []
+        found = _worst_samples(self.evaluate(motion, candidates), above)
+        return [self._turn_row(motion, j, int(candidates[i]), axes) for j, i in found]
 
     def _turn_row(self, motion: TurnMotion, j: int, item: int, axes) -> Row:
         """The cut at time index ``j`` and ``item`` (module docstring)."""
@@ -296,14 +319,22 @@ class TurnLoadFamily(LoadFamily):
         return Row(coef[:, list(axes)] / self.limit, float(rhs), float(motion.t_s[j]), item)
 
     def certify(self, acc: np.ndarray, dt_s: float) -> Peak:
-        """The largest value at the move's samples and, after the move, certified by branch
+        """The largest value every dt / SUBSTEPS during the move (the items that can beat
+        the samples' largest, :meth:`item_bounds`) and, after the move, certified by branch
         and bound (:class:`_Settling`; module docstring); ``bound`` the supremum's bound
-        over both (the move's share: its samples)."""
-        motion = self.motion(acc, dt_s, move_times(acc.shape[0] - 1, dt_s), np.zeros(0))
-        values = self.evaluate(motion)
+        over both (the move's share: its sampled value)."""
+        n = acc.shape[0] - 1
+        samples = self.motion(acc, dt_s, dt_s * np.arange(n + 1), np.zeros(0))
+        values = self.evaluate(samples)
         best = SearchState()
         best.evaluations += values.size
-        best.update(values.T, motion.t_s, np.arange(values.shape[1]))
+        best.update(values.T, samples.t_s, np.arange(values.shape[1]))
+        # between the samples, every dt / SUBSTEPS: only the items whose bound beats the best
+        motion = self.motion(acc, dt_s, move_times(n, dt_s), np.zeros(0))
+        items = np.flatnonzero(self.item_bounds(motion) > best.value)
+        values = self.evaluate(motion, items)
+        best.evaluations += values.size
+        best.update(values.T, motion.t_s, items)
         tolerance = _tolerance(self.limit)
         _Settling(self, motion).search(best, tolerance)
         value = best.value
