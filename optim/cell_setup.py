@@ -170,10 +170,7 @@ def prepare_cell(
                 " of this version)"
             )
         safety = check_positive("cup_safety", cup_safety)
-        if turn is None:
-            makers.append(lambda m: LoadFamily.cups(m, safety, gravity))
-        else:
-            makers.append(lambda m: TurnLoadFamily.cups(m, safety, source))
+        makers.append(_load_maker("cups", safety, gravity, source))
     if max_stress_pa is not None:
         if model.stress is None:
             raise InputError(
@@ -181,21 +178,9 @@ def prepare_cell(
                 "of this version)"
             )
         limit = _stress_limit(model, max_stress_pa)
-        if turn is None:
-            makers.append(lambda m: LoadFamily.stress(m, limit, gravity))
-        else:
-            makers.append(lambda m: TurnLoadFamily.stress(m, limit, source))
+        makers.append(_load_maker("stress", limit, gravity, source))
     if makers:
-        note = str(dict(model.meta).get("static_response", "none recorded"))
-        if model.static_shapes is None or note.startswith("schema"):
-            setup.advice.append(
-                (
-                    "static_response",
-                    f"the model's static response is not the FE's ({note}); the cell's "
-                    "constraints use it as it is. Re-create the model (`jaxflex model`) for "
-                    "the exact sag and loads under gravity",
-                )
-            )
+        setup.advice += _static_advice(model)
     for make in makers:
         family = make(model)
         if isinstance(family, LoadFamily):
@@ -206,6 +191,29 @@ def prepare_cell(
             loads = isinstance(family, LoadFamily)
             setup.families.append(ScenarioFamily(make, model, robust, outputs=loads))
     return setup
+
+
+def _load_maker(kind: str, limit: float, gravity, source: TurnSource | None):
+    """The family of one model (``kind`` "cups" or "stress"): a straight move's
+    (optim.cell_rows) or, with a turn ``source``, a turning move's (optim.turn_cell)."""
+    if source is None:
+        return lambda m: getattr(LoadFamily, kind)(m, limit, gravity)
+    return lambda m: getattr(TurnLoadFamily, kind)(m, limit, source)
+
+
+def _static_advice(model: ModalModel) -> list:
+    """Advice (jaxflex.advice pairs) for a model whose static response is not the FE's."""
+    note = str(dict(model.meta).get("static_response", "none recorded"))
+    if model.static_shapes is not None and not note.startswith("schema"):
+        return []
+    return [
+        (
+            "static_response",
+            f"the model's static response is not the FE's ({note}); the cell's constraints "
+            "use it as it is. Re-create the model (`jaxflex model`) for the exact sag and "
+            "loads under gravity",
+        )
+    ]
 
 
 def _half_thickness(model: ModalModel, cell: Cell) -> float:
