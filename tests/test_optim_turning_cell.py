@@ -231,11 +231,11 @@ def test_turning_refusals_name_what_does(plate):
         cell_from_dict({**base, "path": {"end_m": [0, 0, 1.0], "via": via}})
 
 
-def test_turning_move_passes_the_via_point(plate):
+def test_turning_move_passes_the_via_point(plate, tmp_path):
     """A tilt along a cell path with a blended via point (0.1 m per axis) and cups: the
     move passes within the tolerance at a sample (positions integrated here), no worse
     than the via-point baseline (ruckig stopping at it, the turn stretched over the path),
-    and its cups are certified."""
+    its cups are certified, and its files include the constraints' plot."""
     via = [{"position_m": [0.0, 0.0, 0.5], "mode": "blend", "tolerance_m": 0.1}]
     cell = cell_from_dict(
         {"path": {"end_m": [0.6, 0.0, 0.6], "via": via}, "part": {"thickness_m": 1e-3}}
@@ -248,3 +248,6 @@ def test_turning_move_passes_the_via_point(plate):
     assert np.abs(pos - [0.0, 0.0, 0.5]).max(axis=1).min() <= 0.1 * (1 + 1e-9)
     (constraint,) = result.constraints
     assert constraint["bound"] <= 1.0
+    result.save(tmp_path)
+    assert (tmp_path / "constraints.png").stat().st_size > 0
+    assert (tmp_path / "turn.png").stat().st_size > 0
