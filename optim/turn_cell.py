@@ -3,15 +3,16 @@
 For a FIXED turn schedule (optim.turn.TurnSchedule: the angular acceleration samples of an
 n-step move) every quantity of the turning engine is affine in the translation samples a
 (jaxflex.turning: the translation enters as R_k^T a_k, the Euler, centrifugal and turned-
-gravity loads and the start's sag do not depend on a). At the move's samples t_k and at any
-time after the move (the part at rest in its final pose, vibrating freely about its sag
-there):
+gravity loads and the start's sag do not depend on a). At any time t during the move
+(between the samples k and k+1, w = t / dt - k) and after it (the part at rest in its
+final pose, vibrating freely about its sag there; the [..] terms are then 0):
 
 * an output (cup reactions, stresses; jaxflex.turning_outputs, equation (1)) is
-  y(t) = y_0(t) + Q X_q(t) a + V X_v(t) a + [t = t_k] A R_k^T a_k, with X(t) the straight
-  move's state map (jaxflex.engine.state_maps_at) applied to the turned samples R_j^T a_j;
+  y(t) = y_0(t) + Q X_q(t) a + V X_v(t) a + A [(1 - w) R_k^T a_k + w R_k+1^T a_k+1], with
+  X(t) the straight move's state map (jaxflex.engine.state_maps_at) of the turned samples
+  R_j^T a_j;
 * a point's position (jaxflex.turning_collision, equation (1)) is
-  X_p(t) = X_p,0(t) + W(t) a + R(t) (Phi_p X_q(t) a + [t = t_k] D_p R_k^T a_k),
+  X_p(t) = X_p,0(t) + W(t) a + R(t) (Phi_p X_q(t) a + D_p [(1 - w) R_k^T a_k + ...]),
   W the exact position weights of the pivot's path (jaxflex.profile.position_weights).
 
 So the rows of optim.cell_rows carry over unchanged: a convex positively homogeneous load
@@ -21,18 +22,17 @@ convex obstacle piece is a restriction (sequential convex programming, as for a 
 move). The constant parts y_0, X_0 come out of the evaluation of the current move (the
 cut's value at the current samples minus its linear part), so no second simulation runs.
 
-The turning engine defines the response at the move's samples (its forcing is sampled
-there); the families scan those and, after the move, every 1/16 of the shortest period for
-two periods of the longest. A move is then checked:
+The turning engine samples its forcing at the move's samples; between them the modal state
+is exact for that forcing and the loads' inputs are linear (jaxflex.turning_collision's
+definition). The families scan every dt / 8 during the move and, after it, every 1/16 of
+the shortest period for two periods of the longest. A move is then checked:
 
 * **distance**: certified by jaxflex.turning_collision.turning_min_distance (branch and
   bound over the move and the whole settling, every point, both skins);
-* **cups and stress**: jaxflex.turning_outputs.turning_loads at every sample of the move,
-  and the free vibration after it on a grid of 1/16 of the shortest period up to the time
-  the modes' amplitude envelope has decayed below SETTLED of its value at the stop (from
-  the same affine evaluation; :meth:`TurnLoadFamily.certify`). That is a sampled check,
-  not a bound between samples (the turning engine has no between-sample bound of its
-  outputs yet).
+* **cups and stress**: the outputs of jaxflex.turning_outputs (its equation (1)) every
+  dt / 8 during the move (a sampled check: the turning engine has no bound of its outputs
+  between samples yet), and after the move a certified branch and bound over the settling
+  and the rest in the final pose (:class:`_Settling`, jaxflex.peaks' bounds).
 
 Which turn a family evaluates is the :class:`TurnSource`'s: the search's active schedule of
 an n-step move, or, while :meth:`TurnSource.holding` a fixed one, a baseline's or the
@@ -53,6 +53,7 @@ from jaxflex.engine import free_states, state_maps_at, states_between
 from jaxflex.geometry import distances
 from jaxflex.peaks import Peak, SearchState, certified_max, settling_windows
 from jaxflex.profile import kinematics_at, position_weights
+from jaxflex.response import CupUtilisation, VonMises
 from jaxflex.rotation_residual import output_residual, turning_coordinates, turning_shapes
 from jaxflex.turning import TurningInputs, turning_forces, turning_inputs
 from jaxflex.turning_collision import rotations_between, turning_min_distance
@@ -229,16 +230,12 @@ class TurnLoadFamily(LoadFamily):
 
     @classmethod
     def cups(cls, model, safety: float, source) -> TurnLoadFamily:
-        from jaxflex.response import CupUtilisation
-
         functional = CupUtilisation(model.cups, safety)
         static = model.rotation.cup_static
         return cls("cup utilisation", model, model.cups.reaction, static, functional, 1.0, source)
 
     @classmethod
     def stress(cls, model, limit_pa: float, source) -> TurnLoadFamily:
-        from jaxflex.response import VonMises
-
         functional = VonMises(model.stress.n_points)
         static = model.rotation.stress_static
         return cls(
