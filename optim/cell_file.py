@@ -103,6 +103,10 @@ def _obstacle(spec: Mapping, index: int, folder: Path) -> Obstacle:
     return TriangleMesh(points, np.concatenate(triangles), name)
 
 
+# fields a via point's orientation might come in (refused, naming what a turn takes)
+ORIENTATION_FIELDS = {"orientation", "orientation_deg", "rotation", "rotation_deg", "quaternion"}
+
+
 def cell_from_dict(data: Mapping, folder: str | Path = ".") -> Cell:
     """A Cell from the mapping of a cell file (module docstring); paths relative to
     ``folder``. Raises InputError naming the field."""
@@ -130,6 +134,18 @@ def cell_from_dict(data: Mapping, folder: str | Path = ".") -> Cell:
     for i, v in enumerate(vias):
         if not isinstance(v, Mapping) or "position_m" not in v:
             raise InputError(f"cell.path.via[{i}]: needs position_m (and mode, tolerance_m)")
+        extra = set(v) - {"position_m", "mode", "tolerance_m"}
+        if extra & ORIENTATION_FIELDS:
+            raise InputError(
+                f"cell.path.via[{i}]: orientations at via points ({sorted(extra)}) are not "
+                "supported: a turning move turns about one fixed axis (jaxflex optimize "
+                "--rotate AXIS ANGLE_DEG) and its via points fix the position only"
+            )
+        if extra:
+            raise InputError(
+                f"cell.path.via[{i}]: unknown field(s) {sorted(extra)}; a via point has "
+                "position_m, mode, tolerance_m"
+            )
         tolerance = _number(f"cell.path.via[{i}].tolerance_m", v.get("tolerance_m", 0.0))
         via.append(Via(v["position_m"], v.get("mode", "blend"), tolerance))
     obstacles = data.get("obstacles", [])

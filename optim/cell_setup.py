@@ -16,6 +16,7 @@ needs the cell's.
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,6 +36,7 @@ from optim.cell_rows import DistanceFamily, LoadFamily
 from optim.cell_scenarios import ScenarioFamily
 from optim.kinematics import clean_distance
 from optim.robust import RobustSpec
+from optim.turn_cell import TurnDistanceFamily, TurnLoadFamily, TurnSource, rest_at_end
 
 
 @dataclass
@@ -49,21 +51,32 @@ class CellSetup:
     families: list = field(default_factory=list)
     cell: Cell | None = None
     advice: list = field(default_factory=list)
+    turn_source: TurnSource | None = None  # the turn the families evaluate (turning moves)
 
-    def describe_move(self, acc: np.ndarray, dt_s: float) -> list[dict]:
-        """The certified value of every family for the move ``acc``."""
-        return self.feasible(acc, dt_s)[1]
+    def describe_move(self, acc: np.ndarray, dt_s: float, angular_acc=None) -> list[dict]:
+        """The certified value of every family for the move ``acc`` (with the turn
+        ``angular_acc`` (n+1,) rad/s^2 of a turning move)."""
+        return self.feasible(acc, dt_s, angular_acc)[1]
 
-    def feasible(self, acc: np.ndarray, dt_s: float) -> tuple[bool, list[dict]]:
+    def feasible(self, acc: np.ndarray, dt_s: float, angular_acc=None) -> tuple[bool, list[dict]]:
         """(every family holds, the families' certified values) for the move ``acc`` (every
-        model of a robust grid checked)."""
-        found = [_certify_all(f, acc, dt_s) for f in self.families]
+        model of a robust grid checked; a turning move with its turn ``angular_acc``)."""
+        with self._turning(angular_acc):
+            found = [_certify_all(f, acc, dt_s) for f in self.families]
         ok = all(f.holds(x) for f, x in zip(self.families, found, strict=True))
         return ok, [f.describe(x) for f, x in zip(self.families, found, strict=True)]
 
-    def curves(self, acc: np.ndarray, dt_s: float, t: np.ndarray) -> dict[str, np.ndarray]:
+    def curves(
+        self, acc: np.ndarray, dt_s: float, t: np.ndarray, angular_acc=None
+    ) -> dict[str, np.ndarray]:
         """What each family limits at times ``t`` (for plots; the nominal model)."""
-        return {f.name: f.curve(acc, dt_s, t) for f in self.families}
+        with self._turning(angular_acc):
+            return {f.name: f.curve(acc, dt_s, t) for f in self.families}
+
+    def _turning(self, angular_acc):
+        if self.turn_source is None:
+            return nullcontext()
+        return self.turn_source.holding(angular_acc)
 
 
 def _certify_all(family, acc: np.ndarray, dt_s: float):
@@ -113,9 +126,12 @@ def prepare_cell(
     max_stress_pa: float | str | None = None,
     cup_safety: float | None = None,
     robust: RobustSpec | None = None,
+    turn=None,
 ) -> CellSetup:
     """The :class:`CellSetup` of ``optim.optimize``'s cell options (module docstring); with
-    ``robust`` every family holds on every model of its grid."""
+    ``robust`` every family holds on every model of its grid; with ``turn`` (an
+    optim.turn.TurnSpec in cell coordinates) the families are those of a turning part
+    (optim.turn_cell)."""
     if cell is not None:
         if not isinstance(cell, Cell):
             raise InputError(f"cell: expected a jaxflex.cell.Cell, got {type(cell).__name__}")
@@ -134,14 +150,18 @@ def prepare_cell(
         distance = clean_distance(distance_m)
         gravity = np.array(DEFAULT_GRAVITY_M_S2)
         via = []
-    setup = CellSetup(model, distance, gravity, via, cell=cell)
+    source = None if turn is None else TurnSource(turn)
+    setup = CellSetup(model, distance, gravity, via, cell=cell, turn_source=source)
     makers = []
     if min_distance_m is not None:
         if cell is None or not cell.obstacles:
             raise InputError("min_distance_m: needs a cell with obstacles (--cell FILE)")
         margin = check_positive("min_distance_m", min_distance_m)
         half = _half_thickness(model, cell)
-        makers.append(lambda m: DistanceFamily(m, cell.obstacles, margin, gravity, half))
+        if turn is None:
+            makers.append(lambda m: DistanceFamily(m, cell.obstacles, margin, gravity, half))
+        else:
+            makers.append(lambda m: TurnDistanceFamily(m, cell.obstacles, margin, half, source))
         _check_rest(setup, margin, half)
     if cup_safety is not None:
         if model.cups is None:
@@ -150,7 +170,7 @@ def prepare_cell(
                 " of this version)"
             )
         safety = check_positive("cup_safety", cup_safety)
-        makers.append(lambda m: LoadFamily.cups(m, safety, gravity))
+        makers.append(_load_maker("cups", safety, gravity, source))
     if max_stress_pa is not None:
         if model.stress is None:
             raise InputError(
@@ -158,28 +178,42 @@ def prepare_cell(
                 "of this version)"
             )
         limit = _stress_limit(model, max_stress_pa)
-        makers.append(lambda m: LoadFamily.stress(m, limit, gravity))
+        makers.append(_load_maker("stress", limit, gravity, source))
     if makers:
-        note = str(dict(model.meta).get("static_response", "none recorded"))
-        if model.static_shapes is None or note.startswith("schema"):
-            setup.advice.append(
-                (
-                    "static_response",
-                    f"the model's static response is not the FE's ({note}); the cell's "
-                    "constraints use it as it is. Re-create the model (`jaxflex model`) for "
-                    "the exact sag and loads under gravity",
-                )
-            )
+        setup.advice += _static_advice(model)
     for make in makers:
         family = make(model)
         if isinstance(family, LoadFamily):
-            _check_static(family)
+            _check_static(family, [gravity] if turn is None else turn.rest_gravities())
         if robust is None:
             setup.families.append(family)
         else:
             loads = isinstance(family, LoadFamily)
             setup.families.append(ScenarioFamily(make, model, robust, outputs=loads))
     return setup
+
+
+def _load_maker(kind: str, limit: float, gravity, source: TurnSource | None):
+    """The family of one model (``kind`` "cups" or "stress"): a straight move's
+    (optim.cell_rows) or, with a turn ``source``, a turning move's (optim.turn_cell)."""
+    if source is None:
+        return lambda m: getattr(LoadFamily, kind)(m, limit, gravity)
+    return lambda m: getattr(TurnLoadFamily, kind)(m, limit, source)
+
+
+def _static_advice(model: ModalModel) -> list:
+    """Advice (jaxflex.advice pairs) for a model whose static response is not the FE's."""
+    note = str(dict(model.meta).get("static_response", "none recorded"))
+    if model.static_shapes is not None and not note.startswith("schema"):
+        return []
+    return [
+        (
+            "static_response",
+            f"the model's static response is not the FE's ({note}); the cell's constraints "
+            "use it as it is. Re-create the model (`jaxflex model`) for the exact sag and "
+            "loads under gravity",
+        )
+    ]
 
 
 def _half_thickness(model: ModalModel, cell: Cell) -> float:
@@ -200,9 +234,13 @@ def _half_thickness(model: ModalModel, cell: Cell) -> float:
 def _check_rest(setup: CellSetup, margin: float, half_thickness_m: float) -> None:
     """The part (its skins) at rest at A and at B must keep ``margin`` from every obstacle."""
     base = np.asarray(setup.model.points) + gravity_offset(setup.model, setup.gravity_m_s2)
+    if setup.turn_source is None:
+        end = base + setup.distance_m
+    else:  # turned about the pivot, sagging in the final pose
+        end = rest_at_end(setup.model, setup.turn_source.spec, setup.distance_m)
     obstacles = setup.cell.obstacles
-    for where, shift in (("A (start)", np.zeros(3)), ("B (end)", setup.distance_m)):
-        d, which, _ = distances(obstacles, base + shift)
+    for where, points in (("A (start)", base), ("B (end)", end)):
+        d, which, _ = distances(obstacles, points)
         d = d - half_thickness_m
         k = int(np.argmin(d))
         if d[k] < margin:
@@ -213,11 +251,14 @@ def _check_rest(setup: CellSetup, margin: float, half_thickness_m: float) -> Non
             )
 
 
-def _check_static(family: LoadFamily) -> None:
-    """Gravity alone must stay within the family's limit."""
+def _check_static(family: LoadFamily, gravities) -> None:
+    """Gravity alone (each of ``gravities`` (3,) m/s^2, model frame: at rest at A, and in a
+    turning move's final pose) must stay within the family's limit."""
     items = np.arange(family.functional.n_items)
-    values = family.functional.values(family.offset.reshape(1, len(items), -1), items)[0]
-    k = int(np.argmax(values))
+    offsets = np.stack([family.outputs.offset(g) for g in gravities])
+    values = family.functional.values(offsets.reshape(len(offsets), len(items), -1), items)
+    k = int(np.argmax(values.max(axis=0)))
+    values = values.max(axis=0)
     if values[k] > family.limit:
         raise InputError(
             f"{family.name}: gravity alone gives {values[k]:.4g} at item {k}, more than the limit "

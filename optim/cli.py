@@ -63,8 +63,10 @@ def _add_move(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="AXIS ANGLE_DEG",
         help="also turn the part by ANGLE_DEG degrees about AXIS (x, y, z or three numbers; "
-        "model frame, through the gripper origin) under gravity -9.81 m/s^2 along z; the "
-        "model needs its rotation data (see docs/optim.md, Moves that turn the part)",
+        "model frame, through the gripper origin) under gravity -9.81 m/s^2 along z (with "
+        "--cell: the axis turned with the part, the cell's gravity); takes --robust and "
+        "--cell with its constraints; the model needs its rotation data (see docs/optim.md, "
+        "Moves that turn the part)",
     )
     parser.add_argument(
         "--angular-limits",
@@ -83,7 +85,8 @@ def _add_move(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar=("X", "Y", "Z"),
         help="with --rotate: the point the axis passes through, m, model frame (default the "
-        "origin); --distance is then this point's move",
+        "origin; with --cell placed with the part); --distance (the cell's move) is then this "
+        "point's move",
     )
 
 

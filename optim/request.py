@@ -11,7 +11,7 @@ move's length, the memory, the clearance) is checked by the plan stage.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -85,6 +85,22 @@ def _check_model(model: Any, robust: RobustSpec | None) -> None:
                 "its vibration never decays, so no cycle time exists. Set a damping ratio "
                 "(model.with_damping) or a robust zeta range"
             )
+
+
+def _in_cell(turn: TurnSpec, cell: Any) -> TurnSpec:
+    """The turn in the cell's coordinates (the model posed there: jaxflex.cell.Cell.posed):
+    its axis turned and its pivot placed with the part, under the cell's gravity; the turn
+    itself without a cell."""
+    if cell is None:
+        return turn
+    rotation = np.asarray(cell.rotation, dtype=np.float64)
+    pivot = rotation @ np.asarray(turn.pivot_m) + np.asarray(cell.start_m, dtype=np.float64)
+    return replace(
+        turn,
+        axis=tuple(float(v) for v in rotation @ np.asarray(turn.axis)),
+        pivot_m=tuple(float(v) for v in pivot),
+        gravity_m_s2=tuple(float(v) for v in np.asarray(cell.gravity_m_s2, dtype=np.float64)),
+    )
 
 
 @dataclass(frozen=True)
@@ -172,20 +188,23 @@ class Request:
                 )
             rotate = TurnSpec.checked(rotate[0], rotate[1], self.angular_limits, self.pivot_m)
         require_rotation(self.model)
+        if self.method != "exact":
+            raise InputError(
+                "method: the gradient route does not take turning moves (rotate, --rotate); "
+                "the exact route does: method='exact' (jaxflex optimize --method exact, the "
+                "default)"
+            )
         unsupported = {
-            "robust (--robust)": self.robust is not None,
-            "method='gradient' (--method gradient)": self.method != "exact",
-            "cell (--cell)": self.cell is not None,
             "clearance_m (--clearance)": self.clearance_m is not None,
-            "min_distance_m, cup_safety, max_stress_pa": self.has_cell_limits,
         }
         refused = [name for name, asked in unsupported.items() if asked]
         if refused:
             raise InputError(
                 f"rotate (--rotate): {', '.join(refused)} not yet for turning moves; turning "
-                "moves take the nominal model on the exact route, without a cell"
+                "moves take the exact route, the robust grid, a cell (via points, "
+                "min_distance_m, cup_safety, max_stress_pa)"
             )
-        self._set("rotate", rotate)
+        self._set("rotate", _in_cell(rotate, self.cell))
 
     @property
     def has_via(self) -> bool:

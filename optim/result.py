@@ -404,7 +404,8 @@ class OptimizationResult:
 
         curves: dict[str, dict] = {}
         for trace in self._responses():
-            for name, values in self.cell.curves(trace.acc, self.dt_s, trace.t).items():
+            turn = self._turn_of(trace.label)
+            for name, values in self.cell.curves(trace.acc, self.dt_s, trace.t, turn).items():
                 curves.setdefault(name, {})[trace.label] = (trace.t, values)
         limits = {c["name"]: c["limit"] for c in self.constraints}
         plot_constraints(path, curves, limits)

@@ -350,6 +350,7 @@ def attempt(
     found = _rejected(n_steps, np.inf, 0, start, "the turn does not fit in the move", [])
     for variant in turn.variants(n_steps):
         turn.variant = variant
+        problem.cell_rows = turn.cell_rows()  # the cell's rows hold for their schedule only
         found = _attempt(problem, solver, n_steps, warm)
         if found.feasible:
             found.turn_acc = turn.angular_acc(n_steps)

@@ -38,7 +38,7 @@ from optim.request import Request
 from optim.result import OptimizationResult, deviation_summary
 from optim.search import Attempt, Problem, active_components, attempt, bisect, scenarios
 from optim.turn import TurnSchedule, turn_deviation
-from optim.turn_baselines import turn_baselines
+from optim.turn_baselines import turn_baselines, turn_via_baselines, turn_worst_case
 
 
 @dataclass(frozen=True)
@@ -108,6 +108,7 @@ def plan(request: Request) -> Plan:
         max_stress_pa=r.max_stress_pa,
         cup_safety=r.cup_safety,
         robust=r.robust,
+        turn=r.rotate,
     )
     model = setup.model
     shortest, allowed = check_move_length(
@@ -146,7 +147,10 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     r, setup = request, plan.setup
     fractions: list[float] = []
     trains = []
-    if r.rotate is not None:
+    if r.rotate is not None and setup.via:
+        via = [v[0] for v in setup.via]
+        moves, fractions = turn_via_baselines(r, setup.model, setup.distance_m, via, plan.steps_cap)
+    elif r.rotate is not None:
         moves, trains = turn_baselines(r, setup.model, setup.distance_m, plan.steps_cap)
     elif setup.via:
         via = [v[0] for v in setup.via]
@@ -161,7 +165,9 @@ def baselines(request: Request, plan: Plan) -> Baselines:
             progress=r.progress,
         )  # fmt: skip
     for entry in moves.entries:
-        entry.constraints_ok, entry.constraints = setup.feasible(entry.acc, r.dt_s)
+        entry.constraints_ok, entry.constraints = setup.feasible(
+            entry.acc, r.dt_s, entry.angular_acc
+        )
     floor = moves.entries[0]  # the fastest move there is on the grid (along the path)
     deviation = _deviation(r, setup.model, floor.acc, floor.angular_acc)
     peak = deviation["peak_during_move_m"]
@@ -178,10 +184,12 @@ def _problem(request: Request, plan: Plan, base: Baselines) -> Problem:
     via = [(o, m, t, f) for (o, m, t), f in zip(setup.via, fractions, strict=True)]
     grid, training = scenarios(setup.model, r.robust, r.threshold_m)
     comps = active_components(setup.model)
+    turn = None if r.rotate is None else TurnSchedule(r.rotate, r.dt_s, base.turn_trains)
+    if setup.turn_source is not None:
+        setup.turn_source.schedule = turn  # the cell's families evaluate the search's turn
     return Problem(
         setup.model, setup.distance_m, r.limits, r.threshold_m, r.dt_s, plan.steps_cap, r.robust,
-        grid, training, comps, r.clearance_m, via=via, families=setup.families,
-        turn=None if r.rotate is None else TurnSchedule(r.rotate, r.dt_s, base.turn_trains),
+        grid, training, comps, r.clearance_m, via=via, families=setup.families, turn=turn,
     )  # fmt: skip
 
 
@@ -285,7 +293,7 @@ def certify(request: Request, plan: Plan, base: Baselines, found: Search, choice
         deviation = _deviation(r, model, move.acc, move.angular_acc)
     worst = None
     if r.robust is not None:
-        worst = _worst_case(found.problem, move, r.dt_s, r.threshold_m)
+        worst = _worst_case(found.problem, move, r.dt_s, r.threshold_m, r.rotate)
     return Certified(timing, deviation, worst)
 
 
@@ -297,10 +305,18 @@ def _deviation(request: Request, model, acc, angular_acc) -> dict:
     return turn_deviation(response, acc.shape[0] - 1, request.dt_s)
 
 
-def _worst_case(problem: Problem, move: Candidate, dt_s: float, threshold_m: float) -> dict:
+def _worst_case(problem: Problem, move: Candidate, dt_s: float, threshold_m: float, turn) -> dict:
     """Worst exact cycle time over the robust check grid (the move's certified grid if it
-    has one, else computed on the problem's scenarios)."""
+    has one, else computed on the problem's scenarios; a turning move with its ``turn``)."""
     grid = move.grid
+    if grid is None and turn is not None:
+        grid = [
+            (g["freq_scale"], g["zeta"], g["cycle_time_s"])
+            for g in turn_worst_case(
+                problem.model, turn, move.acc, move.angular_acc, dt_s, threshold_m,
+                [(s.scale, s.zeta) for s in problem.scenarios],
+            )[2]
+        ]  # fmt: skip
     if grid is None:
         samples = as_move(move.acc, dt_s, at_rest=True)  # checked once for the whole grid
         grid = [
@@ -363,7 +379,9 @@ def report(
         wall_time_s=time.perf_counter() - start_s,
         baselines=base.moves,
         worst_case=certified.worst_case,
-        constraints=setup.describe_move(move.acc, r.dt_s) if setup.families else [],
+        constraints=setup.describe_move(move.acc, r.dt_s, move.angular_acc)
+        if setup.families
+        else [],
         cell=setup,
         turn=r.rotate,
         angular_acc=move.angular_acc,

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from jaxflex.errors import InputError
+from jaxflex.pose import axis_rotation
 from jaxflex.response import (
     GRAVITY_M_S2,
     PosePath,
@@ -127,6 +128,16 @@ class TurnSpec:
             "pivot_m": list(self.pivot_m),
         }
 
+    @property
+    def end_rotation(self) -> np.ndarray:
+        """(3, 3) the part's orientation at the end of the turn (body to world)."""
+        return axis_rotation(np.asarray(self.axis), np.array([self.angle_rad]))[0]
+
+    def rest_gravities(self) -> list[np.ndarray]:
+        """Gravity in body components at rest at the start and in the final pose (m/s^2)."""
+        gravity = np.asarray(self.gravity_m_s2, dtype=np.float64)
+        return [gravity, self.end_rotation.T @ gravity]
+
     def fastest_s(self) -> float:
         """Ruckig's time-optimal duration of the turn alone (s; 0 for no turn)."""
         if self.angle_rad == 0.0:
@@ -199,6 +210,12 @@ class TurnSchedule:
         self.variant = 0
         self._alpha: dict[tuple[int, int], np.ndarray | None] = {}
         self._cache: dict[tuple, np.ndarray] = {}
+        self._cell_rows: dict[int, dict] = {}
+
+    def cell_rows(self) -> dict:
+        """The pool of the cell's rows (optim.turn_cell: n_steps -> rows) of the active
+        schedule: their constant parts are that schedule's."""
+        return self._cell_rows.setdefault(self.variant, {})
 
     def variants(self, n_steps: int) -> list[int]:
         """The schedules that exist for an n-step move (at least the turn's floor)."""

@@ -23,10 +23,11 @@ from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.response import amplitudes
 from jaxflex.runtime import progress_bar
-from optim.baselines import Baseline, BaselineSet, mode_trains
+from optim.baselines import Baseline, BaselineSet, mode_trains, via_baselines
 from optim.kinematics import clean_distance
 from optim.limits import Limits
 from optim.request import Request
+from optim.robust import perturbed
 from optim.ruckig_move import (
     MAX_EXTRA_STEPS,
     fit_to_grid,
@@ -41,9 +42,11 @@ from optim.turn import TurnSpec
 SHAPED_SCHEDULES = 2  # the search's shaped turn schedules: those of the best 2 baselines
 
 
-def _evaluate(model, turn: TurnSpec, name, acc, alpha, dt_s, threshold_m, freqs) -> Baseline:
+def _evaluate(model, request: Request, name, acc, alpha, freqs) -> Baseline:
+    """The baseline ``name`` with its exact timing and, in robust mode, its worst case."""
+    turn, dt_s, threshold_m = request.rotate, request.dt_s, request.threshold_m
     timing, response = turn.timing(model, alpha, acc, dt_s, threshold_m)
-    return Baseline(
+    entry = Baseline(
         name,
         acc,
         timing,
@@ -51,6 +54,26 @@ def _evaluate(model, turn: TurnSpec, name, acc, alpha, dt_s, threshold_m, freqs)
         angular_acc=alpha,
         neglected_bound_m=response.neglected_bound_m,
     )
+    if request.robust is not None:
+        entry.worst_cycle_time_s, entry.worst_case, entry.worst_grid = turn_worst_case(
+            model, turn, acc, alpha, dt_s, threshold_m, request.robust.grid()
+        )
+    return entry
+
+
+def turn_worst_case(
+    model: ModalModel, turn: TurnSpec, acc, alpha, dt_s: float, threshold_m: float, grid
+) -> tuple[float, dict, list[dict]]:
+    """The turning move's largest exact cycle time (jaxflex.turning.turning_settle) over the
+    (frequency scale, zeta) points of ``grid``: (worst, where, every point), as
+    optim.baselines.worst_case of a straight move."""
+    points = []
+    for scale, zeta in grid:
+        timing = turn.timing(perturbed(model, scale, zeta), alpha, acc, dt_s, threshold_m)[0]
+        points.append({"freq_scale": scale, "zeta": zeta, "cycle_time_s": timing.cycle_time_s})
+    worst = max(points, key=lambda p: p["cycle_time_s"])
+    where = {"freq_scale": worst["freq_scale"], "zeta": worst["zeta"]}
+    return float(worst["cycle_time_s"]), where, points
 
 
 def synchronised_floor(
@@ -93,12 +116,10 @@ def turn_baselines(
     duration T) and the shapers of the best SHAPED_SCHEDULES shaped baselines, best first
     (the search's shaped turn schedules, optim.turn.TurnSchedule)."""
     turn, limits, dt_s = request.rotate, request.limits, request.dt_s
-    threshold_m, max_shaped_modes = request.threshold_m, request.max_shaped_modes
+    max_shaped_modes = request.max_shaped_modes
     distance = clean_distance(distance_m)
     floor_acc, floor_alpha, duration = synchronised_floor(distance, turn, limits, dt_s, max_steps)
-    floor = _evaluate(
-        model, turn, "ruckig + free decay", floor_acc, floor_alpha, dt_s, threshold_m, []
-    )
+    floor = _evaluate(model, request, "ruckig + free decay", floor_acc, floor_alpha, [])
     entries = [floor]
     end = turn.response(model, floor_alpha, floor_acc, dt_s).end_state
     share = np.asarray(model.shape_norms).max(axis=0) * amplitudes(model, end)
@@ -125,7 +146,7 @@ def turn_baselines(
             n_steps = max(acc.shape[0], alpha.size) - 1
             acc, alpha = pad_to(acc, n_steps), np.pad(alpha, (0, n_steps + 1 - alpha.size))
             freqs = [float(freq[i]) for i in modes]
-            entry = _evaluate(model, turn, f"{kind} x{count}", acc, alpha, dt_s, threshold_m, freqs)
+            entry = _evaluate(model, request, f"{kind} x{count}", acc, alpha, freqs)
             if best is None or entry.score() < best.score():
                 best, trains[kind] = entry, train
         if best is not None:
@@ -136,3 +157,39 @@ def turn_baselines(
     bar.close()
     shaped = sorted(entries[1:], key=Baseline.score)[:SHAPED_SCHEDULES]
     return BaselineSet(duration, floor_acc, entries, skipped), [trains[e.name] for e in shaped]
+
+
+def turn_via_baselines(
+    request: Request, model: ModalModel, distance_m, via_offsets, max_steps: int
+) -> tuple[BaselineSet, list[float]]:
+    """The baseline of a turning move along a cell's via points: ruckig through the via
+    points, stopping at each (optim.baselines.via_baselines), with the turn stretched by
+    ruckig over the whole path on the grid (padded with rest where the turn alone takes
+    longer), plus free decay; and the fractions of its steps at which it passes each via
+    point (the search's via rows). The kinematic floor is the longer of the path's and the
+    turn's."""
+    turn, dt_s = request.rotate, request.dt_s
+    moves, fractions = via_baselines(
+        model, distance_m, via_offsets, request.limits, dt_s, request.threshold_m,
+        max_steps=max_steps,
+    )  # fmt: skip
+    path_steps = moves.entries[0].acc.shape[0] - 1
+    start = max(path_steps, grid_steps(turn.fastest_s(), dt_s))
+    for n_steps in range(start, min(max_steps, start + MAX_EXTRA_STEPS) + 1):
+        alpha = turn.stretched(n_steps, dt_s)
+        if alpha is not None:
+            break
+    else:
+        raise InputError(
+            f"rotate: the turn does not fit in {max_steps} steps of {dt_s:g} s along the via "
+            "points; raise max_duration_s or the angular limits"
+        )
+    acc = pad_to(moves.entries[0].acc, n_steps)
+    entry = _evaluate(model, request, "ruckig via points + turn + free decay", acc, alpha, [])
+    floor_steps = max(moves.floor_acc.shape[0] - 1, grid_steps(turn.fastest_s(), dt_s))
+    floor_s = max(moves.kinematic_floor_s, turn.fastest_s())
+    scale = path_steps / n_steps  # the via points' samples stay where the path passes them
+    return (
+        BaselineSet(floor_s, pad_to(moves.floor_acc, floor_steps), [entry]),
+        [f * scale for f in fractions],
+    )
