@@ -31,7 +31,7 @@ from jaxflex.collision import (
     part_half_thickness,
     positions_at,
 )
-from jaxflex.turning_collision import turning_min_distance
+from jaxflex.turning_collision import rotations_between, turning_min_distance
 
 __all__ = [
     "BLOCK_POINTS",
@@ -52,5 +52,6 @@ __all__ = [
     "part_half_thickness",
     "positions_at",
     "rotation_from_degrees",
+    "rotations_between",
     "turning_min_distance",
 ]

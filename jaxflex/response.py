@@ -31,6 +31,7 @@ from jaxflex.deviation import (
 )
 from jaxflex.engine import (
     end_state_map,
+    free_states,
     modal_forces,
     modal_states,
     padded_steps,
@@ -38,6 +39,7 @@ from jaxflex.engine import (
     state_map,
     state_maps_at,
     states_at,
+    states_between,
     upsample,
 )
 from jaxflex.grid import (
@@ -60,8 +62,11 @@ from jaxflex.outputs import (
 )
 from jaxflex.peaks import (
     Peak,
+    SearchState,
+    certified_max,
     item_bounds,
     output_peak,
+    settling_windows,
 )
 from jaxflex.points import (
     downsample_to_count,
@@ -70,6 +75,7 @@ from jaxflex.points import (
 )
 from jaxflex.pose import (
     PosePath,
+    axis_rotation,
     fixed_axis_path,
     orientation_path,
     turn_acceleration,
@@ -86,13 +92,27 @@ from jaxflex.profile import (
     position_weights,
 )
 from jaxflex.rotation import LEVI_CIVITA, RotationalInertia, require_rotation
-from jaxflex.rotation_residual import load_coefficients, output_residual, rotation_residual
+from jaxflex.rotation_residual import (
+    load_coefficients,
+    output_residual,
+    rotation_residual,
+    turning_coordinates,
+    turning_shapes,
+)
 from jaxflex.settle import SettleReport, analyze_move
 from jaxflex.simulate import (
     move_deviation,
     on_device,
 )
-from jaxflex.turning import GRAVITY_M_S2, TurningResponse, simulate_turning, turning_settle
+from jaxflex.turning import (
+    GRAVITY_M_S2,
+    TurningInputs,
+    TurningResponse,
+    simulate_turning,
+    turning_forces,
+    turning_inputs,
+    turning_settle,
+)
 from jaxflex.turning_outputs import TurningLoads, turning_loads
 
 __all__ = [
@@ -108,8 +128,10 @@ __all__ = [
     "Peak",
     "PosePath",
     "RotationalInertia",
+    "SearchState",
     "SettleReport",
     "StressSet",
+    "TurningInputs",
     "TurningLoads",
     "TurningResponse",
     "VonMises",
@@ -118,6 +140,8 @@ __all__ = [
     "analyze_move",
     "as_move",
     "axis_limits",
+    "axis_rotation",
+    "certified_max",
     "component_blocks",
     "deviation",
     "deviation_curve",
@@ -128,6 +152,7 @@ __all__ = [
     "envelope_horizon",
     "fixed_axis_path",
     "free_rows",
+    "free_states",
     "grid_values",
     "integrate",
     "item_bounds",
@@ -150,14 +175,20 @@ __all__ = [
     "response_shapes",
     "rest_padded",
     "rotation_residual",
+    "settling_windows",
     "simulate_turning",
     "snap_key_points",
     "state_map",
     "state_maps_at",
     "states_at",
+    "states_between",
     "turn_acceleration",
+    "turning_coordinates",
+    "turning_forces",
+    "turning_inputs",
     "turning_loads",
     "turning_settle",
+    "turning_shapes",
     "unit_axis",
     "upsample",
     "voxel_downsample",

@@ -25,12 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.pose import axis_rotation
 from jaxflex.response import (
     GRAVITY_M_S2,
     PosePath,
     SettleReport,
     TurningResponse,
+    axis_rotation,
     fixed_axis_path,
     require_rotation,
     simulate_turning,

@@ -48,15 +48,27 @@ from contextlib import contextmanager
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from jaxflex.deviation import response_shapes
-from jaxflex.engine import free_states, state_maps_at, states_between
-from jaxflex.geometry import distances
-from jaxflex.peaks import Peak, SearchState, certified_max, settling_windows
-from jaxflex.profile import kinematics_at, position_weights
-from jaxflex.response import CupUtilisation, VonMises
-from jaxflex.rotation_residual import output_residual, turning_coordinates, turning_shapes
-from jaxflex.turning import TurningInputs, turning_forces, turning_inputs
-from jaxflex.turning_collision import rotations_between, turning_min_distance
+from jaxflex.geometry import distances, rotations_between, turning_min_distance
+from jaxflex.response import (
+    CupUtilisation,
+    Peak,
+    SearchState,
+    TurningInputs,
+    VonMises,
+    certified_max,
+    free_states,
+    kinematics_at,
+    output_residual,
+    position_weights,
+    response_shapes,
+    settling_windows,
+    state_maps_at,
+    states_between,
+    turning_coordinates,
+    turning_forces,
+    turning_inputs,
+    turning_shapes,
+)
 from optim.cell_rows import (
     BOUND_RTOL,
     ITEM_BLOCK,

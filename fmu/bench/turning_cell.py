@@ -25,11 +25,9 @@ import numpy as np
 import fem
 import optim
 from fem.scenes import default_gripper
-from jaxflex.cell import Box, Cell
 from jaxflex.files import write_text_atomic
-from jaxflex.pose import fixed_axis_path
-from jaxflex.turning_collision import turning_min_distance
-from jaxflex.turning_outputs import turning_loads
+from jaxflex.geometry import Box, Cell, turning_min_distance
+from jaxflex.response import fixed_axis_path, turning_loads
 from optim.turn_baselines import turn_worst_case
 
 DT, THRESHOLD = 0.01, 5e-4
