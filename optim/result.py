@@ -328,7 +328,7 @@ class OptimizationResult:
         with writing(directory, RESULT_KIND, RESULT_FILES) as files:
             files.add(
                 "trajectory.csv",
-                lambda p: write_trajectory_csv(p, self.acc, self.dt_s, self.angular_acc),
+                lambda p: write_trajectory_csv(p, self.move, turn_acc_rad_s2=self.angular_acc),
             )
             files.add_text("report.json", json.dumps(self.report(), indent=2))
             if plots:
@@ -339,7 +339,7 @@ class OptimizationResult:
         """The pictures of the module docstring, added to ``files``."""
         from optim.plots import plot_profiles, plot_robust  # matplotlib: only when drawing
 
-        files.add("profiles.png", lambda p: plot_profiles(p, self.acc, self.dt_s, self.limits))
+        files.add("profiles.png", lambda p: plot_profiles(p, self.move, self.limits))
         self._plot_deviation(files)
         if self.turn is not None:
             files.add("turn.png", self._plot_turn)
