@@ -32,7 +32,7 @@ from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
 from jaxflex.defaults import DT_S
 from jaxflex.errors import InputError
 from jaxflex.files import check_output_file, read_trajectory_csv
-from jaxflex.response import analyze_move, deviation_curve, jerk_limited_move
+from jaxflex.response import analyze_move, as_move, deviation_curve, jerk_limited_move
 from jaxflex.runtime import issue, model_resolution, require, threshold_advice
 
 COMMAND = "model"
@@ -420,7 +420,7 @@ def _move(args):
 def _threshold_advice(model, acc, dt_s: float, threshold_m: float) -> None:
     """Warn about a --threshold the sized model cannot mean (jaxflex.advice)."""
     n_steps = len(acc) - 1
-    _, deviation = deviation_curve(model, acc, dt_s, n_steps * dt_s, 8)
+    _, deviation = deviation_curve(model, as_move(acc, dt_s), n_steps * dt_s, 8)
     issue(
         threshold_advice(
             threshold_m,

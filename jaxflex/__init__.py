@@ -46,7 +46,7 @@ from jaxflex.errors import (  # noqa: E402
     ModelFileError,
 )
 from jaxflex.model import ModalModel, load_model, save_model, stack_models  # noqa: E402
-from jaxflex.profile import integrate, jerk_limited_move  # noqa: E402
+from jaxflex.profile import Move, as_move, integrate, jerk_limited_move  # noqa: E402
 from jaxflex.settle import SettleReport, analyze_move, cycle_time, settle_time  # noqa: E402
 from jaxflex.simulate import Response, batch_deviation, end_state, simulate  # noqa: E402
 from jaxflex.surrogate import cycle_time_smooth, envelope_time  # noqa: E402
@@ -59,9 +59,11 @@ __all__ = [
     "ModalModel",
     "ModelError",
     "ModelFileError",
+    "Move",
     "Response",
     "SettleReport",
     "analyze_move",
+    "as_move",
     "batch_deviation",
     "cycle_time",
     "cycle_time_smooth",

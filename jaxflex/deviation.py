@@ -41,7 +41,7 @@ import numpy as np
 from jaxflex.blocks import PointBlocks, point_blocks
 from jaxflex.engine import PAD_STEPS, padded_steps, states_at
 from jaxflex.model import shape_cache
-from jaxflex.profile import acceleration_at
+from jaxflex.profile import Move, acceleration_at
 from jaxflex.validation import is_traced
 
 CHUNK_POINTS = 1024  # points per matrix product in the blocked NumPy evaluation
@@ -337,15 +337,16 @@ def deviation_curves(
 
 
 def deviation_curve(
-    model, acc, dt_s: float, until_s: float, substeps: int = 8, max_after: int | None = None
+    model, move: Move, until_s: float, substeps: int = 8, max_after: int | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(t (T,) s, d (T,) m): the exact deviation every dt_s / ``substeps`` during the move
-    ``acc`` ((n+1, 3) m/s^2) and after it, until at least ``until_s`` (and at least one step
-    past the end of the move); with ``max_after``, at most that many samples after the move
-    (spread evenly: a picture of a settling of hours needs no millisecond samples). Exact
-    samples of d(t), not interpolations; the points are evaluated by the pruned blocked
-    evaluation (:func:`max_norms`)."""
-    n_steps = np.shape(acc)[0] - 1
+    """(t (T,) s, d (T,) m): the exact deviation every dt_s / ``substeps`` during the
+    :class:`~jaxflex.profile.Move` ``move`` (samples ``acc`` at step ``dt_s``) and after it,
+    until at least ``until_s`` (and at least one step past the end of the move); with
+    ``max_after``, at most that many samples after the move (spread evenly: a picture of a
+    settling of hours needs no millisecond samples). Exact samples of d(t), not
+    interpolations; the points are evaluated by the pruned blocked evaluation
+    (:func:`max_norms`)."""
+    acc, dt_s, n_steps = move.acc, move.dt_s, move.n_steps
     h = dt_s / substeps
     t_move = h * np.arange(n_steps * substeps)
     span = until_s - n_steps * dt_s

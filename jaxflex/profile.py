@@ -47,24 +47,34 @@ class Move:
         return not (self.acc[0].any() or self.acc[-1].any())
 
 
-def as_move(acc, dt_s, *, at_rest: bool = False, name: str = "acc", dt_name: str = "dt_s") -> Move:
+def as_move(
+    acc,
+    dt_s: float | None = None,
+    *,
+    at_rest: bool = False,
+    name: str = "acc",
+    dt_name: str = "dt_s",
+) -> Move:
     """``acc`` ((n+1, 3) m/s^2, n >= 1, finite; with ``at_rest`` also a_0 = a_n = 0) at step
-    ``dt_s`` (s, > 0) as a checked :class:`Move`. A Move passes through without a second check
-    (its step must be ``dt_s``). Raises InputError naming the field (``name``, ``dt_name``)."""
+    ``dt_s`` (s, > 0) as a checked :class:`Move`: the door where raw samples become a move. A
+    Move passes through without a second check (``dt_s`` may then be left out; if given it
+    must be the move's step). Raises InputError naming the field (``name``, ``dt_name``)."""
     if isinstance(acc, Move):
-        if not math.isclose(acc.dt_s, float(dt_s), rel_tol=1e-12):
+        if dt_s is not None and not math.isclose(acc.dt_s, float(dt_s), rel_tol=1e-12):
             raise InputError(f"{dt_name}: {dt_s} s, but the move is sampled every {acc.dt_s} s")
         if at_rest and not acc.at_rest:
             check_acc(acc.acc, name=name, rest_at_ends=True)  # raises with the details
         return acc
+    if dt_s is None:
+        raise InputError(f"{dt_name}: raw samples {name!r} need their step (s), or pass a Move")
     checked = check_acc(acc, name=name, rest_at_ends=at_rest).astype(np.float64)
     checked.setflags(write=False)
     return Move(checked, check_positive(dt_name, dt_s))
 
 
-def integrate(acc, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact velocity (m/s) and position (m) at the samples, from rest at the origin:
-    two (n+1, 3) arrays."""
+def integrate(acc, dt_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Exact velocity (m/s) and position (m) at the samples of a :class:`Move` (or of raw
+    samples ``acc`` at step ``dt_s`` s), from rest at the origin: two (n+1, 3) arrays."""
     move = as_move(acc, dt_s)
     acc, dt_s = move.acc, move.dt_s
     dv = 0.5 * dt_s * (acc[:-1] + acc[1:])

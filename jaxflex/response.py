@@ -82,6 +82,7 @@ from jaxflex.pose import (
     unit_axis,
 )
 from jaxflex.profile import (
+    Move,
     acceleration_at,
     as_move,
     axis_limits,
@@ -125,6 +126,7 @@ __all__ = [
     "CupSet",
     "CupUtilisation",
     "LinearOutputs",
+    "Move",
     "Peak",
     "PosePath",
     "RotationalInertia",

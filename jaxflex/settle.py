@@ -34,6 +34,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from jaxflex.decay import amplitudes, envelope, envelope_horizon
+from jaxflex.defaults import THRESHOLD_M
 from jaxflex.deviation import (
     block_bounds,
     blocks_of,
@@ -355,10 +356,16 @@ def _prepare(model: ModalModel, acc, dt_s, threshold_m):
 
 
 def analyze_move(
-    model: ModalModel, acc, dt_s: float, threshold_m: float, *, settle: bool = True
+    model: ModalModel,
+    acc,
+    dt_s: float | None = None,
+    threshold_m: float = THRESHOLD_M,
+    *,
+    settle: bool = True,
 ) -> SettleReport:
-    """Exact transfer, settle and cycle time of the move ``acc`` ((n+1, 3) m/s^2, a_0 = a_n = 0)
-    at step ``dt_s`` (s) against ``threshold_m`` (m). With ``settle=False`` the search during
+    """Exact transfer, settle and cycle time of a :class:`~jaxflex.profile.Move` (or of raw
+    samples ``acc`` ((n+1, 3) m/s^2) at step ``dt_s`` s; a_0 = a_n = 0) against
+    ``threshold_m`` (m). With ``settle=False`` the search during
     the move is skipped (the cycle time does not need it) and settle_time_s is only exact if
     it lies after the move; otherwise it is reported as the transfer time."""
     move, states, force, threshold_m = _prepare(model, acc, dt_s, threshold_m)
@@ -420,12 +427,18 @@ def settle_after(
     )
 
 
-def cycle_time(model: ModalModel, acc, dt_s: float, threshold_m: float) -> float:
-    """Exact cycle time max(n dt_s, t_s) in s (see module docstring); inf if undamped modes
-    keep the deviation above ``threshold_m`` (m) forever."""
+def cycle_time(
+    model: ModalModel, acc, dt_s: float | None = None, threshold_m: float = THRESHOLD_M
+) -> float:
+    """Exact cycle time max(n dt_s, t_s) in s of a Move (or of ``acc`` at step ``dt_s`` s;
+    see module docstring); inf if undamped modes keep the deviation above ``threshold_m`` (m)
+    forever."""
     return analyze_move(model, acc, dt_s, threshold_m, settle=False).cycle_time_s
 
 
-def settle_time(model: ModalModel, acc, dt_s: float, threshold_m: float) -> float:
-    """Exact settle time sup{t : d(t) > threshold_m} in s, 0 if the deviation never exceeds."""
+def settle_time(
+    model: ModalModel, acc, dt_s: float | None = None, threshold_m: float = THRESHOLD_M
+) -> float:
+    """Exact settle time sup{t : d(t) > threshold_m} in s of a Move (or of ``acc`` at step
+    ``dt_s`` s), 0 if the deviation never exceeds."""
     return analyze_move(model, acc, dt_s, threshold_m).settle_time_s

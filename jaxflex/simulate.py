@@ -22,7 +22,7 @@ from jaxflex.deviation import blocks_of, deviation, response_shapes, with_accele
 from jaxflex.engine import HOLDS, free_states, modal_states
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
-from jaxflex.profile import Move
+from jaxflex.profile import Move, as_move
 from jaxflex.scalars import check_positive
 from jaxflex.validation import check_acc, is_traced
 
@@ -121,7 +121,7 @@ def free_steps(extend_s: float, dt_s: float) -> int:
 def simulate(
     model: ModalModel,
     acc,
-    dt_s,
+    dt_s=None,
     *,
     displacement: bool = False,
     extend_s: float = 0.0,
@@ -129,7 +129,8 @@ def simulate(
     hold: str = "linear",
     dtype: str = "float64",
 ) -> Response:
-    """Response of ``model`` to acceleration samples ``acc`` ((n+1, 3), m/s^2) at t_k = k dt_s.
+    """Response of ``model`` to a :class:`~jaxflex.profile.Move` (or to acceleration samples
+    ``acc`` ((n+1, 3), m/s^2) at t_k = k dt_s).
 
     The acceleration is linear between samples (first-order hold; ``hold="zero"`` holds each
     sample over its step instead); the response at the samples is exact for any ``dt_s``
@@ -140,6 +141,8 @@ def simulate(
     jaxflex.stack_models).
     """
     model, blocks = on_device(model, dtype)
+    if dt_s is None or (isinstance(acc, Move) and not is_traced(dt_s)):
+        dt_s = as_move(acc, dt_s).dt_s  # a Move's own step; raw samples need one
     if isinstance(acc, Move):  # checked when it was made
         acc = acc.acc
     elif not is_traced(acc):

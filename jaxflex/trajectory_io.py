@@ -25,7 +25,7 @@ from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
 from jaxflex.grid import grid_times
 from jaxflex.inputs import read_text
-from jaxflex.profile import integrate
+from jaxflex.profile import as_move, integrate
 
 COLUMNS = (
     "t_s",
@@ -45,12 +45,16 @@ COLUMNS = (
 TURN_COLUMNS = ("turn_angle_rad", "turn_rate_rad_s", "turn_acc_rad_s2")
 
 
-def write_trajectory_csv(path: str | os.PathLike, acc, dt_s: float, turn_acc_rad_s2=None) -> None:
-    """Write samples ``acc`` ((n+1, 3) m/s^2 at step ``dt_s`` s) with velocity, position and
-    jerk (module docstring), and with ``turn_acc_rad_s2`` ((n+1,) rad/s^2, a turn about a
-    fixed axis) the turn's angle, rate and angular acceleration."""
-    vel, pos = integrate(acc, dt_s)
-    acc = np.asarray(acc, dtype=np.float64)
+def write_trajectory_csv(
+    path: str | os.PathLike, acc, dt_s: float | None = None, turn_acc_rad_s2=None
+) -> None:
+    """Write a :class:`~jaxflex.profile.Move` (or samples ``acc`` ((n+1, 3) m/s^2) at step
+    ``dt_s`` s) with velocity, position and jerk (module docstring), and with
+    ``turn_acc_rad_s2`` ((n+1,) rad/s^2, a turn about a fixed axis) the turn's angle, rate
+    and angular acceleration."""
+    move = as_move(acc, dt_s)
+    acc, dt_s = move.acc, move.dt_s
+    vel, pos = integrate(move)
     jerk = np.vstack([np.diff(acc, axis=0) / dt_s, np.zeros((1, 3))])
     t = grid_times(acc.shape[0] - 1, dt_s)
     columns = [t, acc, vel, pos, jerk]

@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from jaxflex.plots import PLAIN, deviation_axes, save_figure
-from jaxflex.response import integrate
+from jaxflex.response import Move, integrate
 from optim.limits import AXES, Limits
 
 OPTIMISED_COLOR = "tab:blue"
@@ -76,12 +76,12 @@ def _same_profile_groups(acc: np.ndarray) -> list[list[int]]:
     return groups
 
 
-def plot_profiles(
-    path: str | os.PathLike, acc: np.ndarray, dt_s: float, limits: Limits, title: str = ""
-) -> None:
-    """Position, velocity, acceleration and jerk of every moving axis against time, with
-    the per-axis limits (and path limits, if any) as dashed lines (module docstring)."""
-    vel, pos = integrate(acc, dt_s)
+def plot_profiles(path: str | os.PathLike, move: Move, limits: Limits, title: str = "") -> None:
+    """Position, velocity, acceleration and jerk of every moving axis of ``move`` against
+    time, with the per-axis limits (and path limits, if any) as dashed lines (module
+    docstring)."""
+    acc, dt_s = move.acc, move.dt_s
+    vel, pos = integrate(move)
     t = dt_s * np.arange(acc.shape[0])
     jerk = np.diff(acc, axis=0) / dt_s
     groups = _same_profile_groups(acc)

@@ -31,7 +31,7 @@ import numpy as np
 
 from jaxflex.files import MANIFEST, SetWriter, write_trajectory_csv, writing
 from jaxflex.model import ModalModel
-from jaxflex.response import SettleReport, deviation_curve, integrate
+from jaxflex.response import Move, SettleReport, as_move, deviation_curve, integrate
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
 from optim.robust import RobustSpec, perturbed
@@ -67,10 +67,10 @@ def constraint_line(c: dict) -> str:
     )
 
 
-def deviation_summary(model: ModalModel, acc: np.ndarray, dt_s: float) -> dict:
-    """Peak deviation during the move (exact samples every dt / 8) and at the stop, m."""
-    n = acc.shape[0] - 1
-    t, d = deviation_curve(model, acc, dt_s, n * dt_s, SUBSTEPS)
+def deviation_summary(model: ModalModel, move: Move) -> dict:
+    """Peak deviation during the Move (exact samples every dt_s / 8) and at the stop, m."""
+    n, dt_s = move.n_steps, move.dt_s
+    t, d = deviation_curve(model, move, n * dt_s, SUBSTEPS)
     return {
         "peak_during_move_m": float(d[: n * SUBSTEPS + 1].max()),
         "peak_time_s": float(t[int(np.argmax(d[: n * SUBSTEPS + 1]))]),
@@ -85,13 +85,12 @@ class OptimizationResult:
 
     model: ModalModel
     distance_m: np.ndarray
-    dt_s: float
     threshold_m: float
     limits: Limits
     method: str
     solver: str
     robust: RobustSpec | None
-    acc: np.ndarray  # (n+1, 3) m/s^2
+    move: Move  # the samples (n+1, 3) m/s^2 and their step, s
     timing: SettleReport  # exact, nominal model
     deviation: dict
     constraint_check: ConstraintCheck
@@ -109,16 +108,26 @@ class OptimizationResult:
     _traces: list = field(default_factory=list, repr=False, compare=False)  # _responses()
 
     @property
+    def acc(self) -> np.ndarray:
+        """The move's samples, (n+1, 3) m/s^2."""
+        return self.move.acc
+
+    @property
+    def dt_s(self) -> float:
+        """The move's step, s."""
+        return self.move.dt_s
+
+    @property
     def n_steps(self) -> int:
-        return int(self.acc.shape[0] - 1)
+        return self.move.n_steps
 
     @property
     def vel(self) -> np.ndarray:
-        return integrate(self.acc, self.dt_s)[0]
+        return integrate(self.move)[0]
 
     @property
     def pos(self) -> np.ndarray:
-        return integrate(self.acc, self.dt_s)[1]
+        return integrate(self.move)[1]
 
     @property
     def transfer_time_s(self) -> float:
@@ -319,7 +328,7 @@ class OptimizationResult:
         with writing(directory, RESULT_KIND, RESULT_FILES) as files:
             files.add(
                 "trajectory.csv",
-                lambda p: write_trajectory_csv(p, self.acc, self.dt_s, self.angular_acc),
+                lambda p: write_trajectory_csv(p, self.move, turn_acc_rad_s2=self.angular_acc),
             )
             files.add_text("report.json", json.dumps(self.report(), indent=2))
             if plots:
@@ -330,7 +339,7 @@ class OptimizationResult:
         """The pictures of the module docstring, added to ``files``."""
         from optim.plots import plot_profiles, plot_robust  # matplotlib: only when drawing
 
-        files.add("profiles.png", lambda p: plot_profiles(p, self.acc, self.dt_s, self.limits))
+        files.add("profiles.png", lambda p: plot_profiles(p, self.move, self.limits))
         self._plot_deviation(files)
         if self.turn is not None:
             files.add("turn.png", self._plot_turn)
@@ -382,7 +391,7 @@ class OptimizationResult:
         """Deviation against time up to ``until`` s: exact samples every dt / SUBSTEPS for a
         straight move, at the samples for a turning one (jaxflex.turning)."""
         if angular_acc is None:
-            return deviation_curve(self.model, acc, self.dt_s, until, SUBSTEPS, PLOT_AFTER)
+            return deviation_curve(self.model, as_move(acc, self.dt_s), until, SUBSTEPS, PLOT_AFTER)
         extend = max(0.0, until - (acc.shape[0] - 1) * self.dt_s)
         response = self.turn.response(self.model, angular_acc, acc, self.dt_s, extend)
         return response.t_s, response.deviation_m
@@ -424,7 +433,7 @@ class OptimizationResult:
         if self.worst_case is not None:
             scale, zeta = self.worst_case["freq_scale"], self.worst_case["zeta"]
             worst_model = perturbed(self.model, scale, zeta)
-            t, d = deviation_curve(worst_model, self.acc, self.dt_s, until, SUBSTEPS, PLOT_AFTER)
+            t, d = deviation_curve(worst_model, self.move, until, SUBSTEPS, PLOT_AFTER)
             label = f"{self._label()} at f x{scale:g}" + (
                 "" if zeta is None else f", zeta {zeta:g}"
             )

@@ -21,7 +21,7 @@ import time
 from dataclasses import dataclass, field
 
 from jaxflex.errors import BudgetError, InputError, JaxflexError
-from jaxflex.response import SettleReport, analyze_move, as_move
+from jaxflex.response import Move, SettleReport, analyze_move, as_move
 from jaxflex.runtime import issue, model_resolution, require, threshold_advice
 from optim.advice import grid_advice
 from optim.baselines import Baseline, BaselineSet, via_baselines
@@ -169,7 +169,7 @@ def baselines(request: Request, plan: Plan) -> Baselines:
             entry.acc, r.dt_s, entry.angular_acc
         )
     floor = moves.entries[0]  # the fastest move there is on the grid (along the path)
-    deviation = _deviation(r, setup.model, floor.acc, floor.angular_acc)
+    deviation = _deviation(r, setup.model, as_move(floor.acc, r.dt_s), floor.angular_acc)
     peak = deviation["peak_during_move_m"]
     resolution = model_resolution(setup.model, setup.distance_m)
     advice = threshold_advice(r.threshold_m, floor.timing.settle_time_s, peak, resolution)
@@ -279,54 +279,50 @@ def certify(request: Request, plan: Plan, base: Baselines, found: Search, choice
     exact cycle time over the check grid; what the baselines or the search already
     certified for this move is reused (a baseline's timing, the floor's deviation, the
     search's grid of cycle times)."""
-    r, model, move = request, plan.setup.model, choice.move
+    r, model, chosen = request, plan.setup.model, choice.move
+    move = as_move(chosen.acc, r.dt_s, at_rest=True)  # checked once for every certificate
     entries = base.moves.entries
-    known = next((e for e in entries if move.kind == "baseline" and e.name == move.name), None)
+    known = next((e for e in entries if chosen.kind == "baseline" and e.name == chosen.name), None)
     if known:
         timing = known.timing
     elif r.rotate is not None:
-        timing = r.rotate.timing(model, move.angular_acc, move.acc, r.dt_s, r.threshold_m)[0]
+        timing = r.rotate.timing(model, chosen.angular_acc, move.acc, r.dt_s, r.threshold_m)[0]
     else:
-        timing = analyze_move(model, move.acc, r.dt_s, r.threshold_m)
+        timing = analyze_move(model, move, threshold_m=r.threshold_m)
     deviation = base.floor_deviation if known is entries[0] else None
     if deviation is None:
-        deviation = _deviation(r, model, move.acc, move.angular_acc)
+        deviation = _deviation(r, model, move, chosen.angular_acc)
     worst = None
     if r.robust is not None:
-        worst = _worst_case(found.problem, move, r.dt_s, r.threshold_m, r.rotate)
+        worst = _worst_case(found.problem, move, chosen.grid, chosen.angular_acc, r.rotate)
     return Certified(timing, deviation, worst)
 
 
-def _deviation(request: Request, model, acc, angular_acc) -> dict:
+def _deviation(request: Request, model, move: Move, angular_acc) -> dict:
     """The deviation summary of a move (optim.result; a turning move's from optim.turn)."""
     if request.rotate is None:
-        return deviation_summary(model, acc, request.dt_s)
-    response = request.rotate.response(model, angular_acc, acc, request.dt_s)
-    return turn_deviation(response, acc.shape[0] - 1, request.dt_s)
+        return deviation_summary(model, move)
+    response = request.rotate.response(model, angular_acc, move.acc, move.dt_s)
+    return turn_deviation(response, move.n_steps, move.dt_s)
 
 
-def _worst_case(problem: Problem, move: Candidate, dt_s: float, threshold_m: float, turn) -> dict:
-    """Worst exact cycle time over the robust check grid (the move's certified grid if it
-    has one, else computed on the problem's scenarios; a turning move with its ``turn``)."""
-    grid = move.grid
+def _worst_case(problem: Problem, move: Move, grid, angular_acc, turn) -> dict:
+    """Worst exact cycle time over the robust check grid: ``grid`` (the move's certified
+    (scale, zeta, cycle time s) triples) if known, else computed on the problem's scenarios
+    at its threshold (a turning move with its ``turn`` and ``angular_acc``)."""
     if grid is None and turn is not None:
         grid = [
             (g["freq_scale"], g["zeta"], g["cycle_time_s"])
             for g in turn_worst_case(
-                problem.model, turn, move.acc, move.angular_acc, dt_s, threshold_m,
+                problem.model, turn, move.acc, angular_acc, move.dt_s, problem.threshold_m,
                 [(s.scale, s.zeta) for s in problem.scenarios],
             )[2]
         ]  # fmt: skip
     if grid is None:
-        samples = as_move(move.acc, dt_s, at_rest=True)  # checked once for the whole grid
-        grid = [
-            (
-                s.scale,
-                s.zeta,
-                analyze_move(s.model, samples, dt_s, threshold_m, settle=False).cycle_time_s,
-            )
-            for s in problem.scenarios
-        ]
+        grid = []
+        for s in problem.scenarios:
+            timing = analyze_move(s.model, move, threshold_m=problem.threshold_m, settle=False)
+            grid.append((s.scale, s.zeta, timing.cycle_time_s))
     scale, zeta, cycle = max(grid, key=lambda g: g[2])
     return {
         "cycle_time_s": cycle,
@@ -363,13 +359,12 @@ def report(
         clearance_m=r.clearance_m,
         model=setup.model,
         distance_m=setup.distance_m,
-        dt_s=r.dt_s,
         threshold_m=r.threshold_m,
         limits=r.limits,
         method=r.method,
         solver=r.solver,
         robust=r.robust,
-        acc=move.acc,
+        move=as_move(move.acc, r.dt_s, at_rest=True),
         timing=certified.timing,
         deviation=certified.deviation,
         constraint_check=choice.check,

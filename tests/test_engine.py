@@ -22,6 +22,7 @@ from hypothesis import strategies as st
 import jaxflex
 from jaxflex import engine
 from jaxflex.deviation import deviation_curve, deviation_curves, point_norms
+from jaxflex.profile import as_move
 
 RTOL = 1e-11
 
@@ -174,7 +175,7 @@ def test_numpy_deviation_forms_agree_with_the_jax_one(small_model):
 def test_deviation_curve_samples_the_exact_response(small_model):
     dt_s, substeps = 0.01, 4
     acc = smooth_move(20, dt_s)
-    t, d = deviation_curve(small_model, acc, dt_s, 0.6, substeps)
+    t, d = deviation_curve(small_model, as_move(acc, dt_s), 0.6, substeps)
     assert t[-1] >= 0.6 and np.allclose(np.diff(t), dt_s / substeps)
     fine = jaxflex.simulate(
         small_model, engine.upsample(acc, substeps), dt_s / substeps, extend_s=t[-1] - 0.2
