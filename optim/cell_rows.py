@@ -370,6 +370,8 @@ class DistanceFamily:
         return found.time_s, found.point
 
     def describe(self, found: Clearance) -> dict:
+        """The report's entry of the certified clearance ``found`` (jaxflex.geometry
+        Clearance) against this family's limit; shared by the turning part's family."""
         return {
             "name": self.name,
             "limit": self.limit,

@@ -76,6 +76,7 @@ from optim.cell_rows import (
     SCAN_RTOL,
     SUBSTEPS,
     TAIL_PERIODS,
+    DistanceFamily,
     LoadFamily,
     Row,
     _local_peaks,
@@ -543,22 +544,7 @@ class TurnDistanceFamily:
             motion = self.motion(acc, dt_s, np.array([found.time_s]), np.zeros(0))
         return self._row(motion, 0, found.point, axes)
 
-    def describe(self, found) -> dict:
-        return {
-            "name": self.name,
-            "limit": self.limit,
-            "peak": found.distance_m,
-            "bound": found.bound_m,
-            "utilisation": self.limit / found.distance_m if found.distance_m > 0 else math.inf,
-            "time_s": found.time_s,
-            "item": found.point,
-            "obstacle": found.obstacle_name,
-            "where_m": np.asarray(self.model.points)[found.point].tolist()
-            if found.point >= 0
-            else None,
-            "points": self.model.n_points,
-            "half_thickness_m": self.half,
-        }
+    describe = DistanceFamily.describe
 
     def curve(self, acc, dt_s, t) -> np.ndarray:
         """(T,) the smallest skin distance at times ``t`` (plots)."""
