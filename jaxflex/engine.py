@@ -242,13 +242,15 @@ def rest_padded(acc, n_steps: int) -> np.ndarray:
 
 
 def upsample(acc, factor: int, xp: Any = jnp):
-    """The same piecewise-linear profile sampled ``factor`` times finer: (n factor + 1, 3).
+    """The same piecewise-linear profile sampled ``factor`` times finer: (n+1, ...) samples
+    (e.g. (n+1, 3) accelerations, (n+1,) angular accelerations) -> (n factor + 1, ...).
 
     Simulating it at dt / factor gives the exact response at the finer times."""
     acc = xp.asarray(acc)
     if int(factor) != factor or factor < 1:
         raise InputError(f"factor: must be an integer >= 1, got {factor}")
     factor = int(factor)
-    frac = xp.arange(factor, dtype=acc.dtype)[:, None, None] / factor  # (f, 1, 1)
-    fine = (1.0 - frac) * acc[None, :-1] + frac * acc[None, 1:]  # (f, n, 3)
-    return xp.concatenate([xp.transpose(fine, (1, 0, 2)).reshape(-1, 3), acc[-1:]], axis=0)
+    frac = xp.arange(factor, dtype=acc.dtype).reshape((factor,) + (1,) * acc.ndim) / factor
+    fine = (1.0 - frac) * acc[None, :-1] + frac * acc[None, 1:]  # (f, n, ...)
+    fine = xp.moveaxis(fine, 0, 1).reshape((-1, *acc.shape[1:]))
+    return xp.concatenate([fine, acc[-1:]], axis=0)

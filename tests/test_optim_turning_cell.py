@@ -20,6 +20,7 @@ import jaxflex
 import optim
 from fem.scenes import default_gripper
 from jaxflex.cell import Box, Cell
+from jaxflex.engine import upsample
 from jaxflex.pose import fixed_axis_path
 from jaxflex.rotation_residual import rotation_residual
 from jaxflex.turning import turning_inputs
@@ -47,18 +48,10 @@ def plate():
     return result.to_modal_model(points=60)
 
 
-def _fine(samples: np.ndarray, factor: int) -> np.ndarray:
-    """The piecewise-linear profile of ``samples`` (n+1, ...) sampled ``factor`` x finer."""
-    n = samples.shape[0] - 1
-    t = np.arange(n * factor + 1) / factor
-    flat = samples.reshape(n + 1, -1)
-    cols = [np.interp(t, np.arange(n + 1), flat[:, c]) for c in range(flat.shape[1])]
-    return np.stack(cols, axis=-1).reshape((n * factor + 1, *samples.shape[1:]))
-
-
 def _fine_path(result, factor: int):
     spec = result.turn
-    return fixed_axis_path(np.asarray(spec.axis), _fine(result.angular_acc, factor), DT / factor)
+    fine = upsample(result.angular_acc, factor, np)  # the same linear profile, finer
+    return fixed_axis_path(np.asarray(spec.axis), fine, DT / factor)
 
 
 def _dense_loads(model, result, safety: float = 1.0, factor: int = 10, settle_s: float = 2.0):
@@ -68,7 +61,7 @@ def _dense_loads(model, result, safety: float = 1.0, factor: int = 10, settle_s:
     loads = turning_loads(
         model,
         _fine_path(result, factor),
-        _fine(result.acc, factor),
+        upsample(result.acc, factor, np),
         gravity_m_s2=spec.gravity_m_s2,
         pivot_m=spec.pivot_m,
         extend_s=settle_s,
@@ -84,7 +77,7 @@ def _dense_distance(model, result, obstacles, half_m: float, factor: int = 8) ->
     path = _fine_path(result, factor)
     pivot = np.asarray(spec.pivot_m)
     inputs = turning_inputs(
-        model, path, _fine(result.acc, factor), pivot_m=pivot, extend_s=1.0,
+        model, path, upsample(result.acc, factor, np), pivot_m=pivot, extend_s=1.0,
         gravity_m_s2=spec.gravity_m_s2,
     )  # fmt: skip
     u = (

@@ -27,7 +27,7 @@ import optim
 from fem.scenes import default_gripper
 from jaxflex.files import write_text_atomic
 from jaxflex.geometry import Box, Cell, turning_min_distance
-from jaxflex.response import fixed_axis_path, turning_loads
+from jaxflex.response import fixed_axis_path, turning_loads, upsample
 from optim.turn_baselines import turn_worst_case
 
 DT, THRESHOLD = 0.01, 5e-4
@@ -43,23 +43,15 @@ def _plate():
     return result.to_modal_model(points=60)
 
 
-def _fine(samples: np.ndarray, factor: int) -> np.ndarray:
-    n = samples.shape[0] - 1
-    t = np.arange(n * factor + 1) / factor
-    flat = samples.reshape(n + 1, -1)
-    cols = [np.interp(t, np.arange(n + 1), flat[:, c]) for c in range(flat.shape[1])]
-    return np.stack(cols, axis=-1).reshape((n * factor + 1, *samples.shape[1:]))
-
-
 def _fine_path(result, factor: int):
     axis = np.asarray(result.turn.axis)
-    return fixed_axis_path(axis, _fine(result.angular_acc, factor), DT / factor)
+    return fixed_axis_path(axis, upsample(result.angular_acc, factor, np), DT / factor)
 
 
 def _dense_loads(model, result, safety: float) -> tuple[float, float]:
     spec = result.turn
     loads = turning_loads(
-        model, _fine_path(result, 10), _fine(result.acc, 10), gravity_m_s2=spec.gravity_m_s2,
+        model, _fine_path(result, 10), upsample(result.acc, 10, np), gravity_m_s2=spec.gravity_m_s2,
         pivot_m=spec.pivot_m, extend_s=2.0, cup_safety=safety,
     )  # fmt: skip
     return float(loads.utilisation.max()), float(loads.von_mises_pa.max())
@@ -98,7 +90,7 @@ def _distance_case(model) -> dict:
 
     def dense(result, obstacles) -> float:
         return turning_min_distance(
-            model, obstacles, _fine_path(result, 8), _fine(result.acc, 8),
+            model, obstacles, _fine_path(result, 8), upsample(result.acc, 8, np),
             gravity_m_s2=spec.gravity_m_s2, pivot_m=spec.pivot_m, half_thickness_m=5e-4,
         ).distance_m  # fmt: skip
 
