@@ -6,10 +6,12 @@ length word, 100, then a flags word). Its item 27 is the file's length in 4-byte
 MAPDL wrote it (the file is then padded to whole blocks; items 97-98 hold the same as a
 64-bit number for large files). A file shorter than that was cut off: the reader would
 follow pointers past its end (read garbage, or crash), so it is refused here with the
-lengths. A ``.cdb`` archive (text) declares its node block, ``NBLOCK,<fields>,SOLID,<largest
-node number>,<count>``, then a format line, one line per node, and ``N,R5.3,LOC, -1,``: a
-block that holds fewer lines or lacks its end was cut off (the reader would return fewer
-nodes). Other damage is left to the reader, which runs in a child process
+lengths. A ``.cdb`` archive is text: a NUL byte in it makes the native reader take garbage
+line lengths (a crash or a hang, measured with a NUL in the title), so it is refused. The
+archive declares its node block, ``NBLOCK,<fields>,SOLID,<largest node number>,<count>``,
+then a format line, one line per node, and ``N,R5.3,LOC, -1,``: a block that holds fewer
+lines or lacks its end was cut off (the reader would return fewer nodes). Other damage is
+left to the reader, which runs in a child process
 (jaxflex.isolated)."""
 
 from __future__ import annotations
@@ -56,6 +58,12 @@ def check_mapdl_file(path: Path) -> None:
 
 def _check_archive(path: Path) -> None:
     data = path.read_bytes()
+    nul = data.find(b"\x00")
+    if nul >= 0:  # the native reader takes NUL as a line's end: garbage lengths, a crash or a hang
+        raise InputError(
+            f"nodes: the archive {str(path)!r} is damaged or not an archive: it holds a NUL "
+            f"byte at offset {nul} (MAPDL writes archives as text)"
+        )
     block = _NBLOCK.search(data)
     if block is None:
         raise InputError(f"nodes: the archive {str(path)!r} holds no node block (NBLOCK)")

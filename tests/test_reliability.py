@@ -128,6 +128,21 @@ def test_damaged_ansys_files_give_a_message(tmp_path):
         fem.from_ansys(tmp_path / "junk.full", units="BIN", n_modes=6)
 
 
+def test_an_archive_with_a_nul_byte_is_refused_before_the_reader(tmp_path):
+    """A NUL in a .cdb's title made ansys-mapdl-reader's native code read garbage line
+    lengths: a SystemError, a segfault or (once in CI) a hang past 2 min, varying run to
+    run; it is refused by the pre-check with the offset, the same every time."""
+    from ansys.mapdl.reader import examples
+
+    text = Path(examples.hexarchivefile).read_bytes()
+    (tmp_path / "nul.cdb").write_bytes(text[:132] + b"\x00\x00\x00\x80" + text[136:])
+    for _ in range(3):
+        with pytest.raises(InputError, match=r"nul\.cdb' is damaged .* NUL byte at offset 132"):
+            fem.ansys.read_node_coordinates(tmp_path / "nul.cdb")
+    ids, coords = fem.ansys.read_node_coordinates(Path(examples.hexarchivefile))
+    assert len(ids) == len(coords) == 321  # the undamaged archive: all its nodes
+
+
 # -- meshes -------------------------------------------------------------------------------
 def _plate(tmp_path, name="plate.vtu", points=None, cells=None) -> Path:
     x, y = np.meshgrid(np.linspace(0, 0.6, 7), np.linspace(0, 0.4, 5), indexing="ij")
