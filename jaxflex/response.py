@@ -2,8 +2,9 @@
 fmu): the exact modal state maps (engine), deviation and outputs at points (deviation,
 outputs, loads), the decay envelopes and certified peaks (decay, peaks), the move's samples
 (profile, grid), the point sets (points), and turning moves (pose, rotation, turning,
-rotation_residual, turning_outputs: a turn about a fixed axis, the model's rotational
-inertia data, the rotational loads' static residual, cups and stresses of a turning part).
+rotation_residual, turning_outputs, turning_peaks: a turn about a fixed axis, the model's
+rotational inertia data, the rotational loads' static residual, cups and stresses of a
+turning part and their certified peaks).
 Public: these names are kept stable for the upper layers; the modules they come from are
 private to the core.
 
@@ -115,6 +116,7 @@ from jaxflex.turning import (
     turning_settle,
 )
 from jaxflex.turning_outputs import TurningLoads, turning_loads
+from jaxflex.turning_peaks import turning_output_peak
 
 __all__ = [
     "ARRAY_FIELDS",
@@ -189,6 +191,7 @@ __all__ = [
     "turning_forces",
     "turning_inputs",
     "turning_loads",
+    "turning_output_peak",
     "turning_settle",
     "turning_shapes",
     "unit_axis",

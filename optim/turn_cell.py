@@ -29,10 +29,8 @@ the shortest period for two periods of the longest. A move is then checked:
 
 * **distance**: certified by jaxflex.turning_collision.turning_min_distance (branch and
   bound over the move and the whole settling, every point, both skins);
-* **cups and stress**: the outputs of jaxflex.turning_outputs (its equation (1)) every
-  dt / 8 during the move (a sampled check: the turning engine has no bound of its outputs
-  between samples yet), and after the move a certified branch and bound over the settling
-  and the rest in the final pose (:class:`_Settling`, jaxflex.peaks' bounds).
+* **cups and stress**: certified by jaxflex.turning_peaks.turning_output_peak (branch and
+  bound over the move, the settling and the rest in the final pose, every item).
 
 Which turn a family evaluates is the :class:`TurnSource`'s: the search's active schedule of
 an n-step move, or, while :meth:`TurnSource.holding` a fixed one, a baseline's or the
@@ -52,21 +50,19 @@ from jaxflex.geometry import distances, rotations_between, turning_min_distance
 from jaxflex.response import (
     CupUtilisation,
     Peak,
-    SearchState,
     TurningInputs,
     VonMises,
-    certified_max,
     free_states,
     kinematics_at,
     output_residual,
     position_weights,
     response_shapes,
-    settling_windows,
     state_maps_at,
     states_between,
     turning_coordinates,
     turning_forces,
     turning_inputs,
+    turning_output_peak,
     turning_shapes,
 )
 from optim.cell_rows import (
@@ -239,6 +235,7 @@ class TurnLoadFamily(LoadFamily):
     def __init__(self, name, model, outputs, static_rot, functional, limit, source) -> None:
         super().__init__(name, model, outputs, functional, limit, np.zeros(3))
         self.source = source
+        self.static_rot = static_rot
         self.a_rot = output_residual(outputs, static_rot, model)  # (Y, 9)
 
     @classmethod
@@ -329,29 +326,23 @@ class TurnLoadFamily(LoadFamily):
         return Row(coef[:, list(axes)] / self.limit, float(rhs), float(motion.t_s[j]), item)
 
     def certify(self, acc: np.ndarray, dt_s: float) -> Peak:
-        """The largest value every dt / SUBSTEPS during the move (the items that can beat
-        the samples' largest, :meth:`item_bounds`) and, after the move, certified by branch
-        and bound (:class:`_Settling`; module docstring); ``bound`` the supremum's bound
-        over both (the move's share: its sampled value)."""
-        n = acc.shape[0] - 1
-        samples = self.motion(acc, dt_s, dt_s * np.arange(n + 1), np.zeros(0))
-        values = self.evaluate(samples)
-        best = SearchState()
-        best.evaluations += values.size
-        best.update(values.T, samples.t_s, np.arange(values.shape[1]))
-        # between the samples, every dt / SUBSTEPS: only the items whose bound beats the best
-        motion = self.motion(acc, dt_s, move_times(n, dt_s), np.zeros(0))
-        items = np.flatnonzero(self.item_bounds(motion) > best.value)
-        values = self.evaluate(motion, items)
-        best.evaluations += values.size
-        best.update(values.T, motion.t_s, items)
-        tolerance = _tolerance(self.limit)
-        _Settling(self, motion).search(best, tolerance)
-        value = best.value
-        return Peak(
-            value, best.time, best.item, max(value + tolerance(value), best.unresolved),
-            best.evaluations,
-        )  # fmt: skip
+        """The supremum over the move, the settling and the rest in the final pose,
+        certified by branch and bound (jaxflex.turning_peaks), to 1e-5 of the value or up to
+        the limit below it (where the bound stays below the limit the peak need not be
+        located)."""
+        spec = self.source.spec
+        return turning_output_peak(
+            self.model,
+            self.outputs,
+            self.static_rot,
+            self.functional,
+            spec.path(self.source.angular_acc(acc.shape[0] - 1), dt_s),
+            acc,
+            gravity_m_s2=spec.gravity_m_s2,
+            pivot_m=spec.pivot_m,
+            rtol=1e-5,
+            limit=self.limit,
+        )
 
     def failure_row(self, peak: Peak, acc: np.ndarray, dt_s: float, axes) -> Row:
         motion = self._motion_at(acc, dt_s, peak.time_s)
@@ -374,92 +365,6 @@ def _plot_motion(family, acc: np.ndarray, dt_s: float, t) -> TurnMotion:
     t = np.asarray(t, dtype=np.float64)
     t_end = (acc.shape[0] - 1) * dt_s
     return family.motion(acc, dt_s, t[t <= t_end], t[t > t_end] - t_end)
-
-
-def _tolerance(limit: float):
-    """The certified search's gap: 1e-5 of the value, or up to the limit below it (where
-    the bound stays below the limit the search need not locate the peak)."""
-
-    def tolerance(value: float) -> float:
-        if not math.isfinite(value):
-            return math.inf
-        return max(1e-5 * abs(value), limit - value)
-
-    return tolerance
-
-
-class _Settling:
-    """The outputs of a turning part after the move: at rest in the final pose (the static
-    outputs y_rest there) plus the free vibration from the move's end state, a straight
-    free decay, so jaxflex.peaks' bounds apply: f(y) <= f(y_rest) + W . env(tau) (env_j =
-    sum_i (|Q_ji| + |V_ji| omega_i) R_i e^{-sigma_i tau}) beyond the search's horizon, and
-    between two evaluation times the curvature bound W . (b - a)^2 / 8 sup |y''|."""
-
-    def __init__(self, family: TurnLoadFamily, motion: TurnMotion) -> None:
-        model = family.model
-        self.family, self.motion = family, motion
-        self.omega = np.asarray(model.omega_rad_s)
-        self.sigma = np.asarray(model.zeta) * self.omega
-        end = motion.end_deviation
-        self.amplitude = np.hypot(end[:, 1], self.omega * end[:, 0])
-        rest = TurnMotion(model, motion.spec, np.zeros(2), np.zeros((2, 3)), motion.dt_s, [], [])
-        gravity_end = motion.inputs.gravity_body_m_s2[motion.n_steps]
-        sag = (gravity_end @ np.asarray(model.gamma).T) / self.omega**2
-        rest.inputs = TurningInputs(
-            np.zeros(1), sag[None], np.zeros((1, model.n_modes)), -gravity_end[None],
-            np.zeros((1, 9)), gravity_end[None],
-        )  # fmt: skip
-        self.rest = family.outputs_of(rest)[0]  # (Y,) at rest in the final pose
-
-    def _rows(self, items: np.ndarray) -> np.ndarray:
-        r = self.family.functional.rows_per_item
-        return (r * items[:, None] + np.arange(r)).ravel()
-
-    def _weighted_rows(self, items: np.ndarray, tau: np.ndarray, power: int) -> np.ndarray:
-        """(I, T) W_g . sum_i (|Q_ji| omega_i^p + |V_ji| omega_i^(p+1)) R_i e^{-sigma_i tau}."""
-        rows, f = self._rows(items), self.family
-        decay = self.amplitude[:, None] * np.exp(-np.outer(self.sigma, tau))
-        per_row = (np.abs(f.q_map[rows]) * self.omega**power) @ decay + (
-            np.abs(f.v_map[rows]) * self.omega ** (power + 1)
-        ) @ decay
-        w = f.functional.weights(items)
-        return np.einsum("ir,irt->it", w, per_row.reshape(*w.shape, -1))
-
-    def evaluate(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
-        """(I, T) the functional at times ``t`` (s from the start, after the move)."""
-        f = self.family
-        p = free_states(f.model, self.motion.end_deviation, t - self.motion.t_end, np)
-        rows = self._rows(items)
-        y = p[..., 0] @ f.q_map[rows].T + p[..., 1] @ f.v_map[rows].T + self.rest[rows]
-        r = f.functional.rows_per_item
-        return f.functional.values(y.reshape(len(t), len(items), r), items).T
-
-    def bound(self, a, b, va, vb, items):
-        curvature = self._weighted_rows(items, a - self.motion.t_end, 2)
-        return np.maximum(va, vb) + curvature * (b - a) ** 2 / 8
-
-    def static(self, items: np.ndarray) -> np.ndarray:
-        r = self.family.functional.rows_per_item
-        y = self.rest[self._rows(items)].reshape(1, len(items), r)
-        return self.family.functional.values(y, items)[0]
-
-    def search(self, best: SearchState, tolerance) -> None:
-        """Update ``best`` with the supremum after the move (the part at rest included)."""
-        items = np.arange(self.family.functional.n_items)
-        static = self.static(items)
-        best.update(static[:, None], np.array([math.inf]), items)
-
-        def above(tau: float) -> np.ndarray:
-            bound = static + self._weighted_rows(items, np.array([tau]), 0)[:, 0]
-            return bound > best.value + tolerance(best.value)
-
-        step = 2 * np.pi / (TAIL_SAMPLES_PER_PERIOD * self.omega.max())
-        live = self.sigma[self.amplitude > 0]
-        t_end = self.motion.t_end
-        with threadpool_limits(limits=1, user_api="blas"):
-            for start, times in settling_windows(above, live, step, "turning loads"):
-                alive = items[above(start)]
-                certified_max(self.evaluate, self.bound, t_end + times, alive, tolerance, best)
 
 
 class TurnDistanceFamily:
