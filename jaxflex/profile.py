@@ -84,13 +84,21 @@ def integrate(acc, dt_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     return vel, pos
 
 
+def samples_at(values, dt_s: float, t_s, outside: float | None = None) -> np.ndarray:
+    """(T, F) the samples ``values`` ((n+1, F) at step ``dt_s`` s) at times ``t_s`` (T,) s:
+    linear between samples; before the start and after the end held at the end samples, or
+    ``outside`` where given."""
+    values = np.asarray(values, dtype=np.float64)
+    t = np.asarray(t_s, dtype=np.float64)
+    grid = dt_s * np.arange(values.shape[0])
+    columns = range(values.shape[1])
+    return np.column_stack([np.interp(t, grid, values[:, c], outside, outside) for c in columns])
+
+
 def acceleration_at(acc, dt_s: float, t_s) -> np.ndarray:
     """(T, 3) acceleration (m/s^2) of the samples ``acc`` ((n+1, 3) at step ``dt_s`` s) at
     times ``t_s`` (T,) s: linear between samples, 0 before the start and after the end."""
-    acc = np.asarray(acc, dtype=np.float64)
-    t = np.asarray(t_s, dtype=np.float64)
-    grid = dt_s * np.arange(acc.shape[0])
-    return np.column_stack([np.interp(t, grid, acc[:, c], left=0.0, right=0.0) for c in range(3)])
+    return samples_at(acc, dt_s, t_s, outside=0.0)
 
 
 def kinematics_at(acc, dt_s: float, t_s) -> tuple[np.ndarray, np.ndarray]:

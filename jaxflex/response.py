@@ -92,6 +92,7 @@ from jaxflex.profile import (
     jerk_limited_move,
     kinematics_at,
     position_weights,
+    samples_at,
 )
 from jaxflex.rotation import LEVI_CIVITA, RotationalInertia, require_rotation
 from jaxflex.rotation_residual import (
@@ -179,6 +180,7 @@ __all__ = [
     "response_shapes",
     "rest_padded",
     "rotation_residual",
+    "samples_at",
     "settling_windows",
     "simulate_turning",
     "snap_key_points",

@@ -36,7 +36,7 @@ from jaxflex.collision import Clearance, PartBlocks, _Motion, distances, search_
 from jaxflex.decay import amplitudes
 from jaxflex.engine import derivative_bounds, free_states, states_between
 from jaxflex.pose import PosePath
-from jaxflex.profile import kinematics_at
+from jaxflex.profile import kinematics_at, samples_at
 from jaxflex.rotation import LEVI_CIVITA, require_rotation
 from jaxflex.rotation_residual import turning_coordinates, turning_shapes, warn_missing_static
 from jaxflex.turning import GRAVITY_M_S2, turning_forces, turning_inputs
@@ -57,12 +57,6 @@ def rotations_between(path: PosePath, t_s: np.ndarray) -> np.ndarray:
     sin, cos = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
     turn = np.eye(3) + sin * skew + (1.0 - cos) * (skew @ skew)  # Rodrigues
     return np.asarray(path.rotation)[k] @ turn
-
-
-def _linear_at(values: np.ndarray, dt_s: float, t_s: np.ndarray) -> np.ndarray:
-    """(T, F) the samples ``values`` (n+1, F) interpolated linearly at ``t_s`` (T,)."""
-    grid = dt_s * np.arange(values.shape[0])
-    return np.column_stack([np.interp(t_s, grid, values[:, c]) for c in range(values.shape[1])])
 
 
 def turning_part_blocks(model) -> PartBlocks:
@@ -140,8 +134,8 @@ class _TurningMotion(_Motion):
 
     def coordinates(self, t: np.ndarray) -> np.ndarray:
         q = states_between(self.model, self.states, self.force, self.dt_s, t, np)[..., 0]
-        base = _linear_at(self.inputs.base, self.dt_s, t)
-        b = _linear_at(self.inputs.coefficients, self.dt_s, t)
+        base = samples_at(self.inputs.base, self.dt_s, t)
+        b = samples_at(self.inputs.coefficients, self.dt_s, t)
         return turning_coordinates(self.model, q, base, b)
 
     def during(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:

@@ -40,6 +40,7 @@ from threadpoolctl import threadpool_limits
 from jaxflex.engine import derivative_bounds, free_states, states_between
 from jaxflex.peaks import Peak, SearchState, certified_max, settling_windows
 from jaxflex.pose import PosePath
+from jaxflex.profile import samples_at
 from jaxflex.rotation_residual import output_residual
 from jaxflex.turning import GRAVITY_M_S2, turning_forces, turning_inputs
 
@@ -47,13 +48,6 @@ __all__ = ["TurningLoadSearch", "turning_output_peak"]
 
 SAMPLES_PER_PERIOD = 16  # the settling's first grid: 1/16 of the shortest period
 CHUNK_ITEMS = 2048
-
-
-def linear_at(values: np.ndarray, dt_s: float, t_s: np.ndarray) -> np.ndarray:
-    """(T, F) the samples ``values`` (n+1, F) at step ``dt_s`` interpolated linearly at
-    ``t_s`` (T,) s (held at the ends)."""
-    grid = dt_s * np.arange(values.shape[0])
-    return np.column_stack([np.interp(t_s, grid, values[:, c]) for c in range(values.shape[1])])
 
 
 class TurningLoadSearch:
@@ -104,8 +98,8 @@ class TurningLoadSearch:
         """(I, T) the functional at times ``t`` (T,) s within the move."""
         rows = self.rows(items)
         states = states_between(self.model, self.states, self.force, self.dt_s, t, np)
-        base = linear_at(self.inputs.base, self.dt_s, t)
-        coefficients = linear_at(self.inputs.coefficients, self.dt_s, t)
+        base = samples_at(self.inputs.base, self.dt_s, t)
+        coefficients = samples_at(self.inputs.coefficients, self.dt_s, t)
         y = (
             states[..., 0] @ self.q_map[rows].T
             + states[..., 1] @ self.v_map[rows].T
