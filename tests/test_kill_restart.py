@@ -95,7 +95,8 @@ def _state(out: Path, references: dict) -> str:
     """'refused' (export names the directory), or which run's complete set ``out`` holds;
     fails if export accepts files that are not one run's set."""
     try:
-        acc, _, report = load_case(out)
+        move, report = load_case(out)
+        acc = move.acc
     except InputError as exc:
         assert str(out) in str(exc), exc
         return "refused"
