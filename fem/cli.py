@@ -32,7 +32,7 @@ from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
 from jaxflex.defaults import DT_S
 from jaxflex.errors import InputError
 from jaxflex.files import check_output_file, read_trajectory_csv
-from jaxflex.response import analyze_move, as_move, deviation_curve, jerk_limited_move
+from jaxflex.response import Move, analyze_move, as_move, deviation_curve, jerk_limited_move
 from jaxflex.runtime import issue, model_resolution, require, threshold_advice
 
 COMMAND = "model"
@@ -401,7 +401,7 @@ def _write(args, model, result) -> None:
 
 
 def _move(args):
-    """(acc, dt) of the move at hand from --trajectory or --distance and the limits."""
+    """The Move at hand from --trajectory or --distance and the limits."""
     for name, _unit, _default in AXIS_LIMITS:
         if getattr(args, name) is not None and args.distance is None:
             raise InputError(f"--{name}: only with --distance (a trajectory has its own limits)")
@@ -414,19 +414,18 @@ def _move(args):
     if args.distance is None:
         raise InputError("--tolerance: give the move, --trajectory FILE or --distance X Y Z")
     dt_s = DT_S if args.dt is None else args.dt
-    return jerk_limited_move(args.distance, dt_s=dt_s, **limits), dt_s
+    return as_move(jerk_limited_move(args.distance, dt_s=dt_s, **limits), dt_s)
 
 
-def _threshold_advice(model, acc, dt_s: float, threshold_m: float) -> None:
+def _threshold_advice(model, move: Move, threshold_m: float) -> None:
     """Warn about a --threshold the sized model cannot mean (jaxflex.advice)."""
-    n_steps = len(acc) - 1
-    _, deviation = deviation_curve(model, as_move(acc, dt_s), n_steps * dt_s, 8)
+    _, deviation = deviation_curve(model, move, move.duration_s, 8)
     issue(
         threshold_advice(
             threshold_m,
-            analyze_move(model, acc, dt_s, threshold_m).settle_time_s,
+            analyze_move(model, move, threshold_m=threshold_m).settle_time_s,
             float(np.max(deviation)),
-            model_resolution(model, np.sum(np.abs(acc), axis=0)),
+            model_resolution(model, np.sum(np.abs(move.acc), axis=0)),
             name="--threshold",
             move=("the move", "the settle time is 0 and there is nothing to size the model for"),
         )
@@ -444,12 +443,12 @@ def _run_sizing(args, part, supports) -> int:
         raise InputError("--threshold: the settle threshold in m is required with --tolerance")
     if args.mesh is not None and args.mesh_sizes is not None:
         raise InputError("--mesh-sizes: a mesh file is used as is (a CAD part can be re-meshed)")
-    acc, dt_s = _move(args)
+    move = _move(args)
     sized = size_model(
         part,
         supports,
-        acc,
-        dt_s,
+        move.acc,
+        move.dt_s,
         args.threshold,
         args.tolerance,
         zeta=args.zeta,
@@ -461,7 +460,7 @@ def _run_sizing(args, part, supports) -> int:
         log=print,
     )
     print(sized.summary())
-    _threshold_advice(sized.model, acc, dt_s, args.threshold)
+    _threshold_advice(sized.model, move, args.threshold)
     _write(args, sized.model, sized.result)
     if args.report:
         sized.save_report(args.report)

@@ -26,7 +26,7 @@ from jaxflex.files import (
     read_turn_csv,
 )
 from jaxflex.geometry import DEFAULT_GRAVITY_M_S2
-from jaxflex.response import downsample_to_count, fixed_axis_path, integrate
+from jaxflex.response import Move, downsample_to_count, fixed_axis_path, integrate
 from jaxflex.runtime import Need, require
 from optim.budget import obstacle_pieces
 from optim.cell_file import load_cell
@@ -156,17 +156,18 @@ def trajectory_file(path: Path) -> Path:
     return csv
 
 
-def load_case(path: Path) -> tuple[object, float, dict | None]:
-    """(acc (n+1, 3) m/s^2, dt s, report dict or None) from an optimize folder or a CSV.
+def load_case(path: Path) -> tuple[Move, dict | None]:
+    """(the Move, report dict or None) from an optimize folder or a CSV.
 
     The trajectory and its report are used together only as members of one complete result
     set (jaxflex.fileset: the manifest lists both with their hashes): a folder whose run was
     interrupted, or a CSV beside a report of another run, is refused naming the file."""
     csv = trajectory_file(path)
     if not path.is_dir() and not csv.with_name("report.json").exists():
-        return (*read_trajectory_csv(csv), None)  # a trajectory on its own
+        return read_trajectory_csv(csv), None  # a trajectory on its own
     members = read_set(csv.parent, RESULT_KIND, (csv.name, "report.json"), option="--trajectory")
-    acc, dt_s = read_trajectory_csv(csv)
+    move = read_trajectory_csv(csv)
+    dt_s = move.dt_s
     report_path = members["report.json"]
     try:
         report = json.loads(report_path.read_text(encoding="utf-8"))
@@ -180,19 +181,20 @@ def load_case(path: Path) -> tuple[object, float, dict | None]:
             f"--trajectory: {report_path.name} says dt_s = {report_dt} s but {csv.name} is "
             f"sampled every {dt_s} s; they do not belong together"
         )
-    return acc, dt_s, {key: report[key] for key in CASE_KEYS if key in report}
+    return move, {key: report[key] for key in CASE_KEYS if key in report}
 
 
-def turning_move(path: Path, acc, dt_s: float, case: dict | None, pivot_m) -> dict:
+def turning_move(path: Path, move: Move, case: dict | None, pivot_m) -> dict:
     """The embedded move of a turning part from ``--trajectory`` ``path``: ``pose`` (the
-    jaxflex.pose.PosePath at the samples ``acc`` (n+1, 3) m/s^2, step ``dt_s``), ``pivot_m``
-    and ``gravity_m_s2``: the turn of `jaxflex optimize --rotate` (trajectory.csv's turn
-    columns, report.json's axis, pivot and gravity), or no turn for a straight move (about
-    ``pivot_m``, default the origin). Inconsistent inputs are refused naming the option."""
+    jaxflex.pose.PosePath at the samples of ``move``), ``pivot_m`` and ``gravity_m_s2``:
+    the turn of `jaxflex optimize --rotate` (trajectory.csv's turn columns, report.json's
+    axis, pivot and gravity), or no turn for a straight move (about ``pivot_m``, default the
+    origin). Inconsistent inputs are refused naming the option."""
+    dt_s = move.dt_s
     turn_acc = read_turn_csv(trajectory_file(path))
     spec = (case or {}).get("turn")
     if turn_acc is None and spec is None:  # a straight move: the part keeps its orientation
-        pose = fixed_axis_path("z", np.zeros(len(acc)), dt_s)
+        pose = fixed_axis_path("z", np.zeros(move.n_steps + 1), dt_s)
         pivot = (0.0, 0.0, 0.0) if pivot_m is None else pivot_m
         return {"pose": pose, "pivot_m": pivot, "gravity_m_s2": DEFAULT_GRAVITY_M_S2}
     if turn_acc is None or not isinstance(spec, dict) or "axis" not in spec:
@@ -241,11 +243,11 @@ BUILD_S = 10.0
 
 
 def _need(model, trajectory, cell, *, verify: bool) -> Need:
-    """What exporting ``model`` (with the move ``trajectory`` = (acc, dt) or None, the
+    """What exporting ``model`` (with the Move ``trajectory`` or None, the
     ``cell`` or None) and verifying it take: the resource (model, move, obstacles) held a few
     times while written, and the simulations of the move in each host."""
     pieces = 0 if cell is None else obstacle_pieces(cell)
-    samples = 0 if trajectory is None else len(trajectory[0])
+    samples = 0 if trajectory is None else trajectory.n_steps + 1
     values = model.n_modes * (5 + 3 * model.n_points) + 3 * model.n_points + 3 * samples
     values += 12 * pieces
     per_step = model.n_points * (model.n_modes + pieces)
@@ -262,7 +264,7 @@ def _need(model, trajectory, cell, *, verify: bool) -> Need:
 def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> int:
     move = None
     if args.turning and trajectory is not None:
-        move = turning_move(Path(args.trajectory), *trajectory, case, args.pivot)
+        move = turning_move(Path(args.trajectory), trajectory, case, args.pivot)
     result = export_fmu(
         model,
         args.output,
@@ -309,7 +311,7 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
         duration = result.case["duration_s"]  # and a quarter more, as the FMU's stop time
         extend_s = 1.25 * max(duration, result.case["cycle_time_s"]) - duration
         report = verify_turning(
-            result.fmu_path, model, acc=trajectory[0], extend_s=extend_s, **move
+            result.fmu_path, model, acc=trajectory.acc, extend_s=extend_s, **move
         )
         print(report.summary())
         return 0 if report.ok else 1
@@ -371,8 +373,7 @@ def run(args: argparse.Namespace) -> int:
         model = model.select_points(kept)
     trajectory, case = None, None
     if args.trajectory:
-        acc, dt_s, case = load_case(Path(args.trajectory))
-        trajectory = (acc, dt_s)
+        trajectory, case = load_case(Path(args.trajectory))
         if not args.turning and (case or {}).get("turn") is not None:
             raise InputError(
                 "--trajectory: the move turns the part (report.json's turn); export it with "

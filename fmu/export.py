@@ -49,6 +49,7 @@ from jaxflex.geometry import DEFAULT_GRAVITY_M_S2, Cell, part_half_thickness
 from jaxflex.model import ModalModel
 from jaxflex.response import (
     DEFAULT_CUP_SAFETY,
+    Move,
     PosePath,
     analyze_move,
     as_move,
@@ -107,10 +108,15 @@ def _check_arguments(model, path, fmi_version, threshold_m, damping_scale):
 def _check_trajectory(trajectory) -> tuple[np.ndarray | None, float | None]:
     if trajectory is None:
         return None, None
-    try:
-        acc, dt_s = trajectory
-    except (TypeError, ValueError) as exc:
-        raise InputError("trajectory: expected a pair (acc (n+1, 3) m/s^2, dt_s)") from exc
+    if isinstance(trajectory, Move):
+        acc, dt_s = trajectory, None
+    else:
+        try:
+            acc, dt_s = trajectory
+        except (TypeError, ValueError) as exc:
+            raise InputError(
+                "trajectory: expected a jaxflex.Move or a pair (acc (n+1, 3) m/s^2, dt_s)"
+            ) from exc
     move = as_move(acc, dt_s, at_rest=True, name="trajectory acc", dt_name="trajectory dt_s")
     return move.acc, move.dt_s
 
@@ -266,7 +272,7 @@ def export_fmu(
     model: ModalModel,
     path: str | os.PathLike,
     fmi_version: int = 2,
-    trajectory: tuple[Any, float] | None = None,
+    trajectory: Move | tuple[Any, float] | None = None,
     threshold_m: float = THRESHOLD_M,
     case: dict[str, Any] | None = None,
     *,
@@ -288,7 +294,8 @@ def export_fmu(
         model: the part (K points, M modes).
         path: the .fmu file; its stem is the model identifier (made a C identifier).
         fmi_version: 2 or 3.
-        trajectory: optional ``(acc, dt_s)``, acc (n+1, 3) m/s^2 starting and ending at 0,
+        trajectory: optional Move (or its pair ``(acc, dt_s)``), acc (n+1, 3) m/s^2 starting
+            and ending at 0,
             embedded in the resource (replayed with ``use_embedded_trajectory = true``) and
             written beside the FMU as ``<name>_input.csv`` with ``<name>_case.json``.
         threshold_m: start value of the ``threshold`` parameter, m.

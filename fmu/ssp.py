@@ -38,6 +38,7 @@ from fmu.source import OUTPUTS, SourceResult, export_source_fmu
 from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
+from jaxflex.response import Move
 
 PART, SOURCE = "part", "trajectory"
 PARAMETER_SET = "case"
@@ -178,7 +179,7 @@ def export_ssp(
     model: ModalModel,
     path: str | os.PathLike,
     fmi_version: int = 2,
-    trajectory: tuple[Any, float] | None = None,
+    trajectory: Move | tuple[Any, float] | None = None,
     threshold_m: float = THRESHOLD_M,
     case: dict[str, Any] | None = None,
     *,
@@ -186,15 +187,16 @@ def export_ssp(
     model_name: str | None = None,
     windows: bool | None = None,
 ) -> SspResult:
-    """Write the SSP package of ``model`` moved by ``trajectory`` = (acc (n+1, 3) m/s^2 at rest
-    at both ends, dt_s) at ``path`` (.ssp, atomically); FMI ``fmi_version`` for both FMUs.
+    """Write the SSP package of ``model`` moved by ``trajectory`` (a Move, or the pair (acc
+    (n+1, 3) m/s^2 at rest at both ends, dt_s)) at ``path`` (.ssp, atomically); FMI
+    ``fmi_version`` for both FMUs.
     ``threshold_m``, ``case``, ``damping_scale``, ``model_name`` and ``windows`` as in
     :func:`fmu.export_fmu`; the threshold and damping scale are also bound as SSP parameters."""
     path = Path(path)
     if path.suffix.lower() != ".ssp":
         raise InputError(f"path: an SSP file name must end in .ssp, got {str(path)!r}")
     if trajectory is None:
-        raise InputError("trajectory: an SSP package plays a move; pass (acc, dt_s)")
+        raise InputError("trajectory: an SSP package plays a move; pass a Move or (acc, dt_s)")
     with tempfile.TemporaryDirectory(prefix="jaxflex_ssp_") as tmp:
         stage = Path(tmp) / "ssp"
         resources = stage / "resources"
@@ -210,7 +212,9 @@ def export_ssp(
             model_name=model_name,
             windows=windows,
         )
-        acc, dt_s = trajectory
+        acc, dt_s = (
+            (trajectory.acc, trajectory.dt_s) if isinstance(trajectory, Move) else trajectory
+        )
         source = export_source_fmu(
             resources / f"{SOURCE}.fmu", acc, dt_s, fmi_version, windows=windows
         )

@@ -214,8 +214,6 @@ def verify(
         stop = max(float(md.defaultExperiment.stopTime or 0.0), duration)
     n_steps = round(stop / dt_s)
     stop = n_steps * dt_s
-    threshold_m = next(float(v.start) for v in md.modelVariables if v.name == "threshold")
-
     points = fmi_version == 3
     if mode == "linear":
         with Session(path, instance_name="jaxflex_verify") as session:
@@ -227,15 +225,7 @@ def verify(
             drive: dict[str, Any] = {"start_values": {"use_embedded_trajectory": True}}
         else:
             drive = {"input": input_signal(acc, dt_s)}
-        result = simulate_fmu(
-            str(path),
-            validate=False,
-            start_time=0.0,
-            stop_time=stop,
-            output_interval=dt_s,
-            output=outputs,
-            **drive,
-        )
+        result = replay(path, stop, dt_s, outputs, **drive)
     if len(result["time"]) != n_steps + 1:
         raise InputError(
             f"the simulation returned {len(result['time'])} samples, expected {n_steps + 1}: "
@@ -246,8 +236,6 @@ def verify(
         simulated_model(stored, path), acc, dt_s, n_steps, hold=hold, points=points
     )
     reference = f"jaxflex.engine ({'zero-order hold' if mode == 'held' else 'first-order hold'})"
-    dev = np.asarray(result["deviation"])
-    diff = float(np.max(np.abs(dev - ref_dev)))
     diff_p = rel_p = None
     if points:
         disp = np.asarray(result["displaced_points"]) - np.asarray(stored.model.points)[None]
@@ -260,21 +248,64 @@ def verify(
             "inputs are held over each step; jaxflex (linear between samples) differs by "
             "about half a step of delay"
         )
+    return replay_report(
+        path, md, mode, reference, dt_s, result, ref_dev, t, points=(diff_p, rel_p), rtol=rtol,
+        notes=notes,
+    )  # fmt: skip
+
+
+def replay(path: Path, stop_s: float, dt_s: float, outputs: list[str], **drive):
+    """fmpy's simulation of the FMU at ``path`` from 0 to ``stop_s`` s with the output
+    interval ``dt_s`` s, recording ``outputs``; ``drive``: its ``input`` or ``start_values``."""
+    return simulate_fmu(
+        str(path),
+        validate=False,
+        start_time=0.0,
+        stop_time=stop_s,
+        output_interval=dt_s,
+        output=outputs,
+        **drive,
+    )
+
+
+def replay_report(
+    path: Path,
+    md,
+    mode: str,
+    reference: str,
+    dt_s: float,
+    result,
+    ref_dev: np.ndarray,
+    t_s: np.ndarray,
+    *,
+    points: tuple[float | None, float | None] = (None, None),
+    rtol: float = DEFAULT_RTOL,
+    notes: list[str],
+) -> VerifyReport:
+    """The report of a replay of the FMU at ``path`` (model description ``md``: its FMI
+    version and the threshold's start value, m) in ``mode`` at step ``dt_s`` s: fmpy's
+    validation, the FMU's ``result`` (its deviation, m, and settle time, s, at the times
+    ``t_s`` (n+1,) s) against the ``reference``'s deviation ``ref_dev`` (n+1,) m, and
+    ``points`` (the largest absolute (m) and relative difference of the displaced points, or
+    None without them)."""
+    diff = float(np.max(np.abs(np.asarray(result["deviation"]) - ref_dev)))
+    threshold_m = next(float(v.start) for v in md.modelVariables if v.name == "threshold")
+    n_steps = len(ref_dev) - 1
     return VerifyReport(
         path=str(path),
-        fmi_version=fmi_version,
+        fmi_version=int(md.fmiVersion[0]),
         mode=mode,
         reference=reference,
         validation=list(validate_fmu(str(path))),
         n_steps=n_steps,
         dt_s=dt_s,
-        stop_time_s=stop,
+        stop_time_s=n_steps * dt_s,
         max_abs_diff_m=diff,
         max_rel_diff=relative_difference(diff, float(np.max(np.abs(ref_dev)))),
-        max_abs_diff_points_m=diff_p,
-        max_rel_diff_points=rel_p,
+        max_abs_diff_points_m=points[0],
+        max_rel_diff_points=points[1],
         settle_time_fmu_s=float(result["settle_time"][-1]),
-        settle_time_reference_s=settle_time_at_points(t, ref_dev, threshold_m),
+        settle_time_reference_s=settle_time_at_points(t_s, ref_dev, threshold_m),
         rtol=rtol,
         notes=notes,
     )

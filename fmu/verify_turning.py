@@ -9,10 +9,9 @@ import os
 from pathlib import Path
 
 import numpy as np
-from fmpy import read_model_description, simulate_fmu
-from fmpy.validation import validate_fmu
+from fmpy import read_model_description
 
-from fmu.verify import DEFAULT_RTOL, VerifyReport, relative_difference, settle_time_at_points
+from fmu.verify import DEFAULT_RTOL, VerifyReport, replay, replay_report
 from jaxflex.model import ModalModel
 from jaxflex.response import PosePath, simulate_turning
 
@@ -40,35 +39,26 @@ def verify_turning(
     )
     n_steps = len(reference.t_s) - 1
     stop = n_steps * dt_s
-    result = simulate_fmu(
-        str(path),
-        validate=False,
-        start_time=0.0,
-        stop_time=stop,
-        output_interval=dt_s,
-        output=["deviation", "settle_time"],
+    result = replay(
+        path,
+        stop,
+        dt_s,
+        ["deviation", "settle_time"],
         start_values={"use_embedded_trajectory": True},
     )
-    dev, ref = np.asarray(result["deviation"]), reference.deviation_m
+    ref = reference.deviation_m
+    dev = np.asarray(result["deviation"])
     if dev.shape != ref.shape:
         raise ValueError(f"the FMU returned {dev.size} samples, jaxflex {ref.size}")
-    diff = float(np.max(np.abs(dev - ref)))
-    threshold_m = next(float(v.start) for v in md.modelVariables if v.name == "threshold")
-    return VerifyReport(
-        path=str(path),
-        fmi_version=int(md.fmiVersion[0]),
-        mode="embedded",
-        reference="jaxflex.simulate_turning (first-order hold of the forcing)",
-        validation=list(validate_fmu(str(path))),
-        n_steps=n_steps,
-        dt_s=dt_s,
-        stop_time_s=stop,
-        max_abs_diff_m=diff,
-        max_rel_diff=relative_difference(diff, float(np.max(np.abs(ref)))),
-        max_abs_diff_points_m=None,
-        max_rel_diff_points=None,
-        settle_time_fmu_s=float(result["settle_time"][-1]),
-        settle_time_reference_s=settle_time_at_points(reference.t_s, ref, threshold_m),
+    return replay_report(
+        path,
+        md,
+        "embedded",
+        "jaxflex.simulate_turning (first-order hold of the forcing)",
+        dt_s,
+        result,
+        ref,
+        reference.t_s,
         rtol=rtol,
         notes=["a turning part: the deviation about the sag of the current pose"],
     )

@@ -49,7 +49,12 @@ from jaxflex.model import ModalModel, load_model, save_model, stack_models  # no
 from jaxflex.profile import Move, as_move, integrate, jerk_limited_move  # noqa: E402
 from jaxflex.settle import SettleReport, analyze_move, cycle_time, settle_time  # noqa: E402
 from jaxflex.simulate import Response, batch_deviation, end_state, simulate  # noqa: E402
-from jaxflex.surrogate import cycle_time_smooth, envelope_time  # noqa: E402
+from jaxflex.surrogate import (  # noqa: E402
+    cycle_time_smooth,
+    envelope_time,
+    soft_max,
+    soft_max_excess,
+)
 
 __all__ = [
     "BudgetError",
@@ -77,6 +82,8 @@ __all__ = [
     "save_model",
     "settle_time",
     "simulate",
+    "soft_max",
+    "soft_max_excess",
     "stack_models",
     "upsample",
 ]

@@ -1,10 +1,10 @@
 """The building blocks of the certified response, for the layers above the core (fem, optim,
 fmu): the exact modal state maps (engine), deviation and outputs at points (deviation,
 outputs, loads), the decay envelopes and certified peaks (decay, peaks), the move's samples
-(profile, grid), the point sets (points), and turning moves (pose, rotation, turning,
-rotation_residual, turning_outputs, turning_peaks: a turn about a fixed axis, the model's
-rotational inertia data, the rotational loads' static residual, cups and stresses of a
-turning part and their certified peaks).
+(profile, grid), the point sets (points), the soft maximum (surrogate), and turning moves
+(pose, rotation, turning, rotation_residual, turning_outputs, turning_peaks: a turn about a
+fixed axis, the model's rotational inertia data, the rotational loads' static residual, cups
+and stresses of a turning part and their certified peaks).
 Public: these names are kept stable for the upper layers; the modules they come from are
 private to the core.
 
@@ -107,6 +107,7 @@ from jaxflex.simulate import (
     move_deviation,
     on_device,
 )
+from jaxflex.surrogate import soft_max
 from jaxflex.turning import (
     GRAVITY_M_S2,
     TurningInputs,
@@ -184,6 +185,7 @@ __all__ = [
     "settling_windows",
     "simulate_turning",
     "snap_key_points",
+    "soft_max",
     "state_map",
     "state_maps_at",
     "states_at",

@@ -1,4 +1,13 @@
-"""A smooth, differentiable upper bound of the cycle time, for gradient-based optimisers.
+"""Smooth, differentiable upper bounds for gradient-based optimisers: the soft maximum and,
+built on it, a bound of the cycle time.
+
+The soft maximum (:func:`soft_max`, the one the core and the optimiser's gradient route
+share) of values v_r with weights w_r in {0, 1} at sharpness s,
+
+    S = (1 / s) log sum_r w_r exp(s v_r),    max_r v_r <= S <= max_r v_r + log(R) / s,
+
+(the maxima over the R rows with w_r = 1) is smooth, and an upper bound of the maximum
+whose excess is at most :func:`soft_max_excess` = log(R) / s.
 
 The exact cycle time jumps by about half a period whenever an oscillation peak crosses the
 threshold, so it cannot be optimised directly. After the move, each point's deviation is
@@ -7,7 +16,7 @@ bounded by its free-decay envelope
     |u_p(t_n + tau)| <= E_p(tau) = sum_i |phi_i(p)| R_i e^{-sigma_i tau},
 
 (R_i the amplitude of mode i at t_n, sigma_i = zeta_i omega_i). The surrogate is the time at
-which a soft maximum over points of E_p reaches the threshold,
+which the soft maximum over points of log E_p reaches the threshold,
 
     F(tau) = (1 / s) log sum_p E_p(tau)^s   (>= max_p log E_p(tau)),   F(tau_env) = log threshold,
 
@@ -23,6 +32,8 @@ soft maximum (K points, s = ``sharpness``). The gradient is exact for this smoot
 
 from __future__ import annotations
 
+import math
+
 import jax
 import jax.numpy as jnp
 
@@ -30,6 +41,19 @@ from jaxflex.model import ModalModel
 from jaxflex.simulate import end_state
 
 _NEWTON_STEPS = 40
+
+
+def soft_max(values, sharpness, weights=None):
+    """Soft maximum (module docstring) of ``values`` (any shape, the rows to bound, in any
+    unit) at ``sharpness`` (in the inverse of that unit), over every element whose
+    ``weights`` (broadcast to ``values``' shape, 0 or 1; default all 1) is 1. Traceable."""
+    return jax.nn.logsumexp(sharpness * values, b=weights) / sharpness
+
+
+def soft_max_excess(count: int, sharpness: float) -> float:
+    """The most :func:`soft_max` of ``count`` rows exceeds their maximum: log(count) /
+    ``sharpness`` (in the values' unit)."""
+    return math.log(count) / sharpness
 
 
 def _envelope_terms(model: ModalModel, x_end, threshold_m):
@@ -60,7 +84,7 @@ def envelope_time(model: ModalModel, x_end, threshold_m, *, sharpness: float = 5
 
     def excess(tau):
         envelope = weights @ (amplitude * jnp.exp(-sigma * tau))  # (K,)
-        return jax.nn.logsumexp(sharpness * jnp.log(envelope)) / sharpness - log_threshold
+        return soft_max(jnp.log(envelope), sharpness) - log_threshold
 
     excess_and_slope = jax.value_and_grad(excess)
     sigma_pos = jnp.maximum(jax.lax.stop_gradient(sigma), 1e-9)

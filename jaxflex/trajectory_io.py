@@ -25,7 +25,7 @@ from jaxflex.atomic import write_text_atomic
 from jaxflex.errors import InputError
 from jaxflex.grid import grid_times
 from jaxflex.inputs import read_text
-from jaxflex.profile import as_move, integrate
+from jaxflex.profile import Move, as_move, integrate
 
 COLUMNS = (
     "t_s",
@@ -71,8 +71,9 @@ def write_trajectory_csv(
     write_text_atomic(path, "\n".join(lines) + "\n")
 
 
-def read_trajectory_csv(path: str | os.PathLike) -> tuple[np.ndarray, float]:
-    """Read a trajectory CSV: returns (acc (n+1, 3) m/s^2, dt s). Only t and a are used."""
+def read_trajectory_csv(path: str | os.PathLike) -> Move:
+    """Read a trajectory CSV as a checked :class:`~jaxflex.profile.Move` (samples (n+1, 3)
+    m/s^2 and the step, s). Only t and a are used."""
     path, header, table = _read_table(path)
     cols = [header.index(c) for c in COLUMNS[:4]]
     t, acc = table[:, cols[0]], table[:, cols[1:]]
@@ -82,7 +83,7 @@ def read_trajectory_csv(path: str | os.PathLike) -> tuple[np.ndarray, float]:
     dt_s = float(np.mean(steps))
     if dt_s <= 0 or np.max(np.abs(steps - dt_s)) > 1e-9 * max(1.0, t[-1]):
         raise InputError(f"{str(path)!r}: samples must be equally spaced in t_s")
-    return acc, _written_step(t, dt_s)
+    return as_move(acc, _written_step(t, dt_s), name=f"{str(path)!r}: acceleration")
 
 
 def read_turn_csv(path: str | os.PathLike) -> np.ndarray | None:

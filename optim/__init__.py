@@ -2,14 +2,15 @@
 
 Public interface (SI units throughout):
 
-* ``Limits(vmax, amax, jmax, vpath=None, apath=None, jpath=None)`` and ``check_profile``;
+* ``Limits(vmax, amax, jmax, vpath=None, apath=None, jpath=None)`` and
+  ``check_profile(move, limits, distance_m)`` (a jaxflex.Move);
 * ``RobustSpec(freq_scale=(0.9, 1.1), zeta=(0.01, 0.03), n_freq=21, n_zeta=3)``;
 * ``baselines(model, distance_m, limits, dt_s, threshold_m)`` -> ruckig floor, ruckig + free
   decay, ZV / ZVD / EI multi-mode shaped moves, each with its exact cycle time;
 * ``optimize(model, distance_m, limits, dt_s, threshold_m, method="exact"|"gradient", ...)``
   -> ``OptimizationResult`` (``.save(directory)`` writes trajectory.csv, report.json, plots);
-* ``worst_case(model, acc, dt_s, threshold_m, RobustSpec().grid())`` -> the largest exact
-  cycle time of a move over a robust grid, where, and every grid point.
+* ``worst_case(model, move, threshold_m, RobustSpec().grid())`` -> the largest exact cycle
+  time of a Move over a robust grid, where, and every grid point.
 """
 
 from optim.baselines import Baseline, BaselineSet, baselines, worst_case

@@ -26,7 +26,7 @@ import numpy as np
 
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
-from jaxflex.response import SettleReport, analyze_move, as_move
+from jaxflex.response import Move, SettleReport, analyze_move, as_move
 from jaxflex.runtime import progress_bar
 from optim.budget import MAX_STEPS
 from optim.kinematics import clean_distance
@@ -45,10 +45,11 @@ MAX_SHAPED_MODES = 6
 
 @dataclass
 class Baseline:
-    """One baseline move: samples, exact timing, and (robust mode) its worst case."""
+    """One baseline move (a checked Move: samples and step), its exact timing, and (robust
+    mode) its worst case."""
 
     name: str
-    acc: np.ndarray
+    move: Move
     timing: SettleReport
     shaped_freq_hz: list[float] = field(default_factory=list)
     worst_cycle_time_s: float | None = None
@@ -58,6 +59,11 @@ class Baseline:
     constraints: list[dict] | None = None  # their certified values for this move
     angular_acc: np.ndarray | None = None  # (n+1,) rad/s^2: the turn with the move, if any
     neglected_bound_m: float | None = None  # turning moves: jaxflex.turning's bound
+
+    @property
+    def acc(self) -> np.ndarray:
+        """The move's (n+1, 3) acceleration samples, m/s^2."""
+        return self.move.acc
 
     @property
     def cycle_time_s(self) -> float:
@@ -70,7 +76,7 @@ class Baseline:
     def as_dict(self) -> dict:
         return {
             "name": self.name,
-            "n_steps": int(self.acc.shape[0] - 1),
+            "n_steps": self.move.n_steps,
             **self.timing.times(),
             "shaped_modes": len(self.shaped_freq_hz),
             "shaped_freq_hz": self.shaped_freq_hz,
@@ -130,18 +136,18 @@ def via_baselines(
         pieces.append(segment if not pieces else segment[1:])
         steps += segment.shape[0] - 1
         fractions.append(steps)
-    acc = np.concatenate(pieces)
-    if acc.shape[0] - 1 > max_steps:
+    move = as_move(np.concatenate(pieces), dt_s, at_rest=True)
+    if move.n_steps > max_steps:
         raise InputError(
-            f"distance_m: the path through the via points needs {(acc.shape[0] - 1) * dt_s:.3f} s "
+            f"distance_m: the path through the via points needs {move.duration_s:.3f} s "
             f"at these limits, more than the allowed {max_steps * dt_s:g} s (max_duration_s)"
         )
     entry = Baseline(
-        "ruckig via points + free decay", acc, analyze_move(model, acc, dt_s, threshold_m)
+        "ruckig via points + free decay", move, analyze_move(model, move, threshold_m=threshold_m)
     )
     if robust is not None:
         entry.worst_cycle_time_s, entry.worst_case, entry.worst_grid = worst_case(
-            model, acc, dt_s, threshold_m, robust.grid()
+            model, move, threshold_m, robust.grid()
         )
     floor = kinematic_floor_move(distance, limits, dt_s, max_steps)
     continuous = time_optimal_move(distance, limits)
@@ -159,14 +165,16 @@ def dominant_modes(model: ModalModel, distance: np.ndarray) -> np.ndarray:
 
 
 def worst_case(
-    model: ModalModel, acc: np.ndarray, dt_s: float, threshold_m: float, grid
+    model: ModalModel, move: Move, threshold_m: float, grid
 ) -> tuple[float, dict, list[dict]]:
-    """Largest exact cycle time over the (frequency scale, zeta) points of ``grid``: (worst,
-    where, every point as {"freq_scale", "zeta", "cycle_time_s"})."""
+    """Largest exact cycle time of ``move`` over the (frequency scale, zeta) points of
+    ``grid``: (worst, where, every point as {"freq_scale", "zeta", "cycle_time_s"})."""
     points = []
-    move = as_move(acc, dt_s, at_rest=True)  # checked once for the whole grid
+    move = as_move(move, at_rest=True)  # checked once (a Move passes) for the whole grid
     for scale, zeta in grid:
-        timing = analyze_move(perturbed(model, scale, zeta), move, dt_s, threshold_m, settle=False)
+        timing = analyze_move(
+            perturbed(model, scale, zeta), move, threshold_m=threshold_m, settle=False
+        )
         points.append({"freq_scale": scale, "zeta": zeta, "cycle_time_s": timing.cycle_time_s})
     worst = max(points, key=lambda p: p["cycle_time_s"])
     where = {"freq_scale": worst["freq_scale"], "zeta": worst["zeta"]}
@@ -215,19 +223,19 @@ def baselines(
     continuous = time_optimal_move(distance, limits)
     select_grid = None if robust is None else _selection_grid(robust)
 
+    def timed(name, acc, freqs=None):
+        move = as_move(acc, dt_s, at_rest=True)
+        return Baseline(name, move, analyze_move(model, move, threshold_m=threshold_m), freqs or [])
+
     def evaluate(name, acc, freqs):
-        entry = Baseline(name, acc, analyze_move(model, acc, dt_s, threshold_m), freqs)
+        entry = timed(name, acc, freqs)
         if select_grid is not None:
             entry.worst_cycle_time_s, entry.worst_case, _ = worst_case(
-                model, acc, dt_s, threshold_m, select_grid
+                model, entry.move, threshold_m, select_grid
             )
         return entry
 
-    entries = [
-        Baseline(
-            "ruckig + free decay", floor.acc, analyze_move(model, floor.acc, dt_s, threshold_m)
-        )
-    ]
+    entries = [timed("ruckig + free decay", floor.acc)]
     order = dominant_modes(model, distance)[:max_shaped_modes]
     freq, omega, zeta = (
         np.asarray(model.freq_hz),
@@ -263,6 +271,6 @@ def baselines(
     if robust is not None:  # the final figures over the full check grid
         for entry in entries:
             entry.worst_cycle_time_s, entry.worst_case, entry.worst_grid = worst_case(
-                model, entry.acc, dt_s, threshold_m, robust.grid()
+                model, entry.move, threshold_m, robust.grid()
             )
     return BaselineSet(continuous.duration_s, floor.acc, entries, skipped)

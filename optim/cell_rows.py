@@ -67,6 +67,7 @@ PEAKS_PER_ROUND = 20  # violated local maxima in time
 ITEMS_PER_PEAK = 8  # rows at each: the worst items (points, cups) above the limit
 ROWS_PER_ROUND = 240  # loads: rows at the worst violated (time, item) samples
 PAIR_CHUNK = 100_000  # (time, point) pairs per evaluation of the distance
+CERTIFY_ATOL_M = 1e-6  # the certified distance's accuracy, m
 
 
 @dataclass(frozen=True)
@@ -262,6 +263,22 @@ class LoadFamily:
         }
 
 
+def certified_distance(family, measure, *move, **frame):
+    """The certified clearance of a distance family (this module's or optim.turn_cell's):
+    ``measure`` (jaxflex.geometry.min_distance or turning_min_distance) of the family's model
+    and obstacles for the ``move`` arguments and the ``frame`` keywords (gravity, pivot), with
+    the family's skin half thickness (m) and limit (m), to 1e-6 m."""
+    return measure(
+        family.model,
+        family.obstacles,
+        *move,
+        **frame,
+        half_thickness_m=family.half,
+        atol=CERTIFY_ATOL_M,
+        limit_m=family.limit,
+    )
+
+
 class DistanceFamily:
     """The part (every point of the model, its skins ``half_thickness_m`` off the mid-surface)
     at least ``margin_m`` from every obstacle (one model: the nominal, or one scenario)."""
@@ -348,16 +365,7 @@ class DistanceFamily:
         return Row(-coef[:, list(axes)] / self.limit, float(rhs / self.limit), time_s, point)
 
     def certify(self, acc: np.ndarray, dt_s: float) -> Clearance:
-        return min_distance(
-            self.model,
-            self.obstacles,
-            acc,
-            dt_s,
-            gravity_m_s2=self.gravity,
-            half_thickness_m=self.half,
-            atol=1e-6,
-            limit_m=self.limit,
-        )
+        return certified_distance(self, min_distance, acc, dt_s, gravity_m_s2=self.gravity)
 
     def holds(self, found: Clearance) -> bool:
         return found.bound_m >= self.limit * (1 - BOUND_RTOL)

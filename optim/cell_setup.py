@@ -31,7 +31,7 @@ from jaxflex.geometry import (
     part_half_thickness,
 )
 from jaxflex.model import ModalModel
-from jaxflex.response import DEFAULT_STRESS_SAFETY, CupSet
+from jaxflex.response import DEFAULT_STRESS_SAFETY, CupSet, Move
 from optim.cell_rows import DistanceFamily, LoadFamily
 from optim.cell_scenarios import ScenarioFamily
 from optim.kinematics import clean_distance
@@ -53,16 +53,16 @@ class CellSetup:
     advice: list = field(default_factory=list)
     turn_source: TurnSource | None = None  # the turn the families evaluate (turning moves)
 
-    def describe_move(self, acc: np.ndarray, dt_s: float, angular_acc=None) -> list[dict]:
-        """The certified value of every family for the move ``acc`` (with the turn
-        ``angular_acc`` (n+1,) rad/s^2 of a turning move)."""
-        return self.feasible(acc, dt_s, angular_acc)[1]
+    def describe_move(self, move: Move, angular_acc=None) -> list[dict]:
+        """The certified value of every family for ``move`` (with the turn ``angular_acc``
+        (n+1,) rad/s^2 of a turning move)."""
+        return self.feasible(move, angular_acc)[1]
 
-    def feasible(self, acc: np.ndarray, dt_s: float, angular_acc=None) -> tuple[bool, list[dict]]:
-        """(every family holds, the families' certified values) for the move ``acc`` (every
-        model of a robust grid checked; a turning move with its turn ``angular_acc``)."""
+    def feasible(self, move: Move, angular_acc=None) -> tuple[bool, list[dict]]:
+        """(every family holds, the families' certified values) for ``move`` (every model of
+        a robust grid checked; a turning move with its turn ``angular_acc``)."""
         with self._turning(angular_acc):
-            found = [_certify_all(f, acc, dt_s) for f in self.families]
+            found = [_certify_all(f, move) for f in self.families]
         ok = all(f.holds(x) for f, x in zip(self.families, found, strict=True))
         return ok, [f.describe(x) for f, x in zip(self.families, found, strict=True)]
 
@@ -79,10 +79,12 @@ class CellSetup:
         return self.turn_source.holding(angular_acc)
 
 
-def _certify_all(family, acc: np.ndarray, dt_s: float):
+def _certify_all(family, move: Move):
+    """A family's certificate of ``move`` (the families take the search's raw samples and
+    step; a robust family on every model of its grid)."""
     if isinstance(family, ScenarioFamily):
-        return family.certify(acc, dt_s, complete=True)
-    return family.certify(acc, dt_s)
+        return family.certify(move.acc, move.dt_s, complete=True)
+    return family.certify(move.acc, move.dt_s)
 
 
 def with_cup_rating(

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from jaxflex.response import Move, as_move
 from optim.baselines import Baseline, BaselineSet
 from optim.limits import ConstraintCheck
 from optim.search import Attempt, Problem
@@ -32,19 +33,20 @@ KINDS = ("optimised", "search", "baseline")  # preference on equal objectives
 
 @dataclass(frozen=True)
 class Candidate:
-    """A certified move: where it came from, its samples, its objective (s) and, in robust
-    mode, its exact cycle time at every point of the check grid (or None if not known)."""
+    """A certified move: where it came from, the move (a checked Move: samples and step), its
+    objective (s) and, in robust mode, its exact cycle time at every point of the check grid
+    (or None if not known)."""
 
     kind: str  # one of KINDS
     name: str
-    acc: np.ndarray
+    move: Move
     objective_s: float
     grid: list[tuple[float, float | None, float]] | None
     angular_acc: np.ndarray | None = None  # (n+1,) rad/s^2: the turn with the move, if any
 
     @property
     def n_steps(self) -> int:
-        return int(self.acc.shape[0] - 1)
+        return self.move.n_steps
 
     def rank(self) -> tuple:
         return (self.objective_s, KINDS.index(self.kind), self.n_steps)
@@ -55,7 +57,8 @@ def _from_attempt(problem: Problem, attempt: Attempt, kind: str, name: str) -> C
     grid = None
     if problem.robust is not None:
         grid = [(s.scale, s.zeta, c) for s, c in zip(problem.scenarios, cycles, strict=True)]
-    return Candidate(kind, name, attempt.acc, max(cycles), grid, attempt.turn_acc)
+    move = as_move(attempt.acc, problem.dt_s, at_rest=True)
+    return Candidate(kind, name, move, max(cycles), grid, attempt.turn_acc)
 
 
 def candidates(
@@ -81,20 +84,20 @@ def candidates(
         if entry.worst_grid is not None:
             grid = [(g["freq_scale"], g["zeta"], g["cycle_time_s"]) for g in entry.worst_grid]
         found.append(
-            Candidate("baseline", entry.name, entry.acc, entry.score(), grid, entry.angular_acc)
+            Candidate("baseline", entry.name, entry.move, entry.score(), grid, entry.angular_acc)
         )
     return sorted(found, key=Candidate.rank)
 
 
 def choose(
-    found: list[Candidate], check: Callable[[np.ndarray], ConstraintCheck]
+    found: list[Candidate], check: Callable[[Move], ConstraintCheck]
 ) -> tuple[Candidate, ConstraintCheck, list[str]]:
-    """The first candidate whose samples pass ``check``, its check, and notes for the report
+    """The first candidate whose move passes ``check``, its check, and notes for the report
     (why it is not the smoothed optimum, if it is not). Raises ValueError if none passes."""
     notes = []
     optimised = next((c for c in found if c.kind == "optimised"), None)
     for cand in found:
-        result = check(cand.acc)
+        result = check(cand.move)
         if not result.ok:
             notes.append(f"{cand.name} rejected by the limits check ({result.summary()})")
             continue

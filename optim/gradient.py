@@ -6,6 +6,9 @@ threshold,
 
     F = (1 / beta) log sum_r exp(beta |u_r|^2 / limit^2),      max_r <= F <= max_r + log(R) / beta,
 
+(the core's soft maximum, jaxflex.soft_max, with its bound; the same one as the smooth
+cycle-time bound jaxflex.cycle_time_smooth)
+
 over the same linear kinematic constraints as the exact route. The deviations are exact
 Euclidean norms (the LP reaches them through cutting planes) and the soft maximum runs over
 every scenario at once (a smooth worst case for the robust mode). With a clearance, the soft
@@ -34,7 +37,7 @@ import scipy.sparse as sp
 from scipy.optimize import LinearConstraint, NonlinearConstraint, minimize
 
 from jaxflex.errors import InputError
-from jaxflex.response import integrate
+from jaxflex.response import integrate, soft_max
 from optim.kinematics import add_cuts, add_move, path_cuts
 from optim.lp import LPBuilder
 from optim.ruckig_move import fit_to_grid
@@ -61,7 +64,7 @@ def soft_max_rows(zhat, scenario, aq, av, mask, beta):
         u = jnp.einsum("rcm,rm->rc", aq, z[scenario, :, 0]) + jnp.einsum(
             "rcm,rm->rc", av, z[scenario, :, 1]
         )
-        return jax.nn.logsumexp(beta * jnp.sum(u * u, axis=-1), b=mask) / beta
+        return soft_max(jnp.sum(u * u, axis=-1), beta, mask)
 
     return jax.value_and_grad(value)(zhat)
 
@@ -74,7 +77,7 @@ def soft_max_points(q, shapes, mask, beta):
     def value(modal):
         u = jnp.einsum("pcm,tm->tpc", shapes, modal)
         weights = jnp.broadcast_to(mask[:, None], u.shape[:2])
-        return jax.nn.logsumexp(beta * jnp.sum(u * u, axis=-1), b=weights) / beta
+        return soft_max(jnp.sum(u * u, axis=-1), beta, weights)
 
     return jax.value_and_grad(value)(q)
 

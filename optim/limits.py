@@ -18,7 +18,7 @@ import numpy as np
 
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
-from jaxflex.response import as_move, axis_limits, integrate
+from jaxflex.response import Move, as_move, axis_limits, integrate
 
 AXES = "xyz"
 # A limit counts as broken only beyond this relative excess: float64 round-off of the
@@ -204,15 +204,15 @@ def _path_speed_peaks(acc: np.ndarray, vel: np.ndarray, dt_s: float):
 
 
 def check_profile(
-    acc, dt_s: float, limits: Limits, distance_m=None, *, rtol: float = CHECK_RTOL
+    move: Move, limits: Limits, distance_m=None, *, rtol: float = CHECK_RTOL
 ) -> ConstraintCheck:
-    """Check samples ``acc`` ((n+1, 3) m/s^2 at step ``dt_s`` s) against ``limits`` and, if
-    ``distance_m`` (3,) is given, the boundary conditions: rest at both ends (a_0 = a_n = 0,
-    v_n = 0) and arrival at ``distance_m``. Velocity is checked between samples too.
-    Returns every violation with its time and size."""
-    move = as_move(acc, dt_s)
+    """Check a :class:`~jaxflex.profile.Move` (samples (n+1, 3) m/s^2 and their step, s)
+    against ``limits`` and, if ``distance_m`` (3,) is given, the boundary conditions: rest at
+    both ends (a_0 = a_n = 0, v_n = 0) and arrival at ``distance_m``. Velocity is checked
+    between samples too. Returns every violation with its time and size."""
+    move = as_move(move)
     acc, dt_s = move.acc, move.dt_s
-    vel, pos = integrate(move, dt_s)
+    vel, pos = integrate(move)
     n = acc.shape[0] - 1
     t = dt_s * np.arange(n + 1)
     violations: list[Violation] = []

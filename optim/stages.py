@@ -21,7 +21,7 @@ import time
 from dataclasses import dataclass, field
 
 from jaxflex.errors import BudgetError, InputError, JaxflexError
-from jaxflex.response import Move, SettleReport, analyze_move, as_move
+from jaxflex.response import Move, SettleReport, analyze_move
 from jaxflex.runtime import issue, model_resolution, require, threshold_advice
 from optim.advice import grid_advice
 from optim.baselines import Baseline, BaselineSet, via_baselines
@@ -165,11 +165,9 @@ def baselines(request: Request, plan: Plan) -> Baselines:
             progress=r.progress,
         )  # fmt: skip
     for entry in moves.entries:
-        entry.constraints_ok, entry.constraints = setup.feasible(
-            entry.acc, r.dt_s, entry.angular_acc
-        )
+        entry.constraints_ok, entry.constraints = setup.feasible(entry.move, entry.angular_acc)
     floor = moves.entries[0]  # the fastest move there is on the grid (along the path)
-    deviation = _deviation(r, setup.model, as_move(floor.acc, r.dt_s), floor.angular_acc)
+    deviation = _deviation(r, setup.model, floor.move, floor.angular_acc)
     peak = deviation["peak_during_move_m"]
     resolution = model_resolution(setup.model, setup.distance_m)
     advice = threshold_advice(r.threshold_m, floor.timing.settle_time_s, peak, resolution)
@@ -267,7 +265,7 @@ def choose(request: Request, plan: Plan, base: Baselines, found: Search) -> Choi
     )
     try:
         move, check, notes = choose_candidate(
-            moves, lambda acc: check_profile(acc, r.dt_s, r.limits, distance)
+            moves, lambda move: check_profile(move, r.limits, distance)
         )
     except ValueError as exc:
         raise JaxflexError(str(exc)) from exc
@@ -280,13 +278,13 @@ def certify(request: Request, plan: Plan, base: Baselines, found: Search, choice
     certified for this move is reused (a baseline's timing, the floor's deviation, the
     search's grid of cycle times)."""
     r, model, chosen = request, plan.setup.model, choice.move
-    move = as_move(chosen.acc, r.dt_s, at_rest=True)  # checked once for every certificate
+    move = chosen.move  # checked once, where the candidate was made, for every certificate
     entries = base.moves.entries
     known = next((e for e in entries if chosen.kind == "baseline" and e.name == chosen.name), None)
     if known:
         timing = known.timing
     elif r.rotate is not None:
-        timing = r.rotate.timing(model, chosen.angular_acc, move.acc, r.dt_s, r.threshold_m)[0]
+        timing = r.rotate.timing(model, chosen.angular_acc, move.acc, move.dt_s, r.threshold_m)[0]
     else:
         timing = analyze_move(model, move, threshold_m=r.threshold_m)
     deviation = base.floor_deviation if known is entries[0] else None
@@ -364,7 +362,7 @@ def report(
         method=r.method,
         solver=r.solver,
         robust=r.robust,
-        move=as_move(move.acc, r.dt_s, at_rest=True),
+        move=move.move,
         timing=certified.timing,
         deviation=certified.deviation,
         constraint_check=choice.check,
@@ -374,9 +372,7 @@ def report(
         wall_time_s=time.perf_counter() - start_s,
         baselines=base.moves,
         worst_case=certified.worst_case,
-        constraints=setup.describe_move(move.acc, r.dt_s, move.angular_acc)
-        if setup.families
-        else [],
+        constraints=setup.describe_move(move.move, move.angular_acc) if setup.families else [],
         cell=setup,
         turn=r.rotate,
         angular_acc=move.angular_acc,

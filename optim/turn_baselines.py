@@ -21,7 +21,7 @@ import numpy as np
 
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
-from jaxflex.response import amplitudes
+from jaxflex.response import amplitudes, as_move
 from jaxflex.runtime import progress_bar
 from optim.baselines import Baseline, BaselineSet, mode_trains, via_baselines
 from optim.kinematics import clean_distance
@@ -48,7 +48,7 @@ def _evaluate(model, request: Request, name, acc, alpha, freqs) -> Baseline:
     timing, response = turn.timing(model, alpha, acc, dt_s, threshold_m)
     entry = Baseline(
         name,
-        acc,
+        as_move(acc, dt_s),
         timing,
         freqs,
         angular_acc=alpha,

@@ -77,6 +77,7 @@ from optim.cell_rows import (
     Row,
     _local_peaks,
     _worst_samples,
+    certified_distance,
 )
 
 TAIL_SAMPLES_PER_PERIOD = 16
@@ -423,16 +424,13 @@ class TurnDistanceFamily:
     def certify(self, acc: np.ndarray, dt_s: float):
         spec = self.source.spec
         path = spec.path(self.source.angular_acc(acc.shape[0] - 1), dt_s)
-        return turning_min_distance(
-            self.model,
-            self.obstacles,
+        return certified_distance(
+            self,
+            turning_min_distance,
             path,
             acc,
             gravity_m_s2=spec.gravity_m_s2,
             pivot_m=spec.pivot_m,
-            half_thickness_m=self.half,
-            atol=1e-6,
-            limit_m=self.limit,
         )
 
     def holds(self, found) -> bool:

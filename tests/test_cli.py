@@ -127,7 +127,8 @@ def test_demo_runs_the_whole_pipeline(tmp_path):
         assert (out / name).stat().st_size > 0, name
     summary = json.loads((out / "demo.json").read_text())
     model = jaxflex.load_model(out / "model.npz")
-    acc, dt_s = read_trajectory_csv(out / "optimized" / "trajectory.csv")
+    move = read_trajectory_csv(out / "optimized" / "trajectory.csv")
+    acc, dt_s = move.acc, move.dt_s
     # the reported cycle time is the exact one of the saved model and trajectory
     assert summary["cycle_time_s"] == jaxflex.cycle_time(model, acc, dt_s, summary["threshold_m"])
     assert summary["cycle_time_s"] >= grid_time(len(acc) - 1, dt_s)  # 0.82 s, as printed

@@ -47,11 +47,11 @@ def test_trajectory_file_has_exact_times_and_the_jerk(tmp_path):
     jerk = table[:, [COLUMNS.index(c) for c in ("jx_m_s3", "jy_m_s3", "jz_m_s3")]]
     np.testing.assert_array_equal(jerk[:-1], np.diff(acc, axis=0) / dt)
     assert not jerk[-1].any()  # at rest after the move
-    read, step = read_trajectory_csv(path)
-    np.testing.assert_array_equal(read, acc)  # shortest round-trip decimals: exact
-    assert step == dt  # the step the file was written with, exactly
+    read = read_trajectory_csv(path)
+    np.testing.assert_array_equal(read.acc, acc)  # shortest round-trip decimals: exact
+    assert read.dt_s == dt  # the step the file was written with, exactly
     write_trajectory_csv(path, acc, 1 / 300)  # a step without a short decimal
-    assert read_trajectory_csv(path)[1] == pytest.approx(1 / 300, rel=1e-12)
+    assert read_trajectory_csv(path).dt_s == pytest.approx(1 / 300, rel=1e-12)
 
 
 def test_report_json_prints_grid_times_exactly(tmp_path):

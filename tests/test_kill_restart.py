@@ -95,7 +95,8 @@ def _state(out: Path, references: dict) -> str:
     """'refused' (export names the directory), or which run's complete set ``out`` holds;
     fails if export accepts files that are not one run's set."""
     try:
-        acc, _, report = load_case(out)
+        move, report = load_case(out)
+        acc = move.acc
     except InputError as exc:
         assert str(out) in str(exc), exc
         return "refused"
@@ -123,8 +124,8 @@ def test_optimize_killed_at_any_point_leaves_a_whole_set_or_none(tmp_path, fuzz_
     for threshold in THRESHOLDS_M:
         ref = tmp_path / f"ref-{threshold:g}"
         _finish(_optimize(model_path, ref, threshold))
-        acc, _, report = load_case(ref)
-        references[threshold] = (acc, report)
+        move, report = load_case(ref)
+        references[threshold] = (move.acc, report)
 
     out = tmp_path / "out"
     _finish(_optimize(model_path, out, THRESHOLDS_M[0]))

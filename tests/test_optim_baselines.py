@@ -14,6 +14,7 @@ from test_optim_optimize import DISTANCE, DT, LIMITS, THRESHOLD, few_mode_model
 
 import jaxflex
 import optim
+from jaxflex.profile import as_move
 from jaxflex.settle import analyze_move
 from optim.baselines import dominant_modes
 from optim.robust import perturbed
@@ -49,7 +50,7 @@ def test_kinematic_floor_on_the_grid(distance, scale, vmax, amax, jmax, dt_s):
     dist = np.array(distance) * np.array(scale)
     limits = optim.Limits(vmax, amax, jmax)
     move = kinematic_floor_move(dist, limits, dt_s, max_steps=100_000)
-    assert optim.check_profile(move.acc, dt_s, limits, dist).ok
+    assert optim.check_profile(as_move(move.acc, dt_s), limits, dist).ok
     # every grid move is a jerk-limited motion, so none is shorter than ruckig's optimum;
     # the grid version needs ceil(T / dt) steps or, where corners cannot align, one more
     steps = move.acc.shape[0] - 1
@@ -61,7 +62,7 @@ def test_kinematic_floor_on_the_grid(distance, scale, vmax, amax, jmax, dt_s):
 def test_path_limited_floor_keeps_the_norms():
     limits = optim.Limits(2.0, 10.0, 100.0, vpath=1.5, apath=8.0, jpath=80.0)
     move = kinematic_floor_move([0.5, 0.5, 1.0], limits, 0.01, max_steps=1000)
-    check = optim.check_profile(move.acc, 0.01, limits, [0.5, 0.5, 1.0])
+    check = optim.check_profile(as_move(move.acc, 0.01), limits, [0.5, 0.5, 1.0])
     assert check.ok
     assert 0.95 < check.usage["velocity"]["path"] <= 1.0  # the norm limit binds
 
@@ -82,7 +83,7 @@ def test_each_baseline_carries_its_exact_cycle_time(model, base):
     assert [n.split()[0] for n in names[1:]] == ["ZV", "ZVD", "EI"]
     assert np.array_equal(base.entries[0].acc, base.floor_acc)
     for b in base.entries:
-        assert optim.check_profile(b.acc, DT, LIMITS, DISTANCE).ok, b.name
+        assert optim.check_profile(b.move, LIMITS, DISTANCE).ok, b.name
         assert b.cycle_time_s == pytest.approx(
             jaxflex.cycle_time(model, b.acc, DT, THRESHOLD), abs=2e-9
         )
@@ -160,7 +161,7 @@ def test_a_shaper_registered_outside_optim_is_one_of_the_optimisers_baselines(
         acc = shaped_grid_move(continuous, train, DISTANCE, LIMITS, DT)
         cycles.append(analyze_move(model, acc, DT, THRESHOLD).cycle_time_s)
     assert zvdd.cycle_time_s == pytest.approx(min(cycles), abs=1e-9)
-    assert optim.check_profile(zvdd.acc, DT, LIMITS, DISTANCE).ok
+    assert optim.check_profile(zvdd.move, LIMITS, DISTANCE).ok
     # and compared with the optimum like the others
     best = min(b.cycle_time_s for b in entries[1:])
     assert result.ratios()["cycle_over_best_shaper"] == pytest.approx(result.cycle_time_s / best)

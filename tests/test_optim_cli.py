@@ -47,9 +47,9 @@ def test_optimize_writes_trajectory_report_and_plots(model_file, tmp_path):
     assert report["clearance_m"] == 0.03
     assert report["deviation"]["peak_during_move_m"] <= 0.03
     assert report["worst_case"]["cycle_time_s"] >= report["n_steps"] * report["dt_s"] - 1e-12
-    acc, dt_s = read_trajectory_csv(out / "trajectory.csv")
+    move = read_trajectory_csv(out / "trajectory.csv")
     model = jaxflex.load_model(model_file)
-    assert jaxflex.cycle_time(model, acc, dt_s, 1e-3) == pytest.approx(
+    assert jaxflex.cycle_time(model, move, threshold_m=1e-3) == pytest.approx(
         report["cycle_time_s"], abs=2e-9
     )
 

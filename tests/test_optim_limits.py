@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from jaxflex.errors import InputError
-from jaxflex.profile import end_weights, enforce_end_state, integrate
+from jaxflex.profile import as_move, end_weights, enforce_end_state, integrate
 from optim.limits import Limits, check_profile, velocity_extrema
 from optim.robust import RobustSpec
 
@@ -69,7 +69,7 @@ def test_a_velocity_peak_between_samples_is_reported():
     peak = np.abs(dense_velocity(acc, dt_s)[:, :, 2]).max()
     assert peak > np.abs(vel[:, 2]).max()
     limit = 0.5 * (peak + np.abs(vel[:, 2]).max())  # between the sampled and the true peak
-    check = check_profile(acc, dt_s, Limits(limit, 100, 1000))
+    check = check_profile(as_move(acc, dt_s), Limits(limit, 100, 1000))
     (violation,) = [v for v in check.violations if v.quantity == "velocity"]
     assert violation.axis == "z"
     assert violation.value == pytest.approx(peak, rel=1e-6)
@@ -82,7 +82,7 @@ def test_path_speed_peak_between_samples_is_reported():
     acc = np.zeros((4, 3))
     acc[1, :2], acc[2, :2] = [6.0, 8.0], [-6.0, -8.0]
     speed = np.linalg.norm(dense_velocity(acc, dt_s), axis=2).max()
-    check = check_profile(acc, dt_s, Limits(100, 100, 1000, vpath=0.99 * speed))
+    check = check_profile(as_move(acc, dt_s), Limits(100, 100, 1000, vpath=0.99 * speed))
     (violation,) = check.violations
     assert (violation.quantity, violation.axis) == ("velocity", "path")
     assert violation.value == pytest.approx(speed, rel=1e-6)
@@ -92,7 +92,7 @@ def test_every_violation_is_listed_with_time_and_size():
     dt_s = 0.01
     acc = np.zeros((6, 3))
     acc[1:5, 0] = [3.0, 5.0, 5.0, 3.0]
-    check = check_profile(acc, dt_s, Limits(10, 4, 250), distance_m=[1, 0, 0])
+    check = check_profile(as_move(acc, dt_s), Limits(10, 4, 250), distance_m=[1, 0, 0])
     kinds = {(v.quantity, round(v.time_s, 3)) for v in check.violations}
     assert ("acceleration", 0.02) in kinds and ("acceleration", 0.03) in kinds
     assert ("jerk", 0.005) in kinds and ("jerk", 0.045) in kinds  # |3 / 0.01| = 300 > 250

@@ -175,7 +175,7 @@ def test_limits_and_boundary_conditions_hold_on_every_returned_profile(
     result = optim.optimize(model, distance, limits, DT, 2e-3, method=method, progress=False)
     acc = result.acc
     # independent re-check: samples, every step's jerk, velocity between samples
-    check = optim.check_profile(acc, DT, limits, distance)
+    check = optim.check_profile(jaxflex.as_move(acc, DT), limits, distance)
     assert check.ok, check.summary()
     assert np.all(acc[0] == 0) and np.all(acc[-1] == 0)
     np.testing.assert_allclose(result.pos[-1], distance, atol=1e-9)
@@ -249,10 +249,10 @@ def test_save_writes_everything_atomically(model, nominal, tmp_path):
         assert key in report, key
     assert report["robust"] is None and report["method"] == "exact"
     assert report["limits"]["vmax_m_s"] == [1.5, 1.5, 1.5]
-    acc, dt_s = read_trajectory_csv(tmp_path / "out" / "trajectory.csv")
-    assert dt_s == pytest.approx(DT)
+    move = read_trajectory_csv(tmp_path / "out" / "trajectory.csv")
+    assert move.dt_s == pytest.approx(DT)
     # the saved file reproduces the reported exact cycle time
-    assert jaxflex.cycle_time(model, acc, dt_s, report["threshold_m"]) == pytest.approx(
+    assert jaxflex.cycle_time(model, move, threshold_m=report["threshold_m"]) == pytest.approx(
         report["cycle_time_s"], abs=2e-9
     )
     names = [b["name"] for b in report["baselines"]["entries"]]
@@ -268,11 +268,11 @@ def test_a_profile_that_fails_the_final_check_is_never_returned(model, monkeypat
     real_check = optimize_module.check_profile
     calls = []
 
-    def check_rejecting_the_optimum(acc, *args, **kwargs):
-        calls.append(acc)
+    def check_rejecting_the_optimum(move, *args, **kwargs):
+        calls.append(move.acc)
         if len(calls) == 1:  # the optimiser's final move is checked first
             return ConstraintCheck((Violation("jerk", "z", 0.1, 101.0, 100.0),))
-        return real_check(acc, *args, **kwargs)
+        return real_check(move, *args, **kwargs)
 
     monkeypatch.setattr(optimize_module, "check_profile", check_rejecting_the_optimum)
     result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, progress=False)
@@ -280,5 +280,5 @@ def test_a_profile_that_fails_the_final_check_is_never_returned(model, monkeypat
     assert any("did not pass the limits check" in note for note in result.report()["notes"])
     assert not np.array_equal(result.acc, calls[0])
     np.testing.assert_array_equal(result.acc, calls[1])  # the next best candidate
-    assert result.constraint_check.ok and real_check(result.acc, DT, LIMITS, DISTANCE).ok
+    assert result.constraint_check.ok and real_check(result.move, LIMITS, DISTANCE).ok
     assert result.cycle_time_s <= min(b.cycle_time_s for b in result.baselines.entries)

@@ -98,7 +98,9 @@ def test_turning_optimum_beats_baselines_and_is_certified(plate, axis, angle_deg
     alpha = result.angular_acc
     assert alpha.shape == (result.n_steps + 1,)
     angle_check = optim.check_profile(
-        np.column_stack([alpha, np.zeros((alpha.size, 2))]), DT, spec.limits, spec.angle_move
+        jaxflex.as_move(np.column_stack([alpha, np.zeros((alpha.size, 2))]), DT),
+        spec.limits,
+        spec.angle_move,
     )
     assert angle_check.ok, angle_check.summary()
     settle, response = _dense_settle(plate, spec, result.acc, alpha, result.cycle_time_s + 2.0)

@@ -26,6 +26,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import JaxflexError
 from jaxflex.runtime import COMPILE_CACHE_ENV as ENV_VAR
 from jaxflex.runtime import COMPILE_CACHE_SUFFIX as SUFFIX
@@ -33,7 +34,7 @@ from jaxflex.runtime import COMPILE_CACHE_SUFFIX as SUFFIX
 # the command line (the demo's move), quiet
 OPTIMIZE_ARGS = (
     *("--distance", "0", "0", "1", "--vmax", "2", "--amax", "10", "--jmax", "100"),
-    *("--threshold", "5e-4", "-q"),
+    *("--threshold", f"{THRESHOLD_M:g}", "-q"),
 )
 
 

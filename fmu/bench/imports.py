@@ -89,7 +89,7 @@ def _r1_import(result, n_nodes: int, n_steps: int, workdir: Path) -> dict:
     del table
 
     tick = time.perf_counter()
-    identified = fem.from_r1(csv_path, 0.01, "z", nodes=nodes_path)
+    identified = fem.from_r1(csv_path, DT_S, "z", nodes=nodes_path)
     out["r1_import_s"] = time.perf_counter() - tick
     out["r1_identification_timings_s"] = identified.fit.timings_s
     out["r1_modes"] = identified.n_modes
@@ -104,7 +104,7 @@ def _r1_import(result, n_nodes: int, n_steps: int, workdir: Path) -> dict:
     acc = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=DT_S)
     direct = convolve_unit_response(r1[None], acc, axes=(2,))
     full = identified.to_modal_model()
-    modal = np.asarray(jaxflex.simulate(full, acc, 0.01, displacement=True).displacement)
+    modal = np.asarray(jaxflex.simulate(full, acc, DT_S, displacement=True).displacement)
     out["r1_profile_err_of_peak"] = float(
         np.abs(modal[: acc.shape[0]] - direct).max() / np.abs(direct).max()
     )

@@ -136,14 +136,14 @@ def run_scale(
         model = curved_part(n_points)
         out["forward"].append(time_forward(model, ScaleCase(n_points=model.n_points, n_steps=1000)))
     progress(f"all-node scale: exact cycle time K={model.n_points} ...")
-    move = sine_move(80, 0.01)
+    move = sine_move(80, DT_S)
     threshold_m = THRESHOLD_M
-    report = analyze_move(model, move, 0.01, threshold_m, settle=False)
+    report = analyze_move(model, move, DT_S, threshold_m, settle=False)
     out["cycle_time"] = {
         "n_points": model.n_points,
         "cycle_time_s": report.cycle_time_s,
         "evaluations": report.evaluations,
-        "time_s": best_time_s(lambda: cycle_time(model, move, 0.01, threshold_m), repeats=3),
+        "time_s": best_time_s(lambda: cycle_time(model, move, DT_S, threshold_m), repeats=3),
     }
     del model
     if large:
@@ -212,7 +212,7 @@ def run_reduction(
         "scene": scene,
         "n_modes": result.n_modes,
         "mesh_nodes": len(result.system.nodes),
-        "move": "1 m vertical sine in 0.8 s, dt 0.01 s, 1.2 s rest in the forward",
+        "move": f"1 m vertical sine in 0.8 s, dt {DT_S:g} s, 1.2 s rest in the forward",
         "threshold_m": reference["threshold_m"],
         "rows": rows,
     }

@@ -149,7 +149,7 @@ def run(
             key = f"{method}/{solver}"
             report[label][key] = _entry(result, wall)
             if spec is None and key == "exact/highs":  # what robustness is worth
-                worst, where, _ = worst_case(model, result.acc, dt_s, threshold_m, robust.grid())
+                worst, where, _ = worst_case(model, result.move, threshold_m, robust.grid())
                 report[label][key]["worst_over_robust_grid_s"] = worst
                 report[label][key]["worst_over_robust_grid_at"] = where
             if "baselines" not in report[label]:

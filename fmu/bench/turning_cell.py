@@ -25,12 +25,13 @@ import numpy as np
 import fem
 import optim
 from fem.scenes import default_gripper
+from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import write_text_atomic
 from jaxflex.geometry import Box, Cell, turning_min_distance
 from jaxflex.response import fixed_axis_path, turning_loads, upsample
 from optim.turn_baselines import turn_worst_case
 
-DT, THRESHOLD = 0.01, 5e-4
+DT, THRESHOLD = DT_S, THRESHOLD_M
 LIMITS = optim.Limits(vmax=2.0, amax=10.0, jmax=100.0)
 PIVOT = (0.6, 0.4, 0.0)
 TILT = {"rotate": ("x", 30.0), "pivot_m": PIVOT, "progress": False}
