@@ -97,6 +97,17 @@ def nodal_fields(points_m: np.ndarray, translation: np.ndarray, rotation: np.nda
     )
 
 
+def inertia_loads(system, fields: np.ndarray) -> np.ndarray:
+    """(n_dof, 9) the consistent load of each unit field's acceleration e_j r_i (column
+    3 i + j) on the DOFs of ``system``, kg m: M F for the ``fields`` (n_dof, 3, 3) of
+    :func:`linear_fields`, but for a shell the virtual work of its 3-D mass facet by facet
+    (fem.shell.ShellOutputs.field_loads: the fields it cannot hold as nodal DOFs exactly,
+    its fibres' t^2 / 12 and no fictitious drilling inertia)."""
+    if isinstance(system.outputs, ShellOutputs):
+        return system.outputs.field_loads()
+    return np.asarray(system.M @ fields.reshape(system.n_dof, 9))
+
+
 def six_dof_axes(nodes_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The :func:`nodal_fields` arguments of six DOFs per node (translations x, y, z, then
     rotations about x, y, z, global axes) at ``nodes_m`` (N, 3)."""
@@ -107,12 +118,14 @@ def six_dof_axes(nodes_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return np.repeat(nodes_m, DOFS_PER_NODE, axis=0), translation, rotation
 
 
-def rigid_inertia(mass_matrix, fields: np.ndarray, translations: np.ndarray):
+def rigid_inertia(mass_matrix, fields: np.ndarray, translations: np.ndarray, loads: np.ndarray):
     """(mass, centre (3,), inertia (3, 3) about the origin) of ``mass_matrix`` (n, n) from
-    its linear ``fields`` (n, 3, 3) and ``translations`` (n, 3), the DOF vectors of unit
-    translations along x, y, z (zero columns where the DOFs have none: a plate's x, y).
+    its linear ``fields`` (n, 3, 3), their inertia ``loads`` (n, 9) (:func:`inertia_loads`)
+    and ``translations`` (n, 3), the DOF vectors of unit translations along x, y, z (zero
+    columns where the DOFs have none: a plate's x, y).
 
-    The rigid rotations are eps_kij F[:, i, j] = e_k x r, so the inertia is exact, and so is
+    The rigid rotations are eps_kij F[:, i, j] = e_k x r, their loads eps_kij L[:, 3 i + j],
+    so the inertia is exact (that of the loads: a shell's without drilling), and so is
     the centre, from the coupling t_d^T M (e_k x r) = m eps_dki c_i of translations and
     rotations: a point mass off its grid (a CONM2 offset) counts where it is. Where only the
     vertical translation exists (a plate) its height is the fields' (exact for a sheet)."""
@@ -120,7 +133,7 @@ def rigid_inertia(mass_matrix, fields: np.ndarray, translations: np.ndarray):
     mass = float(translations[:, 2] @ lift[:, 2])
     rotations = np.einsum("kij,nij->nk", LEVI_CIVITA, fields)
     coupling = lift.T @ rotations  # (3, 3): C[d, k] = m eps_dki c_i
-    inertia = rotations.T @ (mass_matrix @ rotations)
+    inertia = rotations.T @ np.einsum("kij,nij->nk", LEVI_CIVITA, loads.reshape(-1, 3, 3))
     if translations[:, :2].any():
         rows = LEVI_CIVITA.reshape(9, 3) * mass
         centre = np.linalg.lstsq(rows, coupling.reshape(9), rcond=None)[0]
@@ -143,14 +156,15 @@ def rotational_inertia(
     fields = linear_fields(system)
     if fields is None:
         return None
-    n_dof = system.n_dof
-    flat = fields.reshape(n_dof, 9)
-    reduced = result.basis.T @ (system.M @ flat)  # (n_free, 9)
+    loads = inertia_loads(system, fields)
+    reduced = result.basis.T @ loads  # (n_free, 9)
     shape_integrals = (result.vectors.T @ reduced).reshape(-1, 3, 3)
-    _, centre, inertia = rigid_inertia(system.M, fields, system.rigid)
+    _, centre, inertia = rigid_inertia(system.M, fields, system.rigid, loads)
     if not system.outputs.moves_in_plane:  # flat plate: about z from x and y
         inertia[2, 2] = inertia[0, 0] + inertia[1, 1]
-    statics = {} if nodes is None else rotation_statics(result, fields, nodes, outputs=outputs)
+    statics = (
+        {} if nodes is None else rotation_statics(result, fields, loads, nodes, outputs=outputs)
+    )
     couplings = coupling_matrices(result)
     if couplings is not None:
         statics["gyroscopic"], statics["spin"] = couplings
@@ -191,17 +205,17 @@ def coupling_matrices(result) -> tuple[np.ndarray, np.ndarray] | None:
 
 
 def rotation_statics(
-    result, fields: np.ndarray, nodes: np.ndarray, *, outputs: bool
+    result, fields: np.ndarray, loads: np.ndarray, nodes: np.ndarray, *, outputs: bool
 ) -> dict[str, np.ndarray]:
     """The static response to the nine unit inertia loads M (e_j r_i) (module docstring):
     {"static_shapes": (K, 3, 3, 3) at ``nodes``, and with ``outputs`` "cup_static"
     (6 C, 3, 3) where there are suction cups and "stress_static" (6 S, 3, 3)}, per unit
-    B_ji (1/s^2) of the field B r; ``fields`` (n_dof, 3, 3) from :func:`linear_fields`."""
+    B_ji (1/s^2) of the field B r; ``fields`` (n_dof, 3, 3) from :func:`linear_fields`,
+    ``loads`` (n_dof, 9) theirs from :func:`inertia_loads`."""
     system = result.system
-    flat = fields.reshape(system.n_dof, 9)
     z_rot = result.__dict__.get("_rotation_static_response")  # (n_free, 9), once per result
     if z_rot is None:
-        z_rot = static_solve(result, result.basis.T @ (system.M @ flat))
+        z_rot = static_solve(result, result.basis.T @ loads)
         result.__dict__["_rotation_static_response"] = z_rot
     n_nodes = len(system.nodes)
     points = -(result.observation @ z_rot).reshape(n_nodes, 3, 3, 3)
@@ -211,7 +225,7 @@ def rotation_statics(
     reactions, _, stress = physical_outputs(result)
     out["stress_static"] = -np.asarray(stress.stiffness @ z_rot).reshape(-1, 3, 3)
     if reactions is not None and has_cups(result):
-        base = held_inertia(result, flat)
+        base = held_inertia(result, loads)
         if not system.outputs.moves_in_plane:
             base += in_plane_share(result, _in_plane_loads(result, fields))
         cups = base - np.asarray(reactions.stiffness @ z_rot)
@@ -243,9 +257,9 @@ def imported_inertia(
     ``translations`` (n, 3) of unit translations along x, y, z, all in the file's consistent units
     ``unit`` (fem.units.Units). The mass is the matrix's: without the DOFs the file
     constrains (the mass the modes can move, like the participation factors)."""
-    flat = fields.reshape(len(fields), 9)
-    shape_integrals = (vectors.T @ (mass_matrix @ flat)).reshape(-1, 3, 3)
-    mass, centre, inertia = rigid_inertia(mass_matrix, fields, translations)
+    loads = mass_matrix @ fields.reshape(len(fields), 9)
+    shape_integrals = (vectors.T @ loads).reshape(-1, 3, 3)
+    mass, centre, inertia = rigid_inertia(mass_matrix, fields, translations, loads)
     return RotationalInertia(
         shape_integrals * unit.gamma_to_si * unit.length_m,
         np.float64(mass * unit.mass_kg),

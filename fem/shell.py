@@ -30,6 +30,7 @@ from fem.shell_element import (
     curvature_matrix,
     element_matrices,
     local_frames,
+    mass_matrix_of,
     membrane_strain_matrix,
     plane_stress,
 )
@@ -160,6 +161,43 @@ class ShellOutputs:
         out[:, 0] = rigid_motions(self.layer.nodes, centre_m)
         out[:, 1, :, 3:] = np.eye(3)
         return out.reshape(-1, 6)
+
+    def field_loads(self) -> np.ndarray:
+        """(n_dof, 9) the consistent loads of the unit fields u = e_j r_i = B r (column
+        3 i + j; B = e_j e_i^T), kg m: the virtual work int rho u . N dV of the sheet's 3-D
+        mass with every DOF's shape functions N, facet by facet. On a flat facet of normal n
+        the translations' shape functions (u, v linear, w the cubic of fem.shell_element)
+        hold the field exactly given its values at the corners and the slopes of its normal
+        component, the rotation (B^T n) x n; the fibres (the director n) move by B n, so the
+        rotary inertia rho h^3 / 12 works on the rotation n x (B n) (no drilling rotation:
+        its inertia is fictitious). Exact for the faceted sheet: a rigid rotation's work
+        is the sheet's inertia tensor, its fibres' t^2 / 12 included."""
+        layer, part = self.layer, self.part
+        xyz = layer.nodes[layer.triangles]
+        frames, xy, _ = local_frames(xyz)
+        normal = frames[:, 2]  # (E, 3)
+        rho_h = np.full(len(xyz), part.material.rho_kg_m3 * part.thickness_m)
+        eye = np.eye(3)
+        # per element, node, (translation, rotation) and component c, for field (i, j)
+        kirchhoff = np.zeros((len(xyz), 3, 2, 3, 3, 3))
+        director = np.zeros_like(kirchhoff)
+        kirchhoff[:, :, 0] = np.einsum("eai,cj->eacij", xyz, eye)  # e_j x_i at the corners
+        # (B^T n) x n = n_j (e_i x n), and n x (B n) = n_i (n x e_j): the same at every corner
+        turn = np.cross(eye[None, :, :], normal[:, None, :])  # (E, i, c): e_i x n
+        kirchhoff[:, :, 1] = np.einsum("eic,ej->ecij", turn, normal)[:, None]
+        director[:, :, 1] = -np.einsum("ejc,ei->ecij", turn, normal)[:, None]
+        work = np.zeros((len(xyz), 18, 9))
+        for vectors, mass in (
+            (kirchhoff, mass_matrix_of(xy, rho_h, np.zeros_like(rho_h))),
+            (director, mass_matrix_of(xy, np.zeros_like(rho_h), rho_h * part.thickness_m**2 / 12)),
+        ):
+            local = np.einsum("ekc,eabcf->eabkf", frames, vectors.reshape(-1, 3, 2, 3, 9))
+            work += np.matmul(mass, local.reshape(-1, 18, 9))
+        back = np.einsum("ekc,eabkf->eabcf", frames, work.reshape(-1, 3, 2, 3, 9))
+        n_dof = len(layer.nodes) * DOFS_PER_NODE
+        dofs = layer.element_dofs.ravel()
+        back = back.reshape(-1, 9)
+        return np.stack([np.bincount(dofs, back[:, f], n_dof) for f in range(9)], axis=1)
 
     def surface_frame(
         self, x: float, y: float, z: float | None = None
