@@ -185,10 +185,11 @@ def coupling_matrices(result) -> tuple[np.ndarray, np.ndarray] | None:
         n = phi.shape[1]
         spin = np.einsum("kl,mn->klmn", np.diag([0.0, 0.0, 1.0]) - np.eye(3), phi.T @ mass_phi)
         return np.zeros((3, n, n)), spin
-    if not isinstance(outputs, SolidOutputs | ShellOutputs):
+    if isinstance(outputs, ShellOutputs):
+        return _from_mass_products(outputs.mass_products(phi))
+    if not isinstance(outputs, SolidOutputs):
         return None
-    # the solid's nodes hold one vector (x, y, z), the shell's two (translation, rotation)
-    vectors = phi.reshape(-1, 3, phi.shape[1])  # (vectors, 3, M)
+    vectors = phi.reshape(-1, 3, phi.shape[1])  # (nodes, 3, M)
 
     def turned(k: int, v: np.ndarray) -> np.ndarray:  # e_k x v for every vector
         return np.cross(np.eye(3)[k][None, :, None], v, axis=1)
@@ -201,6 +202,15 @@ def coupling_matrices(result) -> tuple[np.ndarray, np.ndarray] | None:
             for k in range(3)
         ]
     )
+    return gyroscopic, spin
+
+
+def _from_mass_products(products: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(G, P) from C[a, b, m, n] = int rho (v_m)_a (v_n)_b dV: G_k = int rho v_m . (e_k x
+    v_n) = eps_kab C[b, a], P_kl = int rho v_m . (e_k x (e_l x v_n)) = C[l, k] - d_kl tr C."""
+    gyroscopic = np.einsum("kab,bamn->kmn", LEVI_CIVITA, products)
+    trace = np.einsum("aamn->mn", products)
+    spin = products.transpose(1, 0, 2, 3) - np.eye(3)[:, :, None, None] * trace
     return gyroscopic, spin
 
 

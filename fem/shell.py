@@ -26,8 +26,10 @@ from fem.assembly import assemble
 from fem.mesh import ShellMesh
 from fem.shell_element import (
     BENDING,
+    MASS_RULE,
     MEMBRANE,
     curvature_matrix,
+    deflection_shape,
     element_matrices,
     local_frames,
     mass_matrix_of,
@@ -198,6 +200,38 @@ class ShellOutputs:
         dofs = layer.element_dofs.ravel()
         back = back.reshape(-1, 9)
         return np.stack([np.bincount(dofs, back[:, f], n_dof) for f in range(9)], axis=1)
+
+    def mass_products(self, vectors: np.ndarray) -> np.ndarray:
+        """(3, 3, M, M) C[a, b, m, n] = int rho (v_m)_a (v_n)_b dV over the sheet of the
+        displacement fields v of DOF ``vectors`` (n_dof, M), global axes: in every facet
+        u, v linear and w the cubic of its consistent mass (fem.shell_element), the fibres
+        moving by zeta (theta x n), theta linear; integrated by the consistent mass's rule
+        (exact: phi^T M phi is C's trace but for the fictitious drilling inertia)."""
+        layer, part = self.layer, self.part
+        rho_h = part.material.rho_kg_m3 * part.thickness_m
+        fibres = rho_h * part.thickness_m**2 / 12
+        zeta, weights = MASS_RULE
+        n_modes = vectors.shape[1]
+        out = np.zeros((3, 3, n_modes, n_modes))
+        for chunk in np.array_split(
+            np.arange(len(layer.triangles)), max(1, len(layer.triangles) // 500)
+        ):
+            xyz = layer.nodes[layer.triangles[chunk]]
+            frames, xy, area = local_frames(xyz)
+            dofs = vectors[layer.element_dofs[chunk]]  # (e, 18, M) global
+            local = np.einsum("eck,eakm->eacm", frames, dofs.reshape(-1, 6, 3, n_modes))
+            local = local.reshape(-1, 18, n_modes)
+            in_plane = np.einsum("pa,eacm->epcm", zeta, local.reshape(-1, 3, 6, n_modes)[:, :, :2])
+            normal = np.einsum("epd,edm->epm", deflection_shape(xy, zeta), local[:, BENDING])
+            moved = np.einsum(
+                "eck,epcm->epkm", frames, np.concatenate([in_plane, normal[:, :, None]], axis=2)
+            )
+            theta = np.einsum("pa,eakm->epkm", zeta, dofs.reshape(-1, 3, 6, n_modes)[:, :, 3:])
+            fibre = np.cross(theta, frames[:, None, 2, :, None], axis=2)
+            w = np.einsum("p,e->ep", weights, area)
+            out += np.einsum("ep,epam,epbn->abmn", w * rho_h, moved, moved)
+            out += np.einsum("ep,epam,epbn->abmn", w * fibres, fibre, fibre)
+        return out
 
     def surface_frame(
         self, x: float, y: float, z: float | None = None
