@@ -5,8 +5,12 @@ linear fields u = e_j r_i (component j equal to the coordinate r_i, m, in the mo
 
 * thin solid (hex2): the field's values at every node (translations only);
 * shell: the translations at every node and, as rotations, the field's infinitesimal rotation
-  (1/2 curl u = e_i x e_j / 2: the skew part; the director of a symmetric field is left
-  unrotated, an O(h^2 / L^2) share of the rotary inertia);
+  (1/2 curl u = e_i x e_j / 2: the skew part, exact for the rigid rotations). A symmetric
+  field's normal deflection on a curved shell is no nodal DOF vector of the shell, so its
+  loads M (e_j r_i) are not taken as M F but as the virtual work of the sheet's 3-D mass
+  facet by facet (:func:`inertia_loads`, fem.shell.ShellOutputs.field_loads: fibres
+  turned by n x (B n), no fictitious drilling inertia): its S, rigid inertia, static
+  response and cups at rest are those of the faceted sheet (tests/test_rotation_shell.py);
 * Kirchhoff plate: the deflection w only (fields along z: w = x, y or the mid-plane height);
   a plate has no in-plane DOFs, so in-plane loads (a turn about its normal) do not deform
   it, exactly as its x and y participation is zero;
@@ -14,10 +18,11 @@ linear fields u = e_j r_i (component j equal to the coordinate r_i, m, in the mo
   coordinates: nodal translations and rotations as for the shell (:func:`nodal_fields`; an
   ANSYS DOF in a rotated nodal system takes the field's component along its own axis).
 
-The part's exact static response to the nine unit loads M (e_j r_i) (one sparse solve with
-the translation's factorisation, fem.outputs) gives the points', the cup reactions' and the
-stresses' static response to the rotational loads (:func:`rotation_statics`), exactly as
-fem.outputs does for the translation: z_r = K_ff^-1 (M F)_free, the points' -T z_r, the
+The part's exact static response to the nine unit loads M (e_j r_i) (:func:`inertia_loads`;
+one sparse solve with the translation's factorisation, fem.outputs) gives the points', the
+cup reactions' and the stresses' static response to the rotational loads
+(:func:`rotation_statics`), exactly as fem.outputs does for the translation: z_r = K_ff^-1
+(M F)_free, the points' -T z_r, the
 outputs' A_b,r - A_u z_r with A_b,r = V^T M_H F the inertia of the held DOFs (rigid cups).
 A plate's in-plane share (F_x, F_y, M_z) is that of a part rigid in its plane on the cups'
 springs (fem.outputs.in_plane_share) carrying the in-plane resultant of each field: force
@@ -25,8 +30,11 @@ m c_i e_j, moment about the centre of mass from the mass's second moments.
 
 The couplings of the deformation, G_k = phi^T M X_k phi and P_kl = phi^T M X_k X_l phi with
 X_k the DOF operator of u -> e_k x u (:func:`coupling_matrices`; the neglected terms' bound of
-jaxflex.turning): the thin solid's X_k turns each node's translation; the shell's turns its
-translation and its rotation vector (both are vectors turning with the frame); a Kirchhoff
+jaxflex.turning): the thin solid's X_k turns each node's translation (its shape functions
+are the same for the three components, so this is exact for its field); the shell's are the
+integrals int rho v_m . (e_k x v_n) dV of its own displacement field (fem.shell.ShellOutputs.
+mass_products: the cubic normal deflection and the fibres; turning its nodal rotation
+vectors, as done before, missed G by 2.4 % against the thin solid); a Kirchhoff
 plate's deflection w e_z turned about any axis is in its plane (G_k = 0) and e_k x (e_l x
 w e_z) has the z component (d_kz d_lz - d_kl) w, so P_kl = (d_kz d_lz - d_kl) phi^T M phi
 (its kinetic energy has no rotary inertia: exact); decks and ANSYS imports get none (their
