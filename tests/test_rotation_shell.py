@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.sparse.linalg import spsolve
 from sheet_parts import bracket, sheet_moments
 
 import fem
@@ -200,3 +201,52 @@ def test_couplings_keep_the_kinetic_energy(held):
     share = fibres * np.einsum("e,ab,eam,ebn->mn", area, pair, drilling, drilling)
     n_modes = spin.shape[-1]
     assert np.abs(np.einsum("kkmn->mn", spin) + 2 * (np.eye(n_modes) - share)).max() <= 1e-10
+
+
+def _static_gap(part, supports) -> float:
+    """Largest gap, relative to the peak, between the stored static response to the field
+    B r (an Euler and a centrifugal load; sum_ij B_ji static_shapes[..., i, j]) at every node
+    and a static solve K_ff u = f here with the load lumped at the nodes: a third of each
+    facet's mass rho h A at each corner, f = -m_node B x_node."""
+    result = fem.modal_analysis(part, supports, n_modes=4, zeta=0.02, progress=False)
+    static = np.asarray(result.to_modal_model(points="all", outputs=False).rotation.static_shapes)
+    system = result.system
+    nodes, triangles = system.outputs.layer.nodes, system.outputs.layer.triangles
+    corners = nodes[triangles]
+    area = 0.5 * np.linalg.norm(
+        np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1
+    )
+    rho_h = part.material.rho_kg_m3 * part.thickness_m
+    node_mass = rho_h * np.bincount(triangles.ravel(), np.repeat(area / 3, 3), len(nodes))
+    alpha, w = np.array([0.3, -0.5, 1.0]), np.array([0.4, 0.2, -0.3])
+    field = -np.einsum("kab,b->ka", LEVI_CIVITA, alpha) + np.outer(w, w) - (w @ w) * np.eye(3)
+    load = np.zeros((len(nodes), 6))
+    load[:, :3] = -node_mass[:, None] * (nodes @ field.T)
+    basis = result.basis
+    stiffness = (basis.T @ system.K @ basis).tocsc()
+    ours = (basis @ spsolve(stiffness, basis.T @ load.ravel())).reshape(-1, 6)[:, :3]
+    stored = np.einsum("kcij,ji->kc", static, field)
+    return np.abs(ours - stored).max() / np.abs(stored).max()
+
+
+@pytest.mark.parametrize(
+    ("name", "build", "sizes_m"),
+    [
+        (
+            "curved",
+            lambda s: fem.curved_panel(0.6, 0.4, 1e-3, "steel", s, element="shell"),
+            (0.05, 0.025),
+        ),
+        ("folded", _bracket, (0.02, 0.01)),
+    ],
+)
+def test_static_response_to_the_rotational_loads_against_a_lumped_solve(name, build, sizes_m):
+    """The stored static response to a combined Euler and centrifugal field against a static
+    solve with the FE's stiffness and a load lumped here: the lumped and the consistent load
+    differ at O(h^2) (the deflection under them too), so the gap must fall by 2^1.8 per
+    halving (measured 2^2.03 and 2^2.04) and stay below 3 % of the peak at the coarser mesh
+    (measured 1.75 % curved, 0.70 % folded)."""
+    supports = fem.ClampedEdge("left" if name == "curved" else "x1")
+    gaps = [_static_gap(build(size), supports) for size in sizes_m]
+    assert gaps[0] <= 0.03, gaps
+    assert np.log2(gaps[0] / gaps[1]) >= 1.8, gaps
