@@ -129,7 +129,7 @@ def reaction_outputs(result) -> PhysicalOutputs:
             motions = sp.csr_matrix(system.outputs.rigid_motion(centres[c])[dofs].T)  # (6, H)
             stiffness.append(motions @ system.K[dofs] @ T)
             inertia.append(motions @ system.M[dofs] @ T)
-    base = held_inertia(result, system.rigid)
+    base = held_inertia(result, system.M @ system.rigid)
     if not system.outputs.moves_in_plane:
         load = np.zeros((3, 3))
         load[0, 0] = load[1, 1] = result.mass_kg  # (F_x, F_y, M_z) per unit a
@@ -139,21 +139,22 @@ def reaction_outputs(result) -> PhysicalOutputs:
     )
 
 
-def held_inertia(result, fields: np.ndarray) -> np.ndarray:
+def held_inertia(result, loads: np.ndarray) -> np.ndarray:
     """(6 C, F) the share of the cup reactions that the mass on the held DOFs of the rigidly
-    clamped cups carries when the DOFs accelerate by ``fields`` (n_dof, F): V^T M_H fields
-    (equation (1)'s A_b for the rigid translations; zero for a compliant cup)."""
+    clamped cups carries under the inertia ``loads`` (n_dof, F) of an acceleration, M times
+    its DOF vectors: V^T (loads on the held DOFs) (equation (1)'s A_b for the rigid
+    translations; zero for a compliant cup)."""
     system = result.system
     centres, _ = cup_frames(result)
     out = []
     for c, i in enumerate(_cup_supports(result)):
         held = system.support_constraints[i]
         if held.springs:
-            out.append(np.zeros((6, fields.shape[1])))
+            out.append(np.zeros((6, loads.shape[1])))
         else:
             dofs = held.fixed
             motions = sp.csr_matrix(system.outputs.rigid_motion(centres[c])[dofs].T)  # (6, H)
-            out.append(np.asarray(motions @ (system.M[dofs] @ fields)))
+            out.append(np.asarray(motions @ loads[dofs]))
     return np.concatenate(out)
 
 

@@ -5,8 +5,12 @@ linear fields u = e_j r_i (component j equal to the coordinate r_i, m, in the mo
 
 * thin solid (hex2): the field's values at every node (translations only);
 * shell: the translations at every node and, as rotations, the field's infinitesimal rotation
-  (1/2 curl u = e_i x e_j / 2: the skew part; the director of a symmetric field is left
-  unrotated, an O(h^2 / L^2) share of the rotary inertia);
+  (1/2 curl u = e_i x e_j / 2: the skew part, exact for the rigid rotations). A symmetric
+  field's normal deflection on a curved shell is no nodal DOF vector of the shell, so its
+  loads M (e_j r_i) are not taken as M F but as the virtual work of the sheet's 3-D mass
+  facet by facet (:func:`inertia_loads`, fem.shell.ShellOutputs.field_loads: fibres
+  turned by n x (B n), no fictitious drilling inertia): its S, rigid inertia, static
+  response and cups at rest are those of the faceted sheet (tests/test_rotation_shell.py);
 * Kirchhoff plate: the deflection w only (fields along z: w = x, y or the mid-plane height);
   a plate has no in-plane DOFs, so in-plane loads (a turn about its normal) do not deform
   it, exactly as its x and y participation is zero;
@@ -14,10 +18,11 @@ linear fields u = e_j r_i (component j equal to the coordinate r_i, m, in the mo
   coordinates: nodal translations and rotations as for the shell (:func:`nodal_fields`; an
   ANSYS DOF in a rotated nodal system takes the field's component along its own axis).
 
-The part's exact static response to the nine unit loads M (e_j r_i) (one sparse solve with
-the translation's factorisation, fem.outputs) gives the points', the cup reactions' and the
-stresses' static response to the rotational loads (:func:`rotation_statics`), exactly as
-fem.outputs does for the translation: z_r = K_ff^-1 (M F)_free, the points' -T z_r, the
+The part's exact static response to the nine unit loads M (e_j r_i) (:func:`inertia_loads`;
+one sparse solve with the translation's factorisation, fem.outputs) gives the points', the
+cup reactions' and the stresses' static response to the rotational loads
+(:func:`rotation_statics`), exactly as fem.outputs does for the translation: z_r = K_ff^-1
+(M F)_free, the points' -T z_r, the
 outputs' A_b,r - A_u z_r with A_b,r = V^T M_H F the inertia of the held DOFs (rigid cups).
 A plate's in-plane share (F_x, F_y, M_z) is that of a part rigid in its plane on the cups'
 springs (fem.outputs.in_plane_share) carrying the in-plane resultant of each field: force
@@ -25,8 +30,11 @@ m c_i e_j, moment about the centre of mass from the mass's second moments.
 
 The couplings of the deformation, G_k = phi^T M X_k phi and P_kl = phi^T M X_k X_l phi with
 X_k the DOF operator of u -> e_k x u (:func:`coupling_matrices`; the neglected terms' bound of
-jaxflex.turning): the thin solid's X_k turns each node's translation; the shell's turns its
-translation and its rotation vector (both are vectors turning with the frame); a Kirchhoff
+jaxflex.turning): the thin solid's X_k turns each node's translation (its shape functions
+are the same for the three components, so this is exact for its field); the shell's are the
+integrals int rho v_m . (e_k x v_n) dV of its own displacement field (fem.shell.ShellOutputs.
+mass_products: the cubic normal deflection and the fibres; turning its nodal rotation
+vectors, as done before, missed G by 2.4 % against the thin solid); a Kirchhoff
 plate's deflection w e_z turned about any axis is in its plane (G_k = 0) and e_k x (e_l x
 w e_z) has the z component (d_kz d_lz - d_kl) w, so P_kl = (d_kz d_lz - d_kl) phi^T M phi
 (its kinetic energy has no rotary inertia: exact); decks and ANSYS imports get none (their
@@ -97,6 +105,17 @@ def nodal_fields(points_m: np.ndarray, translation: np.ndarray, rotation: np.nda
     )
 
 
+def inertia_loads(system, fields: np.ndarray) -> np.ndarray:
+    """(n_dof, 9) the consistent load of each unit field's acceleration e_j r_i (column
+    3 i + j) on the DOFs of ``system``, kg m: M F for the ``fields`` (n_dof, 3, 3) of
+    :func:`linear_fields`, but for a shell the virtual work of its 3-D mass facet by facet
+    (fem.shell.ShellOutputs.field_loads: the fields it cannot hold as nodal DOFs exactly,
+    its fibres' t^2 / 12 and no fictitious drilling inertia)."""
+    if isinstance(system.outputs, ShellOutputs):
+        return system.outputs.field_loads()
+    return np.asarray(system.M @ fields.reshape(system.n_dof, 9))
+
+
 def six_dof_axes(nodes_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The :func:`nodal_fields` arguments of six DOFs per node (translations x, y, z, then
     rotations about x, y, z, global axes) at ``nodes_m`` (N, 3)."""
@@ -107,12 +126,14 @@ def six_dof_axes(nodes_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return np.repeat(nodes_m, DOFS_PER_NODE, axis=0), translation, rotation
 
 
-def rigid_inertia(mass_matrix, fields: np.ndarray, translations: np.ndarray):
+def rigid_inertia(mass_matrix, fields: np.ndarray, translations: np.ndarray, loads: np.ndarray):
     """(mass, centre (3,), inertia (3, 3) about the origin) of ``mass_matrix`` (n, n) from
-    its linear ``fields`` (n, 3, 3) and ``translations`` (n, 3), the DOF vectors of unit
-    translations along x, y, z (zero columns where the DOFs have none: a plate's x, y).
+    its linear ``fields`` (n, 3, 3), their inertia ``loads`` (n, 9) (:func:`inertia_loads`)
+    and ``translations`` (n, 3), the DOF vectors of unit translations along x, y, z (zero
+    columns where the DOFs have none: a plate's x, y).
 
-    The rigid rotations are eps_kij F[:, i, j] = e_k x r, so the inertia is exact, and so is
+    The rigid rotations are eps_kij F[:, i, j] = e_k x r, their loads eps_kij L[:, 3 i + j],
+    so the inertia is exact (that of the loads: a shell's without drilling), and so is
     the centre, from the coupling t_d^T M (e_k x r) = m eps_dki c_i of translations and
     rotations: a point mass off its grid (a CONM2 offset) counts where it is. Where only the
     vertical translation exists (a plate) its height is the fields' (exact for a sheet)."""
@@ -120,7 +141,7 @@ def rigid_inertia(mass_matrix, fields: np.ndarray, translations: np.ndarray):
     mass = float(translations[:, 2] @ lift[:, 2])
     rotations = np.einsum("kij,nij->nk", LEVI_CIVITA, fields)
     coupling = lift.T @ rotations  # (3, 3): C[d, k] = m eps_dki c_i
-    inertia = rotations.T @ (mass_matrix @ rotations)
+    inertia = rotations.T @ np.einsum("kij,nij->nk", LEVI_CIVITA, loads.reshape(-1, 3, 3))
     if translations[:, :2].any():
         rows = LEVI_CIVITA.reshape(9, 3) * mass
         centre = np.linalg.lstsq(rows, coupling.reshape(9), rcond=None)[0]
@@ -143,14 +164,15 @@ def rotational_inertia(
     fields = linear_fields(system)
     if fields is None:
         return None
-    n_dof = system.n_dof
-    flat = fields.reshape(n_dof, 9)
-    reduced = result.basis.T @ (system.M @ flat)  # (n_free, 9)
+    loads = inertia_loads(system, fields)
+    reduced = result.basis.T @ loads  # (n_free, 9)
     shape_integrals = (result.vectors.T @ reduced).reshape(-1, 3, 3)
-    _, centre, inertia = rigid_inertia(system.M, fields, system.rigid)
+    _, centre, inertia = rigid_inertia(system.M, fields, system.rigid, loads)
     if not system.outputs.moves_in_plane:  # flat plate: about z from x and y
         inertia[2, 2] = inertia[0, 0] + inertia[1, 1]
-    statics = {} if nodes is None else rotation_statics(result, fields, nodes, outputs=outputs)
+    statics = (
+        {} if nodes is None else rotation_statics(result, fields, loads, nodes, outputs=outputs)
+    )
     couplings = coupling_matrices(result)
     if couplings is not None:
         statics["gyroscopic"], statics["spin"] = couplings
@@ -171,10 +193,11 @@ def coupling_matrices(result) -> tuple[np.ndarray, np.ndarray] | None:
         n = phi.shape[1]
         spin = np.einsum("kl,mn->klmn", np.diag([0.0, 0.0, 1.0]) - np.eye(3), phi.T @ mass_phi)
         return np.zeros((3, n, n)), spin
-    if not isinstance(outputs, SolidOutputs | ShellOutputs):
+    if isinstance(outputs, ShellOutputs):
+        return _from_mass_products(outputs.mass_products(phi))
+    if not isinstance(outputs, SolidOutputs):
         return None
-    # the solid's nodes hold one vector (x, y, z), the shell's two (translation, rotation)
-    vectors = phi.reshape(-1, 3, phi.shape[1])  # (vectors, 3, M)
+    vectors = phi.reshape(-1, 3, phi.shape[1])  # (nodes, 3, M)
 
     def turned(k: int, v: np.ndarray) -> np.ndarray:  # e_k x v for every vector
         return np.cross(np.eye(3)[k][None, :, None], v, axis=1)
@@ -190,18 +213,27 @@ def coupling_matrices(result) -> tuple[np.ndarray, np.ndarray] | None:
     return gyroscopic, spin
 
 
+def _from_mass_products(products: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(G, P) from C[a, b, m, n] = int rho (v_m)_a (v_n)_b dV: G_k = int rho v_m . (e_k x
+    v_n) = eps_kab C[b, a], P_kl = int rho v_m . (e_k x (e_l x v_n)) = C[l, k] - d_kl tr C."""
+    gyroscopic = np.einsum("kab,bamn->kmn", LEVI_CIVITA, products)
+    trace = np.einsum("aamn->mn", products)
+    spin = products.transpose(1, 0, 2, 3) - np.eye(3)[:, :, None, None] * trace
+    return gyroscopic, spin
+
+
 def rotation_statics(
-    result, fields: np.ndarray, nodes: np.ndarray, *, outputs: bool
+    result, fields: np.ndarray, loads: np.ndarray, nodes: np.ndarray, *, outputs: bool
 ) -> dict[str, np.ndarray]:
     """The static response to the nine unit inertia loads M (e_j r_i) (module docstring):
     {"static_shapes": (K, 3, 3, 3) at ``nodes``, and with ``outputs`` "cup_static"
     (6 C, 3, 3) where there are suction cups and "stress_static" (6 S, 3, 3)}, per unit
-    B_ji (1/s^2) of the field B r; ``fields`` (n_dof, 3, 3) from :func:`linear_fields`."""
+    B_ji (1/s^2) of the field B r; ``fields`` (n_dof, 3, 3) from :func:`linear_fields`,
+    ``loads`` (n_dof, 9) theirs from :func:`inertia_loads`."""
     system = result.system
-    flat = fields.reshape(system.n_dof, 9)
     z_rot = result.__dict__.get("_rotation_static_response")  # (n_free, 9), once per result
     if z_rot is None:
-        z_rot = static_solve(result, result.basis.T @ (system.M @ flat))
+        z_rot = static_solve(result, result.basis.T @ loads)
         result.__dict__["_rotation_static_response"] = z_rot
     n_nodes = len(system.nodes)
     points = -(result.observation @ z_rot).reshape(n_nodes, 3, 3, 3)
@@ -211,7 +243,7 @@ def rotation_statics(
     reactions, _, stress = physical_outputs(result)
     out["stress_static"] = -np.asarray(stress.stiffness @ z_rot).reshape(-1, 3, 3)
     if reactions is not None and has_cups(result):
-        base = held_inertia(result, flat)
+        base = held_inertia(result, loads)
         if not system.outputs.moves_in_plane:
             base += in_plane_share(result, _in_plane_loads(result, fields))
         cups = base - np.asarray(reactions.stiffness @ z_rot)
@@ -243,9 +275,9 @@ def imported_inertia(
     ``translations`` (n, 3) of unit translations along x, y, z, all in the file's consistent units
     ``unit`` (fem.units.Units). The mass is the matrix's: without the DOFs the file
     constrains (the mass the modes can move, like the participation factors)."""
-    flat = fields.reshape(len(fields), 9)
-    shape_integrals = (vectors.T @ (mass_matrix @ flat)).reshape(-1, 3, 3)
-    mass, centre, inertia = rigid_inertia(mass_matrix, fields, translations)
+    loads = mass_matrix @ fields.reshape(len(fields), 9)
+    shape_integrals = (vectors.T @ loads).reshape(-1, 3, 3)
+    mass, centre, inertia = rigid_inertia(mass_matrix, fields, translations, loads)
     return RotationalInertia(
         shape_integrals * unit.gamma_to_si * unit.length_m,
         np.float64(mass * unit.mass_kg),

@@ -26,10 +26,13 @@ from fem.assembly import assemble
 from fem.mesh import ShellMesh
 from fem.shell_element import (
     BENDING,
+    MASS_RULE,
     MEMBRANE,
     curvature_matrix,
+    deflection_shape,
     element_matrices,
     local_frames,
+    mass_matrix_of,
     membrane_strain_matrix,
     plane_stress,
 )
@@ -161,6 +164,42 @@ class ShellOutputs:
         out[:, 1, :, 3:] = np.eye(3)
         return out.reshape(-1, 6)
 
+    def field_loads(self) -> np.ndarray:
+        """(n_dof, 9) the consistent loads of the unit fields u = e_j r_i = B r (column
+        3 i + j; B = e_j e_i^T), kg m: the virtual work int rho u . N dV of the sheet's 3-D
+        mass with every DOF's shape functions N, facet by facet (:func:`_field_work`). Exact
+        for the faceted sheet: a rigid rotation's work is the sheet's inertia tensor, its
+        fibres' t^2 / 12 included."""
+        layer, part = self.layer, self.part
+        n_dof = len(layer.nodes) * DOFS_PER_NODE
+        loads = np.zeros((n_dof, 9))
+        for chunk in _chunks(len(layer.triangles)):
+            work = _field_work(
+                layer.nodes[layer.triangles[chunk]], part.material.rho_kg_m3, part.thickness_m
+            )
+            dofs = layer.element_dofs[chunk].ravel()
+            for f in range(9):
+                loads[:, f] += np.bincount(dofs, work[..., f].ravel(), n_dof)
+        return loads
+
+    def mass_products(self, vectors: np.ndarray) -> np.ndarray:
+        """(3, 3, M, M) C[a, b, m, n] = int rho (v_m)_a (v_n)_b dV over the sheet of the
+        displacement fields v of DOF ``vectors`` (n_dof, M), global axes
+        (:func:`_sheet_fields`), integrated by the consistent mass's rule (exact: phi^T M
+        phi is C's trace but for the fictitious drilling inertia)."""
+        layer, part = self.layer, self.part
+        rho_h = part.material.rho_kg_m3 * part.thickness_m
+        fibres = rho_h * part.thickness_m**2 / 12
+        n_modes = vectors.shape[1]
+        out = np.zeros((3, 3, n_modes, n_modes))
+        for chunk in _chunks(len(layer.triangles), 500):
+            weights, moved, fibre = _sheet_fields(
+                layer.nodes[layer.triangles[chunk]], vectors[layer.element_dofs[chunk]]
+            )
+            out += np.einsum("ep,epam,epbn->abmn", weights * rho_h, moved, moved)
+            out += np.einsum("ep,epam,epbn->abmn", weights * fibres, fibre, fibre)
+        return out
+
     def surface_frame(
         self, x: float, y: float, z: float | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -222,6 +261,61 @@ def surface_stress(nodes, triangles, n_dof: int, c_membrane, c_bending, heights_
     )
     points = xyz.mean(axis=1)[:, None] + heights_m[:, :, None] * frames[:, None, 2]
     return points.reshape(-1, 3), operator
+
+
+def _chunks(n_elements: int, size: int = CHUNK_ELEMENTS) -> list[np.ndarray]:
+    """Consecutive blocks of at most ``size`` element indices."""
+    return np.array_split(np.arange(n_elements), max(1, -(-n_elements // size)))
+
+
+def _field_work(xyz: np.ndarray, rho_kg_m3: float, thickness_m: float) -> np.ndarray:
+    """(E, 18, 9) the virtual work of the unit fields B r (B = e_j e_i^T, column 3 i + j)
+    with the global DOFs of facets ``xyz`` (E, 3, 3) m. On a flat facet of normal n the
+    translations' shape functions (u, v linear, w the cubic of fem.shell_element) hold the
+    field exactly given its corner values and the slopes of its normal component, the
+    rotation (B^T n) x n; the fibres (the director n) move by B n, so the rotary inertia
+    rho h^3 / 12 works on the rotation n x (B n) (no drilling rotation: its inertia is
+    fictitious)."""
+    frames, xy, _ = local_frames(xyz)
+    normal = frames[:, 2]
+    rho_h = np.full(len(xyz), rho_kg_m3 * thickness_m)
+    eye = np.eye(3)
+    # per element, corner, (translation, rotation) and component c, for field (i, j)
+    kirchhoff = np.zeros((len(xyz), 3, 2, 3, 3, 3))
+    director = np.zeros_like(kirchhoff)
+    kirchhoff[:, :, 0] = np.einsum("eai,cj->eacij", xyz, eye)  # e_j x_i at the corners
+    # (B^T n) x n = n_j (e_i x n), and n x (B n) = n_i (n x e_j): the same at every corner
+    turn = np.cross(eye[None, :, :], normal[:, None, :])  # (E, i, c): e_i x n
+    kirchhoff[:, :, 1] = np.einsum("eic,ej->ecij", turn, normal)[:, None]
+    director[:, :, 1] = -np.einsum("ejc,ei->ecij", turn, normal)[:, None]
+    work = np.zeros((len(xyz), 18, 9))
+    for vectors, mass in (
+        (kirchhoff, mass_matrix_of(xy, rho_h, np.zeros_like(rho_h))),
+        (director, mass_matrix_of(xy, np.zeros_like(rho_h), rho_h * thickness_m**2 / 12)),
+    ):
+        local = np.einsum("ekc,eabcf->eabkf", frames, vectors.reshape(-1, 3, 2, 3, 9))
+        work += np.matmul(mass, local.reshape(-1, 18, 9))
+    return np.einsum("ekc,eabkf->eabcf", frames, work.reshape(-1, 3, 2, 3, 9)).reshape(-1, 18, 9)
+
+
+def _sheet_fields(xyz: np.ndarray, dofs: np.ndarray):
+    """The displacement fields of facets ``xyz`` (E, 3, 3) m with global element DOFs
+    ``dofs`` (E, 18, M) at the consistent mass's points (fem.shell_element.MASS_RULE): the
+    weights (E, P) m^2, the mid-surface's displacement (E, P, 3, M) (u, v linear, w the
+    cubic) and the fibres' theta x n (E, P, 3, M) (theta linear), global axes."""
+    zeta, rule = MASS_RULE
+    frames, xy, area = local_frames(xyz)
+    n_modes = dofs.shape[-1]
+    local = np.einsum("eck,eakm->eacm", frames, dofs.reshape(-1, 6, 3, n_modes))
+    local = local.reshape(-1, 18, n_modes)
+    in_plane = np.einsum("pa,eacm->epcm", zeta, local.reshape(-1, 3, 6, n_modes)[:, :, :2])
+    normal = np.einsum("epd,edm->epm", deflection_shape(xy, zeta), local[:, BENDING])
+    moved = np.einsum(
+        "eck,epcm->epkm", frames, np.concatenate([in_plane, normal[:, :, None]], axis=2)
+    )
+    theta = np.einsum("pa,eakm->epkm", zeta, dofs.reshape(-1, 3, 6, n_modes)[:, :, 3:])
+    fibre = np.cross(theta, frames[:, None, 2, :, None], axis=2)
+    return np.einsum("p,e->ep", rule, area), moved, fibre
 
 
 class ShellMeshDofs:

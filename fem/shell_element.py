@@ -295,6 +295,10 @@ def _mass_rule():
     return zeta, 2 * weights  # weights sum to 1 (fractions of the area)
 
 
+# the consistent mass's rule: area coordinates (P, 3), weights (P,) summing to 1
+MASS_RULE = _mass_rule()
+
+
 def _cubic_basis(zeta: np.ndarray) -> np.ndarray:
     """(P, 10) cubic monomials in area coordinates: z1, z2, z3, z_i^2 z_j (i != j), z1 z2 z3."""
     z1, z2, z3 = zeta.T
@@ -360,7 +364,7 @@ def mass_matrix_of(xy: np.ndarray, mass_kg_m2: np.ndarray, inertia_kg: np.ndarra
     rho_h, inertia = np.asarray(mass_kg_m2), np.asarray(inertia_kg)
     for comp, value in ((0, rho_h), (1, rho_h), (3, inertia), (4, inertia), (5, inertia)):
         mass[:, :, comp, :, comp] = (value * area)[:, None, None] * linear
-    zeta, weights = _mass_rule()
+    zeta, weights = MASS_RULE
     shape = deflection_shape(xy, zeta)  # (E, P, 9)
     m_w = np.einsum("p,e,epi,epj->eij", weights, rho_h * area, shape, shape)
     full = mass.reshape(n, 18, 18)

@@ -31,7 +31,8 @@ centrifugal loads too (jaxflex.rotation_residual); without them that share is mi
 neglects, -M [2 w x u' + alpha x u + w x (w x u)] (jaxflex.turning), in the kept modes:
 ``gyroscopic`` (3, M, M) G_k = phi^T M X_k phi and ``spin`` (3, 3, M, M) P_kl =
 phi^T M X_k X_l phi (dimensionless), X_k the DOF operator of u -> e_k x u (fem.
-rotation_integrals). The modal load of the neglected terms is then -(2 G(w) q' + G(alpha) q
+rotation_integrals; a shell's: the integrals int rho v_m . (e_k x v_n) dV of its own
+field). The modal load of the neglected terms is then -(2 G(w) q' + G(alpha) q
 + P(w) q) with G(v) = sum_k v_k G_k and P(w) = sum_kl w_k w_l P_kl; with them
 jaxflex.turning bounds the neglected terms' effect a posteriori, without them by an energy
 estimate alone.

@@ -10,6 +10,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.sparse.linalg as sla
+from sheet_parts import sheet_moments
 
 import fem
 import jaxflex
@@ -333,14 +334,15 @@ def test_posed_model_keeps_the_static_response_to_the_rotational_loads():
 
 
 def _mass_moments(result):
-    """(mass, int rho r (3,), int rho r r^T (3, 3)) from the FE mass matrix and the node
-    coordinates of a thin solid (x, y, z per node) or a shell (the translations of its 6 DOFs
-    per node): the translational inertia, without the shell's rotary inertia."""
+    """(mass, int rho r (3,), int rho r r^T (3, 3)) of a thin solid from its FE mass matrix
+    and node coordinates (x, y, z per node: exact for its shape functions), of a shell from
+    its facets (tests/sheet_parts.sheet_moments: the 3-D sheet, fibres included)."""
     system = result.system
-    if isinstance(system.outputs, SolidOutputs):
-        coords, per_node = system.outputs.layer.points, 3
-    else:
-        coords, per_node = system.outputs.layer.nodes, 6
+    if not isinstance(system.outputs, SolidOutputs):
+        layer, part = system.outputs.layer, system.outputs.part
+        rho_h = part.material.rho_kg_m3 * part.thickness_m
+        return sheet_moments(layer.nodes, layer.triangles, rho_h, part.thickness_m)
+    coords, per_node = system.outputs.layer.points, 3
     block = np.zeros((4, 4))
     for j in range(3):  # component j of the fields (r, 1)
         fields = np.zeros((system.n_dof, 4))
@@ -356,18 +358,17 @@ def _mass_moments(result):
         ("plate", None, 1e-9),
         ("plate", "bellows", 1e-9),
         ("thin solid", None, 1e-9),
-        # the shell's linear fields leave a symmetric field's director unrotated: the rotary
-        # inertia rho h^3 / 12 of its rotations, (h / L)^2 / 12 ~ 1e-5 of the moment, differs
-        ("shell", None, 1e-4),
+        # the shell's loads are its 3-D sheet's, fibres included (fem.shell field_loads:
+        # before, they missed them by 2e-5 of the moment)
+        ("shell", None, 1e-9),
     ],
 )
 def test_cups_balance_the_rotational_loads_at_rest(part, stiffness, moment_rtol):
     """Held at rest under a constant field B r (an Euler and a centrifugal load, no gravity)
     with 4 modes kept, the cup reactions (rigid or compliant bellows cups) balance the part's
     inertia: forces sum to B (m c) and their moments about the origin to eps_kab B_bc
-    Sigma_ac, Sigma = int rho r r^T from the mass matrix and the node coordinates (the flat
-    plate's in closed form: it has no in-plane DOFs), to 1e-9 (one sparse solve's
-    round-off)."""
+    Sigma_ac, Sigma = int rho r r^T (:func:`_mass_moments`; the flat plate's in closed form:
+    it has no in-plane DOFs), to 1e-9 (one sparse solve's round-off)."""
     builders = {
         "plate": lambda: fem.rectangular_plate(0.6, 0.4, 1e-3, "steel", 0.05),
         "thin solid": lambda: fem.curved_panel(0.6, 0.4, 1e-3, "steel", 0.1),
