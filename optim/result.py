@@ -301,6 +301,11 @@ class OptimizationResult:
                 f"{head}, {cmp['saving_s']:.3f} s ({100 * cmp['saving_rel']:.1f} %) shorter "
                 f"than the best baseline, {base}"
             )
+        if cmp["saving_s"] < 0:  # that baseline is no candidate (optim.stages.choose's notes)
+            return (
+                f"{head}; the best baseline, {base}, is shorter but breaks the clearance or "
+                "a cell constraint"
+            )
         floor = " = the kinematic floor, no move is shorter" if self._at_floor() else ""
         return f"{head}, as short as the best baseline, {base}{floor}"
 
