@@ -75,11 +75,13 @@ class LPSubsolver:
             add_jerk_tv_objective(builder, layout, problem.limits, weight)
         z_cols = add_end_states(builder, problem, layout)
         peaks = problem.clearance_pool.get(n_steps, [])
-        if peaks:  # tangent cuts of the clearance during the move, on the samples directly
+        if peaks:  # tangent cuts of the clearance during the move (a turn's: with a constant)
             response = problem.move_map(n_steps)
+            limit = problem.clearance_limit_m
             coef = np.stack([response.row(pk, layout.axes).T.ravel() for pk in peaks])
             cols = np.broadcast_to(layout.a.ravel(), coef.shape)
-            builder.rows(cols, coef / problem.clearance_limit_m, -np.inf, 1.0)
+            rhs = 1.0 - np.array([response.offset(pk) for pk in peaks]) / limit
+            builder.rows(cols, coef / limit, -np.inf, rhs)
         cell_rows = problem.cell_rows.get(n_steps, [])
         if cell_rows:  # distance, cup and stress rows of optim.cell_rows, on the samples
             coef = np.stack([r.coef.T.ravel() for r in cell_rows])

@@ -72,21 +72,32 @@ class MoveResponse:
 
     def peaks(self, acc: np.ndarray, limit_m: float, tol: float = 1e-6, most: int = 40):
         """Local maxima in time of max_p |u_p| above ``limit_m`` (worst first)."""
-        q = self.modal(acc)
-        d, worst = max_norms(self.blocks, q)
-        d = d / limit_m
-        padded = np.concatenate([[-np.inf], d, [-np.inf]])
-        local = np.flatnonzero((d >= padded[:-2]) & (d >= padded[2:]) & (d > 1.0 + tol))
-        u = point_displacements(self.shapes[worst[local]], q[local])  # (J, J, C)
-        found = [
-            ClearancePeak(int(j), int(worst[j]), u[i, i], float(d[j])) for i, j in enumerate(local)
-        ]
-        return sorted(found, key=lambda pk: -pk.value)[:most]
+        return clearance_peaks(self.blocks, self.shapes, self.modal(acc), limit_m, tol, most)
 
     def row(self, peak: ClearancePeak, axes) -> np.ndarray:
         """(n+1, d) coefficients r with sum r * a = c . u_p(t), c = u / |u| (a tangent cut)."""
         along = (peak.u / np.linalg.norm(peak.u)) @ self.shapes[peak.point]  # (M,)
         return np.einsum("m,mic->ic", along, self.sample_map(axes, peak.index))
+
+    def offset(self, peak: ClearancePeak) -> float:
+        """The part of the cut's c . u_p(t) that does not depend on the samples, m: none for
+        a straight move (optim.turn_clearance: the turn's own deviation)."""
+        return 0.0
+
+
+def clearance_peaks(blocks, shapes, coords: np.ndarray, limit_m: float, tol: float, most: int):
+    """The local maxima in time of max_p |u_p| above ``limit_m`` (worst first, at most
+    ``most``), u_p = shapes_p coords of the coordinates ``coords`` (T, M') and their
+    ``blocks`` (jaxflex.deviation.max_norms)."""
+    d, worst = max_norms(blocks, coords)
+    d = d / limit_m
+    padded = np.concatenate([[-np.inf], d, [-np.inf]])
+    local = np.flatnonzero((d >= padded[:-2]) & (d >= padded[2:]) & (d > 1.0 + tol))
+    u = point_displacements(shapes[worst[local]], coords[local])  # (J, J, C)
+    found = [
+        ClearancePeak(int(j), int(worst[j]), u[i, i], float(d[j])) for i, j in enumerate(local)
+    ]
+    return sorted(found, key=lambda pk: -pk.value)[:most]
 
 
 def _interpolation(n_steps: int, substeps: int) -> np.ndarray:

@@ -121,6 +121,9 @@ def plot_profiles(path: str | os.PathLike, move: Move, limits: Limits, title: st
 
 def _saving_text(best: Trace, baseline: Trace, what: str) -> str:
     saving = baseline.objective_s - best.objective_s
+    if saving < -1e-9:  # that baseline breaks the clearance or a cell constraint
+        label = f"{baseline.label}, not allowed"
+        return f"{what} {-saving:.3f} s longer than the best baseline ({label})"
     if saving <= 0:
         return f"{what} as short as the best baseline ({baseline.label})"
     return (

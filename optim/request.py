@@ -170,8 +170,8 @@ class Request:
             )
 
     def _check_turn(self) -> None:
-        """The turn (optim.turn.TurnSpec), for a model with the rotation data; what turning
-        moves do not take yet is refused, naming it."""
+        """The turn (optim.turn.TurnSpec), for a model with the rotation data, on the exact
+        route (the gradient route does not take turns)."""
         rotate = self.rotate
         if rotate is None:
             if self.angular_limits is not None or self.pivot_m is not None:
@@ -193,16 +193,6 @@ class Request:
                 "method: the gradient route does not take turning moves (rotate, --rotate); "
                 "the exact route does: method='exact' (jaxflex optimize --method exact, the "
                 "default)"
-            )
-        unsupported = {
-            "clearance_m (--clearance)": self.clearance_m is not None,
-        }
-        refused = [name for name, asked in unsupported.items() if asked]
-        if refused:
-            raise InputError(
-                f"rotate (--rotate): {', '.join(refused)} not yet for turning moves; turning "
-                "moves take the exact route, the robust grid, a cell (via points, "
-                "min_distance_m, cup_safety, max_stress_pa)"
             )
         self._set("rotate", _in_cell(rotate, self.cell))
 

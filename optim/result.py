@@ -35,6 +35,7 @@ from jaxflex.response import Move, SettleReport, as_move, deviation_curve, integ
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
 from optim.robust import RobustSpec, perturbed
+from optim.turn_clearance import turning_move_deviation
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
 PLOT_AFTER = 20_000  # plots: at most this many samples of the settling (a long baseline's)
@@ -301,6 +302,11 @@ class OptimizationResult:
                 f"{head}, {cmp['saving_s']:.3f} s ({100 * cmp['saving_rel']:.1f} %) shorter "
                 f"than the best baseline, {base}"
             )
+        if cmp["saving_s"] < -1e-9:  # that baseline is no candidate (optim.stages.choose's notes)
+            return (
+                f"{head}; the best baseline, {base}, is shorter but breaks the clearance or "
+                "a cell constraint"
+            )
         floor = " = the kinematic floor, no move is shorter" if self._at_floor() else ""
         return f"{head}, as short as the best baseline, {base}{floor}"
 
@@ -389,12 +395,19 @@ class OptimizationResult:
 
     def _curve(self, acc, angular_acc, until: float) -> tuple[np.ndarray, np.ndarray]:
         """Deviation against time up to ``until`` s: exact samples every dt / SUBSTEPS for a
-        straight move, at the samples for a turning one (jaxflex.turning)."""
+        straight move; for a turning one every dt / 8 during the move (optim.turn_clearance)
+        and at the samples after it (jaxflex.turning)."""
         if angular_acc is None:
             return deviation_curve(self.model, as_move(acc, self.dt_s), until, SUBSTEPS, PLOT_AFTER)
-        extend = max(0.0, until - (acc.shape[0] - 1) * self.dt_s)
-        response = self.turn.response(self.model, angular_acc, acc, self.dt_s, extend)
-        return response.t_s, response.deviation_m
+        t_end = (acc.shape[0] - 1) * self.dt_s
+        response = self.turn.response(
+            self.model, angular_acc, acc, self.dt_s, max(0.0, until - t_end)
+        )
+        t, d = turning_move_deviation(self.model, self.turn, angular_acc, acc, self.dt_s)
+        after = response.t_s > t_end
+        return np.concatenate([t, response.t_s[after]]), np.concatenate(
+            [d, response.deviation_m[after]]
+        )
 
     def _plot_turn(self, path: Path) -> None:
         from optim.plots import plot_turn  # matplotlib: only when drawing

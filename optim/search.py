@@ -41,6 +41,7 @@ from optim.limits import Limits
 from optim.move_response import ClearancePeak, MoveResponse
 from optim.residual import Peak, ResidualModel
 from optim.robust import RobustSpec, perturbed
+from optim.turn_clearance import TurnMoveResponse
 
 RESIDUAL_MARGIN = 1e-3
 MAX_ROUNDS = 60
@@ -118,12 +119,19 @@ class Problem:
     def clearance_limit_m(self) -> float:
         return self.clearance_m * (1.0 - RESIDUAL_MARGIN)
 
-    def move_map(self, n_steps: int) -> MoveResponse:
-        """The nominal model's response during an n-step move (optim.move_response)."""
+    def move_map(self, n_steps: int) -> MoveResponse | TurnMoveResponse:
+        """The nominal model's response during an n-step move (optim.move_response), with a
+        turn that of its active schedule (optim.turn_clearance)."""
         if n_steps not in self._move_maps:
-            _forget_lengths(self._move_maps, n_steps, lambda key: key)
+            _forget_lengths(self._move_maps, n_steps, _length)
             self._move_maps[n_steps] = MoveResponse(self.model, self.components, n_steps, self.dt_s)
-        return self._move_maps[n_steps]
+        if self.turn is None:
+            return self._move_maps[n_steps]
+        key = (n_steps, self.turn.variant)
+        if key not in self._move_maps:
+            alpha = self.turn.angular_acc(n_steps)
+            self._move_maps[key] = TurnMoveResponse(self._move_maps[n_steps], self.turn.spec, alpha)
+        return self._move_maps[key]
 
     def end_map(self, scenario: int, n_steps: int) -> np.ndarray:
         key = (scenario, n_steps)
@@ -157,6 +165,11 @@ class Problem:
     def add_peak(self, scenario: int, peak: Peak) -> None:
         coef = self.scenarios[scenario].residual.row(peak)
         self.pool.append(PoolRow(scenario, peak, coef))
+
+
+def _length(key: int | tuple[int, int]) -> int:
+    """The move length of a key of the response cache: n, or (n, the turn's schedule)."""
+    return key if isinstance(key, int) else key[0]
 
 
 def _forget_lengths(cache: dict, n_steps: int, length) -> None:

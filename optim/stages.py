@@ -63,6 +63,7 @@ class Baselines:
     floor_deviation: dict  # deviation_summary of the kinematic floor (entries[0])
     advice: list[dict]
     turn_trains: list = field(default_factory=list)  # shapers of the turn's schedules
+    over_clearance: list[str] = field(default_factory=list)  # baselines above clearance_m
 
 
 @dataclass
@@ -114,7 +115,7 @@ def plan(request: Request) -> Plan:
     shortest, allowed = check_move_length(
         setup.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
     )
-    if r.clearance_m is not None:
+    if r.clearance_m is not None and (r.rotate is None or r.rotate.angle_rad == 0.0):
         _check_clearance(setup, r.clearance_m, r.max_duration_s)
     clearance = r.clearance_m is not None
     steps_cap = check_memory(
@@ -127,7 +128,13 @@ def plan(request: Request) -> Plan:
 def _check_clearance(setup: CellSetup, clearance_m: float, max_duration_s: float) -> None:
     """Refuse a clearance no move within max_duration_s can meet (a necessary condition,
     optim.move_response.shortest_clearance_move_s), before the search tries ever longer
-    moves."""
+    moves. Straight moves (and turns by 0 degrees) only: the condition integrates the modal
+    equation twice over the move, whose forcing is then -Gamma . a with double integral
+    -Gamma . distance. With a turn the translation loads the modes in the body frame,
+    R(t)^T a(t), whose double integral depends on when the translation happens along the
+    turn (it can vanish for a nonzero distance), and the turn adds its own loads (Euler,
+    centrifugal, the change of the sag): no bound from the distance alone remains, so
+    turning moves are not pre-checked (the search finds an impossible clearance out)."""
     model = setup.model
     comps = active_components(model)
     t_min, mode = shortest_clearance_move_s(model, comps, setup.distance_m, clearance_m)
@@ -171,8 +178,23 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     peak = deviation["peak_during_move_m"]
     resolution = model_resolution(setup.model, setup.distance_m)
     advice = threshold_advice(r.threshold_m, floor.timing.settle_time_s, peak, resolution)
-    feasible = [e for e in moves.entries if e.constraints_ok]
-    return Baselines(moves, fractions, feasible, deviation, issue(advice), trains)
+    over = _over_clearance(r, setup.model, moves.entries, peak)
+    feasible = [e for e in moves.entries if e.constraints_ok and e.name not in over]
+    return Baselines(moves, fractions, feasible, deviation, issue(advice), trains, over)
+
+
+def _over_clearance(request: Request, model, entries: list[Baseline], floor_peak: float):
+    """The names of the baselines ``entries`` (the floor first, its peak ``floor_peak``)
+    whose deviation during the move exceeds the clearance at the samples every dt / 8 it
+    is held at: they are no candidates (none without a clearance)."""
+    r = request
+    if r.clearance_m is None:
+        return []
+    peaks = [floor_peak] + [
+        _deviation(r, model, as_move(e.acc, r.dt_s), e.angular_acc)["peak_during_move_m"]
+        for e in entries[1:]
+    ]
+    return [e.name for e, peak in zip(entries, peaks, strict=True) if peak > r.clearance_m]
 
 
 def _problem(request: Request, plan: Plan, base: Baselines) -> Problem:
@@ -260,8 +282,9 @@ def choose(request: Request, plan: Plan, base: Baselines, found: Search) -> Choi
     the cell's constraints: the search's moves meet them by construction) that passes the
     exact limits check (optim.choice)."""
     r, distance = request, plan.setup.distance_m
+    usable = {e.name for e in base.feasible}  # the cell's constraints and the clearance met
     moves = candidates(
-        found.problem, found.history, found.final, base.moves, eligible=lambda e: e.constraints_ok
+        found.problem, found.history, found.final, base.moves, eligible=lambda e: e.name in usable
     )
     try:
         move, check, notes = choose_candidate(
@@ -269,6 +292,11 @@ def choose(request: Request, plan: Plan, base: Baselines, found: Search) -> Choi
         )
     except ValueError as exc:
         raise JaxflexError(str(exc)) from exc
+    if base.over_clearance:
+        notes.append(
+            f"baselines above the clearance during the move, not returned: "
+            f"{', '.join(base.over_clearance)}"
+        )
     return Choice(move, check, found.notes + notes)
 
 
@@ -300,8 +328,7 @@ def _deviation(request: Request, model, move: Move, angular_acc) -> dict:
     """The deviation summary of a move (optim.result; a turning move's from optim.turn)."""
     if request.rotate is None:
         return deviation_summary(model, move)
-    response = request.rotate.response(model, angular_acc, move.acc, move.dt_s)
-    return turn_deviation(response, move.n_steps, move.dt_s)
+    return turn_deviation(model, request.rotate, angular_acc, move.acc, move.dt_s)
 
 
 def _worst_case(problem: Problem, move: Move, grid, angular_acc, turn) -> dict:

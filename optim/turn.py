@@ -40,6 +40,7 @@ from jaxflex.response import (
 from optim.limits import Limits
 from optim.ruckig_move import fit_to_grid, grid_steps, shaped_acceleration, time_optimal_move
 from optim.shapers import Shaper
+from optim.turn_clearance import turning_move_deviation
 
 # Robot rates of issue 26's targets (3 rad/s, 20 rad/s^2); the jerk 10 x the acceleration,
 # the ratio of the translation's defaults (10 m/s^2, 100 m/s^3).
@@ -263,14 +264,17 @@ class TurnSchedule:
         return self.spec.timing(model, alpha, acc, self.dt_s, threshold_m)[0]
 
 
-def turn_deviation(response: TurningResponse, n_steps: int, dt_s: float) -> dict:
-    """Peak deviation during the turning move (at the samples), at the stop, m, and the
-    bound on the neglected terms (jaxflex.turning)."""
-    d = response.deviation_m[: n_steps + 1]
+def turn_deviation(model, spec: TurnSpec, angular_acc, acc: np.ndarray, dt_s: float) -> dict:
+    """Peak deviation during the turning move ``acc`` (n+1, 3) with the turn ``angular_acc``
+    of ``spec`` (exact samples every dt_s / 8, about the current pose's sag:
+    optim.turn_clearance, the samples a clearance is held at), at the stop, m, and the bound
+    on the neglected terms (jaxflex.turning)."""
+    t, d = turning_move_deviation(model, spec, angular_acc, acc, dt_s)
+    response = spec.response(model, angular_acc, acc, dt_s)
     return {
         "peak_during_move_m": float(d.max()),
-        "peak_time_s": float(dt_s * np.argmax(d)),
-        "at_stop_m": float(d[n_steps]),
-        "sampling_s": dt_s,
+        "peak_time_s": float(t[np.argmax(d)]),
+        "at_stop_m": float(d[-1]),
+        "sampling_s": float(t[1] - t[0]),
         "neglected_bound_m": response.neglected_bound_m,
     }
