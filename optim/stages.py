@@ -191,8 +191,7 @@ def _over_clearance(request: Request, model, entries: list[Baseline], floor_peak
     if r.clearance_m is None:
         return []
     peaks = [floor_peak] + [
-        _deviation(r, model, as_move(e.acc, r.dt_s), e.angular_acc)["peak_during_move_m"]
-        for e in entries[1:]
+        _deviation(r, model, e.move, e.angular_acc)["peak_during_move_m"] for e in entries[1:]
     ]
     return [e.name for e, peak in zip(entries, peaks, strict=True) if peak > r.clearance_m]
 

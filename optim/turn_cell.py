@@ -57,6 +57,7 @@ from jaxflex.response import (
     output_residual,
     position_weights,
     response_shapes,
+    samples_at,
     state_maps_at,
     states_between,
     turning_coordinates,
@@ -133,12 +134,6 @@ def rest_at_end(model, spec, distance_m) -> np.ndarray:
     return pivot + np.asarray(distance_m) + local @ rotation.T
 
 
-def _linear_at(values: np.ndarray, dt_s: float, t_s: np.ndarray) -> np.ndarray:
-    """(T, F) the samples ``values`` (n+1, F) interpolated linearly at ``t_s`` (T,)."""
-    grid = dt_s * np.arange(values.shape[0])
-    return np.column_stack([np.interp(t_s, grid, values[:, c]) for c in range(values.shape[1])])
-
-
 def move_times(n_steps: int, dt_s: float) -> np.ndarray:
     """(n SUBSTEPS + 1,) s: every dt / SUBSTEPS over an n-step move."""
     return dt_s / SUBSTEPS * np.arange(n_steps * SUBSTEPS + 1)
@@ -179,10 +174,10 @@ class TurnMotion:
             np.concatenate([between[..., 0], sag + free[..., 0]]),
             np.concatenate([between[..., 1], free[..., 1]]),
             np.concatenate(
-                [_linear_at(inputs.base, dt_s, during), np.tile(-gravity[-1], (count, 1))]
+                [samples_at(inputs.base, dt_s, during), np.tile(-gravity[-1], (count, 1))]
             ),
-            np.concatenate([_linear_at(inputs.coefficients, dt_s, during), np.zeros((count, 9))]),
-            np.concatenate([_linear_at(gravity, dt_s, during), np.tile(gravity[-1], (count, 1))]),
+            np.concatenate([samples_at(inputs.coefficients, dt_s, during), np.zeros((count, 9))]),
+            np.concatenate([samples_at(gravity, dt_s, during), np.tile(gravity[-1], (count, 1))]),
         )
         self.sample_rotation = np.asarray(self.path.rotation)
         self.rotation = np.concatenate(
