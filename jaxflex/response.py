@@ -31,6 +31,7 @@ from jaxflex.deviation import (
 )
 from jaxflex.engine import (
     end_state_map,
+    forced_states,
     free_states,
     modal_forces,
     modal_states,
@@ -109,6 +110,7 @@ from jaxflex.turning import (
     GRAVITY_M_S2,
     TurningInputs,
     TurningResponse,
+    body_loads,
     simulate_turning,
     turning_forces,
     turning_inputs,
@@ -143,6 +145,7 @@ __all__ = [
     "as_move",
     "axis_limits",
     "axis_rotation",
+    "body_loads",
     "certified_max",
     "component_blocks",
     "deviation",
@@ -153,6 +156,7 @@ __all__ = [
     "enforce_end_state",
     "envelope_horizon",
     "fixed_axis_path",
+    "forced_states",
     "free_rows",
     "free_states",
     "grid_values",
