@@ -14,8 +14,8 @@
  * own embedded move (jxf_core.c turn_between): q_k (x) exp(phi / 2) with phi = w_k s +
  * alpha_k s^2 / 2 + (alpha_k+1 - alpha_k) s^3 / (6 dt), the angular velocity its rate
  * w_k + alpha_k s + (alpha_k+1 - alpha_k) s^2 / (2 dt) (s the time since sample k; exact for a
- * turn about a fixed axis). Before the start and after the last sample: the first / last
- * sample (at rest: accelerations and rates 0, the end orientations).
+ * turn about a fixed axis). Before the start and after the last sample: at rest in the
+ * first / last orientation (accelerations and angular velocity 0).
  *
  * First time derivatives (maxOutputDerivativeOrder = 1): of the linear outputs the slope of
  * the segment beginning at t; of the quaternion and the angular velocity the slope of the
@@ -123,9 +123,17 @@ static void sample(double tau, double value[JXF_SOURCE_CHANNELS],
     const double *a, *b;
     int c;
     memset(rate, 0, JXF_SOURCE_CHANNELS * sizeof(double));
-    if (k < 0.0 || k >= (double)(JXF_SOURCE_N - 1)) { /* at rest at an end */
+    if (k < 0.0 || k > (double)(JXF_SOURCE_N - 1) || (!snapped && k == JXF_SOURCE_N - 1)) {
+        /* at rest outside the move: in the first / last orientation, everything else 0 */
         const long end = k < 0.0 ? 0 : JXF_SOURCE_N - 1;
-        memcpy(value, jxf_source_samples + JXF_SOURCE_CHANNELS * end,
+        memset(value, 0, JXF_SOURCE_CHANNELS * sizeof(double));
+        if (JXF_SOURCE_TURNING)
+            memcpy(value + JXF_SOURCE_QUAT, jxf_source_samples + JXF_SOURCE_CHANNELS * end +
+                   JXF_SOURCE_QUAT, 4 * sizeof(double));
+        return;
+    }
+    if (k == JXF_SOURCE_N - 1) { /* the last sample */
+        memcpy(value, jxf_source_samples + JXF_SOURCE_CHANNELS * (long)k,
                JXF_SOURCE_CHANNELS * sizeof(double));
         return;
     }
