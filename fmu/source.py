@@ -38,8 +38,7 @@ from fmu.model_description import build_description, cosimulation, unit_definiti
 from fmu.resource import pose_samples
 from fmu.variables import POSE_INPUT_NAMES, pose_unit
 from jaxflex.errors import InputError
-from jaxflex.pose import PosePath
-from jaxflex.response import as_move
+from jaxflex.response import PosePath, as_move
 
 DATA_FILE = "jxf_source_data.h"
 OUTPUTS = ("ax", "ay", "az")  # value references 1, 2, 3

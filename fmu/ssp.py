@@ -40,7 +40,7 @@ from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.geometry import DEFAULT_GRAVITY_M_S2
 from jaxflex.model import ModalModel
-from jaxflex.pose import PosePath
+from jaxflex.response import PosePath
 
 PART, SOURCE = "part", "trajectory"
 PARAMETER_SET = "case"
