@@ -35,6 +35,7 @@ from fmpy.ssp.ssd import read_ssd
 import jaxflex
 from fmu.archive import zip_folder
 from fmu.export import ExportResult, export_fmu
+from fmu.model_description import UNITS
 from fmu.source import SourceResult, export_source_fmu, source_channels
 from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
@@ -50,13 +51,7 @@ _NS = {
     "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
     "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
 }
-_UNITS = {
-    "m": {"m": "1"},
-    "s": {"s": "1"},
-    "m/s2": {"m": "1", "s": "-2"},
-    "rad/s": {"rad": "1", "s": "-1"},
-    "rad/s2": {"rad": "1", "s": "-2"},
-}
+_SSD_UNITS = ("m", "s", "m/s2", "rad/s", "rad/s2")  # of the connectors (fmu.model_description)
 for _prefix, _uri in _NS.items():
     ET.register_namespace(_prefix, _uri)
 
@@ -173,7 +168,8 @@ def system_structure(
             endConnector=signal.name,
         )
     units = ET.SubElement(root, _q("ssd:Units"))
-    for unit, exponents in _UNITS.items():
+    for unit in _SSD_UNITS:
+        exponents = UNITS[unit]
         ET.SubElement(
             ET.SubElement(units, _q("ssc:Unit"), name=unit), _q("ssc:BaseUnit"), exponents
         )

@@ -21,7 +21,14 @@ import numpy as np
 import pytest
 from fmpy.validation import validate_fmu
 from scipy.spatial.transform import Rotation
-from test_fmu_turning import DT, GRAVITY, PIVOT, _held_reference, panel  # noqa: F401
+from test_fmu_turning import (  # noqa: F401  (panel: the fixture)
+    DT,
+    GRAVITY,
+    PIVOT,
+    _held_reference,
+    optimised_swivel,
+    panel,
+)
 
 import jaxflex
 from fmu import importers
@@ -247,15 +254,9 @@ def test_export_command_writes_the_turning_package(panel, tmp_path, capsys):  # 
     """`jaxflex optimize --rotate z 90` then `jaxflex export --turning --trajectory RUN --ssp
     case.ssp`: the package of the turning part and its source, checked in the hosts against
     jaxflex (exit status 0, every host within rounding); without --turning refused."""
-    model_file, run = tmp_path / "panel.npz", tmp_path / "run"
-    panel.save(model_file)
-    limits = ["--vmax", "1.5", "--amax", "10", "--jmax", "200", "--dt", "0.01"]
-    turn = ["--rotate", "z", "90", "--pivot", "0.3", "0.2", "0.05"]
-    optimize = ["optimize", str(model_file), "--distance", "0.4", "0", "0", *limits, *turn]
-    assert main([*optimize, "--threshold", "2e-6", "--no-plots", "-o", str(run)]) == 0
+    _, _, export = optimised_swivel(panel, tmp_path)
     capsys.readouterr()
     out = tmp_path / "case.ssp"
-    export = ["export", str(model_file), "--trajectory", str(run), "--windows", "no"]
     assert main([*export, "--turning", "--ssp", str(out)]) == 0
     text = capsys.readouterr().out
     assert "13 signals connected" in text and text.rstrip().endswith("OK"), text
