@@ -232,12 +232,11 @@ def run_chained(
     communication point, and with ``forward_rates`` (FMI 2.0) their time derivatives as the
     part's input derivatives, so the part sees the source's signal reach its next sample at
     the end of each step instead of held values. Recorded outputs at t_0 .. t_n."""
-    axes = names
     out = _record(part, 0.0)
     for k in range(n_steps):
         t = k * dt_s
-        values = [source.get(name) for name in axes]
-        part.set_inputs(values, source.output_rates(axes) if forward_rates else None, axes)
+        values = [source.get(name) for name in names]
+        part.set_inputs(values, source.output_rates(names) if forward_rates else None, names)
         source.step(t, dt_s)
         part.step(t, dt_s)
         _record(part, (k + 1) * dt_s, out)
