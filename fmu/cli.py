@@ -66,8 +66,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--ssp",
         help="SSP 1.0 package to write (.ssp): the part FMU and a trajectory source FMU playing "
-        "the --trajectory move, connected ax/ay/az, with the threshold and damping scale as "
-        "parameters (with or instead of -o)",
+        "the --trajectory move, connected ax/ay/az (with --turning the pose too), with the "
+        "threshold and damping scale as parameters (with or instead of -o)",
     )
     parser.add_argument(
         "--threshold",
@@ -116,7 +116,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "pivot) and outputs the deviation about the current pose's sag; needs a model with "
         "rotation data; with --trajectory the move of `jaxflex optimize --rotate` (its turn "
         "and pivot) is embedded; with --cell / --stress the cell's outputs of the turning "
-        "part; not with --ssp",
+        "part (not in the SSP package); with --ssp the package of the turning part and a "
+        "source playing the pose",
     )
     parser.add_argument(
         "--pivot",
@@ -323,6 +324,12 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
 
 
 def _export_ssp(args, model, trajectory, threshold_m, case, windows) -> int:
+    move = {}
+    if args.turning:
+        move = {
+            "turning": True,
+            **turning_move(Path(args.trajectory), *trajectory, case, args.pivot),
+        }
     result = export_ssp(
         model,
         args.ssp,
@@ -333,19 +340,21 @@ def _export_ssp(args, model, trajectory, threshold_m, case, windows) -> int:
         damping_scale=args.damping_scale,
         model_name=args.name,
         windows=windows,
+        **move,
     )
     part, source = result.part, result.source
     print(
         f"wrote {result.ssp_path}: SSP 1.0, part FMU ({part.counts.points} points, "
         f"{part.counts.modes} modes) driven by a trajectory source FMU ({source.n_samples} "
-        f"samples every {source.dt_s:g} s), FMI {result.fmi_version}.0, parameters "
+        f"samples every {source.dt_s:g} s, {len(source.outputs)} signals connected), FMI "
+        f"{result.fmi_version}.0, parameters "
         + ", ".join(f"{k} = {v:g}" for k, v in result.parameters.items())
     )
     _print_binaries("part.fmu", result.part.platforms, result.part.skipped)
     _print_binaries("trajectory.fmu", result.source.platforms, result.source.skipped)
     if args.no_verify:
         return 0
-    report = crosscheck_ssp(result.ssp_path)
+    report = crosscheck_ssp(result.ssp_path, part_model=model if args.turning else None)
     print(report.summary())
     return 0 if report.ok else 1
 
@@ -358,10 +367,8 @@ def run(args: argparse.Namespace) -> int:
             check_output_file(option, value)
     if args.ssp and not args.trajectory:
         raise InputError("--ssp: the package plays a move; give --trajectory as well")
-    if args.ssp and (args.cell or args.stress or args.turning):
-        raise InputError(
-            "--cell / --stress / --turning: only for the FMU (-o), not for the SSP package"
-        )
+    if args.ssp and (args.cell or args.stress):
+        raise InputError("--cell / --stress: only for the FMU (-o), not for the SSP package")
     if args.pivot is not None and not args.turning:
         raise InputError("--pivot: only with --turning (the point the inputs ax, ay, az move)")
     model = jaxflex.load_model(args.model)

@@ -13,6 +13,10 @@ the jaxflex response that describes what the host does.
 * An SSP package of FMI 2.0 FMUs in fmu.master with the source's output derivatives forwarded
   as the part's input derivatives: the part sees the piecewise-linear move. Reference:
   ``jaxflex.simulate``.
+* A turning part's package (the source plays the pose as well): the same two references of
+  the turning forcing (fmu.turning_reference): ``jaxflex.simulate_turning`` for fmu.master
+  with derivatives forwarded, the exact zero-order hold of the pose samples for the hosts
+  that hold values.
 
 The communication step is the trajectory's sample step; a run lasts the FMU's default
 experiment. The difference reported is the largest absolute difference of the part's
@@ -36,14 +40,22 @@ from fmpy.validation import validate_fmu
 from fmu import importers
 from fmu.master import Session, run_chained
 from fmu.ssp import PART, SOURCE, SSD_FILE, held_samples, read_parameters, steps_for, stop_time_of
+from fmu.turning_reference import stored_turn, turning_reference
 from fmu.verify import read_fmu_resource, reference_response, simulated_model
 from jaxflex.errors import InputError
+from jaxflex.model import ModalModel
 
 DEFAULT_RTOL = 1e-9
 FMU_HOSTS = ("ecospy", "libcosimpy")
 SSP_HOSTS = ("fmpy", "ecospy", "libcosimpy", "jaxflex-master")
 _LINEAR = "jaxflex.simulate (linear between samples)"
 _HELD = "exact zero-order hold of the samples (jaxflex.engine)"
+_TURNING = "jaxflex.simulate_turning (forcing linear between the pose samples)"
+_TURNING_HELD = "exact zero-order hold of the pose samples' forcing (jaxflex.engine)"
+_FMPY_TURNING = (
+    "fmpy's simulate_ssp starts every connection at 0 instead of the source's first output: "
+    "a zero quaternion, which the turning part refuses"
+)
 
 
 @dataclass(frozen=True)
@@ -167,21 +179,56 @@ def _ssp_validation(path: Path, folder: Path) -> list[str]:
 
 
 def _master(folder: Path, fmi_version: int, parameters, dt_s: float, n_steps: int):
+    """The package in fmu.master: every output of the source connected to the part's input
+    of that name, the part initialized with them (a turning part rests in the first pose)."""
     with (
         Session(folder / f"{SOURCE}.fmu", instance_name=SOURCE) as source,
         Session(folder / f"{PART}.fmu", instance_name=PART) as part,
     ):
+        names = tuple(v.name for v in source.description.modelVariables if v.causality == "output")
         source.start(0.0)
-        part.start(0.0, parameters)
-        out = run_chained(source, part, dt_s, n_steps, forward_rates=fmi_version == 2)
+        part.start(0.0, {**{name: source.get(name) for name in names}, **parameters})
+        out = run_chained(source, part, dt_s, n_steps, forward_rates=fmi_version == 2, names=names)
     return {"time": out["time"], **{f"part.{k}": v for k, v in out.items() if k != "time"}}
 
 
+def _references(path, stored, model, part_model, n_steps: int) -> dict[str, Callable]:
+    """The references of a package's run, by the hold of the inputs ("linear": derivatives
+    forwarded; "zero": values held): callables giving (name, deviation at the communication
+    points). ``model`` is the stored model as simulated, ``part_model`` the turning part's."""
+    dt_s = stored.dt_s
+    if stored.turning is None:
+        samples = held_samples(stored.acc, dt_s, dt_s, n_steps)
+        return {
+            "linear": lambda: (_LINEAR, reference_response(model, stored.acc, dt_s, n_steps)[0]),
+            "zero": lambda: (
+                _HELD,
+                reference_response(model, samples, dt_s, n_steps, hold="zero")[0],
+            ),
+        }
+    if part_model is None:
+        raise InputError(
+            f"{path}: the package of a turning part; its check needs the part's model "
+            "(part_model=...)"
+        )
+    turn = stored_turn(stored, part_model.with_damping(model.zeta), n_steps)
+    return {
+        "linear": lambda: (_TURNING, turning_reference(turn)),
+        "zero": lambda: (_TURNING_HELD, turning_reference(turn, hold="zero")),
+    }
+
+
 def crosscheck_ssp(
-    path: str | os.PathLike, hosts: tuple[str, ...] = SSP_HOSTS, *, rtol: float = DEFAULT_RTOL
+    path: str | os.PathLike,
+    hosts: tuple[str, ...] = SSP_HOSTS,
+    *,
+    rtol: float = DEFAULT_RTOL,
+    part_model: ModalModel | None = None,
 ) -> CrossReport:
     """Validate the SSP package at ``path`` (SSD against the SSP 1.0 schema, both FMUs with
-    fmpy) and run it in each of ``hosts`` that can run it here."""
+    fmpy) and run it in each of ``hosts`` that can run it here. A turning part's package
+    needs the model it was exported from (with its rotation data, which the part FMU
+    does not hold whole) as ``part_model``."""
     path = Path(path)
     if not path.is_file():
         raise InputError(f"SSP package {str(path)!r} does not exist")
@@ -202,8 +249,7 @@ def crosscheck_ssp(
         report.validation = _ssp_validation(path, folder)
         parameters = read_parameters(path).get(PART, {})
         model = simulated_model(stored, part_fmu, parameters)
-        samples = held_samples(stored.acc, dt_s, dt_s, n_steps)
-        held, _ = reference_response(model, samples, dt_s, n_steps, hold="zero")
+        references = _references(path, stored, model, part_model, n_steps)
         runners: dict[str, Callable[[], dict]] = {
             "fmpy": lambda: importers.fmpy_ssp(path, n_steps, dt_s),
             "ecospy": lambda: importers.ecos_ssp(path, n_steps, dt_s),
@@ -212,15 +258,15 @@ def crosscheck_ssp(
         }
         for host in hosts:
             why = _why_not(host, fmi_version)
+            if why is None and host == "fmpy" and stored.turning is not None:
+                why = _FMPY_TURNING
             if why is not None:
                 report.skipped[host] = why
                 continue
             out = runners[host]()
-            if host == "jaxflex-master" and fmi_version == 2:  # derivatives forwarded
-                linear, _ = reference_response(model, stored.acc, dt_s, n_steps)
-                report.runs.append(_compare(host, _LINEAR, linear, out, dt_s, "part."))
-            else:
-                report.runs.append(_compare(host, _HELD, held, out, dt_s, "part."))
+            linear = host == "jaxflex-master" and fmi_version == 2  # derivatives forwarded
+            name, reference = references["linear" if linear else "zero"]()
+            report.runs.append(_compare(host, name, reference, out, dt_s, "part."))
         return report
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

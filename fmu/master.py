@@ -218,19 +218,25 @@ def _record(session: Session, t: float, out: dict | None = None) -> dict[str, li
 
 
 def run_chained(
-    source: Session, part: Session, dt_s: float, n_steps: int, *, forward_rates: bool
+    source: Session,
+    part: Session,
+    dt_s: float,
+    n_steps: int,
+    *,
+    forward_rates: bool,
+    names: tuple[str, ...] = ("ax", "ay", "az"),
 ) -> dict[str, np.ndarray]:
-    """Drive the initialized ``part`` with the outputs ax, ay, az of the initialized
-    trajectory ``source`` for ``n_steps`` steps of ``dt_s``, as a master of a connected system
-    does: values at each communication point, and with ``forward_rates`` (FMI 2.0) their
-    time derivatives as the part's input derivatives, so the part sees the source's
-    piecewise-linear signal instead of held values. Recorded outputs at t_0 .. t_n."""
-    axes = ("ax", "ay", "az")
+    """Drive the initialized ``part`` with the outputs ``names`` (default ax, ay, az; a
+    turning move's source: its pose too) of the initialized trajectory ``source`` for
+    ``n_steps`` steps of ``dt_s``, as a master of a connected system does: values at each
+    communication point, and with ``forward_rates`` (FMI 2.0) their time derivatives as the
+    part's input derivatives, so the part sees the source's signal reach its next sample at
+    the end of each step instead of held values. Recorded outputs at t_0 .. t_n."""
     out = _record(part, 0.0)
     for k in range(n_steps):
         t = k * dt_s
-        values = [source.get(name) for name in axes]
-        part.set_inputs(values, source.output_rates(axes) if forward_rates else None)
+        values = [source.get(name) for name in names]
+        part.set_inputs(values, source.output_rates(names) if forward_rates else None, names)
         source.step(t, dt_s)
         part.step(t, dt_s)
         _record(part, (k + 1) * dt_s, out)

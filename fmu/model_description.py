@@ -16,7 +16,7 @@ LOG_CATEGORIES = (
     ("logStatusWarning", "Warnings: inconsistent communication points"),
     ("logAll", "Debug messages: resource loading, recomputed step matrices"),
 )
-_UNITS = {
+UNITS = {  # name: SI base-unit exponents (also the SSD's units, fmu.ssp)
     "m": {"m": "1"},
     "s": {"s": "1"},
     "m/s2": {"m": "1", "s": "-2"},
@@ -52,10 +52,13 @@ def _fmt(x: float) -> str:
     return repr(float(x))
 
 
-def _units(parent: ET.Element) -> None:
+def unit_definitions(parent: ET.Element, names=None) -> None:
+    """The UnitDefinitions element of the units ``names`` (default: every unit an exported
+    FMU uses: m, s, m/s2, rad/s, rad/s2, Pa) with their SI base units."""
     units = ET.SubElement(parent, "UnitDefinitions")
-    for name, exponents in _UNITS.items():
-        ET.SubElement(ET.SubElement(units, "Unit", name=name), "BaseUnit", exponents)
+    for name, exponents in UNITS.items():
+        if names is None or name in names:
+            ET.SubElement(ET.SubElement(units, "Unit", name=name), "BaseUnit", exponents)
 
 
 def _log_categories(parent: ET.Element) -> None:
@@ -126,7 +129,7 @@ def _root(d: Description, token_attribute: str, **extra: str) -> ET.Element:
 
 def _after_interface(root: ET.Element, d: Description) -> ET.Element:
     """UnitDefinitions, LogCategories, DefaultExperiment; returns the ModelVariables element."""
-    _units(root)
+    unit_definitions(root)
     _log_categories(root)
     ET.SubElement(
         root,

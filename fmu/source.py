@@ -1,12 +1,18 @@
-"""The trajectory source FMU: plays the optimised acceleration samples in a co-simulation.
+"""The trajectory source FMU: plays the optimised move's samples in a co-simulation.
 
 Outputs ``ax``, ``ay``, ``az`` (m/s^2, value references 1-3, the names of the part FMU's
 inputs) at a communication point t: the samples taken every ``dt_s`` from the start time,
-linear between them, 0 before the start and after the last sample. Their first time
+linear between them, at rest before the start and after the last sample. A turning move's
+source (``pose=``, a jaxflex.pose.PosePath) also outputs the pose a turning part FMU takes,
+with the part's names and value references (fmu.variables.POSE_INPUT_NAMES, 40-49):
+quaternion body -> world, angular velocity and acceleration in body components, exactly the
+samples jaxflex.simulate_turning uses at the sample times; between them the orientation
+turns as the part turns its own embedded move (``fmu/c/jxf_source.c``). Their first time
 derivative is provided (``maxOutputDerivativeOrder = 1``: ``fmi2GetRealOutputDerivatives`` /
-``fmi3GetOutputDerivatives``) as the slope of the segment that begins at t, so an FMI 2.0
-importer that forwards it to the part's ``fmi2SetRealInputDerivatives`` drives the part with
-exactly the piecewise-linear move jaxflex optimised; an importer that copies values only
+``fmi3GetOutputDerivatives``): the slope of the segment beginning at t (of the quaternion and
+the angular velocity: the chord to the next sample), so an FMI 2.0 importer that forwards it
+to the part's ``fmi2SetRealInputDerivatives`` drives the part with exactly the move jaxflex
+optimised (the first-order hold between the samples); an importer that copies values only
 holds each sample over the step. The samples are compiled into the binary (the core
 ``fmu/c/jxf_source.c`` under the FMI bindings every jaxflex FMU shares, data in the generated
 ``sources/jxf_source_data.h``); the FMU has no resources.
@@ -27,33 +33,93 @@ import numpy as np
 import jaxflex
 from fmu.archive import zip_folder
 from fmu.build import C_DIR, SOURCE_CORE, WrittenFmu, build_binaries, compiled_files, sources_for
-from fmu.export import model_identifier
-from fmu.model_description import build_description, cosimulation
+from fmu.export import check_pose, model_identifier
+from fmu.model_description import build_description, cosimulation, unit_definitions
+from fmu.resource import pose_samples
+from fmu.variables import POSE_INPUT_NAMES, pose_unit
 from jaxflex.errors import InputError
-from jaxflex.response import as_move
+from jaxflex.response import PosePath, as_move
 
 DATA_FILE = "jxf_source_data.h"
 OUTPUTS = ("ax", "ay", "az")  # value references 1, 2, 3
+POSE_VR = 40  # quat_w; then quat_x .. alpha_z, as the turning part's inputs (fmu.variables)
 _OUTPUT_TEXT = (
-    "Base acceleration along {axis}, m/s^2: the optimised move's samples, linear between them, "
-    "0 before the start and after the last sample; first derivative = slope of the segment "
-    "beginning at the communication point"
+    "Base acceleration along {axis}, m/s^2 (a turning move: of the pivot, world components): "
+    "the optimised move's samples, linear between them, 0 before the start and after the last "
+    "sample; first derivative = slope of the segment beginning at the communication point"
+)
+_POSE_TEXT = (
+    "{name} of the turning move's pose (quaternion body to world; omega, alpha in body "
+    "components): the samples at their times, the orientation turned between them as the "
+    "part's embedded move, the first / last sample outside; first derivative = slope to the "
+    "next sample (alpha: of the segment)"
 )
 
 
 @dataclass(frozen=True, kw_only=True)
 class SourceResult(WrittenFmu):
     """What :func:`export_source_fmu` wrote: the FMU (WrittenFmu) playing ``n_samples``
-    samples every ``dt_s`` s."""
+    samples every ``dt_s`` s; ``outputs`` the names of its outputs (ax, ay, az, and the pose
+    of a turning move)."""
 
     n_samples: int
     dt_s: float
+    outputs: tuple[str, ...] = OUTPUTS
 
 
-def source_data_header(fmi_version: int, token: str, acc: np.ndarray, dt_s: float) -> str:
-    """``jxf_source_data.h``: FMI version, token, sample count and step (s) and the samples
-    (m/s^2, printed with 17 significant digits, so they round-trip exactly)."""
-    rows = ",\n".join("    " + ", ".join(f"{x!r}" for x in map(float, row)) for row in acc)
+@dataclass(frozen=True)
+class Channel:
+    """One output of the source: name, value reference, unit (None: dimensionless)."""
+
+    name: str
+    vr: int
+    unit: str | None
+    description: str
+
+
+def source_channels(turning: bool) -> tuple[Channel, ...]:
+    """The outputs of a straight (ax, ay, az) or turning (and the pose) move's source."""
+    straight = tuple(
+        Channel(name, vr, "m/s2", _OUTPUT_TEXT.format(axis=name[1]))
+        for vr, name in enumerate(OUTPUTS, start=1)
+    )
+    if not turning:
+        return straight
+    pose = tuple(
+        Channel(
+            name,
+            POSE_VR + i,
+            None if pose_unit(name) == "1" else pose_unit(name),
+            _POSE_TEXT.format(name=name),
+        )
+        for i, name in enumerate(POSE_INPUT_NAMES)
+    )
+    return straight + pose
+
+
+def source_samples(acc: np.ndarray, pose: PosePath | None) -> np.ndarray:
+    """(n+1, 3) ``acc`` m/s^2, or with a ``pose`` (n+1, 13): acc, then the pose as the part
+    FMU embeds it (fmu.resource.pose_samples: quaternion w, x, y, z body -> world, omega rad/s,
+    alpha rad/s^2 body), each quaternion in the hemisphere of the one before (q and -q are the
+    same orientation; the source's chord between neighbours must not pass through 0)."""
+    if pose is None:
+        return acc
+    poses = pose_samples(pose)
+    quat = poses[:, :4]
+    flips = np.cumprod(np.where(np.sum(quat[1:] * quat[:-1], axis=1) < 0.0, -1.0, 1.0))
+    quat[1:] *= flips[:, None]
+    return np.hstack([acc, poses])
+
+
+def source_data_header(
+    fmi_version: int, token: str, samples: np.ndarray, dt_s: float, channels=None
+) -> str:
+    """``jxf_source_data.h``: FMI version, token, sample count and step (s), the ``channels``
+    (default ax, ay, az) and the ``samples`` (n+1, len(channels)) (SI units, printed with 17
+    significant digits, so they round-trip exactly)."""
+    channels = channels or source_channels(False)
+    rows = ",\n".join("    " + ", ".join(f"{x!r}" for x in map(float, row)) for row in samples)
+    vrs = ", ".join(f"{c.vr}u" for c in channels)
     return "\n".join(
         [
             "/* Generated by jaxflex (fmu.source): the move this trajectory source plays. */",
@@ -61,9 +127,12 @@ def source_data_header(fmi_version: int, token: str, acc: np.ndarray, dt_s: floa
             "#define JXF_SOURCE_DATA_H",
             f"#define JXF_SOURCE_FMI_VERSION {int(fmi_version)}",
             f'#define JXF_SOURCE_TOKEN "{token}"',
-            f"#define JXF_SOURCE_N {len(acc)}",
+            f"#define JXF_SOURCE_N {len(samples)}",
             f"#define JXF_SOURCE_DT {float(dt_s)!r}",
-            "static const double jxf_source_samples[3 * JXF_SOURCE_N] = {",
+            f"#define JXF_SOURCE_TURNING {int(len(channels) > len(OUTPUTS))}",
+            f"#define JXF_SOURCE_CHANNELS {len(channels)}",
+            f"static const unsigned jxf_source_vrs[JXF_SOURCE_CHANNELS] = {{{vrs}}};",
+            "static const double jxf_source_samples[JXF_SOURCE_CHANNELS * JXF_SOURCE_N] = {",
             rows,
             "};",
             "#endif",
@@ -89,11 +158,10 @@ def _root(fmi_version: int, token: str, ident: str, n_samples: int, dt_s: float)
     )
 
 
-def _common(root: ET.Element, n_samples: int, dt_s: float) -> ET.Element:
-    """UnitDefinitions, LogCategories, DefaultExperiment; returns the ModelVariables element."""
-    units = ET.SubElement(root, "UnitDefinitions")
-    ET.SubElement(ET.SubElement(units, "Unit", name="m/s2"), "BaseUnit", m="1", s="-2")
-    ET.SubElement(ET.SubElement(units, "Unit", name="s"), "BaseUnit", s="1")
+def _common(root: ET.Element, n_samples: int, dt_s: float, units) -> ET.Element:
+    """UnitDefinitions (of ``units``), LogCategories, DefaultExperiment; returns the
+    ModelVariables element."""
+    unit_definitions(root, units)
     cats = ET.SubElement(root, "LogCategories")
     for name, text in (
         ("logStatusError", "Errors: wrong token, calls out of order, bad step sizes"),
@@ -112,15 +180,18 @@ def _common(root: ET.Element, n_samples: int, dt_s: float) -> ET.Element:
 
 
 def source_model_description(
-    fmi_version: int, token: str, ident: str, n_samples: int, dt_s: float
+    fmi_version: int, token: str, ident: str, n_samples: int, dt_s: float, channels=None
 ) -> str:
-    """modelDescription.xml of the trajectory source (FMI 2.0 or 3.0)."""
+    """modelDescription.xml of the trajectory source (FMI 2.0 or 3.0) with the outputs
+    ``channels`` (default ax, ay, az)."""
+    channels = channels or source_channels(False)
     root = _root(fmi_version, token, ident, n_samples, dt_s)
     cosimulation(
         root, fmi_version, ident, compiled_files(fmi_version, SOURCE_CORE),
         output_derivatives=1, interpolates_inputs=False,
     )  # fmt: skip
-    variables = _common(root, n_samples, dt_s)
+    units = {"s"} | {c.unit for c in channels if c.unit}
+    variables = _common(root, n_samples, dt_s, units)
     if fmi_version == 3:
         ET.SubElement(
             variables,
@@ -132,31 +203,32 @@ def source_model_description(
             unit="s",
             description="Simulation time, s",
         )
-    for vr, name in enumerate(OUTPUTS, start=1):
+    for c in channels:
         attrs = {
-            "name": name,
-            "valueReference": str(vr),
-            "description": _OUTPUT_TEXT.format(axis=name[1]),
+            "name": c.name,
+            "valueReference": str(c.vr),
+            "description": c.description,
             "causality": "output",
             "variability": "continuous",
             "initial": "calculated",
         }
+        unit = {"unit": c.unit} if c.unit else {}
         if fmi_version == 2:
-            ET.SubElement(ET.SubElement(variables, "ScalarVariable", attrs), "Real", unit="m/s2")
+            ET.SubElement(ET.SubElement(variables, "ScalarVariable", attrs), "Real", unit)
         else:
-            ET.SubElement(variables, "Float64", attrs, unit="m/s2")
+            ET.SubElement(variables, "Float64", {**attrs, **unit})
     structure = ET.SubElement(root, "ModelStructure")
-    if fmi_version == 2:  # indices into ModelVariables (1-based): the outputs are 1-3
+    if fmi_version == 2:  # indices into ModelVariables (1-based): the outputs are 1..n
         outputs = ET.SubElement(structure, "Outputs")
         initial = ET.SubElement(structure, "InitialUnknowns")
-        for index in ("1", "2", "3"):
-            ET.SubElement(outputs, "Unknown", index=index, dependencies="")
-            ET.SubElement(initial, "Unknown", index=index, dependencies="")
+        for index in range(1, len(channels) + 1):
+            ET.SubElement(outputs, "Unknown", index=str(index), dependencies="")
+            ET.SubElement(initial, "Unknown", index=str(index), dependencies="")
     else:
-        for vr in ("1", "2", "3"):
-            ET.SubElement(structure, "Output", valueReference=vr, dependencies="")
-        for vr in ("1", "2", "3"):
-            ET.SubElement(structure, "InitialUnknown", valueReference=vr, dependencies="")
+        for c in channels:
+            ET.SubElement(structure, "Output", valueReference=str(c.vr), dependencies="")
+        for c in channels:
+            ET.SubElement(structure, "InitialUnknown", valueReference=str(c.vr), dependencies="")
     ET.indent(root)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, "unicode") + "\n"
 
@@ -167,12 +239,15 @@ def export_source_fmu(
     dt_s: float,
     fmi_version: int = 2,
     *,
+    pose: PosePath | None = None,
     windows: bool | None = None,
 ) -> SourceResult:
     """Write the trajectory source FMU for the samples ``acc`` ((n+1, 3) m/s^2, at rest at
     both ends) taken every ``dt_s`` s, atomically at ``path`` (.fmu; its stem becomes the
-    model identifier). ``windows``: build the Windows DLL too (None = when mingw-w64 is
-    installed, True = must)."""
+    model identifier). ``pose``: a turning move's orientation path (jaxflex.pose.PosePath at
+    the same samples and step, at rest at both ends; ``acc`` is then the pivot's world
+    acceleration), output as the turning part's pose inputs. ``windows``: build the Windows
+    DLL too (None = when mingw-w64 is installed, True = must)."""
     if fmi_version not in (2, 3):
         raise InputError(f"fmi_version: must be 2 or 3, got {fmi_version!r}")
     path = Path(path)
@@ -180,6 +255,10 @@ def export_source_fmu(
         raise InputError(f"path: an FMU file name must end in .fmu, got {str(path)!r}")
     move = as_move(acc, dt_s, at_rest=True, name="trajectory acc", dt_name="trajectory dt_s")
     acc, dt_s = move.acc, move.dt_s
+    if pose is not None:
+        pose = check_pose(pose, len(acc), dt_s)
+    channels = source_channels(pose is not None)
+    samples = source_samples(acc, pose)
     ident = model_identifier(path)
     token = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="jaxflex_source_") as tmp:
@@ -189,14 +268,15 @@ def export_source_fmu(
         for name in sources_for(fmi_version, SOURCE_CORE):
             (sources / name).write_bytes((C_DIR / name).read_bytes())
         (sources / DATA_FILE).write_text(
-            source_data_header(fmi_version, token, acc, dt_s), encoding="utf-8"
+            source_data_header(fmi_version, token, samples, dt_s, channels), encoding="utf-8"
         )
         if fmi_version == 3:
             (sources / "buildDescription.xml").write_text(
                 build_description(ident, compiled_files(3, SOURCE_CORE)), encoding="utf-8"
             )
         (stage / "modelDescription.xml").write_text(
-            source_model_description(fmi_version, token, ident, len(acc), dt_s), encoding="utf-8"
+            source_model_description(fmi_version, token, ident, len(acc), dt_s, channels),
+            encoding="utf-8",
         )
         built = build_binaries(
             sources,
@@ -214,5 +294,6 @@ def export_source_fmu(
         model_identifier=ident,
         n_samples=len(acc),
         dt_s=dt_s,
+        outputs=tuple(c.name for c in channels),
         **built.written(),
     )

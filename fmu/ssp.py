@@ -10,9 +10,10 @@ tool opens as a whole:
     resources/trajectory.fmu      the trajectory source playing the move (see fmu.source)
 
 The source's outputs ``ax``, ``ay``, ``az`` are connected to the part's inputs of the same
-names; the part's ``threshold`` and ``damping_scale`` are bound in the parameter set named
-``case`` (inline ``ssv:ParameterSet`` in a component ``ParameterBinding``). Both FMUs use the
-same FMI version.
+names; a turning part (``turning=True`` with the move's ``pose``) also takes the pose from the
+source: quat_w..quat_z, omega_x..z, alpha_x..z, 13 connections in all. The part's
+``threshold`` and ``damping_scale`` are bound in the parameter set named ``case`` (inline
+``ssv:ParameterSet`` in a component ``ParameterBinding``). Both FMUs use the same FMI version.
 """
 
 from __future__ import annotations
@@ -34,11 +35,13 @@ from fmpy.ssp.ssd import read_ssd
 import jaxflex
 from fmu.archive import zip_folder
 from fmu.export import ExportResult, export_fmu
-from fmu.source import OUTPUTS, SourceResult, export_source_fmu
+from fmu.model_description import UNITS
+from fmu.source import SourceResult, export_source_fmu, source_channels
 from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
+from jaxflex.geometry import DEFAULT_GRAVITY_M_S2
 from jaxflex.model import ModalModel
-from jaxflex.response import Move
+from jaxflex.response import Move, PosePath
 
 PART, SOURCE = "part", "trajectory"
 PARAMETER_SET = "case"
@@ -48,7 +51,7 @@ _NS = {
     "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
     "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
 }
-_UNITS = {"m": {"m": "1"}, "s": {"s": "1"}, "m/s2": {"m": "1", "s": "-2"}}
+_SSD_UNITS = ("m", "s", "m/s2", "rad/s", "rad/s2")  # of the connectors (fmu.model_description)
 for _prefix, _uri in _NS.items():
     ET.register_namespace(_prefix, _uri)
 
@@ -95,8 +98,9 @@ def part_connectors(fmu_path: Path) -> list[Connector]:
     return connectors
 
 
-def source_connectors() -> list[Connector]:
-    return [Connector(name, "output", "Real", "m/s2") for name in OUTPUTS]
+def source_connectors(turning: bool = False) -> list[Connector]:
+    """Connectors of the trajectory source's outputs (a turning move's: the pose too)."""
+    return [Connector(c.name, "output", "Real", c.unit) for c in source_channels(turning)]
 
 
 def _component(parent, name: str, source: str, connectors: list[Connector]) -> ET.Element:
@@ -132,9 +136,12 @@ def system_structure(
     parameters: dict[str, float],
     stop_time_s: float,
     description: str,
+    turning: bool = False,
 ) -> str:
-    """SystemStructure.ssd: the part and the trajectory source, ax/ay/az connected, the part's
-    ``parameters`` bound in the parameter set ``case``, default experiment 0 .. stop_time_s."""
+    """SystemStructure.ssd: the part and the trajectory source, every output of the source
+    (ax/ay/az, and the pose of a ``turning`` move) connected to the part's input of that name,
+    the part's ``parameters`` bound in the parameter set ``case``, default experiment
+    0 .. stop_time_s."""
     root = ET.Element(
         _q("ssd:SystemStructureDescription"),
         version="1.0",
@@ -144,20 +151,25 @@ def system_structure(
     )
     system = ET.SubElement(root, _q("ssd:System"), name=name, description=description)
     elements = ET.SubElement(system, _q("ssd:Elements"))
-    _component(elements, SOURCE, f"resources/{SOURCE}.fmu", source_connectors())
+    signals = source_connectors(turning)
+    _component(elements, SOURCE, f"resources/{SOURCE}.fmu", signals)
     _bind(_component(elements, PART, f"resources/{PART}.fmu", part), parameters)
+    inputs = {c.name for c in part if c.kind == "input"}
     connections = ET.SubElement(system, _q("ssd:Connections"))
-    for axis in OUTPUTS:
+    for signal in signals:
+        if signal.name not in inputs:
+            raise InputError(f"the part FMU has no input {signal.name!r} for the source's output")
         ET.SubElement(
             connections,
             _q("ssd:Connection"),
             startElement=SOURCE,
-            startConnector=axis,
+            startConnector=signal.name,
             endElement=PART,
-            endConnector=axis,
+            endConnector=signal.name,
         )
     units = ET.SubElement(root, _q("ssd:Units"))
-    for unit, exponents in _UNITS.items():
+    for unit in _SSD_UNITS:
+        exponents = UNITS[unit]
         ET.SubElement(
             ET.SubElement(units, _q("ssc:Unit"), name=unit), _q("ssc:BaseUnit"), exponents
         )
@@ -186,12 +198,20 @@ def export_ssp(
     damping_scale: float = 1.0,
     model_name: str | None = None,
     windows: bool | None = None,
+    turning: bool = False,
+    pivot_m=(0.0, 0.0, 0.0),
+    gravity_m_s2=DEFAULT_GRAVITY_M_S2,
+    pose: PosePath | None = None,
 ) -> SspResult:
     """Write the SSP package of ``model`` moved by ``trajectory`` (a Move, or the pair (acc
     (n+1, 3) m/s^2 at rest at both ends, dt_s)) at ``path`` (.ssp, atomically); FMI
     ``fmi_version`` for both FMUs.
     ``threshold_m``, ``case``, ``damping_scale``, ``model_name`` and ``windows`` as in
-    :func:`fmu.export_fmu`; the threshold and damping scale are also bound as SSP parameters."""
+    :func:`fmu.export_fmu`; the threshold and damping scale are also bound as SSP parameters.
+    A turning move (``turning=True``; ``pose`` the jaxflex.pose.PosePath at the samples,
+    ``acc`` the world acceleration of ``pivot_m``, gravity ``gravity_m_s2`` in world
+    components, as :func:`fmu.export_fmu`): the turning part FMU, its pose inputs connected to
+    the turning source's pose outputs."""
     path = Path(path)
     if path.suffix.lower() != ".ssp":
         raise InputError(f"path: an SSP file name must end in .ssp, got {str(path)!r}")
@@ -211,12 +231,16 @@ def export_ssp(
             damping_scale=damping_scale,
             model_name=model_name,
             windows=windows,
+            turning=turning,
+            pivot_m=pivot_m,
+            gravity_m_s2=gravity_m_s2,
+            pose=pose,
         )
         acc, dt_s = (
             (trajectory.acc, trajectory.dt_s) if isinstance(trajectory, Move) else trajectory
         )
         source = export_source_fmu(
-            resources / f"{SOURCE}.fmu", acc, dt_s, fmi_version, windows=windows
+            resources / f"{SOURCE}.fmu", acc, dt_s, fmi_version, pose=pose, windows=windows
         )
         parameters = {"threshold": float(threshold_m), "damping_scale": float(damping_scale)}
         stop = stop_time_of(part.fmu_path)
@@ -225,8 +249,10 @@ def export_ssp(
             part_connectors(part.fmu_path),
             parameters,
             stop,
-            f"{model_name or path.stem}: a flexible part moved by the optimised trajectory "
-            f"(FMI {fmi_version}.0 co-simulation, jaxflex)",
+            f"{model_name or path.stem}: a flexible part moved by the optimised trajectory"
+            f"{' and turned by its poses' if turning else ''} (FMI {fmi_version}.0 "
+            "co-simulation, jaxflex)",
+            turning=turning,
         )
         (stage / SSD_FILE).write_text(text, encoding="utf-8")
         zip_folder(stage, path)

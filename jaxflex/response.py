@@ -32,6 +32,7 @@ from jaxflex.deviation import (
 )
 from jaxflex.engine import (
     end_state_map,
+    forced_states,
     free_states,
     modal_forces,
     modal_states,
@@ -113,6 +114,7 @@ from jaxflex.turning import (
     GRAVITY_M_S2,
     TurningInputs,
     TurningResponse,
+    body_loads,
     gravity_coordinates,
     simulate_turning,
     turning_forces,
@@ -149,6 +151,7 @@ __all__ = [
     "as_move",
     "axis_limits",
     "axis_rotation",
+    "body_loads",
     "certified_max",
     "component_blocks",
     "deviation",
@@ -159,6 +162,7 @@ __all__ = [
     "enforce_end_state",
     "envelope_horizon",
     "fixed_axis_path",
+    "forced_states",
     "free_rows",
     "free_states",
     "gravity_coordinates",

@@ -427,6 +427,18 @@ def test_inconsistent_embedded_moves_are_refused(panel, tmp_path):
     assert not (tmp_path / "bad.fmu").exists()
 
 
+def optimised_swivel(model, folder):
+    """(model file, run folder, `jaxflex export` arguments up to the output): `jaxflex
+    optimize --rotate z 90 --pivot 0.3 0.2 0.05` of ``model`` saved in ``folder``."""
+    model_file, run = folder / "panel.npz", folder / "run"
+    model.save(model_file)
+    limits = ["--vmax", "1.5", "--amax", "10", "--jmax", "200", "--dt", "0.01"]
+    turn = ["--rotate", "z", "90", "--pivot", "0.3", "0.2", "0.05"]
+    optimize = ["optimize", str(model_file), "--distance", "0.4", "0", "0", *limits, *turn]
+    assert main([*optimize, "--threshold", "2e-6", "--no-plots", "-o", str(run)]) == 0
+    return model_file, run, ["export", str(model_file), "--trajectory", str(run), "--windows", "no"]
+
+
 @pytest.mark.slow
 def test_export_command_embeds_an_optimised_turning_move(panel, tmp_path, capsys):
     """`jaxflex optimize --rotate z 90 --pivot ...` then `jaxflex export --turning
@@ -434,15 +446,9 @@ def test_export_command_embeds_an_optimised_turning_move(panel, tmp_path, capsys
     check (fmpy against jaxflex.simulate_turning) passes; the same run without --turning,
     with another pivot, or its trajectory.csv without report.json is refused (exit status 2,
     one line naming the option, no FMU)."""
-    model_file, run = tmp_path / "panel.npz", tmp_path / "run"
-    panel.save(model_file)
-    limits = ["--vmax", "1.5", "--amax", "10", "--jmax", "200", "--dt", "0.01"]
-    turn = ["--rotate", "z", "90", "--pivot", "0.3", "0.2", "0.05"]
-    optimize = ["optimize", str(model_file), "--distance", "0.4", "0", "0", *limits, *turn]
-    assert main([*optimize, "--threshold", "2e-6", "--no-plots", "-o", str(run)]) == 0
+    model_file, run, export = optimised_swivel(panel, tmp_path)
     capsys.readouterr()
     out = tmp_path / "swivel.fmu"
-    export = ["export", str(model_file), "--trajectory", str(run), "--windows", "no"]
     assert main([*export, "--turning", "--fmi", "3", "-o", str(out)]) == 0
     text = capsys.readouterr().out
     assert "deviation vs jaxflex.simulate_turning" in text and text.rstrip().endswith("OK")
