@@ -328,7 +328,7 @@ def _export_ssp(args, model, trajectory, threshold_m, case, windows) -> int:
     if args.turning:
         move = {
             "turning": True,
-            **turning_move(Path(args.trajectory), *trajectory, case, args.pivot),
+            **turning_move(Path(args.trajectory), trajectory, case, args.pivot),
         }
     result = export_ssp(
         model,
