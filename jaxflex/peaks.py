@@ -144,7 +144,8 @@ class _Response:
         radius = np.hypot(self.states[:-1, :, 1], omega * self.states[:-1, :, 0])
         self.vel = radius + move.dt_s * step_force  # sup |q'| on each step (energy radius)
         _, self.qdd, self.qddd = derivative_bounds(model, self.states, self.force, move.dt_s)
-        self.amplitude = amplitudes(model, self.states[-1])
+        self.end_state = self.states[-1]  # (M, 2) the free vibration's start
+        self.amplitude = amplitudes(model, self.end_state)
 
     def rows(self, items: np.ndarray) -> np.ndarray:
         r = self.functional.rows_per_item
@@ -192,7 +193,7 @@ class _Response:
 
     # -- after the move -----------------------------------------------------------------
     def after(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
-        states = free_states(self.model, self.states[-1], t - self.t_end, np)
+        states = free_states(self.model, self.end_state, t - self.t_end, np)
         return self.values(states, np.zeros((len(t), 3)), items)
 
     def _tail_rows(self, items: np.ndarray, tau: np.ndarray, power: int) -> np.ndarray:
@@ -266,7 +267,13 @@ def output_peak(
 def _output_peak(model, outputs, functional, acc, dt_s, offset, rtol, atol, limit) -> Peak:
     move = as_move(acc, dt_s, at_rest=True)
     offset = np.zeros(outputs.n_rows) if offset is None else offset
-    response = _Response(model, outputs, functional, move, offset)
+    return search_peak(_Response(model, outputs, functional, move, offset), rtol, atol, limit)
+
+
+def search_peak(response: _Response, rtol: float, atol: float, limit: float | None) -> Peak:
+    """The certified peak of ``response`` (a :class:`_Response` or one with the same
+    evaluations and bounds) over the move, the settling and the rest after it, to within
+    max(rtol * value, atol), or up to ``limit`` below it (:func:`output_peak`)."""
     best = SearchState()
 
     def tolerance(value: float) -> float:
@@ -275,11 +282,11 @@ def _output_peak(model, outputs, functional, acc, dt_s, offset, rtol, atol, limi
         gap = max(rtol * abs(value), atol)
         return gap if limit is None else max(gap, limit - value)
 
-    items = np.arange(functional.n_items)
+    items = np.arange(response.functional.n_items)
     # the limit after the move (the offset: gravity alone) is part of the supremum
     static = response.tail_item_bounds(items, math.inf)
     best.update(static[:, None], np.array([math.inf]), items)
-    grid = dt_s * np.arange(move.n_steps + 1)
+    grid = response.dt_s * np.arange(response.n_steps + 1)
     samples = np.concatenate([response.during(grid, chunk) for chunk in _chunks(items)])
     best.evaluations += samples.size
     best.update(samples, grid, items)

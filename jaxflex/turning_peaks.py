@@ -32,13 +32,11 @@ spin-softening terms are bounded separately (jaxflex.turning).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from jaxflex.engine import derivative_bounds, free_states, states_between
-from jaxflex.peaks import Peak, SearchState, certified_max, settling_windows
+from jaxflex.engine import derivative_bounds, states_between
+from jaxflex.peaks import Peak, _Response, search_peak
 from jaxflex.pose import PosePath
 from jaxflex.profile import samples_at
 from jaxflex.rotation_residual import output_residual
@@ -46,16 +44,15 @@ from jaxflex.turning import GRAVITY_M_S2, turning_forces, turning_inputs
 
 __all__ = ["TurningLoadSearch", "turning_output_peak"]
 
-SAMPLES_PER_PERIOD = 16  # the settling's first grid: 1/16 of the shortest period
-CHUNK_ITEMS = 2048
 
-
-class TurningLoadSearch:
+class TurningLoadSearch(_Response):
     """The outputs ``outputs`` (a jaxflex.outputs.LinearOutputs of ``model``, with the
     static response ``static_rot`` (Y, 3, 3) to the rotational loads or None) and the
     functional of their items over the turning ``path`` while the pivot moves with the world
     accelerations ``acc`` ((n+1, 3) m/s^2): the evaluations and bounds of the certified
-    search (module docstring)."""
+    search (module docstring). After the move it is jaxflex.peaks' straight response: the
+    free vibration from the deviation about the final pose's sag, plus the outputs at rest
+    there as the constant offset."""
 
     def __init__(self, model, outputs, static_rot, functional, path: PosePath, acc,
                  gravity_m_s2=GRAVITY_M_S2, pivot_m=(0.0, 0.0, 0.0)) -> None:  # fmt: skip
@@ -74,26 +71,10 @@ class TurningLoadSearch:
         self.omega, self.sigma = omega, np.asarray(model.zeta) * omega
         self.vel, self.qdd, self.qddd = derivative_bounds(model, self.states, self.force, self.dt_s)
         sag = (gravity[-1] @ np.asarray(model.gamma).T) / omega**2
-        self.end_deviation = np.stack([inputs.q[-1] - sag, inputs.qd[-1]], axis=-1)
-        self.amplitude = np.hypot(self.end_deviation[:, 1], omega * self.end_deviation[:, 0])
-        self.rest = sag @ self.q_map.T - gravity[-1] @ self.a_map.T  # (Y,) at rest at B
+        self.end_state = np.stack([inputs.q[-1] - sag, inputs.qd[-1]], axis=-1)
+        self.amplitude = np.hypot(self.end_state[:, 1], omega * self.end_state[:, 0])
+        self.offset = sag @ self.q_map.T - gravity[-1] @ self.a_map.T  # (Y,) at rest at B
 
-    # -- items and rows --------------------------------------------------------------------
-    def rows(self, items: np.ndarray) -> np.ndarray:
-        r = self.functional.rows_per_item
-        return (r * items[:, None] + np.arange(r)).ravel()
-
-    def _values(self, y: np.ndarray, items: np.ndarray) -> np.ndarray:
-        """(I, T) the functional of ``items`` for their rows' outputs ``y`` (T, I r)."""
-        r = self.functional.rows_per_item
-        return self.functional.values(y.reshape(len(y), len(items), r), items).T
-
-    def weighted(self, items: np.ndarray, per_row: np.ndarray) -> np.ndarray:
-        """(I, ...) W_g . per_row for per-row bounds (I r, ...) in the order of :meth:`rows`."""
-        w = self.functional.weights(items)
-        return np.einsum("ir,ir...->i...", w, per_row.reshape(*w.shape, *per_row.shape[1:]))
-
-    # -- during the move -------------------------------------------------------------------
     def during(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
         """(I, T) the functional at times ``t`` (T,) s within the move."""
         rows = self.rows(items)
@@ -106,14 +87,8 @@ class TurningLoadSearch:
             + base @ self.a_map[rows].T
             + coefficients @ self.a_rot[rows].T
         )
-        return self._values(y, items)
-
-    def during_bound(self, a, b, va, vb, items):
-        """(I, J) bounds over the intervals [a, b] (J,) of one step each (module docstring)."""
-        k = np.clip(np.floor(0.5 * (a + b) / self.dt_s).astype(np.int64), 0, self.n_steps - 1)
-        rows = self.rows(items)
-        curv = np.abs(self.q_map[rows]) @ self.qdd[k].T + np.abs(self.v_map[rows]) @ self.qddd[k].T
-        return np.maximum(va, vb) + self.weighted(items, curv) * (b - a) ** 2 / 8
+        r = self.functional.rows_per_item
+        return self.functional.values(y.reshape(len(y), len(items), r), items).T
 
     def move_item_bounds(self, items: np.ndarray) -> np.ndarray:
         """(I,) each item's bound over the whole move (module docstring). Cheap."""
@@ -126,68 +101,6 @@ class TurningLoadSearch:
             + np.abs(self.a_rot[rows]) @ np.abs(self.inputs.coefficients).max(axis=0)
         )
         return self.weighted(items, per_row)
-
-    # -- after the move --------------------------------------------------------------------
-    def after(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
-        """(I, T) the functional at times ``t`` (T,) s from the start, after the move."""
-        rows = self.rows(items)
-        p = free_states(self.model, self.end_deviation, t - self.t_end, np)
-        y = p[..., 0] @ self.q_map[rows].T + p[..., 1] @ self.v_map[rows].T + self.rest[rows]
-        return self._values(y, items)
-
-    def _tail_rows(self, items: np.ndarray, tau: np.ndarray, power: int) -> np.ndarray:
-        """(I, T) W_g . sum_i (|Q_ji| omega_i^p + |V_ji| omega_i^(p+1)) R_i e^{-sigma_i tau}."""
-        rows = self.rows(items)
-        decay = self.amplitude[:, None] * np.exp(-np.outer(self.sigma, tau))
-        per_row = (np.abs(self.q_map[rows]) * self.omega**power) @ decay + (
-            np.abs(self.v_map[rows]) * self.omega ** (power + 1)
-        ) @ decay
-        return self.weighted(items, per_row)
-
-    def after_bound(self, a, b, va, vb, items):
-        curvature = self._tail_rows(items, a - self.t_end, 2)
-        return np.maximum(va, vb) + curvature * (b - a) ** 2 / 8
-
-    def at_rest(self, items: np.ndarray) -> np.ndarray:
-        """(I,) the functional at rest in the final pose."""
-        return self._values(self.rest[self.rows(items)][None], items)[:, 0]
-
-    # -- the search ------------------------------------------------------------------------
-    def search(self, best: SearchState, tolerance) -> None:
-        """Update ``best`` with the supremum over the move, the settling and the rest in the
-        final pose, to within ``tolerance(best value)``."""
-        items = np.arange(self.functional.n_items)
-        best.update(self.at_rest(items)[:, None], np.array([math.inf]), items)
-        grid = self.dt_s * np.arange(self.n_steps + 1)
-        with threadpool_limits(limits=1, user_api="blas"):
-            for chunk in _chunks(items):
-                values = self.during(grid, chunk)
-                best.evaluations += values.size
-                best.update(values, grid, chunk)
-            keep = items[self.move_item_bounds(items) > best.value + tolerance(best.value)]
-            for chunk in _chunks(keep):
-                certified_max(self.during, self.during_bound, grid, chunk, tolerance, best)
-            self._settling(best, tolerance)
-
-    def _settling(self, best: SearchState, tolerance) -> None:
-        items = np.arange(self.functional.n_items)
-        static = self.at_rest(items)
-
-        def above(tau: float) -> np.ndarray:
-            bound = static + self._tail_rows(items, np.array([tau]), 0)[:, 0]
-            return bound > best.value + tolerance(best.value)
-
-        step = 2 * np.pi / (SAMPLES_PER_PERIOD * self.omega.max())
-        live = self.sigma[self.amplitude > 0]
-        for start, times in settling_windows(above, live, step, "turning loads"):
-            for chunk in _chunks(items[above(start)]):
-                certified_max(
-                    self.after, self.after_bound, self.t_end + times, chunk, tolerance, best
-                )
-
-
-def _chunks(items: np.ndarray) -> list[np.ndarray]:
-    return [items[i : i + CHUNK_ITEMS] for i in range(0, len(items), CHUNK_ITEMS)]
 
 
 def turning_output_peak(
@@ -210,23 +123,8 @@ def turning_output_peak(
     final pose, to within ``rtol`` of the value (module docstring). With ``limit`` the
     search only decides whether the peak stays below it (as jaxflex.peaks.output_peak):
     ``bound`` <= limit certifies."""
-    response = TurningLoadSearch(
-        model, outputs, static_rot, functional, path, acc, gravity_m_s2, pivot_m
-    )
-
-    def tolerance(value: float) -> float:
-        if not math.isfinite(value):
-            return math.inf
-        gap = rtol * abs(value)
-        return gap if limit is None else max(gap, limit - value)
-
-    best = SearchState()
-    response.search(best, tolerance)
-    value = best.value
-    return Peak(
-        value=value,
-        time_s=best.time,
-        item=best.item,
-        bound=max(value + tolerance(value), best.unresolved),
-        evaluations=best.evaluations,
-    )
+    with threadpool_limits(limits=1, user_api="blas"):
+        search = TurningLoadSearch(
+            model, outputs, static_rot, functional, path, acc, gravity_m_s2, pivot_m
+        )
+        return search_peak(search, rtol, 0.0, limit)

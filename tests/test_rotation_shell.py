@@ -94,7 +94,8 @@ def _linear_quadrature(nodes_m, triangles, shapes, rho_h: float) -> np.ndarray:
     return rho_h * np.einsum("e,ab,eai,ebjm->mij", area, pair, corners, shapes[triangles])
 
 
-@pytest.mark.parametrize(
+# the curved panel (clamped on one side) and the folded bracket, each at two mesh sizes
+SHELL_PARTS = pytest.mark.parametrize(
     ("name", "build", "sizes_m"),
     [
         (
@@ -105,6 +106,9 @@ def _linear_quadrature(nodes_m, triangles, shapes, rho_h: float) -> np.ndarray:
         ("folded", _bracket, (0.02, 0.01)),
     ],
 )
+
+
+@SHELL_PARTS
 def test_mode_shape_integrals_against_a_quadrature_of_the_stored_shapes(name, build, sizes_m):
     """The stored S of six modes of a curved panel (clamped on one side) and a folded
     bracket against the integral of the stored nodal displacements (points="all")
@@ -229,17 +233,7 @@ def _static_gap(part, supports) -> float:
     return np.abs(ours - stored).max() / np.abs(stored).max()
 
 
-@pytest.mark.parametrize(
-    ("name", "build", "sizes_m"),
-    [
-        (
-            "curved",
-            lambda s: fem.curved_panel(0.6, 0.4, 1e-3, "steel", s, element="shell"),
-            (0.05, 0.025),
-        ),
-        ("folded", _bracket, (0.02, 0.01)),
-    ],
-)
+@SHELL_PARTS
 def test_static_response_to_the_rotational_loads_against_a_lumped_solve(name, build, sizes_m):
     """The stored static response to a combined Euler and centrifugal field against a static
     solve with the FE's stiffness and a load lumped here: the lumped and the consistent load
