@@ -29,8 +29,9 @@ PART_CORE = (
     "jxf_cell.c",
     "jxf_turning.h",
     "jxf_turning.c",
+    "jxf_turn_angle.h",
 )
-SOURCE_CORE = ("jxf_source.c",)  # the trajectory source (fmu.source)
+SOURCE_CORE = ("jxf_source.c", "jxf_turn_angle.h")  # the trajectory source (fmu.source)
 CFLAGS = ("-std=c99", "-O2", "-fvisibility=hidden", "-Wall", "-Wextra")
 WINDOWS_COMPILER = "x86_64-w64-mingw32-gcc"
 _MINGW_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64"

@@ -8,8 +8,10 @@ samples, pivot accelerations, pivot and gravity).
 * ``hold="zero"``: the forcing of each pose sample held over its step (the exact zero-order
   hold, jaxflex's recursion with ``hold="zero"``), the deviation at the end of a step about
   the sag of the held pose with the held loads' static residual: what the part computes when
-  a host copies the source's values at the communication points (fmpy's simulate_ssp, Ecos,
-  libcosim, any FMI 3.0 host), as the part FMU measures it.
+  a host copies the source's values at the communication points (Ecos, libcosim, any FMI 3.0
+  host; fmpy's simulate_ssp would too, but it starts every connection at 0, a zero
+  quaternion the part refuses, so fmu.crosscheck skips it for turning packages), as the part
+  FMU measures it.
 
 Both at the communication points k dt, k = 0..n_steps, the move padded at rest in its last
 pose after its last sample (as the source outputs it).

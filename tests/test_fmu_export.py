@@ -109,6 +109,7 @@ def test_archive_layout(exported, version):
         "sources/jxf_cell.c",
         "sources/jxf_turning.h",
         "sources/jxf_turning.c",
+        "sources/jxf_turn_angle.h",
         "sources/jxf_config.h",
         f"sources/jxf_fmi{version}.c",
     }

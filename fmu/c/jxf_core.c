@@ -12,6 +12,7 @@
 #include "jxf_config.h"
 #include "jxf_fmu.h"
 #include "jxf_model.h"
+#include "jxf_turn_angle.h"
 #include "jxf_turning.h"
 
 #if defined(_MSC_VER)
@@ -589,9 +590,7 @@ static void turn_between(const jxf_model *m, long k, double w, double r[9]) {
     const double s = w * m->traj_dt;
     double phi[3], angle, sn, cs, e[9], out[9];
     int i, j, c;
-    for (i = 0; i < 3; ++i)
-        phi[i] = now[4 + i] * s + now[7 + i] * s * s / 2.0 +
-                 (next[7 + i] - now[7 + i]) * s * s * s / (6.0 * m->traj_dt);
+    jxf_turn_angle(now + 4, now + 7, next + 7, m->traj_dt, s, phi, NULL);
     angle = sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]);
     if (angle == 0.0) return;
     for (i = 0; i < 3; ++i) phi[i] /= angle;

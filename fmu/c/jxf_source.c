@@ -11,11 +11,10 @@
  * start time): sample k exactly at its time (a point within JXF_SOURCE_SNAP of a step of it
  * counts as that time: importers accumulate rounding in time); in between the acceleration and
  * the angular acceleration are linear, and the orientation turns as the part FMU turns its
- * own embedded move (jxf_core.c turn_between): q_k (x) exp(phi / 2) with phi = w_k s +
- * alpha_k s^2 / 2 + (alpha_k+1 - alpha_k) s^3 / (6 dt), the angular velocity its rate
- * w_k + alpha_k s + (alpha_k+1 - alpha_k) s^2 / (2 dt) (s the time since sample k; exact for a
- * turn about a fixed axis). Before the start and after the last sample: at rest in the
- * first / last orientation (accelerations and angular velocity 0).
+ * own embedded move: q_k (x) exp(phi / 2), with phi and the angular velocity of
+ * jxf_turn_angle.h (s the time since sample k; exact for a turn about a fixed axis). Before
+ * the start and after the last sample: at rest in the first / last orientation
+ * (accelerations and angular velocity 0).
  *
  * First time derivatives (maxOutputDerivativeOrder = 1): of the linear outputs the slope of
  * the segment beginning at t; of the quaternion and the angular velocity the slope of the
@@ -33,6 +32,7 @@
 #include <string.h>
 
 #include "jxf_fmu.h"
+#include "jxf_turn_angle.h"
 
 /* JXF_SOURCE_FMI_VERSION, JXF_SOURCE_TOKEN, JXF_SOURCE_N (>= 2 samples), JXF_SOURCE_DT (s),
  * JXF_SOURCE_TURNING (0 or 1), JXF_SOURCE_CHANNELS (3, or 13 turning: ax, ay, az, quat_w..z,
@@ -87,16 +87,11 @@ double jxf_model_time(const jxf_model *s) { return s->time; }
 /* The pose `s` s after sample k (0 < s < dt) in out[JXF_SOURCE_QUAT ..]: the quaternion
  * q_k (x) exp(phi / 2) and the angular velocity, the rule of the module comment. */
 static void turn_between(const double *now, const double *next, double s, double *out) {
-    const double dt = JXF_SOURCE_DT, *q = now + JXF_SOURCE_QUAT;
-    const double *w = now + JXF_SOURCE_OMEGA, *a = now + JXF_SOURCE_ALPHA;
-    const double *a1 = next + JXF_SOURCE_ALPHA;
+    const double *q = now + JXF_SOURCE_QUAT;
     double phi[3], p[4], angle, half;
     int i;
-    for (i = 0; i < 3; ++i) {
-        const double jerk = (a1[i] - a[i]) / dt;
-        phi[i] = w[i] * s + a[i] * s * s / 2.0 + jerk * s * s * s / 6.0;
-        out[JXF_SOURCE_OMEGA + i] = w[i] + a[i] * s + jerk * s * s / 2.0;
-    }
+    jxf_turn_angle(now + JXF_SOURCE_OMEGA, now + JXF_SOURCE_ALPHA, next + JXF_SOURCE_ALPHA,
+                   JXF_SOURCE_DT, s, phi, out + JXF_SOURCE_OMEGA);
     angle = sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]);
     half = angle > 0.0 ? sin(angle / 2.0) / angle : 0.5;
     p[0] = cos(angle / 2.0);
