@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from fem.assembly import assemble
+from fem.assembly import assemble, chunks
 from fem.mesh import ShellMesh
 from fem.shell_element import (
     BENDING,
@@ -173,7 +173,7 @@ class ShellOutputs:
         layer, part = self.layer, self.part
         n_dof = len(layer.nodes) * DOFS_PER_NODE
         loads = np.zeros((n_dof, 9))
-        for chunk in _chunks(len(layer.triangles)):
+        for chunk in chunks(len(layer.triangles), CHUNK_ELEMENTS):
             work = _field_work(
                 layer.nodes[layer.triangles[chunk]], part.material.rho_kg_m3, part.thickness_m
             )
@@ -192,7 +192,7 @@ class ShellOutputs:
         fibres = rho_h * part.thickness_m**2 / 12
         n_modes = vectors.shape[1]
         out = np.zeros((3, 3, n_modes, n_modes))
-        for chunk in _chunks(len(layer.triangles), 500):
+        for chunk in chunks(len(layer.triangles), 500):
             weights, moved, fibre = _sheet_fields(
                 layer.nodes[layer.triangles[chunk]], vectors[layer.element_dofs[chunk]]
             )
@@ -261,11 +261,6 @@ def surface_stress(nodes, triangles, n_dof: int, c_membrane, c_bending, heights_
     )
     points = xyz.mean(axis=1)[:, None] + heights_m[:, :, None] * frames[:, None, 2]
     return points.reshape(-1, 3), operator
-
-
-def _chunks(n_elements: int, size: int = CHUNK_ELEMENTS) -> list[np.ndarray]:
-    """Consecutive blocks of at most ``size`` element indices."""
-    return np.array_split(np.arange(n_elements), max(1, -(-n_elements // size)))
 
 
 def _field_work(xyz: np.ndarray, rho_kg_m3: float, thickness_m: float) -> np.ndarray:
