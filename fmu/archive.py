@@ -1,8 +1,11 @@
-"""Zip archives of a staged folder (FMUs, SSP packages), written atomically."""
+"""Zip archives of a staged folder (FMUs, SSP packages), written atomically, and the
+instantiation token of an FMU's content."""
 
 from __future__ import annotations
 
+import hashlib
 import os
+import uuid
 import zipfile
 from pathlib import Path
 
@@ -19,3 +22,14 @@ def zip_folder(folder: Path, path: str | os.PathLike) -> None:
     ):
         for file in files:
             zf.write(file, file.relative_to(folder).as_posix())
+
+
+def content_token(*parts: bytes) -> str:
+    """The instantiation token (FMI 2 guid) of an FMU whose content is ``parts``: a name-based
+    UUID (version 5) of their SHA-256, in braces. The same content gives the same token (so
+    a rebuilt FMU of the same model and move is the same binary, which fmu.build's store
+    reuses); any change of content gives another."""
+    digest = hashlib.sha256()
+    for part in parts:
+        digest.update(len(part).to_bytes(8, "little") + part)
+    return "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "jaxflex:" + digest.hexdigest())) + "}"

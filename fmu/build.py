@@ -1,7 +1,16 @@
-"""Compiling the FMU binaries with gcc (and mingw-w64 for Windows, when installed)."""
+"""Compiling the FMU binaries with gcc (and mingw-w64 for Windows, when installed).
+
+A binary is built once per input: the store ``fmu-binaries`` of jaxflex's cache
+(jaxflex.runtime.cache_store) keeps it under a key that hashes the compiler's identity
+(``--version``), the command's flags, every C file and header of the sources folder and
+fmpy's FMI headers; a later build of the same input copies it (a changed model data header
+or source is a new key). ``JAXFLEX_COMPILE_CACHE=off`` turns the store off.
+"""
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import platform
 import shutil
 import subprocess
@@ -13,6 +22,7 @@ from pathlib import Path
 import fmpy
 
 from jaxflex.errors import JaxflexError
+from jaxflex.runtime import cache_store
 
 C_DIR = Path(__file__).resolve().parent / "c"
 # every FMU: the instance (life cycle, checks, logging) and one FMI binding per version, over
@@ -35,6 +45,8 @@ SOURCE_CORE = ("jxf_source.c", "jxf_turn_angle.h")  # the trajectory source (fmu
 CFLAGS = ("-std=c99", "-O2", "-fvisibility=hidden", "-Wall", "-Wextra")
 WINDOWS_COMPILER = "x86_64-w64-mingw32-gcc"
 _MINGW_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64"
+BINARY_STORE = "fmu-binaries"  # jaxflex.runtime.cache_store of the built binaries
+BINARY_STORE_BYTES = 256 * 1024**2
 
 
 class FmuBuildError(JaxflexError):
@@ -142,12 +154,18 @@ def compile_library(
         raise FmuBuildError(f"C compiler {target.compiler!r} not found on PATH (install gcc)")
     out_file.parent.mkdir(parents=True, exist_ok=True)
     names = c_files or compiled_files(fmi_version)
+    flags = (*CFLAGS, *extra_flags, *target.flags)
+    binaries = cache_store(BINARY_STORE, BINARY_STORE_BYTES, _unpack)
+    key = _build_key(target.compiler, flags, names, sources_dir)
+    if binaries is not None and (entry := binaries.get(key)) is not None:
+        messages, binary = _unpack(entry)
+        out_file.write_bytes(binary)
+        out_file.chmod(0o755)
+        return messages
     c_files = [str(sources_dir / name) for name in names]
     cmd = [
         target.compiler,
-        *CFLAGS,
-        *extra_flags,
-        *target.flags,
+        *flags,
         f"-I{sources_dir}",
         f"-I{fmi_headers()}",
         *c_files,
@@ -158,7 +176,54 @@ def compile_library(
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         raise FmuBuildError(f"compiling the FMU failed ({' '.join(cmd)}):\n{proc.stderr.strip()}")
-    return proc.stderr.strip()
+    messages = proc.stderr.strip()
+    if binaries is not None:
+        binaries.put(key, _pack(messages, out_file.read_bytes()))
+    return messages
+
+
+@functools.cache
+def _compiler_identity(compiler_path: str) -> bytes:
+    """The compiler's path and what its ``--version`` prints (a new compiler, a new key)."""
+    proc = subprocess.run([compiler_path, "--version"], capture_output=True)
+    return compiler_path.encode() + b"\0" + proc.stdout
+
+
+@functools.cache
+def _headers_digest() -> bytes:
+    """The hash of fmpy's FMI headers (the build includes them)."""
+    digest = hashlib.sha256()
+    for path in sorted(fmi_headers().glob("*.h")):
+        digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    return digest.digest()
+
+
+def _build_key(compiler: str, flags, c_files, sources_dir: Path) -> str:
+    """The store key of a build: the compiler, the flags, the files compiled and every C file
+    and header of ``sources_dir`` (the build may include any) and the FMI headers."""
+    identity = _compiler_identity(shutil.which(compiler) or compiler)
+    digest = hashlib.sha256(identity + _headers_digest())
+    digest.update("\0".join((*flags, "|", *c_files)).encode())
+    for path in sorted(sources_dir.iterdir()):
+        if path.suffix in (".c", ".h"):
+            digest.update(b"\0" + path.name.encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
+def _pack(messages: str, binary: bytes) -> bytes:
+    """A store entry: the compiler's messages (length-prefixed) and the binary."""
+    text = messages.encode()
+    return len(text).to_bytes(8, "little") + text + binary
+
+
+def _unpack(entry: bytes) -> tuple[str, bytes]:
+    """(messages, binary) of a store entry written by :func:`_pack`; ValueError if it is not
+    one (the binary an ELF or PE file)."""
+    length = int.from_bytes(entry[:8], "little")
+    binary = entry[8 + length :]
+    if len(entry) < 8 + length or (binary[:4] != b"\x7fELF" and binary[:2] != b"MZ"):
+        raise ValueError("not a compiled binary")
+    return entry[8 : 8 + length].decode(), binary
 
 
 def build_binaries(

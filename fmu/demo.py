@@ -88,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
     part, pose, distance_m, axis, angle_deg = scene
 
     start = time.perf_counter()
-    model = fem.default_model(part, n_modes=20, zeta=0.02)
+    model = fem.default_model(part, n_modes=20, zeta=0.02, cache=True)
     if axis is not None and not np.array_equal(pose, np.eye(3)):
         model = model.posed(pose, np.zeros(3))
     timings["fe_model_s"] = time.perf_counter() - start

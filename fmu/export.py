@@ -15,14 +15,13 @@ import os
 import re
 import shutil
 import tempfile
-import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from fmu.archive import zip_folder
+from fmu.archive import content_token, zip_folder
 from fmu.build import C_DIR as _C_DIR
 from fmu.build import BuildReport, WrittenFmu, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
@@ -352,7 +351,11 @@ def export_fmu(
     if acc is not None:
         summary = _case_summary(model, acc, dt_s, threshold_m, case, turning_data, pose)
     ident = model_identifier(path)
-    token = "{" + str(uuid.uuid4()) + "}"
+    stop_time_s = _stop_time(acc, dt_s, summary)
+    options = (fmi_version, ident, model_name, description, threshold_m, damping_scale, stop_time_s)
+    token = content_token(
+        encode_resource(model, "", acc, dt_s, cell_data, turning_data), repr(options).encode()
+    )
     zeta_max = float(np.max(model.zeta))
     desc = Description(
         fmi_version=fmi_version,
@@ -368,7 +371,7 @@ def export_fmu(
         damping_scale=damping_scale,
         damping_scale_max=(1.0 / zeta_max) * (1 - 1e-12) if zeta_max > 0 else 1e6,
         start_time_s=0.0,
-        stop_time_s=_stop_time(acc, dt_s, summary),
+        stop_time_s=stop_time_s,
         step_s=dt_s or DT_S,
     )
     config = config_header(

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import os
 import tempfile
-import uuid
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -31,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 import jaxflex
-from fmu.archive import zip_folder
+from fmu.archive import content_token, zip_folder
 from fmu.build import C_DIR, SOURCE_CORE, WrittenFmu, build_binaries, compiled_files, sources_for
 from fmu.export import check_pose, model_identifier
 from fmu.model_description import build_description, cosimulation, unit_definitions
@@ -260,7 +259,8 @@ def export_source_fmu(
     channels = source_channels(pose is not None)
     samples = source_samples(acc, pose)
     ident = model_identifier(path)
-    token = "{" + str(uuid.uuid4()) + "}"
+    names = [channel.name for channel in channels]
+    token = content_token(samples.tobytes(), repr((fmi_version, ident, dt_s, names)).encode())
     with tempfile.TemporaryDirectory(prefix="jaxflex_source_") as tmp:
         stage = Path(tmp) / "fmu"
         sources = stage / "sources"

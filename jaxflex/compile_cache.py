@@ -1,5 +1,7 @@
-"""JAX's persistent compilation cache for jaxflex's commands: compile a program once, load it
-on every later run.
+"""jaxflex's cache of compiled work: JAX's persistent compilation cache (compile a program
+once, load it on every later run), and beside it the stores of other work a later run can
+reuse (:func:`store`: the FMU binaries gcc built, fmu.build; the built-in scenes' FE models,
+fem.scenes).
 
 The directory is ``$JAXFLEX_COMPILE_CACHE`` when set, else ``jax`` in the user's cache
 directory (platformdirs: ``$XDG_CACHE_HOME/jaxflex/jax``, by default ``~/.cache/jaxflex/jax``
@@ -13,8 +15,10 @@ half-written entry; an entry that cannot be read (a disk error, a writer of anot
 version) counts as absent and is replaced by the next compilation. JAX's own file cache
 writes in place, which another process can read half-written; the entries here have its
 file names and format. The directory holds at most MAX_BYTES: the least recently used
-entries go first. The cache is trusted code (JAX's warning): keep it private to its user
-(the directory is created with mode 0700).
+entries go first. The other stores are subdirectories of it (:func:`store`), each with its
+own size limit, written the same way; their keys hash everything their work reads, so a
+changed input is a miss, never a stale answer. The cache is trusted code (JAX's warning):
+keep it private to its user (the directories are created with mode 0700).
 """
 
 from __future__ import annotations
@@ -98,7 +102,7 @@ def _install(directory: Path) -> None:
     except (ImportError, AttributeError):  # another layout: JAX's own file store
         return
 
-    class AtomicFileStore(_FileStore, CacheInterface):
+    class AtomicFileStore(FileStore, CacheInterface):
         pass
 
     with mutex:
@@ -107,21 +111,34 @@ def _install(directory: Path) -> None:
             jax_cache._cache_initialized = True
 
 
-class _FileStore:
-    """JAX's cache interface (get/put of compressed entries by key) over files written
-    atomically; an unreadable entry is a miss."""
+def store(name: str, max_bytes: int, check=None) -> FileStore | None:
+    """The store ``name`` (a subdirectory of :func:`chosen_dir`) holding at most
+    ``max_bytes``, ``check`` as :class:`FileStore`'s; None when the cache is off or the
+    directory cannot be written (the work is then done every time)."""
+    directory = chosen_dir()
+    if directory is None or _writable(directory / name) is not None:
+        return None
+    return FileStore(directory / name, check, max_bytes=max_bytes)
 
-    def __init__(self, directory: Path, decompress) -> None:
+
+class FileStore:
+    """Entries (bytes by key) in files written atomically; an unreadable entry is a miss.
+    ``check(data)`` raises on a damaged entry (JAX's decompressor for JAX's programs). The
+    get/put pair is JAX's cache interface."""
+
+    def __init__(self, directory: Path, check=None, *, max_bytes: int = MAX_BYTES) -> None:
         self._path = directory
-        self._decompress = decompress
+        self._check = check
+        self._max_bytes = max_bytes
 
     def get(self, key: str) -> bytes | None:
         path = self._path / f"{key}{SUFFIX}"
         try:
             data = path.read_bytes()
-            self._decompress(data)  # a damaged entry: a miss, replaced by put
+            if self._check is not None:
+                self._check(data)  # a damaged entry: a miss, replaced by put
             os.utime(path)  # recently used (eviction)
-        except Exception:  # absent, or damaged (whatever the decompressor raises): a miss
+        except Exception:  # absent, or damaged (whatever the check raises): a miss
             return None
         return data
 
@@ -131,7 +148,7 @@ class _FileStore:
         with contextlib.suppress(OSError):  # disk full, directory gone: not cached
             with atomic_open(self._path / f"{key}{SUFFIX}", "wb") as handle:
                 handle.write(value)
-            _evict(self._path, MAX_BYTES)
+            _evict(self._path, self._max_bytes)
 
 
 def _evict(directory: Path, max_bytes: int) -> None:

@@ -25,6 +25,7 @@ from jaxflex.budget import (
 from jaxflex.compile_cache import ENV_VAR as COMPILE_CACHE_ENV
 from jaxflex.compile_cache import SUFFIX as COMPILE_CACHE_SUFFIX
 from jaxflex.compile_cache import enable as enable_compile_cache
+from jaxflex.compile_cache import store as cache_store
 from jaxflex.progress import (
     note,
     progress_bar,
@@ -36,6 +37,7 @@ __all__ = [
     "COMPILE_CACHE_SUFFIX",
     "Advice",
     "Need",
+    "cache_store",
     "check_time",
     "current_budget",
     "enable_compile_cache",

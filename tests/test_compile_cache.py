@@ -16,7 +16,7 @@ import pytest
 from test_optim_optimize import few_mode_model
 
 from jaxflex import compile_cache
-from jaxflex.compile_cache import ENV_VAR, SUFFIX, _evict, _FileStore, _writable
+from jaxflex.compile_cache import ENV_VAR, SUFFIX, FileStore, _evict, _writable
 
 # runs the command in a fresh interpreter and prints JAX's own count of its compilation-cache
 # events (jax.monitoring) as the last line: what was asked of the cache, found, written
@@ -143,7 +143,7 @@ def _check_entry(data: bytes) -> None:
 def test_concurrent_writers_and_readers_see_whole_entries(tmp_path):
     # writers replace one entry with values of different lengths while readers read it; a
     # write in place (JAX's own file store) lets a reader see a mixture or a truncated file
-    store = _FileStore(tmp_path, _check_entry)
+    store = FileStore(tmp_path, _check_entry)
     values = [bytes([i]) * (2_000_000 + 100_000 * i) for i in range(1, 5)]
     store.put("key", values[0])  # the readers always find an entry, however the threads run
     seen, failures = [], []
