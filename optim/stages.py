@@ -311,7 +311,7 @@ def certify(request: Request, plan: Plan, base: Baselines, found: Search, choice
     if known:
         timing = known.timing
     elif r.rotate is not None:
-        timing = r.rotate.timing(model, chosen.angular_acc, move.acc, move.dt_s, r.threshold_m)[0]
+        timing = r.rotate.timing(model, chosen.angular_acc, move, r.threshold_m)[0]
     else:
         timing = analyze_move(model, move, threshold_m=r.threshold_m)
     deviation = base.floor_deviation if known is entries[0] else None
@@ -327,7 +327,7 @@ def _deviation(request: Request, model, move: Move, angular_acc) -> dict:
     """The deviation summary of a move (optim.result; a turning move's from optim.turn)."""
     if request.rotate is None:
         return deviation_summary(model, move)
-    return turn_deviation(model, request.rotate, angular_acc, move.acc, move.dt_s)
+    return turn_deviation(model, request.rotate, angular_acc, move)
 
 
 def _worst_case(problem: Problem, move: Move, grid, angular_acc, turn) -> dict:
@@ -338,7 +338,7 @@ def _worst_case(problem: Problem, move: Move, grid, angular_acc, turn) -> dict:
         grid = [
             (g["freq_scale"], g["zeta"], g["cycle_time_s"])
             for g in turn_worst_case(
-                problem.model, turn, move.acc, angular_acc, move.dt_s, problem.threshold_m,
+                problem.model, turn, move, angular_acc, problem.threshold_m,
                 [(s.scale, s.zeta) for s in problem.scenarios],
             )[2]
         ]  # fmt: skip
