@@ -17,16 +17,25 @@ from functools import cached_property
 import numpy as np
 
 from jaxflex.model import ModalModel
-from jaxflex.response import SettleReport, analyze_move, modal_states, upsample
+from jaxflex.response import Move, SettleReport, analyze_move, modal_states, upsample
 
 
 @dataclass(frozen=True)
 class TimeGrid:
-    """Evaluation grid: step dt_s / factor (s) from t = 0; the move has n_move steps of dt_s."""
+    """Evaluation grid: step dt_s / factor (s) from t = 0; the move (a Move) has n_move steps
+    of dt_s."""
 
-    acc: np.ndarray  # (n_move + 1, 3) m/s^2
-    dt_s: float
+    move: Move
     factor: int
+
+    @property
+    def acc(self) -> np.ndarray:
+        """(n_move + 1, 3) m/s^2: the move's samples."""
+        return self.move.acc
+
+    @property
+    def dt_s(self) -> float:
+        return self.move.dt_s
 
     @property
     def step_s(self) -> float:
@@ -128,7 +137,7 @@ class SettleReference:
         return self.report.cycle_time_s
 
     def _analyze(self, threshold_m: float) -> SettleReport:
-        return analyze_move(self.model, self.grid.acc, self.grid.dt_s, threshold_m)
+        return analyze_move(self.model, self.grid.move, threshold_m=threshold_m)
 
     def band(self, share: float) -> tuple[float, float]:
         if share not in self._band:
