@@ -178,7 +178,10 @@ def baselines(request: Request, plan: Plan) -> Baselines:
         entry.constraints_ok, entry.constraints = setup.feasible(entry.move, entry.angular_acc)
     floor = moves.entries[0]  # the fastest move there is on the grid (along the path)
     measured = [floor] if r.clearance_m is None else moves.entries
-    deviations = {e.name: _deviation(r, setup.model, e.move, e.angular_acc) for e in measured}
+    deviations = {
+        e.name: _deviation(r, setup.model, e.move, e.angular_acc, e.neglected_bound_m)
+        for e in measured
+    }
     peak = deviations[floor.name]["peak_during_move_m"]
     resolution = model_resolution(setup.model, setup.distance_m)
     advice = threshold_advice(r.threshold_m, floor.timing.settle_time_s, peak, resolution)
@@ -309,25 +312,29 @@ def certify(request: Request, plan: Plan, base: Baselines, found: Search, choice
     entries = base.moves.entries
     known = next((e for e in entries if chosen.kind == "baseline" and e.name == chosen.name), None)
     if known:
-        timing = known.timing
+        timing, bound = known.timing, known.neglected_bound_m
     elif r.rotate is not None:
-        timing = r.rotate.timing(model, chosen.angular_acc, move, r.threshold_m)[0]
+        timing, response = r.rotate.timing(model, chosen.angular_acc, move, r.threshold_m)
+        bound = response.neglected_bound_m
     else:
-        timing = analyze_move(model, move, threshold_m=r.threshold_m)
+        timing, bound = analyze_move(model, move, threshold_m=r.threshold_m), None
     deviation = base.deviations.get(known.name) if known else None
     if deviation is None:
-        deviation = _deviation(r, model, move, chosen.angular_acc)
+        deviation = _deviation(r, model, move, chosen.angular_acc, bound)
     worst = None
     if r.robust is not None:
         worst = _worst_case(found.problem, move, chosen.grid, chosen.angular_acc, r.rotate)
     return Certified(timing, deviation, worst)
 
 
-def _deviation(request: Request, model, move: Move, angular_acc) -> dict:
-    """The deviation summary of a move (optim.result; a turning move's from optim.turn)."""
+def _deviation(request: Request, model, move: Move, angular_acc, neglected_bound_m) -> dict:
+    """The deviation summary of a move (optim.result); a turning move's (optim.turn, with
+    the turn ``angular_acc``) carries ``neglected_bound_m``, the bound its timing's response
+    gave (the move is not simulated again for it)."""
     if request.rotate is None:
         return deviation_summary(model, move)
-    return turn_deviation(model, request.rotate, angular_acc, move)
+    found = turn_deviation(model, request.rotate, angular_acc, move)
+    return {**found, "neglected_bound_m": neglected_bound_m}
 
 
 def _worst_case(problem: Problem, move: Move, grid, angular_acc, turn) -> dict:
