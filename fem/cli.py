@@ -447,8 +447,7 @@ def _run_sizing(args, part, supports) -> int:
     sized = size_model(
         part,
         supports,
-        move.acc,
-        move.dt_s,
+        move,
         args.threshold,
         args.tolerance,
         zeta=args.zeta,

@@ -1,9 +1,9 @@
 """Model no more than a scene needs: the cheapest mesh, points and modes for a tolerance.
 
-``size_model(part, supports, acc, dt_s, threshold_m, tolerance=0.01)`` builds the modal model
-of a part for one move (acceleration samples ``acc`` (n+1, 3) m/s^2 every ``dt_s`` s) and a
-settle ``threshold_m`` (m) whose deviation d(t) = max_p |u_p(t)| and exact settle time agree
-with a richer model within ``tolerance``:
+``size_model(part, supports, move, threshold_m, tolerance=0.01)`` builds the modal model of a
+part for one move (a jaxflex.Move: acceleration samples (n+1, 3) m/s^2 and their step dt_s,
+s) and a settle ``threshold_m`` (m) whose deviation d(t) = max_p |u_p(t)| and exact settle
+time agree with a richer model within ``tolerance``:
 
 * deviation: max_t |d(t) - d_ref(t)| <= tolerance x max_t d_ref(t) (L-infinity relative to the
   peak) on a fine grid over the move and the settling (R^2 is reported);
@@ -45,8 +45,7 @@ from fem.sizing_levels import Final, Level, MeshChoice, SizingRun
 from fem.sizing_report import sizing_result
 from fem.sizing_request import DEFAULT_SHARES, SizingRequest
 from fem.sizing_result import Row, SizingResult
-from jaxflex.defaults import DT_S
-from jaxflex.response import analyze_move, deviation_curves, voxel_downsample
+from jaxflex.response import Move, analyze_move, deviation_curves, voxel_downsample
 from jaxflex.runtime import progress_bar
 
 HOT_POINTS = 8  # nodes where the deviation peaks, always monitored
@@ -82,7 +81,7 @@ def _reference_modes(run: SizingRun, level: Level, index: int) -> Level:
     limit = REFERENCE_MODES_SHARE * r.shares[2] * r.tolerance
     while True:
         peak = run.peak(level)
-        residual = level.residual.quasi_static_error_m(r.acc, level.result.n_modes) / peak
+        residual = level.residual.quasi_static_error_m(r.move.acc, level.result.n_modes) / peak
         enough = residual <= limit
         exhausted = level.result.n_modes < run.n_modes  # the mesh has no more modes
         done = enough or exhausted or run.n_modes >= r.max_modes
@@ -207,7 +206,7 @@ def _points_stage(run: SizingRun, level: Level, share: float) -> tuple[np.ndarra
         settle, ok = None, err["linf"] <= share
         if ok:
             model = level.model.select_points(idx)
-            report = analyze_move(model, run.grid.acc, run.grid.dt_s, r.threshold_m)
+            report = analyze_move(model, run.grid.move, threshold_m=r.threshold_m)
             settle = level.settle.check(report.settle_time_s, share)
             ok = settle.ok
         label = f"voxel {1e3 * voxel:.3g} mm"
@@ -244,7 +243,7 @@ def _modes_stage(run: SizingRun, level: Level, idx: np.ndarray, share: float) ->
         settle, ok = None, err["linf"] <= share
         if ok and count < total:
             truncated = model.truncate_modes(count)
-            report = analyze_move(truncated, run.grid.acc, run.grid.dt_s, r.threshold_m)
+            report = analyze_move(truncated, run.grid.move, threshold_m=r.threshold_m)
             settle = reference.check(report.settle_time_s, share)
             ok = settle.ok
         if ok or settle is not None or count in shown or count == total:
@@ -271,7 +270,7 @@ def _final(
     """The combined choice against the reference (the finer mesh, every node and mode)."""
     r, level, ref = run.request, mesh.level, mesh.reference
     model = level.model.select_points(idx).truncate_modes(n_modes)
-    report = analyze_move(model, run.grid.acc, run.grid.dt_s, r.threshold_m)
+    report = analyze_move(model, run.grid.move, threshold_m=r.threshold_m)
     n = run.window(ref, level, cycle_s=report.cycle_time_s)
     q = level.q(run.grid, n)[:, :n_modes]
     curve = deviation_curves(np.asarray(model.shapes), q).all
@@ -333,8 +332,7 @@ def size(request: SizingRequest, log: Callable[[str], None] | None = None) -> Si
 def size_model(
     part: Part | str,
     supports=None,
-    acc=None,
-    dt_s: float = DT_S,
+    move: Move | None = None,
     threshold_m: float | None = None,
     tolerance: float = 0.01,
     *,
@@ -350,8 +348,10 @@ def size_model(
     log: Callable[[str], None] | None = None,
 ) -> SizingResult:
     """The cheapest modal model of ``part`` held by ``supports`` that meets ``tolerance`` for
-    the move ``acc`` ((n+1, 3) m/s^2 every ``dt_s`` s, at rest at both ends) and the settle
-    ``threshold_m`` (m); see the module docstring for the criteria and stages.
+    ``move`` (a jaxflex.Move: samples (n+1, 3) m/s^2 at rest at both ends and their step,
+    e.g. ``jaxflex.as_move(acc, dt_s)``) and the settle ``threshold_m`` (m); see the module
+    docstring for the criteria and stages. Raw samples (the former ``acc, dt_s`` arguments)
+    are refused with an InputError naming this form.
 
     Args:
         part: a fem part, or a built-in scene name ("plate", "panel"; then ``supports`` None
@@ -373,7 +373,7 @@ def size_model(
             candidate (e.g. print).
     """
     request = SizingRequest(
-        part, supports, acc, dt_s, threshold_m, tolerance, zeta, mesh_sizes_m,
+        part, supports, move, threshold_m, tolerance, zeta, mesh_sizes_m,
         reference_modes, max_modes, key_points, shares, eval_step_s, allow_rigid_modes,
         progress,
     )  # fmt: skip

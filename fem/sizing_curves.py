@@ -17,34 +17,34 @@ from functools import cached_property
 import numpy as np
 
 from jaxflex.model import ModalModel
-from jaxflex.response import SettleReport, analyze_move, modal_states, upsample
+from jaxflex.response import Move, SettleReport, analyze_move, modal_states, upsample
 
 
 @dataclass(frozen=True)
 class TimeGrid:
-    """Evaluation grid: step dt_s / factor (s) from t = 0; the move has n_move steps of dt_s."""
+    """Evaluation grid: step dt_s / factor (s) from t = 0; the move (a Move) has n_move steps
+    of dt_s."""
 
-    acc: np.ndarray  # (n_move + 1, 3) m/s^2
-    dt_s: float
+    move: Move
     factor: int
 
     @property
     def step_s(self) -> float:
-        return self.dt_s / self.factor
+        return self.move.dt_s / self.factor
 
     @property
     def n_move(self) -> int:
-        return self.acc.shape[0] - 1
+        return self.move.n_steps
 
     def samples_until(self, t_end_s: float) -> int:
         """Number of samples covering [0, max(t_end_s, end of the move)]."""
-        t_end = max(t_end_s, self.n_move * self.dt_s)
+        t_end = max(t_end_s, self.n_move * self.move.dt_s)
         return math.ceil(t_end / self.step_s - 1e-9) + 1
 
     def fine_acc(self, n_samples: int) -> np.ndarray:
         """(n_samples, 3) the move on the fine grid (the same piecewise-linear profile,
         jaxflex.upsample), then at rest."""
-        fine = upsample(self.acc, self.factor, np)
+        fine = upsample(self.move.acc, self.factor, np)
         if n_samples < fine.shape[0]:
             raise ValueError(f"n_samples {n_samples} is shorter than the move ({fine.shape[0]})")
         return np.concatenate([fine, np.zeros((n_samples - fine.shape[0], 3))])
@@ -128,7 +128,7 @@ class SettleReference:
         return self.report.cycle_time_s
 
     def _analyze(self, threshold_m: float) -> SettleReport:
-        return analyze_move(self.model, self.grid.acc, self.grid.dt_s, threshold_m)
+        return analyze_move(self.model, self.grid.move, threshold_m=threshold_m)
 
     def band(self, share: float) -> tuple[float, float]:
         if share not in self._band:

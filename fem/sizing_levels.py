@@ -162,10 +162,10 @@ class SizingRun:
         if self.grid is None:
             f_grid = level.result.freq_hz[min(GRID_MODE, level.result.n_modes) - 1]
             if r.eval_step_s is None:
-                factor = math.ceil(r.dt_s * SAMPLES_PER_PERIOD * f_grid - 1e-9)
+                factor = math.ceil(r.move.dt_s * SAMPLES_PER_PERIOD * f_grid - 1e-9)
             else:
-                factor = math.ceil(r.dt_s / r.eval_step_s - 1e-9)
-            self.grid = TimeGrid(r.acc, r.dt_s, max(1, factor))
+                factor = math.ceil(r.move.dt_s / r.eval_step_s - 1e-9)
+            self.grid = TimeGrid(r.move, max(1, factor))
         level.settle = SettleReference(level.model, self.grid, r.threshold_m)
         if not np.isfinite(level.settle.cycle_s):
             raise InputError("zeta: the deviation never settles (undamped modes); give zeta > 0")

@@ -50,7 +50,7 @@ def _error(run: SizingRun, mesh: MeshChoice, final: Final) -> dict[str, Any]:
     """The measured errors against the reference and the reference's estimated own error
     (mesh: Richardson; modes: the truncated modes' quasi-static residual)."""
     ref, err, settle = mesh.reference, final.err, final.settle
-    acc = run.request.acc
+    acc = run.request.move.acc
     modes_estimate = ref.residual.quasi_static_error_m(acc, ref.result.n_modes) / err["peak_m"]
     mesh_est = mesh.estimate["mesh"]
     if mesh_est is None:
@@ -74,7 +74,7 @@ def _error(run: SizingRun, mesh: MeshChoice, final: Final) -> dict[str, Any]:
 
 def _checks(run: SizingRun, level: Level, final: Final) -> dict[str, float]:
     n_modes, peak = final.model.n_modes, final.err["peak_m"]
-    acc = run.request.acc
+    acc = run.request.move.acc
     return {
         "effective_mass_fraction": level.residual.effective_mass_fraction(n_modes),
         "static_residual_fraction": level.residual.static_residual_fraction(n_modes),
@@ -87,8 +87,8 @@ def sizing_result(run: SizingRun, mesh: MeshChoice, final: Final, start_s: float
     ``time.perf_counter()`` the total time is counted from)."""
     r, level = run.request, mesh.level
     move = {
-        "n_steps": int(r.acc.shape[0] - 1),
-        "dt_s": r.dt_s,
+        "n_steps": r.move.n_steps,
+        "dt_s": r.move.dt_s,
         "threshold_m": r.threshold_m,
         "eval_step_s": run.grid.step_s,
     }

@@ -1,8 +1,9 @@
 """``fem.sizing_request.SizingRequest``: the arguments of ``fem.size_model``, checked once.
 
-The constructor resolves a scene name to its part and gripper, checks the move (samples at
-rest at both ends, on a valid step) and every number, and refuses what no sizing can use
-with an InputError naming the argument; the stages (fem.sizing) take its values as they are.
+The constructor resolves a scene name to its part and gripper, checks the move (a
+jaxflex.Move: samples at rest at both ends and their step, one object) and every number, and
+refuses what no sizing can use with an InputError naming the argument; the stages
+(fem.sizing) take its values as they are.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from fem.parts import Part
 from fem.scenes import SCENES, scene
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
-from jaxflex.response import as_move
+from jaxflex.response import Move, as_move
 
 # Shares of the tolerance: mesh, points, modes. The mesh is by far the most expensive to
 # refine (offline minutes); points and modes cost little online, so they get less.
@@ -63,13 +64,12 @@ def _part_and_supports(part: Any, supports: Any) -> tuple[Part, list]:
 @dataclass(frozen=True)
 class SizingRequest:
     """The arguments of ``fem.size_model`` (see there) in their final form: ``part`` a Part,
-    ``supports`` a list, ``acc`` (n+1, 3) m/s^2 at rest at both ends every ``dt_s`` s,
-    ``shares`` three floats, numbers checked. The defaults are size_model's."""
+    ``supports`` a list, ``move`` a Move ((n+1, 3) m/s^2 at rest at both ends and their
+    step, s), ``shares`` three floats, numbers checked. The defaults are size_model's."""
 
     part: Part | str
     supports: Any
-    acc: Any
-    dt_s: float
+    move: Move
     threshold_m: float | None
     tolerance: float
     zeta: Any
@@ -103,13 +103,16 @@ class SizingRequest:
         object.__setattr__(self, field, value)
 
     def _check_move(self) -> None:
-        if self.acc is None:
-            raise InputError("acc: the move's acceleration samples (n+1, 3) in m/s^2 are required")
-        move = as_move(self.acc, self.dt_s, at_rest=True)
+        if not isinstance(self.move, Move):
+            got = "nothing" if self.move is None else f"a {type(self.move).__name__}"
+            raise InputError(
+                f"move: a jaxflex.Move (the samples and their step together), got {got}; "
+                "call fem.size_model(part, supports, jaxflex.as_move(acc, dt_s), threshold_m, "
+                "tolerance) (the separate acc, dt_s arguments are gone)"
+            )
+        move = as_move(self.move, at_rest=True, name="move")
         if not np.any(move.acc):
-            raise InputError("acc: every sample is 0; the part does not move")
-        self._set("acc", move.acc)
-        self._set("dt_s", move.dt_s)
+            raise InputError("move: every sample is 0; the part does not move")
         if self.threshold_m is None:
             raise InputError("threshold_m: the settle threshold in m is required")
         self._set("threshold_m", check_positive("threshold_m", self.threshold_m))

@@ -44,6 +44,7 @@ from jaxflex.geometry import (
 )
 from jaxflex.response import (
     CupUtilisation,
+    Move,
     Peak,
     VonMises,
     acceleration_at,
@@ -170,10 +171,11 @@ class LoadFamily:
             out.append(self.functional.values(y.reshape(len(t), len(block), r), block))
         return np.concatenate(out, axis=1)
 
-    def scan(self, acc: np.ndarray, dt_s: float, axes) -> list[Row]:
-        """Rows at the worst sampled violations of the move ``acc``; only the items whose
+    def scan(self, move: Move, axes) -> list[Row]:
+        """Rows at the worst sampled violations of ``move`` (a Move); only the items whose
         bound over the whole move and settling (jaxflex.peaks.item_bounds) reaches the row
         threshold are evaluated (an inactive constraint costs almost nothing)."""
+        acc, dt_s = move.acc, move.dt_s
         above = self.limit * (1 - ROW_MARGIN + SCAN_RTOL)
         bounds = item_bounds(
             self.model, self.outputs, self.functional, acc, dt_s, offset=self.offset
@@ -217,13 +219,14 @@ class LoadFamily:
         rhs = (limit - g @ self.offset[rows]) / self.limit
         return Row(coef[:, list(axes)] / self.limit, float(rhs), float(time_s), int(item))
 
-    def certify(self, acc: np.ndarray, dt_s: float) -> Peak:
+    def certify(self, move: Move) -> Peak:
+        """The certified peak over ``move`` (a Move) and the settling (jaxflex.peaks)."""
         return output_peak(
             self.model,
             self.outputs,
             self.functional,
-            acc,
-            dt_s,
+            move,
+            move.dt_s,
             offset=self.offset,
             rtol=1e-5,
             limit=self.limit,
@@ -232,13 +235,13 @@ class LoadFamily:
     def holds(self, peak: Peak) -> bool:
         return peak.bound <= self.limit * (1 + BOUND_RTOL)
 
-    def failure_row(self, peak: Peak, acc: np.ndarray, dt_s: float, axes) -> Row:
-        """The cut at the certified worst point of a move that failed."""
-        return self.row(acc, dt_s, *self.worst(peak), axes)
+    def failure_row(self, peak: Peak, move: Move, axes) -> Row:
+        """The cut at the certified worst point of ``move`` (a Move), which failed."""
+        return self.row(move.acc, move.dt_s, *self.worst(peak), axes)
 
-    def curve(self, acc, dt_s, t) -> np.ndarray:
-        """(T,) the largest load at times ``t`` (for plots)."""
-        return self.values(acc, dt_s, t).max(axis=1)
+    def curve(self, move: Move, t) -> np.ndarray:
+        """(T,) the largest load of ``move`` (a Move) at times ``t`` (for plots)."""
+        return self.values(move.acc, move.dt_s, t).max(axis=1)
 
     def worst(self, peak: Peak) -> tuple[float, int]:
         """(time, item) of the certified peak (a finite time: the part at rest after the
@@ -329,8 +332,10 @@ class DistanceFamily:
             d[tt, np.searchsorted(points, pp)] = dist - self.half
         return points, d
 
-    def scan(self, acc: np.ndarray, dt_s: float, axes) -> list[Row]:
-        t = check_times(self.model, acc.shape[0] - 1, dt_s)
+    def scan(self, move: Move, axes) -> list[Row]:
+        """Separating planes at the sampled closest approaches of ``move`` (a Move)."""
+        acc, dt_s = move.acc, move.dt_s
+        t = check_times(self.model, move.n_steps, dt_s)
         threshold = self.limit * (1 + ROW_MARGIN - SCAN_RTOL)
         points, d = self.near(acc, dt_s, t, threshold)
         if points.size == 0:  # the whole part provably keeps the distance
@@ -364,15 +369,16 @@ class DistanceFamily:
         rhs = normal @ (self.base[point] - c[0]) - margin  # -(n . p) <= n . (base - c) - margin
         return Row(-coef[:, list(axes)] / self.limit, float(rhs / self.limit), time_s, point)
 
-    def certify(self, acc: np.ndarray, dt_s: float) -> Clearance:
-        return certified_distance(self, min_distance, acc, dt_s, gravity_m_s2=self.gravity)
+    def certify(self, move: Move) -> Clearance:
+        """The certified clearance over ``move`` (a Move) and the settling."""
+        return certified_distance(self, min_distance, move, move.dt_s, gravity_m_s2=self.gravity)
 
     def holds(self, found: Clearance) -> bool:
         return found.bound_m >= self.limit * (1 - BOUND_RTOL)
 
-    def failure_row(self, found: Clearance, acc: np.ndarray, dt_s: float, axes) -> Row | None:
-        """The separating plane at the certified closest point of a move that failed."""
-        return self.row(acc, dt_s, *self.worst(found), axes)
+    def failure_row(self, found: Clearance, move: Move, axes) -> Row | None:
+        """The separating plane at the certified closest point of ``move``, which failed."""
+        return self.row(move.acc, move.dt_s, *self.worst(found), axes)
 
     def worst(self, found: Clearance) -> tuple[float, int]:
         return found.time_s, found.point
@@ -396,6 +402,6 @@ class DistanceFamily:
             "half_thickness_m": self.half,
         }
 
-    def curve(self, acc, dt_s, t):
-        """(T,) the smallest skin distance at times ``t`` (for plots)."""
-        return self.near(acc, dt_s, t, None)[1].min(axis=1)
+    def curve(self, move: Move, t):
+        """(T,) the smallest skin distance of ``move`` (a Move) at times ``t`` (for plots)."""
+        return self.near(move.acc, move.dt_s, t, None)[1].min(axis=1)

@@ -19,8 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import numpy as np
-
+from jaxflex.response import Move
 from optim.cell_rows import Row
 from optim.robust import RobustSpec, perturbed
 
@@ -60,17 +59,18 @@ class ScenarioFamily:
             self.families[index] = self.make(model)
         return self.families[index]
 
-    def scan(self, acc: np.ndarray, dt_s: float, axes) -> list[Row]:
-        return [row for i in self.training for row in self.family(i).scan(acc, dt_s, axes)]
+    def scan(self, move: Move, axes) -> list[Row]:
+        return [row for i in self.training for row in self.family(i).scan(move, axes)]
 
-    def certify(self, acc: np.ndarray, dt_s: float, *, complete: bool = False) -> ScenarioFound:
-        """Every model's certified value, the rows' models first; without ``complete`` the
-        check stops at the first model that fails (what the search needs)."""
+    def certify(self, move: Move, *, complete: bool = False) -> ScenarioFound:
+        """Every model's certified value for ``move`` (a Move), the rows' models first;
+        without ``complete`` the check stops at the first model that fails (what the search
+        needs)."""
         order = self.training + [i for i in range(len(self.models)) if i not in self.training]
         found, failed = [], None
         for i in order:
             family = self.family(i)
-            value = family.certify(acc, dt_s)
+            value = family.certify(move)
             found.append((i, value))
             if failed is None and not family.holds(value):
                 failed = i
@@ -81,15 +81,15 @@ class ScenarioFamily:
     def holds(self, found: ScenarioFound) -> bool:
         return found.failed is None and len(found.found) == len(self.models)
 
-    def failure_row(self, found: ScenarioFound, acc: np.ndarray, dt_s: float, axes):
-        """The row at the certified worst point of the first model that failed; that model's
-        rows join the search from now on."""
+    def failure_row(self, found: ScenarioFound, move: Move, axes):
+        """The row at the certified worst point of ``move`` (a Move) for the first model that
+        failed; that model's rows join the search from now on."""
         i = found.failed
         if i not in self.training:
             self.training.append(i)
         family = self.family(i)
         value = dict(found.found)[i]
-        return family.failure_row(value, acc, dt_s, axes)
+        return family.failure_row(value, move, axes)
 
     def describe(self, found: ScenarioFound) -> dict:
         """The description of the model with the largest utilisation, with its label and the
@@ -100,6 +100,6 @@ class ScenarioFamily:
         )
         return {**worst, "scenario": self.models[worst_i][0], "scenarios": len(found.found)}
 
-    def curve(self, acc, dt_s, t):
+    def curve(self, move: Move, t):
         """The nominal model's curve (plots)."""
-        return self.family(0).curve(acc, dt_s, t)
+        return self.family(0).curve(move, t)

@@ -66,12 +66,11 @@ class CellSetup:
         ok = all(f.holds(x) for f, x in zip(self.families, found, strict=True))
         return ok, [f.describe(x) for f, x in zip(self.families, found, strict=True)]
 
-    def curves(
-        self, acc: np.ndarray, dt_s: float, t: np.ndarray, angular_acc=None
-    ) -> dict[str, np.ndarray]:
-        """What each family limits at times ``t`` (for plots; the nominal model)."""
+    def curves(self, move: Move, t: np.ndarray, angular_acc=None) -> dict[str, np.ndarray]:
+        """What each family limits at times ``t`` during and after ``move`` (for plots; the
+        nominal model)."""
         with self._turning(angular_acc):
-            return {f.name: f.curve(acc, dt_s, t) for f in self.families}
+            return {f.name: f.curve(move, t) for f in self.families}
 
     def _turning(self, angular_acc):
         if self.turn_source is None:
@@ -80,11 +79,10 @@ class CellSetup:
 
 
 def _certify_all(family, move: Move):
-    """A family's certificate of ``move`` (the families take the search's raw samples and
-    step; a robust family on every model of its grid)."""
+    """A family's certificate of ``move`` (a robust family's on every model of its grid)."""
     if isinstance(family, ScenarioFamily):
-        return family.certify(move.acc, move.dt_s, complete=True)
-    return family.certify(move.acc, move.dt_s)
+        return family.certify(move, complete=True)
+    return family.certify(move)
 
 
 def with_cup_rating(

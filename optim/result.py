@@ -397,13 +397,12 @@ class OptimizationResult:
         """Deviation against time up to ``until`` s: exact samples every dt / SUBSTEPS for a
         straight move; for a turning one every dt / 8 during the move (optim.turn_clearance)
         and at the samples after it (jaxflex.turning)."""
+        move = as_move(acc, self.dt_s)
         if angular_acc is None:
-            return deviation_curve(self.model, as_move(acc, self.dt_s), until, SUBSTEPS, PLOT_AFTER)
-        t_end = (acc.shape[0] - 1) * self.dt_s
-        response = self.turn.response(
-            self.model, angular_acc, acc, self.dt_s, max(0.0, until - t_end)
-        )
-        t, d = turning_move_deviation(self.model, self.turn, angular_acc, acc, self.dt_s)
+            return deviation_curve(self.model, move, until, SUBSTEPS, PLOT_AFTER)
+        t_end = move.n_steps * move.dt_s
+        response = self.turn.response(self.model, angular_acc, move, max(0.0, until - t_end))
+        t, d = turning_move_deviation(self.model, self.turn, angular_acc, move)
         after = response.t_s > t_end
         return np.concatenate([t, response.t_s[after]]), np.concatenate(
             [d, response.deviation_m[after]]
@@ -427,7 +426,8 @@ class OptimizationResult:
         curves: dict[str, dict] = {}
         for trace in self._responses():
             turn = self._turn_of(trace.label)
-            for name, values in self.cell.curves(trace.acc, self.dt_s, trace.t, turn).items():
+            move = as_move(trace.acc, self.dt_s)
+            for name, values in self.cell.curves(move, trace.t, turn).items():
                 curves.setdefault(name, {})[trace.label] = (trace.t, values)
         limits = {c["name"]: c["limit"] for c in self.constraints}
         plot_constraints(path, curves, limits)

@@ -33,7 +33,14 @@ from typing import Any, Protocol
 import numpy as np
 
 from jaxflex.model import ModalModel
-from jaxflex.response import SettleReport, analyze_move, as_move, end_state_map, enforce_end_state
+from jaxflex.response import (
+    Move,
+    SettleReport,
+    analyze_move,
+    as_move,
+    end_state_map,
+    enforce_end_state,
+)
 from jaxflex.runtime import progress_bar
 from optim.cell_rows import Row
 from optim.kinematics import ViaRow, moving_axes
@@ -154,13 +161,13 @@ class Problem:
         linear = np.einsum("mikc,kc->mi", self.end_map(scenario, n_steps), acc)
         return linear + self.end_offset(scenario, n_steps)
 
-    def timing(self, scenario: int, move, acc: np.ndarray) -> SettleReport:
-        """Exact cycle time of the move ``move`` (jaxflex.response.as_move of ``acc``) for
-        one scenario: the straight move's, or the turning move's (optim.turn)."""
+    def timing(self, scenario: int, move: Move) -> SettleReport:
+        """Exact cycle time of ``move`` (a Move) for one scenario: the straight move's, or
+        the turning move's (optim.turn)."""
         model = self.scenarios[scenario].model
         if self.turn is None:
-            return analyze_move(model, move, move.dt_s, self.threshold_m, settle=False)
-        return self.turn.timing(model, acc, self.threshold_m)
+            return analyze_move(model, move, threshold_m=self.threshold_m, settle=False)
+        return self.turn.timing(model, move, self.threshold_m)
 
     def add_peak(self, scenario: int, peak: Peak) -> None:
         coef = self.scenarios[scenario].residual.row(peak)
@@ -297,17 +304,16 @@ class Attempt:
         }
 
 
-def _certify(problem: Problem, acc: np.ndarray):
-    """Exact cycle time of every scenario. Training scenarios that fail get a row at their
-    worst peak near the certified crossing; of the others, only the worst failure joins
-    the training set (adding every failing scenario floods the LP with near-duplicates).
-    Returns (timings, number of failures)."""
-    move = as_move(acc, problem.dt_s, at_rest=True)  # checked once for every scenario
+def _certify(problem: Problem, move: Move):
+    """Exact cycle time of every scenario for ``move`` (a Move). Training scenarios that fail
+    get a row at their worst peak near the certified crossing; of the others, only the worst
+    failure joins the training set (adding every failing scenario floods the LP with
+    near-duplicates). Returns (timings, number of failures)."""
     transfer = move.duration_s
     timings: dict[int, SettleReport] = {}
     failed = []
     for i in range(len(problem.scenarios)):
-        timing = problem.timing(i, move, acc)
+        timing = problem.timing(i, move)
         timings[i] = timing
         if timing.cycle_time_s > transfer * (1 + TIME_RTOL):
             failed.append(i)
@@ -318,7 +324,7 @@ def _certify(problem: Problem, acc: np.ndarray):
         problem.training.append(worst)
         chosen.append(worst)
     for i in chosen:
-        x_end = problem.end_state(i, acc)
+        x_end = problem.end_state(i, move.acc)
         tau = timings[i].settle_time_s - transfer
         problem.add_peak(
             i,
@@ -327,18 +333,18 @@ def _certify(problem: Problem, acc: np.ndarray):
     return timings, len(failed)
 
 
-def _certify_families(problem: Problem, acc: np.ndarray) -> int:
-    """Certify the cell's constraints (optim.cell_rows); each family that fails adds a row
-    at its certified worst point. Returns the number of failures."""
+def _certify_families(problem: Problem, move: Move) -> int:
+    """Certify the cell's constraints (optim.cell_rows) for ``move`` (a Move); each family
+    that fails adds a row at its certified worst point. Returns the number of failures."""
     failed = 0
     for family in problem.families:
-        found = family.certify(acc, problem.dt_s)
+        found = family.certify(move)
         if family.holds(found):
             continue
         failed += 1
-        row = family.failure_row(found, acc, problem.dt_s, problem.axes)
+        row = family.failure_row(found, move, problem.axes)
         if row is not None:
-            problem.cell_rows.setdefault(acc.shape[0] - 1, []).append(row)
+            problem.cell_rows.setdefault(move.n_steps, []).append(row)
     return failed
 
 
@@ -402,16 +408,18 @@ def _attempt(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray
                 return _rejected(n_steps, value, rounds, start, "clearance cannot be met", stats)
             problem.clearance_pool.setdefault(n_steps, []).extend(peaks)
             added += len(peaks)
+        lp_move = as_move(acc, problem.dt_s)  # the LP's answer, checked once for the families
         for family in problem.families:
-            rows = family.scan(acc, problem.dt_s, problem.axes)
+            rows = family.scan(lp_move, problem.axes)
             problem.cell_rows.setdefault(n_steps, []).extend(rows)
             added += len(rows)
         if added:
             continue
         acc = enforce_end_state(acc, problem.dt_s, problem.distance_m)
-        timings, failures = _certify(problem, acc)
+        move = as_move(acc, problem.dt_s, at_rest=True)  # checked once for every certificate
+        timings, failures = _certify(problem, move)
         if not failures:
-            failures = _certify_families(problem, acc)
+            failures = _certify_families(problem, move)
         if not failures:
             return Attempt(
                 n_steps,

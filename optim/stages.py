@@ -5,7 +5,8 @@ plan -> baselines -> search -> choose -> certify -> report:
 * :func:`plan`: the cell set-up (optim.cell_setup) and the budgets (optim.budget): the
   longest move the search may try, refused before any work if it cannot fit;
 * :func:`baselines`: the baseline moves (optim.baselines), which of them meet the cell's
-  constraints, the threshold's advice;
+  constraints and the clearance (each baseline's deviation simulated once, kept for
+  :func:`certify`), the threshold's advice;
 * :func:`search`: the problem (built once, with the cell's rows and via points), the
   bisection over the number of steps (optim.search) and, on the exact route, the polish pass;
 * :func:`choose`: the best certified move seen that passes the limits check (optim.choice);
@@ -60,7 +61,9 @@ class Baselines:
     moves: BaselineSet
     via_fractions: list[float]
     feasible: list[Baseline]
-    floor_deviation: dict  # deviation_summary of the kinematic floor (entries[0])
+    # deviation summaries by baseline name: the kinematic floor's (entries[0]) and, with a
+    # clearance, every baseline's; each baseline is simulated once for them
+    deviations: dict[str, dict]
     advice: list[dict]
     turn_trains: list = field(default_factory=list)  # shapers of the turn's schedules
     over_clearance: list[str] = field(default_factory=list)  # baselines above clearance_m
@@ -174,26 +177,26 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     for entry in moves.entries:
         entry.constraints_ok, entry.constraints = setup.feasible(entry.move, entry.angular_acc)
     floor = moves.entries[0]  # the fastest move there is on the grid (along the path)
-    deviation = _deviation(r, setup.model, floor.move, floor.angular_acc)
-    peak = deviation["peak_during_move_m"]
+    measured = [floor] if r.clearance_m is None else moves.entries
+    deviations = {
+        e.name: _deviation(r, setup.model, e.move, e.angular_acc, e.neglected_bound_m)
+        for e in measured
+    }
+    peak = deviations[floor.name]["peak_during_move_m"]
     resolution = model_resolution(setup.model, setup.distance_m)
     advice = threshold_advice(r.threshold_m, floor.timing.settle_time_s, peak, resolution)
-    over = _over_clearance(r, setup.model, moves.entries, peak)
+    over = _over_clearance(r.clearance_m, deviations)
     feasible = [e for e in moves.entries if e.constraints_ok and e.name not in over]
-    return Baselines(moves, fractions, feasible, deviation, issue(advice), trains, over)
+    return Baselines(moves, fractions, feasible, deviations, issue(advice), trains, over)
 
 
-def _over_clearance(request: Request, model, entries: list[Baseline], floor_peak: float):
-    """The names of the baselines ``entries`` (the floor first, its peak ``floor_peak``)
-    whose deviation during the move exceeds the clearance at the samples every dt / 8 it
-    is held at: they are no candidates (none without a clearance)."""
-    r = request
-    if r.clearance_m is None:
+def _over_clearance(clearance_m: float | None, deviations: dict[str, dict]) -> list[str]:
+    """The names of the baselines whose deviation during the move (``deviations``, by name)
+    exceeds the clearance at the samples every dt / 8 it is held at: they are no
+    candidates (none without a clearance)."""
+    if clearance_m is None:
         return []
-    peaks = [floor_peak] + [
-        _deviation(r, model, e.move, e.angular_acc)["peak_during_move_m"] for e in entries[1:]
-    ]
-    return [e.name for e, peak in zip(entries, peaks, strict=True) if peak > r.clearance_m]
+    return [name for name, d in deviations.items() if d["peak_during_move_m"] > clearance_m]
 
 
 def _problem(request: Request, plan: Plan, base: Baselines) -> Problem:
@@ -302,32 +305,36 @@ def choose(request: Request, plan: Plan, base: Baselines, found: Search) -> Choi
 def certify(request: Request, plan: Plan, base: Baselines, found: Search, choice: Choice):
     """The chosen move's exact nominal timing and deviation, and in robust mode its worst
     exact cycle time over the check grid; what the baselines or the search already
-    certified for this move is reused (a baseline's timing, the floor's deviation, the
-    search's grid of cycle times)."""
+    certified for this move is reused (a baseline's timing and, where the baselines stage
+    measured it, its deviation; the search's grid of cycle times)."""
     r, model, chosen = request, plan.setup.model, choice.move
     move = chosen.move  # checked once, where the candidate was made, for every certificate
     entries = base.moves.entries
     known = next((e for e in entries if chosen.kind == "baseline" and e.name == chosen.name), None)
     if known:
-        timing = known.timing
+        timing, bound = known.timing, known.neglected_bound_m
     elif r.rotate is not None:
-        timing = r.rotate.timing(model, chosen.angular_acc, move.acc, move.dt_s, r.threshold_m)[0]
+        timing, response = r.rotate.timing(model, chosen.angular_acc, move, r.threshold_m)
+        bound = response.neglected_bound_m
     else:
-        timing = analyze_move(model, move, threshold_m=r.threshold_m)
-    deviation = base.floor_deviation if known is entries[0] else None
+        timing, bound = analyze_move(model, move, threshold_m=r.threshold_m), None
+    deviation = base.deviations.get(known.name) if known else None
     if deviation is None:
-        deviation = _deviation(r, model, move, chosen.angular_acc)
+        deviation = _deviation(r, model, move, chosen.angular_acc, bound)
     worst = None
     if r.robust is not None:
         worst = _worst_case(found.problem, move, chosen.grid, chosen.angular_acc, r.rotate)
     return Certified(timing, deviation, worst)
 
 
-def _deviation(request: Request, model, move: Move, angular_acc) -> dict:
-    """The deviation summary of a move (optim.result; a turning move's from optim.turn)."""
+def _deviation(request: Request, model, move: Move, angular_acc, neglected_bound_m) -> dict:
+    """The deviation summary of a move (optim.result); a turning move's (optim.turn, with
+    the turn ``angular_acc``) carries ``neglected_bound_m``, the bound its timing's response
+    gave (the move is not simulated again for it)."""
     if request.rotate is None:
         return deviation_summary(model, move)
-    return turn_deviation(model, request.rotate, angular_acc, move.acc, move.dt_s)
+    found = turn_deviation(model, request.rotate, angular_acc, move)
+    return {**found, "neglected_bound_m": neglected_bound_m}
 
 
 def _worst_case(problem: Problem, move: Move, grid, angular_acc, turn) -> dict:
@@ -338,7 +345,7 @@ def _worst_case(problem: Problem, move: Move, grid, angular_acc, turn) -> dict:
         grid = [
             (g["freq_scale"], g["zeta"], g["cycle_time_s"])
             for g in turn_worst_case(
-                problem.model, turn, move.acc, angular_acc, move.dt_s, problem.threshold_m,
+                problem.model, turn, move, angular_acc, problem.threshold_m,
                 [(s.scale, s.zeta) for s in problem.scenarios],
             )[2]
         ]  # fmt: skip

@@ -27,9 +27,11 @@ import numpy as np
 from jaxflex.errors import InputError
 from jaxflex.response import (
     GRAVITY_M_S2,
+    Move,
     PosePath,
     SettleReport,
     TurningResponse,
+    as_move,
     axis_rotation,
     fixed_axis_path,
     require_rotation,
@@ -170,30 +172,39 @@ class TurnSpec:
         return fixed_axis_path(np.asarray(self.axis), angular_acc, dt_s)
 
     def response(
-        self, model, angular_acc: np.ndarray, acc: np.ndarray, dt_s: float, extend_s: float = 0.0
+        self, model, angular_acc: np.ndarray, move: Move, extend_s: float = 0.0
     ) -> TurningResponse:
-        """jaxflex.turning.simulate_turning of the translation samples ``acc`` (n+1, 3) with
-        the turn ``angular_acc`` (padded with zeros to the translation's length)."""
-        n = acc.shape[0] - 1
-        alpha = np.concatenate([angular_acc, np.zeros(n + 1 - angular_acc.size)])
+        """jaxflex.turning.simulate_turning of the translation ``move`` (a Move: samples
+        (n+1, 3) m/s^2 and their step) with the turn ``angular_acc`` (rad/s^2 at the move's
+        step, padded with zeros to its length)."""
+        move = as_move(move, name="move")
+        alpha = _padded(angular_acc, move.n_steps)
         return simulate_turning(
             model,
-            self.path(alpha, dt_s),
-            acc,
+            self.path(alpha, move.dt_s),
+            move.acc,
             gravity_m_s2=self.gravity_m_s2,
             pivot_m=self.pivot_m,
             extend_s=extend_s,
         )
 
     def timing(
-        self, model, angular_acc: np.ndarray, acc: np.ndarray, dt_s: float, threshold_m: float
+        self, model, angular_acc: np.ndarray, move: Move, threshold_m: float
     ) -> tuple[SettleReport, TurningResponse]:
-        """Exact settle and cycle time of the turning move (jaxflex.turning.turning_settle)
-        and its response (with the neglected terms' bound)."""
-        n = acc.shape[0] - 1
-        alpha = np.concatenate([angular_acc, np.zeros(n + 1 - angular_acc.size)])
-        response = self.response(model, alpha, acc, dt_s)
-        return turning_settle(self.path(alpha, dt_s), model, response, threshold_m), response
+        """Exact settle and cycle time of the turning move (the translation ``move``, a Move,
+        with the turn ``angular_acc``; jaxflex.turning.turning_settle) and its response (with
+        the neglected terms' bound)."""
+        move = as_move(move, name="move")
+        alpha = _padded(angular_acc, move.n_steps)
+        response = self.response(model, alpha, move)
+        path = self.path(alpha, move.dt_s)
+        return turning_settle(path, model, response, threshold_m), response
+
+
+def _padded(angular_acc, n_steps: int) -> np.ndarray:
+    """(n+1,) the turn's samples ``angular_acc`` padded with zeros to an n-step move."""
+    angular_acc = np.asarray(angular_acc, dtype=np.float64)
+    return np.concatenate([angular_acc, np.zeros(n_steps + 1 - angular_acc.size)])
 
 
 class TurnSchedule:
@@ -254,27 +265,27 @@ class TurnSchedule:
         def make():
             require_rotation(model)
             alpha = self.angular_acc(n_steps)
-            zero = np.zeros((n_steps + 1, 3))
-            return self.spec.response(model, alpha, zero, self.dt_s).end_state
+            zero = as_move(np.zeros((n_steps + 1, 3)), self.dt_s)
+            return self.spec.response(model, alpha, zero).end_state
 
         return self._cached(("offset", scenario, n_steps, self.variant), make)
 
-    def timing(self, model, acc: np.ndarray, threshold_m: float) -> SettleReport:
-        alpha = self.angular_acc(acc.shape[0] - 1)
-        return self.spec.timing(model, alpha, acc, self.dt_s, threshold_m)[0]
+    def timing(self, model, move: Move, threshold_m: float) -> SettleReport:
+        """The exact timing of ``move`` (a Move) with the active schedule of its length."""
+        alpha = self.angular_acc(move.n_steps)
+        return self.spec.timing(model, alpha, move, threshold_m)[0]
 
 
-def turn_deviation(model, spec: TurnSpec, angular_acc, acc: np.ndarray, dt_s: float) -> dict:
-    """Peak deviation during the turning move ``acc`` (n+1, 3) with the turn ``angular_acc``
-    of ``spec`` (exact samples every dt_s / 8, about the current pose's sag:
-    optim.turn_clearance, the samples a clearance is held at), at the stop, m, and the bound
-    on the neglected terms (jaxflex.turning)."""
-    t, d = turning_move_deviation(model, spec, angular_acc, acc, dt_s)
-    response = spec.response(model, angular_acc, acc, dt_s)
+def turn_deviation(model, spec: TurnSpec, angular_acc, move: Move) -> dict:
+    """Peak deviation during the turning move (the translation ``move``, a Move, with the
+    turn ``angular_acc`` of ``spec``; exact samples every dt_s / 8, about the current pose's
+    sag: optim.turn_clearance, the samples a clearance is held at) and at the stop, m. The
+    bound on the neglected terms comes with the move's timing (:meth:`TurnSpec.timing`'s
+    response), not simulated again here."""
+    t, d = turning_move_deviation(model, spec, angular_acc, move)
     return {
         "peak_during_move_m": float(d.max()),
         "peak_time_s": float(t[np.argmax(d)]),
         "at_stop_m": float(d[-1]),
         "sampling_s": float(t[1] - t[0]),
-        "neglected_bound_m": response.neglected_bound_m,
     }

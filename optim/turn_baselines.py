@@ -21,7 +21,7 @@ import numpy as np
 
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
-from jaxflex.response import amplitudes, as_move
+from jaxflex.response import Move, amplitudes, as_move
 from jaxflex.runtime import progress_bar
 from optim.baselines import Baseline, BaselineSet, mode_trains, via_baselines
 from optim.kinematics import clean_distance
@@ -44,11 +44,12 @@ SHAPED_SCHEDULES = 2  # the search's shaped turn schedules: those of the best 2 
 
 def _evaluate(model, request: Request, name, acc, alpha, freqs) -> Baseline:
     """The baseline ``name`` with its exact timing and, in robust mode, its worst case."""
-    turn, dt_s, threshold_m = request.rotate, request.dt_s, request.threshold_m
-    timing, response = turn.timing(model, alpha, acc, dt_s, threshold_m)
+    turn, threshold_m = request.rotate, request.threshold_m
+    move = as_move(acc, request.dt_s)  # checked once, for every certificate below
+    timing, response = turn.timing(model, alpha, move, threshold_m)
     entry = Baseline(
         name,
-        as_move(acc, dt_s),
+        move,
         timing,
         freqs,
         angular_acc=alpha,
@@ -56,20 +57,22 @@ def _evaluate(model, request: Request, name, acc, alpha, freqs) -> Baseline:
     )
     if request.robust is not None:
         entry.worst_cycle_time_s, entry.worst_case, entry.worst_grid = turn_worst_case(
-            model, turn, acc, alpha, dt_s, threshold_m, request.robust.grid()
+            model, turn, move, alpha, threshold_m, request.robust.grid()
         )
     return entry
 
 
 def turn_worst_case(
-    model: ModalModel, turn: TurnSpec, acc, alpha, dt_s: float, threshold_m: float, grid
+    model: ModalModel, turn: TurnSpec, move: Move, alpha, threshold_m: float, grid
 ) -> tuple[float, dict, list[dict]]:
-    """The turning move's largest exact cycle time (jaxflex.turning.turning_settle) over the
+    """The largest exact cycle time (jaxflex.turning.turning_settle) of the turning move
+    (the translation ``move``, a Move, with the turn ``alpha`` rad/s^2 at its step) over the
     (frequency scale, zeta) points of ``grid``: (worst, where, every point), as
     optim.baselines.worst_case of a straight move."""
     points = []
+    move = as_move(move, name="move")  # checked once (a Move passes) for the whole grid
     for scale, zeta in grid:
-        timing = turn.timing(perturbed(model, scale, zeta), alpha, acc, dt_s, threshold_m)[0]
+        timing = turn.timing(perturbed(model, scale, zeta), alpha, move, threshold_m)[0]
         points.append({"freq_scale": scale, "zeta": zeta, "cycle_time_s": timing.cycle_time_s})
     worst = max(points, key=lambda p: p["cycle_time_s"])
     where = {"freq_scale": worst["freq_scale"], "zeta": worst["zeta"]}
@@ -121,7 +124,7 @@ def turn_baselines(
     floor_acc, floor_alpha, duration = synchronised_floor(distance, turn, limits, dt_s, max_steps)
     floor = _evaluate(model, request, "ruckig + free decay", floor_acc, floor_alpha, [])
     entries = [floor]
-    end = turn.response(model, floor_alpha, floor_acc, dt_s).end_state
+    end = turn.response(model, floor_alpha, floor.move).end_state
     share = np.asarray(model.shape_norms).max(axis=0) * amplitudes(model, end)
     order = np.argsort(-share, kind="stable")[:max_shaped_modes]
     freq, omega, zeta = (np.asarray(v) for v in (model.freq_hz, model.omega_rad_s, model.zeta))

@@ -49,6 +49,7 @@ from threadpoolctl import threadpool_limits
 from jaxflex.geometry import distances, rotations_between, turning_min_distance
 from jaxflex.response import (
     CupUtilisation,
+    Move,
     Peak,
     TurningInputs,
     VonMises,
@@ -296,12 +297,12 @@ class TurnLoadFamily(LoadFamily):
         weights = self.functional.weights(items)
         return np.einsum("ir,ir->i", weights, size.reshape(weights.shape))
 
-    def scan(self, acc: np.ndarray, dt_s: float, axes) -> list[Row]:
-        """Rows at the worst sampled violations; only the items whose bound
-        (:meth:`item_bounds`) reaches the row threshold are evaluated."""
+    def scan(self, move: Move, axes) -> list[Row]:
+        """Rows at the worst sampled violations of ``move`` (a Move); only the items whose
+        bound (:meth:`item_bounds`) reaches the row threshold are evaluated."""
         above = self.limit * (1 - ROW_MARGIN + SCAN_RTOL)
-        during = move_times(acc.shape[0] - 1, dt_s)
-        motion = self.motion(acc, dt_s, during, tail_times(self.model))
+        during = move_times(move.n_steps, move.dt_s)
+        motion = self.motion(move.acc, move.dt_s, during, tail_times(self.model))
         candidates = np.flatnonzero(self.item_bounds(motion) > above)
         if candidates.size == 0:
             return []
@@ -321,8 +322,8 @@ class TurnLoadFamily(LoadFamily):
         rhs = (self.limit * (1 - ROW_MARGIN) - constant) / self.limit
         return Row(coef[:, list(axes)] / self.limit, float(rhs), float(motion.t_s[j]), item)
 
-    def certify(self, acc: np.ndarray, dt_s: float) -> Peak:
-        """The supremum over the move, the settling and the rest in the final pose,
+    def certify(self, move: Move) -> Peak:
+        """The supremum over ``move`` (a Move), the settling and the rest in the final pose,
         certified by branch and bound (jaxflex.turning_peaks), to 1e-5 of the value or up to
         the limit below it (where the bound stays below the limit the peak need not be
         located)."""
@@ -332,16 +333,17 @@ class TurnLoadFamily(LoadFamily):
             self.outputs,
             self.static_rot,
             self.functional,
-            spec.path(self.source.angular_acc(acc.shape[0] - 1), dt_s),
-            acc,
+            spec.path(self.source.angular_acc(move.n_steps), move.dt_s),
+            move.acc,
             gravity_m_s2=spec.gravity_m_s2,
             pivot_m=spec.pivot_m,
             rtol=1e-5,
             limit=self.limit,
         )
 
-    def failure_row(self, peak: Peak, acc: np.ndarray, dt_s: float, axes) -> Row:
-        motion = self._motion_at(acc, dt_s, peak.time_s)
+    def failure_row(self, peak: Peak, move: Move, axes) -> Row:
+        """The cut at the certified worst point of ``move`` (a Move), which failed."""
+        motion = self._motion_at(move.acc, move.dt_s, peak.time_s)
         return self._turn_row(motion, 0, peak.item, axes)
 
     def _motion_at(self, acc: np.ndarray, dt_s: float, time_s: float) -> TurnMotion:
@@ -351,16 +353,16 @@ class TurnLoadFamily(LoadFamily):
             return self.motion(acc, dt_s, np.zeros(0), np.array([tau]))
         return self.motion(acc, dt_s, np.array([time_s]), np.zeros(0))
 
-    def curve(self, acc, dt_s, t) -> np.ndarray:
-        """(T,) the largest load at times ``t`` (the move's samples and after the stop)."""
-        return self.evaluate(_plot_motion(self, acc, dt_s, t)).max(axis=1)
+    def curve(self, move: Move, t) -> np.ndarray:
+        """(T,) the largest load of ``move`` (a Move) at times ``t`` (during and after)."""
+        return self.evaluate(_plot_motion(self, move, t)).max(axis=1)
 
 
-def _plot_motion(family, acc: np.ndarray, dt_s: float, t) -> TurnMotion:
+def _plot_motion(family, move: Move, t) -> TurnMotion:
     """The motion of ``family``'s turn at the times ``t`` (T,) s (during and after)."""
     t = np.asarray(t, dtype=np.float64)
-    t_end = (acc.shape[0] - 1) * dt_s
-    return family.motion(acc, dt_s, t[t <= t_end], t[t > t_end] - t_end)
+    t_end = move.n_steps * move.dt_s
+    return family.motion(move.acc, move.dt_s, t[t <= t_end], t[t > t_end] - t_end)
 
 
 class TurnDistanceFamily:
@@ -386,10 +388,11 @@ class TurnDistanceFamily:
         d, _, _ = distances(self.obstacles, world.reshape(-1, 3))
         return d.reshape(world.shape[:2]) - self.half
 
-    def scan(self, acc: np.ndarray, dt_s: float, axes) -> list[Row]:
+    def scan(self, move: Move, axes) -> list[Row]:
+        """Separating planes at the sampled closest approaches of ``move`` (a Move)."""
         threshold = self.limit * (1 + ROW_MARGIN - SCAN_RTOL)
-        during = move_times(acc.shape[0] - 1, dt_s)
-        motion = self.motion(acc, dt_s, during, tail_times(self.model))
+        during = move_times(move.n_steps, move.dt_s)
+        motion = self.motion(move.acc, move.dt_s, during, tail_times(self.model))
         d = self.skin_distances(motion)
         rows = (self._row(motion, j, p, axes) for j, p in _local_peaks(-d, -threshold))
         return [r for r in rows if r is not None]
@@ -416,14 +419,15 @@ class TurnDistanceFamily:
         rhs = constant - margin
         return Row(-coef[:, list(axes)] / self.limit, float(rhs / self.limit), float(t), point)
 
-    def certify(self, acc: np.ndarray, dt_s: float):
+    def certify(self, move: Move):
+        """The certified clearance over ``move`` (a Move) and the settling."""
         spec = self.source.spec
-        path = spec.path(self.source.angular_acc(acc.shape[0] - 1), dt_s)
+        path = spec.path(self.source.angular_acc(move.n_steps), move.dt_s)
         return certified_distance(
             self,
             turning_min_distance,
             path,
-            acc,
+            move.acc,
             gravity_m_s2=spec.gravity_m_s2,
             pivot_m=spec.pivot_m,
         )
@@ -431,11 +435,12 @@ class TurnDistanceFamily:
     def holds(self, found) -> bool:
         return found.bound_m >= self.limit * (1 - BOUND_RTOL)
 
-    def failure_row(self, found, acc: np.ndarray, dt_s: float, axes) -> Row | None:
-        """The separating plane at the certified closest point of a move that failed."""
+    def failure_row(self, found, move: Move, axes) -> Row | None:
+        """The separating plane at the certified closest point of ``move``, which failed."""
         if not math.isfinite(found.time_s):
             return None  # at rest in the final pose: checked before the search
-        tau = found.time_s - (acc.shape[0] - 1) * dt_s
+        acc, dt_s = move.acc, move.dt_s
+        tau = found.time_s - move.n_steps * dt_s
         if tau > 0:
             motion = self.motion(acc, dt_s, np.zeros(0), np.array([tau]))
         else:
@@ -444,6 +449,6 @@ class TurnDistanceFamily:
 
     describe = DistanceFamily.describe
 
-    def curve(self, acc, dt_s, t) -> np.ndarray:
-        """(T,) the smallest skin distance at times ``t`` (plots)."""
-        return self.skin_distances(_plot_motion(self, acc, dt_s, t)).min(axis=1)
+    def curve(self, move: Move, t) -> np.ndarray:
+        """(T,) the smallest skin distance of ``move`` (a Move) at times ``t`` (plots)."""
+        return self.skin_distances(_plot_motion(self, move, t)).min(axis=1)

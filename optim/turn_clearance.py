@@ -36,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from jaxflex.response import (
+    Move,
     gravity_coordinates,
     max_norms,
     turning_blocks,
@@ -64,11 +65,12 @@ def turning_move_coordinates(
 
 
 def turning_move_deviation(
-    model, spec, angular_acc: np.ndarray, acc: np.ndarray, dt_s: float
+    model, spec, angular_acc: np.ndarray, move: Move
 ) -> tuple[np.ndarray, np.ndarray]:
     """(t (T,) s, d (T,) m): the largest deviation over the model's points every dt_s / 8
-    during the turning move (:func:`turning_move_coordinates`)."""
-    t, coords = turning_move_coordinates(model, spec, angular_acc, acc, dt_s)
+    during the turning move (the translation ``move``, a Move, with the turn ``angular_acc``;
+    :func:`turning_move_coordinates`)."""
+    t, coords = turning_move_coordinates(model, spec, angular_acc, move.acc, move.dt_s)
     return t, max_norms(turning_blocks(model), coords)[0]
 
 

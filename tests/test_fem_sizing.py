@@ -77,8 +77,7 @@ def sized(request):
     result = fem.size_model(
         part,
         supports,
-        lift(),
-        DT_S,
+        jaxflex.as_move(lift(), DT_S),
         case["threshold_m"],
         case["tolerance"],
         mesh_sizes_m=case["sizes_m"],
@@ -165,7 +164,8 @@ def test_richardson_recovers_a_power_law():
         ({"tolerance": 0.5}, "tolerance: a fraction in (0, 0.5)"),
         ({"tolerance": -0.01}, "tolerance: must be a finite number > 0"),
         ({"threshold_m": None}, "threshold_m: the settle threshold"),
-        ({"acc": np.zeros((5, 3))}, "acc: every sample is 0"),
+        ({"move": jaxflex.as_move(np.zeros((5, 3)), DT_S)}, "move: every sample is 0"),
+        ({"move": lift()}, "fem.size_model(part, supports, jaxflex.as_move(acc, dt_s)"),
         ({"mesh_sizes_m": (0.03, 0.04)}, "mesh_sizes_m: give at least two element sizes"),
         ({"shares": (0.7, 0.3, 0.2)}, "shares: three fractions"),
         ({"zeta": 0.0}, "zeta: must be > 0"),
@@ -174,7 +174,18 @@ def test_richardson_recovers_a_power_law():
 )
 def test_size_model_input_errors(kwargs, message):
     part, supports = small_scene("plate")
-    args = {"part": part, "supports": supports, "acc": lift(), "dt_s": DT_S}
+    args = {"part": part, "supports": supports, "move": jaxflex.as_move(lift(), DT_S)}
     args.update({"threshold_m": 5e-5, **kwargs})
     with pytest.raises(InputError, match=re.escape(message)):
         fem.size_model(**args, progress=False)
+
+
+def test_the_former_acc_dt_s_call_forms_are_refused_before_any_work():
+    """The move is one jaxflex.Move: the former positional (part, supports, acc, dt_s,
+    threshold_m) call gets an InputError naming the new form; the former keywords are no
+    parameters (Python's TypeError at the call names them)."""
+    part, supports = small_scene("plate")
+    with pytest.raises(InputError, match=re.escape("jaxflex.as_move(acc, dt_s)")):
+        fem.size_model(part, supports, lift(), DT_S, 5e-5, progress=False)
+    with pytest.raises(TypeError, match="'acc'"):
+        fem.size_model(part, supports, acc=lift(), dt_s=DT_S, threshold_m=5e-5)

@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 import math
 import sys
+from collections import Counter
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,6 +19,8 @@ import optim
 from fmu.bench.optim import few_mode_model as bench_model
 from jaxflex.errors import InputError
 from jaxflex.trajectory_io import read_trajectory_csv
+from optim import stages
+from optim.choice import Candidate
 from optim.exact import LPSubsolver
 from optim.limits import ConstraintCheck, Violation
 from optim.robust import perturbed
@@ -128,6 +132,32 @@ def test_clearance_limits_the_deviation_during_the_move(model, nominal):
     assert result.cycle_time_s == pytest.approx(result.n_steps * DT)
     assert result.constraint_check.ok
     assert result.report()["clearance_m"] == clearance
+
+
+def test_each_baseline_is_simulated_once_for_its_deviation(model, monkeypatch):
+    """With a clearance every baseline's deviation during the move is measured once, in the
+    baselines stage; a baseline that is chosen (here forced: the last shaped one) keeps
+    that measurement instead of being simulated again for the report."""
+    simulated: Counter[bytes] = Counter()  # deviation summaries by move
+    summary, choose = stages.deviation_summary, stages.choose
+
+    def counted(model, move):
+        simulated[move.acc.tobytes()] += 1
+        return summary(model, move)
+
+    def choose_a_shaped_baseline(request, plan, base, found):
+        shaped = base.moves.entries[-1]
+        move = Candidate("baseline", shaped.name, shaped.move, shaped.score(), None)
+        return replace(choose(request, plan, base, found), move=move)
+
+    monkeypatch.setattr(stages, "deviation_summary", counted)
+    monkeypatch.setattr(stages, "choose", choose_a_shaped_baseline)
+    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, clearance_m=1.0)
+    shaped = result.baselines.entries[-1]
+    assert result.source == shaped.name
+    assert set(simulated) == {b.acc.tobytes() for b in result.baselines.entries}
+    assert set(simulated.values()) == {1}
+    assert result.deviation == summary(model, shaped.move)
 
 
 @pytest.mark.slow

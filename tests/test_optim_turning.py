@@ -74,7 +74,7 @@ def test_end_state_is_affine_in_the_translation(plate):
     problem.turn = TurnSchedule(spec, DT)
     n = 90
     acc = np.random.default_rng(1).normal(size=(n + 1, 3))
-    expected = spec.response(plate, problem.turn.angular_acc(n), acc, DT).end_state
+    expected = spec.response(plate, problem.turn.angular_acc(n), jaxflex.as_move(acc, DT)).end_state
     got = problem.end_state(0, acc)
     assert np.abs(got - expected).max() <= 1e-9 * np.abs(expected).max()
 

@@ -201,14 +201,14 @@ def test_robust_turning_move_holds_on_every_model(plate):
     robust = optim.RobustSpec(freq_scale=(0.9, 1.1), zeta=(0.01, 0.03), n_freq=3, n_zeta=2)
     result = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, robust=robust, **TILT)
     worst, _, points = turn_worst_case(
-        plate, result.turn, result.acc, result.angular_acc, DT, THRESHOLD, robust.grid()
+        plate, result.turn, result.move, result.angular_acc, THRESHOLD, robust.grid()
     )
     assert len(points) == 6
     assert worst == pytest.approx(result.worst_case["cycle_time_s"], abs=1e-9)
     assert all(worst <= b.score() + 1e-9 for b in result.baselines.entries)
     nominal = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, **TILT)
     nominal_worst = turn_worst_case(
-        plate, nominal.turn, nominal.acc, nominal.angular_acc, DT, THRESHOLD, robust.grid()
+        plate, nominal.turn, nominal.move, nominal.angular_acc, THRESHOLD, robust.grid()
     )[0]
     assert nominal_worst >= worst
 

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 import fem
 import optim
 from fem.scenes import default_gripper
-from jaxflex.response import max_norms, turning_blocks
+from jaxflex.response import as_move, max_norms, turning_blocks
 from optim.move_response import ClearancePeak, MoveResponse
 from optim.search import active_components
 from optim.turn import TurnSchedule, TurnSpec
@@ -56,7 +56,7 @@ def test_affine_map_is_the_turning_engines(plate):
     acc = rng.normal(size=(n + 1, 3))
     coords = response.modal(acc)
     d = max_norms(turning_blocks(plate), coords)[0]
-    engine = spec.response(plate, alpha, acc, DT).deviation_m
+    engine = spec.response(plate, alpha, as_move(acc, DT)).deviation_m
     assert np.abs(d[::HELD] - engine).max() <= 1e-9 * engine.max()
     j, point = 8 * 40 + 3, 17  # between two samples
     u = response.shapes[point] @ coords[j]

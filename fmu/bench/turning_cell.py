@@ -117,7 +117,7 @@ def _robust_case(model) -> dict:
     robust = optim.RobustSpec()
     nominal, _ = _timed(model, (0, 0, 1.0), **TILT)
     nominal_worst = turn_worst_case(
-        model, nominal.turn, nominal.acc, nominal.angular_acc, DT, THRESHOLD, robust.grid()
+        model, nominal.turn, nominal.move, nominal.angular_acc, THRESHOLD, robust.grid()
     )[0]
     result, wall = _timed(model, (0, 0, 1.0), robust=robust, **TILT)
     return {
