@@ -14,7 +14,7 @@ from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.export import export_fmu
 from fmu.ssp import export_ssp
 from fmu.verify import verify
-from fmu.verify_turning import verify_turning
+from fmu.verify_turning import after_move_s, verify_turning
 from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import (
@@ -309,8 +309,7 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
         print("fmpy validation: " + ("clean" if not problems else "; ".join(problems)))
         return 0 if not problems else 1
     if move is not None:  # other hosts' checks replay a straight move: fmpy only
-        duration = result.case["duration_s"]  # and a quarter more, as the FMU's stop time
-        extend_s = 1.25 * max(duration, result.case["cycle_time_s"]) - duration
+        extend_s = after_move_s(result.case)
         report = verify_turning(
             result.fmu_path, model, acc=trajectory.acc, extend_s=extend_s, **move
         )

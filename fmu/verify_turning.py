@@ -16,6 +16,14 @@ from jaxflex.model import ModalModel
 from jaxflex.response import PosePath, simulate_turning
 
 
+def after_move_s(case: dict) -> float:
+    """The time after the embedded move (s) that its FMU's stop time covers (a quarter more
+    than the move or its cycle, whichever is longer): how long to replay past the move.
+    ``case``: the exported case (ExportResult.case: ``duration_s``, ``cycle_time_s``)."""
+    duration = case["duration_s"]
+    return 1.25 * max(duration, case["cycle_time_s"]) - duration
+
+
 def verify_turning(
     path: str | os.PathLike,
     model: ModalModel,

@@ -206,20 +206,3 @@ def test_model_without_rotation_data_is_refused(plate, tmp_path):
         optim.optimize(
             jaxflex.load_model(model_file), (0, 0, 1), LIMITS, DT, THRESHOLD, rotate=("z", 90)
         )
-
-
-@pytest.mark.slow
-def test_demo_tilt_scene(tmp_path):
-    """`jaxflex demo --scene tilt`: the built-in plate tilted 30 degrees while it is lifted
-    1 m; the optimum no worse than each baseline, the plots and the turn written, no FMU."""
-    out = tmp_path / "tilt"
-    proc = run_jaxflex("demo", "--scene", "tilt", "-o", str(out))
-    assert proc.returncode == 0, proc.stderr
-    assert "turned 30 deg about x" in proc.stdout and "ZVD (1 mode)" in proc.stdout
-    summary = json.loads((out / "demo.json").read_text())
-    assert summary["fmus"] == {}
-    assert all(summary["cycle_time_s"] <= c for c in summary["baselines_cycle_time_s"].values())
-    for name in ("deviation.png", "turn.png", "profiles.png"):
-        assert (out / "optimized" / name).stat().st_size > 0, name
-    table = np.loadtxt(out / "optimized" / "trajectory.csv", delimiter=",", skiprows=1)
-    assert table[-1, -3] == pytest.approx(np.radians(30.0), rel=1e-9)  # turn_angle_rad
