@@ -159,10 +159,16 @@ def orientation_path(
         piece = fixed_axis_path(axis, alpha, dt_s, start=current)
         pieces.append(piece)
         current = piece.rotation[-1]
+    return joined_paths(pieces)
+
+
+def joined_paths(pieces: list[PosePath]) -> PosePath:
+    """One path of ``pieces`` (same step) run one after the other, each starting at the
+    sample where the previous one ends (that sample taken once, from the earlier piece)."""
     first, rest = pieces[0], pieces[1:]
     return PosePath(
         np.concatenate([first.rotation, *(p.rotation[1:] for p in rest)]),
         np.concatenate([first.omega_rad_s, *(p.omega_rad_s[1:] for p in rest)]),
         np.concatenate([first.alpha_rad_s2, *(p.alpha_rad_s2[1:] for p in rest)]),
-        float(dt_s),
+        float(first.dt_s),
     )

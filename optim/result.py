@@ -234,9 +234,9 @@ class OptimizationResult:
     def _turn_report(self) -> dict:
         """The turn, its schedule's heuristic and the neglected terms' bound (optim.turn)."""
         return {
-            **self.turn.as_dict(),
             "schedule": "fixed per move length: ruckig's turn stretched to the move, or shaped "
             "like the best shaped baselines and stretched (optim.turn)",
+            **self.turn.as_dict(),  # a turn through via orientations says its own schedule
             "neglected_bound_m": self.deviation["neglected_bound_m"],
             "angular_acc_rad_s2": self.angular_acc.tolist(),
         }
