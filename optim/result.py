@@ -245,8 +245,14 @@ class OptimizationResult:
         spec = self.turn.as_dict()
         axis = ", ".join(f"{v:g}" for v in spec["axis"])
         bound = self.deviation["neglected_bound_m"]
+        through = "".join(  # a turn through via orientations (optim.turn_via)
+            f"{' then' if i else ' through the via orientations:'} {s['angle_deg']:.4g} deg "
+            f"about ({', '.join(f'{v:.3g}' for v in s['axis'])})"
+            for i, s in enumerate(spec.get("via_turns", ()))
+        )
         return (
-            f"  turn: {spec['angle_deg']:g} deg about ({axis}) within {spec['rate_rad_s']:g} "
+            f"  turn: {spec['angle_deg']:g} deg about ({axis}){through} within "
+            f"{spec['rate_rad_s']:g} "
             f"rad/s, {spec['acc_rad_s2']:g} rad/s^2, {spec['jerk_rad_s3']:g} rad/s^3; the "
             f"neglected gyroscopic and spin-softening terms change the deviation by at most "
             f"{bound * 1e3:.3g} mm"
