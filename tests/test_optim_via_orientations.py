@@ -15,9 +15,12 @@ sample by sample."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import scipy.integrate
+from conftest import run_jaxflex
 from scipy.spatial.transform import Rotation
 
 import fem
@@ -183,3 +186,39 @@ def test_bad_via_orientations_name_the_field(plate, via_extra, rotate, message):
             _optimise(plate, cell)
         else:
             optim.optimize(plate, None, LIMITS, DT, THRESHOLD, cell=cell, progress=False)
+
+
+def test_command_takes_via_orientations(plate, tmp_path):
+    """`jaxflex optimize --cell --rotate` with a via orientation names the segments in its
+    summary and report (20 deg about y, then on to the 30-degree tilt about x); a malformed
+    via orientation exits with status 2 and one line naming the field; `jaxflex export`
+    refuses the move (the FMU turns about one fixed axis)."""
+    model_file = tmp_path / "plate.npz"
+    plate.save(model_file)
+    via = '{position_m = [0, 0, 0.5], mode = "blend", tolerance_m = 0.1, rotation_deg = %s}'
+    cells = {}
+    for name, angles in (("good", "[0, 20, 0]"), ("bad", "[0, 20]")):
+        cells[name] = tmp_path / f"{name}.toml"
+        cells[name].write_text(f"[path]\nend_m = [0.6, 0, 0.6]\nvia = [{via % angles}]\n")
+    args = ["--threshold", "5e-4", "--rotate", "x", "30", "--pivot", "0.6", "0.4", "0"]
+    out = tmp_path / "opt"
+    proc = run_jaxflex(
+        "optimize", str(model_file), "--cell", str(cells["good"]), *args, "--no-plots",
+        "-o", str(out),
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert "through the via orientations: 20 deg about (0, 1, 0) then" in proc.stdout
+    segments = json.loads((out / "report.json").read_text())["turn"]["via_turns"]
+    assert segments[0]["angle_deg"] == pytest.approx(20.0, abs=1e-9)
+    bad = run_jaxflex(
+        "optimize", str(model_file), "--cell", str(cells["bad"]), *args, "-o", str(tmp_path / "bad")
+    )
+    assert bad.returncode == 2
+    assert "cell.path.via[0].rotation_deg: three numbers" in bad.stderr
+    assert len(bad.stderr.strip().splitlines()) == 1
+    fmu = str(tmp_path / "part.fmu")
+    export = run_jaxflex(
+        "export", str(model_file), "--turning", "--trajectory", str(out), "-o", fmu
+    )
+    assert export.returncode == 2
+    assert "via orientations" in export.stderr
