@@ -14,7 +14,7 @@ translation passes that via point.
 **When.** The exact route passes via point j at a fixed fraction f_j of the move (its via
 rows, optim.search.Problem.via_rows: sample k_j = round(f_j n), optim.kinematics.via_step);
 the turn's segment boundaries are the same samples, so both are synchronised for every move
-length n. The fractions are fixed before the search (:func:`via_fractions`): each
+length n. The fractions are fixed before the search (:func:`synchronised_fractions`): each
 translation segment at ruckig's time-optimal duration, those a turn segment spans stretched
 together where the turn alone takes longer. The via times are not free variables (the LP's
 via rows fix them per move length); choosing them is part of the heuristic.
@@ -148,7 +148,7 @@ class ViaTurn(TurnSpec):
         }
 
 
-def via_fractions(
+def synchronised_fractions(
     distance_m, via_offsets, limits: Limits, oriented, turns_s
 ) -> tuple[tuple[float, ...], float]:
     """(the fraction of the move at which each via point ``via_offsets`` ((3,) m from the
@@ -195,7 +195,7 @@ def with_via_orientations(turn: TurnSpec | None, cell, limits: Limits) -> TurnSp
     draft = ViaTurn(**base, stops=stops_t, oriented=oriented)
     turns_s = [t.fastest_s() for t in draft._segment_turns()]
     offsets = [offset for offset, _, _ in cell.via_offsets()]
-    fractions, total = via_fractions(cell.distance_m, offsets, limits, oriented, turns_s)
+    fractions, total = synchronised_fractions(cell.distance_m, offsets, limits, oriented, turns_s)
     return ViaTurn(
         **base, stops=stops_t, oriented=oriented, via_fractions=fractions, duration_s=total
     )
