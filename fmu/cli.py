@@ -204,6 +204,12 @@ def turning_move(path: Path, move: Move, case: dict | None, pivot_m) -> dict:
             f"--trajectory: a turning move needs the turn columns of trajectory.csv and the turn "
             f"of report.json of the same `jaxflex optimize --rotate` run; {missing} missing"
         )
+    if "via_turns" in spec:
+        raise InputError(
+            "--trajectory: the move turns through via orientations (report.json's via_turns); "
+            "the FMU's embedded move takes a turn about one fixed axis (jaxflex optimize "
+            "--rotate without rotation_deg at the cell's via points)"
+        )
     reported = np.asarray(spec.get("angular_acc_rad_s2", turn_acc), dtype=np.float64)
     scale = 1e-9 * max(1.0, float(np.abs(turn_acc).max()))
     if reported.shape != turn_acc.shape or np.abs(reported - turn_acc).max() > scale:

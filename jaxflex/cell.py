@@ -226,11 +226,13 @@ Obstacle = Box | HalfSpace | TriangleMesh
 class Via:
     """A via point of the path: ``position_m`` (3,) of the part frame's origin (cell
     coordinates); ``mode`` "stop" (pass it at rest) or "blend" (pass within ``tolerance_m``
-    per axis, without stopping)."""
+    per axis, without stopping); ``rotation`` (3, 3) the part frame's axes there (columns,
+    cell coordinates, as Cell.rotation at A), or None: the orientation is free there."""
 
     position_m: np.ndarray
     mode: str = "blend"
     tolerance_m: float = 0.0
+    rotation: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position_m", _vector("via.position_m", self.position_m))
@@ -242,12 +244,20 @@ class Via:
         if self.mode == "blend" and tol == 0:
             raise InputError("via.tolerance_m: a blended via point needs a tolerance > 0 m")
         object.__setattr__(self, "tolerance_m", tol)
+        if self.rotation is not None:
+            r = np.asarray(self.rotation, dtype=np.float64)
+            orthonormal = r.shape == (3, 3) and np.allclose(r @ r.T, np.eye(3), atol=1e-9)
+            if not (orthonormal and np.linalg.det(r) > 0):
+                raise InputError("via.rotation: must be a 3 x 3 rotation matrix (or None)")
+            object.__setattr__(self, "rotation", r)
 
     def describe(self) -> dict:
+        rotation = {} if self.rotation is None else {"rotation": self.rotation.tolist()}
         return {
             "position_m": self.position_m.tolist(),
             "mode": self.mode,
             "tolerance_m": self.tolerance_m,
+            **rotation,
         }
 
 

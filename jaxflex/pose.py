@@ -123,20 +123,19 @@ def as_rotation(value, name: str) -> np.ndarray:
 
 def axis_angle(rotation: np.ndarray) -> tuple[np.ndarray, float]:
     """(unit axis (3,), angle in [0, pi] rad) of a rotation matrix; axis z for no turn."""
-    cos = np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0)
-    angle = float(np.arccos(cos))
+    skew = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0],
+                     rotation[1, 0] - rotation[0, 1]])  # fmt: skip
+    # 2 sin(angle) a and 2 cos(angle): atan2 keeps small angles exact (arccos of the trace
+    # alone loses half the digits near 0)
+    angle = float(np.arctan2(0.5 * np.linalg.norm(skew), 0.5 * (np.trace(rotation) - 1.0)))
     if angle < 1e-12:
         return np.array([0.0, 0.0, 1.0]), 0.0
     if np.pi - angle > 1e-6:
-        axis = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0],
-                         rotation[1, 0] - rotation[0, 1]])  # fmt: skip
-        return axis / np.linalg.norm(axis), angle  # 2 sin(angle) a: well scaled short of pi
+        return skew / np.linalg.norm(skew), angle  # well scaled short of pi
     # a half turn: R = 2 a a^T - I, the axis from the largest diagonal entry
     outer = 0.5 * (rotation + np.eye(3))
     k = int(np.argmax(np.diag(outer)))
     axis = outer[:, k] / np.sqrt(outer[k, k])
-    skew = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0],
-                     rotation[1, 0] - rotation[0, 1]])  # fmt: skip
     return (-axis if axis @ skew < 0 else axis), angle  # the sense of a turn just short of pi
 
 
@@ -159,10 +158,16 @@ def orientation_path(
         piece = fixed_axis_path(axis, alpha, dt_s, start=current)
         pieces.append(piece)
         current = piece.rotation[-1]
+    return joined_paths(pieces)
+
+
+def joined_paths(pieces: list[PosePath]) -> PosePath:
+    """One path of ``pieces`` (same step) run one after the other, each starting at the
+    sample where the previous one ends (that sample taken once, from the earlier piece)."""
     first, rest = pieces[0], pieces[1:]
     return PosePath(
         np.concatenate([first.rotation, *(p.rotation[1:] for p in rest)]),
         np.concatenate([first.omega_rad_s, *(p.omega_rad_s[1:] for p in rest)]),
         np.concatenate([first.alpha_rad_s2, *(p.alpha_rad_s2[1:] for p in rest)]),
-        float(dt_s),
+        float(first.dt_s),
     )

@@ -12,6 +12,9 @@ A cell file is TOML or JSON (:func:`load_cell`)::
     [path]
     end_m = [2.0, 0.0, 0.6]            # at B
     via = [{position_m = [1.0, 0.0, 0.8], mode = "blend", tolerance_m = 0.05}]
+    # a via point may fix the part's orientation there (with --rotate, optim.turn_via):
+    # {position_m = [...], tolerance_m = 0.05, rotation_deg = [0, 20, 0]}, the part frame's
+    # axes at the via point in the form of [part] rotation_deg
     [[obstacles]]
     type = "box"                       # or "half_space" (normal, offset_m), "mesh" (path, scale)
     name = "lower die"
@@ -103,8 +106,53 @@ def _obstacle(spec: Mapping, index: int, folder: Path) -> Obstacle:
     return TriangleMesh(points, np.concatenate(triangles), name)
 
 
-# fields a via point's orientation might come in (refused, naming what a turn takes)
-ORIENTATION_FIELDS = {"orientation", "orientation_deg", "rotation", "rotation_deg", "quaternion"}
+# other forms a via point's orientation might come in (refused, naming rotation_deg)
+ORIENTATION_FIELDS = {
+    "orientation", "orientation_deg", "rotation", "rotation_rad", "rotation_vector",
+    "quaternion", "axis", "angle_deg", "rpy_deg", "euler_deg",
+}  # fmt: skip
+VIA_ORIENTATION = (
+    "rotation_deg = [rx, ry, rz], the part frame's axes at the via point as [part] "
+    "rotation_deg: rotations in degrees about the cell's x, then y, then z"
+)
+
+
+def _via_rotation(where: str, value) -> np.ndarray:
+    """The part's axes (3, 3) at a via point from its ``rotation_deg``; InputError naming
+    ``where`` (the field) otherwise."""
+    values = value if isinstance(value, list | tuple) else [value]
+    if len(values) != 3:
+        raise InputError(f"{where}: three numbers, got {value!r:.60}; {VIA_ORIENTATION}")
+    try:
+        angles = [_number(where, v) for v in values]
+    except InputError as exc:
+        raise InputError(f"{exc}; {VIA_ORIENTATION}") from None
+    if not np.isfinite(angles).all():
+        raise InputError(f"{where}: finite numbers, got {value!r:.60}; {VIA_ORIENTATION}")
+    return rotation_from_degrees(angles)
+
+
+def _via(i: int, v) -> Via:
+    """The via point ``cell.path.via[i]`` of the cell file (module docstring)."""
+    where = f"cell.path.via[{i}]"
+    if not isinstance(v, Mapping) or "position_m" not in v:
+        raise InputError(f"{where}: needs position_m (and mode, tolerance_m, rotation_deg)")
+    extra = set(v) - {"position_m", "mode", "tolerance_m", "rotation_deg"}
+    if extra & ORIENTATION_FIELDS:
+        raise InputError(
+            f"{where}: {sorted(extra & ORIENTATION_FIELDS)} is not read; a via point's "
+            f"orientation is {VIA_ORIENTATION}"
+        )
+    if extra:
+        raise InputError(
+            f"{where}: unknown field(s) {sorted(extra)}; a via point has position_m, mode, "
+            "tolerance_m and optionally rotation_deg"
+        )
+    tolerance = _number(f"{where}.tolerance_m", v.get("tolerance_m", 0.0))
+    rotation = None
+    if "rotation_deg" in v:
+        rotation = _via_rotation(f"{where}.rotation_deg", v["rotation_deg"])
+    return Via(v["position_m"], v.get("mode", "blend"), tolerance, rotation)
 
 
 def cell_from_dict(data: Mapping, folder: str | Path = ".") -> Cell:
@@ -127,27 +175,10 @@ def cell_from_dict(data: Mapping, folder: str | Path = ".") -> Cell:
             raise InputError(f"cell.{section}: unknown field(s) {sorted(extra)}")
     if "end_m" not in path:
         raise InputError("cell.path.end_m: required (the part frame's origin at B, m)")
-    via = []
     vias = path.get("via", [])
     if not isinstance(vias, list | tuple):
         raise InputError(f"cell.path.via: expected a list of via points, got {vias!r:.40}")
-    for i, v in enumerate(vias):
-        if not isinstance(v, Mapping) or "position_m" not in v:
-            raise InputError(f"cell.path.via[{i}]: needs position_m (and mode, tolerance_m)")
-        extra = set(v) - {"position_m", "mode", "tolerance_m"}
-        if extra & ORIENTATION_FIELDS:
-            raise InputError(
-                f"cell.path.via[{i}]: orientations at via points ({sorted(extra)}) are not "
-                "supported: a turning move turns about one fixed axis (jaxflex optimize "
-                "--rotate AXIS ANGLE_DEG) and its via points fix the position only"
-            )
-        if extra:
-            raise InputError(
-                f"cell.path.via[{i}]: unknown field(s) {sorted(extra)}; a via point has "
-                "position_m, mode, tolerance_m"
-            )
-        tolerance = _number(f"cell.path.via[{i}].tolerance_m", v.get("tolerance_m", 0.0))
-        via.append(Via(v["position_m"], v.get("mode", "blend"), tolerance))
+    via = [_via(i, v) for i, v in enumerate(vias)]
     obstacles = data.get("obstacles", [])
     if not isinstance(obstacles, list | tuple):
         raise InputError("cell.obstacles: expected a list of obstacles")

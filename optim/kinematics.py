@@ -88,6 +88,12 @@ class ViaRow:
     tolerance_m: float
 
 
+def via_step(fraction: float, n_steps: int) -> int:
+    """The sample of an n-step move at which a via point at ``fraction`` of the move is
+    passed: rounded to a sample, kept inside the move."""
+    return int(np.clip(round(fraction * n_steps), 1, n_steps - 1))
+
+
 def moving_axes(distance_m: np.ndarray, via: Sequence[ViaRow] = ()) -> tuple[int, ...]:
     """Axes whose distance, or a via point's offset, exceeds MOVE_ATOL_M."""
     reach = np.abs(np.asarray(distance_m, dtype=np.float64))

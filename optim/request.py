@@ -29,6 +29,7 @@ from optim.limits import Limits
 from optim.lp import LP_SOLVERS
 from optim.robust import RobustSpec
 from optim.turn import TurnSpec
+from optim.turn_via import with_via_orientations
 
 METHODS = {"exact": ("highs", LP_SOLVERS), "gradient": ("ipopt", GRADIENT_SOLVERS)}
 # the option of `jaxflex optimize` that sets each field (named in its errors)
@@ -179,6 +180,7 @@ class Request:
                     "angular_limits (--angular-limits), pivot_m (--pivot): only with rotate "
                     "(--rotate)"
                 )
+            with_via_orientations(None, self.cell, self.limits)  # refused without a turn
             return
         if not isinstance(rotate, TurnSpec):
             if isinstance(rotate, str) or not hasattr(rotate, "__len__") or len(rotate) != 2:
@@ -194,7 +196,9 @@ class Request:
                 "the exact route does: method='exact' (jaxflex optimize --method exact, the "
                 "default)"
             )
-        self._set("rotate", _in_cell(rotate, self.cell))
+        self._set(
+            "rotate", with_via_orientations(_in_cell(rotate, self.cell), self.cell, self.limits)
+        )
 
     @property
     def has_via(self) -> bool:

@@ -234,9 +234,9 @@ class OptimizationResult:
     def _turn_report(self) -> dict:
         """The turn, its schedule's heuristic and the neglected terms' bound (optim.turn)."""
         return {
-            **self.turn.as_dict(),
             "schedule": "fixed per move length: ruckig's turn stretched to the move, or shaped "
             "like the best shaped baselines and stretched (optim.turn)",
+            **self.turn.as_dict(),  # a turn through via orientations says its own schedule
             "neglected_bound_m": self.deviation["neglected_bound_m"],
             "angular_acc_rad_s2": self.angular_acc.tolist(),
         }
@@ -245,8 +245,14 @@ class OptimizationResult:
         spec = self.turn.as_dict()
         axis = ", ".join(f"{v:g}" for v in spec["axis"])
         bound = self.deviation["neglected_bound_m"]
+        through = "".join(  # a turn through via orientations (optim.turn_via)
+            f"{' then' if i else ' through the via orientations:'} {s['angle_deg']:.4g} deg "
+            f"about ({', '.join(f'{v:.3g}' for v in s['axis'])})"
+            for i, s in enumerate(spec.get("via_turns", ()))
+        )
         return (
-            f"  turn: {spec['angle_deg']:g} deg about ({axis}) within {spec['rate_rad_s']:g} "
+            f"  turn: {spec['angle_deg']:g} deg about ({axis}){through} within "
+            f"{spec['rate_rad_s']:g} "
             f"rad/s, {spec['acc_rad_s2']:g} rad/s^2, {spec['jerk_rad_s3']:g} rad/s^3; the "
             f"neglected gyroscopic and spin-softening terms change the deviation by at most "
             f"{bound * 1e3:.3g} mm"

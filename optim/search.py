@@ -43,7 +43,7 @@ from jaxflex.response import (
 )
 from jaxflex.runtime import progress_bar
 from optim.cell_rows import Row
-from optim.kinematics import ViaRow, moving_axes
+from optim.kinematics import ViaRow, moving_axes, via_step
 from optim.limits import Limits
 from optim.move_response import ClearancePeak, MoveResponse
 from optim.residual import Peak, ResidualModel
@@ -113,8 +113,7 @@ class Problem:
         sample, kept inside the move)."""
         rows = []
         for offset, mode, tolerance, fraction in self.via:
-            k = int(np.clip(round(fraction * n_steps), 1, n_steps - 1))
-            rows.append(ViaRow(k, offset, mode, tolerance))
+            rows.append(ViaRow(via_step(fraction, n_steps), offset, mode, tolerance))
         return rows
 
     @property

@@ -40,6 +40,8 @@ from optim.result import OptimizationResult, deviation_summary
 from optim.search import Attempt, Problem, active_components, attempt, bisect, scenarios
 from optim.turn import TurnSchedule, turn_deviation
 from optim.turn_baselines import turn_baselines, turn_via_baselines, turn_worst_case
+from optim.turn_via import ViaTurn
+from optim.turn_via_baselines import oriented_via_baselines
 
 
 @dataclass(frozen=True)
@@ -118,7 +120,7 @@ def plan(request: Request) -> Plan:
     shortest, allowed = check_move_length(
         setup.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
     )
-    if r.clearance_m is not None and (r.rotate is None or r.rotate.angle_rad == 0.0):
+    if r.clearance_m is not None and (r.rotate is None or not r.rotate.turns):
         _check_clearance(setup, r.clearance_m, r.max_duration_s)
     clearance = r.clearance_m is not None
     steps_cap = check_memory(
@@ -159,7 +161,8 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     trains = []
     if r.rotate is not None and setup.via:
         via = [v[0] for v in setup.via]
-        moves, fractions = turn_via_baselines(r, setup.model, setup.distance_m, via, plan.steps_cap)
+        through = oriented_via_baselines if isinstance(r.rotate, ViaTurn) else turn_via_baselines
+        moves, fractions = through(r, setup.model, setup.distance_m, via, plan.steps_cap)
     elif r.rotate is not None:
         moves, trains = turn_baselines(r, setup.model, setup.distance_m, plan.steps_cap)
     elif setup.via:

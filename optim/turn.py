@@ -132,6 +132,11 @@ class TurnSpec:
         }
 
     @property
+    def turns(self) -> bool:
+        """Whether the part turns at all."""
+        return self.angle_rad != 0.0
+
+    @property
     def end_rotation(self) -> np.ndarray:
         """(3, 3) the part's orientation at the end of the turn (body to world)."""
         return axis_rotation(np.asarray(self.axis), np.array([self.angle_rad]))[0]

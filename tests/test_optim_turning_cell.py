@@ -214,12 +214,13 @@ def test_robust_turning_move_holds_on_every_model(plate):
 
 
 def test_turning_refusals_name_what_does(plate):
-    """The gradient route names the exact route; orientations at via points are refused,
-    naming the field."""
+    """The gradient route names the exact route; a via orientation in another form than
+    rotation_deg is refused, naming the field and the form (tests/test_optim_via_orientations.py
+    takes rotation_deg)."""
     with pytest.raises(jaxflex.InputError, match="the exact route does: method='exact'"):
         optim.optimize(plate, (0, 0, 1), LIMITS, DT, THRESHOLD, method="gradient", **TILT)
     base = {"path": {"end_m": [0, 0, 1.0]}, "part": {"thickness_m": 1e-3}}
-    with pytest.raises(jaxflex.InputError, match=r"via\[0\].*orientations at via points"):
+    with pytest.raises(jaxflex.InputError, match=r"via\[0\].*orientation is rotation_deg ="):
         via = [{"position_m": [0, 0, 0.5], "orientation_deg": [0, 0, 45]}]
         cell_from_dict({**base, "path": {"end_m": [0, 0, 1.0], "via": via}})
 
