@@ -214,10 +214,11 @@ def test_robust_turning_move_holds_on_every_model(plate):
 
 
 def test_turning_refusals_name_what_does(plate):
-    """The gradient route names the exact route; orientations at via points are refused,
-    naming the field."""
+    """The gradient route refuses the cell's constraints on a turning move too, naming the
+    exact route; orientations at via points are refused, naming the field."""
     with pytest.raises(jaxflex.InputError, match="the exact route does: method='exact'"):
-        optim.optimize(plate, (0, 0, 1), LIMITS, DT, THRESHOLD, method="gradient", **TILT)
+        gradient = {"method": "gradient", "cup_safety": 1.5}
+        optim.optimize(plate, (0, 0, 1), LIMITS, DT, THRESHOLD, **gradient, **TILT)
     base = {"path": {"end_m": [0, 0, 1.0]}, "part": {"thickness_m": 1e-3}}
     with pytest.raises(jaxflex.InputError, match=r"via\[0\].*orientations at via points"):
         via = [{"position_m": [0, 0, 0.5], "orientation_deg": [0, 0, 45]}]
