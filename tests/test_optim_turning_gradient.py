@@ -15,8 +15,12 @@ import pytest
 import fem
 import optim
 from fem.scenes import default_gripper
+from jaxflex.response import max_norms, turning_blocks
 from jaxflex.turning import simulate_turning
-from optim.turn import TurnSpec
+from optim.move_response import MoveResponse
+from optim.search import active_components
+from optim.turn import TurnSchedule, TurnSpec
+from optim.turn_clearance import TurnMoveResponse
 
 DT = 0.01
 THRESHOLD = 5e-4
@@ -91,6 +95,23 @@ def test_gradient_route_turns_the_part(plate, solver):
     assert settle <= result.cycle_time_s + DT
     if result.settle_time_s > result.transfer_time_s:
         assert settle >= result.cycle_time_s - DT
+
+
+def test_clearance_term_map_is_the_turning_engines(plate):
+    """The affine map the gradient route's clearance term uses (TurnMoveResponse.sample_map
+    on the moving axes plus the turn's own coordinates ``rest``) gives
+    jaxflex.simulate_turning's deviation at the samples for random translation samples on
+    two axes (round-off: 1e-9 of the peak)."""
+    spec = TurnSpec.checked("x", 30.0, pivot_m=PIVOT)
+    n, axes = 60, (1, 2)
+    alpha = TurnSchedule(spec, DT).angular_acc(n)
+    response = TurnMoveResponse(MoveResponse(plate, active_components(plate), n, DT), spec, alpha)
+    acc = np.zeros((n + 1, 3))
+    acc[:, axes] = np.random.default_rng(3).normal(size=(n + 1, 2))
+    coords = np.einsum("tmkd,kd->tm", response.sample_map(axes), acc[:, axes]) + response.rest
+    d = max_norms(turning_blocks(plate), coords)[0]
+    engine = spec.response(plate, alpha, acc, DT).deviation_m
+    assert np.abs(d[:: response.straight.substeps] - engine).max() <= 1e-9 * engine.max()
 
 
 @pytest.mark.slow  # ~100 s on the loaded 2-core machine: Ipopt with the clearance's soft maximum
