@@ -24,6 +24,12 @@ casadi holds only weak references); Ipopt runs with a limited-memory Hessian and
 interior samples (it works with dense matrices). beta is raised in stages (continuation),
 each warm-started from the last. Feasibility and the outer loops are those of the exact route
 (optim.search), so the route's answers are certified the same way.
+
+A turning move (optim.turn) is handled as on the exact route: for the turn's fixed schedule
+the end states are affine in the translation samples (tied to them by the same rows, with
+the turn's own end state as constant: optim.search.add_end_states) and so is the deviation
+during the move (optim.turn_clearance: the turn's own coordinates the constant ``offset`` of
+the clearance term); each schedule of a length is tried in turn by optim.search.attempt.
 """
 
 from __future__ import annotations
@@ -87,11 +93,13 @@ def _capacity(count: int, minimum: int = 8) -> int:
 
 
 class SmoothTerm:
-    """A soft maximum F(v) of a vector v = map @ x linear in the NLP variables x, with a
-    cached value_and_grad (casadi asks for the value and the gradient separately)."""
+    """A soft maximum F(v) of a vector v = map @ x + offset affine in the NLP variables x
+    (``offset`` zero unless given: a turn's own response), with a cached value_and_grad
+    (casadi asks for the value and the gradient separately)."""
 
-    def __init__(self, linear_map: sp.csr_matrix) -> None:
+    def __init__(self, linear_map: sp.csr_matrix, offset: np.ndarray | None = None) -> None:
         self.map = linear_map
+        self.offset = np.zeros(linear_map.shape[0]) if offset is None else offset
         self.evaluations = 0
         self.jax_s = 0.0
         self._last = None
@@ -160,7 +168,9 @@ class RowTerm(SmoothTerm):
 
 
 class ClearanceTerm(SmoothTerm):
-    """The deviation of the nominal model during the move, every dt / 8 (the constraint)."""
+    """The deviation of the nominal model during the move, every dt / 8 (the constraint);
+    with a turn, that of its active schedule: affine in the translation samples, the turn's
+    own coordinates the constant (optim.turn_clearance)."""
 
     def __init__(self, problem: Problem, layout, n_vars: int) -> None:
         response = problem.move_map(layout.n_steps)
@@ -178,7 +188,8 @@ class ClearanceTerm(SmoothTerm):
                     ),
                 ),
                 shape=(dense.shape[0], n_vars),
-            )
+            ),
+            response.rest.ravel(),
         )
         self.t_len, self.n_modes = t_len, n_modes
         self.t_cap = _capacity(t_len, 256)
@@ -258,12 +269,16 @@ def _ipopt(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: floa
     g = [ca.mtimes(ca.DM(program.matrix.tocsc()), x)]
     lbg, ubg = [program.row_lo], [program.row_hi]
     callbacks = [f_cb]
+
+    def argument(term: SmoothTerm):
+        return ca.mtimes(ca.DM(term.map.tocsc()), x) + ca.DM(term.offset)
+
     if clearance is not None:
         callbacks.append(_casadi_term(clearance, beta, "clearance"))
-        g.append(callbacks[-1](ca.mtimes(ca.DM(clearance.map.tocsc()), x)))
+        g.append(callbacks[-1](argument(clearance)))
         lbg.append([-np.inf])
         ubg.append([1.0])
-    nlp = {"x": x, "f": f_cb(ca.mtimes(ca.DM(objective.map.tocsc()), x)), "g": ca.vertcat(*g)}
+    nlp = {"x": x, "f": f_cb(argument(objective)), "g": ca.vertcat(*g)}
     options = {
         "print_time": False,
         "ipopt": {
@@ -293,9 +308,10 @@ def _ipopt(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: floa
     }
 
 
-def _sample_map(problem: Problem, layout, z_slice, size: int) -> np.ndarray:
-    """T (size, d (n-1)): every variable as a linear function of the interior samples
-    a_1..a_{n-1} of each axis (velocity, position and end states follow exactly)."""
+def _sample_map(problem: Problem, layout, z_slice, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """(T (size, d (n-1)), c (size,)): every variable x = T y + c as an affine function of
+    the interior samples y = a_1..a_{n-1} of each axis (velocity, position and end states
+    follow exactly; c the turn's own end state, zero for a straight move)."""
     n, h = layout.n_steps, problem.dt_s
     eye = np.eye(n + 1)[:, 1:-1]  # unit moves of the interior samples
     vel = np.vstack([np.zeros((1, n - 1)), np.cumsum(0.5 * h * (eye[:-1] + eye[1:]), axis=0)])
@@ -303,25 +319,30 @@ def _sample_map(problem: Problem, layout, z_slice, size: int) -> np.ndarray:
     pos = np.vstack([np.zeros((1, n - 1)), np.cumsum(dx, axis=0)])
     d = len(layout.axes)
     t = np.zeros((size, d * (n - 1)))
-    z_rows = []
+    z_rows, z_offsets = [], []
     for i in range(d):
         cols = slice(i * (n - 1), (i + 1) * (n - 1))
         t[layout.a[i], cols], t[layout.v[i], cols], t[layout.x[i], cols] = eye, vel, pos
     for j in problem.training:
         emap = problem.end_map(j, n)[:, :, 1:-1, list(layout.axes)]  # (M, 2, n-1, d)
         e = np.transpose(emap, (0, 1, 3, 2)).reshape(emap.shape[0] * 2, -1)
-        z_rows.append(e / problem.scenarios[j].zscale.reshape(-1, 1))
+        zscale = problem.scenarios[j].zscale.reshape(-1)
+        z_rows.append(e / zscale[:, None])
+        z_offsets.append(problem.end_offset(j, n).reshape(-1) / zscale)
     t[z_slice] = np.vstack(z_rows)
-    return t
+    constant = np.zeros(size)
+    constant[z_slice] = np.concatenate(z_offsets)
+    return t, constant
 
 
 def _slsqp(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: float, sample_map):
     """SLSQP over the interior samples only (it works with dense matrices, so the sparse
-    variables v, x, z are eliminated through ``sample_map``)."""
-    t = sample_map
+    variables v, x, z are eliminated through ``sample_map``, x = T y + c)."""
+    t, c = sample_map
     rows = np.vstack([program.matrix @ t, t])
-    lo = np.concatenate([program.row_lo, program.var_lo])
-    hi = np.concatenate([program.row_hi, program.var_hi])
+    shift = np.concatenate([program.matrix @ c, c])
+    lo = np.concatenate([program.row_lo, program.var_lo]) - shift
+    hi = np.concatenate([program.row_hi, program.var_hi]) - shift
     trivial = np.all(np.abs(rows) <= 1e-14, axis=1)  # recursions: satisfied identically
     rows, lo, hi = rows[~trivial], lo[~trivial], hi[~trivial]
     eq = lo == hi
@@ -330,21 +351,21 @@ def _slsqp(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: floa
         LinearConstraint(rows[eq], lo[eq], hi[eq]),
         LinearConstraint(rows[keep], lo[keep], hi[keep]),
     ]
-    f_map = objective.map @ t
+    f_map, f_0 = objective.map @ t, objective.map @ c + objective.offset
     if clearance is not None:
-        g_map = clearance.map @ t
+        g_map, g_0 = clearance.map @ t, clearance.map @ c + clearance.offset
         constraints.append(
             NonlinearConstraint(
-                lambda y: clearance.value_and_grad(g_map @ y, beta)[0],
+                lambda y: clearance.value_and_grad(g_map @ y + g_0, beta)[0],
                 -np.inf,
                 1.0,
-                jac=lambda y: (g_map.T @ clearance.value_and_grad(g_map @ y, beta)[1])[None],
+                jac=lambda y: (g_map.T @ clearance.value_and_grad(g_map @ y + g_0, beta)[1])[None],
             )
         )
-    y0 = np.linalg.lstsq(t, x0, rcond=None)[0]
+    y0 = np.linalg.lstsq(t, x0 - c, rcond=None)[0]
 
     def fun(y):
-        value, grad = objective.value_and_grad(f_map @ y, beta)
+        value, grad = objective.value_and_grad(f_map @ y + f_0, beta)
         return value, f_map.T @ grad
 
     res = minimize(
@@ -360,7 +381,7 @@ def _slsqp(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: floa
         "return_status": str(res.message),
         "iterations": int(res.nit),
     }
-    return t @ res.x, info
+    return t @ res.x + c, info
 
 
 class GradientSubsolver:

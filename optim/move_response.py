@@ -64,6 +64,12 @@ class MoveResponse:
         acc = np.einsum("...i,cd->...cid", self.hold[index], np.eye(3)[:, axes])
         return np.concatenate([modal, acc], axis=-3)
 
+    @property
+    def rest(self) -> np.ndarray:
+        """(T, M') the coordinates with every sample zero: none for a straight move (the
+        affine map's constant; optim.turn_clearance: the turn's own)."""
+        return np.zeros((self.coef.shape[0], self.shapes.shape[2]))
+
     def modal(self, acc: np.ndarray) -> np.ndarray:
         """The coordinates (T, M') for samples ``acc`` (n+1, 3): q, then a where the model has
         a static residual."""

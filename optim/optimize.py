@@ -90,8 +90,9 @@ def optimize(
     rotate: (axis, angle_deg): the part also turns by the angle (degrees) about the axis
         ("x", "y", "z" or three numbers, model frame, through the gripper origin) under
         gravity -9.81 m/s^2 along z, the turn on a fixed schedule per move length
-        (optim.turn; the model needs its rotation data, jaxflex.rotation). Nominal model,
-        exact route, no cell or clearance (refused).
+        (optim.turn; the model needs its rotation data, jaxflex.rotation). Both routes
+        take it, with ``robust``, ``clearance_m`` and a cell (its via points and
+        constraints on the exact route only, as for a straight move).
     angular_limits: (rate rad/s, acceleration rad/s^2, jerk rad/s^3) of the turn, default
         optim.turn.ANGULAR_LIMITS (3, 20, 200).
     pivot_m: (3,) m, the point (model frame) the turn's axis passes through and whose

@@ -171,8 +171,8 @@ class Request:
             )
 
     def _check_turn(self) -> None:
-        """The turn (optim.turn.TurnSpec), for a model with the rotation data, on the exact
-        route (the gradient route does not take turns)."""
+        """The turn (optim.turn.TurnSpec), for a model with the rotation data (both routes
+        take it: the turn's fixed schedules make the end state affine in the samples)."""
         rotate = self.rotate
         if rotate is None:
             if self.angular_limits is not None or self.pivot_m is not None:
@@ -190,12 +190,6 @@ class Request:
                 )
             rotate = TurnSpec.checked(rotate[0], rotate[1], self.angular_limits, self.pivot_m)
         require_rotation(self.model)
-        if self.method != "exact":
-            raise InputError(
-                "method: the gradient route does not take turning moves (rotate, --rotate); "
-                "the exact route does: method='exact' (jaxflex optimize --method exact, the "
-                "default)"
-            )
         self._set(
             "rotate", with_via_orientations(_in_cell(rotate, self.cell), self.cell, self.limits)
         )

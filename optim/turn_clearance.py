@@ -103,13 +103,22 @@ class TurnMoveResponse:
         """Local maxima in time of max_p |u_p| above ``limit_m`` (worst first)."""
         return clearance_peaks(self.blocks, self.shapes, self.modal(acc), limit_m, tol, most)
 
+    def sample_map(self, axes, index: int | slice = slice(None)) -> np.ndarray:
+        """(T, M'', n+1, d): the coordinates at t_j are sum over samples and the moving world
+        ``axes`` of map * a plus :attr:`rest` (with an integer ``index`` only that time's
+        (M'', n+1, d)): the straight map of the body samples R_k^T a_k, zero for the
+        rotational coordinates (the turn's own, in :attr:`rest`)."""
+        body = self.straight.sample_map((0, 1, 2), index)  # (..., M', n+1, 3)
+        world = np.einsum("...mkd,kcd->...mkc", body, self.rotation)[..., list(axes)]
+        pad = [(0, 0)] * world.ndim
+        pad[-3] = (0, self.shapes.shape[2] - self.n_linear)
+        return np.pad(world, pad)
+
     def row(self, peak: ClearancePeak, axes) -> np.ndarray:
         """(n+1, d) coefficients r with sum r * a = c . u_p(t) - :meth:`offset`, c = u / |u|,
         on the moving ``axes`` of the world samples."""
         along = (peak.u / np.linalg.norm(peak.u)) @ self.shapes[peak.point]  # (M'',)
-        body = self.straight.sample_map((0, 1, 2), peak.index)  # (M', n+1, 3)
-        straight = np.einsum("m,mkd->kd", along[: self.n_linear], body)
-        return np.einsum("kcd,kd->kc", self.rotation, straight)[:, list(axes)]
+        return np.einsum("m,mkd->kd", along, self.sample_map(axes, peak.index))
 
     def offset(self, peak: ClearancePeak) -> float:
         """c . u_p,turn(t), m: the cut's part from the turn alone."""

@@ -165,7 +165,7 @@ def test_command_writes_the_turn(plate, tmp_path):
         ("--rotate w 30", "--rotate"),
         ("--rotate z 30 --angular-limits -1 20 200", "--angular-limits"),
         ("--angular-limits 1 2 3", "--angular-limits"),
-        ("--rotate z 30 --method gradient", "--method exact"),
+        ("--rotate z 30 --method gradient --cup-safety 1.5", "--method exact"),
     ],
 )
 def test_bad_turns_exit_with_status_2(plate, tmp_path, args, message):
@@ -185,7 +185,7 @@ def test_bad_turns_exit_with_status_2(plate, tmp_path, args, message):
         ({"rotate": ("z", float("inf"))}, "rotate"),
         ({"rotate": ("z", 30), "angular_limits": (3, 0, 200)}, "acc_rad_s2"),
         ({"rotate": ("z", 30), "pivot_m": (0, 0)}, "pivot_m"),
-        ({"rotate": ("z", 30), "method": "gradient"}, "the exact route does"),
+        ({"rotate": ("z", 30), "method": "gradient", "cup_safety": 1.5}, "the exact route does"),
         ({"pivot_m": (0, 0, 0)}, "only with rotate"),
     ],
 )

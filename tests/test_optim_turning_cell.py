@@ -214,11 +214,12 @@ def test_robust_turning_move_holds_on_every_model(plate):
 
 
 def test_turning_refusals_name_what_does(plate):
-    """The gradient route names the exact route; a via orientation in another form than
-    rotation_deg is refused, naming the field and the form (tests/test_optim_via_orientations.py
-    takes rotation_deg)."""
+    """The gradient route refuses the cell's constraints on a turning move too, naming the
+    exact route; a via orientation in another form than rotation_deg is refused, naming the
+    field and the form (tests/test_optim_via_orientations.py takes rotation_deg)."""
     with pytest.raises(jaxflex.InputError, match="the exact route does: method='exact'"):
-        optim.optimize(plate, (0, 0, 1), LIMITS, DT, THRESHOLD, method="gradient", **TILT)
+        gradient = {"method": "gradient", "cup_safety": 1.5}
+        optim.optimize(plate, (0, 0, 1), LIMITS, DT, THRESHOLD, **gradient, **TILT)
     base = {"path": {"end_m": [0, 0, 1.0]}, "part": {"thickness_m": 1e-3}}
     with pytest.raises(jaxflex.InputError, match=r"via\[0\].*orientation is rotation_deg ="):
         via = [{"position_m": [0, 0, 0.5], "orientation_deg": [0, 0, 45]}]
