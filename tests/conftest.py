@@ -68,6 +68,19 @@ def plate() -> jaxflex.ModalModel:
 
 
 @pytest.fixture(scope="session")
+def turning_plate() -> jaxflex.ModalModel:
+    """A 1.2 x 0.8 m, 1 mm steel plate on four cups (fem.scenes' layout), 4 modes (11.9-13.5
+    Hz) at 54 points, with its rotation data, static residuals, cups and stresses (fem): the
+    turning tests' part."""
+    import fem
+    from fem.scenes import default_gripper
+
+    part = fem.rectangular_plate(1.2, 0.8, 1e-3, "steel", 0.1)
+    result = fem.modal_analysis(part, default_gripper(1.2, 0.8), n_modes=4, zeta=0.02)
+    return result.to_modal_model(points=60)
+
+
+@pytest.fixture(scope="session")
 def small_model() -> jaxflex.ModalModel:
     return random_model()
 

@@ -14,10 +14,8 @@ import numpy as np
 import pytest
 from conftest import run_jaxflex
 
-import fem
 import jaxflex
 import optim
-from fem.scenes import default_gripper
 from jaxflex.trajectory_io import TURN_COLUMNS
 from jaxflex.turning import simulate_turning
 from optim.search import make_problem
@@ -30,12 +28,8 @@ PIVOT = (0.6, 0.4, 0.0)  # the middle of the cups
 
 
 @pytest.fixture(scope="module")
-def plate():
-    """A 1.2 x 0.8 m, 1 mm steel plate on four cups, 4 modes (11.9-13.5 Hz) at 60 points,
-    with its rotation data (fem)."""
-    part = fem.rectangular_plate(1.2, 0.8, 1e-3, "steel", 0.1)
-    result = fem.modal_analysis(part, default_gripper(1.2, 0.8), n_modes=4, zeta=0.02)
-    return result.to_modal_model(points=60)
+def plate(turning_plate):
+    return turning_plate
 
 
 def _fine(samples: np.ndarray, factor: int) -> np.ndarray:

@@ -15,10 +15,8 @@ import numpy as np
 import pytest
 from independent import path_positions
 
-import fem
 import jaxflex
 import optim
-from fem.scenes import default_gripper
 from jaxflex.cell import Box, Cell
 from jaxflex.engine import upsample
 from jaxflex.pose import fixed_axis_path
@@ -40,12 +38,8 @@ SWIVEL = {"rotate": ("z", 90.0), "pivot_m": PIVOT, "progress": False}
 
 
 @pytest.fixture(scope="module")
-def plate():
-    """A 1.2 x 0.8 m, 1 mm steel plate on four cups, 4 modes (11.9-13.5 Hz) at 54 points,
-    with its rotation data, cups and stresses (fem)."""
-    part = fem.rectangular_plate(1.2, 0.8, 1e-3, "steel", 0.1)
-    result = fem.modal_analysis(part, default_gripper(1.2, 0.8), n_modes=4, zeta=0.02)
-    return result.to_modal_model(points=60)
+def plate(turning_plate):
+    return turning_plate
 
 
 def _fine_path(result, factor: int):

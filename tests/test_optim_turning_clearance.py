@@ -15,9 +15,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-import fem
 import optim
-from fem.scenes import default_gripper
 from jaxflex.response import as_move, max_norms, turning_blocks
 from optim.move_response import ClearancePeak, MoveResponse
 from optim.search import active_components
@@ -33,12 +31,8 @@ HELD = 8  # the clearance's samples per step (optim.move_response.SUBSTEPS)
 
 
 @pytest.fixture(scope="module")
-def plate():
-    """A 1.2 x 0.8 m, 1 mm steel plate on four cups, 4 modes (11.9-13.5 Hz) at 54 points,
-    with its rotation data and static residuals (fem)."""
-    part = fem.rectangular_plate(1.2, 0.8, 1e-3, "steel", 0.1)
-    result = fem.modal_analysis(part, default_gripper(1.2, 0.8), n_modes=4, zeta=0.02)
-    return result.to_modal_model(points=60)
+def plate(turning_plate):
+    return turning_plate
 
 
 def test_affine_map_is_the_turning_engines(plate):

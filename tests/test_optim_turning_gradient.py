@@ -12,9 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import fem
 import optim
-from fem.scenes import default_gripper
 from jaxflex.response import max_norms, turning_blocks
 from jaxflex.turning import simulate_turning
 from optim.move_response import MoveResponse
@@ -35,12 +33,8 @@ STEPS_FROM_EXACT = 2
 
 
 @pytest.fixture(scope="module")
-def plate():
-    """A 1.2 x 0.8 m, 1 mm steel plate on four cups, 4 modes (11.9-13.5 Hz) at 54 points,
-    with its rotation data and static residuals (fem)."""
-    part = fem.rectangular_plate(1.2, 0.8, 1e-3, "steel", 0.1)
-    result = fem.modal_analysis(part, default_gripper(1.2, 0.8), n_modes=4, zeta=0.02)
-    return result.to_modal_model(points=60)
+def plate(turning_plate):
+    return turning_plate
 
 
 def _fine(samples: np.ndarray, factor: int) -> np.ndarray:

@@ -23,10 +23,8 @@ import scipy.integrate
 from conftest import run_jaxflex
 from scipy.spatial.transform import Rotation
 
-import fem
 import jaxflex
 import optim
-from fem.scenes import default_gripper
 from jaxflex.pose import fixed_axis_path, joined_paths
 from jaxflex.trajectory_io import TURN_COLUMNS
 from jaxflex.turning import simulate_turning
@@ -42,12 +40,8 @@ FINE = 10
 
 
 @pytest.fixture(scope="module")
-def plate():
-    """A 1.2 x 0.8 m, 1 mm steel plate on four cups, 4 modes (11.9-13.5 Hz) at 60 points,
-    with its rotation data (fem)."""
-    part = fem.rectangular_plate(1.2, 0.8, 1e-3, "steel", 0.1)
-    result = fem.modal_analysis(part, default_gripper(1.2, 0.8), n_modes=4, zeta=0.02)
-    return result.to_modal_model(points=60)
+def plate(turning_plate):
+    return turning_plate
 
 
 def _cell(via_extra: dict):
