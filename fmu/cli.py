@@ -204,12 +204,6 @@ def turning_move(path: Path, move: Move, case: dict | None, pivot_m) -> dict:
             f"--trajectory: a turning move needs the turn columns of trajectory.csv and the turn "
             f"of report.json of the same `jaxflex optimize --rotate` run; {missing} missing"
         )
-    if "via_turns" in spec:
-        raise InputError(
-            "--trajectory: the move turns through via orientations (report.json's via_turns); "
-            "the FMU's embedded move takes a turn about one fixed axis (jaxflex optimize "
-            "--rotate without rotation_deg at the cell's via points)"
-        )
     reported = np.asarray(spec.get("angular_acc_rad_s2", turn_acc), dtype=np.float64)
     scale = 1e-9 * max(1.0, float(np.abs(turn_acc).max()))
     if reported.shape != turn_acc.shape or np.abs(reported - turn_acc).max() > scale:
@@ -223,6 +217,16 @@ def turning_move(path: Path, move: Move, case: dict | None, pivot_m) -> dict:
             f"--pivot: the move was optimised about the pivot {pivot.tolist()} m "
             "(report.json's turn); leave --pivot out or give the same point"
         )
+    gravity = spec.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2)
+    gravity = np.asarray(gravity, np.float64)
+    if "via_turns" in spec:  # through via orientations: one fixed-axis turn per segment
+        from optim.turn_via import reported_path
+
+        try:
+            pose = reported_path(spec, turn_acc, dt_s)
+        except (InputError, KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"--trajectory: report.json's via_turns: {exc}") from None
+        return {"pose": pose, "pivot_m": pivot, "gravity_m_s2": gravity}
     pose = fixed_axis_path(spec["axis"], turn_acc, dt_s)
     padded = np.zeros((len(turn_acc), 3))
     padded[:, 0] = turn_acc
@@ -232,8 +236,7 @@ def turning_move(path: Path, move: Move, case: dict | None, pivot_m) -> dict:
             f"--trajectory: the turn columns turn the part by {angle:.9g} deg, report.json says "
             f"{spec['angle_deg']} deg; they do not belong together"
         )
-    gravity = spec.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2)
-    return {"pose": pose, "pivot_m": pivot, "gravity_m_s2": np.asarray(gravity, np.float64)}
+    return {"pose": pose, "pivot_m": pivot, "gravity_m_s2": gravity}
 
 
 def _print_binaries(name: str, platforms, skipped: dict[str, str]) -> None:

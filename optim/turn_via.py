@@ -124,13 +124,8 @@ class ViaTurn(TurnSpec):
         :meth:`stretched`): each segment about its axis from the orientation the previous
         one reached (jaxflex.pose.fixed_axis_path, exact)."""
         alpha = np.asarray(angular_acc, dtype=np.float64).reshape(-1)
-        k = self.boundaries(alpha.size - 1)
-        pieces, current = [], np.eye(3)
-        for (axis, _), (k0, k1) in zip(self.segments(), itertools.pairwise(k), strict=True):
-            piece = fixed_axis_path(axis, alpha[k0 : k1 + 1], dt_s, start=current)
-            pieces.append(piece)
-            current = piece.rotation[-1]
-        return joined_paths(pieces)
+        axes = [axis for axis, _ in self.segments()]
+        return segmented_path(axes, self.boundaries(alpha.size - 1), alpha, dt_s)
 
     def as_dict(self) -> dict:
         ends = [*(self.via_fractions[i] for i in self.oriented), 1.0]
@@ -146,6 +141,43 @@ class ViaTurn(TurnSpec):
             "via_turns": segments,
             "via_fractions": list(self.via_fractions),
         }
+
+
+def segmented_path(axes, boundaries, angular_acc: np.ndarray, dt_s: float) -> PosePath:
+    """The orientation path of a turn through via orientations: segment i about ``axes[i]``
+    (body components) over the samples ``boundaries[i]``..``boundaries[i+1]`` of the
+    schedule ``angular_acc`` (n+1,) rad/s^2, from the orientation the previous segment
+    reached (jaxflex.pose.fixed_axis_path, exact)."""
+    pieces, current = [], np.eye(3)
+    for axis, (k0, k1) in zip(axes, itertools.pairwise(boundaries), strict=True):
+        piece = fixed_axis_path(axis, angular_acc[k0 : k1 + 1], dt_s, start=current)
+        pieces.append(piece)
+        current = piece.rotation[-1]
+    return joined_paths(pieces)
+
+
+def reported_path(turn: dict, angular_acc: np.ndarray, dt_s: float) -> PosePath:
+    """The orientation path of a turn through via orientations as a report states it
+    (:meth:`ViaTurn.as_dict`: ``via_turns``, each segment's axis, angle and the fraction of
+    the move where it ends) with its schedule ``angular_acc`` (n+1,) rad/s^2 (the trajectory
+    file's turn column). InputError if a segment's samples do not turn it by its angle (the
+    two files do not belong together)."""
+    alpha = np.asarray(angular_acc, dtype=np.float64).reshape(-1)
+    n_steps = alpha.size - 1
+    segments = turn["via_turns"]
+    inner = [via_step(float(s["ends_at_fraction"]), n_steps) for s in segments[:-1]]
+    boundaries = [0, *inner, n_steps]
+    path = segmented_path([s["axis"] for s in segments], boundaries, alpha, dt_s)
+    pairs = itertools.pairwise(boundaries)
+    for i, (segment, (k0, k1)) in enumerate(zip(segments, pairs, strict=True)):
+        turned_deg = np.degrees(axis_angle(path.rotation[k0].T @ path.rotation[k1])[1])
+        if abs(turned_deg - float(segment["angle_deg"])) > 1e-6:
+            raise InputError(
+                f"turn: segment {i} of the via orientations turns the part by {turned_deg:.9g} "
+                f"deg in the turn columns, the report says {segment['angle_deg']} deg; they do "
+                "not belong together"
+            )
+    return path
 
 
 def synchronised_fractions(

@@ -29,6 +29,7 @@ from jaxflex.pose import fixed_axis_path, joined_paths
 from jaxflex.trajectory_io import TURN_COLUMNS
 from jaxflex.turning import simulate_turning
 from optim.cell_file import cell_from_dict
+from optim.turn_via import reported_path
 
 DT = 0.01
 THRESHOLD = 5e-4
@@ -185,8 +186,10 @@ def test_bad_via_orientations_name_the_field(plate, via_extra, rotate, message):
 def test_command_takes_via_orientations(plate, tmp_path):
     """`jaxflex optimize --cell --rotate` with a via orientation names the segments in its
     summary and report (20 deg about y, then on to the 30-degree tilt about x); a malformed
-    via orientation exits with status 2 and one line naming the field; `jaxflex export`
-    refuses the move (the FMU turns about one fixed axis)."""
+    via orientation exits with status 2 and one line naming the field; `jaxflex export
+    --turning` embeds the move (one fixed-axis turn per segment), its FMU agrees with jaxflex
+    (the export's own verification) and its pose inputs pass through the via orientation and
+    end at the tilt (scipy's rotations from the angles, not the optimiser's)."""
     model_file = tmp_path / "plate.npz"
     plate.save(model_file)
     via = '{position_m = [0, 0, 0.5], mode = "blend", tolerance_m = 0.1, rotation_deg = %s}'
@@ -214,5 +217,40 @@ def test_command_takes_via_orientations(plate, tmp_path):
     export = run_jaxflex(
         "export", str(model_file), "--turning", "--trajectory", str(out), "-o", fmu
     )
-    assert export.returncode == 2
-    assert "via orientations" in export.stderr
+    assert export.returncode == 0, export.stderr
+    assert "fmpy validation: clean" in export.stdout
+    assert export.stdout.rstrip().endswith("OK")
+    table = np.genfromtxt(tmp_path / "part_input.csv", delimiter=",", names=True)
+    quat = np.column_stack([table[f"quat_{c}"] for c in "xyzw"])  # scipy's order
+    rotations = Rotation.from_quat(quat).as_matrix()
+    via_rotation = Rotation.from_euler("xyz", VIA_DEG, degrees=True).as_matrix()
+    assert min(np.abs(r - via_rotation).max() for r in rotations) < 1e-9  # round-off
+    end = Rotation.from_euler("x", 30, degrees=True).as_matrix()
+    np.testing.assert_allclose(rotations[-1], end, atol=1e-9)
+
+
+def test_a_reported_turn_through_via_orientations_is_rebuilt_and_checked():
+    """optim.turn_via.reported_path (jaxflex export's reading of report.json): two segments
+    about y then x, each a triangle pulse pair of angular acceleration from rest to rest; the
+    orientation at the boundary and the end against the closed-form angles (the angle of a
+    turn from rest: integral of (T - t) alpha(t) dt, by a fine trapezoid), and a report
+    whose angle does not match the samples refused."""
+    dt_s, amplitude = 0.05, 40.0
+    pulse = amplitude * np.array([0.0, 1.0, 0.0, -1.0, 0.0])
+    alpha = np.concatenate([pulse, pulse[1:]])  # 8 steps, the boundary at sample 4
+    t = np.linspace(0.0, 4 * dt_s, 40_001)
+    profile = np.interp(t, dt_s * np.arange(5), pulse)
+    angle_rad = np.trapezoid((t[-1] - t) * profile, t)  # error ~ h^2: far below 1e-9 rad
+    angle_deg = float(np.degrees(angle_rad))
+    segments = [
+        {"axis": [0.0, 1.0, 0.0], "angle_deg": angle_deg, "ends_at_fraction": 0.5},
+        {"axis": [1.0, 0.0, 0.0], "angle_deg": angle_deg, "ends_at_fraction": 1.0},
+    ]
+    path = reported_path({"via_turns": segments}, alpha, dt_s)
+    first = Rotation.from_rotvec([0.0, angle_rad, 0.0])
+    end = first * Rotation.from_rotvec([angle_rad, 0.0, 0.0])  # the second about the body x
+    assert np.abs(path.rotation[4] - first.as_matrix()).max() <= 1e-9
+    assert np.abs(path.rotation[-1] - end.as_matrix()).max() <= 1e-9
+    segments[1] = {**segments[1], "angle_deg": segments[1]["angle_deg"] + 1.0}
+    with pytest.raises(jaxflex.InputError, match="segment 1 of the via orientations"):
+        reported_path({"via_turns": segments}, alpha, dt_s)
