@@ -77,8 +77,10 @@ from jaxflex.points import (
 )
 from jaxflex.pose import (
     PosePath,
+    axis_angle,
     axis_rotation,
     fixed_axis_path,
+    joined_paths,
     orientation_path,
     turn_acceleration,
     unit_axis,
@@ -149,6 +151,7 @@ __all__ = [
     "amplitudes",
     "analyze_move",
     "as_move",
+    "axis_angle",
     "axis_limits",
     "axis_rotation",
     "body_loads",
@@ -170,6 +173,7 @@ __all__ = [
     "integrate",
     "item_bounds",
     "jerk_limited_move",
+    "joined_paths",
     "kinematics_at",
     "load_coefficients",
     "max_norms",

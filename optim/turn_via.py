@@ -46,7 +46,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.pose import PosePath, axis_angle, fixed_axis_path, joined_paths
+from jaxflex.response import PosePath, axis_angle, fixed_axis_path, joined_paths
 from optim.kinematics import clean_distance, via_step
 from optim.limits import Limits
 from optim.ruckig_move import time_optimal_move

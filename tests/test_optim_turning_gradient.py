@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import optim
-from jaxflex.response import max_norms, turning_blocks
+from jaxflex.response import as_move, max_norms, turning_blocks
 from jaxflex.turning import simulate_turning
 from optim.move_response import MoveResponse
 from optim.search import active_components
@@ -104,7 +104,7 @@ def test_clearance_term_map_is_the_turning_engines(plate):
     acc[:, axes] = np.random.default_rng(3).normal(size=(n + 1, 2))
     coords = np.einsum("tmkd,kd->tm", response.sample_map(axes), acc[:, axes]) + response.rest
     d = max_norms(turning_blocks(plate), coords)[0]
-    engine = spec.response(plate, alpha, acc, DT).deviation_m
+    engine = spec.response(plate, alpha, as_move(acc, DT)).deviation_m
     assert np.abs(d[:: response.straight.substeps] - engine).max() <= 1e-9 * engine.max()
 
 
