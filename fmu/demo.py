@@ -109,7 +109,7 @@ def _export(model, result, path: Path, version: int, threshold_m: float) -> Veri
     """Export ``result``'s move as an FMI ``version`` FMU of ``model`` at ``path`` and replay
     it with fmpy against jaxflex: a turning move's FMU takes the pose, its move of poses
     embedded (fmu.verify_turning), a straight move's the translation (fmu.verify)."""
-    trajectory, case = (result.acc, result.dt_s), result.report()
+    trajectory, case = result.move, result.report()
     if result.turn is None:
         export_fmu(model, path, version, trajectory, threshold_m, case)
         return verify(path)
