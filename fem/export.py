@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from fem.modal import ModalResult
+from fem.system import surface_triangles
 from fem.transient import TransientResult
 from jaxflex.errors import InputError
 from jaxflex.files import atomic_path
@@ -81,16 +82,6 @@ def export_transient(
             w.write_data(float(t), point_data={"displacement": u})
 
 
-def _triangles(result: ModalResult) -> np.ndarray:
-    cells = result.system.cells
-    if result.system.cell_type == "triangle":
-        return cells
-    a, b, c, d, ab, bc, cd, da, o = cells.T  # quad9 -> 4 sub-quads -> 8 triangles
-    quads = [(a, ab, o, da), (ab, b, bc, o), (o, bc, c, cd), (da, o, cd, d)]
-    tris = [np.column_stack(t) for q in quads for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3]))]
-    return np.concatenate(tris)
-
-
 def plot_part(result: ModalResult, path: str | os.PathLike, n_modes: int = 4) -> None:
     """PNG: the part's footprint with its supports, and contour plots of the normal (z)
     displacement of the first ``n_modes`` modes."""
@@ -99,7 +90,9 @@ def plot_part(result: ModalResult, path: str | os.PathLike, n_modes: int = 4) ->
     from jaxflex.plots import plt, save_figure
 
     nodes = result.system.nodes
-    tri = mtri.Triangulation(nodes[:, 0], nodes[:, 1], _triangles(result))
+    tri = mtri.Triangulation(
+        nodes[:, 0], nodes[:, 1], surface_triangles(result.system.cells, result.system.cell_type)
+    )
     n = min(int(n_modes), result.n_modes)
     cols = min(3, n + 1)
     rows = int(np.ceil((n + 1) / cols))
