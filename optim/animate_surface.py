@@ -168,3 +168,44 @@ def reduced(points: np.ndarray, mid: Surface, max_vertices: int) -> Surface:
         tri = tri[np.sort(keep)]
     note = f"{mid.note}; drawn at {n} of its points"
     return Surface(mid.node[first], mid.side[first], tri, mid.kind, note)
+
+
+# the 12 triangles of a box's surface, corners numbered by the bits (x, y, z) of their index
+BOX_TRIANGLES = np.array(
+    [
+        [0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6], [0, 1, 5], [0, 5, 4],
+        [2, 6, 7], [2, 7, 3], [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5],
+    ]
+)  # fmt: skip
+
+
+def obstacle_surfaces(obstacles, bounds_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(vertices (V, 3) m, triangles (T, 3), obstacle index of each triangle (T,)) drawing
+    ``obstacles`` (jaxflex.geometry Box, HalfSpace, TriangleMesh): a box's six faces, a
+    mesh's triangles, a half-space's boundary plane as the square about the scene's centre
+    that covers ``bounds_m`` (2, 3) (its lower and upper corner) and a fifth more."""
+    vertices, triangles, owner = [np.zeros((0, 3))], [np.zeros((0, 3), np.int64)], [[]]
+    count = 0
+    centre = bounds_m.mean(axis=0)
+    half_size = 0.6 * max(float(np.linalg.norm(np.ptp(bounds_m, axis=0))), 1e-3)
+    for j, obstacle in enumerate(obstacles):
+        kind = type(obstacle).__name__
+        if kind == "Box":
+            bits = (np.arange(8)[:, None] >> np.arange(3)) & 1
+            local = (bits - 0.5) * obstacle.size_m
+            v, t = obstacle.centre_m + local @ obstacle.rotation.T, BOX_TRIANGLES
+        elif kind == "HalfSpace":
+            n = obstacle.normal
+            foot = centre - (centre @ n - obstacle.offset_m) * n
+            a = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+            a /= np.linalg.norm(a)
+            b = np.cross(n, a)
+            corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * half_size
+            v, t = foot + corners @ np.stack([a, b]), np.array([[0, 1, 2], [0, 2, 3]])
+        else:
+            v, t = np.asarray(obstacle.vertices), np.asarray(obstacle.triangles)
+        vertices.append(v)
+        triangles.append(t + count)
+        owner.append([j] * len(t))
+        count += len(v)
+    return np.concatenate(vertices), np.concatenate(triangles), np.concatenate(owner).astype(int)

@@ -21,6 +21,7 @@ accept the files only as that set):
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from dataclasses import dataclass, field
@@ -40,6 +41,7 @@ from optim.turn_clearance import turning_move_deviation
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
 PLOT_AFTER = 20_000  # plots: at most this many samples of the settling (a long baseline's)
 RESULT_KIND = "jaxflex.optimize"
+ANIMATION_DIR = "animation"  # optim.animate's set, beside the result's files
 RESULT_FILES = (
     "trajectory.csv",
     "report.json",
@@ -50,6 +52,24 @@ RESULT_FILES = (
     "deviation_worst_case.png",
     "turn.png",
 )
+
+
+def remove_animation(directory: Path) -> None:
+    """Remove the animation set (optim.animate: ``animation/`` with its manifest) of an
+    earlier result in ``directory``: it is not this result's."""
+    folder = directory / ANIMATION_DIR
+    manifest = folder / MANIFEST
+    if not manifest.is_file():
+        return
+    try:
+        names = json.loads(manifest.read_text(encoding="utf-8"))["files"]
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError):
+        names = {}
+    manifest.unlink()
+    for name in names:
+        (folder / Path(str(name)).name).unlink(missing_ok=True)
+    with contextlib.suppress(OSError):
+        folder.rmdir()
 
 
 def constraint_line(c: dict) -> str:
@@ -106,6 +126,7 @@ class OptimizationResult:
     cell: Any = None  # optim.cell_setup.CellSetup (posed model, via points, families)
     turn: Any = None  # optim.turn.TurnSpec of a move that turns the part
     angular_acc: np.ndarray | None = None  # (n+1,) rad/s^2: the turn's schedule
+    inputs: dict = field(default_factory=dict)  # the input files, {"model": {path, sha256}}
     _traces: list = field(default_factory=list, repr=False, compare=False)  # _responses()
 
     @property
@@ -194,6 +215,7 @@ class OptimizationResult:
         model = self.model
         return {
             "units": "SI (m, s, m/s, m/s^2, m/s^3)",
+            "inputs": self.inputs or None,
             "model": {
                 "n_modes": model.n_modes,
                 "n_points": model.n_points,
@@ -345,6 +367,7 @@ class OptimizationResult:
             files.add_text("report.json", json.dumps(self.report(), indent=2))
             if plots:
                 self._plot(files)
+        remove_animation(files.directory)
         return [files.directory / name for name in (*files.members, MANIFEST)]
 
     def _plot(self, files: SetWriter) -> None:
