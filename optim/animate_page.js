@@ -28,7 +28,7 @@
     ti.push(triangles[t]); tj.push(triangles[t + 1]); tk.push(triangles[t + 2]);
   }
 
-  const state = { frame: 0, scale: 1, colour: D.default_colour, playing: false };
+  const state = { frame: 0, scale: 1, colour: D.default_colour, playing: false, probe: null };
   const errors = [];
   window.jaxflexPage = {
     state: state,
@@ -172,6 +172,9 @@
     report();
   }
 
+  // the status element tells a reader of the page (or a test) what is drawn: the frame, its
+  // time, the errors caught, the 3-D view's place on the page and, with #probe=I in the
+  // address, the position drawn for vertex I (its model node, from plotly's own data)
   function report() {
     const f = state.frame;
     document.getElementById("slider").value = f;
@@ -180,25 +183,37 @@
     document.getElementById("time").textContent = "t = " + t.toFixed(3) + " s (" + phase + ")";
     const status = document.getElementById("status");
     status.dataset.frame = String(f);
+    status.dataset.time = String(t);
+    status.dataset.errors = JSON.stringify(window.__jaxflexErrors);
+    const scene = document.getElementById("scene") || document.getElementById("plot");
+    const box = scene.getBoundingClientRect();
+    status.dataset.scene = JSON.stringify([box.left, box.top, box.right, box.bottom]);
+    if (state.probe !== null) {
+      status.dataset.probe = JSON.stringify({
+        vertex: state.probe, node: D.node[state.probe], drawn: window.jaxflexPage.drawn(state.probe),
+      });
+    }
     status.dataset.ready = "1";
   }
 
+  // playing: the frame whose time the clock (real time x speed) has reached, every 40 ms
   let last = null, clock = 0;
-  function tick(now) {
+  function tick() {
     if (!state.playing) return;
+    const now = performance.now();
     if (last !== null) clock += (now - last) / 1000 * Number(document.getElementById("speed").value);
     last = now;
     let f = state.frame;
     while (f < nF - 1 && D.t_s[f + 1] <= clock) f++;
     if (f !== state.frame) show(f);
     if (state.frame >= nF - 1) { pause(); return; }
-    requestAnimationFrame(tick);
+    setTimeout(tick, 40);
   }
   function play() {
     if (state.frame >= nF - 1) show(0);
     state.playing = true; last = null; clock = D.t_s[state.frame];
     document.getElementById("play").textContent = "pause";
-    requestAnimationFrame(tick);
+    tick();
   }
   function pause() {
     state.playing = false;
@@ -226,6 +241,8 @@
     const args = new URLSearchParams(location.hash.slice(1));
     if (args.has("scale")) { state.scale = Number(args.get("scale")); document.getElementById("scale").value = args.get("scale"); }
     if (args.has("colour") && D.fields[args.get("colour")]) { state.colour = args.get("colour"); document.getElementById("colour").value = state.colour; }
+    if (args.has("probe")) state.probe = Math.max(0, Math.min(nV - 1, Number(args.get("probe")) | 0));
+    if (args.has("speed")) document.getElementById("speed").value = args.get("speed");
     if (args.has("frame")) state.frame = Math.max(0, Math.min(nF - 1, Number(args.get("frame")) | 0));
     return args.has("play");
   }
