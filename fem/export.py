@@ -82,9 +82,22 @@ def export_transient(
             w.write_data(float(t), point_data={"displacement": u})
 
 
+def _outline_supports(ax, supports) -> None:
+    """The supports on a mode map: each cup's disc as a black outline, each other held
+    point as a black cross (the map's colours stay readable under them)."""
+    angle = np.linspace(0, 2 * np.pi, 65)
+    for support in supports:
+        disc = support.contact_disc
+        if disc is not None:
+            ax.plot(disc.x + disc.radius * np.cos(angle), disc.y + disc.radius * np.sin(angle),
+                    color="k", lw=0.9)  # fmt: skip
+        elif support.anchor_xy is not None:
+            ax.plot(*support.anchor_xy, "k+", ms=7, mew=1.2)
+
+
 def plot_part(result: ModalResult, path: str | os.PathLike, n_modes: int = 4) -> None:
     """PNG: the part's footprint with its supports, and contour plots of the normal (z)
-    displacement of the first ``n_modes`` modes."""
+    displacement of the first ``n_modes`` modes with the supports outlined on them."""
     import matplotlib.tri as mtri  # matplotlib: only when drawing
 
     from jaxflex.plots import plt, save_figure
@@ -113,6 +126,7 @@ def plot_part(result: ModalResult, path: str | os.PathLike, n_modes: int = 4) ->
         w = shapes[:, 2, i]
         level = np.abs(w).max() or 1.0
         ax.tricontourf(tri, w, levels=np.linspace(-level, level, 21), cmap="RdBu_r")
+        _outline_supports(ax, result.supports)
         ax.set_title(f"mode {i + 1}: {result.freq_hz[i]:.2f} Hz (u_z)", fontsize=9)
     for ax in axes.flat:
         ax.set_aspect("equal")

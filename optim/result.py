@@ -177,9 +177,12 @@ class OptimizationResult:
         return self.cycle_time_s if self.worst_case is None else self.worst_cycle_time_s
 
     def comparison(self) -> dict:
-        """The answer against the best baseline by the same objective: its name, its
-        objective and the saving (s, and relative to the baseline)."""
-        best = self.baselines.best()
+        """The answer against the best baseline that meets the cell's constraints and the
+        clearance (``baseline_allowed``), by the same objective: its name, its objective and
+        the saving (s, and relative to the baseline). Where no baseline does, against the
+        fastest one, ``baseline_allowed`` False and ``breaks`` saying what it breaks."""
+        allowed = self.baselines.best_allowed()
+        best = allowed if allowed is not None else self.baselines.best()
         saving = best.score() - self.objective_s
         return {
             "objective": "cycle_time_s" if self.worst_case is None else "worst_cycle_time_s",
@@ -187,6 +190,8 @@ class OptimizationResult:
             "best_baseline_s": best.score(),
             "saving_s": saving,
             "saving_rel": saving / best.score(),
+            "baseline_allowed": allowed is not None,
+            "breaks": best.broken(),
         }
 
     def ratios(self) -> dict:
@@ -306,7 +311,7 @@ class OptimizationResult:
         lines.append("  baselines:" + " " * 16 + "cycle" + ("      worst" if robust else ""))
         for b in base.entries:
             worst = f"    {b.worst_cycle_time_s:7.3f} s" if robust else ""
-            bad = "" if b.constraints_ok else " (breaks a cell constraint)"
+            bad = "" if b.allowed else f" (not allowed: breaks {b.broken()})"
             lines.append(f"    {b.name:24s}{b.cycle_time_s:7.3f} s{worst}{bad}")
         lines.append(f"  limits: {self.constraint_check.summary()}")
         lines += [f"  note: {note}" for note in self.solver_stats.get("notes", [])]
@@ -315,7 +320,8 @@ class OptimizationResult:
 
     def headline(self) -> str:
         """One line with the answer: which move, its objective, and how it compares with
-        the best baseline (the same objective)."""
+        the best baseline that meets the cell's constraints and the clearance (the same
+        objective), or that no baseline does."""
         cmp = self.comparison()
         what = "worst case" if self.worst_case is not None else "cycle"
         base = f"{cmp['best_baseline']} {cmp['best_baseline_s']:.3f} s"
@@ -325,18 +331,23 @@ class OptimizationResult:
                 "optimised move was shorter; see the note)"
             )
         head = f"best move: optimised, {what} {self.objective_s:.3f} s"
+        if not cmp["baseline_allowed"]:
+            return (
+                f"{head}; no baseline meets the cell's constraints (the fastest, {base}, "
+                f"breaks {cmp['breaks']})"
+            )
         if cmp["saving_s"] > 0:
             return (
                 f"{head}, {cmp['saving_s']:.3f} s ({100 * cmp['saving_rel']:.1f} %) shorter "
-                f"than the best baseline, {base}"
+                f"than the best feasible baseline, {base}"
             )
-        if cmp["saving_s"] < -1e-9:  # that baseline is no candidate (optim.stages.choose's notes)
+        if cmp["saving_s"] < -1e-9:  # not a candidate (optim.stages.choose's notes)
             return (
                 f"{head}; the best baseline, {base}, is shorter but breaks the clearance or "
                 "a cell constraint"
             )
         floor = " = the kinematic floor, no move is shorter" if self._at_floor() else ""
-        return f"{head}, as short as the best baseline, {base}{floor}"
+        return f"{head}, as short as the best feasible baseline, {base}{floor}"
 
     def _at_floor(self) -> bool:
         return (
@@ -398,13 +409,13 @@ class OptimizationResult:
 
         if not self._traces:
             label = self._label()
-            moves = [(label, self.acc, self.cycle_time_s, self.worst_cycle_time_s)]
+            moves = [(label, self.acc, self.cycle_time_s, self.worst_cycle_time_s, "")]
             for b in self._other_baselines():
-                moves.append((b.name, b.acc, b.cycle_time_s, b.worst_cycle_time_s))
+                moves.append((b.name, b.acc, b.cycle_time_s, b.worst_cycle_time_s, b.broken()))
             until = self._until()
-            for label, acc, cycle, worst in moves:
+            for label, acc, cycle, worst, breaks in moves:
                 t, d = self._curve(acc, self._turn_of(label), until)
-                self._traces.append(Trace(label, t, d, cycle, worst, acc))
+                self._traces.append(Trace(label, t, d, cycle, worst, acc, breaks))
         return self._traces
 
     def _other_baselines(self) -> list:
@@ -459,7 +470,8 @@ class OptimizationResult:
             for name, values in self.cell.curves(move, trace.t, turn).items():
                 curves.setdefault(name, {})[trace.label] = (trace.t, values)
         limits = {c["name"]: c["limit"] for c in self.constraints}
-        plot_constraints(path, curves, limits)
+        certified = {c["name"]: (c["time_s"], c["peak"]) for c in self.constraints}
+        plot_constraints(path, curves, limits, self.cycle_time_s, certified)
 
     def _plot_deviation(self, files: SetWriter) -> None:
         from optim.plots import Trace, plot_comparison, plot_worst_case  # when drawing
