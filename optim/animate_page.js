@@ -115,7 +115,7 @@
       showlegend: true,
       legend: { x: 1, xanchor: "right", y: 0.235, yanchor: "bottom", orientation: "h" },
       scene: {
-        domain: { x: [0, 1], y: [0.3, 1] }, aspectmode: "data",
+        domain: { x: [0, 1], y: [0.28, 1] }, aspectmode: "data",
         xaxis: { title: { text: "x [m]" } }, yaxis: { title: { text: "y [m]" } },
         zaxis: { title: { text: "z [m]" } }, camera: D.camera, uirevision: "keep",
       },

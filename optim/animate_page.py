@@ -149,7 +149,7 @@ def page_data(
         "path": dict(zip("xyz", frames.origin_m.T.tolist(), strict=True)),
         "via": dict(zip("xyz", scene.via_m.reshape(-1, 3).T.tolist(), strict=True)),
         "obstacles": None,
-        "camera": {"eye": {"x": -1.2, "y": -1.6, "z": 0.9}},
+        "camera": {"eye": {"x": -0.75, "y": -1.3, "z": 0.7}},
     }
     if scene.obstacles:
         vertices, triangles, _ = obstacle_surfaces(scene.obstacles, scene_bounds(frames))

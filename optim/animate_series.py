@@ -16,7 +16,8 @@ turned) and the point data
   thickness about the mid-surface point, as the certificate counts it; with a cell);
 * ``node``: the model point (FE node) the surface point belongs to;
 
-and the field data ``time_s``. Values are float64: the exact values of the frames.
+The frame's time is in ``part.pvd`` (its ``timestep``). Values are float64: the exact values
+of the frames.
 ``cell.vtu``: the obstacles' surfaces (cell data ``obstacle``: the index in the cell file);
 ``path.vtu``: the path of the part frame's origin (a polyline, point data ``time_s``) and the
 via points (vertices, ``time_s`` NaN).
@@ -94,7 +95,6 @@ def write_series(
             vertex_positions(frames, surface, offsets, f),
             cells,
             point_data=data,
-            field_data={"time_s": np.array([frames.t_s[f]])},
         )
         names.append(frame_name(f))
         files.add(names[-1], lambda p, mesh=mesh: _write_vtu(p, mesh))

@@ -179,15 +179,30 @@ BOX_TRIANGLES = np.array(
 )  # fmt: skip
 
 
+def _plane_patch(normal, offset_m: float, corners: np.ndarray, margin: float):
+    """(4 vertices, 2 triangles): the rectangle of the plane {x : normal . x = offset_m}
+    covering the projections of ``corners`` (8, 3) and ``margin`` (m) around them."""
+    n = np.asarray(normal, dtype=np.float64)
+    a = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(n, a)
+    u, w = corners @ a, corners @ b
+    lo_u, hi_u, lo_w, hi_w = u.min() - margin, u.max() + margin, w.min() - margin, w.max() + margin
+    square = np.array([[lo_u, lo_w], [hi_u, lo_w], [hi_u, hi_w], [lo_u, hi_w]])
+    return offset_m * n + square @ np.stack([a, b]), np.array([[0, 1, 2], [0, 2, 3]])
+
+
 def obstacle_surfaces(obstacles, bounds_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(vertices (V, 3) m, triangles (T, 3), obstacle index of each triangle (T,)) drawing
     ``obstacles`` (jaxflex.geometry Box, HalfSpace, TriangleMesh): a box's six faces, a
-    mesh's triangles, a half-space's boundary plane as the square about the scene's centre
-    that covers ``bounds_m`` (2, 3) (its lower and upper corner) and a fifth more."""
+    mesh's triangles, a half-space's boundary plane as the rectangle under the box
+    ``bounds_m`` (2, 3) (the lower and upper corner of what the part sweeps) and a tenth of
+    its diagonal around."""
     vertices, triangles, owner = [np.zeros((0, 3))], [np.zeros((0, 3), np.int64)], [[]]
     count = 0
-    centre = bounds_m.mean(axis=0)
-    half_size = 0.6 * max(float(np.linalg.norm(np.ptp(bounds_m, axis=0))), 1e-3)
+    corners = np.array([[bounds_m[i, 0], bounds_m[j, 1], bounds_m[k, 2]]
+                        for i in (0, 1) for j in (0, 1) for k in (0, 1)])  # fmt: skip
+    margin = 0.1 * max(float(np.linalg.norm(np.ptp(bounds_m, axis=0))), 1e-3)
     for j, obstacle in enumerate(obstacles):
         kind = type(obstacle).__name__
         if kind == "Box":
@@ -195,13 +210,7 @@ def obstacle_surfaces(obstacles, bounds_m: np.ndarray) -> tuple[np.ndarray, np.n
             local = (bits - 0.5) * obstacle.size_m
             v, t = obstacle.centre_m + local @ obstacle.rotation.T, BOX_TRIANGLES
         elif kind == "HalfSpace":
-            n = obstacle.normal
-            foot = centre - (centre @ n - obstacle.offset_m) * n
-            a = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-            a /= np.linalg.norm(a)
-            b = np.cross(n, a)
-            corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * half_size
-            v, t = foot + corners @ np.stack([a, b]), np.array([[0, 1, 2], [0, 2, 3]])
+            v, t = _plane_patch(obstacle.normal, obstacle.offset_m, corners, margin)
         else:
             v, t = np.asarray(obstacle.vertices), np.asarray(obstacle.triangles)
         vertices.append(v)

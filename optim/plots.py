@@ -329,13 +329,16 @@ def plot_robust(path: str | os.PathLike, series: dict[str, list[dict]], title: s
     save_figure(fig, path)
 
 
-def _constraint_range(name: str, limit: float, optimised: np.ndarray) -> tuple[float, float]:
+def _constraint_range(name: str, limit: float, moves: list[np.ndarray]) -> tuple[float, float]:
     """The y range of a constraint's panel, zoomed to its limit: a distance from 0 to three
-    times the limit (or the optimum's closest approach a fifth above it), a load from 0 to
-    a fifth above the larger of the limit and the optimum's peak."""
+    times the limit (or the optimum's closest approach, ``moves[0]``, a fifth above it); a
+    load from 0 to a tenth above the largest of the limit, the optimum's peak and the other
+    moves' peaks up to 1.5 times the limit (a baseline that breaks the limit shows by how
+    much, within reason)."""
     if "distance" in name:
-        return 0.0, max(3.0 * limit, 1.2 * float(np.min(optimised)))
-    return 0.0, 1.2 * max(limit, float(np.max(optimised)))
+        return 0.0, max(3.0 * limit, 1.2 * float(np.min(moves[0])))
+    others = max((float(np.max(v)) for v in moves[1:]), default=0.0)
+    return 0.0, 1.1 * max(limit, float(np.max(moves[0])), min(others, 1.5 * limit))
 
 
 def plot_constraints(
@@ -365,8 +368,7 @@ def plot_constraints(
                     lw=1.6 if style["zorder"] == 5 else 0.9, zorder=style["zorder"])  # fmt: skip
         limit = limits[name]
         ax.axhline(limit * scale, color="k", ls="--", lw=0.8, label="limit")
-        first = next(iter(moves.values()))[1]
-        low, high = _constraint_range(name, limit, first)
+        low, high = _constraint_range(name, limit, [values for _, values in moves.values()])
         ax.set_ylim(low * scale, high * scale)
         if cycle_s is not None:
             ax.axvline(cycle_s, color=OPTIMISED_COLOR, lw=1, ls=":", label="cycle time")
