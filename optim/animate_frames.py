@@ -233,7 +233,6 @@ def scene_of_result(result) -> Scene:
         "cycle_time_s": result.cycle_time_s,
         "transfer_time_s": result.transfer_time_s,
         "source": result.source,
-        "comparison": result.comparison(),
     }
     return _scene(model, result.move, report, cell, gravity, path, pivot)
 

@@ -13,38 +13,27 @@ from __future__ import annotations
 import json
 import xml.etree.ElementTree as ET
 from html.parser import HTMLParser
+from pathlib import Path
 
 import meshio
 import numpy as np
 import pytest
+from cells import press_cell
+from conftest import run_jaxflex
 from independent import path_positions, static_nodes
 
 import fem
 import jaxflex
 import optim
 from jaxflex.errors import ModelError
-from jaxflex.geometry import Box, Cell, HalfSpace, Via
 from optim.animate import animate
 from optim.animate_frames import frame_times, scene_of_result
 from optim.animate_surface import mid_surface, reduced, skins
+from optim.cli import input_records
 
 DT = 0.01
 LIMITS = optim.Limits(2.0, 10.0, 100.0)
 THRESHOLD = 5e-4
-
-
-def press_cell() -> Cell:
-    """tests/test_optim_cell.py's press opening (a straight move hits the lower die)."""
-    return Cell(
-        obstacles=(
-            Box([1.9, 0.0, 0.15], [1.4, 1.2, 0.3], name="lower die"),
-            Box([1.9, 0.0, 0.8], [1.4, 1.2, 0.5], name="upper die"),
-            HalfSpace([0, 0, 1], 0.0, "floor"),
-        ),
-        start_m=[0.0, -0.2, 0.1],
-        end_m=[1.6, -0.2, 0.4],
-        via=(Via([0.45, -0.2, 0.425], "blend", 0.2),),
-    )
 
 
 @pytest.fixture(scope="module")
@@ -54,9 +43,34 @@ def fe_plate():
     return fem.modal_analysis(part, cups, n_modes=8, zeta=0.02, progress=False)
 
 
+CELL_TOML = """
+[part]
+start_m = [0.0, -0.2, 0.1]
+[path]
+end_m = [1.6, -0.2, 0.4]
+via = [{ position_m = [0.45, -0.2, 0.425], mode = "blend", tolerance_m = 0.2 }]
+[[obstacles]]
+type = "box"
+name = "lower die"
+centre_m = [1.9, 0.0, 0.15]
+size_m = [1.4, 1.2, 0.3]
+[[obstacles]]
+type = "box"
+name = "upper die"
+centre_m = [1.9, 0.0, 0.8]
+size_m = [1.4, 1.2, 0.5]
+[[obstacles]]
+type = "half_space"
+name = "floor"
+normal = [0.0, 0.0, 1.0]
+offset_m = 0.0
+"""  # tests/cells.py's press_cell as a cell file
+
+
 @pytest.fixture(scope="module")
 def press(fe_plate, tmp_path_factory):
-    """(result, animation, its directory) of the press scene."""
+    """(result, animation, its directory) of the press scene; the result's report records
+    its model and cell files (in the directory's parent) as `jaxflex optimize` does."""
     model = fe_plate.to_modal_model()
     result = optim.optimize(
         model,
@@ -69,6 +83,10 @@ def press(fe_plate, tmp_path_factory):
         max_stress_pa="yield",
         progress=False,
     )
+    inputs = tmp_path_factory.mktemp("inputs")
+    model.save(inputs / "plate.npz")
+    (inputs / "press.toml").write_text(CELL_TOML, encoding="utf-8")
+    result.inputs = input_records(str(inputs / "plate.npz"), str(inputs / "press.toml"))
     directory = tmp_path_factory.mktemp("press")
     result.save(directory, plots=False)
     return result, animate(result, directory), directory
@@ -91,11 +109,12 @@ def outside_references(text: str) -> list[str]:
     return parser.found
 
 
-def read_frames(animation) -> list[tuple[float, meshio.Mesh]]:
-    """(time, mesh) of every frame part.pvd lists, read with meshio."""
-    root = ET.parse(animation.series).getroot()
+def read_frames(series: Path) -> list[tuple[float, meshio.Mesh]]:
+    """(time, mesh) of every frame the ParaView collection ``series`` lists, read with
+    meshio."""
+    root = ET.parse(series).getroot()
     return [
-        (float(d.get("timestep")), meshio.read(animation.directory / d.get("file")))
+        (float(d.get("timestep")), meshio.read(series.parent / d.get("file")))
         for d in root.iter("DataSet")
     ]
 
@@ -117,7 +136,7 @@ def test_every_frame_is_the_engines_response(press, fe_plate):
     displacement, to 1e-12 m (float64 rounding of positions of metres: 2e-16 relative);
     the sag agrees with a direct FE solve to 1e-9 m (the model's static shapes)."""
     result, animation, _ = press
-    frames = read_frames(animation)
+    frames = read_frames(animation.series)
     times = np.array([t for t, _ in frames])
     setup = result.cell
     model = setup.model
@@ -148,7 +167,7 @@ def test_the_closest_frame_is_the_certified_witness(press):
     then (start_m where it started)."""
     result, animation, _ = press
     (distance,) = [c for c in result.constraints if "distance" in c["name"]]
-    frames = read_frames(animation)
+    frames = read_frames(animation.series)
     time, mesh = min(frames, key=lambda f: abs(f[0] - distance["time_s"]))
     assert time == distance["time_s"]
     field = mesh.point_data["distance_m"]
@@ -165,7 +184,7 @@ def test_the_stress_field_holds_the_certified_peak(press):
     tolerance (1e-6 relative), and no frame draws more."""
     result, animation, _ = press
     (stress,) = [c for c in result.constraints if "stress" in c["name"]]
-    frames = read_frames(animation)
+    frames = read_frames(animation.series)
     largest = max(float(mesh.point_data["von_mises_pa"].max()) for _, mesh in frames)
     assert largest <= stress["peak"] * (1 + 1e-6)
     time, mesh = min(frames, key=lambda f: abs(f[0] - stress["time_s"]))
@@ -194,6 +213,32 @@ def test_the_files_open_and_the_page_is_self_contained(press):
     assert set(manifest["files"]) >= {"part.pvd", "cell.vtu", "path.vtu", "animation.html"}
     result.save(directory, plots=False)  # a new result is not the animation's: removed
     assert not animation.directory.exists()
+
+
+def test_the_command_animates_a_result_directory(press, tmp_path):
+    """`jaxflex animate RESULT_DIR` reads the model and cell files the report records and
+    writes the same frames as optim.animate in memory; a model file changed since is
+    refused naming --model (exit 2)."""
+    result, animation, directory = press
+    copy = tmp_path / "press"
+    copy.mkdir()
+    for name in ("trajectory.csv", "report.json", "manifest.json"):
+        (copy / name).write_bytes((directory / name).read_bytes())
+    done = run_jaxflex("animate", str(copy), "-q")
+    assert done.returncode == 0, done.stderr
+    assert "animation:" in done.stdout
+    again = read_frames(copy / "animation" / "part.pvd")
+    first = read_frames(animation.series)
+    assert [t for t, _ in again] == [t for t, _ in first]
+    for (_, a), (_, b) in zip(again, first, strict=True):
+        assert np.array_equal(a.points, b.points)
+        assert np.array_equal(a.point_data["displacement"], b.point_data["displacement"])
+    model_file = Path(result.inputs["model"]["path"])
+    changed = tmp_path / "changed.npz"
+    jaxflex.load_model(model_file).with_damping(0.03).save(changed)
+    refused = run_jaxflex("animate", str(copy), "--model", str(changed))
+    assert refused.returncode == 2
+    assert "--model" in refused.stderr and "SHA-256" in refused.stderr
 
 
 def test_the_model_file_carries_the_mesh(fe_plate, tmp_path):
@@ -256,7 +301,7 @@ def test_a_turning_move_ends_at_rest_in_its_final_pose(turning_plate, tmp_path):
         progress=False,
     )  # fmt: skip
     animation = animate(result, tmp_path)
-    frames = read_frames(animation)
+    frames = read_frames(animation.series)
     gravity = np.array([0.0, 0.0, -9.81])
     first = mid_positions(frames[0][1])
     sag = turning_plate.static_displacement(-gravity)

@@ -24,10 +24,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cells import press_cell
 
 import fem
 import optim
-from jaxflex.geometry import Box, Cell, HalfSpace, Via
 from optim.animate import animate
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -56,16 +56,7 @@ def page(tmp_path_factory):
     part = fem.rectangular_plate(0.6, 0.4, 1e-3, "steel", 0.025)
     cups = [fem.SuctionCup(x, y, 0.03) for x in (0.15, 0.45) for y in (0.1, 0.3)]
     model = fem.modal_analysis(part, cups, n_modes=4, zeta=0.02, progress=False).to_modal_model()
-    cell = Cell(
-        obstacles=(
-            Box([1.9, 0.0, 0.15], [1.4, 1.2, 0.3], name="lower die"),
-            Box([1.9, 0.0, 0.8], [1.4, 1.2, 0.5], name="upper die"),
-            HalfSpace([0, 0, 1], 0.0, "floor"),
-        ),
-        start_m=[0.0, -0.2, 0.1],
-        end_m=[1.6, -0.2, 0.4],
-        via=(Via([0.45, -0.2, 0.425], "blend", 0.2),),
-    )
+    cell = press_cell()
     limits = optim.Limits(2.0, 10.0, 100.0)
     result = optim.optimize(
         model, None, limits, 0.01, 5e-4, cell=cell, min_distance_m=0.01, progress=False
