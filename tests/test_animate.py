@@ -26,6 +26,7 @@ import fem
 import jaxflex
 import optim
 from jaxflex.errors import ModelError
+from jaxflex.response import rotation_residual, turning_inputs
 from optim.animate import animate
 from optim.animate_frames import frame_times, scene_of_result
 from optim.animate_surface import mid_surface, reduced, skins
@@ -291,10 +292,12 @@ def test_models_without_a_mesh_are_drawn_from_their_points(fe_plate):
 
 
 def test_a_turning_move_ends_at_rest_in_its_final_pose(turning_plate, tmp_path):
-    """A tilt (30 deg about x, lifted 0.3 m): the first frame is the part hanging at rest
-    (points plus the model's sag), and the last one, after the cycle time, the part turned
-    rigidly about the pivot with the sag of its final pose, within the threshold (the
-    deviation stays below it after the cycle time): Newton's statics, not the engine."""
+    """A tilt (30 deg about x, lifted 0.3 m): every frame (all on the sample grid) draws
+    the turning engine's state as the FMU tests write the positions out (1e-12 m); the
+    first frame is the part hanging at rest (points plus the model's sag), and the last
+    one, after the cycle time, the part turned rigidly about the pivot with the sag of its
+    final pose, within the threshold (the deviation stays below it after the cycle time):
+    statics, not the engine."""
     pivot = turning_plate.points.mean(axis=0)
     result = optim.optimize(
         turning_plate, [0, 0, 0.3], LIMITS, DT, THRESHOLD, rotate=("x", 30), pivot_m=pivot,
@@ -303,6 +306,26 @@ def test_a_turning_move_ends_at_rest_in_its_final_pose(turning_plate, tmp_path):
     animation = animate(result, tmp_path)
     frames = read_frames(animation.series)
     gravity = np.array([0.0, 0.0, -9.81])
+    # every frame: c + s + R (x - c + u), u the whole elastic displacement of the turning
+    # engine's state (modes, the static residuals of the translation and the rotational
+    # loads; jaxflex.turning), written here as tests/test_fmu_turning.py does
+    path = result.turn.path(result.angular_acc, DT)
+    times = np.array([t for t, _ in frames])
+    extend = times[-1] - result.move.duration_s
+    inputs = turning_inputs(turning_plate, path, result.acc, pivot_m=pivot, extend_s=extend)
+    u = (
+        np.einsum("kcm,tm->tkc", np.asarray(turning_plate.shapes), inputs.q)
+        + np.einsum("kcm,tm->tkc", np.asarray(turning_plate.static_residual), inputs.base)
+        + np.einsum("kcm,tm->tkc", rotation_residual(turning_plate), inputs.coefficients)
+    )
+    k = np.rint(times / DT).astype(int)
+    n = result.n_steps
+    rotation = np.asarray(path.rotation)[np.minimum(k, n)]
+    s = path_positions(result.acc, DT, times)
+    local = turning_plate.points[None] - pivot + u[k]
+    expected = pivot + s[:, None] + np.einsum("tab,tkb->tka", rotation, local)
+    drawn = np.stack([mid_positions(mesh) for _, mesh in frames])
+    assert np.abs(drawn - expected).max() <= 1e-12
     first = mid_positions(frames[0][1])
     sag = turning_plate.static_displacement(-gravity)
     assert np.abs(first - (turning_plate.points + sag)).max() <= 1e-12
