@@ -341,6 +341,25 @@ def _constraint_range(name: str, limit: float, moves: list[np.ndarray]) -> tuple
     return 0.0, 1.1 * max(limit, float(np.max(moves[0])), min(others, 1.5 * limit))
 
 
+def _closest_inset(ax, moves: dict, limit: float, when: float, value: float, scale: float):
+    """An inset of the distance panel ``ax``: 60 ms either side of the certified closest
+    approach (``when`` s, ``value`` and ``limit`` in the panel's unit), where the part passes
+    the obstacle: the margin over the limit reads there."""
+    inset = ax.inset_axes([0.56, 0.34, 0.3, 0.5])
+    styles = _styles(len(moves))
+    for (t, values), style in zip(moves.values(), styles, strict=True):
+        near = np.abs(np.asarray(t) - when) <= 0.06
+        inset.plot(np.asarray(t)[near], np.asarray(values)[near] * scale, color=style["color"],
+                   ls=style["ls"], lw=1.2)  # fmt: skip
+    inset.axhline(limit, color="k", ls="--", lw=0.8)
+    inset.plot([when], [value], "k+", ms=9, mew=1.5)
+    inset.set_xlim(when - 0.06, when + 0.06)
+    inset.set_ylim(0.9 * limit, 2.0 * limit)
+    inset.set_title(f"{when:.3f} s +- 60 ms", fontsize=7)
+    inset.tick_params(labelsize=6)
+    inset.grid(True, alpha=0.3)
+
+
 def plot_constraints(
     path: str | os.PathLike,
     curves: dict[str, dict[str, tuple]],
@@ -376,6 +395,8 @@ def plot_constraints(
             when, value = certified[name]
             ax.plot([when], [value * scale], "k+", ms=10, mew=1.5, zorder=7,
                     label=f"certified: {value * scale:.4g} {unit} at {when:.3f} s")  # fmt: skip
+            if "distance" in name:
+                _closest_inset(ax, moves, limit * scale, when, value * scale, scale)
         ax.set_ylabel(f"{name}{f' [{unit}]' if unit else ''}", fontsize=9)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
