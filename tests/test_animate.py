@@ -19,7 +19,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from cells import press_cell
+from cells import PRESS_TOML, press_cell
 from conftest import run_jaxflex
 from independent import path_positions, static_nodes
 
@@ -45,30 +45,6 @@ def fe_plate():
     return fem.modal_analysis(part, cups, n_modes=8, zeta=0.02, progress=False)
 
 
-CELL_TOML = """
-[part]
-start_m = [0.0, -0.2, 0.1]
-[path]
-end_m = [1.6, -0.2, 0.4]
-via = [{ position_m = [0.45, -0.2, 0.425], mode = "blend", tolerance_m = 0.2 }]
-[[obstacles]]
-type = "box"
-name = "lower die"
-centre_m = [1.9, 0.0, 0.15]
-size_m = [1.4, 1.2, 0.3]
-[[obstacles]]
-type = "box"
-name = "upper die"
-centre_m = [1.9, 0.0, 0.8]
-size_m = [1.4, 1.2, 0.5]
-[[obstacles]]
-type = "half_space"
-name = "floor"
-normal = [0.0, 0.0, 1.0]
-offset_m = 0.0
-"""  # tests/cells.py's press_cell as a cell file
-
-
 @pytest.fixture(scope="module")
 def press(fe_plate, tmp_path_factory):
     """(result, animation, its directory) of the press scene; the result's report records
@@ -87,7 +63,7 @@ def press(fe_plate, tmp_path_factory):
     )
     inputs = tmp_path_factory.mktemp("inputs")
     model.save(inputs / "plate.npz")
-    (inputs / "press.toml").write_text(CELL_TOML, encoding="utf-8")
+    (inputs / "press.toml").write_text(PRESS_TOML, encoding="utf-8")
     result.inputs = input_records(str(inputs / "plate.npz"), str(inputs / "press.toml"))
     directory = tmp_path_factory.mktemp("press")
     result.save(directory, plots=False)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from cells import press_cell
+from cells import PRESS_TOML, press_cell
 from conftest import run_jaxflex
 from independent import (
     box_distance,
@@ -247,24 +247,7 @@ def test_cell_options_are_checked(model):
 
 def test_optimize_command_with_a_cell(tmp_path, model):
     model.save(tmp_path / "plate.npz")
-    cell = """
-[part]
-start_m = [0.0, -0.2, 0.1]
-[path]
-end_m = [1.6, -0.2, 0.4]
-via = [{position_m = [0.45, -0.2, 0.425], mode = "blend", tolerance_m = 0.2}]
-[[obstacles]]
-type = "box"
-name = "lower die"
-centre_m = [1.9, 0.0, 0.15]
-size_m = [1.4, 1.2, 0.3]
-[[obstacles]]
-type = "box"
-name = "upper die"
-centre_m = [1.9, 0.0, 0.8]
-size_m = [1.4, 1.2, 0.5]
-"""
-    (tmp_path / "press.toml").write_text(cell)
+    (tmp_path / "press.toml").write_text(PRESS_TOML)
     done = run_jaxflex(
         "optimize", str(tmp_path / "plate.npz"), "--cell", str(tmp_path / "press.toml"),
         "--min-distance", "0.01", "--cup-safety", "1.5", "--max-stress", "--threshold", "5e-4",
