@@ -28,7 +28,7 @@ from fem.rotation_integrals import rotational_inertia
 from fem.shell import assemble_shell
 from fem.solid import assemble_solid
 from fem.supports import as_support_list, check_layout, contact_discs
-from fem.system import FESystem
+from fem.system import FESystem, surface_triangles
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 from jaxflex.model import ModalModel
@@ -185,7 +185,8 @@ class ModalResult:
         solve, fem.outputs.static_response) and, with ``outputs`` (default), the cup
         reactions and the surface stresses; a part with rigid-body modes has neither. Plate,
         thin-solid and shell models carry the inertia data of turning moves
-        (fem.rotation_integrals)."""
+        (fem.rotation_integrals); a model at every node carries the mesh's triangles
+        (``surface``, for pictures and animations)."""
         if self.n_modes == 0:
             raise InputError("to_modal_model: the analysis found no elastic mode")
         idx = self.select_nodes(points, key_points, key_tolerance_m)
@@ -206,6 +207,7 @@ class ModalResult:
             self, idx if held else None, outputs=cups is not None or stress is not None
         )
         self.__dict__.pop("_stiffness_factor", None)  # K_ff's LU is not kept with the result
+        every_node = np.array_equal(idx, np.arange(len(self.system.nodes)))
         return ModalModel(
             freq_hz=self.freq_hz,
             zeta=zeta_arr,
@@ -218,7 +220,12 @@ class ModalResult:
             stress=stress,
             static_shapes=static,
             rotation=rotation,
+            surface=self.surface() if every_node else None,
         )
+
+    def surface(self) -> np.ndarray:
+        """(T, 3) the triangles of the mesh's nodes (fem.system.surface_triangles)."""
+        return surface_triangles(self.system.cells, self.system.cell_type)
 
     def meta(self, damping=None, n_points: int | None = None) -> dict[str, Any]:
         """JSON-serialisable description stored in the ModalModel."""

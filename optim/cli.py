@@ -218,6 +218,12 @@ def _add_budget(parser: argparse.ArgumentParser) -> None:
         help="write the trajectory and the report only, no pictures (they are drawn after "
         "the answer is printed and take about a second)",
     )
+    parser.add_argument(
+        "--animate",
+        action="store_true",
+        help="also write the part moving and bending, frame by frame: a ParaView series and a "
+        "browser page in OUTPUT/animation (as `jaxflex animate OUTPUT`)",
+    )
 
 
 def rotate_argument(values: list[str] | None):
@@ -288,6 +294,22 @@ def run(args: argparse.Namespace) -> int:
     )
     result = run_request(request, start)
     print(result.summary(), flush=True)  # the answer first, then the files and pictures
+    result.inputs = input_records(args.model, args.cell)
     paths = result.save(args.output, plots=not args.no_plots)
     print("wrote " + ", ".join(str(p) for p in paths))
+    if args.animate:
+        from optim.animate import animate
+
+        print(animate(result, args.output).summary())
     return 0
+
+
+def input_records(model: str, cell: str | None) -> dict:
+    """report.json's ``inputs``: the model and cell files with their hashes (what `jaxflex
+    animate RESULT_DIR` reads again)."""
+    from optim.animate_frames import file_record
+
+    records = {"model": file_record(model)}
+    if cell is not None:
+        records["cell"] = file_record(cell)
+    return records

@@ -23,6 +23,7 @@ COMMANDS = {
     "demo": "fmu.demo",
     "model": "fem.cli",
     "optimize": "optim.cli",
+    "animate": "optim.animate_cli",
     "sweep": "optim.sweep.cli",
     "export": "fmu.cli",
     "bench": "fmu.bench.cli",
@@ -69,6 +70,7 @@ NEEDED = {
     "fmu.demo": {"skfem", "ruckig", "fmpy"},
     "fem.cli": {"skfem"},
     "optim.cli": {"ruckig"},
+    "optim.animate_cli": {"ruckig"},
     "fmu.cli": {"skfem", "ruckig", "fmpy"},
 }
 OPTIONAL = ("matplotlib", "casadi", "meshio", "gmsh", "skfem", "ruckig", "fmpy", "pyuff", "dask")
