@@ -136,7 +136,7 @@ def _from_solver_modes(
                 f"units: {source} states {unit.description}; units={units!r} says otherwise; "
                 "omit units to use the file's"
             )
-    rigid = rigid_mask(modes.freq_hz, rigid_tol_hz, allow, source)
+    rigid = rigid_mask(modes.freq_hz, rigid_tol_hz, allow, source, modes.nodes, modes.shapes)
     keep = ~rigid
     if max_freq_hz is not None:
         keep &= modes.freq_hz <= max_freq_hz
