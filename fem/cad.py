@@ -49,7 +49,8 @@ CURVATURE_ELEMENTS = 12
 FINEST_PER_SPAN = 1e-5  # a mesh size below this share of the part's diagonal: 1e10 elements
 _TRIANGLE, _QUAD = 2, 3  # gmsh element types
 IGES_SUFFIXES = (".iges", ".igs")
-IGES_EXTENT_RTOL = 0.05  # read extent vs the stated largest coordinate: a hint above this
+IGES_EXTENT_RTOL = 0.05  # read extent above the stated largest coordinate: a hint beyond this
+IGES_FAR_BELOW = 20.0  # read extent this far below it (gmsh states 1000 for 600): a hint
 THROW_ON_ERROR = 3  # gmsh's General.AbortOnError: throw an exception on every error
 _LOCK = threading.Lock()  # gmsh keeps one global state: one session at a time per process
 
@@ -131,9 +132,10 @@ def _import(gmsh, path: str | os.PathLike, scale: float) -> None:
 
 def iges_extent_warning(path, lo: np.ndarray, hi: np.ndarray, scale: float = 1.0) -> str:
     """A warning (or "") when the coordinates read (bounding box ``lo``, ``hi`` in m, after
-    ``scale``) differ by more than ``IGES_EXTENT_RTOL`` from the largest coordinate an IGES
-    file states (global parameter 20; 0: not stated): a hint, never a refusal, since writers
-    fill that field loosely (Rhino in inches in a millimetre file)."""
+    ``scale``) exceed the largest coordinate an IGES file states (global parameter 20; 0:
+    not stated) by more than ``IGES_EXTENT_RTOL``, or stay ``IGES_FAR_BELOW`` times below
+    it: a hint, never a refusal, since writers fill that field loosely (Rhino in inches in
+    a millimetre file, gmsh a round upper bound)."""
     if Path(path).suffix.lower() not in IGES_SUFFIXES:
         return ""
     iges: IgesUnits = iges_units(path)
@@ -143,7 +145,7 @@ def iges_extent_warning(path, lo: np.ndarray, hi: np.ndarray, scale: float = 1.0
     stated_m = (iges.max_coordinate + iges.resolution) * iges.metres_per_unit * scale
     stated_m /= iges.model_scale
     ratio = read_m / stated_m
-    if abs(ratio - 1) <= IGES_EXTENT_RTOL:
+    if 1 / IGES_FAR_BELOW <= ratio <= 1 + IGES_EXTENT_RTOL:  # an upper bound, often loose
         return ""
     inches = " (the inch-to-millimetre ratio: the field was written in inches)"
     return (
