@@ -168,8 +168,7 @@ def test_real_op2_files_of_pynastrans_model_library():
     np.testing.assert_allclose(beam.freq_hz[:6], f06, rtol=2e-6)
     for name, match in [
         ("elements/modes_complex_elements.op2", "CLAMA \\(complex eigenvalues\\)"),
-        ("femap_exhaust/modal_example.op2", "CD != 0"),
-        ("freq_sine/good_sine.op2", "no real eigenvectors"),
+        ("freq_sine/good_sine.op2", "no real normal modes .* frequency response"),
     ]:
         with pytest.raises(InputError, match=match):
             from_modes(models / name, units="SI")
