@@ -98,8 +98,17 @@ def op2_geometry(contents: Op2Contents) -> Op2Geometry:
     grids: dict[int, tuple[int, np.ndarray]] = {}
     for i, f in records.get(GRID_KEY, []):
         for row_i, row_f in zip(i, f, strict=True):
-            grids[int(row_i[0])] = (int(row_i[1]), row_f[2:5].astype(float))
-            cd.setdefault(int(row_i[0]), int(row_i[5]))
+            gid, entry = int(row_i[0]), (int(row_i[1]), row_f[2:5].astype(float))
+            if gid in grids and not (
+                grids[gid][0] == entry[0] and np.array_equal(grids[gid][1], entry[1])
+            ):
+                raise InputError(
+                    f"op2: {contents.path!r}: GRID {gid} is defined twice (GEOM1), at "
+                    f"{grids[gid][1].tolist()} and {entry[1].tolist()}: which one its "
+                    "eigenvectors belong to is unknown"
+                )
+            grids[gid] = entry
+            cd.setdefault(gid, int(row_i[5]))
     geometry.cd = cd
     pending = _pending_systems(records)
     if positions:

@@ -257,3 +257,20 @@ def test_the_plate_s_response_share_is_of_order_one_and_a_slip_is_warned(plate):
             plate, nodes=doubled, shapes=np.concatenate([shapes, shapes]),
             node_ids=np.arange(1, 2 * len(ids) + 1),
         ).to_modal_model()  # fmt: skip
+
+
+def test_op2_files_no_solver_writes_are_refused(tmp_path, plate):
+    # the three: shapes all zero with participation factors, a GRID given twice (the
+    # second's coordinates paired with the first's shapes), all grids at one point
+    ids, nodes, shapes, freq, gamma = _truth(plate)
+    write_op2(tmp_path / "zero.op2", freq, ids, nodes, 0 * shapes, gamma=gamma)
+    with pytest.raises(InputError, match=r"mode 1 .* zero at every node with participation"):
+        from_modes(tmp_path / "zero.op2", units="SI").to_modal_model()
+    twice = ids.copy()
+    twice[7] = twice[3]
+    write_op2(tmp_path / "twice.op2", freq, twice, nodes, shapes, gamma=gamma)
+    with pytest.raises(InputError, match=f"GRID {twice[3]} is defined twice"):
+        from_modes(tmp_path / "twice.op2", units="SI")
+    write_op2(tmp_path / "point.op2", freq, ids, 0 * nodes, shapes, gamma=gamma)
+    with pytest.raises(InputError, match="nodes lie at one point"):
+        from_modes(tmp_path / "point.op2", units="SI").to_modal_model()
