@@ -42,7 +42,7 @@ from fem.meshing import GROWTH
 from fem.sanity import PartWarning
 from jaxflex.errors import InputError
 from jaxflex.isolated import isolated
-from jaxflex.progress import step
+from jaxflex.runtime import step
 from jaxflex.stdout import silenced_stdout
 
 CURVATURE_ELEMENTS = 12
