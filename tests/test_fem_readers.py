@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 from solver_files import uff_2414_modes, write_op2, write_punch
 
-import fem
 from fem.ansys import RstModes, from_rst_modes
 from fem.from_modes import from_modes
 from fem.imported import ImportedModes
@@ -27,10 +26,8 @@ UFF_DIGITS = 2e-5  # pyuff writes dataset 2414 values as E13.5: 6 significant di
 
 
 @pytest.fixture(scope="module")
-def plate():
-    part = fem.rectangular_plate(0.6, 0.4, 1e-3, mesh_size=0.05)
-    cups = [fem.SuctionCup(x, y, 0.03) for x in (0.12, 0.48) for y in (0.1, 0.3)]
-    return fem.modal_analysis(part, cups, 6, progress=False)
+def plate(four_cup_plate):
+    return four_cup_plate
 
 
 def _truth(plate):
