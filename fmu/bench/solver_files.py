@@ -38,7 +38,8 @@ def f06_frequencies(path: Path) -> np.ndarray | None:
     for i, line in enumerate(lines):
         if "R E A L   E I G E N V A L U E S" in line:
             out = []
-            for row in lines[i + 3 :]:
+            heading = 3 + ("AUGMENTATION" in lines[i + 1])  # MSC's residual-vector note
+            for row in lines[i + heading :]:
                 match = _F06_ROW.match(row)
                 if not match:
                     break
