@@ -205,6 +205,8 @@ def read_uff(path: str | os.PathLike) -> tuple[SolverModes | None, UffResponses 
     sets = _sets(path)
     try:
         return _read_sets(sets, path)
+    except InputError:
+        raise
     except (ValueError, OverflowError, TypeError, KeyError, IndexError, ZeroDivisionError) as exc:
         raise InputError(
             f"uff: {path!r}: a dataset holds fields the Universal File format does not allow "
