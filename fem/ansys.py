@@ -607,6 +607,11 @@ def from_rst_modes(
     kept = np.flatnonzero(keep)
     if isinstance(n_modes, int | np.integer):
         kept = kept[: int(n_modes)]
+    if kept.size == 0:
+        raise InputError(
+            f"from_ansys: {str(path)!r} leaves no elastic mode to keep (its {rst.freq_hz.size} "
+            f"mode(s): {_listed(rst.freq_hz)} Hz)"
+        )
     freq = rst.freq_hz[kept]
     values = rst.values[:, :, kept]
     columns = [list(rst.labels).index(name) for name in TRANSLATIONS]
