@@ -274,3 +274,10 @@ def test_op2_files_no_solver_writes_are_refused(tmp_path, plate):
     write_op2(tmp_path / "point.op2", freq, ids, 0 * nodes, shapes, gamma=gamma)
     with pytest.raises(InputError, match="nodes lie at one point"):
         from_modes(tmp_path / "point.op2", units="SI").to_modal_model()
+
+
+def test_an_rst_of_rigid_modes_only_says_that_it_leaves_no_elastic_mode():
+    rst = _rst()
+    rst.freq_hz = np.array([0.0, 0.0])  # pymapdl-reader's comp_hex_beam.rst: one mode at 0 Hz
+    with pytest.raises(InputError, match="leaves no elastic mode to keep"):
+        from_rst_modes(rst, gamma=np.ones((1, 3)), allow_rigid_modes=True)
