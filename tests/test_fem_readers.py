@@ -281,3 +281,33 @@ def test_an_rst_of_rigid_modes_only_says_that_it_leaves_no_elastic_mode():
     rst.freq_hz = np.array([0.0, 0.0])  # pymapdl-reader's comp_hex_beam.rst: one mode at 0 Hz
     with pytest.raises(InputError, match="leaves no elastic mode to keep"):
         from_rst_modes(rst, gamma=np.ones((1, 3)), allow_rigid_modes=True)
+
+
+def _uff55(path) -> str:
+    import pyuff
+
+    mode = pyuff.prepare_55(
+        id1="mode", model_type=1, analysis_type=2, data_ch=2, spec_data_type=8, data_type=2,
+        n_data_per_node=3, load_case=1, mode_n=1, freq=12.5, modal_m=1.0, modal_damp_vis=0.0,
+        modal_damp_his=0.0, node_nums=np.array([1, 2, 3]), r1=np.array([0.0, 1, 0]),
+        r2=np.zeros(3), r3=np.array([1.0, 0, 1]),
+    )  # fmt: skip
+    pyuff.UFF(str(path)).write_sets([mode], mode="overwrite")
+    return path.read_text()
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "match"),
+    [
+        ("  1.25000e+01", " 1.00000E+999", r"freq_hz holds 1 value\(s\) that are not finite"),
+        ("  1.25000e+01  1.00000e+00", "  1.25000e+01 1.00000E+999", "generalized_mass holds"),
+    ],
+)
+def test_a_uff_with_an_overflowing_number_is_one_line_naming_the_file(tmp_path, old, new, match):
+    text = _uff55(tmp_path / "ok.uff")
+    assert text.count(old) == 1, text
+    (tmp_path / "big.uff").write_text(text.replace(old, new))
+    with pytest.raises(InputError, match=match):
+        result = from_modes(tmp_path / "big.uff", units="SI", gamma=[[0.0, 0.0, 1.0]])
+        result.nodes = np.eye(3)
+        result.to_modal_model()
