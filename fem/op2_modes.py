@@ -95,6 +95,11 @@ def _eigenvectors(contents: Op2Contents, path: str):
             for k in range(0, len(table.records) - 1, 2):
                 head_bytes, data = table.record(k), table.record(k + 1)
                 ints = contents.ints(head_bytes)
+                if len(ints) < 10:
+                    raise InputError(
+                        f"op2: {path!r}: {name} holds a record 3 of {len(ints)} words where "
+                        "the format has 146 (the file is damaged)"
+                    )
                 analysis, table_code = int(ints[0]) // 10, int(ints[1]) % 1000
                 if analysis != 2 or table_code != 7:
                     what = ANALYSIS_CODES.get(analysis, f"analysis code {analysis}")
@@ -133,11 +138,19 @@ def _mpfacs(contents: Op2Contents, mode_count: int) -> np.ndarray | None:
     dtype = {1: "f4", 2: "f8"}.get(kind)
     if dtype is None or len(table.records) != mode_count:
         return None
+    damaged = InputError(
+        f"op2: {contents.path!r}: its MPFACS matrix (participation factors, 6 rows T1 ... R3) "
+        f"is damaged: {n_rows} rows or columns beyond them"
+    )
+    if not 3 <= n_rows <= 6:
+        raise damaged
     out = np.zeros((mode_count, n_rows))
     for column, strings in enumerate(table.records):
         for string in strings:
             first = int(contents.ints(string[: contents.word])[0])
             values = np.frombuffer(string[contents.word :], dtype=f"{contents.endian}{dtype}")
+            if not 1 <= first <= n_rows - values.size + 1:
+                raise damaged
             out[column, first - 1 : first - 1 + values.size] = values
     return out
 
