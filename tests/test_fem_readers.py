@@ -10,6 +10,8 @@ model written in the basic system, or the FE solve itself.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from solver_files import uff_2414_modes, write_op2, write_punch
@@ -311,3 +313,43 @@ def test_a_uff_with_an_overflowing_number_is_one_line_naming_the_file(tmp_path, 
         result = from_modes(tmp_path / "big.uff", units="SI", gamma=[[0.0, 0.0, 1.0]])
         result.nodes = np.eye(3)
         result.to_modal_model()
+
+
+def _flipped(data: bytes, rng) -> bytes:
+    """``data`` with one to three bits flipped, cut short one time in seven."""
+    out = bytearray(data)
+    for _ in range(int(rng.integers(1, 4))):
+        out[int(rng.integers(len(out)))] ^= 1 << int(rng.integers(8))
+    return bytes(out[: int(rng.integers(len(out)))] if rng.random() < 1 / 7 else out)
+
+
+def test_damaged_solver_files_are_read_or_refused_in_one_line(tmp_path, plate):
+    # issue 34: a bit-flipped punch file ended in a ValueError traceback. Flipped bits in an
+    # OP2 (grids in displacement systems, no LAMA), a punch file and a Universal File: each
+    # case is a clear refusal, or a model whose every number is finite and passes the checks
+    ids, nodes, shapes, freq, gamma = _truth(plate)
+    cd = np.resize([0, 5, 7], len(ids))
+    systems = [
+        (5, "R", np.array([0.1, 0.2, 0.0]), np.array([0.4, 0.5, 0.7]), np.array([0.9, 0.1, 0.3])),
+        (7, "C", np.array([0.3, 0.2, -0.1]), np.array([0.3, 0.2, 0.9]), np.array([1.3, 0.4, 0.0])),
+    ]  # fmt: skip
+    write_op2(tmp_path / "a.op2", freq, ids, nodes, shapes, gamma=gamma, lama=False, cd=cd,
+              systems=systems, word=4)  # fmt: skip
+    write_punch(tmp_path / "a.pch", freq, ids, shapes)
+    _uff(tmp_path / "a.uff", plate)
+    rng = np.random.default_rng(34)
+    outcomes = {"refused": 0, "read": 0}
+    for name in ("a.op2", "a.pch", "a.uff"):
+        data = (tmp_path / name).read_bytes()
+        for k in range(40):
+            path = tmp_path / f"m{k}{Path(name).suffix}"
+            path.write_bytes(_flipped(data, rng))
+            try:
+                result = from_modes(path, units="SI", gamma=None, nodes=None)
+                result.check()
+            except InputError:
+                outcomes["refused"] += 1
+                continue
+            assert np.isfinite(result.freq_hz).all() and np.isfinite(result.shapes).all()
+            outcomes["read"] += 1
+    assert outcomes["refused"] > 0 and outcomes["read"] > 0, outcomes
