@@ -178,3 +178,15 @@ def uff_2414_modes(freq_hz, node_ids, values, analysis_type: int = 2) -> str:
             lines += [f"{int(n):10d}", reals(row)]
         blocks.append("\n".join([*lines, "    -1"]))
     return "\n".join(blocks) + "\n"
+
+
+def uff55_mode() -> dict:
+    """pyuff's dataset 55 of one real mode (12.5 Hz, unit modal mass) at nodes 1, 2, 3."""
+    import pyuff
+
+    return pyuff.prepare_55(
+        id1="mode", model_type=1, analysis_type=2, data_ch=2, spec_data_type=8, data_type=2,
+        n_data_per_node=3, load_case=1, mode_n=1, freq=12.5, modal_m=1.0, modal_damp_vis=0.0,
+        modal_damp_his=0.0, node_nums=np.array([1, 2, 3]), r1=np.array([0.0, 1, 0]),
+        r2=np.zeros(3), r3=np.array([1.0, 0, 1]),
+    )  # fmt: skip

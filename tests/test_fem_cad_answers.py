@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from conftest import run_jaxflex
 from sheet_parts import write_panel_iges, write_panel_step
+from solver_files import uff55_mode
 
 import fem
 from fem.cad_check import check_cad_file
@@ -128,13 +129,7 @@ def test_a_universal_file_is_read_without_pyuffs_dump_on_stdout(tmp_path, capfd)
         disp_cs=np.zeros(3, dtype=int), color=np.ones(3, dtype=int),
         x=np.array([0.0, 1, 0]), y=np.array([0.0, 0, 1]), z=np.zeros(3),
     )  # fmt: skip
-    mode = pyuff.prepare_55(
-        id1="mode", model_type=1, analysis_type=2, data_ch=2, spec_data_type=8, data_type=2,
-        n_data_per_node=3, load_case=1, mode_n=1, freq=12.5, modal_m=1.0, modal_damp_vis=0.0,
-        modal_damp_his=0.0, node_nums=np.array([1, 2, 3]), r1=np.array([0.0, 1, 0]),
-        r2=np.zeros(3), r3=np.array([1.0, 0, 1]),
-    )  # fmt: skip
-    pyuff.UFF(str(path)).write_sets([nodes, mode], mode="overwrite")
+    pyuff.UFF(str(path)).write_sets([nodes, uff55_mode()], mode="overwrite")
     group = [
         "    -1",
         "  2467",

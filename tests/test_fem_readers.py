@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from solver_files import uff_2414_modes, write_op2, write_punch
+from solver_files import uff55_mode, uff_2414_modes, write_op2, write_punch
 
 from fem.ansys import RstModes, from_rst_modes
 from fem.from_modes import from_modes
@@ -288,13 +288,7 @@ def test_an_rst_of_rigid_modes_only_says_that_it_leaves_no_elastic_mode():
 def _uff55(path) -> str:
     import pyuff
 
-    mode = pyuff.prepare_55(
-        id1="mode", model_type=1, analysis_type=2, data_ch=2, spec_data_type=8, data_type=2,
-        n_data_per_node=3, load_case=1, mode_n=1, freq=12.5, modal_m=1.0, modal_damp_vis=0.0,
-        modal_damp_his=0.0, node_nums=np.array([1, 2, 3]), r1=np.array([0.0, 1, 0]),
-        r2=np.zeros(3), r3=np.array([1.0, 0, 1]),
-    )  # fmt: skip
-    pyuff.UFF(str(path)).write_sets([mode], mode="overwrite")
+    pyuff.UFF(str(path)).write_sets([uff55_mode()], mode="overwrite")
     return path.read_text()
 
 
