@@ -143,6 +143,25 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
     n_modes = args.n_modes
     if n_modes is None and args.max_freq is None and not (args.from_r1 or args.from_modes):
         n_modes = 20
+    with printed_part_warnings():  # unit slips, a thick part, laminates, model checks
+        result, model = _imported(args, defaults, n_modes)
+    if args.report and not hasattr(result, "fit"):
+        raise InputError("--report: the identification report of R1 or of measured responses")
+    if hasattr(result, "fit") and args.report:
+        write_text_atomic(args.report, json.dumps(result.fit.as_dict(), indent=2))
+        print(f"wrote {args.report}")
+    if args.from_nastran:
+        write(args, model, result)
+        return 0
+    if args.plot or args.vtu:
+        raise InputError("--plot/--vtu: only for models solved here (scenes, meshes, decks)")
+    model.save(args.output)
+    print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
+    return 0
+
+
+def _imported(args: argparse.Namespace, defaults: dict, n_modes):
+    """(the import's result, its ModalModel at --points), the summary printed."""
     if args.from_ansys:
         _check_options(args, "ansys", defaults)
         result = from_ansys(
@@ -170,18 +189,17 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
         )
     elif args.from_nastran:
         _check_options(args, "nastran", defaults)
-        with printed_part_warnings():  # unit slips, a thick part, laminates (as --mesh)
-            result = from_nastran(
-                args.from_nastran,
-                units=args.units,
-                cups=list(args.cups or []),
-                spc_id=args.spc_id,
-                element=args.element,
-                n_modes=n_modes,
-                max_freq_hz=args.max_freq,
-                zeta=args.zeta,
-                allow_rigid_modes=args.allow_rigid_modes,
-            )
+        result = from_nastran(
+            args.from_nastran,
+            units=args.units,
+            cups=list(args.cups or []),
+            spc_id=args.spc_id,
+            element=args.element,
+            n_modes=n_modes,
+            max_freq_hz=args.max_freq,
+            zeta=args.zeta,
+            allow_rigid_modes=args.allow_rigid_modes,
+        )
     else:
         _check_options(args, "r1", defaults)
         if args.dt is None:
@@ -199,20 +217,7 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
     points = None if args.points in (None, "all") else args.points
     identified = hasattr(result, "fit")  # R1 and measured responses: the identified damping
     zeta = None if identified else args.zeta
-    model = result.to_modal_model(points=points, zeta=zeta)
-    if args.report and not identified:
-        raise InputError("--report: the identification report of R1 or of measured responses")
-    if identified and args.report:
-        write_text_atomic(args.report, json.dumps(result.fit.as_dict(), indent=2))
-        print(f"wrote {args.report}")
-    if args.from_nastran:
-        write(args, model, result)
-        return 0
-    if args.plot or args.vtu:
-        raise InputError("--plot/--vtu: only for models solved here (scenes, meshes, decks)")
-    model.save(args.output)
-    print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
-    return 0
+    return result, result.to_modal_model(points=points, zeta=zeta)
 
 
 def _print_provenance(provenance: dict) -> None:

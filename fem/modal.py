@@ -24,6 +24,7 @@ from fem.outputs import modal_outputs, static_displacements, static_response
 from fem.parts import Part
 from fem.plan import fe_plan
 from fem.plate import assemble_plate
+from fem.rigid_modes import rigid_by_gap
 from fem.rotation_integrals import rotational_inertia
 from fem.shell import assemble_shell
 from fem.solid import assemble_solid
@@ -366,9 +367,11 @@ def solve_modes(
     rigid_limit = (2 * np.pi * rigid_tol_hz) ** 2
     if dense:  # a dense solve resolves omega^2 only to ~eps * lambda_max (thin solids: ~1e14)
         rigid_limit = max(rigid_limit, 100 * np.finfo(float).eps * np.abs(values).max())
-    rigid = values < rigid_limit
+    freq_all = np.sqrt(np.abs(values)) / (2 * np.pi)
+    rigid = (values < rigid_limit) | rigid_by_gap(freq_all, rigid_tol_hz)  # fem.rigid_modes
     if rigid.any() and rigid_count is None:
-        raise InputError(rigid_message.format(count=int(rigid.sum()), tol=rigid_tol_hz))
+        shown = max(rigid_tol_hz, float(f"{1.01 * freq_all[rigid].max():.2g}"))
+        raise InputError(rigid_message.format(count=int(rigid.sum()), tol=shown))
     all_gamma = vectors.T @ load
     values_el, vectors_el = values[~rigid], vectors[:, ~rigid]
     if not dense and n_modes is not None:
