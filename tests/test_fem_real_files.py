@@ -4,8 +4,9 @@ an OP2 with displacement systems CD != 0 turned to the basic system, Simcenter/N
 2414 modes, a Rhino IGES file.
 
 The files come from public repositories' test data: pymapdl-reader (MIT), pyNastran
-(BSD-3-Clause), pyuff (MIT), pythonocc-core (LGPL-3.0, its test files). They are looked
-for under ``tests/data/<source>/`` and under ``$JAXFLEX_REAL_FILES/<source>/`` (a folder
+(BSD-3-Clause), pyuff (MIT), pythonocc-core (LGPL-3.0, its test files). They are kept
+gzip-compressed under ``tests/data/<source>/`` (tests/data/README.md names each file's
+repository, commit and licence) and looked for under ``$JAXFLEX_REAL_FILES/<source>/`` (a folder
 holding those repositories, named pymapdl-reader, pyNastran, pyuff, pythonocc-core); a test
 whose file is in neither place is skipped, saying which one it needs. The references are
 the solvers' own results in the same repositories (.f06 printouts, the result header).
@@ -13,8 +14,13 @@ the solvers' own results in the same repositories (.f06 printouts, the result he
 
 from __future__ import annotations
 
+import atexit
+import functools
+import gzip
 import os
 import re
+import shutil
+import tempfile
 import warnings
 from pathlib import Path
 
@@ -34,11 +40,31 @@ FLOAT32 = 1e-6  # 32-bit OP2 words
 
 
 def real(source: str, relative: str) -> Path:
-    """A public repository's file (module docstring), or the test is skipped."""
-    for base in (DATA / source, Path(ROOT) / source if ROOT else None):
-        if base is not None and (base / relative).is_file():
-            return base / relative
+    """A public repository's file (module docstring), or the test is skipped.
+
+    tests/data keeps the small ones gzip-compressed (``relative + ".gz"``): each is unpacked
+    once per session, with the other files of its folder (an .op2 beside its .f06).
+    """
+    packed = DATA / source / (relative + ".gz")
+    if packed.is_file():
+        return _unpacked(packed.parent, Path(relative).name)
+    if ROOT and (Path(ROOT) / source / relative).is_file():
+        return Path(ROOT) / source / relative
     pytest.skip(f"{source}/{relative}: not in tests/data; set JAXFLEX_REAL_FILES")
+
+
+@functools.cache
+def _unpacked_folder(folder: Path) -> Path:
+    """The .gz files of one tests/data folder unpacked into a temporary folder of their own."""
+    target = Path(tempfile.mkdtemp(prefix="jaxflex-real-files-"))
+    atexit.register(shutil.rmtree, target, True)
+    for packed in folder.glob("*.gz"):
+        (target / packed.stem).write_bytes(gzip.decompress(packed.read_bytes()))
+    return target
+
+
+def _unpacked(folder: Path, name: str) -> Path:
+    return _unpacked_folder(folder) / name
 
 
 def _f06_eigenvalues(path: Path) -> np.ndarray:
