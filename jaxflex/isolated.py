@@ -24,7 +24,9 @@ stays in the same child).
 The child ends with its parent, however the parent ends (SIGTERM, SIGKILL, Ctrl-C, its
 budget): it asks for the parent-death signal first thing (jaxflex.children.GUARD, Linux),
 and a thread of it exits the process when its lifeline, a pipe whose other end only the
-parent holds, closes (every POSIX system).
+parent holds, closes (every POSIX system). Other programs a command runs (a compiler, a
+test harness, wine) go through :func:`run_child`, ``subprocess.run`` whose child dies with
+the command the same way (jaxflex.children).
 """
 
 from __future__ import annotations
@@ -41,10 +43,11 @@ from typing import Any, TypeVar
 
 from jaxflex.budget import current_budget, format_bytes, format_seconds
 from jaxflex.children import GUARD
+from jaxflex.children import run as run_child
 from jaxflex.errors import BudgetError, InputError, JaxflexError
 from jaxflex.inputs import check_input_file
 
-__all__ = ["isolated"]
+__all__ = ["isolated", "run_child"]
 
 
 F = TypeVar("F", bound=Callable[..., Any])
