@@ -240,9 +240,9 @@ def _local_cluster(n_workers: int | None, dashboard_address: str | None):
     except (RuntimeError, OSError, ValueError) as exc:
         cause = exc.__cause__ or exc.__context__ or exc
         raise InputError(
-            f"cannot start the local dask cluster ({n_workers or os.cpu_count()} workers, "
-            f"dashboard_address (--dashboard) {dashboard_address or DASHBOARD_ADDRESS!r}): "
-            f"{type(cause).__name__}: {cause}"
+            f"cannot start the local dask cluster (n_workers (--workers) "
+            f"{n_workers or os.cpu_count()}, dashboard_address (--dashboard) "
+            f"{dashboard_address or DASHBOARD_ADDRESS!r}): {type(cause).__name__}: {cause}"
         ) from None
 
 
