@@ -108,7 +108,7 @@ def _keep_aside(path: Path, *, move: bool) -> str | None:
         try:
             os.link(path, name, follow_symlinks=False)
             return name
-        except OSError:
+        except (OSError, NotImplementedError):  # no hard links here: moved instead
             pass
     os.replace(path, name)
     return name
@@ -154,22 +154,37 @@ def created_directory(path: Path) -> None:
         record.changes.append(_Change(path, _identity(path), None, directory=True))
 
 
+def _undo_one(change: _Change) -> None:
+    """Undo ``change`` (again from where an interrupted attempt left it: each step checks
+    what is there); what cannot be undone (someone changed the path meanwhile) is left."""
+    with contextlib.suppress(OSError):
+        if change.directory:
+            if _identity(change.path) == change.identity:
+                os.rmdir(change.path)  # only an empty one
+            return
+        if change.identity is not None and _identity(change.path) == change.identity:
+            os.unlink(change.path)
+        if change.earlier is not None:
+            if os.path.lexists(change.path):
+                os.unlink(change.earlier)
+            else:
+                os.replace(change.earlier, change.path)
+
+
 def _undo(changes: list[_Change]) -> None:
-    """Undo ``changes``, the last first; what cannot be undone (someone changed the path
-    meanwhile) is left as it is."""
+    """Undo ``changes``, the last first. An interrupt meanwhile (Ctrl-C, repeated by the
+    dispatcher until it is handled) does not stop it halfway: the step is done again and
+    the interrupt raised when all is undone."""
+    interrupted = None
     for change in reversed(changes):
-        with contextlib.suppress(OSError):
-            if change.directory:
-                if _identity(change.path) == change.identity:
-                    os.rmdir(change.path)  # only an empty one
-                continue
-            if change.identity is not None and _identity(change.path) == change.identity:
-                os.unlink(change.path)
-            if change.earlier is not None:
-                if os.path.lexists(change.path):
-                    os.unlink(change.earlier)
-                else:
-                    os.replace(change.earlier, change.path)
+        while True:
+            try:
+                _undo_one(change)
+                break
+            except KeyboardInterrupt as exc:
+                interrupted = exc
+    if interrupted is not None:
+        raise interrupted
 
 
 def _drop_earlier(changes: list[_Change]) -> None:

@@ -981,6 +981,7 @@ HARD_LINK_RUNS = {
     ),
 }  # fmt: skip
 NOT_WRITTEN = {"o/robust.png"}  # a nominal run's set has no robust plot: the name is removed
+RUN_TIME_S = 1800.0  # per whole run: a hang guard far above its seconds on a loaded machine
 
 
 def hard_link_outcome(command: str, root: Path, inputs: dict[str, str]) -> tuple[str, str]:
@@ -998,7 +999,7 @@ def hard_link_outcome(command: str, root: Path, inputs: dict[str, str]) -> tuple
     before = tree(root)
     words = [w.replace("{D}", str(case)).format(**inputs) for w in argv]
     try:
-        with alarm(CASE_TIME_S):
+        with alarm(RUN_TIME_S):
             code = run_command(words)
     except Exception as exc:
         return "crash", f"{command}: {exc!r:.300}"

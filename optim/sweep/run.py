@@ -33,7 +33,7 @@ from pathlib import Path
 from distributed import as_completed
 
 from jaxflex.errors import InputError
-from jaxflex.files import directory_lock
+from jaxflex.files import directory_lock, kept_writes
 from jaxflex.model import ModalModel
 from jaxflex.runtime import check_time, progress_bar, require
 from optim.sweep.best import MoveBest, best_layouts, move_limits
@@ -242,7 +242,8 @@ def _run_locked(spec: SweepSpec, store: ResultStore, options: _Options) -> Sweep
     finally:
         bar.close()
         run.wall_s = time.perf_counter() - start
-        write_table(store.root / "results.csv", table_rows(cases, run.records))
+        with kept_writes():  # the table of what is stored, also when the run failed
+            write_table(store.root / "results.csv", table_rows(cases, run.records))
     run.outputs.append(str(store.root / "results.csv"))
     if options.plots:
         run.outputs += plot_sweep(run, store)

@@ -10,8 +10,9 @@ A case counts as finished when its record exists and passes optim.sweep.records.
 (a stored model: jaxflex's model file checks, its FE summary and the sweep's sizes). A file
 that does not is reported (JaxflexWarning naming the file and what is wrong), moved to
 ``rejected/`` and its case computed again: never trusted, never fatal. A killed run loses at
-most the cases that were running; a run that fails keeps the records and models it stored
-(they are not undone with the command's other outputs: jaxflex.files.kept_writes). Errors
+most the cases that were running. The directory is the sweep's resumable state: a run that
+fails or is interrupted keeps what it stored and the table of it (pending cases marked; not
+undone with the command's other outputs, jaxflex.files.kept_writes). Errors
 of the case itself (stage "fe" or "optimization": a bad layout, an infeasible move) are final
 like results; failures of the machinery (a lost worker) are retried by the next run.
 """
@@ -61,8 +62,9 @@ class ResultStore:
             for folder in (self.cases_dir, self.models_dir):
                 if os.path.lexists(folder):
                     make_output_dir(folder)  # an existing one is only checked
-        for folder in (self.root, self.cases_dir, self.models_dir):
-            make_output_dir(folder)
+        with kept_writes():
+            for folder in (self.root, self.cases_dir, self.models_dir):
+                make_output_dir(folder)
 
     def remove_temporaries(self) -> None:
         """Remove the temporary files a killed run left (call while holding the lock)."""
@@ -180,7 +182,8 @@ class ResultStore:
         return model, summary
 
     def save_spec(self, source: dict) -> None:
-        write_text_atomic(self.root / "spec.json", json.dumps(source, indent=2) + "\n")
+        with kept_writes():
+            write_text_atomic(self.root / "spec.json", json.dumps(source, indent=2) + "\n")
 
 
 class StoredRecords(Mapping):
