@@ -48,7 +48,7 @@ def make_output_dir(path: str | os.PathLike) -> Path:
     target = Path(path)
     mode = _lstat_mode(target)
     if mode is not None and stat.S_ISLNK(mode):
-        raise OutputError(_link_refusal(target))
+        raise OutputError(f"cannot write {str(target)!r}: it is {link_refusal(target)}")
     if mode is None:
         try:
             target.mkdir()
@@ -81,15 +81,16 @@ def _lstat_mode(target: Path) -> int | None:
         raise OutputError(f"cannot write {str(target)!r}: {exc.strerror or exc}") from None
 
 
-def _link_refusal(target: Path) -> str:
+def link_refusal(target: Path) -> str:
+    """What the symbolic link ``target`` is (where it points) and why it is not written."""
     try:
-        to = f" to {os.readlink(target)!r}"
-    except OSError:
-        to = ""
+        to = os.readlink(target)
+    except OSError as exc:
+        to = f"unreadable ({exc.strerror})"
+    ends = "" if target.exists() else ", which does not exist"
     return (
-        f"cannot write {str(target)!r}: it is a symbolic link{to}; jaxflex never writes "
-        "through a link (it is left as it is): give the path of the file itself, or remove "
-        "the link"
+        f"a symbolic link (to {to!r}{ends}); jaxflex never writes through a link (it is left "
+        "as it is): give the path of the file itself, or remove the link"
     )
 
 
@@ -107,7 +108,7 @@ def check_target(target: Path) -> Path:
     if mode is None:
         return target
     if stat.S_ISLNK(mode):
-        raise OutputError(_link_refusal(target))
+        raise OutputError(f"cannot write {str(target)!r}: it is {link_refusal(target)}")
     if not stat.S_ISREG(mode):
         raise OutputError(
             f"cannot write {str(target)!r}: it is {file_kind(mode)}; only regular files are "

@@ -13,6 +13,7 @@ import jax
 import numpy as np
 
 from jaxflex import undo
+from jaxflex.atomic import link_refusal
 from jaxflex.errors import InputError
 from jaxflex.inputs import file_kind
 
@@ -97,16 +98,7 @@ def _output_mode(option: str, path: str | os.PathLike) -> tuple[Path, int | None
     except OSError as exc:
         raise InputError(f"{option}: {str(target)!r}: {exc.strerror or exc}") from None
     if stat.S_ISLNK(mode):
-        try:
-            to = os.readlink(target)
-        except OSError as exc:
-            to = f"unreadable ({exc.strerror})"
-        ends = "" if target.exists() else ", which does not exist"
-        raise InputError(
-            f"{option}: {str(target)!r} is a symbolic link (to {to!r}{ends}); jaxflex never writes "
-            "through a link (it is left as it is): give the path of the file itself, or "
-            "remove the link"
-        )
+        raise InputError(f"{option}: {str(target)!r} is {link_refusal(target)}")
     return target, mode
 
 
