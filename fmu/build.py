@@ -22,6 +22,7 @@ from pathlib import Path
 import fmpy
 
 from jaxflex.errors import JaxflexError
+from jaxflex.isolated import run_child
 from jaxflex.runtime import cache_store
 
 C_DIR = Path(__file__).resolve().parent / "c"
@@ -173,7 +174,7 @@ def compile_library(
         str(out_file),
         "-lm",
     ]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    proc = run_child(cmd, capture_output=True, text=True)  # ends with the command
     if proc.returncode != 0:
         raise FmuBuildError(f"compiling the FMU failed ({' '.join(cmd)}):\n{proc.stderr.strip()}")
     messages = proc.stderr.strip()

@@ -30,13 +30,21 @@ import numpy as np
 
 import fem
 import optim
-from fmu.export import export_fmu
+from fmu.export import export_fmu, sidecar_paths
 from fmu.verify import VerifyReport, verify
 from fmu.verify_turning import after_move_s, verify_turning
 from jaxflex.defaults import DT_S, THRESHOLD_M
-from jaxflex.files import check_output_dir, check_positive, make_output_dir, write_text_atomic
+from jaxflex.files import (
+    check_output_dir,
+    check_output_file,
+    check_positive,
+    check_set_dir,
+    make_output_dir,
+    write_text_atomic,
+)
 from jaxflex.model import ModalModel
 from jaxflex.runtime import step
+from optim.result import RESULT_FILES
 
 COMMAND = "demo"
 HELP = "run the whole job on the built-in default part (FE model, optimised move, FMUs)"
@@ -148,6 +156,18 @@ def _fmus(model, result, out: Path, threshold_m: float, timings: dict[str, float
     return fmus
 
 
+def _check_members(out: Path, *, fmus: bool) -> None:
+    """InputError naming the file unless every file the demo writes into ``out`` may be
+    written there (absent or a regular file: never a link, FIFO, device or directory)."""
+    names = ["model.npz", "demo.json"]
+    for version in (2, 3) if fmus else ():
+        fmu_path = out / f"part_fmi{version}.fmu"
+        names += [fmu_path.name, *(side.name for side in sidecar_paths(fmu_path))]
+    for name in names:
+        check_output_file("-o/--output", out / name)
+    check_set_dir("-o/--output", out / "optimized", RESULT_FILES)
+
+
 def _move_line(distance_m, turn, threshold_m: float, dt_s: float, robust) -> str:
     """The move of the scene in words; ``turn``: (pose, axis, angle in degrees) or None."""
     along = "xyz"[int(np.argmax(np.abs(distance_m)))]
@@ -168,6 +188,7 @@ def run(args: argparse.Namespace) -> int:
     threshold_m = check_positive("--threshold", args.threshold)
     dt_s = check_positive("--dt", args.dt)
     out = make_output_dir(check_output_dir("-o/--output", args.output))
+    _check_members(out, fmus=not args.no_fmu)
     timings: dict[str, float] = {}
     part, pose, distance_m, axis, angle_deg = TURNS.get(
         args.scene, (args.scene, np.eye(3), DISTANCE_M, None, 0.0)

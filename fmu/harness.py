@@ -6,13 +6,13 @@ tests and the Windows checks (fmu.windows) drive FMUs through it.
 from __future__ import annotations
 
 import shutil
-import subprocess
 import zipfile
 from pathlib import Path
 
 from fmpy import read_model_description
 
 from fmu.build import C_DIR, WINDOWS_COMPILER, FmuBuildError, fmi_headers, host_target
+from jaxflex.isolated import run_child
 
 WINE_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64 wine64"
 
@@ -61,7 +61,7 @@ def compile_harness(
         str(out_file),
         *link,
     ]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    proc = run_child(cmd, capture_output=True, text=True)  # ends with the command
     if proc.returncode != 0:
         what = "the Windows harness" if windows else "the harness"
         raise FmuBuildError(f"compiling {what} failed:\n{proc.stderr.strip()}")

@@ -1,6 +1,14 @@
 """Files in and out, for the layers above the core: input files checked before reading
 (inputs, validation), outputs written atomically and file sets with a manifest (atomic,
-fileset), the trajectory and unit-response CSV files. Readers that run in a child process
+fileset), the trajectory and unit-response CSV files.
+
+Every output of every command is written the one way: its path checked before any work
+(``check_output_file`` / ``check_output_dir``: never a symbolic link, device, FIFO or
+directory in the way; this also declares it an output of the command), then written with
+``atomic_open`` / ``atomic_path`` / ``write_text_atomic`` (a new file renamed over the
+target) or as a set (``writing``). What a command writes is whole or absent: the
+dispatcher runs every command in ``whole_or_absent``, which undoes its declared outputs if
+it fails; ``kept_writes`` for stores a rerun resumes from. Readers that run in a child process
 use jaxflex.isolated (light: the child does not import JAX). Public: these names are kept
 stable; the modules they come from are private.
 """
@@ -10,7 +18,9 @@ from __future__ import annotations
 from jaxflex.atomic import (
     atomic_open,
     atomic_path,
+    check_target,
     make_output_dir,
+    remove_output,
     remove_stale_temporaries,
     write_text_atomic,
 )
@@ -20,6 +30,7 @@ from jaxflex.convolution import (
 from jaxflex.fileset import (
     MANIFEST,
     SetWriter,
+    check_set_dir,
     directory_lock,
     read_set,
     writing,
@@ -27,6 +38,7 @@ from jaxflex.fileset import (
 from jaxflex.inputs import (
     check_input_file,
     check_text_file,
+    named,
     read_settings_file,
     read_text,
 )
@@ -36,6 +48,7 @@ from jaxflex.trajectory_io import (
     read_turn_csv,
     write_trajectory_csv,
 )
+from jaxflex.undo import kept_writes, whole_or_absent
 from jaxflex.validation import (
     check_output_dir,
     check_output_file,
@@ -50,16 +63,22 @@ __all__ = [
     "check_output_dir",
     "check_output_file",
     "check_positive",
+    "check_set_dir",
+    "check_target",
     "check_text_file",
     "directory_lock",
+    "kept_writes",
     "make_output_dir",
+    "named",
     "read_set",
     "read_settings_file",
     "read_text",
     "read_trajectory_csv",
     "read_turn_csv",
     "read_unit_response_csv",
+    "remove_output",
     "remove_stale_temporaries",
+    "whole_or_absent",
     "write_text_atomic",
     "write_trajectory_csv",
     "writing",

@@ -9,7 +9,7 @@ import jaxflex
 from jaxflex.cli import add_axis_limits, axis_limit_values
 from jaxflex.defaults import DT_S, MAX_DURATION_S
 from jaxflex.errors import InputError
-from jaxflex.files import check_output_dir
+from jaxflex.files import check_set_dir
 from jaxflex.runtime import step
 from optim.budget import MAX_STEPS
 from optim.cell_file import load_cell
@@ -17,6 +17,7 @@ from optim.cell_setup import with_cup_rating
 from optim.limits import Limits
 from optim.optimize import run as run_request
 from optim.request import Request
+from optim.result import RESULT_FILES
 from optim.robust import FREQ_SCALE, GRID, ZETA, RobustSpec
 from optim.turn import ANGULAR_LIMITS
 
@@ -247,7 +248,7 @@ def rotate_argument(values: list[str] | None):
 
 def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
-    check_output_dir("-o/--output", args.output)
+    check_set_dir("-o/--output", args.output, RESULT_FILES)  # before any work
     limits = Limits(**axis_limit_values(args), vpath=args.vpath, apath=args.apath, jpath=args.jpath)
     robust = None
     if args.robust:

@@ -146,6 +146,8 @@ class Request:
         steps = self.max_steps
         if isinstance(steps, bool) or not isinstance(steps, int) or steps < 2:
             raise InputError(f"{_label('max_steps')}: must be an integer >= 2, got {steps!r}")
+        if self.rotate is not None:  # before ruckig or an LP sees the turn
+            self.rotate.check_length(self.dt_s, self.max_duration_s, steps)
         memory = self.max_memory_bytes
         memory = current_budget().memory_bytes if memory is None else memory
         check_positive(_label("max_memory_bytes"), memory)
