@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxflex.files import make_output_dir, writing
+from jaxflex.files import check_set_dir, make_output_dir, writing
 from jaxflex.runtime import step
 from optim.animate_frames import (
     ANIMATION_KIND,
@@ -75,6 +75,17 @@ def _series_names(directory: Path, frames: int) -> tuple[str, ...]:
     old = sorted(p.name for p in directory.glob("part_*.vtu")) if directory.is_dir() else []
     mine = [f"part_{i:04d}.vtu" for i in range(frames)]
     return tuple(dict.fromkeys([*mine, *old, SERIES, CELL_FILE, PATH_FILE, PAGE]))
+
+
+def check_animation_dir(option: str, result_dir: str | os.PathLike) -> Path:
+    """``result_dir``/animation if an animation may be written there, checked before any
+    work (jaxflex.files.check_set_dir: no link, FIFO, device or directory in a member's
+    place; a result directory still to be made holds none); InputError naming ``option``
+    otherwise."""
+    directory = Path(result_dir) / ANIMATION_DIR
+    if not Path(result_dir).is_dir():
+        return directory
+    return check_set_dir(option, directory, _series_names(directory, 0))
 
 
 def write_animation(

@@ -47,7 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from jaxflex.files import check_positive
-    from optim.animate import animate_directory
+    from optim.animate import animate_directory, check_animation_dir
 
     for option, value in (("--page-points", args.page_points), ("--page-frames", args.page_frames)):
         check_positive(option, value)
@@ -55,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
         from jaxflex.errors import InputError
 
         raise InputError(f"--after: a time >= 0 s, got {args.after}")
+    check_animation_dir("RESULT_DIR", args.result)  # before any work
     animation = animate_directory(
         args.result,
         model=args.model,

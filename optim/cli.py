@@ -249,6 +249,10 @@ def rotate_argument(values: list[str] | None):
 def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     check_set_dir("-o/--output", args.output, RESULT_FILES)  # before any work
+    if args.animate:
+        from optim.animate import check_animation_dir
+
+        check_animation_dir("-o/--output", args.output)
     limits = Limits(**axis_limit_values(args), vpath=args.vpath, apath=args.apath, jpath=args.jpath)
     robust = None
     if args.robust:

@@ -25,6 +25,7 @@ import itertools
 import json
 import math
 import os
+import shutil
 import signal
 import socket
 import stat
@@ -54,6 +55,8 @@ from jaxflex.cli import main
 from jaxflex.convolution import unit_response, write_unit_response_csv
 from jaxflex.errors import BudgetError, JaxflexError
 from jaxflex.files import MANIFEST
+from optim.animate_page import PAGE
+from optim.animate_series import CELL_FILE, PATH_FILE, SERIES
 from optim.cell_file import load_cell
 from optim.result import RESULT_FILES
 from optim.sweep.plan import sweep_needs
@@ -849,10 +852,14 @@ class OutputDoor:
     argv: tuple[str, ...]  # "{D}": the case's folder
     target: str
     directory: bool = False
+    result: str | None = None  # an optimised result copied to "{D}/r" first (animate's input)
+
+
+ANIMATION_FILES = (SERIES, CELL_FILE, PATH_FILE, PAGE, "part_0000.vtu")
 
 
 def output_doors(inputs: dict[str, str]) -> list[OutputDoor]:
-    """Every output of every command (the animation writer's will join them)."""
+    """Every output of every command."""
     model, trajectory, spec = inputs["model"], inputs["trajectory"], inputs["spec"]
     fe = ("model", "--scene", "plate", "--mesh-size", "0.2")
     opt = ("optimize", model, "--distance", "0", "0", "1", "--threshold", "1e-3", "-o", "{D}/o")
@@ -881,6 +888,17 @@ def output_doors(inputs: dict[str, str]) -> list[OutputDoor]:
         members += [name, *(side.name for side in sidecar_paths(name))]
     doors += [OutputDoor(f"demo -o: {n}", demo, f"d/{n}") for n in members]
     doors.append(OutputDoor("demo -o: optimized/", demo, "d/optimized", directory=True))
+    animate = ("animate", "{D}/r")
+    doors.append(OutputDoor("animate: animation/", animate, "r/animation", True, trajectory))
+    doors += [
+        OutputDoor(f"animate: {n}", animate, f"r/animation/{n}", result=trajectory)
+        for n in ANIMATION_FILES
+    ]
+    animated = (*opt[:-1], "{D}/o", "--animate")
+    doors += [
+        OutputDoor("optimize --animate: animation/", animated, "o/animation", directory=True),
+        OutputDoor("optimize --animate: page", animated, "o/animation/animation.html"),
+    ]
     return doors
 
 
@@ -908,8 +926,10 @@ def obstacle_outcome(door: OutputDoor, kind: str, root: Path, watched: Path) -> 
     path named, the tree under ``root`` unchanged), "corrupt" (ran, or changed a file),
     "vague" (refused without naming the path), "crash", "hang" or "impossible"."""
     case = root / f"case{next(SERIAL)}"
+    if door.result is not None:
+        shutil.copytree(door.result, case / "r")
     target = case / door.target
-    target.parent.mkdir(parents=True)
+    target.parent.mkdir(parents=True, exist_ok=door.result is not None)
     if not plant(target, kind, watched):
         return "impossible", f"{door.label} {kind}"
     argv = [word.replace("{D}", str(case)) for word in door.argv]
