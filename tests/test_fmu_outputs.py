@@ -34,7 +34,7 @@ DEVIATION_Z = Variable(
 C_FUNCTION = """
 void jxf_value_deviation_z(const jxf_model *m, double *out) {
     const size_t K = (size_t)m->n_points;
-    const double *uz = m->u + 2 * K;
+    const double *uz = jxf_displacements(m) + 2 * K; /* every point's u, evaluated now */
     double best = 0.0;
     size_t p;
     for (p = 0; p < K; ++p) {

@@ -5,13 +5,15 @@
  * The generated jxf_config.h declares the functions of one export and lists them by value
  * reference (JXF_REAL_VALUES, JXF_BOOL_VALUES) for jxf_get_real / jxf_get_bool, so a new
  * output is a row in that table plus its function here. Values are those at the current
- * communication point (jxf_core.c evaluates u, deviation and the settled flag after every
+ * communication point (jxf_core.c evaluates the deviation and the settled flag after every
  * step); a function reading the state computes from m->q, m->v (modal, kg^0.5 m and per s)
- * or m->u (displacement, component-major: x of all K points, then y, then z). SI units.
+ * or the displacement m->u (component-major: x of all K points, then y, then z), whose
+ * points are evaluated when read (jxf_displacements, jxf_blocks.h). SI units.
  */
 #include <math.h>
 #include <string.h>
 
+#include "jxf_blocks.h"
 #include "jxf_cell.h"
 #include "jxf_config.h"
 #include "jxf_model.h"
@@ -56,6 +58,7 @@ void jxf_value_use_embedded_trajectory(const jxf_model *m, int *out) {
 void jxf_value_displaced_points(const jxf_model *m, double *out) {
     const size_t K = (size_t)m->n_points;
     size_t p;
+    (void)jxf_displacements(m); /* every point of m->u */
     for (p = 0; p < K; ++p) {
         out[3 * p] = m->points[3 * p] + m->u[p];
         out[3 * p + 1] = m->points[3 * p + 1] + m->u[K + p];
@@ -104,16 +107,6 @@ void jxf_value_point_stresses(const jxf_model *m, double *out) {
     for (s = 0; s < m->n_stress; ++s) out[s] = jxf_von_mises(m, s);
 }
 
-void jxf_value_min_distance(const jxf_model *m, double *out) {
-    int k;
-    *out = HUGE_VAL;
-    for (k = 0; k < m->n_points; ++k) {
-        const double d = jxf_point_distance(m, k);
-        *out = d < *out ? d : *out;
-    }
-}
+void jxf_value_min_distance(const jxf_model *m, double *out) { *out = jxf_min_distance(m); }
 
-void jxf_value_point_distances(const jxf_model *m, double *out) {
-    int k;
-    for (k = 0; k < m->n_points; ++k) out[k] = jxf_point_distance(m, k);
-}
+void jxf_value_point_distances(const jxf_model *m, double *out) { jxf_point_distances(m, out); }
