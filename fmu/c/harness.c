@@ -309,12 +309,13 @@ static int cmp_double(const void *x, const void *y) {
 
 #define CHUNK 100     /* steps timed together */
 #define BENCH_MOVE_S 1.0 /* duration of each move of the bench, s */
+#define WARM_UP 200      /* steps run (and discarded) before the timed ones */
 
 static int bench(const char *resources, const char *token, int n, double dt, int repeats) {
     const int n_chunks = n / CHUNK;
     double *times = (double *)malloc(sizeof(double) * (size_t)repeats);
     double *chunks = (double *)malloc(sizeof(double) * (size_t)n_chunks);
-    double *dev = (double *)malloc(sizeof(double) * (size_t)n);
+    double *dev = (double *)malloc(sizeof(double) * (size_t)(n > WARM_UP ? n : WARM_UP));
     const int period = (int)(BENCH_MOVE_S / dt + 0.5) > 1 ? (int)(BENCH_MOVE_S / dt + 0.5) : 2;
     double t0, total, checksum = 0.0;
     void *c;
@@ -328,7 +329,7 @@ static int bench(const char *resources, const char *token, int n, double dt, int
     }
     qsort(times, (size_t)repeats, sizeof(double), cmp_double);
     c = instantiate(resources, token);
-    if (c == NULL || start(c) || run(c, 200, dt, dev)) return 1; /* warm-up */
+    if (c == NULL || start(c) || run(c, WARM_UP, dt, dev)) return 1;
     reset(c);
     start(c);
     total = 0.0;

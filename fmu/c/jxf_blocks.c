@@ -50,40 +50,46 @@
 
 /* ---- the kernel ---------------------------------------------------------------------- */
 
-/* Eight values at a time, each summed over every row in registers (gcc -O2 packs the sums
- * into SIMD registers: ~2.4 instructions per product), then four, then one. Every value is
- * summed in the same order whatever n is: a point's displacement is the same number however
- * it is evaluated. */
-void jxf_combine(const double *JXF_RESTRICT rows, const double *JXF_RESTRICT x, int n_rows,
+/* The kernel reads its rows grouped by eight values, so that it streams through memory:
+ * for n values per row, group g < n / 8 holds (n_rows, 8) values (value 8 g + k of row r at
+ * 8 n_rows g + 8 r + k), then the last n % 8 values of every row follow, (n_rows, n % 8).
+ * Each group's eight sums stay in registers over every row (gcc -O2 packs them into SIMD
+ * registers: ~2.4 instructions per product). Every value is summed over the rows in the
+ * same order whatever n and the group are: a point's displacement is the same number
+ * however it is evaluated. */
+void jxf_combine(const double *JXF_RESTRICT data, const double *JXF_RESTRICT x, int n_rows,
                  size_t n, double *JXF_RESTRICT out) {
-    size_t j = 0;
+    const size_t full = n / 8, rest = n % 8;
+    const double *s = data;
+    size_t g, k;
     int r;
-    for (; j + 8 <= n; j += 8) {
-        const double *s = rows + j;
+    for (g = 0; g < full; ++g) {
         double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0, a4 = 0.0, a5 = 0.0, a6 = 0.0, a7 = 0.0;
-        for (r = 0; r < n_rows; ++r, s += n) {
+        for (r = 0; r < n_rows; ++r, s += 8) {
             const double c = x[r];
             a0 += s[0] * c, a1 += s[1] * c, a2 += s[2] * c, a3 += s[3] * c;
             a4 += s[4] * c, a5 += s[5] * c, a6 += s[6] * c, a7 += s[7] * c;
         }
-        out[j] = a0, out[j + 1] = a1, out[j + 2] = a2, out[j + 3] = a3;
-        out[j + 4] = a4, out[j + 5] = a5, out[j + 6] = a6, out[j + 7] = a7;
+        out[8 * g] = a0, out[8 * g + 1] = a1, out[8 * g + 2] = a2, out[8 * g + 3] = a3;
+        out[8 * g + 4] = a4, out[8 * g + 5] = a5, out[8 * g + 6] = a6, out[8 * g + 7] = a7;
     }
-    for (; j + 4 <= n; j += 4) {
-        const double *s = rows + j;
-        double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0;
-        for (r = 0; r < n_rows; ++r, s += n) {
-            const double c = x[r];
-            a0 += s[0] * c, a1 += s[1] * c, a2 += s[2] * c, a3 += s[3] * c;
-        }
-        out[j] = a0, out[j + 1] = a1, out[j + 2] = a2, out[j + 3] = a3;
-    }
-    for (; j < n; ++j) {
-        const double *s = rows + j;
-        double a = 0.0;
-        for (r = 0; r < n_rows; ++r, s += n) a += s[0] * x[r];
-        out[j] = a;
-    }
+    out += 8 * full;
+    for (k = 0; k < rest; ++k) out[k] = 0.0;
+    for (r = 0; r < n_rows && rest > 0; ++r, s += rest)
+        for (k = 0; k < rest; ++k) out[k] += s[k] * x[r];
+}
+
+void jxf_group(double *data, int n_rows, size_t n, double *scratch) {
+    const size_t full = n / 8, rest = n % 8;
+    double *out = data;
+    size_t g, k;
+    int r;
+    memcpy(scratch, data, (size_t)n_rows * n * sizeof(double));
+    for (g = 0; g < full; ++g)
+        for (r = 0; r < n_rows; ++r)
+            for (k = 0; k < 8; ++k) *out++ = scratch[(size_t)r * n + 8 * g + k];
+    for (r = 0; r < n_rows; ++r)
+        for (k = 0; k < rest; ++k) *out++ = scratch[(size_t)r * n + 8 * full + k];
 }
 
 int jxf_block_combine(const jxf_model *m, int block, const double *x, double *out) {
@@ -185,22 +191,30 @@ static void spread_of(const jxf_model *m, int block, const double *positions, do
         }
 }
 
-/* Copy the shapes (M + R, 3, K) into the block layout, in place (through one copy). */
+/* Blocks rearranged together by store_by_block: their rows stay in the cache while every
+ * row of the resource is read once per tile of them. */
+#define JXF_TILE_BLOCKS 16
+
+/* Copy the shapes (M + R, 3, K) into the block layout, row-major per block, in place
+ * (through one copy). */
 static int store_by_block(jxf_model *m) {
     const jxf_blocks *b = &m->blocks;
     const size_t K = (size_t)m->n_points, rows = (size_t)(m->n_modes + m->n_static);
     double *shapes = (double *)m->shapes; /* the model's own buffer, read-only after this */
     double *copy = (double *)malloc(3 * rows * K * sizeof(double));
     size_t j;
-    int block, s;
+    int tile, block, s;
     if (copy == NULL) return -1;
     memcpy(copy, shapes, 3 * rows * K * sizeof(double));
-    for (j = 0; j < 3 * rows; ++j) { /* one row of the resource at a time: it stays cached */
-        const double *row = copy + j * K;
-        for (block = 0; block < b->count; ++block) {
-            const int first = b->start[block], size = b->start[block + 1] - first;
-            double *out = shapes + 3 * rows * (size_t)first + j * (size_t)size;
-            for (s = 0; s < size; ++s) out[s] = row[b->point[first + s]];
+    for (tile = 0; tile < b->count; tile += JXF_TILE_BLOCKS) {
+        const int last = tile + JXF_TILE_BLOCKS < b->count ? tile + JXF_TILE_BLOCKS : b->count;
+        for (j = 0; j < 3 * rows; ++j) {
+            const double *row = copy + j * K;
+            for (block = tile; block < last; ++block) {
+                const int first = b->start[block], size = b->start[block + 1] - first;
+                double *out = shapes + 3 * rows * (size_t)first + j * (size_t)size;
+                for (s = 0; s < size; ++s) out[s] = row[b->point[first + s]];
+            }
         }
     }
     free(copy);
@@ -239,70 +253,91 @@ static double measure_row(const double *row, const double *dx, int n, int centre
                           double *slope) {
     const double *x = row, *y = row + n, *z = row + 2 * n;
     const double cx = x[centre], cy = y[centre], cz = z[centre];
-    double moment[9] = {0.0}, reach = 0.0, radius = 0.0, residual = 0.0;
-    int s, c, l, k;
-    for (s = 0; s < n; ++s) { /* sum_p D_p dX_p^T, [3 c + l] */
+    double m0 = 0.0, m1 = 0.0, m2 = 0.0, m3 = 0.0, m4 = 0.0, m5 = 0.0, m6 = 0.0, m7 = 0.0;
+    double m8 = 0.0, reach = 0.0, radius = 0.0, residual = 0.0, l[9];
+    int s, c, k;
+    for (s = 0; s < n; ++s) { /* sum_p D_p dX_p^T ([3 c + l]), the reach and the radius */
         const double dx0 = dx[3 * s], dx1 = dx[3 * s + 1], dx2 = dx[3 * s + 2];
         const double d0 = x[s] - cx, d1 = y[s] - cy, d2 = z[s] - cz;
-        moment[0] += d0 * dx0, moment[1] += d0 * dx1, moment[2] += d0 * dx2;
-        moment[3] += d1 * dx0, moment[4] += d1 * dx1, moment[5] += d1 * dx2;
-        moment[6] += d2 * dx0, moment[7] += d2 * dx1, moment[8] += d2 * dx2;
-    }
-    for (l = 0; l < 3; ++l) /* L[c][l] = (moment . inverse)[c][l], stored at 3 l + c */
-        for (c = 0; c < 3; ++c)
-            for (slope[3 * l + c] = 0.0, k = 0; k < 3; ++k)
-                slope[3 * l + c] += moment[3 * c + k] * inverse[3 * k + l];
-    for (s = 0; s < n; ++s) {
-        const double dx0 = dx[3 * s], dx1 = dx[3 * s + 1], dx2 = dx[3 * s + 2];
-        const double d0 = x[s] - cx, d1 = y[s] - cy, d2 = z[s] - cz;
-        const double e0 = d0 - (slope[0] * dx0 + slope[3] * dx1 + slope[6] * dx2);
-        const double e1 = d1 - (slope[1] * dx0 + slope[4] * dx1 + slope[7] * dx2);
-        const double e2 = d2 - (slope[2] * dx0 + slope[5] * dx1 + slope[8] * dx2);
         const double size = x[s] * x[s] + y[s] * y[s] + z[s] * z[s];
-        const double gap = d0 * d0 + d1 * d1 + d2 * d2, miss = e0 * e0 + e1 * e1 + e2 * e2;
+        const double gap = d0 * d0 + d1 * d1 + d2 * d2;
+        m0 += d0 * dx0, m1 += d0 * dx1, m2 += d0 * dx2;
+        m3 += d1 * dx0, m4 += d1 * dx1, m5 += d1 * dx2;
+        m6 += d2 * dx0, m7 += d2 * dx1, m8 += d2 * dx2;
         reach = size > reach ? size : reach;
         radius = gap > radius ? gap : radius;
+    }
+    for (k = 0; k < 3; ++k) { /* L[c][k] = (moment . inverse)[c][k], at 3 k + c */
+        l[3 * k] = m0 * inverse[k] + m1 * inverse[3 + k] + m2 * inverse[6 + k];
+        l[3 * k + 1] = m3 * inverse[k] + m4 * inverse[3 + k] + m5 * inverse[6 + k];
+        l[3 * k + 2] = m6 * inverse[k] + m7 * inverse[3 + k] + m8 * inverse[6 + k];
+    }
+    for (s = 0; s < n; ++s) { /* the fit's largest residual */
+        const double dx0 = dx[3 * s], dx1 = dx[3 * s + 1], dx2 = dx[3 * s + 2];
+        const double e0 = x[s] - cx - (l[0] * dx0 + l[3] * dx1 + l[6] * dx2);
+        const double e1 = y[s] - cy - (l[1] * dx0 + l[4] * dx1 + l[7] * dx2);
+        const double e2 = z[s] - cz - (l[2] * dx0 + l[5] * dx1 + l[8] * dx2);
+        const double miss = e0 * e0 + e1 * e1 + e2 * e2;
         residual = miss > residual ? miss : residual;
     }
     near[0] = cx, near[1] = cy, near[2] = cz, near[3] = sqrt(radius);
+    for (c = 0; c < 9; ++c) slope[c] = l[c];
     slope[9] = sqrt(residual);
-    for (slope[10] = 0.0, l = 0; l < 3; ++l)
-        slope[10] += sqrt(slope[3 * l] * slope[3 * l] + slope[3 * l + 1] * slope[3 * l + 1] +
-                          slope[3 * l + 2] * slope[3 * l + 2]) * span[l];
+    for (slope[10] = 0.0, k = 0; k < 3; ++k)
+        slope[10] += sqrt(l[3 * k] * l[3 * k] + l[3 * k + 1] * l[3 * k + 1] +
+                          l[3 * k + 2] * l[3 * k + 2]) * span[k];
     slope[11] = 0.0;
     return sqrt(reach);
 }
 
-/* Every block's centre, spans and bounds (the shapes in the block layout); `dx`: scratch of
- * 3 largest values. */
-static void measure(jxf_model *m, double *dx) {
+/* Block B's centre, spans and bounds from its shapes (row-major in the block layout), then
+ * its shapes grouped for the kernel; `dx`: scratch of 3 largest values, `scratch` of
+ * 3 (M + R) largest. */
+static void measure(jxf_model *m, int block, double *dx, double *scratch) {
     jxf_blocks *b = &m->blocks;
     const size_t rows = (size_t)(m->n_modes + m->n_static), nB = (size_t)b->count;
+    const int first = b->start[block], n = b->start[block + 1] - first;
+    double *shapes = (double *)m->shapes + 3 * rows * (size_t)first; /* the model's own */
+    const double *centre;
     double inverse[9], reach;
     size_t j;
-    int block, s, l;
-    for (block = 0; block < b->count; ++block) {
-        const int first = b->start[block], n = b->start[block + 1] - first;
-        const double *shapes = m->shapes + 3 * rows * (size_t)first, *centre;
-        b->centre[block] = centre_of(m, block);
-        centre = m->points + 3 * (size_t)b->centre[block];
-        spread_of(m, block, m->points, b->span + 3 * (size_t)block);
-        if (b->extent != NULL)
-            spread_of(m, block, m->turning ? m->points : m->rest_points,
-                      b->extent + 3 * (size_t)block);
-        for (s = 0; s < n; ++s)
-            for (l = 0; l < 3; ++l)
-                dx[3 * s + l] = m->points[3 * (size_t)b->point[first + s] + l] - centre[l];
-        moment_inverse(dx, n, inverse);
-        for (j = 0; j < rows; ++j) {
-            reach = measure_row(shapes + 3 * (size_t)n * j, dx, n,
-                                b->slot[b->centre[block]] - first, inverse,
-                                b->span + 3 * (size_t)block, b->near + 4 * (rows * block + j),
-                                b->slope + 12 * (rows * block + j));
-            b->reach[j * nB + (size_t)block] = reach;
-            b->top[j] = reach > b->top[j] ? reach : b->top[j];
-        }
+    int s, l;
+    b->centre[block] = centre_of(m, block);
+    centre = m->points + 3 * (size_t)b->centre[block];
+    spread_of(m, block, m->points, b->span + 3 * (size_t)block);
+    if (b->extent != NULL)
+        spread_of(m, block, m->turning ? m->points : m->rest_points,
+                  b->extent + 3 * (size_t)block);
+    for (s = 0; s < n; ++s)
+        for (l = 0; l < 3; ++l)
+            dx[3 * s + l] = m->points[3 * (size_t)b->point[first + s] + l] - centre[l];
+    moment_inverse(dx, n, inverse);
+    for (j = 0; j < rows; ++j) {
+        reach = measure_row(shapes + 3 * (size_t)n * j, dx, n, b->slot[b->centre[block]] - first,
+                            inverse, b->span + 3 * (size_t)block,
+                            b->near + 4 * (rows * (size_t)block + j),
+                            b->slope + 12 * (rows * (size_t)block + j));
+        b->reach[j * nB + (size_t)block] = reach;
+        b->top[j] = reach > b->top[j] ? reach : b->top[j];
     }
+    jxf_group(shapes, (int)rows, 3 * (size_t)n, scratch); /* while it is in the cache */
+}
+
+/* Measure every block (and group its shapes), then group the reaches; -1 when memory runs
+ * out. */
+static int measure_all(jxf_model *m) {
+    jxf_blocks *b = &m->blocks;
+    const size_t rows = (size_t)(m->n_modes + m->n_static), nB = (size_t)b->count;
+    const size_t largest = 3 * rows * (size_t)b->largest;
+    double *scratch = (double *)malloc((largest > rows * nB ? largest : rows * nB) *
+                                       sizeof(double));
+    int block;
+    if (scratch == NULL) return -1;
+    for (block = 0; block < b->count; ++block)
+        measure(m, block, b->work + b->count, scratch); /* dx: a block's displacement scratch */
+    jxf_group(b->reach, (int)rows, nB, scratch);
+    free(scratch);
+    return 0;
 }
 
 /* Allocate the blocks' arrays (zeroed) but the scratch; -1 when memory runs out. */
@@ -354,8 +389,7 @@ int jxf_blocks_build(jxf_model *m) {
     }
     for (s = 0; s < K; ++s) b->slot[b->point[s]] = s;
     if (allocate_scratch(m) != 0 || store_by_block(m) != 0) return -1;
-    measure(m, b->work + b->count); /* the scratch of a block's displacement */
-    return 0;
+    return measure_all(m);
 }
 
 void jxf_blocks_free(jxf_model *m) {

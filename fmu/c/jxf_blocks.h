@@ -27,9 +27,14 @@ extern "C" {
 int jxf_blocks_build(jxf_model *m);
 void jxf_blocks_free(jxf_model *m);
 
-/* out[k] = sum_j rows[j n + k] x[j] over the `n_rows` rows of `n` values each: the
- * displacement of points (rows: shapes of one component layout) for the coordinates x. */
-void jxf_combine(const double *rows, const double *x, int n_rows, size_t n, double *out);
+/* out[k] = sum_r psi_r[k] x[r] for the `n_rows` rows of `n` values psi_r in the grouped
+ * layout of jxf_group: the displacement of the points of a block (n = 3 n_B, x of its
+ * members, then y, then z) or the blocks' bounds of it (n = nB). */
+void jxf_combine(const double *data, const double *x, int n_rows, size_t n, double *out);
+
+/* Rewrite `data`, (n_rows, n) row-major, in place into the grouped layout jxf_combine reads
+ * (`scratch`: n_rows n values). */
+void jxf_group(double *data, int n_rows, size_t n, double *scratch);
 
 /* The displacement of block B's members for the coordinates x (M + R) into out (3 n_B:
  * x of its members in slot order, then y, then z); its size n_B is returned. */

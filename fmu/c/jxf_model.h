@@ -63,7 +63,7 @@ enum { JXF_IN_ACC = 0, JXF_IN_QUAT = 3, JXF_IN_OMEGA = 7, JXF_IN_ALPHA = 10, JXF
  * `slot` a point to its slot; `centre` is a member of each block. What bounds a block's
  * members for the coordinates x of the shape rows psi_j (j < M + R: the modes, then the
  * residual rows), per block and row (jxf_blocks.c explains the bounds):
- *   reach   (M + R, nB)      max_p |psi_j(p)|
+ *   reach   (M + R, nB)      max_p |psi_j(p)| (grouped for jxf_combine, jxf_blocks.h)
  *   near    (nB, M + R, 4)   the centre's shape psi_j(c) (3), the radius max_p |psi_j(p) -
  *                            psi_j(c)|
  *   slope   (nB, M + R, 12)  the gradient L_j (9: [3 l + k] = d psi_jk / d X_l), the largest
@@ -97,7 +97,8 @@ struct jxf_model {
     const double *gamma;    /* (M, 3) */
     const double *shapes;   /* (M + R, 3, K) in the resource: x rows of all points, then y,
                              * then z; block by block once loaded (jxf_blocks.c): block B's
-                             * (M + R, 3, n_B) from 3 (M + R) start[B] */
+                             * (M + R, 3 n_B) from 3 (M + R) start[B], grouped for
+                             * jxf_combine (jxf_blocks.h) */
     const double *points;   /* (K, 3) */
     const double *traj;     /* (N, 3) acceleration samples, m/s^2 */
     unsigned char *buffer;
