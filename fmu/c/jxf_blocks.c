@@ -25,8 +25,8 @@
  * value, so the result is the maximum over every point to the last bit (each point's
  * value is computed by the same code whatever the others' fate). Built with
  * -DJXF_EVERY_POINT nothing is pruned: the reference the tests compare with. The
- * evaluated blocks' displacements stay in m->u for the outputs that read points (their
- * stamp names the state), the others are evaluated when read.
+ * evaluated blocks' displacements stay in m->u (block by block) for the outputs that read
+ * points (their stamp names the state), the others are evaluated when read.
  */
 #include <float.h>
 #include <math.h>
@@ -146,8 +146,9 @@ static int longest_axis(const double *points, const int *idx, int n) {
     return axis;
 }
 
-/* Split the n points idx[0 ..) into n_blocks blocks of consecutive entries (sizes as even
- * as the halving allows), writing the block sizes to sizes[0 .. n_blocks). */
+/* Split the n points idx[0 ..) into n_blocks = ceil(n / JXF_BLOCK_POINTS) blocks of
+ * consecutive entries, every one of JXF_BLOCK_POINTS points but the last (3 x 32 values a
+ * row: whole groups of the kernel), writing the block sizes to sizes[0 .. n_blocks). */
 static void bisect(const double *points, int *idx, int n, int n_blocks, int *sizes) {
     int left_blocks, left;
     if (n_blocks <= 1) {
@@ -155,7 +156,7 @@ static void bisect(const double *points, int *idx, int n, int n_blocks, int *siz
         return;
     }
     left_blocks = n_blocks / 2;
-    left = (int)((long long)n * left_blocks / n_blocks);
+    left = left_blocks * JXF_BLOCK_POINTS;
     select_first(idx, n, left, points, longest_axis(points, idx, n));
     bisect(points, idx, left, left_blocks, sizes);
     bisect(points, idx + left, n - left, n_blocks - left_blocks, sizes + left_blocks);
@@ -469,32 +470,33 @@ static double block_slope(const jxf_model *m, int block, const double *x,
 
 /* ---- evaluating ---------------------------------------------------------------------- */
 
-/* Block B's displacement for the current coordinates into m->u; max |u_p|^2 of its members
- * (a NaN wins: never hidden). */
+/* Block B's displacement for the current coordinates into its place in m->u; max |u_p|^2
+ * of its members (a NaN wins: never hidden). */
 static double evaluate(const jxf_model *m, int block) {
     const jxf_blocks *b = &m->blocks;
-    const size_t K = (size_t)m->n_points;
-    double *u = b->work + b->count, best = 0.0;
-    const int first = b->start[block], size = jxf_block_combine(m, block, m->coords, u);
+    double *u = m->u + 3 * (size_t)b->start[block], best = 0.0;
+    const int size = jxf_block_combine(m, block, m->coords, u);
     int s;
     for (s = 0; s < size; ++s) {
-        const size_t p = (size_t)b->point[first + s];
         const double x = u[s], y = u[size + s], z = u[2 * size + s], sq = x * x + y * y + z * z;
-        m->u[p] = x, m->u[K + p] = y, m->u[2 * K + p] = z;
         best = sq > best || sq != sq ? sq : best;
     }
     b->stamp[block] = m->state;
     return best;
 }
 
-void jxf_block_displacement(const jxf_model *m, int block) {
+const double *jxf_block_displacement(const jxf_model *m, int block) {
     if (m->blocks.stamp[block] != m->state) (void)evaluate(m, block);
+    return m->u + 3 * (size_t)m->blocks.start[block];
 }
 
-const double *jxf_displacements(const jxf_model *m) {
-    int block;
-    for (block = 0; block < m->blocks.count; ++block) jxf_block_displacement(m, block);
-    return m->u;
+void jxf_point_displacement(const jxf_model *m, int k, double u[3]) {
+    const int slot = m->blocks.slot[k], block = slot / JXF_BLOCK_POINTS;
+    const int first = m->blocks.start[block], size = m->blocks.start[block + 1] - first;
+    const double *values = jxf_block_displacement(m, block);
+    u[0] = values[slot - first];
+    u[1] = values[size + slot - first];
+    u[2] = values[2 * size + slot - first];
 }
 
 /* 1 if block B may hold a value above `best` (|u|^2) for the coordinates x (their

@@ -42,8 +42,8 @@ int jxf_block_combine(const jxf_model *m, int block, const double *x, double *ou
 
 /* max_p |u_p| (m) for the current coordinates m->coords: only the blocks whose bounds can
  * exceed the largest value found are evaluated (every block when built with
- * -DJXF_EVERY_POINT); the evaluated blocks' displacements are kept in m->u, the block of
- * the largest value becomes the next evaluation's first. */
+ * -DJXF_EVERY_POINT); the evaluated blocks' displacements are kept (jxf_block_displacement),
+ * the block of the largest value becomes the next evaluation's first. */
 double jxf_blocks_deviation(jxf_model *m);
 
 /* The slack of a bound of the points' computed displacement (a bound B of the exact one
@@ -56,12 +56,13 @@ void jxf_bound_slack(int rows, double *relative, double *absolute);
 double jxf_block_near(const jxf_model *m, int block, const double *x, const double *magnitude,
                       double centre[3]);
 
-/* m->u with every point's displacement for the current state (blocks not yet evaluated
- * since the state changed are evaluated now). */
-const double *jxf_displacements(const jxf_model *m);
+/* Block B's members' displacement for the current state (3 n_B: x of its members in slot
+ * order, then y, then z; its place in m->u), evaluated now if the step left it out. */
+const double *jxf_block_displacement(const jxf_model *m, int block);
 
-/* m->u holds block B's members for the current state (evaluated now if it did not). */
-void jxf_block_displacement(const jxf_model *m, int block);
+/* The displacement u (3, m) of point k for the current state (its block evaluated now if the
+ * step left it out). */
+void jxf_point_displacement(const jxf_model *m, int k, double u[3]);
 
 #ifdef __cplusplus
 }

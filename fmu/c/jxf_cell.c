@@ -4,7 +4,7 @@
  * y = Q q + V v + A a + y_rest (jaxflex.outputs: y_rest = -S g, the exact outputs of the part
  * at rest under gravity); they are evaluated when read, from m->q, m->v and m->a_now. The cup
  * utilisation and the von Mises stress are those of jaxflex.loads; the distance of a point
- * (at rest under gravity, moved by the path m->pos and the displacement m->u) to the nearest
+ * (at rest under gravity, moved by the path m->pos and its displacement) to the nearest
  * obstacle is that of jaxflex.cell, less half the part's thickness (its skins). SI units.
  *
  * Obstacle records of JXF_OBSTACLE_VALUES values: a kind code, then the kind's values. The
@@ -263,22 +263,17 @@ static cell_scratch scratch_of(const jxf_model *m) {
 static int block_distances(const jxf_model *m, int block, const double *x,
                            const cell_scratch *w) {
     const jxf_blocks *b = &m->blocks;
-    const size_t K = (size_t)m->n_points;
     const int first = b->start[block], size = b->start[block + 1] - first;
+    const double *values = w->u;
     double u[3], p[3];
     int s;
     if (m->turning)
         (void)jxf_block_combine(m, block, x, w->u);
     else
-        jxf_block_displacement(m, block); /* m->u, shared with the deviation */
+        values = jxf_block_displacement(m, block); /* shared with the deviation */
     for (s = 0; s < size; ++s) {
-        const int k = b->point[first + s];
-        if (m->turning) {
-            u[0] = w->u[s], u[1] = w->u[size + s], u[2] = w->u[2 * size + s];
-        } else {
-            u[0] = m->u[k], u[1] = m->u[K + k], u[2] = m->u[2 * K + k];
-        }
-        place(m, k, u, p);
+        u[0] = values[s], u[1] = values[size + s], u[2] = values[2 * size + s];
+        place(m, b->point[first + s], u, p);
         w->d[s] = point_distance(m, p);
     }
     return size;

@@ -59,7 +59,8 @@ enum { JXF_IN_ACC = 0, JXF_IN_QUAT = 3, JXF_IN_OMEGA = 7, JXF_IN_ALPHA = 10, JXF
 #define JXF_POSE_VALUES 10
 
 /* The points in spatially compact blocks (jxf_blocks.c): block B holds the points of slots
- * start[B] .. start[B + 1] - 1 (at most `largest`), `point` maps a slot to its point and
+ * start[B] .. start[B + 1] - 1 (JXF_BLOCK_POINTS of them, the last block at most: `largest`
+ * is the largest), `point` maps a slot to its point and
  * `slot` a point to its slot; `centre` is a member of each block. What bounds a block's
  * members for the coordinates x of the shape rows psi_j (j < M + R: the modes, then the
  * residual rows), per block and row (jxf_blocks.c explains the bounds):
@@ -72,7 +73,7 @@ enum { JXF_IN_ACC = 0, JXF_IN_QUAT = 3, JXF_IN_OMEGA = 7, JXF_IN_ALPHA = 10, JXF
  *   span    (nB, 3)          max_p |X_p - X_c| per axis of the points (model frame), m
  *   extent  (nB, 3)          the same of the positions at rest (with obstacles, else NULL)
  *   top     (M + R)          max_B reach: max_p |psi_j(p)| over every point
- * `stamp` tells for which state the block's entries of m->u were evaluated, `seed` is the
+ * `stamp` tells for which state the block's part of m->u was evaluated, `seed` is the
  * block where the deviation was largest at the last evaluation, `unbounded` the number of
  * coming evaluations that do not try the bounds (jxf_blocks_deviation); `offered` and
  * `evaluated` count the blocks the deviation's evaluations had and evaluated (logged when
@@ -145,9 +146,10 @@ struct jxf_model {
     double start_time, time;
     double *q, *v;       /* (M) */
     double *saved;       /* (2M): q and v before a step, restored if it fails */
-    double *u;           /* (3K) displacement, component-major (x of all K points, then y,
-                          * then z); a block's entries are evaluated when needed, for the
-                          * state their stamp names (jxf_blocks.c) */
+    double *u;           /* (3K) displacement, block by block: block B's (3, n_B) from
+                          * 3 start[B] (x of its members in slot order, then y, then z),
+                          * evaluated when needed for the state its stamp names
+                          * (jxf_blocks.c; read it with jxf_point_displacement) */
     double *coords;      /* (M + R) the shapes' coordinates: q (less the sag), then a_now */
     double deviation;    /* max_p |u_p|, m */
     double a_now[3];     /* base acceleration at the communication point, m/s^2 (a turning

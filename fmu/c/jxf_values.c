@@ -7,8 +7,8 @@
  * output is a row in that table plus its function here. Values are those at the current
  * communication point (jxf_core.c evaluates the deviation and the settled flag after every
  * step); a function reading the state computes from m->q, m->v (modal, kg^0.5 m and per s)
- * or the displacement m->u (component-major: x of all K points, then y, then z), whose
- * points are evaluated when read (jxf_displacements, jxf_blocks.h). SI units.
+ * or a point's displacement (jxf_point_displacement, jxf_blocks.h: evaluated when read where
+ * the step did not need it). SI units.
  */
 #include <math.h>
 #include <string.h>
@@ -56,13 +56,11 @@ void jxf_value_use_embedded_trajectory(const jxf_model *m, int *out) {
 
 /* points + u, (K, 3) row-major, m */
 void jxf_value_displaced_points(const jxf_model *m, double *out) {
-    const size_t K = (size_t)m->n_points;
-    size_t p;
-    (void)jxf_displacements(m); /* every point of m->u */
-    for (p = 0; p < K; ++p) {
-        out[3 * p] = m->points[3 * p] + m->u[p];
-        out[3 * p + 1] = m->points[3 * p + 1] + m->u[K + p];
-        out[3 * p + 2] = m->points[3 * p + 2] + m->u[2 * K + p];
+    double u[3];
+    int p, c;
+    for (p = 0; p < m->n_points; ++p) {
+        jxf_point_displacement(m, p, u); /* evaluated now where the step left it out */
+        for (c = 0; c < 3; ++c) out[3 * p + c] = m->points[3 * p + c] + u[c];
     }
 }
 
