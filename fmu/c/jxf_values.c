@@ -54,13 +54,18 @@ void jxf_value_use_embedded_trajectory(const jxf_model *m, int *out) {
     *out = m->use_trajectory;
 }
 
-/* points + u, (K, 3) row-major, m */
+/* points + u, (K, 3) row-major, m: block by block (each evaluated now where the step left
+ * it out, jxf_blocks.h) */
 void jxf_value_displaced_points(const jxf_model *m, double *out) {
-    double u[3];
-    int p, c;
-    for (p = 0; p < m->n_points; ++p) {
-        jxf_point_displacement(m, p, u); /* evaluated now where the step left it out */
-        for (c = 0; c < 3; ++c) out[3 * p + c] = m->points[3 * p + c] + u[c];
+    const jxf_blocks *b = &m->blocks;
+    int block, s, c;
+    for (block = 0; block < b->count; ++block) {
+        const double *u = jxf_block_displacement(m, block);
+        const int first = b->start[block], size = b->start[block + 1] - first;
+        for (s = 0; s < size; ++s) {
+            const size_t p = (size_t)b->point[first + s];
+            for (c = 0; c < 3; ++c) out[3 * p + c] = m->points[3 * p + c] + u[c * size + s];
+        }
     }
 }
 
