@@ -3,9 +3,10 @@
  * decide it and still equals the evaluation of every point.
  *
  * When the model is loaded, the K points are ordered by a k-d bisection of their
- * coordinates (each segment of blocks split at the median of its longest extent until
- * nB = ceil(K / JXF_BLOCK_POINTS) segments remain), so a block is a compact patch of the
- * part, and the shapes (M + R rows psi_j: the modes, then the static residual) are stored
+ * coordinates (each segment of blocks split across its longest extent, half of its blocks'
+ * points on either side, until nB = ceil(K / JXF_BLOCK_POINTS) segments of JXF_BLOCK_POINTS
+ * points remain, the last one fewer), so a block is a compact patch of the part, and the
+ * shapes (M + R rows psi_j: the modes, then the static residual) are stored
  * block by block. For coordinates x (u_p = sum_j psi_j(p) x_j) three bounds hold for every
  * member p of a block B with centre c (the member nearest the members' mean position):
  *     |u_p|       <= sum_j reach_Bj |x_j|,          reach_Bj = max_p |psi_j(p)|
@@ -42,8 +43,8 @@
 #define JXF_RESTRICT restrict
 #endif
 
-/* Points per block: the work per step is about nB (M + R) 4 for the bounds plus 3 (M + R)
- * JXF_BLOCK_POINTS per evaluated block. */
+/* Points per block: a step's work is about nB (M + R) products for the first bounds, more
+ * for the blocks they leave in play, and 3 (M + R) JXF_BLOCK_POINTS per evaluated block. */
 #ifndef JXF_BLOCK_POINTS
 #define JXF_BLOCK_POINTS 32
 #endif
@@ -99,7 +100,6 @@ int jxf_block_combine(const jxf_model *m, int block, const double *x, double *ou
                 3 * (size_t)size, out);
     return size;
 }
-
 
 /* ---- building the blocks ------------------------------------------------------------- */
 
