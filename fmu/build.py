@@ -36,6 +36,8 @@ PART_CORE = (
     "jxf_model.h",
     "jxf_core.c",
     "jxf_values.c",
+    "jxf_blocks.h",
+    "jxf_blocks.c",
     "jxf_cell.h",
     "jxf_cell.c",
     "jxf_turning.h",

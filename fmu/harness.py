@@ -33,19 +33,22 @@ def compile_harness(
     array_points: int | None = None,
     sanitize: bool = False,
     turning: bool = False,
+    distance: bool = False,
 ) -> Path:
     """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``: for this machine, or
     (``windows=True``) as a static Windows x86_64 executable with mingw-w64, run under wine
     by fmu.windows. With ``array_points`` (FMI 3.0) it also reads the displaced-points array
     output (K x 3) after every step. With ``sanitize`` it is instrumented with SANITIZE_FLAGS,
     to load an FMU library built with them. With ``turning`` its bench mode also sets the
-    pose inputs of a turning part's FMU (export_fmu(turning=True))."""
+    pose inputs of a turning part's FMU (export_fmu(turning=True)); with ``distance`` it also
+    reads ``min_distance`` (an FMU with obstacles) after every step."""
     if windows and shutil.which(WINDOWS_COMPILER) is None:
         raise FmuBuildError(f"{WINDOWS_COMPILER} is not installed ({WINE_HINT})")
     compiler = WINDOWS_COMPILER if windows else host_target().compiler
     link = ["-static", "-lm"] if windows else ["-ldl", "-lm"]
     array = [f"-DHARNESS_ARRAY_POINTS={array_points}"] if array_points else []
     array += ["-DHARNESS_TURNING"] if turning else []
+    array += ["-DHARNESS_DISTANCE"] if distance else []
     cmd = [
         compiler,
         *(SANITIZE_FLAGS if sanitize else ()),
