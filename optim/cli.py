@@ -77,7 +77,7 @@ def _add_move(parser: argparse.ArgumentParser) -> None:
         metavar=("W", "A", "J"),
         help="limits of the turn: rate rad/s, acceleration rad/s^2, jerk rad/s^3 (default "
         + " ".join(f"{v:g}" for v in ANGULAR_LIMITS)
-        + ": the robot rates of issue 26, jerk 10 x the acceleration)",
+        + ": a typical 6-axis robot wrist, jerk 10 x the acceleration)",
     )
     parser.add_argument(
         "--pivot",

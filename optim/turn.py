@@ -46,7 +46,7 @@ from optim.ruckig_move import fit_to_grid, grid_steps, shaped_acceleration, time
 from optim.shapers import Shaper
 from optim.turn_clearance import turning_move_deviation
 
-# Robot rates of issue 26's targets (3 rad/s, 20 rad/s^2); the jerk 10 x the acceleration,
+# Rates of a typical 6-axis robot wrist (3 rad/s, 20 rad/s^2); the jerk 10 x the acceleration,
 # the ratio of the translation's defaults (10 m/s^2, 100 m/s^3).
 ANGULAR_LIMITS = (3.0, 20.0, 200.0)  # rad/s, rad/s^2, rad/s^3
 
