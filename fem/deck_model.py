@@ -69,7 +69,7 @@ def read_parts(
     beam_sections = BeamSections(bulk, materials)
     lines = line_elements(bulk, geometry, beam_sections)
     points = point_matrices(bulk, geometry)
-    shell_grids = sorted({g for s in shells for g in s.corners})
+    shell_grids = sorted({g for s in shells for g in s.grids})
     others = {g for pair in lines.grids for g in pair} | {g for gs in points.grids for g in gs}
     others = sorted((others | constraints.grids) - set(shell_grids))
     grid_ids = np.array(shell_grids + others, dtype=np.int64)
@@ -161,16 +161,26 @@ def representative(parts: DeckParts, mass_kg: float, unit: Units):
     return t_m, e_file * unit.modulus_to_si, float(np.clip(nu, 0.0, 0.49)), section
 
 
+def shell_cells(elements, triangles: np.ndarray, owner: np.ndarray, index: dict):
+    """The cells of the sheet (fem.mesh_io.sheet_from_cells blocks, node indices by
+    ``index``): linear elements by their corners, quadratic ones by their ``triangles``
+    (F, 3) whose ``owner`` (F,) is the element."""
+    tris, quads = [], []
+    for element in elements:
+        if not element.quadratic:
+            corners = [index[g] for g in element.corners]
+            (quads if len(corners) == 4 else tris).append(corners)
+    quadratic = np.array([e.quadratic for e in elements], dtype=bool)
+    tris.extend(triangles[quadratic[owner]].tolist())
+    return [(k, np.array(c)) for k, c in (("triangle", tris), ("quad", quads)) if c]
+
+
 def sheet_part(parts: DeckParts, geometry, unit: Units, path: str, mass_kg: float, name: str):
     """The fem part of the deck's shells (SI), and its ShellMesh (oriented facets)."""
     f = parts.facets
     xyz = np.array([geometry.positions[int(g)] for g in parts.grid_ids[: parts.n_shell]])
     xyz = xyz * unit.length_m
-    tris, quads = [], []
-    for element in f.elements:
-        corners = [parts.index[g] for g in element.corners]
-        (quads if len(corners) == 4 else tris).append(corners)
-    blocks = [(k, np.array(c)) for k, c in (("triangle", tris), ("quad", quads)) if c]
+    blocks = shell_cells(f.elements, f.triangles, f.element, parts.index)
     sheet = sheet_from_cells(xyz, blocks, path, weld=False, max_extent_m=np.inf)
     thickness, e_pa, nu, _ = representative(parts, mass_kg, unit)
     area = sheet.area_m2

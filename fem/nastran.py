@@ -38,11 +38,19 @@ from fem.deck_model import (
     deck_outputs,
     read_parts,
     sheet_part,
+    shell_cells,
     stats,
 )
 from fem.deck_reduce import reduce_deck
 from fem.deck_scope import MODELLED, classify, refuse_outside
-from fem.deck_shells import SHELL_CARDS, ShellSections, read_shell
+from fem.deck_shells import (
+    SHELL_CARDS,
+    ShellSections,
+    element_slots,
+    facet_slots,
+    read_shell,
+)
+from fem.deck_zero_modes import mechanism_message, soft_message, sort_zero_modes
 from fem.imported import file_digest
 from fem.materials import Material
 from fem.mesh_io import FLAT_RELATIVE, sheet_from_cells
@@ -56,6 +64,7 @@ from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
 
 PART_ELEMENTS = ("morley", "argyris", "hex2")
+RIGID_TOL_HZ = 0.01  # fem.modal.solve_modes' cut-off for rigid-body modes
 LAMINATE = (
     "each laminate is an equivalent shell by classical lamination theory (its A, B, D, mass and "
     "rotary inertia kept); lost: transverse shear flexibility (the shell is Kirchhoff), ply "
@@ -118,17 +127,14 @@ def _simple(bulk: BulkData, shells, sections: ShellSections, constraints: DeckCo
     return reasons, (next(iter(values))[0] if values else None, material)
 
 
-def _pins(bulk, constraints, flat: bool, shell_grids: set, midside: set):
+def _pins(bulk, constraints, flat: bool, shell_grids: set):
     """Grid ids pinned (translations held) for our plate or thin solid, and counts."""
     held: dict[int, set] = {}
     for gid, comp in constraints.held:
         held.setdefault(gid, set()).add(str(comp))
-    pinned, ignored, on_midside = [], 0, 0
+    pinned, ignored = [], 0
     for gid, comps in sorted(held.items()):
         translations = comps & {"1", "2", "3"}
-        if gid in midside and gid not in shell_grids:
-            on_midside += 1
-            continue
         if flat:
             keep = "3" in translations  # 1, 2 (in-plane) and 6 (drilling): not plate DOFs
         else:
@@ -146,16 +152,16 @@ def _pins(bulk, constraints, flat: bool, shell_grids: set, midside: set):
             card = next(c for (g, _), c in constraints.held.items() if g == gid)
             raise InputError(f"deck: {card.where(None)}: grid {gid} is held but no shell uses it")
         pinned.append(gid)
-    return pinned, {"held_grids": len(pinned), "constraints_without_effect": ignored,
-                    "constraints_on_midside_grids": on_midside}  # fmt: skip
+    return pinned, {"held_grids": len(pinned), "constraints_without_effect": ignored}
 
 
 def _plate_part(path, bulk, geometry, unit, shells, element, simple, constraints):
-    """(part, pinned supports, info) of our plate or thin solid."""
+    """(part, pinned supports, info) of our plate or thin solid (quadratic elements as the
+    facets of the deck model, fem.deck_shells)."""
     thickness, mat = simple
     if mat.rho * bulk.wtmass <= 0:
         raise InputError(_massless(bulk))
-    grid_ids = sorted({g for s in shells for g in s.corners})
+    grid_ids = sorted({g for s in shells for g in s.grids})
     index = {g: i for i, g in enumerate(grid_ids)}
     xyz = np.array([geometry.positions[g] for g in grid_ids]) * unit.length_m
     try:
@@ -167,18 +173,16 @@ def _plate_part(path, bulk, geometry, unit, shells, element, simple, constraints
         )
     except InputError as exc:
         raise InputError(f"deck: {mat.card.label} {exc}") from exc
-    blocks = [
-        (kind, np.array([[index[g] for g in s.corners] for s in shells if len(s.corners) == n]))
-        for kind, n in (("triangle", 3), ("quad", 4))
-        if any(len(s.corners) == n for s in shells)
-    ]
+    slots = element_slots(shells, index)
+    owner, local = facet_slots(shells, slots, xyz)
+    triangles = np.take_along_axis(slots[owner], local, axis=1)
+    blocks = shell_cells(shells, triangles, owner, index)
     sheet = sheet_from_cells(xyz, blocks, str(path), weld=False, max_extent_m=np.inf)
     description = {"shape": "Nastran deck", "path": str(path)}
     part = part_from_mesh(
         sheet, thickness * unit.length_m, material, element, Path(path).name, description
     )
-    midside = {g for s in shells for g in s.midside}
-    pinned, info = _pins(bulk, constraints, bool(sheet.is_flat), set(index), midside)
+    pinned, info = _pins(bulk, constraints, bool(sheet.is_flat), set(index))
     return part, [PointSupport(*xyz[index[g]]) for g in pinned], info
 
 
@@ -239,26 +243,9 @@ def _deck_result(
     count = n_modes
     if isinstance(n_modes, int) and T.shape[1] <= n_modes + 8:  # a model of a few DOFs
         count = "all"  # every mode, densely (the sparse solver needs more DOFs than modes)
-    try:
-        modes = solve_modes(
-            reduction.stiffness,
-            reduction.mass,
-            load,
-            observation,
-            count,
-            max_freq_hz=max_freq_hz,
-            rigid_count=6 if allow_rigid_modes else None,
-            rigid_message="supports: the deck's constraints and the cups leave {count} "
-            "rigid-body mode(s) (below {tol:g} Hz): the part is not held; add SPC or cups, or "
-            "pass allow_rigid_modes=True (--allow-rigid-modes)",
-            progress=progress,
-        )
-    except RuntimeError as exc:  # SuperLU: a singular mass or shifted stiffness matrix
-        raise InputError(
-            f"deck: the model cannot be solved ({exc}): a motion without mass or without "
-            "stiffness that spans several grids (point masses without rotary inertia on a rigid "
-            "element, a mechanism); give the masses inertia or hold the mechanism"
-        ) from None
+    grids = (nodes, parts.grid_ids, geometry.frames(parts.grid_ids))
+    modes = _solve(reduction, load, observation, count, max_freq_hz, allow_rigid_modes,
+                   grids, progress)  # fmt: skip
     timings.update(modes.timings_s)
     reduced = (T, reduction.stiffness, reduction.mass, load, observation)
     result = modal_result(part, supports, system, reduced, modes, zeta, timings, t_start)
@@ -270,6 +257,62 @@ def _deck_result(
         "notes": _notes(parts),
     }
     return result, info, parts
+
+
+RIGID_MESSAGE = (
+    "supports: the deck's constraints and the cups leave {count} rigid-body mode(s) (below "
+    "{tol:g} Hz): the part is not held; add SPC or cups, or pass allow_rigid_modes=True "
+    "(--allow-rigid-modes)"
+)
+
+
+def _solve(reduction, load, observation, count, max_freq_hz, allow_rigid_modes, grids, progress):
+    """The modes of the reduced deck model, its lowest ones sorted out (fem.deck_zero_modes):
+    mechanisms and modes below the rigid cut-off that deform the part are refused, rigid-body
+    modes without ``allow_rigid_modes`` too. ``grids``: (nodes (N, 3) m, grid ids, their
+    displacement systems (N, 3, 3))."""
+
+    def solve(rigid_count):
+        try:
+            return solve_modes(
+                reduction.stiffness,
+                reduction.mass,
+                load,
+                observation,
+                count,
+                max_freq_hz=max_freq_hz,
+                rigid_count=rigid_count,
+                rigid_message=RIGID_MESSAGE,
+                progress=progress,
+            )
+        except RuntimeError as exc:  # SuperLU: a singular mass or shifted stiffness matrix
+            raise InputError(
+                f"deck: the model cannot be solved ({exc}): a motion without mass or without "
+                "stiffness that spans several grids (point masses without rotary inertia on a "
+                "rigid element, a mechanism); give the masses inertia or hold the mechanism"
+            ) from None
+
+    refusal = None
+    try:
+        modes = solve(6 if allow_rigid_modes else None)
+    except InputError as exc:  # rigid-body modes, or what looks like them: say which
+        refusal = exc
+        modes = solve(6)
+    found = sort_zero_modes(
+        reduction.stiffness,
+        reduction.basis,
+        grids,
+        modes.rigid_vectors,
+        modes.rigid_freq_hz,
+        modes.vectors,
+    )
+    if found.mechanisms:
+        raise InputError(mechanism_message(found))
+    if found.soft_hz.size:
+        raise InputError(soft_message(found, RIGID_TOL_HZ))
+    if refusal is not None:
+        raise refusal
+    return modes
 
 
 def _massless(bulk: BulkData) -> str:
@@ -406,7 +449,7 @@ def from_nastran(
 
 
 def _is_flat(geometry: DeckGeometry, shells) -> bool:
-    """Whether the shells' corner grids lie in a plane z = const (as fem.mesh_io)."""
-    xyz = np.array([geometry.positions[g] for s in shells for g in s.corners])
+    """Whether the shells' grids lie in a plane z = const (as fem.mesh_io)."""
+    xyz = np.array([geometry.positions[g] for s in shells for g in s.grids])
     extent = float(np.ptp(xyz, axis=0).max())
     return bool(np.ptp(xyz[:, 2]) <= FLAT_RELATIVE * max(extent, 1e-300))
