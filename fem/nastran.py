@@ -31,6 +31,7 @@ import numpy as np
 from fem.bdf import BulkData, read_bulk
 from fem.deck_constraints import DeckConstraints, deck_constraints
 from fem.deck_coords import DeckGeometry
+from fem.deck_drilling import free_drilling
 from fem.deck_materials import Materials
 from fem.deck_model import (
     FORMULATION,
@@ -210,12 +211,15 @@ def _deck_result(
     check_layout(supports, part, allow_rigid_modes=True)  # rigid modes: the solver says
     index = parts.index
     held = {k: c for k, c in constraints.held.items() if k[0] in index}
+    frames = geometry.frames(parts.grid_ids)
+    drilling = free_drilling(held, parts, nodes, frames, constraints.grids)
+    held = {k: c for k, c in held.items() if k not in drilling}
     model_constraints = DeckConstraints(held, constraints.relations, constraints.info)
     tick = time.perf_counter()
     reduction = reduce_deck(
         K,
         M,
-        geometry.frames(parts.grid_ids),
+        frames,
         lambda key: 6 * index[key[0]] + key[1] - 1,
         model_constraints,
         [s.hold_solid(dofs, i) for i, s in enumerate(supports)],
@@ -243,7 +247,7 @@ def _deck_result(
     count = n_modes
     if isinstance(n_modes, int) and T.shape[1] <= n_modes + 8:  # a model of a few DOFs
         count = "all"  # every mode, densely (the sparse solver needs more DOFs than modes)
-    grids = (nodes, parts.grid_ids, geometry.frames(parts.grid_ids))
+    grids = (nodes, parts.grid_ids, frames)
     modes = _solve(reduction, load, observation, count, max_freq_hz, allow_rigid_modes,
                    grids, progress)  # fmt: skip
     timings.update(modes.timings_s)
@@ -252,7 +256,8 @@ def _deck_result(
     info = {
         "grids": n_grids,
         "shell_facets": len(parts.facets.triangles),
-        "held_components_without_effect": len(constraints.held) - len(held),
+        "held_components_without_effect": len(constraints.held) - len(held) - len(drilling),
+        "held_drilling_rotations_left_free": len(drilling),
         **reduction.info,
         "notes": _notes(parts),
     }
