@@ -1,7 +1,7 @@
 """A Nastran deck as one finite-element model with six DOFs per grid (SI units): its shells
-(flat facets of our shell), beams, rods, springs, bushings and masses assembled in basic
-axes, its sheet as a fem part (where cups sit and what the model reports), and the
-outputs (cup reactions, surface stresses) of fem.outputs.
+(flat facets of our shell), beams, rods, springs, bushings, gaps, shear panels and masses
+assembled in basic axes, its sheet as a fem part (where cups sit and what the model
+reports), and the outputs (cup reactions, surface stresses) of fem.outputs.
 
 The grids of the model are the shells' corner grids (first: they are the part's nodes,
 where displacements are monitored), then the grids of the other elements and of the rigid
@@ -20,10 +20,12 @@ import scipy.sparse as sp
 from fem.assembly import assemble
 from fem.bdf import BulkData
 from fem.beam_sections import BeamSections
+from fem.deck_connectors import Patches, connectors
 from fem.deck_constraints import DeckConstraints
 from fem.deck_coords import DeckGeometry
 from fem.deck_lines import LineElements, line_elements
 from fem.deck_materials import Materials, ShellSection
+from fem.deck_panels import shear_panels
 from fem.deck_points import PointMatrices, point_matrices
 from fem.deck_shells import Facets, ShellSections, facet_matrices, facet_resultants, facets
 from fem.materials import Material
@@ -38,8 +40,8 @@ from jaxflex.errors import InputError
 
 FORMULATION = (
     "Nastran deck, 6 DOFs per grid: shell facets (DKT bending + ANDES OPT membrane, "
-    "Kirchhoff), 12-DOF beams, springs, bushings, masses, rigid elements and MPCs; "
-    "consistent mass"
+    "Kirchhoff), 12-DOF beams, springs, bushings, gaps, shear panels, fasteners and spot "
+    "welds, masses, rigid elements and MPCs; consistent mass (shear panels: lumped)"
 )
 CHUNK_FACETS = 2000
 
@@ -69,13 +71,17 @@ def read_parts(
     beam_sections = BeamSections(bulk, materials)
     lines = line_elements(bulk, geometry, beam_sections)
     points = point_matrices(bulk, geometry)
+    shear_panels(bulk, geometry, materials, points)
     shell_grids = sorted({g for s in shells for g in s.grids})
     others = {g for pair in lines.grids for g in pair} | {g for gs in points.grids for g in gs}
     others = sorted((others | constraints.grids) - set(shell_grids))
     grid_ids = np.array(shell_grids + others, dtype=np.int64)
     index = {int(g): i for i, g in enumerate(grid_ids)}
+    shell_facets = facets(shells, shell_sections, geometry, index)
+    nodes = np.array([geometry.positions[int(g)] for g in grid_ids])
+    connectors(bulk, geometry, materials, Patches(shell_facets, nodes, grid_ids), points)
     return DeckParts(
-        facets(shells, shell_sections, geometry, index),
+        shell_facets,
         shell_sections,
         lines,
         points,
@@ -123,10 +129,8 @@ def assemble_deck(parts: DeckParts, geometry: DeckGeometry, unit: Units, wtmass:
         line_nodes.reshape(-1, 2), k_lines, m_lines, n, "beams", progress
     )
     K, M = K + k_add, M + m_add
-    for size in (1, 2):
+    for size in sorted({len(g) for g in parts.points.grids}):
         chosen = [i for i, g in enumerate(parts.points.grids) if len(g) == size]
-        if not chosen:
-            continue
         point_nodes = np.array([[index[g] for g in parts.points.grids[i]] for i in chosen])
         k_pts = np.array([parts.points.stiffness[i] for i in chosen])
         m_pts = np.array([parts.points.mass[i] for i in chosen])

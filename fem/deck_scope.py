@@ -25,6 +25,7 @@ import numpy as np
 
 from fem.bdf import BulkData, Card
 from fem.beam_sections import BeamSections
+from fem.deck_connectors import CONNECTOR_CARDS
 from fem.deck_constraints import RIGID_CARDS
 from fem.deck_coords import DeckGeometry
 from fem.deck_lines import BEAMS, LINE_CARDS, RODS
@@ -32,11 +33,13 @@ from fem.deck_materials import Materials
 from fem.deck_shells import SHELL_CARDS, ShellSections, read_shell
 from jaxflex.errors import InputError
 
-POINT_CARDS = ("CONM1", "CONM2", "CMASS1", "CMASS2", "CELAS1", "CELAS2", "CBUSH")
-MODELLED = (*SHELL_CARDS, *LINE_CARDS, *POINT_CARDS, *RIGID_CARDS)
+POINT_CARDS = ("CONM1", "CONM2", "CMASS1", "CMASS2", "CELAS1", "CELAS2", "CBUSH", "CGAP")
+PANEL_CARDS = ("CSHEAR",)
+MODELLED = (*SHELL_CARDS, *LINE_CARDS, *POINT_CARDS, *PANEL_CARDS, *CONNECTOR_CARDS, *RIGID_CARDS)
 READ = (
     *("GRID", "GRDSET", "BAROR", "BEAMOR", "PSHELL", "PCOMP", "PCOMPG", "PBAR", "PBARL"),
     *("PBEAM", "PBEAML", "PROD", "PTUBE", "PELAS", "PMASS", "PBUSH", "MAT1", "MAT2", "MAT8"),
+    *("PGAP", "PSHEAR", "PFAST", "PWELD"),
     *("CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S"),
 )  # properties, materials, systems the modelled cards use (others' are left out)
 DAMPING = ("CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "CVISC")
@@ -48,8 +51,9 @@ STRUCTURAL = re.compile(
     r"|MPC\w*|SPC(ADD)?|SPC1|SPCAX|DMIG\w*|GENEL|NSM\w*|BGSET|BGADD|BCTSET"
 )
 ADVICE = (
-    "jaxflex solves shells (CQUAD4, CTRIA3, CQUAD8, CTRIA6, CQUADR, CTRIAR), beams and rods "
-    "(CBAR, CBEAM, CROD, CONROD, CTUBE), springs (CELAS1/2, CBUSH), masses (CONM1/2, "
+    "jaxflex solves shells (CQUAD4, CTRIA3, CQUAD8, CTRIA6, CQUADR, CTRIAR), shear panels "
+    "(CSHEAR), beams and rods (CBAR, CBEAM, CROD, CONROD, CTUBE), springs and gaps (CELAS1/2, "
+    "CBUSH, CGAP), fasteners and spot welds between shells (CFAST, CWELD), masses (CONM1/2, "
     "CMASS1/2) and rigid elements (RBE2, RBE3, RBAR, RBAR1, RROD); for the rest, read the "
     "modes your own solver computed: jaxflex model --from-modes FILE"
 )

@@ -24,7 +24,7 @@ a model without them would miss them).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -137,4 +137,21 @@ def soft_message(found: ZeroModes, tol_hz: float) -> str:
         "rigid-body modes (they store strain energy), and jaxflex keeps no mode this low; the "
         "deck describes a part this soft (check the unit system and PARAM WTMASS: a mass "
         "density given as a weight density makes it 386 times too heavy in inch units)"
+    )
+
+
+def with_rigid(modes, moved: np.ndarray):
+    """``modes`` (a fem.modal.ModeSolution) with the elastic modes ``moved`` (M,) bool (zero
+    energy: rigid-body modes the frequency cut-off missed) among the rigid ones."""
+    if not moved.any():
+        return modes
+    keep = ~moved
+    return replace(
+        modes,
+        freq_hz=modes.freq_hz[keep],
+        vectors=modes.vectors[:, keep],
+        gamma=modes.gamma[keep],
+        rigid_freq_hz=np.concatenate([modes.rigid_freq_hz, modes.freq_hz[moved]]),
+        rigid_gamma=np.concatenate([modes.rigid_gamma, modes.gamma[moved]]),
+        rigid_vectors=np.hstack([modes.rigid_vectors, modes.vectors[:, moved]]),
     )

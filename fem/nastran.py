@@ -51,7 +51,13 @@ from fem.deck_shells import (
     facet_slots,
     read_shell,
 )
-from fem.deck_zero_modes import mechanism_message, soft_message, sort_zero_modes
+from fem.deck_zero_modes import (
+    ZERO_ENERGY,
+    mechanism_message,
+    soft_message,
+    sort_zero_modes,
+    with_rigid,
+)
 from fem.imported import file_digest
 from fem.materials import Material
 from fem.mesh_io import FLAT_RELATIVE, sheet_from_cells
@@ -290,7 +296,7 @@ def _solve(reduction, load, observation, count, max_freq_hz, allow_rigid_modes, 
                 rigid_message=RIGID_MESSAGE,
                 progress=progress,
             )
-        except RuntimeError as exc:  # SuperLU: a singular mass or shifted stiffness matrix
+        except (RuntimeError, np.linalg.LinAlgError) as exc:  # a singular mass or K - s M
             raise InputError(
                 f"deck: the model cannot be solved ({exc}): a motion without mass or without "
                 "stiffness that spans several grids (point masses without rotary inertia on a "
@@ -301,6 +307,8 @@ def _solve(reduction, load, observation, count, max_freq_hz, allow_rigid_modes, 
     try:
         modes = solve(6 if allow_rigid_modes else None)
     except InputError as exc:  # rigid-body modes, or what looks like them: say which
+        if not str(exc).startswith("supports:"):
+            raise
         refusal = exc
         modes = solve(6)
     found = sort_zero_modes(
@@ -315,9 +323,13 @@ def _solve(reduction, load, observation, count, max_freq_hz, allow_rigid_modes, 
         raise InputError(mechanism_message(found))
     if found.soft_hz.size:
         raise InputError(soft_message(found, RIGID_TOL_HZ))
+    still = found.energy[len(modes.rigid_freq_hz) :] < ZERO_ENERGY  # rigid, above the cut-off
+    if still.any() and refusal is None and not allow_rigid_modes:
+        count = len(modes.rigid_freq_hz) + int(still.sum())
+        refusal = InputError(RIGID_MESSAGE.format(count=count, tol=RIGID_TOL_HZ))
     if refusal is not None:
         raise refusal
-    return modes
+    return with_rigid(modes, still)
 
 
 def _massless(bulk: BulkData) -> str:

@@ -295,14 +295,14 @@ def test_refusals_name_each_card_with_its_share_of_the_mass(tmp_path):
     corners += [(x, y, 0.02) for x, y, _ in corners]
     block = [f"GRID,{900 + k},,{x},{y},{z}" for k, (x, y, z) in enumerate(corners)]
     block += ["CHEXA,500,5,900,901,902,903,904,905,+", "+,906,907", "PSOLID,5,1",
-              "CGAP,600,,1,2"]  # fmt: skip
+              "CSEAM,600,,1,2"]  # fmt: skip
     path = meshio_deck(tmp_path / "b.bdf", nodes, "quad", quads, [*STEEL_SI, *block])
     with pytest.raises(InputError) as refused:
         fem.from_nastran(path, units="SI")
     message = str(refused.value)
     share = 7850 * 0.1 * 0.1 * 0.02 / (7850 * 0.1 * 0.1 * 0.02 + 7850 * 1e-3 * 0.3 * 0.2)
     assert f"CHEXA (1, {100 * share:.3g} % of the mass; first b.bdf line" in message
-    assert "CGAP (1, no mass;" in message
+    assert "CSEAM (1, no mass;" in message
     assert "jaxflex model --from-modes FILE" in message
     # a card our element set has but a model option refuses: named before the work
     mass = meshio_deck(tmp_path / "m.bdf", nodes, "quad", quads, [*STEEL_SI, "CONM2,7,1,,1.",
