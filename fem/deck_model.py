@@ -138,10 +138,15 @@ def assemble_deck(parts: DeckParts, geometry: DeckGeometry, unit: Units, wtmass:
             point_nodes, k_pts, m_pts, n, "springs and masses", progress
         )
         K, M = K + k_add, M + m_add
-    scale = np.tile(np.r_[np.full(3, 1 / unit.length_m), np.ones(3)], n)
-    energy = unit.mass_kg * unit.length_m**2
-    d = sp.diags(scale)
-    return (energy * (d @ K @ d)).tocsr(), (wtmass * energy * (d @ M @ d)).tocsr()
+    return to_si(K, unit), to_si(M, unit, wtmass)
+
+
+def to_si(matrix: sp.spmatrix, unit: Units, wtmass: float = 1.0) -> sp.csr_matrix:
+    """A stiffness (or, with ``wtmass``, mass) matrix of six DOFs per grid in SI units from
+    the deck's (module docstring)."""
+    n = matrix.shape[0] // 6
+    d = sp.diags(np.tile(np.r_[np.full(3, 1 / unit.length_m), np.ones(3)], n))
+    return (wtmass * unit.mass_kg * unit.length_m**2 * (d @ matrix @ d)).tocsr()
 
 
 def representative(parts: DeckParts, mass_kg: float, unit: Units):

@@ -32,6 +32,7 @@ from fem.bdf import BulkData, read_bulk
 from fem.deck_constraints import DeckConstraints, deck_constraints
 from fem.deck_coords import DeckGeometry
 from fem.deck_drilling import free_drilling
+from fem.deck_mass import lumped_mass, lumped_note, lumped_shift
 from fem.deck_materials import Materials
 from fem.deck_model import (
     FORMULATION,
@@ -41,6 +42,7 @@ from fem.deck_model import (
     sheet_part,
     shell_cells,
     stats,
+    to_si,
 )
 from fem.deck_reduce import reduce_deck
 from fem.deck_scope import MODELLED, classify, refuse_outside
@@ -259,11 +261,13 @@ def _deck_result(
     timings.update(modes.timings_s)
     reduced = (T, reduction.stiffness, reduction.mass, load, observation)
     result = modal_result(part, supports, system, reduced, modes, zeta, timings, t_start)
+    shift = _lumped_shift(bulk, parts, unit, nodes, T @ modes.vectors, modes.freq_hz, part.name)
     info = {
         "grids": n_grids,
         "shell_facets": len(parts.facets.triangles),
         "held_components_without_effect": len(constraints.held) - len(held) - len(drilling),
         "held_drilling_rotations_left_free": len(drilling),
+        "lumped_mass_shift": shift,
         **reduction.info,
         "notes": _notes(parts),
     }
@@ -330,6 +334,21 @@ def _solve(reduction, load, observation, count, max_freq_hz, allow_rigid_modes, 
     if refusal is not None:
         raise refusal
     return with_rigid(modes, still)
+
+
+def _lumped_shift(bulk, parts, unit, nodes_m: np.ndarray, vectors_u, freq_hz, name: str):
+    """Nastran's lumped mass's estimated shift of the modes (fem.deck_mass) as a list, warned
+    where it exceeds 1 %; "coupled" when the deck asks Nastran for coupled mass (PARAM
+    COUPMASS > 0)."""
+    for card in bulk.named("PARAM"):
+        if card.text(0) == "COUPMASS" and (card.integer(1, "V1") or 0) > 0:
+            return "coupled (PARAM COUPMASS)"
+    lumped = to_si(lumped_mass(parts, nodes_m / unit.length_m), unit, bulk.wtmass)
+    shift = lumped_shift(freq_hz, vectors_u, lumped)
+    note = lumped_note(shift)
+    if note:
+        warnings.warn(f"{name}: {note}", PartWarning, stacklevel=4)
+    return [round(float(v), 5) for v in shift]
 
 
 def _massless(bulk: BulkData) -> str:
