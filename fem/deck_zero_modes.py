@@ -33,14 +33,12 @@ from fem.offsets import skew
 
 ZERO_ENERGY = 1e-13  # strain-energy share below which a mode is a zero-energy mode
 NOT_RIGID = 1e-2  # sine of the angle to the rigid motions beyond which a direction is not one
-MOVING_SHARE = 0.05  # grids counted as moving in a mechanism: beyond this share of the most
 
 
 @dataclass
 class ZeroModes:
     """The lowest modes sorted out: ``rigid`` rigid-body modes, ``mechanisms`` their count
-    and ``moving`` (grid ids moving most in them, of ``n_moving`` that move by more than
-    ``MOVING_SHARE`` of the most), ``soft_hz`` the frequencies of modes below
+    and ``moving`` (grid ids moving most in them), ``soft_hz`` the frequencies of modes below
     the rigid cut-off that deform the part, ``energy`` (R,) the strain-energy share of the
     modes examined."""
 
@@ -49,7 +47,6 @@ class ZeroModes:
     moving: list[int]
     soft_hz: np.ndarray
     energy: np.ndarray
-    n_moving: int = 0
 
 
 def energy_share(stiffness: sp.spmatrix, vectors: np.ndarray) -> np.ndarray:
@@ -78,6 +75,7 @@ def sort_zero_modes(
     stiffness: sp.spmatrix,
     basis: sp.spmatrix,
     grids: tuple[np.ndarray, np.ndarray, np.ndarray],
+    unconnected: np.ndarray,
     rigid_vectors: np.ndarray,
     rigid_freq_hz: np.ndarray,
     vectors: np.ndarray,
@@ -86,8 +84,10 @@ def sort_zero_modes(
     ``rigid_freq_hz``) and the elastic ones (``vectors`` (f, M)) of the free coordinates z
     (``stiffness`` (f, f), u = ``basis`` z with six DOFs per grid in basic axes); ``grids``
     = (positions (N, 3), ids (N,), displacement systems (N, 3, 3): rows the directions of
-    components 1-3 and 4-6). The rigid motions are compared on the free components only:
-    a grid held (by SPC or AUTOSPC: a loose grid of a mass) stays while the part moves."""
+    components 1-3 and 4-6). The rigid motions are compared on the components of the grids'
+    displacement systems but the ``unconnected`` ones (indices 6 grid + component - 1: those
+    AUTOSPC held, which nothing reaches, such as the loose direction of a point mass): a
+    component the deck holds stays while a rigid motion would move it."""
     nodes, grid_ids, frames = grids
     examined = np.hstack([rigid_vectors, vectors])
     energy = energy_share(stiffness, examined)
@@ -99,7 +99,8 @@ def sort_zero_modes(
     turn = sp.block_diag([np.kron(np.eye(2), f) for f in frames], format="csr")
     weight = sp.diags(np.tile(np.r_[np.ones(3), np.full(3, length)], len(nodes)))
     to_components = weight @ turn  # basic u -> weighted components in the CD systems
-    free = np.asarray(abs(to_components @ basis).sum(axis=1)).ravel() > 0
+    free = np.ones(6 * len(nodes), dtype=bool)
+    free[unconnected] = False
     motion = (to_components @ (basis @ examined[:, zero]))[free]
     q, _ = np.linalg.qr(motion)
     rigid = (turn @ rigid_motions(nodes, length))[free]
@@ -112,8 +113,7 @@ def sort_zero_modes(
     motion[free] = q @ turn_q[loose].T  # the mechanisms' own motion
     per_grid = np.linalg.norm(motion.reshape(len(nodes), -1), axis=1)
     moving = [int(grid_ids[g]) for g in np.argsort(per_grid)[::-1][:3]]
-    n_moving = int(np.sum(per_grid > MOVING_SHARE * per_grid.max()))
-    return ZeroModes(int((~loose).sum()), int(loose.sum()), moving, soft, energy, n_moving)
+    return ZeroModes(int((~loose).sum()), int(loose.sum()), moving, soft, energy)
 
 
 def mechanism_message(found: ZeroModes) -> str:
@@ -123,8 +123,7 @@ def mechanism_message(found: ZeroModes) -> str:
         f"deck: the model has {found.mechanisms} mechanism(s) beside {found.rigid} rigid-body "
         f"mode(s): zero-energy modes that no rigid-body motion of the whole part makes (a part "
         f"of the model not connected to the rest, a flap on pins, a frame of rods without a "
-        f"diagonal); {found.n_moving} grids move in them by more than 5 % of the most, "
-        f"most grids {grids}. Connect or hold them"
+        f"diagonal); grids {grids} move most in them. Connect or hold them"
     )
 
 
