@@ -12,6 +12,8 @@
   spring's point (S along GA-GB, or S1..S3 in OCID); the element system is CID's, or x
   along GA-GB and y towards the orientation vector (X1..X3 in GA's displacement system,
   or the grid GO); a grounded or zero-length bushing needs CID, as in Nastran.
+* CBUSH1D (PBUSH1D K, M): an axial spring between the grids' translations along GA-GB (or
+  CID's x; a grounded one needs CID), its mass M in halves on both ends;
 * CGAP (PGAP) as Nastran's linear solutions take it, a spring of its initial state between
   the grids' translations (element axes as CBUSH's): closed (U0 <= 0) axial KA and
   transverse KT (default MU1 KA), open (U0 > 0) axial KB (default 1e-14 KA) alone.
@@ -241,6 +243,31 @@ def _cgap(card: Card, bulk, geometry: DeckGeometry, properties, out) -> None:
     out.add(card, [ga, gb], stiffness=k)
 
 
+def _cbush1d(card: Card, bulk, geometry: DeckGeometry, properties, out) -> None:
+    ga = _grid(card, 2, "GA", bulk)
+    gb = _grid(card, 3, "GB", bulk, required=False)
+    pid = card.integer(1, "PID", card.integer(0, "EID"))
+    prop = bulk.referenced(properties, pid, ("PBUSH1D",), card, (1, "PID"))
+    cid = card.integer(4, "CID")
+    xa = geometry.positions[ga]
+    if cid is not None and cid >= 0:
+        axis = geometry.system(cid, card, 4, "CID").frames(xa[None])[0][0]
+    elif gb is None or np.allclose(geometry.positions[gb], xa):
+        raise InputError(
+            f"deck: {card.where(4, 'CID')}: a grounded or zero-length CBUSH1D needs CID"
+        )
+    else:
+        axis = geometry.positions[gb] - xa
+        axis = axis / np.linalg.norm(axis)
+    a = np.concatenate([-axis, np.zeros(3), axis, np.zeros(3)])
+    half = np.zeros(12)
+    half[[0, 1, 2, 6, 7, 8]] = prop.real(3, "M", 0.0) / 2
+    k, m = prop.real(1, "K", 0.0) * np.outer(a, a), np.diag(half)
+    if gb is None:
+        k, m = k[6:, 6:], m[:6, :6] * 2
+    out.add(card, [ga] if gb is None else [ga, gb], stiffness=k, mass=m)
+
+
 def point_matrices(bulk: BulkData, geometry: DeckGeometry) -> PointMatrices:
     """The element matrices of every mass, scalar spring and bushing of the deck."""
     out = PointMatrices()
@@ -270,4 +297,7 @@ def point_matrices(bulk: BulkData, geometry: DeckGeometry) -> PointMatrices:
     gaps = _gap_stiffness(bulk)
     for card in bulk.named("CGAP"):
         _cgap(card, bulk, geometry, gaps, out)
+    bushings = bulk.by_id("PBUSH1D")
+    for card in bulk.named("CBUSH1D"):
+        _cbush1d(card, bulk, geometry, bushings, out)
     return out

@@ -33,32 +33,33 @@ from fem.deck_materials import Materials
 from fem.deck_shells import SHELL_CARDS, ShellSections, read_shell
 from jaxflex.errors import InputError
 
-POINT_CARDS = ("CONM1", "CONM2", "CMASS1", "CMASS2", "CELAS1", "CELAS2", "CBUSH", "CGAP")
+POINT_CARDS = ("CONM1", "CONM2", "CMASS1", "CMASS2", "CELAS1", "CELAS2", "CBUSH", "CBUSH1D")
+POINT_CARDS += ("CGAP",)
 PANEL_CARDS = ("CSHEAR",)
 MODELLED = (*SHELL_CARDS, *LINE_CARDS, *POINT_CARDS, *PANEL_CARDS, *CONNECTOR_CARDS, *RIGID_CARDS)
 READ = (
     *("GRID", "GRDSET", "BAROR", "BEAMOR", "PSHELL", "PCOMP", "PCOMPG", "PBAR", "PBARL"),
     *("PBEAM", "PBEAML", "PROD", "PTUBE", "PELAS", "PMASS", "PBUSH", "MAT1", "MAT2", "MAT8"),
-    *("PGAP", "PSHEAR", "PFAST", "PWELD"),
+    *("PGAP", "PSHEAR", "PFAST", "PWELD", "PBUSH1D"),
     *("CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S"),
 )  # properties, materials, systems the modelled cards use (others' are left out)
 DAMPING = ("CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "CVISC")
 SETS = re.compile(r"[ABCQ]SET1?|OMIT1?|SUPORT1?|SPCD|SESUP|SEQSET1?")
 # cards that add stiffness, mass or constraints (elements, rigid elements, MPCs, matrices)
 STRUCTURAL = re.compile(
-    r"C(?!ORD|AERO|HBDY|ONV|ONTRL|SSCHD|MODE|YAX|YJOIN|YSUP|BUSH1D\b(?!x))\w+"
+    r"C(?!ORD|AERO|HBDY|ONV|ONTRL|SSCHD|MODE|YAX|YJOIN|YSUP|LOAD\b)\w+"
     r"|R(BE\d|BAR\d?|ROD|SPLINE|TRPLT\d?|JOINT|SSCON|BE2A|BE2GS)"
     r"|MPC\w*|SPC(ADD)?|SPC1|SPCAX|DMIG\w*|GENEL|NSM\w*|BGSET|BGADD|BCTSET"
 )
 ADVICE = (
     "jaxflex solves shells (CQUAD4, CTRIA3, CQUAD8, CTRIA6, CQUADR, CTRIAR), shear panels "
     "(CSHEAR), beams and rods (CBAR, CBEAM, CROD, CONROD, CTUBE), springs and gaps (CELAS1/2, "
-    "CBUSH, CGAP), fasteners and spot welds between shells (CFAST, CWELD), masses (CONM1/2, "
-    "CMASS1/2) and rigid elements (RBE2, RBE3, RBAR, RBAR1, RROD); for the rest, read the "
-    "modes your own solver computed: jaxflex model --from-modes FILE"
+    "CBUSH, CBUSH1D, CGAP), fasteners and spot welds between shells (CFAST, CWELD), masses "
+    "(CONM1/2, CMASS1/2) and rigid elements (RBE2, RBE3, RBAR, RBAR1, RROD); for the rest, "
+    "read the modes your own solver computed: jaxflex model --from-modes FILE"
 )
 SOLIDS = {"CHEXA": 8, "CPENTA": 6, "CTETRA": 4, "CPYRAM": 5}
-MASSLESS = ("CGAP", "CWELD", "CFAST", "CSEAM", "CELAS3", "CELAS4", "CBUSH1D", "CBUSH2D")
+MASSLESS = ("CGAP", "CWELD", "CFAST", "CSEAM", "CELAS3", "CELAS4", "CBUSH2D")
 MASSLESS += ("BGSET", "BGADD", "BCTSET")  # glued and contact surfaces
 DENSITY_FIELD = {"MAT1": 4, "MAT2": 7, "MAT8": 7, "MAT9": 22, "MAT10": 2, "MAT3": 7}
 

@@ -413,6 +413,11 @@ def from_nastran(
     max_freq_hz = check_request(n_modes, max_freq_hz, zeta)
     bulk = read_bulk(path)
     unit = resolve_units(units, None, f"the Nastran deck {str(path)!r}")
+    if bulk.heat:
+        raise InputError(
+            f"deck: {Path(path).name} is a heat-transfer analysis ({bulk.heat}): its materials "
+            "(MAT4, MAT5) and elements carry heat, not the stiffness and mass of modes"
+        )
     geometry = DeckGeometry(bulk)
     refused, left_out = classify(bulk)
     if refused or bulk.parts:

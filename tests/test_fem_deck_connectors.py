@@ -43,6 +43,27 @@ def test_gap_is_its_initial_state_spring(tmp_path):
         np.testing.assert_allclose(result.freq_hz[: len(exact)], exact, rtol=1e-9)
 
 
+def test_bush1d_is_an_axial_spring_with_its_mass_on_its_ends(tmp_path):
+    # a 2 kg CONM2 on grid 2, joined to grid 1 (held) by a CBUSH1D along (1, 1, 0) / sqrt(2),
+    # K = 5e5 N/m, M = 1 kg; grid 2 moves along the axis only (its displacement system CD 3
+    # has x along it, the other components held): f = sqrt(K / (2 + 1 / 2)) / (2 pi)
+    k, m = 5e5, 1.0
+    lines = [
+        card("CORD2R", 3, None, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0),
+        card("GRID", 1, None, 0.0, 0.0, 0.0, None, "123456"),
+        card("GRID", 2, None, 0.1, 0.1, 0.0, 3, "23456"),
+        card("CONM2", 5, 2, None, MASS),
+        card("CBUSH1D", 7, 8, 1, 2),
+        card("PBUSH1D", 8, k, None, m),
+        *plate(1, 1, 0.1, 0.1, first=10, eid=10, z=1.0)[0],
+        "PSHELL,1,1,.001,1",
+        "MAT1,1,2.1+11,,.3,7850.",
+        card("SPC1", 1, 123456, 10, "THRU", 13),
+    ]
+    result = solve(write(tmp_path / "b.bdf", lines), n_modes=1)
+    assert result.freq_hz[0] == pytest.approx(np.sqrt(k / (MASS + m / 2)) / (2 * np.pi), rel=1e-9)
+
+
 @pytest.mark.parametrize("skew", [0.0, 0.3])
 def test_shear_panel_is_its_constant_shear_flow(tmp_path, skew):
     # a panel of base a = 0.2 m and height h = 0.1 m (a parallelogram when skewed), 1 mm,

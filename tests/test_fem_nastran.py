@@ -390,3 +390,12 @@ def test_deck_model_outputs_are_the_mesh_doors(tmp_path):
             got, want = (np.asarray(getattr(m.stress.stress, name))[r]
                          for m, r in zip((ours, theirs), rows, strict=True))  # fmt: skip
             same_up_to_mode_signs(got, want, name)
+
+
+def test_heat_transfer_deck_is_refused_by_its_solution(tmp_path):
+    # a SOL 153 deck (its PSHELL of a MAT4) is no structure to vibrate: refused by what it is
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 4), np.linspace(0, 0.2, 3))
+    deck = meshio_deck(tmp_path / "h.bdf", nodes, "quad", quads, ["PSHELL,1,1,.001", "MAT4,1,50."])
+    deck.write_text("SOL 153\nCEND\nBEGIN BULK\n" + deck.read_text())
+    with pytest.raises(InputError, match=r"h.bdf is a heat-transfer analysis \(SOL 153\)"):
+        fem.from_nastran(deck, units="SI")
