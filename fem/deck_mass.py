@@ -26,7 +26,8 @@ NOTE_ABOVE = 0.01  # warned when a kept mode would move by more than 1 %
 
 def lumped_mass(parts, nodes: np.ndarray) -> sp.csr_matrix:
     """(6 N, 6 N) Nastran's lumped mass of the deck model (deck units, before WTMASS),
-    basic axes: shells and beams (module docstring) and the point elements' own mass."""
+    basic axes: shells and beams (module docstring), the point elements' own mass and the
+    solids' (fem.deck_model.assemble_deck keeps it on ``parts``)."""
     n = len(parts.grid_ids)
     translational = np.zeros(n)
     f = parts.facets
@@ -53,6 +54,8 @@ def lumped_mass(parts, nodes: np.ndarray) -> sp.csr_matrix:
     diagonal = np.zeros((n, 6))
     diagonal[:, :3] = translational[:, None]
     out = sp.diags(diagonal.ravel()).tolil()
+    if parts.solid_mass is not None:
+        out = (out.tocsr() + parts.solid_mass).tolil()
     for grids, m in zip(parts.points.grids, parts.points.mass, strict=True):
         if np.any(m):
             dofs = np.concatenate([6 * parts.index[g] + np.arange(6) for g in grids])

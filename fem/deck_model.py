@@ -12,7 +12,7 @@ kg and m, D = 1/L on translations, 1 on rotations: energy m L^2 s^-2 per deck un
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -28,6 +28,7 @@ from fem.deck_materials import Materials, ShellSection
 from fem.deck_panels import shear_panels
 from fem.deck_points import PointMatrices, point_matrices
 from fem.deck_shells import Facets, ShellSections, facet_matrices, facet_resultants, facets
+from fem.deck_solids import SolidElements, read_solids, solid_chunk
 from fem.materials import Material
 from fem.mesh import ShellMesh
 from fem.mesh_io import sheet_from_cells
@@ -60,6 +61,8 @@ class DeckParts:
     grid_ids: np.ndarray
     n_shell: int
     index: dict[int, int]  # grid id -> node
+    solids: list[SolidElements] = field(default_factory=list)
+    solid_mass: sp.csr_matrix | None = None  # the solids' mass (6 N, 6 N), deck units
 
 
 def read_parts(
@@ -73,7 +76,9 @@ def read_parts(
     points = point_matrices(bulk, geometry)
     shear_panels(bulk, geometry, materials, points)
     shell_grids = sorted({g for s in shells for g in s.grids})
+    solids = read_solids(bulk, materials)
     others = {g for pair in lines.grids for g in pair} | {g for gs in points.grids for g in gs}
+    others |= {int(g) for group in solids for g in group.grids.ravel()}
     others = sorted((others | constraints.grids) - set(shell_grids))
     grid_ids = np.array(shell_grids + others, dtype=np.int64)
     index = {int(g): i for i, g in enumerate(grid_ids)}
@@ -90,6 +95,7 @@ def read_parts(
         grid_ids,
         len(shell_grids),
         index,
+        solids,
     )
 
 
@@ -138,7 +144,29 @@ def assemble_deck(parts: DeckParts, geometry: DeckGeometry, unit: Units, wtmass:
             point_nodes, k_pts, m_pts, n, "springs and masses", progress
         )
         K, M = K + k_add, M + m_add
+    parts.solid_mass = sp.csr_matrix((6 * n, 6 * n))
+    for group in parts.solids:
+        k_add, m_add = _solid_blocks(group, nodes, parts.index, n, progress)
+        K, M = K + k_add, M + m_add
+        parts.solid_mass = parts.solid_mass + m_add
     return to_si(K, unit), to_si(M, unit, wtmass)
+
+
+def _solid_blocks(group: SolidElements, nodes: np.ndarray, index: dict, n: int, progress):
+    """(K, M) (6 n, 6 n) of a group of solids: assembled on translations, placed on the
+    grids' first three DOFs."""
+    k3, m3 = assemble(
+        np.vectorize(index.get)(group.grids),
+        n,
+        3,
+        lambda chunk: solid_chunk(group, nodes, index, chunk),
+        chunk_size=2000,
+        label=f"assembly ({len(group.cards)} {group.kind})",
+        progress=progress,
+    )
+    translations = (6 * np.arange(n)[:, None] + np.arange(3)).ravel()
+    place = sp.csr_matrix((np.ones(3 * n), (translations, np.arange(3 * n))), shape=(6 * n, 3 * n))
+    return place @ k3 @ place.T, place @ m3 @ place.T
 
 
 def to_si(matrix: sp.spmatrix, unit: Units, wtmass: float = 1.0) -> sp.csr_matrix:

@@ -3,18 +3,24 @@
 A deck (fem.bdf reads it, fem.deck_coords places its grids) becomes one of two models:
 
 * **the deck model** (fem.deck_model, the default): six DOFs per grid in basic axes; its
-  shells as facets of our shell (DKT + OPT, Kirchhoff), any mix of properties (PSHELL,
-  PCOMP/PCOMPG) and materials (MAT1, MAT2, MAT8), corner thicknesses and offsets; beams and
-  rods, scalar springs, bushings and masses; rigid elements and MPCs as dependent
+  shells as facets of our shell (DKT + OPT, Kirchhoff; quadratic shells through their
+  mid-side grids), any mix of properties (PSHELL, PCOMP/PCOMPG) and materials (MAT1, MAT2,
+  MAT8), corner thicknesses and offsets; beams and rods, scalar springs, bushings, gaps,
+  shear panels, fasteners, spot welds and masses; rigid elements and MPCs as dependent
   components, SPCs (translations and rotations, in the grids' displacement systems) as held
-  components, Nastran's AUTOSPC (fem.deck_reduce);
+  components, but held drilling rotations that Nastran's shells do not feel
+  (fem.deck_drilling), Nastran's AUTOSPC (fem.deck_reduce). Its lowest modes are sorted
+  out (fem.deck_zero_modes: mechanisms and modes below the rigid cut-off that deform the
+  part are refused with the figure), and the shift Nastran's default lumped mass would give
+  its modes is estimated (fem.deck_mass, warned above 1 %);
 * **our plate or thin solid** (``element`` "morley", "argyris" or "hex2"; a flat deck of
   shells alone, one isotropic PSHELL without offsets or corner thicknesses, translations
   held, is the Morley plate by default, as before): the part as fem.read_mesh would build
   it, SPCs as pinned points.
 
 What the door leaves out or refuses is decided by fem.deck_scope (refusals name each card
-with its share of the mass). The suction cups of the gripper may be given as well
+with its share of the mass); a heat-transfer deck (SOL 153, 159, APP HEAT) is refused as
+such. The suction cups of the gripper may be given as well
 (``cups``). Nastran decks state no units: they are given (fem.units). Grids are never
 merged, even where two share a location (a deck keeps such seams apart on purpose).
 """

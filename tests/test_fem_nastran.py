@@ -288,20 +288,19 @@ def test_deck_errors_are_named(tmp_path):
 
 
 def test_refusals_name_each_card_with_its_share_of_the_mass(tmp_path):
-    # the plate (0.3 x 0.2 m x 1 mm steel: 0.471 kg) and a steel block of CHEXA 0.1 x 0.1 x
-    # 0.02 m (1.57 kg) on it: the block holds 1.57 / (1.57 + 0.471) = 76.9 % of the mass
+    # the plate (0.3 x 0.2 m x 1 mm steel: 0.471 kg) and a steel pyramid of CPYRAM on it (base
+    # 0.1 x 0.1 m, 60 mm high: 1.57 kg): it holds 1.57 / (1.57 + 0.471) = 76.9 % of the mass
     nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 4), np.linspace(0, 0.2, 3))
-    corners = [(0, 0, 0), (0.1, 0, 0), (0.1, 0.1, 0), (0, 0.1, 0)]
-    corners += [(x, y, 0.02) for x, y, _ in corners]
+    corners = [(0, 0, 0), (0.1, 0, 0), (0.1, 0.1, 0), (0, 0.1, 0), (0.05, 0.05, 0.06)]
     block = [f"GRID,{900 + k},,{x},{y},{z}" for k, (x, y, z) in enumerate(corners)]
-    block += ["CHEXA,500,5,900,901,902,903,904,905,+", "+,906,907", "PSOLID,5,1",
-              "CSEAM,600,,1,2"]  # fmt: skip
+    block += ["CPYRAM,500,5,900,901,902,903,904", "PSOLID,5,1", "CSEAM,600,,1,2"]
     path = meshio_deck(tmp_path / "b.bdf", nodes, "quad", quads, [*STEEL_SI, *block])
     with pytest.raises(InputError) as refused:
         fem.from_nastran(path, units="SI")
     message = str(refused.value)
-    share = 7850 * 0.1 * 0.1 * 0.02 / (7850 * 0.1 * 0.1 * 0.02 + 7850 * 1e-3 * 0.3 * 0.2)
-    assert f"CHEXA (1, {100 * share:.3g} % of the mass; first b.bdf line" in message
+    pyramid = 7850 * 0.1 * 0.1 * 0.06 / 3
+    share = pyramid / (pyramid + 7850 * 1e-3 * 0.3 * 0.2)
+    assert f"CPYRAM (1, {100 * share:.3g} % of the mass; first b.bdf line" in message
     assert "CSEAM (1, no mass;" in message
     assert "jaxflex model --from-modes FILE" in message
     # a card our element set has but a model option refuses: named before the work
