@@ -1,7 +1,7 @@
 """How many real Nastran shell decks the Nastran door reads, why it refuses the others, and
 how its frequencies compare with the solver's own, as JSON and a table.
 
-    python -m fmu.bench.nastran_corpus DIR [-o corpus.json] [--modes 10] [--list]
+    python -m fmu.bench.nastran_corpus DIR [-o corpus.json] [--modes 6] [--list]
 
 DIR is a library of decks, e.g. the ``models/`` folder of pyNastran
 (https://github.com/SteveDoyle2/pyNastran, BSD-3-Clause licence): its NX and MSC examples.
@@ -18,14 +18,21 @@ DIR is a library of decks, e.g. the ``models/`` folder of pyNastran
   the door's messages: a deck that leaves rigid-body modes is retried with
   ``allow_rigid_modes=True``, one with several SPC sets with the first set its case control
   selects (``--spc-id``). The outcome is ``read``, ``refused`` (an InputError/ModelError:
-  the message, and the cards it names) or ``traceback`` (any other exception: a bug); a
-  refusal for a deck without mass (a static deck: no RHO, no CONM) is counted apart.
+  the message, and the cards it names, or the kind of a refusal of the model as a whole:
+  no mass, a mechanism, modes below the rigid cut-off, heat transfer) or ``traceback`` (any
+  other exception: a bug); a refusal for a deck without mass (a static deck: no RHO, no
+  CONM) is counted apart.
 * **Frequencies**: where an ``.f06`` (else an ``.op2``) with the deck's stem lies beside it
   and the deck's solution computes normal modes (SOL 103, 111, 112, 145, 146, 200), its
-  REAL EIGENVALUES tables (the OP2's LAMA records, found by their consistency) give the
-  solver's modes; the elastic ones (above 0.1 Hz) are compared with ours in order, the
-  relative difference of the first ``--modes``. Of several tables (subcases) the one whose
-  first frequency is nearest ours is compared (SOL 200: the first, the deck as given).
+  REAL EIGENVALUES tables (the OP2's LAMA tables read with fem.op2, or the eigenvalues of
+  its eigenvector tables' headers) give the solver's modes; the elastic ones (above 0.1 Hz)
+  are compared with ours in order, the relative difference of the first ``--modes``. Of
+  several tables (subcases) the one whose first frequency is nearest ours is compared (SOL
+  200: the first, the deck as given). A compared deck is **within** 3 % of the solver,
+  **warned** beyond it with a warning that says why (a mesh too coarse for the modes, the
+  solver's lumped mass, a Kirchhoff shell of a thick part), or **wrong**; the accuracy
+  table also gives our modes with the estimated shift of Nastran's lumped mass
+  (fem.deck_mass) against the solver's.
 """
 
 from __future__ import annotations
@@ -224,26 +231,28 @@ def _compare(ours: np.ndarray, tables: list[np.ndarray], n_modes: int) -> dict |
 
 
 def _cards_named(message: str) -> list[str]:
-    """Card names a refusal message names (upper-case words that look like Nastran cards,
-    the advice every element refusal ends with and field labels left out); a refusal that
-    names none by its kind: "no mass", "mechanism", "modes below the rigid cut-off"."""
-    for words, kind in (
-        ("has no mass", "(no mass)"),
-        ("mechanism", "(mechanism)"),
-        ("deform the part", "(modes below the rigid cut-off)"),
-        ("part superelements", "(part superelements)"),
-    ):
+    """What a refusal names: the cards of an element-set refusal (with "(part
+    superelements)"), the kind of a refusal for the model as a whole ("(no mass)",
+    "(mechanism)", "(modes below the rigid cut-off)", "(heat transfer)"), else the card names
+    of the message (upper-case words that look like Nastran cards, field labels left out)."""
+    for words, kind in KINDS:
         if words in message:
-            found = [kind]
-            break
-    else:
-        found = []
+            return [kind]
+    found = ["(part superelements)"] if "part superelements" in message else []
     text = _FIELD.sub("", message.replace(ADVICE, "").removeprefix("deck: "))
-    if "part superelements" in text:
+    if found:
         text = text[text.index(")") :]  # the parts' note names no card
-    words = _CARD_NAME.findall(text)
-    cards = {w for w in words if w[0] in "CPMRSGEKB" and not w.isdigit()}
-    return found + sorted(cards - {"SUPER", "BEGIN", "RHO"}) if found or cards else []
+    cards = {w for w in _CARD_NAME.findall(text) if w[0] in "CPMRSGEKB"}
+    return found + sorted(cards - {"SUPER", "BEGIN", "RHO"})
+
+
+KINDS = (
+    ("has no mass", "(no mass)"),
+    ("mechanism", "(mechanism)"),
+    ("deform the part", "(modes below the rigid cut-off)"),
+    ("heat-transfer", "(heat transfer)"),
+    ("cannot be solved", "(singular mass)"),
+)
 
 
 def try_deck(path: Path, n_modes: int) -> dict:
