@@ -32,6 +32,7 @@ import scipy.sparse as sp
 from fem.offsets import skew
 
 ZERO_ENERGY = 1e-13  # strain-energy share below which a mode is a zero-energy mode
+RIGID_TOL_HZ = 0.01  # fem.modal.solve_modes' frequency cut-off of rigid-body modes
 NOT_RIGID = 1e-2  # sine of the angle to the rigid motions beyond which a direction is not one
 
 
@@ -39,8 +40,8 @@ NOT_RIGID = 1e-2  # sine of the angle to the rigid motions beyond which a direct
 class ZeroModes:
     """The lowest modes sorted out: ``rigid`` rigid-body modes, ``mechanisms`` their count
     and ``moving`` (grid ids moving most in them), ``soft_hz`` the frequencies of modes below
-    the rigid cut-off that deform the part, ``energy`` (R,) the strain-energy share of the
-    modes examined."""
+    the rigid cut-off that deform the part, ``energy`` (R + M,) the strain-energy share of
+    the modes examined (those called rigid, then the elastic ones)."""
 
     rigid: int
     mechanisms: int
@@ -92,7 +93,7 @@ def sort_zero_modes(
     examined = np.hstack([rigid_vectors, vectors])
     energy = energy_share(stiffness, examined)
     zero = energy < ZERO_ENERGY
-    soft = rigid_freq_hz[~zero[: len(rigid_freq_hz)]]
+    soft = rigid_freq_hz[~zero[: len(rigid_freq_hz)] & (np.abs(rigid_freq_hz) < RIGID_TOL_HZ)]
     if not zero.any():
         return ZeroModes(0, 0, [], soft, energy)
     length = float(np.ptp(nodes, axis=0).max()) or 1.0
@@ -127,30 +128,36 @@ def mechanism_message(found: ZeroModes) -> str:
     )
 
 
-def soft_message(found: ZeroModes, tol_hz: float) -> str:
+def soft_message(found: ZeroModes) -> str:
     """The refusal of a model whose modes below the rigid cut-off deform the part."""
     hz = found.soft_hz
     span = f"{hz.min():.3g} Hz" if hz.size == 1 else f"{hz.min():.3g} ... {hz.max():.3g} Hz"
     return (
-        f"deck: {hz.size} mode(s) below {tol_hz:g} Hz ({span}) deform the part: they are no "
-        "rigid-body modes (they store strain energy), and jaxflex keeps no mode this low; the "
-        "deck describes a part this soft (check the unit system and PARAM WTMASS: a mass "
+        f"deck: {hz.size} mode(s) below {RIGID_TOL_HZ:g} Hz ({span}) deform the part: they are "
+        "no rigid-body modes (they store strain energy), and jaxflex keeps no mode this low; "
+        "the deck describes a part this soft (check the unit system and PARAM WTMASS: a mass "
         "density given as a weight density makes it 386 times too heavy in inch units)"
     )
 
 
-def with_rigid(modes, moved: np.ndarray):
-    """``modes`` (a fem.modal.ModeSolution) with the elastic modes ``moved`` (M,) bool (zero
-    energy: rigid-body modes the frequency cut-off missed) among the rigid ones."""
-    if not moved.any():
+def regroup(modes, deforming: np.ndarray, rigid: np.ndarray, count: int | None = None):
+    """``modes`` (a fem.modal.ModeSolution) with the rigid-labelled modes ``deforming`` (R,)
+    bool among the elastic ones (they store strain energy: a frequency gap called them
+    rigid) and the elastic modes ``rigid`` (M,) bool among the rigid ones (zero energy above
+    the frequency cut-off), the elastic modes in ascending order, the first ``count``."""
+    if not deforming.any() and not rigid.any() and (count is None or modes.freq_hz.size <= count):
         return modes
-    keep = ~moved
+    to_elastic, keep_rigid = np.flatnonzero(deforming), np.flatnonzero(~deforming)
+    freq = np.concatenate([modes.freq_hz[~rigid], modes.rigid_freq_hz[to_elastic]])
+    vectors = np.hstack([modes.vectors[:, ~rigid], modes.rigid_vectors[:, to_elastic]])
+    gamma = np.concatenate([modes.gamma[~rigid], modes.rigid_gamma[to_elastic]])
+    order = np.argsort(freq, kind="stable")[:count]
     return replace(
         modes,
-        freq_hz=modes.freq_hz[keep],
-        vectors=modes.vectors[:, keep],
-        gamma=modes.gamma[keep],
-        rigid_freq_hz=np.concatenate([modes.rigid_freq_hz, modes.freq_hz[moved]]),
-        rigid_gamma=np.concatenate([modes.rigid_gamma, modes.gamma[moved]]),
-        rigid_vectors=np.hstack([modes.rigid_vectors, modes.vectors[:, moved]]),
+        freq_hz=freq[order],
+        vectors=vectors[:, order],
+        gamma=gamma[order],
+        rigid_freq_hz=np.concatenate([modes.rigid_freq_hz[keep_rigid], modes.freq_hz[rigid]]),
+        rigid_gamma=np.concatenate([modes.rigid_gamma[keep_rigid], modes.gamma[rigid]]),
+        rigid_vectors=np.hstack([modes.rigid_vectors[:, keep_rigid], modes.vectors[:, rigid]]),
     )

@@ -60,11 +60,12 @@ from fem.deck_shells import (
     read_shell,
 )
 from fem.deck_zero_modes import (
+    RIGID_TOL_HZ,
     ZERO_ENERGY,
     mechanism_message,
+    regroup,
     soft_message,
     sort_zero_modes,
-    with_rigid,
 )
 from fem.imported import file_digest
 from fem.materials import Material
@@ -79,7 +80,6 @@ from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
 
 PART_ELEMENTS = ("morley", "argyris", "hex2")
-RIGID_TOL_HZ = 0.01  # fem.modal.solve_modes' cut-off for rigid-body modes
 LAMINATE = (
     "each laminate is an equivalent shell by classical lamination theory (its A, B, D, mass and "
     "rotary inertia kept); lost: transverse shear flexibility (the shell is Kirchhoff), ply "
@@ -313,13 +313,11 @@ def _solve(reduction, load, observation, count, max_freq_hz, allow_rigid_modes, 
                 "rigid element, a mechanism); give the masses inertia or hold the mechanism"
             ) from None
 
-    refusal = None
     try:
         modes = solve(6 if allow_rigid_modes else None)
     except InputError as exc:  # rigid-body modes, or what looks like them: say which
         if not str(exc).startswith("supports:"):
             raise
-        refusal = exc
         modes = solve(6)
     found = sort_zero_modes(
         reduction.stiffness,
@@ -333,14 +331,14 @@ def _solve(reduction, load, observation, count, max_freq_hz, allow_rigid_modes, 
     if found.mechanisms:
         raise InputError(mechanism_message(found))
     if found.soft_hz.size:
-        raise InputError(soft_message(found, RIGID_TOL_HZ))
-    still = found.energy[len(modes.rigid_freq_hz) :] < ZERO_ENERGY  # rigid, above the cut-off
-    if still.any() and refusal is None and not allow_rigid_modes:
-        count = len(modes.rigid_freq_hz) + int(still.sum())
-        refusal = InputError(RIGID_MESSAGE.format(count=count, tol=RIGID_TOL_HZ))
-    if refusal is not None:
-        raise refusal
-    return with_rigid(modes, still)
+        raise InputError(soft_message(found))
+    called = len(modes.rigid_freq_hz)
+    deforming = found.energy[:called] >= ZERO_ENERGY  # called rigid by a frequency gap
+    rigid = found.energy[called:] < ZERO_ENERGY  # rigid, above the cut-off
+    modes = regroup(modes, deforming, rigid, count if isinstance(count, int) else None)
+    if modes.rigid_freq_hz.size and not allow_rigid_modes:
+        raise InputError(RIGID_MESSAGE.format(count=modes.rigid_freq_hz.size, tol=RIGID_TOL_HZ))
+    return modes
 
 
 def _lumped_shift(bulk, parts, unit, nodes_m: np.ndarray, vectors_u, freq_hz, name: str):

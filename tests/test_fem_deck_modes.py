@@ -7,9 +7,12 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 from decks import STEEL, card, plate, solve, write
 
+from fem.deck_zero_modes import regroup
+from fem.modal import ModeSolution
 from jaxflex.errors import InputError
 
 DATA = Path(__file__).parent / "data" / "nastran"
@@ -88,3 +91,28 @@ def test_quadratic_shell_deck_of_a_part_too_soft_is_refused_with_the_figure():
     assert found and int(found.group(1)) >= 9 and "deform the part" in message
     low, high = float(found.group(2)), float(found.group(3))
     assert 1e-4 / 3 < low < high < 0.01  # NX's: 1.04e-4 ... 8.65e-3 Hz
+
+
+def test_regroup_moves_modes_by_what_they_are():
+    # a solution whose solver called the 0.5 Hz mode rigid (a frequency gap) and left a
+    # zero-energy one at 0.02 Hz among the elastic modes: regrouped by their energy, the
+    # elastic modes come out ascending and the first `count` of them
+    rng = np.random.default_rng(1)
+    vectors, rigid_vectors = rng.normal(size=(8, 3)), rng.normal(size=(8, 2))
+    modes = ModeSolution(
+        freq_hz=np.array([0.02, 3.0, 5.0]),
+        vectors=vectors,
+        gamma=np.arange(9.0).reshape(3, 3),
+        rigid_freq_hz=np.array([0.001, 0.5]),
+        rigid_gamma=np.array([[1.0, 0, 0], [2.0, 0, 0]]),
+        mobile_mass_kg=np.ones(3),
+        static_residual_fraction=np.zeros(3),
+        timings_s={},
+        rigid_vectors=rigid_vectors,
+    )
+    out = regroup(modes, np.array([False, True]), np.array([True, False, False]), count=2)
+    np.testing.assert_array_equal(out.freq_hz, [0.5, 3.0])
+    expected = np.column_stack([rigid_vectors[:, 1], vectors[:, 1]])
+    np.testing.assert_array_equal(out.vectors, expected)
+    np.testing.assert_array_equal(out.rigid_freq_hz, [0.001, 0.02])
+    np.testing.assert_array_equal(out.rigid_gamma[:, 0], [1.0, 0.0])
