@@ -246,12 +246,12 @@ def _cards_named(message: str) -> list[str]:
     return found + sorted(cards - {"SUPER", "BEGIN", "RHO"})
 
 
-KINDS = (
+KINDS = (  # the first that a refusal's message holds
+    ("cannot be solved", "(singular mass or stiffness)"),
     ("has no mass", "(no mass)"),
-    ("mechanism", "(mechanism)"),
+    ("mechanism(s)", "(mechanism)"),
     ("deform the part", "(modes below the rigid cut-off)"),
     ("heat-transfer", "(heat transfer)"),
-    ("cannot be solved", "(singular mass)"),
 )
 
 
