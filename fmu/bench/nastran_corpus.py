@@ -73,6 +73,7 @@ _SOLID = re.compile(
 )
 _CARD_NAME = re.compile(r"\b([A-Z][A-Z0-9]{2,7})\b")
 _FIELD = re.compile(r"(?:row \d+ )?field \d+ [A-Z0-9/*]+")  # "field 3 MID1": no card
+_TAKES = re.compile(r"; \w+ takes [A-Z0-9, ]+")  # the kinds a field allows: not the refused
 EIGENVECTOR_TABLES = ("OUGV1", "BOUGV1", "OUG1", "OPHIG", "BOPHIG")
 
 
@@ -239,7 +240,7 @@ def _cards_named(message: str) -> list[str]:
         if words in message:
             return [kind]
     found = ["(part superelements)"] if "part superelements" in message else []
-    text = _FIELD.sub("", message.replace(ADVICE, "").removeprefix("deck: "))
+    text = _TAKES.sub("", _FIELD.sub("", message.replace(ADVICE, "").removeprefix("deck: ")))
     if found:
         text = text[text.index(")") :]  # the parts' note names no card
     cards = {w for w in _CARD_NAME.findall(text) if w[0] in "CPMRSGEKB"}
