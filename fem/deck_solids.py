@@ -13,7 +13,9 @@ units.
   passes the patch test): a full-integration trilinear brick locks in bending, and Nastran's
   CHEXA has its own cure (reduced shear integration with bubble functions).
 
-An element gives all its mid-side grids or none (a partial set is refused). Quadrature: Gauss
+An element gives all its mid-side grids or none (a partial set is refused), its grids in
+either order Nastran takes (a mirrored order has det J < 0 throughout: the same element; det
+J of both signs, an element turned inside out in part, is refused). Quadrature: Gauss
 points on the brick, the collapsed (Duffy) brick on the tetrahedron and the wedge's
 triangle, exact for the stiffness and mass of straight-sided elements. Shape functions'
 derivatives come from the complex step (exact for these polynomials).
@@ -175,19 +177,21 @@ def incompatible_strains(xyz: np.ndarray, points: np.ndarray, dets: np.ndarray) 
 
 
 def element_matrices(kind: str, xyz: np.ndarray, e: float, nu: float, rho: float):
-    """(K, M) (3 n, 3 n) of one solid with grids at ``xyz`` (n, 3)."""
+    """(K, M) (3 n, 3 n) of one solid with grids at ``xyz`` (n, 3), in either order Nastran
+    takes (det J of one sign throughout: a mirrored order is the same element); None for an
+    element flat or turned inside out in part (det J of both signs)."""
     n = len(xyz)
     order = 3 if n > CORNERS[kind] or kind != "CHEXA" else 2
     points, weights = quadrature(kind, order)
     dn = shape_derivatives(kind, points, n)
     jac = dn @ xyz  # (P, 3, 3)
     dets = np.linalg.det(jac)
-    if np.any(dets <= 0):
+    if not (np.all(dets > 0) or np.all(dets < 0)):  # flat, or turned inside out in part
         return None
     dx = np.linalg.solve(jac, dn)
     b = strain_matrix(dx)
     d = _isotropic(e, nu)
-    dv = weights * dets
+    dv = weights * np.abs(dets)  # grids in mirrored order (det J < 0 throughout): the same
     k = np.einsum("p,pai,ab,pbj->ij", dv, b, d, b)
     if kind == "CHEXA" and n == 8:
         ba = incompatible_strains(xyz, points, dets)
@@ -196,7 +200,7 @@ def element_matrices(kind: str, xyz: np.ndarray, e: float, nu: float, rho: float
         k = k - k_ua @ np.linalg.solve(k_aa, k_ua.T)
     mass_points, mass_weights = quadrature(kind, 4)
     shapes = SHAPES[kind](mass_points, n)
-    mass_det = np.linalg.det(shape_derivatives(kind, mass_points, n) @ xyz)
+    mass_det = np.abs(np.linalg.det(shape_derivatives(kind, mass_points, n) @ xyz))
     scalar = np.einsum("p,pi,pj->ij", rho * mass_weights * mass_det, shapes, shapes)
     return k, np.kron(scalar, np.eye(3))
 
@@ -243,7 +247,7 @@ def read_solids(bulk: BulkData, materials: Materials) -> list[SolidElements]:
 
 def solid_chunk(group: SolidElements, nodes: np.ndarray, index: dict, chunk: np.ndarray):
     """(K, M) (C, 3 n, 3 n) of the elements ``chunk`` of ``group`` at ``nodes`` (deck
-    units); an element turned inside out is refused by name."""
+    units); an element flat or turned inside out in part is refused by name."""
     n = group.grids.shape[1]
     k_out, m_out = np.zeros((len(chunk), 3 * n, 3 * n)), np.zeros((len(chunk), 3 * n, 3 * n))
     for row, e in enumerate(chunk):
@@ -251,8 +255,8 @@ def solid_chunk(group: SolidElements, nodes: np.ndarray, index: dict, chunk: np.
         matrices = element_matrices(group.kind, xyz, group.e[e], group.nu[e], group.rho[e])
         if matrices is None:
             raise InputError(
-                f"deck: {group.cards[e].where(None)}: its volume is turned inside out or "
-                "flat (check the order of its grids)"
+                f"deck: {group.cards[e].where(None)}: its volume is flat or turned inside out "
+                "in part (check the order of its grids and their positions)"
             )
         k_out[row], m_out[row] = matrices
     return k_out, m_out

@@ -5,9 +5,13 @@ a shell)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from decks import E_PA, RHO, STEEL, card, plate, solve, write
+
+from jaxflex.errors import InputError
 
 LENGTH, SIDE = 1.0, 0.05
 HEX_EDGES = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 5), (2, 6), (3, 7),
@@ -22,9 +26,17 @@ EDGES = {
 }
 
 
-def beam_deck(path, kind: str, n: int, quadratic: bool) -> str:
+MIRRORED = {  # the same elements with their grids in mirrored order (det J < 0)
+    "CHEXA": (4, 5, 6, 7, 0, 1, 2, 3),  # top face first
+    "CPENTA": (3, 4, 5, 0, 1, 2),
+    "CTETRA": (1, 0, 2, 3),
+}
+
+
+def beam_deck(path, kind: str, n: int, quadratic: bool, mirrored: bool = False) -> str:
     """The cantilever as ``n`` bricks along x (one across), cut into ``kind`` elements, with
-    mid-side grids where ``quadratic``."""
+    mid-side grids where ``quadratic``, each element's grids in mirrored order where
+    ``mirrored``."""
     xs = np.linspace(0, LENGTH, n + 1)
     points: dict[tuple, int] = {}
 
@@ -39,6 +51,8 @@ def beam_deck(path, kind: str, n: int, quadratic: bool) -> str:
         brick = np.vstack([corners, corners + np.array([0.0, 0.0, SIDE])])
         pieces = {"CHEXA": [tuple(range(8))], "CPENTA": WEDGES, "CTETRA": TETS}[kind]
         for piece in pieces:
+            if mirrored:
+                piece = [piece[k] for k in MIRRORED[kind]]
             xyz = brick[list(piece)]
             ids = [grid(p) for p in xyz]
             if quadratic:
@@ -85,6 +99,29 @@ def test_solid_cantilever_is_euler_bernoulli(tmp_path, kind, n, quadratic, toler
         result.provenance["derived"]["elements"][kind]
         == len({"CHEXA": [0], "CPENTA": WEDGES, "CTETRA": TETS}[kind]) * n
     )
+
+
+@pytest.mark.parametrize(("kind", "quadratic"), [("CHEXA", False), ("CPENTA", True)])
+def test_solids_with_grids_in_mirrored_order_are_the_same_elements(tmp_path, kind, quadratic):
+    # Nastran takes a solid's grids in either order (MSC's cqrcc128a has a CPENTA whose
+    # bottom face goes round clockwise): det J < 0 throughout is the same element, its
+    # volume |det J|. The mirrored cantilever is Euler-Bernoulli's as the other (tolerance
+    # as above), and its mass the beam's
+    result = solve(beam_deck(tmp_path / "m.bdf", kind, 20, quadratic, mirrored=True), n_modes=3)
+    assert result.mass_kg == pytest.approx(RHO * LENGTH * SIDE**2 + RHO * 1e-3 * 0.01, rel=1e-9)
+    np.testing.assert_allclose(np.sort(result.freq_hz)[:2], euler_bernoulli_hz(0), rtol=0.01)
+
+
+def test_a_solid_turned_inside_out_in_part_is_refused(tmp_path):
+    # one top corner of the first brick pushed below its bottom face: det J changes sign
+    # inside the element, which no order of its grids mends
+    path = Path(beam_deck(tmp_path / "d.bdf", "CHEXA", 4, False))
+    lines = path.read_text(encoding="utf-8").splitlines()
+    # grid 5 is that brick's corner (0, 0, SIDE), its first top grid (beam_deck's order)
+    lines = [card("GRID", 5, None, 0.0, 0.0, -0.2) if x.startswith("GRID,5,") else x for x in lines]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(InputError, match="turned inside out in part"):
+        solve(path, n_modes=2)
 
 
 def test_linear_tetrahedra_and_wedges_are_stiff_in_bending(tmp_path):
