@@ -308,7 +308,8 @@ class ModeSolution:
     """Elastic modes of K_free z = omega^2 M_free z with their participation (SI units).
 
     freq_hz (M,), vectors (n_free, M) mass-normalised, gamma (M, 3) = vectors^T load in
-    kg^0.5; rigid_freq_hz (R,) and rigid_gamma (R, 3) of the rigid-body modes found;
+    kg^0.5; rigid_freq_hz (R,), rigid_gamma (R, 3) and rigid_vectors (n_free, R) of the
+    rigid-body modes found;
     mobile_mass_kg (3,) = load^T M_free^-1 load (the sum of Gamma^2 over all modes);
     static_residual_fraction (3,) as in :class:`ModalResult`; timings_s.
     """
@@ -321,6 +322,7 @@ class ModeSolution:
     mobile_mass_kg: np.ndarray
     static_residual_fraction: np.ndarray
     timings_s: dict[str, float]
+    rigid_vectors: np.ndarray | None = None
 
 
 def solve_modes(
@@ -406,6 +408,7 @@ def solve_modes(
         mobile_mass_kg=mobile,
         static_residual_fraction=static_res,
         timings_s=timings,
+        rigid_vectors=vectors[:, rigid],
     )
 
 
