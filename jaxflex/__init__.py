@@ -7,7 +7,8 @@ float64 is enabled on import (``jax_enable_x64``); float32 is available on reque
 The public interface, the only way the layers above (fem, optim, fmu) and users enter the
 core, each module's names in its ``__all__`` (tests/test_public_core.py checks it):
 
-* ``jaxflex``: the model, moves, the response, settle and cycle time, the errors;
+* ``jaxflex``: the model, moves, the response (of a turning move too), settle and cycle
+  time, the errors;
 * ``jaxflex.model``: the modal model, its files, ``stack_models``;
 * ``jaxflex.defaults``: the defaults every layer shares (``DT_S``, ``THRESHOLD_M``, ...);
 * ``jaxflex.response``: the building blocks of the certified response (state maps,
@@ -55,6 +56,7 @@ from jaxflex.surrogate import (  # noqa: E402
     soft_max,
     soft_max_excess,
 )
+from jaxflex.turning import TurningResponse, simulate_turning  # noqa: E402
 
 __all__ = [
     "BudgetError",
@@ -67,6 +69,7 @@ __all__ = [
     "Move",
     "Response",
     "SettleReport",
+    "TurningResponse",
     "analyze_move",
     "as_move",
     "batch_deviation",
@@ -82,6 +85,7 @@ __all__ = [
     "save_model",
     "settle_time",
     "simulate",
+    "simulate_turning",
     "soft_max",
     "soft_max_excess",
     "stack_models",
