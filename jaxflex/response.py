@@ -67,6 +67,7 @@ from jaxflex.peaks import (
     SearchState,
     certified_max,
     item_bounds,
+    one_blas_thread,
     output_peak,
     settling_windows,
 )
@@ -181,6 +182,7 @@ __all__ = [
     "modal_states",
     "move_deviation",
     "on_device",
+    "one_blas_thread",
     "orientation_path",
     "output_peak",
     "output_residual",

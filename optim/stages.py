@@ -81,6 +81,7 @@ class Search:
     history: list[Attempt]
     final: Attempt | None
     notes: list[str] = field(default_factory=list)
+    nominal: list[Attempt] = field(default_factory=list)  # the robust cell's nominal search
 
 
 @dataclass(frozen=True)
@@ -178,7 +179,9 @@ def baselines(request: Request, plan: Plan) -> Baselines:
             progress=r.progress,
         )  # fmt: skip
     for entry in moves.entries:
-        entry.constraints_ok, entry.constraints = setup.feasible(entry.move, entry.angular_acc)
+        entry.constraints_ok, entry.constraints = setup.feasible(
+            entry.move, entry.angular_acc, every=False
+        )
     floor = moves.entries[0]  # the fastest move there is on the grid (along the path)
     measured = [floor] if r.clearance_m is None else moves.entries
     deviations = {
@@ -233,15 +236,34 @@ def search(request: Request, plan: Plan, base: Baselines) -> Search:
         search_need(model.n_modes, model.n_points, plan.shortest, bracket, r.n_scenarios, bracket)
     )
     moves = base.moves
+    warm = [e.acc for e in moves.entries]
+    start, nominal = _nominal_first(r, problem, sub, (moves.floor_acc, upper, warm))
     best, history = bisect(
-        problem, sub, moves.floor_acc, upper, [e.acc for e in moves.entries], progress=r.progress
+        problem, sub, moves.floor_acc, upper, warm, progress=r.progress, start_steps=start
     )
     if best is None and not (plan.setup.families and base.feasible):
         raise _no_move(r, plan)
     if r.method != "exact" or best is None:
-        return Search(problem, sub, history, best)
+        return Search(problem, sub, history, best, nominal=nominal)
     final, notes = _polish(problem, sub, best, history)
-    return Search(problem, sub, history, final, notes)
+    return Search(problem, sub, history, final, notes, nominal)
+
+
+def _nominal_first(request: Request, problem: Problem, sub, bracket) -> tuple[int | None, list]:
+    """With a robust grid and the cell's constraints (straight moves, exact route): the
+    search of the nominal model alone first (cheap: one model to certify), whose answer is
+    where the robust search starts and whose rows it starts from (the nominal model is one
+    of the robust models of every constraint; optim.search.Problem.adopt). Returns (the
+    nominal answer's steps or None, the nominal search's attempts)."""
+    if request.robust is None or not problem.families or problem.turn is not None:
+        return None, []
+    if request.method != "exact":
+        return None, []
+    nominal = problem.nominal()
+    floor, upper, warm = bracket
+    found, attempts = bisect(nominal, sub, floor, upper, warm, progress=request.progress)
+    problem.adopt(nominal)
+    return (None if found is None else found.n_steps), attempts
 
 
 def _no_move(request: Request, plan: Plan) -> JaxflexError:
@@ -386,6 +408,7 @@ def report(
         "subproblems": sum(len(a.solver_stats) for a in history),
         "pooled_rows": len(problem.pool),
         "training_scenarios": [problem.scenarios[i].as_dict() for i in problem.training],
+        "nominal_attempts": [a.summary() for a in found.nominal],
         "totals": _totals(history),
         "notes": choice.notes,
     }
