@@ -62,7 +62,7 @@ from jaxflex.profile import acceleration_at, as_move, kinematics_at
 
 BLOCK_POINTS = 32
 COARSE_STRIDE = 8  # close_approaches: the block centres at every 8th time first
-PAIR_CHUNK = 100_000  # (time, point) pairs per evaluation of the distance
+BLOCK_CHUNK = 4096  # (time, block) pairs per evaluation of the distance
 # what a run out of its time budget (jaxflex.budget) was doing, and what to do about it
 CHECKING = "checking the part's distance to the cell's obstacles"
 SIMPLER_CELL = "simplify the obstacles (fewer triangles or boxes) or raise --max-time"
@@ -196,6 +196,39 @@ def block_lower_bounds(obstacles, centres: np.ndarray, extents: np.ndarray, movi
     return best.reshape(centres.shape[:2]) - moving
 
 
+@dataclass
+class Approaches:
+    """The points of a part that may come closer than a distance to the obstacles at some
+    of the times ``t_s`` of a move (:func:`close_approaches`): ``points`` (P,) sorted and
+    their skin distances ``distances`` (T, P) m where evaluated, inf elsewhere (every point
+    of a block not evaluated provably keeps the distance there). Evaluated: at each time at
+    least the closest point (exact), and at the times given to :meth:`fill` every point
+    that may come closer."""
+
+    points: np.ndarray
+    distances: np.ndarray
+    _motion: _Motion
+    _coords: np.ndarray  # (T, M') displacement coordinates at the times
+    _path: np.ndarray  # (T, 3) the rigid path at the times
+    _close: np.ndarray  # (T, nB) the blocks that may come closer, per time
+
+    def fill(self, indices) -> None:
+        """Evaluate every point of every block that may come closer at the times
+        ``indices`` (time indices)."""
+        rows = np.zeros(len(self._close), dtype=bool)
+        rows[np.asarray(indices, dtype=np.int64)] = True
+        times, which = np.nonzero(self._close & rows[:, None])
+        blocks = part_blocks(self._motion.model)
+        for chunk in np.array_split(np.arange(len(times)), max(1, len(times) // BLOCK_CHUNK)):
+            self._record(*_block_distances(self, blocks, times[chunk], which[chunk]))
+
+    def _record(self, times, members, real, d) -> None:
+        """Write the skin distances ``d`` (A, b) of the ``members`` (A, b; ``real``) at the
+        time indices ``times`` (A,)."""
+        rows = np.broadcast_to(times[:, None], members.shape)[real]
+        self.distances[rows, np.searchsorted(self.points, members[real])] = d[real]
+
+
 def close_approaches(
     model,
     obstacles,
@@ -206,24 +239,25 @@ def close_approaches(
     gravity_m_s2=(0.0, 0.0, -9.81),
     half_thickness_m: float = 0.0,
     stride: int = COARSE_STRIDE,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(points (P,), their skin distances (T, P) m): the points of ``model`` (posed in the
-    cell, hanging in ``gravity_m_s2`` before the move) that may come closer than
-    ``within_m`` (m, or one per time (T,)) to ``obstacles`` at some of the increasing times
-    ``t_s`` (T,) s during and
-    after ``move`` (a jaxflex.Move), with their exact distances (skins ``half_thickness_m``
-    off the mid-surface) at the times where they may; inf elsewhere, where every point of
-    its block provably keeps ``within_m``.
+) -> Approaches:
+    """The :class:`Approaches` of the points of ``model`` (posed in the cell, hanging in
+    ``gravity_m_s2`` before the move) that may come closer than ``within_m`` (m, or one per
+    time (T,)) to ``obstacles`` at some of the increasing times ``t_s`` (T,) s during and
+    after ``move`` (a jaxflex.Move), their skins ``half_thickness_m`` off the mid-surface:
+    at each time the closest point found exactly (its distance and every distance
+    evaluated on the way); :meth:`Approaches.fill` adds every point that may come closer at
+    chosen times.
 
-    Two levels, in time and in space: the block centres (:class:`PartBlocks`) are evaluated
+    Two levels in time and in space: the block centres (:class:`PartBlocks`) are evaluated
     at every ``stride``-th time only, and between two of them a block's members move at most
     at the path speed plus the modes' (jaxflex.engine.derivative_bounds during the move, the
     decay envelope after it) weighted by the centre's shapes and the block's spread, so the
     block keeps (d_a + d_b) / 2 - L (b - a) / 2 (:func:`block_lower_bounds` at a and b).
     Only the blocks of the intervals where that reaches ``within_m`` get the block bound at
-    each time, and only the members of a block whose bound reaches it at a time are
-    evaluated there: the same points and distances as evaluating every block at every time
-    and every member of a block whose bound reaches ``within_m``."""
+    each time; at each time the blocks whose bound reaches ``within_m`` are searched in the
+    order of their bound until the next bound is above the closest point found. The closest
+    point at each time, and every point at the filled times, are what evaluating every
+    member of every block at every time gives."""
     t = np.asarray(t_s, dtype=np.float64)
     obstacles = tuple(obstacles)
     with one_blas_thread():
@@ -242,11 +276,18 @@ def close_approaches(
         for j in np.flatnonzero(flagged.any(axis=1)):  # both ends of an interval belong to it
             candidate[coarse[j] : coarse[j + 1] + 1] |= flagged[j]
         times, which = np.nonzero(candidate)
-        close = np.zeros_like(candidate)
+        fine = np.full(candidate.shape, np.inf)
         if times.size:
-            fine = _block_bounds(motion, blocks, extents[which], t[times], coords[times], which)
-            close[times, which] = fine <= within[times]
-        return _members_near(motion, blocks, t, coords, close)
+            bounds = _block_bounds(motion, blocks, extents[which], t[times], coords[times], which)
+            fine[times, which] = np.where(bounds <= within[times], bounds, np.inf)
+        close = np.isfinite(fine)
+        points = blocks.points_of(np.flatnonzero(close.any(axis=0)))
+        path = kinematics_at(move.acc, move.dt_s, t)[0]
+        found = Approaches(
+            points, np.full((len(t), len(points)), np.inf), motion, coords, path, close
+        )
+        _smallest(found, blocks, fine, found._record)
+        return found
 
 
 def nearest_distances(
@@ -263,24 +304,42 @@ def nearest_distances(
         blocks = part_blocks(model)
         coords = displacement_coordinates(model, move.acc, move.dt_s, t)
         lower = _block_bounds(motion, blocks, blocks.extents(motion.base), t, coords)
-        order = np.argsort(lower, axis=1)
-        path = kinematics_at(motion.acc, motion.dt_s, t)[0]
-        best = np.full(len(t), np.inf)
-        rows = np.arange(len(t))
-        for rank in range(order.shape[1]):
-            which = order[:, rank]
-            times = rows[lower[rows, which] < best]
-            if times.size == 0:
-                break
-            members = blocks.members[which[times]]  # (A, b)
-            real = blocks.real[which[times]]
-            safe = np.where(real, members, 0)
-            u = np.einsum("abcm,am->abc", motion.shapes[safe], coords[times])
-            points = motion.base[safe] + path[times][:, None] + u
-            d, _, _ = distances(motion.obstacles, points.reshape(-1, 3))
-            d = np.where(real, d.reshape(real.shape) - motion.half, np.inf)
-            best[times] = np.minimum(best[times], d.min(axis=1))
-        return best
+        path = kinematics_at(move.acc, move.dt_s, t)[0]
+        frame = Approaches(np.zeros(0, np.int64), np.zeros((0, 0)), motion, coords, path, None)
+        return _smallest(frame, blocks, lower)
+
+
+def _smallest(frame: Approaches, blocks: PartBlocks, lower: np.ndarray, record=None):
+    """(T,) the smallest skin distance at each time of the ``frame`` (its motion, times'
+    coordinates and path), searching at each time the blocks in the order of their bounds
+    ``lower`` (T, nB; inf: not a candidate) while the next bound is below the smallest found;
+    ``record(times, members, real, distances)`` gets every evaluation."""
+    order = np.argsort(lower, axis=1)
+    best = np.full(len(lower), np.inf)
+    rows = np.arange(len(lower))
+    for rank in range(order.shape[1]):
+        which = order[:, rank]
+        times = rows[lower[rows, which] < best]
+        if times.size == 0:
+            break
+        found = _block_distances(frame, blocks, times, which[times])
+        best[times] = np.minimum(best[times], found[3].min(axis=1))
+        if record is not None:
+            record(*found)
+    return best
+
+
+def _block_distances(frame: Approaches, blocks: PartBlocks, times, which):
+    """(times, members (A, b), real (A, b), skin distances (A, b), inf for padding) of every
+    member of the blocks ``which`` (A,) at the time indices ``times`` (A,) of ``frame``."""
+    motion = frame._motion
+    members = blocks.members[which]
+    real = blocks.real[which]
+    safe = np.where(real, members, 0)
+    u = np.einsum("abcm,am->abc", motion.shapes[safe], frame._coords[times])
+    points = motion.base[safe] + frame._path[times][:, None] + u
+    d, _, _ = distances(motion.obstacles, points.reshape(-1, 3))
+    return times, members, real, np.where(real, d.reshape(real.shape) - motion.half, np.inf)
 
 
 def _block_bounds(motion, blocks: PartBlocks, extents, t, coords, which=None) -> np.ndarray:
@@ -330,25 +389,6 @@ def _interval_speeds(motion, blocks: PartBlocks, t: np.ndarray) -> np.ndarray:
         m = motion.model.n_modes
         rates[after, :m] = np.maximum(rates[after, :m], modes)
     return path[:, None] + rates @ weights.T
-
-
-def _members_near(motion, blocks: PartBlocks, t, coords, close) -> tuple[np.ndarray, np.ndarray]:
-    """(points, skin distances (T, P)) of the members of the blocks ``close`` (T, nB) at
-    the times they are close (inf elsewhere)."""
-    points = blocks.points_of(np.flatnonzero(close.any(axis=0)))
-    times, which = np.nonzero(close)
-    members = blocks.members[which]  # (pairs, b)
-    real = members < len(motion.base)
-    pair_t = np.broadcast_to(times[:, None], members.shape)[real]
-    pair_p = members[real]
-    d = np.full((len(t), len(points)), np.inf)
-    path = kinematics_at(motion.acc, motion.dt_s, t)[0]
-    for chunk in np.array_split(np.arange(len(pair_p)), max(1, len(pair_p) // PAIR_CHUNK)):
-        tt, pp = pair_t[chunk], pair_p[chunk]
-        u = np.einsum("kcm,km->kc", motion.shapes[pp], coords[tt])
-        dist, _, _ = distances(motion.obstacles, motion.base[pp] + path[tt] + u)
-        d[tt, np.searchsorted(points, pp)] = dist - motion.half
-    return points, d
 
 
 def part_blocks(model) -> PartBlocks:

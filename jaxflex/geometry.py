@@ -21,6 +21,7 @@ from jaxflex.cell import (
 )
 from jaxflex.collision import (
     BLOCK_POINTS,
+    Approaches,
     Clearance,
     block_lower_bounds,
     close_approaches,
@@ -38,6 +39,7 @@ from jaxflex.turning_collision import rotations_between, turning_min_distance
 __all__ = [
     "BLOCK_POINTS",
     "DEFAULT_GRAVITY_M_S2",
+    "Approaches",
     "Box",
     "Cell",
     "Clearance",

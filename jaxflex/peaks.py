@@ -316,6 +316,66 @@ def item_bounds(
     return np.maximum(response.move_item_bounds(items), response.tail_item_bounds(items, 0.0))
 
 
+def outputs_above(
+    model,
+    outputs,
+    functional,
+    move: Move,
+    t_s,
+    above: float,
+    *,
+    offset=None,
+    state_scale=None,
+    stride: int = 8,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(items (I,), their values (T, I)): the items of ``functional`` (arguments as
+    :func:`output_peak`) whose value may exceed ``above`` at some of the increasing times
+    ``t_s`` (T,) s during and after ``move`` (a Move at rest at both ends), with their exact
+    values where they may (-inf elsewhere, where the value provably stays at most
+    ``above``): the items whose bound over the move and the settling reaches it
+    (:func:`item_bounds`), evaluated at every ``stride``-th time (and the end of the move),
+    and between two of those only where the curvature bound of the interval (one step of
+    the move, or the decay envelope after it) reaches ``above``. The values above ``above``
+    are those of evaluating every item at every time."""
+    t = np.asarray(t_s, dtype=np.float64)
+    offset = np.zeros(outputs.n_rows) if offset is None else offset
+    with one_blas_thread():
+        response = _Response(model, outputs, functional, move, offset, state_scale)
+        every = np.arange(functional.n_items)
+        bounds = np.maximum(response.move_item_bounds(every), response.tail_item_bounds(every, 0.0))
+        items = every[bounds > above]
+        values = np.full((len(t), len(items)), -np.inf)
+        if items.size == 0 or t.size == 0:
+            return items, values
+        ends = np.searchsorted(t, response.t_end, side="right") - 1
+        coarse = np.unique(np.r_[np.arange(0, len(t), stride), len(t) - 1, max(ends, 0)])
+        values[coarse] = _evaluate(response, t[coarse], items).T
+        a, b = t[coarse[:-1]], t[coarse[1:]]
+        va, vb = values[coarse[:-1]].T, values[coarse[1:]].T
+        upper = np.empty_like(va)
+        for bound, part in ((response.during_bound, b <= response.t_end),
+                            (response.after_bound, b > response.t_end)):  # fmt: skip
+            if part.any():
+                upper[:, part] = bound(a[part], b[part], va[:, part], vb[:, part], items)
+        for j in np.flatnonzero((upper > above).any(axis=0)):
+            inside = np.arange(coarse[j] + 1, coarse[j + 1])
+            if inside.size:
+                flagged = np.flatnonzero(upper[:, j] > above)
+                values[np.ix_(inside, flagged)] = _evaluate(response, t[inside], items[flagged]).T
+        return items, values
+
+
+def _evaluate(response: _Response, t: np.ndarray, items: np.ndarray) -> np.ndarray:
+    """(I, T) the functional of ``items`` at times ``t`` during the move and after it."""
+    out = np.empty((len(items), len(t)))
+    during = t <= response.t_end
+    if during.any():
+        out[:, during] = response.during(t[during], items)
+    if (~during).any():
+        out[:, ~during] = response.after(t[~during], items)
+    return out
+
+
 def output_peak(
     model,
     outputs,

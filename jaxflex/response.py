@@ -69,6 +69,7 @@ from jaxflex.peaks import (
     item_bounds,
     one_blas_thread,
     output_peak,
+    outputs_above,
     settling_windows,
 )
 from jaxflex.points import (
@@ -186,6 +187,7 @@ __all__ = [
     "orientation_path",
     "output_peak",
     "output_residual",
+    "outputs_above",
     "outputs_at",
     "padded_steps",
     "point_displacements",

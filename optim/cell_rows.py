@@ -49,9 +49,11 @@ from jaxflex.response import (
     Peak,
     VonMises,
     acceleration_at,
+    as_move,
     item_bounds,
     one_blas_thread,
     output_peak,
+    outputs_above,
     position_weights,
     response_shapes,
     state_maps_at,
@@ -69,6 +71,7 @@ PEAKS_PER_ROUND = 20  # violated local maxima in time
 ITEMS_PER_PEAK = 8  # rows at each: the worst items (points, cups) above the limit
 ROWS_PER_ROUND = 240  # loads: rows at the worst violated (time, item) samples
 CERTIFY_ATOL_M = 1e-6  # the certified distance's accuracy, m
+MAPS_KEPT = 256  # state maps kept per model (about 84 kB each at 175 steps and 20 modes)
 
 
 @dataclass(frozen=True)
@@ -85,6 +88,18 @@ class Row:
     item: int
     restriction: bool = False
     moved: Callable[[int, float, tuple], Row | None] | None = field(default=None, repr=False)
+
+
+def state_maps(model, n_steps: int, dt_s: float, time_s: float) -> np.ndarray:
+    """(M, 2, n+1, 3) jaxflex.engine.state_maps_at of one time, the last MAPS_KEPT kept per
+    model (the rows of one round, and the rows moved to a length, share their times)."""
+    cache = model.__dict__.setdefault("_cell_state_maps", {})
+    key = (int(n_steps), float(dt_s), float(time_s))
+    if key not in cache:
+        while len(cache) >= MAPS_KEPT:
+            del cache[next(iter(cache))]
+        cache[key] = state_maps_at(model, n_steps, dt_s, np.array([time_s]))[0]
+    return cache[key]
 
 
 def moved_time(time_s: float, n_from: int, n_to: int, dt_s: float) -> float:
@@ -118,18 +133,26 @@ def check_times(model, n_steps: int, dt_s: float) -> np.ndarray:
     return np.concatenate([during, after])
 
 
-def _local_peaks(values: np.ndarray, above: float) -> list[tuple[int, int]]:
-    """(time index, item) at the largest local maxima in time of max over items above
-    ``above`` (at most PEAKS_PER_ROUND), each with its ITEMS_PER_PEAK worst items above it,
-    worst first: values (T, I). Several items per time: a tangent cut holds one direction of
-    one item, and the LP's next answer moves the peak to the items next to it."""
+def _peak_times(values: np.ndarray, above: float) -> list[int]:
+    """The time indices of the largest local maxima in time of max over items of ``values``
+    (T, I) above ``above`` (at most PEAKS_PER_ROUND), largest first."""
     worst = values.max(axis=1)
     padded = np.concatenate([[-np.inf], worst, [-np.inf]])
     local = (worst >= padded[:-2]) & (worst >= padded[2:]) & (worst > above)
+    return [int(j) for j in sorted(np.flatnonzero(local), key=lambda j: -worst[j])][
+        :PEAKS_PER_ROUND
+    ]
+
+
+def _local_peaks(values: np.ndarray, above: float) -> list[tuple[int, int]]:
+    """(time index, item) at the largest local maxima in time of max over items above
+    ``above`` (:func:`_peak_times`), each with its ITEMS_PER_PEAK worst items above it,
+    worst first: values (T, I). Several items per time: a tangent cut holds one direction of
+    one item, and the LP's next answer moves the peak to the items next to it."""
     found = []
-    for j in sorted(np.flatnonzero(local), key=lambda j: -worst[j])[:PEAKS_PER_ROUND]:
+    for j in _peak_times(values, above):
         order = np.argsort(-values[j])[:ITEMS_PER_PEAK]
-        found += [(int(j), int(i)) for i in order if values[j, i] > above]
+        found += [(j, int(i)) for i in order if values[j, i] > above]
     return found
 
 
@@ -231,18 +254,20 @@ class LoadFamily:
     def scan(self, move: Move, axes) -> list[Row]:
         """Rows at the worst sampled violations of ``move`` (a Move); only the items whose
         bound over the whole move and settling (jaxflex.peaks.item_bounds) reaches the row
-        threshold are evaluated (an inactive constraint costs almost nothing)."""
+        threshold are evaluated (an inactive constraint costs almost nothing), at the
+        samples and, between them, where a curvature bound reaches it
+        (jaxflex.response.outputs_above: the samples above the threshold are those of
+        every time)."""
         acc, dt_s = move.acc, move.dt_s
         above = self.limit * (1 - ROW_MARGIN + SCAN_RTOL)
-        bounds = item_bounds(
-            self.model, self.outputs, self.functional, acc, dt_s, offset=self.offset,
-            state_scale=self.state_scale,
+        t = check_times(self.model, acc.shape[0] - 1, dt_s)
+        candidates, values = outputs_above(
+            self.model, self.outputs, self.functional, as_move(acc, dt_s, at_rest=True), t,
+            above, offset=self.offset, state_scale=self.state_scale,
         )  # fmt: skip
-        candidates = np.flatnonzero(bounds > above)
         if candidates.size == 0:
             return []
-        t = check_times(self.model, acc.shape[0] - 1, dt_s)
-        found = _worst_samples(self.values(acc, dt_s, t, candidates), above)
+        found = _worst_samples(values, above)
         by_time: dict[int, list[int]] = {}
         for j, column in found:
             by_time.setdefault(j, []).append(int(candidates[column]))
@@ -257,7 +282,7 @@ class LoadFamily:
         n = acc.shape[0] - 1
         t = np.array([time_s])
         states, a = states_at(self.model, acc, dt_s, t), acceleration_at(acc, dt_s, t)
-        maps = state_maps_at(self.model, n, dt_s, t)[0]  # (M, 2, n+1, 3)
+        maps = state_maps(self.model, n, dt_s, time_s)  # (M, 2, n+1, 3)
         found = []
         for item in items:
             rows = self._rows_of(item)
@@ -270,7 +295,7 @@ class LoadFamily:
         state maps at that time, if known): valid for every move and time, as f(y) >= g . y
         (module docstring)."""
         if maps is None:
-            maps = state_maps_at(self.model, n_steps, dt_s, np.array([time_s]))[0]
+            maps = state_maps(self.model, n_steps, dt_s, time_s)
         rows = self._rows_of(item)
         coef = np.einsum("m,mkc->kc", (g @ self.q_map[rows]) * self.q_scale, maps[:, 0])
         coef += np.einsum("m,mkc->kc", (g @ self.v_map[rows]) * self.v_scale, maps[:, 1])
@@ -395,26 +420,23 @@ class DistanceFamily:
         """(T, P, 3) mid-surface positions of ``points`` (default all) at times ``t``."""
         return positions_at(self.model, acc, dt_s, t, self.gravity, points, coords)
 
-    def near(self, move: Move, t: np.ndarray, within_m):
-        """(points (P,), their skin distances (T, P)): the points that may come closer than
-        ``within_m`` (m, or one per time) at some time of ``t``, evaluated at the times where
-        they may (elsewhere inf: every point provably keeps the distance there;
-        jaxflex.geometry.close_approaches)."""
-        return close_approaches(
-            self.model, self.obstacles, move, t, within_m, gravity_m_s2=self.gravity,
-            half_thickness_m=self.half,
-        )  # fmt: skip
-
     def scan(self, move: Move, axes) -> list[Row]:
-        """Separating planes at the sampled closest approaches of ``move`` (a Move)."""
+        """Separating planes at the sampled closest approaches of ``move`` (a Move): the
+        closest point at each check time, and every point that may come closer than the row
+        threshold at the times of the worst approaches (jaxflex.geometry.close_approaches;
+        the rows of evaluating every point at every check time)."""
         acc, dt_s = move.acc, move.dt_s
         t = check_times(self.model, move.n_steps, dt_s)
         threshold = self.limit * (1 + ROW_MARGIN - SCAN_RTOL)
-        points, d = self.near(move, t, threshold)
-        if points.size == 0:  # the whole part provably keeps the distance
+        found = close_approaches(
+            self.model, self.obstacles, move, t, threshold, gravity_m_s2=self.gravity,
+            half_thickness_m=self.half,
+        )  # fmt: skip
+        if found.points.size == 0:  # the whole part provably keeps the distance
             return []
-        found = _local_peaks(-d, -threshold)
-        rows = (self.row(acc, dt_s, t[j], int(points[k]), axes) for j, k in found)
+        found.fill(_peak_times(-found.distances, -threshold))
+        peaks = _local_peaks(-found.distances, -threshold)
+        rows = (self.row(acc, dt_s, t[j], int(found.points[k]), axes) for j, k in peaks)
         return [r for r in rows if r is not None]
 
     def row(self, acc: np.ndarray, dt_s: float, time_s: float, point: int, axes) -> Row | None:
@@ -436,7 +458,7 @@ class DistanceFamily:
         along = normal @ self.shapes[point]  # (M',)
         m = self.model.n_modes
         coef = np.einsum(
-            "m,mkc->kc", along[:m], state_maps_at(self.model, n_steps, dt_s, t)[0, :, 0]
+            "m,mkc->kc", along[:m], state_maps(self.model, n_steps, dt_s, time_s)[:, 0]
         )
         if along.size > m:  # D a(t)
             _add_along(coef, along[m:], time_s, dt_s)

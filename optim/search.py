@@ -57,6 +57,8 @@ TIME_RTOL = 1e-12
 SOLVER_FAILURES = ("failed", "row generation did not converge")
 PROOFS = ("infeasible", "rows cannot all hold")  # an LP of valid rows only: no move exists
 KEPT_LENGTHS = 2
+SEEDED_CUTS = 120  # valid cuts of a certified length moved to the next length tested
+TIGHT_SLACK = 0.01  # ... those its certified move meets within 1 % of their limit
 
 
 @dataclass
@@ -103,6 +105,7 @@ class Problem:
     cell_rows: dict[int, list[Row]] = field(default_factory=dict)
     turn: Any = None  # optim.turn.TurnSchedule: a fixed turn with the move (affine end state)
     certified: set[int] = field(default_factory=set)  # lengths with a certified move
+    certified_moves: dict[int, np.ndarray] = field(default_factory=dict)  # their samples
     excluded: set[int] = field(default_factory=set)  # lengths proven too short (no move)
     seeded: dict[int, int] = field(default_factory=dict)  # length: certified length it took rows of
     _maps: dict = field(default_factory=dict)
@@ -182,23 +185,36 @@ class Problem:
         return any(r.restriction for r in self.cell_rows.get(n_steps, []))
 
     def seed(self, n_steps: int) -> int | None:
-        """Before a test of ``n_steps`` that has no certified move: the cell's rows of the
-        nearest certified length moved to it (the same planes and cuts at the same fractions
-        of the move), in place of its own separating planes (its valid cuts stay). A
-        separating plane chosen where a certified move passed is chosen on the side that
-        move keeps, not where an LP's answer that runs into the obstacle happens to be.
-        Returns that length, or None (none certified yet, this length certified, already
-        seeded from it, or a turning move: its rows belong to the turn's schedule)."""
+        """Before a test of ``n_steps`` that has no certified move: the separating planes of
+        the nearest certified length moved to it (the same planes at the same fractions of
+        the move), in place of its own (its valid cuts stay). A plane chosen where a
+        certified move passed is on the side that move keeps, not where an LP's answer that
+        runs into the obstacle happens to be. Returns that length, or None (none certified
+        yet, this length certified, already seeded from it, or a turning move: its rows
+        belong to the turn's schedule)."""
         if self.turn is not None or n_steps in self.certified or not self.certified:
             return None
         source = min(self.certified, key=lambda n: (abs(n - n_steps), n))
         if self.seeded.get(n_steps) == source:
             return None
         own = [r for r in self.cell_rows.get(n_steps, []) if not r.restriction]
-        moved = (r.moved(n_steps, self.dt_s, self.axes) for r in self.cell_rows.get(source, []))
+        rows = [r for r in self.cell_rows.get(source, []) if r.moved is not None]
+        planes = [r for r in rows if r.restriction]
+        moved = (r.moved(n_steps, self.dt_s, self.axes) for r in planes + self._tight(source))
         self.cell_rows[n_steps] = own + [r for r in moved if r is not None]
         self.seeded[n_steps] = source
         return source
+
+    def _tight(self, n_steps: int) -> list[Row]:
+        """The valid cuts of the certified length ``n_steps`` that its certified move meets
+        within TIGHT_SLACK of their limit, the tightest SEEDED_CUTS: the ones that shaped it,
+        which a neighbouring length then starts from (any valid cut may; these are the ones
+        likely to matter, and moving all of them would cost more than the rounds they save)."""
+        move = self.certified_moves[n_steps][:, list(self.axes)]
+        cuts = [r for r in self.cell_rows.get(n_steps, []) if not r.restriction and r.moved]
+        slack = np.array([r.rhs - np.sum(r.coef * move) for r in cuts])
+        order = np.argsort(slack, kind="stable")[:SEEDED_CUTS]
+        return [cuts[i] for i in order if slack[i] <= TIGHT_SLACK]
 
     def nominal(self) -> Problem:
         """The same problem for the nominal model alone: its scenario and, of every robust
@@ -219,10 +235,6 @@ class Problem:
             self.cell_rows.setdefault(n, []).extend(rows)
         if any(s.scale == 1.0 and _same_damping(s, self.model) for s in self.scenarios):
             self.excluded |= nominal.excluded
-
-    def unseed(self, n_steps: int) -> None:
-        """Drop the separating planes of ``n_steps`` (its valid cuts stay)."""
-        self.cell_rows[n_steps] = [r for r in self.cell_rows.get(n_steps, []) if not r.restriction]
 
 
 def _same_damping(scenario: Scenario, model: ModalModel) -> bool:
@@ -410,12 +422,7 @@ def _rejected(n_steps, value, rounds, start, reason, stats) -> Attempt:
     )
 
 
-def attempt(
-    problem: Problem,
-    solver: Subsolver,
-    n_steps: int,
-    warm: np.ndarray,
-) -> Attempt:
+def attempt(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray) -> Attempt:
     """Is there a certified move of ``n_steps`` steps? (module docstring). With a turn,
     each of its schedules for n steps in order (optim.turn.TurnSchedule) until one is."""
     turn = problem.turn
@@ -434,22 +441,14 @@ def attempt(
 
 
 def _straight_attempt(problem: Problem, solver: Subsolver, n: int, warm: np.ndarray) -> Attempt:
-    """The test of :func:`attempt` for a straight move: with the cell's rows seeded from the
-    nearest certified length (:meth:`Problem.seed`) and, if that fails where separating
-    planes were in the way, again with the planes of this length's own LP answers only.
-    A length whose LP has no solution without any separating plane is proven too short
-    (``problem.excluded``)."""
-    seeded = problem.seed(n) is not None
+    """The test of :func:`attempt` for a straight move, with the cell's rows seeded from the
+    nearest certified length (:meth:`Problem.seed`). A length whose LP has no solution
+    without any separating plane is proven too short (``problem.excluded``)."""
+    problem.seed(n)
     found = _attempt(problem, solver, n, warm)
-    if not found.feasible and seeded and problem.restricted(n):
-        problem.unseed(n)
-        again = _attempt(problem, solver, n, warm)
-        again.rounds += found.rounds
-        again.wall_s += found.wall_s
-        again.solver_stats = found.solver_stats + again.solver_stats
-        found = again
     if found.feasible:
         problem.certified.add(n)
+        problem.certified_moves[n] = found.acc
     elif found.reason in PROOFS and not problem.restricted(n) and n not in problem.certified:
         problem.excluded.add(n)
     return found
@@ -631,9 +630,9 @@ def _below(problem: Problem, solver: Subsolver, best: Attempt, start, test) -> A
     proof (the planes are a restriction, and feasibility need not be monotone): every length
     from the answer down to the kinematic floor that the necessary test (:func:`necessary`)
     does not exclude and that has not been tried with the rows of the current answer is
-    tested again (:func:`attempt` seeds it from the nearest certified length, the answer).
-    ``start``: (the kinematic floor's steps, the moves that seed the subproblems). Returns
-    the shortest certified attempt."""
+    tested again with them (:func:`attempt` seeds it from the nearest certified length, the
+    answer). ``start``: (the kinematic floor's steps, the moves that seed the subproblems).
+    Returns the shortest certified attempt."""
     floor_steps, moves = start
     for n in range(best.n_steps - 1, floor_steps - 1, -1):
         if problem.seeded.get(n) == best.n_steps:
