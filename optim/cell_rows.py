@@ -65,6 +65,7 @@ ROW_MARGIN = 1e-3
 SCAN_RTOL = 1e-7  # a row's own limit is met up to the LP's feasibility tolerance (1e-9)
 BOUND_RTOL = 1e-12  # the certified searches stop refining at the limit: round-off of it
 ITEM_BLOCK = 2048
+CURVE_CHUNK = 256  # items per evaluation of a plot's curve, in the order of their bounds
 SUBSTEPS = 8
 TAIL_PERIODS = 2.0
 PEAKS_PER_ROUND = 20  # violated local maxima in time
@@ -355,8 +356,8 @@ class LoadFamily:
         )  # fmt: skip
         order = np.argsort(-bounds, kind="stable")
         largest = np.full(len(t), -np.inf)
-        for start in range(0, len(order), ITEM_BLOCK):
-            chunk = order[start : start + ITEM_BLOCK]
+        for start in range(0, len(order), CURVE_CHUNK):
+            chunk = order[start : start + CURVE_CHUNK]
             times = np.flatnonzero(bounds[chunk[0]] > largest)
             if times.size == 0:
                 break
