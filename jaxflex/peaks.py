@@ -139,8 +139,9 @@ def one_blas_thread():
     return _BLAS[0].limit(limits=1, user_api="blas")
 
 
-def _derived(array: np.ndarray, kind: str, make) -> np.ndarray:
-    """``make(array)``, computed once per array and ``kind`` (dropped with the array)."""
+def once_per_array(array: np.ndarray, kind: str, make):
+    """``make(array)``, computed once per array and ``kind`` and kept while the array lives
+    (data derived from large arrays that many models or certificates share)."""
     key = (kind, id(array))
     entry = _MAGNITUDES.get(key)
     if entry is not None and entry[0]() is array:
@@ -154,12 +155,12 @@ def _derived(array: np.ndarray, kind: str, make) -> np.ndarray:
 def magnitude(array: np.ndarray) -> np.ndarray:
     """|array|, computed once per array (the output maps' magnitudes, which every bound of
     every certificate of the same outputs takes)."""
-    return _derived(array, "magnitude", np.abs)
+    return once_per_array(array, "magnitude", np.abs)
 
 
 def column_max(array: np.ndarray) -> np.ndarray:
     """(columns,) the largest magnitude of each column of ``array`` (once per array)."""
-    return _derived(array, "column_max", lambda a: magnitude(a).max(axis=0))
+    return once_per_array(array, "column_max", lambda a: magnitude(a).max(axis=0))
 
 
 class _Response:

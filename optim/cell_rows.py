@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import partial
+from functools import cached_property, partial
 
 import numpy as np
 
@@ -40,7 +40,6 @@ from jaxflex.geometry import (
     gravity_offset,
     min_distance,
     nearest_distances,
-    part_blocks,
     positions_at,
 )
 from jaxflex.response import (
@@ -414,8 +413,12 @@ class DistanceFamily:
         self.half = float(half_thickness_m)
         self.gravity = np.asarray(gravity_m_s2, dtype=np.float64)
         self.base = np.asarray(model.points) + gravity_offset(model, self.gravity)
-        self.shapes = response_shapes(model)  # (K, 3, M'): the modes, then the static residual
-        self.blocks = part_blocks(model)
+
+    @cached_property
+    def shapes(self) -> np.ndarray:
+        """(K, 3, M') the modes, then the static residual (for rows: a model of a robust
+        grid that never gives rows never builds them)."""
+        return response_shapes(self.model)
 
     def positions(self, acc, dt_s, t, points=None, coords=None) -> np.ndarray:
         """(T, P, 3) mid-surface positions of ``points`` (default all) at times ``t``."""

@@ -22,12 +22,21 @@ import time
 from dataclasses import dataclass, field
 
 from jaxflex.errors import BudgetError, InputError, JaxflexError
+from jaxflex.geometry import BLOCK_POINTS
 from jaxflex.response import Move, SettleReport, analyze_move
 from jaxflex.runtime import issue, model_resolution, require, threshold_advice
 from optim.advice import grid_advice
 from optim.baselines import Baseline, BaselineSet, via_baselines
 from optim.baselines import baselines as compute_baselines
-from optim.budget import check_memory, check_move_length, distance_need, search_need
+from optim.budget import (
+    CellCost,
+    check_memory,
+    check_move_length,
+    distance_need,
+    models_need,
+    obstacle_pieces,
+    search_need,
+)
 from optim.cell_setup import CellSetup, prepare_cell
 from optim.choice import Candidate, candidates
 from optim.choice import choose as choose_candidate
@@ -102,11 +111,12 @@ def plan(request: Request) -> Plan:
     """Pose the model in the cell and fix the search's budget; refuse (InputError,
     BudgetError) what cannot fit before any work."""
     r = request
+    models = 1 + (0 if r.robust is None else r.robust.n_scenarios)  # the cell's
     if r.cell is not None and r.min_distance_m is not None:  # before the set-up measures
-        shortest, allowed = check_move_length(
+        shortest, _ = check_move_length(
             r.cell.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
         )
-        require(distance_need(r.cell, r.model.n_points, shortest, allowed))
+        require(distance_need(r.cell, r.model.n_points, shortest, models))
     setup = prepare_cell(
         r.model,
         r.distance_m,
@@ -127,8 +137,25 @@ def plan(request: Request) -> Plan:
     steps_cap = check_memory(
         model.n_modes, shortest, allowed, r.n_scenarios, clearance, r.max_memory_bytes
     )
-    require(search_need(model.n_modes, model.n_points, shortest, steps_cap, r.n_scenarios))
+    cell = _cell_cost(r, setup, models)
+    need = search_need(model.n_modes, model.n_points, shortest, steps_cap, r.n_scenarios, cell=cell)
+    require(need, models_need(model.n_modes, model.n_points, models if r.robust else 0))
     return Plan(setup, shortest, steps_cap, issue(grid_advice(r.robust) + setup.advice))
+
+
+def _cell_cost(request: Request, setup: CellSetup, models: int) -> CellCost | None:
+    """What the cell's constraint families cost a search (optim.budget.CellCost), None
+    without them: the distance's blocks of points and obstacle pieces, the loads' output
+    rows, each family on ``models`` models."""
+    if not setup.families:
+        return None
+    nominal = [getattr(f, "nominal", f) for f in setup.families]
+    loads = [f.functional for f in nominal if hasattr(f, "functional")]
+    rows = sum(f.n_items * f.rows_per_item for f in loads)
+    distance = len(loads) < len(nominal)
+    blocks = math.ceil(setup.model.n_points / BLOCK_POINTS) if distance else 0
+    pieces = obstacle_pieces(request.cell) if distance else 0
+    return CellCost(blocks, pieces, rows, len(nominal), models)
 
 
 def _check_clearance(setup: CellSetup, clearance_m: float, max_duration_s: float) -> None:
@@ -230,11 +257,13 @@ def search(request: Request, plan: Plan, base: Baselines) -> Search:
     sub = LPSubsolver(r.solver) if r.method == "exact" else GradientSubsolver(r.solver)
     bound = min((e.score() for e in base.feasible), default=plan.steps_cap * r.dt_s)
     upper = math.ceil(bound / r.dt_s - 1e-9)
-    # the search's moves are now bracketed: its LPs reach up to the best baseline's length
-    bracket = min(upper, plan.steps_cap)
-    require(
-        search_need(model.n_modes, model.n_points, plan.shortest, bracket, r.n_scenarios, bracket)
-    )
+    if r.robust is None and not plan.setup.families:
+        # the search's moves are now bracketed: its LPs reach up to the best baseline's
+        # length (the nominal baselines are cheap: this refusal still comes early; a robust
+        # or cell plan is final, its baselines can take longer)
+        bracket = min(upper, plan.steps_cap)
+        need = search_need(model.n_modes, model.n_points, plan.shortest, bracket, 1, bracket)
+        require(need)
     moves = base.moves
     warm = [e.acc for e in moves.entries]
     start, nominal = _nominal_first(r, problem, sub, (moves.floor_acc, upper, warm))
