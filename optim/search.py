@@ -230,11 +230,16 @@ class Problem:
     def adopt(self, nominal: Problem) -> None:
         """Take the cell's rows of the :meth:`nominal` problem's search (rows of the nominal
         model, which every robust family certifies too) and, where the nominal model is one
-        of the robust scenarios, the lengths it proved too short."""
+        of the robust scenarios (:meth:`covers_nominal`), the lengths it proved too short."""
         for n, rows in nominal.cell_rows.items():
             self.cell_rows.setdefault(n, []).extend(rows)
-        if any(s.scale == 1.0 and _same_damping(s, self.model) for s in self.scenarios):
+        if self.covers_nominal():
             self.excluded |= nominal.excluded
+
+    def covers_nominal(self) -> bool:
+        """Whether the nominal model is one of the scenarios (frequency scale 1, its own
+        damping): then every move certified for the scenarios is certified for it."""
+        return any(s.scale == 1.0 and _same_damping(s, self.model) for s in self.scenarios)
 
 
 def _same_damping(scenario: Scenario, model: ModalModel) -> bool:
@@ -558,6 +563,7 @@ def bisect(
     *,
     progress: bool | None = None,
     start_steps: int | None = None,
+    lowest_steps: int | None = None,
 ) -> tuple[Attempt | None, list[Attempt]]:
     """Fewest steps n with a certified move. ``floor_move`` is the kinematic floor (no move
     is shorter); ``upper_steps`` is a length known to be feasible in principle (a baseline
@@ -565,13 +571,16 @@ def bisect(
     ``start_steps``: a shorter problem's answer) in steps of 4 %, doubling, until a length is
     feasible, then bisects: optima usually lie near the floor, and short moves make small
     LPs. ``warm_moves`` (kinematically feasible moves, e.g. the baselines) seed the
-    subproblems. Returns (best attempt or None, every attempt)."""
+    subproblems. ``lowest_steps``: no shorter length is tested (a smaller problem's
+    answer, whose search tried the shorter ones). Returns (best attempt or None, every
+    attempt)."""
     history: list[Attempt] = []
     floor_steps = floor_move.shape[0] - 1
     moves = [floor_move, *warm_moves]
     cap = min(max(upper_steps, floor_steps), problem.max_steps)
-    first = floor_steps if start_steps is None else min(max(start_steps, floor_steps), cap)
-    lo, n, stride = floor_steps - 1, first, max(1, int(np.ceil(0.04 * floor_steps)))
+    lowest = floor_steps if lowest_steps is None else min(max(lowest_steps, floor_steps), cap)
+    first = lowest if start_steps is None else min(max(start_steps, lowest), cap)
+    lo, n, stride = lowest - 1, first, max(1, int(np.ceil(0.04 * floor_steps)))
     best: Attempt | None = None
     bar = progress_bar(
         max(1, _tests_left(lo, cap)), f"{solver.name}: shortest move", progress, "test"
@@ -619,7 +628,7 @@ def bisect(
             else:
                 lo = mid
         if any(problem.restricted(n) for n in problem.cell_rows):
-            best = _below(problem, solver, best, (floor_steps, moves), test)
+            best = _below(problem, solver, best, (lowest, moves), test)
     finally:
         bar.close()
     return best, history

@@ -267,9 +267,11 @@ def search(request: Request, plan: Plan, base: Baselines) -> Search:
     moves = base.moves
     warm = [e.acc for e in moves.entries]
     start, nominal = _nominal_first(r, problem, sub, (moves.floor_acc, upper, warm))
+    lowest = start if start is not None and problem.covers_nominal() else None
     best, history = bisect(
-        problem, sub, moves.floor_acc, upper, warm, progress=r.progress, start_steps=start
-    )
+        problem, sub, moves.floor_acc, upper, warm, progress=r.progress, start_steps=start,
+        lowest_steps=lowest,
+    )  # fmt: skip
     if best is None and not (plan.setup.families and base.feasible):
         raise _no_move(r, plan)
     if r.method != "exact" or best is None:
@@ -282,8 +284,11 @@ def _nominal_first(request: Request, problem: Problem, sub, bracket) -> tuple[in
     """With a robust grid and the cell's constraints (straight moves, exact route): the
     search of the nominal model alone first (cheap: one model to certify), whose answer is
     where the robust search starts and whose rows it starts from (the nominal model is one
-    of the robust models of every constraint; optim.search.Problem.adopt). Returns (the
-    nominal answer's steps or None, the nominal search's attempts)."""
+    of the robust models of every constraint; optim.search.Problem.adopt). Where the
+    nominal model is also one of the grid's scenarios of the cycle time, no shorter length
+    is tested: a robust move is then a nominal one, and the nominal search, the same as the
+    nominal run's, tried every shorter length (docs/optim.md, "The shortest certified
+    move"). Returns (the nominal answer's steps or None, the nominal search's attempts)."""
     if request.robust is None or not problem.families or problem.turn is not None:
         return None, []
     if request.method != "exact":
