@@ -13,10 +13,15 @@ during it.
   limit the response during the move at every dt / 8 (8n x M x (n+1) values).
   :func:`search_bytes` estimates them at n steps; the search never builds a problem above the
   memory budget (jaxflex.budget: ``--max-memory``, default half the machine's memory), and a
-  request whose shortest move is already above it is refused up front.
-* **Time.** :func:`search_need` estimates what the search takes at least (its LP tests at the
-  shortest move, the certification of every robust scenario) against the time budget
-  (``--max-time``).
+  request whose shortest move is already above it is refused up front. A robust grid's
+  models are kept once built (:func:`models_need`: a few arrays per point each).
+* **Time.** :func:`search_need` estimates what the search takes (its tests of moves near the
+  shortest, each an LP or a few and the certification of every robust scenario and, with the
+  cell's constraints, of every model; a robust cell search after its nominal search; the
+  report) against the time budget (``--max-time``), in CPU seconds measured on this machine
+  (the constants below), before any heavy work: the plan of a robust or cell search is
+  final (a refusal comes within seconds of the start); a plain nominal search is planned
+  again once its baselines bracket it.
 """
 
 from __future__ import annotations
@@ -150,7 +155,8 @@ LP_S_AT_1000 = 0.9  # an LP of the kinematic rows at 1 000 steps, growing with t
 CELL_LP_FACTOR = 4.0  # the search's LPs with the cell's rows (via points, planes, cuts)
 NEAR_FLOOR_TESTS = 8  # tests of a search whose answer lies near the floor (module docstring)
 NOMINAL_FIRST_TESTS = 3  # tests of a robust cell search after the nominal one
-ROUNDS = 3  # rounds of rows per test
+ROUNDS = 1.5  # LPs (rounds of rows) per test of a search without the cell's constraints
+CELL_ROUNDS = 3  # ... with them (2.3 on the press scene, 2.8 with its stress active)
 TRAINING = 4  # robust scenarios an LP holds, typically
 CYCLE_S = 2e-3  # one scenario's exact cycle time: a fixed part ...
 CYCLE_S_PER = 1e-10  # ... and per point, step and mode (jaxflex.settle's pruned blocks)
@@ -194,7 +200,8 @@ def search_need(
     near ``floor_steps`` (the gallop, the bisection, the polish, the lengths tried below the
     answer: NEAR_FLOOR_TESTS), or, given ``lp_steps`` (a baseline's length bracketing the
     search), the bisection of the range up to it at that length. Each test makes ROUNDS
-    rounds (an LP of the training scenarios' end states and the cell's rows, their scans)
+    (with a cell CELL_ROUNDS) rounds (an LP of the training scenarios' end states and the
+    cell's rows, their scans)
     and certifies every scenario's cycle time and, with a ``cell``, every model's
     constraints; a robust cell search first searches the nominal model alone and then tests
     only a few lengths (NOMINAL_FIRST_TESTS), and its report locates every model's values."""
@@ -210,7 +217,8 @@ def search_need(
         residual = training * RESIDUAL_S * n_points * n_modes
         ones = scenarios if models > 1 or cell is None else 1
         cycle = ones * (CYCLE_S + CYCLE_S_PER * n_points * n * n_modes)
-        return ROUNDS * (lp + residual) + cycle + _cell_test_s(cell, models, n, n_modes)
+        rounds = ROUNDS if cell is None else CELL_ROUNDS
+        return rounds * (lp + residual) + cycle + _cell_test_s(cell, models, n, n_modes)
 
     where = ""
     if cell is not None:
@@ -226,12 +234,12 @@ def search_need(
 
 
 def _cell_test_s(cell: CellCost | None, models: int, n_steps: int, n_modes: int) -> float:
-    """CPU seconds of the cell's part of one test on ``models`` models: ROUNDS scans of the
-    training models, a certificate of every model."""
+    """CPU seconds of the cell's part of one test on ``models`` models: CELL_ROUNDS scans of
+    the training models, a certificate of every model."""
     if cell is None:
         return 0.0
     certify = cell.certify_s(n_steps, n_modes)
-    return ROUNDS * min(models, TRAINING) * SCAN_FACTOR * certify + models * certify
+    return CELL_ROUNDS * min(models, TRAINING) * SCAN_FACTOR * certify + models * certify
 
 
 def _schedule_s(test_s, tests: int, cell: CellCost | None, n_steps: int, n_modes: int) -> float:

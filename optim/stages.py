@@ -139,7 +139,8 @@ def plan(request: Request) -> Plan:
     )
     cell = _cell_cost(r, setup, models)
     need = search_need(model.n_modes, model.n_points, shortest, steps_cap, r.n_scenarios, cell=cell)
-    require(need, models_need(model.n_modes, model.n_points, models if r.robust else 0))
+    grid = [] if r.robust is None else [models_need(model.n_modes, model.n_points, models)]
+    require(need, *grid)
     return Plan(setup, shortest, steps_cap, issue(grid_advice(r.robust) + setup.advice))
 
 
