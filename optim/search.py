@@ -462,22 +462,42 @@ def _straight_attempt(problem: Problem, solver: Subsolver, n: int, warm: np.ndar
 def necessary(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray) -> bool:
     """The cheap necessary test of a length: one LP with every row a move of ``n_steps``
     steps must meet (limits, via points at their fractions, the pooled cuts of the residual
-    vibration and of the loads) and none of the separating planes. False (and the length
-    recorded as proven too short) where it has no solution."""
+    vibration and of the loads) and none of the separating planes; with a turn, one per
+    schedule the turn has for that length (none: the turn does not fit). False (and the
+    length recorded as proven too short) where none has a solution."""
     if n_steps in problem.excluded:
         return False
     if n_steps in problem.certified:
         return True
+    turn = problem.turn
+    if turn is None:
+        possible = _necessary(problem, solver, n_steps, warm)
+    else:
+        variant, pool = turn.variant, problem.cell_rows
+        possible = False
+        try:
+            for schedule in turn.variants(n_steps):
+                turn.variant = schedule
+                problem.cell_rows = turn.cell_rows()
+                possible = _necessary(problem, solver, n_steps, warm)
+                if possible:
+                    break
+        finally:
+            turn.variant, problem.cell_rows = variant, pool
+    if not possible:
+        problem.excluded.add(n_steps)
+    return possible
+
+
+def _necessary(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray) -> bool:
+    """:func:`necessary`'s LP with the active rows (with a turn: its active schedule's)."""
     rows = problem.cell_rows.get(n_steps, [])
     problem.cell_rows[n_steps] = [r for r in rows if not r.restriction]
     try:
         sub = solver.solve(problem, n_steps, warm)
     finally:
         problem.cell_rows[n_steps] = rows
-    if sub.status == "infeasible" or (sub.status == "solved" and sub.value > 1.0 + 1e-7):
-        problem.excluded.add(n_steps)
-        return False
-    return True
+    return not (sub.status == "infeasible" or (sub.status == "solved" and sub.value > 1.0 + 1e-7))
 
 
 def _attempt(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray) -> Attempt:
