@@ -67,7 +67,10 @@ from jaxflex.peaks import (
     SearchState,
     certified_max,
     item_bounds,
+    once_per_array,
+    one_blas_thread,
     output_peak,
+    outputs_above,
     settling_windows,
 )
 from jaxflex.points import (
@@ -181,9 +184,12 @@ __all__ = [
     "modal_states",
     "move_deviation",
     "on_device",
+    "once_per_array",
+    "one_blas_thread",
     "orientation_path",
     "output_peak",
     "output_residual",
+    "outputs_above",
     "outputs_at",
     "padded_steps",
     "point_displacements",
