@@ -137,20 +137,20 @@ def _grid(f: int, t_s: float, topology: tuple[int, int], arrays: dict[str, np.nd
     count, corners), its geometry and point data (``arrays``: name -> the array written as
     ``/name/f``) and the shared ``node``."""
     cells, corners = topology
-    kind = "Triangle" if corners == 3 else "Polyvertex"
+    cell_type = "Triangle" if corners == 3 else "Polyvertex"
     n = len(arrays["geometry"])
     rows = [
         f'  <Grid Name="frame_{f:04d}" GridType="Uniform">',
         f'    <Time Value="{t_s!r}"/>',
-        f'    <Topology TopologyType="{kind}" NumberOfElements="{cells}" '
+        f'    <Topology TopologyType="{cell_type}" NumberOfElements="{cells}" '
         f'NodesPerElement="{corners}">{_item(topology, "/topology", "Int", 4)}</Topology>',
         f'    <Geometry GeometryType="XYZ">{_item((n, 3), f"/geometry/{f:04d}")}</Geometry>',
     ]
     for name, value in arrays.items():
         if name != "geometry":
-            kind = "Vector" if value.ndim == 2 else "Scalar"
+            rank = "Vector" if value.ndim == 2 else "Scalar"
             rows.append(
-                f'    <Attribute Name="{name}" AttributeType="{kind}" Center="Node">'
+                f'    <Attribute Name="{name}" AttributeType="{rank}" Center="Node">'
                 f"{_item(value.shape, f'/{name}/{f:04d}')}</Attribute>"
             )
     rows.append(
