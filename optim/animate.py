@@ -4,7 +4,7 @@
 result written before) writes into ``RESULT_DIR/animation/`` one set of files
 (jaxflex.fileset, kind ``jaxflex.animation``):
 
-* ``part.pvd`` over ``part_NNNN.vtu``: the part's surface at every frame, for ParaView
+* ``part.xdmf`` over ``part.h5``: the part's surface at every frame, for ParaView
   (optim.animate_series; the fields it carries are listed there);
 * ``cell.vtu`` (the obstacles) and ``path.vtu`` (the path of the part frame's origin, the
   via points);
@@ -36,16 +36,25 @@ from optim.animate_frames import (
     scene_of_result,
 )
 from optim.animate_page import MAX_FRAMES, MAX_VERTICES, PAGE, page_data, page_frames, page_html
-from optim.animate_series import CELL_FILE, PATH_FILE, SERIES, write_cell, write_series
+from optim.animate_series import (
+    CELL_FILE,
+    PATH_FILE,
+    SERIES,
+    SERIES_DATA,
+    write_cell,
+    write_series,
+)
 from optim.animate_surface import mid_surface, node_normals, reduced, skins
 from optim.result import ANIMATION_DIR
 
 __all__ = ["Animation", "animate", "animate_directory"]
 
+OLD = ("part.pvd",)  # the series' collection before part.xdmf (over part_NNNN.vtu)
+
 
 @dataclass(frozen=True)
 class Animation:
-    """What :func:`animate` wrote: the ``directory``, the ParaView ``series`` (part.pvd),
+    """What :func:`animate` wrote: the ``directory``, the ParaView ``series`` (part.xdmf),
     the ``page``, the ``frames`` (optim.animate_frames.Frames), the page's frame and point
     counts and its size in bytes, the ``notes`` it states and the CPU time of each stage
     ``cpu_s`` (frames, series, page; s, this process)."""
@@ -69,12 +78,12 @@ class Animation:
         )
 
 
-def _series_names(directory: Path, frames: int) -> tuple[str, ...]:
-    """Every member an animation set in ``directory`` may have: this one's and the frame
-    files an earlier one left (removed when this one does not write them)."""
+def _series_names(directory: Path) -> tuple[str, ...]:
+    """Every member an animation set in ``directory`` may have: this one's and the files of
+    the series an earlier jaxflex wrote (``part.pvd`` over ``part_NNNN.vtu``; removed, as
+    this one does not write them)."""
     old = sorted(p.name for p in directory.glob("part_*.vtu")) if directory.is_dir() else []
-    mine = [f"part_{i:04d}.vtu" for i in range(frames)]
-    return tuple(dict.fromkeys([*mine, *old, SERIES, CELL_FILE, PATH_FILE, PAGE]))
+    return tuple(dict.fromkeys([SERIES, SERIES_DATA, CELL_FILE, PATH_FILE, PAGE, *OLD, *old]))
 
 
 def check_animation_dir(option: str, result_dir: str | os.PathLike) -> Path:
@@ -85,7 +94,7 @@ def check_animation_dir(option: str, result_dir: str | os.PathLike) -> Path:
     directory = Path(result_dir) / ANIMATION_DIR
     if not Path(result_dir).is_dir():
         return directory
-    return check_set_dir(option, directory, _series_names(directory, 0))
+    return check_set_dir(option, directory, _series_names(directory))
 
 
 def write_animation(
@@ -122,11 +131,11 @@ def write_animation(
         + ("every sample" if every == 1 else f"one sample in {every}")
         + ", the end of the move, the cycle time and the closest approach), "
         f"{small.n_vertices} of the model's {scene.model.n_points} points; the exact values "
-        "at every point and frame are in part.pvd beside this page (ParaView)"
+        "at every point and frame are in part.xdmf beside this page (ParaView)"
     )
     directory = make_output_dir(result_dir) / ANIMATION_DIR
     step(f"animation: writing {len(t_s)} frames for ParaView and the page")
-    with writing(directory, ANIMATION_KIND, _series_names(directory, len(t_s))) as files:
+    with writing(directory, ANIMATION_KIND, _series_names(directory)) as files:
         write_series(files, scene, frames, surface, normals)
         write_cell(files, scene, frames)
         cpu.append(time.process_time())
