@@ -168,17 +168,19 @@ def test_the_closest_frame_is_the_certified_witness(press):
 
 
 def test_the_stress_field_holds_the_certified_peak(press):
-    """At the certified stress peak's time (a sample) the von Mises field drawn reaches the
-    certified peak at the stress point nearest to the surface point, within the peak's
-    tolerance (1e-6 relative), and no frame draws more."""
+    """No frame draws more von Mises stress than the certified peak (within the peak's
+    tolerance, 1e-6 relative), and a frame lies within half a frame's spacing of the
+    certified peak's time (the certificate scans every dt / 8 during the move,
+    optim.cell_rows.check_times, so the peak may fall between the frames' samples)."""
     result, animation, _ = press
     (stress,) = [c for c in result.constraints if "stress" in c["name"]]
     frames = read_frames(animation.series)
     largest = max(float(mesh.point_data["von_mises_pa"].max()) for _, mesh in frames)
     assert largest <= stress["peak"] * (1 + 1e-6)
-    time, mesh = min(frames, key=lambda f: abs(f[0] - stress["time_s"]))
-    assert abs(time - stress["time_s"]) < 1e-12
-    assert mesh.point_data["von_mises_pa"].max() <= stress["peak"] * (1 + 1e-6)
+    times = np.array([t for t, _ in frames])
+    nearest = int(np.argmin(abs(times - stress["time_s"])))
+    spacing = np.diff(times)[min(nearest, len(times) - 2)]
+    assert abs(times[nearest] - stress["time_s"]) <= spacing / 2 + 1e-12
 
 
 def test_the_files_open_and_the_page_is_self_contained(press, tmp_path):
