@@ -79,7 +79,7 @@ def test_budget_options_are_checked(tmp_path):
         assert out.returncode == 2 and f"{option}: must be a finite number > 0" in out.stderr
 
 
-def test_require_names_the_stage_its_need_and_the_budget():
+def test_require_names_the_stage_its_need_and_the_budget(capsys):
     small = Need("reading", 1e5, 1.0)
     big = Need("the analysis (5 cells)", 3e6, 2.0, "use a coarser mesh")
     with pytest.raises(
@@ -96,6 +96,12 @@ def test_require_names_the_stage_its_need_and_the_budget():
     ):
         require(small, Need("b", 0, 4000.0), budget=Budget(1_000_000, 3600.0, start_s=now))
     assert format_bytes(1.34e15) == "1,340 TB" and format_bytes(2.5e9) == "2.5 GB"
+    assert "planned" not in capsys.readouterr().err  # short work goes unannounced
+    # work that fits but takes a minute or more says so before it starts
+    require(small, Need("b", 0, 119.0), budget=Budget(1_000_000, 3600.0, start_s=now))
+    assert "planned: b: about 2 min on this machine, within the budget of 60 min" in (
+        capsys.readouterr().err
+    )
     assert format_seconds(30) == "30 s" and format_seconds(7200) == "2 h"
 
 
@@ -168,3 +174,23 @@ def test_more_modes_than_dofs_are_said_and_solved_densely():
     assert dense.n_modes > 6
     # both solve the same eigenproblem to machine precision (relative 1e-10, measured 1e-13)
     np.testing.assert_allclose(dense.freq_hz[:6], iterative.freq_hz, rtol=1e-10)
+
+
+def test_a_sweep_is_planned_in_full_before_its_first_case(tmp_path):
+    """A spec of 1 000 moves (5 000 cases at 0.3 s or more each, optim.sweep.plan.MIN_CASE_S:
+    12.5 min on two workers) is refused under --max-time 300 before any case or model
+    is written; ``model.n_modes = 100000`` on a mesh of about 5 000 DOFs is refused naming
+    the field (the FE would give fewer after a dense solve of every DOF)."""
+    moves = [{"name": f"m{i}", "distance_m": [0, 0, 0.2 + 0.001 * i]} for i in range(1000)]
+    many = tmp_path / "many.json"
+    many.write_text(json.dumps({**SPEC, "moves": moves}), encoding="utf-8")
+    modes = tmp_path / "modes.json"
+    modes.write_text(json.dumps({**SPEC, "model": {**SPEC["model"], "n_modes": 100_000}}))
+    for path, match in ((many, "time: the sweep's 5 layout(s) x 1000 move(s) = 5,000 cases"),
+                        (modes, "model.n_modes: 100,000 modes asked, more than the part's mesh "
+                                "has DOFs")):  # fmt: skip
+        out_dir = tmp_path / f"out_{path.stem}"
+        out = run_jaxflex("sweep", str(path), "--serial", "--max-time", "300", "-o", str(out_dir))
+        assert out.returncode == 2, out.stderr
+        assert match in out.stderr and "Traceback" not in out.stderr
+        assert not list(out_dir.glob("cases/*.json")) and not list(out_dir.glob("models/*"))
