@@ -35,11 +35,18 @@ from optim.exact import POLISH_MARGIN, LPSubsolver
 from optim.gradient import GradientSubsolver
 from optim.limits import ConstraintCheck, check_profile
 from optim.move_response import SAMPLING_ALLOWANCE, shortest_clearance_move_s
+from optim.obstacle_reach import reachable_cell
 from optim.request import Request
 from optim.result import OptimizationResult, deviation_summary
 from optim.search import Attempt, Problem, active_components, attempt, bisect, scenarios
 from optim.turn import TurnSchedule, turn_deviation
 from optim.turn_baselines import turn_baselines, turn_via_baselines, turn_worst_case
+from optim.turn_plan import (
+    check_clearance_resolution,
+    plan_turning_search,
+    turn_plan_need,
+    turning_floor_steps,
+)
 from optim.turn_via import ViaTurn
 from optim.turn_via_baselines import oriented_via_baselines
 
@@ -101,15 +108,16 @@ def plan(request: Request) -> Plan:
     """Pose the model in the cell and fix the search's budget; refuse (InputError,
     BudgetError) what cannot fit before any work."""
     r = request
-    if r.cell is not None and r.min_distance_m is not None:  # before the set-up measures
+    cell = reachable_cell(r)  # far obstacles left out (optim.obstacle_reach)
+    if cell is not None and r.min_distance_m is not None:  # before the set-up measures
         shortest, allowed = check_move_length(
-            r.cell.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
+            cell.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
         )
-        require(distance_need(r.cell, r.model.n_points, shortest, allowed))
+        require(distance_need(cell, r.model.n_points, shortest, allowed))
     setup = prepare_cell(
         r.model,
         r.distance_m,
-        cell=r.cell,
+        cell=cell,
         min_distance_m=r.min_distance_m,
         max_stress_pa=r.max_stress_pa,
         cup_safety=r.cup_safety,
@@ -120,6 +128,10 @@ def plan(request: Request) -> Plan:
     shortest, allowed = check_move_length(
         setup.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
     )
+    if r.rotate is not None:  # before its baselines: a turning move's plan (optim.turn_plan)
+        check_clearance_resolution(r, model, setup.distance_m)
+        floor = turning_floor_steps(r, setup.distance_m, shortest)
+        require(turn_plan_need(r, model, floor, len(setup.families)))
     if r.clearance_m is not None and (r.rotate is None or not r.rotate.turns):
         _check_clearance(setup, r.clearance_m, r.max_duration_s)
     clearance = r.clearance_m is not None
@@ -234,14 +246,22 @@ def search(request: Request, plan: Plan, base: Baselines) -> Search:
     require(
         search_need(model.n_modes, model.n_points, plan.shortest, bracket, r.n_scenarios, bracket)
     )
+    notes = []
+    if r.rotate is not None:  # bracketed by the best baseline, and planned (optim.turn_plan)
+        plan_turning_search(r, plan, base, problem, upper)
     moves = base.moves
     best, history = bisect(
         problem, sub, moves.floor_acc, upper, [e.acc for e in moves.entries], progress=r.progress
     )
-    if best is None and not (plan.setup.families and base.feasible):
+    if best is None and not ((plan.setup.families or r.rotate is not None) and base.feasible):
         raise _no_move(r, plan)
+    if best is None and r.rotate is not None:
+        notes.append(
+            "the search's turn schedules found no certified move shorter than the best "
+            "baseline; the best baseline is returned"
+        )
     if r.method != "exact" or best is None:
-        return Search(problem, sub, history, best)
+        return Search(problem, sub, history, best, notes)
     final, notes = _polish(problem, sub, best, history)
     return Search(problem, sub, history, final, notes)
 
