@@ -27,7 +27,13 @@ from jaxflex.runtime import issue, model_resolution, require, threshold_advice
 from optim.advice import grid_advice
 from optim.baselines import Baseline, BaselineSet, via_baselines
 from optim.baselines import baselines as compute_baselines
-from optim.budget import check_memory, check_move_length, distance_need, search_need
+from optim.budget import (
+    check_memory,
+    check_move_length,
+    distance_need,
+    families_need,
+    search_need,
+)
 from optim.cell_setup import CellSetup, prepare_cell
 from optim.choice import Candidate, candidates
 from optim.choice import choose as choose_candidate
@@ -128,6 +134,8 @@ def plan(request: Request) -> Plan:
     shortest, allowed = check_move_length(
         setup.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
     )
+    if setup.families and r.rotate is None:  # a stiff part's constraints cost (optim.budget)
+        require(families_need(setup.families, model, shortest, r.dt_s, r.n_scenarios))
     if r.rotate is not None:  # before its baselines: a turning move's plan (optim.turn_plan)
         check_clearance_resolution(r, model, setup.distance_m)
         floor = turning_floor_steps(r, setup.distance_m, shortest)

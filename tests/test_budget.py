@@ -194,3 +194,43 @@ def test_a_sweep_is_planned_in_full_before_its_first_case(tmp_path):
         assert out.returncode == 2, out.stderr
         assert match in out.stderr and "Traceback" not in out.stderr
         assert not list(out_dir.glob("cases/*.json")) and not list(out_dir.glob("models/*"))
+
+
+def test_a_stiff_parts_cup_constraints_are_planned_before_the_baselines(monkeypatch):
+    """A steel plate made 10^6 times stiffer (kHz modes): certifying its cups on every
+    baseline samples each kHz period 16 times (optim.budget.families_need); under a 2 s
+    budget the optimisation is refused naming the constraints, before any baseline runs."""
+    import fem
+    import optim
+    import optim.stages
+    from fem.materials import Material
+    from optim.budget import FAMILY_POWER, families_need
+    from optim.cell_setup import prepare_cell
+
+    def no_baselines(*args, **kwargs):
+        raise AssertionError("the baselines ran before the plan refused the work")
+
+    cups = [fem.SuctionCup(x, y, 0.03) for x in (0.1, 0.3) for y in (0.08, 0.22)]
+    models = {}
+    for name, e_pa in (("steel", 210e9), ("stiff", 2.1e17)):
+        part = fem.rectangular_plate(0.4, 0.3, 1e-3, Material(name, e_pa, 0.3, 7850.0, 140e6),
+                                     0.1)  # fmt: skip
+        models[name] = fem.modal_analysis(part, cups, n_modes=3).to_modal_model(points=12)
+    need = {}
+    for name, model in models.items():
+        families = prepare_cell(model, [0, 0, 1], cup_safety=1.5).families
+        need[name] = families_need(families, model, 69, 0.01, 1).time_s
+    # frequencies scale with sqrt(E): 1 000 times the samples, the time as their power fitted
+    ratio = models["stiff"].freq_hz.max() / models["steel"].freq_hz.max()
+    assert ratio == pytest.approx(1000.0, rel=1e-6)
+    assert need["stiff"] / need["steel"] == pytest.approx(ratio**FAMILY_POWER, rel=1e-9)
+    monkeypatch.setattr(optim.stages, "compute_baselines", no_baselines)
+    limits = optim.Limits(vmax=2.0, amax=10.0, jmax=100.0)
+    with (
+        use_budget(make_budget(None, 2.0)),
+        pytest.raises(
+            BudgetError, match=r"time: the cell's constraints \(cup utilisation\) on 18 baselines"
+        ),
+    ):
+        optim.optimize(models["stiff"], (0, 0, 1), limits, 0.01, 5e-4, cup_safety=1.5,
+                       progress=False)  # fmt: skip
