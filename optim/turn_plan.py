@@ -24,7 +24,7 @@ Every schedule of every length is counted (a search tries the shaped ones only w
 is certified), so the plan errs high: over whole runs of the turning plate lifted 1 m and
 tilted 30 degrees (free, with --angular-limits 1e9 1e9 1e9, with a clearance, in a cell
 with a box and a 90-degree via orientation, the pivot 1e6 m off the axis) and the built-in
-plate, each stage's plan was 1.0-7.4 times the CPU seconds the stage took (median 3;
+plate, each stage's plan was 1.0-12 times the CPU seconds the stage took (median 3;
 COMPILE_S, EVAL_S and FAMILY_S were 2.0, 0.5 and 1.0 s before those runs: 6-30 times).
 
 The plan is made in three steps, each before the work it covers:
