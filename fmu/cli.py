@@ -12,6 +12,7 @@ from fmpy.validation import validate_fmu
 import jaxflex
 from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.export import export_fmu
+from fmu.move_cell import check_move_cell
 from fmu.ssp import export_ssp
 from fmu.verify import verify
 from fmu.verify_turning import after_move_s, verify_turning
@@ -374,6 +375,9 @@ def run(args: argparse.Namespace) -> int:
     threshold_m = check_positive("--threshold", threshold_m)
     windows = {"auto": None, "yes": True, "no": False}[args.windows]
     cell = None if args.cell is None else load_cell(args.cell)
+    if cell is not None and case is not None:  # a move of `jaxflex optimize`: made in it?
+        report = trajectory_file(Path(args.trajectory)).with_name("report.json")
+        check_move_cell(report, args.cell, cell)
     require(_need(model, trajectory, cell, verify=not args.no_verify))
     status = 0
     if args.output:
