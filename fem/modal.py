@@ -499,6 +499,11 @@ def modal_analysis(
     result = _analyse(part, supports, request, progress, t_start)
     if error_estimate and part.mesh_is_given:
         result.discretisation = given_mesh_statement(coarse_mesh_warnings(result))
+    elif error_estimate and n_modes == "all":
+        result.discretisation = (
+            "not estimated: every mode was asked for (n_modes='all'), and the highest modes "
+            "of any mesh are not resolved by it"
+        )
     elif error_estimate:
         step("discretisation estimate: the same analysis on a coarser mesh", enabled=progress)
         coarse = replace(request, check_truncation=False)

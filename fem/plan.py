@@ -162,7 +162,7 @@ def fe_plan(part, n_modes: int | str | None, supports=(), *, estimate: bool = Tr
     mesh (fem.discretisation) is part of it."""
     size = None if part.mesh_is_given else part.element_size_m
     plan = plan_of_cells(part.element, _cells(part, supports), n_modes, size)
-    coarse = coarse_part(part) if estimate else None
+    coarse = coarse_part(part) if estimate and n_modes != "all" else None
     if coarse is None:
         return plan
     other = plan_of_cells(part.element, _cells(coarse, supports), n_modes, coarse.element_size_m)

@@ -17,8 +17,10 @@ anew inside a box of the grid (an "O-grid"):
   geometrically to the box, so the elements next to the rim are thin, the stress there is
   sampled close to it, and the rim's neighbourhood scales with the spacing whatever the
   box's size (snapped to grid lines) is;
-* the disc: the box's own cells mapped into the rim (square levels blended into circles);
-  every node there is held by the cup, so their shape only needs to be valid.
+* the disc: the box's own cells scaled into a square of half side ``CORE`` x the radius, and
+  one ring from it to the rim; every node there is held by the cup, so their shape only
+  needs to be valid (no sliver: a compliant cup ties them to its pad, and a sliver's huge
+  stiffness would leave round-off in the pad's rigid motion).
 
 Everything scales with the grid's spacing (the ring count follows radius / fine spacing),
 so meshes at h and 2 h are similar, as a Richardson estimate needs (fem.discretisation).
@@ -38,9 +40,9 @@ from fem.meshing import graded_count, grid_quads
 
 BOX = 1.5  # the box's half side, x the cup radius (snapped outwards to grid lines)
 CLEARANCE = 0.25  # the box's sides clear the rim by at least this x the fine spacing
-RIM_LAYER = 0.25  # the ring at the rim is this x the fine spacing thick
+RIM_LAYER = 0.15  # the ring at the rim is this x the fine spacing thick
 LAYERS_PER_FINE = 1.5  # rings per fine spacing in a cup radius
-SQUARE = 0.7  # inner levels of the disc: squares of this half side x the level's radius
+CORE = 0.5  # the disc's core: the box's cells scaled into a square of half side CORE x radius
 ANGLES = 720  # samples of the rim curve for the clearance check
 
 
@@ -90,17 +92,11 @@ def ring_cells(radius_m: float, size_m: float, fine_m: float) -> float:
     return 4 * per_side * ring_layers(radius_m, fine_m)
 
 
-def _square_to_disc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """(n, 2) points in the unit disc of points (u, v) of the square [-1, 1]^2: the square
-    of level s = max(|u|, |v|) becomes a blend of a square (inside) and the circle of radius
-    s (outside; the elliptical grid map on the boundary), so s = 1 lands on the circle."""
-    level = np.maximum(np.abs(u), np.abs(v))
-    safe = np.where(level > 0, level, 1.0)
-    a, b = u / safe, v / safe
-    circle = np.column_stack([a * np.sqrt(1 - b**2 / 2), b * np.sqrt(1 - a**2 / 2)])
-    square = SQUARE * np.column_stack([a, b])
-    weight = (level**2)[:, None]
-    return level[:, None] * ((1 - weight) * square + weight * circle)
+def _square_to_circle(square: np.ndarray) -> np.ndarray:
+    """(n, 2) points of the unit circle of points (n, 2) on the boundary of [-1, 1]^2 (the
+    elliptical grid map: nearly uniform in angle, corners at 45 degrees)."""
+    a, b = square.T
+    return np.column_stack([a * np.sqrt(1 - b**2 / 2), b * np.sqrt(1 - a**2 / 2)])
 
 
 def _signed_areas(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
@@ -169,42 +165,39 @@ class _Builder:
         ny = len(self.y)
         half = np.array([(self.x[i1] - self.x[i0]) / 2, (self.y[j1] - self.y[j0]) / 2])
         middle = np.array([(self.x[i1] + self.x[i0]) / 2, (self.y[j1] + self.y[j0]) / 2])
-
-        def into_disc(points: np.ndarray) -> np.ndarray:
-            unit = _square_to_disc(*((points - middle) / half).T)
-            theta = np.arctan2(unit[:, 1], unit[:, 0])
-            return centre + rim_at(theta)[:, None] * unit
-
+        core_m = CORE * float(rim_at(np.linspace(0, 2 * np.pi, ANGLES)).min())
         bi, bj = _boundary(i0, i1, j0, j1)
         outer = bi * ny + bj
-        rim = into_disc(self.nodes[outer])
-        layers = ring_layers(radius_m, fine_m)
+        square = (self.nodes[outer] - middle) / half  # the boundary of [-1, 1]^2
+        unit = _square_to_circle(square)
+        rim = centre + rim_at(np.arctan2(unit[:, 1], unit[:, 0]))[:, None] * unit
         ray = self.nodes[outer] - rim
         width = np.linalg.norm(ray, axis=1)
+        layers = ring_layers(radius_m, fine_m)
         t = (ring_distances(width, layers, RIM_LAYER * fine_m) / width)[1:-1, :, None]
-        inner_rings = rim[None] + t * ray[None]
+        points = [rim, *(rim[None] + t * ray[None]), centre + core_m * square]
         ii, jj = np.meshgrid(np.arange(i0 + 1, i1), np.arange(j0 + 1, j1), indexing="ij")
         inside = (ii * ny + jj).ravel()
-        moved = into_disc(self.nodes[inside])
+        moved = centre + core_m * (self.nodes[inside] - middle) / half
         ci, cj = np.meshgrid(np.arange(i0, i1), np.arange(j0, j1), indexing="ij")
         cells = (ci * (ny - 1) + cj).ravel()
-        rim_ids = np.arange(self.n_nodes, self.n_nodes + len(outer))
-        remap = np.arange(self.n_nodes + len(outer))
-        remap[outer] = rim_ids
+        m = len(outer)
+        rings = [self.n_nodes + m * k + np.arange(m) for k in range(layers + 1)]
+        remap = np.arange(self.n_nodes)
+        remap[outer] = rings[-1]  # the core's boundary: the box's, scaled into the disc
         core = remap[self.quads[cells]]
-        rings = [rim_ids + len(outer) * k for k in range(layers)] + [outer]
+        rings = [rings[-1], *rings[:-1], outer]  # core boundary, rim, rings, box
         ring_quads = np.concatenate(
             [
                 np.column_stack([a, b, np.roll(b, -1), np.roll(a, -1)])
                 for a, b in itertools.pairwise(rings)
             ]
         )
-        trial = np.concatenate([self.nodes, *self.extra_nodes, rim, *inner_rings])
+        trial = np.concatenate([self.nodes, *self.extra_nodes, *points])
         trial[inside] = moved
         if (_signed_areas(trial, core) <= 0).any() or (_signed_areas(trial, ring_quads) <= 0).any():
             return False
-        self.add(rim)
-        for ring in inner_rings:
+        for ring in points:
             self.add(ring)
         self.nodes[inside] = moved
         self.quads[cells] = core
