@@ -72,9 +72,10 @@ def ring_distances(width_m: np.ndarray, layers: int, first_m: float) -> np.ndarr
     """(layers + 1, n) distances from the rim of the rings along n rays of ``width_m`` (n,)
     from the rim to the box: the first ring ``first_m`` thick on every ray, the next ones
     growing geometrically by the ray's own ratio so that the last reaches the box (found by
-    bisection: first_m (1 + q + ... + q^(layers - 1)) = width)."""
+    bisection: first_m (1 + q + ... + q^(layers - 1)) = width, q in [1/4, 4]; the rings are
+    then scaled to end at the box exactly)."""
     powers = np.arange(layers)[:, None]
-    low, high = np.full(len(width_m), 1e-3), np.full(len(width_m), 1e3)
+    low, high = np.full(len(width_m), 0.25), np.full(len(width_m), 4.0)
     for _ in range(80):
         q = np.sqrt(low * high)
         short = first_m * np.sum(q[None] ** powers, axis=0) < width_m

@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import shutil
 import warnings
@@ -26,10 +27,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import fem
+import jaxflex
 from fem import rim_mesh
 from fem.discretisation import RATIO, static_stress_peaks, von_mises_pa
 from fem.mesh import PlateMesh
-from fem.outputs import static_response, stress_outputs
 from fem.plan import fe_plan
 from fem.plate import assemble_plate
 from fem.sanity import PartWarning
@@ -131,7 +132,7 @@ def _annulus(a: float, b: float, m: int) -> PlateMesh:
     )
     ring = [1 + k * m + np.arange(m) for k in range(len(radii))]
     cells = [np.column_stack([np.zeros(m, int), ring[0], np.roll(ring[0], -1)])]
-    for inner, outer in zip(ring[:-1], ring[1:], strict=True):
+    for inner, outer in itertools.pairwise(ring):
         cells.append(np.column_stack([inner, outer, np.roll(outer, -1)]))
         cells.append(np.column_stack([inner, np.roll(outer, -1), np.roll(inner, -1)]))
     return PlateMesh(nodes, np.concatenate(cells))
@@ -140,8 +141,9 @@ def _annulus(a: float, b: float, m: int) -> PlateMesh:
 def test_morley_rim_stress_on_rim_following_rings_converges_to_the_closed_form():
     # a 1 mm steel annular plate clamped on a cup (a = 40 mm), free at b = 0.3 m, in
     # gravity: the rim's von Mises stress |sigma_r| sqrt(1 - nu + nu^2) (sigma_theta =
-    # nu sigma_r where the plate is clamped). Measured: 2.9, 0.9, 0.32 % below it at 24,
-    # 48, 96 nodes on the rim (order 1.5): the finest within 0.5 %, each closer
+    # nu sigma_r where the plate is clamped). Measured: 1.42, 0.42, 0.14, 0.05 % below it
+    # at 24, 48, 96, 192 nodes on the rim (order 1.6-1.7): the finest of the first three
+    # within 0.5 %, each closer
     steel = fem.PRESETS["steel"]
     a, b, h = 0.04, 0.3, 1e-3
     bending = steel.bending_stiffness_nm(h)
@@ -189,9 +191,10 @@ def plate_stress() -> np.ndarray:
 
 def test_the_built_in_plate_rim_stress_converges(plate_stress):
     # the gravity stress of the built-in plate peaks at a cup rim; on meshes of 2, 1 and
-    # 0.5 x the default (measured 57.2, 58.05, 58.54 MPa, observed order 0.8) it converges:
-    # the finest within 2 % of the Richardson estimate (59.2 MPa). The staircase of the old
-    # meshes gave 58.9 MPa at the default, 65.8 at 2.5 mm cells and 85.8 with Argyris
+    # 0.5 x the default (measured 57.06, 58.10, 58.55 MPa) it converges: the finest within
+    # 2 % of the Richardson estimate (order 1: 59.01 MPa; measured 0.8 %). The staircase of
+    # the old meshes gave 58.9 MPa at the default, 65.8 at 2.5 mm cells and 85.8 with Argyris
+    # (whose clamp leaves the second derivatives free: 6 % above the annulus's closed form)
     limit = _richardson(plate_stress)
     assert abs(plate_stress[-1] / limit - 1) < 0.02
     assert 55e6 < limit < 63e6
@@ -200,8 +203,8 @@ def test_the_built_in_plate_rim_stress_converges(plate_stress):
 @pytest.mark.slow
 def test_the_rim_stress_limit_is_the_independent_shells(plate_stress):
     # our DKT shell (another element and code than scikit-fem's Morley) on the same
-    # rim-following meshes (40, 20, 10 mm; measured 55.0, 56.8, 57.8 MPa) extrapolates to
-    # the same rim stress (measured 59.1 against 59.2 MPa); 2 % allows for both
+    # rim-following meshes (40, 20, 10 mm; measured 56.69, 57.72, 58.28 MPa) extrapolates to
+    # the same rim stress (measured 58.84 against 59.01 MPa); 2 % allows for both
     # extrapolations of first-order sequences
     shell = _gravity_peaks("shell", (2, 1, 0.5))
     assert _richardson(shell) == pytest.approx(_richardson(plate_stress), rel=0.02)
@@ -280,9 +283,8 @@ def test_a_given_mesh_says_it_is_not_estimated(tmp_path):
     x, y = np.meshgrid(np.linspace(0, 0.6, 13), np.linspace(0, 0.4, 9), indexing="ij")
     points = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
     index = np.arange(x.size).reshape(x.shape)
-    quads = np.column_stack(
-        [index[:-1, :-1].ravel(), index[1:, :-1].ravel(), index[1:, 1:].ravel(), index[:-1, 1:].ravel()]
-    )
+    corners = (index[:-1, :-1], index[1:, :-1], index[1:, 1:], index[:-1, 1:])
+    quads = np.column_stack([c.ravel() for c in corners])
     path = tmp_path / "plate.vtu"
     meshio.write(path, meshio.Mesh(points, [("quad", quads)]))
     part = fem.read_mesh(path, 1e-3)
@@ -309,3 +311,32 @@ def test_a_deck_of_one_shell_element_per_panel_is_warned_about_with_its_figure(t
     solver = np.array([46.014, 47.388, 147.612, 309.849, 441.412])
     assert np.max(result.freq_hz[:5] / solver - 1) > 0.2  # what the warning warns of
     assert "coarse-mesh advice: modes 1 ... 20" in result.to_modal_model().meta["discretisation"]
+
+
+@pytest.mark.slow
+def test_the_press_scenes_certified_stress_carries_the_discretisation_error(tmp_path):
+    # the README's press scene (examples/press_cell.toml) with --max-stress: the report's
+    # and the summary's certified stress state the FE's estimate of its discretisation
+    # error (the model's meta), and the highest stress it allows on the real part
+    from conftest import run_jaxflex
+
+    cell = Path(__file__).resolve().parents[1] / "examples" / "press_cell.toml"
+    built = run_jaxflex(
+        "model", "--scene", "plate", "--n-modes", "8", "--points", "200",
+        "-o", str(tmp_path / "plate.npz"), "--quiet",
+    )  # fmt: skip
+    assert built.returncode == 0, built.stderr
+    estimated = jaxflex.load_model(tmp_path / "plate.npz").meta["discretisation"]
+    done = run_jaxflex(
+        "optimize", str(tmp_path / "plate.npz"), "--cell", str(cell), "--max-stress",
+        "--threshold", "5e-4", "-o", str(tmp_path / "press"), "--quiet", "--no-plots",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    report = json.loads((tmp_path / "press" / "report.json").read_text())
+    (stress,) = [c for c in report["constraints"] if c["name"] == "von Mises stress"]
+    assert stress["discretisation_error"] == pytest.approx(estimated["max_stress_error"])
+    assert stress["peak_with_discretisation"] == pytest.approx(
+        stress["peak"] * (1 + estimated["max_stress_error"])
+    )
+    line = next(s for s in done.stdout.splitlines() if "von Mises stress:" in s)
+    assert f"FE discretisation error +-{100 * estimated['max_stress_error']:.2g} %" in line
