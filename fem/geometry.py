@@ -121,10 +121,12 @@ class Rectangle:
 
     def _grid(self, size_m: float, cups, fine_fraction: float):
         """(footprint nodes (N, 2), quads (Q, 4), rims) of the tensor grid refined around
-        the contact discs ``cups`` whose nodes follow their rims (fem.rim_mesh)."""
+        ``cups`` (contact discs or cups: x, y, radius and z or None) whose nodes follow
+        their rims (fem.rim_mesh)."""
         x, y = meshing.cup_grid(self.width_m, self.height_m, size_m, cups, fine_fraction)
         fine = meshing.cup_bands(cups, size_m, fine_fraction)[2]
-        centres = np.array([self.place(np.array([d.point], dtype=float))[0][0] for d in cups])
+        points = [[d.x, d.y] if getattr(d, "z", None) is None else [d.x, d.y, d.z] for d in cups]
+        centres = np.array([self.place(np.array([p], dtype=float))[0][0] for p in points])
         radii = [float(d.radius) for d in cups]
         discs = [(c[:2], r, fine) for c, r in zip(centres, radii, strict=True)]
 

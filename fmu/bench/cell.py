@@ -38,7 +38,7 @@ from jaxflex.response import CupUtilisation, VonMises, acceleration_at, output_p
 from optim.cell_file import load_cell
 from optim.ruckig_move import kinematic_floor_move
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 CASES = ("press", "accuracy", "constraints", "cups", "convergence")
 LIMITS = optim.Limits(2.0, 10.0, 100.0)
 DT = DT_S
