@@ -140,7 +140,10 @@ class PlateOutputs:
                 np.abs(np.asarray(basis.interpolate(out[:, k])) - target).max()
                 for k, target in enumerate((np.ones_like(x), x, y))
             ) / max(np.abs(p).max(), 1.0)
-            if error > 1e-8:  # round-off of the element basis: ~1e-12 (fem.argyris)
+            # a wrong slope DOF misses by O(its element's size) (>= 1e-4 here); round-off is
+            # ~1e-12 on regular elements (fem.argyris), up to 1.4e-8 on the slender elements
+            # of the rings around a cup (fem.rim_mesh; measured with 4.4 mm cup cells)
+            if error > 1e-6:
                 raise RuntimeError(f"plate rigid motions: 1, x, y are missed by {error:.1e}")
             self._linear = out
         return self._linear
