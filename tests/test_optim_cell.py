@@ -21,7 +21,7 @@ from independent import (
 
 import fem
 import optim
-from jaxflex.cell import Box, Cell, HalfSpace, Via
+from jaxflex.cell import Box, Cell
 from jaxflex.collision import distances, min_distance, positions_at
 from jaxflex.errors import InputError
 from jaxflex.loads import CupUtilisation, VonMises

@@ -68,7 +68,8 @@ def test_the_planned_lengths_are_the_searchs(floor, feasible_from, monkeypatch):
                                reason="" if ok else "infeasible")  # fmt: skip
 
     monkeypatch.setattr(optim.search, "attempt", fake_attempt)
-    problem = SimpleNamespace(max_steps=10 * floor)
+    # no cell rows: no separating plane took part, so no length below the answer is retried
+    problem = SimpleNamespace(max_steps=10 * floor, cell_rows={}, restricted=lambda n: False)
     solver = SimpleNamespace(name="fake")
     best, _ = bisect(problem, solver, np.zeros((floor + 1, 3)), 10 * floor, [], progress=False)
     assert best.n_steps == feasible_from
