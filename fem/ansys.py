@@ -41,7 +41,8 @@ from fem.eigen import factorize
 from fem.imported import ImportedModes, file_digest
 from fem.mapdl_check import check_mapdl_file
 from fem.modal import solve_modes
-from fem.rotation_integrals import imported_inertia, nodal_fields
+from fem.rigid_fields import nodal_fields
+from fem.rotation_integrals import imported_inertia
 from fem.solver_modes import kept_modes, rigid_mask, rigid_meta, user_gamma
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError

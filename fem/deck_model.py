@@ -33,6 +33,7 @@ from fem.materials import Material
 from fem.mesh import ShellMesh
 from fem.mesh_io import sheet_from_cells
 from fem.parts import part_from_mesh
+from fem.rigid_fields import mass_field_loads, six_dof_fields
 from fem.shell import ShellLayer, ShellMeshDofs, ShellOutputs, surface_stress
 from fem.shell_element import local_frames
 from fem.system import mesh_stats, rigid_motions
@@ -246,6 +247,17 @@ class DeckOutputs:
 
     def surface_frame(self, x: float, y: float, z: float | None = None):
         return self.shell.surface_frame(x, y, z)
+
+    def linear_fields(self, n_dof: int) -> np.ndarray | None:
+        """(n_dof, 3, 3) the fields e_j r_i at the grids' six DOFs (fem.system.RotationFields)."""
+        return six_dof_fields(self.nodes_m, n_dof)
+
+    inertia_loads = staticmethod(mass_field_loads)
+
+    def couplings(self, phi: np.ndarray, mass_phi: np.ndarray) -> None:
+        """None: the deck's DOFs may sit in rotated nodal systems (jaxflex.turning then
+        bounds the couplings by energy)."""
+        return None
 
     def stress_operator(self):
         return self._stress()

@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from fem.bdf import BulkData, read_bulk
+from fem.deck_advice import deck_mesh_warnings
 from fem.deck_constraints import DeckConstraints, deck_constraints
 from fem.deck_coords import DeckGeometry
 from fem.deck_drilling import free_drilling
@@ -70,7 +71,7 @@ from fem.deck_zero_modes import (
 from fem.discretisation import given_mesh_statement
 from fem.imported import file_digest
 from fem.materials import Material
-from fem.mesh_advice import coarse_mesh_warnings, deck_mesh_warnings
+from fem.mesh_advice import coarse_mesh_warnings
 from fem.mesh_io import FLAT_RELATIVE, sheet_from_cells
 from fem.modal import ModalResult, check_request, modal_analysis, modal_result, solve_modes
 from fem.parts import part_from_mesh

@@ -22,6 +22,7 @@ from skfem.helpers import dd, ddot, trace
 
 from fem.argyris import ElementTriArgyrisLocal
 from fem.mesh import PlateMesh
+from fem.rigid_fields import mass_field_loads
 from fem.supports import Support
 from fem.system import Constraints, FESystem, Spring, mesh_stats
 from jaxflex.errors import InputError
@@ -164,6 +165,24 @@ class PlateOutputs:
         for k, target in ((1, x), (2, y)):
             rest = target - np.einsum("le,leq->eq", out[element_dofs[known], k], values[known])
             out[edges, k] = np.einsum("ejq,eq->ej", fits, rest).ravel()[first]
+
+    def linear_fields(self, n_dof: int) -> np.ndarray:
+        """(n_dof, 3, 3) the fields e_j r_i along z only (w = x, y or the mid-plane height
+        z0; fem.system.RotationFields): a plate has no in-plane DOFs."""
+        out = np.zeros((n_dof, 3, 3))
+        ones, x, y = self.linear_dofs().T
+        out[:, 0, 2], out[:, 1, 2], out[:, 2, 2] = x, y, self.z0 * ones
+        return out
+
+    inertia_loads = staticmethod(mass_field_loads)
+
+    def couplings(self, phi: np.ndarray, mass_phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(G, P) of the modes ``phi`` (fem.system.RotationFields): the deflection w e_z
+        turned about any axis is in the plane (G_k = 0), and e_k x (e_l x w e_z) has the z
+        component (d_kz d_lz - d_kl) w, so P_kl = (d_kz d_lz - d_kl) phi^T M phi."""
+        n = phi.shape[1]
+        spin = np.einsum("kl,mn->klmn", np.diag([0.0, 0.0, 1.0]) - np.eye(3), phi.T @ mass_phi)
+        return np.zeros((3, n, n)), spin
 
     def rigid_motion(self, centre_m: np.ndarray) -> np.ndarray:
         """(n_dof, 6): the deflection w of unit rigid motions; a plate has no DOFs for the

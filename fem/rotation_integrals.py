@@ -15,7 +15,7 @@ linear fields u = e_j r_i (component j equal to the coordinate r_i, m, in the mo
   a plate has no in-plane DOFs, so in-plane loads (a turn about its normal) do not deform
   it, exactly as its x and y participation is zero;
 * a Nastran deck (fem.deck_model.DeckOutputs) and an ANSYS ``.full`` with its node
-  coordinates: nodal translations and rotations as for the shell (:func:`nodal_fields`; an
+  coordinates: nodal translations and rotations as for the shell (fem.rigid_fields.nodal_fields; an
   ANSYS DOF in a rotated nodal system takes the field's component along its own axis).
 
 The part's exact static response to the nine unit loads M (e_j r_i) (:func:`inertia_loads`;
@@ -50,7 +50,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from fem.deck_model import DeckOutputs
 from fem.outputs import (
     has_cups,
     held_inertia,
@@ -59,31 +58,20 @@ from fem.outputs import (
     plate_centre,
     static_solve,
 )
-from fem.plate import PlateOutputs
-from fem.shell import DOFS_PER_NODE, ShellOutputs
-from fem.solid import SolidOutputs
+from fem.rigid_fields import mass_field_loads
+from fem.system import RotationFields
 from jaxflex.response import LEVI_CIVITA, RotationalInertia
 
 
 def linear_fields(system) -> np.ndarray | None:
     """(n_dof, 3, 3) DOF vectors F[:, i, j] of the fields u = e_j r_i of ``system``
-    (fem.system.FESystem), or None for a formulation without them (module docstring)."""
+    (fem.system.FESystem) as its formulation gives them (fem.system.RotationFields), checked
+    against its own rigid rotations; None for a formulation without them (module docstring)."""
     outputs = system.outputs
-    n_dof = system.n_dof
-    out = np.zeros((n_dof, 3, 3))
-    if isinstance(outputs, SolidOutputs):
-        points = outputs.layer.points
-        for j in range(3):
-            out[j::3, :, j] = points
-    elif isinstance(outputs, ShellOutputs | DeckOutputs):
-        nodes = outputs.layer.nodes if isinstance(outputs, ShellOutputs) else outputs.nodes_m
-        if DOFS_PER_NODE * len(nodes) != n_dof:  # scalar points besides the grids
-            return None
-        out = nodal_fields(*six_dof_axes(nodes))
-    elif isinstance(outputs, PlateOutputs):
-        ones, x, y = outputs.linear_dofs().T
-        out[:, 0, 2], out[:, 1, 2], out[:, 2, 2] = x, y, outputs.z0 * ones
-    else:
+    if not isinstance(outputs, RotationFields):
+        return None
+    out = outputs.linear_fields(system.n_dof)
+    if out is None:
         return None
     rotations = np.einsum("kij,nij->nk", LEVI_CIVITA, out)
     expected = outputs.rigid_motion(np.zeros(3))[:, 3:]
@@ -93,37 +81,14 @@ def linear_fields(system) -> np.ndarray | None:
     return out
 
 
-def nodal_fields(points_m: np.ndarray, translation: np.ndarray, rotation: np.ndarray):
-    """(n, 3, 3) DOF vectors F[:, i, j] of u = e_j r_i for DOFs that are nodal translations
-    and rotations: ``points_m`` (n, 3) the position of each DOF's node (any length unit),
-    ``translation`` (n, 3) the global direction a translation DOF moves along (zeros for a
-    rotation DOF), ``rotation`` (n, 3) the global axis of a rotation DOF (zeros else). A
-    translation takes the field's component along it, a rotation the component of the
-    field's infinitesimal rotation 1/2 curl(e_j r_i) = 1/2 eps_kij e_k along its axis."""
-    return translation[:, None, :] * points_m[:, :, None] + 0.5 * np.einsum(
-        "nk,kij->nij", rotation, LEVI_CIVITA
-    )
-
-
 def inertia_loads(system, fields: np.ndarray) -> np.ndarray:
     """(n_dof, 9) the consistent load of each unit field's acceleration e_j r_i (column
     3 i + j) on the DOFs of ``system``, kg m: M F for the ``fields`` (n_dof, 3, 3) of
-    :func:`linear_fields`, but for a shell the virtual work of its 3-D mass facet by facet
-    (fem.shell.ShellOutputs.field_loads: the fields it cannot hold as nodal DOFs exactly,
-    its fibres' t^2 / 12 and no fictitious drilling inertia)."""
-    if isinstance(system.outputs, ShellOutputs):
-        return system.outputs.field_loads()
-    return np.asarray(system.M @ fields.reshape(system.n_dof, 9))
-
-
-def six_dof_axes(nodes_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The :func:`nodal_fields` arguments of six DOFs per node (translations x, y, z, then
-    rotations about x, y, z, global axes) at ``nodes_m`` (N, 3)."""
-    eye = np.eye(3)
-    zero = np.zeros((3, 3))
-    translation = np.tile(np.vstack([eye, zero]), (len(nodes_m), 1))
-    rotation = np.tile(np.vstack([zero, eye]), (len(nodes_m), 1))
-    return np.repeat(nodes_m, DOFS_PER_NODE, axis=0), translation, rotation
+    :func:`linear_fields`, as the formulation answers it (a shell: the virtual work of its
+    3-D mass facet by facet, fem.shell.ShellOutputs.field_loads)."""
+    if isinstance(system.outputs, RotationFields):
+        return system.outputs.inertia_loads(system.M, fields)
+    return mass_field_loads(system.M, fields)
 
 
 def rigid_inertia(mass_matrix, fields: np.ndarray, translations: np.ndarray, loads: np.ndarray):
@@ -183,43 +148,14 @@ def rotational_inertia(
 
 def coupling_matrices(result) -> tuple[np.ndarray, np.ndarray] | None:
     """(G (3, M, M), P (3, 3, M, M)) = (phi^T M X_k phi, phi^T M X_k X_l phi) of the modes
-    of ``result`` (fem.ModalResult), X_k the DOF operator of u -> e_k x u (module
-    docstring); None for a formulation without it."""
+    of ``result`` (fem.ModalResult), X_k the DOF operator of u -> e_k x u, as the
+    formulation answers it (fem.system.RotationFields; module docstring); None for a
+    formulation without it."""
     system = result.system
-    outputs = system.outputs
-    phi = result.basis @ result.vectors  # (n_dof, M) the modes on every DOF
-    mass_phi = system.M @ phi
-    if isinstance(outputs, PlateOutputs):
-        n = phi.shape[1]
-        spin = np.einsum("kl,mn->klmn", np.diag([0.0, 0.0, 1.0]) - np.eye(3), phi.T @ mass_phi)
-        return np.zeros((3, n, n)), spin
-    if isinstance(outputs, ShellOutputs):
-        return _from_mass_products(outputs.mass_products(phi))
-    if not isinstance(outputs, SolidOutputs):
+    if not isinstance(system.outputs, RotationFields):
         return None
-    vectors = phi.reshape(-1, 3, phi.shape[1])  # (nodes, 3, M)
-
-    def turned(k: int, v: np.ndarray) -> np.ndarray:  # e_k x v for every vector
-        return np.cross(np.eye(3)[k][None, :, None], v, axis=1)
-
-    crossed = [turned(k, vectors) for k in range(3)]
-    gyroscopic = np.stack([mass_phi.T @ c.reshape(phi.shape) for c in crossed])
-    spin = np.stack(
-        [
-            np.stack([mass_phi.T @ turned(k, c).reshape(phi.shape) for c in crossed])
-            for k in range(3)
-        ]
-    )
-    return gyroscopic, spin
-
-
-def _from_mass_products(products: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(G, P) from C[a, b, m, n] = int rho (v_m)_a (v_n)_b dV: G_k = int rho v_m . (e_k x
-    v_n) = eps_kab C[b, a], P_kl = int rho v_m . (e_k x (e_l x v_n)) = C[l, k] - d_kl tr C."""
-    gyroscopic = np.einsum("kab,bamn->kmn", LEVI_CIVITA, products)
-    trace = np.einsum("aamn->mn", products)
-    spin = products.transpose(1, 0, 2, 3) - np.eye(3)[:, :, None, None] * trace
-    return gyroscopic, spin
+    phi = result.basis @ result.vectors  # (n_dof, M) the modes on every DOF
+    return system.outputs.couplings(phi, system.M @ phi)
 
 
 def rotation_statics(
@@ -271,7 +207,7 @@ def imported_inertia(
     mass_matrix, vectors: np.ndarray, fields: np.ndarray, translations: np.ndarray, unit
 ) -> RotationalInertia:
     """The RotationalInertia (SI) of modes ``vectors`` (n, M) of an imported ``mass_matrix``
-    (n, n) with the :func:`nodal_fields` ``fields`` of its DOFs and the DOF vectors
+    (n, n) with the fem.rigid_fields.nodal_fields ``fields`` of its DOFs and the DOF vectors
     ``translations`` (n, 3) of unit translations along x, y, z, all in the file's consistent units
     ``unit`` (fem.units.Units). The mass is the matrix's: without the DOFs the file
     constrains (the mass the modes can move, like the participation factors)."""

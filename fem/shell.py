@@ -24,6 +24,7 @@ import scipy.sparse as sp
 
 from fem.assembly import assemble, chunks
 from fem.mesh import ShellMesh
+from fem.rigid_fields import DOFS_PER_NODE, couplings_from_mass_products, six_dof_fields
 from fem.shell_element import (
     BENDING,
     MASS_RULE,
@@ -45,7 +46,6 @@ FORMULATION = (
     "(6 DOFs per node), consistent mass, vectorised assembly"
 )
 CHUNK_ELEMENTS = 2000
-DOFS_PER_NODE = 6
 
 
 class ShellLayer:
@@ -164,6 +164,22 @@ class ShellOutputs:
         out[:, 0] = rigid_motions(self.layer.nodes, centre_m)
         out[:, 1, :, 3:] = np.eye(3)
         return out.reshape(-1, 6)
+
+    def linear_fields(self, n_dof: int) -> np.ndarray | None:
+        """(n_dof, 3, 3) the fields e_j r_i as nodal translations and rotations (the field's
+        infinitesimal rotation; fem.system.RotationFields)."""
+        return six_dof_fields(self.layer.nodes, n_dof)
+
+    def inertia_loads(self, mass, fields: np.ndarray) -> np.ndarray:
+        """(n_dof, 9) the fields' loads as the virtual work of the sheet's 3-D mass
+        (:meth:`field_loads`): a symmetric field's normal deflection on a curved shell is no
+        nodal DOF vector, so M F would miss it."""
+        return self.field_loads()
+
+    def couplings(self, phi: np.ndarray, mass_phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(G, P) of the modes ``phi`` from the integrals of the shell's own displacement
+        field (:meth:`mass_products`; fem.system.RotationFields)."""
+        return couplings_from_mass_products(self.mass_products(phi))
 
     def field_loads(self) -> np.ndarray:
         """(n_dof, 9) the consistent loads of the unit fields u = e_j r_i = B r (column

@@ -19,6 +19,7 @@ import skfem
 
 from fem.assembly import assemble
 from fem.mesh import SurfaceMesh
+from fem.rigid_fields import mass_field_loads
 from fem.sides import side_nodes
 from fem.supports import Support
 from fem.system import Constraints, FESystem, Spring, mesh_stats, rigid_motions
@@ -213,6 +214,35 @@ class SolidOutputs:
     def rigid_motion(self, centre_m: np.ndarray) -> np.ndarray:
         """(n_dof, 6): u = t + theta x (x - centre) at every node, t and theta unit vectors."""
         return rigid_motions(self.layer.points, centre_m).reshape(-1, 6)
+
+    def linear_fields(self, n_dof: int) -> np.ndarray:
+        """(n_dof, 3, 3) the fields e_j r_i: their values at every node (translations only;
+        fem.system.RotationFields)."""
+        out = np.zeros((n_dof, 3, 3))
+        for j in range(3):
+            out[j::3, :, j] = self.layer.points
+        return out
+
+    inertia_loads = staticmethod(mass_field_loads)
+
+    def couplings(self, phi: np.ndarray, mass_phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(G, P) of the modes ``phi`` (fem.system.RotationFields): X_k turns each node's
+        translation (the shape functions are the same for the three components, so this is
+        exact for the field)."""
+        vectors = phi.reshape(-1, 3, phi.shape[1])  # (nodes, 3, M)
+
+        def turned(k: int, v: np.ndarray) -> np.ndarray:  # e_k x v for every vector
+            return np.cross(np.eye(3)[k][None, :, None], v, axis=1)
+
+        crossed = [turned(k, vectors) for k in range(3)]
+        gyroscopic = np.stack([mass_phi.T @ c.reshape(phi.shape) for c in crossed])
+        spin = np.stack(
+            [
+                np.stack([mass_phi.T @ turned(k, c).reshape(phi.shape) for c in crossed])
+                for k in range(3)
+            ]
+        )
+        return gyroscopic, spin
 
     def surface_frame(
         self, x: float, y: float, z: float | None = None

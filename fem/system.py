@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 import scipy.sparse as sp
@@ -177,6 +177,27 @@ class FormulationOutputs(Protocol):
     def stress_operator(self) -> tuple[np.ndarray, sp.csr_matrix]:
         """(points (S, 3) m, sparse (6 S, n_dof)): the stress tensor (Voigt xx, yy, zz, yz,
         xz, xy; Pa) at S surface points per unit DOF."""
+
+
+@runtime_checkable
+class RotationFields(Protocol):
+    """What a formulation answers for turning moves (fem.rotation_integrals), beyond
+    FormulationOutputs; one that does not (e.g. an import without coordinates) gives its
+    models no turning data."""
+
+    def linear_fields(self, n_dof: int) -> np.ndarray | None:
+        """(n_dof, 3, 3) DOF vectors F[:, i, j] of the fields u = e_j r_i (component j equal
+        to the coordinate r_i, m), or None where its DOFs cannot hold them."""
+
+    def inertia_loads(self, mass, fields: np.ndarray) -> np.ndarray:
+        """(n_dof, 9) the consistent load of each unit field's acceleration (column 3 i + j),
+        kg m: ``mass`` (n_dof, n_dof) @ ``fields`` where the fields are nodal DOF vectors
+        (fem.rigid_fields.mass_field_loads)."""
+
+    def couplings(self, phi: np.ndarray, mass_phi: np.ndarray) -> tuple | None:
+        """(G (3, M, M), P (3, 3, M, M)) = (phi^T M X_k phi, phi^T M X_k X_l phi) of the
+        modes ``phi`` (n_dof, M) with ``mass_phi`` = M phi, X_k the DOF operator of
+        u -> e_k x u; None where the formulation cannot form X_k."""
 
 
 @dataclass(eq=False)
