@@ -4,6 +4,9 @@ With ``--tolerance`` the mesh, the number of modes and the monitored points are 
 move (``--trajectory`` or ``--distance`` with limits) and a ``--threshold`` by fem.size_model.
 ``--from-ansys``, ``--from-nastran``, ``--from-r1`` and ``--from-modes`` build the model
 from a user's own finite-element results (fem.cli_imports).
+
+The options and the input files are checked before the finite-element modules (and JAX)
+load: an argument error is answered at once.
 """
 
 from __future__ import annotations
@@ -12,28 +15,20 @@ import argparse
 import sys
 from dataclasses import replace
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from fem import cli_imports
+from fem.choices import CAD_SUFFIXES, ELEMENTS, FORMATS_HELP
 from fem.damping import check_damping
-from fem.export import export_modes, plot_part
 from fem.materials import resolve_material
-from fem.mesh_advice import coarse_mesh_warnings
-from fem.mesh_io import CAD_SUFFIXES, FORMATS_HELP
-from fem.modal import modal_analysis
-from fem.parts import ELEMENTS, read_cad, read_mesh
-from fem.plan import fe_plan, points_need
-from fem.sanity import printed_part_warnings
-from fem.scenes import scene
-from fem.sizing import size_model
-from fem.supports import ClampedEdge, PointSupport, SuctionCup
 from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
 from jaxflex.defaults import DT_S
 from jaxflex.errors import InputError
-from jaxflex.files import check_output_file, read_trajectory_csv
-from jaxflex.response import Move, analyze_move, as_move, deviation_curve, jerk_limited_move
-from jaxflex.runtime import issue, model_resolution, require, threshold_advice
+from jaxflex.files import check_input_file, check_output_file
+
+if TYPE_CHECKING:
+    from fem.supports import SuctionCup
+    from jaxflex.response import Move
 
 COMMAND = "model"
 HELP = (
@@ -55,6 +50,8 @@ def _cup(text: str) -> SuctionCup:
     except ValueError as exc:
         raise argparse.ArgumentTypeError(f"expected numbers X,Y[,Z],R in m, got {text!r}") from exc
     x, y, *z, radius = values
+    from fem.supports import SuctionCup  # only when cups are given
+
     try:
         return SuctionCup(x, y, radius, z=z[0] if z else None)
     except InputError as exc:
@@ -302,10 +299,28 @@ def _defaults() -> dict:
     return vars(parser.parse_args(["--scene", "plate"]))
 
 
-def run(args: argparse.Namespace) -> int:
-    for option in ("output", "plot", "vtu", "report"):  # before the analysis, not after it
+def _check_files(args: argparse.Namespace) -> None:
+    """The outputs can be written and the inputs read: before any work (and before the
+    finite-element modules load)."""
+    for option in ("output", "plot", "vtu", "report"):
         if getattr(args, option) is not None:
             check_output_file(f"--{option}", getattr(args, option))
+    for option in ("mesh", "cad", "from_ansys", "from_nastran", "from_modes", "full", "gamma"):
+        if getattr(args, option) is not None:
+            check_input_file(f"--{option.replace('_', '-')}", getattr(args, option))
+    for path in args.from_r1 or ():
+        check_input_file("--from-r1", path)
+
+
+def run(args: argparse.Namespace) -> int:
+    _check_files(args)
+    from fem.mesh_advice import coarse_mesh_warnings
+    from fem.modal import modal_analysis
+    from fem.plan import fe_plan, points_need
+    from fem.scenes import scene
+    from fem.supports import ClampedEdge, PointSupport, SuctionCup
+    from jaxflex.runtime import require
+
     if cli_imports.requested(args):
         return cli_imports.run(args, _defaults(), _write)
     cli_imports.refuse_import_options(args)
@@ -363,6 +378,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _read_part(args, material):
     """The part of --mesh or --cad; prints what was read and the unit warnings."""
+    from fem.parts import read_cad, read_mesh
+    from fem.sanity import printed_part_warnings
+
     with printed_part_warnings():
         if args.mesh:
             if args.mesh_size is not None:
@@ -390,6 +408,8 @@ def _read_part(args, material):
 
 
 def _write(args, model, result) -> None:
+    from fem.export import export_modes, plot_part
+
     model.save(args.output)
     print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
     if args.plot:
@@ -402,6 +422,9 @@ def _write(args, model, result) -> None:
 
 def _move(args):
     """The Move at hand from --trajectory or --distance and the limits."""
+    from jaxflex.files import read_trajectory_csv
+    from jaxflex.response import as_move, jerk_limited_move
+
     for name, _unit, _default in AXIS_LIMITS:
         if getattr(args, name) is not None and args.distance is None:
             raise InputError(f"--{name}: only with --distance (a trajectory has its own limits)")
@@ -419,6 +442,11 @@ def _move(args):
 
 def _threshold_advice(model, move: Move, threshold_m: float) -> None:
     """Warn about a --threshold the sized model cannot mean (jaxflex.advice)."""
+    import numpy as np
+
+    from jaxflex.response import analyze_move, deviation_curve
+    from jaxflex.runtime import issue, model_resolution, threshold_advice
+
     _, deviation = deviation_curve(model, move, move.duration_s, 8)
     issue(
         threshold_advice(
@@ -433,6 +461,8 @@ def _threshold_advice(model, move: Move, threshold_m: float) -> None:
 
 
 def _run_sizing(args, part, supports) -> int:
+    from fem.sizing import size_model
+
     for name in ("n_modes", "max_freq", "points"):
         if getattr(args, name) is not None:
             raise InputError(

@@ -12,11 +12,6 @@ from collections.abc import Callable
 
 import numpy as np
 
-from fem.ansys import from_ansys
-from fem.from_modes import from_modes
-from fem.identify import from_r1
-from fem.nastran import from_nastran
-from fem.sanity import printed_part_warnings
 from jaxflex.errors import InputError
 from jaxflex.files import read_text, write_text_atomic
 
@@ -140,6 +135,12 @@ def _read_gamma(path):
 def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
     """Import, print the summary, write the model; ``defaults``: the command's option
     defaults; ``write(args, model, result)``: fem.cli's writer of a model solved here."""
+    from fem.ansys import from_ansys  # the readers load at the run, not with the options
+    from fem.from_modes import from_modes
+    from fem.identify import from_r1
+    from fem.nastran import from_nastran
+    from fem.sanity import printed_part_warnings
+
     n_modes = args.n_modes
     if n_modes is None and args.max_freq is None and not (args.from_r1 or args.from_modes):
         n_modes = 20

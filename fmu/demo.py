@@ -25,18 +25,19 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 import fem
 import optim
-from fmu.export import export_fmu
-from fmu.verify import VerifyReport, verify
-from fmu.verify_turning import after_move_s, verify_turning
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import check_output_dir, check_positive, make_output_dir, write_text_atomic
-from jaxflex.model import ModalModel
 from jaxflex.runtime import step
+
+if TYPE_CHECKING:
+    from fmu.verify import VerifyReport
+    from jaxflex.model import ModalModel
 
 COMMAND = "demo"
 HELP = "run the whole job on the built-in default part (FE model, optimised move, FMUs)"
@@ -109,6 +110,10 @@ def _export(model, result, path: Path, version: int, threshold_m: float) -> Veri
     """Export ``result``'s move as an FMI ``version`` FMU of ``model`` at ``path`` and replay
     it with fmpy against jaxflex: a turning move's FMU takes the pose, its move of poses
     embedded (fmu.verify_turning), a straight move's the translation (fmu.verify)."""
+    from fmu.export import export_fmu
+    from fmu.verify import verify
+    from fmu.verify_turning import after_move_s, verify_turning
+
     trajectory, case = result.move, result.report()
     if result.turn is None:
         export_fmu(model, path, version, trajectory, threshold_m, case)

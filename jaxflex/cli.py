@@ -36,6 +36,7 @@ from jaxflex import compile_cache
 from jaxflex.budget import DEFAULT_TIME_S, make_budget, use_budget
 from jaxflex.errors import InputError, JaxflexError, JaxflexWarning
 from jaxflex.progress import set_quiet, step
+from jaxflex.scalars import check_positive
 
 # the command plugin interface (public): what a subcommand's module may use
 __all__ = ["AXIS_LIMITS", "add_axis_limits", "axis_limit_values", "main"]
@@ -262,12 +263,15 @@ def add_axis_limits(parser, *, with_defaults: bool, condition: str = "") -> None
 
 def axis_limit_values(args: argparse.Namespace) -> dict[str, float | list[float]]:
     """vmax, amax, jmax from the options of :func:`add_axis_limits`: one value for every axis
-    or three (x, y, z); AXIS_LIMITS' default where an option was not given."""
+    or three (x, y, z), each finite and > 0; AXIS_LIMITS' default where an option was not
+    given."""
     limits = {}
     for name, _unit, default in AXIS_LIMITS:
         given = getattr(args, name)
         if given is not None and len(given) not in (1, 3):
             raise InputError(f"--{name}: give one value or three (x y z), got {len(given)}")
+        for axis, value in zip("xyz", given or (), strict=False):
+            check_positive(f"--{name}[{axis}]", value)
         limits[name] = default if given is None else (given[0] if len(given) == 1 else given)
     return limits
 

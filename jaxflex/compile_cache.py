@@ -24,11 +24,14 @@ keep it private to its user (the directories are created with mode 0700).
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import tempfile
 import threading
 import time
 from pathlib import Path
+
+from jaxflex.lazy import after_import
 
 ENV_VAR = "JAXFLEX_COMPILE_CACHE"
 OFF = "off"
@@ -71,7 +74,8 @@ def _writable(directory: Path) -> str | None:
 
 def enable(directory: str | os.PathLike | None = None) -> tuple[Path | None, str]:
     """Turn JAX's persistent compilation cache on for this process, at ``directory`` or
-    :func:`chosen_dir`. Returns (the directory or None if the cache is off, a short
+    :func:`chosen_dir`: now if JAX is loaded, else as it is imported (a run that needs no
+    JAX does not load it). Returns (the directory or None if the cache is off, a short
     description for a step line). Only the first call of a process decides: JAX reads its
     cache settings once."""
     with _lock:
@@ -82,15 +86,14 @@ def enable(directory: str | os.PathLike | None = None) -> tuple[Path | None, str
             elif (problem := _writable(target)) is not None:
                 _state.update(directory=None, reason=f"off: {problem}")
             else:
-                _install(target)
+                after_import("jax", functools.partial(_install, target))  # when JAX loads
                 _state.update(directory=target, reason=str(target))
         return _state["directory"], _state["reason"]
 
 
-def _install(directory: Path) -> None:
-    """Point JAX at ``directory`` with the atomic file store, caching every program."""
-    import jax
-
+def _install(directory: Path, jax) -> None:
+    """Point JAX (the module ``jax``, just imported) at ``directory`` with the atomic file
+    store, caching every program."""
     jax.config.update("jax_compilation_cache_dir", str(directory))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)

@@ -7,15 +7,14 @@ stable; the modules they come from are private.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from jaxflex.atomic import (
     atomic_open,
     atomic_path,
     make_output_dir,
     remove_stale_temporaries,
     write_text_atomic,
-)
-from jaxflex.convolution import (
-    read_unit_response_csv,
 )
 from jaxflex.fileset import (
     MANIFEST,
@@ -30,16 +29,18 @@ from jaxflex.inputs import (
     read_settings_file,
     read_text,
 )
+from jaxflex.lazy import lazy_names
 from jaxflex.scalars import check_positive
-from jaxflex.trajectory_io import (
-    read_trajectory_csv,
-    read_turn_csv,
-    write_trajectory_csv,
-)
 from jaxflex.validation import (
     check_output_dir,
     check_output_file,
 )
+
+if TYPE_CHECKING:  # they load JAX: imported on first use (jaxflex.lazy), the checks at once
+    from jaxflex.convolution import read_unit_response_csv
+    from jaxflex.trajectory_io import read_trajectory_csv, read_turn_csv, write_trajectory_csv
+
+__getattr__, __dir__ = lazy_names(__name__)
 
 __all__ = [
     "MANIFEST",

@@ -9,12 +9,8 @@ from are private.
 
 from __future__ import annotations
 
-from jaxflex.advice import (
-    Advice,
-    issue,
-    model_resolution,
-    threshold_advice,
-)
+from typing import TYPE_CHECKING
+
 from jaxflex.budget import (
     Need,
     check_time,
@@ -26,11 +22,17 @@ from jaxflex.compile_cache import ENV_VAR as COMPILE_CACHE_ENV
 from jaxflex.compile_cache import SUFFIX as COMPILE_CACHE_SUFFIX
 from jaxflex.compile_cache import enable as enable_compile_cache
 from jaxflex.compile_cache import store as cache_store
+from jaxflex.lazy import lazy_names
 from jaxflex.progress import (
     note,
     progress_bar,
     step,
 )
+
+if TYPE_CHECKING:  # it reads models (JAX): imported on first use (jaxflex.lazy)
+    from jaxflex.advice import Advice, issue, model_resolution, threshold_advice
+
+__getattr__, __dir__ = lazy_names(__name__)
 
 __all__ = [
     "COMPILE_CACHE_ENV",
