@@ -314,26 +314,55 @@ def _check_files(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     _check_files(args)
-    from fem.mesh_advice import coarse_mesh_warnings
-    from fem.modal import modal_analysis
-    from fem.plan import fe_plan, points_need
-    from fem.scenes import scene
-    from fem.supports import ClampedEdge, PointSupport, SuctionCup
-    from jaxflex.runtime import require
-
     if cli_imports.requested(args):
         return cli_imports.run(args, _defaults(), _write)
     cli_imports.refuse_import_options(args)
     material = _material(args)
+    if args.scene and (args.thickness is not None or args.element is not None):
+        raise InputError("--thickness/--element: only for --mesh and --cad (scenes are 1 mm steel)")
+    supports = _supports(args, material)
+    if not supports and not args.allow_rigid_modes:
+        raise InputError(
+            "--cups: a mesh or CAD part needs a gripper (--cups X,Y,R ...), or "
+            "--allow-rigid-modes for the free part (its rigid-body modes are left out)"
+        )
+    if args.tolerance is not None:
+        return _run_sizing(args, _part(args, material), supports)
+    for name in SIZING_ONLY:
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name.replace('_', '-')}: only with --tolerance")
+    if args.plot or args.vtu:  # the pictures need the FE solution itself: solved
+        model, result = _solve(args, _part(args, material), supports)
+        _write(args, model, result)
+        return 0
+    _model_from_store(args, material, supports)
+    return 0
+
+
+def _n_modes(args) -> int | None:
+    """--n-modes, 20 when neither it nor --max-freq is given."""
+    return 20 if args.n_modes is None and args.max_freq is None else args.n_modes
+
+
+def _part(args, material):
+    """The part of --scene, --mesh or --cad."""
     if args.scene:
-        if args.thickness is not None or args.element is not None:
-            raise InputError(
-                "--thickness/--element: only for --mesh and --cad (scenes are 1 mm steel)"
-            )
-        part, supports = scene(args.scene, mesh_size=args.mesh_size, material=material)
-    else:
-        part = _read_part(args, material)
-        supports = []
+        from fem.scenes import scene
+
+        return scene(args.scene, mesh_size=args.mesh_size, material=material)[0]
+    return _read_part(args, material)
+
+
+def _supports(args, material) -> list:
+    """The gripper: the scene's or --cups (with --cup-stiffness), the point supports and the
+    clamped edges."""
+    from fem.supports import ClampedEdge, PointSupport, SuctionCup
+
+    supports = []
+    if args.scene:
+        from fem.scenes import scene
+
+        supports = scene(args.scene, mesh_size=args.mesh_size, material=material)[1]
     if args.cups is not None:
         supports = list(args.cups)
     if args.cup_stiffness is not None:
@@ -344,19 +373,18 @@ def run(args: argparse.Namespace) -> int:
         ]
     supports += [PointSupport(x, y) for x, y in args.point_supports]
     supports += [ClampedEdge(side) for side in args.clamped_edges]
-    if not supports and not args.allow_rigid_modes:
-        raise InputError(
-            "--cups: a mesh or CAD part needs a gripper (--cups X,Y,R ...), or "
-            "--allow-rigid-modes for the free part (its rigid-body modes are left out)"
-        )
-    if args.tolerance is not None:
-        return _run_sizing(args, part, supports)
-    for name in SIZING_ONLY:
-        if getattr(args, name) is not None:
-            raise InputError(f"--{name.replace('_', '-')}: only with --tolerance")
-    n_modes = args.n_modes
-    if n_modes is None and args.max_freq is None:
-        n_modes = 20
+    return supports
+
+
+def _solve(args, part, supports):
+    """(the model, the FE result) of the part on its supports, planned first; prints the
+    result's summary and the coarse-mesh warnings."""
+    from fem.mesh_advice import coarse_mesh_warnings
+    from fem.modal import modal_analysis
+    from fem.plan import fe_plan, points_need
+    from jaxflex.runtime import require
+
+    n_modes = _n_modes(args)
     plan = fe_plan(part, n_modes, supports)
     require(plan.need(), points_need(plan, args.points))  # before any meshing
     result = modal_analysis(
@@ -371,9 +399,55 @@ def run(args: argparse.Namespace) -> int:
     for message in coarse_mesh_warnings(result):
         print(f"warning: {message}", file=sys.stderr)
     points = None if args.points in (None, "all") else args.points
-    model = result.to_modal_model(points=points)
-    _write(args, model, result)
-    return 0
+    return result.to_modal_model(points=points), result
+
+
+def _model_from_store(args, material, supports) -> None:
+    """Solve the part and write its model, or copy the model of the same inputs and code
+    from the FE store (fem.model_store: no FE work, no JAX)."""
+    from fem import model_store
+    from fem.materials import resolve_material
+    from jaxflex.files import atomic_open
+
+    source = "scene" if args.scene else "mesh" if args.mesh else "cad"
+    path = getattr(args, source)
+    request = {
+        "command": "model",
+        "source": source,
+        "scene": args.scene,
+        "file": None if args.scene else [Path(path).suffix.lower(), model_store.file_digest(path)],
+        **{k: getattr(args, k) for k in ("thickness", "scale", "element", "mesh_size")},
+        "material": material,
+        "supports": [support.describe() for support in supports],
+        **{k: getattr(args, k) for k in ("allow_rigid_modes", "max_freq", "zeta", "points")},
+        "n_modes": _n_modes(args),
+    }
+    expected = model_store.fingerprint(
+        n_modes=_n_modes(args) if args.max_freq is None else None,
+        n_points=None if args.points in (None, "all") else args.points,
+        zeta=args.zeta,
+        material=resolve_material(material).as_dict(),
+        supports=supports,
+        part=_part(args, material) if args.scene else None,
+    )
+
+    def solve() -> bytes:
+        model, result = _solve(args, _part(args, material), supports)
+        _write(args, model, result)
+        return Path(args.output).read_bytes()
+
+    data, fields, stored = model_store.model_file(request, expected, solve)
+    if stored:
+        with atomic_open(args.output, "wb") as handle:
+            handle.write(data)
+        print(
+            f"FE model from the cache ({model_store.MODEL_STORE}: these inputs were solved "
+            "before with this code)"
+        )
+        print(
+            f"wrote {args.output}: {len(fields['freq_hz'])} modes, {len(fields['points'])} "
+            "points (SI units)"
+        )
 
 
 def _read_part(args, material):

@@ -1,6 +1,7 @@
 """Files in and out, for the layers above the core: input files checked before reading
 (inputs, validation), outputs written atomically and file sets with a manifest (atomic,
-fileset), the trajectory and unit-response CSV files. Readers that run in a child process
+fileset), the trajectory and unit-response CSV files, a model file's fields without the model
+class (model_file.read_model_file: no JAX). Readers that run in a child process
 use jaxflex.isolated (light: the child does not import JAX). Public: these names are kept
 stable; the modules they come from are private.
 """
@@ -30,6 +31,7 @@ from jaxflex.inputs import (
     read_text,
 )
 from jaxflex.lazy import lazy_names
+from jaxflex.model_file import read_model_file
 from jaxflex.scalars import check_positive
 from jaxflex.validation import (
     check_output_dir,
@@ -54,6 +56,7 @@ __all__ = [
     "check_text_file",
     "directory_lock",
     "make_output_dir",
+    "read_model_file",
     "read_set",
     "read_settings_file",
     "read_text",

@@ -2,7 +2,9 @@
 time and memory budgets (budget), and advice to the user (advice); a silenced
 stdout for chatty C libraries is jaxflex.stdout (light, for readers in a child process);
 JAX's persistent compilation cache (compile_cache: enable_compile_cache, its environment
-variable COMPILE_CACHE_ENV and entry suffix COMPILE_CACHE_SUFFIX).
+variable COMPILE_CACHE_ENV and entry suffix COMPILE_CACHE_SUFFIX) and the stores of other
+reusable work beside it (cache_store, cache_fetch: entries checked on every read, one run
+making an entry while the others wait for it).
 Public: these names are kept stable; the modules they come
 from are private.
 """
@@ -21,6 +23,7 @@ from jaxflex.budget import (
 from jaxflex.compile_cache import ENV_VAR as COMPILE_CACHE_ENV
 from jaxflex.compile_cache import SUFFIX as COMPILE_CACHE_SUFFIX
 from jaxflex.compile_cache import enable as enable_compile_cache
+from jaxflex.compile_cache import fetch as cache_fetch
 from jaxflex.compile_cache import store as cache_store
 from jaxflex.lazy import lazy_names
 from jaxflex.progress import (
@@ -39,6 +42,7 @@ __all__ = [
     "COMPILE_CACHE_SUFFIX",
     "Advice",
     "Need",
+    "cache_fetch",
     "cache_store",
     "check_time",
     "current_budget",

@@ -10,6 +10,7 @@ import sys
 from importlib.metadata import entry_points
 
 import numpy as np
+import pytest
 from conftest import run_jaxflex
 
 import jaxflex
@@ -63,24 +64,70 @@ def test_help_lists_every_command_without_importing_one():
         assert f"{command.name} {command.help}" in words
 
 
-# third-party modules each command's module may load on import (the rest, e.g. matplotlib for
-# the pictures, casadi for its solvers, meshio and gmsh for mesh files, is imported where used)
-NEEDED = {
-    "fmu.demo": {"skfem", "ruckig", "fmpy"},
-    "fem.cli": {"skfem"},
-    "optim.cli": {"ruckig"},
-    "fmu.cli": {"skfem", "ruckig", "fmpy"},
-}
-OPTIONAL = ("matplotlib", "casadi", "meshio", "gmsh", "skfem", "ruckig", "fmpy", "pyuff", "dask")
+# what no command module loads on import: its options are built and checked first
+HEAVY_WORK = ("jax", "scipy", "skfem", "matplotlib", "casadi", "meshio", "gmsh", "fmpy", "dask")
 
 
-def test_commands_import_heavy_modules_only_where_they_are_used():
-    for module, needed in NEEDED.items():
+def test_command_modules_import_nothing_heavy():
+    for module in COMMANDS.values():
         code = f"import json, sys, {module}\n"
-        code += f"print(json.dumps([m for m in {OPTIONAL!r} if m in sys.modules]))"
+        code += f"print(json.dumps([m for m in {HEAVY_WORK!r} if m in sys.modules]))"
         proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
         assert proc.returncode == 0, proc.stderr
-        assert set(json.loads(proc.stdout)) <= needed, module
+        assert json.loads(proc.stdout) == [], module
+
+
+# `jaxflex ARGS` answered without importing JAX: (ARGS, exit status, what the answer says);
+# a path that does not exist is MISSING, the model file of a test is MODEL
+AT_ONCE = [
+    (["--version"], 0, "jaxflex "),
+    (["--help"], 0, "optimize"),
+    *(([name, "--help"], 0, "usage: jaxflex " + name) for name in COMMANDS),
+    (["optimize"], 2, "the following arguments are required: model"),
+    (["optimize", "MODEL", "-o", "OUT", "--threshold", "x"], 2, "argument --threshold"),
+    (["model", "--scene", "cube"], 2, "argument --scene: invalid choice"),
+    (["export", "MODEL", "--fmi", "4"], 2, "argument --fmi: invalid choice"),
+    (["bench", "--size", "huge"], 2, "argument --size: invalid choice"),
+    (["demo", "--threshold", "-1"], 2, "--threshold: must be a finite number > 0"),
+    (["sweep", "MISSING", "-o", "OUT"], 2, "does not exist"),
+    # cheap input checks: a zero-length move, a missing file, bad numbers
+    (["optimize", "MODEL", "--distance", "0", "0", "0", "--threshold", "1e-3", "-o", "OUT"], 2,
+     "the move has zero length"),
+    (["optimize", "MISSING", "--distance", "0", "0", "1", "--threshold", "1e-3", "-o", "OUT"], 2,
+     "does not exist"),
+    (["optimize", "MODEL", "--distance", "0", "0", "1", "--threshold", "-1", "-o", "OUT"], 2,
+     "threshold_m (--threshold): must be a finite number > 0"),
+    (["optimize", "MODEL", "--distance", "0", "0", "1", "--threshold", "1e-3", "--amax", "0",
+      "-o", "OUT"], 2, "--amax[x]: must be a finite number > 0"),
+    (["optimize", "MODEL", "--distance", "0", "0", "1", "--threshold", "1e-3", "--dt", "nan",
+      "-o", "OUT"], 2, "dt_s (--dt): must be a finite number > 0"),
+    (["export", "MISSING", "-o", "OUT.fmu"], 2, "does not exist"),
+    (["export", "MODEL", "-o", "OUT.fmu", "--threshold", "0"], 2, "--threshold: must be"),
+    (["model", "--mesh", "MISSING", "--thickness", "1e-3"], 2, "--mesh: file"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("args", "status", "answer"), AT_ONCE)
+def test_a_command_answers_without_importing_jax(tmp_path, args, status, answer):
+    """--version, --help, argument errors and the cheap input checks come before any heavy
+    import (a child interpreter's sys.modules, not a time), and before the model is read."""
+    model = tmp_path / "model.npz"
+    model.write_bytes(b"not read before the arguments are checked")
+    names = {"MODEL": str(model), "MISSING": str(tmp_path / "missing"), "OUT": str(tmp_path / "o")}
+    argv = [names.get(arg, arg.replace("OUT", str(tmp_path / "o"))) for arg in args]
+    code = (
+        "import sys\n"
+        "from jaxflex.cli import main\n"
+        "try:\n"
+        f"    status = main({argv!r})\n"
+        "except SystemExit as exc:\n"
+        "    status = exc.code\n"
+        f"print('loaded:', [m for m in {HEAVY_WORK!r} if m in sys.modules], status)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.stdout.rstrip().endswith(f"loaded: [] {status}"), proc.stdout + proc.stderr
+    assert answer in proc.stdout + proc.stderr
+    assert "Traceback" not in proc.stderr
 
 
 def test_interrupted_command_exits_130(monkeypatch, capsys):
