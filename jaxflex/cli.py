@@ -10,11 +10,13 @@ A command module defines ``COMMAND`` (its name, the entry point's), ``HELP`` (on
 ``ORDER`` (its place in the list) as plain literals, ``add_arguments(parser)`` and
 ``run(args) -> exit status``.
 
-Only the module of the command being run is imported. Importing ``fem.cli`` runs
-``fem/__init__.py``, which loads scikit-fem (optim: scipy.optimize, ruckig; optim.sweep: dask
-and matplotlib), seconds in all; so the list that ``jaxflex --help`` prints is read from the
-literals in each command module's source, without running it. Every command runs with JAX's
-persistent compilation cache (jaxflex.compile_cache).
+Only the module of the command being run is imported, and it imports nothing heavy (the
+packages import their names on first use, jaxflex.lazy; a command module imports the work in
+its ``run`` after checking its options and files), so ``--version``, ``--help`` and argument
+errors answer without JAX, SciPy or scikit-fem; the list that ``jaxflex --help`` prints is
+read from the literals in each command module's source, without running it. Every command
+runs with JAX's persistent compilation cache (jaxflex.compile_cache), set up as JAX is
+imported.
 """
 
 from __future__ import annotations

@@ -22,6 +22,7 @@ from jaxflex.budget import (
 )
 from jaxflex.compile_cache import ENV_VAR as COMPILE_CACHE_ENV
 from jaxflex.compile_cache import SUFFIX as COMPILE_CACHE_SUFFIX
+from jaxflex.compile_cache import FileStore as CacheStore
 from jaxflex.compile_cache import enable as enable_compile_cache
 from jaxflex.compile_cache import fetch as cache_fetch
 from jaxflex.compile_cache import store as cache_store
@@ -41,6 +42,7 @@ __all__ = [
     "COMPILE_CACHE_ENV",
     "COMPILE_CACHE_SUFFIX",
     "Advice",
+    "CacheStore",
     "Need",
     "cache_fetch",
     "cache_store",
