@@ -12,6 +12,9 @@ load: an argument error is answered at once.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
+import json
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -431,23 +434,68 @@ def _model_from_store(args, material, supports) -> None:
         part=_part(args, material) if args.scene else None,
     )
 
-    def solve() -> bytes:
-        model, result = _solve(args, _part(args, material), supports)
+    def solve() -> tuple[bytes, str]:
+        with _recorded() as output:
+            model, result = _solve(args, _part(args, material), supports)
         _write(args, model, result)
-        return Path(args.output).read_bytes()
+        return Path(args.output).read_bytes(), json.dumps(output)
 
-    data, fields, stored = model_store.model_file(request, expected, solve)
-    if stored:
+    stored = model_store.model_file(request, expected, solve)
+    if stored.from_store:
         with atomic_open(args.output, "wb") as handle:
-            handle.write(data)
+            handle.write(stored.data)
         print(
             f"FE model from the cache ({model_store.MODEL_STORE}: these inputs were solved "
-            "before with this code)"
+            "before with this code; what that solve printed:)"
         )
+        output = json.loads(stored.output or '{"stdout": "", "warnings": []}')
+        print(output["stdout"], end="")
+        for line in output["warnings"]:
+            print(line, file=sys.stderr)
+        fields = stored.fields
         print(
             f"wrote {args.output}: {len(fields['freq_hz'])} modes, {len(fields['points'])} "
             "points (SI units)"
         )
+
+
+class _Tee(io.TextIOBase):
+    """A text stream writing to ``stream`` and keeping what it wrote (its lines that hold
+    ``only``, when given)."""
+
+    def __init__(self, stream, only: str | None = None) -> None:
+        self.stream, self.only, self.text = stream, only, []
+
+    def write(self, text: str) -> int:
+        self.stream.write(text)
+        self.text.append(text)
+        return len(text)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+    def isatty(self) -> bool:
+        return self.stream.isatty()
+
+    def kept(self) -> str:
+        text = "".join(self.text)
+        if self.only is None:
+            return text
+        return "".join(line for line in text.splitlines(True) if self.only in line)
+
+
+@contextlib.contextmanager
+def _recorded():
+    """Record what a solve prints: stdout, and the warning lines of stderr (not its
+    progress); yields a dict filled on exit: {"stdout": text, "warnings": [line, ...]}."""
+    output: dict = {}
+    out, err = _Tee(sys.stdout), _Tee(sys.stderr, "warning")
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            yield output
+    finally:
+        output["stdout"] = out.kept()
+        output["warnings"] = err.kept().splitlines()
 
 
 def _read_part(args, material):

@@ -2,8 +2,10 @@
 (jaxflex.runtime.cache_store), used by ``fem.default_model(..., cache=True)`` (``jaxflex
 demo``) and by ``jaxflex model`` for the parts it solves (``--scene``, ``--mesh``, ``--cad``).
 
-An entry is a model file (.npz, as ``ModalModel.save`` writes it) under a key that hashes
-the request (every option that changes the model, the input file's content), the source of
+An entry is a model file (.npz, as ``ModalModel.save`` writes it) and what its solve
+printed (shown again when the entry is used: the part's summary, the FE result, the
+warnings), under a key that hashes the request (every option that changes the model, the
+input file's content), the source of
 the ``fem`` and ``jaxflex`` packages and the versions of the libraries the FE solve uses, so
 any change of input, code or library is a new key. Beyond the store's own checks (the
 entry's key and content hash, jaxflex.compile_cache), a model read from it must match the
@@ -21,13 +23,14 @@ import json
 import os
 import tempfile
 from collections.abc import Callable
+from dataclasses import dataclass
 from importlib.metadata import version
 from importlib.util import find_spec
 from pathlib import Path
 from typing import Any
 
 from jaxflex.files import read_model_file
-from jaxflex.runtime import cache_fetch, cache_store
+from jaxflex.runtime import cache_fetch, cache_pack_text, cache_store, cache_unpack_text
 
 MODEL_STORE = "fe-models"  # jaxflex.runtime.cache_store of the FE models
 MODEL_STORE_BYTES = 1024**3
@@ -107,26 +110,37 @@ def check_fingerprint(fields: dict[str, Any], expected: dict[str, Any]) -> None:
             raise ValueError(f"its {name} is {meta.get(name)!r}, not {value!r}")
 
 
+@dataclass(frozen=True)
+class StoredModel:
+    """A model file of the store or just solved: its bytes, its fields (read_model_file;
+    None when solved here), what the solve printed (``output``: the text a run that finds it
+    in the store shows again) and whether it came from the store."""
+
+    data: bytes
+    fields: dict[str, Any] | None
+    output: str
+    from_store: bool
+
+
 def model_file(
-    request: dict[str, Any], expected: dict[str, Any], solve: Callable[[], bytes]
-) -> tuple[bytes, dict[str, Any] | None, bool]:
-    """(the model file's bytes, its fields (read_model_file) or None when solved, True if
-    from the store) of ``request``: the store's entry if it matches the ``expected``
-    fingerprint, else ``solve()`` (the bytes of the solved model's file), stored. Without a
-    store (cache off) always solved."""
+    request: dict[str, Any], expected: dict[str, Any], solve: Callable[[], tuple[bytes, str]]
+) -> StoredModel:
+    """The model file of ``request``: the store's entry if it matches the ``expected``
+    fingerprint, else ``solve()`` -> (the bytes of the solved model's file, what the solve
+    printed), stored. Without a store (cache off) always solved."""
     models = cache_store(MODEL_STORE, MODEL_STORE_BYTES)
 
-    def matching(entry: bytes) -> tuple[bytes, dict[str, Any]]:
-        fields = model_fields(entry)
+    def matching(entry: bytes) -> StoredModel:
+        output, data = cache_unpack_text(entry)
+        fields = model_fields(data)
         check_fingerprint(fields, expected)
-        return entry, fields
+        return StoredModel(data, fields, output, True)
 
-    def solved() -> tuple[tuple[bytes, None], bytes]:
-        data = solve()
-        return (data, None), data
+    def solved() -> tuple[StoredModel, bytes]:
+        data, output = solve()
+        return StoredModel(data, None, output, False), cache_pack_text(output, data)
 
-    (data, fields), stored = cache_fetch(models, model_key(request), solved, matching, "FE model")
-    return data, fields, stored
+    return cache_fetch(models, model_key(request), solved, matching, "FE model")[0]
 
 
 def model_fields(data: bytes) -> dict[str, Any]:

@@ -83,15 +83,15 @@ def default_model(
     )
     solved: list[ModalModel] = []
 
-    def solved_file() -> bytes:
+    def solved_file() -> tuple[bytes, str]:
         solved.append(solve())
-        return _file_bytes(solved[0])
+        return _file_bytes(solved[0]), ""
 
-    data, _, _ = model_store.model_file(request, expected, solved_file)
+    stored = model_store.model_file(request, expected, solved_file)
     if solved:
         return solved[0]
     with tempfile.TemporaryDirectory() as folder:
-        (Path(folder) / "model.npz").write_bytes(data)
+        (Path(folder) / "model.npz").write_bytes(stored.data)
         return load_model(Path(folder) / "model.npz")
 
 

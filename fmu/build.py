@@ -28,7 +28,7 @@ from pathlib import Path
 import fmpy
 
 from jaxflex.errors import JaxflexError
-from jaxflex.runtime import cache_fetch, cache_store
+from jaxflex.runtime import cache_fetch, cache_pack_text, cache_store, cache_unpack_text
 
 C_DIR = Path(__file__).resolve().parent / "c"
 # every FMU: the instance (life cycle, checks, logging) and one FMI binding per version, over
@@ -249,22 +249,17 @@ def _build_key(compiler: str, flags, c_files, sources_dir: Path) -> str:
 
 
 def _pack(messages: str, binary: bytes) -> bytes:
-    """A store entry: the compiler's messages (length-prefixed) and the binary."""
-    text = messages.encode()
-    return len(text).to_bytes(8, "little") + text + binary
+    """A store entry: the compiler's messages and the binary."""
+    return cache_pack_text(messages, binary)
 
 
 def _unpack(entry: bytes) -> tuple[str, bytes]:
     """(messages, binary) of a store entry written by :func:`_pack`; ValueError if it is not
     one (the binary an ELF or PE file)."""
-    length = int.from_bytes(entry[:8], "little")
-    binary = entry[8 + length :]
-    if len(entry) < 8 + length or (binary[:4] != b"\x7fELF" and binary[:2] != b"MZ"):
+    messages, binary = cache_unpack_text(entry)
+    if binary[:4] != b"\x7fELF" and binary[:2] != b"MZ":
         raise ValueError("not a compiled binary")
-    try:
-        return entry[8 : 8 + length].decode(), binary
-    except UnicodeDecodeError as exc:
-        raise ValueError("not a compiled binary") from exc
+    return messages, binary
 
 
 def build_binaries(

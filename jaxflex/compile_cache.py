@@ -172,6 +172,23 @@ def decode_entry(key: str, data: bytes) -> bytes | None:
     return value
 
 
+def pack_text(text: str, data: bytes) -> bytes:
+    """Content of an entry of two parts: ``text`` (UTF-8, length-prefixed) and ``data``."""
+    encoded = text.encode()
+    return len(encoded).to_bytes(8, "little") + encoded + data
+
+
+def unpack_text(content: bytes) -> tuple[str, bytes]:
+    """(text, data) of :func:`pack_text`'s ``content``; ValueError if it is not that."""
+    length = int.from_bytes(content[:8], "little")
+    if len(content) < 8 or len(content) < 8 + length:
+        raise ValueError("not a text and data entry")
+    try:
+        return content[8 : 8 + length].decode(), content[8 + length :]
+    except UnicodeDecodeError as exc:
+        raise ValueError("not a text and data entry") from exc
+
+
 def read_regular(path: Path, max_bytes: int) -> bytes | None:
     """The bytes of ``path`` if it is a regular file (not a link, FIFO, device or directory)
     of at most ``max_bytes``, else None; never blocks (a FIFO) nor reads without end (a

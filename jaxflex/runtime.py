@@ -25,7 +25,9 @@ from jaxflex.compile_cache import SUFFIX as COMPILE_CACHE_SUFFIX
 from jaxflex.compile_cache import FileStore as CacheStore
 from jaxflex.compile_cache import enable as enable_compile_cache
 from jaxflex.compile_cache import fetch as cache_fetch
+from jaxflex.compile_cache import pack_text as cache_pack_text
 from jaxflex.compile_cache import store as cache_store
+from jaxflex.compile_cache import unpack_text as cache_unpack_text
 from jaxflex.lazy import lazy_names
 from jaxflex.progress import (
     note,
@@ -45,7 +47,9 @@ __all__ = [
     "CacheStore",
     "Need",
     "cache_fetch",
+    "cache_pack_text",
     "cache_store",
+    "cache_unpack_text",
     "check_time",
     "current_budget",
     "enable_compile_cache",

@@ -16,11 +16,13 @@ import threading
 import zipfile
 from pathlib import Path
 
+import meshio
 import numpy as np
 import pytest
 from conftest import smooth_move
 
 import fem
+import fem.modal
 import fem.model_store
 import fmu.build
 from fmu.binary_check import check_library, fmi_functions
@@ -403,3 +405,32 @@ def test_a_built_in_scene_is_solved_once_per_input(monkeypatch, tmp_path):
 def _entry_value(store: Path, name: str) -> bytes:
     """The content of the entry file ``name`` of ``store``."""
     return FileStore(store).get(name.removesuffix(SUFFIX))
+
+
+def test_a_model_from_the_store_shows_what_its_solve_printed(monkeypatch, tmp_path, capsys):
+    """A mesh too coarse for its cups: the run that finds the model in the store reads the
+    same file (its content is in the key) and shows the same summary and warnings."""
+    from test_fem_mesh_import import _plate_blocks
+
+    _, solves = _store_fe(monkeypatch, tmp_path)
+    points, blocks = _plate_blocks(n=(16, 10))
+    mesh = tmp_path / "coarse.msh"
+    meshio.write(mesh, meshio.Mesh(points, blocks), file_format="gmsh22", binary=False)
+    args = ["model", "--mesh", str(mesh), "--thickness", "1e-3", "--n-modes", "3", "-q"]
+    args += ["--cups", "0.3,0.2,0.08", "1.2,0.2,0.08", "0.75,0.6,0.08"]
+    outputs = []
+    for name in ("first", "second"):
+        assert main([*args, "-o", str(tmp_path / f"{name}.npz")]) == 0
+        outputs.append(capsys.readouterr())
+    assert len(solves) == 1
+    first, second = outputs
+    warnings = [line for line in first.err.splitlines() if "warning" in line]
+    assert warnings and [line for line in second.err.splitlines() if "warning" in line] == warnings
+    assert "FE model from the cache" in second.out
+    summary = first.out.split("wrote ")[0]
+    assert "triangle" in summary and summary in second.out
+    assert (tmp_path / "second.npz").read_bytes() == (tmp_path / "first.npz").read_bytes()
+    points, blocks = _plate_blocks(n=(16, 12))  # another mesh in the same file: solved again
+    meshio.write(mesh, meshio.Mesh(points, blocks), file_format="gmsh22", binary=False)
+    assert main([*args, "-o", str(tmp_path / "third.npz")]) == 0
+    assert len(solves) == 2
