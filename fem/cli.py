@@ -308,11 +308,9 @@ def _check_files(args: argparse.Namespace) -> None:
     for option in ("output", "plot", "vtu", "report"):
         if getattr(args, option) is not None:
             check_output_file(f"--{option}", getattr(args, option))
-    for option in ("mesh", "cad", "from_ansys", "from_nastran", "from_modes", "full", "gamma"):
+    for option in ("mesh", "cad"):  # the imports' files: fem.cli_imports, after its options
         if getattr(args, option) is not None:
-            check_input_file(f"--{option.replace('_', '-')}", getattr(args, option))
-    for path in args.from_r1 or ():
-        check_input_file("--from-r1", path)
+            check_input_file(f"--{option}", getattr(args, option))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -124,14 +124,14 @@ def _install(directory: Path, jax) -> None:
             jax_cache._cache_initialized = True
 
 
-def store(name: str, max_bytes: int, check=None) -> FileStore | None:
+def store(name: str, max_bytes: int) -> FileStore | None:
     """The store ``name`` (a subdirectory of :func:`chosen_dir`) holding at most
-    ``max_bytes``, ``check`` as :class:`FileStore`'s; None when the cache is off or the
-    directory cannot be written (the work is then done every time)."""
+    ``max_bytes``; None when the cache is off or the directory cannot be written (the work is
+    then done every time)."""
     directory = chosen_dir()
     if directory is None or _writable(directory / name) is not None:
         return None
-    return FileStore(directory / name, check, max_bytes=max_bytes)
+    return FileStore(directory / name, max_bytes=max_bytes)
 
 
 # An entry: MAGIC, one line of JSON {"key": KEY, "bytes": N, "sha256": HEX} (the key: for
@@ -213,14 +213,13 @@ def read_regular(path: Path, max_bytes: int) -> bytes | None:
 
 class FileStore:
     """Entries (bytes by key) in files written atomically, each checked on every read
-    (:func:`decode_entry`: its key, size and SHA-256; :func:`read_regular`: a regular file
-    within the store's size); a damaged entry is a miss. ``check(data)`` may refuse more
-    (raise). The get/put pair is JAX's cache interface; :meth:`building` makes concurrent
-    runs wait for an entry another run is making."""
+    (:func:`read_regular`: a regular file within the store's size; :func:`decode_entry`: its
+    key, size and SHA-256); a damaged entry is a miss. The get/put pair is JAX's cache
+    interface; :meth:`building` makes concurrent runs wait for an entry another run is
+    making."""
 
-    def __init__(self, directory: Path, check=None, *, max_bytes: int = MAX_BYTES) -> None:
+    def __init__(self, directory: Path, *, max_bytes: int = MAX_BYTES) -> None:
         self._path = directory
-        self._check = check
         self._max_bytes = max_bytes
 
     def _file(self, key: str) -> Path:
@@ -230,14 +229,9 @@ class FileStore:
         path = self._file(key)
         data = read_regular(path, self._max_bytes + MAX_HEADER_BYTES + len(MAGIC))
         value = None if data is None else decode_entry(key, data)
-        if value is None:
-            return None
-        try:
-            if self._check is not None:
-                self._check(value)  # a damaged entry: a miss, replaced by put
-            os.utime(path)  # recently used (eviction)
-        except Exception:  # whatever the check raises: a miss
-            return None
+        if value is not None:
+            with contextlib.suppress(OSError):
+                os.utime(path)  # recently used (eviction)
         return value
 
     def put(self, key: str, value: bytes) -> None:

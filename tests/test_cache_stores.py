@@ -12,6 +12,7 @@ import os
 import re
 import shutil
 import subprocess
+import sys
 import threading
 import zipfile
 from pathlib import Path
@@ -434,3 +435,23 @@ def test_a_model_from_the_store_shows_what_its_solve_printed(monkeypatch, tmp_pa
     meshio.write(mesh, meshio.Mesh(points, blocks), file_format="gmsh22", binary=False)
     assert main([*args, "-o", str(tmp_path / "third.npz")]) == 0
     assert len(solves) == 2
+
+
+def test_two_runs_at_once_solve_a_model_once(tmp_path):
+    """Two `jaxflex model` processes started together on an empty cache: one solves, the
+    other waits for its entry (the lock file) and copies it; both models are the same file."""
+    env = {**os.environ, ENV_VAR: str(tmp_path / "cache")}
+    runs = [
+        subprocess.Popen(
+            [sys.executable, "-m", "jaxflex", *MODEL_ARGS, "-o", str(tmp_path / f"{i}.npz")],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
+        for i in range(2)
+    ]
+    outputs = [run.communicate(timeout=600) for run in runs]
+    assert [run.returncode for run in runs] == [0, 0], outputs
+    assert sum("FE model from the cache" in out for out, _ in outputs) == 1
+    assert (tmp_path / "0.npz").read_bytes() == (tmp_path / "1.npz").read_bytes()

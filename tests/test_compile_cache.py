@@ -150,15 +150,10 @@ def test_the_directory_comes_from_the_environment(monkeypatch, tmp_path):
     assert "not writable" in _writable(blocker / "jax")
 
 
-def _check_entry(data: bytes) -> None:
-    if data[:1] != data[-1:] or len(set(data)) != 1:
-        raise ValueError("a half-written entry")
-
-
 def test_concurrent_writers_and_readers_see_whole_entries(tmp_path):
     # writers replace one entry with values of different lengths while readers read it; a
     # write in place (JAX's own file store) lets a reader see a mixture or a truncated file
-    store = FileStore(tmp_path, _check_entry)
+    store = FileStore(tmp_path)
     values = [bytes([i]) * (2_000_000 + 100_000 * i) for i in range(1, 5)]
     store.put("key", values[0])  # the readers always find an entry, however the threads run
     seen, failures = [], []
