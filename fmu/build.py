@@ -156,25 +156,13 @@ def compile_library(
     out_file: Path,
     c_files: Sequence[str] | None = None,
     extra_flags: Sequence[str] = (),
-) -> str:
-    """Compile the sources in ``sources_dir`` (``c_files``, default: the part FMU's) into
-    ``out_file`` (``extra_flags`` added, e.g. fmu.harness.SANITIZE_FLAGS); returns compiler
-    messages."""
-    return _compile(target, sources_dir, fmi_version, out_file, c_files, extra_flags)[0]
-
-
-def _compile(
-    target: Target,
-    sources_dir: Path,
-    fmi_version: int,
-    out_file: Path,
-    c_files: Sequence[str] | None = None,
-    extra_flags: Sequence[str] = (),
     *,
     use_store: bool = True,
 ) -> tuple[str, bool]:
-    """:func:`compile_library`'s (compiler messages, True if the binary came from the
-    store); ``use_store`` False compiles whatever the store holds (and replaces it)."""
+    """Compile the sources in ``sources_dir`` (``c_files``, default: the part FMU's) into
+    ``out_file`` (``extra_flags`` added, e.g. fmu.harness.SANITIZE_FLAGS), or copy the binary
+    of the same input from the store; returns (the compiler's messages, True if copied).
+    ``use_store`` False compiles whatever the store holds, and replaces it."""
     if shutil.which(target.compiler) is None:
         raise FmuBuildError(f"C compiler {target.compiler!r} not found on PATH (install gcc)")
     out_file.parent.mkdir(parents=True, exist_ok=True)
@@ -292,12 +280,12 @@ def build_binaries(
         folder = target.folder(fmi_version)
         out = binaries_dir / folder / f"{model_identifier}{target.suffix}"
         built = (target, sources_dir, fmi_version, out, c_files)
-        text, copied = _compile(*built)
+        text, copied = compile_library(*built)
         if copied:
             try:
                 _check(target, out, binaries_dir.parent, fmi_version, part=c_files is None)
             except FmuBuildError:  # a wrong binary in the cache: compiled again, replaced
-                text, copied = _compile(*built, use_store=False)
+                text, copied = compile_library(*built, use_store=False)
         if not copied:
             _check(target, out, binaries_dir.parent, fmi_version, part=c_files is None)
         if text:

@@ -161,6 +161,11 @@ def test_demo_runs_the_whole_pipeline(tmp_path):
     proc = run_jaxflex("demo", "-o", str(out))
     assert proc.returncode == 0, proc.stderr
     assert "cycle" in proc.stdout and "FMI 3.0" in proc.stdout
+    # where each FMU's binary came from, as it happened (issue 35: not "with gcc" for a copy)
+    fmu_lines = [line for line in proc.stdout.splitlines() if line.startswith("FMI ")]
+    assert len(fmu_lines) == 2
+    assert all(line.endswith(("FMU binary compiled with gcc", "FMU binary from the cache"))
+               for line in fmu_lines)  # fmt: skip
     assert "\r" not in proc.stderr and "shortest move:" in proc.stderr  # a redirected log
     for name in (
         "model.npz",
