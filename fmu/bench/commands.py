@@ -179,6 +179,25 @@ def run_commands(
     return out
 
 
+# sections reported as one line of named items: (section key, label, an item's text)
+LISTED = (
+    (
+        "startup",
+        "start-up",
+        lambda name, m: (
+            f"{name.replace('_', ' ')} {m['cpu_s']:.2f} s CPU ({m['wall_s']:.2f} s wall)"
+        ),
+    ),
+    (
+        "cache_checks",
+        "cache checks (read + key + SHA-256 per entry)",
+        lambda name, c: (
+            f"{name} {c['ms_per_entry']:.2f} ms/entry ({c['entries']} entries, {c['mb']:.1f} MB)"
+        ),
+    ),
+)
+
+
 def format_commands(section: dict) -> list[str]:
     """Text lines of the section (the CLI prints them)."""
     lines = [
@@ -191,29 +210,16 @@ def format_commands(section: dict) -> list[str]:
         for name, m in opt["median"].items()
     )
     lines.append(f"  {opt['command']} ({opt['model']}): {figures}")
-    if "startup" in section:
-        lines.append(
-            "  start-up: "
-            + ", ".join(
-                f"{name.replace('_', ' ')} {m['cpu_s']:.2f} s CPU ({m['wall_s']:.2f} s wall)"
-                for name, m in section["startup"].items()
-            )
-        )
     if "model_scene" in section:
         scene = section["model_scene"]
         lines.append(
             f"  {scene['command']}: cold {scene['cold']['cpu_s']:.2f} s CPU, warm (from the FE "
             f"store) {scene['warm']['cpu_s']:.2f} s CPU"
         )
-    if section.get("cache_checks"):
-        lines.append(
-            "  cache checks (read + key + SHA-256 per entry): "
-            + ", ".join(
-                f"{name} {c['ms_per_entry']:.2f} ms/entry ({c['entries']} entries, "
-                f"{c['mb']:.1f} MB)"
-                for name, c in section["cache_checks"].items()
-            )
-        )
+    for key, label, item in LISTED:
+        if section.get(key):
+            items = ", ".join(item(name, m) for name, m in section[key].items())
+            lines.append(f"  {label}: {items}")
     if "demo" in section:
         demo = section["demo"]
         lines.append(
