@@ -60,6 +60,17 @@ STATED_UNITS = {
     "U.S. Customary units (inches)": "BIN",
     "U.S. Customary units (feet)": "BFT",
 }
+# MAPDL's analysis types (ANTYPE; the result header's "kan"): only a modal analysis holds modes
+ANALYSIS_TYPES = {
+    0: "a static analysis (ANTYPE,STATIC)",
+    1: "a buckling analysis (ANTYPE,BUCKLE)",
+    2: "a modal analysis (ANTYPE,MODAL)",
+    3: "a harmonic analysis (ANTYPE,HARMIC)",
+    4: "a transient analysis (ANTYPE,TRANS)",
+    7: "a substructure analysis (ANTYPE,SUBSTR)",
+    8: "a spectrum analysis (ANTYPE,SPECTR)",
+}
+MODAL = 2
 # Largest relative eigen residual |K phi - w^2 M phi| / |K phi| accepted for .rst modes paired
 # with a .full: MAPDL's eigen solvers converge far below it; a different model (material,
 # geometry, constraints) misses it by orders of magnitude.
@@ -85,7 +96,10 @@ class RstModes:
     """Modes of an ``.rst`` file in file units: freq_hz (M,), node_ids (N,), nodes (N, 3),
     labels (D,) DOF labels, values (N, D, M) with translations in global axes, stress
     (N, 6, M) or None, units name or None, angles_deg (N, 3) the nodal coordinate systems'
-    angles (THXY, THYZ, THZX) or None."""
+    angles (THXY, THYZ, THZX) or None; what the file's result header says it holds:
+    ``analysis`` (MAPDL's ANTYPE number, 2: modal), ``sectors`` (cyclic symmetry: > 1),
+    ``complex_modes``, ``part_of`` (the global node count of a distributed result of which
+    this file holds one part, else 0)."""
 
     freq_hz: np.ndarray
     node_ids: np.ndarray
@@ -96,6 +110,46 @@ class RstModes:
     units: str | None
     path: str
     angles_deg: np.ndarray | None = None
+    analysis: int = MODAL
+    sectors: int = 1
+    complex_modes: bool = False
+    part_of: int = 0
+
+    def refuse_unless_modes(self) -> None:
+        """An InputError naming what the file holds unless it is the real modes of a modal
+        analysis of the whole model (result sets of a static analysis are load steps, their
+        "frequencies" the steps' times)."""
+        name, sets = repr(self.path), f"{self.freq_hz.size} result set(s)"
+        cyclic = f" of a cyclic symmetry model ({self.sectors} sectors)" if self.sectors > 1 else ""
+        if self.analysis != MODAL:
+            what = ANALYSIS_TYPES.get(self.analysis, f"analysis type {self.analysis}") + cyclic
+            raise InputError(
+                f"--from-ansys: {name} holds the results of {what}, not the modes of a modal "
+                f"analysis (ANTYPE,MODAL): its {sets} are at times or frequencies "
+                f"{_listed(self.freq_hz)}; solve the modes with ANTYPE,MODAL and give that .rst"
+            )
+        if self.sectors > 1:
+            raise InputError(
+                f"--from-ansys: {name} holds a cyclic symmetry modal analysis ({self.sectors} "
+                "sectors): its modes are one sector's, each of a harmonic index; expand them to "
+                "the full model (/CYCEXPAND, or a full-model modal analysis) and give that .rst"
+            )
+        if self.complex_modes:
+            raise InputError(
+                f"--from-ansys: {name} holds complex modes (a damped or rotating modal "
+                "analysis); real normal modes (MODOPT,LANB or SUBSP without damping) are read"
+            )
+        if self.part_of:
+            raise InputError(
+                f"--from-ansys: {name} is one part of a distributed result (the results of some "
+                f"of its {self.part_of} nodes); give the first part (JOBNAME0.rst), read with the "
+                "others beside it, or the combined result (RESCOMBINE)"
+            )
+
+
+def _listed(values: np.ndarray, shown: int = 4) -> str:
+    text = ", ".join(f"{v:.6g}" for v in values[:shown])
+    return text + (", ..." if values.size > shown else "")
 
 
 def _binary(path, suffix: str):
@@ -194,6 +248,9 @@ def read_rst(path: str | os.PathLike) -> RstModes:
             for m in range(rst.nsets):
                 nnum, data = rst.nodal_stress(m)
                 stress[[where[int(n)] for n in nnum], :, m] = data[:, :6]
+    header = rst._resultheader
+    distributed = type(rst).__name__ == "DistributedResult"
+    global_nodes, own_nodes = int(header.get("Glbnnod", 0) or 0), int(header.get("nnod", 0) or 0)
     return RstModes(
         np.asarray(rst.time_values, dtype=float),
         node_ids,
@@ -201,9 +258,13 @@ def read_rst(path: str | os.PathLike) -> RstModes:
         labels,
         values,
         stress,
-        STATED_UNITS.get(rst._resultheader.get("units")),
+        STATED_UNITS.get(header.get("units")),
         str(path),
         _angles(rst.mesh),
+        analysis=int(header.get("kan", MODAL)),
+        sectors=int(header.get("nSector", 1) or 1),
+        complex_modes=bool(header.get("cpxrst", 0)),
+        part_of=global_nodes if not distributed and global_nodes > own_nodes > 0 else 0,
     )
 
 
@@ -529,14 +590,28 @@ def from_rst_modes(
 ) -> ImportedModes:
     """The ImportedModes of modes read from a ``.rst`` (see :func:`from_ansys`)."""
     path, full_path = rst.path, full
+    rst.refuse_unless_modes()
     unit = resolve_units(units, rst.units, f"{str(path)!r}")
-    rigid = rigid_mask(rst.freq_hz, rigid_tol_hz, allow_rigid_modes, repr(str(path)))
+    translations = [list(rst.labels).index(name) for name in TRANSLATIONS]
+    rigid = rigid_mask(
+        rst.freq_hz,
+        rigid_tol_hz,
+        allow_rigid_modes,
+        repr(str(path)),
+        rst.nodes,
+        rst.values[:, translations, :],
+    )
     keep = ~rigid
     if max_freq_hz is not None:
         keep &= rst.freq_hz <= max_freq_hz
     kept = np.flatnonzero(keep)
     if isinstance(n_modes, int | np.integer):
         kept = kept[: int(n_modes)]
+    if kept.size == 0:
+        raise InputError(
+            f"from_ansys: {str(path)!r} leaves no elastic mode to keep (its {rst.freq_hz.size} "
+            f"mode(s): {_listed(rst.freq_hz)} Hz)"
+        )
     freq = rst.freq_hz[kept]
     values = rst.values[:, :, kept]
     columns = [list(rst.labels).index(name) for name in TRANSLATIONS]

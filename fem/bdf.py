@@ -55,6 +55,7 @@ _CEND = re.compile(r"\s*CEND\b", re.IGNORECASE)
 _CASE_SET = re.compile(r"\s*(SPC|MPC)\s*=\s*(\d+)\s*$", re.IGNORECASE)
 _INCLUDE = re.compile(r"\s*INCLUDE\b", re.IGNORECASE)
 _SYMBOL = re.compile(r"([A-Za-z_][A-Za-z0-9_]+):(.*)")
+HEAT_SOLUTIONS = ("153", "159", "NLSCSH", "NLTCSH")
 _FOREIGN = re.compile(r"[^A-Za-z0-9 +\-.*,=()/'\"_]")  # outside Nastran's character set
 
 
@@ -192,6 +193,7 @@ class BulkData:
     grids: dict[int, Grid] = field(default_factory=dict)
     case_spc: list[int] | None = None  # SPC sets case control selects (None: no case control)
     case_mpc: list[int] | None = None
+    heat: str = ""  # what makes the deck a heat-transfer analysis ("SOL 153", "APP HEAT")
     wtmass: float = 1.0
     files: list[str] = field(default_factory=list)
     parts: dict[int, BulkData] = field(default_factory=dict)
@@ -469,6 +471,19 @@ def _case_control(lines: list[str], bulk: BulkData) -> None:
     bulk.case_spc, bulk.case_mpc = sorted(found["SPC"]), sorted(found["MPC"])
 
 
+def _heat_transfer(executive: list[str]) -> str:
+    """The executive control statement that makes a deck a heat-transfer analysis: SOL 153
+    or 159 (or their names), APP HEAT; "" otherwise."""
+    for line in executive:
+        text = line.split("$", 1)[0].strip().upper()
+        words = text.replace("=", " ").split()
+        if words[:1] == ["SOL"] and words[1:2] and words[1] in HEAT_SOLUTIONS:
+            return f"SOL {words[1]}"
+        if words[:2] == ["APP", "HEAT"]:
+            return "APP HEAT"
+    return ""
+
+
 def read_bulk(path: str | os.PathLike) -> BulkData:
     """Every card of a Nastran deck (see the module docstring for the formats)."""
     path = Path(path)
@@ -487,6 +502,7 @@ def read_bulk(path: str | os.PathLike) -> BulkData:
         cend = next((i for i in range(start) if _CEND.match(lines[i])), None)
         if cend is not None:  # case control between CEND and BEGIN BULK
             _case_control(lines[cend : start - 1], bulk)
+            bulk.heat = _heat_transfer(lines[:cend])
     stream = _bulk_lines(path, start, lines, (path.resolve(),), path.resolve().parent, bulk)
     seen: set[tuple] = set()
     for card in _cards(stream):

@@ -4,9 +4,13 @@ The file must hold surfaces (a sheet body: the part's mid-surface); a solid body
 refused with what to export instead. STEP and IGES state their length unit: OpenCASCADE
 converts the coordinates to metres (for IGES, gmsh sets that target unit only once its IGES
 translator has been initialised by a first import: an IGES is read once, dropped and read
-again; the unit and the model space scale of its global section are read here, fem.iges, the
-scale applied and the result checked against the largest coordinate the file states); BREP
-has none (its coordinates are taken as metres); ``scale`` multiplies after that. Faces that
+again; the unit and the model space scale of its global section are read here, fem.iges, and
+the scale applied; the largest coordinate the file states is a plausibility hint only,
+:func:`iges_extent_warning`: Rhino writes it in inches in a millimetre file, B-spline boxes
+exceed it by 0.05-0.5 %); BREP has none (its coordinates are taken as metres); ``scale``
+multiplies after that. A file that was cut off is refused before the kernel reads it
+(fem.cad_check), and gmsh's errors end the work at once (``General.AbortOnError`` 3: an
+exception with gmsh's message, instead of meshing on). Faces that
 touch are glued (coincident edges become one), so the mesh is continuous across their
 common edges (a flange meets its base). The surface is meshed with triangles
 (quadrilaterals for the thin solid) of ``mesh_size_m``, finer where curved (at least
@@ -23,23 +27,31 @@ from __future__ import annotations
 
 import os
 import threading
+import time
+import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import numpy as np
 
-from fem.iges import iges_units
+from fem.cad_check import check_cad_file
+from fem.iges import IgesUnits, iges_units
 from fem.mesh_io import CAD_SUFFIXES, SheetMesh, sheet_from_cells
 from fem.meshing import GROWTH
+from fem.sanity import PartWarning
 from jaxflex.errors import InputError
 from jaxflex.isolated import isolated
+from jaxflex.runtime import step
 from jaxflex.stdout import silenced_stdout
 
 CURVATURE_ELEMENTS = 12
+FINEST_PER_SPAN = 1e-5  # a mesh size below this share of the part's diagonal: 1e10 elements
 _TRIANGLE, _QUAD = 2, 3  # gmsh element types
 IGES_SUFFIXES = (".iges", ".igs")
-BOX_MARGIN_M = 1e-6  # gmsh's bounding boxes are enlarged by OpenCASCADE's tolerance, 1e-7
+IGES_EXTENT_RTOL = 0.05  # read extent above the stated largest coordinate: a hint beyond this
+IGES_FAR_BELOW = 20.0  # read extent this far below it (gmsh states 1000 for 600): a hint
+THROW_ON_ERROR = 3  # gmsh's General.AbortOnError: throw an exception on every error
 _LOCK = threading.Lock()  # gmsh keeps one global state: one session at a time per process
 
 
@@ -69,6 +81,7 @@ def _session() -> Iterator[object]:
         gmsh.model.add("jaxflex-cad")
         try:
             gmsh.option.setNumber("General.Terminal", 0)
+            gmsh.option.setNumber("General.AbortOnError", THROW_ON_ERROR)
             gmsh.option.setString("Geometry.OCCTargetUnit", "M")
             yield gmsh
         finally:
@@ -99,7 +112,6 @@ def _import(gmsh, path: str | os.PathLike, scale: float) -> None:
     except Exception as exc:  # gmsh raises a plain Exception with the kernel's message
         raise InputError(f"cad: cannot read {str(path)!r} ({exc})") from exc
     if iges is not None:
-        _check_iges_extent(gmsh, entities, iges, path)
         scale = scale / iges.model_scale
     if scale != 1.0:
         gmsh.model.occ.dilate(entities, 0, 0, 0, scale, scale, scale)
@@ -118,20 +130,30 @@ def _import(gmsh, path: str | os.PathLike, scale: float) -> None:
         raise InputError(f"cad: {str(path)!r} holds no surface (a sheet body is required)")
 
 
-def _check_iges_extent(gmsh, entities, iges, path) -> None:
-    """The coordinates read (m) must lie within the largest coordinate the IGES file states
-    (global parameter 20, in its unit; 0: not stated) and the tolerance it gives."""
+def iges_extent_warning(path, lo: np.ndarray, hi: np.ndarray, scale: float = 1.0) -> str:
+    """A warning (or "") when the coordinates read (bounding box ``lo``, ``hi`` in m, after
+    ``scale``) exceed the largest coordinate an IGES file states (global parameter 20; 0:
+    not stated) by more than ``IGES_EXTENT_RTOL``, or stay ``IGES_FAR_BELOW`` times below
+    it: a hint, never a refusal, since writers fill that field loosely (Rhino in inches in
+    a millimetre file, gmsh a round upper bound)."""
+    if Path(path).suffix.lower() not in IGES_SUFFIXES:
+        return ""
+    iges: IgesUnits = iges_units(path)
     if iges.max_coordinate <= 0:
-        return
-    gmsh.model.occ.synchronize()
-    box = np.array(gmsh.model.getBoundingBox(-1, -1))
-    stated_m = (iges.max_coordinate + iges.resolution) * iges.metres_per_unit
-    if np.abs(box).max() > stated_m * (1 + 1e-6) + BOX_MARGIN_M:
-        raise InputError(
-            f"cad: {str(path)!r} was read with coordinates up to {np.abs(box).max():.6g} m, "
-            f"but the file states {iges.max_coordinate:g} {iges.unit} as its largest "
-            "coordinate; the unit conversion failed (re-export it as STEP)"
-        )
+        return ""
+    read_m = float(np.max(np.abs(np.concatenate([lo, hi]))))
+    stated_m = (iges.max_coordinate + iges.resolution) * iges.metres_per_unit * scale
+    stated_m /= iges.model_scale
+    ratio = read_m / stated_m
+    if 1 / IGES_FAR_BELOW <= ratio <= 1 + IGES_EXTENT_RTOL:  # an upper bound, often loose
+        return ""
+    inches = " (the inch-to-millimetre ratio: the field was written in inches)"
+    return (
+        f"{Path(path).name}: the coordinates read reach {read_m:.6g} m, {ratio:.4g} times the "
+        f"largest coordinate the file states ({iges.max_coordinate:g} {iges.unit}, global "
+        f"parameter 20){inches if abs(ratio / 25.4 - 1) < IGES_EXTENT_RTOL else ''}; the "
+        f"unit is taken from the units flag ({iges.describe()}): check the part's size"
+    )
 
 
 def _refine(gmsh, mesh_size_m: float, discs: Sequence[tuple[np.ndarray, float, float]]) -> None:
@@ -166,7 +188,7 @@ def cad_unit(path: str | os.PathLike) -> str:
     return "STEP unit converted to m by OpenCASCADE"
 
 
-@isolated("cad", "gmsh")
+@isolated("cad", "gmsh", precheck=check_cad_file)
 def cad_bounds(path: str | os.PathLike, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray, float]:
     """Lower and upper corners (3,) of the bounding box of a CAD file's sheet body, m, and
     its area, m^2."""
@@ -177,7 +199,7 @@ def cad_bounds(path: str | os.PathLike, scale: float = 1.0) -> tuple[np.ndarray,
     return box[:3], box[3:], float(area)
 
 
-@isolated("cad", "gmsh")
+@isolated("cad", "gmsh", precheck=check_cad_file)
 def mesh_cad(
     path: str | os.PathLike,
     mesh_size_m: float,
@@ -217,3 +239,38 @@ def mesh_cad(
     if not blocks:
         raise InputError(f"cad: gmsh made no surface element of {str(path)!r}")
     return sheet_from_cells(coords.reshape(-1, 3), blocks, str(path))
+
+
+def read_cad_bounds(
+    path: str | os.PathLike, scale: float, mesh_size_m: float | None
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """:func:`cad_bounds` with a progress line, ``mesh_size_m`` (None: the default) checked
+    against the part's size (larger than its diagonal, or below ``FINEST_PER_SPAN`` of it:
+    refused naming mesh_size), and the IGES extent hint issued as a PartWarning."""
+    step(f"cad: reading {Path(path).name} (gmsh, OpenCASCADE)")
+    tick = time.perf_counter()
+    lo, hi, area = cad_bounds(path, scale)
+    diagonal = float(np.linalg.norm(hi - lo))
+    step(
+        f"cad: read in {time.perf_counter() - tick:.1f} s: {diagonal:.4g} m across, {area:.4g} m^2"
+    )
+    if mesh_size_m is not None and not FINEST_PER_SPAN * diagonal <= mesh_size_m <= diagonal:
+        raise InputError(
+            f"mesh_size (--mesh-size): {mesh_size_m:g} m for a part {diagonal:.4g} m across; "
+            f"allowed {FINEST_PER_SPAN * diagonal:.3g} ... {diagonal:.4g} m (at most the "
+            "part's diagonal, at least 1e-5 of it)"
+        )
+    hint = iges_extent_warning(path, lo, hi, scale)
+    if hint:
+        warnings.warn(hint, PartWarning, stacklevel=2)
+    return lo, hi, area
+
+
+def meshed(path: str | os.PathLike, mesh_size_m: float, **options) -> SheetMesh:
+    """:func:`mesh_cad` (same arguments) with a progress line before and after."""
+    step(f"cad: meshing {Path(path).name} with gmsh at {mesh_size_m * 1e3:.4g} mm")
+    tick = time.perf_counter()
+    mesh = mesh_cad(path, mesh_size_m, **options)
+    cells = sum(len(c) for c in (mesh.triangles, mesh.quads))
+    step(f"cad: {cells} elements, {len(mesh.nodes)} nodes in {time.perf_counter() - tick:.1f} s")
+    return mesh

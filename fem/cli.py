@@ -15,6 +15,7 @@ import argparse
 import contextlib
 import io
 import json
+import re
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -106,7 +107,15 @@ def _tolerance(text: str) -> float:
         raise argparse.ArgumentTypeError(f"expected e.g. 1% or 0.01, got {text!r}") from exc
 
 
+# A value that starts with a minus sign is an option to argparse unless it looks like a
+# negative number; a cup or a point at negative coordinates (-0.02,0.05,0.08,0.005) is a
+# comma-separated list of numbers, so the model command counts those as numbers too.
+_NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+NEGATIVE_NUMBERS = re.compile(rf"^-{_NUMBER}(?:,-?{_NUMBER})*$")
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser._negative_number_matcher = NEGATIVE_NUMBERS  # argparse's test for "-0.5" etc.
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--scene", choices=("plate", "panel"), help="built-in part and gripper")
     src.add_argument(

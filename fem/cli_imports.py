@@ -150,15 +150,35 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
     """Import, print the summary, write the model; ``defaults``: the command's option
     defaults; ``write(args, model, result)``: fem.cli's writer of a model solved here."""
     _check_at_once(args, defaults)
-    from fem.ansys import from_ansys  # the readers load after the checks
-    from fem.from_modes import from_modes
-    from fem.identify import from_r1
-    from fem.nastran import from_nastran
-    from fem.sanity import printed_part_warnings
+    from fem.sanity import printed_part_warnings  # the readers load after the checks
 
     n_modes = args.n_modes
     if n_modes is None and args.max_freq is None and not (args.from_r1 or args.from_modes):
         n_modes = 20
+    with printed_part_warnings():  # unit slips, a thick part, laminates, model checks
+        result, model = _imported(args, n_modes)
+    if args.report and not hasattr(result, "fit"):
+        raise InputError("--report: the identification report of R1 or of measured responses")
+    if hasattr(result, "fit") and args.report:
+        write_text_atomic(args.report, json.dumps(result.fit.as_dict(), indent=2))
+        print(f"wrote {args.report}")
+    if args.from_nastran:
+        write(args, model, result)
+        return 0
+    if args.plot or args.vtu:
+        raise InputError("--plot/--vtu: only for models solved here (scenes, meshes, decks)")
+    model.save(args.output)
+    print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
+    return 0
+
+
+def _imported(args: argparse.Namespace, n_modes):
+    """(the import's result, its ModalModel at --points), the summary printed."""
+    from fem.ansys import from_ansys
+    from fem.from_modes import from_modes
+    from fem.identify import from_r1
+    from fem.nastran import from_nastran
+
     if args.from_ansys:
         result = from_ansys(
             args.from_ansys,
@@ -183,18 +203,17 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
             allow_rigid_modes=args.allow_rigid_modes,
         )
     elif args.from_nastran:
-        with printed_part_warnings():  # unit slips, a thick part, laminates (as --mesh)
-            result = from_nastran(
-                args.from_nastran,
-                units=args.units,
-                cups=list(args.cups or []),
-                spc_id=args.spc_id,
-                element=args.element,
-                n_modes=n_modes,
-                max_freq_hz=args.max_freq,
-                zeta=args.zeta,
-                allow_rigid_modes=args.allow_rigid_modes,
-            )
+        result = from_nastran(
+            args.from_nastran,
+            units=args.units,
+            cups=list(args.cups or []),
+            spc_id=args.spc_id,
+            element=args.element,
+            n_modes=n_modes,
+            max_freq_hz=args.max_freq,
+            zeta=args.zeta,
+            allow_rigid_modes=args.allow_rigid_modes,
+        )
     else:
         result = from_r1(
             args.from_r1,
@@ -209,20 +228,7 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
     points = None if args.points in (None, "all") else args.points
     identified = hasattr(result, "fit")  # R1 and measured responses: the identified damping
     zeta = None if identified else args.zeta
-    model = result.to_modal_model(points=points, zeta=zeta)
-    if args.report and not identified:
-        raise InputError("--report: the identification report of R1 or of measured responses")
-    if identified and args.report:
-        write_text_atomic(args.report, json.dumps(result.fit.as_dict(), indent=2))
-        print(f"wrote {args.report}")
-    if args.from_nastran:
-        write(args, model, result)
-        return 0
-    if args.plot or args.vtu:
-        raise InputError("--plot/--vtu: only for models solved here (scenes, meshes, decks)")
-    model.save(args.output)
-    print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
-    return 0
+    return result, result.to_modal_model(points=points, zeta=zeta)
 
 
 def _print_provenance(provenance: dict) -> None:

@@ -90,18 +90,28 @@ class CoordSystem:
 BASIC = CoordSystem(0, "R", np.zeros(3), np.eye(3))
 
 
-def _from_points(cid: int, kind: str, a, b, c, card: Card, what: str) -> CoordSystem:
+def axes_from_points(a, b, c, what: str) -> np.ndarray:
+    """(3, 3) the unit x, y, z axes (rows) of a system through A (origin), B (on its z axis)
+    and C (in its x-z plane), basic points (3,); a ValueError naming ``what`` (points or
+    grids) if they define none."""
+    a, b, c = (np.asarray(p, dtype=float) for p in (a, b, c))
     z = b - a
     if np.linalg.norm(z) == 0:
-        raise InputError(f"deck: {card.where(None)}: system {cid}: {what} A and B coincide")
+        raise ValueError(f"{what} A and B coincide")
     z = z / np.linalg.norm(z)
     y = np.cross(z, c - a)
     if np.linalg.norm(y) <= 1e-12 * max(np.linalg.norm(c - a), 1e-300):
-        raise InputError(
-            f"deck: {card.where(None)}: system {cid}: {what} C lies on the line A-B (no x-z plane)"
-        )
+        raise ValueError(f"{what} C lies on the line A-B (no x-z plane)")
     y = y / np.linalg.norm(y)
-    return CoordSystem(cid, kind, np.asarray(a, float), np.stack([np.cross(y, z), y, z]), card)
+    return np.stack([np.cross(y, z), y, z])
+
+
+def _from_points(cid: int, kind: str, a, b, c, card: Card, what: str) -> CoordSystem:
+    try:
+        axes = axes_from_points(a, b, c, what)
+    except ValueError as exc:
+        raise InputError(f"deck: {card.where(None)}: system {cid}: {exc}") from None
+    return CoordSystem(cid, kind, np.asarray(a, float), axes, card)
 
 
 @dataclass

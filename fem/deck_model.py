@@ -1,7 +1,7 @@
 """A Nastran deck as one finite-element model with six DOFs per grid (SI units): its shells
-(flat facets of our shell), beams, rods, springs, bushings and masses assembled in basic
-axes, its sheet as a fem part (where cups sit and what the model reports), and the
-outputs (cup reactions, surface stresses) of fem.outputs.
+(flat facets of our shell), beams, rods, springs, bushings, gaps, shear panels and masses
+assembled in basic axes, its sheet as a fem part (where cups sit and what the model
+reports), and the outputs (cup reactions, surface stresses) of fem.outputs.
 
 The grids of the model are the shells' corner grids (first: they are the part's nodes,
 where displacements are monitored), then the grids of the other elements and of the rigid
@@ -12,7 +12,7 @@ kg and m, D = 1/L on translations, 1 on rotations: energy m L^2 s^-2 per deck un
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -20,12 +20,15 @@ import scipy.sparse as sp
 from fem.assembly import assemble
 from fem.bdf import BulkData
 from fem.beam_sections import BeamSections
+from fem.deck_connectors import Patches, connectors
 from fem.deck_constraints import DeckConstraints
 from fem.deck_coords import DeckGeometry
 from fem.deck_lines import LineElements, line_elements
 from fem.deck_materials import Materials, ShellSection
+from fem.deck_panels import shear_panels
 from fem.deck_points import PointMatrices, point_matrices
 from fem.deck_shells import Facets, ShellSections, facet_matrices, facet_resultants, facets
+from fem.deck_solids import SolidElements, read_solids, solid_chunk
 from fem.materials import Material
 from fem.mesh import ShellMesh
 from fem.mesh_io import sheet_from_cells
@@ -38,8 +41,8 @@ from jaxflex.errors import InputError
 
 FORMULATION = (
     "Nastran deck, 6 DOFs per grid: shell facets (DKT bending + ANDES OPT membrane, "
-    "Kirchhoff), 12-DOF beams, springs, bushings, masses, rigid elements and MPCs; "
-    "consistent mass"
+    "Kirchhoff), 12-DOF beams, springs, bushings, gaps, shear panels, fasteners and spot "
+    "welds, masses, rigid elements and MPCs; consistent mass (shear panels: lumped)"
 )
 CHUNK_FACETS = 2000
 
@@ -58,6 +61,8 @@ class DeckParts:
     grid_ids: np.ndarray
     n_shell: int
     index: dict[int, int]  # grid id -> node
+    solids: list[SolidElements] = field(default_factory=list)
+    solid_mass: sp.csr_matrix | None = None  # the solids' mass (6 N, 6 N), deck units
 
 
 def read_parts(
@@ -69,13 +74,19 @@ def read_parts(
     beam_sections = BeamSections(bulk, materials)
     lines = line_elements(bulk, geometry, beam_sections)
     points = point_matrices(bulk, geometry)
-    shell_grids = sorted({g for s in shells for g in s.corners})
+    shear_panels(bulk, geometry, materials, points)
+    shell_grids = sorted({g for s in shells for g in s.grids})
+    solids = read_solids(bulk, materials)
     others = {g for pair in lines.grids for g in pair} | {g for gs in points.grids for g in gs}
+    others |= {int(g) for group in solids for g in group.grids.ravel()}
     others = sorted((others | constraints.grids) - set(shell_grids))
     grid_ids = np.array(shell_grids + others, dtype=np.int64)
     index = {int(g): i for i, g in enumerate(grid_ids)}
+    shell_facets = facets(shells, shell_sections, geometry, index)
+    nodes = np.array([geometry.positions[int(g)] for g in grid_ids])
+    connectors(bulk, geometry, materials, Patches(shell_facets, nodes, grid_ids), points)
     return DeckParts(
-        facets(shells, shell_sections, geometry, index),
+        shell_facets,
         shell_sections,
         lines,
         points,
@@ -84,6 +95,7 @@ def read_parts(
         grid_ids,
         len(shell_grids),
         index,
+        solids,
     )
 
 
@@ -123,10 +135,8 @@ def assemble_deck(parts: DeckParts, geometry: DeckGeometry, unit: Units, wtmass:
         line_nodes.reshape(-1, 2), k_lines, m_lines, n, "beams", progress
     )
     K, M = K + k_add, M + m_add
-    for size in (1, 2):
+    for size in sorted({len(g) for g in parts.points.grids}):
         chosen = [i for i, g in enumerate(parts.points.grids) if len(g) == size]
-        if not chosen:
-            continue
         point_nodes = np.array([[index[g] for g in parts.points.grids[i]] for i in chosen])
         k_pts = np.array([parts.points.stiffness[i] for i in chosen])
         m_pts = np.array([parts.points.mass[i] for i in chosen])
@@ -134,10 +144,37 @@ def assemble_deck(parts: DeckParts, geometry: DeckGeometry, unit: Units, wtmass:
             point_nodes, k_pts, m_pts, n, "springs and masses", progress
         )
         K, M = K + k_add, M + m_add
-    scale = np.tile(np.r_[np.full(3, 1 / unit.length_m), np.ones(3)], n)
-    energy = unit.mass_kg * unit.length_m**2
-    d = sp.diags(scale)
-    return (energy * (d @ K @ d)).tocsr(), (wtmass * energy * (d @ M @ d)).tocsr()
+    parts.solid_mass = sp.csr_matrix((6 * n, 6 * n))
+    for group in parts.solids:
+        k_add, m_add = _solid_blocks(group, nodes, parts.index, n, progress)
+        K, M = K + k_add, M + m_add
+        parts.solid_mass = parts.solid_mass + m_add
+    return to_si(K, unit), to_si(M, unit, wtmass)
+
+
+def _solid_blocks(group: SolidElements, nodes: np.ndarray, index: dict, n: int, progress):
+    """(K, M) (6 n, 6 n) of a group of solids: assembled on translations, placed on the
+    grids' first three DOFs."""
+    k3, m3 = assemble(
+        np.vectorize(index.get)(group.grids),
+        n,
+        3,
+        lambda chunk: solid_chunk(group, nodes, index, chunk),
+        chunk_size=2000,
+        label=f"assembly ({len(group.cards)} {group.kind})",
+        progress=progress,
+    )
+    translations = (6 * np.arange(n)[:, None] + np.arange(3)).ravel()
+    place = sp.csr_matrix((np.ones(3 * n), (translations, np.arange(3 * n))), shape=(6 * n, 3 * n))
+    return place @ k3 @ place.T, place @ m3 @ place.T
+
+
+def to_si(matrix: sp.spmatrix, unit: Units, wtmass: float = 1.0) -> sp.csr_matrix:
+    """A stiffness (or, with ``wtmass``, mass) matrix of six DOFs per grid in SI units from
+    the deck's (module docstring)."""
+    n = matrix.shape[0] // 6
+    d = sp.diags(np.tile(np.r_[np.full(3, 1 / unit.length_m), np.ones(3)], n))
+    return (wtmass * unit.mass_kg * unit.length_m**2 * (d @ matrix @ d)).tocsr()
 
 
 def representative(parts: DeckParts, mass_kg: float, unit: Units):
@@ -161,16 +198,26 @@ def representative(parts: DeckParts, mass_kg: float, unit: Units):
     return t_m, e_file * unit.modulus_to_si, float(np.clip(nu, 0.0, 0.49)), section
 
 
+def shell_cells(elements, triangles: np.ndarray, owner: np.ndarray, index: dict):
+    """The cells of the sheet (fem.mesh_io.sheet_from_cells blocks, node indices by
+    ``index``): linear elements by their corners, quadratic ones by their ``triangles``
+    (F, 3) whose ``owner`` (F,) is the element."""
+    tris, quads = [], []
+    for element in elements:
+        if not element.quadratic:
+            corners = [index[g] for g in element.corners]
+            (quads if len(corners) == 4 else tris).append(corners)
+    quadratic = np.array([e.quadratic for e in elements], dtype=bool)
+    tris.extend(triangles[quadratic[owner]].tolist())
+    return [(k, np.array(c)) for k, c in (("triangle", tris), ("quad", quads)) if c]
+
+
 def sheet_part(parts: DeckParts, geometry, unit: Units, path: str, mass_kg: float, name: str):
     """The fem part of the deck's shells (SI), and its ShellMesh (oriented facets)."""
     f = parts.facets
     xyz = np.array([geometry.positions[int(g)] for g in parts.grid_ids[: parts.n_shell]])
     xyz = xyz * unit.length_m
-    tris, quads = [], []
-    for element in f.elements:
-        corners = [parts.index[g] for g in element.corners]
-        (quads if len(corners) == 4 else tris).append(corners)
-    blocks = [(k, np.array(c)) for k, c in (("triangle", tris), ("quad", quads)) if c]
+    blocks = shell_cells(f.elements, f.triangles, f.element, parts.index)
     sheet = sheet_from_cells(xyz, blocks, path, weld=False, max_extent_m=np.inf)
     thickness, e_pa, nu, _ = representative(parts, mass_kg, unit)
     area = sheet.area_m2

@@ -12,6 +12,11 @@
   spring's point (S along GA-GB, or S1..S3 in OCID); the element system is CID's, or x
   along GA-GB and y towards the orientation vector (X1..X3 in GA's displacement system,
   or the grid GO); a grounded or zero-length bushing needs CID, as in Nastran.
+* CBUSH1D (PBUSH1D K, M): an axial spring between the grids' translations along GA-GB (or
+  CID's x; a grounded one needs CID), its mass M in halves on both ends;
+* CGAP (PGAP) as Nastran's linear solutions take it, a spring of its initial state between
+  the grids' translations (element axes as CBUSH's): closed (U0 <= 0) axial KA and
+  transverse KT (default MU1 KA), open (U0 > 0) axial KB (default 1e-14 KA) alone.
 
 Damping (CDAMPi, CVISC, PBUSH B, GE) does not enter a modal analysis (Nastran's SOL 103
 ignores it too); it is listed as ignored by fem.deck_model.
@@ -31,7 +36,7 @@ from jaxflex.errors import InputError
 
 @dataclass
 class PointMatrices:
-    """Element matrices on grids: ``grids`` lists of grid ids (one or two per element),
+    """Element matrices on grids: ``grids`` lists of grid ids (one or more per element),
     ``stiffness``/``mass`` (6 n, 6 n) each, ``cards`` the elements' cards."""
 
     grids: list[tuple[int, ...]] = field(default_factory=list)
@@ -163,8 +168,8 @@ def _bush_axes(card: Card, ga: int, gb, geometry: DeckGeometry, bulk) -> np.ndar
     length = 0.0 if gb is None else float(np.linalg.norm(geometry.positions[gb] - xa))
     if gb is None or length <= 1e-4 * max(1.0, float(np.abs(xa).max())):
         raise InputError(
-            f"deck: {card.where(7, 'CID')}: a grounded or zero-length CBUSH needs its element "
-            "system CID (as in Nastran)"
+            f"deck: {card.where(7, 'CID')}: a grounded or zero-length {card.name} needs its "
+            "element system CID (as in Nastran)"
         )
     x = (geometry.positions[gb] - xa) / length
     if card.text(4) and not card.text(5) and not card.text(6) and "." not in card.text(4):
@@ -209,6 +214,60 @@ def _cbush(card: Card, bulk, geometry: DeckGeometry, properties, out) -> None:
     out.add(card, grids, stiffness=b.T @ (k[:, None] * b))
 
 
+def _gap_stiffness(bulk: BulkData) -> dict[int, tuple[np.ndarray, Card]]:
+    """PGAP by property id: the spring constants (axial, transverse, transverse) of the
+    gap's initial state (module docstring)."""
+    out = {}
+    for card in bulk.named("PGAP"):
+        pid = card.required(card.integer(0, "PID"), 0, "PID")
+        ka = card.required(card.real(3, "KA"), 3, "KA")
+        if card.real(1, "U0", 0.0) > 0:  # open
+            k = np.array([card.real(4, "KB", 1e-14 * ka), 0.0, 0.0])
+        else:
+            kt = card.real(5, "KT", card.real(6, "MU1", 0.0) * ka)
+            k = np.array([ka, kt, kt])
+        out[pid] = (k, card)
+    return out
+
+
+def _cgap(card: Card, bulk, geometry: DeckGeometry, properties, out) -> None:
+    ga = _grid(card, 2, "GA", bulk)
+    gb = _grid(card, 3, "GB", bulk)
+    pid = card.integer(1, "PID", card.integer(0, "EID"))
+    bulk.referenced({p: c for p, (_, c) in properties.items()}, pid, ("PGAP",), card, (1, "PID"))
+    axes = _bush_axes(card, ga, gb, geometry, bulk)
+    block = axes.T @ (properties[pid][0][:, None] * axes)
+    k = np.zeros((12, 12))
+    for i, j, sign in ((0, 0, 1), (1, 1, 1), (0, 1, -1), (1, 0, -1)):
+        k[6 * i : 6 * i + 3, 6 * j : 6 * j + 3] = sign * block
+    out.add(card, [ga, gb], stiffness=k)
+
+
+def _cbush1d(card: Card, bulk, geometry: DeckGeometry, properties, out) -> None:
+    ga = _grid(card, 2, "GA", bulk)
+    gb = _grid(card, 3, "GB", bulk, required=False)
+    pid = card.integer(1, "PID", card.integer(0, "EID"))
+    prop = bulk.referenced(properties, pid, ("PBUSH1D",), card, (1, "PID"))
+    cid = card.integer(4, "CID")
+    xa = geometry.positions[ga]
+    if cid is not None and cid >= 0:
+        axis = geometry.system(cid, card, 4, "CID").frames(xa[None])[0][0]
+    elif gb is None or np.allclose(geometry.positions[gb], xa):
+        raise InputError(
+            f"deck: {card.where(4, 'CID')}: a grounded or zero-length CBUSH1D needs CID"
+        )
+    else:
+        axis = geometry.positions[gb] - xa
+        axis = axis / np.linalg.norm(axis)
+    a = np.concatenate([-axis, np.zeros(3), axis, np.zeros(3)])
+    half = np.zeros(12)
+    half[[0, 1, 2, 6, 7, 8]] = prop.real(3, "M", 0.0) / 2
+    k, m = prop.real(1, "K", 0.0) * np.outer(a, a), np.diag(half)
+    if gb is None:
+        k, m = k[6:, 6:], m[:6, :6] * 2
+    out.add(card, [ga] if gb is None else [ga, gb], stiffness=k, mass=m)
+
+
 def point_matrices(bulk: BulkData, geometry: DeckGeometry) -> PointMatrices:
     """The element matrices of every mass, scalar spring and bushing of the deck."""
     out = PointMatrices()
@@ -235,4 +294,10 @@ def point_matrices(bulk: BulkData, geometry: DeckGeometry) -> PointMatrices:
     properties = _bush_stiffness(bulk)
     for card in bulk.named("CBUSH"):
         _cbush(card, bulk, geometry, properties, out)
+    gaps = _gap_stiffness(bulk)
+    for card in bulk.named("CGAP"):
+        _cgap(card, bulk, geometry, gaps, out)
+    bushings = bulk.by_id("PBUSH1D")
+    for card in bulk.named("CBUSH1D"):
+        _cbush1d(card, bulk, geometry, bushings, out)
     return out

@@ -49,8 +49,8 @@ class ReducedConstraints(Constraints):
 @dataclass
 class Reduction:
     """u = T z: ``basis`` (n, f), ``stiffness`` and ``mass`` of z (f, f), the supports'
-    Constraints on u (``held_by_support``), the ``constraints`` to put on the system, and
-    counts for the record."""
+    Constraints on u (``held_by_support``), the ``constraints`` to put on the system, counts
+    for the record, and the g-set DOFs AUTOSPC held (``autospc``)."""
 
     basis: sp.csc_matrix
     stiffness: sp.csr_matrix
@@ -58,6 +58,7 @@ class Reduction:
     held_by_support: list[Constraints]
     constraints: ReducedConstraints
     info: dict = field(default_factory=dict)
+    autospc: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
 
 
 def displacement_systems(frames: np.ndarray) -> sp.csr_matrix:
@@ -266,6 +267,7 @@ def reduce_deck(
     tied = np.zeros(len(independent), dtype=bool)
     for spring in springs:
         tied[spring.dofs] = True
+    autospc_held = np.empty(0, dtype=np.int64)
     for attempt in range(3):
         on_i = Constraints(fixed=np.unique(fixed.astype(np.int64)), springs=springs)
         t_y, spring_k, pads = on_i.reduction(len(independent))
@@ -281,6 +283,7 @@ def reduce_deck(
         info["autospc"] = info.get("autospc", 0) + len(extra)
         info.setdefault("autospc_first", [labels(int(g)) for g in extra[:5]])
         fixed = np.concatenate([fixed, position[extra]])
+        autospc_held = np.concatenate([autospc_held, extra])
     turn, massless = massless_directions(m_free, independent[plain], len(frames))
     if len(massless):
         basis, k_free, m_free = (
@@ -297,4 +300,4 @@ def reduce_deck(
         springs=[s for c in support_cd for s in c.springs],
         reduced=(basis, sp.csr_matrix(k_free.shape), pads),  # springs: in the stiffness
     )
-    return Reduction(basis, k_free, m_free, support_cd, cups, info)
+    return Reduction(basis, k_free, m_free, support_cd, cups, info, np.sort(autospc_held))

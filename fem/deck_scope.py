@@ -1,20 +1,21 @@
 """What the Nastran door models, what it leaves out on purpose, and what it refuses: by
 card name, with the share of the deck's mass each refused card carries.
 
-* Modelled: shells (fem.deck_shells), beams and rods (fem.deck_lines), masses, scalar
-  springs and bushings (fem.deck_points), rigid elements and MPCs (fem.deck_constraints),
-  their properties, materials and coordinate systems.
+* Modelled: shells (fem.deck_shells), solids (fem.deck_solids), beams and rods
+  (fem.deck_lines), masses, scalar springs, bushings and gaps (fem.deck_points), shear
+  panels (fem.deck_panels), fasteners and spot welds between shells (fem.deck_connectors),
+  rigid elements and MPCs (fem.deck_constraints), their properties, materials and
+  coordinate systems.
 * Left out, listed in the model's record: damping (CDAMPi, CVISC: a modal analysis has
   none, as Nastran's SOL 103), reduction and support sets (ASET, OMIT, QSET, SUPORT: the
   full model is solved, rigid-body modes are found by the eigen solver), SPCD (the
   component is held), and every card that changes no stiffness or mass (loads, output,
   solution control, aerodynamics, heat transfer).
-* Refused, in one message: other elements (solids, shear panels, gaps, welds, axisymmetric
-  elements, elements on scalar points), direct matrix input, glued or contact surfaces,
-  part superelements. The message gives
-  each card's count and its share of the mass (estimated from the element geometry, its
-  property and material; "no mass" for massless elements) and recommends reading the
-  modes the user's own solver computed.
+* Refused, in one message: other elements (pyramids, axisymmetric elements, elements on
+  scalar points, seams), direct matrix input, glued or contact surfaces, part
+  superelements. The message gives each card's count and its share of the mass (estimated
+  from the element geometry, its property and material; "no mass" for massless elements)
+  and recommends reading the modes the user's own solver computed.
 """
 
 from __future__ import annotations
@@ -25,36 +26,44 @@ import numpy as np
 
 from fem.bdf import BulkData, Card
 from fem.beam_sections import BeamSections
+from fem.deck_connectors import CONNECTOR_CARDS
 from fem.deck_constraints import RIGID_CARDS
 from fem.deck_coords import DeckGeometry
 from fem.deck_lines import BEAMS, LINE_CARDS, RODS
 from fem.deck_materials import Materials
 from fem.deck_shells import SHELL_CARDS, ShellSections, read_shell
+from fem.deck_solids import SOLID_CARDS
 from jaxflex.errors import InputError
 
-POINT_CARDS = ("CONM1", "CONM2", "CMASS1", "CMASS2", "CELAS1", "CELAS2", "CBUSH")
-MODELLED = (*SHELL_CARDS, *LINE_CARDS, *POINT_CARDS, *RIGID_CARDS)
+POINT_CARDS = ("CONM1", "CONM2", "CMASS1", "CMASS2", "CELAS1", "CELAS2", "CBUSH", "CBUSH1D")
+POINT_CARDS += ("CGAP",)
+PANEL_CARDS = ("CSHEAR",)
+MODELLED = (*SHELL_CARDS, *LINE_CARDS, *POINT_CARDS, *PANEL_CARDS, *CONNECTOR_CARDS)
+MODELLED += (*SOLID_CARDS, *RIGID_CARDS)
 READ = (
     *("GRID", "GRDSET", "BAROR", "BEAMOR", "PSHELL", "PCOMP", "PCOMPG", "PBAR", "PBARL"),
     *("PBEAM", "PBEAML", "PROD", "PTUBE", "PELAS", "PMASS", "PBUSH", "MAT1", "MAT2", "MAT8"),
+    *("PGAP", "PSHEAR", "PFAST", "PWELD", "PBUSH1D", "PSOLID"),
     *("CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S"),
 )  # properties, materials, systems the modelled cards use (others' are left out)
 DAMPING = ("CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "CVISC")
 SETS = re.compile(r"[ABCQ]SET1?|OMIT1?|SUPORT1?|SPCD|SESUP|SEQSET1?")
 # cards that add stiffness, mass or constraints (elements, rigid elements, MPCs, matrices)
 STRUCTURAL = re.compile(
-    r"C(?!ORD|AERO|HBDY|ONV|ONTRL|SSCHD|MODE|YAX|YJOIN|YSUP|BUSH1D\b(?!x))\w+"
+    r"C(?!ORD|AERO|HBDY|ONV|ONTRL|SSCHD|MODE|YAX|YJOIN|YSUP|LOAD\b)\w+"
     r"|R(BE\d|BAR\d?|ROD|SPLINE|TRPLT\d?|JOINT|SSCON|BE2A|BE2GS)"
     r"|MPC\w*|SPC(ADD)?|SPC1|SPCAX|DMIG\w*|GENEL|NSM\w*|BGSET|BGADD|BCTSET"
 )
 ADVICE = (
-    "jaxflex solves shells (CQUAD4, CTRIA3, CQUAD8, CTRIA6, CQUADR, CTRIAR), beams and rods "
-    "(CBAR, CBEAM, CROD, CONROD, CTUBE), springs (CELAS1/2, CBUSH), masses (CONM1/2, "
-    "CMASS1/2) and rigid elements (RBE2, RBE3, RBAR, RBAR1, RROD); for the rest, read the "
-    "modes your own solver computed: jaxflex model --from-modes FILE"
+    "jaxflex solves shells (CQUAD4, CTRIA3, CQUAD8, CTRIA6, CQUADR, CTRIAR), solids (CHEXA, "
+    "CPENTA, CTETRA of MAT1), shear panels (CSHEAR), beams and rods (CBAR, CBEAM, CROD, "
+    "CONROD, CTUBE), springs and gaps (CELAS1/2, CBUSH, CBUSH1D, CGAP), fasteners and spot "
+    "welds between shells (CFAST, CWELD), masses (CONM1/2, CMASS1/2) and rigid elements "
+    "(RBE2, RBE3, RBAR, RBAR1, RROD); for the rest, read the modes your own solver computed: "
+    "jaxflex model --from-modes FILE"
 )
 SOLIDS = {"CHEXA": 8, "CPENTA": 6, "CTETRA": 4, "CPYRAM": 5}
-MASSLESS = ("CGAP", "CWELD", "CFAST", "CSEAM", "CELAS3", "CELAS4", "CBUSH1D", "CBUSH2D")
+MASSLESS = ("CGAP", "CWELD", "CFAST", "CSEAM", "CELAS3", "CELAS4", "CBUSH2D")
 MASSLESS += ("BGSET", "BGADD", "BCTSET")  # glued and contact surfaces
 DENSITY_FIELD = {"MAT1": 4, "MAT2": 7, "MAT8": 7, "MAT9": 22, "MAT10": 2, "MAT3": 7}
 

@@ -1,15 +1,19 @@
 """The shell elements of a Nastran deck as flat facets of our shell (fem.shell_element).
 
-Cards: CQUAD4, CTRIA3, CQUADR, CTRIAR, CQUAD8, CTRIA6 (their mid-side grids are dropped:
-the facets are the corner triangles; constraints on mid-side grids then have no effect).
-A quad is cut along its shorter diagonal (as fem.meshing.split_quads), both triangles keep
-the element's node order, so the facet normal is the element's (the positive z of
+Cards: CQUAD4, CTRIA3, CQUADR, CTRIAR, and the quadratic CQUAD8, CTRIA6 with their mid-side
+grids. A quad is cut along its shorter diagonal (as fem.meshing.split_quads). A quadratic
+element is cut into flat facets through its mid-side grids (:func:`polygon_triangles`):
+the triangle at every corner between two mid-side grids, the rest of its boundary polygon
+(corners and mid-side grids in order) by ears of the best shape, so a full CQUAD8 gives six
+facets and a full CTRIA6 four, as a mesh of half the element size; an edge without its
+mid-side grid is straight (as in Nastran's element) and stays one facet edge. Every facet
+keeps the element's node order, so its normal is the element's (the positive z of
 offsets, THETA and laminates). Per facet:
 
 * the section (fem.deck_materials) at the facet's mean thickness and mean cube of the
   thickness (the corner thicknesses T1... of the element, TFLAG = 1: relative to the
-  PSHELL's T; linear over the facet: mean of t^3 = (sum t_i^3 + sum_{i != j} t_i^2 t_j +
-  t1 t2 t3) / 10);
+  PSHELL's T; at a mid-side grid the mean of its edge's corners; linear over the facet:
+  mean of t^3 = (sum t_i^3 + sum_{i != j} t_i^2 t_j + t1 t2 t3) / 10);
 * the material axis (THETA degrees from the line G1-G2 about the element normal, or MCID:
   its x axis projected on the facet) turned into the facet's axes;
 * ZOFFS: the reference plane lies at ZOFFS along the normal from the grids (rigid offset).
@@ -45,28 +49,41 @@ SHELL_PROPERTIES = ("PSHELL", "PCOMP", "PCOMPG")
 
 @dataclass
 class ShellElement:
+    """A shell element card: ``corners`` (3 or 4 grid ids) and ``midside`` (one per edge,
+    edge k from corner k to corner k + 1; None where the card leaves it blank)."""
+
     card: Card
     pid: int
     corners: tuple[int, ...]
-    midside: tuple[int, ...]
+    midside: tuple[int | None, ...]
     theta_deg: float
     mcid: int | None
     zoffs: float
     corner_t: tuple[float | None, ...]
     tflag: int
 
+    @property
+    def grids(self) -> tuple[int, ...]:
+        """Every grid of the element: corners, then the mid-side grids given."""
+        return self.corners + tuple(g for g in self.midside if g is not None)
+
+    @property
+    def quadratic(self) -> bool:
+        return any(g is not None for g in self.midside)
+
 
 def read_shell(card: Card, bulk: BulkData) -> ShellElement:
     """A shell element card (grids checked to be in the deck)."""
     corners, n_grids, orient, zoffs, tflag, first_t = SHELL_LAYOUT[card.name]
     eid = card.required(card.integer(0, "EID"), 0, "EID")
-    grids = []
+    grids: list[int | None] = []
     for k in range(n_grids):
         label = f"G{k + 1}"
         gid = card.integer(2 + k, label)
         if gid is None or gid == 0:
             if k < corners:
                 card.required(None, 2 + k, label)
+            grids.append(None)
             continue
         if gid not in bulk.grids:
             raise InputError(f"deck: {card.where(2 + k, label)}: grid {gid} is not in the deck")
@@ -79,11 +96,12 @@ def read_shell(card: Card, bulk: BulkData) -> ShellElement:
     elif text:
         mcid = card.integer(orient, "MCID")
     thickness = tuple(card.real(first_t + k, f"T{k + 1}") for k in range(corners))
+    midside = tuple(grids[corners:]) + (None,) * (2 * corners - n_grids)
     return ShellElement(
         card,
         card.integer(1, "PID", eid),  # blank PID: the element id (Quick Reference Guide)
         tuple(grids[:corners]),
-        tuple(grids[corners:]),
+        midside,
         theta,
         mcid,
         card.real(zoffs, "ZOFFS", 0.0),
@@ -181,29 +199,89 @@ def _mean_cube(t: np.ndarray) -> np.ndarray:
     return (s3 + (s2 * s1 - s3) + t.prod(axis=1)) / 10
 
 
-def facets(elements, sections: ShellSections, geometry: DeckGeometry, index: dict) -> Facets:
-    """The facets of ``elements`` (grid ids to node indices by ``index``), deck units."""
-    n = len(elements)
-    corners = np.full((n, 4), -1, dtype=np.int64)
-    thickness = np.zeros((n, 4))
+def polygon_triangles(slots: list[int], xyz: np.ndarray) -> list[tuple[int, int, int]]:
+    """Facets (slot triples, in the polygon's order) of an element's boundary polygon:
+    ``slots`` its corners (0-3) and mid-side grids (4 + edge) in order around it, at points
+    ``xyz`` (len(slots), 3). Each corner between two mid-side grids is cut off, the rest
+    goes by ears of the best shape (twice the area over the sum of squared sides, signed
+    along the polygon's normal: a flat ear, such as a corner, the mid-side grid of its
+    straight edge and the next corner, or one turned over, comes only when nothing else
+    is left)."""
+    points = dict(zip(slots, np.asarray(xyz, dtype=float), strict=True))
+    ring = list(slots)
+    size = len(ring)
+    cut = [i for i in range(size) if ring[i] < 4 and ring[i - 1] >= 4 and ring[(i + 1) % size] >= 4]
+    out = [(ring[i - 1], ring[i], ring[(i + 1) % size]) for i in cut]
+    ring = [s for i, s in enumerate(ring) if i not in cut]
+    loop = np.array([points[s] for s in slots])
+    normal = np.cross(loop - loop.mean(axis=0), np.roll(loop, -1, axis=0) - loop.mean(axis=0))
+    normal = normal.sum(axis=0)
+    while len(ring) > 3:
+        scores = []
+        for i in range(len(ring)):
+            a, b, c = (points[ring[(i + k) % len(ring)]] for k in (-1, 0, 1))
+            sides = np.sum((b - a) ** 2) + np.sum((c - b) ** 2) + np.sum((a - c) ** 2)
+            scores.append(np.cross(b - a, c - a) @ normal / sides)
+        i = int(np.argmax(scores))
+        out.append((ring[i - 1], ring[i], ring[(i + 1) % len(ring)]))
+        del ring[i]
+    out.append((ring[0], ring[1], ring[2]))
+    return out
+
+
+def element_slots(elements, index: dict) -> np.ndarray:
+    """(E, 8) node indices (grid ids to nodes by ``index``) of each element's corners (slots
+    0-3) and mid-side grids (4 + edge), -1 where absent."""
+    slots = np.full((len(elements), 8), -1, dtype=np.int64)
     for e, element in enumerate(elements):
-        k = len(element.corners)
-        corners[e, :k] = [index[g] for g in element.corners]
-        thickness[e, :k] = _corner_thickness(element, sections.get(element))
-    nodes = np.array([geometry.positions[g] for g in sorted(index, key=index.get)])
-    quad = corners[:, 3] >= 0
-    xyz = nodes[np.where(corners >= 0, corners, 0)]
+        slots[e, : len(element.corners)] = [index[g] for g in element.corners]
+        for j, gid in enumerate(element.midside):
+            if gid is not None:
+                slots[e, 4 + j] = index[gid]
+    return slots
+
+
+def facet_slots(elements, slots: np.ndarray, nodes: np.ndarray):
+    """(owner (F,) element index, local (F, 3) slots) of the facets of ``elements`` with
+    ``slots`` (E, 8) (:func:`element_slots`) at ``nodes`` (N, 3); the facets' node indices
+    are ``np.take_along_axis(slots[owner], local, axis=1)``."""
+    quadratic = np.array([e.quadratic for e in elements], dtype=bool)
+    quad = (slots[:, 3] >= 0) & ~quadratic
+    xyz = nodes[np.where(slots[:, :4] >= 0, slots[:, :4], 0)]
     short_ac = np.linalg.norm(xyz[:, 0] - xyz[:, 2], axis=1) <= np.linalg.norm(
         xyz[:, 1] - xyz[:, 3], axis=1
     )
     first = np.where((quad & ~short_ac)[:, None], [0, 1, 3], [0, 1, 2])
     second = np.where(short_ac[:, None], [0, 2, 3], [1, 2, 3])
-    owner = np.concatenate([np.arange(n), np.flatnonzero(quad)])
-    local = np.concatenate([first, second[quad]])
-    triangles = np.take_along_axis(corners[owner], local, axis=1)
+    linear = np.flatnonzero(~quadratic)
+    owner = [linear, np.flatnonzero(quad)]
+    local = [first[linear], second[quad]]
+    for e in np.flatnonzero(quadratic):
+        corners = len(elements[e].corners)
+        ring = [s for k in range(corners) for s in (k, 4 + k) if slots[e, s] >= 0]
+        triangles = polygon_triangles(ring, nodes[slots[e, ring]])
+        owner.append(np.full(len(triangles), e))
+        local.append(np.array(triangles, dtype=np.int64))
+    owner_all, local_all = np.concatenate(owner), np.concatenate(local)
+    order = np.argsort(owner_all, kind="stable")
+    return owner_all[order], local_all[order]
+
+
+def facets(elements, sections: ShellSections, geometry: DeckGeometry, index: dict) -> Facets:
+    """The facets of ``elements`` (grid ids to node indices by ``index``), deck units."""
+    n = len(elements)
+    slots = element_slots(elements, index)
+    thickness = np.zeros((n, 8))
+    for e, element in enumerate(elements):
+        k = len(element.corners)
+        t = _corner_thickness(element, sections.get(element))
+        thickness[e, :k] = t
+        thickness[e, 4 : 4 + k] = 0.5 * (t + np.roll(t, -1))  # the mid-side grids'
+    nodes = np.array([geometry.positions[g] for g in sorted(index, key=index.get)])
+    owner, local = facet_slots(elements, slots, nodes)
+    triangles = np.take_along_axis(slots[owner], local, axis=1)
     t = np.take_along_axis(thickness[owner], local, axis=1)
-    order = np.argsort(owner, kind="stable")
-    owner, local, triangles, t = owner[order], local[order], triangles[order], t[order]
+    corners = slots[:, :4]
     angle = np.zeros(len(owner))
     oriented = np.array([sections.get(e).oriented for e in elements])
     rows = np.flatnonzero(oriented[owner])

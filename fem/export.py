@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from fem.modal import ModalResult
+from fem.system import surface_triangles
 from fem.transient import TransientResult
 from jaxflex.errors import InputError
 from jaxflex.files import atomic_path
@@ -81,25 +82,30 @@ def export_transient(
             w.write_data(float(t), point_data={"displacement": u})
 
 
-def _triangles(result: ModalResult) -> np.ndarray:
-    cells = result.system.cells
-    if result.system.cell_type == "triangle":
-        return cells
-    a, b, c, d, ab, bc, cd, da, o = cells.T  # quad9 -> 4 sub-quads -> 8 triangles
-    quads = [(a, ab, o, da), (ab, b, bc, o), (o, bc, c, cd), (da, o, cd, d)]
-    tris = [np.column_stack(t) for q in quads for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3]))]
-    return np.concatenate(tris)
+def _outline_supports(ax, supports) -> None:
+    """The supports on a mode map: each cup's disc as a black outline, each other held
+    point as a black cross (the map's colours stay readable under them)."""
+    angle = np.linspace(0, 2 * np.pi, 65)
+    for support in supports:
+        disc = support.contact_disc
+        if disc is not None:
+            ax.plot(disc.x + disc.radius * np.cos(angle), disc.y + disc.radius * np.sin(angle),
+                    color="k", lw=0.9)  # fmt: skip
+        elif support.anchor_xy is not None:
+            ax.plot(*support.anchor_xy, "k+", ms=7, mew=1.2)
 
 
 def plot_part(result: ModalResult, path: str | os.PathLike, n_modes: int = 4) -> None:
     """PNG: the part's footprint with its supports, and contour plots of the normal (z)
-    displacement of the first ``n_modes`` modes."""
+    displacement of the first ``n_modes`` modes with the supports outlined on them."""
     import matplotlib.tri as mtri  # matplotlib: only when drawing
 
     from jaxflex.plots import plt, save_figure
 
     nodes = result.system.nodes
-    tri = mtri.Triangulation(nodes[:, 0], nodes[:, 1], _triangles(result))
+    tri = mtri.Triangulation(
+        nodes[:, 0], nodes[:, 1], surface_triangles(result.system.cells, result.system.cell_type)
+    )
     n = min(int(n_modes), result.n_modes)
     cols = min(3, n + 1)
     rows = int(np.ceil((n + 1) / cols))
@@ -120,6 +126,7 @@ def plot_part(result: ModalResult, path: str | os.PathLike, n_modes: int = 4) ->
         w = shapes[:, 2, i]
         level = np.abs(w).max() or 1.0
         ax.tricontourf(tri, w, levels=np.linspace(-level, level, 21), cmap="RdBu_r")
+        _outline_supports(ax, result.supports)
         ax.set_title(f"mode {i + 1}: {result.freq_hz[i]:.2f} Hz (u_z)", fontsize=9)
     for ax in axes.flat:
         ax.set_aspect("equal")

@@ -31,6 +31,7 @@ import numpy as np
 
 from fem.identify import identify_r1
 from fem.imported import ImportedModes, file_digest
+from fem.model_checks import check_finite
 from fem.op2_modes import read_op2_modes
 from fem.punch import read_punch_modes
 from fem.r1_layout import R1Layout, steps_from_zero
@@ -128,6 +129,8 @@ def _from_solver_modes(
     modes: SolverModes, units, gamma, nodes, n_modes, max_freq_hz, zeta, allow, rigid_tol_hz
 ) -> ImportedModes:
     source = repr(modes.path)
+    for name in ("freq_hz", "shapes", "generalized_mass", "gamma", "nodes"):
+        check_finite(name, getattr(modes, name), source)  # before any scaling hides them
     unit = resolve_units(units, None, source) if modes.units is None else modes.units
     if units is not None and modes.units is not None:
         given = resolve_units(units, None, source)
@@ -136,7 +139,7 @@ def _from_solver_modes(
                 f"units: {source} states {unit.description}; units={units!r} says otherwise; "
                 "omit units to use the file's"
             )
-    rigid = rigid_mask(modes.freq_hz, rigid_tol_hz, allow, source)
+    rigid = rigid_mask(modes.freq_hz, rigid_tol_hz, allow, source, modes.nodes, modes.shapes)
     keep = ~rigid
     if max_freq_hz is not None:
         keep &= modes.freq_hz <= max_freq_hz

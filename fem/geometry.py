@@ -20,7 +20,7 @@ import os
 import numpy as np
 
 from fem import meshing
-from fem.cad import mesh_cad
+from fem.cad import meshed
 from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
 from fem.mesh_io import SheetMesh
 from fem.surface_index import SurfaceIndex
@@ -215,7 +215,7 @@ class CadSurface(_MeshQueries):
             point = [cup.x, cup.y] if cup.z is None else [cup.x, cup.y, cup.z]
             centre = self.surface_point(np.array([point], dtype=float))[0]
             discs.append((centre, cup.radius, min(size_m, fine_fraction * cup.radius)))
-        return mesh_cad(self.path, size_m, scale=self.scale, discs=discs, quads=quads)
+        return meshed(self.path, size_m, scale=self.scale, discs=discs, quads=quads)
 
     def plate_mesh(self, size_m, cups, fine_fraction) -> PlateMesh:
         return self._sheet(size_m, cups, fine_fraction, False).plate_mesh()

@@ -18,6 +18,7 @@ from scipy.spatial import cKDTree
 
 from fem.damping import describe_damping, modal_zeta
 from fem.modal import select_node_indices
+from fem.model_checks import check_finite, check_nodes, check_participation, check_shapes
 from jaxflex.errors import InputError
 from jaxflex.model import MODES_ONLY_STATIC, ModalModel
 from jaxflex.response import RotationalInertia
@@ -90,6 +91,7 @@ class ImportedModes:
         ``labels`` default to the source's node numbers; ``zeta`` overrides the damping."""
         if self.n_modes == 0:
             raise InputError("to_modal_model: the source holds no elastic mode")
+        self.check()
         if self.gamma is None:
             raise InputError(f"participation factors: {self.gamma_missing}")
         nodes = self._require_nodes()
@@ -111,6 +113,18 @@ class ImportedModes:
             static_shapes=None if self.static_shapes is None else self.static_shapes[idx],
             rotation=self.rotation,
         )
+
+    def check(self) -> None:
+        """Refuse what no valid set of modes can be, warn about what is unusual
+        (fem.model_checks): non-finite values, node ids given twice, all nodes at one
+        point, zero shapes, participation factors that contradict the shapes or the mass."""
+        source = str(self.provenance.get("source", "imported modes"))
+        for name in ("freq_hz", "shapes", "gamma", "nodes", "mobile_mass_kg"):
+            check_finite(name, getattr(self, name), source)
+        check_nodes(self.node_ids, self.nodes, source)
+        check_shapes(self.freq_hz, self.shapes, self.gamma, source)
+        rigid = int(self.provenance.get("rigid_modes", {}).get("count", 0))
+        check_participation(self.shapes, self.gamma, self.mobile_mass_kg, rigid, source)
 
     def meta(self, damping=None, n_points: int | None = None) -> dict[str, Any]:
         """JSON-serialisable description stored in the ModalModel."""

@@ -24,11 +24,12 @@ from fem.outputs import modal_outputs, static_displacements, static_response
 from fem.parts import Part
 from fem.plan import fe_plan
 from fem.plate import assemble_plate
+from fem.rigid_modes import rigid_by_gap
 from fem.rotation_integrals import rotational_inertia
 from fem.shell import assemble_shell
 from fem.solid import assemble_solid
 from fem.supports import as_support_list, check_layout, contact_discs
-from fem.system import FESystem
+from fem.system import FESystem, surface_triangles
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 from jaxflex.model import ModalModel
@@ -185,7 +186,8 @@ class ModalResult:
         solve, fem.outputs.static_response) and, with ``outputs`` (default), the cup
         reactions and the surface stresses; a part with rigid-body modes has neither. Plate,
         thin-solid and shell models carry the inertia data of turning moves
-        (fem.rotation_integrals)."""
+        (fem.rotation_integrals); a model at every node carries the mesh's triangles
+        (``surface``, for pictures and animations)."""
         if self.n_modes == 0:
             raise InputError("to_modal_model: the analysis found no elastic mode")
         idx = self.select_nodes(points, key_points, key_tolerance_m)
@@ -206,6 +208,7 @@ class ModalResult:
             self, idx if held else None, outputs=cups is not None or stress is not None
         )
         self.__dict__.pop("_stiffness_factor", None)  # K_ff's LU is not kept with the result
+        every_node = np.array_equal(idx, np.arange(len(self.system.nodes)))
         return ModalModel(
             freq_hz=self.freq_hz,
             zeta=zeta_arr,
@@ -218,7 +221,12 @@ class ModalResult:
             stress=stress,
             static_shapes=static,
             rotation=rotation,
+            surface=self.surface() if every_node else None,
         )
+
+    def surface(self) -> np.ndarray:
+        """(T, 3) the triangles of the mesh's nodes (fem.system.surface_triangles)."""
+        return surface_triangles(self.system.cells, self.system.cell_type)
 
     def meta(self, damping=None, n_points: int | None = None) -> dict[str, Any]:
         """JSON-serialisable description stored in the ModalModel."""
@@ -300,7 +308,8 @@ class ModeSolution:
     """Elastic modes of K_free z = omega^2 M_free z with their participation (SI units).
 
     freq_hz (M,), vectors (n_free, M) mass-normalised, gamma (M, 3) = vectors^T load in
-    kg^0.5; rigid_freq_hz (R,) and rigid_gamma (R, 3) of the rigid-body modes found;
+    kg^0.5; rigid_freq_hz (R,), rigid_gamma (R, 3) and rigid_vectors (n_free, R) of the
+    rigid-body modes found;
     mobile_mass_kg (3,) = load^T M_free^-1 load (the sum of Gamma^2 over all modes);
     static_residual_fraction (3,) as in :class:`ModalResult`; timings_s.
     """
@@ -313,6 +322,7 @@ class ModeSolution:
     mobile_mass_kg: np.ndarray
     static_residual_fraction: np.ndarray
     timings_s: dict[str, float]
+    rigid_vectors: np.ndarray | None = None
 
 
 def solve_modes(
@@ -359,9 +369,11 @@ def solve_modes(
     rigid_limit = (2 * np.pi * rigid_tol_hz) ** 2
     if dense:  # a dense solve resolves omega^2 only to ~eps * lambda_max (thin solids: ~1e14)
         rigid_limit = max(rigid_limit, 100 * np.finfo(float).eps * np.abs(values).max())
-    rigid = values < rigid_limit
+    freq_all = np.sqrt(np.abs(values)) / (2 * np.pi)
+    rigid = (values < rigid_limit) | rigid_by_gap(freq_all, rigid_tol_hz)  # fem.rigid_modes
     if rigid.any() and rigid_count is None:
-        raise InputError(rigid_message.format(count=int(rigid.sum()), tol=rigid_tol_hz))
+        shown = max(rigid_tol_hz, float(f"{1.01 * freq_all[rigid].max():.2g}"))
+        raise InputError(rigid_message.format(count=int(rigid.sum()), tol=shown))
     all_gamma = vectors.T @ load
     values_el, vectors_el = values[~rigid], vectors[:, ~rigid]
     if not dense and n_modes is not None:
@@ -396,6 +408,7 @@ def solve_modes(
         mobile_mass_kg=mobile,
         static_residual_fraction=static_res,
         timings_s=timings,
+        rigid_vectors=vectors[:, rigid],
     )
 
 

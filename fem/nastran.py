@@ -3,18 +3,24 @@
 A deck (fem.bdf reads it, fem.deck_coords places its grids) becomes one of two models:
 
 * **the deck model** (fem.deck_model, the default): six DOFs per grid in basic axes; its
-  shells as facets of our shell (DKT + OPT, Kirchhoff), any mix of properties (PSHELL,
-  PCOMP/PCOMPG) and materials (MAT1, MAT2, MAT8), corner thicknesses and offsets; beams and
-  rods, scalar springs, bushings and masses; rigid elements and MPCs as dependent
+  shells as facets of our shell (DKT + OPT, Kirchhoff; quadratic shells through their
+  mid-side grids), any mix of properties (PSHELL, PCOMP/PCOMPG) and materials (MAT1, MAT2,
+  MAT8), corner thicknesses and offsets; beams and rods, scalar springs, bushings, gaps,
+  shear panels, fasteners, spot welds and masses; rigid elements and MPCs as dependent
   components, SPCs (translations and rotations, in the grids' displacement systems) as held
-  components, Nastran's AUTOSPC (fem.deck_reduce);
+  components, but held drilling rotations that Nastran's shells do not feel
+  (fem.deck_drilling), Nastran's AUTOSPC (fem.deck_reduce). Its lowest modes are sorted
+  out (fem.deck_zero_modes: mechanisms and modes below the rigid cut-off that deform the
+  part are refused with the figure), and the shift Nastran's default lumped mass would give
+  its modes is estimated (fem.deck_mass, warned above 1 %);
 * **our plate or thin solid** (``element`` "morley", "argyris" or "hex2"; a flat deck of
   shells alone, one isotropic PSHELL without offsets or corner thicknesses, translations
   held, is the Morley plate by default, as before): the part as fem.read_mesh would build
   it, SPCs as pinned points.
 
 What the door leaves out or refuses is decided by fem.deck_scope (refusals name each card
-with its share of the mass). The suction cups of the gripper may be given as well
+with its share of the mass); a heat-transfer deck (SOL 153, 159, APP HEAT) is refused as
+such. The suction cups of the gripper may be given as well
 (``cups``). Nastran decks state no units: they are given (fem.units). Grids are never
 merged, even where two share a location (a deck keeps such seams apart on purpose).
 """
@@ -31,6 +37,8 @@ import numpy as np
 from fem.bdf import BulkData, read_bulk
 from fem.deck_constraints import DeckConstraints, deck_constraints
 from fem.deck_coords import DeckGeometry
+from fem.deck_drilling import free_drilling
+from fem.deck_mass import lumped_mass, lumped_note, lumped_shift
 from fem.deck_materials import Materials
 from fem.deck_model import (
     FORMULATION,
@@ -38,11 +46,27 @@ from fem.deck_model import (
     deck_outputs,
     read_parts,
     sheet_part,
+    shell_cells,
     stats,
+    to_si,
 )
 from fem.deck_reduce import reduce_deck
 from fem.deck_scope import MODELLED, classify, refuse_outside
-from fem.deck_shells import SHELL_CARDS, ShellSections, read_shell
+from fem.deck_shells import (
+    SHELL_CARDS,
+    ShellSections,
+    element_slots,
+    facet_slots,
+    read_shell,
+)
+from fem.deck_zero_modes import (
+    RIGID_TOL_HZ,
+    ZERO_ENERGY,
+    mechanism_message,
+    regroup,
+    soft_message,
+    sort_zero_modes,
+)
 from fem.imported import file_digest
 from fem.materials import Material
 from fem.mesh_io import FLAT_RELATIVE, sheet_from_cells
@@ -118,17 +142,14 @@ def _simple(bulk: BulkData, shells, sections: ShellSections, constraints: DeckCo
     return reasons, (next(iter(values))[0] if values else None, material)
 
 
-def _pins(bulk, constraints, flat: bool, shell_grids: set, midside: set):
+def _pins(bulk, constraints, flat: bool, shell_grids: set):
     """Grid ids pinned (translations held) for our plate or thin solid, and counts."""
     held: dict[int, set] = {}
     for gid, comp in constraints.held:
         held.setdefault(gid, set()).add(str(comp))
-    pinned, ignored, on_midside = [], 0, 0
+    pinned, ignored = [], 0
     for gid, comps in sorted(held.items()):
         translations = comps & {"1", "2", "3"}
-        if gid in midside and gid not in shell_grids:
-            on_midside += 1
-            continue
         if flat:
             keep = "3" in translations  # 1, 2 (in-plane) and 6 (drilling): not plate DOFs
         else:
@@ -146,16 +167,16 @@ def _pins(bulk, constraints, flat: bool, shell_grids: set, midside: set):
             card = next(c for (g, _), c in constraints.held.items() if g == gid)
             raise InputError(f"deck: {card.where(None)}: grid {gid} is held but no shell uses it")
         pinned.append(gid)
-    return pinned, {"held_grids": len(pinned), "constraints_without_effect": ignored,
-                    "constraints_on_midside_grids": on_midside}  # fmt: skip
+    return pinned, {"held_grids": len(pinned), "constraints_without_effect": ignored}
 
 
 def _plate_part(path, bulk, geometry, unit, shells, element, simple, constraints):
-    """(part, pinned supports, info) of our plate or thin solid."""
+    """(part, pinned supports, info) of our plate or thin solid (quadratic elements as the
+    facets of the deck model, fem.deck_shells)."""
     thickness, mat = simple
     if mat.rho * bulk.wtmass <= 0:
         raise InputError(_massless(bulk))
-    grid_ids = sorted({g for s in shells for g in s.corners})
+    grid_ids = sorted({g for s in shells for g in s.grids})
     index = {g: i for i, g in enumerate(grid_ids)}
     xyz = np.array([geometry.positions[g] for g in grid_ids]) * unit.length_m
     try:
@@ -167,18 +188,16 @@ def _plate_part(path, bulk, geometry, unit, shells, element, simple, constraints
         )
     except InputError as exc:
         raise InputError(f"deck: {mat.card.label} {exc}") from exc
-    blocks = [
-        (kind, np.array([[index[g] for g in s.corners] for s in shells if len(s.corners) == n]))
-        for kind, n in (("triangle", 3), ("quad", 4))
-        if any(len(s.corners) == n for s in shells)
-    ]
+    slots = element_slots(shells, index)
+    owner, local = facet_slots(shells, slots, xyz)
+    triangles = np.take_along_axis(slots[owner], local, axis=1)
+    blocks = shell_cells(shells, triangles, owner, index)
     sheet = sheet_from_cells(xyz, blocks, str(path), weld=False, max_extent_m=np.inf)
     description = {"shape": "Nastran deck", "path": str(path)}
     part = part_from_mesh(
         sheet, thickness * unit.length_m, material, element, Path(path).name, description
     )
-    midside = {g for s in shells for g in s.midside}
-    pinned, info = _pins(bulk, constraints, bool(sheet.is_flat), set(index), midside)
+    pinned, info = _pins(bulk, constraints, bool(sheet.is_flat), set(index))
     return part, [PointSupport(*xyz[index[g]]) for g in pinned], info
 
 
@@ -206,12 +225,15 @@ def _deck_result(
     check_layout(supports, part, allow_rigid_modes=True)  # rigid modes: the solver says
     index = parts.index
     held = {k: c for k, c in constraints.held.items() if k[0] in index}
+    frames = geometry.frames(parts.grid_ids)
+    drilling = free_drilling(held, parts, nodes, frames, constraints.grids)
+    held = {k: c for k, c in held.items() if k not in drilling}
     model_constraints = DeckConstraints(held, constraints.relations, constraints.info)
     tick = time.perf_counter()
     reduction = reduce_deck(
         K,
         M,
-        geometry.frames(parts.grid_ids),
+        frames,
         lambda key: 6 * index[key[0]] + key[1] - 1,
         model_constraints,
         [s.hold_solid(dofs, i) for i, s in enumerate(supports)],
@@ -239,37 +261,99 @@ def _deck_result(
     count = n_modes
     if isinstance(n_modes, int) and T.shape[1] <= n_modes + 8:  # a model of a few DOFs
         count = "all"  # every mode, densely (the sparse solver needs more DOFs than modes)
-    try:
-        modes = solve_modes(
-            reduction.stiffness,
-            reduction.mass,
-            load,
-            observation,
-            count,
-            max_freq_hz=max_freq_hz,
-            rigid_count=6 if allow_rigid_modes else None,
-            rigid_message="supports: the deck's constraints and the cups leave {count} "
-            "rigid-body mode(s) (below {tol:g} Hz): the part is not held; add SPC or cups, or "
-            "pass allow_rigid_modes=True (--allow-rigid-modes)",
-            progress=progress,
-        )
-    except RuntimeError as exc:  # SuperLU: a singular mass or shifted stiffness matrix
-        raise InputError(
-            f"deck: the model cannot be solved ({exc}): a motion without mass or without "
-            "stiffness that spans several grids (point masses without rotary inertia on a rigid "
-            "element, a mechanism); give the masses inertia or hold the mechanism"
-        ) from None
+    grids = (nodes, parts.grid_ids, frames)
+    modes = _solve(reduction, load, observation, count, max_freq_hz, allow_rigid_modes,
+                   grids, progress)  # fmt: skip
     timings.update(modes.timings_s)
     reduced = (T, reduction.stiffness, reduction.mass, load, observation)
     result = modal_result(part, supports, system, reduced, modes, zeta, timings, t_start)
+    shift = _lumped_shift(bulk, parts, unit, nodes, T @ modes.vectors, modes.freq_hz, part.name)
     info = {
         "grids": n_grids,
         "shell_facets": len(parts.facets.triangles),
-        "held_components_without_effect": len(constraints.held) - len(held),
+        "held_components_without_effect": len(constraints.held) - len(held) - len(drilling),
+        "held_drilling_rotations_left_free": len(drilling),
+        "lumped_mass_shift": shift,
         **reduction.info,
         "notes": _notes(parts),
     }
     return result, info, parts
+
+
+RIGID_MESSAGE = (
+    "supports: the deck's constraints and the cups leave {count} rigid-body mode(s) (below "
+    "{tol:g} Hz): the part is not held; add SPC or cups, or pass allow_rigid_modes=True "
+    "(--allow-rigid-modes)"
+)
+
+
+def _solve(reduction, load, observation, count, max_freq_hz, allow_rigid_modes, grids, progress):
+    """The modes of the reduced deck model, its lowest ones sorted out (fem.deck_zero_modes):
+    mechanisms and modes below the rigid cut-off that deform the part are refused, rigid-body
+    modes without ``allow_rigid_modes`` too. ``grids``: (nodes (N, 3) m, grid ids, their
+    displacement systems (N, 3, 3))."""
+
+    def solve(rigid_count):
+        try:
+            return solve_modes(
+                reduction.stiffness,
+                reduction.mass,
+                load,
+                observation,
+                count,
+                max_freq_hz=max_freq_hz,
+                rigid_count=rigid_count,
+                rigid_message=RIGID_MESSAGE,
+                progress=progress,
+            )
+        except (RuntimeError, np.linalg.LinAlgError) as exc:  # a singular mass or K - s M
+            raise InputError(
+                f"deck: the model cannot be solved ({exc}): a motion without mass or without "
+                "stiffness that spans several grids (point masses without rotary inertia on a "
+                "rigid element, a mechanism); give the masses inertia or hold the mechanism"
+            ) from None
+
+    try:
+        modes = solve(6 if allow_rigid_modes else None)
+    except InputError as exc:  # rigid-body modes, or what looks like them: say which
+        if not str(exc).startswith("supports:"):
+            raise
+        modes = solve(6)
+    found = sort_zero_modes(
+        reduction.stiffness,
+        reduction.basis,
+        grids,
+        reduction.autospc,
+        modes.rigid_vectors,
+        modes.rigid_freq_hz,
+        modes.vectors,
+    )
+    if found.mechanisms:
+        raise InputError(mechanism_message(found))
+    if found.soft_hz.size:
+        raise InputError(soft_message(found))
+    called = len(modes.rigid_freq_hz)
+    deforming = found.energy[:called] >= ZERO_ENERGY  # called rigid by a frequency gap
+    rigid = found.energy[called:] < ZERO_ENERGY  # rigid, above the cut-off
+    modes = regroup(modes, deforming, rigid, count if isinstance(count, int) else None)
+    if modes.rigid_freq_hz.size and not allow_rigid_modes:
+        raise InputError(RIGID_MESSAGE.format(count=modes.rigid_freq_hz.size, tol=RIGID_TOL_HZ))
+    return modes
+
+
+def _lumped_shift(bulk, parts, unit, nodes_m: np.ndarray, vectors_u, freq_hz, name: str):
+    """Nastran's lumped mass's estimated shift of the modes (fem.deck_mass) as a list, warned
+    where it exceeds 1 %; "coupled" when the deck asks Nastran for coupled mass (PARAM
+    COUPMASS > 0)."""
+    for card in bulk.named("PARAM"):
+        if card.text(0) == "COUPMASS" and (card.integer(1, "V1") or 0) > 0:
+            return "coupled (PARAM COUPMASS)"
+    lumped = to_si(lumped_mass(parts, nodes_m / unit.length_m), unit, bulk.wtmass)
+    shift = lumped_shift(freq_hz, vectors_u, lumped)
+    note = lumped_note(shift)
+    if note:
+        warnings.warn(f"{name}: {note}", PartWarning, stacklevel=4)
+    return [round(float(v), 5) for v in shift]
 
 
 def _massless(bulk: BulkData) -> str:
@@ -333,6 +417,11 @@ def from_nastran(
     max_freq_hz = check_request(n_modes, max_freq_hz, zeta)
     bulk = read_bulk(path)
     unit = resolve_units(units, None, f"the Nastran deck {str(path)!r}")
+    if bulk.heat:
+        raise InputError(
+            f"deck: {Path(path).name} is a heat-transfer analysis ({bulk.heat}): its materials "
+            "(MAT4, MAT5) and elements carry heat, not the stiffness and mass of modes"
+        )
     geometry = DeckGeometry(bulk)
     refused, left_out = classify(bulk)
     if refused or bulk.parts:
@@ -406,7 +495,7 @@ def from_nastran(
 
 
 def _is_flat(geometry: DeckGeometry, shells) -> bool:
-    """Whether the shells' corner grids lie in a plane z = const (as fem.mesh_io)."""
-    xyz = np.array([geometry.positions[g] for s in shells for g in s.corners])
+    """Whether the shells' grids lie in a plane z = const (as fem.mesh_io)."""
+    xyz = np.array([geometry.positions[g] for s in shells for g in s.grids])
     extent = float(np.ptp(xyz, axis=0).max())
     return bool(np.ptp(xyz[:, 2]) <= FLAT_RELATIVE * max(extent, 1e-300))

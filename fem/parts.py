@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from fem.cad import cad_bounds, cad_unit, mesh_cad
+from fem.cad import cad_unit, meshed, read_cad_bounds
 from fem.choices import ELEMENTS as ELEMENTS  # their home: the light names
 from fem.choices import PLATE_ELEMENTS as PLATE_ELEMENTS
 from fem.geometry import CadSurface, GivenMesh, Rectangle, check_sheet_element
@@ -410,7 +410,7 @@ def read_cad(
     ("hex2" meshes quadrilaterals)."""
     scale = check_positive("scale", scale)
     _check_common(thickness, element or "shell", mesh_size, ELEMENTS)
-    lo, hi, area = cad_bounds(path, scale)
+    lo, hi, area = read_cad_bounds(path, scale, mesh_size)
     check_extent(float(np.max(hi - lo)), str(path), "cad")
     # where points lie, the area and the span come from a mesh at the element size (or 1/40
     # of the diagonal: the facets' area then differs from the surface's by < 1e-4 for
@@ -422,7 +422,7 @@ def read_cad(
     cells = refined_cells(area, probe, (), quads=cheapest == "hex2")
     analysis = plan_of_cells(cheapest, cells, 1, probe).need("the modal analysis of the sheet")
     require(cad_mesh_need(path, area, probe), analysis)
-    base = mesh_cad(path, probe, scale=scale)
+    base = meshed(path, probe, scale=scale)
     if element is None:
         element = "morley" if base.is_flat else "shell"
     check_sheet_element(base, "shell" if element == "hex2" else element, repr(str(path)))

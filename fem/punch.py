@@ -34,6 +34,15 @@ def _value(text: str, path: str, line: int) -> float:
         raise InputError(f"punch: {path!r} line {line}: {text.strip()!r} is not a number") from exc
 
 
+def _grid(text: str, path: str, line: int) -> int:
+    try:
+        return int(text)
+    except ValueError as exc:
+        raise InputError(
+            f"punch: {path!r} line {line}: {text.strip()!r} is not a grid id (columns 1-10)"
+        ) from exc
+
+
 def read_punch_modes(path: str | os.PathLike) -> SolverModes:
     """The real eigenvectors of a punch file (see the module), in file units."""
     path = str(path)
@@ -71,7 +80,7 @@ def read_punch_modes(path: str | os.PathLike) -> SolverModes:
             continue
         values = modes[current][1]
         if line.startswith("-CONT-"):
-            if last is not None:
+            if last in values:
                 values[last].extend(_value(line[c : c + 18], path, number) for c in (18, 36, 54))
             continue
         kind = line[10:18].strip().upper()
@@ -79,7 +88,7 @@ def read_punch_modes(path: str | os.PathLike) -> SolverModes:
             points_left_out += 1
             last = None
             continue
-        last = int(line[:10])
+        last = _grid(line[:10], path, number)
         values[last] = [_value(line[c : c + 18], path, number) for c in (18, 36, 54)]
     if not modes:
         found = "complex eigenvectors" if complex_output else ", ".join(sorted(other)) or "nothing"
@@ -89,6 +98,8 @@ def read_punch_modes(path: str | os.PathLike) -> SolverModes:
         )
     mode_ids = np.array(sorted(modes))
     node_ids = np.array(sorted(modes[int(mode_ids[0])][1]))
+    if node_ids.size == 0:
+        raise InputError(f"punch: {path!r}: mode {mode_ids[0]} lists no grid")
     shapes = np.zeros((node_ids.size, 3, mode_ids.size))
     for j, mode in enumerate(mode_ids):
         grids = modes[int(mode)][1]
@@ -96,7 +107,11 @@ def read_punch_modes(path: str | os.PathLike) -> SolverModes:
             raise InputError(
                 f"punch: {path!r}: mode {mode} lists other grids than mode {mode_ids[0]}"
             )
-        shapes[:, :, j] = np.array([grids[int(n)][:3] for n in node_ids])
+        rows = [grids[int(n)][:3] for n in node_ids]
+        short = [int(n) for n, row in zip(node_ids, rows, strict=True) if len(row) < 3]
+        if short:
+            raise InputError(f"punch: {path!r}: mode {mode}: grid {short[0]} lacks T1, T2, T3")
+        shapes[:, :, j] = np.array(rows)
     eigenvalues = np.array([modes[int(m)][0] for m in mode_ids])
     notes = ["eigenvectors in the grids' displacement systems (CD), as the punch file has them"]
     if points_left_out:

@@ -21,6 +21,11 @@ class PartWarning(UserWarning):
     """A part's thickness, mass or size looks like a unit slip."""
 
 
+class ModelWarning(PartWarning):
+    """A model read from another program's files looks wrong in a way that is not
+    impossible (fem.model_checks); printed as PartWarnings are."""
+
+
 def unit_warnings(part, hint: str | None = None) -> list[str]:
     """The warnings for ``part`` (a fem.parts.Part), each naming the value and its unit;
     ``hint`` replaces the advice on the units (a mesh's: metres and --scale)."""

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from fem.rigid_modes import rigid_modes
 from fem.units import Units
 from jaxflex.errors import InputError
 
@@ -49,16 +50,27 @@ class SolverModes:
     notes: list[str] = field(default_factory=list)
 
 
-def rigid_mask(freq_hz: np.ndarray, rigid_tol_hz: float, allow: bool, source: str) -> np.ndarray:
-    """(M,) True for the rigid-body modes (below ``rigid_tol_hz``) among ``freq_hz``; the
-    same rule on every door: refused unless ``allow`` (allow_rigid_modes,
+def rigid_mask(
+    freq_hz: np.ndarray,
+    rigid_tol_hz: float,
+    allow: bool,
+    source: str,
+    nodes: np.ndarray | None = None,
+    shapes: np.ndarray | None = None,
+) -> np.ndarray:
+    """(M,) True for the rigid-body modes among ``freq_hz`` (fem.rigid_modes: below
+    ``rigid_tol_hz``, or the lowest modes a frequency gap separates from the elastic ones,
+    confirmed by their motion where ``nodes`` (N, 3) and ``shapes`` (N, 3, M) are known);
+    the same rule on every door: refused unless ``allow`` (allow_rigid_modes,
     --allow-rigid-modes), then left out of the model and reported."""
-    rigid = np.asarray(freq_hz) < rigid_tol_hz
+    rigid = rigid_modes(freq_hz, rigid_tol_hz, nodes, shapes)
     if rigid.any() and not allow:
+        freq = np.asarray(freq_hz, dtype=float)[rigid]
+        shown = ", ".join(f"{f:.3g}" for f in freq[:6])
         raise InputError(
-            f"{source}: {int(rigid.sum())} rigid-body mode(s) (below {rigid_tol_hz:g} Hz): the "
-            "part is not held; pass allow_rigid_modes=True (--allow-rigid-modes) to leave them "
-            "out of the model"
+            f"{source}: {int(rigid.sum())} rigid-body mode(s) ({shown} Hz: below "
+            f"{rigid_tol_hz:g} Hz, or far below the first elastic mode): the part is not held; "
+            "pass allow_rigid_modes=True (--allow-rigid-modes) to leave them out of the model"
         )
     return rigid
 

@@ -223,6 +223,19 @@ class FESystem:
         )
 
 
+def surface_triangles(cells: np.ndarray, cell_type: str) -> np.ndarray:
+    """(T, 3) triangles of node indices covering the viewing ``cells`` of an FESystem (meshio
+    ``cell_type`` "triangle" as they are; "quad9" each into 4 sub-quads of 2 triangles)."""
+    if cell_type == "triangle":
+        return np.asarray(cells)
+    if cell_type != "quad9":
+        raise ValueError(f"surface_triangles: cell type {cell_type!r} is not a surface")
+    a, b, c, d, ab, bc, cd, da, o = np.asarray(cells).T
+    quads = [(a, ab, o, da), (ab, b, bc, o), (o, bc, c, cd), (da, o, cd, d)]
+    tris = [np.column_stack(t) for q in quads for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3]))]
+    return np.concatenate(tris)
+
+
 def mesh_stats(
     cell_type: str, n_nodes: int, n_elements: int, n_dof: int, edge_lengths_m: np.ndarray
 ) -> dict:

@@ -28,6 +28,7 @@ from pathlib import Path
 import fmpy
 
 from jaxflex.errors import JaxflexError
+from jaxflex.isolated import run_child
 from jaxflex.runtime import cache_fetch, cache_pack_text, cache_store, cache_unpack_text
 
 C_DIR = Path(__file__).resolve().parent / "c"
@@ -41,6 +42,8 @@ PART_CORE = (
     "jxf_model.h",
     "jxf_core.c",
     "jxf_values.c",
+    "jxf_blocks.h",
+    "jxf_blocks.c",
     "jxf_cell.h",
     "jxf_cell.c",
     "jxf_turning.h",
@@ -202,7 +205,7 @@ def _run_compiler(target: Target, sources_dir: Path, flags, names, out_file: Pat
         str(out_file),
         "-lm",
     ]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    proc = run_child(cmd, capture_output=True, text=True)  # ends with the command
     if proc.returncode != 0:
         raise FmuBuildError(f"compiling the FMU failed ({' '.join(cmd)}):\n{proc.stderr.strip()}")
     return proc.stderr.strip()

@@ -184,7 +184,8 @@ def turning_move(path: Path, move: Move, case: dict | None, pivot_m) -> dict:
 
     from jaxflex.files import read_turn_csv
     from jaxflex.geometry import DEFAULT_GRAVITY_M_S2
-    from jaxflex.response import fixed_axis_path, integrate
+    from jaxflex.response import fixed_axis_path
+    from optim.turn_via import reported_turn
 
     dt_s = move.dt_s
     turn_acc = read_turn_csv(trajectory_file(path))
@@ -193,43 +194,16 @@ def turning_move(path: Path, move: Move, case: dict | None, pivot_m) -> dict:
         pose = fixed_axis_path("z", np.zeros(move.n_steps + 1), dt_s)
         pivot = (0.0, 0.0, 0.0) if pivot_m is None else pivot_m
         return {"pose": pose, "pivot_m": pivot, "gravity_m_s2": DEFAULT_GRAVITY_M_S2}
-    if turn_acc is None or not isinstance(spec, dict) or "axis" not in spec:
-        missing = "report.json's turn (axis, pivot)" if turn_acc is not None else "its turn columns"
+    if turn_acc is None:
         raise InputError(
-            f"--trajectory: a turning move needs the turn columns of trajectory.csv and the turn "
-            f"of report.json of the same `jaxflex optimize --rotate` run; {missing} missing"
+            "--trajectory: a turning move needs the turn columns of trajectory.csv and the turn "
+            "of report.json of the same `jaxflex optimize --rotate` run; its turn columns missing"
         )
-    reported = np.asarray(spec.get("angular_acc_rad_s2", turn_acc), dtype=np.float64)
-    scale = 1e-9 * max(1.0, float(np.abs(turn_acc).max()))
-    if reported.shape != turn_acc.shape or np.abs(reported - turn_acc).max() > scale:
-        raise InputError(
-            "--trajectory: the turn's angular acceleration in trajectory.csv and report.json "
-            "differ; they do not belong together"
-        )
-    pivot = np.asarray(spec.get("pivot_m", (0.0, 0.0, 0.0)), dtype=np.float64)
+    pose, pivot, gravity = reported_turn(spec, turn_acc, dt_s, DEFAULT_GRAVITY_M_S2)
     if pivot_m is not None and not np.array_equal(np.asarray(pivot_m, np.float64), pivot):
         raise InputError(
             f"--pivot: the move was optimised about the pivot {pivot.tolist()} m "
             "(report.json's turn); leave --pivot out or give the same point"
-        )
-    gravity = spec.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2)
-    gravity = np.asarray(gravity, np.float64)
-    if "via_turns" in spec:  # through via orientations: one fixed-axis turn per segment
-        from optim.turn_via import reported_path
-
-        try:
-            pose = reported_path(spec, turn_acc, dt_s)
-        except (InputError, KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"--trajectory: report.json's via_turns: {exc}") from None
-        return {"pose": pose, "pivot_m": pivot, "gravity_m_s2": gravity}
-    pose = fixed_axis_path(spec["axis"], turn_acc, dt_s)
-    padded = np.zeros((len(turn_acc), 3))
-    padded[:, 0] = turn_acc
-    angle = float(np.degrees(integrate(padded, dt_s)[1][-1, 0]))  # exact, as the CSV's
-    if "angle_deg" in spec and abs(angle - float(spec["angle_deg"])) > 1e-6:
-        raise InputError(
-            f"--trajectory: the turn columns turn the part by {angle:.9g} deg, report.json says "
-            f"{spec['angle_deg']} deg; they do not belong together"
         )
     return {"pose": pose, "pivot_m": pivot, "gravity_m_s2": gravity}
 

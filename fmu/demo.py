@@ -32,7 +32,14 @@ import numpy as np
 import fem
 import optim
 from jaxflex.defaults import DT_S, THRESHOLD_M
-from jaxflex.files import check_output_dir, check_positive, make_output_dir, write_text_atomic
+from jaxflex.files import (
+    check_output_dir,
+    check_output_file,
+    check_positive,
+    check_set_dir,
+    make_output_dir,
+    write_text_atomic,
+)
 from jaxflex.runtime import step
 
 if TYPE_CHECKING:
@@ -154,6 +161,21 @@ def _fmus(model, result, out: Path, threshold_m: float, timings: dict[str, float
     return fmus
 
 
+def _check_members(out: Path, *, fmus: bool) -> None:
+    """InputError naming the file unless every file the demo writes into ``out`` may be
+    written there (absent or a regular file: never a link, FIFO, device or directory)."""
+    from fmu.export import sidecar_paths
+    from optim.result import RESULT_FILES
+
+    names = ["model.npz", "demo.json"]
+    for version in (2, 3) if fmus else ():
+        fmu_path = out / f"part_fmi{version}.fmu"
+        names += [fmu_path.name, *(side.name for side in sidecar_paths(fmu_path))]
+    for name in names:
+        check_output_file("-o/--output", out / name)
+    check_set_dir("-o/--output", out / "optimized", RESULT_FILES)
+
+
 def _move_line(distance_m, turn, threshold_m: float, dt_s: float, robust) -> str:
     """The move of the scene in words; ``turn``: (pose, axis, angle in degrees) or None."""
     along = "xyz"[int(np.argmax(np.abs(distance_m)))]
@@ -174,6 +196,7 @@ def run(args: argparse.Namespace) -> int:
     threshold_m = check_positive("--threshold", args.threshold)
     dt_s = check_positive("--dt", args.dt)
     out = make_output_dir(check_output_dir("-o/--output", args.output))
+    _check_members(out, fmus=not args.no_fmu)
     timings: dict[str, float] = {}
     part, pose, distance_m, axis, angle_deg = TURNS.get(
         args.scene, (args.scene, np.eye(3), DISTANCE_M, None, 0.0)

@@ -43,7 +43,7 @@ from fmu.variables import (
 )
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.errors import InputError
-from jaxflex.files import check_positive, write_text_atomic
+from jaxflex.files import check_output_file, check_positive, whole_or_absent, write_text_atomic
 from jaxflex.geometry import DEFAULT_GRAVITY_M_S2, Cell, part_half_thickness
 from jaxflex.model import ModalModel
 from jaxflex.response import (
@@ -102,6 +102,16 @@ def _check_arguments(model, path, fmi_version, threshold_m, damping_scale):
             f"{zeta_max:g}), got {damping_scale!r}"
         )
     return path, threshold_m, scale
+
+
+def _check_outputs(path: Path, *, with_sidecars: bool) -> None:
+    """InputError naming the file unless the FMU (and with a trajectory its input CSV and
+    case JSON) may be written: absent or regular files, never links (jaxflex.files)."""
+    check_output_file("path", path)
+    if with_sidecars:
+        csv_path, json_path = sidecar_paths(path)
+        check_output_file("path (the input CSV beside the FMU)", csv_path)
+        check_output_file("path (the case JSON beside the FMU)", json_path)
 
 
 def _check_trajectory(trajectory) -> tuple[np.ndarray | None, float | None]:
@@ -267,6 +277,7 @@ def check_pose(pose: PosePath, n_samples: int, dt_s: float) -> PosePath:
     return pose
 
 
+@whole_or_absent()  # the FMU and its side files: all of them or none
 def export_fmu(
     model: ModalModel,
     path: str | os.PathLike,
@@ -287,7 +298,9 @@ def export_fmu(
     gravity_m_s2=DEFAULT_GRAVITY_M_S2,
     pose: PosePath | None = None,
 ) -> ExportResult:
-    """Write ``model`` as an FMI 2.0 or 3.0 co-simulation FMU at ``path`` (atomically).
+    """Write ``model`` as an FMI 2.0 or 3.0 co-simulation FMU at ``path`` (atomically; with
+    a trajectory its side files too: every path is checked before the work, and a failure
+    leaves none of them written, jaxflex.files.whole_or_absent).
 
     Args:
         model: the part (K points, M modes).
@@ -329,6 +342,7 @@ def export_fmu(
         model, path, fmi_version, threshold_m, damping_scale
     )
     acc, dt_s = _check_trajectory(trajectory)
+    _check_outputs(path, with_sidecars=acc is not None)
     if turning and cell is not None:  # the turning part's gravity is the cell's
         gravity_m_s2 = cell.gravity_m_s2
     turning_data = _turning_data(model, turning, pivot_m, gravity_m_s2, acc, dt_s, pose)

@@ -6,13 +6,13 @@ tests and the Windows checks (fmu.windows) drive FMUs through it.
 from __future__ import annotations
 
 import shutil
-import subprocess
 import zipfile
 from pathlib import Path
 
 from fmpy import read_model_description
 
 from fmu.build import C_DIR, WINDOWS_COMPILER, FmuBuildError, fmi_headers, host_target
+from jaxflex.isolated import run_child
 
 WINE_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64 wine64"
 
@@ -33,19 +33,22 @@ def compile_harness(
     array_points: int | None = None,
     sanitize: bool = False,
     turning: bool = False,
+    distance: bool = False,
 ) -> Path:
     """Build fmu/c/harness.c for FMI ``fmi_version`` into ``out_file``: for this machine, or
     (``windows=True``) as a static Windows x86_64 executable with mingw-w64, run under wine
     by fmu.windows. With ``array_points`` (FMI 3.0) it also reads the displaced-points array
     output (K x 3) after every step. With ``sanitize`` it is instrumented with SANITIZE_FLAGS,
     to load an FMU library built with them. With ``turning`` its bench mode also sets the
-    pose inputs of a turning part's FMU (export_fmu(turning=True))."""
+    pose inputs of a turning part's FMU (export_fmu(turning=True)); with ``distance`` it also
+    reads ``min_distance`` (an FMU with obstacles) after every step."""
     if windows and shutil.which(WINDOWS_COMPILER) is None:
         raise FmuBuildError(f"{WINDOWS_COMPILER} is not installed ({WINE_HINT})")
     compiler = WINDOWS_COMPILER if windows else host_target().compiler
     link = ["-static", "-lm"] if windows else ["-ldl", "-lm"]
     array = [f"-DHARNESS_ARRAY_POINTS={array_points}"] if array_points else []
     array += ["-DHARNESS_TURNING"] if turning else []
+    array += ["-DHARNESS_DISTANCE"] if distance else []
     cmd = [
         compiler,
         *(SANITIZE_FLAGS if sanitize else ()),
@@ -61,7 +64,7 @@ def compile_harness(
         str(out_file),
         *link,
     ]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    proc = run_child(cmd, capture_output=True, text=True)  # ends with the command
     if proc.returncode != 0:
         what = "the Windows harness" if windows else "the harness"
         raise FmuBuildError(f"compiling {what} failed:\n{proc.stderr.strip()}")

@@ -39,6 +39,7 @@ from fmu.model_description import UNITS
 from fmu.source import SourceResult, export_source_fmu, source_channels
 from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
+from jaxflex.files import check_output_file, whole_or_absent
 from jaxflex.geometry import DEFAULT_GRAVITY_M_S2
 from jaxflex.model import ModalModel
 from jaxflex.response import Move, PosePath
@@ -187,6 +188,7 @@ def stop_time_of(fmu_path: Path) -> float:
     return float(root.find("DefaultExperiment").get("stopTime"))
 
 
+@whole_or_absent()  # the package: whole or absent
 def export_ssp(
     model: ModalModel,
     path: str | os.PathLike,
@@ -217,6 +219,7 @@ def export_ssp(
         raise InputError(f"path: an SSP file name must end in .ssp, got {str(path)!r}")
     if trajectory is None:
         raise InputError("trajectory: an SSP package plays a move; pass a Move or (acc, dt_s)")
+    check_output_file("path", path)
     with tempfile.TemporaryDirectory(prefix="jaxflex_ssp_") as tmp:
         stage = Path(tmp) / "ssp"
         resources = stage / "resources"

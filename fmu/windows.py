@@ -21,6 +21,7 @@ from fmpy import read_model_description
 
 from fmu.build import WINDOWS_COMPILER, FmuBuildError
 from fmu.harness import WINE_HINT, resource_location, unpack
+from jaxflex.isolated import run_child
 
 OBJDUMP = "x86_64-w64-mingw32-objdump"
 WINE_TIMEOUT_S = 600.0  # the first run creates the wine prefix
@@ -91,7 +92,7 @@ def run_under_wine(args: list[str], timeout_s: float = WINE_TIMEOUT_S) -> str:
     if wine is None:
         raise FmuBuildError(f"wine is not installed ({WINE_HINT})")
     with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
-        proc = subprocess.run(
+        proc = run_child(  # ends with the command
             [*wine, *args],
             stdin=subprocess.DEVNULL,
             stdout=out,
@@ -172,7 +173,7 @@ def replay(
     if windows:
         text = run_under_wine([str(harness), *args])
     else:
-        proc = subprocess.run([str(harness), *args], capture_output=True, text=True)
+        proc = run_child([str(harness), *args], capture_output=True, text=True)
         if proc.returncode != 0:
             raise FmuBuildError(f"the harness failed on {library.name}:\n{proc.stderr.strip()}")
         text = proc.stdout

@@ -1,6 +1,22 @@
 """Atomic file writes: write to a temporary file beside the target, then rename over it.
 
-A reader never sees a half-written file, and an interrupted write leaves the old file intact.
+Every file a command writes goes through this module: :func:`atomic_open` (a file object),
+:func:`atomic_path` (a new file's name, for writers that open files themselves: meshio,
+ffmpeg) or :func:`write_text_atomic`; a command checks its output options first with
+jaxflex.validation's ``check_output_file`` / ``check_output_dir`` (which also declares them
+outputs of the command: jaxflex.undo). Then:
+
+* A reader never sees a half-written file, and an interrupted write leaves the old file
+  intact.
+* The file is created fresh in the target's directory (a new name, ``O_EXCL``) and renamed
+  over the target only when the target is a regular file or absent. A symbolic link, a
+  device, a FIFO, a socket or a directory in its place is refused (OutputError naming the
+  path) and left as it is: nothing is ever written through a link or into another file. A
+  target with other hard links gets a new file under its name; its other names keep the
+  old content (the rename replaces one name, nothing is written in place).
+* What a command writes is whole or absent: a failure after some of its outputs are
+  written undoes them (jaxflex.undo, for the outputs it declared).
+
 The written file gets the permissions any program's new file gets: 0666 minus the umask
 (typically 0644, readable by colleagues and build servers), not the 0600 of a private
 temporary file.
@@ -18,6 +34,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
 
+from jaxflex import undo
 from jaxflex.errors import OutputError
 from jaxflex.inputs import file_kind
 
@@ -26,42 +43,72 @@ STALE_AFTER_S = 3600.0
 
 def make_output_dir(path: str | os.PathLike) -> Path:
     """The output directory ``path``, created if absent (one level: its parent must exist);
-    OutputError if it cannot be."""
+    OutputError if it cannot be, or if ``path`` is a symbolic link (jaxflex does not write
+    through links) or another file."""
     target = Path(path)
-    try:
-        target.mkdir(exist_ok=True)
-    except FileNotFoundError:
-        raise OutputError(
-            f"cannot create the directory {str(target)!r}: {str(target.parent)!r} does not "
-            "exist (jaxflex writes only into existing directories)"
-        ) from None
-    except OSError as exc:
-        raise OutputError(f"cannot create the directory {str(target)!r}: {exc}") from None
-    if not target.is_dir():
-        raise OutputError(f"{str(target)!r} exists and is not a directory")
+    mode = _lstat_mode(target)
+    if mode is not None and stat.S_ISLNK(mode):
+        raise OutputError(f"cannot write {str(target)!r}: it is {link_refusal(target)}")
+    if mode is None:
+        try:
+            target.mkdir()
+        except FileNotFoundError:
+            raise OutputError(
+                f"cannot create the directory {str(target)!r}: {str(target.parent)!r} does not "
+                "exist (jaxflex writes only into existing directories)"
+            ) from None
+        except FileExistsError:  # created meanwhile: checked below
+            pass
+        except OSError as exc:
+            raise OutputError(f"cannot create the directory {str(target)!r}: {exc}") from None
+        else:
+            undo.created_directory(target)
+        mode = _lstat_mode(target)
+    if mode is None or not stat.S_ISDIR(mode):
+        kind = "a symbolic link" if mode is not None and stat.S_ISLNK(mode) else "not a directory"
+        raise OutputError(f"{str(target)!r} exists and is {kind}")
     return target
 
 
+def _lstat_mode(target: Path) -> int | None:
+    """The mode of what ``target`` names (a link itself, not followed), None if nothing;
+    OutputError if the system cannot tell."""
+    try:
+        return os.lstat(target).st_mode
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        raise OutputError(f"cannot write {str(target)!r}: {exc.strerror or exc}") from None
+
+
+def link_refusal(target: Path) -> str:
+    """What the symbolic link ``target`` is (where it points) and why it is not written."""
+    try:
+        to = os.readlink(target)
+    except OSError as exc:
+        to = f"unreadable ({exc.strerror})"
+    ends = "" if target.exists() else ", which does not exist"
+    return (
+        f"a symbolic link (to {to!r}{ends}); jaxflex never writes through a link (it is left "
+        "as it is): give the path of the file itself, or remove the link"
+    )
+
+
 def check_target(target: Path) -> Path:
-    """The path a rename writes ``target`` at (a symbolic link's target: the link stays);
-    OutputError unless its directory exists and it is absent or a regular file (a device,
-    FIFO, socket or directory would be replaced)."""
-    if target.is_symlink():
-        try:
-            target = target.resolve(strict=True)
-        except (OSError, RuntimeError) as exc:
-            raise OutputError(f"cannot write {str(target)!r}: a link to nothing ({exc})") from None
+    """``target`` if a rename may put a new file there: its directory exists and it is
+    absent or a regular file; OutputError naming it otherwise (a symbolic link, device, FIFO,
+    socket or directory: it is left as it is)."""
+    target = Path(target)
     if not target.parent.is_dir():
         raise OutputError(
             f"cannot write {str(target)!r}: the directory {str(target.parent)!r} does not exist "
             "(jaxflex writes only into existing directories)"
         )
-    try:
-        mode = target.stat().st_mode
-    except FileNotFoundError:
+    mode = _lstat_mode(target)
+    if mode is None:
         return target
-    except OSError as exc:
-        raise OutputError(f"cannot write {str(target)!r}: {exc}") from None
+    if stat.S_ISLNK(mode):
+        raise OutputError(f"cannot write {str(target)!r}: it is {link_refusal(target)}")
     if not stat.S_ISREG(mode):
         raise OutputError(
             f"cannot write {str(target)!r}: it is {file_kind(mode)}; only regular files are "
@@ -77,7 +124,8 @@ def _create_beside(target: Path, suffix: str) -> tuple[int, str]:
     a live one's. OutputError if ``target`` may not be written (:func:`check_target`)."""
     target = check_target(target)
     name = str(target.parent / f".{target.name}.{os.getpid()}-{secrets.token_hex(8)}{suffix}")
-    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL
+    flags |= getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_BINARY", 0)
     try:
         return os.open(name, flags, 0o666), name
     except OSError as exc:
@@ -86,10 +134,11 @@ def _create_beside(target: Path, suffix: str) -> tuple[int, str]:
 
 def _replace(tmp_name: str, target: Path) -> None:
     """Rename the finished temporary file onto ``target`` (checked again: it may have
-    changed meanwhile)."""
+    changed meanwhile; a link put there after the check is replaced itself, never
+    followed: a rename does not follow the target)."""
     target = check_target(target)
     try:
-        os.replace(tmp_name, target)
+        undo.replace(tmp_name, target)
     except OSError as exc:
         raise OutputError(f"cannot write {str(target)!r}: {exc.strerror or exc}") from None
 
@@ -127,6 +176,19 @@ def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
                 entry.unlink()
                 removed.append(entry)
     return removed
+
+
+def remove_output(path: str | os.PathLike) -> None:
+    """Remove the earlier output ``path`` if there is one (a regular file; a link itself,
+    never its target): undone with the command's other writes if the command fails."""
+    target = Path(path)
+    mode = _lstat_mode(target)
+    if mode is not None and stat.S_ISDIR(mode):
+        raise OutputError(f"cannot remove {str(target)!r}: it is a directory (left as it is)")
+    try:
+        undo.remove(target)
+    except OSError as exc:
+        raise OutputError(f"cannot remove {str(target)!r}: {exc.strerror or exc}") from None
 
 
 @contextlib.contextmanager

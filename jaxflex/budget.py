@@ -29,12 +29,16 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from jaxflex.errors import BudgetError
+from jaxflex.errors import BudgetError, InputError
 from jaxflex.scalars import check_positive
 
 DEFAULT_TIME_S = 3600.0
 MEMORY_SHARE = 0.5  # of what the process may use
 GB = 1e9
+# The least --max-memory: what a jaxflex command's interpreter holds before any work
+# (Python, NumPy, SciPy, JAX and the command's modules: 224 MB resident at the dispatch of
+# `jaxflex model`, measured on the project's machine), rounded up.
+INTERPRETER_BYTES = 250_000_000
 
 
 @dataclass(frozen=True)
@@ -111,6 +115,15 @@ def _address_space_left() -> int | None:
     return max(0, soft - mapped)
 
 
+def resident_bytes() -> int:
+    """The resident memory of this process (bytes; 0 where it cannot be read)."""
+    try:
+        pages = int(Path("/proc/self/statm").read_text(encoding="utf-8").split()[1])
+        return pages * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
 def machine_memory_bytes() -> tuple[int, str]:
     """(bytes this process may use, where that figure comes from): the least of the
     physical memory, the cgroup limit and the address space left under ``ulimit -v``."""
@@ -144,6 +157,14 @@ def make_budget(memory_gb: float | None = None, time_s: float | None = None) -> 
     memory, memory_source = default.memory_bytes, default.memory_source
     if memory_gb is not None:
         memory, memory_source = int(check_positive("--max-memory", memory_gb) * GB), "--max-memory"
+        if memory < INTERPRETER_BYTES:
+            raise InputError(
+                f"--max-memory: {memory_gb:g} GB ({format_bytes(memory)}) is less than the "
+                "interpreter itself holds before any work (up to "
+                f"{format_bytes(INTERPRETER_BYTES)}: Python, NumPy, JAX and the command; this "
+                "process now "
+                f"{format_bytes(resident_bytes())}); give at least {INTERPRETER_BYTES / GB:g}"
+            )
     seconds, time_source = default.time_s, default.time_source
     if time_s is not None:
         seconds, time_source = check_positive("--max-time", time_s), "--max-time"

@@ -39,6 +39,7 @@ from jaxflex.budget import DEFAULT_TIME_S, make_budget, use_budget
 from jaxflex.errors import InputError, JaxflexError, JaxflexWarning
 from jaxflex.progress import set_quiet, step
 from jaxflex.scalars import check_positive
+from jaxflex.undo import whole_or_absent
 
 # the command plugin interface (public): what a subcommand's module may use
 __all__ = ["AXIS_LIMITS", "add_axis_limits", "axis_limit_values", "main"]
@@ -175,7 +176,7 @@ def _main(argv: list[str]) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("always", JaxflexWarning)
             warnings.showwarning = _warning_printer(args.command, warnings.showwarning)
-            with use_budget(budget):
+            with use_budget(budget), whole_or_absent():  # a failure undoes the outputs
                 return int(args._run(args) or 0)
     except JaxflexError as exc:
         print(f"jaxflex {args.command}: error: {exc}", file=sys.stderr)

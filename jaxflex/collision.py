@@ -67,7 +67,9 @@ class Clearance:
     inside an obstacle), at ``time_s`` (s from the start; inf: the part at rest after
     settling), between point ``point`` and obstacle ``obstacle`` (``obstacle_name``); the
     true minimum is at least ``bound_m``. ``half_thickness_m``: the share of the part's
-    thickness taken off the mid-surface's distance."""
+    thickness taken off the mid-surface's distance; ``position_m`` (3,): where that point of
+    the mid-surface is then (m, the witness of the minimum; the point's start is the model's
+    ``points[point]``)."""
 
     distance_m: float
     time_s: float
@@ -77,6 +79,7 @@ class Clearance:
     bound_m: float
     evaluations: int
     half_thickness_m: float = 0.0
+    position_m: tuple[float, float, float] | None = None
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -350,7 +353,8 @@ def search_clearance(motion, blocks: PartBlocks, atol: float, limit_m: float | N
     _during(motion, blocks, best, tolerance)
     _settling(motion, best, tolerance)
     time_s, point = best.time, best.item
-    _, which, _ = distances(obstacles, motion.position(point, time_s)[None])
+    position = motion.position(point, time_s)
+    _, which, _ = distances(obstacles, position[None])
     obstacle = int(which[0])
     return Clearance(
         distance_m=-best.value,
@@ -361,6 +365,7 @@ def search_clearance(motion, blocks: PartBlocks, atol: float, limit_m: float | N
         bound_m=min(-best.value - tolerance(best.value), -best.unresolved),
         evaluations=best.evaluations,
         half_thickness_m=motion.half,
+        position_m=tuple(float(v) for v in position),
     )
 
 

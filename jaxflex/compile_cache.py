@@ -13,7 +13,7 @@ compiles a handful, each 0.1-1 s). Every entry of every store is checked on ever
 is a miss unless it is whole and the one asked for (:func:`decode_entry`: it carries its key
 and the SHA-256 of its content; :func:`read_regular`: only a regular file within the
 store's size is read, never a link, a FIFO or a device); a miss is made again and replaces
-the entry. Entries are written atomically (a temporary file beside the entry, then a
+the entry. Entries are written atomically (jaxflex.atomic: a new file beside the entry, then a
 rename; JAX's own file store writes in place, which another process can read half-written);
 the JAX entries keep its file names. Keys do not depend on the cache's path (JAX's GPU
 caches, whose directory would enter its keys, are off), so a copied cache is used. Each
@@ -38,6 +38,7 @@ import threading
 import time
 from pathlib import Path
 
+from jaxflex.atomic import atomic_open
 from jaxflex.lazy import after_import
 
 ENV_VAR = "JAXFLEX_COMPILE_CACHE"
@@ -235,21 +236,17 @@ class FileStore:
         return value
 
     def put(self, key: str, value: bytes) -> None:
-        """Write the entry atomically (a temporary file beside it, then a rename that
-        replaces whatever is in the way: an old entry, a link, a FIFO); not cached when the
-        disk refuses."""
+        """Write the entry atomically (jaxflex.atomic: a new file beside it, then a rename)
+        over whatever is in the way: an old entry, or a link or FIFO, whose name is removed
+        first (never followed); not cached when the disk refuses."""
         if len(value) > self._max_bytes:
             return
+        path = self._file(key)
         with contextlib.suppress(OSError):  # disk full, directory gone: not cached
-            fd, temporary = tempfile.mkstemp(prefix=f".{key[:16]}-", suffix=".tmp", dir=self._path)
-            try:
-                with os.fdopen(fd, "wb") as handle:
-                    handle.write(encode_entry(key, value))
-                os.replace(temporary, self._file(key))
-            except BaseException:
-                with contextlib.suppress(OSError):
-                    os.unlink(temporary)
-                raise
+            if os.path.lexists(path) and not stat.S_ISREG(os.lstat(path).st_mode):
+                os.unlink(path)  # the name only (a directory stays: not cached)
+            with atomic_open(path, "wb") as handle:  # OutputError (an OSError): not cached
+                handle.write(encode_entry(key, value))
             _evict(self._path, self._max_bytes)
 
     def discard(self, key: str) -> None:

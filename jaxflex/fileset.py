@@ -5,10 +5,15 @@ leave a new file beside an old one. So a set carries ``manifest.json``: the kind
 id of the run that wrote it and the SHA-256 and size of every member. Writing a set
 
 1. takes a lock on the directory (two writers never interleave),
-2. removes the old manifest (from now on the directory holds no complete set),
-3. removes members of an earlier set that this one does not write, and temporary files a
+2. checks that every name a member may have is free or a regular file (a symbolic link,
+   FIFO, device or directory in the way is refused before anything changes),
+3. removes the old manifest (from now on the directory holds no complete set),
+4. removes members of an earlier set that this one does not write, and temporary files a
    killed writer left,
-4. writes the members, then the manifest last.
+5. writes the members, then the manifest last.
+
+Removals and writes are those of the command's outputs (jaxflex.undo): a run that fails
+halfway puts the earlier set back.
 
 A reader (:func:`read_set`) accepts the members only if the manifest is there, of the
 expected kind, and every member it needs is listed with the size and hash it has on disk;
@@ -25,8 +30,15 @@ import uuid
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from jaxflex.atomic import make_output_dir, remove_stale_temporaries, write_text_atomic
+from jaxflex.atomic import (
+    check_target,
+    make_output_dir,
+    remove_output,
+    remove_stale_temporaries,
+    write_text_atomic,
+)
 from jaxflex.errors import InputError
+from jaxflex.validation import check_output_dir, check_output_file
 
 MANIFEST = "manifest.json"
 FORMAT = "jaxflex.file_set"
@@ -70,6 +82,18 @@ def directory_lock(directory: str | os.PathLike, *, option: str | None = None) -
         os.close(fd)  # releases the lock
 
 
+def check_set_dir(option: str, directory: str | os.PathLike, possible: tuple[str, ...]) -> Path:
+    """``directory`` if a set with the members ``possible`` may be written there, checked
+    before any work (jaxflex.validation.check_output_dir, and every member's name and the
+    manifest's free or a regular file: never a link, FIFO, device or directory); InputError
+    naming ``option`` and the path otherwise. Nothing is created."""
+    root = check_output_dir(option, directory)
+    if root.is_dir():
+        for name in (*possible, MANIFEST):
+            check_output_file(option, root / name)
+    return root
+
+
 class SetWriter:
     """Collects the members of a set being written (see :func:`writing`)."""
 
@@ -97,14 +121,16 @@ def writing(
     The manifest is written when the block ends without an exception."""
     root = make_output_dir(directory)
     with directory_lock(root):
-        (root / MANIFEST).unlink(missing_ok=True)
+        for name in (*possible, MANIFEST):
+            check_target(root / name)
+        remove_output(root / MANIFEST)
         for name in (*possible, MANIFEST):
             remove_stale_temporaries(root / name)
         writer = SetWriter(root)
         yield writer
         for name in possible:
             if name not in writer.members:
-                (root / name).unlink(missing_ok=True)
+                remove_output(root / name)
         manifest = {
             "format": FORMAT,
             "kind": kind,

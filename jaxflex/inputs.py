@@ -39,26 +39,38 @@ def file_kind(mode: int) -> str:
         (stat.S_ISCHR, "a character device"),
         (stat.S_ISBLK, "a block device"),
         (stat.S_ISSOCK, "a socket"),
+        (stat.S_ISLNK, "a symbolic link"),
     )
     return next((name for test, name in kinds if test(mode)), "not a regular file")
 
 
+def named(path: str | os.PathLike) -> str:
+    """``path`` quoted for a message, with the file it really names where that is not plain
+    from the text: a path through ``..`` or a symbolic link gets ``(that is '/abs/path')``."""
+    given = os.fspath(path)
+    real = os.path.realpath(given)
+    if ".." in Path(given).parts or real != os.path.abspath(given):
+        return f"{given!r} (that is {real!r})"
+    return repr(given)
+
+
 def check_input_file(field: str, path: str | os.PathLike) -> Path:
     """``path`` as a Path if it is a readable regular file; InputError naming ``field``
-    and what the path is otherwise (module docstring)."""
+    and what the path is otherwise (module docstring; a path through ``..`` or a link is
+    named with the file it resolves to)."""
     if str(path) == "":
         raise InputError(f"{field}: an empty path")
     path = Path(path)
     try:
         mode = path.stat().st_mode
     except FileNotFoundError:
-        raise InputError(f"{field}: file {str(path)!r} does not exist") from None
+        raise InputError(f"{field}: file {named(path)} does not exist") from None
     except OSError as exc:
-        raise InputError(f"{field}: cannot open {str(path)!r} ({exc.strerror or exc})") from None
+        raise InputError(f"{field}: cannot open {named(path)} ({exc.strerror or exc})") from None
     if not stat.S_ISREG(mode):
-        raise InputError(f"{field}: {str(path)!r} is {file_kind(mode)}, not a file")
+        raise InputError(f"{field}: {named(path)} is {file_kind(mode)}, not a file")
     if not os.access(path, os.R_OK):
-        raise InputError(f"{field}: cannot read {str(path)!r} (no permission)")
+        raise InputError(f"{field}: cannot read {named(path)} (no permission)")
     return path
 
 

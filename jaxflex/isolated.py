@@ -20,6 +20,13 @@ What reaches the caller is the reader's result or one error naming the file:
 
 Inside the child the decorated functions run directly (a reader that calls another one
 stays in the same child).
+
+The child ends with its parent, however the parent ends (SIGTERM, SIGKILL, Ctrl-C, its
+budget): it asks for the parent-death signal first thing (jaxflex.children.GUARD, Linux),
+and a thread of it exits the process when its lifeline, a pipe whose other end only the
+parent holds, closes (every POSIX system). Other programs a command runs (a compiler, a
+test harness, wine) go through :func:`run_child`, ``subprocess.run`` whose child dies with
+the command the same way (jaxflex.children).
 """
 
 from __future__ import annotations
@@ -35,10 +42,12 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from jaxflex.budget import current_budget, format_bytes, format_seconds
+from jaxflex.children import GUARD
+from jaxflex.children import run as run_child
 from jaxflex.errors import BudgetError, InputError, JaxflexError
 from jaxflex.inputs import check_input_file
 
-__all__ = ["isolated"]
+__all__ = ["isolated", "run_child"]
 
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -46,11 +55,19 @@ _IN_CHILD = False
 STDERR_TAIL = 300  # characters of the child's stderr quoted in a crash message
 _SINGLE_THREAD = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
-# The child's program (``python -I -c``): only the standard library until the request has
-# set sys.path and the packages of the reader's module (as bare namespaces, so that their
+# The child's program (``python -I -c PROGRAM PARENT_PID LIFELINE_FD``): the parent-death
+# signal; the lifeline's watcher; only the standard library until the request has set
+# sys.path and the packages of the reader's module (as bare namespaces, so that their
 # __init__ does not run); then the module, the address-space limit, the call, the answer.
-_CHILD = r"""
-import importlib, os, pickle, resource, sys, types
+_CHILD = (
+    GUARD
+    + r"""
+import importlib, os, pickle, resource, sys, threading, types
+def watch(fd):
+    while os.read(fd, 1):
+        pass
+    os._exit(1)  # the parent ended: its end of the lifeline closed
+threading.Thread(target=watch, args=(int(sys.argv[2]),), daemon=True).start()
 out = os.fdopen(os.dup(1), "wb")
 os.dup2(2, 1)
 request = pickle.load(sys.stdin.buffer)
@@ -88,6 +105,7 @@ except Exception as exc:
 out.write(data)
 out.flush()
 """
+)
 
 
 def _packages(module: str) -> dict[str, str]:
@@ -127,17 +145,32 @@ def run_isolated(
         }
     )
     env = {**os.environ, **dict.fromkeys(_SINGLE_THREAD, "1")}
-    child = subprocess.Popen(
-        [sys.executable, "-I", "-c", _CHILD],
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        env=env,
-        start_new_session=True,
-    )
+    lifeline, keep = os.pipe()  # the child reads; this process holds the other end
+    try:
+        try:
+            child = subprocess.Popen(
+                [sys.executable, "-I", "-c", _CHILD, str(os.getpid()), str(lifeline)],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                env=env,
+                start_new_session=True,
+                pass_fds=(lifeline,),
+            )
+        finally:
+            os.close(lifeline)
+        out, err = _communicate(child, request, budget, path, reader)
+    finally:
+        os.close(keep)
+    return _answer(out, err, child.returncode, field, reader, path, memory, budget)
+
+
+def _communicate(child: subprocess.Popen, request: bytes, budget, path: str, reader: str):
+    """(stdout, stderr) of ``child`` given ``request``; BudgetError when the time budget
+    runs out first (the child is killed, as on any interrupt)."""
     left = budget.remaining_s()
     try:
-        out, err = child.communicate(request, timeout=None if left == float("inf") else left)
+        return child.communicate(request, timeout=None if left == float("inf") else left)
     except subprocess.TimeoutExpired:
         child.kill()
         child.communicate()
@@ -150,7 +183,6 @@ def run_isolated(
         child.kill()
         child.communicate()
         raise
-    return _answer(out, err, child.returncode, field, reader, path, memory, budget)
 
 
 def _answer(out: bytes, err: bytes, returncode: int, field, reader, path, memory, budget):

@@ -57,15 +57,15 @@ MODES_ONLY_STATIC = (
 
 
 class _Annotations:
-    """Labels and meta of a model as pytree auxiliary data that compares equal to any other
-    annotations: models that differ only in their description share compiled code and stack
-    (jax.vmap, jaxflex.stack_models). Nothing traced reads them. A model returned *from* a
-    jitted function therefore carries the annotations of the call that compiled it."""
+    """Labels, meta and surface of a model as pytree auxiliary data that compares equal to
+    any other annotations: models that differ only in their description share compiled code
+    and stack (jax.vmap, jaxflex.stack_models). Nothing traced reads them. A model returned
+    *from* a jitted function therefore carries the annotations of the call that compiled it."""
 
-    __slots__ = ("labels", "meta")
+    __slots__ = ("labels", "meta", "surface")
 
-    def __init__(self, labels, meta) -> None:
-        self.labels, self.meta = labels, meta
+    def __init__(self, labels, meta, surface=None) -> None:
+        self.labels, self.meta, self.surface = labels, meta, surface
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, _Annotations)
@@ -95,6 +95,25 @@ def _as_float_array(name: str, value: Any, ndim: int) -> np.ndarray:
         where = tuple(int(i) for i in np.argwhere(bad)[0])
         raise ModelError(f"ModalModel.{name}: must be finite, found {arr[where]} at index {where}")
     return validated(arr)
+
+
+def _checked_surface(value: Any, n_points: int) -> np.ndarray:
+    """``value`` as a read-only (T, 3) int64 array of point indices in [0, n_points)."""
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iu" and not (
+        arr.dtype.kind == "f" and arr.size and np.array_equal(arr, np.round(arr))
+    ):
+        raise ModelError(f"ModalModel.surface: must be integer point indices, got {arr.dtype}")
+    if arr.ndim != 2 or arr.shape[1] != 3 or arr.shape[0] == 0:
+        raise ModelError(f"ModalModel.surface: expected shape (T, 3) with T >= 1, got {arr.shape}")
+    arr = arr.astype(np.int64)
+    if arr.min() < 0 or arr.max() >= n_points:
+        raise ModelError(
+            f"ModalModel.surface: point indices must lie in [0, {n_points - 1}], got "
+            f"{arr.min()} ... {arr.max()}"
+        )
+    arr.setflags(write=False)
+    return arr
 
 
 def _check_range(name: str, arr: np.ndarray) -> None:
@@ -136,6 +155,10 @@ class ModalModel:
         rotation: optional jaxflex.rotation.RotationalInertia (inertia shape integrals and
             the rigid inertia: what moves that turn the part need). None: the model cannot
             turn the part.
+        surface: optional (T, 3) int point indices: the triangles of the surface the points
+            span (the FE mesh's cells, fem), for pictures and animations; not traced, no
+            part of the response. None: the points alone (imports of modal results, R1, a
+            point selection that cut the mesh).
 
     Construction from concrete arrays validates every field and raises ModelError naming
     the field. Inside ``jax.jit``/``jax.vmap`` the model is a pytree and is not re-validated.
@@ -152,6 +175,7 @@ class ModalModel:
     stress: StressSet | None = None
     static_shapes: Any = None
     rotation: RotationalInertia | None = None
+    surface: Any = None
 
     def __post_init__(self) -> None:
         leaves = jax.tree_util.tree_leaves(
@@ -247,13 +271,21 @@ class ModalModel:
                 None if self.stress is None else 6 * self.stress.n_points,
             )
             object.__setattr__(self, "rotation", checked_rotation(self.rotation, n_modes, rows))
-        for name, value in (*arrays.items(), ("labels", labels), ("meta", meta)):
+        surface = self.surface
+        if surface is not None and not (is_validated(surface) and surface.dtype == np.int64):
+            surface = validated(_checked_surface(surface, n_points))
+        for name, value in (
+            *arrays.items(),
+            ("labels", labels),
+            ("meta", meta),
+            ("surface", surface),
+        ):
             object.__setattr__(self, name, value)
 
     # -- pytree protocol: arrays are leaves, labels and meta ride along (_Annotations) -----
     def tree_flatten(self):
         children = tuple(getattr(self, name) for name in (*ARRAY_FIELDS, *OUTPUT_FIELDS))
-        return children, _Annotations(self.labels, self.meta)
+        return children, _Annotations(self.labels, self.meta, self.surface)
 
     @classmethod
     def tree_unflatten(cls, aux: _Annotations, children):
@@ -265,6 +297,7 @@ class ModalModel:
             object.__setattr__(obj, name, value)
         object.__setattr__(obj, "labels", aux.labels)
         object.__setattr__(obj, "meta", aux.meta)
+        object.__setattr__(obj, "surface", aux.surface)
         return obj
 
     # -- derived quantities ------------------------------------------------------------
@@ -377,6 +410,7 @@ class ModalModel:
             labels=labels,
             static_shapes=static,
             rotation=rotation,
+            surface=kept_surface(self.surface, idx, self.n_points),
         )
 
     def with_damping(self, zeta: float | Sequence[float] | np.ndarray) -> ModalModel:
@@ -511,6 +545,7 @@ class ModalModel:
             "stress": self.stress,
             "static_shapes": self.static_shapes,
             "rotation": self.rotation,
+            "surface": self.surface,
         }
         fields.update(changes)
         return ModalModel(**fields)
@@ -526,7 +561,22 @@ class ModalModel:
             arrays.update(stress_to_fields(self.stress))
         if self.rotation is not None:
             arrays.update(self.rotation.to_fields())
+        if self.surface is not None:
+            arrays["surface_triangles"] = self.surface
         write_model_file(path, arrays, self.labels, dict(self.meta))
+
+
+def kept_surface(surface, indices: np.ndarray, n_points: int) -> np.ndarray | None:
+    """The triangles of ``surface`` ((T, 3) point indices, or None) whose three points are all
+    among ``indices`` (the kept points, in their new order), renumbered; None where none is
+    left."""
+    if surface is None:
+        return None
+    new = np.full(n_points, -1, dtype=np.int64)
+    new[indices] = np.arange(len(indices))
+    mapped = new[np.asarray(surface)]
+    kept = mapped[(mapped >= 0).all(axis=1)]
+    return kept if len(kept) else None
 
 
 def _rows_poser(translation: np.ndarray, block):
@@ -588,6 +638,8 @@ def load_model(path) -> ModalModel:
             ):
                 rotation_fields.update(optional.get(group, {}))
             fields["rotation"] = RotationalInertia.from_fields(rotation_fields)
+        if "surface" in optional:
+            fields["surface"] = optional["surface"]["surface_triangles"]
         if version < 3:
             fields["meta"] = {**fields["meta"], "static_response": _legacy_static(version)}
         return ModalModel(**fields)

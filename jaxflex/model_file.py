@@ -13,7 +13,11 @@ the inertia data of turning moves (jaxflex.rotation; files without it cannot tur
 and their static response to the rotational loads (points, cups, stresses: three groups;
 files without them turn the part without the quasi-static share of the modes left out), and
 the modes' gyroscopic and spin couplings (one group; files without them get the looser
-energy bound of the neglected terms).
+energy bound of the neglected terms), and the surface the points span (``surface_triangles``
+(T, 3) point indices, integers: the FE mesh's own connectivity, for pictures and animations;
+files without it, imports of modal results and R1, are drawn from their points alone).
+An optional group of schema 3 added later (the surface) is ignored by the readers that came
+before it, which read only the members they know: the files stay readable both ways.
 Version 2 files are read as well (they hold no static displacement, and the outputs' modal
 A instead of their static response S: jaxflex.outputs.legacy_static_map derives S), and
 version 1 files (the same without any group).
@@ -64,9 +68,9 @@ _NPY_MAGIC = b"\x93NUMPY"
 class Field:
     """One member of the archive: its name, the data it holds ("real": numbers, "integer",
     "text": unicode), its shape in the model's sizes (M modes, K points, C cups, S stress
-    points; integers are fixed lengths), its unit, whether a file must have it, the first
-    and last schema version with it and the optional group it belongs to (all of a group's
-    fields of the file's version or none)."""
+    points, T surface triangles; integers are fixed lengths), its unit, whether a file must
+    have it, the first and last schema version with it and the optional group it belongs to
+    (all of a group's fields of the file's version or none)."""
 
     name: str
     kind: str
@@ -150,6 +154,12 @@ ROTATION_COUPLING_GROUP = _group(
     ("rotation_gyroscopic", (3, "M", "M"), "1: phi^T M (e_k x phi)", 3),
     ("rotation_spin", (3, 3, "M", "M"), "1: phi^T M (e_k x (e_l x phi))", 3),
 )
+# The surface of the points (jaxflex.model.ModalModel.surface): triangles of point indices,
+# the FE mesh's cells (quadratic ones split into triangles) as the mesh orders them; an integer
+# field (the indices are checked where the model is built).
+SURFACE_GROUP = (
+    Field("surface_triangles", "integer", ("T", 3), "point indices", False, 3, "surface"),
+)
 FIELDS = (
     Field("format", "text", ()),
     Field("schema_version", "integer", ()),
@@ -168,6 +178,7 @@ FIELDS = (
     *ROTATION_CUP_GROUP,
     *ROTATION_STRESS_GROUP,
     *ROTATION_COUPLING_GROUP,
+    *SURFACE_GROUP,
 )
 FIELD_BY_NAME = {f.name: f for f in FIELDS}
 HEADER_FIELDS = ("format", "schema_version", "meta_json")  # read first, by name
@@ -180,6 +191,7 @@ _GROUPS = (
     ("rotation_cups", ROTATION_CUP_GROUP),
     ("rotation_stress", ROTATION_STRESS_GROUP),
     ("rotation_coupling", ROTATION_COUPLING_GROUP),
+    ("surface", SURFACE_GROUP),
 )
 OPTIONAL_FIELDS: dict[str, tuple[str, ...]] = {
     group: tuple(f.name for f in fields if f.in_version(SCHEMA_VERSION))
@@ -212,7 +224,7 @@ def write_model_file(
     stored = {name: np.asarray(arrays[name], dtype=np.float64) for name in ARRAY_FIELDS}
     for group in OPTIONAL_FIELDS.values():
         if any(name in arrays for name in group):
-            stored.update({name: np.asarray(arrays[name], dtype=np.float64) for name in group})
+            stored.update({name: _stored(name, arrays[name]) for name in group})
     if labels is not None:
         stored["labels"] = np.asarray(labels, dtype=np.str_)
     with atomic_open(path, "wb") as handle:
@@ -223,6 +235,13 @@ def write_model_file(
             meta_json=np.asarray(json.dumps(dict(meta), sort_keys=True)),
             **stored,
         )
+
+
+def _stored(name: str, value: Any) -> np.ndarray:
+    """``value`` as the array the file stores for field ``name`` (float64, or int64 for an
+    integer field)."""
+    kind = FIELD_BY_NAME[name].kind
+    return np.asarray(value, dtype=np.int64 if kind == "integer" else np.float64)
 
 
 class _Archive:

@@ -164,20 +164,47 @@ class _TurningMotion(_Motion):
         world = self._world(local, self.end[None], self.end_rotation[None])
         return self._skins(world)[:, 0]
 
-    def position(self, point: int, time_s: float) -> np.ndarray:
-        items = np.array([point])
-        if math.isinf(time_s):
-            local, t = self.rest[items][None], np.array([self.t_end])
-        elif time_s <= self.t_end:
-            t = np.array([time_s])
-            u = np.einsum("kcm,tm->tkc", self.shapes[items], self.coordinates(t))
-            local = (self.base[items] - self.pivot)[None] + u
-        else:
-            t = np.array([time_s])
-            local = self._after_local(t, items)
-        t_path = np.minimum(t, self.t_end)
+    def positions(self, t_s: np.ndarray, items: np.ndarray) -> np.ndarray:
+        """(T, I, 3) the mid-surface points ``items`` at times ``t_s`` (T,) s during the move
+        and after it (inf: at rest in the final pose): equation (1)."""
+        t = np.asarray(t_s, dtype=np.float64)
+        rest = np.isinf(t)
+        during = ~rest & (t <= self.t_end)
+        after = ~rest & ~during
+        local = np.empty((len(t), len(items), 3))
+        if during.any():
+            u = np.einsum("kcm,tm->tkc", self.shapes[items], self.coordinates(t[during]))
+            local[during] = (self.base[items] - self.pivot)[None] + u
+        if after.any():
+            local[after] = self._after_local(t[after], items)
+        local[rest] = self.rest[items]
+        t_path = np.where(during, t, self.t_end)
         path = kinematics_at(self.acc, self.dt_s, t_path)[0]
-        return self._world(local, path, rotations_between(self.path, t_path))[0, 0]
+        return self._world(local, path, rotations_between(self.path, t_path))
+
+    def position(self, point: int, time_s: float) -> np.ndarray:
+        return self.positions(np.array([time_s]), np.array([point]))[0, 0]
+
+
+def turning_positions_at(
+    model,
+    path: PosePath,
+    acc,
+    t_s,
+    *,
+    gravity_m_s2=GRAVITY_M_S2,
+    pivot_m=(0.0, 0.0, 0.0),
+    points=None,
+) -> np.ndarray:
+    """(T, P, 3) exact mid-surface positions (m, cell coordinates) of ``points`` (indices;
+    default all) of the turning part at times ``t_s`` (T,) s of the move and after it (inf:
+    at rest in the final pose), the turning ``path`` about ``pivot_m`` while the pivot moves
+    with ``acc`` (as :func:`turning_min_distance`): equation (1) of the module docstring,
+    the positions its search evaluates (jaxflex.collision.positions_at of a straight move)."""
+    require_rotation(model)
+    motion = _TurningMotion(model, (), path, acc, gravity_m_s2, pivot_m, 0.0)
+    items = np.arange(model.n_points) if points is None else np.asarray(points, dtype=np.int64)
+    return motion.positions(t_s, items)
 
 
 def turning_min_distance(

@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from jaxflex import undo
+from jaxflex.atomic import link_refusal
 from jaxflex.errors import InputError
 from jaxflex.inputs import file_kind
 
@@ -81,8 +83,8 @@ def _check_writable_dir(option: str, path: Path, target: Path) -> None:
 
 
 def _output_mode(option: str, path: str | os.PathLike) -> tuple[Path, int | None]:
-    """(``path`` as a Path, the mode of what it names, None if nothing): a symbolic link is
-    followed; an empty path, a link to nothing, a loop or a name the system refuses (too
+    """(``path`` as a Path, the mode of what it names, None if nothing): a symbolic link
+    (jaxflex never writes through one), an empty path or a name the system refuses (too
     long) is an InputError naming ``option``."""
     if str(path) == "":
         raise InputError(f"{option}: an empty path")
@@ -94,39 +96,45 @@ def _output_mode(option: str, path: str | os.PathLike) -> tuple[Path, int | None
             "beside it)"
         )
     try:
-        return target, os.stat(target).st_mode
+        mode = os.lstat(target).st_mode
     except FileNotFoundError:
-        if target.is_symlink():
-            raise InputError(f"{option}: {str(target)!r} is a symbolic link to nothing") from None
         return target, None
     except OSError as exc:
         raise InputError(f"{option}: {str(target)!r}: {exc.strerror or exc}") from None
+    if stat.S_ISLNK(mode):
+        raise InputError(f"{option}: {str(target)!r} is {link_refusal(target)}")
+    return target, mode
 
 
 def check_output_dir(option: str, path: str | os.PathLike) -> Path:
     """An output directory that can be written, checked before any work: ``path`` is a
-    directory, or absent in an existing writable directory (it is created there, one level).
-    Raises InputError naming ``option`` otherwise. Nothing is created."""
+    directory (not a link to one), or absent in an existing writable directory (it is
+    created there, one level). Raises InputError naming ``option`` otherwise. Nothing is
+    created; the directory and everything in it are declared outputs of the command
+    (jaxflex.undo: undone if the command fails)."""
     target, mode = _output_mode(option, path)
     if mode is not None and not stat.S_ISDIR(mode):
         raise InputError(
             f"{option}: {str(target)!r} exists and is {file_kind(mode)}, not a directory"
         )
     _check_writable_dir(option, target if mode is not None else target.parent, target)
+    undo.declare(target)
     return target
 
 
 def check_output_file(option: str, path: str | os.PathLike) -> Path:
     """An output file that can be written, checked before any work: ``path`` is absent or a
-    regular file (never a directory, device, FIFO or socket, which a write would replace),
-    in an existing writable directory. Raises InputError naming ``option`` otherwise.
-    Nothing is created."""
+    regular file (never a symbolic link, which would be written through, nor a directory,
+    device, FIFO or socket, which a write would replace), in an existing writable directory.
+    Raises InputError naming ``option`` otherwise. Nothing is created; the file is declared
+    an output of the command (jaxflex.undo: undone if the command fails)."""
     target, mode = _output_mode(option, path)
     if mode is not None and not stat.S_ISREG(mode):
         kind = file_kind(mode)
         hint = "give a file name" if kind == "a directory" else "only regular files are written"
         raise InputError(f"{option}: {str(target)!r} is {kind}; {hint}")
-    _check_writable_dir(option, target.resolve().parent, target)
+    _check_writable_dir(option, target.parent.resolve(), target)
+    undo.declare(target)
     return target
 
 

@@ -43,6 +43,14 @@ from optim.shapers import SHAPERS, convolve, shaper
 MAX_SHAPED_MODES = 6
 
 
+def _broken_line(c: dict) -> str:
+    """A cell constraint's certified value against its limit, short (optim.cell_rows)."""
+    if "distance" in c["name"]:
+        return f"{c['name']} {c['peak'] * 1e3:.3g} mm against {c['limit'] * 1e3:g} mm"
+    scale, unit = (1e-6, " MPa") if "stress" in c["name"] else (1.0, "")
+    return f"{c['name']} {c['peak'] * scale:.3g}{unit} against {c['limit'] * scale:.3g}{unit}"
+
+
 @dataclass
 class Baseline:
     """One baseline move (a checked Move: samples and step), its exact timing, and (robust
@@ -57,6 +65,7 @@ class Baseline:
     worst_grid: list[dict] | None = None  # cycle time at every point of the check grid
     constraints_ok: bool = True  # meets the cell's constraints (optim.cell_setup)
     constraints: list[dict] | None = None  # their certified values for this move
+    clearance_ok: bool = True  # its deviation during the move within the clearance, if any
     angular_acc: np.ndarray | None = None  # (n+1,) rad/s^2: the turn with the move, if any
     neglected_bound_m: float | None = None  # turning moves: jaxflex.turning's bound
 
@@ -73,6 +82,21 @@ class Baseline:
         """What the baseline is ranked by: the worst case in robust mode, else nominal."""
         return self.cycle_time_s if self.worst_cycle_time_s is None else self.worst_cycle_time_s
 
+    @property
+    def allowed(self) -> bool:
+        """Whether the move meets the cell's constraints and the clearance: a candidate."""
+        return self.constraints_ok and self.clearance_ok
+
+    def broken(self) -> str:
+        """What the move breaks, in words ("" where it is allowed): each cell constraint over
+        its limit with its certified value, the clearance."""
+        if self.allowed:
+            return ""
+        parts = [_broken_line(c) for c in self.constraints or () if c["utilisation"] > 1]
+        if not self.clearance_ok:
+            parts.append("the clearance during the move")
+        return "; ".join(parts) or "a cell constraint (within its certificate's tolerance)"
+
     def as_dict(self) -> dict:
         return {
             "name": self.name,
@@ -83,6 +107,7 @@ class Baseline:
             "worst_cycle_time_s": self.worst_cycle_time_s,
             "worst_case": self.worst_case,
             "constraints_ok": self.constraints_ok,
+            "clearance_ok": self.clearance_ok,
             "constraints": self.constraints,
             **({} if self.angular_acc is None else {"neglected_bound_m": self.neglected_bound_m}),
         }
@@ -102,6 +127,12 @@ class BaselineSet:
     def best(self) -> Baseline:
         """The entry with the shortest cycle (worst case in robust mode, else nominal)."""
         return min(self.entries, key=Baseline.score)
+
+    def best_allowed(self) -> Baseline | None:
+        """The shortest entry that meets the cell's constraints and the clearance (what an
+        optimised move is compared with), or None where none does."""
+        allowed = [b for b in self.entries if b.allowed]
+        return min(allowed, key=Baseline.score) if allowed else None
 
     def as_dict(self) -> dict:
         return {

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.files import check_input_file, check_positive, read_settings_file
+from jaxflex.files import check_input_file, check_positive, named, read_settings_file
 from jaxflex.geometry import (
     DEFAULT_GRAVITY_M_S2,
     Box,
@@ -90,8 +90,8 @@ def _obstacle(spec: Mapping, index: int, folder: Path) -> Obstacle:
         from fem.meshfile import read_cells  # fem's package (scikit-fem): only for a mesh
 
         points, blocks = read_cells(path)
-    except InputError as exc:
-        raise InputError(f"{where}.path: {exc}") from None
+    except InputError as exc:  # naming the file the path really is (a path through ..)
+        raise InputError(f"{where}.path {named(path)}: {exc}") from None
     triangles = [np.asarray(c, dtype=np.int64) for kind, c in blocks if kind == "triangle"]
     for kind, q in blocks:
         if kind == "quad":

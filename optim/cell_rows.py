@@ -395,7 +395,9 @@ class DistanceFamily:
             "time_s": found.time_s,
             "item": found.point,
             "obstacle": found.obstacle_name,
-            "where_m": np.asarray(self.model.points)[found.point].tolist()
+            # where the point is at the closest approach (the witness), and where it starts
+            "where_m": None if found.position_m is None else list(found.position_m),
+            "start_m": np.asarray(self.model.points)[found.point].tolist()
             if found.point >= 0
             else None,
             "points": self.model.n_points,

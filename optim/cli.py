@@ -13,10 +13,11 @@ import time
 from jaxflex.cli import add_axis_limits, axis_limit_values
 from jaxflex.defaults import DT_S, MAX_DURATION_S
 from jaxflex.errors import InputError
-from jaxflex.files import check_input_file, check_output_dir
+from jaxflex.files import check_input_file, check_set_dir
 from jaxflex.runtime import step
 from optim.defaults import ANGULAR_LIMITS, FREQ_SCALE, GRID, MAX_STEPS, ZETA
 from optim.options import check_numbers, clean_distance, label
+from optim.result_files import RESULT_FILES, check_animation_dir
 
 COMMAND = "optimize"
 HELP = "shortest cycle time move under vmax/amax/jmax limits (trajectory CSV, JSON, plots)"
@@ -74,7 +75,7 @@ def _add_move(parser: argparse.ArgumentParser) -> None:
         metavar=("W", "A", "J"),
         help="limits of the turn: rate rad/s, acceleration rad/s^2, jerk rad/s^3 (default "
         + " ".join(f"{v:g}" for v in ANGULAR_LIMITS)
-        + ": the robot rates of issue 26, jerk 10 x the acceleration)",
+        + ": a typical 6-axis robot wrist, jerk 10 x the acceleration)",
     )
     parser.add_argument(
         "--pivot",
@@ -216,6 +217,12 @@ def _add_budget(parser: argparse.ArgumentParser) -> None:
         help="write the trajectory and the report only, no pictures (they are drawn after "
         "the answer is printed and take about a second)",
     )
+    parser.add_argument(
+        "--animate",
+        action="store_true",
+        help="also write the part moving and bending, frame by frame: a ParaView series and a "
+        "browser page in OUTPUT/animation (as `jaxflex animate OUTPUT`)",
+    )
 
 
 def rotate_argument(values: list[str] | None):
@@ -250,7 +257,9 @@ def _max_stress(text: str | None) -> float | str | None:
 def _check_at_once(args: argparse.Namespace) -> None:
     """What needs neither the model nor the optimiser: the output, the move, the numbers,
     the input files (before JAX loads and the model file is read)."""
-    check_output_dir("-o/--output", args.output)
+    check_set_dir("-o/--output", args.output, RESULT_FILES)
+    if args.animate:
+        check_animation_dir("-o/--output", args.output)
     if (args.distance is None) == (args.cell is None):
         raise InputError("--distance / --cell: give the move by one of them")
     if args.distance is not None:
@@ -317,6 +326,22 @@ def run(args: argparse.Namespace) -> int:
     )
     result = run_request(request, start)
     print(result.summary(), flush=True)  # the answer first, then the files and pictures
+    result.inputs = input_records(args.model, args.cell)
     paths = result.save(args.output, plots=not args.no_plots)
     print("wrote " + ", ".join(str(p) for p in paths))
+    if args.animate:
+        from optim.animate import animate
+
+        print(animate(result, args.output).summary())
     return 0
+
+
+def input_records(model: str, cell: str | None) -> dict:
+    """report.json's ``inputs``: the model and cell files with their hashes (what `jaxflex
+    animate RESULT_DIR` reads again)."""
+    from optim.animate_frames import file_record
+
+    records = {"model": file_record(model)}
+    if cell is not None:
+        records["cell"] = file_record(cell)
+    return records

@@ -94,16 +94,21 @@ class LPBuilder:
         self.rows(np.broadcast_to(cols, block.shape), block, lo, hi)
 
     def program(self) -> LinearProgram:
-        data = np.concatenate(self._data) if self._data else np.zeros(0)
-        rows = np.concatenate(self._rows) if self._rows else np.zeros(0, int)
-        cols = np.concatenate(self._cols) if self._cols else np.zeros(0, int)
-        matrix = sp.csr_matrix((data, (rows, cols)), shape=(self.n_rows, self.n_vars))
-        cat = np.concatenate
+        """The program collected so far (one with no variables: a move whose every axis is
+        at rest)."""
+
+        def cat(parts: list[np.ndarray], dtype=float) -> np.ndarray:
+            return np.concatenate(parts) if parts else np.zeros(0, dtype)
+
+        matrix = sp.csr_matrix(
+            (cat(self._data), (cat(self._rows, int), cat(self._cols, int))),
+            shape=(self.n_rows, self.n_vars),
+        )
         return LinearProgram(
             cost=cat(self._cost),
             matrix=matrix,
-            row_lo=cat(self._row_lo) if self._row_lo else np.zeros(0),
-            row_hi=cat(self._row_hi) if self._row_hi else np.zeros(0),
+            row_lo=cat(self._row_lo),
+            row_hi=cat(self._row_hi),
             var_lo=cat(self._lo),
             var_hi=cat(self._hi),
         )
@@ -181,11 +186,14 @@ def _solve_casadi(lp: LinearProgram, plugin: str) -> LPSolution:
 
 
 def solve_lp(lp: LinearProgram, solver: str = "highs") -> LPSolution:
-    """Solve with ``solver``: "highs" (scipy), "casadi" (casadi + Clp) or "casadi-highs"."""
+    """Solve with ``solver``: "highs" (scipy), "casadi" (casadi + Clp) or "casadi-highs".
+    A program without variables (and so without rows) is solved as it is: optimal, empty."""
+    if solver not in LP_SOLVERS:
+        raise InputError(f"solver: the exact route accepts {LP_SOLVERS}, got {solver!r}")
+    if lp.cost.size == 0:
+        return LPSolution("optimal", np.zeros(0), 0.0, 0.0, 0, "no variables")
     if solver == "highs":
         return _solve_highs(lp)
     if solver == "casadi":
         return _solve_casadi(lp, "clp")
-    if solver == "casadi-highs":
-        return _solve_casadi(lp, "highs")
-    raise InputError(f"solver: the exact route accepts {LP_SOLVERS}, got {solver!r}")
+    return _solve_casadi(lp, "highs")

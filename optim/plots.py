@@ -4,9 +4,13 @@
   limits; axes with the same profile are drawn once and named together ("x = y");
 * ``deviation.png``: the deviation of the optimum and of every baseline against the
   threshold (left), the cycle time of each (right, from the kinematic floor), the optimum's
-  saving over the best baseline written on both;
+  saving over the best feasible baseline (one that meets the cell's constraints and the
+  clearance) in the title; baselines that are not allowed marked (hatched bars);
+* ``constraints.png``: each cell constraint over time, zoomed to its limit, with the cycle
+  time and the certified value marked;
 * ``robust.png``: the exact cycle time across the robust grid, one panel per damping ratio,
-  every move with its own line style and marker, one legend;
+  every move with its own line style and marker, one legend, a linear time axis zoomed to
+  the optimum and the best baseline;
 * ``deviation_worst_case.png``: the optimum at its worst point of the grid;
 * ``turn.png`` (moves that turn the part): the angle and the angular rate of the optimum
   and of every baseline.
@@ -19,11 +23,12 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from textwrap import fill
 
 import matplotlib.pyplot as plt
 import numpy as np
 
-from jaxflex.plots import PLAIN, deviation_axes, save_figure
+from jaxflex.plots import deviation_axes, save_figure
 from jaxflex.response import Move, integrate
 from optim.limits import AXES, Limits
 
@@ -37,7 +42,8 @@ BASELINE_COLORS = ("tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brow
 class Trace:
     """One move in the pictures: label, deviation curve (t (T,) s, d (T,) m) and its cycle
     time (s); ``worst_s``: its worst case over the robust grid (robust mode); ``acc``: its
-    samples ((n+1, 3) m/s^2), for plots of other responses over the same ``t``."""
+    samples ((n+1, 3) m/s^2), for plots of other responses over the same ``t``; ``breaks``:
+    what a baseline breaks (the cell's constraints, the clearance), drawn as not allowed."""
 
     label: str
     t: np.ndarray
@@ -45,6 +51,11 @@ class Trace:
     cycle_s: float
     worst_s: float | None = None
     acc: np.ndarray | None = None
+    breaks: str = ""  # what the move breaks (the cell's constraints, the clearance): "" if none
+
+    @property
+    def allowed(self) -> bool:
+        return not self.breaks
 
     @property
     def objective_s(self) -> float:
@@ -76,6 +87,12 @@ def _same_profile_groups(acc: np.ndarray) -> list[list[int]]:
     return groups
 
 
+def _signs_reached(values: np.ndarray, limit: float) -> tuple[int, ...]:
+    """The signs (+1, -1) of the limits an axis's ``values`` come near: a limit is drawn on
+    a side the profile reaches beyond a quarter of it, not half a panel of unused limit."""
+    return tuple(sign for sign in (1, -1) if (sign * values > 0.25 * limit).any())
+
+
 def plot_profiles(path: str | os.PathLike, move: Move, limits: Limits, title: str = "") -> None:
     """Position, velocity, acceleration and jerk of every moving axis of ``move`` against
     time, with the per-axis limits (and path limits, if any) as dashed lines (module
@@ -102,7 +119,7 @@ def plot_profiles(path: str | os.PathLike, move: Move, limits: Limits, title: st
             else:
                 (line,) = ax.plot(t, values[:, c], **style)
             if per_axis is not None:
-                for sign in (1, -1):
+                for sign in _signs_reached(values[:, c], per_axis[c]):
                     ax.axhline(sign * per_axis[c], color=line.get_color(), ls="--", lw=0.8)
         if norm_limit is not None and len(groups) + sum(len(g) - 1 for g in groups) > 1:
             ax.plot(
@@ -111,24 +128,30 @@ def plot_profiles(path: str | os.PathLike, move: Move, limits: Limits, title: st
             ax.axhline(norm_limit, color="k", ls="--", lw=0.8)
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
-    axes[0].legend(loc="best", fontsize=8, title="axis", title_fontsize=8)
+    axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8, title="axis",
+                   title_fontsize=8)  # fmt: skip
     axes[-1].set_xlabel("time [s]")
     axes[0].set_title(
-        title or f"optimised profile, {acc.shape[0] - 1} steps of {dt_s * 1e3:g} ms; dashed: limits"
+        title
+        or f"optimised profile, {acc.shape[0] - 1} steps of {dt_s * 1e3:g} ms; dashed: the "
+        "limits on the sides each axis comes near"
     )
     save_figure(fig, path)
 
 
-def _saving_text(best: Trace, baseline: Trace, what: str) -> str:
+def _saving_text(best: Trace, baseline: Trace | None, what: str) -> str:
+    """The bar chart's title: the saving against the best allowed ``baseline`` (None: no
+    baseline meets the cell's constraints)."""
+    if baseline is None:
+        return "no baseline meets the cell's constraints or the clearance (hatched: not allowed)"
     saving = baseline.objective_s - best.objective_s
-    if saving < -1e-9:  # that baseline breaks the clearance or a cell constraint
-        label = f"{baseline.label}, not allowed"
-        return f"{what} {-saving:.3f} s longer than the best baseline ({label})"
+    if saving < -1e-9:  # cannot happen against an allowed baseline (optim.choice)
+        return f"{what} {-saving:.3f} s longer than the best feasible baseline ({baseline.label})"
     if saving <= 0:
-        return f"{what} as short as the best baseline ({baseline.label})"
+        return f"{what} as short as the best feasible baseline ({baseline.label})"
     return (
         f"{saving:.3f} s ({100 * saving / baseline.objective_s:.1f} %) shorter {what} than "
-        f"the best baseline ({baseline.label})"
+        f"the best feasible baseline ({baseline.label})"
     )
 
 
@@ -140,26 +163,33 @@ def plot_comparison(
     title: str,
 ) -> None:
     """deviation.png: ``traces[0]`` is the returned move, the others the baselines
-    (module docstring); ``floor_s``: the kinematic floor (s)."""
+    (module docstring); ``floor_s``: the kinematic floor (s). The saving is against the
+    best baseline that is allowed (meets the cell's constraints and the clearance); the
+    others are marked; deviations below the axis (1 % of the threshold) run along it."""
     robust = traces[0].worst_s is not None
     what = "worst case" if robust else "cycle"
     best, others = traces[0], traces[1:]
-    baseline = min(others, key=lambda tr: tr.objective_s) if others else None
+    allowed = [tr for tr in others if tr.allowed]
+    baseline = min(allowed, key=lambda tr: tr.objective_s) if allowed else None
     fig, (ax, ax_bar) = plt.subplots(
-        1, 2, figsize=(12, 4.6), gridspec_kw={"width_ratios": [2.2, 1]}, layout="constrained"
+        1, 2, figsize=(13, 5.4), gridspec_kw={"width_ratios": [2.0, 1]}, layout="constrained"
     )
     styles = _styles(len(traces))
+    floor_mm = threshold_m * 1e3 / 100  # deviation_axes' lower limit
     for trace, style in zip(traces, styles, strict=True):
+        note = "" if trace.allowed else " (not allowed)"
         ax.plot(
             trace.t,
-            np.asarray(trace.d) * 1e3,
+            np.maximum(np.asarray(trace.d) * 1e3, floor_mm),
             color=style["color"],
             ls=style["ls"],
-            lw=style["lw"],
+            lw=style["lw"] if trace.allowed else 0.9,
+            alpha=1.0 if trace.allowed else 0.6,
             zorder=style["zorder"],
-            label=f"{trace.label}: cycle {trace.cycle_s:.3f} s",
+            label=f"{trace.label}: cycle {trace.cycle_s:.3f} s{note}",
         )
     deviation_axes(ax, threshold_m)
+    ax.set_ylim(bottom=floor_mm)
     ax.axvline(
         best.cycle_s,
         color=OPTIMISED_COLOR,
@@ -173,15 +203,14 @@ def plot_comparison(
             color="0.2",
             ls=":",
             lw=1.4,
-            label=f"cycle time of the best baseline: {baseline.cycle_s:.3f} s",
+            label=f"cycle time of the best feasible baseline: {baseline.cycle_s:.3f} s",
         )
-    ax.set_xlabel("time [s]")
-    ax.legend(loc="upper right", fontsize=8)
+    ax.set_xlabel("time [s] (deviations below the axis drawn along it)")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=8)
     ax.set_title(title, fontsize=10)
 
     _cycle_bars(ax_bar, traces, styles, floor_s, robust)
-    if baseline is not None:
-        ax_bar.set_title(_saving_text(best, baseline, what), fontsize=9, wrap=True)
+    ax_bar.set_title(_saving_text(best, baseline, what), fontsize=9, wrap=True)
     save_figure(fig, path)
 
 
@@ -189,13 +218,18 @@ def _cycle_bars(ax, traces: list[Trace], styles: list[dict], floor_s: float, rob
     """Horizontal bars from the kinematic floor to each move's objective (robust: the worst
     case, with the nominal cycle as a tick); bars beyond the axis are clipped and labelled."""
     values = [tr.objective_s for tr in traces]
-    best_baseline = min(values[1:], default=values[0])
+    allowed = [tr.objective_s for tr in traces[1:] if tr.allowed]
+    best_baseline = min(allowed or values[1:], default=values[0])
     right = min(max(values), floor_s + 3.0 * max(best_baseline - floor_s, 0.05 * floor_s))
     left = floor_s - 0.15 * (right - floor_s)
     rows = np.arange(len(traces))[::-1]
     for row, trace, style in zip(rows, traces, styles, strict=True):
         end = min(trace.objective_s, right)
-        ax.barh(row, end - floor_s, left=floor_s, color=style["color"], alpha=0.8, height=0.6)
+        ax.barh(
+            row, end - floor_s, left=floor_s, color=style["color"], height=0.6,
+            alpha=0.8 if trace.allowed else 0.35, hatch=None if trace.allowed else "///",
+            edgecolor="0.3" if not trace.allowed else None,
+        )  # fmt: skip
         clipped = trace.objective_s > right
         ax.text(
             end if not clipped else right,
@@ -209,7 +243,11 @@ def _cycle_bars(ax, traces: list[Trace], styles: list[dict], floor_s: float, rob
         if robust and trace.cycle_s <= right:
             ax.plot([trace.cycle_s] * 2, [row - 0.3, row + 0.3], color="k", lw=1.5)
     ax.axvline(floor_s, color="k", lw=1)
-    ax.set_yticks(rows, [tr.label for tr in traces], fontsize=8)
+    labels = [
+        tr.label if tr.allowed else fill(f"{tr.label} - not allowed: {tr.breaks}", 34)
+        for tr in traces
+    ]
+    ax.set_yticks(rows, labels, fontsize=7)
     ax.set_xlim(left, right + 0.25 * (right - floor_s))
     ax.set_xlabel(
         ("worst-case cycle time [s] (|: nominal model)" if robust else "cycle time [s]")
@@ -230,29 +268,44 @@ def plot_worst_case(path: str | os.PathLike, trace: Trace, threshold_m: float) -
     save_figure(fig, path)
 
 
+def _robust_top(series: dict[str, list[dict]]) -> float:
+    """The top of robust.png's time axis (s): the optimum's and the best baseline's whole
+    range and a third of their gap above, so that a tenth of a second between them reads
+    at a glance; moves beyond it run off the top (their legend entry says how far)."""
+    worst = {label: max(g["cycle_time_s"] for g in grid) for label, grid in series.items()}
+    first, *others = worst
+    best_other = min((worst[label] for label in others), default=worst[first])
+    low = min(g["cycle_time_s"] for grid in series.values() for g in grid)
+    high = max(worst[first], best_other)
+    return high + max(0.35 * (high - low), 0.02 * high)
+
+
 def plot_robust(path: str | os.PathLike, series: dict[str, list[dict]], title: str) -> None:
     """Exact cycle time against the frequency scale, one panel per damping ratio, for the
     optimum (first entry of ``series``) and every baseline. ``series`` maps a label to grid
-    entries {"freq_scale", "zeta", "cycle_time_s"}. The y axis is logarithmic with plain
-    tick labels when the times span more than a factor 3."""
+    entries {"freq_scale", "zeta", "cycle_time_s"}. A linear time axis from the shortest
+    time to just above the optimum's and the best baseline's (:func:`_robust_top`): the gap
+    between them is what the picture shows; a move beyond it runs off the top, its worst
+    case in the legend."""
     zetas = sorted({g["zeta"] for grid in series.values() for g in grid}, key=lambda z: z or 0)
     fig, axes = plt.subplots(
         1,
         len(zetas),
-        figsize=(4.2 * len(zetas) + 2.8, 4),
+        figsize=(4.2 * len(zetas) + 3.2, 4.2),
         sharey=True,
         squeeze=False,
         layout="constrained",
     )
     styles = _styles(len(series))
-    every = [g["cycle_time_s"] for grid in series.values() for g in grid]
-    spread = max(every) / min(every)
+    top = _robust_top(series)
+    low = min(g["cycle_time_s"] for grid in series.values() for g in grid)
     for ax, zeta in zip(axes[0], zetas, strict=True):
         for (label, grid), style in zip(series.items(), styles, strict=True):
             points = sorted((g["freq_scale"], g["cycle_time_s"]) for g in grid if g["zeta"] == zeta)
             if points:
                 s, c = zip(*points, strict=True)
                 worst = max(g["cycle_time_s"] for g in grid)
+                beyond = " - off the top" if worst > top else ""
                 ax.plot(
                     s,
                     c,
@@ -263,12 +316,9 @@ def plot_robust(path: str | os.PathLike, series: dict[str, list[dict]], title: s
                     zorder=style["zorder"],
                     ms=4,
                     mfc="none" if style["zorder"] < 5 else style["color"],
-                    label=f"{label} (worst {worst:.3f} s)",
+                    label=f"{label} (worst {worst:.3f} s{beyond})",
                 )
-        if spread > 3:
-            ax.set_yscale("log")
-            ax.yaxis.set_major_formatter(PLAIN)
-            ax.yaxis.set_minor_formatter(PLAIN)
+        ax.set_ylim(low - 0.1 * (top - low), top)
         ax.set_xlabel("frequency scale (all modes)")
         ax.set_title("model damping" if zeta is None else f"zeta = {zeta:g}", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
@@ -279,25 +329,83 @@ def plot_robust(path: str | os.PathLike, series: dict[str, list[dict]], title: s
     save_figure(fig, path)
 
 
+def _constraint_range(name: str, limit: float, moves: list[np.ndarray]) -> tuple[float, float]:
+    """The y range of a constraint's panel, zoomed to its limit: a distance from 0 to three
+    times the limit (or the optimum's closest approach, ``moves[0]``, a fifth above it); a
+    load from 0 to a tenth above the largest of the limit, the optimum's peak and the other
+    moves' peaks up to 1.5 times the limit (a baseline that breaks the limit shows by how
+    much, within reason)."""
+    if "distance" in name:
+        return 0.0, max(3.0 * limit, 1.2 * float(np.min(moves[0])))
+    others = max((float(np.max(v)) for v in moves[1:]), default=0.0)
+    return 0.0, 1.1 * max(limit, float(np.max(moves[0])), min(others, 1.5 * limit))
+
+
+def _closest_inset(ax, moves: dict, limit: float, when: float, value: float, scale: float):
+    """An inset of the distance panel ``ax``: 60 ms either side of the certified closest
+    approach (``when`` s, ``value`` and ``limit`` in the panel's unit), where the part passes
+    the obstacle: the margin over the limit reads there."""
+    inset = ax.inset_axes([0.56, 0.34, 0.3, 0.5])
+    styles = _styles(len(moves))
+    for (t, values), style in zip(moves.values(), styles, strict=True):
+        near = np.abs(np.asarray(t) - when) <= 0.06
+        inset.plot(np.asarray(t)[near], np.asarray(values)[near] * scale, color=style["color"],
+                   ls=style["ls"], lw=1.2)  # fmt: skip
+    inset.axhline(limit, color="k", ls="--", lw=0.8)
+    inset.plot([when], [value], "k+", ms=9, mew=1.5)
+    inset.set_xlim(when - 0.06, when + 0.06)
+    inset.set_ylim(0.9 * limit, 2.0 * limit)
+    inset.set_title(f"{when:.3f} s +- 60 ms", fontsize=7)
+    inset.tick_params(labelsize=6)
+    inset.grid(True, alpha=0.3)
+
+
 def plot_constraints(
-    path: str | os.PathLike, curves: dict[str, dict[str, tuple]], limits: dict[str, float]
+    path: str | os.PathLike,
+    curves: dict[str, dict[str, tuple]],
+    limits: dict[str, float],
+    cycle_s: float | None = None,
+    certified: dict[str, tuple[float, float]] | None = None,
 ) -> None:
-    """One panel per cell constraint (``curves``: name -> {move label: (t (T,), values (T,))})
-    with its limit (``limits``: name -> value) as a dashed line: the largest cup utilisation,
-    the largest von Mises stress, the smallest distance to the obstacles over time."""
-    fig, axes = plt.subplots(len(curves), 1, figsize=(8, 2.8 * len(curves)), squeeze=False)
+    """One panel per cell constraint (``curves``: name -> {move label: (t (T,), values (T,))},
+    the optimum first) with its limit (``limits``: name -> value) as a dashed line: the
+    largest cup utilisation, the largest von Mises stress, the smallest distance to the
+    obstacles over time; each zoomed to its limit (:func:`_constraint_range`), the
+    optimum's cycle time ``cycle_s`` marked and its certified value (``certified``: name
+    -> (time s, value)) where it occurs; the legend beside the panels."""
+    fig, axes = plt.subplots(
+        len(curves), 1, figsize=(10, 2.9 * len(curves)), squeeze=False, layout="constrained"
+    )
+    certified = certified or {}
     for ax, (name, moves) in zip(axes[:, 0], curves.items(), strict=True):
         scale, unit = (
             (1e-6, "MPa") if "stress" in name else (1e3, "mm") if "distance" in name else (1.0, "")
         )
-        for label, (t, values) in moves.items():
-            ax.plot(t, values * scale, label=label, lw=1.2 if label == "optimised" else 0.8)
-        ax.axhline(limits[name] * scale, color="k", ls="--", lw=0.8, label="limit")
-        ax.set_ylabel(f"{name}{f' [{unit}]' if unit else ''}")
+        styles = _styles(len(moves))
+        for (label, (t, values)), style in zip(moves.items(), styles, strict=True):
+            ax.plot(t, values * scale, label=label, color=style["color"], ls=style["ls"],
+                    lw=1.6 if style["zorder"] == 5 else 0.9, zorder=style["zorder"])  # fmt: skip
+        limit = limits[name]
+        ax.axhline(limit * scale, color="k", ls="--", lw=0.8, label="limit")
+        low, high = _constraint_range(name, limit, [values for _, values in moves.values()])
+        ax.set_ylim(low * scale, high * scale)
+        if cycle_s is not None:
+            ax.axvline(cycle_s, color=OPTIMISED_COLOR, lw=1, ls=":", label="cycle time")
+        if name in certified and np.isfinite(certified[name][0]):
+            when, value = certified[name]
+            ax.plot([when], [value * scale], "k+", ms=10, mew=1.5, zorder=7,
+                    label=f"certified: {value * scale:.4g} {unit} at {when:.3f} s")  # fmt: skip
+            if "distance" in name:
+                _closest_inset(ax, moves, limit * scale, when, value * scale, scale)
+        ax.set_ylabel(f"{name}{f' [{unit}]' if unit else ''}", fontsize=9)
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7, loc="best")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     axes[-1, 0].set_xlabel("time [s]")
-    axes[0, 0].set_title("cell constraints: optimised move and baselines (dashed: limit)")
+    axes[0, 0].set_title(
+        "cell constraints of the optimised move and the baselines, each zoomed to its limit "
+        "(dashed)",
+        fontsize=10,
+    )
     save_figure(fig, path)
 
 

@@ -132,6 +132,8 @@ class Request:
             self._set(field, value)
         self._check_route()
         self._check_turn()
+        if self.rotate is not None:  # before ruckig or an LP sees the turn
+            self.rotate.check_length(self.dt_s, self.max_duration_s, self.max_steps)
         memory = self.max_memory_bytes
         memory = current_budget().memory_bytes if memory is None else memory
         check_positive(label("max_memory_bytes"), memory)

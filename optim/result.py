@@ -21,6 +21,7 @@ accept the files only as that set):
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from dataclasses import dataclass, field
@@ -34,22 +35,32 @@ from jaxflex.model import ModalModel
 from jaxflex.response import Move, SettleReport, as_move, deviation_curve, integrate
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
+from optim.result_files import ANIMATION_DIR as ANIMATION_DIR  # their home: the light names
+from optim.result_files import RESULT_FILES as RESULT_FILES
+from optim.result_files import RESULT_KIND as RESULT_KIND
 from optim.robust import RobustSpec, perturbed
 from optim.turn_clearance import turning_move_deviation
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
 PLOT_AFTER = 20_000  # plots: at most this many samples of the settling (a long baseline's)
-RESULT_KIND = "jaxflex.optimize"
-RESULT_FILES = (
-    "trajectory.csv",
-    "report.json",
-    "profiles.png",
-    "deviation.png",
-    "constraints.png",
-    "robust.png",
-    "deviation_worst_case.png",
-    "turn.png",
-)
+
+
+def remove_animation(directory: Path) -> None:
+    """Remove the animation set (optim.animate: ``animation/`` with its manifest) of an
+    earlier result in ``directory``: it is not this result's."""
+    folder = directory / ANIMATION_DIR
+    manifest = folder / MANIFEST
+    if not manifest.is_file():
+        return
+    try:
+        names = json.loads(manifest.read_text(encoding="utf-8"))["files"]
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError):
+        names = {}
+    manifest.unlink()
+    for name in names:
+        (folder / Path(str(name)).name).unlink(missing_ok=True)
+    with contextlib.suppress(OSError):
+        folder.rmdir()
 
 
 def constraint_line(c: dict) -> str:
@@ -106,6 +117,7 @@ class OptimizationResult:
     cell: Any = None  # optim.cell_setup.CellSetup (posed model, via points, families)
     turn: Any = None  # optim.turn.TurnSpec of a move that turns the part
     angular_acc: np.ndarray | None = None  # (n+1,) rad/s^2: the turn's schedule
+    inputs: dict = field(default_factory=dict)  # the input files, {"model": {path, sha256}}
     _traces: list = field(default_factory=list, repr=False, compare=False)  # _responses()
 
     @property
@@ -156,9 +168,12 @@ class OptimizationResult:
         return self.cycle_time_s if self.worst_case is None else self.worst_cycle_time_s
 
     def comparison(self) -> dict:
-        """The answer against the best baseline by the same objective: its name, its
-        objective and the saving (s, and relative to the baseline)."""
-        best = self.baselines.best()
+        """The answer against the best baseline that meets the cell's constraints and the
+        clearance (``baseline_allowed``), by the same objective: its name, its objective and
+        the saving (s, and relative to the baseline). Where no baseline does, against the
+        fastest one, ``baseline_allowed`` False and ``breaks`` saying what it breaks."""
+        allowed = self.baselines.best_allowed()
+        best = allowed if allowed is not None else self.baselines.best()
         saving = best.score() - self.objective_s
         return {
             "objective": "cycle_time_s" if self.worst_case is None else "worst_cycle_time_s",
@@ -166,6 +181,8 @@ class OptimizationResult:
             "best_baseline_s": best.score(),
             "saving_s": saving,
             "saving_rel": saving / best.score(),
+            "baseline_allowed": allowed is not None,
+            "breaks": best.broken(),
         }
 
     def ratios(self) -> dict:
@@ -194,6 +211,7 @@ class OptimizationResult:
         model = self.model
         return {
             "units": "SI (m, s, m/s, m/s^2, m/s^3)",
+            "inputs": self.inputs or None,
             "model": {
                 "n_modes": model.n_modes,
                 "n_points": model.n_points,
@@ -284,7 +302,7 @@ class OptimizationResult:
         lines.append("  baselines:" + " " * 16 + "cycle" + ("      worst" if robust else ""))
         for b in base.entries:
             worst = f"    {b.worst_cycle_time_s:7.3f} s" if robust else ""
-            bad = "" if b.constraints_ok else " (breaks a cell constraint)"
+            bad = "" if b.allowed else f" (not allowed: breaks {b.broken()})"
             lines.append(f"    {b.name:24s}{b.cycle_time_s:7.3f} s{worst}{bad}")
         lines.append(f"  limits: {self.constraint_check.summary()}")
         lines += [f"  note: {note}" for note in self.solver_stats.get("notes", [])]
@@ -293,7 +311,8 @@ class OptimizationResult:
 
     def headline(self) -> str:
         """One line with the answer: which move, its objective, and how it compares with
-        the best baseline (the same objective)."""
+        the best baseline that meets the cell's constraints and the clearance (the same
+        objective), or that no baseline does."""
         cmp = self.comparison()
         what = "worst case" if self.worst_case is not None else "cycle"
         base = f"{cmp['best_baseline']} {cmp['best_baseline_s']:.3f} s"
@@ -303,18 +322,23 @@ class OptimizationResult:
                 "optimised move was shorter; see the note)"
             )
         head = f"best move: optimised, {what} {self.objective_s:.3f} s"
+        if not cmp["baseline_allowed"]:
+            return (
+                f"{head}; no baseline meets the cell's constraints (the fastest, {base}, "
+                f"breaks {cmp['breaks']})"
+            )
         if cmp["saving_s"] > 0:
             return (
                 f"{head}, {cmp['saving_s']:.3f} s ({100 * cmp['saving_rel']:.1f} %) shorter "
-                f"than the best baseline, {base}"
+                f"than the best feasible baseline, {base}"
             )
-        if cmp["saving_s"] < -1e-9:  # that baseline is no candidate (optim.stages.choose's notes)
+        if cmp["saving_s"] < -1e-9:  # not a candidate (optim.stages.choose's notes)
             return (
                 f"{head}; the best baseline, {base}, is shorter but breaks the clearance or "
                 "a cell constraint"
             )
         floor = " = the kinematic floor, no move is shorter" if self._at_floor() else ""
-        return f"{head}, as short as the best baseline, {base}{floor}"
+        return f"{head}, as short as the best feasible baseline, {base}{floor}"
 
     def _at_floor(self) -> bool:
         return (
@@ -345,6 +369,7 @@ class OptimizationResult:
             files.add_text("report.json", json.dumps(self.report(), indent=2))
             if plots:
                 self._plot(files)
+        remove_animation(files.directory)
         return [files.directory / name for name in (*files.members, MANIFEST)]
 
     def _plot(self, files: SetWriter) -> None:
@@ -375,13 +400,13 @@ class OptimizationResult:
 
         if not self._traces:
             label = self._label()
-            moves = [(label, self.acc, self.cycle_time_s, self.worst_cycle_time_s)]
+            moves = [(label, self.acc, self.cycle_time_s, self.worst_cycle_time_s, "")]
             for b in self._other_baselines():
-                moves.append((b.name, b.acc, b.cycle_time_s, b.worst_cycle_time_s))
+                moves.append((b.name, b.acc, b.cycle_time_s, b.worst_cycle_time_s, b.broken()))
             until = self._until()
-            for label, acc, cycle, worst in moves:
+            for label, acc, cycle, worst, breaks in moves:
                 t, d = self._curve(acc, self._turn_of(label), until)
-                self._traces.append(Trace(label, t, d, cycle, worst, acc))
+                self._traces.append(Trace(label, t, d, cycle, worst, acc, breaks))
         return self._traces
 
     def _other_baselines(self) -> list:
@@ -436,7 +461,8 @@ class OptimizationResult:
             for name, values in self.cell.curves(move, trace.t, turn).items():
                 curves.setdefault(name, {})[trace.label] = (trace.t, values)
         limits = {c["name"]: c["limit"] for c in self.constraints}
-        plot_constraints(path, curves, limits)
+        certified = {c["name"]: (c["time_s"], c["peak"]) for c in self.constraints}
+        plot_constraints(path, curves, limits, self.cycle_time_s, certified)
 
     def _plot_deviation(self, files: SetWriter) -> None:
         from optim.plots import Trace, plot_comparison, plot_worst_case  # when drawing

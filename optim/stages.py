@@ -189,7 +189,9 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     resolution = model_resolution(setup.model, setup.distance_m)
     advice = threshold_advice(r.threshold_m, floor.timing.settle_time_s, peak, resolution)
     over = _over_clearance(r.clearance_m, deviations)
-    feasible = [e for e in moves.entries if e.constraints_ok and e.name not in over]
+    for entry in moves.entries:
+        entry.clearance_ok = entry.name not in over
+    feasible = [e for e in moves.entries if e.allowed]
     return Baselines(moves, fractions, feasible, deviations, issue(advice), trains, over)
 
 

@@ -39,7 +39,9 @@ from jaxflex.response import (
     turning_settle,
     unit_axis,
 )
+from optim.budget import kinematic_lower_bound_s
 from optim.defaults import ANGULAR_LIMITS
+from optim.kinematics import MOVE_ATOL_M
 from optim.limits import Limits
 from optim.ruckig_move import fit_to_grid, grid_steps, shaped_acceleration, time_optimal_move
 from optim.shapers import Shaper
@@ -79,6 +81,12 @@ class TurnSpec:
                 f"rotate (--rotate AXIS ANGLE_DEG): the angle must be a finite number of "
                 f"degrees, got {angle_deg!r}"
             )
+        if 0.0 < abs(np.radians(angle)) <= MOVE_ATOL_M:
+            raise InputError(
+                f"rotate (--rotate AXIS ANGLE_DEG): a turn of {angle_deg!r} degrees is below "
+                f"the smallest the optimiser resolves ({np.degrees(MOVE_ATOL_M):.2g} degrees, "
+                f"{MOVE_ATOL_M:g} rad); give 0 for no turn"
+            )
         limits = ANGULAR_LIMITS if angular_limits is None else tuple(angular_limits)
         values = []
         names = ("rate_rad_s", "acc_rad_s2", "jerk_rad_s3")
@@ -107,6 +115,21 @@ class TurnSpec:
             *values,
             pivot_m=tuple(float(v) for v in pivot),
         )
+
+    def check_length(self, dt_s: float, max_duration_s: float, max_steps: int) -> None:
+        """InputError naming the options unless the turn can fit in ``max_duration_s`` and
+        ``max_steps`` steps of ``dt_s``: its closed-form lower bound (optim.budget,
+        the angle as a one-axis move) is checked before ruckig or an LP sees the turn."""
+        floor_s = kinematic_lower_bound_s(self.angle_move, self.limits)
+        allowed_s = min(max_duration_s, max_steps * dt_s)
+        if floor_s > allowed_s:
+            raise InputError(
+                f"rotate / angular_limits (--rotate, --angular-limits W A J): the turn of "
+                f"{np.degrees(self.angle_rad):.4g} degrees needs at least {floor_s:.4g} s at "
+                f"the angular limits {self.rate_rad_s:g} rad/s, {self.acc_rad_s2:g} rad/s^2, "
+                f"{self.jerk_rad_s3:g} rad/s^3, more than the {allowed_s:g} s a move may last "
+                "(--max-duration, --max-steps x --dt); raise the limits or turn less"
+            )
 
     @property
     def limits(self) -> Limits:

@@ -68,6 +68,17 @@ def plate() -> jaxflex.ModalModel:
 
 
 @pytest.fixture(scope="session")
+def four_cup_plate():
+    """A 0.6 x 0.4 m, 1 mm steel plate on four 30 mm cups at 50 mm, 6 modes (fem's
+    ModalResult): the model the solver-file tests write and read back."""
+    import fem
+
+    part = fem.rectangular_plate(0.6, 0.4, 1e-3, mesh_size=0.05)
+    cups = [fem.SuctionCup(x, y, 0.03) for x in (0.12, 0.48) for y in (0.1, 0.3)]
+    return fem.modal_analysis(part, cups, 6, progress=False)
+
+
+@pytest.fixture(scope="session")
 def turning_plate() -> jaxflex.ModalModel:
     """A 1.2 x 0.8 m, 1 mm steel plate on four cups (fem.scenes' layout), 4 modes (11.9-13.5
     Hz) at 54 points, with its rotation data, static residuals, cups and stresses (fem): the

@@ -64,10 +64,17 @@ def write_op2(
     gamma=None,
     word: int = 8,
     table: str = "OUGV1",
+    lama: bool = True,
+    cd=None,
+    systems=(),
 ) -> None:
-    """An OP2 of real modes: shapes (N, 3, M) (rotations written as zeros), freq_hz (M,),
+    """An OP2 of real modes: shapes (N, 3, M) (rotations written as zeros) as the table
+    holds them (in each grid's system ``cd`` (N,) for OUGV1, default 0), freq_hz (M,),
     nodes (N, 3) in the basic system, generalized_mass (M,) (default 1), gamma (M, 3) as
-    MPFACS (Nastran's phi^T M R / generalized mass; rotations 0) or None."""
+    MPFACS (Nastran's phi^T M R / generalized mass; rotations 0) or None; ``lama`` False
+    writes no LAMA (the eigenvalues only in the eigenvector headers, as some NX/MSC
+    PARAM,POST,-1 runs do); ``systems`` CORD2R/CORD2C records (cid, "R" or "C", A, B, C in
+    the basic system)."""
     out = _Op2Writer(word)
     n_modes = len(freq_hz)
     mass = np.ones(n_modes) if generalized_mass is None else np.asarray(generalized_mass)
@@ -77,18 +84,30 @@ def write_op2(
     out.block(b"NASTRAN FORT TAPE ID CODE - ".ljust(7 * out.word))
     out.record(out.text("XXXXXXXX"))
     out.marker(-1, 0)
+    cd = np.zeros(len(node_ids), dtype=int) if cd is None else np.asarray(cd)
     grids = b"".join(
-        out.words([int(n), 0, *map(float, p), 0, 0, 0], "iifffiii")
-        for n, p in zip(node_ids, nodes, strict=True)
+        out.words([int(n), 0, *map(float, p), int(c), 0, 0], "iifffiii")
+        for n, p, c in zip(node_ids, nodes, cd, strict=True)
     )
-    out.table("GEOM1", (101, 0, 0, 8, 0, 0, 0), [[out.words([4501, 45, 1], "iii") + grids]])
+    geometry = [[out.words([4501, 45, 1], "iii") + grids]]
+    for kind, key in (("R", (2101, 21, 8, 1)), ("C", (2001, 20, 9, 2))):
+        cards = [sys for sys in systems if sys[1] == kind]
+        if cards:
+            body = b"".join(
+                out.words([cid, key[3], 2, 0, *np.concatenate(points)], "iiii" + "f" * 9)
+                for cid, _, *points in cards
+            )
+            geometry.append([out.words(key[:3], "iii") + body])
+    out.table("GEOM1", (101, 0, 0, 8, 0, 0, 0), geometry)
     omega = 2 * np.pi * np.asarray(freq_hz)
-    lama = b"".join(
+    lama_rows = b"".join(
         out.words([i + 1, i + 1, w**2, w, f, m, m * w**2], "iifffff")
         for i, (w, f, m) in enumerate(zip(omega, freq_hz, mass, strict=True))
     )
     header = [0] * 146
-    out.table("LAMA", (101, 10, 0, 0, 0, 0, 0), [[out.words(header, "i" * 146)], [lama]])
+    if lama:
+        records = [[out.words(header, "i" * 146)], [lama_rows]]
+        out.table("LAMA", (101, 10, 0, 0, 0, 0, 0), records)
     records = []
     for j in range(n_modes):
         head = [21, 7, 0, 1, j + 1, 0, 0, 0, 1, 8] + [0] * 136
@@ -136,3 +155,38 @@ def write_punch(path, freq_hz, node_ids, shapes, digits: int = 11) -> None:
     numbered = [f"{line:72s}{k + 1:8d}" for k, line in enumerate(lines)]
     with open(path, "w") as handle:
         handle.write("\n".join(numbered) + "\n")
+
+
+def uff_2414_modes(freq_hz, node_ids, values, analysis_type: int = 2) -> str:
+    """Datasets 2414 (I-DEAS analysis data at nodes, as Simcenter/NX write modes) of real
+    3-DOF displacement vectors ``values`` (N, 3, M), one per mode, with the frequency and a
+    unit modal mass in record 13, as the format defines them (E13.5 reals)."""
+
+    def reals(numbers) -> str:
+        return "".join(f"{v:13.5E}" for v in numbers)
+
+    blocks = []
+    for j, f in enumerate(freq_hz):
+        lines = ["    -1", "  2414", f"{j + 1:10d}", f"mode {j + 1}", f"{1:10d}"]
+        lines += ["NONE"] * 5
+        lines.append("".join(f"{v:10d}" for v in (1, analysis_type, 2, 8, 2, 3)))
+        lines.append("".join(f"{v:10d}" for v in (0, 0, 1, 0, 0, j + 1, 0, 0)))
+        lines.append("".join(f"{v:10d}" for v in (0, 0)))
+        lines.append(reals([0.0, f, 0.0, 1.0, 0.0, 0.0]))
+        lines.append(reals([0.0] * 6))
+        for n, row in zip(node_ids, values[:, :, j], strict=True):
+            lines += [f"{int(n):10d}", reals(row)]
+        blocks.append("\n".join([*lines, "    -1"]))
+    return "\n".join(blocks) + "\n"
+
+
+def uff55_mode() -> dict:
+    """pyuff's dataset 55 of one real mode (12.5 Hz, unit modal mass) at nodes 1, 2, 3."""
+    import pyuff
+
+    return pyuff.prepare_55(
+        id1="mode", model_type=1, analysis_type=2, data_ch=2, spec_data_type=8, data_type=2,
+        n_data_per_node=3, load_case=1, mode_n=1, freq=12.5, modal_m=1.0, modal_damp_vis=0.0,
+        modal_damp_his=0.0, node_nums=np.array([1, 2, 3]), r1=np.array([0.0, 1, 0]),
+        r2=np.zeros(3), r3=np.array([1.0, 0, 1]),
+    )  # fmt: skip

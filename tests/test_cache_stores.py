@@ -171,7 +171,7 @@ def compiles(monkeypatch, tmp_path):
     """A fresh cache directory and the list of compiler runs (``--version`` queries aside)."""
     monkeypatch.setenv(ENV_VAR, str(tmp_path / "cache"))
     runs = []
-    real_run = subprocess.run
+    real_run = fmu.build.run_child  # the compiler runs as a child that ends with the command
     compilers = ("gcc", fmu.build.WINDOWS_COMPILER)
 
     def counting_run(cmd, *args, **kwargs):
@@ -179,7 +179,7 @@ def compiles(monkeypatch, tmp_path):
             runs.append(cmd)
         return real_run(cmd, *args, **kwargs)
 
-    monkeypatch.setattr(fmu.build.subprocess, "run", counting_run)
+    monkeypatch.setattr(fmu.build, "run_child", counting_run)
     return runs
 
 

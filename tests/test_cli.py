@@ -24,6 +24,7 @@ COMMANDS = {
     "demo": "fmu.demo",
     "model": "fem.cli",
     "optimize": "optim.cli",
+    "animate": "optim.animate_cli",
     "sweep": "optim.sweep.cli",
     "export": "fmu.cli",
     "bench": "fmu.bench.cli",
@@ -104,17 +105,17 @@ AT_ONCE = [
     (["export", "MISSING", "-o", "OUT.fmu"], 2, "does not exist"),
     (["export", "MODEL", "-o", "OUT.fmu", "--threshold", "0"], 2, "--threshold: must be"),
     (["model", "--mesh", "MISSING", "--thickness", "1e-3"], 2, "--mesh: file"),
+    (["animate", "MISSING"], 2, "RESULT_DIR"),
+    (["animate", "OUT", "--page-points", "0"], 2, "--page-points: must be a finite number > 0"),
+    (["animate", "OUT", "--after", "-1"], 2, "--after: a time >= 0 s"),
+    (["optimize", "MODEL", "--distance", "0", "0", "0", "--threshold", "1e-3", "-o", "OUT",
+      "--animate"], 2, "the move has zero length"),
 ]  # fmt: skip
 
 
-@pytest.mark.parametrize(("args", "status", "answer"), AT_ONCE)
-def test_a_command_answers_without_importing_jax(tmp_path, args, status, answer):
-    """--version, --help, argument errors and the cheap input checks come before any heavy
-    import (a child interpreter's sys.modules, not a time), and before the model is read."""
-    model = tmp_path / "model.npz"
-    model.write_bytes(b"not read before the arguments are checked")
-    names = {"MODEL": str(model), "MISSING": str(tmp_path / "missing"), "OUT": str(tmp_path / "o")}
-    argv = [names.get(arg, arg.replace("OUT", str(tmp_path / "o"))) for arg in args]
+def _answered_in_child(argv: list[str]) -> tuple[str, str]:
+    """(``loaded: [the HEAVY_WORK modules it imported] STATUS``, all it printed) of
+    `jaxflex ARGV` run in a child interpreter."""
     code = (
         "import sys\n"
         "from jaxflex.cli import main\n"
@@ -125,9 +126,45 @@ def test_a_command_answers_without_importing_jax(tmp_path, args, status, answer)
         f"print('loaded:', [m for m in {HEAVY_WORK!r} if m in sys.modules], status)\n"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert proc.stdout.rstrip().endswith(f"loaded: [] {status}"), proc.stdout + proc.stderr
-    assert answer in proc.stdout + proc.stderr
-    assert "Traceback" not in proc.stderr
+    assert "Traceback" not in proc.stderr, proc.stderr
+    return proc.stdout.rstrip().rpartition("\n")[2], proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize(("args", "status", "answer"), AT_ONCE)
+def test_a_command_answers_without_importing_jax(tmp_path, args, status, answer):
+    """--version, --help, argument errors and the cheap input checks come before any heavy
+    import (a child interpreter's sys.modules, not a time), and before the model is read."""
+    model = tmp_path / "model.npz"
+    model.write_bytes(b"not read before the arguments are checked")
+    names = {"MODEL": str(model), "MISSING": str(tmp_path / "missing"), "OUT": str(tmp_path / "o")}
+    argv = [names.get(arg, arg.replace("OUT", str(tmp_path / "o"))) for arg in args]
+    loaded, answered = _answered_in_child(argv)
+    assert loaded == f"loaded: [] {status}", answered
+    assert answer in answered
+
+
+def test_a_link_in_the_animations_place_is_refused_before_any_work(tmp_path):
+    """`optimize --animate` and `animate RESULT_DIR` refuse a link in place of an animation
+    file (optim.result_files.check_animation_dir) before JAX loads, and leave it alone."""
+    from jaxflex.files import writing
+    from optim.result_files import RESULT_FILES, RESULT_KIND
+
+    model = tmp_path / "model.npz"
+    model.write_bytes(b"not read before the outputs are checked")
+    result = tmp_path / "result"
+    with writing(result, RESULT_KIND, RESULT_FILES) as files:  # a complete (small) set
+        files.add_text("trajectory.csv", "t_s,ax,ay,az\n0,0,0,0\n")
+        files.add_text("report.json", "{}")
+    (result / "animation").mkdir()
+    victim = tmp_path / "victim.txt"
+    victim.write_text("kept")
+    (result / "animation" / "part.pvd").symlink_to(victim)
+    optimize = ["optimize", str(model), "--distance", "0", "0", "1", "--threshold", "1e-3"]
+    for argv in ([*optimize, "-o", str(result), "--animate"], ["animate", str(result)]):
+        loaded, answered = _answered_in_child(argv)
+        assert loaded == "loaded: [] 2", answered
+        assert "symbolic link" in answered and "part.pvd" in answered, answered
+    assert (result / "animation" / "part.pvd").is_symlink() and victim.read_text() == "kept"
 
 
 def test_interrupted_command_exits_130(monkeypatch, capsys):

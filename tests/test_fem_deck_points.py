@@ -176,13 +176,16 @@ def test_rbe3_is_the_weighted_average_mpc(tmp_path):
     # reference grid 100 at the centre of four independent grids (+-a, +-a, 0), equal
     # weights, their translations: the least-squares rigid motion is, by hand,
     # u_ref = mean u_i, theta_x = sum y w / sum y^2, theta_y = -sum x w / sum x^2,
-    # theta_z = sum (x v - y u) / sum (x^2 + y^2); written as MPCs it must give the same modes
+    # theta_z = sum (x v - y u) / sum (x^2 + y^2); written as MPCs it must give the same modes.
+    # The plate is held at its centre grid and in x at an edge's middle: its drilling hold at
+    # the centre alone would not stop a spin (Nastran's CQUAD4 has no drilling stiffness)
     lines, ids, xyz = plate(2, 2, SIDE, SIDE)
     corners = [(int(ids[j, i]), xyz[j, i]) for j in (0, 2) for i in (0, 2)]
     centre = np.array([0.1, 0.1, 0.0])
     base = [*lines, card("PSHELL", 1, 1, T, 1), STEEL,
             card("GRID", 100, None, *map(float, centre)), conm2(),
-            card("SPC1", 1, 123456, int(ids[1, 1]))]  # fmt: skip
+            card("SPC1", 1, 123456, int(ids[1, 1])),
+            card("SPC1", 1, 1, int(ids[0, 1]))]  # fmt: skip
     rbe3 = card("RBE3", 50, None, 100, 123456, 1.0, 123, *(g for g, _ in corners))
     mpcs = []
     a2 = sum(float(((p - centre)[:2] ** 2).sum()) for _, p in corners)

@@ -177,3 +177,31 @@ def test_offset_is_the_sheet_beside_its_grids(tmp_path):
     deck = write(tmp_path / "b.bdf", [*grids, *lines, *links, PSHELL, STEEL,
                                       card("SPC1", 1, 123, *corners)])  # fmt: skip
     np.testing.assert_allclose(offset, frequencies(deck, 8), rtol=1e-9)
+
+
+def test_held_drilling_rotations_are_left_free_as_nastran_does(tmp_path):
+    # an in-plane cantilever strip 1 m x 50 mm x 1 mm (40 x 2 CQUAD4), clamped at x = 0, out of
+    # plane held everywhere (GRDSET 345) and with it the drilling rotation (GRDSET 3456), as
+    # decks hold it for Nastran's CQUAD4, which has no stiffness there. Our membrane (OPT)
+    # uses that rotation: held, it locked the strip's in-plane bending (its first mode 5.2
+    # times Euler-Bernoulli's); left free, both decks are the same model and the first mode is
+    # Euler-Bernoulli's (L / h = 20: shear and the mesh 0.5 % below it, measured)
+    length, depth = 1.0, 0.05
+    lines, ids, _ = plate(40, 2, length, depth)
+    clamp = card("SPC1", 1, 123456, *(int(g) for g in ids[:, 0]))
+    found = {}
+    for held in ("345", "3456"):
+        deck = write(tmp_path / f"{held}.bdf", [card("GRDSET", *[None] * 6, held), *lines,
+                                                 PSHELL, STEEL, clamp])  # fmt: skip
+        found[held] = solve(deck, n_modes=2, element="shell")
+    np.testing.assert_allclose(found["3456"].freq_hz, found["345"].freq_hz, rtol=1e-9)
+    assert found["3456"].provenance["derived"]["held_drilling_rotations_left_free"] == ids.size
+    inertia, area = T * depth**3 / 12, T * depth
+    euler = 1.875104**2 / (2 * np.pi) * np.sqrt(E_PA * inertia / (RHO * area * length**4))
+    assert found["3456"].freq_hz[0] == pytest.approx(euler, rel=0.01)
+    # CQUADR has a drilling stiffness in Nastran: its holds stay
+    quadr = [line.replace("CQUAD4", "CQUADR") for line in lines]
+    deck = write(tmp_path / "r.bdf", [card("GRDSET", *[None] * 6, "3456"), *quadr, PSHELL,
+                                      STEEL, clamp])  # fmt: skip
+    kept = solve(deck, n_modes=2, element="shell")
+    assert kept.provenance["derived"]["held_drilling_rotations_left_free"] == 0

@@ -27,10 +27,8 @@ FLOAT32 = 1e-6  # 4-byte words: float32 eps 6e-8 per value, rescaling and sums a
 
 
 @pytest.fixture(scope="module")
-def plate():
-    part = fem.rectangular_plate(0.6, 0.4, 1e-3, mesh_size=0.05)
-    cups = [fem.SuctionCup(x, y, 0.03) for x in (0.12, 0.48) for y in (0.1, 0.3)]
-    return fem.modal_analysis(part, cups, 6, progress=False)
+def plate(four_cup_plate):
+    return four_cup_plate
 
 
 def _truth(plate):
@@ -168,8 +166,7 @@ def test_real_op2_files_of_pynastrans_model_library():
     np.testing.assert_allclose(beam.freq_hz[:6], f06, rtol=2e-6)
     for name, match in [
         ("elements/modes_complex_elements.op2", "CLAMA \\(complex eigenvalues\\)"),
-        ("femap_exhaust/modal_example.op2", "CD != 0"),
-        ("freq_sine/good_sine.op2", "no real eigenvectors"),
+        ("freq_sine/good_sine.op2", "no real normal modes .* frequency response"),
     ]:
         with pytest.raises(InputError, match=match):
             from_modes(models / name, units="SI")

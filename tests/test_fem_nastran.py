@@ -86,44 +86,79 @@ def rectangle():
 
 
 def with_midside(nodes, cells):
-    """Quadratic cells: each edge's mid-point appended as a grid (as a quadratic mesher
-    writes it, shared edges twice: a deck may repeat locations)."""
+    """Quadratic cells: each edge's mid-point appended as a grid, one per edge (neighbours
+    share it, as a quadratic mesher writes them)."""
     n = cells.shape[1]
-    mids = np.concatenate(
-        [0.5 * (nodes[cells[:, k]] + nodes[cells[:, (k + 1) % n]]) for k in range(n)]
-    )
-    ids = len(nodes) + np.arange(mids.shape[0]).reshape(n, -1).T
+    edges = np.stack([cells, np.roll(cells, -1, axis=1)], axis=-1)  # (E, n, 2)
+    unique, inverse = np.unique(np.sort(edges.reshape(-1, 2), axis=1), axis=0, return_inverse=True)
+    mids = 0.5 * (nodes[unique[:, 0]] + nodes[unique[:, 1]])
+    ids = len(nodes) + inverse.reshape(-1, n)
     return np.vstack([nodes, mids]), np.column_stack([cells, ids])
 
 
-def test_quads_triangles_quadratic_elements_and_units(tmp_path, simply_supported):
+def test_quads_triangles_and_units(tmp_path, simply_supported):
     nodes, quads, _ = rectangle()
-    triangles = meshing.split_quads(quads, nodes)
-    quad8_nodes, quad8 = with_midside(nodes, quads)
-    tri6_nodes, tri6 = with_midside(nodes, triangles)
     decks = {
-        "CQUAD4, free-field GRIDs": (nodes, "quad", quads, STEEL_SI, "free", "fixed-small"),
-        "CQUAD4 in mm, t, s": (nodes * 1e3, "quad", quads, STEEL_MPA, "fixed-large", "fixed-large"),
-        "CQUAD8": (quad8_nodes, "quad8", quad8, STEEL_SI, "fixed-large", "fixed-small"),
-        "CTRIA6": (tri6_nodes, "triangle6", tri6, STEEL_SI, "fixed-large", "fixed-large"),
+        "CQUAD4, free-field GRIDs": (nodes, STEEL_SI, "free", "fixed-small", "SI"),
+        "CQUAD4 in mm, t, s": (nodes * 1e3, STEEL_MPA, "fixed-large", "fixed-large", "MPA"),
     }
-    for name, (points, kind, cells, cards, point_format, cell_format) in decks.items():
-        path = tmp_path / f"{kind}_{point_format}.bdf"
-        # SPC 3 on every grid of the boundary, mid-side grids of the quadratic cells included
+    for name, (points, cards, point_format, cell_format, units) in decks.items():
+        path = tmp_path / f"{point_format}.bdf"
         held = spc1_cards(np.flatnonzero(on_boundary(points / points.max() * WIDTH)) + 1)
-        meshio_deck(path, points, kind, cells, cards + held, point_format, cell_format)
-        result = fem.from_nastran(path, units="MPA" if "mm" in name else "SI", n_modes=6)
+        meshio_deck(path, points, "quad", quads, cards + held, point_format, cell_format)
+        result = fem.from_nastran(path, units=units, n_modes=6)
         # the same model: equal to rounding (the mesh's node coordinates differ by 1e-15)
         np.testing.assert_allclose(
             result.freq_hz, simply_supported.freq_hz, rtol=1e-6, err_msg=name
         )
-        derived = result.provenance["derived"]
-        assert derived["held_grids"] == 40  # the 13 x 9 grid's boundary
-        # the 40 boundary edges' mid-side grids: our elements have no node there
-        assert derived["constraints_on_midside_grids"] == (
-            40 if name in ("CQUAD8", "CTRIA6") else 0
-        )
-    assert derived["elements"]["CTRIA6"] == 2 * len(quads)
+        assert result.provenance["derived"]["held_grids"] == 40  # the 13 x 9 grid's boundary
+
+
+def navier_hz(count: int) -> np.ndarray:
+    """The first frequencies of the simply supported steel plate WIDTH x HEIGHT x 1 mm
+    (Navier: f_mn = pi / 2 (m^2 / a^2 + n^2 / b^2) sqrt(D / (rho t)))."""
+    e, nu, rho, t = 2.1e11, 0.3, 7850.0, 1e-3
+    d = e * t**3 / (12 * (1 - nu**2))
+    f = [
+        np.pi / 2 * (m**2 / WIDTH**2 + n**2 / HEIGHT**2) * np.sqrt(d / (rho * t))
+        for m in range(1, 6)
+        for n in range(1, 6)
+    ]
+    return np.sort(f)[:count]
+
+
+def test_quadratic_elements_use_their_mid_side_grids(tmp_path):
+    # the 13 x 9 grid of 50 mm quads as CQUAD4, and with a mid-side grid on every edge as
+    # CQUAD8 and (split) CTRIA6; SPC 3 on every boundary grid, mid-side grids included.
+    # Facets through the mid-side grids halve the element size: our elements' frequency
+    # error is O(h^2) (DKT, Morley), so the quadratic decks come out 2.5-4 times closer to
+    # Navier than the CQUAD4 deck of the same corners over the first four modes (measured
+    # 2.5-4.0: a CQUAD8's six facets are no uniform halving; corner facets alone, the
+    # mid-side grids dropped, give the CQUAD4 deck's error)
+    nodes, quads, _ = rectangle()
+    triangles = meshing.split_quads(quads, nodes)
+    exact = navier_hz(4)
+    decks = {
+        "CQUAD4": (nodes, quads, "quad"),
+        "CQUAD8": (*with_midside(nodes, quads), "quad8"),
+        "CTRIA6": (*with_midside(nodes, triangles), "triangle6"),
+    }
+    errors = {}
+    for name, (points, cells, kind) in decks.items():
+        held = spc1_cards(np.flatnonzero(on_boundary(points)) + 1)
+        path = meshio_deck(tmp_path / f"{kind}.bdf", points, kind, cells, STEEL_SI + held)
+        for element in ("morley", "shell"):  # morley: the default of a flat deck like this
+            result = fem.from_nastran(
+                path, units="SI", n_modes=4, element=element, allow_rigid_modes=True
+            )
+            errors[name, element] = np.abs(result.freq_hz / exact - 1)
+        if name != "CQUAD4":
+            assert result.provenance["derived"]["elements"][name] == len(cells)
+    for element in ("morley", "shell"):
+        linear = errors["CQUAD4", element]
+        for name in ("CQUAD8", "CTRIA6"):
+            assert errors[name, element].sum() < linear.sum() / 2, (name, element)
+    assert max(errors["CQUAD8", "shell"].max(), errors["CTRIA6", "shell"].max()) < 5e-3
 
 
 def test_wtmass_and_mat1_from_e_and_g(tmp_path, simply_supported):
@@ -253,21 +288,20 @@ def test_deck_errors_are_named(tmp_path):
 
 
 def test_refusals_name_each_card_with_its_share_of_the_mass(tmp_path):
-    # the plate (0.3 x 0.2 m x 1 mm steel: 0.471 kg) and a steel block of CHEXA 0.1 x 0.1 x
-    # 0.02 m (1.57 kg) on it: the block holds 1.57 / (1.57 + 0.471) = 76.9 % of the mass
+    # the plate (0.3 x 0.2 m x 1 mm steel: 0.471 kg) and a steel pyramid of CPYRAM on it (base
+    # 0.1 x 0.1 m, 60 mm high: 1.57 kg): it holds 1.57 / (1.57 + 0.471) = 76.9 % of the mass
     nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 4), np.linspace(0, 0.2, 3))
-    corners = [(0, 0, 0), (0.1, 0, 0), (0.1, 0.1, 0), (0, 0.1, 0)]
-    corners += [(x, y, 0.02) for x, y, _ in corners]
+    corners = [(0, 0, 0), (0.1, 0, 0), (0.1, 0.1, 0), (0, 0.1, 0), (0.05, 0.05, 0.06)]
     block = [f"GRID,{900 + k},,{x},{y},{z}" for k, (x, y, z) in enumerate(corners)]
-    block += ["CHEXA,500,5,900,901,902,903,904,905,+", "+,906,907", "PSOLID,5,1",
-              "CGAP,600,,1,2"]  # fmt: skip
+    block += ["CPYRAM,500,5,900,901,902,903,904", "PSOLID,5,1", "CSEAM,600,,1,2"]
     path = meshio_deck(tmp_path / "b.bdf", nodes, "quad", quads, [*STEEL_SI, *block])
     with pytest.raises(InputError) as refused:
         fem.from_nastran(path, units="SI")
     message = str(refused.value)
-    share = 7850 * 0.1 * 0.1 * 0.02 / (7850 * 0.1 * 0.1 * 0.02 + 7850 * 1e-3 * 0.3 * 0.2)
-    assert f"CHEXA (1, {100 * share:.3g} % of the mass; first b.bdf line" in message
-    assert "CGAP (1, no mass;" in message
+    pyramid = 7850 * 0.1 * 0.1 * 0.06 / 3
+    share = pyramid / (pyramid + 7850 * 1e-3 * 0.3 * 0.2)
+    assert f"CPYRAM (1, {100 * share:.3g} % of the mass; first b.bdf line" in message
+    assert "CSEAM (1, no mass;" in message
     assert "jaxflex model --from-modes FILE" in message
     # a card our element set has but a model option refuses: named before the work
     mass = meshio_deck(tmp_path / "m.bdf", nodes, "quad", quads, [*STEEL_SI, "CONM2,7,1,,1.",
@@ -355,3 +389,12 @@ def test_deck_model_outputs_are_the_mesh_doors(tmp_path):
             got, want = (np.asarray(getattr(m.stress.stress, name))[r]
                          for m, r in zip((ours, theirs), rows, strict=True))  # fmt: skip
             same_up_to_mode_signs(got, want, name)
+
+
+def test_heat_transfer_deck_is_refused_by_its_solution(tmp_path):
+    # a SOL 153 deck (its PSHELL of a MAT4) is no structure to vibrate: refused by what it is
+    nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 4), np.linspace(0, 0.2, 3))
+    deck = meshio_deck(tmp_path / "h.bdf", nodes, "quad", quads, ["PSHELL,1,1,.001", "MAT4,1,50."])
+    deck.write_text("SOL 153\nCEND\nBEGIN BULK\n" + deck.read_text())
+    with pytest.raises(InputError, match=r"h.bdf is a heat-transfer analysis \(SOL 153\)"):
+        fem.from_nastran(deck, units="SI")

@@ -3,8 +3,9 @@ tests/data/nastran/README.md), and the whole library when it is at hand.
 
 ``JAXFLEX_NASTRAN_CORPUS=/path/to/pyNastran/models`` runs every deck of that library
 through the door (as ``python -m fmu.bench.nastran_corpus DIR`` does) and checks the
-issue's targets: no traceback, at least half of the shell decks read, every refusal naming
-a card, those of cards outside our element set with their share of the mass.
+issue's targets: no traceback, 60 % of the shell decks with mass read, no deck beyond 3 % of
+its solver's modes without a warning that says why, every refusal naming a card, those of
+cards outside our element set with their share of the mass.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import fem
 from fem.bdf import read_bulk
 from fem.deck_coords import DeckGeometry
 from fem.sanity import PartWarning
-from fmu.bench.nastran_corpus import find_decks, try_deck
+from fmu.bench.nastran_corpus import find_decks, summarise, try_deck
 
 DATA = Path(__file__).parent / "data" / "nastran"
 
@@ -54,8 +55,12 @@ def test_two_mode_flutter_deck_is_the_rigid_wing_on_its_springs():
     np.testing.assert_allclose(result.freq_hz, np.sqrt(np.sort(omega2)) / (2 * np.pi), rtol=1e-9)
     # MSC Nastran's own modes (0012_flutter.f06: 2.66709, 10.6282 Hz) use its default lumped
     # mass (no PARAM COUPMASS), whose inertia of this coarse wing is larger than the exact
-    # one: plunge agrees to 0.16 %, pitch is 10 % lower there
+    # one: plunge agrees to 0.16 %, pitch is 10 % lower there. The door's estimate of that
+    # shift (fem.deck_mass: the modes' Rayleigh quotient with Nastran's lumped mass, exact
+    # for a rigid body) gives the solver's modes: 0.02 % and 0.03 % measured
     assert result.freq_hz[0] == pytest.approx(2.66709, rel=5e-3)
+    shift = np.array(result.provenance["derived"]["lumped_mass_shift"])
+    np.testing.assert_allclose(result.freq_hz * (1 + shift), [2.66709, 10.6282], rtol=1e-3)
 
 
 def test_goland_wing_box_against_nastran():
@@ -64,6 +69,18 @@ def test_goland_wing_box_against_nastran():
     result = solve(DATA / "goland_final_test.bdf", n_modes=3)
     assert result.freq_hz[0] == pytest.approx(1.981382, rel=0.01)
     assert result.provenance["derived"]["elements"]["CONM2"] == 66
+
+
+def test_free_plate_deck_against_nx():
+    # NX's extse04c (SOL 103, mm-kg-s-mN): a free 300 x 300 x 5 mm aluminium plate of 12 x 12
+    # CQUAD4 (PSHELL with MID3: shear-flexible). NX's own modes (its .op2's LAMA, not copied)
+    # are 6 rigid-body modes below 2e-4 Hz and 180.551, 261.290, 332.988, 459.571 Hz. Ours
+    # (consistent mass, a Kirchhoff element: t / span 1/60, so shear moves them < 0.1 %) are
+    # 0.07-1.75 % above them (measured): within the issue's 3 % for a deck's first modes
+    result = solve(DATA / "extse04c.bdf", n_modes=4, allow_rigid_modes=True)
+    nx_hz = np.array([180.5509, 261.2897, 332.9880, 459.5713])
+    assert np.all(np.abs(result.freq_hz / nx_hz - 1) < 0.03)
+    assert np.all(result.rigid_freq_hz < 0.01)  # the rigid-body modes are not kept as modes
 
 
 def test_laminate_demo_deck_reads_with_its_warning():
@@ -90,8 +107,12 @@ CORPUS = os.environ.get("JAXFLEX_NASTRAN_CORPUS")
 def test_the_corpus_meets_the_targets():
     records = [try_deck(path, n_modes=6) for path in find_decks(Path(CORPUS))]
     assert records and not [r["deck"] for r in records if r["outcome"] == "traceback"]
-    shell = [r for r in records if r["shell_deck"]]
-    assert sum(r["outcome"] == "read" for r in shell) >= len(shell) / 2
+    summary = summarise(records)
+    # the issue's targets: 60 % of the shell decks read (a static deck without mass has no
+    # modes to read: counted apart), and no deck compared with its solver's own modes
+    # beyond 3 % without a warning that says why
+    assert summary["shell_decks"]["read_share_of_decks_with_mass"] >= 0.6
+    assert summary["all_decks"]["wrong"] == 0
     for record in records:
         if record["outcome"] != "refused":
             continue

@@ -105,6 +105,8 @@ def test_archive_layout(exported, version):
         "sources/jxf_fmu.h",
         "sources/jxf_fmu.c",
         "sources/jxf_values.c",
+        "sources/jxf_blocks.h",
+        "sources/jxf_blocks.c",
         "sources/jxf_cell.h",
         "sources/jxf_cell.c",
         "sources/jxf_turning.h",

@@ -19,13 +19,16 @@ others run in this process with an alarm as their time limit.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import io
 import itertools
 import json
 import math
 import os
+import shutil
 import signal
 import socket
+import stat
 import traceback
 from collections import Counter
 from collections.abc import Callable
@@ -46,13 +49,19 @@ from test_fem_bdf import SMALL
 import fem
 from fem.ansys import read_full, read_node_coordinates, read_rst
 from fem.nastran import from_nastran
+from fmu.export import sidecar_paths
 from jaxflex.budget import make_budget, require, use_budget
 from jaxflex.cli import main
 from jaxflex.convolution import unit_response, write_unit_response_csv
 from jaxflex.errors import BudgetError, JaxflexError
+from jaxflex.files import MANIFEST
+from optim.animate_page import PAGE
+from optim.animate_series import CELL_FILE, PATH_FILE, SERIES
 from optim.cell_file import load_cell
+from optim.result import RESULT_FILES
 from optim.sweep.plan import sweep_needs
 from optim.sweep.spec import load_spec
+from optim.sweep.store import ROOT_FILES
 
 DOOR_CASES = 100
 SERIAL = itertools.count()  # file names: each generated case writes a file of its own
@@ -774,3 +783,276 @@ def test_command_path_door(tmp_path, fuzz_tally):
     )
     for device in ("/dev/full", "/dev/null"):
         assert Path(device).is_char_device()  # never replaced by a regular file
+
+
+# -- outputs: never through a link, nothing outside the named output changes ------------------
+# What can stand where a command writes: a symbolic link to a file outside (a write would
+# replace that file), a link to nothing (a write would create a file outside), a FIFO, a
+# device, a directory; and a hard link to a file outside (the command must give its name a
+# new file and leave the other name's content alone). Every output of every command (the
+# files named on the command line, the FMU's side files, the members of the result sets)
+# meets each of them in a watched directory: the command refuses naming the path and the
+# whole tree stays as it was, or (a hard link) runs and the tree differs only by the
+# named outputs.
+FILE_OBSTACLES = ("symlink", "dangling symlink", "FIFO", "device", "directory")
+DIR_OBSTACLES = ("directory symlink", "dangling symlink", "FIFO", "device")
+DOOR_SPEC = {
+    **SPEC,
+    "moves": SPEC["moves"][:1],
+    "layouts": [],
+    "grids": [{**SPEC["grids"][0], "inset_x": [0.2], "radius_m": [0.03]}],
+}  # one case: a sweep that runs in seconds
+
+
+def plant(path: Path, kind: str, watched: Path) -> bool:
+    """Put an obstacle of ``kind`` at ``path`` (False: not possible here, a device without
+    the right to make one)."""
+    if kind == "symlink":
+        path.symlink_to(watched / "victim.txt")
+    elif kind == "dangling symlink":
+        path.symlink_to(watched / "created-through-a-link")
+    elif kind == "directory symlink":
+        path.symlink_to(watched, target_is_directory=True)
+    elif kind == "FIFO":
+        os.mkfifo(path)
+    elif kind == "device":  # a second /dev/null
+        try:
+            os.mknod(path, stat.S_IFCHR | 0o600, os.makedev(1, 3))
+        except PermissionError:
+            return False
+    elif kind == "directory":
+        path.mkdir()
+    return True
+
+
+def tree(root: Path) -> dict[str, tuple]:
+    """What every path under ``root`` is: a link and its target, a file's inode and
+    SHA-256, a directory's inode, another file's type and inode (links not followed)."""
+    state = {}
+    for folder, dirs, files in os.walk(root):
+        for name in dirs + files:
+            path = Path(folder) / name
+            info = path.lstat()
+            key = str(path.relative_to(root))
+            if stat.S_ISLNK(info.st_mode):
+                state[key] = ("link", os.readlink(path))
+            elif stat.S_ISREG(info.st_mode):
+                state[key] = ("file", info.st_ino, hashlib.sha256(path.read_bytes()).hexdigest())
+            else:
+                state[key] = (stat.S_IFMT(info.st_mode), info.st_ino)
+    return state
+
+
+@dataclass(frozen=True)
+class OutputDoor:
+    """A command whose output ``target`` (a file or a directory, relative to the case's
+    folder; a member's parent directory is made first) is met by an obstacle."""
+
+    label: str
+    argv: tuple[str, ...]  # "{D}": the case's folder
+    target: str
+    directory: bool = False
+    result: str | None = None  # an optimised result copied to "{D}/r" first (animate's input)
+
+
+ANIMATION_FILES = (SERIES, CELL_FILE, PATH_FILE, PAGE, "part_0000.vtu")
+
+
+def output_doors(inputs: dict[str, str]) -> list[OutputDoor]:
+    """Every output of every command."""
+    model, trajectory, spec = inputs["model"], inputs["trajectory"], inputs["spec"]
+    fe = ("model", "--scene", "plate", "--mesh-size", "0.2")
+    opt = ("optimize", model, "--distance", "0", "0", "1", "--threshold", "1e-3", "-o", "{D}/o")
+    export = ("export", model, "--trajectory", trajectory, "--no-verify")
+    doors = [
+        OutputDoor("model -o", (*fe, "-o", "{D}/m.npz"), "m.npz"),
+        OutputDoor("model --plot", (*fe, "-o", "{D}/m.npz", "--plot", "{D}/p.png"), "p.png"),
+        OutputDoor("model --vtu", (*fe, "-o", "{D}/m.npz", "--vtu", "{D}/m.vtu"), "m.vtu"),
+        OutputDoor("model --report", (*fe, "-o", "{D}/m.npz", "--report", "{D}/r.json"), "r.json"),
+        OutputDoor("optimize -o", opt, "o", directory=True),
+        OutputDoor("export -o", ("export", model, "-o", "{D}/x.fmu"), "x.fmu"),
+        OutputDoor("export -o: input CSV", (*export, "-o", "{D}/x.fmu"), "x_input.csv"),
+        OutputDoor("export -o: case JSON", (*export, "-o", "{D}/x.fmu"), "x_case.json"),
+        OutputDoor("export --ssp", (*export, "--ssp", "{D}/x.ssp"), "x.ssp"),
+        OutputDoor("sweep -o", ("sweep", spec, "--serial", "-o", "{D}/s"), "s", directory=True),
+        OutputDoor("demo -o", ("demo", "-o", "{D}/d"), "d", directory=True),
+        OutputDoor("bench -o", ("bench", "--size", "tiny", "-o", "{D}/b"), "b", directory=True),
+    ]
+    doors += [OutputDoor(f"optimize -o: {n}", opt, f"o/{n}") for n in (*RESULT_FILES, MANIFEST)]
+    sweep = ("sweep", spec, "--serial", "-o", "{D}/s")
+    doors += [OutputDoor(f"sweep -o: {n}", sweep, f"s/{n}") for n in ROOT_FILES]
+    doors += [OutputDoor(f"sweep -o: {n}/", sweep, f"s/{n}", True) for n in ("cases", "models")]
+    demo = ("demo", "-o", "{D}/d")
+    members = ["model.npz", "demo.json"]
+    for name in ("part_fmi2.fmu", "part_fmi3.fmu"):
+        members += [name, *(side.name for side in sidecar_paths(name))]
+    doors += [OutputDoor(f"demo -o: {n}", demo, f"d/{n}") for n in members]
+    doors.append(OutputDoor("demo -o: optimized/", demo, "d/optimized", directory=True))
+    animate = ("animate", "{D}/r")
+    doors.append(OutputDoor("animate: animation/", animate, "r/animation", True, trajectory))
+    doors += [
+        OutputDoor(f"animate: {n}", animate, f"r/animation/{n}", result=trajectory)
+        for n in ANIMATION_FILES
+    ]
+    animated = (*opt[:-1], "{D}/o", "--animate")
+    doors += [
+        OutputDoor("optimize --animate: animation/", animated, "o/animation", directory=True),
+        OutputDoor("optimize --animate: page", animated, "o/animation/animation.html"),
+    ]
+    return doors
+
+
+@pytest.fixture(scope="module")
+def door_inputs(tmp_path_factory) -> dict[str, str]:
+    """A small model, a sweep spec of one case, and an optimised move (a result set)."""
+    folder = tmp_path_factory.mktemp("door-inputs")
+    random_model(n_points=6, n_modes=3).save(folder / "model.npz")
+    (folder / "spec.json").write_text(json.dumps(DOOR_SPEC), encoding="utf-8")
+    argv = ["optimize", str(folder / "model.npz"), "--distance", "0", "0", "1"]
+    assert run_command([*argv, "--threshold", "1e-3", "--no-plots", "-o", str(folder / "opt")]) == 0
+    return {k: str(folder / v) for k, v in (("model", "model.npz"), ("spec", "spec.json"),
+                                             ("trajectory", "opt"))}  # fmt: skip
+
+
+def _watched(root: Path) -> Path:
+    watched = root / "watched"
+    watched.mkdir()
+    (watched / "victim.txt").write_text("the user's file", encoding="utf-8")
+    return watched
+
+
+def obstacle_outcome(door: OutputDoor, kind: str, root: Path, watched: Path) -> tuple[str, str]:
+    """(outcome, detail) of ``door`` met by an obstacle of ``kind``: "clear" (refused, the
+    path named, the tree under ``root`` unchanged), "corrupt" (ran, or changed a file),
+    "vague" (refused without naming the path), "crash", "hang" or "impossible"."""
+    case = root / f"case{next(SERIAL)}"
+    if door.result is not None:
+        shutil.copytree(door.result, case / "r")
+    target = case / door.target
+    target.parent.mkdir(parents=True, exist_ok=door.result is not None)
+    if not plant(target, kind, watched):
+        return "impossible", f"{door.label} {kind}"
+    argv = [word.replace("{D}", str(case)) for word in door.argv]
+    before = tree(root)
+    label = f"{door.label} {kind}"
+    try:
+        with alarm(CASE_TIME_S):
+            code = run_command(argv)
+    except Refused as exc:
+        after = tree(root)
+        changed = sorted(k for k in before.keys() | after.keys() if before.get(k) != after.get(k))
+        if changed:
+            return "corrupt", f"{label}: refused but changed {changed}"
+        if str(target) not in str(exc):
+            return "vague", f"{label}: {exc}"
+        return "clear", f"{label}: {exc}"
+    except Hang:
+        return "hang", label
+    except Exception as exc:
+        return "crash", f"{label}: {exc!r:.300}"
+    return "corrupt", f"{label}: exit status {code}, the obstacle was not refused"
+
+
+def test_output_door(tmp_path, door_inputs, fuzz_tally):
+    """Every output of every command, met by a symbolic link (to a file, to a directory, to
+    nothing), a FIFO, a device or a directory: refused before any work, naming the path,
+    and nothing under the watched tree changes (not the link, not its target, no file
+    created, no temporary file left)."""
+    watched = _watched(tmp_path)
+    results = []
+    for door in output_doors(door_inputs):
+        for kind in DIR_OBSTACLES if door.directory else FILE_OBSTACLES:
+            results.append(obstacle_outcome(door, kind, tmp_path, watched))
+    kinds = Counter(kind for kind, _ in results)
+    fuzz_tally(
+        "outputs (links, FIFOs, devices, dirs)",
+        tried=len(results) - kinds["impossible"],
+        clear_errors=kinds["clear"],
+        crashes=kinds["crash"] + kinds["vague"],
+        hangs=kinds["hang"],
+        corrupt_accepted=kinds["corrupt"],
+    )
+    bad = [detail for kind, detail in results if kind not in ("clear", "impossible")]
+    assert not bad, "\n".join(bad)
+
+
+# One run per command with every output it writes a hard link to a file outside: the run
+# gives each name a new file; the other names keep their content. (bench: refusals only, its
+# run takes minutes; its files are written by the same jaxflex.files functions.)
+HARD_LINK_RUNS = {
+    "model": (
+        ("model", "--scene", "plate", "--mesh-size", "0.2", "-o", "{D}/m.npz", "--plot",
+         "{D}/p.png", "--vtu", "{D}/m.vtu"),
+        ("m.npz", "p.png", "m.vtu"),
+    ),
+    "optimize": (
+        ("optimize", "{model}", "--distance", "0", "0", "1", "--threshold", "1e-3", "-o", "{D}/o"),
+        ("o/trajectory.csv", "o/report.json", "o/profiles.png", "o/deviation.png",
+         "o/manifest.json", "o/robust.png"),
+    ),
+    "export": (
+        ("export", "{model}", "--trajectory", "{trajectory}", "--no-verify", "-o", "{D}/x.fmu",
+         "--ssp", "{D}/x.ssp"),
+        ("x.fmu", "x_input.csv", "x_case.json", "x.ssp"),
+    ),
+    "sweep": (
+        ("sweep", "{spec}", "--serial", "--no-plots", "-o", "{D}/s"),
+        ("s/spec.json", "s/results.csv"),
+    ),
+}  # fmt: skip
+NOT_WRITTEN = {"o/robust.png"}  # a nominal run's set has no robust plot: the name is removed
+RUN_TIME_S = 1800.0  # per whole run: a hang guard far above its seconds on a loaded machine
+
+
+def hard_link_outcome(command: str, root: Path, inputs: dict[str, str]) -> tuple[str, str]:
+    """(outcome, detail) of a run whose outputs are hard links to files of a watched
+    directory: "accepted" (exit 0, every output a new file, the watched files and
+    everything else under ``root`` as they were), "corrupt" or "crash"."""
+    argv, outputs = HARD_LINK_RUNS[command]
+    case = root / f"hard-{command}"
+    watched = case / "watched"
+    watched.mkdir(parents=True)
+    for i, name in enumerate(outputs):
+        (watched / f"v{i}").write_text(f"the user's file {i}", encoding="utf-8")
+        (case / name).parent.mkdir(exist_ok=True)
+        os.link(watched / f"v{i}", case / name)
+    before = tree(root)
+    words = [w.replace("{D}", str(case)).format(**inputs) for w in argv]
+    try:
+        with alarm(RUN_TIME_S):
+            code = run_command(words)
+    except Exception as exc:
+        return "crash", f"{command}: {exc!r:.300}"
+    after = tree(root)
+    inside = tuple(str((case / name).relative_to(root)) for name in outputs)
+    sets = tuple(str((case / n).parent.relative_to(root)) + "/" for n in outputs if "/" in n)
+    changed = sorted(k for k in before.keys() | after.keys() if before.get(k) != after.get(k)
+                     and k not in inside and not k.startswith(sets))  # fmt: skip
+    problems = [f"exit status {code}"] if code != 0 else []
+    problems += [f"changed outside the outputs: {changed}"] if changed else []
+    for i, name in enumerate(outputs):
+        victim = watched / f"v{i}"
+        if victim.read_text(encoding="utf-8") != f"the user's file {i}":
+            problems.append(f"{name}: written through its hard link")
+        path = case / name
+        if name in NOT_WRITTEN:
+            if os.path.lexists(path):
+                problems.append(f"{name}: an earlier set's member was kept")
+        elif not path.is_file() or path.stat().st_ino == victim.stat().st_ino:
+            problems.append(f"{name}: not written as a new file")
+    return ("corrupt", f"{command}: {problems}") if problems else ("accepted", command)
+
+
+def test_output_door_hard_links(tmp_path, door_inputs, fuzz_tally):
+    results = [hard_link_outcome(command, tmp_path, door_inputs) for command in HARD_LINK_RUNS]
+    kinds = Counter(kind for kind, _ in results)
+    fuzz_tally(
+        "outputs (hard links)",
+        tried=len(results),
+        clear_errors=0,
+        crashes=kinds["crash"],
+        hangs=0,
+        corrupt_accepted=kinds["corrupt"],
+    )
+    bad = [detail for kind, detail in results if kind != "accepted"]
+    assert not bad, "\n".join(bad)

@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 from conftest import random_model
 from sweep_cases import N_CASES, SPEC, assert_same_table, start_sweep
 
@@ -194,3 +195,122 @@ def test_sweep_killed_at_any_point_restarts_with_the_missing_cases(
     leftovers = [p for d in (out, out / "cases", out / "models") for p in d.glob(".*")]
     assert not leftovers
     assert_same_table(read_table(out / "results.csv"), reference)
+
+
+# -- children die with their command -----------------------------------------------------------
+# A reader in a child process (jaxflex.isolated) that takes its time: the stand-in for a long
+# CAD or ANSYS read. The "command" is a fresh interpreter that calls it.
+SLOW_READER = """
+import time
+from jaxflex.isolated import isolated
+
+
+@isolated("slow", "a test reader that takes its time")
+def read_slowly(path):
+    time.sleep(600)
+"""
+SLOW_COMMAND = """
+import sys
+sys.path.insert(0, sys.argv[1])
+import slow_reader
+from jaxflex.budget import make_budget, use_budget
+seconds = float(sys.argv[3]) if len(sys.argv) > 3 else None
+with use_budget(make_budget(None, seconds)):
+    slow_reader.read_slowly(sys.argv[2])
+"""
+GONE_WITHIN_S = 60.0  # generous: the kernel kills them at once, a loaded machine reaps late
+
+
+def _process_table() -> dict[int, tuple[int, str, str]]:
+    """pid -> (parent pid, state, start time) of every process (Linux /proc)."""
+    table = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            text = (entry / "stat").read_text()
+        except OSError:
+            continue
+        fields = text[text.rindex(")") + 2 :].split()
+        table[int(entry.name)] = (int(fields[1]), fields[0], fields[19])
+    return table
+
+
+def _descendants(pid: int) -> set[tuple[int, str]]:
+    """(pid, start time) of every live descendant of ``pid``."""
+    table = _process_table()
+    found, frontier = set(), [pid]
+    while frontier:
+        parent = frontier.pop()
+        for child, (ppid, state, start) in table.items():
+            if ppid == parent and state != "Z":
+                found.add((child, start))
+                frontier.append(child)
+    return found
+
+
+def _alive(processes: set[tuple[int, str]]) -> set[tuple[int, str]]:
+    """Those of ``processes`` still running (a zombie is dead: it only waits to be reaped)."""
+    table = _process_table()
+    return {(p, s) for p, s in processes if p in table and table[p][1:] != ("Z", s)
+            and table[p][2] == s}  # fmt: skip
+
+
+def _children_when_started(proc: subprocess.Popen, count: int) -> set[tuple[int, str]]:
+    """The descendants of ``proc`` once there are at least ``count`` of them."""
+    deadline = time.monotonic() + TIMEOUT_S
+    while len(found := _descendants(proc.pid)) < count:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "the children never started"
+        time.sleep(0.1)
+    return found
+
+
+def _assert_gone(processes: set[tuple[int, str]]) -> None:
+    deadline = time.monotonic() + GONE_WITHIN_S
+    while _alive(processes) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not _alive(processes), f"still running after the command ended: {_alive(processes)}"
+
+
+def _slow_read(tmp_path: Path, *extra: str) -> subprocess.Popen:
+    (tmp_path / "slow_reader.py").write_text(SLOW_READER, encoding="utf-8")
+    (tmp_path / "part.step").write_text("ISO-10303-21;\n", encoding="utf-8")
+    return subprocess.Popen(
+        [sys.executable, "-c", SLOW_COMMAND, str(tmp_path), str(tmp_path / "part.step"), *extra],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+
+
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGKILL", "SIGINT"])
+def test_a_reader_in_a_child_ends_with_its_command(tmp_path, how):
+    """The command is signalled alone (as a scheduler or `kill` does; the reader runs in a
+    session of its own, so a signal to the command's process group would not reach it):
+    no process of it is left running."""
+    proc = _slow_read(tmp_path)
+    children = _children_when_started(proc, 1)
+    os.kill(proc.pid, getattr(signal, how))
+    proc.communicate(timeout=TIMEOUT_S)
+    _assert_gone(children)
+
+
+def test_a_reader_past_the_time_budget_is_stopped_with_a_message(tmp_path):
+    proc = _slow_read(tmp_path, "3")
+    children = _children_when_started(proc, 1)
+    _, err = proc.communicate(timeout=TIMEOUT_S)
+    assert "did not finish within" in err and "part.step" in err
+    _assert_gone(children)
+
+
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGKILL"])
+def test_the_sweeps_dask_workers_end_with_the_sweep(tmp_path, how):
+    spec_path = tmp_path / "spec.json"
+    spec_path.write_text(json.dumps(SPEC))
+    proc = start_sweep(spec_path, tmp_path / "out", "--workers", "1")
+    children = _children_when_started(proc, 2)  # dask's resource tracker and a worker
+    os.kill(proc.pid, getattr(signal, how))
+    proc.communicate(timeout=TIMEOUT_S)
+    _assert_gone(children)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cells import PRESS_TOML, press_cell
 from conftest import run_jaxflex
 from independent import (
     box_distance,
@@ -20,7 +21,7 @@ from independent import (
 
 import fem
 import optim
-from jaxflex.cell import Box, Cell, HalfSpace, Via
+from jaxflex.cell import Box, Cell
 from jaxflex.collision import distances, min_distance
 from jaxflex.errors import InputError
 from jaxflex.loads import CupUtilisation, VonMises
@@ -51,24 +52,8 @@ def model():
 
 
 def press(via_mode: str = "blend") -> Cell:
-    """The press-opening scene: the part is picked at z = 0.1 m and laid into a press whose
-    opening (between the lower die, top at 0.3 m, and the upper die, bottom at 0.55 m)
-    starts at x = 1.2 m; a straight move hits the lower die's front."""
-    via = (
-        Via([0.45, -0.2, 0.425], "blend", 0.2)
-        if via_mode == "blend"
-        else Via([0.45, -0.2, 0.425], "stop")
-    )
-    return Cell(
-        obstacles=(
-            Box([1.9, 0.0, 0.15], [1.4, 1.2, 0.3], name="lower die"),
-            Box([1.9, 0.0, 0.8], [1.4, 1.2, 0.5], name="upper die"),
-            HalfSpace([0, 0, 1], 0.0, "floor"),
-        ),
-        start_m=[0.0, -0.2, 0.1],
-        end_m=[1.6, -0.2, 0.4],
-        via=(via,),
-    )
+    """The press-opening scene of tests/cells.py (a straight move hits the lower die)."""
+    return press_cell(via_mode)
 
 
 @pytest.fixture(scope="module")
@@ -262,24 +247,7 @@ def test_cell_options_are_checked(model):
 
 def test_optimize_command_with_a_cell(tmp_path, model):
     model.save(tmp_path / "plate.npz")
-    cell = """
-[part]
-start_m = [0.0, -0.2, 0.1]
-[path]
-end_m = [1.6, -0.2, 0.4]
-via = [{position_m = [0.45, -0.2, 0.425], mode = "blend", tolerance_m = 0.2}]
-[[obstacles]]
-type = "box"
-name = "lower die"
-centre_m = [1.9, 0.0, 0.15]
-size_m = [1.4, 1.2, 0.3]
-[[obstacles]]
-type = "box"
-name = "upper die"
-centre_m = [1.9, 0.0, 0.8]
-size_m = [1.4, 1.2, 0.5]
-"""
-    (tmp_path / "press.toml").write_text(cell)
+    (tmp_path / "press.toml").write_text(PRESS_TOML)
     done = run_jaxflex(
         "optimize", str(tmp_path / "plate.npz"), "--cell", str(tmp_path / "press.toml"),
         "--min-distance", "0.01", "--cup-safety", "1.5", "--max-stress", "--threshold", "5e-4",

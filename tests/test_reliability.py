@@ -6,9 +6,11 @@ tests/test_budget.py, the generated hostile cases of every door in tests/test_fu
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
+import re
 import signal
 import zipfile
 from pathlib import Path
@@ -23,7 +25,16 @@ from sweep_cases import SPEC
 import fem
 import jaxflex
 from jaxflex.atomic import write_text_atomic
+from jaxflex.cli import main
 from jaxflex.errors import BudgetError, InputError, ModelFileError, OutputError
+from jaxflex.files import (
+    check_output_dir,
+    check_output_file,
+    kept_writes,
+    make_output_dir,
+    remove_output,
+    whole_or_absent,
+)
 from jaxflex.isolated import isolated
 from jaxflex.trajectory_io import read_trajectory_csv
 from optim.cell_file import load_cell
@@ -73,8 +84,94 @@ def test_atomic_writes_keep_devices_fifos_and_directories(tmp_path):
     real = tmp_path / "real.txt"
     real.write_text("old", encoding="utf-8")
     (tmp_path / "link.txt").symlink_to(real)
-    write_text_atomic(tmp_path / "link.txt", "new")  # written at the link's target
-    assert (tmp_path / "link.txt").is_symlink() and real.read_text(encoding="utf-8") == "new"
+    with pytest.raises(OutputError, match=r"link\.txt': it is a symbolic link \(to '.*real\.txt"):
+        write_text_atomic(tmp_path / "link.txt", "new")  # never written through
+    assert (tmp_path / "link.txt").is_symlink() and real.read_text(encoding="utf-8") == "old"
+    os.link(real, tmp_path / "hard.txt")
+    write_text_atomic(tmp_path / "hard.txt", "new")  # a new file under this name
+    assert (tmp_path / "hard.txt").read_text(encoding="utf-8") == "new"
+    assert real.read_text(encoding="utf-8") == "old" and real.stat().st_nlink == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "dir", "fifo", "hard.txt", "link.txt", "real.txt"
+    ]  # fmt: skip
+
+
+def _run(*argv: str) -> tuple[int, str]:
+    """main(argv) in this process: (exit status, stderr)."""
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main([*argv, "--quiet"])
+    return code, err.getvalue()
+
+
+def _listing(folder: Path) -> dict[str, tuple]:
+    return {p.name: (p.lstat().st_ino, p.read_bytes() if p.is_file() else None)
+            for p in folder.iterdir()}  # fmt: skip
+
+
+def test_a_side_file_refused_halfway_leaves_the_earlier_export(tmp_path, monkeypatch):
+    """The case JSON becomes a FIFO while the FMU is being built (after the command checked
+    it): the write is refused naming it, and what the export had written is undone: the
+    earlier .fmu and input CSV are back, nothing else is left in the directory."""
+    import fmu.export
+
+    model_path = tmp_path / "model.npz"
+    random_model(n_points=6, n_modes=3).save(model_path)
+    out = tmp_path / "out"
+    opt = ["optimize", str(model_path), "--distance", "0", "0", "1", "--threshold", "1e-3"]
+    assert _run(*opt, "--no-plots", "-o", str(out))[0] == 0
+    folder = tmp_path / "fmus"
+    folder.mkdir()
+    fmu_path = folder / "x.fmu"
+    export = ["export", str(model_path), "--trajectory", str(out), "--no-verify", "-o"]
+    assert _run(*export, str(fmu_path))[0] == 0
+    before = _listing(folder)
+    write_sidecars = fmu.export._write_sidecars
+
+    def planted(path, *args, **kwargs):
+        os.mkfifo(folder / "x_case.json")
+        return write_sidecars(path, *args, **kwargs)
+
+    (folder / "x_case.json").unlink()
+    before.pop("x_case.json")
+    monkeypatch.setattr(fmu.export, "_write_sidecars", planted)
+    code, err = _run(*export, str(fmu_path))
+    assert code == 2 and "Traceback" not in err
+    assert f"cannot write {str(folder / 'x_case.json')!r}: it is a FIFO" in err
+    after = _listing(folder)
+    assert (folder / "x_case.json").is_fifo()
+    after.pop("x_case.json")
+    assert after == before  # the earlier FMU and input CSV, the same files (inodes)
+
+
+def test_whole_or_absent_undoes_writes_and_restores_what_they_replaced(tmp_path):
+    """Library level: everything a failing block wrote to its declared outputs is undone,
+    replaced files come back (the same inode: never copied), removed ones too, a created
+    directory goes; a file not declared (a store) and writes in kept_writes stay; the hard
+    link partner of a replaced file never changes."""
+    (tmp_path / "a.txt").write_text("a0", encoding="utf-8")
+    os.link(tmp_path / "a.txt", tmp_path / "partner.txt")
+    (tmp_path / "gone.txt").write_text("g0", encoding="utf-8")
+    store = tmp_path / "store.bin"
+    before = _listing(tmp_path)
+    with pytest.raises(KeyboardInterrupt), whole_or_absent():
+        check_output_file("-o", tmp_path / "a.txt")
+        check_output_dir("-o", tmp_path / "set")
+        check_output_file("-o", tmp_path / "gone.txt")
+        write_text_atomic(tmp_path / "a.txt", "a1")
+        write_text_atomic(tmp_path / "a.txt", "a2")
+        make_output_dir(tmp_path / "set")
+        write_text_atomic(tmp_path / "set" / "m.txt", "m")
+        remove_output(tmp_path / "gone.txt")
+        write_text_atomic(store, "cache entry")  # not declared: not an output
+        with kept_writes():
+            write_text_atomic(tmp_path / "set" / "kept.txt", "resumable")
+        raise KeyboardInterrupt
+    after = _listing(tmp_path)
+    assert after.pop("store.bin")[1] == b"cache entry"
+    assert sorted(p.name for p in (tmp_path / "set").iterdir()) == ["kept.txt"]
+    after.pop("set")
+    assert after == before
 
 
 # -- readers in a child process ------------------------------------------------------------
@@ -277,3 +374,54 @@ def test_node_coordinates_that_are_not_numbers_are_refused(tmp_path):
     archive.write_text(text.replace(node_2, overflow), encoding="utf-8")
     with pytest.raises(InputError, match="node 2 has coordinates"):
         read_node_coordinates(archive)
+
+
+# -- options out of range: one line naming the option, never a traceback --------------------
+def test_turn_options_out_of_range_are_refused_naming_them(tmp_path, turning_plate):
+    """The issue's tracebacks: ruckig's error for a turn of 1e308 degrees or limits of
+    1e-300 rad/s, an empty LP for a turn of 1e-300 degrees."""
+    plate = tmp_path / "plate.npz"
+    turning_plate.save(plate)
+    base = ["optimize", str(plate), "--distance", "0.3", "0", "0.5", "--threshold", "1e-3"]
+    base += ["--no-plots", "-o", str(tmp_path / "o")]
+    cases = {
+        ("--rotate", "x", "1e308"): r"rotate / angular_limits \(--rotate, --angular-limits W A "
+        r"J\): the turn of 1e\+308 degrees needs at least 5\.818e\+305 s",
+        ("--rotate", "x", "1e-300"): r"rotate \(--rotate AXIS ANGLE_DEG\): a turn of '1e-300' "
+        r"degrees is below the smallest the optimiser resolves",
+        ("--rotate", "x", "90", "--angular-limits", "1e-300", "1", "1"): r"the turn of 90 "
+        r"degrees needs at least 1\.571e\+300 s at the angular limits 1e-300 rad/s",
+    }
+    for extra, message in cases.items():
+        code, err = _run(*base, *extra)
+        assert code == 2 and "Traceback" not in err, err
+        assert re.search(message, err.strip().splitlines()[-1]), err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_dashboard_address_that_is_none_is_refused_before_the_cluster(tmp_path):
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps(SPEC), encoding="utf-8")
+    code, err = _run("sweep", str(spec), "-o", str(tmp_path / "s"), "--dashboard", "nonsense")
+    assert code == 2 and "Traceback" not in err
+    assert "dashboard_address (--dashboard): HOST:PORT, e.g. 127.0.0.1:8787" in err
+    assert "got 'nonsense'" in err and not (tmp_path / "s").exists()
+
+
+def test_a_memory_budget_below_the_interpreter_is_refused(tmp_path):
+    code, err = _run("model", "--scene", "plate", "--max-memory", "0.001", "-o",
+                     str(tmp_path / "m.npz"))  # fmt: skip
+    assert code == 2
+    assert "--max-memory: 0.001 GB (1 MB) is less than the interpreter itself holds" in err
+    assert "give at least 0.25" in err and not (tmp_path / "m.npz").exists()
+
+
+def test_an_obstacle_path_is_named_with_the_file_it_really_is(tmp_path):
+    """A path climbing out of the cell's folder: the message says where it leads."""
+    for target, what in (("/etc/passwd", "mesh: "), ("/etc/no-such-file", "does not exist")):
+        relative = os.path.relpath(target, tmp_path)
+        cell = {"path": {"end_m": [1, 0, 0]}, "obstacles": [{"type": "mesh", "path": relative}]}
+        (tmp_path / "cell.json").write_text(json.dumps(cell), encoding="utf-8")
+        with pytest.raises(InputError) as info:
+            load_cell(tmp_path / "cell.json")
+        assert f"(that is {target!r})" in str(info.value) and what in str(info.value)

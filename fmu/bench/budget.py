@@ -223,9 +223,9 @@ def refusal_cases(folder: Path) -> dict[str, list[str]]:
         "model --scene plate --mesh-size 1e-5": [
             "model", "--scene", "plate", "--mesh-size", "1e-5", "-o", str(folder / "m.npz"),
         ],
-        "model --cad: 1.2 m sheet at --mesh-size 1e-5": [
+        "model --cad: 1.2 m sheet at --mesh-size 1e-4": [
             "model", "--cad", _sheet_step(folder / "sheet.step", 1.2, 0.8), "--thickness",
-            "1e-3", "--mesh-size", "1e-5", *cups, "-o", str(folder / "m.npz"),
+            "1e-3", "--mesh-size", "1e-4", *cups, "-o", str(folder / "m.npz"),
         ],
         "model --cad: 120 m sheet at 5 cm": [
             "model", "--cad", _sheet_step(folder / "huge.step", 120, 80), "--thickness", "1e-3",

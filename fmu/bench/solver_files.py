@@ -1,13 +1,16 @@
-"""Every modal-results file of a directory through ``--from-modes``: what was read, what was
-refused and why, and frequencies against the solver's own printout where it lies beside the
-file (the .f06 of an .op2), as JSON.
+"""Every modal-results file of a directory through ``--from-modes`` (and every ANSYS .rst
+through ``--from-ansys``, with unit participation factors): what was read, what was refused
+and why, and frequencies against the solver's own printout where it lies beside the file
+(the .f06 of an .op2), as JSON. A read file passes the model checks (fem.model_checks)
+before it counts as read.
 
     python -m fmu.bench.solver_files DIR [--units SI] [-o solver_files.json]
 
 Measured on pyNastran's model library (``models/`` of github.com/SteveDoyle2/pyNastran,
-BSD-3-Clause) and pyuff's example files (``data/`` of github.com/ladisk/pyuff, MIT); the
-figures are in docs/fem.md. Files are tried by suffix (.op2, .pch, .uff, .unv); the unit
-system is a placeholder where the files state none (frequencies do not depend on it).
+BSD-3-Clause), pyuff's example files (``data/`` of github.com/ladisk/pyuff, MIT) and
+pymapdl-reader's test files (``tests/`` of github.com/ansys/pymapdl-reader, MIT); the
+figures are in docs/fem.md. Files are tried by suffix (.op2, .pch, .uff, .unv, .rst); the
+unit system is a placeholder where the files state none (frequencies do not depend on it).
 """
 
 from __future__ import annotations
@@ -35,7 +38,8 @@ def f06_frequencies(path: Path) -> np.ndarray | None:
     for i, line in enumerate(lines):
         if "R E A L   E I G E N V A L U E S" in line:
             out = []
-            for row in lines[i + 3 :]:
+            heading = 3 + ("AUGMENTATION" in lines[i + 1])  # MSC's residual-vector note
+            for row in lines[i + heading :]:
                 match = _F06_ROW.match(row)
                 if not match:
                     break
@@ -53,11 +57,33 @@ def _f06_of(path: Path) -> Path:
     return prefixes[0] if len(prefixes) == 1 else same
 
 
+def _mapdl_result(path: Path) -> bool:
+    """A .rst that is a binary file (not reStructuredText)."""
+    if path.suffix.lower() != ".rst":
+        return False
+    with open(path, "rb") as handle:
+        return b"\0" in handle.read(512)
+
+
+def _read(path: Path, units: str):
+    if path.suffix.lower() == ".rst":
+        from fem.ansys import from_ansys
+
+        result = from_ansys(
+            path, units=units, gamma=np.ones((1, 3)), n_modes=1, allow_rigid_modes=True
+        )
+    else:
+        result = from_modes(path, units=units, allow_rigid_modes=True)
+    result.check()
+    return result
+
+
 def try_file(path: Path, units: str) -> dict:
-    """One file through fem.from_modes: read (modes, nodes, gamma, frequencies) or refused."""
+    """One file through fem.from_modes (or fem.from_ansys): read (modes, nodes, gamma,
+    frequencies) or refused."""
     entry: dict = {"file": str(path), "kind": path.suffix.lower()}
     try:
-        result = from_modes(path, units=units, allow_rigid_modes=True)
+        result = _read(path, units)
     except InputError as exc:
         entry["status"] = "refused"
         entry["reason"] = str(exc)
@@ -83,12 +109,14 @@ def try_file(path: Path, units: str) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m fmu.bench.solver_files", description=__doc__)
-    parser.add_argument("directory", help="searched recursively for .op2, .pch, .uff, .unv")
+    parser.add_argument("directory", help="searched recursively for .op2, .pch, .uff, .unv, .rst")
     parser.add_argument("--units", default="SI", help="for files that state none")
     parser.add_argument("-o", "--output", default="solver_files.json")
     args = parser.parse_args(argv)
     files = sorted(
-        p for p in Path(args.directory).rglob("*") if p.is_file() and p.suffix.lower() in SUFFIXES
+        p
+        for p in Path(args.directory).rglob("*")
+        if p.is_file() and (p.suffix.lower() in SUFFIXES or _mapdl_result(p))
     )
     entries = [try_file(p, args.units) for p in files]
     tally = Counter((e["kind"], e["status"]) for e in entries)

@@ -4,8 +4,10 @@
  * FMU's shared library (dlopen, or LoadLibrary when built for Windows) like an importer would.
  *
  *   harness LIBRARY RESOURCES TOKEN bench N_STEPS DT REPEATS
- *       time REPEATS instantiations and N_STEPS communication steps (inputs set and the
- *       deviation read every step; built with -DHARNESS_TURNING, the pose inputs of a
+ *       time REPEATS instantiations and N_STEPS communication steps of back-to-back 1 s
+ *       moves (BENCH_MOVE_S: the part always moving; inputs set and the scalar outputs
+ *       deviation, settled and settle_time read every step, and min_distance when built
+ *       with -DHARNESS_DISTANCE; built with -DHARNESS_TURNING, the pose inputs of a
  *       turning part too: a turn about z); prints one JSON line
  *   harness LIBRARY RESOURCES TOKEN check N_STEPS DT
  *       exercise the life cycle (two instances, NaN input, bad step, reset and re-run,
@@ -48,6 +50,9 @@
 #define N_INPUTS 3
 #endif
 #define VR_DEVIATION 10u
+#define VR_SETTLE_TIME 11u
+#define VR_SETTLED 12u
+#define VR_MIN_DISTANCE 14u /* read every step by the bench when built with -DHARNESS_DISTANCE */
 #define VR_DISPLACED_POINTS 30u /* FMI 3.0 array output (K x 3); read every step when the
                                    harness is built with -DHARNESS_ARRAY_POINTS=K */
 
@@ -235,45 +240,83 @@ static void drive(const double a[3], const double rate[3], double in[], double i
 #endif
 }
 
-/* A smooth rest-to-rest acceleration profile sampled at step k of n (m/s^2). */
-static void profile(int k, int n, double a[3], double rate[3], double dt) {
+/* A smooth rest-to-rest acceleration profile of `period` steps sampled at step k, repeated
+ * (m/s^2): one sine period per axis, amplitudes 1, 2, 3 m/s^2. */
+static void profile(int k, int period, double a[3], double rate[3], double dt) {
     const double two_pi = 6.283185307179586;
     int c;
     for (c = 0; c < 3; ++c) {
         const double amp = 1.0 + c;
-        double a0 = k < n ? amp * sin(two_pi * k / n) : 0.0;
-        double a1 = k + 1 < n ? amp * sin(two_pi * (k + 1) / n) : 0.0;
+        const double a0 = amp * sin(two_pi * (k % period) / period);
+        const double a1 = amp * sin(two_pi * ((k + 1) % period) / period);
         a[c] = a0;
         rate[c] = (a1 - a0) / dt;
     }
 }
 
-/* Run steps [k0, k1) of an n-step move from rest, storing the deviation after each step. */
-static int run_steps(void *c, int k0, int k1, int n, double dt, double *out) {
+/* Run steps [k0, k1) of moves of `period` steps from rest (at rest from step `stop` on),
+ * storing the deviation after each step. */
+static int run_steps(void *c, int k0, int k1, int period, int stop, double dt, double *out) {
+    const double zero[3] = {0.0, 0.0, 0.0};
     double a[3], rate[3];
     int k;
     for (k = k0; k < k1; ++k) {
-        profile(k, n / 2, a, rate, dt);
-        if (set_inputs(c, a, rate) || step(c, k * dt, dt)) return -1;
+        profile(k, period, a, rate, dt);
+        if (set_inputs(c, k < stop ? a : zero, k < stop ? rate : zero) || step(c, k * dt, dt))
+            return -1;
         out[k] = deviation(c);
     }
     return 0;
 }
 
-static int run(void *c, int n, double dt, double *out) { return run_steps(c, 0, n, n, dt, out); }
+/* One move of n / 2 steps, then rest until step n. */
+static int run(void *c, int n, double dt, double *out) {
+    return run_steps(c, 0, n, n / 2 > 0 ? n / 2 : 1, n / 2, dt, out);
+}
+
+/* What the bench reads after every step: the scalar outputs (deviation, settled,
+ * settle_time and, built with -DHARNESS_DISTANCE, min_distance); their sum (a checksum of
+ * the run: equal sums, equal outputs in all likelihood). */
+static double read_scalars(void *c) {
+    double sum = deviation(c), value = NAN;
+    int flag = 0;
+    if (get_flag(c, VR_SETTLED, &flag) || get_values(c, VR_SETTLE_TIME, 1, &value)) return NAN;
+    sum += flag + value;
+#ifdef HARNESS_DISTANCE
+    if (get_values(c, VR_MIN_DISTANCE, 1, &value)) return NAN;
+    sum += value;
+#endif
+    return sum;
+}
+
+/* Steps [k0, k1) of back-to-back moves of `period` steps, the scalar outputs read after
+ * each; their checksum into out[k]. */
+static int bench_steps(void *c, int k0, int k1, int period, double dt, double *out) {
+    double a[3], rate[3];
+    int k;
+    for (k = k0; k < k1; ++k) {
+        profile(k, period, a, rate, dt);
+        if (set_inputs(c, a, rate) || step(c, k * dt, dt)) return -1;
+        out[k] = read_scalars(c);
+    }
+    return 0;
+}
 
 static int cmp_double(const void *x, const void *y) {
     const double a = *(const double *)x, b = *(const double *)y;
     return (a > b) - (a < b);
 }
 
-#define CHUNK 100 /* steps timed together */
+#define CHUNK 100     /* steps timed together */
+#define BENCH_MOVE_S 1.0 /* duration of each move of the bench, s */
+#define WARM_UP 200      /* steps run (and discarded) before the timed ones */
 
 static int bench(const char *resources, const char *token, int n, double dt, int repeats) {
     const int n_chunks = n / CHUNK;
     double *times = (double *)malloc(sizeof(double) * (size_t)repeats);
     double *chunks = (double *)malloc(sizeof(double) * (size_t)n_chunks);
-    double *dev = (double *)malloc(sizeof(double) * (size_t)n);
+    double *dev = (double *)malloc(sizeof(double) * (size_t)(n > WARM_UP ? n : WARM_UP));
+    const int period = (int)(BENCH_MOVE_S / dt + 0.5) > 1 ? (int)(BENCH_MOVE_S / dt + 0.5) : 2;
     double t0, total, checksum = 0.0;
     void *c;
     int r, k;
@@ -286,13 +329,13 @@ static int bench(const char *resources, const char *token, int n, double dt, int
     }
     qsort(times, (size_t)repeats, sizeof(double), cmp_double);
     c = instantiate(resources, token);
-    if (c == NULL || start(c) || run(c, 200, dt, dev)) return 1; /* warm-up */
+    if (c == NULL || start(c) || run(c, WARM_UP, dt, dev)) return 1;
     reset(c);
     start(c);
     total = 0.0;
     for (k = 0; k < n_chunks; ++k) {
         t0 = now_us();
-        if (run_steps(c, k * CHUNK, (k + 1) * CHUNK, n_chunks * CHUNK, dt, dev)) return 1;
+        if (bench_steps(c, k * CHUNK, (k + 1) * CHUNK, period, dt, dev)) return 1;
         chunks[k] = (now_us() - t0) / CHUNK;
         total += chunks[k] * CHUNK;
     }

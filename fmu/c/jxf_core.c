@@ -8,18 +8,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "jxf_blocks.h"
 #include "jxf_cell.h"
 #include "jxf_config.h"
 #include "jxf_fmu.h"
 #include "jxf_model.h"
 #include "jxf_turn_angle.h"
 #include "jxf_turning.h"
-
-#if defined(_MSC_VER)
-#define JXF_RESTRICT __restrict
-#else
-#define JXF_RESTRICT restrict
-#endif
 
 #define JXF_PI 3.14159265358979323846
 
@@ -522,7 +517,7 @@ jxf_model *jxf_model_create(const char *resource_location, const char *token,
         jxf_model_free(m);
         return NULL;
     }
-    if (allocate_work(m) != 0) {
+    if (allocate_work(m) != 0 || jxf_blocks_build(m) != 0) {
         jxf_log(m, JXF_LOG_ERROR, "out of memory allocating the state of %d modes, %d points",
                 m->n_modes, m->n_points);
         free(name);
@@ -540,6 +535,7 @@ void jxf_model_free(jxf_model *m) {
     int s;
     if (m == NULL) return;
     for (s = 0; s < JXF_CACHE_SLOTS; ++s) free(m->cache[s].p11);
+    jxf_blocks_free(m);
     free(m->q);
     free(m->u);
     free(m->coords);
@@ -644,30 +640,6 @@ static void trajectory_at(jxf_model *m, double tau, double *f, jxf_loads *l) {
 
 /* ---- outputs ------------------------------------------------------------------------ */
 
-/* u = sum_i shapes_i q_i over the n = 3K components. Eight modes per pass over u and fixed
- * blocks of four components, which gcc -O2 turns into SIMD code: 14 us instead of 25 us for
- * K = 1099, M = 40 (the loop streams the 1 MB of shapes, so it is bound by memory). */
-static void displacement(const double *JXF_RESTRICT shapes, const double *JXF_RESTRICT q,
-                         int n_modes, size_t n, double *JXF_RESTRICT u) {
-    size_t j, k;
-    int i = 0, r;
-    for (j = 0; j < n; ++j) u[j] = 0.0;
-    for (; i + 8 <= n_modes; i += 8) {
-        const double *s = shapes + (size_t)i * n, *c = q + i;
-        for (j = 0; j + 4 <= n; j += 4)
-            for (k = j; k < j + 4; ++k)
-                u[k] += s[k] * c[0] + s[n + k] * c[1] + s[2 * n + k] * c[2] +
-                        s[3 * n + k] * c[3] + s[4 * n + k] * c[4] + s[5 * n + k] * c[5] +
-                        s[6 * n + k] * c[6] + s[7 * n + k] * c[7];
-        for (; j < n; ++j)
-            for (r = 0; r < 8; ++r) u[j] += s[r * n + j] * c[r];
-    }
-    for (; i < n_modes; ++i) {
-        const double *s = shapes + (size_t)i * n;
-        for (j = 0; j < n; ++j) u[j] += s[j] * q[i];
-    }
-}
-
 static void update_settled(jxf_model *m) {
     const int now = m->deviation <= m->threshold;
     if (now && !m->settled) m->settle_time = m->time;
@@ -682,27 +654,18 @@ static double sag(const jxf_model *m, int i) {
     return (g[0] * m->g_now[0] + g[1] * m->g_now[1] + g[2] * m->g_now[2]) / (omega * omega);
 }
 
+/* The outputs of a new state: its stamp, the deviation (over the blocks that can decide it,
+ * jxf_blocks.c) and the settled flag. */
 static void update_outputs(jxf_model *m) {
-    const size_t K = (size_t)m->n_points;
-    const double *ux, *uy, *uz;
-    double best = 0.0;
-    size_t p;
     int i;
+    ++m->state;
     /* the coordinates of the shapes: q (a turning part: less its sag in the current pose,
      * Omega^-2 gamma . g_b), then the base acceleration (the static residual) and, R = 12,
      * the rotational load coefficients (jaxflex.rotation_residual) */
     for (i = 0; i < m->n_modes; ++i) m->coords[i] = m->q[i] - sag(m, i);
     for (i = 0; i < m->n_static; ++i)
         m->coords[m->n_modes + i] = i < 3 ? m->a_now[i] : m->b_now[i - 3];
-    displacement(m->shapes, m->coords, m->n_modes + m->n_static, 3 * K, m->u);
-    ux = m->u;
-    uy = ux + K;
-    uz = uy + K;
-    for (p = 0; p < K; ++p) {
-        const double s = ux[p] * ux[p] + uy[p] * uy[p] + uz[p] * uz[p];
-        best = s > best || s != s ? s : best; /* a NaN wins: never hidden */
-    }
-    m->deviation = sqrt(best);
+    m->deviation = jxf_blocks_deviation(m);
     update_settled(m);
 }
 

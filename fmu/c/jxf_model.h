@@ -24,6 +24,7 @@
 #define JXF_MODEL_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "jxf_log.h"
 
@@ -57,6 +58,36 @@ enum { JXF_IN_ACC = 0, JXF_IN_QUAT = 3, JXF_IN_OMEGA = 7, JXF_IN_ALPHA = 10, JXF
  * drive's from JXF_IN_QUAT). */
 #define JXF_POSE_VALUES 10
 
+/* The points in spatially compact blocks (jxf_blocks.c): block B holds the points of slots
+ * start[B] .. start[B + 1] - 1 (JXF_BLOCK_POINTS of them, the last block at most: `largest`
+ * is the largest), `point` maps a slot to its point and
+ * `slot` a point to its slot; `centre` is a member of each block. What bounds a block's
+ * members for the coordinates x of the shape rows psi_j (j < M + R: the modes, then the
+ * residual rows), per block and row (jxf_blocks.c explains the bounds):
+ *   reach   (M + R, nB)      max_p |psi_j(p)| (grouped for jxf_combine, jxf_blocks.h)
+ *   near    (nB, M + R, 4)   the centre's shape psi_j(c) (3), the radius max_p |psi_j(p) -
+ *                            psi_j(c)|
+ *   slope   (nB, M + R, 12)  the gradient L_j (9: [3 l + k] = d psi_jk / d X_l), the largest
+ *                            residual of psi_j(p) - psi_j(c) - L_j (X_p - X_c), the lever
+ *                            sum_l |L_j[., l]| span_l, a zero
+ *   span    (nB, 3)          max_p |X_p - X_c| per axis of the points (model frame), m
+ *   extent  (nB, 3)          the same of the positions at rest (with obstacles, else NULL)
+ *   top     (M + R)          max_B reach: max_p |psi_j(p)| over every point
+ * `stamp` tells for which state the block's part of m->u was evaluated, `seed` is the
+ * block where the deviation was largest at the last evaluation, `unbounded` the number of
+ * coming evaluations that do not try the bounds (jxf_blocks_deviation); `offered` and
+ * `evaluated` count the blocks the deviation's evaluations had and evaluated (logged when
+ * the model is freed). */
+typedef struct {
+    int count, largest, seed, unbounded;
+    double offered, evaluated;
+    int *start, *point, *slot, *centre;
+    double *reach, *near, *slope, *span, *extent, *top;
+    uint64_t *stamp;
+    double *work;      /* scratch of jxf_blocks.c: nB + 3 largest + M + R values */
+    double *cell_work; /* scratch of the distances (jxf_cell.c), NULL without obstacles */
+} jxf_blocks;
+
 struct jxf_model {
     /* model data from the resource file (views into `buffer`) */
     int n_points, n_modes, n_traj;
@@ -65,7 +96,10 @@ struct jxf_model {
     const double *freq_hz;  /* (M) */
     const double *zeta;     /* (M) */
     const double *gamma;    /* (M, 3) */
-    const double *shapes;   /* (M + R, 3, K): x rows of all points, then y, then z */
+    const double *shapes;   /* (M + R, 3, K) in the resource: x rows of all points, then y,
+                             * then z; block by block once loaded (jxf_blocks.c): block B's
+                             * (M + R, 3 n_B) from 3 (M + R) start[B], grouped for
+                             * jxf_combine (jxf_blocks.h) */
     const double *points;   /* (K, 3) */
     const double *traj;     /* (N, 3) acceleration samples, m/s^2 */
     unsigned char *buffer;
@@ -112,7 +146,10 @@ struct jxf_model {
     double start_time, time;
     double *q, *v;       /* (M) */
     double *saved;       /* (2M): q and v before a step, restored if it fails */
-    double *u;           /* (3K) displacement, component-major like `shapes` */
+    double *u;           /* (3K) displacement, block by block: block B's (3, n_B) from
+                          * 3 start[B] (x of its members in slot order, then y, then z),
+                          * evaluated when needed for the state its stamp names
+                          * (jxf_blocks.c; read it with jxf_point_displacement) */
     double *coords;      /* (M + R) the shapes' coordinates: q (less the sag), then a_now */
     double deviation;    /* max_p |u_p|, m */
     double a_now[3];     /* base acceleration at the communication point, m/s^2 (a turning
@@ -123,6 +160,8 @@ struct jxf_model {
     double pos[3], vel[3]; /* the path travelled since the start, m and m/s (exact) */
     int settled;         /* deviation <= threshold at the current communication point */
     double settle_time;  /* time the settled flag last went true, s */
+    uint64_t state;      /* stamp of the current state: changes whenever the state does */
+    jxf_blocks blocks;
 
     jxf_coeffs cache[JXF_CACHE_SLOTS];
     unsigned long clock;

@@ -5,13 +5,15 @@
  * The generated jxf_config.h declares the functions of one export and lists them by value
  * reference (JXF_REAL_VALUES, JXF_BOOL_VALUES) for jxf_get_real / jxf_get_bool, so a new
  * output is a row in that table plus its function here. Values are those at the current
- * communication point (jxf_core.c evaluates u, deviation and the settled flag after every
+ * communication point (jxf_core.c evaluates the deviation and the settled flag after every
  * step); a function reading the state computes from m->q, m->v (modal, kg^0.5 m and per s)
- * or m->u (displacement, component-major: x of all K points, then y, then z). SI units.
+ * or a point's displacement (jxf_point_displacement, jxf_blocks.h: evaluated when read where
+ * the step did not need it). SI units.
  */
 #include <math.h>
 #include <string.h>
 
+#include "jxf_blocks.h"
 #include "jxf_cell.h"
 #include "jxf_config.h"
 #include "jxf_model.h"
@@ -52,14 +54,18 @@ void jxf_value_use_embedded_trajectory(const jxf_model *m, int *out) {
     *out = m->use_trajectory;
 }
 
-/* points + u, (K, 3) row-major, m */
+/* points + u, (K, 3) row-major, m: block by block (each evaluated now where the step left
+ * it out, jxf_blocks.h) */
 void jxf_value_displaced_points(const jxf_model *m, double *out) {
-    const size_t K = (size_t)m->n_points;
-    size_t p;
-    for (p = 0; p < K; ++p) {
-        out[3 * p] = m->points[3 * p] + m->u[p];
-        out[3 * p + 1] = m->points[3 * p + 1] + m->u[K + p];
-        out[3 * p + 2] = m->points[3 * p + 2] + m->u[2 * K + p];
+    const jxf_blocks *b = &m->blocks;
+    int block, s, c;
+    for (block = 0; block < b->count; ++block) {
+        const double *u = jxf_block_displacement(m, block);
+        const int first = b->start[block], size = b->start[block + 1] - first;
+        for (s = 0; s < size; ++s) {
+            const size_t p = (size_t)b->point[first + s];
+            for (c = 0; c < 3; ++c) out[3 * p + c] = m->points[3 * p + c] + u[c * size + s];
+        }
     }
 }
 
@@ -104,16 +110,6 @@ void jxf_value_point_stresses(const jxf_model *m, double *out) {
     for (s = 0; s < m->n_stress; ++s) out[s] = jxf_von_mises(m, s);
 }
 
-void jxf_value_min_distance(const jxf_model *m, double *out) {
-    int k;
-    *out = HUGE_VAL;
-    for (k = 0; k < m->n_points; ++k) {
-        const double d = jxf_point_distance(m, k);
-        *out = d < *out ? d : *out;
-    }
-}
+void jxf_value_min_distance(const jxf_model *m, double *out) { *out = jxf_min_distance(m); }
 
-void jxf_value_point_distances(const jxf_model *m, double *out) {
-    int k;
-    for (k = 0; k < m->n_points; ++k) out[k] = jxf_point_distance(m, k);
-}
+void jxf_value_point_distances(const jxf_model *m, double *out) { jxf_point_distances(m, out); }

@@ -209,16 +209,41 @@ class Cluster:
         )
 
 
+def check_dashboard(address: str | None) -> str | None:
+    """``address`` ("HOST:PORT", HOST a name or address, may be empty: every interface;
+    PORT 0 .. 65535, 0 a free one) if it is one, None for None; InputError naming
+    dashboard_address (--dashboard) otherwise."""
+    if address is None:
+        return None
+    host, colon, port = str(address).strip().rpartition(":")
+    if not colon or not port.isdigit() or int(port) > 65535 or any(c.isspace() for c in host):
+        raise InputError(
+            "dashboard_address (--dashboard): HOST:PORT, e.g. 127.0.0.1:8787, 0.0.0.0:8787 "
+            f"(every interface) or 127.0.0.1:0 (a free port); got {address!r}"
+        )
+    return f"{host}:{int(port)}"
+
+
 def _local_cluster(n_workers: int | None, dashboard_address: str | None):
-    return LocalCluster(
-        n_workers=n_workers or os.cpu_count() or 1,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",
-        dashboard_address=dashboard_address or DASHBOARD_ADDRESS,
-        silence_logs=logging.ERROR,  # not the workers' warnings about cancelled tasks
-        env=WORKER_ENV,
-    )
+    """The embedded LocalCluster; InputError naming the dashboard's address or the workers
+    if it does not start (an address of another machine, a name that does not resolve)."""
+    try:
+        return LocalCluster(
+            n_workers=n_workers or os.cpu_count() or 1,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=dashboard_address or DASHBOARD_ADDRESS,
+            silence_logs=logging.ERROR,  # not the workers' warnings about cancelled tasks
+            env=WORKER_ENV,
+        )
+    except (RuntimeError, OSError, ValueError) as exc:
+        cause = exc.__cause__ or exc.__context__ or exc
+        raise InputError(
+            f"cannot start the local dask cluster (n_workers (--workers) "
+            f"{n_workers or os.cpu_count()}, dashboard_address (--dashboard) "
+            f"{dashboard_address or DASHBOARD_ADDRESS!r}): {type(cause).__name__}: {cause}"
+        ) from None
 
 
 @contextlib.contextmanager
@@ -273,7 +298,7 @@ def _start(scheduler: str | None, n_workers: int | None, dashboard_address: str 
         except (OSError, TimeoutError) as exc:
             raise InputError(f"scheduler: cannot connect to {scheduler} ({exc})") from exc
         return client, None
-    local = _local_cluster(n_workers, dashboard_address)
+    local = _local_cluster(n_workers, check_dashboard(dashboard_address))
     return Client(local), local
 
 

@@ -33,12 +33,12 @@ from pathlib import Path
 from distributed import as_completed
 
 from jaxflex.errors import InputError
-from jaxflex.files import directory_lock
+from jaxflex.files import directory_lock, kept_writes
 from jaxflex.model import ModalModel
 from jaxflex.runtime import check_time, progress_bar, require
 from optim.sweep.best import MoveBest, best_layouts, move_limits
 from optim.sweep.cases import Case, case_job, expand, layout_job
-from optim.sweep.cluster import ClusterError, connect
+from optim.sweep.cluster import ClusterError, check_dashboard, connect
 from optim.sweep.plan import sweep_needs, workers
 from optim.sweep.plots import plot_sweep
 from optim.sweep.spec import SweepSpec
@@ -161,6 +161,7 @@ def run_sweep(
             raise InputError(f"{name}: only used with the dask executor")
     if n_workers is not None and n_workers < 1:
         raise InputError(f"n_workers: must be >= 1, got {n_workers}")
+    check_dashboard(dashboard_address)
     store = ResultStore(directory, dt_s=spec.optimization.dt_s)
     with directory_lock(store.root, option="-o/--output"):
         where = {"n_workers": n_workers, "dashboard_address": dashboard_address}
@@ -241,7 +242,8 @@ def _run_locked(spec: SweepSpec, store: ResultStore, options: _Options) -> Sweep
     finally:
         bar.close()
         run.wall_s = time.perf_counter() - start
-        write_table(store.root / "results.csv", table_rows(cases, run.records))
+        with kept_writes():  # the table of what is stored, also when the run failed
+            write_table(store.root / "results.csv", table_rows(cases, run.records))
     run.outputs.append(str(store.root / "results.csv"))
     if options.plots:
         run.outputs += plot_sweep(run, store)

@@ -10,9 +10,11 @@ A case counts as finished when its record exists and passes optim.sweep.records.
 (a stored model: jaxflex's model file checks, its FE summary and the sweep's sizes). A file
 that does not is reported (JaxflexWarning naming the file and what is wrong), moved to
 ``rejected/`` and its case computed again: never trusted, never fatal. A killed run loses at
-most the cases that were running. Errors of the case itself (stage "fe" or "optimization": a
-bad layout, an infeasible move) are final like results; failures of the machinery (a lost
-worker) are retried by the next run.
+most the cases that were running. The directory is the sweep's resumable state: a run that
+fails or is interrupted keeps what it stored and the table of it (pending cases marked; not
+undone with the command's other outputs, jaxflex.files.kept_writes). Errors
+of the case itself (stage "fe" or "optimization": a bad layout, an infeasible move) are final
+like results; failures of the machinery (a lost worker) are retried by the next run.
 """
 
 from __future__ import annotations
@@ -25,7 +27,13 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 from jaxflex.errors import InputError, JaxflexWarning, ModelError, ModelFileError
-from jaxflex.files import make_output_dir, remove_stale_temporaries, write_text_atomic
+from jaxflex.files import (
+    check_target,
+    kept_writes,
+    make_output_dir,
+    remove_stale_temporaries,
+    write_text_atomic,
+)
 from jaxflex.model import ModalModel, load_model
 from optim.sweep.records import RecordError, as_stored, check_fe_summary, check_record
 
@@ -48,8 +56,15 @@ class ResultStore:
         self.cases_dir = self.root / "cases"
         self.models_dir = self.root / "models"
         self.dt_s = dt_s
-        for folder in (self.root, self.cases_dir, self.models_dir):
-            make_output_dir(folder)
+        if self.root.is_dir():  # before anything is made: never a link, FIFO or device there
+            for name in ROOT_FILES:
+                check_target(self.root / name)
+            for folder in (self.cases_dir, self.models_dir):
+                if os.path.lexists(folder):
+                    make_output_dir(folder)  # an existing one is only checked
+        with kept_writes():
+            for folder in (self.root, self.cases_dir, self.models_dir):
+                make_output_dir(folder)
 
     def remove_temporaries(self) -> None:
         """Remove the temporary files a killed run left (call while holding the lock)."""
@@ -129,16 +144,18 @@ class ResultStore:
         """Store a computed record, sealed (optim.sweep.records.as_stored: a record that fails
         its own check is stored as an error saying so); returns what was stored."""
         stored = as_stored(record, self.dt_s)
-        write_text_atomic(
-            self.record_path(record["case_id"]), json.dumps(stored, sort_keys=True) + "\n"
-        )
+        with kept_writes():
+            write_text_atomic(
+                self.record_path(record["case_id"]), json.dumps(stored, sort_keys=True) + "\n"
+            )
         return stored
 
     def model_path(self, layout_id: str) -> Path:
         return self.models_dir / f"{layout_id}.npz"
 
     def save_model(self, layout_id: str, model: ModalModel, fe_summary: dict) -> None:
-        model.with_meta(sweep_fe=fe_summary).save(self.model_path(layout_id))
+        with kept_writes():
+            model.with_meta(sweep_fe=fe_summary).save(self.model_path(layout_id))
 
     def load_model(self, layout_id: str) -> tuple[ModalModel, dict] | None:
         """(model, FE summary) of a stored layout, or None (missing; or rejected: unreadable,
@@ -165,7 +182,8 @@ class ResultStore:
         return model, summary
 
     def save_spec(self, source: dict) -> None:
-        write_text_atomic(self.root / "spec.json", json.dumps(source, indent=2) + "\n")
+        with kept_writes():
+            write_text_atomic(self.root / "spec.json", json.dumps(source, indent=2) + "\n")
 
 
 class StoredRecords(Mapping):
