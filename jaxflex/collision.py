@@ -37,7 +37,6 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from jaxflex.blocks import kd_order
 from jaxflex.budget import check_time
@@ -52,10 +51,18 @@ from jaxflex.engine import (
     states_at,
     states_between,
 )
-from jaxflex.peaks import SAMPLES_PER_PERIOD, SearchState, certified_max, settling_windows
+from jaxflex.peaks import (
+    SAMPLES_PER_PERIOD,
+    SearchState,
+    certified_max,
+    one_blas_thread,
+    settling_windows,
+)
 from jaxflex.profile import acceleration_at, as_move, kinematics_at
 
 BLOCK_POINTS = 32
+COARSE_STRIDE = 8  # close_approaches: the block centres at every 8th time first
+BLOCK_CHUNK = 4096  # (time, block) pairs per evaluation of the distance
 # what a run out of its time budget (jaxflex.budget) was doing, and what to do about it
 CHECKING = "checking the part's distance to the cell's obstacles"
 SIMPLER_CELL = "simplify the obstacles (fewer triangles or boxes) or raise --max-time"
@@ -190,6 +197,201 @@ def block_lower_bounds(obstacles, centres: np.ndarray, extents: np.ndarray, movi
         )
         best = np.minimum(best, d - reach)
     return best.reshape(centres.shape[:2]) - moving
+
+
+@dataclass
+class Approaches:
+    """The points of a part that may come closer than a distance to the obstacles at some
+    of the times ``t_s`` of a move (:func:`close_approaches`): ``points`` (P,) sorted and
+    their skin distances ``distances`` (T, P) m where evaluated, inf elsewhere (every point
+    of a block not evaluated provably keeps the distance there). Evaluated: at each time at
+    least the closest point (exact), and at the times given to :meth:`fill` every point
+    that may come closer."""
+
+    points: np.ndarray
+    distances: np.ndarray
+    _motion: _Motion
+    _coords: np.ndarray  # (T, M') displacement coordinates at the times
+    _path: np.ndarray  # (T, 3) the rigid path at the times
+    _close: np.ndarray  # (T, nB) the blocks that may come closer, per time
+
+    def fill(self, indices) -> None:
+        """Evaluate every point of every block that may come closer at the times
+        ``indices`` (time indices)."""
+        rows = np.zeros(len(self._close), dtype=bool)
+        rows[np.asarray(indices, dtype=np.int64)] = True
+        times, which = np.nonzero(self._close & rows[:, None])
+        blocks = part_blocks(self._motion.model)
+        for chunk in np.array_split(np.arange(len(times)), max(1, len(times) // BLOCK_CHUNK)):
+            self._record(*_block_distances(self, blocks, times[chunk], which[chunk]))
+
+    def _record(self, times, members, real, d) -> None:
+        """Write the skin distances ``d`` (A, b) of the ``members`` (A, b; ``real``) at the
+        time indices ``times`` (A,)."""
+        rows = np.broadcast_to(times[:, None], members.shape)[real]
+        self.distances[rows, np.searchsorted(self.points, members[real])] = d[real]
+
+
+def close_approaches(
+    model,
+    obstacles,
+    move,
+    t_s,
+    within_m,
+    *,
+    gravity_m_s2=(0.0, 0.0, -9.81),
+    half_thickness_m: float = 0.0,
+    stride: int = COARSE_STRIDE,
+) -> Approaches:
+    """The :class:`Approaches` of the points of ``model`` (posed in the cell, hanging in
+    ``gravity_m_s2`` before the move) that may come closer than ``within_m`` (m, or one per
+    time (T,)) to ``obstacles`` at some of the increasing times ``t_s`` (T,) s during and
+    after ``move`` (a jaxflex.Move), their skins ``half_thickness_m`` off the mid-surface:
+    at each time the closest point found exactly (its distance and every distance
+    evaluated on the way); :meth:`Approaches.fill` adds every point that may come closer at
+    chosen times.
+
+    Two levels in time and in space: the block centres (:class:`PartBlocks`) are evaluated
+    at every ``stride``-th time only, and between two of them a block's members move at most
+    at the path speed plus the modes' (jaxflex.engine.derivative_bounds during the move, the
+    decay envelope after it) weighted by the centre's shapes and the block's spread, so the
+    block keeps (d_a + d_b) / 2 - L (b - a) / 2 (:func:`block_lower_bounds` at a and b).
+    Only the blocks of the intervals where that reaches ``within_m`` get the block bound at
+    each time; at each time the blocks whose bound reaches ``within_m`` are searched in the
+    order of their bound until the next bound is above the closest point found. The closest
+    point at each time, and every point at the filled times, are what evaluating every
+    member of every block at every time gives."""
+    t = np.asarray(t_s, dtype=np.float64)
+    obstacles = tuple(obstacles)
+    with one_blas_thread():
+        motion = _Motion(model, obstacles, move, gravity_m_s2, half_thickness_m)
+        blocks = part_blocks(model)
+        coords = displacement_coordinates(model, move.acc, move.dt_s, t)
+        extents = blocks.extents(motion.base)
+        coarse = np.unique(np.r_[np.arange(0, len(t), stride), len(t) - 1])
+        lower = _block_bounds(motion, blocks, extents, t[coarse], coords[coarse])  # (C, nB)
+        speed = _interval_speeds(motion, blocks, t[coarse])  # (C - 1, nB)
+        gap = np.diff(t[coarse])[:, None]
+        within = np.broadcast_to(np.asarray(within_m, dtype=np.float64), t.shape)
+        reach = np.maximum(within[coarse][:-1], within[coarse][1:])[:, None]
+        flagged = 0.5 * (lower[:-1] + lower[1:]) - 0.5 * speed * gap <= reach
+        candidate = np.zeros((len(t), len(blocks.centre)), dtype=bool)
+        for j in np.flatnonzero(flagged.any(axis=1)):  # both ends of an interval belong to it
+            candidate[coarse[j] : coarse[j + 1] + 1] |= flagged[j]
+        times, which = np.nonzero(candidate)
+        fine = np.full(candidate.shape, np.inf)
+        if times.size:
+            bounds = _block_bounds(motion, blocks, extents[which], t[times], coords[times], which)
+            fine[times, which] = np.where(bounds <= within[times], bounds, np.inf)
+        close = np.isfinite(fine)
+        points = blocks.points_of(np.flatnonzero(close.any(axis=0)))
+        path = kinematics_at(move.acc, move.dt_s, t)[0]
+        found = Approaches(
+            points, np.full((len(t), len(points)), np.inf), motion, coords, path, close
+        )
+        _smallest(found, blocks, fine, found._record)
+        return found
+
+
+def nearest_distances(
+    model, obstacles, move, t_s, *, gravity_m_s2=(0.0, 0.0, -9.81), half_thickness_m: float = 0.0
+) -> np.ndarray:
+    """(T,) the smallest skin distance (m) of any point of ``model`` to ``obstacles`` at each
+    time of ``t_s`` (T,) s during and after ``move`` (arguments as :func:`close_approaches`),
+    exact: at each time the blocks (:class:`PartBlocks`) in the order of their bound, each
+    block's members evaluated while its bound is below the smallest distance found (the
+    other blocks cannot hold a closer point)."""
+    t = np.asarray(t_s, dtype=np.float64)
+    with one_blas_thread():
+        motion = _Motion(model, tuple(obstacles), move, gravity_m_s2, half_thickness_m)
+        blocks = part_blocks(model)
+        coords = displacement_coordinates(model, move.acc, move.dt_s, t)
+        lower = _block_bounds(motion, blocks, blocks.extents(motion.base), t, coords)
+        path = kinematics_at(move.acc, move.dt_s, t)[0]
+        frame = Approaches(np.zeros(0, np.int64), np.zeros((0, 0)), motion, coords, path, None)
+        return _smallest(frame, blocks, lower)
+
+
+def _smallest(frame: Approaches, blocks: PartBlocks, lower: np.ndarray, record=None):
+    """(T,) the smallest skin distance at each time of the ``frame`` (its motion, times'
+    coordinates and path), searching at each time the blocks in the order of their bounds
+    ``lower`` (T, nB; inf: not a candidate) while the next bound is below the smallest found;
+    ``record(times, members, real, distances)`` gets every evaluation."""
+    order = np.argsort(lower, axis=1)
+    best = np.full(len(lower), np.inf)
+    rows = np.arange(len(lower))
+    for rank in range(order.shape[1]):
+        which = order[:, rank]
+        times = rows[lower[rows, which] < best]
+        if times.size == 0:
+            break
+        found = _block_distances(frame, blocks, times, which[times])
+        best[times] = np.minimum(best[times], found[3].min(axis=1))
+        if record is not None:
+            record(*found)
+    return best
+
+
+def _block_distances(frame: Approaches, blocks: PartBlocks, times, which):
+    """(times, members (A, b), real (A, b), skin distances (A, b), inf for padding) of every
+    member of the blocks ``which`` (A,) at the time indices ``times`` (A,) of ``frame``."""
+    motion = frame._motion
+    members = blocks.members[which]
+    real = blocks.real[which]
+    safe = np.where(real, members, 0)
+    u = np.einsum("abcm,am->abc", motion.shapes[safe], frame._coords[times])
+    points = motion.base[safe] + frame._path[times][:, None] + u
+    d, _, _ = distances(motion.obstacles, points.reshape(-1, 3))
+    return times, members, real, np.where(real, d.reshape(real.shape) - motion.half, np.inf)
+
+
+def _block_bounds(motion, blocks: PartBlocks, extents, t, coords, which=None) -> np.ndarray:
+    """The block bounds of :func:`block_lower_bounds` (skins), (T, nB) at times ``t`` (T,)
+    for every block, or (P,) for the (time, block) pairs ``t`` (P,), ``which`` (P,)."""
+    centres = blocks.centre if which is None else blocks.centre[which]
+    shapes = motion.shapes[centres]  # (B, 3, M')
+    path = kinematics_at(motion.acc, motion.dt_s, t)[0]
+    if which is None:
+        positions = (
+            motion.base[centres][None] + path[:, None] + np.einsum("bcm,tm->tbc", shapes, coords)
+        )
+        moving = np.abs(coords) @ blocks.spread_shapes.T
+        return block_lower_bounds(motion.obstacles, positions, extents, moving) - motion.half
+    positions = motion.base[centres] + path + np.einsum("bcm,bm->bc", shapes, coords)
+    moving = np.sum(np.abs(coords) * blocks.spread_shapes[which], axis=1)
+    lower = block_lower_bounds(motion.obstacles, positions[None], extents, moving[None])
+    return lower[0] - motion.half
+
+
+def _interval_speeds(motion, blocks: PartBlocks, t: np.ndarray) -> np.ndarray:
+    """(J, nB) the largest speed (m/s) of any member of each block over the intervals
+    [t_j, t_j+1] of the increasing times ``t`` (J + 1,): the path's, plus each displacement
+    coordinate's rate bound times the largest shape of a member (the centre's plus the
+    block's spread); during the move per step (derivative_bounds, the jerk for the static
+    residual's coordinates), after it the decay envelope omega_i R_i e^{-sigma_i tau} at the
+    interval's start."""
+    weights = np.linalg.norm(motion.shapes[blocks.centre], axis=1) + blocks.spread_shapes
+    n, t_end = motion.n_steps, motion.t_end
+    rates = np.zeros((len(t) - 1, weights.shape[1]))
+    path = np.zeros(len(t) - 1)
+    a, b = t[:-1], t[1:]
+    during = a < t_end
+    first = np.clip(np.floor(a / motion.dt_s + 1e-9).astype(np.int64), 0, n - 1)
+    last = np.clip(
+        np.ceil(np.minimum(b, t_end) / motion.dt_s - 1e-9).astype(np.int64) - 1, 0, n - 1
+    )
+    for j in np.flatnonzero(during):
+        steps = slice(first[j], max(first[j], last[j]) + 1)
+        rates[j] = motion.coordinate_speed[steps].max(axis=0)
+        path[j] = motion.path_speed[steps].max()
+    after = b > t_end
+    if after.any():
+        tau = np.maximum(a[after] - t_end, 0.0)
+        decay = motion.amplitude[None] * np.exp(-np.outer(tau, motion.sigma))  # (J', M)
+        modes = motion.omega * decay
+        m = motion.model.n_modes
+        rates[after, :m] = np.maximum(rates[after, :m], modes)
+    return path[:, None] + rates @ weights.T
 
 
 def part_blocks(model) -> PartBlocks:
@@ -333,7 +535,7 @@ def min_distance(
     if not obstacles:
         return Clearance(math.inf, math.nan, -1, -1, "", math.inf, 0, half_thickness_m)
     move = as_move(acc, dt_s, at_rest=True)
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         motion = _Motion(model, obstacles, move, gravity_m_s2, half_thickness_m)
         return search_clearance(motion, part_blocks(model), atol, limit_m)
 
@@ -379,9 +581,17 @@ def _during(motion: _Motion, blocks: PartBlocks, best: SearchState, tolerance) -
     best.update(values, grid, centres)
     spread = blocks.spread_positions(motion.base)
     bound = motion.block_bound(blocks, spread, grid, values)
-    alive = np.flatnonzero((bound > best.value + tolerance(best.value)).any(axis=1))
-    members = blocks.points_of(alive)
-    certified_max(motion.during, motion.during_bound, grid, members, tolerance, best)
+    suspect = bound > best.value + tolerance(best.value)  # (nB, J)
+    for first, last in _runs(suspect.any(axis=0)):  # only where a block's bound may beat it
+        members = blocks.points_of(np.flatnonzero(suspect[:, first : last + 1].any(axis=1)))
+        times = grid[first : last + 2]
+        certified_max(motion.during, motion.during_bound, times, members, tolerance, best)
+
+
+def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) index of every run of consecutive True in ``flags`` (J,)."""
+    edges = np.diff(np.concatenate([[0], flags.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1, strict=True))
 
 
 def _settling(motion: _Motion, best: SearchState, tolerance) -> None:

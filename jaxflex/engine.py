@@ -31,6 +31,7 @@ HOLDS = ("linear", "zero")
 # Moves are padded to a multiple of this many steps where a jitted function would otherwise
 # compile once per move length (sweeps, sizing curves): one compilation per 128 steps.
 PAD_STEPS = 128
+POWER_TERMS_KEPT = 4  # (length, step) pairs of _power_terms kept per model
 
 
 def modal_forces(model, acc, xp: Any = jnp):
@@ -162,7 +163,19 @@ def states_at(model, acc, dt_s: float, t_s) -> np.ndarray:
 
 
 def _power_terms(model, n_steps: int, dt_s: float):
-    """Phi^l G0 and Phi^l G1 for l = 0..n: two (n+1, M, 2) arrays (Phi^l = Phi(l dt_s))."""
+    """Phi^l G0 and Phi^l G1 for l = 0..n: two (n+1, M, 2) arrays (Phi^l = Phi(l dt_s)); of
+    a concrete model kept for the last few lengths and steps (the optimiser asks for the
+    same ones for every row it adds)."""
+    cache = model.__dict__.setdefault("_power_terms", {})
+    key = (int(n_steps), float(dt_s))
+    if key not in cache:
+        while len(cache) >= POWER_TERMS_KEPT:
+            del cache[next(iter(cache))]
+        cache[key] = _compute_power_terms(model, n_steps, dt_s)
+    return cache[key]
+
+
+def _compute_power_terms(model, n_steps: int, dt_s: float):
     powers = propagators(
         model.omega_rad_s, model.zeta, dt_s * np.arange(n_steps + 1)[:, None], np
     ).phi
@@ -173,7 +186,13 @@ def _power_terms(model, n_steps: int, dt_s: float):
 def end_state_map(model, n_steps: int, dt_s: float) -> np.ndarray:
     """(M, 2, n+1, 3) matrix E with x_end[i, :] = sum_{k, c} E[i, :, k, c] a[k, c]: the state
     at t_n, which is linear in the samples (it equals ``jax.jacfwd`` of the recursion)."""
-    c0, c1 = _power_terms(model, n_steps, dt_s)
+    return _end_map(model, _power_terms(model, n_steps, dt_s), n_steps)
+
+
+def _end_map(model, terms, n_steps: int) -> np.ndarray:
+    """:func:`end_state_map` of ``n_steps`` steps from the :func:`_power_terms` ``terms`` of
+    at least that many steps."""
+    c0, c1 = terms
     lag = n_steps - 1 - np.arange(n_steps)
     coef = np.zeros((n_steps + 1, model.n_modes, 2))
     coef[:-1] += c0[lag]
@@ -209,7 +228,8 @@ def state_maps_at(model, n_steps: int, dt_s: float, t_s) -> np.ndarray:
     t_s = np.atleast_1d(np.asarray(t_s, dtype=np.float64))
     gamma = np.asarray(model.gamma)
     out = np.zeros((t_s.size, model.n_modes, 2, n_steps + 1, 3))
-    end = end_state_map(model, n_steps, dt_s)
+    terms = _power_terms(model, n_steps, dt_s)  # every shorter move's map is a part of them
+    end = _end_map(model, terms, n_steps)
     t_end = n_steps * dt_s
     for j, t in enumerate(t_s):
         if t >= t_end:
@@ -218,7 +238,7 @@ def state_maps_at(model, n_steps: int, dt_s: float, t_s) -> np.ndarray:
             continue
         k = min(int(np.floor(t / dt_s)), n_steps - 1)
         tau = t - k * dt_s
-        out[j, :, :, : k + 1] = end_state_map(model, k, dt_s) if k > 0 else 0.0
+        out[j, :, :, : k + 1] = _end_map(model, terms, k) if k > 0 else 0.0
         prop = propagators(model.omega_rad_s, model.zeta, tau, np)  # entries (M, ...)
         out[j] = np.einsum("mab,mbkc->makc", prop.phi, out[j])
         ramp = (tau * prop.j0 - prop.j1) / dt_s  # (M, 2), per unit slope of the force

@@ -32,11 +32,12 @@ generic branch-and-bound search, shared with the minimum distance of jaxflex.col
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from jaxflex.decay import amplitudes
 from jaxflex.engine import (
@@ -125,12 +126,64 @@ def certified_max(
             work.append((sub, sub_idx, sub_vals))
 
 
-class _Response:
-    """The output's pieces for a move: modal states at the samples, forces, per-step bounds."""
+_MAGNITUDES: dict = {}  # (kind, id(array)): (weak reference, derived array)
+_BLAS: list[ThreadpoolController] = []  # the process's BLAS libraries, looked up once
 
-    def __init__(self, model, outputs, functional, move: Move, offset: np.ndarray) -> None:
+
+def one_blas_thread():
+    """A context in which BLAS runs on one thread (module docstring): threadpoolctl's limit
+    with the libraries looked up once per process (``threadpool_limits`` looks them up on
+    every entry, about 1-10 ms, which the many short certificates of a search paid each)."""
+    if not _BLAS:
+        _BLAS.append(ThreadpoolController())
+    return _BLAS[0].limit(limits=1, user_api="blas")
+
+
+def once_per_array(array: np.ndarray, kind: str, make):
+    """``make(array)``, computed once per array and ``kind`` and kept while the array lives
+    (data derived from large arrays that many models or certificates share)."""
+    key = (kind, id(array))
+    entry = _MAGNITUDES.get(key)
+    if entry is not None and entry[0]() is array:
+        return entry[1]
+    found = make(array)
+    _MAGNITUDES[key] = (weakref.ref(array), found)
+    weakref.finalize(array, _MAGNITUDES.pop, key, None)
+    return found
+
+
+def magnitude(array: np.ndarray) -> np.ndarray:
+    """|array|, computed once per array (the output maps' magnitudes, which every bound of
+    every certificate of the same outputs takes)."""
+    return once_per_array(array, "magnitude", np.abs)
+
+
+def column_max(array: np.ndarray) -> np.ndarray:
+    """(columns,) the largest magnitude of each column of ``array`` (once per array)."""
+    return once_per_array(array, "column_max", lambda a: magnitude(a).max(axis=0))
+
+
+class _Response:
+    """The output's pieces for a move: modal states at the samples, forces, per-step bounds.
+
+    ``state_scale`` (q_scale (M,), v_scale (M,)), if given, multiplies each mode's column of
+    the maps: y = Q (q_scale q) + V (v_scale q') + A a. A model of a robust grid (frequencies
+    scaled by s: Q by s^2, V by s and its damping ratio's change; A and the static response
+    unchanged, jaxflex.model.with_frequency_scale) then shares the nominal model's maps,
+    which are the large part (rows x modes), instead of copies of them scaled."""
+
+    q_scale: np.ndarray | float = 1.0
+    v_scale: np.ndarray | float = 1.0
+
+    def __init__(
+        self, model, outputs, functional, move: Move, offset: np.ndarray, state_scale=None
+    ) -> None:
         self.model, self.functional = model, functional
         self.q_map, self.v_map = np.asarray(outputs.q_map), np.asarray(outputs.v_map)
+        if state_scale is not None:
+            self.q_scale, self.v_scale = (np.asarray(x, dtype=np.float64) for x in state_scale)
+            if (self.q_scale < 0).any() or (self.v_scale < 0).any():
+                raise ValueError("state_scale: the scales of the maps' columns must be >= 0")
         self.a_map = np.asarray(outputs.a_map)
         self.offset = np.asarray(offset, dtype=np.float64)
         self.acc, self.dt_s = move.acc, move.dt_s
@@ -147,16 +200,20 @@ class _Response:
         self.end_state = self.states[-1]  # (M, 2) the free vibration's start
         self.amplitude = amplitudes(model, self.end_state)
 
-    def rows(self, items: np.ndarray) -> np.ndarray:
+    def rows(self, items: np.ndarray) -> np.ndarray | slice:
+        """The output rows of ``items`` in order (every row: a slice, no copy)."""
         r = self.functional.rows_per_item
+        n = self.functional.n_items
+        if n and len(items) == n and items[0] == 0 and np.array_equal(items, np.arange(n)):
+            return slice(None)
         return (r * items[:, None] + np.arange(r)).ravel()
 
     def values(self, states: np.ndarray, acc: np.ndarray, items: np.ndarray) -> np.ndarray:
         """(I, T) functional values of ``items`` for states (T, M, 2), accelerations (T, 3)."""
         rows = self.rows(items)
         y = (
-            states[..., 0] @ self.q_map[rows].T
-            + states[..., 1] @ self.v_map[rows].T
+            (states[..., 0] * self.q_scale) @ self.q_map[rows].T
+            + (states[..., 1] * self.v_scale) @ self.v_map[rows].T
             + acc @ self.a_map[rows].T
             + self.offset[rows]
         )
@@ -176,7 +233,10 @@ class _Response:
     def during_bound(self, a, b, va, vb, items):
         k = np.clip(np.floor(0.5 * (a + b) / self.dt_s).astype(np.int64), 0, self.n_steps - 1)
         rows = self.rows(items)
-        curv = np.abs(self.q_map[rows]) @ self.qdd[k].T + np.abs(self.v_map[rows]) @ self.qddd[k].T
+        curv = (
+            magnitude(self.q_map)[rows] @ (self.qdd[k] * self.q_scale).T
+            + magnitude(self.v_map)[rows] @ (self.qddd[k] * self.v_scale).T
+        )
         return np.maximum(va, vb) + self.weighted(items, curv) * (b - a) ** 2 / 8
 
     def move_item_bounds(self, items: np.ndarray) -> np.ndarray:
@@ -184,9 +244,9 @@ class _Response:
         vel = self.vel.max(axis=0)
         rows = self.rows(items)
         per_row = (
-            np.abs(self.q_map[rows]) @ (vel / self.omega)
-            + np.abs(self.v_map[rows]) @ vel
-            + np.abs(self.a_map[rows]) @ np.abs(self.acc).max(axis=0)
+            magnitude(self.q_map)[rows] @ (vel / self.omega * self.q_scale)
+            + magnitude(self.v_map)[rows] @ (vel * self.v_scale)
+            + magnitude(self.a_map)[rows] @ np.abs(self.acc).max(axis=0)
             + np.abs(self.offset[rows])
         )
         return self.weighted(items, per_row)
@@ -200,27 +260,41 @@ class _Response:
         """(I r, T) sum_i (|Q_ji| omega_i^p + |V_ji| omega_i^(p+1)) R_i e^{-sigma_i tau}."""
         rows = self.rows(items)
         decay = self.amplitude[:, None] * np.exp(-np.outer(self.sigma, tau))
-        return (np.abs(self.q_map[rows]) * self.omega**power) @ decay + (
-            np.abs(self.v_map[rows]) * self.omega ** (power + 1)
-        ) @ decay
+        q_scale, v_scale = (
+            np.broadcast_to(self.q_scale, self.omega.shape),
+            np.broadcast_to(self.v_scale, self.omega.shape),
+        )
+        q_weights = decay * (q_scale * self.omega**power)[:, None]
+        v_weights = decay * (v_scale * self.omega ** (power + 1))[:, None]
+        return magnitude(self.q_map)[rows] @ q_weights + magnitude(self.v_map)[rows] @ v_weights
 
     def after_bound(self, a, b, va, vb, items):
         curv = self.weighted(items, self._tail_rows(items, a - self.t_end, 2))
         return np.maximum(va, vb) + curv * (b - a) ** 2 / 8
 
+    def static_values(self, items: np.ndarray) -> np.ndarray:
+        """(I,) f(offset) of ``items``: the part at rest after the move (every item's
+        computed once per response)."""
+        if getattr(self, "_static", None) is None:
+            every = np.arange(self.functional.n_items)
+            offsets = self.offset[self.rows(every)].reshape(1, len(every), -1)
+            self._static = self.functional.values(offsets, every)[0]
+        return self._static[items]
+
     def tail_item_bounds(self, items: np.ndarray, tau: float) -> np.ndarray:
         """(I,) bound of each item from ``tau`` after the move on: f(offset) + W . env."""
-        static = self.functional.values(
-            self.offset[self.rows(items)].reshape(1, len(items), -1), items
-        )[0]
+        static = self.static_values(items)
         if math.isinf(tau):
             return static
         return static + self.weighted(items, self._tail_rows(items, np.array([tau]), 0))[:, 0]
 
     def tail_step(self, tolerance: float) -> float:
-        """1/16 of the period of the highest mode whose contribution matters."""
+        """1/16 of the period of the highest mode whose contribution matters (each mode's
+        largest share bounded by its column maxima of |Q| and |V|)."""
         share = self.functional.weights(np.arange(self.functional.n_items)).max()
-        size = (np.abs(self.q_map) + np.abs(self.v_map) * self.omega).max(axis=0)
+        size = column_max(self.q_map) * self.q_scale + column_max(self.v_map) * (
+            self.v_scale * self.omega
+        )
         contribution = share * size * self.amplitude
         order = np.argsort(self.omega)[::-1]
         dropped = np.cumsum(contribution[order]) <= 1e-3 * tolerance
@@ -229,16 +303,78 @@ class _Response:
         return 2 * np.pi / (SAMPLES_PER_PERIOD * top)
 
 
-def item_bounds(model, outputs, functional, acc, dt_s: float, *, offset=None) -> np.ndarray:
+def item_bounds(
+    model, outputs, functional, acc, dt_s: float, *, offset=None, state_scale=None
+) -> np.ndarray:
     """(I,) an upper bound of each item of ``functional`` (arguments as :func:`output_peak`)
     over the move and all the settling after it: the energy-radius bound of the move and the
     decay envelope from its end. Cheap (no evaluation of the outputs); an item below a limit
     here cannot reach it."""
     move = as_move(acc, dt_s, at_rest=True)
     offset = np.zeros(outputs.n_rows) if offset is None else offset
-    response = _Response(model, outputs, functional, move, offset)
+    response = _Response(model, outputs, functional, move, offset, state_scale)
     items = np.arange(functional.n_items)
     return np.maximum(response.move_item_bounds(items), response.tail_item_bounds(items, 0.0))
+
+
+def outputs_above(
+    model,
+    outputs,
+    functional,
+    move: Move,
+    t_s,
+    above: float,
+    *,
+    offset=None,
+    state_scale=None,
+    stride: int = 8,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(items (I,), their values (T, I)): the items of ``functional`` (arguments as
+    :func:`output_peak`) whose value may exceed ``above`` at some of the increasing times
+    ``t_s`` (T,) s during and after ``move`` (a Move at rest at both ends), with their exact
+    values where they may (-inf elsewhere, where the value provably stays at most
+    ``above``): the items whose bound over the move and the settling reaches it
+    (:func:`item_bounds`), evaluated at every ``stride``-th time (and the end of the move),
+    and between two of those only where the curvature bound of the interval (one step of
+    the move, or the decay envelope after it) reaches ``above``. The values above ``above``
+    are those of evaluating every item at every time."""
+    t = np.asarray(t_s, dtype=np.float64)
+    offset = np.zeros(outputs.n_rows) if offset is None else offset
+    with one_blas_thread():
+        response = _Response(model, outputs, functional, move, offset, state_scale)
+        every = np.arange(functional.n_items)
+        bounds = np.maximum(response.move_item_bounds(every), response.tail_item_bounds(every, 0.0))
+        items = every[bounds > above]
+        values = np.full((len(t), len(items)), -np.inf)
+        if items.size == 0 or t.size == 0:
+            return items, values
+        ends = np.searchsorted(t, response.t_end, side="right") - 1
+        coarse = np.unique(np.r_[np.arange(0, len(t), stride), len(t) - 1, max(ends, 0)])
+        values[coarse] = _evaluate(response, t[coarse], items).T
+        a, b = t[coarse[:-1]], t[coarse[1:]]
+        va, vb = values[coarse[:-1]].T, values[coarse[1:]].T
+        upper = np.empty_like(va)
+        for bound, part in ((response.during_bound, b <= response.t_end),
+                            (response.after_bound, b > response.t_end)):  # fmt: skip
+            if part.any():
+                upper[:, part] = bound(a[part], b[part], va[:, part], vb[:, part], items)
+        for j in np.flatnonzero((upper > above).any(axis=0)):
+            inside = np.arange(coarse[j] + 1, coarse[j + 1])
+            if inside.size:
+                flagged = np.flatnonzero(upper[:, j] > above)
+                values[np.ix_(inside, flagged)] = _evaluate(response, t[inside], items[flagged]).T
+        return items, values
+
+
+def _evaluate(response: _Response, t: np.ndarray, items: np.ndarray) -> np.ndarray:
+    """(I, T) the functional of ``items`` at times ``t`` during the move and after it."""
+    out = np.empty((len(items), len(t)))
+    during = t <= response.t_end
+    if during.any():
+        out[:, during] = response.during(t[during], items)
+    if (~during).any():
+        out[:, ~during] = response.after(t[~during], items)
+    return out
 
 
 def output_peak(
@@ -252,22 +388,22 @@ def output_peak(
     rtol: float = 1e-4,
     atol: float = 0.0,
     limit: float | None = None,
+    state_scale=None,
 ) -> Peak:
     """The largest value of ``functional`` (items of rows of ``outputs``, a
     jaxflex.outputs.LinearOutputs of ``model``) over the move ``acc`` ((n+1, 3) m/s^2 at step
     ``dt_s`` s, at rest at both ends) and the settling after it, plus the constant ``offset``
     (Y,), to within max(rtol * value, atol) (module docstring). With ``limit`` the search
     only decides whether the peak stays below it: where the bound is below the limit it stops
-    refining (the peak reported is then a value found, and ``bound`` <= limit certifies);
-    above the limit it locates the peak as without one."""
-    with threadpool_limits(limits=1, user_api="blas"):
-        return _output_peak(model, outputs, functional, acc, dt_s, offset, rtol, atol, limit)
-
-
-def _output_peak(model, outputs, functional, acc, dt_s, offset, rtol, atol, limit) -> Peak:
+    refining and evaluates only the items whose bound reaches it (the peak reported is then a
+    value found, and ``bound`` <= limit certifies); above the limit it locates the peak as
+    without one. ``state_scale`` (q_scale (M,), v_scale (M,)): ``model``'s maps are those of
+    ``outputs`` with each mode's column scaled (:class:`_Response`; a robust grid's model)."""
     move = as_move(acc, dt_s, at_rest=True)
     offset = np.zeros(outputs.n_rows) if offset is None else offset
-    return search_peak(_Response(model, outputs, functional, move, offset), rtol, atol, limit)
+    with one_blas_thread():
+        response = _Response(model, outputs, functional, move, offset, state_scale)
+        return search_peak(response, rtol, atol, limit)
 
 
 def search_peak(response: _Response, rtol: float, atol: float, limit: float | None) -> Peak:
@@ -286,12 +422,17 @@ def search_peak(response: _Response, rtol: float, atol: float, limit: float | No
     # the limit after the move (the offset: gravity alone) is part of the supremum
     static = response.tail_item_bounds(items, math.inf)
     best.update(static[:, None], np.array([math.inf]), items)
+    during = response.move_item_bounds(items)
     grid = response.dt_s * np.arange(response.n_steps + 1)
-    samples = np.concatenate([response.during(grid, chunk) for chunk in _chunks(items)])
-    best.evaluations += samples.size
-    best.update(samples, grid, items)
-    keep = items[response.move_item_bounds(items) > best.value + tolerance(best.value)]
-    for chunk in _chunks(keep):
+    # the items in the order of their bound over the move, each chunk searched only for the
+    # items whose bound can beat the best value found so far (the first chunk finds it): the
+    # same items the branch and bound would drop after evaluating them; with a limit, the
+    # items that cannot reach it are never evaluated
+    order = np.argsort(-during, kind="stable")
+    for chunk in _chunks(order):
+        chunk = chunk[during[chunk] > best.value + tolerance(best.value)]
+        if chunk.size == 0:
+            break
         certified_max(response.during, response.during_bound, grid, chunk, tolerance, best)
     _settling(response, best, tolerance)
     value = best.value
@@ -335,8 +476,11 @@ def settling_windows(
 
 
 def _settling(response: _Response, best: SearchState, tolerance) -> None:
-    """The part of the search after the move (module docstring)."""
-    items = np.arange(response.functional.n_items)
+    """The part of the search after the move (module docstring): only the items whose bound
+    from the stop on can beat the best value found then (the bounds decrease with the time
+    after the stop, and the best value only grows)."""
+    every = np.arange(response.functional.n_items)
+    items = every[response.tail_item_bounds(every, 0.0) > best.value + tolerance(best.value)]
 
     def above(tau: float) -> np.ndarray:
         return response.tail_item_bounds(items, tau) > best.value + tolerance(best.value)

@@ -119,16 +119,19 @@ def kinematics_at(acc, dt_s: float, t_s) -> tuple[np.ndarray, np.ndarray]:
 def position_weights(n_steps: int, dt_s: float, t_s) -> np.ndarray:
     """(T, n+1) weights W with position(t) = W @ a (per axis) for an n-step move from rest at
     the origin, at times ``t_s`` (T,) s (held after the end): the exact integral of the
-    piecewise-linear acceleration, linear in the samples."""
-    eye = np.eye(n_steps + 1)
-    out = np.empty((np.size(t_s), n_steps + 1))
-    for i in range(0, n_steps + 1, 3):  # three unit samples at a time, one per axis
-        unit = np.zeros((n_steps + 1, 3))
-        cols = list(range(i, min(i + 3, n_steps + 1)))
-        unit[:, : len(cols)] = eye[:, cols]
-        pos, _ = kinematics_at(unit, dt_s, t_s)
-        out[:, cols] = pos[:, : len(cols)]
-    return out
+    piecewise-linear acceleration, linear in the samples (:func:`kinematics_at`'s formulas
+    applied to the unit samples, all at once)."""
+    unit = np.eye(n_steps + 1)
+    vel = np.concatenate(
+        [np.zeros((1, n_steps + 1)), np.cumsum(0.5 * dt_s * (unit[:-1] + unit[1:]), axis=0)]
+    )
+    dx = dt_s * vel[:-1] + dt_s**2 * (2.0 * unit[:-1] + unit[1:]) / 6.0
+    pos = np.concatenate([np.zeros((1, n_steps + 1)), np.cumsum(dx, axis=0)])
+    t = np.atleast_1d(np.asarray(t_s, dtype=np.float64))
+    k = np.clip(np.floor(t / dt_s).astype(np.int64), 0, n_steps - 1)
+    tau = np.clip(t - k * dt_s, 0.0, dt_s)[:, None]
+    jerk = (unit[k + 1] - unit[k]) / dt_s
+    return pos[k] + vel[k] * tau + unit[k] * tau**2 / 2 + jerk * tau**3 / 6
 
 
 def axis_limits(name: str, value, n_axes: int = 3) -> np.ndarray:

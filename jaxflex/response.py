@@ -72,7 +72,10 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
         SearchState,
         certified_max,
         item_bounds,
+        once_per_array,
+        one_blas_thread,
         output_peak,
+        outputs_above,
         settling_windows,
     )
     from jaxflex.points import (
@@ -188,9 +191,12 @@ __all__ = [
     "modal_states",
     "move_deviation",
     "on_device",
+    "once_per_array",
+    "one_blas_thread",
     "orientation_path",
     "output_peak",
     "output_residual",
+    "outputs_above",
     "outputs_at",
     "padded_steps",
     "point_displacements",

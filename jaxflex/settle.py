@@ -111,49 +111,66 @@ class _SearchBudget:
             )
 
 
-def _block_data(model: ModalModel, moving: bool = False):
-    """NumPy block data of a model, cached on it: members (nB, b) with K for padding, centres
-    (M', C, nB), radii (nB, M') and per-coordinate largest shape norm of the members
-    (nB, M'); M' = M, or with ``moving`` M + 3 where the model has a static residual
-    (jaxflex.deviation.response_shapes)."""
+@dataclass(frozen=True)
+class PointLayout:
+    """The points of a response as the certified search sees them: ``shapes`` (K, C, M') of
+    its coordinates, their norms ``weights`` (K, M'), and the blocks (jaxflex.blocks) as
+    NumPy: ``members`` (nB, b) with K for padding, ``centres`` (M', C, nB), ``radius``
+    (nB, M'), ``block_weights`` (nB, M') the members' largest norm per coordinate."""
+
+    shapes: np.ndarray
+    weights: np.ndarray
+    members: np.ndarray
+    centres: np.ndarray
+    radius: np.ndarray
+    block_weights: np.ndarray
+
+
+def point_layout(shapes: np.ndarray, blocks) -> PointLayout:
+    """The :class:`PointLayout` of ``shapes`` (K, C, M') and their jaxflex.blocks.PointBlocks."""
+    shapes = np.asarray(shapes)
+    weights = np.linalg.norm(shapes, axis=1)
+    members = np.asarray(blocks.index)
+    padded = np.vstack([weights, np.zeros((1, weights.shape[1]))])
+    return PointLayout(
+        shapes,
+        weights,
+        members,
+        np.asarray(blocks.centres),
+        np.asarray(blocks.radius),
+        padded[members].max(axis=1),
+    )
+
+
+def _layout(model: ModalModel, moving: bool = False) -> PointLayout:
+    """The :class:`PointLayout` of a model's shapes, cached on it; with ``moving`` those of
+    jaxflex.deviation.response_shapes (M' = M + 3 where the model has a static residual)."""
     moving = moving and residual_of(model) is not None
     cache = model.__dict__.setdefault("_moving_blocks", {}) if moving else shape_cache(model)
-    key = "settle_blocks"
+    key = "settle_layout"
     if key not in cache:
-        blocks = blocks_of(model, moving=moving)
-        members = np.asarray(blocks.index)
-        norms = _norms(model, moving)
-        padded = np.vstack([norms, np.zeros((1, norms.shape[1]))])
-        cache[key] = (
-            members,
-            np.asarray(blocks.centres),
-            np.asarray(blocks.radius),
-            padded[members].max(axis=1),
-        )
+        shapes = response_shapes(model) if moving else np.asarray(model.shapes)
+        cache[key] = point_layout(shapes, blocks_of(model, moving=moving))
     return cache[key]
-
-
-def _norms(model: ModalModel, moving: bool) -> np.ndarray:
-    """(K, M') per-point norms of the shapes of :func:`_block_data`."""
-    if not moving:
-        return model.shape_norms
-    return np.linalg.norm(response_shapes(model), axis=1)
 
 
 class _ModalSignal:
     """Shared data of the closed-form response: per-point shape norms, the point blocks with
-    their bounds, modal constants. Subclasses give the modal coordinates q(t)."""
+    their bounds, modal constants. Subclasses give the modal coordinates q(t); ``layout``
+    (a :class:`PointLayout`) replaces the model's own shapes (a turning part's)."""
 
-    def __init__(self, model: ModalModel, moving: bool = False) -> None:
+    def __init__(
+        self, model: ModalModel, moving: bool = False, layout: PointLayout | None = None
+    ) -> None:
         self.model = model
-        moving = moving and residual_of(model) is not None
-        self.shapes = response_shapes(model) if moving else np.asarray(model.shapes)
-        self.weights = _norms(model, moving)  # (K, M')
+        layout = _layout(model, moving) if layout is None else layout
+        self.shapes, self.weights = layout.shapes, layout.weights  # (K, C, M'), (K, M')
         self.omega = np.asarray(model.omega_rad_s)
         self.zeta = np.asarray(model.zeta)
         self.sigma = self.zeta * self.omega
         self.budget = _SearchBudget(self.weights.shape[0])
-        self.members, self.centres, self.radius, self.block_weights = _block_data(model, moving)
+        self.members, self.centres = layout.members, layout.centres
+        self.radius, self.block_weights = layout.radius, layout.block_weights
         self.slack = round_off_slack(self.shapes.shape[2], self.shapes.shape[1], np.float64)
 
     def modal(self, t: np.ndarray) -> np.ndarray:
@@ -222,8 +239,8 @@ class _ForcedMotion(_ModalSignal):
     jaxflex.deviation.with_acceleration: a is linear within a step, so it adds no curvature
     there)."""
 
-    def __init__(self, model: ModalModel, move, states: np.ndarray, force: np.ndarray):
-        super().__init__(model, moving=True)
+    def __init__(self, model: ModalModel, move, states: np.ndarray, force: np.ndarray, layout=None):
+        super().__init__(model, moving=True, layout=layout)
         self.acc = move.acc
         self.states, self.force, self.dt_s = states, force, move.dt_s
         self.n_steps = states.shape[0] - 1
@@ -237,6 +254,12 @@ class _ForcedMotion(_ModalSignal):
 
     def modal(self, t: np.ndarray) -> np.ndarray:
         q = states_between(self.model, self.states, self.force, self.dt_s, t, np)[..., 0]
+        return self.coordinates(q, t)
+
+    def coordinates(self, q: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """The coordinates of the layout's shapes for the modal q (T, M) at times t (T,):
+        here q and the acceleration a(t) of the static residual (linear within a step, so
+        that they add no curvature; a subclass may add others that are linear too)."""
         return with_acceleration(self.model, q, acceleration_at(self.acc, self.dt_s, t))
 
     def curvature(self, a: np.ndarray, b: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -399,23 +422,29 @@ def analyze_move(
 
 
 def settle_after(
-    model: ModalModel, x_end, t_end_s: float, threshold_m: float, during_m=None
+    model: ModalModel, x_end, t_end_s: float, threshold_m: float, during=None
 ) -> SettleReport:
     """Exact settle and cycle time of a move that ends at ``t_end_s`` (s) in the modal
     deviation state ``x_end`` (M, 2) and leaves the model's free vibration after it (a
     turning move: jaxflex.turning). After the move the search is the one of
-    :func:`analyze_move` (certified); a settling inside the move is the last sample of
-    ``during_m`` (deviation at the move's samples, m) above the threshold (sampled: the cycle
-    time does not depend on it)."""
+    :func:`analyze_move` (certified); a settling inside the move is searched the same way on
+    ``during`` (a :class:`_ForcedMotion` of the move from t = 0, its steps ending at
+    ``t_end_s``: the last crossing to TIME_TOL_S, never before it), or reported as 0 without
+    it (the cycle time does not depend on it)."""
     threshold_m = check_positive("threshold_m", threshold_m)
     decay = _FreeDecay(model, np.asarray(x_end, dtype=np.float64), t_end_s)
     tail, horizon = _tail_settle(decay, threshold_m)
+    evaluations = decay.budget.count
     if tail is not None:
         settle_s = t_end_s + tail
+    elif during is None:
+        settle_s = 0.0
     else:
-        above = np.flatnonzero(np.asarray([] if during_m is None else during_m) > threshold_m)
-        n_samples = 1 if during_m is None else len(during_m)
-        settle_s = 0.0 if above.size == 0 else t_end_s * above[-1] / max(n_samples - 1, 1)
+        grid = during.dt_s * np.arange(during.n_steps + 1)
+        all_blocks = np.arange(during.members.shape[0])
+        found = _last_exceedance_in_blocks(during, all_blocks, grid, threshold_m)
+        settle_s = 0.0 if found is None else found
+        evaluations += during.budget.count
     return SettleReport(
         transfer_time_s=t_end_s,
         settle_time_s=settle_s,
@@ -423,7 +452,7 @@ def settle_after(
         threshold_m=threshold_m,
         residual_m=decay.peak(t_end_s),
         proof_horizon_s=float(t_end_s + horizon),
-        evaluations=decay.budget.count,
+        evaluations=evaluations,
     )
 
 

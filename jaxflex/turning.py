@@ -31,65 +31,42 @@ the static flexibility of the modes left out times alpha r and w^2 r).
 
 **Neglected terms, bounded.** The second line (Coriolis/gyroscopic 2 w x u', the Euler term
 on the deformation alpha x u, spin softening w x (w x u)) is left out and its effect bounded
-(:func:`neglected_bound`). In the kept modes the full equation is the kept one plus the
-neglected modal load, linear in the modal state x = (q, q') (total q, the sag included):
+at any time, whatever the step (jaxflex.turning_bound: the first-order response to the
+neglected load of the computed response, exact between samples, its largest displacement
+certified, plus a Gronwall remainder of second order; the energy estimate where the model
+lacks the modes' couplings).
 
-    N(t) x = -(2 G(w) q' + (G(alpha) + P(w)) q),   G(v) = sum_k v_k G_k,  P(w) = sum_kl w_k w_l P_kl
-
-with the couplings G_k = phi^T M X_k phi, P_kl = phi^T M X_k X_l phi (jaxflex.rotation; X_k:
-u -> e_k x u). The error e = q_full - q of the kept-terms response q obeys
-e'' + 2 Z Omega e' + Omega^2 e = N (x + e_x), e(0) = 0. Split e = y + d:
-
-* **first order, a posteriori**: y'' + 2 Z Omega y' + Omega^2 y = N x along the computed
-  states, integrated by the engine's exact recursion (exact for the sampled load, like the
-  kept forcing), its displacement |Phi_p y| taken at every point and sample; after the last
-  sample y vibrates freely and a point moves at most F E_y(end), E_y = sqrt(|y'|^2 +
-  |Omega y|^2) the energy norm (it only decays) and F = max_p sqrt(sum_m |phi_m(p)|^2 /
-  omega_m^2) (Cauchy-Schwarz over the modes);
-* **second order, Gronwall**: d obeys the full equation forced by N y_x, with its own
-  neglected load N d feeding back. With E = sqrt(|d'|^2 + |Omega d|^2), the damping taking
-  energy out, d'.G(w) d' = d'.G_sym(w) d' (G_k is skew where the mass matrix commutes with
-  the nodal cross product: the thin solid, the plate) and |(G(alpha) + P(w)) d| <=
-  |(G(alpha) + P(w)) Omega^-1| E: E' <= |N y_x| + c(t) E with c = 2 |G_sym(w)| +
-  |(G(alpha) + P(w)) Omega^-1| (spectral norms), so E(t) <= exp(int c) int |N y_x|: second
-  order in the rates (y is already the small effect), and a point moves at most F E.
-
-The bound is max over points and samples of |Phi_p y| (and F E_y(end)) plus F E. No small-
-gain condition is needed (the feedback enters through exp(int c), near 1 at robot rates:
-int c ~ |w|^2 T / omega_1 for a turn of T s). Measured against an independent floating-
-frame integration with every term (tests/test_turning.py; ``python
-tests/floating_frame.py``): 1.03-1.24 times the true effect. **Fallback**: a model without
-the couplings (a file written before them, a deck or ANSYS import) gets the energy estimate
-alone, with norms instead of the couplings:
-the gyroscopic load of e does no work, the other two are at most (|alpha| + |w|^2) |e|_M <=
-(|alpha| + |w|^2) / omega_1 E, so E' <= G(t) + c(t) E with G = 2 |w| |q'| + (|alpha| +
-|w|^2) |q| and c = (|alpha| + |w|^2) / omega_1, E(t) <= exp(int c) int G, a point moving at
-most F E; it counts the whole sag as spinning in every direction and is 350-70 000 times
-the true effect on those scenes. Both integrals take the larger of the two samples of each
-step (the path's rates are smooth between samples).
+:func:`simulate_turning` is one compiled function (the response, the deviation and the bound;
+the move padded to whole blocks of jaxflex.engine.PAD_STEPS steps, so that the lengths of a
+search share a compilation); :func:`turning_inputs` is its NumPy form for the outputs,
+peaks and clearance (jaxflex.turning_outputs, turning_peaks, turning_collision).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+from functools import partial
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from jaxflex.deviation import deviation
-from jaxflex.engine import forced_states, free_states
+from jaxflex.engine import forced_states, free_states, padded_steps
 from jaxflex.errors import InputError
 from jaxflex.pose import PosePath
+from jaxflex.profile import as_move, samples_at
 from jaxflex.rotation import LEVI_CIVITA, require_rotation
 from jaxflex.rotation_residual import (
     load_coefficients,
     turning_blocks,
     turning_coordinates,
+    turning_shapes,
     warn_missing_static,
 )
-from jaxflex.settle import settle_after
+from jaxflex.settle import PointLayout, _ForcedMotion, point_layout, settle_after
+from jaxflex.simulate import free_steps, on_device
+from jaxflex.turning_bound import bound_data, neglected_terms, principal_axes, turning_window
 
 GRAVITY_M_S2 = (0.0, 0.0, -9.81)
 
@@ -130,12 +107,12 @@ def _turning_coordinates(model, path, acc, gravity_m_s2, pivot_m, dt_s, xp):
     sag = gravity_coordinates(model, gravity, xp)
     x0 = xp.stack([sag[0], xp.zeros_like(sag[0])], axis=-1)
     states = forced_states(model, force, dt_s, x0=x0, xp=xp)
-    return states, sag, a_origin, gravity
+    return states, sag, a_origin, gravity, force
 
 
 @jax.jit
 def _turning_deviation(model, blocks, path, acc, gravity_m_s2, pivot_m, dt_s):
-    states, sag, a_origin, _ = _turning_coordinates(
+    states, sag, a_origin, _, _ = _turning_coordinates(
         model, path, acc, gravity_m_s2, pivot_m, dt_s, jnp
     )
     b = load_coefficients(path.omega_rad_s, path.alpha_rad_s2, jnp)
@@ -187,72 +164,13 @@ class TurningResponse:
         return np.stack([self.q[n], self.qd[n]], axis=-1)
 
 
-def neglected_load(rotation, path: PosePath, states: np.ndarray) -> np.ndarray:
-    """(n+1, M) modal load of the neglected terms -(2 G(w) q' + (G(alpha) + P(w)) q) along
-    the modal states ``states`` (n+1, M, 2) of ``path`` (``rotation``'s couplings: module
-    docstring), kg^0.5 m/s^2."""
-    gyro, spin = np.asarray(rotation.gyroscopic), np.asarray(rotation.spin)
-    w, alpha = path.omega_rad_s, path.alpha_rad_s2
-    q, v = states[..., 0], states[..., 1]
-    load = 2.0 * np.einsum("tk,kmn,tn->tm", w, gyro, v) + np.einsum("tk,kmn,tn->tm", alpha, gyro, q)
-    return -(load + np.einsum("tk,tl,klmn,tn->tm", w, w, spin, q))
-
-
-def _step_integral(values: np.ndarray, dt_s: float) -> float:
-    """int of a nonnegative sampled rate (n+1,) with the larger sample of each step."""
-    return float(np.maximum(values[:-1], values[1:]).sum() * dt_s)
-
-
-def _largest_displacement(shapes: np.ndarray, q: np.ndarray, block: int = 256) -> float:
-    """max over the points and samples of |Phi_p q_t| (m): ``shapes`` (K, 3, M), modal
-    coordinates ``q`` (T, M); one matrix product per block of samples."""
-    flat = shapes.reshape(-1, shapes.shape[2])  # (3 K, M)
-    largest = 0.0
-    for start in range(0, q.shape[0], block):
-        u = (flat @ q[start : start + block].T).reshape(shapes.shape[0], 3, -1)
-        largest = max(largest, float(np.sqrt(np.einsum("kct,kct->kt", u, u).max())))
-    return largest
-
-
-def neglected_bound(model, path: PosePath, states: np.ndarray) -> tuple[float, float]:
-    """(bound on any point's displacement change, m; energy-norm bound, kg^0.5 m/s) of the
-    neglected terms for the computed total modal states ``states`` (T, M, 2) at the samples
-    of ``path`` and of the free vibration after it (T >= n+1): a posteriori through the
-    couplings where the model has them, else the energy estimate (module docstring)."""
-    omega = 2.0 * np.pi * np.asarray(model.freq_hz)
-    flex = np.sqrt(np.max(np.sum(np.asarray(model.shape_norms) ** 2 / omega**2, axis=1)))
-    w = np.linalg.norm(path.omega_rad_s, axis=1)
-    alpha = np.linalg.norm(path.alpha_rad_s2, axis=1)
+def checked_samples(path: PosePath, acc) -> np.ndarray:
+    """``acc`` as float64 (n+1, 3) like ``path``'s samples; InputError otherwise."""
+    acc = np.asarray(acc, dtype=np.float64)
     n = path.n_steps
-    rotation = model.rotation
-    if rotation.gyroscopic is None:  # the energy estimate alone
-        q_norm = np.linalg.norm(states[: n + 1, :, 0], axis=1)
-        v_norm = np.linalg.norm(states[: n + 1, :, 1], axis=1)
-        load = 2.0 * w * v_norm + (alpha + w**2) * q_norm
-        growth = (alpha + w**2) / omega.min()
-        energy = math.exp(_step_integral(growth, path.dt_s)) * _step_integral(load, path.dt_s)
-        return float(energy * flex), float(energy)
-    # first order: y, the response to the neglected load of the computed states (exact for
-    # the sampled load, like the kept one), at every point and sample, and after the last
-    # sample within its energy (free vibration: the energy only decays)
-    force = np.zeros(states.shape[:2])
-    force[: n + 1] = neglected_load(rotation, path, states[: n + 1])
-    y = forced_states(model, force, path.dt_s, xp=np)
-    first = _largest_displacement(np.asarray(model.shapes), y[..., 0])
-    energy_y = np.sqrt(np.sum(y[..., 1] ** 2 + (omega * y[..., 0]) ** 2, axis=1))
-    first = max(first, flex * float(energy_y[-1]))
-    # second order: delta = e - y obeys the full equation forced by N y, its own neglected
-    # load N delta feeding back (Gronwall, module docstring)
-    remainder = np.linalg.norm(neglected_load(rotation, path, y[: n + 1]), axis=1)
-    gyro = np.einsum("tk,kmn->tmn", path.omega_rad_s, np.asarray(rotation.gyroscopic))
-    stiff = np.einsum("tk,kmn->tmn", path.alpha_rad_s2, np.asarray(rotation.gyroscopic))
-    stiff = stiff + np.einsum("tk,tl,klmn->tmn", path.omega_rad_s, path.omega_rad_s, rotation.spin)
-    growth = 2.0 * np.linalg.norm(0.5 * (gyro + gyro.transpose(0, 2, 1)), ord=2, axis=(1, 2))
-    growth = growth + np.linalg.norm(stiff / omega[None, None, :], ord=2, axis=(1, 2))
-    energy_delta = math.exp(_step_integral(growth, path.dt_s)) * _step_integral(
-        remainder, path.dt_s
-    )
-    return first + flex * energy_delta, float(energy_y.max()) + energy_delta
+    if acc.shape != (n + 1, 3):
+        raise InputError(f"acc: expected shape ({n + 1}, 3) like the pose path, got {acc.shape}")
+    return acc
 
 
 def check_ends_at_rest(path: PosePath, acc: np.ndarray) -> None:
@@ -288,12 +206,9 @@ def turning_inputs(
     (world); with ``extend_s`` the free vibration after the move follows (the path must end
     at rest), whole steps. NumPy."""
     require_rotation(model)
-    acc = np.asarray(acc, dtype=np.float64)
-    n = path.n_steps
-    if acc.shape != (n + 1, 3):
-        raise InputError(f"acc: expected shape ({n + 1}, 3) like the pose path, got {acc.shape}")
+    acc = checked_samples(path, acc)
     gravity_world = np.asarray(gravity_m_s2, float)
-    states, _, a_origin, gravity = _turning_coordinates(
+    states, _, a_origin, gravity, _ = _turning_coordinates(
         model, path, acc, gravity_world, np.asarray(pivot_m, float), path.dt_s, np
     )
     q, qd = states[..., 0], states[..., 1]
@@ -301,7 +216,7 @@ def turning_inputs(
     b = load_coefficients(path.omega_rad_s, path.alpha_rad_s2)
     if extend_s:
         check_ends_at_rest(path, acc)
-        n_free = int(np.ceil(extend_s / path.dt_s - 1e-9))
+        n_free = free_steps(extend_s, path.dt_s)
         tau = path.dt_s * np.arange(1, n_free + 1)
         omega = np.asarray(model.omega_rad_s)
         sag = (gravity[-1] @ np.asarray(model.gamma).T) / omega**2  # rest in the final pose
@@ -312,6 +227,61 @@ def turning_inputs(
         b = np.concatenate([b, np.zeros((n_free, 9))])
         gravity = np.concatenate([gravity, np.broadcast_to(gravity[-1], (n_free, 3))])
     return TurningInputs(path.dt_s * np.arange(q.shape[0]), q, qd, base, b, gravity)
+
+
+@partial(jax.jit, static_argnames=("dt_s", "window", "free_pad"))
+def _simulate_turning(model, blocks, bound, samples, loads, sizes, dt_s, window, free_pad):
+    """The response, deviation and neglected-terms bound of a padded move (module docstring):
+    ``samples`` (N+1, 18) the rotation, rate, angular and translational acceleration of
+    each sample (:func:`simulate_turning`), of which n = ``sizes[0]`` steps are the move, then
+    ``sizes[1]`` of ``free_pad`` steps of free vibration; ``loads`` (5, 3) gravity (world),
+    the pivot and the path's principal axes; the bound on the window of ``sizes[2]`` and
+    ``window`` steps (jaxflex.turning_bound). Device model, blocks and bound data. (rows
+    (N+1, 2 M + 6) of p, p', a_O and g_b; the free vibration (F, M, 2); the deviation
+    (N+1+F,); the bound and its energy (2,))."""
+    n_steps, n_free = sizes[0], sizes[1]
+    gravity_m_s2, pivot_m = loads[0], loads[1]
+    path = PosePath(samples[:, :9].reshape(-1, 3, 3), samples[:, 9:12], samples[:, 12:15], dt_s)
+    acc = samples[:, 15:]
+    states, sag, a_origin, gravity, force = _turning_coordinates(
+        model, path, acc, gravity_m_s2, pivot_m, path.dt_s, jnp
+    )
+    terms = neglected_terms(
+        bound, path.omega_rad_s, path.alpha_rad_s2, states, force, n_steps,
+        (sizes[2], window, loads[2:].T),
+    )  # fmt: skip
+    # about the sag of the current pose: p = q - Omega^-2 Gamma g_b, and p' = q' + Omega^-2
+    # Gamma (w x g_b) (gravity seen from the turning frame; at rest after the move)
+    p_q = states[..., 0] - sag
+    p_qd = states[..., 1] + gravity_coordinates(model, jnp.cross(path.omega_rad_s, gravity), jnp)
+    b = load_coefficients(path.omega_rad_s, path.alpha_rad_s2, jnp)
+    moving = (jnp.arange(p_q.shape[0]) <= n_steps)[:, None]
+    coords = jnp.where(moving, turning_coordinates(model, p_q, a_origin, b, jnp), 0.0)
+    # after the move: free vibration about the final pose's sag (a_O = g_b, b = 0)
+    end = jnp.stack([p_q[n_steps], states[n_steps, :, 1]], axis=-1)
+    free = free_states(model, end, path.dt_s * jnp.arange(1, free_pad + 1, dtype=acc.dtype))
+    rest = jnp.zeros((free_pad, 12), acc.dtype)
+    free_coords = turning_coordinates(model, free[..., 0], rest[:, :3], rest[:, 3:], jnp)
+    free_coords = jnp.where((jnp.arange(free_pad) < n_free)[:, None], free_coords, 0.0)
+    # the bound's candidates evaluated with the rest (the modes are the shapes' first columns)
+    count, extra = terms.candidates.shape[0], coords.shape[1] - terms.candidates.shape[1]
+    candidates = jnp.pad(terms.candidates, ((0, 0), (0, extra)))
+    dev = deviation(blocks, jnp.concatenate([coords, free_coords, candidates]))
+    neglected = terms.bound(jnp.max(dev[dev.shape[0] - count :], initial=0.0))
+    rows = jnp.concatenate([p_q, p_qd, a_origin, gravity], axis=1)
+    return rows, free, dev[: dev.shape[0] - count], jnp.stack(neglected)
+
+
+def padded_samples(path: PosePath, acc: np.ndarray, n_steps: int) -> np.ndarray:
+    """(n_steps + 1, 18) the rotation, rate, angular and translational acceleration samples
+    of ``path`` and ``acc`` (n+1, 3), extended to ``n_steps`` steps (>= n) at rest in the
+    final pose."""
+    rotation = np.asarray(path.rotation).reshape(-1, 9)
+    rows = np.hstack([rotation, path.omega_rad_s, path.alpha_rad_s2, acc])
+    padded = np.zeros((n_steps + 1, rows.shape[1]))
+    padded[: rows.shape[0]] = rows
+    padded[rows.shape[0] :, :9] = rotation[-1]
+    return padded
 
 
 def simulate_turning(
@@ -327,43 +297,110 @@ def simulate_turning(
     pivot ``pivot_m`` (model frame, m) moves with world acceleration samples ``acc``
     ((n+1, 3) m/s^2 at the path's dt_s), under ``gravity_m_s2`` (world, default -9.81 m/s^2
     along z; (0, 0, 0) for none). With ``extend_s`` the free vibration after the move
-    follows (whole steps; the path must end at rest). NumPy (nothing to compile)."""
+    follows (whole steps; the path must end at rest). One compiled function per model size
+    and block of PAD_STEPS steps (module docstring)."""
     rotation = require_rotation(model)
     if model.static_shapes is not None and rotation.static_shapes is None:
         warn_missing_static("deviation")
-    inputs = turning_inputs(
-        model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m, extend_s=extend_s
+    acc = checked_samples(path, acc)
+    n, n_free = path.n_steps, 0
+    if extend_s:
+        check_ends_at_rest(path, acc)
+        n_free = free_steps(extend_s, path.dt_s)
+    steps, free_pad = padded_steps(n), padded_steps(n_free) if n_free else 0
+    start, window = turning_window(path.omega_rad_s, path.alpha_rad_s2, steps)
+    axes = principal_axes(path.omega_rad_s[start : start + window + 1],
+                          path.alpha_rad_s2[start : start + window + 1])  # fmt: skip
+    device, _ = on_device(model)
+    out = _simulate_turning(
+        device,
+        turning_blocks(model),
+        bound_data(model, path.dt_s),
+        padded_samples(path, acc, steps),
+        np.vstack([gravity_m_s2, pivot_m, axes.T]).astype(np.float64),
+        np.array([n, n_free, start]),
+        path.dt_s,
+        window,
+        free_pad,
     )
-    n = path.n_steps
-    gravity = inputs.gravity_body_m_s2
-    bound, energy = neglected_bound(model, path, np.stack([inputs.q, inputs.qd], axis=-1))
-    # about the sag of the current pose: p = q - Omega^-2 Gamma g_b, and p' = q' + Omega^-2
-    # Gamma (w x g_b) (gravity seen from the turning frame; at rest after the move)
-    omega_rad_s = np.zeros_like(gravity)
-    omega_rad_s[: n + 1] = path.omega_rad_s
-    p_q = inputs.q - gravity_coordinates(model, gravity)
-    p_qd = inputs.qd + gravity_coordinates(model, np.cross(omega_rad_s, gravity))
-    a_origin = inputs.base + gravity  # the deviation's static residual takes a_O alone
-    coords = turning_coordinates(model, p_q, a_origin, inputs.coefficients)
-    dev = np.asarray(deviation(turning_blocks(model), jnp.asarray(coords)))
+    rows, free, dev, (bound, energy) = jax.device_get(out)
+    m = model.n_modes
     return TurningResponse(
-        t_s=inputs.t_s,
-        q=p_q,
-        qd=p_qd,
-        deviation_m=dev,
-        acc_body_m_s2=a_origin[: n + 1],
-        gravity_body_m_s2=gravity[: n + 1],
-        neglected_bound_m=bound,
-        neglected_energy=energy,
+        t_s=path.dt_s * np.arange(n + 1 + n_free),
+        q=np.concatenate([rows[: n + 1, :m], free[:n_free, :, 0]]),
+        qd=np.concatenate([rows[: n + 1, m : 2 * m], free[:n_free, :, 1]]),
+        deviation_m=np.concatenate([dev[: n + 1], dev[steps + 1 : steps + 1 + n_free]]),
+        acc_body_m_s2=rows[: n + 1, 2 * m : 2 * m + 3],
+        gravity_body_m_s2=rows[: n + 1, 2 * m + 3 :],
+        neglected_bound_m=float(bound),
+        neglected_energy=float(energy),
     )
+
+
+@dataclass(frozen=True)
+class TurningMotion:
+    """The kept response of a turning move at its samples, what the searches between them
+    start from (jaxflex.turning_peaks, turning_collision, :func:`turning_settle`): the
+    :class:`TurningInputs` of the move's samples, the total modal ``states`` (n+1, M, 2), the
+    turning ``force`` (n+1, M) (linear between samples) and ``end_state`` (M, 2), the
+    deviation state about the final pose's sag (the free vibration after the move)."""
+
+    inputs: TurningInputs
+    states: np.ndarray
+    force: np.ndarray
+    end_state: np.ndarray
+
+
+def turning_motion(
+    model, path: PosePath, acc, *, gravity_m_s2=GRAVITY_M_S2, pivot_m=(0.0, 0.0, 0.0)
+) -> TurningMotion:
+    """The :class:`TurningMotion` of the turning ``path`` while the pivot ``pivot_m`` moves
+    with world accelerations ``acc`` ((n+1, 3) m/s^2) under ``gravity_m_s2``. NumPy."""
+    inputs = turning_inputs(model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m)
+    gravity = inputs.gravity_body_m_s2
+    force = turning_forces(model, path, inputs.base + gravity, gravity)
+    sag = gravity_coordinates(model, gravity[-1:])[0]
+    end_state = np.stack([inputs.q[-1] - sag, inputs.qd[-1]], axis=-1)
+    return TurningMotion(inputs, np.stack([inputs.q, inputs.qd], axis=-1), force, end_state)
+
+
+def turning_layout(model) -> PointLayout:
+    """The jaxflex.settle.PointLayout of a concrete model's turning shapes (jaxflex.
+    rotation_residual), built once per model."""
+    cache = model.__dict__.setdefault("_turning_blocks", {})
+    if "layout" not in cache:
+        cache["layout"] = point_layout(turning_shapes(model), turning_blocks(model))
+    return cache["layout"]
+
+
+class _TurningDeviation(_ForcedMotion):
+    """The deviation during a turning move for the certified settle search (jaxflex.settle):
+    the kept total state exact between samples (the forcing linear between them), less the
+    sag of the pose, plus the static residuals' shares of a_O and b: the sag, a_O and b
+    linear between samples like the forcing, so that only the modes add curvature."""
+
+    def __init__(self, model, path: PosePath, response: TurningResponse) -> None:
+        n, dt = path.n_steps, path.dt_s
+        gravity, a_origin = response.gravity_body_m_s2, response.acc_body_m_s2
+        self.sag = gravity_coordinates(model, gravity)
+        coefficients = load_coefficients(path.omega_rad_s, path.alpha_rad_s2)
+        self.linear = np.hstack([a_origin, coefficients])
+        spin = gravity_coordinates(model, np.cross(path.omega_rad_s, gravity))
+        states = np.stack([response.q[: n + 1] + self.sag, response.qd[: n + 1] - spin], -1)
+        force = turning_forces(model, path, a_origin, gravity)
+        super().__init__(model, as_move(a_origin, dt), states, force, turning_layout(model))
+
+    def coordinates(self, q: np.ndarray, t: np.ndarray) -> np.ndarray:
+        sag = samples_at(self.sag, self.dt_s, t)
+        linear = samples_at(self.linear, self.dt_s, t)
+        return turning_coordinates(self.model, q - sag, linear[:, :3], linear[:, 3:])
 
 
 def turning_settle(path: PosePath, model, response: TurningResponse, threshold_m: float):
     """Exact settle and cycle time (jaxflex.settle.SettleReport) of the turning move of
     ``response`` (from :func:`simulate_turning` on ``path``): after the move the part, at rest
     in its final pose, vibrates freely about its sag there, so the certified search of a
-    straight move applies to the end state; a settling inside the move is sampled."""
-    n = path.n_steps
-    return settle_after(
-        model, response.end_state, n * path.dt_s, threshold_m, response.deviation_m[: n + 1]
-    )
+    straight move applies to the end state; a settling inside the move is searched the same
+    way between the samples (the last crossing to 1e-9 s, never before it)."""
+    during = _TurningDeviation(model, path, response)
+    return settle_after(model, response.end_state, path.n_steps * path.dt_s, threshold_m, during)

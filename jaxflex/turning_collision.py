@@ -39,7 +39,7 @@ from jaxflex.pose import PosePath
 from jaxflex.profile import kinematics_at, samples_at
 from jaxflex.rotation import LEVI_CIVITA, require_rotation
 from jaxflex.rotation_residual import turning_coordinates, turning_shapes, warn_missing_static
-from jaxflex.turning import GRAVITY_M_S2, turning_forces, turning_inputs
+from jaxflex.turning import GRAVITY_M_S2, turning_motion
 
 
 def rotations_between(path: PosePath, t_s: np.ndarray) -> np.ndarray:
@@ -80,12 +80,11 @@ class _TurningMotion(_Motion):
         self.shapes = turning_shapes(model)  # (K, 3, M'): q, then a_O - g_b, then b
         self.base = np.asarray(model.points)
         self.arm = np.linalg.norm(self.base - self.pivot, axis=1)  # (K,) |x_k - c|
-        inputs = turning_inputs(model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m)
-        self.inputs = inputs
-        self.states = np.stack([inputs.q, inputs.qd], axis=-1)
+        motion = turning_motion(model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m)
+        self.inputs = inputs = motion.inputs
+        self.states, self.force = motion.states, motion.force
         rotation = np.asarray(path.rotation)
-        gravity = np.einsum("kji,j->ki", rotation, np.asarray(gravity_m_s2, float))  # body
-        self.force = turning_forces(model, path, inputs.base + gravity, gravity)
+        gravity = inputs.gravity_body_m_s2  # body
         self.n_steps, self.t_end = path.n_steps, path.n_steps * path.dt_s
         omega, zeta = np.asarray(model.omega_rad_s), np.asarray(model.zeta)
         self.omega, self.sigma = omega, zeta * omega
@@ -111,10 +110,8 @@ class _TurningMotion(_Motion):
         self.rate = np.maximum(w[:-1], w[1:]) + dt * np.maximum(alpha[:-1], alpha[1:])  # (n,)
         self.end = pos[-1]
         self.end_rotation = rotation[-1]
-        sag = np.asarray(model.gamma) @ gravity[-1] / omega**2
-        end = self.states[-1] - np.stack([sag, np.zeros_like(sag)], axis=-1)
-        self.end_state = end  # the deviation state about the final pose's sag
-        self.amplitude = amplitudes(model, end)
+        self.end_state = motion.end_state  # the deviation state about the final pose's sag
+        self.amplitude = amplitudes(model, motion.end_state)
         self.rest = self.base - self.pivot + self._sag_shapes() @ (-gravity[-1])
 
     def _sag_shapes(self) -> np.ndarray:

@@ -40,7 +40,7 @@ from jaxflex.peaks import Peak, _Response, search_peak
 from jaxflex.pose import PosePath
 from jaxflex.profile import samples_at
 from jaxflex.rotation_residual import output_residual
-from jaxflex.turning import GRAVITY_M_S2, turning_forces, turning_inputs
+from jaxflex.turning import GRAVITY_M_S2, turning_motion
 
 __all__ = ["TurningLoadSearch", "turning_output_peak"]
 
@@ -62,16 +62,15 @@ class TurningLoadSearch(_Response):
         self.a_rot = output_residual(outputs, static_rot, model)  # (Y, 9)
         self.dt_s, self.n_steps = path.dt_s, path.n_steps
         self.t_end = path.n_steps * path.dt_s
-        inputs = turning_inputs(model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m)
-        self.inputs = inputs
+        motion = turning_motion(model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m)
+        self.inputs = inputs = motion.inputs
         gravity = inputs.gravity_body_m_s2
-        self.states = np.stack([inputs.q, inputs.qd], axis=-1)  # (n+1, M, 2)
-        self.force = turning_forces(model, path, inputs.base + gravity, gravity)
+        self.states, self.force = motion.states, motion.force  # (n+1, M, 2), (n+1, M)
         omega = np.asarray(model.omega_rad_s)
         self.omega, self.sigma = omega, np.asarray(model.zeta) * omega
         self.vel, self.qdd, self.qddd = derivative_bounds(model, self.states, self.force, self.dt_s)
-        sag = (gravity[-1] @ np.asarray(model.gamma).T) / omega**2
-        self.end_state = np.stack([inputs.q[-1] - sag, inputs.qd[-1]], axis=-1)
+        sag = inputs.q[-1] - motion.end_state[:, 0]
+        self.end_state = motion.end_state
         self.amplitude = np.hypot(self.end_state[:, 1], omega * self.end_state[:, 0])
         self.offset = sag @ self.q_map.T - gravity[-1] @ self.a_map.T  # (Y,) at rest at B
 

@@ -4,7 +4,7 @@
 result written before) writes into ``RESULT_DIR/animation/`` one set of files
 (jaxflex.fileset, kind ``jaxflex.animation``):
 
-* ``part.pvd`` over ``part_NNNN.vtu``: the part's surface at every frame, for ParaView
+* ``part.xdmf`` over ``part.h5``: the part's surface at every frame, for ParaView
   (optim.animate_series; the fields it carries are listed there);
 * ``cell.vtu`` (the obstacles) and ``path.vtu`` (the path of the part frame's origin, the
   via points);
@@ -46,7 +46,7 @@ __all__ = ["Animation", "animate", "animate_directory"]
 
 @dataclass(frozen=True)
 class Animation:
-    """What :func:`animate` wrote: the ``directory``, the ParaView ``series`` (part.pvd),
+    """What :func:`animate` wrote: the ``directory``, the ParaView ``series`` (part.xdmf),
     the ``page``, the ``frames`` (optim.animate_frames.Frames), the page's frame and point
     counts and its size in bytes, the ``notes`` it states and the CPU time of each stage
     ``cpu_s`` (frames, series, page; s, this process)."""
@@ -104,11 +104,11 @@ def write_animation(
         + ("every sample" if every == 1 else f"one sample in {every}")
         + ", the end of the move, the cycle time and the closest approach), "
         f"{small.n_vertices} of the model's {scene.model.n_points} points; the exact values "
-        "at every point and frame are in part.pvd beside this page (ParaView)"
+        "at every point and frame are in part.xdmf beside this page (ParaView)"
     )
     directory = make_output_dir(result_dir) / ANIMATION_DIR
     step(f"animation: writing {len(t_s)} frames for ParaView and the page")
-    with writing(directory, ANIMATION_KIND, series_names(directory, len(t_s))) as files:
+    with writing(directory, ANIMATION_KIND, series_names(directory)) as files:
         write_series(files, scene, frames, surface, normals)
         write_cell(files, scene, frames)
         cpu.append(time.process_time())

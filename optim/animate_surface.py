@@ -119,18 +119,21 @@ def boundary_edges(triangles: np.ndarray) -> np.ndarray:
 
 def skins(mid: Surface) -> Surface:
     """The two skins of the sheet whose mid-surface is ``mid`` (sides -1 and +1), closed
-    along its boundary edges by the sheet's edge; a point cloud stays one (both sides)."""
+    along its boundary edges by the sheet's edge; a point cloud stays one (both sides).
+    Each mid-surface vertex i gives the vertices 2i (lower skin) and 2i + 1 (upper skin):
+    side by side, so that the values of a node, the same on both skins, compress to one in
+    the series' file (optim.animate_series)."""
     k = mid.n_vertices
-    node = np.concatenate([mid.node, mid.node])
-    side = np.concatenate([np.full(k, -1), np.full(k, 1)])
+    node = np.repeat(mid.node, 2)
+    side = np.tile([-1, 1], k)
     tri = mid.triangles
     if not len(tri):
         return Surface(node, side, tri, mid.kind, mid.note)
-    lower = tri[:, ::-1]  # the lower skin faces the other way
-    upper = tri + k
+    lower = 2 * tri[:, ::-1]  # the lower skin faces the other way
+    upper = 2 * tri + 1
     edge = boundary_edges(tri)
-    a, b = edge[:, 0], edge[:, 1]
-    walls = np.concatenate([np.column_stack([b, a, a + k]), np.column_stack([b, a + k, b + k])])
+    a, b = 2 * edge[:, 0], 2 * edge[:, 1]
+    walls = np.concatenate([np.column_stack([b, a, a + 1]), np.column_stack([b, a + 1, b + 1])])
     triangles = np.concatenate([lower, upper, walls])
     return Surface(node, side, triangles, mid.kind, mid.note + "; both skins and the edge")
 

@@ -13,15 +13,21 @@ during it.
   limit the response during the move at every dt / 8 (8n x M x (n+1) values).
   :func:`search_bytes` estimates them at n steps; the search never builds a problem above the
   memory budget (jaxflex.budget: ``--max-memory``, default half the machine's memory), and a
-  request whose shortest move is already above it is refused up front.
-* **Time.** :func:`search_need` estimates what the search takes at least (its LP tests at the
-  shortest move, the certification of every robust scenario) against the time budget
-  (``--max-time``).
+  request whose shortest move is already above it is refused up front. A robust grid's
+  models are kept once built (:func:`models_need`: a few arrays per point each).
+* **Time.** :func:`search_need` estimates what the search takes (its tests of moves near the
+  shortest, each an LP or a few and the certification of every robust scenario and, with the
+  cell's constraints, of every model; a robust cell search after its nominal search; the
+  report) against the time budget (``--max-time``), in CPU seconds measured on this machine
+  (the constants below), before any heavy work: the plan of a robust or cell search is
+  final (a refusal comes within seconds of the start); a plain nominal search is planned
+  again once its baselines bracket it.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -87,6 +93,23 @@ def search_bytes(n_modes: int, n_steps: int, scenarios: int, clearance: bool) ->
     return end_maps + during
 
 
+# a robust grid's model kept by the search: its static response and residual (9 + 9), its
+# shapes' norms (M) and, for the cell, a posed copy of the points (3) and the families'
+# per-model arrays (about M again), 8-byte floats per point
+MODEL_POINT_FLOATS = 30
+
+
+def models_need(n_modes: int, n_points: int, models: int) -> Need:
+    """The memory of the ``models`` models a robust search keeps (the grid's, each built on
+    first use and kept: the cycle time's scenarios and the cell's families)."""
+    return Need(
+        f"the {models:,} models of the robust grid ({n_points} points, {n_modes} modes each)",
+        float(models) * n_points * 8 * (2 * n_modes + MODEL_POINT_FLOATS),
+        0.0,
+        "use fewer robust grid points (--grid) or fewer monitored points",
+    )
+
+
 def steps_within_memory(
     n_modes: int, max_steps: int, scenarios: int, clearance: bool, budget_bytes: int
 ) -> int:
@@ -126,11 +149,41 @@ def check_memory(
     return steps
 
 
-# The exact route's LP (HiGHS, 2-core machine; module docstring): seconds at 1 000 steps,
-# growing with the square of the steps; the end-state rows of each scenario add to it
-LP_S_AT_1000 = 0.9
-# certifying one move's exact cycle time: per point, step and mode (jaxflex.settle)
-CERTIFY_S = 2e-8
+# What a search costs, CPU seconds on this project's 2-core machine (measured with
+# python -m fmu.bench.cell --cases press and fmu.bench.optim; docs/optim.md, Budget):
+LP_S_AT_1000 = 0.9  # an LP of the kinematic rows at 1 000 steps, growing with the square
+CELL_LP_FACTOR = 4.0  # the search's LPs with the cell's rows (via points, planes, cuts)
+NEAR_FLOOR_TESTS = 8  # tests of a search whose answer lies near the floor (module docstring)
+NOMINAL_FIRST_TESTS = 3  # tests of a robust cell search after the nominal one
+ROUNDS = 1.5  # LPs (rounds of rows) per test of a search without the cell's constraints
+CELL_ROUNDS = 3  # ... with them (2.3 on the press scene, 2.8 with its stress active)
+TRAINING = 4  # robust scenarios an LP holds, typically
+CYCLE_S = 2e-3  # one scenario's exact cycle time: a fixed part ...
+CYCLE_S_PER = 1e-10  # ... and per point, step and mode (jaxflex.settle's pruned blocks)
+RESIDUAL_S = 1e-7  # a training scenario's scan of its residual vibration, per point and mode
+PIECE_S = 2.5e-7  # a distance certificate: per block of points, obstacle piece and sample
+LOAD_S = 4e-9  # a load certificate: per output row and mode
+FAMILY_S = 2e-3  # a certificate's fixed part, per constraint family and model
+SCAN_FACTOR = 4.0  # a family's scan of a round (dt / 8 and the tail) against its certificate
+
+
+@dataclass(frozen=True)
+class CellCost:
+    """What the cell's constraint families cost a search: the distance's ``blocks`` of points
+    (jaxflex.geometry.BLOCK_POINTS) and obstacle ``pieces``, the load families' output rows
+    ``load_rows``, the number of ``families`` and the ``models`` each is certified on (the
+    nominal one and every model of a robust grid)."""
+
+    blocks: int
+    pieces: int
+    load_rows: int
+    families: int
+    models: int
+
+    def certify_s(self, n_steps: int, n_modes: int) -> float:
+        """CPU seconds of one model's certificates of an ``n_steps``-step move."""
+        distance = self.blocks * self.pieces * (n_steps + 1) * PIECE_S
+        return distance + self.load_rows * n_modes * LOAD_S + self.families * FAMILY_S
 
 
 def search_need(
@@ -140,29 +193,65 @@ def search_need(
     max_steps: int,
     scenarios: int,
     lp_steps: int | None = None,
+    *,
+    cell: CellCost | None = None,
 ) -> Need:
-    """What the search will at least take (a jaxflex.budget.Need): the bisection's tests
-    (log2 of the range of move lengths from ``floor_steps`` to ``max_steps``, and the
-    polish) each solve an LP of ``lp_steps`` steps (default the shortest move; after the
-    baselines, the best baseline's length: the first tests are near it) and certify every
-    scenario's cycle time."""
-    lp_steps = floor_steps if lp_steps is None else lp_steps
-    tests = math.ceil(math.log2(max(max_steps - floor_steps, 2))) + 2
-    lp_s = LP_S_AT_1000 * (lp_steps / 1000) ** 2 * (1 + scenarios * n_modes / 200)
-    certify_s = CERTIFY_S * scenarios * n_points * lp_steps * n_modes
+    """What the search will take (a jaxflex.budget.Need; constants above): its tests of moves
+    near ``floor_steps`` (the gallop, the bisection, the polish, the lengths tried below the
+    answer: NEAR_FLOOR_TESTS), or, given ``lp_steps`` (a baseline's length bracketing the
+    search), the bisection of the range up to it at that length. Each test makes ROUNDS
+    (with a cell CELL_ROUNDS) rounds (an LP of the training scenarios' end states and the
+    cell's rows, their scans)
+    and certifies every scenario's cycle time and, with a ``cell``, every model's
+    constraints; a robust cell search first searches the nominal model alone and then tests
+    only a few lengths (NOMINAL_FIRST_TESTS), and its report locates every model's values."""
+    n = floor_steps if lp_steps is None else lp_steps
+    tests = NEAR_FLOOR_TESTS
+    if lp_steps is not None:
+        tests = math.ceil(math.log2(max(lp_steps - floor_steps, 2))) + 2
+
+    def test_s(models: int) -> float:
+        training = min(scenarios if models > 1 or cell is None else 1, TRAINING)
+        lp = LP_S_AT_1000 * (n / 1000) ** 2 * (1 + training * n_modes / 200)
+        lp *= 1.0 if cell is None else CELL_LP_FACTOR
+        residual = training * RESIDUAL_S * n_points * n_modes
+        ones = scenarios if models > 1 or cell is None else 1
+        cycle = ones * (CYCLE_S + CYCLE_S_PER * n_points * n * n_modes)
+        rounds = ROUNDS if cell is None else CELL_ROUNDS
+        return rounds * (lp + residual) + cycle + _cell_test_s(cell, models, n, n_modes)
+
+    where = ""
+    if cell is not None:
+        where = f"; the cell's {cell.families} constraint(s) on {cell.models:,} model(s)"
     return Need(
-        f"the search ({tests} tests of moves of up to {lp_steps} steps, {scenarios:,} "
-        f"scenario(s), {n_modes} modes, {n_points} points)",
+        f"the search ({tests} tests of moves of about {n} steps, {scenarios:,} "
+        f"scenario(s), {n_modes} modes, {n_points} points{where})",
         0.0,
-        tests * (lp_s + certify_s),
+        _schedule_s(test_s, tests, cell, n, n_modes),
         "use a coarser --dt, fewer robust grid points (--grid), modes or points, or a "
         "shorter --max-duration",
     )
 
 
-# the distance of a point to one obstacle piece (a triangle of a mesh, a box, a half-space),
-# NumPy (jaxflex.cell; 2-core machine): 0.73 us per point and triangle, 0.35 us per box
-PIECE_S = 7e-7
+def _cell_test_s(cell: CellCost | None, models: int, n_steps: int, n_modes: int) -> float:
+    """CPU seconds of the cell's part of one test on ``models`` models: CELL_ROUNDS scans of
+    the training models, a certificate of every model."""
+    if cell is None:
+        return 0.0
+    certify = cell.certify_s(n_steps, n_modes)
+    return CELL_ROUNDS * min(models, TRAINING) * SCAN_FACTOR * certify + models * certify
+
+
+def _schedule_s(test_s, tests: int, cell: CellCost | None, n_steps: int, n_modes: int) -> float:
+    """CPU seconds of ``tests`` tests (``test_s(models)`` each) and the report: with a cell
+    on several models the nominal model's search first, then NOMINAL_FIRST_TESTS tests on
+    every model."""
+    if cell is None:
+        return tests * test_s(1)
+    report = cell.models * cell.certify_s(n_steps, n_modes)
+    if cell.models == 1:
+        return tests * test_s(1) + report
+    return tests * test_s(1) + NOMINAL_FIRST_TESTS * test_s(cell.models) + report
 
 
 def obstacle_pieces(cell) -> int:
@@ -170,21 +259,25 @@ def obstacle_pieces(cell) -> int:
     return sum(len(getattr(obstacle, "triangles", (0,))) for obstacle in cell.obstacles)
 
 
-def distance_need(cell, n_points: int, floor_steps: int, max_steps: int) -> Need:
-    """What keeping the distance to ``cell``'s obstacles takes at least: every test of the
-    search bounds the distance of every block of points (jaxflex.collision.BLOCK_POINTS: a
-    block's supporting-plane bound rules most (time, block) pairs out) to every piece at each
-    sample of a move of at least ``floor_steps`` steps."""
+def distance_need(cell, n_points: int, floor_steps: int, models: int = 1) -> Need:
+    """What keeping the distance to ``cell``'s obstacles takes at least, checked before the
+    cell's set-up measures anything: every test of the search certifies the distance of
+    every block of points (jaxflex.geometry.BLOCK_POINTS: a block's supporting-plane bound
+    rules most (time, block) pairs out) to every piece at each sample of a move of at least
+    ``floor_steps`` steps, on each of ``models`` models (:func:`search_need`'s schedule)."""
     pieces = obstacle_pieces(cell)
-    tests = math.ceil(math.log2(max(max_steps - floor_steps, 2))) + 2
     blocks = math.ceil(n_points / BLOCK_POINTS)
-    pairs = float(blocks) * pieces * (floor_steps + 1)
+    cost = CellCost(blocks, pieces, 0, 1, models)
+
+    def test_s(on: int) -> float:
+        return _cell_test_s(cost, on, floor_steps, 0)
+
     return Need(
         f"the distance to the cell's obstacles ({pieces:,} piece(s): triangles, boxes, "
         f"half-spaces; {n_points} points in {blocks} blocks at each of at least "
-        f"{floor_steps + 1} samples, {tests} tests)",
+        f"{floor_steps + 1} samples, {NEAR_FLOOR_TESTS} tests, {models:,} model(s))",
         0.0,
-        tests * pairs * PIECE_S,
+        _schedule_s(test_s, NEAR_FLOOR_TESTS, cost, floor_steps, 0),
         "simplify the obstacles (fewer triangles: a coarser mesh, or boxes), or use fewer "
         "monitored points",
     )

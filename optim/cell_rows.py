@@ -27,19 +27,19 @@ reserve, so that peaks between grid samples rarely fail the certification.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import cached_property, partial
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from jaxflex.geometry import (
     Clearance,
-    block_lower_bounds,
-    displacement_coordinates,
+    close_approaches,
     distances,
     gravity_offset,
     min_distance,
-    part_blocks,
+    nearest_distances,
     positions_at,
 )
 from jaxflex.response import (
@@ -48,38 +48,78 @@ from jaxflex.response import (
     Peak,
     VonMises,
     acceleration_at,
+    as_move,
     item_bounds,
-    kinematics_at,
+    one_blas_thread,
     output_peak,
-    outputs_at,
+    outputs_above,
     position_weights,
     response_shapes,
     state_maps_at,
     states_at,
 )
+from optim.robust import output_scales, perturbed
 
 ROW_MARGIN = 1e-3
 SCAN_RTOL = 1e-7  # a row's own limit is met up to the LP's feasibility tolerance (1e-9)
 BOUND_RTOL = 1e-12  # the certified searches stop refining at the limit: round-off of it
 ITEM_BLOCK = 2048
+CURVE_CHUNK = 256  # items per evaluation of a plot's curve, in the order of their bounds
 SUBSTEPS = 8
 TAIL_PERIODS = 2.0
 PEAKS_PER_ROUND = 20  # violated local maxima in time
 ITEMS_PER_PEAK = 8  # rows at each: the worst items (points, cups) above the limit
 ROWS_PER_ROUND = 240  # loads: rows at the worst violated (time, item) samples
-PAIR_CHUNK = 100_000  # (time, point) pairs per evaluation of the distance
 CERTIFY_ATOL_M = 1e-6  # the certified distance's accuracy, m
+MAPS_KEPT = 256  # state maps kept per model (about 84 kB each at 175 steps and 20 modes)
 
 
 @dataclass(frozen=True)
 class Row:
     """A linear row sum(coef * a) <= rhs on the samples a of the moving axes, in units of the
-    limit; ``time_s`` and ``item`` say where it came from."""
+    limit; ``time_s`` and ``item`` say where it came from. ``restriction``: the row may cut
+    off moves that meet the constraint (a distance's separating plane), else it is a valid
+    cut. ``moved(n_steps, dt_s, axes)``, where given, is the same cut on a move of
+    ``n_steps`` steps at the same fraction of the move (after it: the same time after it)."""
 
     coef: np.ndarray  # (n+1, d)
     rhs: float
     time_s: float
     item: int
+    restriction: bool = False
+    moved: Callable[[int, float, tuple], Row | None] | None = field(default=None, repr=False)
+
+
+def state_maps(model, n_steps: int, dt_s: float, time_s: float) -> np.ndarray:
+    """(M, 2, n+1, 3) jaxflex.engine.state_maps_at of one time, the last MAPS_KEPT kept per
+    model (the rows of one round, and the rows moved to a length, share their times)."""
+    cache = model.__dict__.setdefault("_cell_state_maps", {})
+    key = (int(n_steps), float(dt_s), float(time_s))
+    if key not in cache:
+        while len(cache) >= MAPS_KEPT:
+            del cache[next(iter(cache))]
+        cache[key] = state_maps_at(model, n_steps, dt_s, np.array([time_s]))[0]
+    return cache[key]
+
+
+def moved_time(time_s: float, n_from: int, n_to: int, dt_s: float) -> float:
+    """The time on an ``n_to``-step move that corresponds to ``time_s`` on an ``n_from``-step
+    move: the same fraction of the move, or the same time after it."""
+    end = n_from * dt_s
+    if time_s <= end:
+        return time_s * n_to / n_from
+    return n_to * dt_s + (time_s - end)
+
+
+def _add_along(coef: np.ndarray, along: np.ndarray, time_s: float, dt_s: float) -> None:
+    """Add the row of along . a(t) at ``time_s`` to ``coef`` (n+1, 3) in place: a(t) is
+    linear between the samples (nothing after the move)."""
+    n = coef.shape[0] - 1
+    if time_s < n * dt_s:
+        k = min(int(time_s // dt_s), n - 1)
+        w = time_s / dt_s - k
+        coef[k] += (1 - w) * along
+        coef[k + 1] += w * along
 
 
 def check_times(model, n_steps: int, dt_s: float) -> np.ndarray:
@@ -93,18 +133,26 @@ def check_times(model, n_steps: int, dt_s: float) -> np.ndarray:
     return np.concatenate([during, after])
 
 
-def _local_peaks(values: np.ndarray, above: float) -> list[tuple[int, int]]:
-    """(time index, item) at the largest local maxima in time of max over items above
-    ``above`` (at most PEAKS_PER_ROUND), each with its ITEMS_PER_PEAK worst items above it,
-    worst first: values (T, I). Several items per time: a tangent cut holds one direction of
-    one item, and the LP's next answer moves the peak to the items next to it."""
+def _peak_times(values: np.ndarray, above: float) -> list[int]:
+    """The time indices of the largest local maxima in time of max over items of ``values``
+    (T, I) above ``above`` (at most PEAKS_PER_ROUND), largest first."""
     worst = values.max(axis=1)
     padded = np.concatenate([[-np.inf], worst, [-np.inf]])
     local = (worst >= padded[:-2]) & (worst >= padded[2:]) & (worst > above)
+    return [int(j) for j in sorted(np.flatnonzero(local), key=lambda j: -worst[j])][
+        :PEAKS_PER_ROUND
+    ]
+
+
+def _local_peaks(values: np.ndarray, above: float) -> list[tuple[int, int]]:
+    """(time index, item) at the largest local maxima in time of max over items above
+    ``above`` (:func:`_peak_times`), each with its ITEMS_PER_PEAK worst items above it,
+    worst first: values (T, I). Several items per time: a tangent cut holds one direction of
+    one item, and the LP's next answer moves the peak to the items next to it."""
     found = []
-    for j in sorted(np.flatnonzero(local), key=lambda j: -worst[j])[:PEAKS_PER_ROUND]:
+    for j in _peak_times(values, above):
         order = np.argsort(-values[j])[:ITEMS_PER_PEAK]
-        found += [(int(j), int(i)) for i in order if values[j, i] > above]
+        found += [(j, int(i)) for i in order if values[j, i] > above]
     return found
 
 
@@ -119,14 +167,25 @@ def _worst_samples(values: np.ndarray, above: float) -> list[tuple[int, int]]:
 
 
 class LoadFamily:
-    """Cup utilisation (limit 1) or von Mises stress (limit in Pa) of the nominal model."""
+    """Cup utilisation (limit 1) or von Mises stress (limit in Pa) of one model: the nominal,
+    or (:meth:`scenario`) a model of a robust grid, which shares the nominal maps with each
+    mode's column scaled (``state_scale``: jaxflex.peaks)."""
 
-    def __init__(self, name: str, model, outputs, functional, limit: float, gravity_m_s2):
+    def __init__(
+        self, name: str, model, outputs, functional, limit: float, gravity_m_s2, state_scale=None
+    ):
         self.name, self.model, self.outputs = name, model, outputs
+        if model.stress is not None or model.cups is not None:  # where each item is, m
+            stress = name == "von Mises stress"
+            self.places = np.asarray(model.stress.points_m if stress else model.cups.centre_m)
         self.functional, self.limit = functional, float(limit)
-        self.offset = outputs.offset(gravity_m_s2)
+        self.gravity = np.asarray(gravity_m_s2, dtype=np.float64)
+        self.offset = outputs.offset(self.gravity)
         self.q_map, self.v_map = np.asarray(outputs.q_map), np.asarray(outputs.v_map)
         self.a_map = np.asarray(outputs.a_map)
+        self.state_scale = state_scale
+        ones = np.ones(model.n_modes)
+        self.q_scale, self.v_scale = (ones, ones) if state_scale is None else state_scale
 
     @classmethod
     def cups(cls, model, safety: float, gravity_m_s2) -> LoadFamily:
@@ -140,6 +199,24 @@ class LoadFamily:
             "von Mises stress", model, model.stress.stress, functional, limit_pa, gravity_m_s2
         )
 
+    def scenario(self, scale: float, zeta: float | None) -> LoadFamily:
+        """The family of this model with its frequencies scaled by ``scale`` and its damping
+        ratios set to ``zeta`` (or kept): the model of a robust grid (optim.robust), its
+        outputs this family's maps with each mode's column scaled (optim.robust.output_scales;
+        the maps are not copied), or scaled copies where the damping cannot be a column
+        scale (a model with undamped modes)."""
+        scales = output_scales(self.model, scale, zeta)
+        if scales is None:
+            model = perturbed(self.model, scale, zeta, outputs=True)
+            outputs = model.cups.reaction if self.name == "cup utilisation" else model.stress.stress
+            return LoadFamily(self.name, model, outputs, self.functional, self.limit, self.gravity)
+        model = perturbed(self.model, scale, zeta)
+        family = LoadFamily(
+            self.name, model, self.outputs, self.functional, self.limit, self.gravity, scales
+        )
+        family.places = self.places
+        return family
+
     def _rows_of(self, item: int) -> np.ndarray:
         r = self.functional.rows_per_item
         return np.arange(r * item, r * item + r)
@@ -151,7 +228,7 @@ class LoadFamily:
         of ITEM_BLOCK items)."""
         if items is None:
             items = np.arange(self.functional.n_items)
-        with threadpool_limits(limits=1, user_api="blas"):
+        with one_blas_thread():
             return self._values(acc, dt_s, t, items)
 
     def _values(self, acc: np.ndarray, dt_s: float, t: np.ndarray, items: np.ndarray):
@@ -161,30 +238,36 @@ class LoadFamily:
         out = [np.zeros((len(t), 0))]
         for start in range(0, len(items), ITEM_BLOCK):
             block = items[start : start + ITEM_BLOCK]
-            rows = (r * block[:, None] + np.arange(r)).ravel()
-            y = (
-                states[..., 0] @ self.q_map[rows].T
-                + states[..., 1] @ self.v_map[rows].T
-                + a @ self.a_map[rows].T
-                + self.offset[rows]
-            )
+            y = self._outputs(states, a, (r * block[:, None] + np.arange(r)).ravel())
             out.append(self.functional.values(y.reshape(len(t), len(block), r), block))
         return np.concatenate(out, axis=1)
+
+    def _outputs(self, states: np.ndarray, a: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """(T, R) the outputs ``rows`` for modal states (T, M, 2) and accelerations (T, 3)."""
+        return (
+            (states[..., 0] * self.q_scale) @ self.q_map[rows].T
+            + (states[..., 1] * self.v_scale) @ self.v_map[rows].T
+            + a @ self.a_map[rows].T
+            + self.offset[rows]
+        )
 
     def scan(self, move: Move, axes) -> list[Row]:
         """Rows at the worst sampled violations of ``move`` (a Move); only the items whose
         bound over the whole move and settling (jaxflex.peaks.item_bounds) reaches the row
-        threshold are evaluated (an inactive constraint costs almost nothing)."""
+        threshold are evaluated (an inactive constraint costs almost nothing), at the
+        samples and, between them, where a curvature bound reaches it
+        (jaxflex.response.outputs_above: the samples above the threshold are those of
+        every time)."""
         acc, dt_s = move.acc, move.dt_s
         above = self.limit * (1 - ROW_MARGIN + SCAN_RTOL)
-        bounds = item_bounds(
-            self.model, self.outputs, self.functional, acc, dt_s, offset=self.offset
-        )
-        candidates = np.flatnonzero(bounds > above)
+        t = check_times(self.model, acc.shape[0] - 1, dt_s)
+        candidates, values = outputs_above(
+            self.model, self.outputs, self.functional, as_move(acc, dt_s, at_rest=True), t,
+            above, offset=self.offset, state_scale=self.state_scale,
+        )  # fmt: skip
         if candidates.size == 0:
             return []
-        t = check_times(self.model, acc.shape[0] - 1, dt_s)
-        found = _worst_samples(self.values(acc, dt_s, t, candidates), above)
+        found = _worst_samples(values, above)
         by_time: dict[int, list[int]] = {}
         for j, column in found:
             by_time.setdefault(j, []).append(int(candidates[column]))
@@ -198,29 +281,49 @@ class LoadFamily:
         """The cuts of ``items`` at ``time_s`` (one state map for all of them)."""
         n = acc.shape[0] - 1
         t = np.array([time_s])
-        y_all = outputs_at(self.model, self.outputs, acc, dt_s, t, self.offset)[0]
-        maps = state_maps_at(self.model, n, dt_s, t)[0]  # (M, 2, n+1, 3)
-        return [self._cut_row(y_all, maps, acc, dt_s, time_s, item, axes) for item in items]
+        states, a = states_at(self.model, acc, dt_s, t), acceleration_at(acc, dt_s, t)
+        maps = state_maps(self.model, n, dt_s, time_s)  # (M, 2, n+1, 3)
+        found = []
+        for item in items:
+            rows = self._rows_of(item)
+            g = self.functional.cut(self._outputs(states, a, rows)[0], item)
+            found.append(self.cut(g, item, time_s, n, dt_s, axes, maps))
+        return found
 
-    def _cut_row(self, y_all, maps, acc, dt_s, time_s, item, axes) -> Row:
-        n = acc.shape[0] - 1
+    def cut(self, g, item: int, time_s: float, n_steps: int, dt_s: float, axes, maps=None) -> Row:
+        """The row g . y_item(``time_s``) <= limit on an ``n_steps``-step move (``maps``: its
+        state maps at that time, if known): valid for every move and time, as f(y) >= g . y
+        (module docstring)."""
+        if maps is None:
+            maps = state_maps(self.model, n_steps, dt_s, time_s)
         rows = self._rows_of(item)
-        y = y_all[rows]
-        g = self.functional.cut(y, item)
-        coef = np.einsum("m,mkc->kc", g @ self.q_map[rows], maps[:, 0])
-        coef += np.einsum("m,mkc->kc", g @ self.v_map[rows], maps[:, 1])
-        if time_s < n * dt_s:  # a(t) = (1 - w) a_k + w a_k+1
-            k = min(int(time_s // dt_s), n - 1)
-            w = time_s / dt_s - k
-            along = g @ self.a_map[rows]
-            coef[k] += (1 - w) * along
-            coef[k + 1] += w * along
+        coef = np.einsum("m,mkc->kc", (g @ self.q_map[rows]) * self.q_scale, maps[:, 0])
+        coef += np.einsum("m,mkc->kc", (g @ self.v_map[rows]) * self.v_scale, maps[:, 1])
+        _add_along(coef, g @ self.a_map[rows], time_s, dt_s)
         limit = self.limit * (1 - ROW_MARGIN)
         rhs = (limit - g @ self.offset[rows]) / self.limit
-        return Row(coef[:, list(axes)] / self.limit, float(rhs), float(time_s), int(item))
+        moved = partial(self._moved_cut, g, int(item), float(time_s), n_steps)
+        return Row(
+            coef[:, list(axes)] / self.limit, float(rhs), float(time_s), int(item), False, moved
+        )
+
+    def _moved_cut(self, g, item, time_s, n_from, n_to, dt_s, axes) -> Row:
+        return self.cut(g, item, moved_time(time_s, n_from, n_to, dt_s), n_to, dt_s, axes)
 
     def certify(self, move: Move) -> Peak:
-        """The certified peak over ``move`` (a Move) and the settling (jaxflex.peaks)."""
+        """The certified peak over ``move`` (a Move) and the settling (jaxflex.peaks), decided
+        against the limit: located where it may exceed it, else a value found with ``bound``
+        at most the limit (what the search needs)."""
+        return self._peak(move, self.limit)
+
+    def measure(self, move: Move, worst: Peak | None = None) -> Peak:
+        """The certified peak of ``move`` located to 1e-5 (reports): everywhere, or only where
+        it may exceed ``worst`` (the peak of another model of a robust grid, the worst so far:
+        a model below it is certified without locating its peak) or the limit."""
+        return self._peak(move, None if worst is None else min(worst.value, self.limit))
+
+    def _peak(self, move: Move, limit: float | None) -> Peak:
+        """jaxflex.peaks.output_peak of ``move`` to 1e-5, decided against ``limit``."""
         return output_peak(
             self.model,
             self.outputs,
@@ -229,7 +332,8 @@ class LoadFamily:
             move.dt_s,
             offset=self.offset,
             rtol=1e-5,
-            limit=self.limit,
+            limit=limit,
+            state_scale=self.state_scale,
         )
 
     def holds(self, peak: Peak) -> bool:
@@ -240,8 +344,25 @@ class LoadFamily:
         return self.row(move.acc, move.dt_s, *self.worst(peak), axes)
 
     def curve(self, move: Move, t) -> np.ndarray:
-        """(T,) the largest load of ``move`` (a Move) at times ``t`` (for plots)."""
-        return self.values(move.acc, move.dt_s, t).max(axis=1)
+        """(T,) the largest load of ``move`` (a Move) at times ``t`` (for plots), exact: the
+        items in the order of their bound over the move and the settling
+        (jaxflex.peaks.item_bounds), a chunk evaluated only at the times where its largest
+        bound exceeds the largest load found."""
+        t = np.asarray(t, dtype=np.float64)
+        bounds = item_bounds(
+            self.model, self.outputs, self.functional, move.acc, move.dt_s, offset=self.offset,
+            state_scale=self.state_scale,
+        )  # fmt: skip
+        order = np.argsort(-bounds, kind="stable")
+        largest = np.full(len(t), -np.inf)
+        for start in range(0, len(order), CURVE_CHUNK):
+            chunk = order[start : start + CURVE_CHUNK]
+            times = np.flatnonzero(bounds[chunk[0]] > largest)
+            if times.size == 0:
+                break
+            found = self.values(move.acc, move.dt_s, t[times], chunk).max(axis=1)
+            largest[times] = np.maximum(largest[times], found)
+        return largest
 
     def worst(self, peak: Peak) -> tuple[float, int]:
         """(time, item) of the certified peak (a finite time: the part at rest after the
@@ -249,11 +370,7 @@ class LoadFamily:
         return peak.time_s, peak.item
 
     def describe(self, peak: Peak) -> dict:
-        where = None
-        if self.name == "von Mises stress" and peak.item >= 0:
-            where = np.asarray(self.model.stress.points_m)[peak.item].tolist()
-        elif peak.item >= 0:
-            where = np.asarray(self.model.cups.centre_m)[peak.item].tolist()
+        where = self.places[peak.item].tolist() if peak.item >= 0 else None
         return {
             "name": self.name,
             "limit": self.limit,
@@ -266,11 +383,12 @@ class LoadFamily:
         }
 
 
-def certified_distance(family, measure, *move, **frame):
+def certified_distance(family, measure, *move, limit_m=None, **frame):
     """The certified clearance of a distance family (this module's or optim.turn_cell's):
     ``measure`` (jaxflex.geometry.min_distance or turning_min_distance) of the family's model
     and obstacles for the ``move`` arguments and the ``frame`` keywords (gravity, pivot), with
-    the family's skin half thickness (m) and limit (m), to 1e-6 m."""
+    the family's skin half thickness (m), to 1e-6 m, decided against ``limit_m`` (m; None:
+    located everywhere)."""
     return measure(
         family.model,
         family.obstacles,
@@ -278,7 +396,7 @@ def certified_distance(family, measure, *move, **frame):
         **frame,
         half_thickness_m=family.half,
         atol=CERTIFY_ATOL_M,
-        limit_m=family.limit,
+        limit_m=limit_m,
     )
 
 
@@ -295,83 +413,95 @@ class DistanceFamily:
         self.half = float(half_thickness_m)
         self.gravity = np.asarray(gravity_m_s2, dtype=np.float64)
         self.base = np.asarray(model.points) + gravity_offset(model, self.gravity)
-        self.shapes = response_shapes(model)  # (K, 3, M'): the modes, then the static residual
-        self.blocks = part_blocks(model)
-        self.extents = self.blocks.extents(self.base)
+
+    @cached_property
+    def shapes(self) -> np.ndarray:
+        """(K, 3, M') the modes, then the static residual (for rows: a model of a robust
+        grid that never gives rows never builds them)."""
+        return response_shapes(self.model)
 
     def positions(self, acc, dt_s, t, points=None, coords=None) -> np.ndarray:
         """(T, P, 3) mid-surface positions of ``points`` (default all) at times ``t``."""
         return positions_at(self.model, acc, dt_s, t, self.gravity, points, coords)
 
-    def near(self, acc: np.ndarray, dt_s: float, t: np.ndarray, within_m: float | None):
-        """(points (P,), their skin distances (T, P)): the points that may come closer than
-        ``within_m`` (None: than the nearest block centre at that time) at some time of
-        ``t``, evaluated at the times where they may (elsewhere inf: every point provably
-        keeps the distance there, its block's centre bounds it: jaxflex.collision.PartBlocks).
-        """
-        coords = displacement_coordinates(self.model, acc, dt_s, t)
-        centres = self.positions(acc, dt_s, t, self.blocks.centre, coords)  # (T, nB, 3)
-        moving = np.abs(coords) @ self.blocks.spread_shapes.T
-        lower = block_lower_bounds(self.obstacles, centres, self.extents, moving) - self.half
-        if within_m is None:  # the nearest centre's distance: attained, so a bound of the min
-            d_centre, _, _ = distances(self.obstacles, centres.reshape(-1, 3))
-            within_m = (d_centre.reshape(centres.shape[:2]) - self.half).min(axis=1)[:, None]
-        close = lower <= within_m  # (T, nB)
-        points = self.blocks.points_of(np.flatnonzero(close.any(axis=0)))
-        times, blocks = np.nonzero(close)
-        members = self.blocks.members[blocks]  # (pairs, b)
-        real = members < len(self.base)
-        pair_t = np.broadcast_to(times[:, None], members.shape)[real]
-        pair_p = members[real]
-        d = np.full((len(t), len(points)), np.inf)
-        path = kinematics_at(acc, dt_s, t)[0]
-        for chunk in np.array_split(np.arange(len(pair_p)), max(1, len(pair_p) // PAIR_CHUNK)):
-            tt, pp = pair_t[chunk], pair_p[chunk]
-            u = np.einsum("kcm,km->kc", self.shapes[pp], coords[tt])
-            dist, _, _ = distances(self.obstacles, self.base[pp] + path[tt] + u)
-            d[tt, np.searchsorted(points, pp)] = dist - self.half
-        return points, d
-
     def scan(self, move: Move, axes) -> list[Row]:
-        """Separating planes at the sampled closest approaches of ``move`` (a Move)."""
+        """Separating planes at the sampled closest approaches of ``move`` (a Move): the
+        closest point at each check time, and every point that may come closer than the row
+        threshold at the times of the worst approaches (jaxflex.geometry.close_approaches;
+        the rows of evaluating every point at every check time)."""
         acc, dt_s = move.acc, move.dt_s
         t = check_times(self.model, move.n_steps, dt_s)
         threshold = self.limit * (1 + ROW_MARGIN - SCAN_RTOL)
-        points, d = self.near(acc, dt_s, t, threshold)
-        if points.size == 0:  # the whole part provably keeps the distance
+        found = close_approaches(
+            self.model, self.obstacles, move, t, threshold, gravity_m_s2=self.gravity,
+            half_thickness_m=self.half,
+        )  # fmt: skip
+        if found.points.size == 0:  # the whole part provably keeps the distance
             return []
-        found = _local_peaks(-d, -threshold)
-        rows = (self.row(acc, dt_s, t[j], int(points[k]), axes) for j, k in found)
+        found.fill(_peak_times(-found.distances, -threshold))
+        peaks = _local_peaks(-found.distances, -threshold)
+        rows = (self.row(acc, dt_s, t[j], int(found.points[k]), axes) for j, k in peaks)
         return [r for r in rows if r is not None]
 
     def row(self, acc: np.ndarray, dt_s: float, time_s: float, point: int, axes) -> Row | None:
         """The separating plane at (``time_s``, ``point``) (module docstring); None where the
         point touches the obstacle's surface exactly (no direction)."""
-        n = acc.shape[0] - 1
-        t = np.array([time_s])
-        p = self.positions(acc, dt_s, t, [point])[0, 0]
+        p = self.positions(acc, dt_s, np.array([time_s]), [point])[0, 0]
         d, _, c = distances(self.obstacles, p[None])
         gap = p - c[0]
         if np.linalg.norm(gap) < 1e-12:
             return None
         normal = np.sign(d[0]) * gap / np.linalg.norm(gap)
+        return self.plane(normal, c[0], point, time_s, acc.shape[0] - 1, dt_s, axes)
+
+    def plane(self, normal, closest, point: int, time_s: float, n_steps: int, dt_s: float, axes):
+        """The row n . (p(``time_s``) - c) >= margin of ``point`` on an ``n_steps``-step move,
+        for the plane through ``closest`` c with unit ``normal`` n (out of the obstacle): a
+        restriction (module docstring)."""
+        t = np.array([time_s])
         along = normal @ self.shapes[point]  # (M',)
+        m = self.model.n_modes
         coef = np.einsum(
-            "m,mkc->kc", along[: self.model.n_modes], state_maps_at(self.model, n, dt_s, t)[0, :, 0]
+            "m,mkc->kc", along[:m], state_maps(self.model, n_steps, dt_s, time_s)[:, 0]
         )
-        if along.size > self.model.n_modes and time_s < n * dt_s:  # D a(t), a linear in steps
-            k = min(int(time_s // dt_s), n - 1)
-            w = time_s / dt_s - k
-            coef[k] += (1 - w) * along[self.model.n_modes :]
-            coef[k + 1] += w * along[self.model.n_modes :]
-        coef += np.outer(position_weights(n, dt_s, t)[0], normal)
+        if along.size > m:  # D a(t)
+            _add_along(coef, along[m:], time_s, dt_s)
+        coef += np.outer(position_weights(n_steps, dt_s, t)[0], normal)
         margin = self.limit * (1 + ROW_MARGIN) + self.half
-        rhs = normal @ (self.base[point] - c[0]) - margin  # -(n . p) <= n . (base - c) - margin
-        return Row(-coef[:, list(axes)] / self.limit, float(rhs / self.limit), time_s, point)
+        rhs = normal @ (self.base[point] - closest) - margin  # -(n . p) <= n . (base - c) - margin
+        moved = partial(self._moved_plane, normal, closest, point, float(time_s), n_steps)
+        return Row(
+            -coef[:, list(axes)] / self.limit, float(rhs / self.limit), float(time_s), point, True,
+            moved,
+        )  # fmt: skip
+
+    def _moved_plane(self, normal, closest, point, time_s, n_from, n_to, dt_s, axes) -> Row:
+        time = moved_time(time_s, n_from, n_to, dt_s)
+        return self.plane(normal, closest, point, time, n_to, dt_s, axes)
+
+    def scenario(self, scale: float, zeta: float | None) -> DistanceFamily:
+        """The family of this model with its frequencies scaled by ``scale`` and its damping
+        ratios set to ``zeta`` (or kept): a model of a robust grid (optim.robust)."""
+        return DistanceFamily(
+            perturbed(self.model, scale, zeta), self.obstacles, self.limit, self.gravity, self.half
+        )
 
     def certify(self, move: Move) -> Clearance:
-        """The certified clearance over ``move`` (a Move) and the settling."""
-        return certified_distance(self, min_distance, move, move.dt_s, gravity_m_s2=self.gravity)
+        """The certified clearance over ``move`` (a Move) and the settling, decided against
+        the limit: located where the part may come closer, else a distance found with
+        ``bound_m`` at least the limit (what the search needs)."""
+        return self._clearance(move, self.limit)
+
+    def measure(self, move: Move, worst: Clearance | None = None) -> Clearance:
+        """The certified clearance of ``move`` located to 1e-6 m (reports): everywhere, or
+        only where it may be below ``worst`` (another model's, the worst so far) or the
+        limit."""
+        return self._clearance(move, None if worst is None else max(worst.distance_m, self.limit))
+
+    def _clearance(self, move: Move, limit_m: float | None) -> Clearance:
+        return certified_distance(
+            self, min_distance, move, move.dt_s, gravity_m_s2=self.gravity, limit_m=limit_m
+        )
 
     def holds(self, found: Clearance) -> bool:
         return found.bound_m >= self.limit * (1 - BOUND_RTOL)
@@ -405,5 +535,9 @@ class DistanceFamily:
         }
 
     def curve(self, move: Move, t):
-        """(T,) the smallest skin distance of ``move`` (a Move) at times ``t`` (for plots)."""
-        return self.near(move.acc, move.dt_s, t, None)[1].min(axis=1)
+        """(T,) the smallest skin distance of ``move`` (a Move) at times ``t`` (for plots;
+        jaxflex.geometry.nearest_distances)."""
+        return nearest_distances(
+            self.model, self.obstacles, move, t, gravity_m_s2=self.gravity,
+            half_thickness_m=self.half,
+        )  # fmt: skip

@@ -19,6 +19,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
+
 from jaxflex.response import Move
 from optim.cell_rows import Row
 from optim.robust import RobustSpec, perturbed
@@ -35,8 +37,10 @@ class ScenarioFound:
 
 class ScenarioFamily:
     """One constraint family over the nominal ``model`` and every model of the ``robust``
-    grid (optim.robust; each built on first use, with its output maps where ``outputs``);
-    ``make(model)`` builds the family of one model (module docstring)."""
+    grid (optim.robust; each built on first use: the nominal family's ``scenario(scale,
+    zeta)`` where it has one, sharing its data, else ``make`` of the perturbed model, with
+    its output maps where ``outputs``); ``make(model)`` builds the family of one model
+    (module docstring)."""
 
     def __init__(self, make: Callable, model, robust: RobustSpec, *, outputs: bool) -> None:
         self.make, self.model, self.outputs = make, model, outputs
@@ -45,36 +49,63 @@ class ScenarioFamily:
         ]
         self.families: dict[int, object] = {}
         self.training = [0]
-        nominal = self.family(0)
-        self.name, self.limit = nominal.name, nominal.limit
+        self.utilisation: dict[int, float] = {}  # each model's, from its last certificate
+        self.nominal = self.family(0)  # the nominal model's family
+        self.name, self.limit = self.nominal.name, self.nominal.limit
 
     def family(self, index: int):
         if index not in self.families:
             _, scale, zeta = self.models[index]
-            model = (
-                self.model
-                if index == 0
-                else perturbed(self.model, scale, zeta, outputs=self.outputs)
-            )
-            self.families[index] = self.make(model)
+            if index == 0:
+                self.families[0] = self.make(self.model)
+            elif getattr(self.family(0), "scenario", None) is not None:
+                self.families[index] = self.family(0).scenario(scale, zeta)
+            else:
+                model = perturbed(self.model, scale, zeta, outputs=self.outputs)
+                self.families[index] = self.make(model)
         return self.families[index]
 
     def scan(self, move: Move, axes) -> list[Row]:
         return [row for i in self.training for row in self.family(i).scan(move, axes)]
 
-    def certify(self, move: Move, *, complete: bool = False) -> ScenarioFound:
-        """Every model's certified value for ``move`` (a Move), the rows' models first;
-        without ``complete`` the check stops at the first model that fails (what the search
-        needs)."""
-        order = self.training + [i for i in range(len(self.models)) if i not in self.training]
+    def _order(self) -> list[int]:
+        """The models in the order they are certified: the rows' models, then the others by
+        their last utilisation, largest first (a failing model is found early), then in the
+        grid's order."""
+        rest = [i for i in range(len(self.models)) if i not in self.training]
+        rest.sort(key=lambda i: -self.utilisation.get(i, -np.inf))
+        return self.training + rest
+
+    def certify(self, move: Move) -> ScenarioFound:
+        """Every model's certificate for ``move`` (a Move), each decided against the limit,
+        stopping at the first model that fails (what the search needs)."""
         found, failed = [], None
-        for i in order:
+        for i in self._order():
             family = self.family(i)
             value = family.certify(move)
             found.append((i, value))
+            self.utilisation[i] = family.describe(value)["utilisation"]
+            if not family.holds(value):
+                failed = i
+                break
+        return ScenarioFound(found, failed)
+
+    def measure(self, move: Move, *, every: bool = True) -> ScenarioFound:
+        """Every model's certificate for ``move`` with the worst model's value located
+        (reports): each model is located only where it may be worse than the worst so far
+        or break the limit (a family's ``measure``). Without ``every`` the check stops at
+        the first model that fails (a baseline that breaks the constraint)."""
+        found, failed, worst, most = [], None, None, -np.inf
+        for i in self._order():
+            family = self.family(i)
+            value = measured(family, move, worst)
+            found.append((i, value))
+            share = self.utilisation[i] = family.describe(value)["utilisation"]
+            if share > most:
+                worst, most = value, share
             if failed is None and not family.holds(value):
                 failed = i
-                if not complete:
+                if not every:
                     break
         return ScenarioFound(found, failed)
 
@@ -103,3 +134,10 @@ class ScenarioFamily:
     def curve(self, move: Move, t):
         """The nominal model's curve (plots)."""
         return self.family(0).curve(move, t)
+
+
+def measured(family, move: Move, worst=None):
+    """A family's report of ``move``: its ``measure`` (the value located where it may be
+    worse than ``worst``), or its certificate where it has none."""
+    measure = getattr(family, "measure", None)
+    return family.certify(move) if measure is None else measure(move, worst)

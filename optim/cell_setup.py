@@ -33,7 +33,7 @@ from jaxflex.geometry import (
 from jaxflex.model import ModalModel
 from jaxflex.response import DEFAULT_STRESS_SAFETY, CupSet, Move
 from optim.cell_rows import DistanceFamily, LoadFamily
-from optim.cell_scenarios import ScenarioFamily
+from optim.cell_scenarios import ScenarioFamily, measured
 from optim.kinematics import clean_distance
 from optim.robust import RobustSpec
 from optim.turn_cell import TurnDistanceFamily, TurnLoadFamily, TurnSource, rest_at_end
@@ -58,11 +58,14 @@ class CellSetup:
         (n+1,) rad/s^2 of a turning move)."""
         return self.feasible(move, angular_acc)[1]
 
-    def feasible(self, move: Move, angular_acc=None) -> tuple[bool, list[dict]]:
-        """(every family holds, the families' certified values) for ``move`` (every model of
-        a robust grid checked; a turning move with its turn ``angular_acc``)."""
+    def feasible(
+        self, move: Move, angular_acc=None, *, every: bool = True
+    ) -> tuple[bool, list[dict]]:
+        """(every family holds, the families' certified values, the worst located) for
+        ``move`` (every model of a robust grid checked, or without ``every`` up to the first
+        that fails; a turning move with its turn ``angular_acc``)."""
         with self._turning(angular_acc):
-            found = [_certify_all(f, move) for f in self.families]
+            found = [_measure_all(f, move, every) for f in self.families]
         ok = all(f.holds(x) for f, x in zip(self.families, found, strict=True))
         return ok, [f.describe(x) for f, x in zip(self.families, found, strict=True)]
 
@@ -78,11 +81,12 @@ class CellSetup:
         return self.turn_source.holding(angular_acc)
 
 
-def _certify_all(family, move: Move):
-    """A family's certificate of ``move`` (a robust family's on every model of its grid)."""
+def _measure_all(family, move: Move, every: bool):
+    """A family's report of ``move`` (a robust family's on every model of its grid, or up to
+    the first that fails without ``every``)."""
     if isinstance(family, ScenarioFamily):
-        return family.certify(move, complete=True)
-    return family.certify(move)
+        return family.measure(move, every=every)
+    return measured(family, move)
 
 
 def with_cup_rating(

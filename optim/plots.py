@@ -263,7 +263,7 @@ def plot_worst_case(path: str | os.PathLike, trace: Trace, threshold_m: float) -
     deviation_axes(ax, threshold_m)
     ax.axvline(trace.cycle_s, color=OPTIMISED_COLOR, lw=1, label=f"cycle {trace.cycle_s:.3f} s")
     ax.set_xlabel("time [s]")
-    ax.legend(loc="upper right", fontsize=8)
+    fig.legend(loc="outside lower center", ncol=3, fontsize=8)  # below the data
     ax.set_title("Optimised move at its worst case over the robust grid", fontsize=10)
     save_figure(fig, path)
 
@@ -413,7 +413,7 @@ def plot_turn(path: str | os.PathLike, traces: list[Trace], turns: list[np.ndarr
     """Angle (degrees) and angular rate (rad/s) against time of each move of ``traces``
     (their labels and cycle times) with its angular acceleration samples ``turns`` (n+1,)
     rad/s^2, the optimum first."""
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, layout="constrained")
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6), sharex=True, layout="constrained")
     styles = _styles(len(traces))
     for trace, alpha, style in zip(traces, turns, styles, strict=True):
         padded = np.zeros((alpha.size, 3))
@@ -427,6 +427,6 @@ def plot_turn(path: str | os.PathLike, traces: list[Trace], turns: list[np.ndarr
     top.set_ylabel("angle [deg]")
     bottom.set_ylabel("angular rate [rad/s]")
     bottom.set_xlabel("time [s]")
-    top.legend(loc="lower right", fontsize=8)
+    fig.legend(loc="outside right center", fontsize=8)  # beside both panels, off the data
     top.set_title("The turn of the optimised move and of the baselines", fontsize=10)
     save_figure(fig, path)

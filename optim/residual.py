@@ -27,6 +27,7 @@ from jaxflex.response import (
     envelope_horizon,
     free_rows,
     max_norms,
+    once_per_array,
     point_displacements,
 )
 
@@ -62,7 +63,8 @@ class ResidualModel:
         self.sigma = np.asarray(model.zeta) * self.omega
         self.shapes, self.blocks = component_blocks(model, components)  # shapes (K, C, M)
         self.n_points = self.shapes.shape[0]
-        self.weights = np.linalg.norm(self.shapes, axis=1)  # (K, M)
+        # (K, M) the shapes' norms, computed once for the models sharing the shapes (a grid's)
+        self.weights = once_per_array(self.shapes, "norms", lambda a: np.linalg.norm(a, axis=1))
         self.step_s = 1.0 / (SAMPLES_PER_PERIOD * np.max(np.asarray(model.freq_hz)))
 
     # -- closed-form free response -------------------------------------------------------

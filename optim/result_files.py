@@ -24,7 +24,9 @@ RESULT_FILES = (
     "turn.png",
 )
 ANIMATION_DIR = "animation"  # optim.animate's set, beside the result's files
-SERIES = "part.pvd"  # the ParaView series over part_NNNN.vtu (optim.animate_series)
+SERIES = "part.xdmf"  # the ParaView series (optim.animate_series) over the HDF5 file
+SERIES_DATA = "part.h5"
+OLD = ("part.pvd",)  # the series' collection before part.xdmf (over part_NNNN.vtu)
 CELL_FILE = "cell.vtu"
 PATH_FILE = "path.vtu"
 PAGE = "animation.html"  # the browser page (optim.animate_page)
@@ -32,13 +34,12 @@ MAX_VERTICES = 3000  # the default reduction of the page's surface (points drawn
 MAX_FRAMES = 120  # and of its frames
 
 
-def series_names(directory: Path, frames: int) -> tuple[str, ...]:
-    """Every member an animation set in ``directory`` may have: this one's (``frames``
-    frame files) and the frame files an earlier one left (removed when this one does not
-    write them)."""
+def series_names(directory: Path) -> tuple[str, ...]:
+    """Every member an animation set in ``directory`` may have: this one's and the files of
+    the series an earlier jaxflex wrote (``part.pvd`` over ``part_NNNN.vtu``; removed, as
+    this one does not write them)."""
     old = sorted(p.name for p in directory.glob("part_*.vtu")) if directory.is_dir() else []
-    mine = [f"part_{i:04d}.vtu" for i in range(frames)]
-    return tuple(dict.fromkeys([*mine, *old, SERIES, CELL_FILE, PATH_FILE, PAGE]))
+    return tuple(dict.fromkeys([SERIES, SERIES_DATA, CELL_FILE, PATH_FILE, PAGE, *OLD, *old]))
 
 
 def check_animation_dir(option: str, result_dir: str | os.PathLike) -> Path:
@@ -49,4 +50,4 @@ def check_animation_dir(option: str, result_dir: str | os.PathLike) -> Path:
     directory = Path(result_dir) / ANIMATION_DIR
     if not Path(result_dir).is_dir():
         return directory
-    return check_set_dir(option, directory, series_names(directory, 0))
+    return check_set_dir(option, directory, series_names(directory))

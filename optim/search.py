@@ -55,7 +55,10 @@ MAX_ROUNDS = 60
 PEAKS_PER_ROUND = 40
 TIME_RTOL = 1e-12
 SOLVER_FAILURES = ("failed", "row generation did not converge")
+PROOFS = ("infeasible", "rows cannot all hold")  # an LP of valid rows only: no move exists
 KEPT_LENGTHS = 2
+SEEDED_CUTS = 120  # valid cuts of a certified length moved to the next length tested
+TIGHT_SLACK = 0.01  # ... those its certified move meets within 1 % of their limit
 
 
 @dataclass
@@ -101,6 +104,10 @@ class Problem:
     clearance_pool: dict[int, list[ClearancePeak]] = field(default_factory=dict)
     cell_rows: dict[int, list[Row]] = field(default_factory=dict)
     turn: Any = None  # optim.turn.TurnSchedule: a fixed turn with the move (affine end state)
+    certified: set[int] = field(default_factory=set)  # lengths with a certified move
+    certified_moves: dict[int, np.ndarray] = field(default_factory=dict)  # their samples
+    excluded: set[int] = field(default_factory=set)  # lengths proven too short (no move)
+    seeded: dict[int, int] = field(default_factory=dict)  # length: certified length it took rows of
     _maps: dict = field(default_factory=dict)
     _move_maps: dict = field(default_factory=dict)
 
@@ -171,6 +178,73 @@ class Problem:
     def add_peak(self, scenario: int, peak: Peak) -> None:
         coef = self.scenarios[scenario].residual.row(peak)
         self.pool.append(PoolRow(scenario, peak, coef))
+
+    def restricted(self, n_steps: int) -> bool:
+        """Whether the cell's rows of ``n_steps`` include restrictions (separating planes,
+        optim.cell_rows): rows that can cut off a move that meets the constraints."""
+        return any(r.restriction for r in self.cell_rows.get(n_steps, []))
+
+    def seed(self, n_steps: int) -> int | None:
+        """Before a test of ``n_steps`` that has no certified move: the separating planes of
+        the nearest certified length moved to it (the same planes at the same fractions of
+        the move), in place of its own (its valid cuts stay). A plane chosen where a
+        certified move passed is on the side that move keeps, not where an LP's answer that
+        runs into the obstacle happens to be. Returns that length, or None (none certified
+        yet, this length certified, already seeded from it, or a turning move: its rows
+        belong to the turn's schedule)."""
+        if self.turn is not None or n_steps in self.certified or not self.certified:
+            return None
+        source = min(self.certified, key=lambda n: (abs(n - n_steps), n))
+        if self.seeded.get(n_steps) == source:
+            return None
+        own = [r for r in self.cell_rows.get(n_steps, []) if not r.restriction]
+        rows = [r for r in self.cell_rows.get(source, []) if r.moved is not None]
+        planes = [r for r in rows if r.restriction]
+        moved = (r.moved(n_steps, self.dt_s, self.axes) for r in planes + self._tight(source))
+        self.cell_rows[n_steps] = own + [r for r in moved if r is not None]
+        self.seeded[n_steps] = source
+        return source
+
+    def _tight(self, n_steps: int) -> list[Row]:
+        """The valid cuts of the certified length ``n_steps`` that its certified move meets
+        within TIGHT_SLACK of their limit, the tightest SEEDED_CUTS: the ones that shaped it,
+        which a neighbouring length then starts from (any valid cut may; these are the ones
+        likely to matter, and moving all of them would cost more than the rounds they save)."""
+        move = self.certified_moves[n_steps][:, list(self.axes)]
+        cuts = [r for r in self.cell_rows.get(n_steps, []) if not r.restriction and r.moved]
+        slack = np.array([r.rhs - np.sum(r.coef * move) for r in cuts])
+        order = np.argsort(slack, kind="stable")[:SEEDED_CUTS]
+        return [cuts[i] for i in order if slack[i] <= TIGHT_SLACK]
+
+    def nominal(self) -> Problem:
+        """The same problem for the nominal model alone: its scenario and, of every robust
+        family (optim.cell_scenarios), the nominal model's family."""
+        grid, training = scenarios(self.model, None, self.threshold_m)
+        families = [getattr(f, "nominal", f) for f in self.families]
+        return Problem(
+            self.model, self.distance_m, self.limits, self.threshold_m, self.dt_s,
+            self.max_steps, None, grid, training, self.components, self.clearance_m,
+            via=self.via, families=families,
+        )  # fmt: skip
+
+    def adopt(self, nominal: Problem) -> None:
+        """Take the cell's rows of the :meth:`nominal` problem's search (rows of the nominal
+        model, which every robust family certifies too) and, where the nominal model is one
+        of the robust scenarios (:meth:`covers_nominal`), the lengths it proved too short."""
+        for n, rows in nominal.cell_rows.items():
+            self.cell_rows.setdefault(n, []).extend(rows)
+        if self.covers_nominal():
+            self.excluded |= nominal.excluded
+
+    def covers_nominal(self) -> bool:
+        """Whether the nominal model is one of the scenarios (frequency scale 1, its own
+        damping): then every move certified for the scenarios is certified for it."""
+        return any(s.scale == 1.0 and _same_damping(s, self.model) for s in self.scenarios)
+
+
+def _same_damping(scenario: Scenario, model: ModalModel) -> bool:
+    """Whether ``scenario`` has the damping of ``model`` (its own, or equal ratios)."""
+    return scenario.zeta is None or bool(np.allclose(model.zeta, scenario.zeta, rtol=1e-12))
 
 
 def _length(key: int | tuple[int, int]) -> int:
@@ -353,17 +427,12 @@ def _rejected(n_steps, value, rounds, start, reason, stats) -> Attempt:
     )
 
 
-def attempt(
-    problem: Problem,
-    solver: Subsolver,
-    n_steps: int,
-    warm: np.ndarray,
-) -> Attempt:
+def attempt(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray) -> Attempt:
     """Is there a certified move of ``n_steps`` steps? (module docstring). With a turn,
     each of its schedules for n steps in order (optim.turn.TurnSchedule) until one is."""
     turn = problem.turn
     if turn is None:
-        return _attempt(problem, solver, n_steps, warm)
+        return _straight_attempt(problem, solver, n_steps, warm)
     start = time.perf_counter()
     found = _rejected(n_steps, np.inf, 0, start, "the turn does not fit in the move", [])
     for variant in turn.variants(n_steps):
@@ -374,6 +443,61 @@ def attempt(
             found.turn_acc = turn.angular_acc(n_steps)
             break
     return found
+
+
+def _straight_attempt(problem: Problem, solver: Subsolver, n: int, warm: np.ndarray) -> Attempt:
+    """The test of :func:`attempt` for a straight move, with the cell's rows seeded from the
+    nearest certified length (:meth:`Problem.seed`). A length whose LP has no solution
+    without any separating plane is proven too short (``problem.excluded``)."""
+    problem.seed(n)
+    found = _attempt(problem, solver, n, warm)
+    if found.feasible:
+        problem.certified.add(n)
+        problem.certified_moves[n] = found.acc
+    elif found.reason in PROOFS and not problem.restricted(n) and n not in problem.certified:
+        problem.excluded.add(n)
+    return found
+
+
+def necessary(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray) -> bool:
+    """The cheap necessary test of a length: one LP with every row a move of ``n_steps``
+    steps must meet (limits, via points at their fractions, the pooled cuts of the residual
+    vibration and of the loads) and none of the separating planes; with a turn, one per
+    schedule the turn has for that length (none: the turn does not fit). False (and the
+    length recorded as proven too short) where none has a solution."""
+    if n_steps in problem.excluded:
+        return False
+    if n_steps in problem.certified:
+        return True
+    turn = problem.turn
+    if turn is None:
+        possible = _necessary(problem, solver, n_steps, warm)
+    else:
+        variant, pool = turn.variant, problem.cell_rows
+        possible = False
+        try:
+            for schedule in turn.variants(n_steps):
+                turn.variant = schedule
+                problem.cell_rows = turn.cell_rows()
+                possible = _necessary(problem, solver, n_steps, warm)
+                if possible:
+                    break
+        finally:
+            turn.variant, problem.cell_rows = variant, pool
+    if not possible:
+        problem.excluded.add(n_steps)
+    return possible
+
+
+def _necessary(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray) -> bool:
+    """:func:`necessary`'s LP with the active rows (with a turn: its active schedule's)."""
+    rows = problem.cell_rows.get(n_steps, [])
+    problem.cell_rows[n_steps] = [r for r in rows if not r.restriction]
+    try:
+        sub = solver.solve(problem, n_steps, warm)
+    finally:
+        problem.cell_rows[n_steps] = rows
+    return not (sub.status == "infeasible" or (sub.status == "solved" and sub.value > 1.0 + 1e-7))
 
 
 def _attempt(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray) -> Attempt:
@@ -458,18 +582,25 @@ def bisect(
     warm_moves: list[np.ndarray],
     *,
     progress: bool | None = None,
+    start_steps: int | None = None,
+    lowest_steps: int | None = None,
 ) -> tuple[Attempt | None, list[Attempt]]:
     """Fewest steps n with a certified move. ``floor_move`` is the kinematic floor (no move
     is shorter); ``upper_steps`` is a length known to be feasible in principle (a baseline
-    padded to its cycle time). The search gallops upwards from the floor (steps of 4 %,
-    doubling) until a length is feasible, then bisects: optima usually lie near the floor,
-    and short moves make small LPs. ``warm_moves`` (kinematically feasible moves, e.g. the
-    baselines) seed the subproblems. Returns (best attempt or None, every attempt)."""
+    padded to its cycle time). The search gallops upwards from the floor (or from
+    ``start_steps``: a shorter problem's answer) in steps of 4 %, doubling, until a length is
+    feasible, then bisects: optima usually lie near the floor, and short moves make small
+    LPs. ``warm_moves`` (kinematically feasible moves, e.g. the baselines) seed the
+    subproblems. ``lowest_steps``: no shorter length is tested (a smaller problem's
+    answer, whose search tried the shorter ones). Returns (best attempt or None, every
+    attempt)."""
     history: list[Attempt] = []
     floor_steps = floor_move.shape[0] - 1
     moves = [floor_move, *warm_moves]
     cap = min(max(upper_steps, floor_steps), problem.max_steps)
-    lo, n, stride = floor_steps - 1, floor_steps, max(1, int(np.ceil(0.04 * floor_steps)))
+    lowest = floor_steps if lowest_steps is None else min(max(lowest_steps, floor_steps), cap)
+    first = lowest if start_steps is None else min(max(start_steps, lowest), cap)
+    lo, n, stride = lowest - 1, first, max(1, int(np.ceil(0.04 * floor_steps)))
     best: Attempt | None = None
     bar = progress_bar(
         max(1, _tests_left(lo, cap)), f"{solver.name}: shortest move", progress, "test"
@@ -516,6 +647,27 @@ def bisect(
                 best, hi = result, mid
             else:
                 lo = mid
+        if any(problem.restricted(n) for n in problem.cell_rows):
+            best = _below(problem, solver, best, (lowest, moves), test)
     finally:
         bar.close()
     return best, history
+
+
+def _below(problem: Problem, solver: Subsolver, best: Attempt, start, test) -> Attempt:
+    """Where separating planes took part, a length the bisection declared too short is no
+    proof (the planes are a restriction, and feasibility need not be monotone): every length
+    from the answer down to the kinematic floor that the necessary test (:func:`necessary`)
+    does not exclude and that has not been tried with the rows of the current answer is
+    tested again with them (:func:`attempt` seeds it from the nearest certified length, the
+    answer). ``start``: (the kinematic floor's steps, the moves that seed the subproblems).
+    Returns the shortest certified attempt."""
+    floor_steps, moves = start
+    for n in range(best.n_steps - 1, floor_steps - 1, -1):
+        if problem.seeded.get(n) == best.n_steps:
+            continue
+        if necessary(problem, solver, n, _warm_start(moves, n)):
+            result = test(n)
+            if result.feasible:
+                best = result
+    return best

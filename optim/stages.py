@@ -22,12 +22,21 @@ import time
 from dataclasses import dataclass, field
 
 from jaxflex.errors import BudgetError, InputError, JaxflexError
+from jaxflex.geometry import BLOCK_POINTS
 from jaxflex.response import Move, SettleReport, analyze_move
 from jaxflex.runtime import issue, model_resolution, require, threshold_advice
 from optim.advice import grid_advice
 from optim.baselines import Baseline, BaselineSet, via_baselines
 from optim.baselines import baselines as compute_baselines
-from optim.budget import check_memory, check_move_length, distance_need, search_need
+from optim.budget import (
+    CellCost,
+    check_memory,
+    check_move_length,
+    distance_need,
+    models_need,
+    obstacle_pieces,
+    search_need,
+)
 from optim.cell_setup import CellSetup, prepare_cell
 from optim.choice import Candidate, candidates
 from optim.choice import choose as choose_candidate
@@ -81,6 +90,7 @@ class Search:
     history: list[Attempt]
     final: Attempt | None
     notes: list[str] = field(default_factory=list)
+    nominal: list[Attempt] = field(default_factory=list)  # the robust cell's nominal search
 
 
 @dataclass(frozen=True)
@@ -101,11 +111,12 @@ def plan(request: Request) -> Plan:
     """Pose the model in the cell and fix the search's budget; refuse (InputError,
     BudgetError) what cannot fit before any work."""
     r = request
+    models = 1 + (0 if r.robust is None else r.robust.n_scenarios)  # the cell's
     if r.cell is not None and r.min_distance_m is not None:  # before the set-up measures
-        shortest, allowed = check_move_length(
+        shortest, _ = check_move_length(
             r.cell.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
         )
-        require(distance_need(r.cell, r.model.n_points, shortest, allowed))
+        require(distance_need(r.cell, r.model.n_points, shortest, models))
     setup = prepare_cell(
         r.model,
         r.distance_m,
@@ -126,8 +137,26 @@ def plan(request: Request) -> Plan:
     steps_cap = check_memory(
         model.n_modes, shortest, allowed, r.n_scenarios, clearance, r.max_memory_bytes
     )
-    require(search_need(model.n_modes, model.n_points, shortest, steps_cap, r.n_scenarios))
+    cell = _cell_cost(r, setup, models)
+    need = search_need(model.n_modes, model.n_points, shortest, steps_cap, r.n_scenarios, cell=cell)
+    grid = [] if r.robust is None else [models_need(model.n_modes, model.n_points, models)]
+    require(need, *grid)
     return Plan(setup, shortest, steps_cap, issue(grid_advice(r.robust) + setup.advice))
+
+
+def _cell_cost(request: Request, setup: CellSetup, models: int) -> CellCost | None:
+    """What the cell's constraint families cost a search (optim.budget.CellCost), None
+    without them: the distance's blocks of points and obstacle pieces, the loads' output
+    rows, each family on ``models`` models."""
+    if not setup.families:
+        return None
+    nominal = [getattr(f, "nominal", f) for f in setup.families]
+    loads = [f.functional for f in nominal if hasattr(f, "functional")]
+    rows = sum(f.n_items * f.rows_per_item for f in loads)
+    distance = len(loads) < len(nominal)
+    blocks = math.ceil(setup.model.n_points / BLOCK_POINTS) if distance else 0
+    pieces = obstacle_pieces(request.cell) if distance else 0
+    return CellCost(blocks, pieces, rows, len(nominal), models)
 
 
 def _check_clearance(setup: CellSetup, clearance_m: float, max_duration_s: float) -> None:
@@ -178,7 +207,9 @@ def baselines(request: Request, plan: Plan) -> Baselines:
             progress=r.progress,
         )  # fmt: skip
     for entry in moves.entries:
-        entry.constraints_ok, entry.constraints = setup.feasible(entry.move, entry.angular_acc)
+        entry.constraints_ok, entry.constraints = setup.feasible(
+            entry.move, entry.angular_acc, every=False
+        )
     floor = moves.entries[0]  # the fastest move there is on the grid (along the path)
     measured = [floor] if r.clearance_m is None else moves.entries
     deviations = {
@@ -229,21 +260,47 @@ def search(request: Request, plan: Plan, base: Baselines) -> Search:
     sub = LPSubsolver(r.solver) if r.method == "exact" else GradientSubsolver(r.solver)
     bound = min((e.score() for e in base.feasible), default=plan.steps_cap * r.dt_s)
     upper = math.ceil(bound / r.dt_s - 1e-9)
-    # the search's moves are now bracketed: its LPs reach up to the best baseline's length
-    bracket = min(upper, plan.steps_cap)
-    require(
-        search_need(model.n_modes, model.n_points, plan.shortest, bracket, r.n_scenarios, bracket)
-    )
+    if r.robust is None and not plan.setup.families:
+        # the search's moves are now bracketed: its LPs reach up to the best baseline's
+        # length (the nominal baselines are cheap: this refusal still comes early; a robust
+        # or cell plan is final, its baselines can take longer)
+        bracket = min(upper, plan.steps_cap)
+        need = search_need(model.n_modes, model.n_points, plan.shortest, bracket, 1, bracket)
+        require(need)
     moves = base.moves
+    warm = [e.acc for e in moves.entries]
+    start, nominal = _nominal_first(r, problem, sub, (moves.floor_acc, upper, warm))
+    lowest = start if start is not None and problem.covers_nominal() else None
     best, history = bisect(
-        problem, sub, moves.floor_acc, upper, [e.acc for e in moves.entries], progress=r.progress
-    )
+        problem, sub, moves.floor_acc, upper, warm, progress=r.progress, start_steps=start,
+        lowest_steps=lowest,
+    )  # fmt: skip
     if best is None and not (plan.setup.families and base.feasible):
         raise _no_move(r, plan)
     if r.method != "exact" or best is None:
-        return Search(problem, sub, history, best)
+        return Search(problem, sub, history, best, nominal=nominal)
     final, notes = _polish(problem, sub, best, history)
-    return Search(problem, sub, history, final, notes)
+    return Search(problem, sub, history, final, notes, nominal)
+
+
+def _nominal_first(request: Request, problem: Problem, sub, bracket) -> tuple[int | None, list]:
+    """With a robust grid and the cell's constraints (straight moves, exact route): the
+    search of the nominal model alone first (cheap: one model to certify), whose answer is
+    where the robust search starts and whose rows it starts from (the nominal model is one
+    of the robust models of every constraint; optim.search.Problem.adopt). Where the
+    nominal model is also one of the grid's scenarios of the cycle time, no shorter length
+    is tested: a robust move is then a nominal one, and the nominal search, the same as the
+    nominal run's, tried every shorter length (docs/optim.md, "The shortest certified
+    move"). Returns (the nominal answer's steps or None, the nominal search's attempts)."""
+    if request.robust is None or not problem.families or problem.turn is not None:
+        return None, []
+    if request.method != "exact":
+        return None, []
+    nominal = problem.nominal()
+    floor, upper, warm = bracket
+    found, attempts = bisect(nominal, sub, floor, upper, warm, progress=request.progress)
+    problem.adopt(nominal)
+    return (None if found is None else found.n_steps), attempts
 
 
 def _no_move(request: Request, plan: Plan) -> JaxflexError:
@@ -388,6 +445,7 @@ def report(
         "subproblems": sum(len(a.solver_stats) for a in history),
         "pooled_rows": len(problem.pool),
         "training_scenarios": [problem.scenarios[i].as_dict() for i in problem.training],
+        "nominal_attempts": [a.summary() for a in found.nominal],
         "totals": _totals(history),
         "notes": choice.notes,
     }

@@ -322,11 +322,12 @@ class TurnLoadFamily(LoadFamily):
         rhs = (self.limit * (1 - ROW_MARGIN) - constant) / self.limit
         return Row(coef[:, list(axes)] / self.limit, float(rhs), float(motion.t_s[j]), item)
 
-    def certify(self, move: Move) -> Peak:
+    scenario = None  # a robust grid's models are built with their own maps (cell_scenarios)
+
+    def _peak(self, move: Move, limit: float | None) -> Peak:
         """The supremum over ``move`` (a Move), the settling and the rest in the final pose,
         certified by branch and bound (jaxflex.turning_peaks), to 1e-5 of the value or up to
-        the limit below it (where the bound stays below the limit the peak need not be
-        located)."""
+        ``limit`` below it (where the bound stays below it the peak need not be located)."""
         spec = self.source.spec
         return turning_output_peak(
             self.model,
@@ -338,7 +339,7 @@ class TurnLoadFamily(LoadFamily):
             gravity_m_s2=spec.gravity_m_s2,
             pivot_m=spec.pivot_m,
             rtol=1e-5,
-            limit=self.limit,
+            limit=limit,
         )
 
     def failure_row(self, peak: Peak, move: Move, axes) -> Row:
@@ -417,10 +418,15 @@ class TurnDistanceFamily:
         margin = self.limit * (1 + ROW_MARGIN) + self.half
         # n . (p(a) - c) >= margin  <=>  -coef . a <= constant - margin
         rhs = constant - margin
-        return Row(-coef[:, list(axes)] / self.limit, float(rhs / self.limit), float(t), point)
+        coef = -coef[:, list(axes)] / self.limit
+        return Row(coef, float(rhs / self.limit), float(t), point, restriction=True)
 
-    def certify(self, move: Move):
-        """The certified clearance over ``move`` (a Move) and the settling."""
+    certify = DistanceFamily.certify
+    measure = DistanceFamily.measure
+
+    def _clearance(self, move: Move, limit_m: float | None):
+        """The certified clearance over ``move`` (a Move) and the settling, decided against
+        ``limit_m`` (None: located everywhere)."""
         spec = self.source.spec
         path = spec.path(self.source.angular_acc(move.n_steps), move.dt_s)
         return certified_distance(
@@ -430,6 +436,7 @@ class TurnDistanceFamily:
             move.acc,
             gravity_m_s2=spec.gravity_m_s2,
             pivot_m=spec.pivot_m,
+            limit_m=limit_m,
         )
 
     def holds(self, found) -> bool:

@@ -13,7 +13,10 @@ from fmu.bench.accuracy import dominance, pareto_front
 from fmu.bench.fe import knot_move
 from fmu.bench.methods import METHODS, prepare, stable_substeps
 from fmu.bench.metrics import compare, curve_errors, settle_from_samples
+from fmu.bench.turning import format_turning, swivel
+from fmu.bench.turning import run as turning_bench
 from jaxflex.errors import InputError
+from jaxflex.turning import simulate_turning
 
 
 def test_curve_errors_hand_computed():
@@ -113,6 +116,21 @@ def test_knot_move_is_one_profile_at_every_swept_dt():
         knot_move(0.01, 0.5, 0.3)
     with pytest.raises(InputError, match="dt_s"):
         knot_move(0.03, 0.6, 0.3)
+
+
+def test_turning_bench_reports_both_calls(turning_plate):
+    """The turning section (fmu.bench.turning) on the tests' plate: both calls timed in CPU
+    seconds, their ratio and the target's verdict reported (figures only: no time assert),
+    the turning response the same as simulate_turning's."""
+    result = turning_bench(turning_plate, repeats=2, progress=lambda _: None)
+    assert result["n_points"] == turning_plate.n_points and result["n_samples"] == 181
+    assert result["simulate_cpu_s"] >= 0 and result["simulate_turning_cpu_s"] >= 0
+    assert result["meets_target"] == (result["ratio"] <= result["target_ratio"])
+    path, acc = swivel()
+    expected = simulate_turning(turning_plate, path, acc)
+    assert result["peak_deviation_m"] == expected.deviation_m.max()
+    assert result["neglected_bound_m"] == expected.neglected_bound_m
+    assert "simulate_turning" in format_turning(result)
 
 
 @pytest.mark.slow

@@ -158,13 +158,13 @@ def test_a_link_in_the_animations_place_is_refused_before_any_work(tmp_path):
     (result / "animation").mkdir()
     victim = tmp_path / "victim.txt"
     victim.write_text("kept")
-    (result / "animation" / "part.pvd").symlink_to(victim)
+    (result / "animation" / "part.xdmf").symlink_to(victim)
     optimize = ["optimize", str(model), "--distance", "0", "0", "1", "--threshold", "1e-3"]
     for argv in ([*optimize, "-o", str(result), "--animate"], ["animate", str(result)]):
         loaded, answered = _answered_in_child(argv)
         assert loaded == "loaded: [] 2", answered
-        assert "symbolic link" in answered and "part.pvd" in answered, answered
-    assert (result / "animation" / "part.pvd").is_symlink() and victim.read_text() == "kept"
+        assert "symbolic link" in answered and "part.xdmf" in answered, answered
+    assert (result / "animation" / "part.xdmf").is_symlink() and victim.read_text() == "kept"
 
 
 def test_interrupted_command_exits_130(monkeypatch, capsys):

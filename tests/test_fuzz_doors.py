@@ -56,7 +56,7 @@ from jaxflex.convolution import unit_response, write_unit_response_csv
 from jaxflex.errors import BudgetError, JaxflexError
 from jaxflex.files import MANIFEST
 from optim.animate_page import PAGE
-from optim.animate_series import CELL_FILE, PATH_FILE, SERIES
+from optim.animate_series import CELL_FILE, PATH_FILE, SERIES, SERIES_DATA
 from optim.cell_file import load_cell
 from optim.result import RESULT_FILES
 from optim.sweep.plan import sweep_needs
@@ -855,7 +855,7 @@ class OutputDoor:
     result: str | None = None  # an optimised result copied to "{D}/r" first (animate's input)
 
 
-ANIMATION_FILES = (SERIES, CELL_FILE, PATH_FILE, PAGE, "part_0000.vtu")
+ANIMATION_FILES = (SERIES, SERIES_DATA, CELL_FILE, PATH_FILE, PAGE, "part_0000.vtu")
 
 
 def output_doors(inputs: dict[str, str]) -> list[OutputDoor]:

@@ -22,11 +22,21 @@ from independent import (
 import fem
 import optim
 from jaxflex.cell import Box, Cell
-from jaxflex.collision import distances, min_distance
+from jaxflex.collision import distances, min_distance, positions_at
 from jaxflex.errors import InputError
 from jaxflex.loads import CupUtilisation, VonMises
-from jaxflex.profile import integrate
+from jaxflex.profile import as_move, integrate
 from optim.cell_file import load_cell
+from optim.cell_rows import (
+    ROW_MARGIN,
+    SCAN_RTOL,
+    DistanceFamily,
+    LoadFamily,
+    _local_peaks,
+    _worst_samples,
+    check_times,
+)
+from optim.robust import perturbed
 from optim.ruckig_move import kinematic_floor_move
 
 DT = 0.01
@@ -64,6 +74,11 @@ def fe_result():
     return fem.modal_analysis(part, cups, n_modes=40, zeta=0.02, progress=False)
 
 
+def cell_posed(model):
+    """``model`` posed in the press scene's cell (its points where the part is at A)."""
+    return press().posed(model)
+
+
 def independent_distance(result, n_modes, cell, acc, until_s, step_s=1e-4) -> float:
     """The smallest distance of the part's skins to the cell's boxes and half-spaces, by a
     computation that shares no code with jaxflex (tests/independent.py): every FE node, both
@@ -94,7 +109,17 @@ def independent_distance(result, n_modes, cell, acc, until_s, step_s=1e-4) -> fl
     return best
 
 
-def test_press_opening_via_point_move(model_all_nodes, fe_result):
+@pytest.fixture(scope="module")
+def press_result(model_all_nodes):
+    """The optimised via-point move of ``model_all_nodes`` through :func:`press`, 10 mm from
+    the obstacles."""
+    return optim.optimize(
+        model_all_nodes, None, LIMITS, DT, THRESHOLD, cell=press(), min_distance_m=0.01,
+        progress=False,
+    )  # fmt: skip
+
+
+def test_press_opening_via_point_move(model_all_nodes, fe_result, press_result):
     """The optimised via-point move passes the press opening with the requested 10 mm from
     the part's skins, certified; an independent evaluation (every FE node, both skins, a
     0.1 ms grid over the move and 1 s of settling, scipy's lsim of 40 modes, the sag by a
@@ -102,11 +127,7 @@ def test_press_opening_via_point_move(model_all_nodes, fe_result):
     modes and the static residual against 40 (measured here: below 2 um); the straight move
     collides; the optimum is faster than the ruckig move through the same via point plus its
     decay (the feasible baseline)."""
-    model = model_all_nodes
-    cell = press()
-    result = optim.optimize(
-        model, None, LIMITS, DT, THRESHOLD, cell=cell, min_distance_m=0.01, progress=False
-    )
+    model, cell, result = model_all_nodes, press(), press_result
     (constraint,) = result.constraints
     assert constraint["bound"] >= 0.01 * (1 - 1e-9)
     assert constraint["points"] == len(fe_result.system.nodes)
@@ -122,6 +143,127 @@ def test_press_opening_via_point_move(model_all_nodes, fe_result):
     assert min_distance(cell.posed(model), cell.obstacles, straight, DT).distance_m < 0
     report = result.report()
     assert report["frame"] == "cell" and report["constraints"][0]["obstacle"] == "lower die"
+
+
+def _pruning_moves(press_result, cell):
+    """Moves that exercise every branch of the pruned searches on :func:`press`: the
+    certified optimum (it passes the die's corner near the limit), the straight kinematic
+    floor (it runs through the die) and the optimum lifted 20 % less (it grazes the die)."""
+    lower = press_result.acc.copy()
+    lower[:, 2] *= 0.8
+    straight = kinematic_floor_move(cell.distance_m, LIMITS, DT, 1000).acc
+    return [as_move(a, DT, at_rest=True) for a in (press_result.acc, straight, lower)]
+
+
+def _same_places(found, expected) -> None:
+    """The rows ``found`` and ``expected``, as (time s, value there), are at the same times
+    with the same values: the same rows up to which of two items of equal value (the plate
+    and the press are symmetric) a tie picks; values to the rounding of two evaluations."""
+    assert len(found) == len(expected)
+    if not expected:
+        return
+    (t_a, v_a), (t_b, v_b) = (np.array(sorted(rows)).T for rows in (found, expected))
+    np.testing.assert_array_equal(t_a, t_b)
+    np.testing.assert_allclose(v_a, v_b, rtol=1e-12, atol=1e-15)
+
+
+def test_pruned_distance_agrees_with_every_point_at_every_time(model_all_nodes, press_result):
+    """The distance family prunes twice (block centres every 8th check time with a speed
+    bound between, then the blocks by their bound at each time) and certifies by branch and
+    bound: on the press scene it gives the rows of evaluating every point at every check
+    time (the same (time, point) pairs, each separating plane of a violation), the same
+    smallest distance at every time, and a certificate whose bound no point on the check
+    grid goes below (decided against the limit, or located to 1e-6 m)."""
+    cell, model = press(), cell_posed(model_all_nodes)
+    family = DistanceFamily(model, cell.obstacles, 0.01, GRAVITY, 0.5e-3)
+    threshold = 0.01 * (1 + ROW_MARGIN - SCAN_RTOL)
+    rows = 0
+    for move in _pruning_moves(press_result, cell):
+        t = check_times(model, move.n_steps, DT)
+        every = positions_at(model, move.acc, DT, t, GRAVITY)  # (T, K, 3)
+        dense = distances(cell.obstacles, every.reshape(-1, 3))[0].reshape(every.shape[:2])
+        dense -= 0.5e-3
+        expected = [(t[j], dense[j, k]) for j, k in _local_peaks(-dense, -threshold)]
+        rows += len(expected)
+        found = [
+            (r.time_s, dense[np.searchsorted(t, r.time_s), r.item])
+            for r in family.scan(move, (0, 2))
+        ]
+        _same_places(found, expected)
+        np.testing.assert_array_equal(family.curve(move, t), dense.min(axis=1))
+        decided, located = family.certify(move), family.measure(move)
+        assert located.bound_m <= dense.min() + 1e-12  # the grid's smallest is attained
+        assert located.distance_m - located.bound_m <= 1.01e-6  # CERTIFY_ATOL_M
+        assert decided.bound_m <= dense.min() + 1e-12
+        assert family.holds(decided) == family.holds(located) == (located.bound_m >= 0.01)
+    assert rows  # the moves that run into the die give rows
+
+
+@pytest.mark.parametrize("kind", ["cups", "stress"])
+def test_pruned_loads_agree_with_every_item_at_every_time(model_all_nodes, press_result, kind):
+    """The load families evaluate only the items whose bound reaches the limit, at the
+    samples and between them where a curvature bound reaches it: on the press scene (limits
+    that some moves break) they give the rows of evaluating every item at every check time,
+    the same largest load at every time, a certified peak that no item on that grid exceeds,
+    and for a model of a robust grid (its maps the nominal ones, column-scaled) the rows and
+    peaks of the model whose scaled maps are built (jaxflex.model.with_frequency_scale)."""
+    cell, model = press(), cell_posed(model_all_nodes)
+    moves = _pruning_moves(press_result, cell)
+    make = LoadFamily.cups if kind == "cups" else LoadFamily.stress
+    unit = make(model, 1.0, GRAVITY)  # utilisation at safety 1, or the stress in Pa
+    largest = max(unit.values(m.acc, DT, check_times(model, m.n_steps, DT)).max() for m in moves)
+    # a limit that the move of the largest load breaks (safety factor, or Pa)
+    family = make(model, 1 / (0.95 * largest) if kind == "cups" else 0.95 * largest, GRAVITY)
+    above = family.limit * (1 - ROW_MARGIN + SCAN_RTOL)
+    broken = 0
+    for move in moves:
+        t = check_times(model, move.n_steps, DT)
+        dense = family.values(move.acc, DT, t)  # every item at every time
+        found = [
+            (r.time_s, dense[np.searchsorted(t, r.time_s), r.item])
+            for r in family.scan(move, (0, 2))
+        ]
+        _same_places(found, [(t[j], dense[j, i]) for j, i in _worst_samples(dense, above)])
+        np.testing.assert_allclose(family.curve(move, t), dense.max(axis=1), rtol=1e-12)
+        decided, located = family.certify(move), family.measure(move)
+        assert located.bound >= dense.max() * (1 - 1e-12)
+        assert located.bound <= located.value * (1 + 1.01e-5)  # located to rtol 1e-5
+        assert family.holds(decided) == family.holds(located)
+        broken += not family.holds(located)
+    assert broken  # the decided certificate located a peak above the limit
+    scaled = family.scenario(0.9, 0.01)
+    built = perturbed(model, 0.9, 0.01, outputs=True)
+    outputs = built.cups.reaction if kind == "cups" else built.stress.stress
+    copy = LoadFamily(family.name, built, outputs, family.functional, family.limit, GRAVITY)
+    for move in moves[1:]:
+        a, b = scaled.measure(move), copy.measure(move)
+        assert a.value == pytest.approx(b.value, rel=1e-9) and a.item == b.item
+        rows_a = scaled.scan(move, (0, 2))
+        rows_b = copy.scan(move, (0, 2))
+        assert [(r.time_s, r.item) for r in rows_a] == [(r.time_s, r.item) for r in rows_b]
+        for ra, rb in zip(rows_a, rows_b, strict=True):
+            np.testing.assert_allclose(ra.coef, rb.coef, rtol=1e-9, atol=1e-12 * abs(rb.coef).max())
+
+
+def test_the_nominal_answer_is_no_longer_than_the_robust_one(model):
+    """A robust grid that holds the nominal model is a larger set of constraints: its
+    certified move is certified for the nominal model too, so the nominal answer must not
+    be longer. The robust search starts from the nominal search (the same as the nominal
+    run's: the same lengths, the same verdicts) and tests no shorter length: its answer is at
+    least the nominal one (here with the distance, cups and stress on the press scene)."""
+    cell = press()
+    options = {"cell": cell, "min_distance_m": 0.01, "cup_safety": 1.5, "max_stress_pa": "yield"}
+    nominal = optim.optimize(model, None, LIMITS, DT, THRESHOLD, progress=False, **options)
+    robust = optim.optimize(
+        model, None, LIMITS, DT, THRESHOLD, progress=False,
+        robust=optim.RobustSpec((0.9, 1.1), None, 3, 1), **options,
+    )  # fmt: skip
+    assert nominal.transfer_time_s <= robust.transfer_time_s
+    assert nominal.cycle_time_s <= robust.worst_cycle_time_s
+    before = robust.solver_stats["nominal_attempts"]
+    tested = [(a["n_steps"], a["feasible"]) for a in nominal.solver_stats["attempts"]]
+    assert [(a["n_steps"], a["feasible"]) for a in before] == tested[: len(before)]
+    assert all(c["bound"] <= c["limit"] * (1 + 1e-9) for c in robust.constraints[1:])
 
 
 def _fe_scaled(fe_result, scale: float):

@@ -101,11 +101,16 @@ def test_turning_optimum_beats_baselines_and_is_certified(plate, axis, angle_deg
     assert settle <= result.cycle_time_s + DT
     if result.settle_time_s > result.transfer_time_s:
         assert settle >= result.cycle_time_s - DT
-    # the a-posteriori bound (jaxflex.turning) integrates the sampled neglected load: the
-    # fine evaluation's differs by the hold's O(dt^2) (measured +1.1 % for the (1, 1, 0)
-    # turn); the flat plate's swivel about its normal neglects nothing (both exactly 0)
+    # the reported bound is the turning engine's for the returned move (jaxflex.turning_bound,
+    # true for the continuous neglected load at any step; rounding: 1e-9). The fine
+    # evaluation's bounds the same continuous move (its kept response differs by the hold's
+    # O(dt^2)) with its own slack: both lie within 1-2.5 times the true effect
+    # (tests/test_turning_bound.py), so within 2.5 times each other (measured 1.07 for the
+    # tilt about x); the flat plate's swivel about its normal neglects nothing (both 0)
     reported = result.deviation["neglected_bound_m"]
-    assert response.neglected_bound_m <= 1.05 * reported
+    coarse = spec.response(plate, alpha, jaxflex.as_move(result.acc, DT))
+    assert reported == pytest.approx(coarse.neglected_bound_m, rel=1e-9, abs=0.0)
+    assert reported / 2.5 <= response.neglected_bound_m <= 2.5 * reported
     assert (response.neglected_bound_m == 0) == (reported == 0) == (axis == "z")
 
 

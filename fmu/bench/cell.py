@@ -15,13 +15,25 @@
 * cups: rigid, flat and bellows cups on the built-in plate and panel: first frequencies and
   the optimised cycle time;
 * convergence: the panel's first frequencies over four meshes with rigid, flat and bellows
-  cups.
+  cups;
+* speed: the README's press commands as a user types them (``jaxflex model --scene plate``,
+  then ``jaxflex optimize plate.npz --cell examples/press_cell.toml --min-distance 0.01
+  --cup-safety 1.5 --max-stress --threshold 5e-4``: nominal, ``--no-plots``, ``--robust`` at
+  the default grid, the active distance-and-stress run with ``--max-stress 68e6``, 85 % of
+  what the unconstrained press move reaches, and a robust plan under ``--max-time 10``, which
+  is refused), CPU seconds of each command's process (fmu.bench.commands.timed_run), the
+  compile cache warm (one untimed run first), and each answer (steps, cycle, worst case).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -31,6 +43,7 @@ import numpy as np
 import fem
 import optim
 from fem.outputs import reaction_outputs, stress_outputs
+from fmu.bench.commands import timed_run
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import write_text_atomic
 from jaxflex.geometry import Box, Cell, min_distance
@@ -38,8 +51,10 @@ from jaxflex.response import CupUtilisation, VonMises, acceleration_at, output_p
 from optim.cell_file import load_cell
 from optim.ruckig_move import kinematic_floor_move
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-CASES = ("press", "accuracy", "constraints", "cups", "convergence")
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+CASES = ("press", "accuracy", "constraints", "cups", "convergence", "speed")
+PRESS_ARGS = (*("--min-distance", "0.01", "--cup-safety", "1.5", "--threshold", "5e-4", "-q"),)
+ACTIVE_STRESS_PA = 68e6  # 85 % of the 80 MPa the unconstrained press move reaches
 LIMITS = optim.Limits(2.0, 10.0, 100.0)
 DT = DT_S
 THRESHOLD = THRESHOLD_M
@@ -66,11 +81,11 @@ def press_cell() -> Cell:
 def press() -> dict:
     model, _, fe_s = _plate_model()
     cell = press_cell()
-    tick = time.perf_counter()
+    tick, cpu = time.perf_counter(), time.process_time()
     result = optim.optimize(
         model, None, LIMITS, DT, THRESHOLD, cell=cell, min_distance_m=0.01, progress=False
     )
-    wall = time.perf_counter() - tick
+    wall, cpu = time.perf_counter() - tick, time.process_time() - cpu
     (baseline,) = result.baselines.entries
     straight = kinematic_floor_move(cell.distance_m, LIMITS, DT, 3000).acc
     posed = cell.posed(model)
@@ -82,6 +97,7 @@ def press() -> dict:
             "transfer_time_s": result.transfer_time_s,
             "distance": result.constraints[0],
             "wall_s": wall,
+            "cpu_s": cpu,
         },
         "baseline": {
             "name": baseline.name,
@@ -166,10 +182,11 @@ def constraints() -> dict:
     runs = {}
 
     def timed(label, **options):
-        tick = time.perf_counter()
+        tick, cpu = time.perf_counter(), time.process_time()
         result = optim.optimize(model, distance, LIMITS, DT, THRESHOLD, progress=False, **options)
         runs[label] = {
             "wall_s": time.perf_counter() - tick,
+            "cpu_s": time.process_time() - cpu,
             "cycle_time_s": result.cycle_time_s,
             "constraints": result.constraints,
         }
@@ -242,6 +259,56 @@ def convergence(sizes=(0.05, 0.0354, 0.025, 0.0177)) -> dict:
     return out
 
 
+def speed() -> dict:
+    """The README's press commands (module docstring), CPU seconds of each process."""
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        model = str(work / "plate.npz")
+        env = dict(os.environ)
+        out = {"model": timed_run(["model", "--scene", "plate", "-o", model, "-q"], env)}
+
+        def optimize(name: str, *extra: str) -> dict:
+            where = work / name
+            argv = ["optimize", model, "--cell", str(EXAMPLES / "press_cell.toml"), *PRESS_ARGS]
+            run = timed_run([*argv, *extra, "-o", str(where)], env)
+            report = json.loads((where / "report.json").read_text(encoding="utf-8"))
+            worst = report.get("worst_case") or {}
+            return {
+                **run,
+                "n_steps": report["n_steps"],
+                "cycle_time_s": report["cycle_time_s"],
+                "worst_cycle_time_s": worst.get("cycle_time_s"),
+                "nominal_tests": len(report["solver_stats"].get("nominal_attempts", [])),
+                "tests": len(report["solver_stats"]["attempts"]),
+                "constraints": {c["name"]: c["peak"] for c in report["constraints"]},
+            }
+
+        optimize("warm-up", "--max-stress", "--no-plots")  # fills the compile cache
+        out["nominal"] = optimize("nominal", "--max-stress")
+        out["nominal_no_plots"] = optimize("nominal_no_plots", "--max-stress", "--no-plots")
+        out["robust"] = optimize("robust", "--max-stress", "--robust")
+        out["active"] = optimize("active", "--max-stress", f"{ACTIVE_STRESS_PA:g}")
+        out["refused"] = _refused(
+            ["optimize", model, "--cell", str(EXAMPLES / "press_cell.toml"), *PRESS_ARGS,
+             "--max-stress", "--robust", "--max-time", "10", "-o", str(work / "refused")],
+            env,
+        )  # fmt: skip
+    out["nominal_no_longer_than_robust"] = out["nominal"]["n_steps"] <= out["robust"]["n_steps"]
+    return out
+
+
+def _refused(argv: list[str], env: dict) -> dict:
+    """``jaxflex ARGV``, which the budget refuses (exit status 2): its CPU seconds and the
+    message."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    proc = subprocess.run(
+        [sys.executable, "-m", "jaxflex", *argv], capture_output=True, text=True, env=env
+    )
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu_s = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"exit": proc.returncode, "cpu_s": cpu_s, "message": proc.stderr.strip()[-400:]}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m fmu.bench.cell", description=__doc__)
     parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
@@ -253,6 +320,7 @@ def main(argv: list[str] | None = None) -> int:
         "constraints": constraints,
         "cups": cups,
         "convergence": convergence,
+        "speed": speed,
     }
     figures = {}
     for case in args.cases:

@@ -14,7 +14,10 @@ Sections of ``bench.json`` (SI units; times in s unless the key says ms):
   points costs in peak deviation and settle time (``reduction``);
 * ``commands``: wall and CPU time of ``jaxflex optimize`` as a user runs it, with an empty
   JAX compilation cache (cold) and again (warm), and of ``jaxflex demo`` in the full run
-  (:mod:`fmu.bench.commands`).
+  (:mod:`fmu.bench.commands`);
+* ``turning``: a warm ``jaxflex.simulate_turning`` against a warm ``jaxflex.simulate`` of
+  the same samples, CPU seconds, on the built-in curved panel (:mod:`fmu.bench.turning`;
+  full and medium runs).
 
 Four sizes: ``full`` (the built-in scenes, minutes), ``medium`` (small scenes, the sweeps
 of the full run; about a minute), ``quick`` (CI: small scenes, a few points per sweep) and
@@ -32,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+import fem
 from fmu.bench.accuracy import run_scene
 from fmu.bench.charts import pareto_chart, stability_chart
 from fmu.bench.commands import format_commands, run_commands
@@ -41,6 +45,8 @@ from fmu.bench.fe import SceneSpec
 from fmu.bench.nodes import format_nodes, run_reduction, run_scale
 from fmu.bench.optim import scene_model
 from fmu.bench.stability import OMEGA_DT, run_stability
+from fmu.bench.turning import format_turning
+from fmu.bench.turning import run as run_turning
 from jaxflex.errors import InputError
 from jaxflex.files import make_output_dir, write_text_atomic
 from jaxflex.runtime import step
@@ -147,6 +153,7 @@ SIZES = {
         "nodes": {"sizes": (1_099, 66_308), "large": None, "reduction": (("plate", None),)},
         "reduction_counts": (1_099, 300, 100),
         "commands": {"model": "fem-plate", "repeats": 1, "demo": False},
+        "turning": "panel",
     },
     "full": {
         "core": BenchCase(),
@@ -175,6 +182,7 @@ SIZES = {
         "reduction_counts": (1_099, 300, 100),
         # the figures: the demo plate, three rounds, and the demo
         "commands": {"model": "fem-plate", "repeats": 3, "demo": True},
+        "turning": "panel",
     },
 }
 
@@ -218,6 +226,9 @@ def run_suite(
         report["commands"] = run_commands(
             model, repeats=spec["repeats"], demo=spec["demo"], progress=progress
         )
+    if "turning" in cfg:  # the built-in scene's model, from the FE store after a first run
+        model = fem.default_model(cfg["turning"], progress=False, cache=True)
+        report["turning"] = run_turning(model, progress=progress)
     report["wall_s"] = time.perf_counter() - start
     path = Path(json_path) if json_path is not None else out / "bench.json"
     write_text_atomic(path, json.dumps(report, indent=1, default=_json_default))
@@ -281,6 +292,8 @@ def summary_lines(report: dict) -> list[str]:
         lines.extend(format_nodes(report["nodes"]).splitlines())
     if "commands" in report:
         lines.extend(format_commands(report["commands"]))
+    if "turning" in report:
+        lines.append(format_turning(report["turning"]))
     stab = report.get("stability")
     if stab:
         for key, values in stab["breaks_at_omega_dt"].items():
