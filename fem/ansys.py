@@ -42,7 +42,7 @@ from fem.imported import ImportedModes, file_digest
 from fem.mapdl_check import check_mapdl_file
 from fem.modal import solve_modes
 from fem.rotation_integrals import imported_inertia, nodal_fields
-from fem.solver_modes import rigid_mask, rigid_meta, user_gamma
+from fem.solver_modes import kept_modes, rigid_mask, rigid_meta, user_gamma
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
 from jaxflex.isolated import isolated
@@ -604,9 +604,7 @@ def from_rst_modes(
     keep = ~rigid
     if max_freq_hz is not None:
         keep &= rst.freq_hz <= max_freq_hz
-    kept = np.flatnonzero(keep)
-    if isinstance(n_modes, int | np.integer):
-        kept = kept[: int(n_modes)]
+    kept = kept_modes(keep, n_modes, repr(str(path)), max_freq_hz)
     if kept.size == 0:
         raise InputError(
             f"from_ansys: {str(path)!r} leaves no elastic mode to keep (its {rst.freq_hz.size} "

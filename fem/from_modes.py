@@ -35,7 +35,7 @@ from fem.model_checks import check_finite
 from fem.op2_modes import read_op2_modes
 from fem.punch import read_punch_modes
 from fem.r1_layout import R1Layout, steps_from_zero
-from fem.solver_modes import SolverModes, rigid_mask, rigid_meta, user_gamma
+from fem.solver_modes import SolverModes, kept_modes, rigid_mask, rigid_meta, user_gamma
 from fem.uff_modes import UffResponses, read_uff
 from fem.units import Units, resolve_units
 from jaxflex.errors import InputError
@@ -143,7 +143,7 @@ def _from_solver_modes(
     keep = ~rigid
     if max_freq_hz is not None:
         keep &= modes.freq_hz <= max_freq_hz
-    kept = np.flatnonzero(keep)[: None if n_modes is None else int(n_modes)]
+    kept = kept_modes(keep, n_modes, source, max_freq_hz)
     if kept.size == 0:
         raise InputError(f"from_modes: {source} leaves no elastic mode to keep")
     shapes = modes.shapes[:, :, kept]

@@ -3,7 +3,8 @@
 Three kinds, each answering the same questions for fem.parts.Part:
 
 * :class:`Rectangle`: the built-in parts, a footprint [0, w] x [0, h] with an optional
-  surface z(x, y), meshed on a tensor grid refined around the cups (fem.meshing);
+  surface z(x, y), meshed on a tensor grid refined around the cups (fem.meshing) whose
+  nodes follow the cups' rims (fem.rim_mesh);
 * :class:`GivenMesh`: a part read from a mesh file or a Nastran deck, its mesh used as is;
 * :class:`CadSurface`: a CAD sheet body, meshed by gmsh (fem.cad) when it is analysed,
   refined around the cups.
@@ -23,10 +24,12 @@ from fem import meshing
 from fem.cad import meshed
 from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
 from fem.mesh_io import SheetMesh
+from fem.rim_mesh import Rim, conforming_grid
 from fem.surface_index import SurfaceIndex
 from jaxflex.errors import InputError
 
 AREA_SAMPLES = 400  # midpoint rule per side for the area of a built-in curved surface
+RIM_ITERATIONS = 40  # fixed-point steps of a rim on a curved surface (to rounding)
 
 
 def principal_span_m(points: np.ndarray) -> float:
@@ -116,21 +119,48 @@ class Rectangle:
         cell = self.width_m * self.height_m / AREA_SAMPLES**2
         return float(np.sqrt(1 + zx**2 + zy**2).sum() * cell)
 
-    def plate_mesh(self, size_m: float, cups, fine_fraction: float) -> PlateMesh:
+    def _grid(self, size_m: float, cups, fine_fraction: float):
+        """(footprint nodes (N, 2), quads (Q, 4), rims) of the tensor grid refined around
+        ``cups`` (contact discs or cups: x, y, radius and z or None) whose nodes follow
+        their rims (fem.rim_mesh)."""
         x, y = meshing.cup_grid(self.width_m, self.height_m, size_m, cups, fine_fraction)
-        nodes, quads = meshing.grid_quads(x, y)
-        return PlateMesh(nodes, meshing.split_quads(quads, nodes))
+        fine = meshing.cup_bands(cups, size_m, fine_fraction)[2]
+        points = [[d.x, d.y] if getattr(d, "z", None) is None else [d.x, d.y, d.z] for d in cups]
+        centres = np.array([self.place(np.array([p], dtype=float))[0][0] for p in points])
+        radii = [float(d.radius) for d in cups]
+        discs = [(c[:2], r, fine) for c, r in zip(centres, radii, strict=True)]
+
+        def rim_radius(k: int, theta: np.ndarray) -> np.ndarray:
+            return self._rim_radius(centres[k], radii[k], theta)
+
+        uv, quads, followed = conforming_grid(x, y, discs, rim_radius)
+        return uv, quads, tuple(Rim(centres[k], radii[k]) for k in followed)
+
+    def _rim_radius(self, centre: np.ndarray, radius_m: float, theta: np.ndarray) -> np.ndarray:
+        """(n,) footprint distance from ``centre``'s footprint, along the angles ``theta``,
+        of the surface points at 3-D distance ``radius_m`` from the surface point ``centre``
+        (a fixed point: the distance grows nearly in proportion along a ray)."""
+        rho = np.full(len(theta), float(radius_m))
+        if self.surface is None:
+            return rho
+        ray = np.column_stack([np.cos(theta), np.sin(theta)])
+        for _ in range(RIM_ITERATIONS):
+            points = self.map(centre[None, :2] + rho[:, None] * ray)[0]
+            rho = rho * radius_m / np.linalg.norm(points - centre, axis=1)
+        return rho
+
+    def plate_mesh(self, size_m: float, cups, fine_fraction: float) -> PlateMesh:
+        nodes, quads, rims = self._grid(size_m, cups, fine_fraction)
+        return PlateMesh(nodes, meshing.split_quads(quads, nodes), rims=rims)
 
     def surface_mesh(self, size_m: float, cups, fine_fraction: float) -> SurfaceMesh:
-        x, y = meshing.cup_grid(self.width_m, self.height_m, size_m, cups, fine_fraction)
-        uv, quads = meshing.grid_quads(x, y)
+        uv, quads, rims = self._grid(size_m, cups, fine_fraction)
         points, normals = self.map(uv)
-        return SurfaceMesh(points, quads, normals, params=uv, exact=self.map)
+        return SurfaceMesh(points, quads, normals, params=uv, exact=self.map, rims=rims)
 
     def shell_mesh(self, size_m: float, cups, fine_fraction: float) -> ShellMesh:
-        x, y = meshing.cup_grid(self.width_m, self.height_m, size_m, cups, fine_fraction)
-        uv, quads = meshing.grid_quads(x, y)
-        return ShellMesh(self.map(uv)[0], meshing.split_quads(quads, uv))
+        uv, quads, rims = self._grid(size_m, cups, fine_fraction)
+        return ShellMesh(self.map(uv)[0], meshing.split_quads(quads, uv), rims=rims)
 
     def span_m(self) -> float:
         return min(self.width_m, self.height_m)

@@ -10,14 +10,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fem.rim_mesh import Rim
+
 
 @dataclass(frozen=True, eq=False)
 class PlateMesh:
-    """A flat triangle mesh in the plane z = z0: nodes_xy (N, 2) m, triangles (E, 3)."""
+    """A flat triangle mesh in the plane z = z0: nodes_xy (N, 2) m, triangles (E, 3);
+    ``rims``: the cups' rims its nodes follow (fem.rim_mesh)."""
 
     nodes_xy: np.ndarray
     triangles: np.ndarray
     z0: float = 0.0
+    rims: tuple[Rim, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -27,6 +31,7 @@ class SurfaceMesh:
     nodes (N, 3) m, quads (E, 4) counter-clockwise seen from the normal side, normals (N, 3)
     unit. ``exact(uv) -> (points, normals)`` maps footprint coordinates ``params`` (N, 2)
     exactly onto the surface (built-in parts), so mid-side nodes lie on the true surface.
+    ``rims``: the cups' rims its nodes follow (fem.rim_mesh).
     """
 
     nodes: np.ndarray
@@ -34,13 +39,16 @@ class SurfaceMesh:
     normals: np.ndarray
     params: np.ndarray | None = None
     exact: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
+    rims: tuple[Rim, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
 class ShellMesh:
     """A triangulated mid-surface in space: nodes (N, 3) m, triangles (E, 3), oriented
     consistently within each connected piece where the surface is orientable (the shell's
-    stiffness does not depend on it; reported normals do). Flat, curved or folded."""
+    stiffness does not depend on it; reported normals do). Flat, curved or folded.
+    ``rims``: the cups' rims its nodes follow (fem.rim_mesh)."""
 
     nodes: np.ndarray
     triangles: np.ndarray
+    rims: tuple[Rim, ...] = ()

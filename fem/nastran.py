@@ -67,8 +67,10 @@ from fem.deck_zero_modes import (
     soft_message,
     sort_zero_modes,
 )
+from fem.discretisation import given_mesh_statement
 from fem.imported import file_digest
 from fem.materials import Material
+from fem.mesh_advice import coarse_mesh_warnings, deck_mesh_warnings
 from fem.mesh_io import FLAT_RELATIVE, sheet_from_cells
 from fem.modal import ModalResult, check_request, modal_analysis, modal_result, solve_modes
 from fem.parts import part_from_mesh
@@ -460,6 +462,10 @@ def from_nastran(
         first = parts.shell_sections.read[int(parts.facets.pid[0])]
         shear = any(s.shear_flexible for s in parts.shell_sections.read.values())
         _warn(result.part, unit, first.poisson, shear)
+        advice = deck_mesh_warnings(result, parts, unit, bulk.wtmass)
+        for message in advice:
+            warnings.warn(f"{result.part.name}: {message}", PartWarning, stacklevel=2)
+        result.discretisation = given_mesh_statement(advice)
         laminates = [s.card.label for s in parts.shell_sections.read.values() if s.laminate]
         if laminates:
             message = f"{result.part.name}: {', '.join(laminates)}: {LAMINATE}"
@@ -483,6 +489,8 @@ def from_nastran(
             allow_rigid_modes=allow_rigid_modes,
             progress=progress,
         )
+        for message in coarse_mesh_warnings(result):
+            warnings.warn(f"{part.name}: {message}", PartWarning, stacklevel=2)
         described = f"{len(pins)} SPC grids pinned (translation held), {len(cups)} cups"
     info["material_notes"] = sections.materials.notes()
     included = {"included": [file_digest(p) for p in bulk.files[1:]]}

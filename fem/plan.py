@@ -1,7 +1,8 @@
 """What a finite-element modal analysis will cost, from the part before any meshing.
 
 Cells: a given mesh has them; a built-in part is meshed on a tensor grid whose lines are
-counted from its spacing (fem.meshing.graded_count); a CAD part is meshed by gmsh at its
+counted from its spacing (fem.meshing.graded_count), plus the rings that follow each cup's
+rim (fem.rim_mesh.ring_cells); a CAD part is meshed by gmsh at its
 element size h, so a surface of area A gets about ``CELLS_PER_H2 x A / h^2`` triangles
 (equilateral, of side h; ``A / h^2`` quadrilaterals for the thin solid) plus the refinement
 around each cup: a disc of radius r at the fine size f and a ring in which the size grows
@@ -16,16 +17,20 @@ and modes M, fitted to ``python -m fmu.bench.budget`` on the project's 2-core ma
 docs/fem.md, Budget): memory ``a n^p`` (p 1.0 ... 1.2: the factor's fill-in) plus the
 Lanczos vectors, ``16 n (2 M + 1)`` bytes; time ``b n^1.5`` (a sparse factorisation of a 2-D
 mesh) plus the Lanczos iterations ``c n M (1 + M / 100)``. The figures come within a factor
-of two of the measured runs: they tell a minute from an hour before any work.
+of two of the measured runs: they tell a minute from an hour before any work. The
+discretisation estimate (fem.discretisation) adds the same analysis of the part meshed twice
+as coarsely (its cells counted alike).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+from fem.discretisation import coarse_part
 from fem.eigen import DENSE_SHARE
 from fem.meshing import GROWTH, cup_bands, graded_count
+from fem.rim_mesh import ring_cells
 from fem.supports import contact_discs
 from jaxflex.runtime import Need
 
@@ -49,7 +54,9 @@ CAD_BYTES_PER_CELL = 1.5e3
 class FePlan:
     """The estimated size and cost of a modal analysis: ``cells`` (linear triangles, or
     quadrilaterals for the thin solid), ``n_dof``, ``memory_bytes`` at the peak, ``time_s``
-    of wall time; ``element``, ``size_m`` (None for a given mesh), ``n_modes``."""
+    of wall time; ``element``, ``size_m`` (None for a given mesh), ``n_modes``;
+    ``estimate_cells`` those of the discretisation estimate's coarser mesh (its memory and
+    time included), None without one."""
 
     cells: int
     n_dof: int
@@ -58,11 +65,14 @@ class FePlan:
     element: str
     size_m: float | None
     n_modes: int
+    estimate_cells: int | None = None
 
     def need(self, what: str = "the modal analysis") -> Need:
         """This plan as a jaxflex.budget.Need, with what makes it smaller."""
         size = "" if self.size_m is None else f" at {self.size_m:.3g} m elements"
         cells = "quadrilaterals" if self.element == "hex2" else "cells"
+        if self.estimate_cells is not None:
+            size += f"; its discretisation estimate on {self.estimate_cells:,} coarser {cells}"
         advice = (
             "use a coarser mesh (--mesh-size, part.mesh_size_m) or fewer modes"
             if self.size_m is not None
@@ -117,11 +127,13 @@ def _cells(part, supports) -> float:
     size = part.element_size_m
     fraction = part.fine_fraction
     geometry = part.geometry
-    if hasattr(geometry, "width_m"):  # a built-in part: a tensor grid
-        bands_x, bands_y, fine = cup_bands(contact_discs(supports), size, fraction)
+    if hasattr(geometry, "width_m"):  # a built-in part: a tensor grid and the cups' rings
+        discs = contact_discs(supports)
+        bands_x, bands_y, fine = cup_bands(discs, size, fraction)
         nx = graded_count(geometry.width_m, size, bands_x, fine)
         ny = graded_count(geometry.height_m, size, bands_y, fine)
-        return nx * ny * (1 if quads else 2)
+        rings = sum(ring_cells(d.radius, size, fine) for d in discs)
+        return (nx * ny + rings) * (1 if quads else 2)
     discs = [(d.radius, min(size, fraction * d.radius)) for d in contact_discs(supports)]
     return refined_cells(part.area_m2, size, discs, quads=quads)
 
@@ -143,12 +155,23 @@ def plan_of_cells(
     return FePlan(int(cells), int(n_dof), memory, seconds, element, size_m, modes)
 
 
-def fe_plan(part, n_modes: int | str | None, supports=()) -> FePlan:
+def fe_plan(part, n_modes: int | str | None, supports=(), *, estimate: bool = True) -> FePlan:
     """The plan of analysing ``part`` (a fem.Part) with ``n_modes`` modes (see
     :func:`plan_of_cells`) held by ``supports`` (their contact discs refine a meshed
-    part)."""
+    part); with ``estimate`` the discretisation estimate's second analysis on a coarser
+    mesh (fem.discretisation) is part of it."""
     size = None if part.mesh_is_given else part.element_size_m
-    return plan_of_cells(part.element, _cells(part, supports), n_modes, size)
+    plan = plan_of_cells(part.element, _cells(part, supports), n_modes, size)
+    coarse = coarse_part(part) if estimate and n_modes != "all" else None
+    if coarse is None:
+        return plan
+    other = plan_of_cells(part.element, _cells(coarse, supports), n_modes, coarse.element_size_m)
+    return replace(
+        plan,
+        memory_bytes=plan.memory_bytes + other.memory_bytes,
+        time_s=plan.time_s + other.time_s,
+        estimate_cells=other.cells,
+    )
 
 
 # nodes per DOF of each formulation (shapes are reported at the nodes: vertices, or the

@@ -140,33 +140,30 @@ class PlateOutputs:
                 np.abs(np.asarray(basis.interpolate(out[:, k])) - target).max()
                 for k, target in enumerate((np.ones_like(x), x, y))
             ) / max(np.abs(p).max(), 1.0)
-            if error > 1e-8:  # round-off of the element basis: ~1e-12 (fem.argyris)
+            # a wrong slope DOF misses by O(its element's size) (>= 1e-4 here); round-off is
+            # ~1e-12 on regular elements (fem.argyris), up to 1.4e-8 on the slender elements
+            # of the rings around a cup (fem.rim_mesh; measured with 4.4 mm cup cells)
+            if error > 1e-6:
                 raise RuntimeError(f"plate rigid motions: 1, x, y are missed by {error:.1e}")
             self._linear = out
         return self._linear
 
     def _edge_slopes(self, basis, out: np.ndarray) -> None:
         """Fill the edge DOFs of columns x, y of ``out`` (the other DOFs set) by the local fit
-        of :meth:`linear_dofs`, element by element (each edge from its first element)."""
+        of :meth:`linear_dofs`, every element at once (each edge from its first element)."""
         element_dofs = basis.element_dofs  # (n_local, E)
         is_edge = np.zeros(basis.N, dtype=bool)
         is_edge[self.facet_dofs] = True
         local_edge = np.flatnonzero(is_edge[element_dofs[:, 0]])
+        known = np.setdiff1d(np.arange(element_dofs.shape[0]), local_edge)
         # local basis values at the quadrature points: (n_local, E, Q)
         values = np.stack([np.asarray(b[0].value) for b in basis.basis])
+        fits = np.linalg.pinv(values[local_edge].transpose(1, 2, 0))  # (E, 3, Q)
+        edges, first = np.unique(element_dofs[local_edge].T, return_index=True)
         x, y = np.asarray(basis.global_coordinates())
-        done = np.zeros(basis.N, dtype=bool)
-        for e in range(element_dofs.shape[1]):
-            dofs = element_dofs[:, e]
-            edges = dofs[local_edge]
-            if done[edges].all():
-                continue
-            known = np.setdiff1d(np.arange(len(dofs)), local_edge)
-            a = values[local_edge, e].T  # (Q, 3)
-            for k, target in ((1, x[e]), (2, y[e])):
-                rest = target - out[dofs[known], k] @ values[known, e]
-                out[edges, k] = np.linalg.lstsq(a, rest, rcond=None)[0]
-            done[edges] = True
+        for k, target in ((1, x), (2, y)):
+            rest = target - np.einsum("le,leq->eq", out[element_dofs[known], k], values[known])
+            out[edges, k] = np.einsum("ejq,eq->ej", fits, rest).ravel()[first]
 
     def rigid_motion(self, centre_m: np.ndarray) -> np.ndarray:
         """(n_dof, 6): the deflection w of unit rigid motions; a plate has no DOFs for the

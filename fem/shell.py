@@ -53,7 +53,7 @@ class ShellLayer:
     ``frames`` (E, 3, 3) local axes per element (rows e1, e2, e3), ``element_dofs`` (E, 18)
     global DOF indices in the element's order, ``normals`` (N, 3) area-weighted unit node
     normals, ``edges`` (unique vertex pairs) and ``boundary_edges`` (indices into edges),
-    ``node_size_m`` (N,) the node spacing there, m.
+    ``node_size_m`` (N,) the node spacing there, m; ``rims`` the cups' rims the mesh follows.
 
     A displacement vector u (n_dof,) gives each element's local DOFs as
     ``local_dofs(u)`` (E, 18): what fem.shell_element's strain-displacement matrices take
@@ -61,6 +61,7 @@ class ShellLayer:
 
     def __init__(self, mesh: ShellMesh, frames: np.ndarray) -> None:
         self.nodes, self.triangles, self.frames = mesh.nodes, mesh.triangles, frames
+        self.rims = mesh.rims
         self.element_dofs = (
             DOFS_PER_NODE * mesh.triangles[:, :, None] + np.arange(DOFS_PER_NODE)
         ).reshape(-1, 3 * DOFS_PER_NODE)
@@ -325,26 +326,36 @@ class ShellMeshDofs:
         """(N, 3) mid-surface nodes, m."""
         return self.layer.nodes
 
+    def _centre(self, x: float, y: float, z: float | None) -> np.ndarray:
+        """(3,) the surface point of (x, y[, z]) (the part places it: above (x, y), or
+        nearest to (x, y, z)), m."""
+        return self.part.surface_point([[x, y] if z is None else [x, y, z]])[0]
+
     def distance_m(self, x: float, y: float, z: float | None = None) -> np.ndarray:
-        """(N,) 3-D distance of every node from the surface point of (x, y[, z]) (the part
-        places it: above (x, y), or nearest to (x, y, z))."""
-        centre = self.part.surface_point([[x, y] if z is None else [x, y, z]])[0]
-        return np.linalg.norm(self.layer.nodes - centre, axis=1)
+        """(N,) 3-D distance of every node from the surface point of (x, y[, z])."""
+        return np.linalg.norm(self.layer.nodes - self._centre(x, y, z), axis=1)
 
     def nearest_vertex(self, x: float, y: float, z: float | None = None) -> int:
         """The node nearest to the surface point of (x, y[, z])."""
         return int(np.argmin(self.distance_m(x, y, z)))
 
     def disc_nodes(self, x: float, y: float, z: float | None, radius: float) -> np.ndarray:
-        """Nodes within ``radius`` (m) plus half their element size of that surface point.
+        """Nodes within ``radius`` (m) of that surface point where the mesh follows the
+        disc's rim (fem.rim_mesh: nodes on it); elsewhere within ``radius`` plus half their
+        element size.
 
-        A node stands for the half of its elements around it: with the radius alone, the
-        outermost held nodes lie on average half an element inside the rim and the fully held
-        elements cover a smaller disc (measured on a 0.6 x 0.4 m plate with four 30 mm cups:
-        f1 -4 % at the default mesh); with half an element added they lie on the rim on
-        average (f1 within 1 % of the converged value from 20 to 2.5 mm elements)."""
+        On a mesh that does not follow the rim, a node stands for the half of its elements
+        around it: with the radius alone, the outermost held nodes lie on average half an
+        element inside the rim and the fully held elements cover a smaller disc (measured on
+        a 0.6 x 0.4 m plate with four 30 mm cups: f1 -4 % at the default mesh); with half an
+        element added they lie on the rim on average (f1 within 1 % of the converged value
+        from 20 to 2.5 mm elements)."""
+        centre = self._centre(x, y, z)
+        distance = np.linalg.norm(self.layer.nodes - centre, axis=1)
+        if any(rim.holds(centre, radius) for rim in self.layer.rims):
+            return np.flatnonzero(distance <= radius * (1 + 1e-9))
         reach = radius + 0.5 * self.layer.node_size_m
-        return np.flatnonzero(self.distance_m(x, y, z) <= reach * (1 + 1e-9))
+        return np.flatnonzero(distance <= reach * (1 + 1e-9))
 
     def clamp_nodes(self, surface_nodes) -> Constraints:
         """Hold all six DOFs (displacement and rotation) at ``surface_nodes``."""

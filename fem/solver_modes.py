@@ -4,13 +4,14 @@ model. What a file does not hold stays None, with the reason."""
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from fem.rigid_modes import rigid_modes
 from fem.units import Units
-from jaxflex.errors import InputError
+from jaxflex.errors import InputError, JaxflexWarning
 
 
 @dataclass(eq=False)
@@ -73,6 +74,26 @@ def rigid_mask(
             "pass allow_rigid_modes=True (--allow-rigid-modes) to leave them out of the model"
         )
     return rigid
+
+
+def kept_modes(keep: np.ndarray, n_modes, source: str, max_freq_hz: float | None) -> np.ndarray:
+    """The indices of the modes a model keeps: the first ``n_modes`` (an int; None or "all":
+    every one) of those ``keep`` (M,) bool marks (elastic, up to ``max_freq_hz``). Asking for
+    more than the file holds keeps what it holds, with a JaxflexWarning saying so (the
+    count a user asked for is not quietly cut)."""
+    kept = np.flatnonzero(keep)
+    if n_modes is None or isinstance(n_modes, str):
+        return kept
+    count = int(n_modes)
+    if count > kept.size:
+        cap = "" if max_freq_hz is None else f" up to {max_freq_hz:g} Hz"
+        warnings.warn(
+            f"n_modes (--n-modes): {count:,} modes asked, {source} holds {kept.size} elastic "
+            f"mode(s){cap} (of its {keep.size}): all {kept.size} kept",
+            JaxflexWarning,
+            stacklevel=3,
+        )
+    return kept[:count]
 
 
 def rigid_meta(freq_hz: np.ndarray) -> dict:

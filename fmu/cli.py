@@ -373,6 +373,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     import jaxflex
+    from fmu.move_cell import check_move_cell
     from jaxflex.response import downsample_to_count
     from jaxflex.runtime import require
     from optim.cell_file import load_cell
@@ -396,6 +397,9 @@ def run(args: argparse.Namespace) -> int:
     threshold_m = check_positive("--threshold", threshold_m)
     windows = {"auto": None, "yes": True, "no": False}[args.windows]
     cell = None if args.cell is None else load_cell(args.cell)
+    if cell is not None and case is not None:  # a move of `jaxflex optimize`: made in it?
+        report = trajectory_file(Path(args.trajectory)).with_name("report.json")
+        check_move_cell(report, args.cell, cell)
     require(_need(model, trajectory, cell, verify=not args.no_verify))
     status = 0
     if args.output:

@@ -109,7 +109,22 @@ def _part(part: str, pose: np.ndarray, timings: dict[str, float]) -> ModalModel:
         f"{model.freq_hz[0]:.2f}-{model.freq_hz[-1]:.1f} Hz at {model.n_points} points "
         f"({timings['fe_model_s']:.1f} s)"
     )
+    accuracy = _discretisation_line(model.meta.get("discretisation"))
+    if accuracy:
+        print(accuracy)
     return model
+
+
+def _discretisation_line(found) -> str:
+    """One line on the FE's estimate of its discretisation error (the model's
+    ``meta["discretisation"]``, fem.discretisation), or "" where the model has none."""
+    if not isinstance(found, dict):
+        return ""
+    freq = 100 * found["max_freq_error"]
+    line = f"  FE discretisation error (estimate): frequencies <= {freq:.2g} %"
+    if found.get("max_stress_error") is not None:
+        line += f", peak stress {100 * found['max_stress_error']:.2g} %"
+    return line
 
 
 def _export(model, result, path: Path, version: int, threshold_m: float):

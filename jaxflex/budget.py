@@ -34,6 +34,7 @@ from jaxflex.scalars import check_positive
 
 DEFAULT_TIME_S = 3600.0
 MEMORY_SHARE = 0.5  # of what the process may use
+PLAN_NOTE_S = 60.0  # work planned to take at least this long is announced before it starts
 GB = 1e9
 # The least --max-memory: what a jaxflex command's interpreter holds before any work
 # (Python, NumPy, SciPy, JAX and the command's modules: 224 MB resident at the dispatch of
@@ -216,7 +217,9 @@ def format_seconds(s: float) -> str:
 def require(*needs: Need, budget: Budget | None = None) -> None:
     """Refuse (BudgetError) work whose stages ``needs`` exceed ``budget`` (default: the
     process's): the largest stage's memory against the memory budget, the sum of the times
-    against the time left. The message names the stage, what it needs and what to change."""
+    against the time left. The message names the stage, what it needs and what to change.
+    Work that fits but is planned to take PLAN_NOTE_S or more is announced (a step line on
+    stderr) before it starts."""
     budget = current_budget() if budget is None else budget
     if not needs:
         return
@@ -239,6 +242,14 @@ def require(*needs: Need, budget: Budget | None = None) -> None:
             + (f" (all the work: {format_seconds(total)})" if len(needs) > 1 else "")
             + f", more than the budget of {format_seconds(budget.time_s)}{already} "
             f"({budget.time_source})" + (f"; {longest.advice}" if longest.advice else "")
+        )
+    if total >= PLAN_NOTE_S:  # long work says what it plans (a step line: not when quiet)
+        from jaxflex.progress import step  # only here: tqdm is no light import
+
+        longest = max(needs, key=lambda need: need.time_s)
+        step(
+            f"planned: {longest.what}: about {format_seconds(total)} on this machine, within "
+            f"the budget of {format_seconds(budget.time_s)} ({budget.time_source})"
         )
 
 

@@ -36,6 +36,7 @@ from jaxflex.geometry import BLOCK_POINTS
 from jaxflex.runtime import Need, current_budget, format_bytes
 from optim.defaults import MAX_STEPS as MAX_STEPS  # its home: the defaults (light)
 from optim.limits import Limits
+from optim.residual import SAMPLES_PER_PERIOD
 
 # Copies of the dense end-state rows an LP holds: the builder's, the CSR matrix, the solver's.
 LP_COPIES = 3
@@ -280,4 +281,33 @@ def distance_need(cell, n_points: int, floor_steps: int, models: int = 1) -> Nee
         _schedule_s(test_s, NEAR_FLOOR_TESTS, cost, floor_steps, 0),
         "simplify the obstacles (fewer triangles: a coarser mesh, or boxes), or use fewer "
         "monitored points",
+    )
+
+
+# certifying a constraint family (cup utilisation, stresses, ...) over one move, by the
+# samples of its dense check (optim.residual.SAMPLES_PER_PERIOD per period of the highest
+# mode over the move): FAMILY_MOVE_S x samples^FAMILY_POWER CPU s, fitted to the cups of the
+# built-in plate's mesh at 0.1 m (6 modes, 2 050 points; 2-core machine, its 18 baselines at
+# a 69-step floor) made of steel (166 samples, 0.07 s a move), at E = 2.1e15 Pa (12 437,
+# 0.57 s) and at E = 2.1e17 Pa (124 370, 1.55 s): within 15 % of each
+FAMILY_MOVE_S = 8.2e-3
+FAMILY_POWER = 0.45
+BASELINE_MOVES = 18  # the straight move's baselines (optim.baselines: 3 shapers x 6 trains)
+
+
+def families_need(families: list, model, floor_steps: int, dt_s: float, scenarios: int) -> Need:
+    """What certifying the cell's constraint ``families`` on the baselines takes at least
+    (before them): BASELINE_MOVES moves of at least ``floor_steps`` steps of ``dt_s``, each
+    family on every one of ``scenarios`` models, sampled SAMPLES_PER_PERIOD times per period
+    of ``model``'s highest mode (a stiff part's kHz modes make that long)."""
+    f_max_hz = float(np.max(np.asarray(model.omega_rad_s))) / (2 * np.pi)
+    samples = SAMPLES_PER_PERIOD * f_max_hz * floor_steps * dt_s
+    names = ", ".join(f.name for f in families)
+    return Need(
+        f"the cell's constraints ({names}) on {BASELINE_MOVES} baselines, {samples:,.0f} "
+        f"samples each (highest mode {f_max_hz:,.4g} Hz), {scenarios:,} scenario(s)",
+        0.0,
+        BASELINE_MOVES * len(families) * scenarios * FAMILY_MOVE_S * samples**FAMILY_POWER,
+        "check the part's stiffness (its modes' frequencies), or use fewer modes or robust "
+        "grid points (--grid)",
     )

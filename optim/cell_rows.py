@@ -371,7 +371,7 @@ class LoadFamily:
 
     def describe(self, peak: Peak) -> dict:
         where = self.places[peak.item].tolist() if peak.item >= 0 else None
-        return {
+        out = {
             "name": self.name,
             "limit": self.limit,
             "peak": peak.value,
@@ -381,6 +381,21 @@ class LoadFamily:
             "item": peak.item,
             "where_m": where,
         }
+        error = stress_discretisation(self.model) if self.name == "von Mises stress" else None
+        if error is not None:  # the FE's own estimate: the real part's stress may be this much
+            out["discretisation_error"] = error  # higher than the model's (fem.discretisation)
+            out["peak_with_discretisation"] = peak.value * (1 + error)
+        return out
+
+
+def stress_discretisation(model) -> float | None:
+    """The relative discretisation error of the peak stress that the FE analysis behind
+    ``model`` estimated (its meta's ``discretisation``, fem.discretisation), or None."""
+    found = dict(model.meta).get("discretisation")
+    if not isinstance(found, dict):
+        return None
+    error = found.get("max_stress_error")
+    return None if error is None else float(error)
 
 
 def certified_distance(family, measure, *move, limit_m=None, **frame):

@@ -109,7 +109,7 @@ def choose(
 
 def _why(chosen: Candidate, optimised: Candidate | None) -> str:
     if optimised is None:
-        reason = "the optimiser found no move that meets the cell's constraints"
+        reason = "the optimiser found no certified move within the constraints shorter than it"
     elif chosen.objective_s < optimised.objective_s:
         reason = (
             f"it is shorter ({chosen.objective_s:.3f} s) than the optimiser's final move "

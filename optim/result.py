@@ -73,9 +73,17 @@ def constraint_line(c: dict) -> str:
         )
     scale, unit = (1e-6, " MPa") if "stress" in c["name"] else (1.0, "")
     what = "cup" if "cup" in c["name"] else "stress point"
+    error = ""
+    if c.get("discretisation_error") is not None:  # the FE's estimate (fem.discretisation)
+        high = c["peak_with_discretisation"]
+        error = (
+            f"; FE discretisation error +-{100 * c['discretisation_error']:.2g} %: up to "
+            f"{high * scale:.3g}{unit} on the real part"
+            + (", above the limit" if high > c["limit"] else "")
+        )
     return (
         f"{c['name']}: {c['peak'] * scale:.3g}{unit} (limit {c['limit'] * scale:.3g}{unit}, "
-        f"utilisation {c['utilisation']:.1%}) {when}, {what} {c['item']}"
+        f"utilisation {c['utilisation']:.1%}{error}) {when}, {what} {c['item']}"
     )
 
 

@@ -33,6 +33,7 @@ from optim.budget import (
     check_memory,
     check_move_length,
     distance_need,
+    families_need,
     models_need,
     obstacle_pieces,
     search_need,
@@ -44,11 +45,18 @@ from optim.exact import POLISH_MARGIN, LPSubsolver
 from optim.gradient import GradientSubsolver
 from optim.limits import ConstraintCheck, check_profile
 from optim.move_response import SAMPLING_ALLOWANCE, shortest_clearance_move_s
+from optim.obstacle_reach import reachable_cell
 from optim.request import Request
 from optim.result import OptimizationResult, deviation_summary
 from optim.search import Attempt, Problem, active_components, attempt, bisect, scenarios
 from optim.turn import TurnSchedule, turn_deviation
 from optim.turn_baselines import turn_baselines, turn_via_baselines, turn_worst_case
+from optim.turn_plan import (
+    check_clearance_resolution,
+    plan_turning_search,
+    turn_plan_need,
+    turning_floor_steps,
+)
 from optim.turn_via import ViaTurn
 from optim.turn_via_baselines import oriented_via_baselines
 
@@ -112,15 +120,16 @@ def plan(request: Request) -> Plan:
     BudgetError) what cannot fit before any work."""
     r = request
     models = 1 + (0 if r.robust is None else r.robust.n_scenarios)  # the cell's
-    if r.cell is not None and r.min_distance_m is not None:  # before the set-up measures
+    cell = reachable_cell(r)  # far obstacles left out (optim.obstacle_reach)
+    if cell is not None and r.min_distance_m is not None:  # before the set-up measures
         shortest, _ = check_move_length(
-            r.cell.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
+            cell.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
         )
-        require(distance_need(r.cell, r.model.n_points, shortest, models))
+        require(distance_need(cell, r.model.n_points, shortest, models))
     setup = prepare_cell(
         r.model,
         r.distance_m,
-        cell=r.cell,
+        cell=cell,
         min_distance_m=r.min_distance_m,
         max_stress_pa=r.max_stress_pa,
         cup_safety=r.cup_safety,
@@ -131,20 +140,26 @@ def plan(request: Request) -> Plan:
     shortest, allowed = check_move_length(
         setup.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
     )
+    if setup.families and r.rotate is None:  # a stiff part's constraints cost (optim.budget)
+        require(families_need(setup.families, model, shortest, r.dt_s, r.n_scenarios))
+    if r.rotate is not None:  # before its baselines: a turning move's plan (optim.turn_plan)
+        check_clearance_resolution(r, model, setup.distance_m)
+        floor = turning_floor_steps(r, setup.distance_m, shortest)
+        require(turn_plan_need(r, model, floor, len(setup.families)))
     if r.clearance_m is not None and (r.rotate is None or not r.rotate.turns):
         _check_clearance(setup, r.clearance_m, r.max_duration_s)
     clearance = r.clearance_m is not None
     steps_cap = check_memory(
         model.n_modes, shortest, allowed, r.n_scenarios, clearance, r.max_memory_bytes
     )
-    cell = _cell_cost(r, setup, models)
-    need = search_need(model.n_modes, model.n_points, shortest, steps_cap, r.n_scenarios, cell=cell)
+    cost = _cell_cost(cell, setup, models)
+    need = search_need(model.n_modes, model.n_points, shortest, steps_cap, r.n_scenarios, cell=cost)
     grid = [] if r.robust is None else [models_need(model.n_modes, model.n_points, models)]
     require(need, *grid)
     return Plan(setup, shortest, steps_cap, issue(grid_advice(r.robust) + setup.advice))
 
 
-def _cell_cost(request: Request, setup: CellSetup, models: int) -> CellCost | None:
+def _cell_cost(cell, setup: CellSetup, models: int) -> CellCost | None:
     """What the cell's constraint families cost a search (optim.budget.CellCost), None
     without them: the distance's blocks of points and obstacle pieces, the loads' output
     rows, each family on ``models`` models."""
@@ -155,7 +170,7 @@ def _cell_cost(request: Request, setup: CellSetup, models: int) -> CellCost | No
     rows = sum(f.n_items * f.rows_per_item for f in loads)
     distance = len(loads) < len(nominal)
     blocks = math.ceil(setup.model.n_points / BLOCK_POINTS) if distance else 0
-    pieces = obstacle_pieces(request.cell) if distance else 0
+    pieces = obstacle_pieces(cell) if distance else 0
     return CellCost(blocks, pieces, rows, len(nominal), models)
 
 
@@ -267,6 +282,9 @@ def search(request: Request, plan: Plan, base: Baselines) -> Search:
         bracket = min(upper, plan.steps_cap)
         need = search_need(model.n_modes, model.n_points, plan.shortest, bracket, 1, bracket)
         require(need)
+    notes = []
+    if r.rotate is not None:  # bracketed by the best baseline, and planned (optim.turn_plan)
+        plan_turning_search(r, plan, base, problem, upper)
     moves = base.moves
     warm = [e.acc for e in moves.entries]
     start, nominal = _nominal_first(r, problem, sub, (moves.floor_acc, upper, warm))
@@ -275,10 +293,15 @@ def search(request: Request, plan: Plan, base: Baselines) -> Search:
         problem, sub, moves.floor_acc, upper, warm, progress=r.progress, start_steps=start,
         lowest_steps=lowest,
     )  # fmt: skip
-    if best is None and not (plan.setup.families and base.feasible):
+    if best is None and not ((plan.setup.families or r.rotate is not None) and base.feasible):
         raise _no_move(r, plan)
+    if best is None and r.rotate is not None:
+        notes.append(
+            "the search's turn schedules found no certified move shorter than the best "
+            "baseline; the best baseline is returned"
+        )
     if r.method != "exact" or best is None:
-        return Search(problem, sub, history, best, nominal=nominal)
+        return Search(problem, sub, history, best, notes, nominal)
     final, notes = _polish(problem, sub, best, history)
     return Search(problem, sub, history, final, notes, nominal)
 

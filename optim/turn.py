@@ -20,6 +20,7 @@ So the search's LP over the translation is exact for the schedule; the schedule 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -245,6 +246,8 @@ class TurnSchedule:
         self.dt_s = dt_s
         self.trains = [None] if spec.angle_rad == 0.0 else [None, *trains]
         self.variant = 0
+        # called with each length before it is tested (optim.turn_plan.LengthPlanner)
+        self.planner: Callable[[int], None] | None = None
         self._alpha: dict[tuple[int, int], np.ndarray | None] = {}
         self._cache: dict[tuple, np.ndarray] = {}
         self._cell_rows: dict[int, dict] = {}
@@ -255,7 +258,10 @@ class TurnSchedule:
         return self._cell_rows.setdefault(self.variant, {})
 
     def variants(self, n_steps: int) -> list[int]:
-        """The schedules that exist for an n-step move (at least the turn's floor)."""
+        """The schedules that exist for an n-step move (at least the turn's floor), asked
+        once per length the search tests (its :attr:`planner` first)."""
+        if self.planner is not None:
+            self.planner(n_steps)
         return [v for v in range(len(self.trains)) if self._schedule(n_steps, v) is not None]
 
     def _schedule(self, n_steps: int, variant: int) -> np.ndarray | None:

@@ -79,7 +79,7 @@ def test_budget_options_are_checked(tmp_path):
         assert out.returncode == 2 and f"{option}: must be a finite number > 0" in out.stderr
 
 
-def test_require_names_the_stage_its_need_and_the_budget():
+def test_require_names_the_stage_its_need_and_the_budget(capsys):
     small = Need("reading", 1e5, 1.0)
     big = Need("the analysis (5 cells)", 3e6, 2.0, "use a coarser mesh")
     with pytest.raises(
@@ -96,6 +96,12 @@ def test_require_names_the_stage_its_need_and_the_budget():
     ):
         require(small, Need("b", 0, 4000.0), budget=Budget(1_000_000, 3600.0, start_s=now))
     assert format_bytes(1.34e15) == "1,340 TB" and format_bytes(2.5e9) == "2.5 GB"
+    assert "planned" not in capsys.readouterr().err  # short work goes unannounced
+    # work that fits but takes a minute or more says so before it starts
+    require(small, Need("b", 0, 119.0), budget=Budget(1_000_000, 3600.0, start_s=now))
+    assert "planned: b: about 2 min on this machine, within the budget of 60 min" in (
+        capsys.readouterr().err
+    )
     assert format_seconds(30) == "30 s" and format_seconds(7200) == "2 h"
 
 
@@ -168,3 +174,63 @@ def test_more_modes_than_dofs_are_said_and_solved_densely():
     assert dense.n_modes > 6
     # both solve the same eigenproblem to machine precision (relative 1e-10, measured 1e-13)
     np.testing.assert_allclose(dense.freq_hz[:6], iterative.freq_hz, rtol=1e-10)
+
+
+def test_a_sweep_is_planned_in_full_before_its_first_case(tmp_path):
+    """A spec of 1 000 moves (5 000 cases at 0.3 s or more each, optim.sweep.plan.MIN_CASE_S:
+    12.5 min on two workers) is refused under --max-time 300 before any case or model
+    is written; ``model.n_modes = 100000`` on a mesh of about 5 000 DOFs is refused naming
+    the field (the FE would give fewer after a dense solve of every DOF)."""
+    moves = [{"name": f"m{i}", "distance_m": [0, 0, 0.2 + 0.001 * i]} for i in range(1000)]
+    many = tmp_path / "many.json"
+    many.write_text(json.dumps({**SPEC, "moves": moves}), encoding="utf-8")
+    modes = tmp_path / "modes.json"
+    modes.write_text(json.dumps({**SPEC, "model": {**SPEC["model"], "n_modes": 100_000}}))
+    for path, match in ((many, "time: the sweep's 5 layout(s) x 1000 move(s) = 5,000 cases"),
+                        (modes, "model.n_modes: 100,000 modes asked, more than the part's mesh "
+                                "has DOFs")):  # fmt: skip
+        out_dir = tmp_path / f"out_{path.stem}"
+        out = run_jaxflex("sweep", str(path), "--serial", "--max-time", "300", "-o", str(out_dir))
+        assert out.returncode == 2, out.stderr
+        assert match in out.stderr and "Traceback" not in out.stderr
+        assert not list(out_dir.glob("cases/*.json")) and not list(out_dir.glob("models/*"))
+
+
+def test_a_stiff_parts_cup_constraints_are_planned_before_the_baselines(monkeypatch):
+    """A steel plate made 10^6 times stiffer (kHz modes): certifying its cups on every
+    baseline samples each kHz period 16 times (optim.budget.families_need); under a 2 s
+    budget the optimisation is refused naming the constraints, before any baseline runs."""
+    import fem
+    import optim
+    import optim.stages
+    from fem.materials import Material
+    from optim.budget import FAMILY_POWER, families_need
+    from optim.cell_setup import prepare_cell
+
+    def no_baselines(*args, **kwargs):
+        raise AssertionError("the baselines ran before the plan refused the work")
+
+    cups = [fem.SuctionCup(x, y, 0.03) for x in (0.1, 0.3) for y in (0.08, 0.22)]
+    models = {}
+    for name, e_pa in (("steel", 210e9), ("stiff", 2.1e17)):
+        part = fem.rectangular_plate(0.4, 0.3, 1e-3, Material(name, e_pa, 0.3, 7850.0, 140e6),
+                                     0.1)  # fmt: skip
+        models[name] = fem.modal_analysis(part, cups, n_modes=3).to_modal_model(points=12)
+    need = {}
+    for name, model in models.items():
+        families = prepare_cell(model, [0, 0, 1], cup_safety=1.5).families
+        need[name] = families_need(families, model, 69, 0.01, 1).time_s
+    # frequencies scale with sqrt(E): 1 000 times the samples, the time as their power fitted
+    ratio = models["stiff"].freq_hz.max() / models["steel"].freq_hz.max()
+    assert ratio == pytest.approx(1000.0, rel=1e-6)
+    assert need["stiff"] / need["steel"] == pytest.approx(ratio**FAMILY_POWER, rel=1e-9)
+    monkeypatch.setattr(optim.stages, "compute_baselines", no_baselines)
+    limits = optim.Limits(vmax=2.0, amax=10.0, jmax=100.0)
+    with (
+        use_budget(make_budget(None, 2.0)),
+        pytest.raises(
+            BudgetError, match=r"time: the cell's constraints \(cup utilisation\) on 18 baselines"
+        ),
+    ):
+        optim.optimize(models["stiff"], (0, 0, 1), limits, 0.01, 5e-4, cup_safety=1.5,
+                       progress=False)  # fmt: skip

@@ -318,10 +318,12 @@ def _model(path: Path, *extra: str) -> Path:
 
 
 def _fields(path: Path) -> dict:
-    """The model file's arrays and meta, the FE timings left out (wall times of the solve)."""
+    """The model file's arrays and meta, the FE timings left out (wall times of the solve and
+    of the discretisation estimate's second analysis)."""
     with np.load(path) as archive:
         arrays = {name: archive[name] for name in archive.files}
-    meta = re.sub(r'"timings_s": \{[^}]*\}', "", str(arrays.pop("meta_json")))
+    timings = r'"timings_s": \{[^}]*\}|"time_s": [-+.0-9eE]+'
+    meta = re.sub(timings, "", str(arrays.pop("meta_json")))
     return {name: (a.dtype.str, a.shape, a.tobytes()) for name, a in arrays.items()} | {
         "meta": meta
     }

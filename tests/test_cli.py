@@ -216,6 +216,9 @@ def test_demo_runs_the_whole_pipeline(tmp_path):
         assert (out / name).stat().st_size > 0, name
     summary = json.loads((out / "demo.json").read_text())
     model = jaxflex.load_model(out / "model.npz")
+    # the part's line is followed by the FE's estimate of its discretisation error
+    stress_error = model.meta["discretisation"]["max_stress_error"]
+    assert f"peak stress {100 * stress_error:.2g} %" in proc.stdout.splitlines()[1]
     move = read_trajectory_csv(out / "optimized" / "trajectory.csv")
     acc, dt_s = move.acc, move.dt_s
     # the reported cycle time is the exact one of the saved model and trajectory

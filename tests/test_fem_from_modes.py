@@ -10,6 +10,7 @@ BSD-3-Clause) are read where JAXFLEX_PYNASTRAN_MODELS points to its models/ dire
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +21,7 @@ from solver_files import write_op2, write_punch
 import fem
 import jaxflex
 from fem.from_modes import from_modes
-from jaxflex.errors import InputError
+from jaxflex.errors import InputError, JaxflexWarning
 
 FLOAT64 = 1e-9  # files written with 8-byte words or 11 digits: round-off only
 FLOAT32 = 1e-6  # 4-byte words: float32 eps 6e-8 per value, rescaling and sums add a few
@@ -149,6 +150,28 @@ def test_the_command_reads_an_op2_and_says_what_it_found(tmp_path, plate):
     np.testing.assert_allclose(model.freq_hz, freq, rtol=FLOAT64)
     refused = run_jaxflex("model", "--from-modes", str(path), "-o", str(tmp_path / "m.npz"))
     assert refused.returncode == 2 and "--units" in refused.stderr
+
+
+def test_more_modes_asked_than_the_file_holds_are_named(tmp_path, plate):
+    """Issue 34: --n-modes 100000 on a file of 6 modes keeps the 6 and says so (it gave 6
+    without a word)."""
+    nodes, shapes, freq, gamma = _truth(plate)
+    path = tmp_path / "plate.op2"
+    write_op2(path, freq, _ids(plate), nodes, shapes, gamma=gamma, word=8)
+    with pytest.warns(JaxflexWarning, match=f"100,000 modes asked, .* holds {freq.size} elastic"):
+        result = from_modes(path, units="SI", n_modes=100_000)
+    assert result.freq_hz.size == freq.size
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", JaxflexWarning)  # as many as it holds: no remark
+        assert from_modes(path, units="SI", n_modes=freq.size).freq_hz.size == freq.size
+    out = run_jaxflex(
+        "model", "--from-modes", str(path), "--units", "SI", "--n-modes", "100000",
+        "-o", str(tmp_path / "m.npz"),
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    assert f"warning: n_modes (--n-modes): 100,000 modes asked, '{path}' holds" in out.stderr
+    assert f"all {freq.size} kept" in out.stderr
+    assert jaxflex.load_model(tmp_path / "m.npz").n_modes == freq.size
 
 
 MODELS = os.environ.get("JAXFLEX_PYNASTRAN_MODELS")

@@ -22,7 +22,9 @@ def _panel(material="steel", mesh_size=None):
 def test_shell_reactions_add_up_to_the_part_mass(stiffness):
     """Summed over the cups, A = m I - sum Gamma Gamma^T and Q = -Omega^2 Gamma (fem.outputs'
     identity: the reactions are m a + sum_i Gamma_i q_i''), for clamped and compliant cups on
-    a curved shell; exact up to the round-off of the sparse solves (1e-9 relative)."""
+    a curved shell; exact up to the round-off of the sparse solves (1e-9 relative; 1e-8 for
+    Q: a compliant pad carries the round-off of the many small elements of the disc it
+    holds, measured 5e-10 on the staircase mesh, 2e-9 ... 6e-9 on the rim-following one)."""
     result = fem.modal_analysis(_panel(), _cups(stiffness), n_modes=8, zeta=0.02)
     model = result.to_modal_model(points=20)
     cups = model.cups
@@ -34,7 +36,7 @@ def test_shell_reactions_add_up_to_the_part_mass(stiffness):
     )
     q_sum = np.asarray(cups.reaction.q_map).reshape(4, 6, -1).sum(axis=0)[:3]
     expected_q = -((2 * np.pi * np.asarray(model.freq_hz)) ** 2) * gamma.T
-    np.testing.assert_allclose(q_sum, expected_q, atol=1e-9 * np.abs(expected_q).max())
+    np.testing.assert_allclose(q_sum, expected_q, atol=1e-8 * np.abs(expected_q).max())
     # the cups sit on the curved surface and their axes are its normals there
     centres, normals = np.asarray(cups.centre_m), np.asarray(cups.normal)
     np.testing.assert_allclose(centres, _panel().surface_point(CUP_XY), atol=1e-12)

@@ -25,9 +25,13 @@ DT_S = 0.01
 FACTOR = 10  # evaluation step dt / 10 = 1 ms: >= 1.5 samples per period of every mode kept
 CUP_M = 0.03
 # The thresholds are about half the peak deviation (a settle time > 0 that the check must
-# match). The tolerances are the tightest that the cup clamp (a staircase disc on the grid,
-# converging irregularly at about first order) and the thin solid's locking let a test-sized
-# sequence reach; the criterion is the same at 1 % (measured figures in docs/fem.md).
+# match). The tolerances are the tightest that a test-sized sequence reaches: the meshes
+# follow the cups' rims and converge regularly, but these coarse ones (cups at 1/3 and 1/2
+# of the base size, 5-21 mm for a 30 mm cup) only at order 1-1.5 (measured: the plate's
+# L-inf differences 2.9 and 1.85 % from 30 to 15 mm, the estimate of the finest's error
+# 3.5 %; the panel's 4.4 and 3.2 % from 42 to 21 mm, the estimate 7.4 %: their sums under
+# 70 % of the tolerance); the criterion is the same at 1 % (measured figures in
+# docs/fem.md).
 # ``rich_refine``: the richer model's element size is the reference's / rich_refine and it
 # has rich_modes x the reference's modes (the panel's reference is already the finest
 # affordable here: the sizing computed ~100 modes on it).
@@ -35,7 +39,7 @@ CASES = {
     "plate": {
         "footprint_m": (0.6, 0.4),
         "threshold_m": 5e-5,
-        "tolerance": 0.05,
+        "tolerance": 0.09,
         "sizes_m": (0.06, 0.042, 0.03, 0.021, 0.015),
         "reference_modes": 20,
         "rich_refine": 2**0.5,
@@ -44,7 +48,7 @@ CASES = {
     "panel": {
         "footprint_m": (0.6, 0.4),
         "threshold_m": 5e-6,
-        "tolerance": 0.05,
+        "tolerance": 0.16,
         "sizes_m": (0.042, 0.03, 0.021),
         "reference_modes": 45,  # the thin solid needs ~100 (measured): skip cheap re-solves
         "rich_refine": 1.0,

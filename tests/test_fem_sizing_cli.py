@@ -11,9 +11,10 @@ from jaxflex.cli import main
 from jaxflex.profile import jerk_limited_move
 from jaxflex.trajectory_io import write_trajectory_csv
 
-# The full plate scene on a coarse sequence (100, 70, 50 mm): seconds, converges at 10 %.
+# The full plate scene on a coarse sequence (70, 50, 35 mm): seconds, converges at 10 %
+# (100 mm, with cups of 33 mm for their 40 mm radius, is not yet converging regularly)
 SIZED = ["model", "--scene", "plate", "--tolerance", "10%", "--threshold", "1e-3",
-         "--mesh-sizes", "0.1", "0.07", "0.05", "--quiet"]  # fmt: skip
+         "--mesh-sizes", "0.07", "0.05", "0.035", "--quiet"]  # fmt: skip
 
 
 def test_tolerance_writes_the_sized_model_and_report(tmp_path, capsys):
@@ -28,7 +29,7 @@ def test_tolerance_writes_the_sized_model_and_report(tmp_path, capsys):
     model = jaxflex.load_model(out)
     choice = data["choice"]
     assert (model.n_modes, model.n_points) == (choice["n_modes"], choice["n_points"])
-    assert choice["mesh_size_m"] in (0.1, 0.07)  # never the finest: that one is the reference
+    assert choice["mesh_size_m"] in (0.07, 0.05)  # never the finest: that one is the reference
     assert model.meta["sizing"]["choice"] == choice  # the model carries its own report
     assert data["error"]["linf"] <= 0.1 and data["error"]["settle_ok"]
     # the summary explains the choice: effective mass, error estimate, cost

@@ -98,3 +98,36 @@ def test_without_a_cell_the_fmu_has_no_cell_outputs(case, tmp_path):
     result = export_fmu(plain, tmp_path / "plain.fmu", 2, windows=False)
     with Session(result.fmu_path) as session:
         assert not {"min_distance", "cup_utilisation", "max_stress"} & set(session.variables)
+
+
+def test_a_move_optimised_elsewhere_is_not_exported_in_the_cell(tmp_path):
+    """export --cell refuses the move of a result optimised without that cell (none, or
+    another one) before any build, naming the cell it was made for; the move made in the
+    cell passes that check (it is the same file, by report.json's inputs.cell)."""
+    from conftest import random_model, run_jaxflex
+
+    from fmu.move_cell import check_move_cell
+    from optim.cell_file import load_cell
+
+    model = tmp_path / "m.npz"
+    random_model(n_points=8, n_modes=3).save(model)
+    cells = {}
+    for name, end_x in (("a", 0.5), ("b", 0.6)):
+        cells[name] = tmp_path / f"{name}.toml"
+        cells[name].write_text(
+            f"[part]\nstart_m = [0.0, 0.0, 0.1]\n[path]\nend_m = [{end_x}, 0.0, 0.3]\n"
+        )
+    common = ["--threshold", "1e-3", "--no-plots"]
+    made_in_a = run_jaxflex("optimize", str(model), "--cell", str(cells["a"]), *common,
+                            "-o", str(tmp_path / "ra"))  # fmt: skip
+    no_cell = run_jaxflex("optimize", str(model), "--distance", "0.5", "0", "0.2", *common,
+                          "-o", str(tmp_path / "rn"))  # fmt: skip
+    assert made_in_a.returncode == 0 and no_cell.returncode == 0, made_in_a.stderr
+    for result, cell, said in (("ra", "b", "optimised in another cell"),
+                               ("rn", "a", "optimised without a cell")):  # fmt: skip
+        fmu = tmp_path / f"{result}{cell}.fmu"
+        out = run_jaxflex("export", str(model), "--trajectory", str(tmp_path / result),
+                          "--cell", str(cells[cell]), "-o", str(fmu))  # fmt: skip
+        assert out.returncode == 2 and said in out.stderr and "Traceback" not in out.stderr
+        assert not fmu.exists()
+    check_move_cell(tmp_path / "ra" / "report.json", cells["a"], load_cell(cells["a"]))

@@ -6,10 +6,13 @@
   0.5 s of optimisation).
 * **The cases** (:func:`sweep_needs`, before any is computed): each layout's modal analysis
   (fem.plan, with the first layout's cups), its model at the monitored points, each move's
-  search (optim.budget: the memory at its shortest move and the time of its tests), each on
+  search (optim.budget: the memory at its shortest move and the time of its tests) on top of
+  what every case takes (``MIN_CASE_S``: its baselines, exact timings and record), each on
   one worker at a time; the time of all the pending work is shared by the workers, the memory
   is what every worker needs at once. A move that no case can run (its shortest move longer
-  than ``max_duration_s``) refuses the spec here: every case would fail.
+  than ``max_duration_s``) refuses the spec here: every case would fail, and so does a mode
+  count above what the part's mesh has (``model.n_modes`` more than its DOFs: the FE would
+  quietly give fewer, at the cost of a dense solve of every DOF).
 """
 
 from __future__ import annotations
@@ -28,7 +31,10 @@ from optim.robust import RobustSpec
 from optim.sweep.part import build_part
 
 BYTES_PER_CASE = 3e3  # a case, its layout, its id and status in the run, its table row
-MIN_CASE_S = 0.3  # the least a case takes on a worker (FE share and optimisation)
+# the least a case takes on a worker besides its search: its baselines, exact timings and
+# record (CPU s on the 2-core machine: 80 cases of tests/sweep_cases.py's part with 20 moves,
+# their answer the kinematic floor, took 25.4 s, 0.26 s a case with the FE and start-up)
+MIN_CASE_S = 0.3
 MODEL_COPIES = 4  # a layout's model: the FE result's, the payload, the task's, the store's
 
 
@@ -61,6 +67,12 @@ def sweep_needs(spec, pending: int, pending_layouts: int, n_workers: int) -> lis
     cups = [SuctionCup(c[0], c[1], c[-1], z=c[2] if len(c) == 4 else None)
             for c in spec.layouts[0].cups]  # fmt: skip
     fe = fe_plan(part, spec.model.n_modes, cups)
+    if spec.model.n_modes > fe.n_dof:
+        raise InputError(
+            f"model.n_modes: {spec.model.n_modes:,} modes asked, more than the part's mesh "
+            f"has DOFs (about {fe.n_dof:,} '{fe.element}' DOFs in {fe.cells:,} cells); ask for "
+            "fewer modes (the lowest ones matter) or a finer part.mesh_size_m"
+        )
     nx, ny = spec.model.monitor_grid
     points = nx * ny  # at most: those on the part are kept
     model_bytes = MODEL_COPIES * 8.0 * points * (3 * spec.model.n_modes + 3)
@@ -80,7 +92,7 @@ def sweep_needs(spec, pending: int, pending_layouts: int, n_workers: int) -> lis
             raise type(exc)(f"moves ({move.name}): no case can run: {exc}") from None
         check_memory(spec.model.n_modes, shortest, allowed, scenarios, False, per_worker)
         search = search_need(spec.model.n_modes, points, shortest, allowed, scenarios)
-        case_s.append(search.time_s)
+        case_s.append(MIN_CASE_S + search.time_s)
         case_bytes.append(search_bytes(spec.model.n_modes, shortest, scenarios, False))
     layouts_s = pending_layouts * fe.time_s
     cases_s = pending * sum(case_s) / len(case_s)
