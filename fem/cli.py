@@ -4,37 +4,35 @@ With ``--tolerance`` the mesh, the number of modes and the monitored points are 
 move (``--trajectory`` or ``--distance`` with limits) and a ``--threshold`` by fem.size_model.
 ``--from-ansys``, ``--from-nastran``, ``--from-r1`` and ``--from-modes`` build the model
 from a user's own finite-element results (fem.cli_imports).
+
+The options and the input files are checked before the finite-element modules (and JAX)
+load: an argument error is answered at once.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
+import json
 import re
 import sys
 from dataclasses import replace
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from fem import cli_imports
+from fem.choices import CAD_SUFFIXES, ELEMENTS, FORMATS_HELP
 from fem.damping import check_damping
-from fem.export import export_modes, plot_part
 from fem.materials import resolve_material
-from fem.mesh_advice import coarse_mesh_warnings
-from fem.mesh_io import CAD_SUFFIXES, FORMATS_HELP
-from fem.modal import modal_analysis
-from fem.parts import ELEMENTS, read_cad, read_mesh
-from fem.plan import fe_plan, points_need
-from fem.sanity import printed_part_warnings
-from fem.scenes import scene
-from fem.sizing import size_model
-from fem.supports import ClampedEdge, PointSupport, SuctionCup
 from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
 from jaxflex.defaults import DT_S
 from jaxflex.errors import InputError
-from jaxflex.files import check_output_file, read_trajectory_csv
-from jaxflex.response import Move, analyze_move, as_move, deviation_curve, jerk_limited_move
-from jaxflex.runtime import issue, model_resolution, require, threshold_advice
+from jaxflex.files import check_input_file, check_output_file
+
+if TYPE_CHECKING:
+    from fem.supports import SuctionCup
+    from jaxflex.response import Move
 
 COMMAND = "model"
 HELP = (
@@ -56,6 +54,8 @@ def _cup(text: str) -> SuctionCup:
     except ValueError as exc:
         raise argparse.ArgumentTypeError(f"expected numbers X,Y[,Z],R in m, got {text!r}") from exc
     x, y, *z, radius = values
+    from fem.supports import SuctionCup  # only when cups are given
+
     try:
         return SuctionCup(x, y, radius, z=z[0] if z else None)
     except InputError as exc:
@@ -311,23 +311,68 @@ def _defaults() -> dict:
     return vars(parser.parse_args(["--scene", "plate"]))
 
 
-def run(args: argparse.Namespace) -> int:
-    for option in ("output", "plot", "vtu", "report"):  # before the analysis, not after it
+def _check_files(args: argparse.Namespace) -> None:
+    """The outputs can be written and the inputs read: before any work (and before the
+    finite-element modules load)."""
+    for option in ("output", "plot", "vtu", "report"):
         if getattr(args, option) is not None:
             check_output_file(f"--{option}", getattr(args, option))
+    for option in ("mesh", "cad"):  # the imports' files: fem.cli_imports, after its options
+        if getattr(args, option) is not None:
+            check_input_file(f"--{option}", getattr(args, option))
+
+
+def run(args: argparse.Namespace) -> int:
+    _check_files(args)
     if cli_imports.requested(args):
         return cli_imports.run(args, _defaults(), _write)
     cli_imports.refuse_import_options(args)
     material = _material(args)
+    if args.scene and (args.thickness is not None or args.element is not None):
+        raise InputError("--thickness/--element: only for --mesh and --cad (scenes are 1 mm steel)")
+    supports = _supports(args, material)
+    if not supports and not args.allow_rigid_modes:
+        raise InputError(
+            "--cups: a mesh or CAD part needs a gripper (--cups X,Y,R ...), or "
+            "--allow-rigid-modes for the free part (its rigid-body modes are left out)"
+        )
+    if args.tolerance is not None:
+        return _run_sizing(args, _part(args, material), supports)
+    for name in SIZING_ONLY:
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name.replace('_', '-')}: only with --tolerance")
+    if args.plot or args.vtu:  # the pictures need the FE solution itself: solved
+        model, result = _solve(args, _part(args, material), supports)
+        _write(args, model, result)
+        return 0
+    _model_from_store(args, material, supports)
+    return 0
+
+
+def _n_modes(args) -> int | None:
+    """--n-modes, 20 when neither it nor --max-freq is given."""
+    return 20 if args.n_modes is None and args.max_freq is None else args.n_modes
+
+
+def _part(args, material):
+    """The part of --scene, --mesh or --cad."""
     if args.scene:
-        if args.thickness is not None or args.element is not None:
-            raise InputError(
-                "--thickness/--element: only for --mesh and --cad (scenes are 1 mm steel)"
-            )
-        part, supports = scene(args.scene, mesh_size=args.mesh_size, material=material)
-    else:
-        part = _read_part(args, material)
-        supports = []
+        from fem.scenes import scene
+
+        return scene(args.scene, mesh_size=args.mesh_size, material=material)[0]
+    return _read_part(args, material)
+
+
+def _supports(args, material) -> list:
+    """The gripper: the scene's or --cups (with --cup-stiffness), the point supports and the
+    clamped edges."""
+    from fem.supports import ClampedEdge, PointSupport, SuctionCup
+
+    supports = []
+    if args.scene:
+        from fem.scenes import scene
+
+        supports = scene(args.scene, mesh_size=args.mesh_size, material=material)[1]
     if args.cups is not None:
         supports = list(args.cups)
     if args.cup_stiffness is not None:
@@ -338,19 +383,18 @@ def run(args: argparse.Namespace) -> int:
         ]
     supports += [PointSupport(x, y) for x, y in args.point_supports]
     supports += [ClampedEdge(side) for side in args.clamped_edges]
-    if not supports and not args.allow_rigid_modes:
-        raise InputError(
-            "--cups: a mesh or CAD part needs a gripper (--cups X,Y,R ...), or "
-            "--allow-rigid-modes for the free part (its rigid-body modes are left out)"
-        )
-    if args.tolerance is not None:
-        return _run_sizing(args, part, supports)
-    for name in SIZING_ONLY:
-        if getattr(args, name) is not None:
-            raise InputError(f"--{name.replace('_', '-')}: only with --tolerance")
-    n_modes = args.n_modes
-    if n_modes is None and args.max_freq is None:
-        n_modes = 20
+    return supports
+
+
+def _solve(args, part, supports):
+    """(the model, the FE result) of the part on its supports, planned first; prints the
+    result's summary and the coarse-mesh warnings."""
+    from fem.mesh_advice import coarse_mesh_warnings
+    from fem.modal import modal_analysis
+    from fem.plan import fe_plan, points_need
+    from jaxflex.runtime import require
+
+    n_modes = _n_modes(args)
     plan = fe_plan(part, n_modes, supports)
     require(plan.need(), points_need(plan, args.points))  # before any meshing
     result = modal_analysis(
@@ -365,13 +409,107 @@ def run(args: argparse.Namespace) -> int:
     for message in coarse_mesh_warnings(result):
         print(f"warning: {message}", file=sys.stderr)
     points = None if args.points in (None, "all") else args.points
-    model = result.to_modal_model(points=points)
-    _write(args, model, result)
-    return 0
+    return result.to_modal_model(points=points), result
+
+
+def _model_from_store(args, material, supports) -> None:
+    """Solve the part and write its model, or copy the model of the same inputs and code
+    from the FE store (fem.model_store: no FE work, no JAX)."""
+    from fem import model_store
+    from fem.materials import resolve_material
+    from jaxflex.files import atomic_open
+
+    source = "scene" if args.scene else "mesh" if args.mesh else "cad"
+    path = getattr(args, source)
+    request = {
+        "command": "model",
+        "source": source,
+        "scene": args.scene,
+        "file": None if args.scene else [Path(path).suffix.lower(), model_store.file_digest(path)],
+        **{k: getattr(args, k) for k in ("thickness", "scale", "element", "mesh_size")},
+        "material": material,
+        "supports": [support.describe() for support in supports],
+        **{k: getattr(args, k) for k in ("allow_rigid_modes", "max_freq", "zeta", "points")},
+        "n_modes": _n_modes(args),
+    }
+    expected = model_store.fingerprint(
+        n_modes=_n_modes(args) if args.max_freq is None else None,
+        n_points=None if args.points in (None, "all") else args.points,
+        zeta=args.zeta,
+        material=resolve_material(material).as_dict(),
+        supports=supports,
+        part=_part(args, material) if args.scene else None,
+    )
+
+    def solve() -> tuple[bytes, str]:
+        with _recorded() as output:
+            model, result = _solve(args, _part(args, material), supports)
+        _write(args, model, result)
+        return Path(args.output).read_bytes(), json.dumps(output)
+
+    stored = model_store.model_file(request, expected, solve)
+    if stored.from_store:
+        with atomic_open(args.output, "wb") as handle:
+            handle.write(stored.data)
+        print(
+            f"FE model from the cache ({model_store.MODEL_STORE}: these inputs were solved "
+            "before with this code; what that solve printed:)"
+        )
+        output = json.loads(stored.output or '{"stdout": "", "warnings": []}')
+        print(output["stdout"], end="")
+        for line in output["warnings"]:
+            print(line, file=sys.stderr)
+        fields = stored.fields
+        print(
+            f"wrote {args.output}: {len(fields['freq_hz'])} modes, {len(fields['points'])} "
+            "points (SI units)"
+        )
+
+
+class _Tee(io.TextIOBase):
+    """A text stream writing to ``stream`` and keeping what it wrote (its lines that hold
+    ``only``, when given)."""
+
+    def __init__(self, stream, only: str | None = None) -> None:
+        self.stream, self.only, self.text = stream, only, []
+
+    def write(self, text: str) -> int:
+        self.stream.write(text)
+        self.text.append(text)
+        return len(text)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+    def isatty(self) -> bool:
+        return self.stream.isatty()
+
+    def kept(self) -> str:
+        text = "".join(self.text)
+        if self.only is None:
+            return text
+        return "".join(line for line in text.splitlines(True) if self.only in line)
+
+
+@contextlib.contextmanager
+def _recorded():
+    """Record what a solve prints: stdout, and the warning lines of stderr (not its
+    progress); yields a dict filled on exit: {"stdout": text, "warnings": [line, ...]}."""
+    output: dict = {}
+    out, err = _Tee(sys.stdout), _Tee(sys.stderr, "warning")
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            yield output
+    finally:
+        output["stdout"] = out.kept()
+        output["warnings"] = err.kept().splitlines()
 
 
 def _read_part(args, material):
     """The part of --mesh or --cad; prints what was read and the unit warnings."""
+    from fem.parts import read_cad, read_mesh
+    from fem.sanity import printed_part_warnings
+
     with printed_part_warnings():
         if args.mesh:
             if args.mesh_size is not None:
@@ -399,6 +537,8 @@ def _read_part(args, material):
 
 
 def _write(args, model, result) -> None:
+    from fem.export import export_modes, plot_part
+
     model.save(args.output)
     print(f"wrote {args.output}: {model.n_modes} modes, {model.n_points} points (SI units)")
     if args.plot:
@@ -411,6 +551,9 @@ def _write(args, model, result) -> None:
 
 def _move(args):
     """The Move at hand from --trajectory or --distance and the limits."""
+    from jaxflex.files import read_trajectory_csv
+    from jaxflex.response import as_move, jerk_limited_move
+
     for name, _unit, _default in AXIS_LIMITS:
         if getattr(args, name) is not None and args.distance is None:
             raise InputError(f"--{name}: only with --distance (a trajectory has its own limits)")
@@ -428,6 +571,11 @@ def _move(args):
 
 def _threshold_advice(model, move: Move, threshold_m: float) -> None:
     """Warn about a --threshold the sized model cannot mean (jaxflex.advice)."""
+    import numpy as np
+
+    from jaxflex.response import analyze_move, deviation_curve
+    from jaxflex.runtime import issue, model_resolution, threshold_advice
+
     _, deviation = deviation_curve(model, move, move.duration_s, 8)
     issue(
         threshold_advice(
@@ -442,6 +590,8 @@ def _threshold_advice(model, move: Move, threshold_m: float) -> None:
 
 
 def _run_sizing(args, part, supports) -> int:
+    from fem.sizing import size_model
+
     for name in ("n_modes", "max_freq", "points"):
         if getattr(args, name) is not None:
             raise InputError(

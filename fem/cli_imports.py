@@ -12,13 +12,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from fem.ansys import from_ansys
-from fem.from_modes import from_modes
-from fem.identify import from_r1
-from fem.nastran import from_nastran
-from fem.sanity import printed_part_warnings
 from jaxflex.errors import InputError
-from jaxflex.files import read_text, write_text_atomic
+from jaxflex.files import check_input_file, read_text, write_text_atomic
 
 SOURCES = ("from_ansys", "from_nastran", "from_r1", "from_modes")
 IMPORT_ONLY = ("full", "nodes", "units", "gamma", "spc_id", "axis")
@@ -129,6 +124,20 @@ def _check_options(args, source: str, defaults: dict) -> None:
             raise InputError(f"--{name.replace('_', '-')}: not used with --from-{source}")
 
 
+def _check_at_once(args: argparse.Namespace, defaults: dict) -> None:
+    """The options of the chosen import, then its files: before the readers load."""
+    source = next(name for name in SOURCES if getattr(args, name)).removeprefix("from_")
+    _check_options(args, source, defaults)
+    if source == "r1" and args.dt is None:
+        raise InputError("--dt: the time step of the R1 file(s) in s is required")
+    paths = args.from_r1 if source == "r1" else [getattr(args, f"from_{source}")]
+    for path in paths:
+        check_input_file(f"--from-{source}", path)
+    for option in ("full", "gamma"):
+        if getattr(args, option) is not None:
+            check_input_file(f"--{option}", getattr(args, option))
+
+
 def _read_gamma(path):
     text = read_text("--gamma", path)
     try:
@@ -140,11 +149,14 @@ def _read_gamma(path):
 def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
     """Import, print the summary, write the model; ``defaults``: the command's option
     defaults; ``write(args, model, result)``: fem.cli's writer of a model solved here."""
+    _check_at_once(args, defaults)
+    from fem.sanity import printed_part_warnings  # the readers load after the checks
+
     n_modes = args.n_modes
     if n_modes is None and args.max_freq is None and not (args.from_r1 or args.from_modes):
         n_modes = 20
     with printed_part_warnings():  # unit slips, a thick part, laminates, model checks
-        result, model = _imported(args, defaults, n_modes)
+        result, model = _imported(args, n_modes)
     if args.report and not hasattr(result, "fit"):
         raise InputError("--report: the identification report of R1 or of measured responses")
     if hasattr(result, "fit") and args.report:
@@ -160,10 +172,14 @@ def run(args: argparse.Namespace, defaults: dict, write: Callable) -> int:
     return 0
 
 
-def _imported(args: argparse.Namespace, defaults: dict, n_modes):
+def _imported(args: argparse.Namespace, n_modes):
     """(the import's result, its ModalModel at --points), the summary printed."""
+    from fem.ansys import from_ansys
+    from fem.from_modes import from_modes
+    from fem.identify import from_r1
+    from fem.nastran import from_nastran
+
     if args.from_ansys:
-        _check_options(args, "ansys", defaults)
         result = from_ansys(
             args.from_ansys,
             full=args.full,
@@ -176,7 +192,6 @@ def _imported(args: argparse.Namespace, defaults: dict, n_modes):
             allow_rigid_modes=args.allow_rigid_modes,
         )
     elif args.from_modes:
-        _check_options(args, "modes", defaults)
         result = from_modes(
             args.from_modes,
             units=args.units,
@@ -188,7 +203,6 @@ def _imported(args: argparse.Namespace, defaults: dict, n_modes):
             allow_rigid_modes=args.allow_rigid_modes,
         )
     elif args.from_nastran:
-        _check_options(args, "nastran", defaults)
         result = from_nastran(
             args.from_nastran,
             units=args.units,
@@ -201,9 +215,6 @@ def _imported(args: argparse.Namespace, defaults: dict, n_modes):
             allow_rigid_modes=args.allow_rigid_modes,
         )
     else:
-        _check_options(args, "r1", defaults)
-        if args.dt is None:
-            raise InputError("--dt: the time step of the R1 file(s) in s is required")
         result = from_r1(
             args.from_r1,
             args.dt,

@@ -19,6 +19,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
+from fem.choices import CAD_SUFFIXES as CAD_SUFFIXES  # their home: the light names
+from fem.choices import FORMATS_HELP as FORMATS_HELP
 from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
 from fem.meshfile import read_cells
 from fem.meshing import split_quads
@@ -42,12 +44,6 @@ SKIPPED_CELLS = ("vertex", "line", "line3")  # gmsh's physical points and curves
 # CAD sheet in 4.4 s, and ~1 kB each at the peak)
 MESH_S_PER_CELL = 1e-5
 MESH_BYTES_PER_CELL = 1e3
-CAD_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep")
-FORMATS_HELP = (
-    "meshio formats: gmsh .msh, .vtu/.vtk, .xdmf, .stl, .obj, .ply, .off, Abaqus .inp, "
-    "Nastran .bdf/.nas, ANSYS .ans, .med, .mesh, ... with cells tri3, tri6, tri7, quad4, "
-    "quad8, quad9 (any mix, any number of blocks) or one layer of hexahedra"
-)
 
 
 @dataclass(frozen=True, eq=False)

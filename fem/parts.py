@@ -24,6 +24,8 @@ from typing import Any
 import numpy as np
 
 from fem.cad import cad_unit, meshed, read_cad_bounds
+from fem.choices import ELEMENTS as ELEMENTS  # their home: the light names
+from fem.choices import PLATE_ELEMENTS as PLATE_ELEMENTS
 from fem.geometry import CadSurface, GivenMesh, Rectangle, check_sheet_element
 from fem.materials import Material, resolve_material
 from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
@@ -34,8 +36,6 @@ from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 from jaxflex.runtime import require
 
-PLATE_ELEMENTS = ("morley", "argyris")
-ELEMENTS = (*PLATE_ELEMENTS, "shell", "hex2")
 # Default element size: fine enough for <= 0.5 % on the first plate modes (see docs/fem.md).
 DEFAULT_SIZE_M = {"morley": 0.015, "argyris": 0.05, "shell": 0.02, "hex2": 0.025}
 DEFAULT_SIZE_PER_SPAN = {"morley": 60, "argyris": 20, "shell": 30, "hex2": 30}

@@ -7,32 +7,26 @@ Both are held by four suction cups of 40 mm radius at 22 % / 78 % of width and h
 the points that minimise the sag of a plate on four supports).
 
 ``default_model(..., cache=True)`` keeps the model in the store ``fe-models`` of jaxflex's
-cache (jaxflex.runtime.cache_store) under a key that hashes the arguments, the source of the
-``fem`` and ``jaxflex`` packages and the versions of the libraries the FE solve uses, so a
-later run (``jaxflex demo``) loads it instead of solving again; any change of code or library
-is a new key.
+cache (fem.model_store), so a later run (``jaxflex demo``) loads it instead of solving again;
+any change of arguments, code or library is a new key, and a stored model that is not the
+scene's (its fingerprint: part, gripper, material, damping, modes, points) is a miss.
 """
 
 from __future__ import annotations
 
-import functools
-import hashlib
 import tempfile
-from importlib.metadata import version
-from importlib.util import find_spec
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from fem.modal import modal_analysis
+from fem import model_store
 from fem.parts import Part, curved_panel, rectangular_plate
 from fem.supports import SuctionCup
 from jaxflex.errors import InputError
-from jaxflex.model import ModalModel, load_model
-from jaxflex.runtime import cache_store
+
+if TYPE_CHECKING:
+    from jaxflex.model import ModalModel
 
 SCENES = ("plate", "panel")
-MODEL_STORE = "fe-models"  # jaxflex.runtime.cache_store of the built-in scenes' models
-MODEL_STORE_BYTES = 1024**3
-SOLVER_LIBRARIES = ("numpy", "scipy", "scikit-fem", "meshio", "jax")
 CUP_RADIUS_M = 0.04
 CUP_FRACTIONS = (0.22, 0.78)
 
@@ -72,44 +66,37 @@ def default_model(
     ``n_points`` voxel-reduced points), damping ``zeta``. The plate takes ~1-2 s, the panel
     ~20 s; with ``cache`` a later call with the same arguments and code loads the model
     written by the first (module docstring)."""
-    models = cache_store(MODEL_STORE, MODEL_STORE_BYTES) if cache else None
-    key = _model_key(name, n_modes, n_points, zeta)
-    if models is not None and (entry := models.get(key)) is not None:
-        model = _model_from_bytes(entry)
-        if model is not None:
-            return model
+    from fem.modal import modal_analysis
+    from jaxflex.model import load_model
+
     part, supports = scene(name)
-    result = modal_analysis(part, supports, n_modes=n_modes, zeta=zeta, progress=progress)
-    model = result.to_modal_model(points=n_points).with_meta(scene=name)
-    if models is not None:
-        with tempfile.TemporaryDirectory() as folder:
-            model.save(Path(folder) / "model.npz")
-            models.put(key, (Path(folder) / "model.npz").read_bytes())
-    return model
 
+    def solve() -> ModalModel:
+        result = modal_analysis(part, supports, n_modes=n_modes, zeta=zeta, progress=progress)
+        return result.to_modal_model(points=n_points).with_meta(scene=name)
 
-@functools.cache
-def _code_digest() -> str:
-    """The hash of the ``fem`` and ``jaxflex`` sources and the FE libraries' versions."""
-    digest = hashlib.sha256()
-    for package in (Path(__file__).parent, Path(find_spec("jaxflex").origin).parent):
-        for path in sorted(package.rglob("*.py")):
-            digest.update(path.name.encode() + b"\0" + path.read_bytes())
-    digest.update(" ".join(version(lib) for lib in SOLVER_LIBRARIES).encode())
-    return digest.hexdigest()
+    if not cache:
+        return solve()
+    request = {"scene": name, "n_modes": n_modes, "n_points": n_points, "zeta": zeta}
+    expected = model_store.fingerprint(
+        n_modes=n_modes, n_points=n_points, zeta=zeta, supports=supports, part=part, scene=name
+    )
+    solved: list[ModalModel] = []
 
+    def solved_file() -> tuple[bytes, str]:
+        solved.append(solve())
+        return _file_bytes(solved[0]), ""
 
-def _model_key(name: str, n_modes: int, n_points, zeta) -> str:
-    """The store key of a built-in scene's model."""
-    arguments = repr((name, n_modes, n_points, zeta)).encode()
-    return hashlib.sha256(arguments + _code_digest().encode()).hexdigest()
-
-
-def _model_from_bytes(entry: bytes) -> ModalModel | None:
-    """The model of a store entry, None if it cannot be read (a miss: solved again)."""
+    stored = model_store.model_file(request, expected, solved_file)
+    if solved:
+        return solved[0]
     with tempfile.TemporaryDirectory() as folder:
-        (Path(folder) / "model.npz").write_bytes(entry)
-        try:
-            return load_model(Path(folder) / "model.npz")
-        except Exception:  # a damaged entry is a miss, replaced after the solve
-            return None
+        (Path(folder) / "model.npz").write_bytes(stored.data)
+        return load_model(Path(folder) / "model.npz")
+
+
+def _file_bytes(model: ModalModel) -> bytes:
+    """The bytes of ``model``'s file (ModalModel.save)."""
+    with tempfile.TemporaryDirectory() as folder:
+        model.save(Path(folder) / "model.npz")
+        return (Path(folder) / "model.npz").read_bytes()

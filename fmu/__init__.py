@@ -8,10 +8,17 @@ with fmpy, simulates it and compares with ``jaxflex.simulate``. ``export_ssp(mod
 FMU playing the move (fmu.ssp); ``fmu.crosscheck`` runs FMUs and packages in other hosts.
 """
 
-from fmu.build import FmuBuildError
-from fmu.export import ExportResult, export_fmu
-from fmu.ssp import SspResult, export_ssp
-from fmu.verify import VerifyReport, verify
+from typing import TYPE_CHECKING
+
+from jaxflex.lazy import lazy_names
+
+if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at once
+    from fmu.build import FmuBuildError
+    from fmu.export import ExportResult, export_fmu
+    from fmu.ssp import SspResult, export_ssp
+    from fmu.verify import VerifyReport, verify
+
+__getattr__, __dir__ = lazy_names(__name__)
 
 __all__ = [
     "ExportResult",

@@ -27,8 +27,8 @@ def zip_folder(folder: Path, path: str | os.PathLike) -> None:
 def content_token(*parts: bytes) -> str:
     """The instantiation token (FMI 2 guid) of an FMU whose content is ``parts``: a name-based
     UUID (version 5) of their SHA-256, in braces. The same content gives the same token (so
-    a rebuilt FMU of the same model and move is the same binary, which fmu.build's store
-    reuses); any change of content gives another."""
+    a rebuilt FMU of the same model and move, under any file name, is the same binary, which
+    fmu.build's store reuses); any change of content gives another."""
     digest = hashlib.sha256()
     for part in parts:
         digest.update(len(part).to_bytes(8, "little") + part)

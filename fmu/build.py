@@ -4,7 +4,13 @@ A binary is built once per input: the store ``fmu-binaries`` of jaxflex's cache
 (jaxflex.runtime.cache_store) keeps it under a key that hashes the compiler's identity
 (``--version``), the command's flags, every C file and header of the sources folder and
 fmpy's FMI headers; a later build of the same input copies it (a changed model data header
-or source is a new key). ``JAXFLEX_COMPILE_CACHE=off`` turns the store off.
+or source is a new key; the FMU's file name is not in it: the instantiation token the
+sources carry is derived from the content alone, fmu.archive.content_token). The store
+checks every entry it returns (jaxflex.compile_cache); two runs building the same binary at
+once build it once. Whether compiled or copied, every binary is checked in the FMU before
+the FMU is reported built (fmu.binary_check: it loads, exports every FMI function, and one
+step of the part agrees with the engine); a copied binary that fails is compiled again.
+``JAXFLEX_COMPILE_CACHE=off`` turns the store off.
 """
 
 from __future__ import annotations
@@ -23,7 +29,7 @@ import fmpy
 
 from jaxflex.errors import JaxflexError
 from jaxflex.isolated import run_child
-from jaxflex.runtime import cache_store
+from jaxflex.runtime import cache_fetch, cache_pack_text, cache_store, cache_unpack_text
 
 C_DIR = Path(__file__).resolve().parent / "c"
 # every FMU: the instance (life cycle, checks, logging) and one FMI binding per version, over
@@ -78,6 +84,7 @@ class BuildReport:
     platforms: list[str] = field(default_factory=list)
     skipped: dict[str, str] = field(default_factory=dict)
     messages: str = ""
+    from_cache: list[str] = field(default_factory=list)  # platforms whose binary was copied
 
     def written(self) -> dict:
         """The fields of :class:`WrittenFmu` this report fills."""
@@ -85,6 +92,7 @@ class BuildReport:
             "platforms": tuple(self.platforms),
             "skipped": dict(self.skipped),
             "compiler_messages": self.messages,
+            "from_cache": tuple(self.from_cache),
         }
 
 
@@ -100,6 +108,7 @@ class WrittenFmu:
     platforms: tuple[str, ...]
     skipped: dict[str, str] = field(default_factory=dict)
     compiler_messages: str = ""
+    from_cache: tuple[str, ...] = ()  # platforms whose binary came from the cache
 
 
 def fmi_headers() -> Path:
@@ -127,7 +136,8 @@ def windows_target() -> Target | None:
     """The Windows x86_64 DLL target when the mingw-w64 cross compiler is installed."""
     if shutil.which(WINDOWS_COMPILER) is None:
         return None
-    flags = ("-shared", "-static-libgcc")
+    # the same DLL from the same sources: no time stamp, no image base from the output path
+    flags = ("-shared", "-static-libgcc", "-Wl,--no-insert-timestamp,--disable-auto-image-base")
     return Target("win64", "x86_64-windows", WINDOWS_COMPILER, ".dll", flags)
 
 
@@ -149,22 +159,41 @@ def compile_library(
     out_file: Path,
     c_files: Sequence[str] | None = None,
     extra_flags: Sequence[str] = (),
-) -> str:
+    *,
+    use_store: bool = True,
+) -> tuple[str, bool]:
     """Compile the sources in ``sources_dir`` (``c_files``, default: the part FMU's) into
-    ``out_file`` (``extra_flags`` added, e.g. fmu.harness.SANITIZE_FLAGS); returns compiler
-    messages."""
+    ``out_file`` (``extra_flags`` added, e.g. fmu.harness.SANITIZE_FLAGS), or copy the binary
+    of the same input from the store; returns (the compiler's messages, True if copied).
+    ``use_store`` False compiles whatever the store holds, and replaces it."""
     if shutil.which(target.compiler) is None:
         raise FmuBuildError(f"C compiler {target.compiler!r} not found on PATH (install gcc)")
     out_file.parent.mkdir(parents=True, exist_ok=True)
-    names = c_files or compiled_files(fmi_version)
+    names = tuple(c_files or compiled_files(fmi_version))
     flags = (*CFLAGS, *extra_flags, *target.flags)
-    binaries = cache_store(BINARY_STORE, BINARY_STORE_BYTES, _unpack)
+    binaries = cache_store(BINARY_STORE, BINARY_STORE_BYTES)
     key = _build_key(target.compiler, flags, names, sources_dir)
-    if binaries is not None and (entry := binaries.get(key)) is not None:
+
+    def compiled() -> tuple[str, bytes]:
+        messages = _run_compiler(target, sources_dir, flags, names, out_file)
+        return messages, _pack(messages, out_file.read_bytes())
+
+    def copied(entry: bytes) -> str:
         messages, binary = _unpack(entry)
         out_file.write_bytes(binary)
         out_file.chmod(0o755)
         return messages
+
+    if binaries is not None and not use_store:
+        messages, entry = compiled()
+        binaries.put(key, entry)
+        return messages, False
+    return cache_fetch(binaries, key, compiled, copied, f"FMU binary ({out_file.name})")
+
+
+def _run_compiler(target: Target, sources_dir: Path, flags, names, out_file: Path) -> str:
+    """Run ``target``'s compiler on the files ``names`` of ``sources_dir`` into
+    ``out_file``; its messages."""
     c_files = [str(sources_dir / name) for name in names]
     cmd = [
         target.compiler,
@@ -179,10 +208,7 @@ def compile_library(
     proc = run_child(cmd, capture_output=True, text=True)  # ends with the command
     if proc.returncode != 0:
         raise FmuBuildError(f"compiling the FMU failed ({' '.join(cmd)}):\n{proc.stderr.strip()}")
-    messages = proc.stderr.strip()
-    if binaries is not None:
-        binaries.put(key, _pack(messages, out_file.read_bytes()))
-    return messages
+    return proc.stderr.strip()
 
 
 @functools.cache
@@ -214,19 +240,17 @@ def _build_key(compiler: str, flags, c_files, sources_dir: Path) -> str:
 
 
 def _pack(messages: str, binary: bytes) -> bytes:
-    """A store entry: the compiler's messages (length-prefixed) and the binary."""
-    text = messages.encode()
-    return len(text).to_bytes(8, "little") + text + binary
+    """A store entry: the compiler's messages and the binary."""
+    return cache_pack_text(messages, binary)
 
 
 def _unpack(entry: bytes) -> tuple[str, bytes]:
     """(messages, binary) of a store entry written by :func:`_pack`; ValueError if it is not
     one (the binary an ELF or PE file)."""
-    length = int.from_bytes(entry[:8], "little")
-    binary = entry[8 + length :]
-    if len(entry) < 8 + length or (binary[:4] != b"\x7fELF" and binary[:2] != b"MZ"):
+    messages, binary = cache_unpack_text(entry)
+    if binary[:4] != b"\x7fELF" and binary[:2] != b"MZ":
         raise ValueError("not a compiled binary")
-    return entry[8 : 8 + length].decode(), binary
+    return messages, binary
 
 
 def build_binaries(
@@ -258,9 +282,30 @@ def build_binaries(
     for target in targets:
         folder = target.folder(fmi_version)
         out = binaries_dir / folder / f"{model_identifier}{target.suffix}"
-        text = compile_library(target, sources_dir, fmi_version, out, c_files)
+        built = (target, sources_dir, fmi_version, out, c_files)
+        text, copied = compile_library(*built)
+        if copied:
+            try:
+                _check(target, out, binaries_dir.parent, fmi_version, part=c_files is None)
+            except FmuBuildError:  # a wrong binary in the cache: compiled again, replaced
+                text, copied = compile_library(*built, use_store=False)
+        if not copied:
+            _check(target, out, binaries_dir.parent, fmi_version, part=c_files is None)
         if text:
             messages.append(f"[{folder}] {text}")
         report.platforms.append(folder)
+        if copied:
+            report.from_cache.append(folder)
     report.messages = "\n".join(messages)
     return report
+
+
+def _check(target: Target, library: Path, folder: Path, fmi_version: int, *, part: bool):
+    """fmu.binary_check of the binary ``library`` in the FMU staged in ``folder``: the host
+    library loaded (a part's also stepped), a Windows DLL's export table."""
+    from fmu.binary_check import check_dll, check_library
+
+    if target.suffix == ".dll":
+        check_dll(library, fmi_version)
+    else:
+        check_library(folder, library, fmi_version, step=part)

@@ -1,38 +1,22 @@
-"""``jaxflex export``: a modal model (and the optimised move) as an FMI 2.0 / 3.0 FMU."""
+"""``jaxflex export``: a modal model (and the optimised move) as an FMI 2.0 / 3.0 FMU.
+
+The options and the files are checked before the export's modules (and JAX) load.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-from fmpy.validation import validate_fmu
-
-import jaxflex
-from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
-from fmu.export import export_fmu
-from fmu.move_cell import check_move_cell
-from fmu.ssp import export_ssp
-from fmu.verify import verify
-from fmu.verify_turning import after_move_s, verify_turning
 from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
-from jaxflex.files import (
-    check_input_file,
-    check_output_file,
-    check_positive,
-    read_set,
-    read_trajectory_csv,
-    read_turn_csv,
-)
-from jaxflex.geometry import DEFAULT_GRAVITY_M_S2
-from jaxflex.response import Move, downsample_to_count, fixed_axis_path
-from jaxflex.runtime import Need, require
-from optim.budget import obstacle_pieces
-from optim.cell_file import load_cell
-from optim.result import RESULT_KIND
-from optim.turn_via import reported_turn
+from jaxflex.files import check_input_file, check_output_file, check_positive
+
+if TYPE_CHECKING:
+    from jaxflex.response import Move
+    from jaxflex.runtime import Need
 
 COMMAND = "export"
 HELP = (
@@ -165,6 +149,9 @@ def load_case(path: Path) -> tuple[Move, dict | None]:
     The trajectory and its report are used together only as members of one complete result
     set (jaxflex.fileset: the manifest lists both with their hashes): a folder whose run was
     interrupted, or a CSV beside a report of another run, is refused naming the file."""
+    from jaxflex.files import read_set, read_trajectory_csv
+    from optim.result import RESULT_KIND
+
     csv = trajectory_file(path)
     if not path.is_dir() and not csv.with_name("report.json").exists():
         return read_trajectory_csv(csv), None  # a trajectory on its own
@@ -193,6 +180,13 @@ def turning_move(path: Path, move: Move, case: dict | None, pivot_m) -> dict:
     the turn of `jaxflex optimize --rotate` (trajectory.csv's turn columns, report.json's
     axis, pivot and gravity), or no turn for a straight move (about ``pivot_m``, default the
     origin). Inconsistent inputs are refused naming the option."""
+    import numpy as np
+
+    from jaxflex.files import read_turn_csv
+    from jaxflex.geometry import DEFAULT_GRAVITY_M_S2
+    from jaxflex.response import fixed_axis_path
+    from optim.turn_via import reported_turn
+
     dt_s = move.dt_s
     turn_acc = read_turn_csv(trajectory_file(path))
     spec = (case or {}).get("turn")
@@ -231,6 +225,9 @@ def _need(model, trajectory, cell, *, verify: bool) -> Need:
     """What exporting ``model`` (with the Move ``trajectory`` or None, the
     ``cell`` or None) and verifying it take: the resource (model, move, obstacles) held a few
     times while written, and the simulations of the move in each host."""
+    from jaxflex.runtime import Need
+    from optim.budget import obstacle_pieces
+
     pieces = 0 if cell is None else obstacle_pieces(cell)
     samples = 0 if trajectory is None else trajectory.n_steps + 1
     values = model.n_modes * (5 + 3 * model.n_points) + 3 * model.n_points + 3 * samples
@@ -247,6 +244,13 @@ def _need(model, trajectory, cell, *, verify: bool) -> Need:
 
 
 def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> int:
+    from fmpy.validation import validate_fmu
+
+    from fmu.crosscheck import crosscheck_fmu
+    from fmu.export import export_fmu
+    from fmu.verify import verify
+    from fmu.verify_turning import after_move_s, verify_turning
+
     move = None
     if args.turning and trajectory is not None:
         move = turning_move(Path(args.trajectory), trajectory, case, args.pivot)
@@ -307,6 +311,9 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
 
 
 def _export_ssp(args, model, trajectory, threshold_m, case, windows) -> int:
+    from fmu.crosscheck import crosscheck_ssp
+    from fmu.ssp import export_ssp
+
     move = {}
     if args.turning:
         move = {
@@ -354,10 +361,25 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--cell / --stress: only for the FMU (-o), not for the SSP package")
     if args.pivot is not None and not args.turning:
         raise InputError("--pivot: only with --turning (the point the inputs ax, ay, az move)")
+    if args.points is not None and args.points < 1:
+        raise InputError(f"--points: a count >= 1, got {args.points}")
+    if args.threshold is not None:
+        check_positive("--threshold", args.threshold)
+    check_input_file("model", args.model)
+    if args.trajectory:
+        trajectory_file(Path(args.trajectory))
+    if args.cell is not None:
+        check_input_file("--cell", args.cell)
+    import numpy as np
+
+    import jaxflex
+    from fmu.move_cell import check_move_cell
+    from jaxflex.response import downsample_to_count
+    from jaxflex.runtime import require
+    from optim.cell_file import load_cell
+
     model = jaxflex.load_model(args.model)
     if args.points is not None:
-        if args.points < 1:
-            raise InputError(f"--points: a count >= 1, got {args.points}")
         kept = downsample_to_count(np.asarray(model.points), args.points)
         print(f"{len(kept)} of {model.n_points} points kept for the FMU (voxel reduction)")
         model = model.select_points(kept)

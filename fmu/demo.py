@@ -25,14 +25,12 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 import fem
 import optim
-from fmu.export import export_fmu, sidecar_paths
-from fmu.verify import VerifyReport, verify
-from fmu.verify_turning import after_move_s, verify_turning
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import (
     check_output_dir,
@@ -42,9 +40,10 @@ from jaxflex.files import (
     make_output_dir,
     write_text_atomic,
 )
-from jaxflex.model import ModalModel
 from jaxflex.runtime import step
-from optim.result import RESULT_FILES
+
+if TYPE_CHECKING:
+    from jaxflex.model import ModalModel
 
 COMMAND = "demo"
 HELP = "run the whole job on the built-in default part (FE model, optimised move, FMUs)"
@@ -128,14 +127,19 @@ def _discretisation_line(found) -> str:
     return line
 
 
-def _export(model, result, path: Path, version: int, threshold_m: float) -> VerifyReport:
+def _export(model, result, path: Path, version: int, threshold_m: float):
     """Export ``result``'s move as an FMI ``version`` FMU of ``model`` at ``path`` and replay
     it with fmpy against jaxflex: a turning move's FMU takes the pose, its move of poses
-    embedded (fmu.verify_turning), a straight move's the translation (fmu.verify)."""
+    embedded (fmu.verify_turning), a straight move's the translation (fmu.verify). Returns
+    (the export's fmu.export.ExportResult, the replay's report)."""
+    from fmu.export import export_fmu
+    from fmu.verify import verify
+    from fmu.verify_turning import after_move_s, verify_turning
+
     trajectory, case = result.move, result.report()
     if result.turn is None:
-        export_fmu(model, path, version, trajectory, threshold_m, case)
-        return verify(path)
+        written = export_fmu(model, path, version, trajectory, threshold_m, case)
+        return written, verify(path)
     turn = {
         "pose": result.turn.path(result.angular_acc, result.dt_s),
         "pivot_m": result.turn.pivot_m,
@@ -143,7 +147,7 @@ def _export(model, result, path: Path, version: int, threshold_m: float) -> Veri
     }
     written = export_fmu(model, path, version, trajectory, threshold_m, case, turning=True, **turn)
     extend_s = after_move_s(written.case)
-    return verify_turning(path, model, acc=result.acc, extend_s=extend_s, **turn)
+    return written, verify_turning(path, model, acc=result.acc, extend_s=extend_s, **turn)
 
 
 def _fmus(model, result, out: Path, threshold_m: float, timings: dict[str, float]) -> dict:
@@ -152,9 +156,9 @@ def _fmus(model, result, out: Path, threshold_m: float, timings: dict[str, float
     kind = "" if result.turn is None else " (a turning part: the pose as inputs)"
     for version in (2, 3):
         path = out / f"part_fmi{version}.fmu"
-        step(f"FMI {version}.0: building {path.name}{kind} with gcc, then simulating it with fmpy")
+        step(f"FMI {version}.0: exporting {path.name}{kind}, then simulating it with fmpy")
         start = time.perf_counter()
-        check = _export(model, result, path, version, threshold_m)
+        written, check = _export(model, result, path, version, threshold_m)
         timings[f"fmi{version}_export_and_verify_s"] = time.perf_counter() - start
         fmus[path.name] = {
             "validation": check.validation,
@@ -162,11 +166,12 @@ def _fmus(model, result, out: Path, threshold_m: float, timings: dict[str, float
             "max_rel_diff": check.max_rel_diff,
             "ok": check.ok,
         }
+        binary = "from the cache" if written.from_cache else "compiled with gcc"
         print(
             f"FMI {version}.0: {path} - fmpy validation "
             f"{'clean' if not check.validation else check.validation}, max relative "
             f"difference to jaxflex {check.max_rel_diff:.1e} "
-            f"({'ok' if check.ok else 'FAILED'})"
+            f"({'ok' if check.ok else 'FAILED'}); FMU binary {binary}"
         )
     return fmus
 
@@ -174,6 +179,9 @@ def _fmus(model, result, out: Path, threshold_m: float, timings: dict[str, float
 def _check_members(out: Path, *, fmus: bool) -> None:
     """InputError naming the file unless every file the demo writes into ``out`` may be
     written there (absent or a regular file: never a link, FIFO, device or directory)."""
+    from fmu.export import sidecar_paths
+    from optim.result import RESULT_FILES
+
     names = ["model.npz", "demo.json"]
     for version in (2, 3) if fmus else ():
         fmu_path = out / f"part_fmi{version}.fmu"

@@ -366,7 +366,9 @@ def export_fmu(
         summary = _case_summary(model, acc, dt_s, threshold_m, case, turning_data, pose)
     ident = model_identifier(path)
     stop_time_s = _stop_time(acc, dt_s, summary)
-    options = (fmi_version, ident, model_name, description, threshold_m, damping_scale, stop_time_s)
+    # the token covers what the binary and the resource must agree on, not the file's name
+    # (its model identifier): an FMU exported under another name reuses the stored binary
+    options = (fmi_version, model_name, description, threshold_m, damping_scale, stop_time_s)
     token = content_token(
         encode_resource(model, "", acc, dt_s, cell_data, turning_data), repr(options).encode()
     )

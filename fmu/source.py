@@ -260,7 +260,8 @@ def export_source_fmu(
     samples = source_samples(acc, pose)
     ident = model_identifier(path)
     names = [channel.name for channel in channels]
-    token = content_token(samples.tobytes(), repr((fmi_version, ident, dt_s, names)).encode())
+    # not the file's name (its model identifier): another name reuses the stored binary
+    token = content_token(samples.tobytes(), repr((fmi_version, dt_s, names)).encode())
     with tempfile.TemporaryDirectory(prefix="jaxflex_source_") as tmp:
         stage = Path(tmp) / "fmu"
         sources = stage / "sources"

@@ -2,7 +2,8 @@
 
 The core (this package) holds the modal model, the exact discrete-time modal recursion in
 JAX, deviation, settle and cycle time and their gradients. SI units throughout.
-float64 is enabled on import (``jax_enable_x64``); float32 is available on request.
+float64 is enabled when JAX is imported (``jax_enable_x64``); float32 is available on request.
+Importing the package loads no JAX: its names are imported from their modules on first use.
 
 The public interface, the only way the layers above (fem, optim, fmu) and users enter the
 core, each module's names in its ``__all__`` (tests/test_public_core.py checks it):
@@ -20,6 +21,8 @@ core, each module's names in its ``__all__`` (tests/test_public_core.py checks i
 * ``jaxflex.reference``: closed forms and independent methods (convolution, integrators);
 * ``jaxflex.plots``: pictures (atomic saving, the deviation axis);
 * ``jaxflex.cli``: the ``jaxflex`` command and what a subcommand's module may use;
+* ``jaxflex.lazy``: a module's names imported on first use (every package's ``__init__``
+  and the public modules above use it, so that importing them loads no JAX);
 * ``jaxflex.errors``, ``jaxflex.isolated``, ``jaxflex.stdout``: the errors, a reader run in
   a child process, C libraries' stdout kept off ours; light (no JAX), so that a reader's
   child process (jaxflex.isolated) imports only what it needs.
@@ -32,32 +35,33 @@ Every other submodule is private to the core and free to change.
 """
 
 from importlib.metadata import version
+from typing import TYPE_CHECKING
 
-import jax
+from jaxflex.lazy import after_import, lazy_names
 
-jax.config.update("jax_enable_x64", True)
+if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): `import jaxflex` loads no JAX
+    from jaxflex.engine import free_states, modal_states, upsample
+    from jaxflex.errors import (
+        BudgetError,
+        InputError,
+        JaxflexError,
+        JaxflexWarning,
+        ModelError,
+        ModelFileError,
+    )
+    from jaxflex.model import ModalModel, load_model, save_model, stack_models
+    from jaxflex.profile import Move, as_move, integrate, jerk_limited_move
+    from jaxflex.settle import SettleReport, analyze_move, cycle_time, settle_time
+    from jaxflex.simulate import Response, batch_deviation, end_state, simulate
+    from jaxflex.surrogate import (
+        cycle_time_smooth,
+        envelope_time,
+        soft_max,
+        soft_max_excess,
+    )
+    from jaxflex.turning import TurningResponse, simulate_turning
 
-from jaxflex.engine import free_states, modal_states, upsample  # noqa: E402
-from jaxflex.errors import (  # noqa: E402
-    BudgetError,
-    InputError,
-    JaxflexError,
-    JaxflexWarning,
-    ModelError,
-    ModelFileError,
-)
-from jaxflex.model import ModalModel, load_model, save_model, stack_models  # noqa: E402
-from jaxflex.profile import Move, as_move, integrate, jerk_limited_move  # noqa: E402
-from jaxflex.settle import SettleReport, analyze_move, cycle_time, settle_time  # noqa: E402
-from jaxflex.simulate import Response, batch_deviation, end_state, simulate  # noqa: E402
-from jaxflex.surrogate import (  # noqa: E402
-    cycle_time_smooth,
-    envelope_time,
-    soft_max,
-    soft_max_excess,
-)
-from jaxflex.turning import TurningResponse, simulate_turning  # noqa: E402
-
+__getattr__, __dir__ = lazy_names(__name__)
 __all__ = [
     "BudgetError",
     "InputError",
@@ -92,3 +96,11 @@ __all__ = [
     "upsample",
 ]
 __version__ = version("jaxflex")  # pyproject.toml's, the one place it is set
+
+
+def _float64(jax) -> None:
+    """jaxflex computes in float64 (float32 on request): set before any JAX array exists."""
+    jax.config.update("jax_enable_x64", True)
+
+
+after_import("jax", _float64)

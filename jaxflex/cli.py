@@ -10,11 +10,13 @@ A command module defines ``COMMAND`` (its name, the entry point's), ``HELP`` (on
 ``ORDER`` (its place in the list) as plain literals, ``add_arguments(parser)`` and
 ``run(args) -> exit status``.
 
-Only the module of the command being run is imported. Importing ``fem.cli`` runs
-``fem/__init__.py``, which loads scikit-fem (optim: scipy.optimize, ruckig; optim.sweep: dask
-and matplotlib), seconds in all; so the list that ``jaxflex --help`` prints is read from the
-literals in each command module's source, without running it. Every command runs with JAX's
-persistent compilation cache (jaxflex.compile_cache).
+Only the module of the command being run is imported, and it imports nothing heavy (the
+packages import their names on first use, jaxflex.lazy; a command module imports the work in
+its ``run`` after checking its options and files), so ``--version``, ``--help`` and argument
+errors answer without JAX, SciPy or scikit-fem; the list that ``jaxflex --help`` prints is
+read from the literals in each command module's source, without running it. Every command
+runs with JAX's persistent compilation cache (jaxflex.compile_cache), set up as JAX is
+imported.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from jaxflex import compile_cache
 from jaxflex.budget import DEFAULT_TIME_S, make_budget, use_budget
 from jaxflex.errors import InputError, JaxflexError, JaxflexWarning
 from jaxflex.progress import set_quiet, step
+from jaxflex.scalars import check_positive
 from jaxflex.undo import whole_or_absent
 
 # the command plugin interface (public): what a subcommand's module may use
@@ -263,12 +266,15 @@ def add_axis_limits(parser, *, with_defaults: bool, condition: str = "") -> None
 
 def axis_limit_values(args: argparse.Namespace) -> dict[str, float | list[float]]:
     """vmax, amax, jmax from the options of :func:`add_axis_limits`: one value for every axis
-    or three (x, y, z); AXIS_LIMITS' default where an option was not given."""
+    or three (x, y, z), each finite and > 0; AXIS_LIMITS' default where an option was not
+    given."""
     limits = {}
     for name, _unit, default in AXIS_LIMITS:
         given = getattr(args, name)
         if given is not None and len(given) not in (1, 3):
             raise InputError(f"--{name}: give one value or three (x y z), got {len(given)}")
+        for axis, value in zip("xyz", given or (), strict=False):
+            check_positive(f"--{name}[{axis}]", value)
         limits[name] = default if given is None else (given[0] if len(given) == 1 else given)
     return limits
 

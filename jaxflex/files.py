@@ -1,6 +1,7 @@
 """Files in and out, for the layers above the core: input files checked before reading
 (inputs, validation), outputs written atomically and file sets with a manifest (atomic,
-fileset), the trajectory and unit-response CSV files.
+fileset), the trajectory and unit-response CSV files, a model file's fields without the model
+class (model_file.read_model_file: no JAX).
 
 Every output of every command is written the one way: its path checked before any work
 (``check_output_file`` / ``check_output_dir``: never a symbolic link, device, FIFO or
@@ -15,6 +16,8 @@ stable; the modules they come from are private.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from jaxflex.atomic import (
     atomic_open,
     atomic_path,
@@ -23,9 +26,6 @@ from jaxflex.atomic import (
     remove_output,
     remove_stale_temporaries,
     write_text_atomic,
-)
-from jaxflex.convolution import (
-    read_unit_response_csv,
 )
 from jaxflex.fileset import (
     MANIFEST,
@@ -42,17 +42,20 @@ from jaxflex.inputs import (
     read_settings_file,
     read_text,
 )
+from jaxflex.lazy import lazy_names
+from jaxflex.model_file import read_model_file
 from jaxflex.scalars import check_positive
-from jaxflex.trajectory_io import (
-    read_trajectory_csv,
-    read_turn_csv,
-    write_trajectory_csv,
-)
 from jaxflex.undo import kept_writes, whole_or_absent
 from jaxflex.validation import (
     check_output_dir,
     check_output_file,
 )
+
+if TYPE_CHECKING:  # they load JAX: imported on first use (jaxflex.lazy), the checks at once
+    from jaxflex.convolution import read_unit_response_csv
+    from jaxflex.trajectory_io import read_trajectory_csv, read_turn_csv, write_trajectory_csv
+
+__getattr__, __dir__ = lazy_names(__name__)
 
 __all__ = [
     "MANIFEST",
@@ -70,6 +73,7 @@ __all__ = [
     "kept_writes",
     "make_output_dir",
     "named",
+    "read_model_file",
     "read_set",
     "read_settings_file",
     "read_text",

@@ -11,36 +11,43 @@ turning_collision) are private.
 
 from __future__ import annotations
 
-from jaxflex.cell import (
-    DEFAULT_GRAVITY_M_S2,
-    Box,
-    Cell,
-    HalfSpace,
-    Obstacle,
-    TriangleMesh,
-    Via,
-    rotation_from_degrees,
-)
-from jaxflex.collision import (
-    BLOCK_POINTS,
-    Approaches,
-    Clearance,
-    block_lower_bounds,
-    close_approaches,
-    displacement_coordinates,
-    distances,
-    gravity_offset,
-    min_distance,
-    nearest_distances,
-    part_blocks,
-    part_half_thickness,
-    positions_at,
-)
-from jaxflex.turning_collision import (
-    rotations_between,
-    turning_min_distance,
-    turning_positions_at,
-)
+from typing import TYPE_CHECKING
+
+from jaxflex.lazy import lazy_names
+
+if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only its module
+    from jaxflex.cell import (
+        DEFAULT_GRAVITY_M_S2,
+        Box,
+        Cell,
+        HalfSpace,
+        Obstacle,
+        TriangleMesh,
+        Via,
+        rotation_from_degrees,
+    )
+    from jaxflex.collision import (
+        BLOCK_POINTS,
+        Approaches,
+        Clearance,
+        block_lower_bounds,
+        close_approaches,
+        displacement_coordinates,
+        distances,
+        gravity_offset,
+        min_distance,
+        nearest_distances,
+        part_blocks,
+        part_half_thickness,
+        positions_at,
+    )
+    from jaxflex.turning_collision import (
+        rotations_between,
+        turning_min_distance,
+        turning_positions_at,
+    )
+
+__getattr__, __dir__ = lazy_names(__name__)
 
 __all__ = [
     "BLOCK_POINTS",

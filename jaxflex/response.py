@@ -14,120 +14,127 @@ Units and shapes: each function's docstring (SI units throughout; a move ``acc``
 
 from __future__ import annotations
 
-from jaxflex.decay import (
-    amplitudes,
-    envelope_horizon,
-    free_rows,
-)
-from jaxflex.deviation import (
-    component_blocks,
-    deviation,
-    deviation_curve,
-    deviation_curves,
-    max_norms,
-    outputs_at,
-    point_displacements,
-    response_shapes,
-    with_acceleration,
-)
-from jaxflex.engine import (
-    end_state_map,
-    forced_states,
-    free_states,
-    modal_forces,
-    modal_states,
-    padded_steps,
-    rest_padded,
-    state_map,
-    state_maps_at,
-    states_at,
-    states_between,
-    upsample,
-)
-from jaxflex.grid import (
-    grid_values,
-)
-from jaxflex.loads import (
-    DEFAULT_CUP_SAFETY,
-    DEFAULT_STRESS_SAFETY,
-    CupUtilisation,
-    VonMises,
-)
-from jaxflex.model_file import (
-    ARRAY_FIELDS,
-    VALUE_RANGES,
-)
-from jaxflex.outputs import (
-    CupSet,
-    LinearOutputs,
-    StressSet,
-)
-from jaxflex.peaks import (
-    Peak,
-    SearchState,
-    certified_max,
-    item_bounds,
-    once_per_array,
-    one_blas_thread,
-    output_peak,
-    outputs_above,
-    settling_windows,
-)
-from jaxflex.points import (
-    downsample_to_count,
-    snap_key_points,
-    voxel_downsample,
-)
-from jaxflex.pose import (
-    PosePath,
-    axis_angle,
-    axis_rotation,
-    fixed_axis_path,
-    joined_paths,
-    orientation_path,
-    turn_acceleration,
-    unit_axis,
-)
-from jaxflex.profile import (
-    Move,
-    acceleration_at,
-    as_move,
-    axis_limits,
-    enforce_end_state,
-    integrate,
-    jerk_limited_move,
-    kinematics_at,
-    position_weights,
-    samples_at,
-)
-from jaxflex.rotation import LEVI_CIVITA, RotationalInertia, require_rotation
-from jaxflex.rotation_residual import (
-    load_coefficients,
-    output_residual,
-    rotation_residual,
-    turning_blocks,
-    turning_coordinates,
-    turning_shapes,
-)
-from jaxflex.settle import SettleReport, analyze_move
-from jaxflex.simulate import (
-    move_deviation,
-    on_device,
-)
-from jaxflex.surrogate import soft_max
-from jaxflex.turning import (
-    GRAVITY_M_S2,
-    TurningInputs,
-    TurningResponse,
-    body_loads,
-    gravity_coordinates,
-    simulate_turning,
-    turning_forces,
-    turning_inputs,
-    turning_settle,
-)
-from jaxflex.turning_outputs import TurningLoads, turning_loads
-from jaxflex.turning_peaks import turning_output_peak
+from typing import TYPE_CHECKING
+
+from jaxflex.lazy import lazy_names
+
+if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only its module
+    from jaxflex.decay import (
+        amplitudes,
+        envelope_horizon,
+        free_rows,
+    )
+    from jaxflex.deviation import (
+        component_blocks,
+        deviation,
+        deviation_curve,
+        deviation_curves,
+        max_norms,
+        outputs_at,
+        point_displacements,
+        response_shapes,
+        with_acceleration,
+    )
+    from jaxflex.engine import (
+        end_state_map,
+        forced_states,
+        free_states,
+        modal_forces,
+        modal_states,
+        padded_steps,
+        rest_padded,
+        state_map,
+        state_maps_at,
+        states_at,
+        states_between,
+        upsample,
+    )
+    from jaxflex.grid import (
+        grid_values,
+    )
+    from jaxflex.loads import (
+        DEFAULT_CUP_SAFETY,
+        DEFAULT_STRESS_SAFETY,
+        CupUtilisation,
+        VonMises,
+    )
+    from jaxflex.model_file import (
+        ARRAY_FIELDS,
+        VALUE_RANGES,
+    )
+    from jaxflex.outputs import (
+        CupSet,
+        LinearOutputs,
+        StressSet,
+    )
+    from jaxflex.peaks import (
+        Peak,
+        SearchState,
+        certified_max,
+        item_bounds,
+        once_per_array,
+        one_blas_thread,
+        output_peak,
+        outputs_above,
+        settling_windows,
+    )
+    from jaxflex.points import (
+        downsample_to_count,
+        snap_key_points,
+        voxel_downsample,
+    )
+    from jaxflex.pose import (
+        PosePath,
+        axis_angle,
+        axis_rotation,
+        fixed_axis_path,
+        joined_paths,
+        orientation_path,
+        turn_acceleration,
+        unit_axis,
+    )
+    from jaxflex.profile import (
+        Move,
+        acceleration_at,
+        as_move,
+        axis_limits,
+        enforce_end_state,
+        integrate,
+        jerk_limited_move,
+        kinematics_at,
+        position_weights,
+        samples_at,
+    )
+    from jaxflex.rotation import LEVI_CIVITA, RotationalInertia, require_rotation
+    from jaxflex.rotation_residual import (
+        load_coefficients,
+        output_residual,
+        rotation_residual,
+        turning_blocks,
+        turning_coordinates,
+        turning_shapes,
+    )
+    from jaxflex.settle import SettleReport, analyze_move
+    from jaxflex.simulate import (
+        move_deviation,
+        on_device,
+    )
+    from jaxflex.surrogate import soft_max
+    from jaxflex.turning import (
+        GRAVITY_M_S2,
+        TurningInputs,
+        TurningResponse,
+        body_loads,
+        gravity_coordinates,
+        simulate_turning,
+        turning_forces,
+        turning_inputs,
+        turning_settle,
+    )
+    from jaxflex.turning_outputs import TurningLoads, turning_loads
+    from jaxflex.turning_peaks import turning_output_peak
+
+__getattr__, __dir__ = lazy_names(__name__)
 
 __all__ = [
     "ARRAY_FIELDS",

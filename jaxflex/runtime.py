@@ -2,19 +2,17 @@
 time and memory budgets (budget), and advice to the user (advice); a silenced
 stdout for chatty C libraries is jaxflex.stdout (light, for readers in a child process);
 JAX's persistent compilation cache (compile_cache: enable_compile_cache, its environment
-variable COMPILE_CACHE_ENV and entry suffix COMPILE_CACHE_SUFFIX).
+variable COMPILE_CACHE_ENV and entry suffix COMPILE_CACHE_SUFFIX) and the stores of other
+reusable work beside it (cache_store, cache_fetch: entries checked on every read, one run
+making an entry while the others wait for it).
 Public: these names are kept stable; the modules they come
 from are private.
 """
 
 from __future__ import annotations
 
-from jaxflex.advice import (
-    Advice,
-    issue,
-    model_resolution,
-    threshold_advice,
-)
+from typing import TYPE_CHECKING
+
 from jaxflex.budget import (
     Need,
     check_time,
@@ -24,20 +22,34 @@ from jaxflex.budget import (
 )
 from jaxflex.compile_cache import ENV_VAR as COMPILE_CACHE_ENV
 from jaxflex.compile_cache import SUFFIX as COMPILE_CACHE_SUFFIX
+from jaxflex.compile_cache import FileStore as CacheStore
 from jaxflex.compile_cache import enable as enable_compile_cache
+from jaxflex.compile_cache import fetch as cache_fetch
+from jaxflex.compile_cache import pack_text as cache_pack_text
 from jaxflex.compile_cache import store as cache_store
+from jaxflex.compile_cache import unpack_text as cache_unpack_text
+from jaxflex.lazy import lazy_names
 from jaxflex.progress import (
     note,
     progress_bar,
     step,
 )
 
+if TYPE_CHECKING:  # it reads models (JAX): imported on first use (jaxflex.lazy)
+    from jaxflex.advice import Advice, issue, model_resolution, threshold_advice
+
+__getattr__, __dir__ = lazy_names(__name__)
+
 __all__ = [
     "COMPILE_CACHE_ENV",
     "COMPILE_CACHE_SUFFIX",
     "Advice",
+    "CacheStore",
     "Need",
+    "cache_fetch",
+    "cache_pack_text",
     "cache_store",
+    "cache_unpack_text",
     "check_time",
     "current_budget",
     "enable_compile_cache",

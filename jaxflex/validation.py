@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import os
 import stat
+import sys
 import tempfile
 import weakref
 from pathlib import Path
 from typing import Any
 
-import jax
 import numpy as np
 
 from jaxflex import undo
@@ -23,7 +23,11 @@ MAX_NAME_BYTES = 200
 
 
 def is_traced(*values: Any) -> bool:
-    """True if any value is a JAX tracer (inside jit/grad/vmap), where checks are impossible."""
+    """True if any value is a JAX tracer (inside jit/grad/vmap), where checks are impossible;
+    False without a look when JAX is not loaded (the output checks run before it is)."""
+    jax = sys.modules.get("jax")
+    if jax is None:
+        return False
     return any(isinstance(v, jax.core.Tracer) for v in jax.tree_util.tree_leaves(values))
 
 

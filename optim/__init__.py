@@ -13,12 +13,19 @@ Public interface (SI units throughout):
   time of a Move over a robust grid, where, and every grid point.
 """
 
-from optim.baselines import Baseline, BaselineSet, baselines, worst_case
-from optim.cell_file import load_cell
-from optim.limits import ConstraintCheck, Limits, Violation, check_profile
-from optim.optimize import optimize
-from optim.result import OptimizationResult
-from optim.robust import RobustSpec
+from typing import TYPE_CHECKING
+
+from jaxflex.lazy import lazy_names
+
+if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at once
+    from optim.baselines import Baseline, BaselineSet, baselines, worst_case
+    from optim.cell_file import load_cell
+    from optim.limits import ConstraintCheck, Limits, Violation, check_profile
+    from optim.optimize import optimize
+    from optim.result import OptimizationResult
+    from optim.robust import RobustSpec
+
+__getattr__, __dir__ = lazy_names(__name__)
 
 __all__ = [
     "Baseline",

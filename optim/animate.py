@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxflex.files import check_set_dir, make_output_dir, writing
+from jaxflex.files import make_output_dir, writing
 from jaxflex.runtime import step
 from optim.animate_frames import (
     ANIMATION_KIND,
@@ -35,21 +35,13 @@ from optim.animate_frames import (
     scene_of_directory,
     scene_of_result,
 )
-from optim.animate_page import MAX_FRAMES, MAX_VERTICES, PAGE, page_data, page_frames, page_html
-from optim.animate_series import (
-    CELL_FILE,
-    PATH_FILE,
-    SERIES,
-    SERIES_DATA,
-    write_cell,
-    write_series,
-)
+from optim.animate_page import page_data, page_frames, page_html
+from optim.animate_series import write_cell, write_series
 from optim.animate_surface import mid_surface, node_normals, reduced, skins
-from optim.result import ANIMATION_DIR
+from optim.result_files import ANIMATION_DIR, MAX_FRAMES, MAX_VERTICES, PAGE, SERIES, series_names
+from optim.result_files import check_animation_dir as check_animation_dir  # its home: light
 
 __all__ = ["Animation", "animate", "animate_directory"]
-
-OLD = ("part.pvd",)  # the series' collection before part.xdmf (over part_NNNN.vtu)
 
 
 @dataclass(frozen=True)
@@ -76,25 +68,6 @@ class Animation:
             f"(ParaView), {self.page} ({self.page_bytes / 1e6:.1f} MB: {self.page_frames} "
             f"frames, {self.page_points} points)"
         )
-
-
-def _series_names(directory: Path) -> tuple[str, ...]:
-    """Every member an animation set in ``directory`` may have: this one's and the files of
-    the series an earlier jaxflex wrote (``part.pvd`` over ``part_NNNN.vtu``; removed, as
-    this one does not write them)."""
-    old = sorted(p.name for p in directory.glob("part_*.vtu")) if directory.is_dir() else []
-    return tuple(dict.fromkeys([SERIES, SERIES_DATA, CELL_FILE, PATH_FILE, PAGE, *OLD, *old]))
-
-
-def check_animation_dir(option: str, result_dir: str | os.PathLike) -> Path:
-    """``result_dir``/animation if an animation may be written there, checked before any
-    work (jaxflex.files.check_set_dir: no link, FIFO, device or directory in a member's
-    place; a result directory still to be made holds none); InputError naming ``option``
-    otherwise."""
-    directory = Path(result_dir) / ANIMATION_DIR
-    if not Path(result_dir).is_dir():
-        return directory
-    return check_set_dir(option, directory, _series_names(directory))
 
 
 def write_animation(
@@ -135,7 +108,7 @@ def write_animation(
     )
     directory = make_output_dir(result_dir) / ANIMATION_DIR
     step(f"animation: writing {len(t_s)} frames for ParaView and the page")
-    with writing(directory, ANIMATION_KIND, _series_names(directory)) as files:
+    with writing(directory, ANIMATION_KIND, series_names(directory)) as files:
         write_series(files, scene, frames, surface, normals)
         write_cell(files, scene, frames)
         cpu.append(time.process_time())

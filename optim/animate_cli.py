@@ -1,10 +1,15 @@
-"""``jaxflex animate``: the part moving and bending along the move of a written result."""
+"""``jaxflex animate``: the part moving and bending along the move of a written result.
+
+The options and the animation's files are checked before the engine (and JAX) loads.
+"""
 
 from __future__ import annotations
 
 import argparse
 
-from optim.animate_page import MAX_FRAMES, MAX_VERTICES
+from jaxflex.errors import InputError
+from jaxflex.files import check_input_file, check_positive, read_set
+from optim.result_files import MAX_FRAMES, MAX_VERTICES, RESULT_KIND, check_animation_dir
 
 COMMAND = "animate"
 HELP = "the part bending along an optimised move, frame by frame: ParaView series, browser page"
@@ -46,16 +51,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from jaxflex.files import check_positive
-    from optim.animate import animate_directory, check_animation_dir
-
     for option, value in (("--page-points", args.page_points), ("--page-frames", args.page_frames)):
         check_positive(option, value)
     if args.after is not None and not args.after >= 0:
-        from jaxflex.errors import InputError
-
         raise InputError(f"--after: a time >= 0 s, got {args.after}")
+    for option in ("model", "cell"):
+        if getattr(args, option) is not None:
+            check_input_file(f"--{option}", getattr(args, option))
+    # the result set whole (as optim.animate_frames reads it) and the animation's place
+    read_set(args.result, RESULT_KIND, ("trajectory.csv", "report.json"), option="RESULT_DIR")
     check_animation_dir("RESULT_DIR", args.result)  # before any work
+    from optim.animate import animate_directory  # the engine loads after the checks
+
     animation = animate_directory(
         args.result,
         model=args.model,

@@ -28,10 +28,10 @@ import numpy as np
 from optim.animate_frames import Frames, Scene
 from optim.animate_series import scene_bounds
 from optim.animate_surface import Surface, obstacle_surfaces
+from optim.result_files import MAX_FRAMES as MAX_FRAMES  # their home: the light names
+from optim.result_files import MAX_VERTICES as MAX_VERTICES
+from optim.result_files import PAGE as PAGE
 
-PAGE = "animation.html"
-MAX_VERTICES = 3000  # the default reduction of the page's surface (points drawn)
-MAX_FRAMES = 120  # and of its frames
 SCALES = (1, 2, 5, 10, 20, 50, 100, 200, 500)
 SPEEDS = ((0.1, "0.1 x real time"), (0.25, "0.25 x"), (0.5, "0.5 x"), (1.0, "1 x"))
 

@@ -41,11 +41,11 @@ import numpy as np
 from jaxflex.files import SetWriter, atomic_path
 from optim.animate_frames import Frames, Scene
 from optim.animate_surface import Surface, obstacle_surfaces
+from optim.result_files import CELL_FILE as CELL_FILE  # their home: the light names
+from optim.result_files import PATH_FILE as PATH_FILE
+from optim.result_files import SERIES as SERIES
+from optim.result_files import SERIES_DATA as SERIES_DATA
 
-SERIES = "part.xdmf"
-SERIES_DATA = "part.h5"
-CELL_FILE = "cell.vtu"
-PATH_FILE = "path.vtu"
 # gzip at level 4 (HDF5's deflate filter, which every HDF5 build has): each node's values
 # stored about once (the skins side by side); shuffling the bytes first compresses the
 # skins' pairs worse (measured on the press scene: 72 MB against 47 MB)

@@ -34,10 +34,10 @@ import numpy as np
 from jaxflex.errors import BudgetError, InputError
 from jaxflex.geometry import BLOCK_POINTS
 from jaxflex.runtime import Need, current_budget, format_bytes
+from optim.defaults import MAX_STEPS as MAX_STEPS  # its home: the defaults (light)
 from optim.limits import Limits
 from optim.residual import SAMPLES_PER_PERIOD
 
-MAX_STEPS = 5000
 # Copies of the dense end-state rows an LP holds: the builder's, the CSR matrix, the solver's.
 LP_COPIES = 3
 CLEARANCE_SUBSTEPS = 8

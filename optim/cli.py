@@ -1,25 +1,23 @@
-"""``jaxflex optimize``: the minimum-cycle-time move for a modal model under robot limits."""
+"""``jaxflex optimize``: the minimum-cycle-time move for a modal model under robot limits.
+
+The options, the numbers, the move's length and the input files are checked before the
+optimiser (and JAX) loads and before the model file is read (optim.options): a bad request
+is answered at once.
+"""
 
 from __future__ import annotations
 
 import argparse
 import time
 
-import jaxflex
 from jaxflex.cli import add_axis_limits, axis_limit_values
 from jaxflex.defaults import DT_S, MAX_DURATION_S
 from jaxflex.errors import InputError
-from jaxflex.files import check_set_dir
+from jaxflex.files import check_input_file, check_set_dir
 from jaxflex.runtime import step
-from optim.budget import MAX_STEPS
-from optim.cell_file import load_cell
-from optim.cell_setup import with_cup_rating
-from optim.limits import Limits
-from optim.optimize import run as run_request
-from optim.request import Request
-from optim.result import RESULT_FILES
-from optim.robust import FREQ_SCALE, GRID, ZETA, RobustSpec
-from optim.turn import ANGULAR_LIMITS
+from optim.defaults import ANGULAR_LIMITS, FREQ_SCALE, GRID, MAX_STEPS, ZETA
+from optim.options import check_numbers, clean_distance, label
+from optim.result_files import RESULT_FILES, check_animation_dir
 
 COMMAND = "optimize"
 HELP = "shortest cycle time move under vmax/amax/jmax limits (trajectory CSV, JSON, plots)"
@@ -246,28 +244,57 @@ def rotate_argument(values: list[str] | None):
     return axis, values[-1]
 
 
+def _max_stress(text: str | None) -> float | str | None:
+    """``--max-stress``: None, "yield" (given without a value) or a stress in Pa."""
+    if text in (None, "yield"):
+        return text
+    try:
+        return float(text)
+    except ValueError as exc:
+        raise InputError(f"--max-stress: a stress in Pa or nothing, got {text!r}") from exc
+
+
+def _check_at_once(args: argparse.Namespace) -> None:
+    """What needs neither the model nor the optimiser: the output, the move, the numbers,
+    the input files (before JAX loads and the model file is read)."""
+    check_set_dir("-o/--output", args.output, RESULT_FILES)
+    if args.animate:
+        check_animation_dir("-o/--output", args.output)
+    if (args.distance is None) == (args.cell is None):
+        raise InputError("--distance / --cell: give the move by one of them")
+    if args.distance is not None:
+        clean_distance(args.distance, label("distance_m"))
+    check_numbers(
+        threshold_m=args.threshold,
+        dt_s=args.dt,
+        max_duration_s=args.max_duration,
+        clearance_m=args.clearance,
+        max_steps=args.max_steps,
+    )
+    axis_limit_values(args)
+    rotate_argument(args.rotate)
+    check_input_file("model", args.model)
+    if args.cell is not None:
+        check_input_file("--cell", args.cell)
+
+
 def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
-    check_set_dir("-o/--output", args.output, RESULT_FILES)  # before any work
-    if args.animate:
-        from optim.animate import check_animation_dir
+    _check_at_once(args)
+    max_stress = _max_stress(args.max_stress)
+    import jaxflex
+    from optim.cell_file import load_cell
+    from optim.cell_setup import with_cup_rating
+    from optim.limits import Limits
+    from optim.optimize import run as run_request
+    from optim.request import Request
+    from optim.robust import RobustSpec
 
-        check_animation_dir("-o/--output", args.output)
     limits = Limits(**axis_limit_values(args), vpath=args.vpath, apath=args.apath, jpath=args.jpath)
     robust = None
     if args.robust:
         robust = RobustSpec(tuple(args.freq_scale), tuple(args.zeta), *args.grid)
-    if (args.distance is None) == (args.cell is None):
-        raise InputError("--distance / --cell: give the move by one of them")
     cell = None if args.cell is None else load_cell(args.cell)
-    max_stress = args.max_stress
-    if max_stress not in (None, "yield"):
-        try:
-            max_stress = float(max_stress)
-        except ValueError as exc:
-            raise InputError(
-                f"--max-stress: a stress in Pa or nothing, got {max_stress!r}"
-            ) from exc
     model = jaxflex.load_model(args.model)
     if args.cup_friction is not None or args.cup_vacuum is not None:
         if args.cup_safety is None:

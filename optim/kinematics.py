@@ -33,9 +33,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jaxflex.errors import InputError
 from optim.limits import Limits
 from optim.lp import LPBuilder
+from optim.options import MOVE_ATOL_M as MOVE_ATOL_M  # home: the light checks
+from optim.options import clean_distance as clean_distance
 from optim.polytope import ball_normals, support, worst_normals
 
 
@@ -55,26 +56,6 @@ class MoveLayout:
         acc = np.zeros((self.n_steps + 1, 3))
         acc[:, list(self.axes)] = solution[self.a].T
         return acc
-
-
-MOVE_ATOL_M = 1e-12  # axes moving less than this stay at rest (below the 1e-9 m check)
-
-
-def clean_distance(distance_m) -> np.ndarray:
-    """The move as 3 finite values in m, components below MOVE_ATOL_M set to zero; raises
-    InputError naming ``distance_m`` otherwise (or for a move of zero length)."""
-    try:
-        dist = np.array(distance_m, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise InputError(
-            f"distance_m: expected 3 numbers (x, y, z) in m, got {distance_m!r}"
-        ) from exc
-    if dist.shape != (3,) or not np.isfinite(dist).all():
-        raise InputError(f"distance_m: expected 3 finite values (x, y, z) in m, got {distance_m!r}")
-    dist[np.abs(dist) <= MOVE_ATOL_M] = 0.0
-    if not np.any(dist):
-        raise InputError("distance_m: the move has zero length")
-    return dist
 
 
 @dataclass(frozen=True)

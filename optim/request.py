@@ -27,28 +27,12 @@ from optim.budget import MAX_STEPS
 from optim.gradient import GRADIENT_SOLVERS
 from optim.limits import Limits
 from optim.lp import LP_SOLVERS
+from optim.options import check_numbers, label
 from optim.robust import RobustSpec
 from optim.turn import TurnSpec
 from optim.turn_via import with_via_orientations
 
 METHODS = {"exact": ("highs", LP_SOLVERS), "gradient": ("ipopt", GRADIENT_SOLVERS)}
-# the option of `jaxflex optimize` that sets each field (named in its errors)
-OPTIONS = {
-    "threshold_m": "--threshold",
-    "dt_s": "--dt",
-    "max_duration_s": "--max-duration",
-    "clearance_m": "--clearance",
-    "max_steps": "--max-steps",
-    "max_memory_bytes": "--max-memory",
-    "rotate": "--rotate",
-    "angular_limits": "--angular-limits",
-    "pivot_m": "--pivot",
-}
-
-
-def _label(field: str) -> str:
-    option = OPTIONS.get(field)
-    return field if option is None else f"{field} ({option})"
 
 
 def _as_limits(limits: Any) -> Limits:
@@ -137,20 +121,22 @@ class Request:
         _check_model(self.model, robust)
         self._set("robust", robust)
         self._set("limits", _as_limits(self.limits))
-        for field in ("threshold_m", "dt_s", "max_duration_s"):
-            self._set(field, check_positive(_label(field), getattr(self, field)))
-        if self.clearance_m is not None:
-            self._set("clearance_m", check_positive(_label("clearance_m"), self.clearance_m))
+        numbers = check_numbers(
+            threshold_m=self.threshold_m,
+            dt_s=self.dt_s,
+            max_duration_s=self.max_duration_s,
+            clearance_m=self.clearance_m,
+            max_steps=self.max_steps,
+        )
+        for field, value in numbers.items():
+            self._set(field, value)
         self._check_route()
         self._check_turn()
-        steps = self.max_steps
-        if isinstance(steps, bool) or not isinstance(steps, int) or steps < 2:
-            raise InputError(f"{_label('max_steps')}: must be an integer >= 2, got {steps!r}")
         if self.rotate is not None:  # before ruckig or an LP sees the turn
-            self.rotate.check_length(self.dt_s, self.max_duration_s, steps)
+            self.rotate.check_length(self.dt_s, self.max_duration_s, self.max_steps)
         memory = self.max_memory_bytes
         memory = current_budget().memory_bytes if memory is None else memory
-        check_positive(_label("max_memory_bytes"), memory)
+        check_positive(label("max_memory_bytes"), memory)
         self._set("max_memory_bytes", memory)
 
     def _set(self, field: str, value: Any) -> None:

@@ -35,23 +35,14 @@ from jaxflex.model import ModalModel
 from jaxflex.response import Move, SettleReport, as_move, deviation_curve, integrate
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
+from optim.result_files import ANIMATION_DIR as ANIMATION_DIR  # their home: the light names
+from optim.result_files import RESULT_FILES as RESULT_FILES
+from optim.result_files import RESULT_KIND as RESULT_KIND
 from optim.robust import RobustSpec, perturbed
 from optim.turn_clearance import turning_move_deviation
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8
 PLOT_AFTER = 20_000  # plots: at most this many samples of the settling (a long baseline's)
-RESULT_KIND = "jaxflex.optimize"
-ANIMATION_DIR = "animation"  # optim.animate's set, beside the result's files
-RESULT_FILES = (
-    "trajectory.csv",
-    "report.json",
-    "profiles.png",
-    "deviation.png",
-    "constraints.png",
-    "robust.png",
-    "deviation_worst_case.png",
-    "turn.png",
-)
 
 
 def remove_animation(directory: Path) -> None:

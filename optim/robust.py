@@ -16,10 +16,7 @@ import numpy as np
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.response import grid_values
-
-FREQ_SCALE = (0.9, 1.1)  # default range of the factor on every natural frequency
-ZETA = (0.01, 0.03)  # default range of the damping ratio
-GRID = (21, 3)  # default check-grid points over the frequency and damping ranges
+from optim.defaults import FREQ_SCALE, GRID, ZETA
 
 
 @dataclass(frozen=True)

@@ -41,15 +41,12 @@ from jaxflex.response import (
     unit_axis,
 )
 from optim.budget import kinematic_lower_bound_s
+from optim.defaults import ANGULAR_LIMITS
 from optim.kinematics import MOVE_ATOL_M
 from optim.limits import Limits
 from optim.ruckig_move import fit_to_grid, grid_steps, shaped_acceleration, time_optimal_move
 from optim.shapers import Shaper
 from optim.turn_clearance import turning_move_deviation
-
-# Rates of a typical 6-axis robot wrist (3 rad/s, 20 rad/s^2); the jerk 10 x the acceleration,
-# the ratio of the translation's defaults (10 m/s^2, 100 m/s^3).
-ANGULAR_LIMITS = (3.0, 20.0, 200.0)  # rad/s, rad/s^2, rad/s^3
 
 
 @dataclass(frozen=True)

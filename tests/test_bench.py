@@ -188,6 +188,11 @@ def test_quick_bench_writes_every_method_and_chart(tmp_path):
     assert run["cold"]["answer"].startswith("best move: ")
     assert run["warm"]["answer"] == run["warm_no_plots"]["answer"] == run["cold"]["answer"]
     assert all(run[k]["cpu_s"] > 0 for k in ("cold", "warm", "warm_no_plots"))
+    # the start-up figures (issue 32) and the cost of the cache's checks, one per JAX entry
+    startup = saved["commands"]["startup"]
+    assert set(startup) == {"version", "argument_error", "zero_length_move"}
+    assert all(figures["cpu_s"] > 0 for figures in startup.values())
+    assert saved["commands"]["cache_checks"]["jax"]["entries"] == run["cache_entries"]
     assert "commands (load average" in proc.stdout
 
     # FE-agreement target on the plate: the built-in plate (1.5 x 0.8 m, 4 cups) on a 100 mm

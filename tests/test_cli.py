@@ -10,6 +10,7 @@ import sys
 from importlib.metadata import entry_points
 
 import numpy as np
+import pytest
 from conftest import run_jaxflex
 
 import jaxflex
@@ -64,25 +65,106 @@ def test_help_lists_every_command_without_importing_one():
         assert f"{command.name} {command.help}" in words
 
 
-# third-party modules each command's module may load on import (the rest, e.g. matplotlib for
-# the pictures, casadi for its solvers, meshio and gmsh for mesh files, is imported where used)
-NEEDED = {
-    "fmu.demo": {"skfem", "ruckig", "fmpy"},
-    "fem.cli": {"skfem"},
-    "optim.cli": {"ruckig"},
-    "optim.animate_cli": {"ruckig"},
-    "fmu.cli": {"skfem", "ruckig", "fmpy"},
-}
-OPTIONAL = ("matplotlib", "casadi", "meshio", "gmsh", "skfem", "ruckig", "fmpy", "pyuff", "dask")
+# what no command module loads on import: its options are built and checked first
+HEAVY_WORK = ("jax", "scipy", "skfem", "matplotlib", "casadi", "meshio", "gmsh", "fmpy", "dask")
 
 
-def test_commands_import_heavy_modules_only_where_they_are_used():
-    for module, needed in NEEDED.items():
+def test_command_modules_import_nothing_heavy():
+    for module in COMMANDS.values():
         code = f"import json, sys, {module}\n"
-        code += f"print(json.dumps([m for m in {OPTIONAL!r} if m in sys.modules]))"
+        code += f"print(json.dumps([m for m in {HEAVY_WORK!r} if m in sys.modules]))"
         proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
         assert proc.returncode == 0, proc.stderr
-        assert set(json.loads(proc.stdout)) <= needed, module
+        assert json.loads(proc.stdout) == [], module
+
+
+# `jaxflex ARGS` answered without importing JAX: (ARGS, exit status, what the answer says);
+# a path that does not exist is MISSING, the model file of a test is MODEL
+AT_ONCE = [
+    (["--version"], 0, "jaxflex "),
+    (["--help"], 0, "optimize"),
+    *(([name, "--help"], 0, "usage: jaxflex " + name) for name in COMMANDS),
+    (["optimize"], 2, "the following arguments are required: model"),
+    (["optimize", "MODEL", "-o", "OUT", "--threshold", "x"], 2, "argument --threshold"),
+    (["model", "--scene", "cube"], 2, "argument --scene: invalid choice"),
+    (["export", "MODEL", "--fmi", "4"], 2, "argument --fmi: invalid choice"),
+    (["bench", "--size", "huge"], 2, "argument --size: invalid choice"),
+    (["demo", "--threshold", "-1"], 2, "--threshold: must be a finite number > 0"),
+    (["sweep", "MISSING", "-o", "OUT"], 2, "does not exist"),
+    # cheap input checks: a zero-length move, a missing file, bad numbers
+    (["optimize", "MODEL", "--distance", "0", "0", "0", "--threshold", "1e-3", "-o", "OUT"], 2,
+     "the move has zero length"),
+    (["optimize", "MISSING", "--distance", "0", "0", "1", "--threshold", "1e-3", "-o", "OUT"], 2,
+     "does not exist"),
+    (["optimize", "MODEL", "--distance", "0", "0", "1", "--threshold", "-1", "-o", "OUT"], 2,
+     "threshold_m (--threshold): must be a finite number > 0"),
+    (["optimize", "MODEL", "--distance", "0", "0", "1", "--threshold", "1e-3", "--amax", "0",
+      "-o", "OUT"], 2, "--amax[x]: must be a finite number > 0"),
+    (["optimize", "MODEL", "--distance", "0", "0", "1", "--threshold", "1e-3", "--dt", "nan",
+      "-o", "OUT"], 2, "dt_s (--dt): must be a finite number > 0"),
+    (["export", "MISSING", "-o", "OUT.fmu"], 2, "does not exist"),
+    (["export", "MODEL", "-o", "OUT.fmu", "--threshold", "0"], 2, "--threshold: must be"),
+    (["model", "--mesh", "MISSING", "--thickness", "1e-3"], 2, "--mesh: file"),
+    (["animate", "MISSING"], 2, "RESULT_DIR"),
+    (["animate", "OUT", "--page-points", "0"], 2, "--page-points: must be a finite number > 0"),
+    (["animate", "OUT", "--after", "-1"], 2, "--after: a time >= 0 s"),
+    (["optimize", "MODEL", "--distance", "0", "0", "0", "--threshold", "1e-3", "-o", "OUT",
+      "--animate"], 2, "the move has zero length"),
+]  # fmt: skip
+
+
+def _answered_in_child(argv: list[str]) -> tuple[str, str]:
+    """(``loaded: [the HEAVY_WORK modules it imported] STATUS``, all it printed) of
+    `jaxflex ARGV` run in a child interpreter."""
+    code = (
+        "import sys\n"
+        "from jaxflex.cli import main\n"
+        "try:\n"
+        f"    status = main({argv!r})\n"
+        "except SystemExit as exc:\n"
+        "    status = exc.code\n"
+        f"print('loaded:', [m for m in {HEAVY_WORK!r} if m in sys.modules], status)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert "Traceback" not in proc.stderr, proc.stderr
+    return proc.stdout.rstrip().rpartition("\n")[2], proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize(("args", "status", "answer"), AT_ONCE)
+def test_a_command_answers_without_importing_jax(tmp_path, args, status, answer):
+    """--version, --help, argument errors and the cheap input checks come before any heavy
+    import (a child interpreter's sys.modules, not a time), and before the model is read."""
+    model = tmp_path / "model.npz"
+    model.write_bytes(b"not read before the arguments are checked")
+    names = {"MODEL": str(model), "MISSING": str(tmp_path / "missing"), "OUT": str(tmp_path / "o")}
+    argv = [names.get(arg, arg.replace("OUT", str(tmp_path / "o"))) for arg in args]
+    loaded, answered = _answered_in_child(argv)
+    assert loaded == f"loaded: [] {status}", answered
+    assert answer in answered
+
+
+def test_a_link_in_the_animations_place_is_refused_before_any_work(tmp_path):
+    """`optimize --animate` and `animate RESULT_DIR` refuse a link in place of an animation
+    file (optim.result_files.check_animation_dir) before JAX loads, and leave it alone."""
+    from jaxflex.files import writing
+    from optim.result_files import RESULT_FILES, RESULT_KIND
+
+    model = tmp_path / "model.npz"
+    model.write_bytes(b"not read before the outputs are checked")
+    result = tmp_path / "result"
+    with writing(result, RESULT_KIND, RESULT_FILES) as files:  # a complete (small) set
+        files.add_text("trajectory.csv", "t_s,ax,ay,az\n0,0,0,0\n")
+        files.add_text("report.json", "{}")
+    (result / "animation").mkdir()
+    victim = tmp_path / "victim.txt"
+    victim.write_text("kept")
+    (result / "animation" / "part.xdmf").symlink_to(victim)
+    optimize = ["optimize", str(model), "--distance", "0", "0", "1", "--threshold", "1e-3"]
+    for argv in ([*optimize, "-o", str(result), "--animate"], ["animate", str(result)]):
+        loaded, answered = _answered_in_child(argv)
+        assert loaded == "loaded: [] 2", answered
+        assert "symbolic link" in answered and "part.xdmf" in answered, answered
+    assert (result / "animation" / "part.xdmf").is_symlink() and victim.read_text() == "kept"
 
 
 def test_interrupted_command_exits_130(monkeypatch, capsys):
@@ -116,6 +198,11 @@ def test_demo_runs_the_whole_pipeline(tmp_path):
     proc = run_jaxflex("demo", "-o", str(out))
     assert proc.returncode == 0, proc.stderr
     assert "cycle" in proc.stdout and "FMI 3.0" in proc.stdout
+    # where each FMU's binary came from, as it happened (issue 35: not "with gcc" for a copy)
+    fmu_lines = [line for line in proc.stdout.splitlines() if line.startswith("FMI ")]
+    assert len(fmu_lines) == 2
+    assert all(line.endswith(("FMU binary compiled with gcc", "FMU binary from the cache"))
+               for line in fmu_lines)  # fmt: skip
     assert "\r" not in proc.stderr and "shortest move:" in proc.stderr  # a redirected log
     for name in (
         "model.npz",

@@ -7,16 +7,18 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 import threading
 from pathlib import Path
 
 import pytest
+from test_cache_stores import FILE_DAMAGES
 from test_optim_optimize import few_mode_model
 
 from jaxflex import compile_cache
-from jaxflex.compile_cache import ENV_VAR, SUFFIX, FileStore, _evict, _writable
+from jaxflex.compile_cache import ENV_VAR, SUFFIX, FileStore, _evict, _writable, decode_entry
 
 # runs the command in a fresh interpreter and prints JAX's own count of its compilation-cache
 # events (jax.monitoring) as the last line: what was asked of the cache, found, written
@@ -84,20 +86,33 @@ def test_a_second_process_loads_what_the_first_compiled(model_file, tmp_path):
     ).read_bytes()
     assert first.stdout.splitlines()[0] == second.stdout.splitlines()[0]
 
-    # damaged entries (a disk error, a killed writer of another JAX): recompiled and replaced,
-    # without a warning, with the same answer
-    for name, data in written.items():
-        (cache / name).write_bytes(data[: len(data) // 2])
-    third, events = optimize(model_file, tmp_path / "c", str(cache))
-    assert "compilation cache" not in third.stderr, third.stderr
-    assert events.get("cache_hits", 0) == 0
-    assert events.get("cache_misses", 0) == len(written)
-    assert set(entries(cache)) == set(written)
-    assert (tmp_path / "c" / "trajectory.csv").read_bytes() == (
-        tmp_path / "a" / "trajectory.csv"
-    ).read_bytes()
+    # damaged entries, every damage of issue 34 on some of them (a disk error, a killed
+    # writer, entries swapped among their keys, a foreign file, a FIFO or a link to /dev/zero
+    # in an entry's place; as many rounds as the programs take): each a miss, recompiled and
+    # replaced, without a warning, with the same answer; the others are hits
+    damages = list(FILE_DAMAGES.values())
+    for round_ in range(0, len(damages), len(written)):
+        chunk = damages[round_ : round_ + len(written)]
+        damaged = dict(zip(sorted(written)[: len(chunk)], chunk, strict=True))
+        for name, damage in damaged.items():
+            damage(cache / name, written)
+        out = tmp_path / f"c{round_}"
+        third, events = optimize(model_file, out, str(cache))
+        assert "compilation cache" not in third.stderr, third.stderr
+        assert events.get("cache_hits", 0) == len(written) - len(damaged)
+        assert events.get("cache_misses", 0) == len(damaged)
+        assert entries(cache) == written  # replaced by the same programs
+        assert (out / "trajectory.csv").read_bytes() == (
+            tmp_path / "a" / "trajectory.csv"
+        ).read_bytes()
     _, events = optimize(model_file, tmp_path / "d", str(cache), "-q")
     assert events.get("cache_hits", 0) == events["compile_requests_use_cache"] > 0
+
+    # the keys do not depend on where the cache is: a copy of it is used as it is
+    shutil.copytree(cache, tmp_path / "copied")
+    _, events = optimize(model_file, tmp_path / "e", str(tmp_path / "copied"), "-q")
+    assert events.get("cache_hits", 0) == events["compile_requests_use_cache"] > 0
+    assert events.get("cache_misses", 0) == 0
 
 
 @pytest.mark.parametrize("kind", ["unwritable", "off"])
@@ -135,15 +150,10 @@ def test_the_directory_comes_from_the_environment(monkeypatch, tmp_path):
     assert "not writable" in _writable(blocker / "jax")
 
 
-def _check_entry(data: bytes) -> None:
-    if data[:1] != data[-1:] or len(set(data)) != 1:
-        raise ValueError("a half-written entry")
-
-
 def test_concurrent_writers_and_readers_see_whole_entries(tmp_path):
     # writers replace one entry with values of different lengths while readers read it; a
     # write in place (JAX's own file store) lets a reader see a mixture or a truncated file
-    store = FileStore(tmp_path, _check_entry)
+    store = FileStore(tmp_path)
     values = [bytes([i]) * (2_000_000 + 100_000 * i) for i in range(1, 5)]
     store.put("key", values[0])  # the readers always find an entry, however the threads run
     seen, failures = [], []
@@ -161,7 +171,7 @@ def test_concurrent_writers_and_readers_see_whole_entries(tmp_path):
         while writing.is_set() or count < 20:
             data = (tmp_path / f"key{SUFFIX}").read_bytes()
             seen.append(len(data))
-            if data not in values:
+            if decode_entry("key", data) not in values:
                 failures.append(len(data))
             count += 1
 

@@ -27,6 +27,7 @@ PUBLIC = (
     "jaxflex.reference",
     "jaxflex.plots",
     "jaxflex.cli",
+    "jaxflex.lazy",
 )
 UPPER = ("fem", "optim", "fmu")
 
@@ -47,9 +48,13 @@ def _declared(module: str) -> set[str]:
 
 
 def _defined(module: str) -> set[str]:
-    """Names bound at the top level of ``module`` (definitions, assignments, imports)."""
+    """Names bound at the top level of ``module`` (definitions, assignments, imports; the
+    imports of an ``if TYPE_CHECKING:`` block are the names jaxflex.lazy imports on first
+    use)."""
     names = set()
-    for node in ast.parse(_source(module).read_text(encoding="utf-8")).body:
+    body = ast.parse(_source(module).read_text(encoding="utf-8")).body
+    lazy = [n for n in body if isinstance(n, ast.If) and ast.unparse(n.test) == "TYPE_CHECKING"]
+    for node in [*body, *(line for block in lazy for line in block.body)]:
         if isinstance(node, ast.FunctionDef | ast.ClassDef):
             names.add(node.name)
         elif isinstance(node, ast.Assign):

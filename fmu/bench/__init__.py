@@ -8,10 +8,17 @@
   :func:`summary_lines`, its findings as text (what the notebooks use).
 """
 
-from fmu.bench.core import QUICK, BenchCase, format_table, run_bench, sine_move, synthetic_model
-from fmu.bench.metrics import compare, curve_errors, on_grid, settle_from_samples
-from fmu.bench.suite import SIZES, run_suite, summary_lines
-from fmu.bench.timing import best_time_s, machine
+from typing import TYPE_CHECKING
+
+from jaxflex.lazy import lazy_names
+
+if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at once
+    from fmu.bench.core import QUICK, BenchCase, format_table, run_bench, sine_move, synthetic_model
+    from fmu.bench.metrics import compare, curve_errors, on_grid, settle_from_samples
+    from fmu.bench.suite import SIZES, run_suite, summary_lines
+    from fmu.bench.timing import best_time_s, machine
+
+__getattr__, __dir__ = lazy_names(__name__)
 
 __all__ = [
     "QUICK",

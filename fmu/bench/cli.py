@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from fmu.bench.core import format_table
-from fmu.bench.suite import run_suite, summary_lines
 from jaxflex.files import check_output_dir
 from jaxflex.runtime import step
 
@@ -45,6 +43,9 @@ def run(args: argparse.Namespace) -> int:
     json_path = out if out.suffix == ".json" else None
     out_dir = out.parent if json_path is not None else out
     check_output_dir("-o/--output", out_dir)
+    from fmu.bench.core import format_table  # the benchmarks load at the run
+    from fmu.bench.suite import run_suite, summary_lines
+
     report = run_suite(
         out_dir,
         size,

@@ -12,6 +12,17 @@ The command is the issue's: ``jaxflex optimize MODEL --distance 0 0 1 --vmax 2 -
 --jmax 100 --threshold 5e-4`` of the demo plate (nominal), and in the full run also ``jaxflex
 demo`` cold and warm. The load average is recorded with the figures: on a shared machine wall
 time grows with it, CPU time much less.
+
+Beside them (issue 32's start-up targets, CPU seconds):
+
+* ``startup``: ``jaxflex --version``, an argument error (``jaxflex optimize`` without its
+  arguments) and a cheap input check (a zero-length move, refused before the model file is
+  read), each the median of STARTUP_RUNS runs;
+* ``model_scene``: ``jaxflex model --scene plate`` cold and warm (the second run copies the
+  model from the FE store, fem.model_store);
+* ``cache_checks``: what reading an entry costs with its checks (a regular file, its key,
+  its SHA-256: jaxflex.runtime.CacheStore.get), ms per entry and per MB, for the JAX
+  programs and the FE model the runs above stored.
 """
 
 from __future__ import annotations
@@ -30,7 +41,9 @@ from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import JaxflexError
 from jaxflex.runtime import COMPILE_CACHE_ENV as ENV_VAR
 from jaxflex.runtime import COMPILE_CACHE_SUFFIX as SUFFIX
+from jaxflex.runtime import CacheStore
 
+STARTUP_RUNS = 5
 # the issue's command line (the demo's move), quiet
 OPTIMIZE_ARGS = (
     *("--distance", "0", "0", "1", "--vmax", "2", "--amax", "10", "--jmax", "100"),
@@ -38,9 +51,10 @@ OPTIMIZE_ARGS = (
 )
 
 
-def timed_run(argv: list[str], env: dict[str, str]) -> dict:
+def timed_run(argv: list[str], env: dict[str, str], status: int = 0) -> dict:
     """``jaxflex ARGV`` in a fresh interpreter: wall and CPU seconds (user + system of the
-    child), and the first line it printed (the answer). JaxflexError if it fails."""
+    child), and the first line it printed (the answer). JaxflexError if it does not end
+    with ``status``."""
     import resource  # POSIX: the children's CPU time
 
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -50,7 +64,7 @@ def timed_run(argv: list[str], env: dict[str, str]) -> dict:
     )
     wall_s = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
+    if proc.returncode != status:
         raise JaxflexError(f"jaxflex {' '.join(argv)} failed: {proc.stderr.strip()[-2000:]}")
     cpu_s = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     lines = proc.stdout.splitlines()
@@ -70,6 +84,43 @@ def cold_and_warm(
     for name, extra in (variants or {}).items():
         runs[name] = timed_run([*argv, *extra], env)
     return runs
+
+
+def startup(model_path: Path, folder: Path) -> dict:
+    """Median wall and CPU seconds of the answers that need no work (module docstring)."""
+    env = {**os.environ, ENV_VAR: str(folder / "cache")}
+    zero = ["optimize", str(model_path), "--distance", "0", "0", "0", "--threshold", "1e-3"]
+    cases = {
+        "version": (["--version"], 0),
+        "argument_error": (["optimize"], 2),
+        "zero_length_move": ([*zero, "-o", str(folder / "zero")], 2),
+    }
+    out = {}
+    for name, (argv, status) in cases.items():
+        runs = [timed_run(argv, env, status) for _ in range(STARTUP_RUNS)]
+        out[name] = {m: statistics.median(r[m] for r in runs) for m in ("wall_s", "cpu_s")}
+    return out
+
+
+def cache_checks(cache: Path) -> dict:
+    """ms to read and check one entry (FileStore.get), per store under ``cache``: JAX's
+    programs (the directory itself) and each store below it."""
+    out = {}
+    for folder in [cache, *sorted(p for p in cache.iterdir() if p.is_dir())]:
+        keys = [p.name.removesuffix(SUFFIX) for p in folder.iterdir() if p.name.endswith(SUFFIX)]
+        if not keys:
+            continue
+        store = CacheStore(folder)
+        start = time.perf_counter()
+        size = sum(len(store.get(key) or b"") for key in keys)
+        seconds = time.perf_counter() - start
+        out["jax" if folder == cache else folder.name] = {
+            "entries": len(keys),
+            "mb": size / 1e6,
+            "ms_per_entry": 1e3 * seconds / len(keys),
+            "ms_per_mb": 1e3 * seconds / (size / 1e6) if size else None,
+        }
+    return out
 
 
 def _medians(rounds: list[dict]) -> dict:
@@ -107,6 +158,16 @@ def run_commands(
                 cold_and_warm(argv, folder / "cache", variants={"warm_no_plots": ["--no-plots"]})
             )
         out["optimize"]["median"] = _medians(out["optimize"]["rounds"])
+        progress("commands: start-up (--version, an argument error, a zero-length move) ...")
+        out["startup"] = startup(model_path, folder)
+        if demo:  # the full run: the FE store of the built-in plate too
+            progress("commands: jaxflex model --scene plate cold and warm ...")
+            argv = ["model", "--scene", "plate", "-o", str(folder / "scene.npz"), "-q"]
+            out["model_scene"] = cold_and_warm(argv, folder / "scene-cache")
+            out["model_scene"]["command"] = "jaxflex model --scene plate"
+        out["cache_checks"] = cache_checks(folder / "cache")
+        if "model_scene" in out:
+            out["cache_checks"].update(cache_checks(folder / "scene-cache"))
         if demo:
             progress("commands: jaxflex demo cold and warm ...")
             argv = ["demo", "-o", str(folder / "demo"), "-q"]
@@ -116,6 +177,25 @@ def run_commands(
             out["demo"].update(cold_and_warm(argv, folder / "cache"))
     out["load_average_1min_after"] = os.getloadavg()[0]
     return out
+
+
+# sections reported as one line of named items: (section key, label, an item's text)
+LISTED = (
+    (
+        "startup",
+        "start-up",
+        lambda name, m: (
+            f"{name.replace('_', ' ')} {m['cpu_s']:.2f} s CPU ({m['wall_s']:.2f} s wall)"
+        ),
+    ),
+    (
+        "cache_checks",
+        "cache checks (read + key + SHA-256 per entry)",
+        lambda name, c: (
+            f"{name} {c['ms_per_entry']:.2f} ms/entry ({c['entries']} entries, {c['mb']:.1f} MB)"
+        ),
+    ),
+)
 
 
 def format_commands(section: dict) -> list[str]:
@@ -130,6 +210,16 @@ def format_commands(section: dict) -> list[str]:
         for name, m in opt["median"].items()
     )
     lines.append(f"  {opt['command']} ({opt['model']}): {figures}")
+    if "model_scene" in section:
+        scene = section["model_scene"]
+        lines.append(
+            f"  {scene['command']}: cold {scene['cold']['cpu_s']:.2f} s CPU, warm (from the FE "
+            f"store) {scene['warm']['cpu_s']:.2f} s CPU"
+        )
+    for key, label, item in LISTED:
+        if section.get(key):
+            items = ", ".join(item(name, m) for name, m in section[key].items())
+            lines.append(f"  {label}: {items}")
     if "demo" in section:
         demo = section["demo"]
         lines.append(

@@ -14,11 +14,18 @@ Command line: ``jaxflex sweep sweep.toml -o sweep_out`` (``--serial``, ``--worke
 docs/sweep.md; SI units throughout.
 """
 
-from optim.sweep.cases import Case, expand
-from optim.sweep.evaluate import deviation_traces
-from optim.sweep.run import EXECUTORS, SweepRun, run_sweep
-from optim.sweep.spec import SweepSpec, load_spec, parse_spec
-from optim.sweep.table import COLUMNS, RUN_COLUMNS, read_table
+from typing import TYPE_CHECKING
+
+from jaxflex.lazy import lazy_names
+
+if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at once
+    from optim.sweep.cases import Case, expand
+    from optim.sweep.evaluate import deviation_traces
+    from optim.sweep.run import EXECUTORS, SweepRun, run_sweep
+    from optim.sweep.spec import SweepSpec, load_spec, parse_spec
+    from optim.sweep.table import COLUMNS, RUN_COLUMNS, read_table
+
+__getattr__, __dir__ = lazy_names(__name__)
 
 __all__ = [
     "COLUMNS",

@@ -6,10 +6,8 @@ import argparse
 import sys
 
 from jaxflex.errors import InputError
-from jaxflex.files import check_output_dir
+from jaxflex.files import check_input_file, check_output_dir
 from jaxflex.runtime import step
-from optim.sweep.run import run_sweep
-from optim.sweep.spec import EXAMPLE, load_spec
 
 COMMAND = "sweep"
 HELP = "gripper-layout sweep from a JSON/TOML spec: FE + optimised cycle time per case (SI units)"
@@ -57,6 +55,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.example:
+        from optim.sweep.spec import EXAMPLE
+
         print(EXAMPLE, end="")
         return 0
     if not args.spec or not args.output:
@@ -67,6 +67,10 @@ def run(args: argparse.Namespace) -> int:
                 f"{option}: only for the embedded LocalCluster (not with --serial/--scheduler)"
             )
     check_output_dir("-o/--output", args.output)
+    check_input_file("spec", args.spec)
+    from optim.sweep.run import run_sweep  # the sweep loads after the checks
+    from optim.sweep.spec import load_spec
+
     spec = load_spec(args.spec)
     executor = "serial" if args.serial else "dask"
     where = args.scheduler or ("this process" if args.serial else "a local dask cluster")

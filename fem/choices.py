@@ -1,0 +1,14 @@
+"""What fem offers by name, for the command line's options and help before any finite-element
+module loads (light: no imports): the formulations and the mesh and CAD file kinds.
+fem.parts and fem.mesh_io re-export them."""
+
+from __future__ import annotations
+
+PLATE_ELEMENTS = ("morley", "argyris")  # Kirchhoff plates (flat parts)
+ELEMENTS = (*PLATE_ELEMENTS, "shell", "hex2")
+CAD_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep")
+FORMATS_HELP = (
+    "meshio formats: gmsh .msh, .vtu/.vtk, .xdmf, .stl, .obj, .ply, .off, Abaqus .inp, "
+    "Nastran .bdf/.nas, ANSYS .ans, .med, .mesh, ... with cells tri3, tri6, tri7, quad4, "
+    "quad8, quad9 (any mix, any number of blocks) or one layer of hexahedra"
+)
