@@ -116,7 +116,19 @@ NEGATIVE_NUMBERS = re.compile(rf"^-{_NUMBER}(?:,-?{_NUMBER})*$")
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser._negative_number_matcher = NEGATIVE_NUMBERS  # argparse's test for "-0.5" etc.
-    src = parser.add_mutually_exclusive_group(required=True)
+    _add_sources(parser.add_argument_group("the part's source (one of)"))
+    cli_imports.add_arguments(parser)
+    _add_part(parser.add_argument_group("the sheet and its material"))
+    _add_gripper(parser.add_argument_group("the gripper and supports"))
+    _add_modes(parser.add_argument_group("modes and monitored points"))
+    _add_outputs(parser.add_argument_group("outputs"))
+    _add_sizing_arguments(parser)
+
+
+def _add_sources(group) -> None:
+    """Where the part comes from: a built-in scene, a mesh, a CAD body or another tool's
+    files (fem.cli_imports)."""
+    src = group.add_mutually_exclusive_group(required=True)
     src.add_argument("--scene", choices=("plate", "panel"), help="built-in part and gripper")
     src.add_argument(
         "--mesh",
@@ -130,35 +142,53 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "gmsh at --mesh-size, refined around the cups",
     )
     cli_imports.add_sources(src)
-    cli_imports.add_arguments(parser)
-    parser.add_argument(
-        "--thickness", type=float, help="sheet thickness in m, e.g. 0.8e-3 (--mesh, --cad)"
+
+
+def _add_part(group) -> None:
+    """The sheet's thickness, units, material, formulation and mesh size."""
+    group.add_argument(
+        "--thickness", type=float, metavar="M", help="sheet thickness, e.g. 0.8e-3 (--mesh, --cad)"
     )
-    parser.add_argument(
+    group.add_argument(
         "--scale",
         type=float,
         default=1.0,
         help="factor from the file's coordinates to metres: 1e-3 for a mesh in millimetres "
         "(STEP and IGES state their unit and are converted first)",
     )
-    parser.add_argument("--material", default="steel", help="steel (default) or aluminium")
-    parser.add_argument(
-        "--E", dest="E_pa", type=float, help="Young's modulus in Pa (others from --material)"
+    group.add_argument("--material", default="steel", help="steel (default) or aluminium")
+    group.add_argument(
+        "--E",
+        dest="E_pa",
+        type=float,
+        metavar="PA",
+        help="Young's modulus (others from --material)",
     )
-    parser.add_argument("--nu", type=float, help="Poisson ratio (others from --material)")
-    parser.add_argument(
-        "--rho", dest="rho_kg_m3", type=float, help="density in kg/m^3 (others from --material)"
+    group.add_argument("--nu", type=float, help="Poisson ratio (others from --material)")
+    group.add_argument(
+        "--rho",
+        dest="rho_kg_m3",
+        type=float,
+        metavar="KG_M3",
+        help="density, kg/m^3 (others from --material)",
     )
-    parser.add_argument(
+    group.add_argument(
         "--element",
         choices=ELEMENTS,
         help="formulation (default: morley for flat parts in a plane z = const, shell for "
         "curved and folded ones, hex2 for the panel scene and hexahedral meshes)",
     )
-    parser.add_argument(
-        "--mesh-size", type=float, help="element size in m (--scene, --cad; default per element)"
+    group.add_argument(
+        "--mesh-size",
+        type=float,
+        metavar="M",
+        help="element size (--scene, --cad; default per element)",
     )
-    parser.add_argument(
+
+
+def _add_gripper(group) -> None:
+    """Suction cups and other supports, and whether a free part is accepted."""
+    group.add_argument(
         "--cups",
         nargs="+",
         type=_cup,
@@ -166,14 +196,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="suction cups: centre x,y (the surface point above it) or x,y,z (the nearest "
         "surface point) and radius, in m (replaces the scene's)",
     )
-    parser.add_argument(
+    group.add_argument(
         "--cup-stiffness",
         default=None,
         metavar="KIND",
         help="compliant cups instead of rigid clamps: flat, bellows (presets of fem.cups) or "
         "A,L,T,R (axial N/m, lateral N/m, tilt N m/rad, torsion N m/rad)",
     )
-    parser.add_argument(
+    group.add_argument(
         "--point-supports",
         nargs="+",
         type=_pair,
@@ -181,7 +211,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=[],
         help="pinned points x,y in m",
     )
-    parser.add_argument(
+    group.add_argument(
         "--clamped-edges",
         nargs="+",
         default=[],
@@ -189,20 +219,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=("all", "x0", "x1", "y0", "y1"),
         help="clamped sides",
     )
-    parser.add_argument(
+    group.add_argument(
         "--allow-rigid-modes",
         action="store_true",
         help="accept a part that is not held (free, or a gripper that leaves rigid-body "
         "modes): the rigid-body modes are reported and left out of the model (every source)",
     )
-    parser.add_argument(
-        "--n-modes", type=int, help="number of modes (default 20, or all up to --max-freq)"
+
+
+def _add_modes(group) -> None:
+    """How many modes, their damping, and the points the model monitors."""
+    group.add_argument(
+        "--n-modes",
+        type=int,
+        metavar="N",
+        help="number of modes (default 20, or all up to --max-freq)",
     )
-    parser.add_argument("--max-freq", type=float, help="keep modes up to this frequency in Hz")
-    parser.add_argument(
+    group.add_argument(
+        "--max-freq", type=float, metavar="HZ", help="keep modes up to this frequency"
+    )
+    group.add_argument(
         "--zeta", type=_zeta, default=0.02, help="damping ratio in [0, 1) (default 0.02 = 2 %%)"
     )
-    parser.add_argument(
+    group.add_argument(
         "--points",
         type=_points,
         default=None,
@@ -210,10 +249,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "distances cover the whole part) or a count (voxel-reduced: a smaller file and faster "
         "FMU steps, but only those points are checked)",
     )
-    parser.add_argument("--plot", metavar="PNG", help="picture of the part, cups and modes")
-    parser.add_argument("--vtu", metavar="FILE", help="mode shapes for ParaView (.vtu/.xdmf)")
-    parser.add_argument("-o", "--output", default="model.npz", help="model file (.npz)")
-    _add_sizing_arguments(parser)
+
+
+def _add_outputs(group) -> None:
+    """The model file and its pictures."""
+    group.add_argument("--plot", metavar="PNG", help="picture of the part, cups and modes")
+    group.add_argument("--vtu", metavar="FILE", help="mode shapes for ParaView (.vtu/.xdmf)")
+    group.add_argument(
+        "-o", "--output", default="model.npz", metavar="FILE", help="model file (.npz)"
+    )
 
 
 def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
@@ -244,9 +288,12 @@ def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--dt",
         type=float,
+        metavar="S",
         help=f"--distance: sample step in s (default {DT_S:g}); --from-r1: the R1 time step in s",
     )
-    group.add_argument("--threshold", type=float, help="settle threshold in m (e.g. 0.0005)")
+    group.add_argument(
+        "--threshold", type=float, metavar="M", help="settle threshold in m (e.g. 0.0005)"
+    )
     group.add_argument(
         "--mesh-sizes",
         nargs="+",
@@ -256,7 +303,11 @@ def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
         "in sqrt 2 steps; 4 ... 1 x for the thin solid)",
     )
     group.add_argument(
-        "--max-modes", type=int, default=160, help="most modes to compute (default 160)"
+        "--max-modes",
+        type=int,
+        default=160,
+        metavar="N",
+        help="most modes to compute (default 160)",
     )
     group.add_argument(
         "--key-points",

@@ -58,6 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--threshold",
         type=float,
+        metavar="M",
         help="start value of the deviation threshold in m (default: from report.json, else 0.5 mm)",
     )
     parser.add_argument(

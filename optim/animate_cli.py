@@ -46,6 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--after",
         type=float,
         default=None,
+        metavar="S",
         help="the settling shown after the cycle time, s (default a quarter of it)",
     )
 

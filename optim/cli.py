@@ -26,15 +26,35 @@ ORDER = 20
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", help="modal model file (.npz, from `jaxflex model`)")
-    _add_move(parser)
-    _add_cell(parser)
-    _add_search(parser)
-    _add_robust(parser)
-    _add_budget(parser)
-    parser.add_argument("-o", "--output", required=True, help="output directory")
+    for title, add in (
+        ("the move, the robot's limits, the threshold", _add_move),
+        ("the robot cell and its constraints", _add_cell),
+        ("the search", _add_search),
+        ("robust mode", _add_robust),
+        ("the search's budget", _add_budget),
+        ("outputs", _add_outputs),
+    ):
+        add(parser.add_argument_group(title))
 
 
-def _add_move(parser: argparse.ArgumentParser) -> None:
+def _add_outputs(parser) -> None:
+    """The result directory, its pictures and the animation."""
+    parser.add_argument("-o", "--output", required=True, metavar="DIR", help="output directory")
+    parser.add_argument(
+        "--no-plots",
+        action="store_true",
+        help="write the trajectory and the report only, no pictures (they are drawn after "
+        "the answer is printed and take about a second)",
+    )
+    parser.add_argument(
+        "--animate",
+        action="store_true",
+        help="also write the part moving and bending, frame by frame: a ParaView series and a "
+        "browser page in OUTPUT/animation (as `jaxflex animate OUTPUT`)",
+    )
+
+
+def _add_move(parser) -> None:
     """The move, the robot's limits, the threshold and the step."""
     parser.add_argument(
         "--distance",
@@ -50,12 +70,19 @@ def _add_move(parser: argparse.ArgumentParser) -> None:
             f"--{name}",
             type=float,
             default=None,
+            metavar=unit.upper().replace("^", ""),
             help=f"optional limit on the norm over the axes, {unit}",
         )
     parser.add_argument(
-        "--threshold", type=float, required=True, help="deviation threshold, m (e.g. 0.0005)"
+        "--threshold",
+        type=float,
+        required=True,
+        metavar="M",
+        help="deviation threshold, m (e.g. 0.0005)",
     )
-    parser.add_argument("--dt", type=float, default=DT_S, help=f"sample step, s (default {DT_S:g})")
+    parser.add_argument(
+        "--dt", type=float, default=DT_S, metavar="S", help=f"sample step, s (default {DT_S:g})"
+    )
     parser.add_argument(
         "--rotate",
         nargs="+",
@@ -89,7 +116,7 @@ def _add_move(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_cell(parser: argparse.ArgumentParser) -> None:
+def _add_cell(parser) -> None:
     """The robot cell and its constraints."""
     parser.add_argument(
         "--cell",
@@ -139,12 +166,13 @@ def _add_cell(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_search(parser: argparse.ArgumentParser) -> None:
+def _add_search(parser) -> None:
     """The clearance during the move, the method and its solver."""
     parser.add_argument(
         "--clearance",
         type=float,
         default=None,
+        metavar="M",
         help="optional limit on the deviation during the move, m (nominal model)",
     )
     parser.add_argument(
@@ -161,7 +189,7 @@ def _add_search(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_robust(parser: argparse.ArgumentParser) -> None:
+def _add_robust(parser) -> None:
     """The robust mode and its uncertainty range."""
     parser.add_argument(
         "--robust",
@@ -196,32 +224,22 @@ def _add_robust(parser: argparse.ArgumentParser) -> None:
         )
 
 
-def _add_budget(parser: argparse.ArgumentParser) -> None:
+def _add_budget(parser) -> None:
     """The longest move and the LP budget."""
     parser.add_argument(
         "--max-duration",
         type=float,
         default=MAX_DURATION_S,
+        metavar="S",
         help=f"longest move considered, s (default {MAX_DURATION_S:g})",
     )
     parser.add_argument(
         "--max-steps",
         type=int,
         default=MAX_STEPS,
+        metavar="N",
         help=f"budget: most steps of any move an LP is built for (default {MAX_STEPS}; LP time "
         "grows with their square)",
-    )
-    parser.add_argument(
-        "--no-plots",
-        action="store_true",
-        help="write the trajectory and the report only, no pictures (they are drawn after "
-        "the answer is printed and take about a second)",
-    )
-    parser.add_argument(
-        "--animate",
-        action="store_true",
-        help="also write the part moving and bending, frame by frame: a ParaView series and a "
-        "browser page in OUTPUT/animation (as `jaxflex animate OUTPUT`)",
     )
 
 
