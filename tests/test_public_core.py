@@ -6,6 +6,7 @@ private and free to change. Read from the sources (ast), nothing imported."""
 from __future__ import annotations
 
 import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -163,3 +164,21 @@ def test_readers_load_in_their_child_process():
     )
     done = subprocess.run([sys.executable, "-I", "-c", program], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr[-2000:]
+
+
+def test_the_readme_names_only_public_core_names():
+    """The README sends users to public names only: every ``jaxflex.X`` it names is a public
+    module or a name of the public ``jaxflex`` namespace, and no ``jaxflex/X.py`` file (the
+    private modules are free to change; docs/design.md maps them for developers)."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    top = _declared("jaxflex")
+    groups = set(re.findall(r"project\.entry-points\.\"?jaxflex\.([a-z_]+)", _pyproject()))
+    named = set(re.findall(r"\bjaxflex\.([a-z_]+)", readme)) - groups  # entry-point groups
+    private = sorted(n for n in named if f"jaxflex.{n}" not in PUBLIC and n not in top)
+    files = set(re.findall(r"\bjaxflex/([a-z_]+)\.py", readme))
+    assert private == [], private
+    assert sorted(f for f in files if f"jaxflex.{f}" not in PUBLIC) == [], files
+
+
+def _pyproject() -> str:
+    return (ROOT / "pyproject.toml").read_text(encoding="utf-8")
