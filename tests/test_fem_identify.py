@@ -72,7 +72,8 @@ def test_frequencies_and_damping_of_every_visible_mode(identified, plate, r1):
     visible = contributions(plate, np.abs(r1).max()) >= 1e-6
     # modes the cups' symmetry keeps out of R1 along z contribute < 1e-10 of the peak,
     # below the 7-digit rounding (~5e-8); every other mode must be found
-    assert visible.sum() == identified.n_modes == 11
+    # (10 of the plate's 20 on the mesh that follows the cups' rims; 11 on the staircase)
+    assert visible.sum() == identified.n_modes >= 8
     true_f, true_z = plate.freq_hz[visible], plate.zeta[visible]
     np.testing.assert_allclose(identified.freq_hz, true_f, rtol=1e-3)  # target 0.1 %
     np.testing.assert_allclose(identified.zeta, true_z, rtol=2e-2)  # target 2 %
