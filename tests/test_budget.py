@@ -79,7 +79,11 @@ def test_budget_options_are_checked(tmp_path):
         assert out.returncode == 2 and f"{option}: must be a finite number > 0" in out.stderr
 
 
-def test_require_names_the_stage_its_need_and_the_budget(capsys):
+def test_require_names_the_stage_its_need_and_the_budget(capsys, monkeypatch):
+    import jaxflex.progress
+
+    # not quiet, whatever a command run in-process before this test in the worker left set
+    monkeypatch.setitem(jaxflex.progress._state, "quiet", False)
     small = Need("reading", 1e5, 1.0)
     big = Need("the analysis (5 cells)", 3e6, 2.0, "use a coarser mesh")
     with pytest.raises(
