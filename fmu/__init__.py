@@ -13,9 +13,9 @@ from typing import TYPE_CHECKING
 from jaxflex.lazy import lazy_names
 
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at once
-    from fmu.build import FmuBuildError
     from fmu.export import ExportResult, export_fmu
     from fmu.ssp import SspResult, export_ssp
+    from fmu.toolchain import FmuBuildError
     from fmu.verify import VerifyReport, verify
 
 __getattr__, __dir__ = lazy_names(__name__)

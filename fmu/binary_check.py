@@ -18,7 +18,7 @@ import sys
 from functools import cache
 from pathlib import Path
 
-from fmu.build import FmuBuildError, fmi_headers
+from fmu.toolchain import FmuBuildError, fmi_headers
 
 STEP_ACC_M_S2 = (0.3, -0.2, 1.0)  # the held inputs ax, ay, az of the checked step
 CHECK_TIMEOUT_S = 120.0

@@ -17,21 +17,24 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import platform
 import shutil
 import subprocess
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import fmpy
-
-from jaxflex.errors import JaxflexError
+from fmu.toolchain import (
+    MINGW_HINT,
+    WINDOWS_COMPILER,
+    FmuBuildError,
+    Target,
+    fmi_headers,
+    host_target,
+    windows_target,
+)
 from jaxflex.isolated import run_child
 from jaxflex.runtime import cache_fetch, cache_pack_text, cache_store, cache_unpack_text
 
-C_DIR = Path(__file__).resolve().parent / "c"
 # every FMU: the instance (life cycle, checks, logging) and one FMI binding per version, over
 # the core interface jxf_model_* (fmu/c/jxf_fmu.h) that one of the cores implements
 # (logging: jxf_log.c, used by the instance and every core alike)
@@ -52,28 +55,8 @@ PART_CORE = (
 )
 SOURCE_CORE = ("jxf_source.c", "jxf_turn_angle.h")  # the trajectory source (fmu.source)
 CFLAGS = ("-std=c99", "-O2", "-fvisibility=hidden", "-Wall", "-Wextra")
-WINDOWS_COMPILER = "x86_64-w64-mingw32-gcc"
-_MINGW_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64"
 BINARY_STORE = "fmu-binaries"  # jaxflex.runtime.cache_store of the built binaries
 BINARY_STORE_BYTES = 256 * 1024**2
-
-
-class FmuBuildError(JaxflexError):
-    """The C compiler is missing or failed."""
-
-
-@dataclass(frozen=True)
-class Target:
-    """One binary: platform folder names for FMI 2 / FMI 3, compiler, file suffix, flags."""
-
-    fmi2_dir: str
-    fmi3_dir: str
-    compiler: str
-    suffix: str
-    flags: tuple[str, ...]
-
-    def folder(self, fmi_version: int) -> str:
-        return self.fmi2_dir if fmi_version == 2 else self.fmi3_dir
 
 
 @dataclass
@@ -109,36 +92,6 @@ class WrittenFmu:
     skipped: dict[str, str] = field(default_factory=dict)
     compiler_messages: str = ""
     from_cache: tuple[str, ...] = ()  # platforms whose binary came from the cache
-
-
-def fmi_headers() -> Path:
-    """Directory with the FMI 2.0 and 3.0 C headers (shipped with fmpy)."""
-    path = Path(fmpy.__file__).resolve().parent / "c-code"
-    if not (path / "fmi2Functions.h").is_file() or not (path / "fmi3Functions.h").is_file():
-        raise FmuBuildError(f"FMI C headers not found in {path}; reinstall fmpy")
-    return path
-
-
-def host_target(compiler: str = "gcc") -> Target:
-    """The binary for this machine (Linux x86_64 or aarch64)."""
-    machine = platform.machine().lower()
-    if sys.platform.startswith("linux") and machine in ("x86_64", "amd64"):
-        return Target("linux64", "x86_64-linux", compiler, ".so", ("-fPIC", "-shared"))
-    if sys.platform.startswith("linux") and machine in ("aarch64", "arm64"):
-        return Target("aarch64-linux", "aarch64-linux", compiler, ".so", ("-fPIC", "-shared"))
-    raise FmuBuildError(
-        f"building FMU binaries on {sys.platform}/{machine} is not supported; build from the "
-        "FMU's sources/ folder with your platform's compiler instead"
-    )
-
-
-def windows_target() -> Target | None:
-    """The Windows x86_64 DLL target when the mingw-w64 cross compiler is installed."""
-    if shutil.which(WINDOWS_COMPILER) is None:
-        return None
-    # the same DLL from the same sources: no time stamp, no image base from the output path
-    flags = ("-shared", "-static-libgcc", "-Wl,--no-insert-timestamp,--disable-auto-image-base")
-    return Target("win64", "x86_64-windows", WINDOWS_COMPILER, ".dll", flags)
 
 
 def sources_for(fmi_version: int, core: tuple[str, ...] = PART_CORE) -> tuple[str, ...]:
@@ -273,10 +226,10 @@ def build_binaries(
     if cross is not None:
         targets.append(cross)
     elif windows is None:
-        report.skipped["x86_64-windows"] = f"{WINDOWS_COMPILER} is not installed ({_MINGW_HINT})"
+        report.skipped["x86_64-windows"] = f"{WINDOWS_COMPILER} is not installed ({MINGW_HINT})"
     elif windows:
         raise FmuBuildError(
-            f"a Windows DLL was requested but {WINDOWS_COMPILER} is not installed ({_MINGW_HINT})"
+            f"a Windows DLL was requested but {WINDOWS_COMPILER} is not installed ({MINGW_HINT})"
         )
     messages = []
     for target in targets:

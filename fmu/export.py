@@ -22,7 +22,6 @@ from typing import Any
 import numpy as np
 
 from fmu.archive import content_token, zip_folder
-from fmu.build import C_DIR as _C_DIR
 from fmu.build import BuildReport, WrittenFmu, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
 from fmu.obstacles import obstacle_records
@@ -34,6 +33,7 @@ from fmu.resource import (
     pose_samples,
     resource_counts,
 )
+from fmu.toolchain import C_DIR as _C_DIR
 from fmu.variables import (
     INPUT_COLUMNS,
     POSE_INPUT_NAMES,

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from fmpy import read_model_description
 
-from fmu.build import C_DIR, WINDOWS_COMPILER, FmuBuildError, fmi_headers, host_target
+from fmu.toolchain import C_DIR, WINDOWS_COMPILER, FmuBuildError, fmi_headers, host_target
 from jaxflex.isolated import run_child
 
 WINE_HINT = "Debian/Ubuntu: apt-get install gcc-mingw-w64-x86-64 wine64"

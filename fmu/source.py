@@ -31,10 +31,11 @@ import numpy as np
 
 import jaxflex
 from fmu.archive import content_token, zip_folder
-from fmu.build import C_DIR, SOURCE_CORE, WrittenFmu, build_binaries, compiled_files, sources_for
+from fmu.build import SOURCE_CORE, WrittenFmu, build_binaries, compiled_files, sources_for
 from fmu.export import check_pose, model_identifier
 from fmu.model_description import build_description, cosimulation, unit_definitions
 from fmu.resource import pose_samples
+from fmu.toolchain import C_DIR
 from fmu.variables import POSE_INPUT_NAMES, pose_unit
 from jaxflex.errors import InputError
 from jaxflex.response import PosePath, as_move

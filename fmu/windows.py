@@ -19,8 +19,8 @@ from pathlib import Path, PureWindowsPath
 import numpy as np
 from fmpy import read_model_description
 
-from fmu.build import WINDOWS_COMPILER, FmuBuildError
 from fmu.harness import WINE_HINT, resource_location, unpack
+from fmu.toolchain import WINDOWS_COMPILER, FmuBuildError
 from jaxflex.isolated import run_child
 
 OBJDUMP = "x86_64-w64-mingw32-objdump"

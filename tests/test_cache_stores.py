@@ -27,8 +27,8 @@ import fem.modal
 import fem.model_store
 import fmu.build
 from fmu.binary_check import check_library, fmi_functions
-from fmu.build import FmuBuildError
 from fmu.export import export_fmu
+from fmu.toolchain import FmuBuildError
 from jaxflex.cli import main
 from jaxflex.compile_cache import ENV_VAR, SUFFIX, FileStore, encode_entry, fetch
 

@@ -20,9 +20,9 @@ from conftest import random_model
 
 import jaxflex
 from fmu import FmuBuildError, export_fmu
-from fmu.build import fmi_headers
 from fmu.export import model_identifier
 from fmu.resource import FORMAT_VERSION, decode_resource, encode_resource
+from fmu.toolchain import fmi_headers
 from fmu.verify import read_fmu_resource
 from jaxflex.errors import InputError, ModelFileError
 

@@ -19,10 +19,10 @@ from test_fmu_export import _exported_functions, smooth_profile
 
 import jaxflex
 from fmu import importers
-from fmu.build import fmi_headers
 from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.master import Session
 from fmu.ssp import export_ssp, held_samples, read_parameters
+from fmu.toolchain import fmi_headers
 from fmu.verify import reference_response
 from jaxflex.errors import InputError
 

@@ -20,8 +20,8 @@ import fmu.export
 import fmu.variables
 import jaxflex
 from fmu import export_fmu
-from fmu.build import C_DIR
 from fmu.master import Session
+from fmu.toolchain import C_DIR
 from fmu.variables import Variable
 
 DT = 0.01

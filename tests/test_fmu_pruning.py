@@ -27,8 +27,9 @@ from hypothesis import strategies as st
 import fem
 from fem.scenes import default_gripper
 from fmu import export_fmu
-from fmu.build import compile_library, host_target
+from fmu.build import compile_library
 from fmu.master import Session
+from fmu.toolchain import host_target
 from fmu.variables import POSE_INPUT_NAMES
 from jaxflex.cell import Box, Cell, HalfSpace, TriangleMesh, rotation_from_degrees
 

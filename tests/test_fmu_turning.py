@@ -36,10 +36,11 @@ from test_turning_cell import newton_euler, skew_turn, stiff_sheet
 import fem
 import jaxflex
 from fmu import export_fmu
-from fmu.build import compile_library, host_target
+from fmu.build import compile_library
 from fmu.harness import SANITIZE_FLAGS, compile_harness, resource_location
 from fmu.master import Session
 from fmu.resource import decode_resource
+from fmu.toolchain import host_target
 from fmu.variables import POSE_INPUT_NAMES
 from fmu.verify import read_fmu_resource
 from jaxflex.cell import Box, Cell, HalfSpace

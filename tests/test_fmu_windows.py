@@ -13,9 +13,9 @@ from conftest import random_model
 from test_fmu_export import _exported_functions, smooth_profile
 
 from fmu import FmuBuildError, export_fmu
-from fmu.build import fmi_headers
 from fmu.harness import compile_harness
 from fmu.source import export_source_fmu
+from fmu.toolchain import fmi_headers
 from fmu.windows import (
     SYSTEM_DLLS,
     dll_exports,

@@ -23,12 +23,13 @@ from test_fmu_export import smooth_profile
 from test_fmu_robustness import RawFmu
 
 from fmu import export_fmu
-from fmu.build import compile_library, host_target
+from fmu.build import compile_library
 from fmu.harness import SANITIZE_FLAGS, compile_harness, resource_location
 from fmu.master import Session
 from fmu.resource import HEADER as _HEADER
 from fmu.resource import decode_resource
 from fmu.source import export_source_fmu
+from fmu.toolchain import host_target
 from jaxflex.errors import ModelError, ModelFileError
 
 DT = 0.01
