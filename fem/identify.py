@@ -78,6 +78,16 @@ def hat_responses(freq_hz, zeta, dt_s: float, n_steps: int) -> np.ndarray:
     return modal_states(probe, hat, dt_s, xp=np)[..., 0]
 
 
+def rigid_hat_response(dt_s: float, n_steps: int) -> np.ndarray:
+    """q(t_j), (n_steps + 1,): displacement of a unit-participation rigid-body mode (q'' =
+    -h_1(t), no stiffness) for the unit hat h_1 at t_1: -dt^2/6 at t_1, and -dt (t - dt) from
+    t_2 on (the hat's impulse dt acting from its centre t_1); the drift of a free part's R1."""
+    times = dt_s * np.arange(n_steps + 1)
+    drift = np.where(times >= 2 * dt_s, -dt_s * (times - dt_s), 0.0)
+    drift[1] = -(dt_s**2) / 6
+    return drift
+
+
 def gavish_donoho_threshold(singular_values: np.ndarray, shape: tuple[int, int]) -> float:
     """Optimal hard threshold for singular values of a low-rank matrix in white noise of
     unknown level: omega(beta) median(s), beta = aspect ratio <= 1 (Gavish & Donoho 2014,
@@ -309,19 +319,22 @@ def _poles_to_modes(poles: np.ndarray, dt_s: float):
     return np.asarray(freq)[order], np.asarray(zeta)[order], dropped
 
 
-def _refine(signals: np.ndarray, freq_hz, zeta, dt_s: float):
+def _refine(signals: np.ndarray, freq_hz, zeta, dt_s: float, drift: np.ndarray, floor_hz: float):
     """Least squares of ``signals`` (r, N + 1 - FREE_FROM: the samples from t_2 on) by
-    residues x hat responses over (f, zeta)."""
+    residues x hat responses over (f, zeta), f above ``floor_hz`` (the rigid cut-off); the
+    columns ``drift`` (N + 1 - FREE_FROM, d: a free part's rigid-body drift) are fitted
+    alongside, so that no elastic mode is pulled towards 0 Hz to take the drift."""
     n_steps = signals.shape[1] - 1 + FREE_FROM
     m = freq_hz.size
 
     def residual(params):
-        basis = hat_responses(np.exp(params[:m]), params[m:], dt_s, n_steps)[FREE_FROM:]
+        modes = hat_responses(np.exp(params[:m]), params[m:], dt_s, n_steps)[FREE_FROM:]
+        basis = np.hstack([modes, drift])
         coef, *_ = np.linalg.lstsq(basis, signals.T, rcond=None)
         return (signals.T - basis @ coef).ravel()
 
     start = np.concatenate([np.log(freq_hz), zeta])
-    lower = np.concatenate([np.full(m, -np.inf), np.zeros(m)])
+    lower = np.concatenate([np.full(m, np.log(floor_hz)), np.zeros(m)])
     upper = np.concatenate([np.full(m, np.log(0.5 / dt_s)), np.full(m, 0.99)])
     fit = scipy.optimize.least_squares(
         residual,
@@ -407,17 +420,19 @@ def identify_r1(
     timings["era_s"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
-    freq, zeta = _refine(signals, freq0, zeta0, dt_s)
+    # a free part's rigid-body drift: the rigid modes' hat response, fitted beside the modes
+    rigid = rigid_hat_response(dt_s, n_t - 1)[:, None][:, : int(drift.any())]
+    freq, zeta = _refine(signals, freq0, zeta0, dt_s, rigid[FREE_FROM:], rigid_tol_hz)
     order = np.argsort(freq)
     freq, zeta = freq[order], zeta[order]
     timings["refine_s"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
     # the modes' hat responses, and the quasi-static share D a(t) of the modes beyond the fit
-    # (their response to the hat is the hat itself: at its sample t_1 only)
-    basis = np.hstack([hat_responses(freq, zeta, dt_s, n_t - 1), np.eye(n_t)[:, 1:2]])
-    pinv = np.linalg.pinv(basis)  # (M + 1, N+1)
-    residues = np.zeros((data.shape[0], freq.size + 1))
+    # (their response to the hat is the hat itself: at its sample t_1 only), and the drift
+    basis = np.hstack([hat_responses(freq, zeta, dt_s, n_t - 1), np.eye(n_t)[:, 1:2], rigid])
+    pinv = np.linalg.pinv(basis)  # (M + 1 + d, N+1)
+    residues = np.zeros((data.shape[0], basis.shape[1]))
     residues[active] = data_active @ pinv.T
     fitted_peak, sq_res, sq_data = 0.0, 0.0, 0.0
     for chunk in np.array_split(np.arange(active.size), max(1, active.size // 20000)):
@@ -430,9 +445,10 @@ def identify_r1(
     energy = np.sum(residues**2, axis=0) * np.sum(basis**2, axis=0) / sq_data
     timings["residues_s"] = time.perf_counter() - tick
 
-    residues, direct = residues[:, :-1], residues[:, -1].reshape(n_axes, n_points, 3)
-    basis = basis[:, :-1]
-    part_peak, energy = part_peak[:-1], energy[:-1]
+    m = freq.size
+    residues, direct = residues[:, :m], residues[:, m].reshape(n_axes, n_points, 3)
+    basis = basis[:, :m]
+    part_peak, energy = part_peak[:m], energy[:m]
     gamma, shapes, rank_one = _split(residues.reshape(n_axes, n_points, 3, -1), axes)
     static = -shapes @ (gamma / (2 * np.pi * freq[:, None]) ** 2)  # (K, 3, 3): the modes'
     for a, axis in enumerate(axes):

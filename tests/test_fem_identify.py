@@ -223,7 +223,7 @@ def test_bad_r1_arrays_are_refused(r1):
         identify_r1(np.zeros_like(r1[:50]), DT)
 
 
-def test_a_free_parts_rigid_drift_follows_the_rule_of_every_door(r1):
+def test_a_free_parts_rigid_drift_follows_the_rule_of_every_door(r1, plate):
     # a free part's R1 carries the rigid-body drift of the hat: q'' = -h_1(t) gives
     # q = -dt^2/6 at t_1 and -dt (t - dt) from t_2 on (a double pole at z = 1); refused
     # unless allowed, then left out and reported, the elastic modes still identified
@@ -233,8 +233,16 @@ def test_a_free_parts_rigid_drift_follows_the_rule_of_every_door(r1):
     drift[1] = -(DT**2) / 6
     data = r1[:, rows].copy()
     data[:, :, 2] += 1e-3 * drift[:, None]
+    data = round_significant(data, 7)  # as a solver writes it: 7 digits of what it computed
     with pytest.raises(InputError, match=r"R1: 1 rigid-body mode\(s\)"):
         identify_r1(data, DT)
     result = identify_r1(data, DT, allow_rigid_modes=True)
     assert result.provenance["rigid_modes"]["count"] == 1
     assert any("rigid-body drift" in note for note in result.fit.dropped)
+    # the drift is fitted beside the modes (its own column): the elastic modes found are as
+    # many as without it, each one of the part's own to the targets of the clean R1 (0.1 %
+    # in frequency, 2 % in damping; measured 4e-6 and 1e-5 of the drift-free fit)
+    assert result.n_modes == identify_r1(r1[:, rows], DT).n_modes
+    nearest = [np.argmin(np.abs(plate.freq_hz - f)) for f in result.freq_hz]
+    np.testing.assert_allclose(result.freq_hz, plate.freq_hz[nearest], rtol=1e-3)
+    np.testing.assert_allclose(result.zeta, plate.zeta[nearest], rtol=2e-2)
