@@ -132,7 +132,9 @@ def _cells(part, supports) -> float:
         bands_x, bands_y, fine = cup_bands(discs, size, fraction)
         nx = graded_count(geometry.width_m, size, bands_x, fine)
         ny = graded_count(geometry.height_m, size, bands_y, fine)
-        rings = sum(ring_cells(d.radius, size, fine) for d in discs)
+        # a disc larger than the part (a layout the analysis refuses) rings it at most
+        span = math.hypot(geometry.width_m, geometry.height_m)
+        rings = sum(ring_cells(min(d.radius, span), size, fine) for d in discs)
         return (nx * ny + rings) * (1 if quads else 2)
     discs = [(d.radius, min(size, fraction * d.radius)) for d in contact_discs(supports)]
     return refined_cells(part.area_m2, size, discs, quads=quads)

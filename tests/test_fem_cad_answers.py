@@ -89,8 +89,8 @@ def test_an_iges_largest_coordinate_in_inches_warns_and_reads_the_part(tmp_path,
 
 def test_the_command_meshes_a_cad_part_with_progress_and_refuses_absurd_mesh_sizes(tmp_path, cad):
     out = tmp_path / "m.npz"
-    args = ["model", "--cad", str(cad / "panel.step"), "--thickness", "1e-3"]
-    ran = run_jaxflex(*args, "--allow-rigid-modes", "--n-modes", "2", "-o", str(out))
+    args = ["model", "--cad", str(cad / "panel.step"), "--thickness", "1e-3", "--allow-rigid-modes"]
+    ran = run_jaxflex(*args, "--n-modes", "2", "-o", str(out))
     assert ran.returncode == 0, ran.stderr
     assert "cad: reading panel.step (gmsh, OpenCASCADE)" in ran.stderr
     assert "cad: meshing panel.step with gmsh at" in ran.stderr
