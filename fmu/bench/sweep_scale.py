@@ -207,6 +207,19 @@ def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> 
         return round(60 * (cases[j] - cases[i]) / (times[j] - times[i]), 1)
 
     k = block // sampler.every
+    # each process's baseline (the least RSS in a window) from the second quarter of the run
+    # to the last: a flat process rises by less than half of what holding the records
+    # between the windows would take (hold_mb scaled to them)
+    early = [x for x in samples if n / 4 <= x["cases"] <= n / 2]
+    late = [x for x in samples if x["cases"] >= 3 * n / 4]
+
+    def rise(rss) -> float:
+        return round(min(map(rss, late)) - min(map(rss, early)), 2)
+
+    rises = {"client": rise(lambda x: x["client_rss_mb"])}
+    for pid in samples[-1]["workers"]:
+        rises[pid] = rise(lambda x, pid=pid: x["workers"].get(pid, {"rss_mb": np.inf})["rss_mb"])
+    bound_mb = round(0.5 * hold_mb * (n / 2) / max(len(held), 1), 2)
     return {
         "spec": spec.name,
         "cases": len(run.cases),
@@ -227,6 +240,9 @@ def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> 
         "record_bytes_mean": round(float(np.mean(sampler.record_bytes))),
         "hold_cases": len(held),
         "hold_mb": round(hold_mb, 2),
+        "baseline_rise_mb": rises,
+        "baseline_rise_bound_mb": bound_mb,
+        "memory_flat": all(r < bound_mb for r in rises.values()),
         "rerun_s": round(rerun_s, 2),
         "rerun_ms_per_stored_case": round(1e3 * rerun_s / max(rerun.skipped, 1), 3),
         "client_cpu_ms_per_case": round(
