@@ -9,17 +9,17 @@ from typing import TYPE_CHECKING
 from jaxflex.lazy import lazy_names
 
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at once
-    from fem.ansys import from_ansys
     from fem.damping import Rayleigh, rayleigh_zeta
     from fem.export import export_modes, export_transient, plot_part
-    from fem.identify import R1Identification, from_r1
-    from fem.imported import ImportedModes
+    from fem.imports.ansys import from_ansys
+    from fem.imports.imported import ImportedModes
+    from fem.imports.nastran.door import from_nastran
+    from fem.imports.r1 import R1Identification, from_r1
     from fem.materials import PRESETS, Material, resolve_material
     from fem.modal import ModalResult, describe_model, modal_analysis
-    from fem.nastran import from_nastran
     from fem.parts import Part, curved_panel, read_cad, read_mesh, rectangular_plate
     from fem.scenes import SCENES, default_gripper, default_model, scene
-    from fem.sizing import SizingResult, size_model
+    from fem.sizing.run import SizingResult, size_model
     from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup, Support
     from fem.transient import TransientResult, agreement, transient_reference
 

@@ -1,6 +1,6 @@
 """What fem offers by name, for the command line's options and help before any finite-element
 module loads (light: no imports): the formulations and the mesh and CAD file kinds.
-fem.parts and fem.mesh_io re-export them."""
+fem.parts and fem.mesh.mesh_io re-export them."""
 
 from __future__ import annotations
 

@@ -3,7 +3,7 @@
 With ``--tolerance`` the mesh, the number of modes and the monitored points are chosen for a
 move (``--trajectory`` or ``--distance`` with limits) and a ``--threshold`` by fem.size_model.
 ``--from-ansys``, ``--from-nastran``, ``--from-r1`` and ``--from-modes`` build the model
-from a user's own finite-element results (fem.cli_imports).
+from a user's own finite-element results (fem.imports.cli).
 
 The options and the input files are checked before the finite-element modules (and JAX)
 load: an argument error is answered at once.
@@ -21,9 +21,9 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from fem import cli_imports
 from fem.choices import CAD_SUFFIXES, ELEMENTS, FORMATS_HELP
 from fem.damping import check_damping
+from fem.imports import cli as cli_imports
 from fem.materials import resolve_material
 from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
 from jaxflex.defaults import DT_S
@@ -127,7 +127,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _add_sources(group) -> None:
     """Where the part comes from: a built-in scene, a mesh, a CAD body or another tool's
-    files (fem.cli_imports)."""
+    files (fem.imports.cli)."""
     src = group.add_mutually_exclusive_group(required=True)
     src.add_argument("--scene", choices=("plate", "panel"), help="built-in part and gripper")
     src.add_argument(
@@ -368,7 +368,7 @@ def _check_files(args: argparse.Namespace) -> None:
     for option in ("output", "plot", "vtu", "report"):
         if getattr(args, option) is not None:
             check_output_file(f"--{option}", getattr(args, option))
-    for option in ("mesh", "cad"):  # the imports' files: fem.cli_imports, after its options
+    for option in ("mesh", "cad"):  # the imports' files: fem.imports.cli, after its options
         if getattr(args, option) is not None:
             check_input_file(f"--{option}", getattr(args, option))
 
@@ -440,9 +440,9 @@ def _supports(args, material) -> list:
 def _solve(args, part, supports):
     """(the model, the FE result) of the part on its supports, planned first; prints the
     result's summary and the coarse-mesh warnings."""
+    from fem.mesh.plan import fe_plan, points_need
     from fem.mesh_advice import coarse_mesh_warnings
     from fem.modal import modal_analysis
-    from fem.plan import fe_plan, points_need
     from jaxflex.runtime import require
 
     n_modes = _n_modes(args)
@@ -641,7 +641,7 @@ def _threshold_advice(model, move: Move, threshold_m: float) -> None:
 
 
 def _run_sizing(args, part, supports) -> int:
-    from fem.sizing import size_model
+    from fem.sizing.run import size_model
 
     for name in ("n_modes", "max_freq", "points"):
         if getattr(args, name) is not None:

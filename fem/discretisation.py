@@ -7,7 +7,7 @@ Richardson estimate of the exact value is f_R = f_h + (f_h - f_H) / (RATIO^p - 1
 fine model's error |f_h - f_R| / |f_R| = |f_h - f_H| / ((RATIO^p - 1) |f_R|):
 
 * frequencies, ``FREQ_ORDER`` = 1.5: Morley, the DKT shell and the thin solid converge as
-  O(h^2) where the mesh follows the cups' rims (fem.rim_mesh), but the coarse mesh of the
+  O(h^2) where the mesh follows the cups' rims (fem.mesh.rim), but the coarse mesh of the
   estimate is not yet in that range: between it and the model the observed order is 1.3 (a
   0.6 x 0.4 m plate at 20 mm) to 1.8 (the built-in plate), so order 2 would state about
   half the error; with 1.5 the estimate came within 0.8 ... 1.4 x the true error (against
@@ -27,7 +27,7 @@ frequencies is taken over the modes both meshes found (the k-th lowest against t
 lowest: eigenvalues converge in order). Estimates above ``WARN_ABOVE`` are warned about.
 
 The second analysis costs about 1 / RATIO^2.5 of the first (a quarter of the DOFs; its
-truncation check is skipped); fem.plan includes it in the budget. A mesh that is given (a
+truncation check is skipped); fem.mesh.plan includes it in the budget. A mesh that is given (a
 mesh file, a Nastran deck) cannot be coarsened: its accuracy is the coarse-mesh advice
 (fem.mesh_advice, elements per bending half-wave).
 """

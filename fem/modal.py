@@ -22,15 +22,15 @@ import scipy.sparse as sp
 from fem.damping import Rayleigh, check_damping, describe_damping, modal_zeta
 from fem.discretisation import DiscretisationEstimate, estimate, given_mesh_statement
 from fem.eigen import all_modes, factorize, lowest_modes
+from fem.elements.plate import assemble_plate
+from fem.elements.shell import assemble_shell
+from fem.elements.solid import assemble_solid
+from fem.mesh.plan import fe_plan
 from fem.mesh_advice import coarse_mesh_warnings
 from fem.outputs import modal_outputs, static_displacements, static_response
 from fem.parts import Part
-from fem.plan import fe_plan
-from fem.plate import assemble_plate
 from fem.rigid_modes import rigid_by_gap
 from fem.rotation_integrals import rotational_inertia
-from fem.shell import assemble_shell
-from fem.solid import assemble_solid
 from fem.supports import as_support_list, check_layout, contact_discs
 from fem.system import FESystem, surface_triangles
 from jaxflex.errors import InputError, JaxflexWarning

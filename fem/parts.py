@@ -23,14 +23,14 @@ from typing import Any
 
 import numpy as np
 
-from fem.cad import cad_unit, meshed, read_cad_bounds
 from fem.choices import ELEMENTS as ELEMENTS  # their home: the light names
 from fem.choices import PLATE_ELEMENTS as PLATE_ELEMENTS
-from fem.geometry import CadSurface, GivenMesh, Rectangle, check_sheet_element
 from fem.materials import Material, resolve_material
-from fem.mesh import PlateMesh, ShellMesh, SurfaceMesh
-from fem.mesh_io import SheetMesh, check_extent, read_sheet
-from fem.plan import cad_mesh_need, plan_of_cells, refined_cells
+from fem.mesh.cad import cad_unit, meshed, read_cad_bounds
+from fem.mesh.geometry import CadSurface, GivenMesh, Rectangle, check_sheet_element
+from fem.mesh.mesh_io import SheetMesh, check_extent, read_sheet
+from fem.mesh.meshes import PlateMesh, ShellMesh, SurfaceMesh
+from fem.mesh.plan import cad_mesh_need, plan_of_cells, refined_cells
 from fem.sanity import warn_units
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
@@ -53,7 +53,7 @@ class Part:
     :func:`read_cad`. ``mesh_size_m`` None means the default for the element (see
     ``DEFAULT_SIZE_M``); it is ignored for parts read from a mesh file (their mesh is used as
     is). ``cup_fine_fraction`` (element size inside a cup band as a fraction of the cup
-    radius) None means the default for the element (``CUP_FINE_FRACTION``); fem.sizing
+    radius) None means the default for the element (``CUP_FINE_FRACTION``); fem.sizing.run
     scales it with the base size so that a refinement sequence refines the whole mesh.
     """
 
@@ -336,7 +336,7 @@ def read_mesh(
     element: str | None = None,
     scale: float = 1.0,
 ) -> Part:
-    """A part from a mesh file (any format meshio reads; fem.mesh_io.FORMATS_HELP),
+    """A part from a mesh file (any format meshio reads; fem.mesh.mesh_io.FORMATS_HELP),
     coordinates in m (times ``scale``, e.g. 1e-3 for millimetres); ``thickness`` in m.
 
     Every cell block is read (tri3, tri6, tri7, quad4, quad8, quad9, mixed), quadratic cells
@@ -379,7 +379,7 @@ def part_from_mesh(
     name: str,
     description: dict,
 ) -> Part:
-    """A part whose mesh is given (used as is; a fem.mesh_io.SheetMesh), thickness in m:
+    """A part whose mesh is given (used as is; a fem.mesh.mesh_io.SheetMesh), thickness in m:
     a Kirchhoff plate ("morley", "argyris") if flat, the shell ("shell") or the thin solid
     ("hex2", quadrilaterals only)."""
     _check_common(thickness, element, None, ELEMENTS)
@@ -403,7 +403,7 @@ def read_cad(
     element: str | None = None,
     scale: float = 1.0,
 ) -> Part:
-    """A part from a CAD sheet body (STEP, IGES or BREP; fem.cad), meshed with gmsh when it
+    """A part from a CAD sheet body (STEP, IGES or BREP; fem.mesh.cad), meshed with gmsh when it
     is analysed: element size ``mesh_size`` m (default as for built-in parts of the
     formulation), refined around the cups. STEP and IGES coordinates are converted to metres
     from the unit the file states, then multiplied by ``scale``; ``thickness`` in m. The

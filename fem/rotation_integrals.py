@@ -8,15 +8,16 @@ linear fields u = e_j r_i (component j equal to the coordinate r_i, m, in the mo
   (1/2 curl u = e_i x e_j / 2: the skew part, exact for the rigid rotations). A symmetric
   field's normal deflection on a curved shell is no nodal DOF vector of the shell, so its
   loads M (e_j r_i) are not taken as M F but as the virtual work of the sheet's 3-D mass
-  facet by facet (:func:`inertia_loads`, fem.shell.ShellOutputs.field_loads: fibres
+  facet by facet (:func:`inertia_loads`, fem.elements.shell.ShellOutputs.field_loads: fibres
   turned by n x (B n), no fictitious drilling inertia): its S, rigid inertia, static
   response and cups at rest are those of the faceted sheet (tests/test_rotation_shell.py);
 * Kirchhoff plate: the deflection w only (fields along z: w = x, y or the mid-plane height);
   a plate has no in-plane DOFs, so in-plane loads (a turn about its normal) do not deform
   it, exactly as its x and y participation is zero;
-* a Nastran deck (fem.deck_model.DeckOutputs) and an ANSYS ``.full`` with its node
-  coordinates: nodal translations and rotations as for the shell (fem.rigid_fields.nodal_fields; an
-  ANSYS DOF in a rotated nodal system takes the field's component along its own axis).
+* a Nastran deck (fem.imports.nastran.model.DeckOutputs) and an ANSYS ``.full`` with its node
+  coordinates: nodal translations and rotations as for the shell
+  (fem.elements.rigid_fields.nodal_fields; an ANSYS DOF in a rotated nodal system takes the field's
+  component along its own axis).
 
 The part's exact static response to the nine unit loads M (e_j r_i) (:func:`inertia_loads`;
 one sparse solve with the translation's factorisation, fem.outputs) gives the points', the
@@ -32,13 +33,13 @@ The couplings of the deformation, G_k = phi^T M X_k phi and P_kl = phi^T M X_k X
 X_k the DOF operator of u -> e_k x u (:func:`coupling_matrices`; the neglected terms' bound of
 jaxflex.turning): the thin solid's X_k turns each node's translation (its shape functions
 are the same for the three components, so this is exact for its field); the shell's are the
-integrals int rho v_m . (e_k x v_n) dV of its own displacement field (fem.shell.ShellOutputs.
-mass_products: the cubic normal deflection and the fibres; turning its nodal rotation
-vectors, as done before, missed G by 2.4 % against the thin solid); a Kirchhoff
-plate's deflection w e_z turned about any axis is in its plane (G_k = 0) and e_k x (e_l x
-w e_z) has the z component (d_kz d_lz - d_kl) w, so P_kl = (d_kz d_lz - d_kl) phi^T M phi
-(its kinetic energy has no rotary inertia: exact); decks and ANSYS imports get none (their
-DOFs may be in rotated nodal systems), and jaxflex.turning falls back to its energy bound.
+integrals int rho v_m . (e_k x v_n) dV of its own displacement field
+(fem.elements.shell.ShellOutputs.mass_products: the cubic normal deflection and the fibres; turning
+its nodal rotation vectors, as done before, missed G by 2.4 % against the thin solid); a Kirchhoff
+plate's deflection w e_z turned about any axis is in its plane (G_k = 0) and e_k x (e_l x w e_z) has
+the z component (d_kz d_lz - d_kl) w, so P_kl = (d_kz d_lz - d_kl) phi^T M phi (its kinetic energy
+has no rotary inertia: exact); decks and ANSYS imports get none (their DOFs may be in rotated nodal
+systems), and jaxflex.turning falls back to its energy bound.
 
 Every formulation's fields are checked against its own rigid rotations (eps_kij e_j r_i =
 e_k x r: fem.system.FormulationOutputs.rigid_motion) before use. Sources without a mass
@@ -50,6 +51,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fem.elements.rigid_fields import mass_field_loads
 from fem.outputs import (
     has_cups,
     held_inertia,
@@ -58,7 +60,6 @@ from fem.outputs import (
     plate_centre,
     static_solve,
 )
-from fem.rigid_fields import mass_field_loads
 from fem.system import RotationFields
 from jaxflex.response import LEVI_CIVITA, RotationalInertia
 
@@ -85,7 +86,7 @@ def inertia_loads(system, fields: np.ndarray) -> np.ndarray:
     """(n_dof, 9) the consistent load of each unit field's acceleration e_j r_i (column
     3 i + j) on the DOFs of ``system``, kg m: M F for the ``fields`` (n_dof, 3, 3) of
     :func:`linear_fields`, as the formulation answers it (a shell: the virtual work of its
-    3-D mass facet by facet, fem.shell.ShellOutputs.field_loads)."""
+    3-D mass facet by facet, fem.elements.shell.ShellOutputs.field_loads)."""
     if isinstance(system.outputs, RotationFields):
         return system.outputs.inertia_loads(system.M, fields)
     return mass_field_loads(system.M, fields)
@@ -207,9 +208,9 @@ def imported_inertia(
     mass_matrix, vectors: np.ndarray, fields: np.ndarray, translations: np.ndarray, unit
 ) -> RotationalInertia:
     """The RotationalInertia (SI) of modes ``vectors`` (n, M) of an imported ``mass_matrix``
-    (n, n) with the fem.rigid_fields.nodal_fields ``fields`` of its DOFs and the DOF vectors
-    ``translations`` (n, 3) of unit translations along x, y, z, all in the file's consistent units
-    ``unit`` (fem.units.Units). The mass is the matrix's: without the DOFs the file
+    (n, n) with the fem.elements.rigid_fields.nodal_fields ``fields`` of its DOFs and the DOF
+    vectors ``translations`` (n, 3) of unit translations along x, y, z, all in the file's consistent
+    units ``unit`` (fem.imports.units.Units). The mass is the matrix's: without the DOFs the file
     constrains (the mass the modes can move, like the participation factors)."""
     loads = mass_matrix @ fields.reshape(len(fields), 9)
     shape_integrals = (vectors.T @ loads).reshape(-1, 3, 3)

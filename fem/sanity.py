@@ -23,7 +23,7 @@ class PartWarning(UserWarning):
 
 class ModelWarning(PartWarning):
     """A model read from another program's files looks wrong in a way that is not
-    impossible (fem.model_checks); printed as PartWarnings are."""
+    impossible (fem.imports.checks); printed as PartWarnings are."""
 
 
 def unit_warnings(part, hint: str | None = None) -> list[str]:

@@ -57,7 +57,7 @@ class Disc(NamedTuple):
 
 
 class PlateDofs(Protocol):
-    """What a support may ask of a Kirchhoff plate (fem.plate provides it)."""
+    """What a support may ask of a Kirchhoff plate (fem.elements.plate provides it)."""
 
     @property
     def centroids_xy(self) -> np.ndarray:
@@ -84,8 +84,8 @@ class PlateDofs(Protocol):
 
 
 class SolidDofs(Protocol):
-    """What a support may ask of a surface formulation: the thin solid (fem.solid) and the
-    shell (fem.shell) provide it."""
+    """What a support may ask of a surface formulation: the thin solid (fem.elements.solid) and the
+    shell (fem.elements.shell) provide it."""
 
     @property
     def surface_points(self) -> np.ndarray:

@@ -192,7 +192,7 @@ class RotationFields(Protocol):
     def inertia_loads(self, mass, fields: np.ndarray) -> np.ndarray:
         """(n_dof, 9) the consistent load of each unit field's acceleration (column 3 i + j),
         kg m: ``mass`` (n_dof, n_dof) @ ``fields`` where the fields are nodal DOF vectors
-        (fem.rigid_fields.mass_field_loads)."""
+        (fem.elements.rigid_fields.mass_field_loads)."""
 
     def couplings(self, phi: np.ndarray, mass_phi: np.ndarray) -> tuple | None:
         """(G (3, M, M), P (3, 3, M, M)) = (phi^T M X_k phi, phi^T M X_k X_l phi) of the

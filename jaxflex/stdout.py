@@ -1,5 +1,5 @@
 """Output that C libraries print on the process's standard output (file descriptor 1), kept
-off it: Clp's log (optim.lp), OpenCASCADE's IGES counts (fem.cad). Python's own sys.stdout
+off it: Clp's log (optim.lp), OpenCASCADE's IGES counts (fem.mesh.cad). Python's own sys.stdout
 is flushed first, so nothing printed before is lost or reordered."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The cell file: a robot cell (jaxflex.cell.Cell) read from TOML or JSON, its mesh obstacles
-from mesh files (fem.meshfile, read in a child process). Every field is checked; an error
+from mesh files (fem.mesh.meshfile, read in a child process). Every field is checked; an error
 names the field and what is allowed.
 
 A cell file is TOML or JSON (:func:`load_cell`)::
@@ -87,7 +87,7 @@ def _obstacle(spec: Mapping, index: int, folder: Path) -> Obstacle:
     scale = check_positive(f"{where}.scale", spec.get("scale", 1.0))
     check_input_file(f"{where}.path", path)
     try:
-        from fem.meshfile import read_cells  # fem's package (scikit-fem): only for a mesh
+        from fem.mesh.meshfile import read_cells  # fem's package (scikit-fem): only for a mesh
 
         points, blocks = read_cells(path)
     except InputError as exc:  # naming the file the path really is (a path through ..)

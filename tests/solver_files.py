@@ -1,7 +1,7 @@
 """Writers of other solvers' result files, for the --from-modes tests: a Nastran OP2 (LAMA,
 OUGV1/BOUGV1, GEOM1 GRID, MPFACS) and a punch file, written from the numbers of a known
-model as the formats define them (fem.op2, fem.punch describe the layouts; these writers
-share no code with the readers)."""
+model as the formats define them (fem.imports.op2, fem.imports.punch describe the layouts; these
+writers share no code with the readers)."""
 
 from __future__ import annotations
 

@@ -17,8 +17,8 @@ import scipy.sparse as sp
 from ansys.mapdl.reader import examples, read_binary
 
 import fem
-from fem.ansys import RstModes, from_rst_modes, read_full
-from fem.units import UNIT_SYSTEMS
+from fem.imports.ansys import RstModes, from_rst_modes, read_full
+from fem.imports.units import UNIT_SYSTEMS
 from jaxflex.errors import InputError
 
 BIN = UNIT_SYSTEMS["BIN"]
@@ -28,7 +28,7 @@ RST_HZ = [7366.50, 7366.50, 11504.90, 17285.70, 17285.70, 20137.19]
 
 def dense_reference():
     """The .full's matrices as the reader gives them (upper triangles, empty constrained rows),
-    symmetrised and reduced here independently of fem.ansys, and solved densely."""
+    symmetrised and reduced here independently of fem.imports.ansys, and solved densely."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         _, k_upper, m_upper = read_binary(examples.fullfile).load_km(sort=True)
@@ -202,11 +202,11 @@ def test_rotated_nodal_coordinate_systems_are_applied():
     # issue 24: a .full's DOFs are in each node's nodal system (NROTAT). Our shell's
     # matrices (global DOFs, 6 per node) turned into random nodal systems, K_n = B^T K B,
     # must give the same frequencies, global shapes and participation factors once the node
-    # rotations are applied (fem.ansys._free_system, _observation); the rotations follow
+    # rotations are applied (fem.imports.ansys._free_system, _observation); the rotations follow
     # ansys-mapdl-reader's own conversion of .rst results to global axes.
     from ansys.mapdl.reader.common import rotate_to_global
 
-    from fem.ansys import FullMatrices, _free_system, _observation, nodal_rotations
+    from fem.imports.ansys import FullMatrices, _free_system, _observation, nodal_rotations
     from fem.modal import solve_modes
 
     part = fem.rectangular_plate(0.3, 0.2, 1e-3, mesh_size=0.05, element="shell")

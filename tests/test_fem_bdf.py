@@ -15,12 +15,12 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fem
-from fem.bdf import parse_real, read_bulk
-from fem.deck_constraints import deck_constraints
-from fem.deck_coords import DeckGeometry
-from fem.deck_materials import Materials, pshell
-from fem.deck_scope import classify
-from fem.deck_shells import SHELL_CARDS, read_shell
+from fem.imports.nastran.bdf import parse_real, read_bulk
+from fem.imports.nastran.constraints import deck_constraints
+from fem.imports.nastran.coords import DeckGeometry
+from fem.imports.nastran.materials import Materials, pshell
+from fem.imports.nastran.scope import classify
+from fem.imports.nastran.shells import SHELL_CARDS, read_shell
 from jaxflex.errors import InputError
 
 SMALL = """\
@@ -160,7 +160,7 @@ def write(tmp_path, text, name="deck.bdf"):
 
 
 def shells_of(bulk):
-    """(name, id, pid, grids) of the deck's shells (fem.deck_shells reads them)."""
+    """(name, id, pid, grids) of the deck's shells (fem.imports.nastran.shells reads them)."""
     out = []
     for card in bulk.named(*SHELL_CARDS):
         shell = read_shell(card, bulk)

@@ -15,8 +15,8 @@ from sheet_parts import write_panel_iges, write_panel_step
 from solver_files import uff55_mode
 
 import fem
-from fem.cad_check import check_cad_file
-from fem.iges import global_parameters, iges_units
+from fem.mesh.cad_check import check_cad_file
+from fem.mesh.iges import global_parameters, iges_units
 from fem.sanity import PartWarning
 from jaxflex.cli import build_parser
 from jaxflex.errors import InputError
@@ -121,7 +121,7 @@ def test_cups_at_negative_coordinates_after_another_cup_are_cups():
 def test_a_universal_file_is_read_without_pyuffs_dump_on_stdout(tmp_path, capfd):
     import pyuff
 
-    from fem.from_modes import from_modes
+    from fem.imports.from_modes import from_modes
 
     path = tmp_path / "groups.uff"
     nodes = pyuff.prepare_2411(

@@ -3,7 +3,7 @@ PBEAM, PROD, PTUBE) against closed forms and against the same beam written anoth
 
 The door solves a sheet: each deck carries one massless triangle hanging from the beam's
 free end (MAT1 without RHO). Its two free grids have stiffness and no mass, so they are
-condensed exactly (fem.deck_reduce) and add nothing: the deck's modes are the beam's.
+condensed exactly (fem.imports.nastran.reduce) and add nothing: the deck's modes are the beam's.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from decks import E_PA, NU, RHO, STEEL, card, solve, write
 
-from fem.beam_sections import library_section
+from fem.imports.nastran.beam_sections import library_section
 
 LENGTH = 1.0
 AREA, I1, I2, J = 4e-4, 2e-8, 5e-8, 3e-8

@@ -16,8 +16,8 @@ import numpy as np
 from decks import STEEL, card, mpc, plate, solve, write
 
 import fem
-from fem.bdf import read_bulk
-from fem.deck_coords import DeckGeometry
+from fem.imports.nastran.bdf import read_bulk
+from fem.imports.nastran.coords import DeckGeometry
 
 WIDTH, HEIGHT = 0.4, 0.3
 PSHELL = card("PSHELL", 1, 1, 1e-3, 1)

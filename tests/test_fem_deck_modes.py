@@ -1,6 +1,6 @@
-"""The lowest modes of Nastran deck models sorted out (fem.deck_zero_modes): rigid-body modes,
-mechanisms and modes of a part too soft for the rigid-mode cut-off; a real deck of
-quadratic shells (pyNastran's trncomp12, tests/data/nastran/README.md)."""
+"""The lowest modes of Nastran deck models sorted out (fem.imports.nastran.zero_modes):
+rigid-body modes, mechanisms and modes of a part too soft for the rigid-mode cut-off; a real
+deck of quadratic shells (pyNastran's trncomp12, tests/data/nastran/README.md)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from decks import STEEL, card, plate, solve, write
 
-from fem.deck_zero_modes import regroup
+from fem.imports.nastran.zero_modes import regroup
 from fem.modal import ModeSolution
 from jaxflex.errors import InputError
 

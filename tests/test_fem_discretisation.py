@@ -1,6 +1,6 @@
 """Issue 33, item 3: every model says how accurate it is.
 
-* the built-in meshes follow the cups' rims (fem.rim_mesh): no element straddles a rim;
+* the built-in meshes follow the cups' rims (fem.mesh.rim): no element straddles a rim;
 * Morley's rim stress on rim-following rings converges to the closed form of a clamped
   annular plate, and the built-in plate's gravity stress peak converges over three meshes
   (the finest within 2 % of the Richardson estimate) to what an independent element (our
@@ -28,11 +28,11 @@ from hypothesis import strategies as st
 
 import fem
 import jaxflex
-from fem import rim_mesh
 from fem.discretisation import RATIO, static_stress_peaks, von_mises_pa
-from fem.mesh import PlateMesh
-from fem.plan import fe_plan
-from fem.plate import assemble_plate
+from fem.elements.plate import assemble_plate
+from fem.mesh import rim as rim_mesh
+from fem.mesh.meshes import PlateMesh
+from fem.mesh.plan import fe_plan
 from fem.sanity import PartWarning
 from jaxflex.errors import JaxflexWarning
 
@@ -120,7 +120,7 @@ def _annulus_closed_form(a: float, b: float, q: float, bending: float, nu: float
 
 def _annulus(a: float, b: float, m: int) -> PlateMesh:
     """A polar mesh of the disc r <= b: m nodes per ring, a fan and rings inside the rim
-    r = a, outside it the rings fem.rim_mesh lays between a rim and its box (the first
+    r = a, outside it the rings fem.mesh.rim lays between a rim and its box (the first
     RIM_LAYER x the spacing thick, growing geometrically to r = b)."""
     spacing = 2 * np.pi * a / m
     layers = rim_mesh.ring_layers(b - a, spacing)
@@ -296,7 +296,7 @@ def test_a_given_mesh_says_it_is_not_estimated(tmp_path):
 
 def test_a_deck_of_one_shell_element_per_panel_is_warned_about_with_its_figure(tmp_path):
     # pyNastran's models/random/random_test_bar_plus_tri.bdf: four CBARs and one CQUAD4 and
-    # one CTRIA3 of 1 in; Nastran's own modes (its .op2's LAMA, read with fem.op2: 46.01,
+    # one CTRIA3 of 1 in; Nastran's own modes (its .op2's LAMA, read with fem.imports.op2: 46.01,
     # 47.39, 147.6, 309.8, 441.4 Hz) are 2.4-50 % below ours. The warning names the modes
     # and the elements per bending half-wave: 9.4 at the first mode (48.4 Hz), the one
     # element per panel fewer than the 13 that give ~1 %

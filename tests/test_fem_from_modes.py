@@ -20,7 +20,7 @@ from solver_files import write_op2, write_punch
 
 import fem
 import jaxflex
-from fem.from_modes import from_modes
+from fem.imports.from_modes import from_modes
 from jaxflex.errors import InputError, JaxflexWarning
 
 FLOAT64 = 1e-9  # files written with 8-byte words or 11 digits: round-off only
@@ -259,10 +259,10 @@ def test_universal_file_modes_written_by_pyuff(tmp_path, plate):
 
 def test_universal_file_time_responses_are_identified(tmp_path, plate):
     # dataset 58: the response of 40 nodes along z to the unit hat along z, from t = dt on
-    # (pyuff writes them in double precision), identified as the preprint's R1 (fem.identify)
+    # (pyuff writes them in double precision), identified as the preprint's R1 (fem.imports.r1)
     import pyuff
 
-    from fem.identify import hat_responses
+    from fem.imports.r1 import hat_responses
     from jaxflex.convolution import unit_response
 
     dt, steps = 0.005, 600

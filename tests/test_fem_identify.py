@@ -14,7 +14,7 @@ from conftest import random_model
 
 import fem
 import jaxflex
-from fem.identify import hat_responses, identify_r1, round_significant, significant_digits
+from fem.imports.r1 import hat_responses, identify_r1, round_significant, significant_digits
 from jaxflex.convolution import convolve_unit_response, unit_response, write_unit_response_csv
 from jaxflex.errors import InputError
 from jaxflex.profile import jerk_limited_move

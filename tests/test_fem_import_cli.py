@@ -11,7 +11,7 @@ from test_fem_nastran import STEEL_SI, meshio_deck
 
 import fem
 import jaxflex
-from fem.identify import round_significant
+from fem.imports.r1 import round_significant
 from jaxflex.cli import main
 from jaxflex.convolution import unit_response, write_unit_response_csv
 

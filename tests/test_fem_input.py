@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import fem
-from fem.meshing import graded_coordinates
+from fem.mesh.meshing import graded_coordinates
 from jaxflex.errors import InputError
 
 PLATE = fem.rectangular_plate(0.6, 0.4, mesh_size=0.03)

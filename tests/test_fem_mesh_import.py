@@ -46,7 +46,7 @@ def _free(part) -> fem.ModalResult:
 @pytest.fixture(scope="module")
 def reference():
     points, blocks = panel_cells("triangle", NX, NY)
-    sheet = fem.mesh_io.sheet_from_cells(points, blocks, "reference")
+    sheet = fem.mesh.mesh_io.sheet_from_cells(points, blocks, "reference")
     part = fem.parts.part_from_mesh(sheet, THICKNESS_M, "steel", "shell", "panel", {})
     return _free(part)
 

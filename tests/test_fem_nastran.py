@@ -10,9 +10,9 @@ import pytest
 from test_fem_bdf import SMALL
 
 import fem
-from fem import meshing
+from fem.imports.nastran.thick import kirchhoff_excess
+from fem.mesh import meshing
 from fem.sanity import PartWarning
-from fem.thick import kirchhoff_excess
 from jaxflex.cli import main
 from jaxflex.errors import InputError
 
@@ -315,8 +315,8 @@ def test_free_free_deck_and_the_warnings_of_a_thick_part(tmp_path):
     # a free 0.3 x 0.2 m plate 25 mm thick (1/8 of its span): with allow_rigid_modes its six
     # rigid-body modes are reported, not modelled, and its elastic modes are the mesh door's
     # (fem.read_mesh of the same quads with the shell: the same model, 1e-9); the door warns
-    # about the thickness (as the mesh door) and notes the Kirchhoff element (fem.thick:
-    # about 5 % for 1/8)
+    # about the thickness (as the mesh door) and notes the Kirchhoff element
+    # (fem.imports.nastran.thick: about 5 % for 1/8)
     nodes, quads = meshing.grid_quads(np.linspace(0, 0.3, 7), np.linspace(0, 0.2, 5))
     cards = ["PSHELL,1,1,.025,1", STEEL_SI[1]]
     path = meshio_deck(tmp_path / "thick.bdf", nodes, "quad", quads, cards)

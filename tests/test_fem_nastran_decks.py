@@ -19,8 +19,8 @@ import pytest
 from decks import solve
 
 import fem
-from fem.bdf import read_bulk
-from fem.deck_coords import DeckGeometry
+from fem.imports.nastran.bdf import read_bulk
+from fem.imports.nastran.coords import DeckGeometry
 from fem.sanity import PartWarning
 from fmu.bench.nastran_corpus import find_decks, summarise, try_deck
 
@@ -56,8 +56,8 @@ def test_two_mode_flutter_deck_is_the_rigid_wing_on_its_springs():
     # MSC Nastran's own modes (0012_flutter.f06: 2.66709, 10.6282 Hz) use its default lumped
     # mass (no PARAM COUPMASS), whose inertia of this coarse wing is larger than the exact
     # one: plunge agrees to 0.16 %, pitch is 10 % lower there. The door's estimate of that
-    # shift (fem.deck_mass: the modes' Rayleigh quotient with Nastran's lumped mass, exact
-    # for a rigid body) gives the solver's modes: 0.02 % and 0.03 % measured
+    # shift (fem.imports.nastran.mass: the modes' Rayleigh quotient with Nastran's lumped mass,
+    # exact for a rigid body) gives the solver's modes: 0.02 % and 0.03 % measured
     assert result.freq_hz[0] == pytest.approx(2.66709, rel=5e-3)
     shift = np.array(result.provenance["derived"]["lumped_mass_shift"])
     np.testing.assert_allclose(result.freq_hz * (1 + shift), [2.66709, 10.6282], rtol=1e-3)
@@ -94,7 +94,7 @@ def test_laminate_demo_deck_reads_with_its_warning():
     pcomp = bulk.named("PCOMP")[0]
     plies = [pcomp.real(k, "T") for k in range(9, len(pcomp.texts), 4) if pcomp.text(k)]
     rho = bulk.named("MAT8")[0].real(7, "RHO")
-    units = fem.units.UNIT_SYSTEMS["BIN"]
+    units = fem.imports.units.UNIT_SYSTEMS["BIN"]
     expected = rho * sum(plies) * units.density_to_si * units.length_m**3
     assert result.mass_kg == pytest.approx(expected, rel=1e-12)
 

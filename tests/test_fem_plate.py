@@ -69,7 +69,7 @@ def test_clamped_square_plate_against_leissa():
 @pytest.mark.slow
 def test_cup_held_plate_default_mesh_is_converged_to_1_percent():
     # A cup clamps the triangles whose centroid lies in its disc, the polygon the mesh puts
-    # into the rim (fem.rim_mesh). Against a ~2x finer mesh (3.75 mm; 2.5 mm moves it by
+    # into the rim (fem.mesh.rim). Against a ~2x finer mesh (3.75 mm; 2.5 mm moves it by
     # < 0.12 %) the default mesh (6.7 mm, 6 mm at the cups) is within 1 % on the first 10
     # modes (measured -0.36 ... -0.26 %; the staircase clamp gave -1.0 ... +0.5 %), f1 below.
     cups = fem.default_gripper(0.6, 0.4, 0.03)
@@ -82,7 +82,7 @@ def test_cup_held_plate_default_mesh_is_converged_to_1_percent():
 def test_argyris_on_a_users_unstructured_mesh_away_from_the_origin(tmp_path):
     # issue 24: a gmsh mesh of a 1.2 x 0.6 m plate at 30 mm ended in "plate rigid motions:
     # projection differs by 7.9e+04" (scikit-fem's global monomial basis, condition ~1e12;
-    # fem.argyris). Simply supported, against the closed form; the plate is shifted away
+    # fem.elements.argyris). Simply supported, against the closed form; the plate is shifted away
     # from the origin, which made it worse. Argyris at 30 mm: O(h^4), measured < 1e-5.
     import gmsh
 
@@ -113,7 +113,7 @@ def test_argyris_in_element_coordinates_is_scikit_fems_element():
     # both give the same matrices (same element, other basis of the same space)
     import skfem
 
-    from fem.argyris import ElementTriArgyrisLocal
+    from fem.elements.argyris import ElementTriArgyrisLocal
 
     mesh = skfem.MeshTri.init_symmetric().refined(1)
     forms = {

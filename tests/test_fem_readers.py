@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 from solver_files import uff55_mode, uff_2414_modes, write_op2, write_punch
 
-from fem.ansys import RstModes, from_rst_modes
-from fem.from_modes import from_modes
-from fem.imported import ImportedModes
+from fem.imports.ansys import RstModes, from_rst_modes
+from fem.imports.from_modes import from_modes
+from fem.imports.imported import ImportedModes
 from fem.rigid_modes import rigid_fit_residual, rigid_modes
 from fem.sanity import ModelWarning
 from jaxflex.errors import InputError

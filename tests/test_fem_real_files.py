@@ -29,7 +29,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 import fem
-from fem.from_modes import from_modes
+from fem.imports.from_modes import from_modes
 from fem.sanity import PartWarning
 from jaxflex.errors import InputError
 
@@ -123,8 +123,8 @@ def test_an_op2_with_displacement_systems_is_turned_to_the_basic_system():
     # femap's exhaust model (NX 8): 187 grids in cylindrical and rectangular systems CD. The
     # solver's eigenvectors are continuous in space: after the turn a CD grid moves as its
     # nearest basic-system neighbour does (1 % of the peak), as written it does not (25 %).
-    from fem.op2 import read_op2
-    from fem.op2_coords import op2_geometry
+    from fem.imports.op2 import read_op2
+    from fem.imports.op2_coords import op2_geometry
 
     path = real("pyNastran", "models/femap_exhaust/modal_example.op2")
     result = from_modes(path, units="SI")

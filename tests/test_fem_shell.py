@@ -10,10 +10,10 @@ import pytest
 from sheet_parts import bracket
 
 import fem
-from fem import shell_element as se
-from fem.mesh_io import sheet_from_cells
+from fem.elements import shell_element as se
+from fem.elements.shell import assemble_shell
+from fem.mesh.mesh_io import sheet_from_cells
 from fem.parts import part_from_mesh
-from fem.shell import assemble_shell
 from jaxflex.analytic import cylindrical_panel_frequencies_hz
 
 STEEL = fem.PRESETS["steel"]
@@ -223,7 +223,7 @@ def test_cylindrical_panel_against_the_converged_thin_solid():
 def test_cups_clamp_the_shell_like_the_plate():
     # 0.6 x 0.4 m, 1 mm, four 30 mm cups: the shell at its default mesh (13 mm, 5 mm in the
     # cups) against Morley at 3.75 mm (within ~0.15 % of converged, docs/fem.md). Both meshes
-    # follow the cups' rims (fem.rim_mesh): measured +0.19 ... +0.25 % on the first six
+    # follow the cups' rims (fem.mesh.rim): measured +0.19 ... +0.25 % on the first six
     # modes (+0.6 ... +1.1 % where the clamped disc was a staircase); tolerance 1 % (as the
     # plate's).
     cups = fem.default_gripper(0.6, 0.4, 0.03)

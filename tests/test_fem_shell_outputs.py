@@ -1,4 +1,5 @@
-"""Cup reactions, surface stresses and compliant cups of the shell (fem.shell.ShellOutputs)."""
+"""Cup reactions, surface stresses and compliant cups of the shell
+(fem.elements.shell.ShellOutputs)."""
 
 from __future__ import annotations
 

@@ -150,7 +150,7 @@ def test_richardson_recovers_a_power_law():
     """Errors e(h) = C h^2 on a sqrt 2 sequence: the estimate of the finest level's error from
     the differences is exact (observed order 2); with two levels order 1 is assumed, which
     over-estimates a second-order error (the safe side)."""
-    from fem.sizing import _richardson
+    from fem.sizing.run import _richardson
 
     h = 0.06 / np.sqrt(2.0) ** np.arange(4)
     e = 3.0 * h**2

@@ -10,7 +10,7 @@ import skfem
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 
 import fem
-from fem.solid import Hex2Layer, assemble_solid
+from fem.elements.solid import Hex2Layer, assemble_solid
 from jaxflex.analytic import cylindrical_panel_frequencies_hz
 
 STEEL = fem.PRESETS["steel"]

@@ -13,12 +13,15 @@ ENTRY_POINTS = {  # (file, function): why it may take more
     ("optim/optimize.py", "optimize"): "public: one keyword per `jaxflex optimize` option",
     ("optim/baselines.py", "baselines"): "public: the baselines of a move still to be found",
     ("optim/sweep/run.py", "run_sweep"): "public: one keyword per `jaxflex sweep` option",
-    ("fem/sizing.py", "size_model"): "public: one keyword per `jaxflex model --size` option",
+    ("fem/sizing/run.py", "size_model"): "public: one keyword per `jaxflex model --size` option",
 }
 
 
 def _functions():
-    files = [*sorted((ROOT / "optim").rglob("*.py")), *sorted((ROOT / "fem").glob("sizing*.py"))]
+    files = [
+        *sorted((ROOT / "optim").rglob("*.py")),
+        *sorted((ROOT / "fem" / "sizing").glob("*.py")),
+    ]
     for path in files:
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):

@@ -47,8 +47,8 @@ from sweep_cases import SPEC
 from test_fem_bdf import SMALL
 
 import fem
-from fem.ansys import read_full, read_node_coordinates, read_rst
-from fem.nastran import from_nastran
+from fem.imports.ansys import read_full, read_node_coordinates, read_rst
+from fem.imports.nastran.door import from_nastran
 from fmu.export import sidecar_paths
 from jaxflex.budget import make_budget, require, use_budget
 from jaxflex.cli import main

@@ -235,8 +235,8 @@ def test_an_archive_with_a_nul_byte_is_refused_before_the_reader(tmp_path):
     (tmp_path / "nul.cdb").write_bytes(text[:132] + b"\x00\x00\x00\x80" + text[136:])
     for _ in range(3):
         with pytest.raises(InputError, match=r"nul\.cdb' is damaged .* NUL byte at offset 132"):
-            fem.ansys.read_node_coordinates(tmp_path / "nul.cdb")
-    ids, coords = fem.ansys.read_node_coordinates(Path(examples.hexarchivefile))
+            fem.imports.ansys.read_node_coordinates(tmp_path / "nul.cdb")
+    ids, coords = fem.imports.ansys.read_node_coordinates(Path(examples.hexarchivefile))
     assert len(ids) == len(coords) == 321  # the undamaged archive: all its nodes
 
 
@@ -364,7 +364,7 @@ def test_node_coordinates_that_are_not_numbers_are_refused(tmp_path):
     # coordinate and was accepted
     from ansys.mapdl.reader import examples
 
-    from fem.ansys import read_node_coordinates
+    from fem.imports.ansys import read_node_coordinates
 
     text = Path(examples.hexarchivefile).read_text(encoding="utf-8")
     node_2 = "        2        0        0 1.0000000000000E+000"

@@ -21,7 +21,7 @@ from test_fem_deck_points import (
 )
 
 import fem
-from fem.ansys import from_rst_modes, read_full
+from fem.imports.ansys import from_rst_modes, read_full
 from jaxflex.pose import fixed_axis_path, turn_acceleration
 from jaxflex.turning import simulate_turning
 

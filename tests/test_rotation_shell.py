@@ -14,7 +14,7 @@ from scipy.sparse.linalg import spsolve
 from sheet_parts import bracket, sheet_moments
 
 import fem
-from fem.mesh_io import sheet_from_cells
+from fem.mesh.mesh_io import sheet_from_cells
 from fem.parts import part_from_mesh
 from fem.rotation_integrals import inertia_loads, linear_fields
 from jaxflex.rotation import LEVI_CIVITA
@@ -136,7 +136,7 @@ def test_mode_shape_integrals_against_a_quadrature_of_the_stored_shapes(name, bu
 
 
 def test_mass_products_of_rigid_motions_are_the_sheets_moments(held):
-    """The shell's displacement fields at its mass rule's points (fem.shell.ShellOutputs.
+    """The shell's displacement fields at its mass rule's points (fem.elements.shell.ShellOutputs.
     mass_products, from which the couplings G and P of jaxflex.rotation come), for the six
     rigid motions as 'modes' (fields the shell holds exactly): C[a, b] = int rho (v_m)_a
     (v_n)_b dV is m delta_ab between translations, eps_bjc (m c)_c between translation i and

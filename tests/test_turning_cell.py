@@ -14,7 +14,7 @@ from sheet_parts import sheet_moments
 
 import fem
 import jaxflex
-from fem.solid import SolidOutputs
+from fem.elements.solid import SolidOutputs
 from jaxflex.cell import Box, HalfSpace
 from jaxflex.errors import JaxflexWarning
 from jaxflex.outputs import voigt_rotation
@@ -358,7 +358,7 @@ def _mass_moments(result):
         ("plate", None, 1e-9),
         ("plate", "bellows", 1e-9),
         ("thin solid", None, 1e-9),
-        # the shell's loads are its 3-D sheet's, fibres included (fem.shell field_loads:
+        # the shell's loads are its 3-D sheet's, fibres included (fem.elements.shell field_loads:
         # before, they missed them by 2e-5 of the moment)
         ("shell", None, 1e-9),
     ],

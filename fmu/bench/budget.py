@@ -1,6 +1,6 @@
 """The budget (jaxflex.budget) measured.
 
-* Calibration of the finite-element plan (fem.plan): cells, DOFs, wall time and peak memory
+* Calibration of the finite-element plan (fem.mesh.plan): cells, DOFs, wall time and peak memory
   of modal analyses of the built-in footprint (1.5 x 0.8 m, four 40 mm cups, 20 modes) for
   every formulation and several element sizes, each case in a fresh interpreter so that its
   peak resident set is its own; the plan's figures beside the measured ones, so the table
@@ -48,7 +48,7 @@ N_MODES = 20
 def one_case(element: str, mesh_size_m: float) -> dict:
     """Run one analysis in this process: counts, plan and measurement."""
     import fem
-    from fem.plan import fe_plan
+    from fem.mesh.plan import fe_plan
     from fem.scenes import default_gripper
 
     if element == "hex2":

@@ -8,7 +8,8 @@
   Table 2 CSV with 7 significant digits (~2.8 GB at the preprint's size), then timed:
   reading the CSV and identifying the model (fem.from_r1), with its errors.
 * Nastran: the same plate mesh as a bulk-data deck (meshio's writer: GRID* large field,
-  CTRIA3) with its cups, then timed: fem.from_nastran (fem.bdf read, our plate, 20 modes).
+  CTRIA3) with its cups, then timed: fem.from_nastran (fem.imports.nastran.bdf read, our plate,
+  20 modes).
 ANSYS files of that size cannot be made here (no MAPDL); the .full import is read + our
 eigen solve, which fmu.bench.fem times.
 """
@@ -26,8 +27,8 @@ import numpy as np
 
 import fem
 import jaxflex
-from fem.bdf import read_bulk
-from fem.identify import round_significant
+from fem.imports.nastran.bdf import read_bulk
+from fem.imports.r1 import round_significant
 from jaxflex.defaults import DT_S
 from jaxflex.files import write_text_atomic
 from jaxflex.reference import convolve_unit_response, unit_response

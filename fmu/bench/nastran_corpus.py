@@ -24,7 +24,7 @@ DIR is a library of decks, e.g. the ``models/`` folder of pyNastran
   CONM) is counted apart.
 * **Frequencies**: where an ``.f06`` (else an ``.op2``) with the deck's stem lies beside it
   and the deck's solution computes normal modes (SOL 103, 111, 112, 145, 146, 200), its
-  REAL EIGENVALUES tables (the OP2's LAMA tables read with fem.op2, or the eigenvalues of
+  REAL EIGENVALUES tables (the OP2's LAMA tables read with fem.imports.op2, or the eigenvalues of
   its eigenvector tables' headers) give the solver's modes; the elastic ones (above 0.1 Hz)
   are compared with ours in order, the relative difference of the first ``--modes``. Of
   several tables (subcases) the one whose first frequency is nearest ours is compared (SOL
@@ -32,7 +32,7 @@ DIR is a library of decks, e.g. the ``models/`` folder of pyNastran
   **warned** beyond it with a warning that says why (a mesh too coarse for the modes, the
   solver's lumped mass, a Kirchhoff shell of a thick part), or **wrong**; the accuracy
   table also gives our modes with the estimated shift of Nastran's lumped mass
-  (fem.deck_mass) against the solver's.
+  (fem.imports.nastran.mass) against the solver's.
 """
 
 from __future__ import annotations
@@ -50,8 +50,8 @@ from pathlib import Path
 import numpy as np
 
 import fem
-from fem.deck_scope import ADVICE
-from fem.op2 import read_op2
+from fem.imports.nastran.scope import ADVICE
+from fem.imports.op2 import read_op2
 from jaxflex.errors import InputError, ModelError
 from jaxflex.files import write_text_atomic
 
@@ -101,7 +101,7 @@ def _include_lines(path: Path) -> list[str]:
 
 def _tree(path: Path, job: Path, seen: set) -> set:
     """The files a deck reads: INCLUDEs resolved from the job directory ``job``, then
-    beside the including file (as fem.bdf resolves them)."""
+    beside the including file (as fem.imports.nastran.bdf resolves them)."""
     if path in seen or not path.is_file():
         return seen
     seen.add(path)
@@ -168,7 +168,7 @@ def _unique(tables: list[np.ndarray]) -> list[np.ndarray]:
 
 
 def op2_eigen_tables(path: Path) -> list[np.ndarray]:
-    """The natural frequencies of an OP2 file, Hz (fem.op2 reads its tables): the cycles of
+    """The natural frequencies of an OP2 file, Hz (fem.imports.op2 reads its tables): the cycles of
     each LAMA table (record 4: seven words per mode), else the eigenvalues the headers of its
     real eigenvector tables state (approach code 2, table code 7: the PARAM,POST,-1 files of
     NX and MSC without LAMA), one table per eigenvector table."""

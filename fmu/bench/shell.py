@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 import fem
-from fem.mesh_io import sheet_from_cells
+from fem.mesh.mesh_io import sheet_from_cells
 from fem.parts import part_from_mesh
 from jaxflex.files import write_text_atomic
 from jaxflex.reference import cylindrical_panel_frequencies_hz

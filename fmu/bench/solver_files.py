@@ -1,7 +1,7 @@
 """Every modal-results file of a directory through ``--from-modes`` (and every ANSYS .rst
 through ``--from-ansys``, with unit participation factors): what was read, what was refused
 and why, and frequencies against the solver's own printout where it lies beside the file
-(the .f06 of an .op2), as JSON. A read file passes the model checks (fem.model_checks)
+(the .f06 of an .op2), as JSON. A read file passes the model checks (fem.imports.checks)
 before it counts as read.
 
     python -m fmu.bench.solver_files DIR [--units SI] [-o solver_files.json]
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fem.from_modes import SUFFIXES, from_modes
+from fem.imports.from_modes import SUFFIXES, from_modes
 from jaxflex.errors import InputError
 from jaxflex.files import write_text_atomic
 
@@ -67,7 +67,7 @@ def _mapdl_result(path: Path) -> bool:
 
 def _read(path: Path, units: str):
     if path.suffix.lower() == ".rst":
-        from fem.ansys import from_ansys
+        from fem.imports.ansys import from_ansys
 
         result = from_ansys(
             path, units=units, gamma=np.ones((1, 3)), n_modes=1, allow_rigid_modes=True
@@ -79,7 +79,7 @@ def _read(path: Path, units: str):
 
 
 def try_file(path: Path, units: str) -> dict:
-    """One file through fem.from_modes (or fem.from_ansys): read (modes, nodes, gamma,
+    """One file through fem.imports.from_modes (or fem.from_ansys): read (modes, nodes, gamma,
     frequencies) or refused."""
     entry: dict = {"file": str(path), "kind": path.suffix.lower()}
     try:

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 import fem
-from fem.mesh_io import CAD_SUFFIXES
+from fem.mesh.mesh_io import CAD_SUFFIXES
 
 
 def build_part(part: dict) -> fem.Part:

@@ -5,7 +5,7 @@
   ``MIN_CASE_S`` of a worker's time (the smallest cases of docs/sweep.md: 0.13 s of FE and
   0.5 s of optimisation).
 * **The cases** (:func:`sweep_needs`, before any is computed): each layout's modal analysis
-  (fem.plan, with the first layout's cups), its model at the monitored points, each move's
+  (fem.mesh.plan, with the first layout's cups), its model at the monitored points, each move's
   search (optim.budget: the memory at its shortest move and the time of its tests) on top of
   what every case takes (``MIN_CASE_S``: its baselines, exact timings and record), each on
   one worker at a time; the time of all the pending work is shared by the workers, the memory
@@ -21,7 +21,7 @@ import math
 import os
 from dataclasses import asdict
 
-from fem.plan import fe_plan
+from fem.mesh.plan import fe_plan
 from fem.supports import SuctionCup
 from jaxflex.errors import InputError
 from jaxflex.runtime import Need, current_budget

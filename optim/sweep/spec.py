@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from fem.imported import file_digest
+from fem.imports.imported import file_digest
 from fem.parts import ELEMENTS
 from jaxflex.cli import AXIS_LIMITS
 from jaxflex.defaults import DT_S, MAX_DURATION_S, THRESHOLD_M

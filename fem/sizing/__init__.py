@@ -1,0 +1,1 @@
+"""Model no more than a scene needs: ``fem.size_model`` and its stages, curves and report."""
