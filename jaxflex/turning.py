@@ -125,10 +125,6 @@ class Turn:
         """The sample step (s), the path's."""
         return self.path.dt_s
 
-    @property
-    def n_steps(self) -> int:
-        return self.path.n_steps
-
 
 def body_loads(path: PosePath, acc_m_s2, gravity_m_s2, pivot_m, xp=np):
     """(a_O (n+1, 3), g_b (n+1, 3)) m/s^2 in body components: the acceleration of the model

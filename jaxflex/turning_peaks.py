@@ -58,8 +58,8 @@ class TurningLoadSearch(_Response):
         self.q_map, self.v_map = np.asarray(outputs.q_map), np.asarray(outputs.v_map)
         self.a_map = np.asarray(outputs.a_map)
         self.a_rot = output_residual(outputs, static_rot, model)  # (Y, 9)
-        self.dt_s, self.n_steps = turn.dt_s, turn.n_steps
-        self.t_end = turn.n_steps * turn.dt_s
+        self.dt_s, self.n_steps = turn.dt_s, turn.path.n_steps
+        self.t_end = turn.path.n_steps * turn.dt_s
         motion = turning_motion(model, turn)
         self.inputs = inputs = motion.inputs
         gravity = inputs.gravity_body_m_s2

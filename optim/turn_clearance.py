@@ -55,7 +55,7 @@ def turning_move_coordinates(
     """(t (T,) s, coordinates (T, M'') of jaxflex.response.turning_shapes) every dt_s /
     ``substeps`` during the turning move ``turn`` (a jaxflex.response.Turn): the deviation
     about the current pose's sag (module docstring)."""
-    times = turn.dt_s / substeps * np.arange(turn.n_steps * substeps + 1)
+    times = turn.dt_s / substeps * np.arange(turn.path.n_steps * substeps + 1)
     inputs = TurnMotion(model, turn, times, np.zeros(0)).inputs
     gravity = inputs.gravity_body_m_s2
     sagging = inputs.q - gravity_coordinates(model, gravity)
