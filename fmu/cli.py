@@ -15,7 +15,7 @@ from jaxflex.errors import InputError
 from jaxflex.files import check_input_file, check_output_file, check_positive
 
 if TYPE_CHECKING:
-    from jaxflex.response import Move
+    from jaxflex.response import Move, Turn
     from jaxflex.runtime import Need
 
 COMMAND = "export"
@@ -175,38 +175,37 @@ def load_case(path: Path) -> tuple[Move, dict | None]:
     return move, {key: report[key] for key in CASE_KEYS if key in report}
 
 
-def turning_move(path: Path, move: Move, case: dict | None, pivot_m) -> dict:
-    """The embedded move of a turning part from ``--trajectory`` ``path``: ``pose`` (the
-    jaxflex.pose.PosePath at the samples of ``move``), ``pivot_m`` and ``gravity_m_s2``:
-    the turn of `jaxflex optimize --rotate` (trajectory.csv's turn columns, report.json's
-    axis, pivot and gravity), or no turn for a straight move (about ``pivot_m``, default the
-    origin). Inconsistent inputs are refused naming the option."""
+def turning_move(path: Path, move: Move, case: dict | None, pivot_m) -> Turn:
+    """The embedded move of a turning part from ``--trajectory`` ``path`` (a
+    jaxflex.response.Turn: the pose path at the samples of ``move``, its translation, the
+    pivot and gravity): the turn of `jaxflex optimize --rotate` (trajectory.csv's turn
+    columns, report.json's axis, pivot and gravity), or no turn for a straight move (about
+    ``pivot_m``, default the origin). Inconsistent inputs are refused naming the option."""
     import numpy as np
 
     from jaxflex.files import read_turn_csv
     from jaxflex.geometry import DEFAULT_GRAVITY_M_S2
-    from jaxflex.response import fixed_axis_path
+    from jaxflex.response import Turn, fixed_axis_path
     from optim.turn_via import reported_turn
 
-    dt_s = move.dt_s
     turn_acc = read_turn_csv(trajectory_file(path))
     spec = (case or {}).get("turn")
     if turn_acc is None and spec is None:  # a straight move: the part keeps its orientation
-        pose = fixed_axis_path("z", np.zeros(move.n_steps + 1), dt_s)
+        pose = fixed_axis_path("z", np.zeros(move.n_steps + 1), move.dt_s)
         pivot = (0.0, 0.0, 0.0) if pivot_m is None else pivot_m
-        return {"pose": pose, "pivot_m": pivot, "gravity_m_s2": DEFAULT_GRAVITY_M_S2}
+        return Turn(pose, move.acc, pivot_m=pivot, gravity_m_s2=DEFAULT_GRAVITY_M_S2)
     if turn_acc is None:
         raise InputError(
             "--trajectory: a turning move needs the turn columns of trajectory.csv and the turn "
             "of report.json of the same `jaxflex optimize --rotate` run; its turn columns missing"
         )
-    pose, pivot, gravity = reported_turn(spec, turn_acc, dt_s, DEFAULT_GRAVITY_M_S2)
-    if pivot_m is not None and not np.array_equal(np.asarray(pivot_m, np.float64), pivot):
+    turn = reported_turn(spec, turn_acc, move, DEFAULT_GRAVITY_M_S2)
+    if pivot_m is not None and not np.array_equal(np.asarray(pivot_m, np.float64), turn.pivot_m):
         raise InputError(
-            f"--pivot: the move was optimised about the pivot {pivot.tolist()} m "
+            f"--pivot: the move was optimised about the pivot {turn.pivot_m.tolist()} m "
             "(report.json's turn); leave --pivot out or give the same point"
         )
-    return {"pose": pose, "pivot_m": pivot, "gravity_m_s2": gravity}
+    return turn
 
 
 def _print_binaries(name: str, platforms, skipped: dict[str, str]) -> None:
@@ -248,13 +247,13 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
     from fmpy.validation import validate_fmu
 
     from fmu.crosscheck import crosscheck_fmu
-    from fmu.export import export_fmu
+    from fmu.export import export_fmu, pose_options
     from fmu.verify import verify
     from fmu.verify_turning import after_move_s, verify_turning
 
-    move = None
+    turn = None
     if args.turning and trajectory is not None:
-        move = turning_move(Path(args.trajectory), trajectory, case, args.pivot)
+        turn = turning_move(Path(args.trajectory), trajectory, case, args.pivot)
     result = export_fmu(
         model,
         args.output,
@@ -269,7 +268,7 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
         cup_safety=args.cup_safety,
         stress=args.stress,
         turning=args.turning,
-        **(move or {"pivot_m": args.pivot or (0.0, 0.0, 0.0)}),
+        **pose_options(turn, args.pivot),
     )
     print(
         f"wrote {result.fmu_path}: FMI {result.fmi_version}.0 co-simulation, "
@@ -297,11 +296,9 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
         problems = validate_fmu(str(result.fmu_path))
         print("fmpy validation: " + ("clean" if not problems else "; ".join(problems)))
         return 0 if not problems else 1
-    if move is not None:  # other hosts' checks replay a straight move: fmpy only
+    if turn is not None:  # other hosts' checks replay a straight move: fmpy only
         extend_s = after_move_s(result.case)
-        report = verify_turning(
-            result.fmu_path, model, acc=trajectory.acc, extend_s=extend_s, **move
-        )
+        report = verify_turning(result.fmu_path, model, turn, extend_s=extend_s)
         print(report.summary())
         return 0 if report.ok else 1
     report = verify(result.fmu_path)
@@ -313,13 +310,14 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
 
 def _export_ssp(args, model, trajectory, threshold_m, case, windows) -> int:
     from fmu.crosscheck import crosscheck_ssp
+    from fmu.export import pose_options
     from fmu.ssp import export_ssp
 
     move = {}
     if args.turning:
         move = {
             "turning": True,
-            **turning_move(Path(args.trajectory), trajectory, case, args.pivot),
+            **pose_options(turning_move(Path(args.trajectory), trajectory, case, args.pivot)),
         }
     result = export_ssp(
         model,

@@ -211,10 +211,11 @@ def _references(path, stored, model, part_model, n_steps: int) -> dict[str, Call
             f"{path}: the package of a turning part; its check needs the part's model "
             "(part_model=...)"
         )
-    turn = stored_turn(stored, part_model.with_damping(model.zeta), n_steps)
+    damped = part_model.with_damping(model.zeta)
+    turn = stored_turn(stored, damped, n_steps)
     return {
-        "linear": lambda: (_TURNING, turning_reference(turn)),
-        "zero": lambda: (_TURNING_HELD, turning_reference(turn, hold="zero")),
+        "linear": lambda: (_TURNING, turning_reference(damped, turn)),
+        "zero": lambda: (_TURNING_HELD, turning_reference(damped, turn, hold="zero")),
     }
 
 

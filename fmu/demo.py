@@ -132,7 +132,7 @@ def _export(model, result, path: Path, version: int, threshold_m: float):
     it with fmpy against jaxflex: a turning move's FMU takes the pose, its move of poses
     embedded (fmu.verify_turning), a straight move's the translation (fmu.verify). Returns
     (the export's fmu.export.ExportResult, the replay's report)."""
-    from fmu.export import export_fmu
+    from fmu.export import export_fmu, pose_options
     from fmu.verify import verify
     from fmu.verify_turning import after_move_s, verify_turning
 
@@ -140,14 +140,11 @@ def _export(model, result, path: Path, version: int, threshold_m: float):
     if result.turn is None:
         written = export_fmu(model, path, version, trajectory, threshold_m, case)
         return written, verify(path)
-    turn = {
-        "pose": result.turn.path(result.angular_acc, result.dt_s),
-        "pivot_m": result.turn.pivot_m,
-        "gravity_m_s2": result.turn.gravity_m_s2,
-    }
-    written = export_fmu(model, path, version, trajectory, threshold_m, case, turning=True, **turn)
+    turn = result.turn.with_move(result.angular_acc, trajectory)
+    pose = pose_options(turn)
+    written = export_fmu(model, path, version, trajectory, threshold_m, case, turning=True, **pose)
     extend_s = after_move_s(written.case)
-    return written, verify_turning(path, model, acc=result.acc, extend_s=extend_s, **turn)
+    return written, verify_turning(path, model, turn, extend_s=extend_s)
 
 
 def _fmus(model, result, out: Path, threshold_m: float, timings: dict[str, float]) -> dict:

@@ -50,6 +50,7 @@ from jaxflex.response import (
     DEFAULT_CUP_SAFETY,
     Move,
     PosePath,
+    Turn,
     analyze_move,
     as_move,
     require_rotation,
@@ -147,10 +148,8 @@ def _case_summary(model, acc, dt_s, threshold_m, case, turning, pose) -> dict[st
         if turning is None:
             report = analyze_move(model, acc, dt_s, threshold_m)
         else:
-            response = simulate_turning(
-                model, pose, acc, gravity_m_s2=turning.gravity_m_s2, pivot_m=turning.pivot_m
-            )
-            report = turning_settle(pose, model, response, threshold_m)
+            turn = Turn(pose, acc, pivot_m=turning.pivot_m, gravity_m_s2=turning.gravity_m_s2)
+            report = turning_settle(pose, model, simulate_turning(model, turn), threshold_m)
         times = {key: float(getattr(report, key)) for key in _CASE_TIMES}
     summary.update(times)
     summary["optimisation"] = case  # everything else the optimiser reported, unchanged
@@ -275,6 +274,15 @@ def check_pose(pose: PosePath, n_samples: int, dt_s: float) -> PosePath:
             "the first and last sample)"
         )
     return pose
+
+
+def pose_options(turn: Turn | None, pivot_m=None) -> dict:
+    """:func:`export_fmu`'s (and fmu.ssp.export_ssp's) keywords of a turning part's
+    embedded move ``turn`` (a jaxflex.response.Turn: its pose path, pivot and gravity), or
+    without one of the pivot ``pivot_m`` alone (default the origin)."""
+    if turn is None:
+        return {"pivot_m": (0.0, 0.0, 0.0) if pivot_m is None else pivot_m}
+    return {"pose": turn.path, "pivot_m": turn.pivot_m, "gravity_m_s2": turn.gravity_m_s2}
 
 
 @whole_or_absent()  # the FMU and its side files: all of them or none

@@ -19,8 +19,6 @@ pose after its last sample (as the source outputs it).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -29,6 +27,7 @@ from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
 from jaxflex.response import (
     PosePath,
+    Turn,
     body_loads,
     forced_states,
     load_coefficients,
@@ -41,25 +40,13 @@ from jaxflex.response import (
 )
 
 
-@dataclass(frozen=True)
-class StoredTurn:
-    """A turning part's move as its FMU stores it: the ``model`` (with rotation data), the
-    ``pose`` path and pivot accelerations ``acc`` (T, 3) m/s^2 at rest after the move,
-    ``pivot_m`` (3,) m and ``gravity_m_s2`` (3,) (world)."""
-
-    model: ModalModel
-    pose: PosePath
-    acc: np.ndarray
-    pivot_m: np.ndarray
-    gravity_m_s2: np.ndarray
-
-
-def stored_turn(stored: ResourceData, model: ModalModel, n_steps: int) -> StoredTurn:
-    """The move of the turning part's resource ``stored`` padded to ``n_steps`` + 1 samples
-    (at rest in the last pose) for ``model``: the part the FMU was exported from, with its
-    rotation data (the resource does not hold the part's mass and inertia), damped as the
-    FMU simulates it (its damping scale applied). InputError when the FMU is not a turning
-    part with an embedded move or ``model`` is not its part (other points or modes)."""
+def stored_turn(stored: ResourceData, model: ModalModel, n_steps: int) -> Turn:
+    """The move (a jaxflex.response.Turn: the pose path, the pivot's accelerations at rest
+    after the move, the pivot and gravity) of the turning part's resource ``stored`` padded
+    to ``n_steps`` + 1 samples (at rest in the last pose), checked against ``model``: the
+    part the FMU was exported from, with its rotation data (the resource does not hold the
+    part's mass and inertia). InputError when the FMU is not a turning part with an
+    embedded move or ``model`` is not its part (other points or modes)."""
     turning = stored.turning
     if turning is None or turning.pose_samples is None or stored.acc is None:
         raise InputError("the part FMU is not a turning part with an embedded move of poses")
@@ -85,17 +72,17 @@ def stored_turn(stored: ResourceData, model: ModalModel, n_steps: int) -> Stored
         poses[:, 7:10],
         stored.dt_s,
     )
-    return StoredTurn(model, pose, acc, turning.pivot_m, turning.gravity_m_s2)
+    return Turn(pose, acc, pivot_m=turning.pivot_m, gravity_m_s2=turning.gravity_m_s2)
 
 
-def turning_reference(turn: StoredTurn, *, hold: str = "linear") -> np.ndarray:
-    """(T,) m: the deviation at the samples of ``turn`` for ``hold`` (module docstring)."""
-    kwargs = {"gravity_m_s2": turn.gravity_m_s2, "pivot_m": turn.pivot_m}
+def turning_reference(model: ModalModel, turn: Turn, *, hold: str = "linear") -> np.ndarray:
+    """(T,) m: the deviation of ``model`` (the part with its rotation data, damped as the FMU
+    simulates it) at the samples of ``turn`` for ``hold`` (module docstring)."""
     if hold == "linear":
-        return simulate_turning(turn.model, turn.pose, turn.acc, **kwargs).deviation_m
+        return simulate_turning(model, turn).deviation_m
     if hold != "zero":
         raise InputError(f"hold: 'linear' or 'zero', got {hold!r}")
-    model, pose = turn.model, turn.pose
+    pose = turn.path
     a_origin, gravity = body_loads(pose, turn.acc, turn.gravity_m_s2, turn.pivot_m)
     force = turning_forces(model, pose, a_origin, gravity)
     sag = gravity @ np.asarray(model.gamma).T / np.asarray(model.omega_rad_s) ** 2

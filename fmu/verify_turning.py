@@ -13,7 +13,7 @@ from fmpy import read_model_description
 
 from fmu.verify import DEFAULT_RTOL, VerifyReport, replay, replay_report
 from jaxflex.model import ModalModel
-from jaxflex.response import PosePath, simulate_turning
+from jaxflex.response import Turn, simulate_turning
 
 
 def after_move_s(case: dict) -> float:
@@ -27,24 +27,19 @@ def after_move_s(case: dict) -> float:
 def verify_turning(
     path: str | os.PathLike,
     model: ModalModel,
-    pose: PosePath,
-    acc,
+    turn: Turn,
     *,
-    pivot_m,
-    gravity_m_s2,
     extend_s: float = 0.0,
     rtol: float = DEFAULT_RTOL,
 ) -> VerifyReport:
-    """Replay the FMU at ``path`` (exported from ``model`` with the move ``pose``, ``acc``
-    ((n+1, 3) m/s^2, the pivot's world acceleration) about ``pivot_m`` under ``gravity_m_s2``)
-    for the move and ``extend_s`` s after it (whole steps) and compare its deviation, at
-    every sample, with jaxflex.simulate_turning's."""
+    """Replay the FMU at ``path`` (exported from ``model`` with the turning move ``turn``, a
+    jaxflex.response.Turn: its pose path, the pivot's world acceleration, the pivot and
+    gravity) for the move and ``extend_s`` s after it (whole steps) and compare its
+    deviation, at every sample, with jaxflex.simulate_turning's."""
     path = Path(path)
     md = read_model_description(str(path))
-    dt_s = pose.dt_s
-    reference = simulate_turning(
-        model, pose, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m, extend_s=extend_s
-    )
+    dt_s = turn.dt_s
+    reference = simulate_turning(model, turn, extend_s=extend_s)
     n_steps = len(reference.t_s) - 1
     stop = n_steps * dt_s
     result = replay(

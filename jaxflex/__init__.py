@@ -8,8 +8,8 @@ Importing the package loads no JAX: its names are imported from their modules on
 The public interface, the only way the layers above (fem, optim, fmu) and users enter the
 core, each module's names in its ``__all__`` (tests/test_public_core.py checks it):
 
-* ``jaxflex``: the model, moves, the response (of a turning move too), settle and cycle
-  time, the errors;
+* ``jaxflex``: the model, moves, the response (of a turning move too: a ``Turn``), settle
+  and cycle time, the errors;
 * ``jaxflex.model``: the modal model, its files, ``stack_models``;
 * ``jaxflex.defaults``: the defaults every layer shares (``DT_S``, ``THRESHOLD_M``, ...);
 * ``jaxflex.response``: the building blocks of the certified response (state maps,
@@ -59,7 +59,7 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): `import jaxflex` load
         soft_max,
         soft_max_excess,
     )
-    from jaxflex.turning import TurningResponse, simulate_turning
+    from jaxflex.turning import Turn, TurningResponse, simulate_turning
 
 __getattr__, __dir__ = lazy_names(__name__)
 __all__ = [
@@ -73,6 +73,7 @@ __all__ = [
     "Move",
     "Response",
     "SettleReport",
+    "Turn",
     "TurningResponse",
     "analyze_move",
     "as_move",

@@ -1,9 +1,9 @@
 """The robot cell's geometry and the certified clearance, for the layers above the core: the
 obstacles (Box, HalfSpace, TriangleMesh), the cell (the part's pose, the path's via points,
 gravity) and the minimum distance of the part to the obstacles over a move and its settling
-(turning_min_distance: of a part that turns), and the exact positions of the part's points
-that the clearance's search evaluates (positions_at, turning_positions_at: pictures and
-animations draw them).
+(turning_min_distance: of a part that turns, its move a jaxflex.response.Turn), and the
+exact positions of the part's points that the clearance's search evaluates (positions_at,
+turning_positions_at: pictures and animations draw them).
 Coordinates are the cell's, in m. Reading a cell file is optim.cell_file's job. Public:
 these names are kept stable; the modules they come from (cell, collision,
 turning_collision) are private.

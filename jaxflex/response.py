@@ -122,6 +122,7 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
     from jaxflex.surrogate import soft_max
     from jaxflex.turning import (
         GRAVITY_M_S2,
+        Turn,
         TurningInputs,
         TurningResponse,
         body_loads,
@@ -153,6 +154,7 @@ __all__ = [
     "SearchState",
     "SettleReport",
     "StressSet",
+    "Turn",
     "TurningInputs",
     "TurningLoads",
     "TurningResponse",

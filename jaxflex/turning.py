@@ -71,6 +71,61 @@ from jaxflex.turning_bound import bound_data, neglected_terms, principal_axes, t
 GRAVITY_M_S2 = (0.0, 0.0, -9.81)
 
 
+def _vector(name: str, value, allowed: str) -> np.ndarray:
+    """``value`` as float64 (3,); InputError naming the field ``name`` otherwise."""
+    try:
+        vector = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        vector = None
+    if vector is None or vector.shape != (3,) or not np.isfinite(vector).all():
+        raise InputError(f"{name}: three finite numbers, {allowed}; got {value!r}")
+    return vector
+
+
+@dataclass(frozen=True, eq=False)
+class Turn:
+    """A turning move, what every turning response, output, peak and clearance of the core
+    takes (SI units; checked once, when made): the orientation ``path`` (a
+    jaxflex.pose.PosePath: rotation, rate and angular acceleration at its samples, step
+    ``dt_s``), the world acceleration samples ``acc`` (n+1, 3) m/s^2 of the pivot at the
+    path's samples, the pivot ``pivot_m`` (3,) m (model frame: the point the translation
+    moves, the one the part turns about) and gravity ``gravity_m_s2`` (3,) m/s^2 (world;
+    (0, 0, 0) for none). InputError naming the field otherwise."""
+
+    path: PosePath
+    acc: np.ndarray
+    pivot_m: np.ndarray = (0.0, 0.0, 0.0)  # type: ignore[assignment]  # made (3,) float64
+    gravity_m_s2: np.ndarray = GRAVITY_M_S2  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        path = self.path
+        if not isinstance(path, PosePath):
+            raise InputError(
+                "path: a jaxflex.response.PosePath (e.g. fixed_axis_path, orientation_path), "
+                f"got {type(path).__name__}"
+            )
+        n = path.n_steps
+        try:
+            acc = np.asarray(self.acc, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"acc: (n+1, 3) numbers in m/s^2, got {exc}") from None
+        if acc.shape != (n + 1, 3):
+            raise InputError(
+                f"acc: expected shape ({n + 1}, 3) like the pose path, got {acc.shape}"
+            )
+        if not np.isfinite(acc).all():
+            raise InputError("acc: finite numbers in m/s^2, got NaN or infinity")
+        pivot = _vector("pivot_m", self.pivot_m, "m in the model frame")
+        gravity = _vector("gravity_m_s2", self.gravity_m_s2, "m/s^2 in the world frame")
+        for name, value in (("acc", acc), ("pivot_m", pivot), ("gravity_m_s2", gravity)):
+            object.__setattr__(self, name, value)
+
+    @property
+    def dt_s(self) -> float:
+        """The sample step (s), the path's."""
+        return self.path.dt_s
+
+
 def body_loads(path: PosePath, acc_m_s2, gravity_m_s2, pivot_m, xp=np):
     """(a_O (n+1, 3), g_b (n+1, 3)) m/s^2 in body components: the acceleration of the model
     frame's origin when the pivot ``pivot_m`` (3,) m (model frame) moves with the world
@@ -110,32 +165,6 @@ def _turning_coordinates(model, path, acc, gravity_m_s2, pivot_m, dt_s, xp):
     return states, sag, a_origin, gravity, force
 
 
-@jax.jit
-def _turning_deviation(model, blocks, path, acc, gravity_m_s2, pivot_m, dt_s):
-    states, sag, a_origin, _, _ = _turning_coordinates(
-        model, path, acc, gravity_m_s2, pivot_m, dt_s, jnp
-    )
-    b = load_coefficients(path.omega_rad_s, path.alpha_rad_s2, jnp)
-    return deviation(blocks, turning_coordinates(model, states[..., 0] - sag, a_origin, b, jnp))
-
-
-def turning_deviation(model, path: PosePath, acc, *, gravity_m_s2=GRAVITY_M_S2, pivot_m=(0, 0, 0)):
-    """d (n+1,) m at the samples of the turning move (JAX, compiled once per length): the
-    kernel of :func:`simulate_turning`, for timing and batches. Concrete ``model``."""
-    require_rotation(model)
-    blocks = turning_blocks(model)
-    device_path = jax.tree_util.tree_map(jnp.asarray, path)
-    return _turning_deviation(
-        model,
-        blocks,
-        device_path,
-        jnp.asarray(acc, jnp.float64),
-        jnp.asarray(gravity_m_s2, jnp.float64),
-        jnp.asarray(pivot_m, jnp.float64),
-        path.dt_s,
-    )
-
-
 @dataclass(frozen=True)
 class TurningResponse:
     """Response to a turning move (SI units).
@@ -164,21 +193,13 @@ class TurningResponse:
         return np.stack([self.q[n], self.qd[n]], axis=-1)
 
 
-def checked_samples(path: PosePath, acc) -> np.ndarray:
-    """``acc`` as float64 (n+1, 3) like ``path``'s samples; InputError otherwise."""
-    acc = np.asarray(acc, dtype=np.float64)
-    n = path.n_steps
-    if acc.shape != (n + 1, 3):
-        raise InputError(f"acc: expected shape ({n + 1}, 3) like the pose path, got {acc.shape}")
-    return acc
-
-
-def check_ends_at_rest(path: PosePath, acc: np.ndarray) -> None:
+def check_ends_at_rest(turn: Turn) -> None:
     """InputError unless the move ends at rest (the free vibration may follow it)."""
+    path = turn.path
     rate_scale = 1e-9 * max(1.0, float(np.abs(path.omega_rad_s).max()))
     if (
         np.abs(path.omega_rad_s[-1]).max() > rate_scale
-        or acc[-1].any()
+        or turn.acc[-1].any()
         or path.alpha_rad_s2[-1].any()
     ):
         raise InputError("extend_s: the move must end at rest (acceleration and rate 0)")
@@ -198,24 +219,19 @@ class TurningInputs:
     gravity_body_m_s2: np.ndarray | None = None
 
 
-def turning_inputs(
-    model, path: PosePath, acc, *, gravity_m_s2=GRAVITY_M_S2, pivot_m=(0.0, 0.0, 0.0), extend_s=0.0
-) -> TurningInputs:
-    """The :class:`TurningInputs` for the turning ``path`` while the pivot ``pivot_m`` (model
-    frame, m) moves with world accelerations ``acc`` ((n+1, 3) m/s^2) under ``gravity_m_s2``
-    (world); with ``extend_s`` the free vibration after the move follows (the path must end
-    at rest), whole steps. NumPy."""
+def turning_inputs(model, turn: Turn, *, extend_s: float = 0.0) -> TurningInputs:
+    """The :class:`TurningInputs` of the turning move ``turn``; with ``extend_s`` (s) the
+    free vibration after the move follows (the move must end at rest), whole steps. NumPy."""
     require_rotation(model)
-    acc = checked_samples(path, acc)
-    gravity_world = np.asarray(gravity_m_s2, float)
+    path = turn.path
     states, _, a_origin, gravity, _ = _turning_coordinates(
-        model, path, acc, gravity_world, np.asarray(pivot_m, float), path.dt_s, np
+        model, path, turn.acc, turn.gravity_m_s2, turn.pivot_m, path.dt_s, np
     )
     q, qd = states[..., 0], states[..., 1]
     base = a_origin - gravity
     b = load_coefficients(path.omega_rad_s, path.alpha_rad_s2)
     if extend_s:
-        check_ends_at_rest(path, acc)
+        check_ends_at_rest(turn)
         n_free = free_steps(extend_s, path.dt_s)
         tau = path.dt_s * np.arange(1, n_free + 1)
         omega = np.asarray(model.omega_rad_s)
@@ -272,40 +288,30 @@ def _simulate_turning(model, blocks, bound, samples, loads, sizes, dt_s, window,
     return rows, free, dev[: dev.shape[0] - count], jnp.stack(neglected)
 
 
-def padded_samples(path: PosePath, acc: np.ndarray, n_steps: int) -> np.ndarray:
+def padded_samples(turn: Turn, n_steps: int) -> np.ndarray:
     """(n_steps + 1, 18) the rotation, rate, angular and translational acceleration samples
-    of ``path`` and ``acc`` (n+1, 3), extended to ``n_steps`` steps (>= n) at rest in the
-    final pose."""
+    of ``turn``, extended to ``n_steps`` steps (>= n) at rest in the final pose."""
+    path = turn.path
     rotation = np.asarray(path.rotation).reshape(-1, 9)
-    rows = np.hstack([rotation, path.omega_rad_s, path.alpha_rad_s2, acc])
+    rows = np.hstack([rotation, path.omega_rad_s, path.alpha_rad_s2, turn.acc])
     padded = np.zeros((n_steps + 1, rows.shape[1]))
     padded[: rows.shape[0]] = rows
     padded[rows.shape[0] :, :9] = rotation[-1]
     return padded
 
 
-def simulate_turning(
-    model,
-    path: PosePath,
-    acc,
-    *,
-    gravity_m_s2=GRAVITY_M_S2,
-    pivot_m=(0.0, 0.0, 0.0),
-    extend_s: float = 0.0,
-) -> TurningResponse:
-    """Response of ``model`` (with jaxflex.rotation data) to the turning ``path`` while the
-    pivot ``pivot_m`` (model frame, m) moves with world acceleration samples ``acc``
-    ((n+1, 3) m/s^2 at the path's dt_s), under ``gravity_m_s2`` (world, default -9.81 m/s^2
-    along z; (0, 0, 0) for none). With ``extend_s`` the free vibration after the move
-    follows (whole steps; the path must end at rest). One compiled function per model size
-    and block of PAD_STEPS steps (module docstring)."""
+def simulate_turning(model, turn: Turn, *, extend_s: float = 0.0) -> TurningResponse:
+    """Response of ``model`` (with jaxflex.rotation data) to the turning move ``turn`` (its
+    path, the pivot's world acceleration samples, the pivot and gravity). With ``extend_s``
+    (s) the free vibration after the move follows (whole steps; the move must end at rest).
+    One compiled function per model size and block of PAD_STEPS steps (module docstring)."""
     rotation = require_rotation(model)
     if model.static_shapes is not None and rotation.static_shapes is None:
         warn_missing_static("deviation")
-    acc = checked_samples(path, acc)
+    path = turn.path
     n, n_free = path.n_steps, 0
     if extend_s:
-        check_ends_at_rest(path, acc)
+        check_ends_at_rest(turn)
         n_free = free_steps(extend_s, path.dt_s)
     steps, free_pad = padded_steps(n), padded_steps(n_free) if n_free else 0
     start, window = turning_window(path.omega_rad_s, path.alpha_rad_s2, steps)
@@ -316,8 +322,8 @@ def simulate_turning(
         device,
         turning_blocks(model),
         bound_data(model, path.dt_s),
-        padded_samples(path, acc, steps),
-        np.vstack([gravity_m_s2, pivot_m, axes.T]).astype(np.float64),
+        padded_samples(turn, steps),
+        np.vstack([turn.gravity_m_s2, turn.pivot_m, axes.T]),
         np.array([n, n_free, start]),
         path.dt_s,
         window,
@@ -351,14 +357,11 @@ class TurningMotion:
     end_state: np.ndarray
 
 
-def turning_motion(
-    model, path: PosePath, acc, *, gravity_m_s2=GRAVITY_M_S2, pivot_m=(0.0, 0.0, 0.0)
-) -> TurningMotion:
-    """The :class:`TurningMotion` of the turning ``path`` while the pivot ``pivot_m`` moves
-    with world accelerations ``acc`` ((n+1, 3) m/s^2) under ``gravity_m_s2``. NumPy."""
-    inputs = turning_inputs(model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m)
+def turning_motion(model, turn: Turn) -> TurningMotion:
+    """The :class:`TurningMotion` of the turning move ``turn``. NumPy."""
+    inputs = turning_inputs(model, turn)
     gravity = inputs.gravity_body_m_s2
-    force = turning_forces(model, path, inputs.base + gravity, gravity)
+    force = turning_forces(model, turn.path, inputs.base + gravity, gravity)
     sag = gravity_coordinates(model, gravity[-1:])[0]
     end_state = np.stack([inputs.q[-1] - sag, inputs.qd[-1]], axis=-1)
     return TurningMotion(inputs, np.stack([inputs.q, inputs.qd], axis=-1), force, end_state)

@@ -39,7 +39,7 @@ from jaxflex.pose import PosePath
 from jaxflex.profile import kinematics_at, samples_at
 from jaxflex.rotation import LEVI_CIVITA, require_rotation
 from jaxflex.rotation_residual import turning_coordinates, turning_shapes, warn_missing_static
-from jaxflex.turning import GRAVITY_M_S2, turning_motion
+from jaxflex.turning import Turn, turning_motion
 
 
 def rotations_between(path: PosePath, t_s: np.ndarray) -> np.ndarray:
@@ -71,16 +71,17 @@ class _TurningMotion(_Motion):
     """Point positions of a turning part over the move and the settling (module docstring);
     the bounds of jaxflex.collision._Motion with the rotation's share of the speed."""
 
-    def __init__(self, model, obstacles, path, acc, gravity_m_s2, pivot_m, half_thickness_m):
+    def __init__(self, model, obstacles, turn: Turn, half_thickness_m: float) -> None:
+        path = turn.path
         self.model, self.obstacles, self.path = model, obstacles, path
-        self.acc, self.dt_s = np.asarray(acc, dtype=np.float64), path.dt_s
+        self.acc, self.dt_s = turn.acc, path.dt_s
         self.half = float(half_thickness_m)
-        self.pivot = np.asarray(pivot_m, dtype=np.float64)
+        self.pivot = turn.pivot_m
         self.modes = np.asarray(model.shapes)
         self.shapes = turning_shapes(model)  # (K, 3, M'): q, then a_O - g_b, then b
         self.base = np.asarray(model.points)
         self.arm = np.linalg.norm(self.base - self.pivot, axis=1)  # (K,) |x_k - c|
-        motion = turning_motion(model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m)
+        motion = turning_motion(model, turn)
         self.inputs = inputs = motion.inputs
         self.states, self.force = motion.states, motion.force
         rotation = np.asarray(path.rotation)
@@ -183,23 +184,14 @@ class _TurningMotion(_Motion):
         return self.positions(np.array([time_s]), np.array([point]))[0, 0]
 
 
-def turning_positions_at(
-    model,
-    path: PosePath,
-    acc,
-    t_s,
-    *,
-    gravity_m_s2=GRAVITY_M_S2,
-    pivot_m=(0.0, 0.0, 0.0),
-    points=None,
-) -> np.ndarray:
+def turning_positions_at(model, turn: Turn, t_s, *, points=None) -> np.ndarray:
     """(T, P, 3) exact mid-surface positions (m, cell coordinates) of ``points`` (indices;
-    default all) of the turning part at times ``t_s`` (T,) s of the move and after it (inf:
-    at rest in the final pose), the turning ``path`` about ``pivot_m`` while the pivot moves
-    with ``acc`` (as :func:`turning_min_distance`): equation (1) of the module docstring,
-    the positions its search evaluates (jaxflex.collision.positions_at of a straight move)."""
+    default all) of the turning part at times ``t_s`` (T,) s of the turning move ``turn``
+    (jaxflex.turning.Turn) and after it (inf: at rest in the final pose): equation (1) of the
+    module docstring, the positions the search of :func:`turning_min_distance` evaluates
+    (jaxflex.collision.positions_at of a straight move)."""
     require_rotation(model)
-    motion = _TurningMotion(model, (), path, acc, gravity_m_s2, pivot_m, 0.0)
+    motion = _TurningMotion(model, (), turn, 0.0)
     items = np.arange(model.n_points) if points is None else np.asarray(points, dtype=np.int64)
     return motion.positions(t_s, items)
 
@@ -207,21 +199,18 @@ def turning_positions_at(
 def turning_min_distance(
     model,
     obstacles,
-    path: PosePath,
-    acc,
+    turn: Turn,
     *,
-    gravity_m_s2=GRAVITY_M_S2,
-    pivot_m=(0.0, 0.0, 0.0),
     half_thickness_m: float = 0.0,
     atol: float = 1e-5,
     limit_m: float | None = None,
 ) -> Clearance:
     """The smallest distance (m) between the turning part (every point of ``model``, posed in
     cell coordinates, its skins ``half_thickness_m`` off the mid-surface) and ``obstacles``
-    (or a jaxflex.cell.Cell's) over the turning ``path`` about ``pivot_m`` (model frame)
-    while the pivot moves with the world accelerations ``acc`` ((n+1, 3) m/s^2 at the path's
-    dt_s, at rest at both ends, rate 0 at the end), and the settling after it, to within
-    ``atol`` m; ``limit_m`` as jaxflex.collision.min_distance (module docstring)."""
+    (or a jaxflex.cell.Cell's) over the turning move ``turn`` (jaxflex.turning.Turn: the
+    part turns about the pivot while the pivot moves with the world accelerations, at rest at
+    both ends, rate 0 at the end) and the settling after it, to within ``atol`` m;
+    ``limit_m`` as jaxflex.collision.min_distance (module docstring)."""
     rotation = require_rotation(model)
     if model.static_shapes is not None and rotation.static_shapes is None:
         warn_missing_static("clearance")
@@ -231,7 +220,5 @@ def turning_min_distance(
     if not obstacles:
         return Clearance(math.inf, math.nan, -1, -1, "", math.inf, 0, half_thickness_m)
     with threadpool_limits(limits=1, user_api="blas"):
-        motion = _TurningMotion(
-            model, obstacles, path, acc, gravity_m_s2, pivot_m, half_thickness_m
-        )
+        motion = _TurningMotion(model, obstacles, turn, half_thickness_m)
         return search_clearance(motion, turning_part_blocks(model), atol, limit_m)

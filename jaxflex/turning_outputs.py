@@ -30,10 +30,9 @@ import numpy as np
 
 from jaxflex.errors import ModelError
 from jaxflex.loads import DEFAULT_CUP_SAFETY, CupUtilisation, VonMises
-from jaxflex.pose import PosePath
 from jaxflex.rotation import require_rotation
 from jaxflex.rotation_residual import output_residual, warn_missing_static
-from jaxflex.turning import GRAVITY_M_S2, TurningInputs, turning_inputs
+from jaxflex.turning import Turn, TurningInputs, turning_inputs
 
 
 @dataclass(frozen=True)
@@ -68,19 +67,12 @@ def output_values(model, outputs, static_rot, inputs: TurningInputs) -> np.ndarr
 
 
 def turning_loads(
-    model,
-    path: PosePath,
-    acc,
-    *,
-    gravity_m_s2=GRAVITY_M_S2,
-    pivot_m=(0.0, 0.0, 0.0),
-    extend_s: float = 0.0,
-    cup_safety: float = DEFAULT_CUP_SAFETY,
+    model, turn: Turn, *, extend_s: float = 0.0, cup_safety: float = DEFAULT_CUP_SAFETY
 ) -> TurningLoads:
     """Cup reactions, utilisation and stresses of ``model`` (with cups and/or stresses and
-    the jaxflex.rotation data) over the turning move (arguments as
-    jaxflex.turning.simulate_turning; module docstring). ModelError for a model with
-    neither cups nor stresses."""
+    the jaxflex.rotation data) over the turning move ``turn`` and, with ``extend_s`` (s), the
+    free vibration after it (as jaxflex.turning.simulate_turning; module docstring).
+    ModelError for a model with neither cups nor stresses."""
     if model.cups is None and model.stress is None:
         raise ModelError(
             "turning_loads: the model has no cups and no stresses (build it with "
@@ -93,9 +85,7 @@ def turning_loads(
     )
     if not complete:
         warn_missing_static("cup reactions and stresses")
-    inputs = turning_inputs(
-        model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m, extend_s=extend_s
-    )
+    inputs = turning_inputs(model, turn, extend_s=extend_s)
     reactions = utilisation = stress = von_mises = None
     if model.cups is not None:
         y = output_values(model, model.cups.reaction, rotation.cup_static, inputs)

@@ -37,10 +37,9 @@ from threadpoolctl import threadpool_limits
 
 from jaxflex.engine import derivative_bounds, states_between
 from jaxflex.peaks import Peak, _Response, search_peak
-from jaxflex.pose import PosePath
 from jaxflex.profile import samples_at
 from jaxflex.rotation_residual import output_residual
-from jaxflex.turning import GRAVITY_M_S2, turning_motion
+from jaxflex.turning import Turn, turning_motion
 
 __all__ = ["TurningLoadSearch", "turning_output_peak"]
 
@@ -48,21 +47,20 @@ __all__ = ["TurningLoadSearch", "turning_output_peak"]
 class TurningLoadSearch(_Response):
     """The outputs ``outputs`` (a jaxflex.outputs.LinearOutputs of ``model``, with the
     static response ``static_rot`` (Y, 3, 3) to the rotational loads or None) and the
-    functional of their items over the turning ``path`` while the pivot moves with the world
-    accelerations ``acc`` ((n+1, 3) m/s^2): the evaluations and bounds of the certified
+    functional of their items over the turning move ``turn`` (jaxflex.turning.Turn): the
+    evaluations and bounds of the certified
     search (module docstring). After the move it is jaxflex.peaks' straight response: the
     free vibration from the deviation about the final pose's sag, plus the outputs at rest
     there as the constant offset."""
 
-    def __init__(self, model, outputs, static_rot, functional, path: PosePath, acc,
-                 gravity_m_s2=GRAVITY_M_S2, pivot_m=(0.0, 0.0, 0.0)) -> None:  # fmt: skip
+    def __init__(self, model, outputs, static_rot, functional, turn: Turn) -> None:
         self.model, self.functional = model, functional
         self.q_map, self.v_map = np.asarray(outputs.q_map), np.asarray(outputs.v_map)
         self.a_map = np.asarray(outputs.a_map)
         self.a_rot = output_residual(outputs, static_rot, model)  # (Y, 9)
-        self.dt_s, self.n_steps = path.dt_s, path.n_steps
-        self.t_end = path.n_steps * path.dt_s
-        motion = turning_motion(model, path, acc, gravity_m_s2=gravity_m_s2, pivot_m=pivot_m)
+        self.dt_s, self.n_steps = turn.dt_s, turn.path.n_steps
+        self.t_end = turn.path.n_steps * turn.dt_s
+        motion = turning_motion(model, turn)
         self.inputs = inputs = motion.inputs
         gravity = inputs.gravity_body_m_s2
         self.states, self.force = motion.states, motion.force  # (n+1, M, 2), (n+1, M)
@@ -107,23 +105,17 @@ def turning_output_peak(
     outputs,
     static_rot,
     functional,
-    path: PosePath,
-    acc,
+    turn: Turn,
     *,
-    gravity_m_s2=GRAVITY_M_S2,
-    pivot_m=(0.0, 0.0, 0.0),
     rtol: float = 1e-4,
     limit: float | None = None,
 ) -> Peak:
     """The largest value of ``functional`` (items of rows of ``outputs``, with the static
     response ``static_rot`` to the rotational loads, as :class:`TurningLoadSearch`) over the
-    turning move (``path``, world accelerations ``acc`` (n+1, 3) m/s^2 of the pivot
-    ``pivot_m``, gravity ``gravity_m_s2`` world), the settling after it and the rest in the
-    final pose, to within ``rtol`` of the value (module docstring). With ``limit`` the
-    search only decides whether the peak stays below it (as jaxflex.peaks.output_peak):
-    ``bound`` <= limit certifies."""
+    turning move ``turn`` (jaxflex.turning.Turn), the settling after it and the rest in the
+    final pose, to within ``rtol`` of the value (module docstring). With ``limit`` (float or
+    None) the search only decides whether the peak stays below it (as
+    jaxflex.peaks.output_peak): ``bound`` <= limit certifies."""
     with threadpool_limits(limits=1, user_api="blas"):
-        search = TurningLoadSearch(
-            model, outputs, static_rot, functional, path, acc, gravity_m_s2, pivot_m
-        )
+        search = TurningLoadSearch(model, outputs, static_rot, functional, turn)
         return search_peak(search, rtol, 0.0, limit)

@@ -42,6 +42,7 @@ from jaxflex.model import ModalModel, load_model
 from jaxflex.response import (
     Move,
     PosePath,
+    Turn,
     VonMises,
     kinematics_at,
     outputs_at,
@@ -80,6 +81,11 @@ class Scene:
     witness: dict | None = None
     title: str = ""
     notes: tuple = ()
+
+    @property
+    def turn(self) -> Turn:
+        """The turning move (jaxflex.response.Turn) of a scene with a ``path``."""
+        return Turn(self.path, self.move.acc, pivot_m=self.pivot_m, gravity_m_s2=self.gravity_m_s2)
 
 
 @dataclass(frozen=True)
@@ -154,9 +160,7 @@ def _frame_chunk(scene: Scene, t: np.ndarray) -> dict:
         positions = positions_at(model, move.acc, move.dt_s, t, scene.gravity_m_s2)
         rotation = np.broadcast_to(np.eye(3), (len(t), 3, 3))
     else:
-        positions = turning_positions_at(
-            model, scene.path, move.acc, t, gravity_m_s2=scene.gravity_m_s2, pivot_m=scene.pivot_m
-        )
+        positions = turning_positions_at(model, scene.turn, t)
         rotation = rotations_between(scene.path, np.minimum(t, t_end))
     path = kinematics_at(move.acc, move.dt_s, np.minimum(t, t_end))[0]
     pivot = np.asarray(scene.pivot_m, dtype=np.float64)
@@ -201,14 +205,7 @@ def _turning_von_mises(scene: Scene, t_s: np.ndarray) -> np.ndarray:
     jaxflex.response.turning_loads over the move and the settling shown."""
     move = scene.move
     extend = max(0.0, float(t_s[-1]) - move.duration_s)
-    loads = turning_loads(
-        scene.model,
-        scene.path,
-        move.acc,
-        gravity_m_s2=scene.gravity_m_s2,
-        pivot_m=scene.pivot_m,
-        extend_s=extend,
-    )
+    loads = turning_loads(scene.model, scene.turn, extend_s=extend)
     k = np.rint(t_s / move.dt_s).astype(np.int64)
     return loads.von_mises_pa[np.minimum(k, len(loads.t_s) - 1)]
 
@@ -345,5 +342,6 @@ def scene_of_directory(directory, *, model=None, cell=None) -> Scene:
     path, pivot = None, np.zeros(3)
     turn_acc = read_turn_csv(members["trajectory.csv"])
     if turn_acc is not None:
-        path, pivot, gravity = reported_turn(report.get("turn"), turn_acc, move.dt_s, gravity)
+        turn = reported_turn(report.get("turn"), turn_acc, move, gravity)
+        path, pivot, gravity = turn.path, turn.pivot_m, turn.gravity_m_s2
     return _scene(model_, move, report, loaded, gravity, path, pivot)

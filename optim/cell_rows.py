@@ -401,9 +401,9 @@ def stress_discretisation(model) -> float | None:
 def certified_distance(family, measure, *move, limit_m=None, **frame):
     """The certified clearance of a distance family (this module's or optim.turn_cell's):
     ``measure`` (jaxflex.geometry.min_distance or turning_min_distance) of the family's model
-    and obstacles for the ``move`` arguments and the ``frame`` keywords (gravity, pivot), with
-    the family's skin half thickness (m), to 1e-6 m, decided against ``limit_m`` (m; None:
-    located everywhere)."""
+    and obstacles for the ``move`` arguments (a Move, or a jaxflex.response.Turn) and the
+    ``frame`` keywords (a straight move's gravity), with the family's skin half thickness
+    (m), to 1e-6 m, decided against ``limit_m`` (m; None: located everywhere)."""
     return measure(
         family.model,
         family.obstacles,

@@ -31,6 +31,7 @@ from jaxflex.response import (
     Move,
     PosePath,
     SettleReport,
+    Turn,
     TurningResponse,
     as_move,
     axis_rotation,
@@ -197,22 +198,21 @@ class TurnSpec:
     def path(self, angular_acc: np.ndarray, dt_s: float) -> PosePath:
         return fixed_axis_path(np.asarray(self.axis), angular_acc, dt_s)
 
+    def with_move(self, angular_acc: np.ndarray, move: Move) -> Turn:
+        """The core's turning move (jaxflex.response.Turn) of the translation ``move`` (a
+        Move: samples (n+1, 3) m/s^2 and their step) with the turn ``angular_acc`` (rad/s^2
+        at the move's step, padded with zeros to its length), about this pivot under this
+        gravity."""
+        move = as_move(move, name="move")
+        path = self.path(_padded(angular_acc, move.n_steps), move.dt_s)
+        return Turn(path, move.acc, pivot_m=self.pivot_m, gravity_m_s2=self.gravity_m_s2)
+
     def response(
         self, model, angular_acc: np.ndarray, move: Move, extend_s: float = 0.0
     ) -> TurningResponse:
-        """jaxflex.turning.simulate_turning of the translation ``move`` (a Move: samples
-        (n+1, 3) m/s^2 and their step) with the turn ``angular_acc`` (rad/s^2 at the move's
-        step, padded with zeros to its length)."""
-        move = as_move(move, name="move")
-        alpha = _padded(angular_acc, move.n_steps)
-        return simulate_turning(
-            model,
-            self.path(alpha, move.dt_s),
-            move.acc,
-            gravity_m_s2=self.gravity_m_s2,
-            pivot_m=self.pivot_m,
-            extend_s=extend_s,
-        )
+        """jaxflex.turning.simulate_turning of the translation ``move`` (a Move) with the turn
+        ``angular_acc`` (:meth:`with_move`)."""
+        return simulate_turning(model, self.with_move(angular_acc, move), extend_s=extend_s)
 
     def timing(
         self, model, angular_acc: np.ndarray, move: Move, threshold_m: float
@@ -220,11 +220,9 @@ class TurnSpec:
         """Exact settle and cycle time of the turning move (the translation ``move``, a Move,
         with the turn ``angular_acc``; jaxflex.turning.turning_settle) and its response (with
         the neglected terms' bound)."""
-        move = as_move(move, name="move")
-        alpha = _padded(angular_acc, move.n_steps)
-        response = self.response(model, alpha, move)
-        path = self.path(alpha, move.dt_s)
-        return turning_settle(path, model, response, threshold_m), response
+        turn = self.with_move(angular_acc, move)
+        response = simulate_turning(model, turn)
+        return turning_settle(turn.path, model, response, threshold_m), response
 
 
 def _padded(angular_acc, n_steps: int) -> np.ndarray:

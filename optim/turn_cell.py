@@ -51,8 +51,10 @@ from jaxflex.response import (
     CupUtilisation,
     Move,
     Peak,
+    Turn,
     TurningInputs,
     VonMises,
+    as_move,
     free_states,
     kinematics_at,
     output_residual,
@@ -101,6 +103,16 @@ class TurnSource:
         alpha = np.asarray(alpha, dtype=np.float64)
         return np.concatenate([alpha, np.zeros(n_steps + 1 - alpha.size)])
 
+    def turn(self, move: Move) -> Turn:
+        """The core's turning move (jaxflex.response.Turn) of the translation ``move`` (a
+        Move) with the turn of its length (optim.turn.TurnSpec.with_move)."""
+        return self.spec.with_move(self.angular_acc(move.n_steps), move)
+
+    def motion(self, model, acc: np.ndarray, dt_s: float, during, tau) -> TurnMotion:
+        """The :class:`TurnMotion` of ``model`` for the translation samples ``acc`` (n+1, 3)
+        m/s^2 at step ``dt_s`` s with the turn of their length."""
+        return TurnMotion(model, self.turn(as_move(acc, dt_s)), during, tau)
+
     @contextmanager
     def holding(self, angular_acc) -> Iterator[None]:
         """Evaluate the families with the turn ``angular_acc`` (n+1,) rad/s^2 meanwhile
@@ -141,21 +153,17 @@ def move_times(n_steps: int, dt_s: float) -> np.ndarray:
 
 
 class TurnMotion:
-    """The turning move ``acc`` (n+1, 3) with the turn ``alpha`` (n+1,) of ``spec`` for
-    ``model`` at the times ``during`` (within the move, s) and ``tau`` (T,) s after the stop:
-    the inputs of the turning outputs (jaxflex.turning.TurningInputs; between samples the
-    modal state exact for the sampled forcing, the loads' inputs linear, as
-    jaxflex.turning_collision), the orientation and the pivot's path."""
+    """The turning move ``turn`` (a jaxflex.response.Turn) of ``model`` at the times
+    ``during`` (within the move, s) and ``tau`` (T,) s after the stop: the inputs of the
+    turning outputs (jaxflex.turning.TurningInputs; between samples the modal state exact
+    for the sampled forcing, the loads' inputs linear, as jaxflex.turning_collision), the
+    orientation and the pivot's path."""
 
-    def __init__(self, model, spec, alpha, acc, dt_s: float, during, tau) -> None:
-        self.model, self.spec, self.dt_s = model, spec, dt_s
-        self.acc = np.asarray(acc, dtype=np.float64)
-        n = self.acc.shape[0] - 1
-        self.n_steps, self.t_end = n, n * dt_s
-        self.path = spec.path(alpha, dt_s)
-        inputs = turning_inputs(
-            model, self.path, self.acc, gravity_m_s2=spec.gravity_m_s2, pivot_m=spec.pivot_m
-        )
+    def __init__(self, model, turn: Turn, during, tau) -> None:
+        self.model, self.turn, self.dt_s = model, turn, turn.dt_s
+        self.acc, self.path, dt_s = turn.acc, turn.path, turn.dt_s
+        self.n_steps, self.t_end = turn.path.n_steps, turn.path.n_steps * dt_s
+        inputs = turning_inputs(model, turn)
         gravity = inputs.gravity_body_m_s2
         states = np.stack([inputs.q, inputs.qd], axis=-1)
         force = turning_forces(model, self.path, inputs.base + gravity, gravity)
@@ -214,7 +222,7 @@ class TurnMotion:
 
     def positions(self, points: np.ndarray) -> np.ndarray:
         """(T, P, 3) world positions of the mid-surface ``points`` (cell coordinates)."""
-        model, pivot = self.model, np.asarray(self.spec.pivot_m, dtype=np.float64)
+        model, pivot = self.model, self.turn.pivot_m
         coords = turning_coordinates(
             model, self.inputs.q, self.inputs.base, self.inputs.coefficients
         )
@@ -250,8 +258,7 @@ class TurnLoadFamily(LoadFamily):
         )
 
     def motion(self, acc: np.ndarray, dt_s: float, during, tau) -> TurnMotion:
-        alpha = self.source.angular_acc(acc.shape[0] - 1)
-        return TurnMotion(self.model, self.source.spec, alpha, acc, dt_s, during, tau)
+        return self.source.motion(self.model, acc, dt_s, during, tau)
 
     def outputs_of(self, motion: TurnMotion, rows=None, times=slice(None)) -> np.ndarray:
         """(T, Y) the outputs ``rows`` (default all) at the motion's ``times`` (default all):
@@ -328,18 +335,9 @@ class TurnLoadFamily(LoadFamily):
         """The supremum over ``move`` (a Move), the settling and the rest in the final pose,
         certified by branch and bound (jaxflex.turning_peaks), to 1e-5 of the value or up to
         ``limit`` below it (where the bound stays below it the peak need not be located)."""
-        spec = self.source.spec
+        turn = self.source.turn(move)
         return turning_output_peak(
-            self.model,
-            self.outputs,
-            self.static_rot,
-            self.functional,
-            spec.path(self.source.angular_acc(move.n_steps), move.dt_s),
-            move.acc,
-            gravity_m_s2=spec.gravity_m_s2,
-            pivot_m=spec.pivot_m,
-            rtol=1e-5,
-            limit=limit,
+            self.model, self.outputs, self.static_rot, self.functional, turn, rtol=1e-5, limit=limit
         )
 
     def failure_row(self, peak: Peak, move: Move, axes) -> Row:
@@ -380,8 +378,7 @@ class TurnDistanceFamily:
         self.n_base = response_shapes(model).shape[-1] - model.n_modes  # 3 or 0: D
 
     def motion(self, acc: np.ndarray, dt_s: float, during, tau) -> TurnMotion:
-        alpha = self.source.angular_acc(acc.shape[0] - 1)
-        return TurnMotion(self.model, self.source.spec, alpha, acc, dt_s, during, tau)
+        return self.source.motion(self.model, acc, dt_s, during, tau)
 
     def skin_distances(self, motion: TurnMotion) -> np.ndarray:
         """(T, P) every point's skin distance at the motion's times."""
@@ -427,16 +424,8 @@ class TurnDistanceFamily:
     def _clearance(self, move: Move, limit_m: float | None):
         """The certified clearance over ``move`` (a Move) and the settling, decided against
         ``limit_m`` (None: located everywhere)."""
-        spec = self.source.spec
-        path = spec.path(self.source.angular_acc(move.n_steps), move.dt_s)
         return certified_distance(
-            self,
-            turning_min_distance,
-            path,
-            move.acc,
-            gravity_m_s2=spec.gravity_m_s2,
-            pivot_m=spec.pivot_m,
-            limit_m=limit_m,
+            self, turning_min_distance, self.source.turn(move), limit_m=limit_m
         )
 
     def holds(self, found) -> bool:

@@ -37,6 +37,8 @@ import numpy as np
 
 from jaxflex.response import (
     Move,
+    Turn,
+    as_move,
     gravity_coordinates,
     max_norms,
     turning_blocks,
@@ -48,17 +50,13 @@ from optim.turn_cell import TurnMotion
 
 
 def turning_move_coordinates(
-    model, spec, angular_acc: np.ndarray, acc: np.ndarray, dt_s: float, substeps: int = SUBSTEPS
+    model, turn: Turn, substeps: int = SUBSTEPS
 ) -> tuple[np.ndarray, np.ndarray]:
     """(t (T,) s, coordinates (T, M'') of jaxflex.response.turning_shapes) every dt_s /
-    ``substeps`` during the move ``acc`` (n+1, 3) m/s^2 (world, the pivot's) with the turn
-    ``angular_acc`` (up to n+1 samples, rad/s^2, padded with zeros) of ``spec`` (an
-    optim.turn.TurnSpec): the deviation about the current pose's sag (module docstring)."""
-    n = acc.shape[0] - 1
-    alpha = np.zeros(n + 1)
-    alpha[: len(angular_acc)] = angular_acc
-    times = dt_s / substeps * np.arange(n * substeps + 1)
-    inputs = TurnMotion(model, spec, alpha, acc, dt_s, times, np.zeros(0)).inputs
+    ``substeps`` during the turning move ``turn`` (a jaxflex.response.Turn): the deviation
+    about the current pose's sag (module docstring)."""
+    times = turn.dt_s / substeps * np.arange(turn.path.n_steps * substeps + 1)
+    inputs = TurnMotion(model, turn, times, np.zeros(0)).inputs
     gravity = inputs.gravity_body_m_s2
     sagging = inputs.q - gravity_coordinates(model, gravity)
     return times, turning_coordinates(model, sagging, inputs.base + gravity, inputs.coefficients)
@@ -70,7 +68,7 @@ def turning_move_deviation(
     """(t (T,) s, d (T,) m): the largest deviation over the model's points every dt_s / 8
     during the turning move (the translation ``move``, a Move, with the turn ``angular_acc``;
     :func:`turning_move_coordinates`)."""
-    t, coords = turning_move_coordinates(model, spec, angular_acc, move.acc, move.dt_s)
+    t, coords = turning_move_coordinates(model, spec.with_move(angular_acc, move))
     return t, max_norms(turning_blocks(model), coords)[0]
 
 
@@ -87,10 +85,9 @@ class TurnMoveResponse:
         self.shapes = turning_shapes(model)  # (K, 3, M''): the straight move's M' columns first
         self.blocks = turning_blocks(model)
         self.n_linear = straight.shapes.shape[2]
-        zero = np.zeros((self.rotation.shape[0], 3))
-        self.rest = turning_move_coordinates(
-            model, spec, angular_acc, zero, straight.dt_s, straight.substeps
-        )[1]  # (T, M''): the turn alone
+        zero = as_move(np.zeros((self.rotation.shape[0], 3)), straight.dt_s)
+        turn = spec.with_move(angular_acc, zero)
+        self.rest = turning_move_coordinates(model, turn, straight.substeps)[1]  # the turn alone
 
     def modal(self, acc: np.ndarray) -> np.ndarray:
         """The coordinates (T, M'') for the world samples ``acc`` (n+1, 3)."""

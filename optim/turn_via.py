@@ -46,7 +46,15 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.response import PosePath, axis_angle, fixed_axis_path, integrate, joined_paths
+from jaxflex.response import (
+    Move,
+    PosePath,
+    Turn,
+    axis_angle,
+    fixed_axis_path,
+    integrate,
+    joined_paths,
+)
 from optim.kinematics import clean_distance, via_step
 from optim.limits import Limits
 from optim.ruckig_move import time_optimal_move
@@ -180,15 +188,13 @@ def reported_path(turn: dict, angular_acc: np.ndarray, dt_s: float) -> PosePath:
     return path
 
 
-def reported_turn(
-    spec, turn_acc: np.ndarray, dt_s: float, gravity_m_s2
-) -> tuple[PosePath, np.ndarray, np.ndarray]:
-    """(the orientation path, the pivot (3,) m, gravity (3,) m/s^2) of the turn of a result
-    of `jaxflex optimize --rotate`: report.json's ``turn`` entry ``spec`` (axis, angle,
-    pivot, gravity; ``via_turns`` for a turn through via orientations) with the turn column
-    of its trajectory.csv ``turn_acc`` (n+1,) rad/s^2 at step ``dt_s``; gravity
-    ``gravity_m_s2`` where the report states none. InputError where the two files do not
-    belong together (the angle turned, the angular acceleration)."""
+def reported_turn(spec, turn_acc: np.ndarray, move: Move, gravity_m_s2) -> Turn:
+    """The turning move (jaxflex.response.Turn) of a result of `jaxflex optimize --rotate`:
+    its translation ``move`` (trajectory.csv's, a Move) turned by report.json's ``turn``
+    entry ``spec`` (axis, angle, pivot, gravity; ``via_turns`` for a turn through via
+    orientations) with the turn column of its trajectory.csv ``turn_acc`` (n+1,) rad/s^2;
+    gravity ``gravity_m_s2`` where the report states none. InputError where the two files do
+    not belong together (the angle turned, the angular acceleration)."""
     if not isinstance(spec, dict) or "axis" not in spec:
         raise InputError(
             "--trajectory: a turning move needs the turn columns of trajectory.csv and the turn "
@@ -202,23 +208,26 @@ def reported_turn(
             "--trajectory: the turn's angular acceleration in trajectory.csv and report.json "
             "differ; they do not belong together"
         )
-    pivot = np.asarray(spec.get("pivot_m", (0.0, 0.0, 0.0)), dtype=np.float64)
-    gravity = np.asarray(spec.get("gravity_m_s2", gravity_m_s2), np.float64)
     if "via_turns" in spec:  # through via orientations: one fixed-axis turn per segment
         try:
-            return reported_path(spec, turn_acc, dt_s), pivot, gravity
+            path = reported_path(spec, turn_acc, move.dt_s)
         except (InputError, KeyError, TypeError, ValueError) as exc:
             raise InputError(f"--trajectory: report.json's via_turns: {exc}") from None
-    pose = fixed_axis_path(spec["axis"], turn_acc, dt_s)
-    padded = np.zeros((len(turn_acc), 3))
-    padded[:, 0] = turn_acc
-    angle = float(np.degrees(integrate(padded, dt_s)[1][-1, 0]))  # exact, as the CSV's
-    if "angle_deg" in spec and abs(angle - float(spec["angle_deg"])) > 1e-6:
-        raise InputError(
-            f"--trajectory: the turn columns turn the part by {angle:.9g} deg, report.json says "
-            f"{spec['angle_deg']} deg; they do not belong together"
-        )
-    return pose, pivot, gravity
+    else:
+        path = fixed_axis_path(spec["axis"], turn_acc, move.dt_s)
+        padded = np.zeros((len(turn_acc), 3))
+        padded[:, 0] = turn_acc
+        angle = float(np.degrees(integrate(padded, move.dt_s)[1][-1, 0]))  # exact, as the CSV's
+        if "angle_deg" in spec and abs(angle - float(spec["angle_deg"])) > 1e-6:
+            raise InputError(
+                f"--trajectory: the turn columns turn the part by {angle:.9g} deg, report.json "
+                f"says {spec['angle_deg']} deg; they do not belong together"
+            )
+    pivot, gravity = spec.get("pivot_m", (0.0, 0.0, 0.0)), spec.get("gravity_m_s2", gravity_m_s2)
+    try:
+        return Turn(path, move.acc, pivot_m=pivot, gravity_m_s2=gravity)
+    except InputError as exc:
+        raise InputError(f"--trajectory: report.json's turn: {exc}") from None
 
 
 def synchronised_fractions(

@@ -205,14 +205,14 @@ def cantilever():
 def bound_table(result, model, moves, extend_s: float = 0.3, eval_dt_s: float = 1e-4):
     """(scene, peak deviation, true effect, a-posteriori bound, energy bound) in m for the
     ``moves`` (name, path, translation) and ``extend_s`` s of free decay."""
-    from jaxflex.turning import simulate_turning
+    from jaxflex.turning import Turn, simulate_turning
 
     frame = FloatingFrame(result, model)
     energy_only = model._replace(rotation=model.rotation.replace(gyroscopic=None, spin=None))
     rows = []
     for name, path, acc in moves:
-        response = simulate_turning(model, path, acc, extend_s=extend_s)
-        old = simulate_turning(energy_only, path, acc, extend_s=extend_s).neglected_bound_m
+        response = simulate_turning(model, Turn(path, acc), extend_s=extend_s)
+        old = simulate_turning(energy_only, Turn(path, acc), extend_s=extend_s).neglected_bound_m
         peak, effect = frame.neglected_effect(
             path.alpha_rad_s2,
             response.t_s[-1],

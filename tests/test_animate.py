@@ -29,7 +29,7 @@ import fem
 import jaxflex
 import optim
 from jaxflex.errors import ModelError
-from jaxflex.response import rotation_residual, turning_inputs
+from jaxflex.response import Turn, rotation_residual, turning_inputs
 from optim.animate import animate
 from optim.animate_frames import frame_times, scene_of_result
 from optim.animate_surface import mid_surface, reduced, skins
@@ -324,7 +324,7 @@ def test_a_turning_move_ends_at_rest_in_its_final_pose(turning_plate, tmp_path):
     path = result.turn.path(result.angular_acc, DT)
     times = np.array([t for t, _ in frames])
     extend = times[-1] - result.move.duration_s
-    inputs = turning_inputs(turning_plate, path, result.acc, pivot_m=pivot, extend_s=extend)
+    inputs = turning_inputs(turning_plate, Turn(path, result.acc, pivot_m=pivot), extend_s=extend)
     u = (
         np.einsum("kcm,tm->tkc", np.asarray(turning_plate.shapes), inputs.q)
         + np.einsum("kcm,tm->tkc", np.asarray(turning_plate.static_residual), inputs.base)

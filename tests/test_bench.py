@@ -126,8 +126,7 @@ def test_turning_bench_reports_both_calls(turning_plate):
     assert result["n_points"] == turning_plate.n_points and result["n_samples"] == 181
     assert result["simulate_cpu_s"] >= 0 and result["simulate_turning_cpu_s"] >= 0
     assert result["meets_target"] == (result["ratio"] <= result["target_ratio"])
-    path, acc = swivel()
-    expected = simulate_turning(turning_plate, path, acc)
+    expected = simulate_turning(turning_plate, swivel())
     assert result["peak_deviation_m"] == expected.deviation_m.max()
     assert result["neglected_bound_m"] == expected.neglected_bound_m
     assert "simulate_turning" in format_turning(result)

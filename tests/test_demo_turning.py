@@ -21,7 +21,7 @@ from fmpy.validation import validate_fmu
 
 import jaxflex
 from jaxflex.pose import fixed_axis_path
-from jaxflex.turning import simulate_turning
+from jaxflex.turning import Turn, simulate_turning
 
 PLOTS = ("profiles.png", "deviation.png", "turn.png")
 # the turning FMU replays jaxflex.simulate_turning's forcing exactly (first-order hold at the
@@ -55,10 +55,7 @@ class Demo:
         path = fixed_axis_path(np.asarray(turn["axis"]), alpha, self.summary["dt_s"])
         response = simulate_turning(
             model,
-            path,
-            acc,
-            gravity_m_s2=turn["gravity_m_s2"],
-            pivot_m=turn["pivot_m"],
+            Turn(path, acc, pivot_m=turn["pivot_m"], gravity_m_s2=turn["gravity_m_s2"]),
             extend_s=extend_s,
         )
         n = path.n_steps

@@ -51,6 +51,7 @@ from jaxflex.pose import fixed_axis_path, turn_acceleration
 from jaxflex.profile import kinematics_at
 from jaxflex.response import rotation_residual
 from jaxflex.turning import (
+    Turn,
     body_loads,
     simulate_turning,
     turning_forces,
@@ -131,7 +132,7 @@ def test_linear_inputs_agree_with_simulate_turning(panel, fmus, kind):
     differ by the quasi-static share of the modes left out (measured before it was carried:
     4.7 % of the peak for the swivel, 8.4 % for the tilt of this 6-mode panel)."""
     path, acc = _move(kind)
-    reference = simulate_turning(panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    reference = simulate_turning(panel, Turn(path, acc, pivot_m=PIVOT, gravity_m_s2=GRAVITY))
     samples = _inputs(path, acc)
     rates = np.diff(samples, axis=0) / DT
     got = []
@@ -347,7 +348,7 @@ def test_embedded_turning_move_agrees_with_simulate_turning(panel, embedded, ver
     result = embedded[kind, version]
     assert result.compiler_messages == "" and validate_fmu(str(result.fmu_path)) == []
     reference = simulate_turning(
-        panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT, extend_s=0.1
+        panel, Turn(path, acc, pivot_m=PIVOT, gravity_m_s2=GRAVITY), extend_s=0.1
     )
     peak = reference.deviation_m.max()
     stop = (len(reference.t_s) - 1) * DT
@@ -378,7 +379,7 @@ def test_embedded_move_in_the_resource_and_case(panel, embedded):
     assert poses.shape == (len(acc), 10)
     assert np.array_equal(poses[:, 4:], np.hstack([path.omega_rad_s, path.alpha_rad_s2]))
     assert np.abs(poses[:, :4] - quat).max() <= 1e-15
-    response = simulate_turning(panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    response = simulate_turning(panel, Turn(path, acc, pivot_m=PIVOT, gravity_m_s2=GRAVITY))
     settle = turning_settle(path, panel, response, 5e-4)
     assert result.case["cycle_time_s"] == settle.cycle_time_s
     header = result.input_csv.read_text().split("\n", 1)[0].split(",")
@@ -481,7 +482,7 @@ def _world_points(model, path, acc):
     c + s + R (x - c + u), u the whole elastic displacement (modes, static residual of the
     translation and of the rotational loads) of jaxflex.turning's state, s the pivot's
     exact path."""
-    inputs = turning_inputs(model, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    inputs = turning_inputs(model, Turn(path, acc, pivot_m=PIVOT, gravity_m_s2=GRAVITY))
     u = (
         np.einsum("kcm,tm->tkc", np.asarray(model.shapes), inputs.q)
         + np.einsum("kcm,tm->tkc", np.asarray(model.static_residual), inputs.base)
@@ -511,11 +512,14 @@ def test_cell_outputs_of_the_turning_part_agree_with_jaxflex(panel, kind, tmp_pa
     of the pivot, 3 rad/s x 0.6 m)."""
     path, acc = _move(kind)
     cell = Cell(obstacles=OBSTACLES, end_m=np.array([0.4, 0.0, 0.0]), thickness_m=2 * HALF)
-    loads = turning_loads(panel, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT)
+    loads = turning_loads(panel, Turn(path, acc, pivot_m=PIVOT, gravity_m_s2=GRAVITY))
     world = _world_points(panel, path, acc)
     want = distances(OBSTACLES, world.reshape(-1, 3))[0].reshape(world.shape[:2]) - HALF
     certified = turning_min_distance(
-        panel, OBSTACLES, path, acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT, half_thickness_m=HALF
+        panel,
+        OBSTACLES,
+        Turn(path, acc, pivot_m=PIVOT, gravity_m_s2=GRAVITY),
+        half_thickness_m=HALF,
     )
     stop = (len(acc) - 1) * DT
     names = ["cup_utilisations", "point_stresses", "point_distances", "min_distance"]

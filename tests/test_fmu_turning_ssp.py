@@ -40,7 +40,7 @@ from fmu.variables import POSE_INPUT_NAMES
 from jaxflex.cli import main
 from jaxflex.errors import InputError
 from jaxflex.pose import PosePath, fixed_axis_path, turn_acceleration
-from jaxflex.response import simulate_turning
+from jaxflex.response import Turn, simulate_turning
 
 NAMES = ("ax", "ay", "az", *POSE_INPUT_NAMES)
 EPS = np.finfo(np.float64).eps
@@ -231,7 +231,7 @@ def test_package_in_hosts_agrees_with_jaxflex(panel, packages, version, tmp_path
         assert np.abs(got - ref).max() <= rounding(panel, held, n_steps), host
     if version == 2:
         linear = simulate_turning(
-            panel, padded, padded_acc, gravity_m_s2=GRAVITY, pivot_m=PIVOT
+            panel, Turn(padded, padded_acc, pivot_m=PIVOT, gravity_m_s2=GRAVITY)
         ).deviation_m
         with zipfile.ZipFile(result.ssp_path) as zf:
             zf.extractall(tmp_path)

@@ -17,7 +17,7 @@ from conftest import run_jaxflex
 import jaxflex
 import optim
 from jaxflex.trajectory_io import TURN_COLUMNS
-from jaxflex.turning import simulate_turning
+from jaxflex.turning import Turn, simulate_turning
 from optim.search import make_problem
 from optim.turn import TurnSchedule, TurnSpec
 
@@ -50,10 +50,7 @@ def _dense_settle(model, spec: TurnSpec, acc, alpha, until_s: float, factor: int
     n_fine = (acc.shape[0] - 1) * factor
     response = simulate_turning(
         model,
-        path,
-        _fine(acc, factor),
-        gravity_m_s2=spec.gravity_m_s2,
-        pivot_m=spec.pivot_m,
+        Turn(path, _fine(acc, factor), pivot_m=spec.pivot_m, gravity_m_s2=spec.gravity_m_s2),
         extend_s=until_s - n_fine * dt,
     )
     above = np.flatnonzero(response.deviation_m > THRESHOLD)

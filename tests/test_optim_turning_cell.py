@@ -21,7 +21,7 @@ from jaxflex.cell import Box, Cell
 from jaxflex.engine import upsample
 from jaxflex.pose import fixed_axis_path
 from jaxflex.rotation_residual import rotation_residual
-from jaxflex.turning import turning_inputs
+from jaxflex.turning import Turn, turning_inputs
 from jaxflex.turning_outputs import turning_loads
 from optim.cell_file import cell_from_dict
 from optim.search import make_problem
@@ -42,38 +42,30 @@ def plate(turning_plate):
     return turning_plate
 
 
-def _fine_path(result, factor: int):
+def _fine_turn(result, factor: int) -> Turn:
+    """The optimised turning move with its profiles sampled ``factor`` x finer (the same
+    linear profiles)."""
     spec = result.turn
-    fine = upsample(result.angular_acc, factor, np)  # the same linear profile, finer
-    return fixed_axis_path(np.asarray(spec.axis), fine, DT / factor)
+    fine = upsample(result.angular_acc, factor, np)
+    path = fixed_axis_path(np.asarray(spec.axis), fine, DT / factor)
+    acc = upsample(result.acc, factor, np)
+    return Turn(path, acc, pivot_m=spec.pivot_m, gravity_m_s2=spec.gravity_m_s2)
 
 
 def _dense_loads(model, result, safety: float = 1.0, factor: int = 10, settle_s: float = 2.0):
     """(largest cup utilisation, largest von Mises) of the turning engine's outputs on the
     profiles sampled ``factor`` x finer, over the move and ``settle_s`` after it."""
-    spec = result.turn
-    loads = turning_loads(
-        model,
-        _fine_path(result, factor),
-        upsample(result.acc, factor, np),
-        gravity_m_s2=spec.gravity_m_s2,
-        pivot_m=spec.pivot_m,
-        extend_s=settle_s,
-        cup_safety=safety,
-    )
+    turn = _fine_turn(result, factor)
+    loads = turning_loads(model, turn, extend_s=settle_s, cup_safety=safety)
     return float(loads.utilisation.max()), float(loads.von_mises_pa.max())
 
 
 def _dense_distance(model, result, obstacles, half_m: float, factor: int = 8) -> float:
     """The smallest skin distance of every node on a grid ``factor`` x finer than the
     samples, over the move and 1 s after it (module docstring)."""
-    spec = result.turn
-    path = _fine_path(result, factor)
-    pivot = np.asarray(spec.pivot_m)
-    inputs = turning_inputs(
-        model, path, upsample(result.acc, factor, np), pivot_m=pivot, extend_s=1.0,
-        gravity_m_s2=spec.gravity_m_s2,
-    )  # fmt: skip
+    turn = _fine_turn(result, factor)
+    path, pivot = turn.path, turn.pivot_m
+    inputs = turning_inputs(model, turn, extend_s=1.0)
     u = (
         np.einsum("kcm,tm->tkc", np.asarray(model.shapes), inputs.q)
         + np.einsum("kcm,tm->tkc", np.asarray(model.static_residual), inputs.base)

@@ -14,7 +14,7 @@ import pytest
 
 import optim
 from jaxflex.response import as_move, max_norms, turning_blocks
-from jaxflex.turning import simulate_turning
+from jaxflex.turning import Turn, simulate_turning
 from optim.move_response import MoveResponse
 from optim.search import active_components
 from optim.turn import TurnSchedule, TurnSpec
@@ -53,10 +53,12 @@ def _rerun(model, spec: TurnSpec, acc, alpha, factor: int, until_s: float):
     n_fine = (acc.shape[0] - 1) * factor
     return simulate_turning(
         model,
-        spec.path(_fine(alpha, factor), dt),
-        _fine(acc, factor),
-        gravity_m_s2=spec.gravity_m_s2,
-        pivot_m=spec.pivot_m,
+        Turn(
+            spec.path(_fine(alpha, factor), dt),
+            _fine(acc, factor),
+            pivot_m=spec.pivot_m,
+            gravity_m_s2=spec.gravity_m_s2,
+        ),
         extend_s=until_s - n_fine * dt,
     )
 

@@ -27,7 +27,7 @@ import jaxflex
 import optim
 from jaxflex.pose import fixed_axis_path, joined_paths
 from jaxflex.trajectory_io import TURN_COLUMNS
-from jaxflex.turning import simulate_turning
+from jaxflex.turning import Turn, simulate_turning
 from optim.cell_file import cell_from_dict
 from optim.turn_via import reported_path
 
@@ -152,10 +152,9 @@ def _check_cycle_time(model, result, fine_path) -> None:
     n = result.n_steps
     t = np.arange(n * FINE + 1) / FINE
     acc = np.column_stack([np.interp(t, np.arange(n + 1), result.acc[:, c]) for c in range(3)])
-    response = simulate_turning(
-        model, fine_path, acc, gravity_m_s2=result.turn.gravity_m_s2,
-        pivot_m=result.turn.pivot_m, extend_s=2.0,
-    )  # fmt: skip
+    spec = result.turn
+    turn = Turn(fine_path, acc, pivot_m=spec.pivot_m, gravity_m_s2=spec.gravity_m_s2)
+    response = simulate_turning(model, turn, extend_s=2.0)
     above = np.flatnonzero(response.deviation_m > THRESHOLD)
     settle = 0.0 if above.size == 0 else float(response.t_s[above[-1]])
     assert settle <= result.cycle_time_s + DT

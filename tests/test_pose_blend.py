@@ -14,7 +14,7 @@ import fem
 from jaxflex.errors import InputError
 from jaxflex.pose import orientation_path
 from jaxflex.pose_blend import blended_path
-from jaxflex.turning import simulate_turning
+from jaxflex.turning import Turn, simulate_turning
 
 SHARP = [np.zeros(3), [0.0, 0.0, np.pi / 2], Rotation.from_euler("ZX", [90, 30], degrees=True)]
 GENTLE = [np.zeros(3), [0.0, 0.0, np.radians(60)], [0.3, 0.0, np.radians(150)]]
@@ -88,7 +88,7 @@ def test_blended_turn_against_the_floating_frame_reference():
     result = fem.modal_analysis(part, [fem.ClampedEdge("left")], n_modes=4, zeta=0.02)
     model = result.to_modal_model(points="all")._replace(static_shapes=None)
     path = blended_path(_goals(GENTLE), RATE, ACC, JERK, DT)
-    response = simulate_turning(model, path, np.zeros((path.n_steps + 1, 3)), extend_s=0.3)
+    response = simulate_turning(model, Turn(path, np.zeros((path.n_steps + 1, 3))), extend_s=0.3)
     args = (result, model, path.alpha_rad_s2, response.t_s[-1])
     full = floating_frame_deviation(*args, full=True)
     kept = floating_frame_deviation(*args, full=False)

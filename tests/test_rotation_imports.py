@@ -23,7 +23,7 @@ from test_fem_deck_points import (
 import fem
 from fem.imports.ansys import from_rst_modes, read_full
 from jaxflex.pose import fixed_axis_path, turn_acceleration
-from jaxflex.turning import simulate_turning
+from jaxflex.turning import Turn, simulate_turning
 
 
 def about_origin(mass_6x6: np.ndarray, point: np.ndarray) -> np.ndarray:
@@ -85,7 +85,7 @@ def test_curved_deck_has_the_rotational_participation_of_its_rigid_rotations(tmp
     assert model.rotation is not None
     alpha = turn_acceleration(np.pi / 2, 3.0, 20.0, 400.0, 1e-3)
     path = fixed_axis_path("z", alpha, 1e-3)
-    response = simulate_turning(model, path, np.zeros((len(alpha), 3)), extend_s=0.1)
+    response = simulate_turning(model, Turn(path, np.zeros((len(alpha), 3))), extend_s=0.1)
     assert response.deviation_m.max() > response.neglected_bound_m  # measured 7.2 vs 5.2 um
     # Gamma_rot of the deck's modes = phi^T M (e_k x r) with the rigid rotations the deck's
     # own outputs give (fem.system.FormulationOutputs.rigid_motion), built here

@@ -13,10 +13,10 @@ from scipy.spatial.transform import Rotation
 import fem
 import jaxflex
 from fem.rotation_integrals import linear_fields
-from jaxflex.errors import ModelError
+from jaxflex.errors import InputError, ModelError
 from jaxflex.pose import fixed_axis_path, orientation_path, turn_acceleration
 from jaxflex.rotation import LEVI_CIVITA
-from jaxflex.turning import simulate_turning, turning_settle
+from jaxflex.turning import Turn, simulate_turning, turning_settle
 
 
 def _rigid_participation(result):
@@ -63,7 +63,7 @@ def test_rigid_rotation_participation_is_the_inertia(element):
 def _turn_about_z(model):
     alpha = turn_acceleration(np.pi / 2, RATE, ACC, JERK, DT)
     path = fixed_axis_path("z", alpha, DT)
-    return simulate_turning(model, path, np.zeros((len(alpha), 3)), extend_s=0.2)
+    return simulate_turning(model, Turn(path, np.zeros((len(alpha), 3))), extend_s=0.2)
 
 
 def test_flat_plate_turned_about_its_normal_does_not_bend():
@@ -125,13 +125,15 @@ def test_posed_model_turns_like_the_original():
     pivot = np.array([0.1, 0.2, 0.0])
     acc = np.zeros((len(alpha), 3))
     gravity = np.array([0.0, 0.0, -9.81])
-    here = simulate_turning(model, fixed_axis_path(axis, alpha, DT), acc, pivot_m=pivot)
+    here = simulate_turning(model, Turn(fixed_axis_path(axis, alpha, DT), acc, pivot_m=pivot))
     there = simulate_turning(
         posed,
-        fixed_axis_path(rot @ axis, alpha, DT, start=rot.T),
-        acc,
-        pivot_m=rot @ pivot + offset,
-        gravity_m_s2=gravity,
+        Turn(
+            fixed_axis_path(rot @ axis, alpha, DT, start=rot.T),
+            acc,
+            pivot_m=rot @ pivot + offset,
+            gravity_m_s2=gravity,
+        ),
     )
     assert np.abs(here.deviation_m - there.deviation_m).max() <= 1e-9 * here.deviation_m.max()
 
@@ -156,7 +158,7 @@ def test_against_floating_frame_reference(cantilever, axis, angle_deg):
     result, model = cantilever
     alpha = turn_acceleration(np.radians(angle_deg), RATE, ACC, JERK, DT)
     path = fixed_axis_path(axis, alpha, DT)
-    response = simulate_turning(model, path, np.zeros((len(alpha), 3)), extend_s=0.3)
+    response = simulate_turning(model, Turn(path, np.zeros((len(alpha), 3))), extend_s=0.3)
     args = (result, model, path.alpha_rad_s2, response.t_s[-1])
     full = floating_frame_deviation(*args, full=True)
     kept = floating_frame_deviation(*args, full=False)
@@ -183,7 +185,7 @@ def test_turning_settle_time_against_the_reference(cantilever):
     result, model = cantilever
     alpha = turn_acceleration(np.pi / 2, RATE, ACC, JERK, DT)
     path = fixed_axis_path("z", alpha, DT)
-    response = simulate_turning(model, path, np.zeros((len(alpha), 3)), extend_s=0.6)
+    response = simulate_turning(model, Turn(path, np.zeros((len(alpha), 3))), extend_s=0.6)
     full = floating_frame_deviation(result, model, path.alpha_rad_s2, response.t_s[-1], full=True)
     n = path.n_steps
     # a threshold the residual vibration crosses after the move (certified from the end
@@ -218,7 +220,7 @@ def test_combined_move_through_orientations_against_the_reference(cantilever):
     travel = jaxflex.jerk_limited_move([0.5, 0.0, 0.2], 1.0, 5.0, 50.0, DT)
     acc = np.zeros((path.n_steps + 1, 3))
     acc[: len(travel)] = travel
-    response = simulate_turning(model, path, acc, extend_s=0.3)
+    response = simulate_turning(model, Turn(path, acc), extend_s=0.3)
     args = (result, model, path.alpha_rad_s2, response.t_s[-1])
     full = floating_frame_deviation(*args, full=True, acc_world=acc)
     kept = floating_frame_deviation(*args, full=False, acc_world=acc)
@@ -228,3 +230,46 @@ def test_combined_move_through_orientations_against_the_reference(cantilever):
     effect = np.abs(full - kept).max()  # measured 20 nm against a bound of 33 nm at 10 ms
     assert effect <= response.neglected_bound_m + 1e-6 * peak
     assert response.neglected_bound_m <= 2.0 * effect + 1e-6 * peak
+
+
+def _swivel_fields() -> dict:
+    path = fixed_axis_path("z", turn_acceleration(np.pi / 2, RATE, ACC, JERK, DT), DT)
+    return {"path": path, "acc": np.zeros((path.n_steps + 1, 3))}
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "says"),
+    [
+        ("path", "z", "a jaxflex.response.PosePath"),
+        ("acc", np.zeros((3, 3)), r"expected shape \(\d+, 3\) like the pose path, got \(3, 3\)"),
+        ("acc", "fast", r"numbers in m/s\^2"),
+        ("acc", np.nan, "expected shape"),
+        ("pivot_m", (0.1, 0.2), r"three finite numbers, m in the model frame; got \(0.1, 0.2\)"),
+        ("pivot_m", "middle", "three finite numbers"),
+        ("gravity_m_s2", (0.0, 0.0, np.inf), r"three finite numbers, m/s\^2 in the world frame"),
+    ],
+)
+def test_a_turn_is_checked_once_naming_the_field(field, value, says):
+    """jaxflex.Turn refuses what cannot be a turning move, naming the field, what is allowed
+    and what was given (the turning functions take it without checking again)."""
+    fields = _swivel_fields()
+    with pytest.raises(InputError, match=rf"^{field}: .*{says}"):
+        jaxflex.Turn(**{**fields, field: value})
+
+
+def test_a_turn_refuses_samples_that_are_not_finite():
+    fields = _swivel_fields()
+    fields["acc"][3, 1] = np.nan
+    with pytest.raises(InputError, match=r"^acc: finite numbers in m/s\^2, got NaN"):
+        jaxflex.Turn(**fields)
+
+
+def test_a_turn_holds_float64_arrays():
+    """Lists and tuples become float64 arrays of the documented shapes; the defaults are the
+    origin and -9.81 m/s^2 along z."""
+    fields = _swivel_fields()
+    turn = Turn(fields["path"], fields["acc"].astype(int).tolist(), pivot_m=[1, 0, 0])
+    assert turn.acc.dtype == np.float64 and turn.acc.shape == fields["acc"].shape
+    assert turn.pivot_m.tolist() == [1.0, 0.0, 0.0] and turn.pivot_m.dtype == np.float64
+    assert turn.gravity_m_s2.tolist() == [0.0, 0.0, -9.81]
+    assert turn.dt_s == DT

@@ -19,6 +19,7 @@ from jaxflex.pose import fixed_axis_path, turn_acceleration
 from jaxflex.profile import samples_at
 from jaxflex.rotation_residual import turning_coordinates, turning_shapes
 from jaxflex.turning import (
+    Turn,
     gravity_coordinates,
     simulate_turning,
     turning_inputs,
@@ -56,12 +57,12 @@ def test_bound_covers_the_neglected_terms_at_any_step(cantilever_case, dt_s):
     frame = FloatingFrame(result, model)
     energy_only = model._replace(rotation=model.rotation.replace(gyroscopic=None, spin=None))
     for name, path, acc in _turns(dt_s):
-        response = simulate_turning(model, path, acc, extend_s=0.3)
+        response = simulate_turning(model, Turn(path, acc), extend_s=0.3)
         _, effect = frame.neglected_effect(
             path.alpha_rad_s2, response.t_s[-1], eval_dt_s=EVAL_DT_S, acc_world=acc, dt_s=dt_s
         )
         assert effect <= response.neglected_bound_m <= 2.5 * effect, name
-        energy = simulate_turning(energy_only, path, acc, extend_s=0.3).neglected_bound_m
+        energy = simulate_turning(energy_only, Turn(path, acc), extend_s=0.3).neglected_bound_m
         assert effect <= energy, name
 
 
@@ -77,7 +78,7 @@ def test_bound_covers_the_neglected_terms_on_the_built_in_panel(dt_s):
     result, model = built_in_panel(0.1)
     frame = FloatingFrame(result, model)
     for name, path, acc in panel_scenes(dt_s):
-        response = simulate_turning(model, path, acc, extend_s=0.3)
+        response = simulate_turning(model, Turn(path, acc), extend_s=0.3)
         _, effect = frame.neglected_effect(
             path.alpha_rad_s2, response.t_s[-1], eval_dt_s=2.5e-4, acc_world=acc, dt_s=dt_s
         )
@@ -96,7 +97,7 @@ def test_first_order_response_against_an_adaptive_integration(cantilever_case):
     _, model = cantilever_case
     name, path, acc = _turns(0.01)[-1]
     dt, n = path.dt_s, path.n_steps
-    motion = turning_motion(model, path, acc)
+    motion = turning_motion(model, Turn(path, acc))
     data = bound_data(model, dt)
     axes = principal_axes(path.omega_rad_s, path.alpha_rad_s2)
     rates = np.stack([path.omega_rad_s, path.alpha_rad_s2]) @ axes
@@ -137,7 +138,7 @@ def test_first_order_response_against_an_adaptive_integration(cantilever_case):
 def _numpy_response(model, path, acc, pivot_m, extend_s):
     """(q, qd, deviation) of the deviation about the current pose's sag from the NumPy
     response (jaxflex.turning.turning_inputs) and every point's displacement (dense)."""
-    inputs = turning_inputs(model, path, acc, pivot_m=pivot_m, extend_s=extend_s)
+    inputs = turning_inputs(model, Turn(path, acc, pivot_m=pivot_m), extend_s=extend_s)
     gravity = inputs.gravity_body_m_s2
     w = np.zeros_like(gravity)
     w[: path.n_steps + 1] = path.omega_rad_s
@@ -161,18 +162,18 @@ def test_compiled_response_is_the_numpy_response(turning_plate, rest_steps):
     alpha[: turn.size], acc[: len(travel)] = turn, travel
     path = fixed_axis_path((0.2, 1.0, 0.3), alpha, 0.01)
     pivot = np.array([0.6, 0.4, 0.0])
-    response = simulate_turning(turning_plate, path, acc, pivot_m=pivot, extend_s=0.25)
+    response = simulate_turning(turning_plate, Turn(path, acc, pivot_m=pivot), extend_s=0.25)
     q, qd, dev = _numpy_response(turning_plate, path, acc, pivot, 0.25)
     for got, expected in ((response.q, q), (response.qd, qd), (response.deviation_m, dev)):
         assert got.shape == expected.shape
         assert np.abs(got - expected).max() <= 1e-12 * np.abs(expected).max()
-    reference = simulate_turning(turning_plate, path, acc, pivot_m=pivot, extend_s=0.0)
+    reference = simulate_turning(turning_plate, Turn(path, acc, pivot_m=pivot), extend_s=0.0)
     n = path.n_steps
     assert np.abs(reference.deviation_m - dev[: n + 1]).max() <= 1e-12 * dev.max()
     if rest_steps:
         short = fixed_axis_path((0.2, 1.0, 0.3), alpha[:-rest_steps], 0.01)
         assert short.n_steps < 128 < path.n_steps  # another block of padding
-        first = simulate_turning(turning_plate, short, acc[:-rest_steps], pivot_m=pivot)
+        first = simulate_turning(turning_plate, Turn(short, acc[:-rest_steps], pivot_m=pivot))
         assert first.neglected_bound_m == pytest.approx(reference.neglected_bound_m, rel=1e-12)
 
 
@@ -208,7 +209,7 @@ def test_settling_inside_the_move_is_never_reported_early(turning_plate):
     alpha = turn_acceleration(np.radians(30.0), 2.0, 10.0, 100.0, 0.01)
     path = fixed_axis_path("x", np.concatenate([alpha, np.zeros(120)]), 0.01)
     acc = np.zeros((path.n_steps + 1, 3))
-    response = simulate_turning(turning_plate, path, acc)
+    response = simulate_turning(turning_plate, Turn(path, acc))
     n, dt = path.n_steps, path.dt_s
     fine = dt * np.arange(64 * n + 1) / 64
     dense = _dense_deviation(turning_plate, path, response, fine)

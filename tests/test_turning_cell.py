@@ -21,7 +21,7 @@ from jaxflex.outputs import voigt_rotation
 from jaxflex.pose import axis_rotation, fixed_axis_path, turn_acceleration
 from jaxflex.profile import jerk_limited_move, kinematics_at
 from jaxflex.rotation_residual import rotation_residual
-from jaxflex.turning import simulate_turning
+from jaxflex.turning import Turn, simulate_turning
 from jaxflex.turning_collision import turning_min_distance
 from jaxflex.turning_outputs import TurningInputs, output_values, turning_inputs, turning_loads
 
@@ -78,7 +78,7 @@ def test_cups_carry_newton_euler_during_a_turning_move(stiff):
     1e-9; mass, centre and inertia in closed form from the sheet's dimensions)."""
     result, model = stiff
     path, acc, pivot = skew_turn()
-    loads = turning_loads(model, path, acc, pivot_m=pivot, extend_s=0.02)
+    loads = turning_loads(model, Turn(path, acc, pivot_m=pivot), extend_s=0.02)
     force, moment = newton_euler(result, path, acc, pivot, len(loads.t_s))
     reactions = loads.reactions
     cup_centres = np.asarray(model.cups.centre_m)
@@ -204,17 +204,17 @@ def test_model_file_keeps_the_static_response(tmp_path):
     assert old.rotation.cup_static is None and old.rotation.static_shapes is not None
     path, acc = _move("x", 30.0, (0.0, 0.0, 0.0))
     with pytest.warns(JaxflexWarning, match="rotational loads"):
-        loads = turning_loads(old, path, acc)
+        loads = turning_loads(old, Turn(path, acc))
     assert not loads.static_complete
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        assert turning_loads(back, path, acc).static_complete
-        simulate_turning(back, path, acc)
+        assert turning_loads(back, Turn(path, acc)).static_complete
+        simulate_turning(back, Turn(path, acc))
     older = model._replace(rotation=model.rotation.replace(static_shapes=None))
     older.save(tmp_path / "older.npz")
     older = jaxflex.load_model(tmp_path / "older.npz")
     with pytest.warns(JaxflexWarning, match="missing from the deviation"):
-        simulate_turning(older, path, acc)
+        simulate_turning(older, Turn(path, acc))
 
 
 @pytest.mark.slow
@@ -232,11 +232,11 @@ def test_rotational_static_residual_on_the_shell_panel():
     kept = full.truncate_modes(6)
     without = kept._replace(rotation=kept.rotation.replace(static_shapes=None))
     path, acc = _move("z", 90.0, (0.0, 0.0, 0.0))
-    args = (path, np.zeros_like(acc))
-    ref = simulate_turning(reference, *args, extend_s=0.2).deviation_m
+    turn = Turn(path, np.zeros_like(acc))
+    ref = simulate_turning(reference, turn, extend_s=0.2).deviation_m
     peak = ref.max()
-    gap_with = np.abs(simulate_turning(kept, *args, extend_s=0.2).deviation_m - ref).max()
-    gap_without = np.abs(simulate_turning(without, *args, extend_s=0.2).deviation_m - ref).max()
+    gap_with = np.abs(simulate_turning(kept, turn, extend_s=0.2).deviation_m - ref).max()
+    gap_without = np.abs(simulate_turning(without, turn, extend_s=0.2).deviation_m - ref).max()
     assert gap_without > 0.01 * peak
     assert gap_with < 0.003 * peak
 
@@ -255,7 +255,7 @@ def _brute_force_distance(model, obstacles, path, acc, pivot, half, extend_s, re
     alpha = np.interp(grid, coarse, path.alpha_rad_s2 @ axis)
     fine = fixed_axis_path(axis, alpha, fine_dt, start=path.rotation[0])
     fine_acc = np.column_stack([np.interp(grid, coarse, acc[:, c]) for c in range(3)])
-    inputs = turning_inputs(model, fine, fine_acc, pivot_m=pivot, extend_s=extend_s)
+    inputs = turning_inputs(model, Turn(fine, fine_acc, pivot_m=pivot), extend_s=extend_s)
     rot_shapes = rotation_residual(model)
     u = (
         np.einsum("kcm,tm->tkc", np.asarray(model.shapes), inputs.q)
@@ -291,7 +291,7 @@ def test_clearance_of_the_turning_part_against_brute_force():
     )
     half = 0.5e-3
     clearance = turning_min_distance(
-        model, obstacles, path, acc, pivot_m=pivot, half_thickness_m=half, atol=1e-6
+        model, obstacles, Turn(path, acc, pivot_m=pivot), half_thickness_m=half, atol=1e-6
     )
     brute = _brute_force_distance(model, obstacles, path, acc, pivot, half, 0.3, 8)
     assert clearance.distance_m <= brute + 1e-6

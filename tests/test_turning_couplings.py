@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 import fem
 import jaxflex
 from jaxflex.pose import fixed_axis_path, turn_acceleration
-from jaxflex.turning import simulate_turning
+from jaxflex.turning import Turn, simulate_turning
 
 
 @pytest.fixture(scope="module")
@@ -69,13 +69,17 @@ def test_couplings_through_file_truncation_and_frame(solid, tmp_path):
     alpha = turn_acceleration(np.radians(40), RATE, ACC, JERK, DT)
     axis = np.array([0.2, 0.5, 1.0]) / np.linalg.norm([0.2, 0.5, 1.0])
     acc = np.zeros((len(alpha), 3))
-    here = simulate_turning(model, fixed_axis_path(axis, alpha, DT), acc, gravity_m_s2=(0, 0, 0))
+    here = simulate_turning(
+        model, Turn(fixed_axis_path(axis, alpha, DT), acc, gravity_m_s2=(0, 0, 0))
+    )
     there = simulate_turning(  # the same axis through the model's origin, now at offset
         posed,
-        fixed_axis_path(rot @ axis, alpha, DT, start=rot.T),
-        acc,
-        gravity_m_s2=(0, 0, 0),
-        pivot_m=offset,
+        Turn(
+            fixed_axis_path(rot @ axis, alpha, DT, start=rot.T),
+            acc,
+            pivot_m=offset,
+            gravity_m_s2=(0, 0, 0),
+        ),
     )
     assert here.neglected_bound_m > 0
     assert there.neglected_bound_m == pytest.approx(here.neglected_bound_m, rel=1e-9)

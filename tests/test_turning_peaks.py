@@ -11,6 +11,7 @@ from test_turning_cell import _sheet
 from jaxflex.loads import CupUtilisation, VonMises
 from jaxflex.pose import fixed_axis_path, turn_acceleration
 from jaxflex.profile import jerk_limited_move
+from jaxflex.turning import Turn
 from jaxflex.turning_outputs import turning_loads
 from jaxflex.turning_peaks import TurningLoadSearch, turning_output_peak
 
@@ -53,15 +54,14 @@ def test_peak_between_samples_is_certified(tilt, kind):
     else:
         outputs, static = model.stress.stress, model.rotation.stress_static
         functional = VonMises(model.stress.n_points)
-    peak = turning_output_peak(
-        model, outputs, static, functional, path, acc, pivot_m=PIVOT, rtol=1e-6
-    )
-    search = TurningLoadSearch(model, outputs, static, functional, path, acc, pivot_m=PIVOT)
+    turn = Turn(path, acc, pivot_m=PIVOT)
+    peak = turning_output_peak(model, outputs, static, functional, turn, rtol=1e-6)
+    search = TurningLoadSearch(model, outputs, static, functional, turn)
     items = np.arange(functional.n_items)
     samples = DT * np.arange(path.n_steps + 1)
     at_samples = search.during(samples, items)
     # the public evaluation at the samples is the same response
-    loads = turning_loads(model, path, acc, pivot_m=PIVOT, cup_safety=SAFETY)
+    loads = turning_loads(model, turn, cup_safety=SAFETY)
     public = loads.utilisation if kind == "cups" else loads.von_mises_pa
     np.testing.assert_allclose(at_samples.T, public, rtol=1e-12, atol=1e-12 * public.max())
     # the peak lies between samples: a check at the samples alone would miss 4 % (cups) and
@@ -83,6 +83,6 @@ def test_peak_between_samples_is_certified(tilt, kind):
     # DT / 16; measured -2.2e-4 (cups) and -2.1e-4 (stress) of the peak, and -6e-3 with a
     # 4-fold refinement: the difference shrinks with the refinement
     fine_path, fine_acc = _inputs(path, acc, 16)
-    fine = turning_loads(model, fine_path, fine_acc, pivot_m=PIVOT, cup_safety=SAFETY)
+    fine = turning_loads(model, Turn(fine_path, fine_acc, pivot_m=PIVOT), cup_safety=SAFETY)
     fine_max = (fine.utilisation if kind == "cups" else fine.von_mises_pa).max()
     assert abs(fine_max - peak.value) <= 1e-3 * peak.value

@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 import fem
 import jaxflex
 from jaxflex.pose import fixed_axis_path, orientation_path, turn_acceleration
-from jaxflex.turning import simulate_turning
+from jaxflex.turning import Turn, simulate_turning
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +46,7 @@ def test_four_modes_with_the_static_response_match_twelve(panels, scene):
         travel = np.zeros((2, 3))
     acc = np.zeros((path.n_steps + 1, 3))
     acc[: len(travel)] = travel
-    response = simulate_turning(model, path, acc, extend_s=0.3)
+    response = simulate_turning(model, Turn(path, acc), extend_s=0.3)
     reference = floating_frame_deviation(
         big, reference_model, path.alpha_rad_s2, response.t_s[-1], full=True, acc_world=acc
     )

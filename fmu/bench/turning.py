@@ -31,7 +31,7 @@ from jaxflex import jerk_limited_move, simulate
 from jaxflex.defaults import DT_S
 from jaxflex.files import write_text_atomic
 from jaxflex.model import ModalModel
-from jaxflex.response import fixed_axis_path, simulate_turning, turn_acceleration
+from jaxflex.response import Turn, fixed_axis_path, simulate_turning, turn_acceleration
 from jaxflex.runtime import step
 
 TARGET_RATIO = 3.0
@@ -59,30 +59,32 @@ def cpu_times(functions: list[Callable[[], object]], repeats: int) -> np.ndarray
     return times
 
 
-def swivel(n_samples: int = N_SAMPLES, dt_s: float = DT_S):
-    """(PosePath, world acceleration samples (n, 3)) of the module docstring's move."""
+def swivel(n_samples: int = N_SAMPLES, dt_s: float = DT_S) -> Turn:
+    """The module docstring's move (a jaxflex.response.Turn about the origin, gravity
+    -9.81 m/s^2 along z) of ``n_samples`` samples."""
     alpha = np.zeros(n_samples)
     turn = turn_acceleration(*TURN, dt_s)
     alpha[: turn.size] = turn
     acc = np.zeros((n_samples, 3))
     travel = jerk_limited_move(*TRAVEL, dt_s)
     acc[: len(travel)] = travel
-    return fixed_axis_path("z", alpha, dt_s), acc
+    return Turn(fixed_axis_path("z", alpha, dt_s), acc)
 
 
 def run(model: ModalModel, repeats: int = 30, *, progress: Callable[[str], None] = step) -> dict:
     """The figures of the module docstring for ``model`` (with its rotation data)."""
-    path, acc = swivel()
+    turn = swivel()
+    acc = turn.acc
     progress(f"turning: simulate and simulate_turning, {model.n_points} points, "
              f"{model.n_modes} modes, {acc.shape[0]} samples ...")  # fmt: skip
     times = cpu_times(
         [
             lambda: simulate(model, acc, DT_S).deviation,
-            lambda: simulate_turning(model, path, acc).deviation_m,
+            lambda: simulate_turning(model, turn).deviation_m,
         ],
         repeats,
     )
-    response = simulate_turning(model, path, acc)
+    response = simulate_turning(model, turn)
     ratio = float(np.median(times[1:, 1] / times[1:, 0]))
     return {
         "n_points": model.n_points,

@@ -28,7 +28,7 @@ from fem.scenes import default_gripper
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import write_text_atomic
 from jaxflex.geometry import Box, Cell, turning_min_distance
-from jaxflex.response import fixed_axis_path, turning_loads, upsample
+from jaxflex.response import Turn, fixed_axis_path, turning_loads, upsample
 from optim.turn_baselines import turn_worst_case
 
 DT, THRESHOLD = DT_S, THRESHOLD_M
@@ -44,17 +44,17 @@ def _plate():
     return result.to_modal_model(points=60)
 
 
-def _fine_path(result, factor: int):
-    axis = np.asarray(result.turn.axis)
-    return fixed_axis_path(axis, upsample(result.angular_acc, factor, np), DT / factor)
+def _fine_turn(result, factor: int) -> Turn:
+    """The optimised turning move of ``result``, its samples upsampled ``factor`` x (linear
+    between them, as the engine takes them)."""
+    spec, fine = result.turn, DT / factor
+    path = fixed_axis_path(np.asarray(spec.axis), upsample(result.angular_acc, factor, np), fine)
+    acc = upsample(result.acc, factor, np)
+    return Turn(path, acc, pivot_m=spec.pivot_m, gravity_m_s2=spec.gravity_m_s2)
 
 
 def _dense_loads(model, result, safety: float) -> tuple[float, float]:
-    spec = result.turn
-    loads = turning_loads(
-        model, _fine_path(result, 10), upsample(result.acc, 10, np), gravity_m_s2=spec.gravity_m_s2,
-        pivot_m=spec.pivot_m, extend_s=2.0, cup_safety=safety,
-    )  # fmt: skip
+    loads = turning_loads(model, _fine_turn(result, 10), extend_s=2.0, cup_safety=safety)
     return float(loads.utilisation.max()), float(loads.von_mises_pa.max())
 
 
@@ -86,14 +86,11 @@ def _load_case(model, kind: str) -> dict:
 
 def _distance_case(model) -> dict:
     plain, _ = _timed(model, (1.0, 0.0, 0.0), **SWIVEL)
-    spec = plain.turn
     far = Box(np.array([1.27, -0.73, 0.0]), np.array([0.05, 1.0, 0.3]), name="post")
 
     def dense(result, obstacles) -> float:
-        return turning_min_distance(
-            model, obstacles, _fine_path(result, 8), upsample(result.acc, 8, np),
-            gravity_m_s2=spec.gravity_m_s2, pivot_m=spec.pivot_m, half_thickness_m=5e-4,
-        ).distance_m  # fmt: skip
+        turn = _fine_turn(result, 8)
+        return turning_min_distance(model, obstacles, turn, half_thickness_m=5e-4).distance_m
 
     start = dense(plain, (far,))
     post = Box(far.centre_m + np.array([0.0, start - 0.0055, 0.0]), far.size_m, name="post")
