@@ -166,18 +166,62 @@ def test_readers_load_in_their_child_process():
     assert done.returncode == 0, done.stderr[-2000:]
 
 
-def test_the_readme_names_only_public_core_names():
-    """The README sends users to public names only: every ``jaxflex.X`` it names is a public
-    module or a name of the public ``jaxflex`` namespace, and no ``jaxflex/X.py`` file (the
-    private modules are free to change; docs/design.md maps them for developers)."""
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+# docs/design.md is the developers' map of the modules (its "The public core" and "Where each
+# concern lives" name the private modules on purpose); the other pages are for users
+USER_PAGES = [
+    ROOT / "README.md",
+    *sorted(p for p in (ROOT / "docs").glob("*.md") if p.name != "design.md"),
+]
+
+
+def private_mentions(text: str) -> list[str]:
+    """``line N: name`` for every private core name ``text`` names: a ``jaxflex.X`` that is
+    neither a public module nor a name of the public ``jaxflex`` namespace (nor an entry-point
+    group of pyproject.toml), a ``jaxflex.M.Y`` of a public module ``M`` whose ``__all__``
+    lacks ``Y``, or a ``jaxflex/X.py`` file of a private module."""
     top = _declared("jaxflex")
     groups = set(re.findall(r"project\.entry-points\.\"?jaxflex\.([a-z_]+)", _pyproject()))
-    named = set(re.findall(r"\bjaxflex\.([a-z_]+)", readme)) - groups  # entry-point groups
-    private = sorted(n for n in named if f"jaxflex.{n}" not in PUBLIC and n not in top)
-    files = set(re.findall(r"\bjaxflex/([a-z_]+)\.py", readme))
-    assert private == [], private
-    assert sorted(f for f in files if f"jaxflex.{f}" not in PUBLIC) == [], files
+    found = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        named = set(re.findall(r"\bjaxflex\.([A-Za-z_]\w*)", line)) - groups
+        members = set(re.findall(r"\bjaxflex\.([a-z_]+)\.([A-Za-z_]\w*)", line))
+        files = set(re.findall(r"\bjaxflex/([a-z_]+)\.py", line))
+        private = {f"jaxflex.{n}" for n in named if f"jaxflex.{n}" not in PUBLIC and n not in top}
+        private |= {
+            f"jaxflex.{m}.{n}"
+            for m, n in members
+            if f"jaxflex.{m}" in PUBLIC and n not in _declared(f"jaxflex.{m}")
+        }
+        private |= {f"jaxflex/{f}.py" for f in files if f"jaxflex.{f}" not in PUBLIC}
+        found += [f"line {number}: {name}" for name in sorted(private)]
+    return found
+
+
+def test_the_mention_scan_finds_private_names():
+    text = (
+        "`jaxflex.simulate`, `jaxflex.Turn` and `jaxflex.response.state_map`, `jaxflex.cli`\n"
+        "see `jaxflex.turning_bound` and jaxflex/engine.py, not jaxflex/cli.py\n"
+        "`jaxflex.Private`, `jaxflex.response.blocks_of`, `jaxflex.turning.Turn`\n"
+    )
+    assert private_mentions(text) == [
+        "line 2: jaxflex.turning_bound",
+        "line 2: jaxflex/engine.py",
+        "line 3: jaxflex.Private",
+        "line 3: jaxflex.response.blocks_of",
+        "line 3: jaxflex.turning",
+    ]
+
+
+@pytest.mark.parametrize("page", USER_PAGES, ids=lambda page: page.name)
+def test_the_user_docs_name_only_public_core_names(page):
+    """The README and the user pages of docs/ send users to public names only: every
+    ``jaxflex.X`` they name is a public module or a name of the public ``jaxflex``
+    namespace, every ``jaxflex.M.Y`` of a public module a name in its ``__all__``, and no
+    ``jaxflex/X.py`` file of a private module (the private modules are free to change).
+    docs/design.md is left out: it is the developers' map of the modules and names the
+    private ones on purpose; a user page points there for the internals."""
+    found = private_mentions(page.read_text(encoding="utf-8"))
+    assert not found, f"{page.relative_to(ROOT)} names private core names: " + "; ".join(found)
 
 
 def _pyproject() -> str:
