@@ -1,5 +1,6 @@
-"""fmu.bench: metrics against hand-computed values, the methods against each other, the
-test move, and a quick run of the whole bench (JSON with every method, PNG charts)."""
+"""fem.bench and jaxflex bench (fmu.bench.suite): metrics against hand-computed values, the
+methods against each other, the test move, and a quick run of the whole bench (JSON with
+every method, PNG charts)."""
 
 from __future__ import annotations
 
@@ -9,12 +10,12 @@ import numpy as np
 import pytest
 from conftest import random_model, run_jaxflex, smooth_move
 
-from fmu.bench.accuracy import dominance, pareto_front
-from fmu.bench.fe import knot_move
-from fmu.bench.methods import METHODS, prepare, stable_substeps
-from fmu.bench.metrics import compare, curve_errors, settle_from_samples
-from fmu.bench.turning import format_turning, swivel
-from fmu.bench.turning import run as turning_bench
+from fem.bench.accuracy import dominance, pareto_front
+from fem.bench.fe import knot_move
+from fem.bench.methods import METHODS, prepare, stable_substeps
+from fem.bench.metrics import compare, curve_errors, settle_from_samples
+from fem.bench.turning import format_turning, swivel
+from fem.bench.turning import run as turning_bench
 from jaxflex.errors import InputError
 from jaxflex.turning import simulate_turning
 
@@ -119,7 +120,7 @@ def test_knot_move_is_one_profile_at_every_swept_dt():
 
 
 def test_turning_bench_reports_both_calls(turning_plate):
-    """The turning section (fmu.bench.turning) on the tests' plate: both calls timed in CPU
+    """The turning section (fem.bench.turning) on the tests' plate: both calls timed in CPU
     seconds, their ratio and the target's verdict reported (figures only: no time assert),
     the turning response the same as simulate_turning's."""
     result = turning_bench(turning_plate, repeats=2, progress=lambda _: None)

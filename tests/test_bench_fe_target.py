@@ -9,9 +9,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from fmu.bench.accuracy import TARGETS, agreement_by_modes, settle_threshold
-from fmu.bench.fe import build_scene, fe_reference
-from fmu.bench.metrics import settle_from_samples
+from fem.bench.accuracy import TARGETS, agreement_by_modes, settle_threshold
+from fem.bench.fe import build_scene, fe_reference
+from fem.bench.metrics import settle_from_samples
 from fmu.bench.suite import SMALL_PANEL
 
 

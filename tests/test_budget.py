@@ -1,13 +1,13 @@
 """One budget for all work (jaxflex.budget): every command takes --max-memory and --max-time,
 plans its work from its inputs and refuses what does not fit, before any of it.
 
-The hostile requests of issue 23 (fmu.bench.budget.refusal_cases: robust grids of
+The hostile requests of issue 23 (fem.bench.budget.refusal_cases: robust grids of
 100 000 x 100 000, a monitor grid of 10^10 points, 6.35 M sweep cases, meshes of 10^10
 cells, 120 m CAD sheets, 2 000 000 triangles, 10 000 obstacles) run as commands under a hard
 address-space limit (``ulimit -v``: a command that tried to go beyond its budget would die
 or raise MemoryError there) and must exit with status 2 and one line saying what the work
 would need, without a traceback, before any case or analysis is computed. Their times and
-peak memories are what ``python -m fmu.bench.budget --refusals`` reports; nothing here
+peak memories are what ``python -m fem.bench.budget --refusals`` reports; nothing here
 asserts a time.
 """
 
@@ -21,7 +21,7 @@ import pytest
 from conftest import random_model, run_jaxflex
 from sweep_cases import SPEC
 
-from fmu.bench.budget import refusal_cases, run_limited
+from fem.bench.budget import refusal_cases, run_limited
 from jaxflex.budget import (
     Budget,
     Need,

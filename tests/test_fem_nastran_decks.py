@@ -2,7 +2,7 @@
 tests/data/nastran/README.md), and the whole library when it is at hand.
 
 ``JAXFLEX_NASTRAN_CORPUS=/path/to/pyNastran/models`` runs every deck of that library
-through the door (as ``python -m fmu.bench.nastran_corpus DIR`` does) and checks the
+through the door (as ``python -m fem.bench.nastran_corpus DIR`` does) and checks the
 issue's targets: no traceback, 60 % of the shell decks with mass read, no deck beyond 3 % of
 its solver's modes without a warning that says why, every refusal naming a card, those of
 cards outside our element set with their share of the mass.
@@ -19,10 +19,10 @@ import pytest
 from decks import solve
 
 import fem
+from fem.bench.nastran_corpus import find_decks, summarise, try_deck
 from fem.imports.nastran.bdf import read_bulk
 from fem.imports.nastran.coords import DeckGeometry
 from fem.sanity import PartWarning
-from fmu.bench.nastran_corpus import find_decks, summarise, try_deck
 
 DATA = Path(__file__).parent / "data" / "nastran"
 

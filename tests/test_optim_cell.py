@@ -412,7 +412,7 @@ def test_optimize_command_with_a_cell(tmp_path, model):
 
 
 def test_the_example_cell_is_a_press_opening():
-    """examples/press_cell.toml (the README's and fmu.bench.cell's scene) still describes
+    """examples/press_cell.toml (the README's and optim.bench.cell's scene) still describes
     what they say: for the built-in plate's rigid footprint (1.5 x 0.8 m, in its frame),
     A, the via point and B are clear of every obstacle by more than the 10 mm margin, and
     the straight line from A to B runs into the lower die."""

@@ -11,7 +11,7 @@ from threadpoolctl import threadpool_limits
 
 import fem
 import jaxflex
-from fmu.bench.metrics import settle_from_samples
+from fem.bench.metrics import settle_from_samples
 from jaxflex.integrators import central_difference_modal, newmark_modal
 
 

@@ -1,7 +1,7 @@
-"""A sweep of 400 small cases on a LocalCluster of 2 workers (fmu.bench.sweep_scale with 2
+"""A sweep of 400 small cases on a LocalCluster of 2 workers (optim.sweep.bench.sweep_scale with 2
 moves per layout): every case stored once, tasks in bounded batches, and the client holding
 no record once the run is under way. The figures (throughput, memory of every process, store
-cost; 2 000 cases) are in docs/sweep.md, measured with ``python -m fmu.bench.sweep_scale``;
+cost; 2 000 cases) are in docs/sweep.md, measured with ``python -m optim.sweep.bench.sweep_scale``;
 this test asserts no time and no resident size.
 The run is the benchmark's command in a fresh interpreter: the client's memory is then its
 own, not that of a pytest worker that ran other tests before (a 3.5 GB process whose heap
@@ -16,8 +16,8 @@ import sys
 
 import pytest
 
-from fmu.bench.sweep_scale import SAMPLE_EVERY
 from optim.sweep import read_table
+from optim.sweep.bench.sweep_scale import SAMPLE_EVERY
 from optim.sweep.cluster import TASKS_PER_THREAD
 from optim.sweep.store import FINAL_STAGES
 
@@ -29,7 +29,7 @@ WARM = 200  # cases after which every worker has compiled every move length it m
 def test_four_hundred_cases_in_bounded_batches_and_no_record_held(tmp_path):
     out = tmp_path / "report.json"
     subprocess.run(
-        [sys.executable, "-m", "fmu.bench.sweep_scale", "--keep", str(tmp_path / "run"),
+        [sys.executable, "-m", "optim.sweep.bench.sweep_scale", "--keep", str(tmp_path / "run"),
          "--moves", "2", "-o", str(out)],
         check=True,
         capture_output=True,

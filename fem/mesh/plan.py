@@ -13,7 +13,7 @@ edges): Morley V + E = 2 T, Argyris 6 V + E = 4.5 T, the shell 6 V = 3 T, the on
 
 Memory and time of the whole analysis (meshing, assembly, the gripper's reduction, the
 shift-invert eigen solve with its sparse LU factor, the residual solve) against the DOFs n
-and modes M, fitted to ``python -m fmu.bench.budget`` on the project's 2-core machine (see
+and modes M, fitted to ``python -m fem.bench.budget`` on the project's 2-core machine (see
 docs/fem.md, Budget): memory ``a n^p`` (p 1.0 ... 1.2: the factor's fill-in) plus the
 Lanczos vectors, ``16 n (2 M + 1)`` bytes; time ``b n^1.5`` (a sparse factorisation of a 2-D
 mesh) plus the Lanczos iterations ``c n M (1 + M / 100)``. The figures come within a factor
@@ -37,7 +37,7 @@ from jaxflex.runtime import Need
 CELLS_PER_H2 = 2.31  # equilateral triangles of side h per h^2: 4 / sqrt(3)
 DOF_PER_CELL = {"morley": 2.0, "argyris": 4.5, "shell": 3.0, "hex2": 36.0}
 # (a, p) of the memory a n^p in bytes and b of the time b n^1.5 in s, per formulation
-# (python -m fmu.bench.budget, 2-core machine under load; docs/fem.md, Budget)
+# (python -m fem.bench.budget, 2-core machine under load; docs/fem.md, Budget)
 MEMORY_FIT = {"morley": (2.33e3, 1.04), "argyris": (1.45e4, 1.02), "shell": (490.0, 1.21),
               "hex2": (4.77e3, 1.09)}  # fmt: skip
 TIME_PER_DOF15 = {"morley": 1.55e-7, "argyris": 1.96e-6, "shell": 2.2e-7, "hex2": 5.0e-7}
@@ -199,7 +199,7 @@ def points_need(plan: FePlan, points: int | str | None) -> Need:
 
 def cad_mesh_need(path, area_m2: float, size_m: float, quads: bool = False) -> Need:
     """What meshing a CAD sheet of ``area_m2`` at ``size_m`` m takes (gmsh and the mesh's
-    checks; python -m fmu.bench.budget's CAD figures)."""
+    checks; python -m fem.bench.budget's CAD figures)."""
     cells = refined_cells(area_m2, size_m, (), quads)
     return Need(
         f"meshing {str(path)!r} ({area_m2:.4g} m^2 at {size_m:.3g} m: about {cells:,.0f} cells)",

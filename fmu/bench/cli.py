@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     json_path = out if out.suffix == ".json" else None
     out_dir = out.parent if json_path is not None else out
     check_output_dir("-o/--output", out_dir)
-    from fmu.bench.core import format_table  # the benchmarks load at the run
+    from fem.bench.core import format_table  # the benchmarks load at the run
     from fmu.bench.suite import run_suite, summary_lines
 
     report = run_suite(

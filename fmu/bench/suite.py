@@ -3,20 +3,20 @@
 Sections of ``bench.json`` (SI units; times in s unless the key says ms):
 
 * ``case``, ``machine``, ``targets``, ``results``: the core speed figures
-  (:mod:`fmu.bench.core`; K=1099 points, M=40 modes, N=1000 steps in the full run);
+  (:mod:`fem.bench.core`; K=1099 points, M=40 modes, N=1000 steps in the full run);
 * ``accuracy``: per scene (plate, panel) every accuracy-time point of every method, the
   reduced-vs-full-order FE agreement per mode count and the dominance check
-  (:mod:`fmu.bench.accuracy`); charts ``pareto_plate.png``, ``pareto_panel.png``;
-* ``stability``: where each method breaks against omega dt (:mod:`fmu.bench.stability`);
+  (:mod:`fem.bench.accuracy`); charts ``pareto_plate.png``, ``pareto_panel.png``;
+* ``stability``: where each method breaks against omega dt (:mod:`fem.bench.stability`);
   chart ``stability.png``;
-* ``nodes``: every node, no reduction (:mod:`fmu.bench.nodes`): forward deviation and
+* ``nodes``: every node, no reduction (:mod:`fem.bench.nodes`): forward deviation and
   exact cycle time at full-mesh sizes (``scale``) and what voxel reduction of the monitored
   points costs in peak deviation and settle time (``reduction``);
 * ``commands``: wall and CPU time of ``jaxflex optimize`` as a user runs it, with an empty
   JAX compilation cache (cold) and again (warm), and of ``jaxflex demo`` in the full run
-  (:mod:`fmu.bench.commands`);
+  (:mod:`optim.bench.commands`);
 * ``turning``: a warm ``jaxflex.simulate_turning`` against a warm ``jaxflex.simulate`` of
-  the same samples, CPU seconds, on the built-in curved panel (:mod:`fmu.bench.turning`;
+  the same samples, CPU seconds, on the built-in curved panel (:mod:`fem.bench.turning`;
   full and medium runs).
 
 Four sizes: ``full`` (the built-in scenes, minutes), ``medium`` (small scenes, the sweeps
@@ -36,20 +36,20 @@ from pathlib import Path
 import numpy as np
 
 import fem
-from fmu.bench.accuracy import run_scene
-from fmu.bench.charts import pareto_chart, stability_chart
-from fmu.bench.commands import format_commands, run_commands
-from fmu.bench.core import QUICK as QUICK_CORE
-from fmu.bench.core import BenchCase, run_bench
-from fmu.bench.fe import SceneSpec
-from fmu.bench.nodes import format_nodes, run_reduction, run_scale
-from fmu.bench.optim import scene_model
-from fmu.bench.stability import OMEGA_DT, run_stability
-from fmu.bench.turning import format_turning
-from fmu.bench.turning import run as run_turning
+from fem.bench.accuracy import run_scene
+from fem.bench.charts import pareto_chart, stability_chart
+from fem.bench.core import QUICK as QUICK_CORE
+from fem.bench.core import BenchCase, run_bench
+from fem.bench.fe import SceneSpec
+from fem.bench.nodes import format_nodes, run_reduction, run_scale
+from fem.bench.stability import OMEGA_DT, run_stability
+from fem.bench.turning import format_turning
+from fem.bench.turning import run as run_turning
 from jaxflex.errors import InputError
 from jaxflex.files import make_output_dir, write_text_atomic
 from jaxflex.runtime import step
+from optim.bench.commands import format_commands, run_commands
+from optim.bench.optim import scene_model
 
 SMALL_PLATE = SceneSpec(
     "plate",

@@ -1,8 +1,8 @@
 """Sweep benchmark: throughput serial vs dask LocalCluster, per-case cost split, compiled-code
 reuse, batched vs looped evaluation. JSON on stdout (and ``-o FILE``).
 
-    python -m fmu.bench.sweep                       # the example spec (34 cases), 2 workers
-    python -m fmu.bench.sweep --spec sweep.toml --workers 2 --robust -o sweep_bench.json
+    python -m optim.sweep.bench.sweep           # the example spec (34 cases), 2 workers
+    python -m optim.sweep.bench.sweep --spec sweep.toml --workers 2 --robust -o sweep_bench.json
 
 Every run starts from an empty results directory (nothing skipped). Throughput counts the
 computed cases over the wall time of the computation, which for dask includes starting the
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fmu.bench.emit import emit_json
+from fem.bench.emit import emit_json
 from jaxflex.model import ModalModel
 from jaxflex.response import ARRAY_FIELDS
 from optim.limits import Limits

@@ -1,7 +1,7 @@
 """How many real Nastran shell decks the Nastran door reads, why it refuses the others, and
 how its frequencies compare with the solver's own, as JSON and a table.
 
-    python -m fmu.bench.nastran_corpus DIR [-o corpus.json] [--modes 6] [--list]
+    python -m fem.bench.nastran_corpus DIR [-o corpus.json] [--modes 6] [--list]
 
 DIR is a library of decks, e.g. the ``models/`` folder of pyNastran
 (https://github.com/SteveDoyle2/pyNastran, BSD-3-Clause licence): its NX and MSC examples.
@@ -400,7 +400,7 @@ def summarise(records: list[dict]) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m fmu.bench.nastran_corpus", description=__doc__.split("\n\n")[0]
+        prog="python -m fem.bench.nastran_corpus", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("root", type=Path, help="the library of decks (pyNastran's models/)")
     parser.add_argument("-o", "--output", default="nastran_corpus.json", help="JSON written")

@@ -7,8 +7,8 @@ import textwrap
 
 import numpy as np
 
-from fmu.bench.accuracy import pareto_front
-from fmu.bench.methods import LABELS
+from fem.bench.accuracy import pareto_front
+from fem.bench.methods import LABELS
 from jaxflex.plots import PLAIN, PLAIN_MINOR, plt, save_figure
 
 STYLE = {

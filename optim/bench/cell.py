@@ -1,7 +1,7 @@
 """The real cell's figures, as JSON: obstacles and via points, cup forces, stress, compliant cups.
 
-    python -m fmu.bench.cell [--cases press accuracy constraints cups convergence]
-                              [-o cell_bench.json]
+    python -m optim.bench.cell [--cases press accuracy constraints cups convergence]
+                                [-o cell_bench.json]
 
 * press: the built-in plate (1.5 x 0.8 m, 20 modes) laid into a press opening through a via
   point: the optimised move against the ruckig move through the same via point plus decay,
@@ -21,7 +21,7 @@
   --cup-safety 1.5 --max-stress --threshold 5e-4``: nominal, ``--no-plots``, ``--robust`` at
   the default grid, the active distance-and-stress run with ``--max-stress 68e6``, 85 % of
   what the unconstrained press move reaches, and a robust plan under ``--max-time 10``, which
-  is refused), CPU seconds of each command's process (fmu.bench.commands.timed_run), the
+  is refused), CPU seconds of each command's process (optim.bench.commands.timed_run), the
   compile cache warm (one untimed run first), and each answer (steps, cycle, worst case).
 """
 
@@ -43,11 +43,11 @@ import numpy as np
 import fem
 import optim
 from fem.outputs import reaction_outputs, stress_outputs
-from fmu.bench.commands import timed_run
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import write_text_atomic
 from jaxflex.geometry import Box, Cell, min_distance
 from jaxflex.response import CupUtilisation, VonMises, acceleration_at, output_peak, outputs_at
+from optim.bench.commands import timed_run
 from optim.cell_file import load_cell
 from optim.ruckig_move import kinematic_floor_move
 
@@ -310,7 +310,7 @@ def _refused(argv: list[str], env: dict) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m fmu.bench.cell", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m optim.bench.cell", description=__doc__)
     parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
     parser.add_argument("-o", "--output", default="cell_bench.json", help="JSON results")
     args = parser.parse_args(argv)

@@ -4,7 +4,7 @@ and why, and frequencies against the solver's own printout where it lies beside 
 (the .f06 of an .op2), as JSON. A read file passes the model checks (fem.imports.checks)
 before it counts as read.
 
-    python -m fmu.bench.solver_files DIR [--units SI] [-o solver_files.json]
+    python -m fem.bench.solver_files DIR [--units SI] [-o solver_files.json]
 
 Measured on pyNastran's model library (``models/`` of github.com/SteveDoyle2/pyNastran,
 BSD-3-Clause), pyuff's example files (``data/`` of github.com/ladisk/pyuff, MIT) and
@@ -108,7 +108,7 @@ def try_file(path: Path, units: str) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m fmu.bench.solver_files", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m fem.bench.solver_files", description=__doc__)
     parser.add_argument("directory", help="searched recursively for .op2, .pch, .uff, .unv, .rst")
     parser.add_argument("--units", default="SI", help="for files that state none")
     parser.add_argument("-o", "--output", default="solver_files.json")

@@ -1,7 +1,7 @@
 """Accuracy against time of every method on one FE scene (the Pareto data of ``jaxflex bench``).
 
-For a scene (:mod:`fmu.bench.fe`) the full-order FE transient is the reference. The
-reduced methods (:mod:`fmu.bench.methods`) run on the scene's modal model, each at its
+For a scene (:mod:`fem.bench.fe`) the full-order FE transient is the reference. The
+reduced methods (:mod:`fem.bench.methods`) run on the scene's modal model, each at its
 own native step, over three sweeps from the base case (all modes, all points, dt = 10 ms):
 number of modes, number of points (voxel size) and dt (10, 20, 25 ms). The FE transient
 itself is a method too, at coarser steps than the reference. Each run gives one point:
@@ -19,10 +19,10 @@ from collections.abc import Callable
 import numpy as np
 
 import fem
-from fmu.bench.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_of
-from fmu.bench.methods import METHODS, prepare, stable_substeps
-from fmu.bench.metrics import compare, curve_errors, settle_from_samples
-from fmu.bench.timing import best_time_s
+from fem.bench.fe import BASE_S, SceneSpec, build_scene, fe_reference, move_of
+from fem.bench.methods import METHODS, prepare, stable_substeps
+from fem.bench.metrics import compare, curve_errors, settle_from_samples
+from fem.bench.timing import best_time_s
 from jaxflex import simulate
 from jaxflex.response import analyze_move, upsample, voxel_downsample
 from jaxflex.runtime import progress_bar, step

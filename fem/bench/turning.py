@@ -1,6 +1,6 @@
 """A turning move as fast as a straight one: warm ``simulate_turning`` against ``simulate``.
 
-    python -m fmu.bench.turning [--scene panel|plate] [-o turning_bench.json]
+    python -m fem.bench.turning [--scene panel|plate] [-o turning_bench.json]
 
 The issue's case: the built-in curved panel (fem.default_model("panel"): every node, 20
 modes; from the FE store of jaxflex's cache after the first run) swivelled 90 degrees about
@@ -26,7 +26,7 @@ import jax
 import numpy as np
 
 import fem
-from fmu.bench.timing import machine
+from fem.bench.timing import machine
 from jaxflex import jerk_limited_move, simulate
 from jaxflex.defaults import DT_S
 from jaxflex.files import write_text_atomic

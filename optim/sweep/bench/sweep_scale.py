@@ -2,7 +2,7 @@
 throughput, the memory of the client and of each worker, and the record store's cost per
 case do not grow with the number of finished cases. JSON on stdout (and ``-o FILE``).
 
-    python -m fmu.bench.sweep_scale -o sweep_scale.json       # 2 000 cases, 2 workers
+    python -m optim.sweep.bench.sweep_scale -o sweep_scale.json  # 2 000 cases, 2 workers
 
 The spec (:func:`scale_spec`): a 0.6 x 0.4 m aluminium plate with 100 mm elements, 4 modes,
 6 monitored points; 200 rectangular layouts (2 or 3 cups per side, 5 x 5 insets, 2 radii)
@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import psutil
 
-from fmu.bench.emit import emit_json
+from fem.bench.emit import emit_json
 from optim.sweep.run import run_sweep
 from optim.sweep.spec import SweepSpec, parse_spec
 from optim.sweep.store import ResultStore
@@ -171,6 +171,41 @@ def store_cost_ms(full: ResultStore, record: dict, repeats: int = 300) -> dict:
     return {name: round(1e3 * float(np.median(t)), 3) for name, t in times.items()}
 
 
+def _rate(samples: list[dict], i: int, j: int) -> float:
+    """Cases per minute between samples ``i`` and ``j``."""
+    cases = samples[j]["cases"] - samples[i]["cases"]
+    return round(60 * cases / (samples[j]["elapsed_s"] - samples[i]["elapsed_s"]), 1)
+
+
+def _baseline_rises(samples: list[dict], n: int) -> dict:
+    """MB each process's baseline (the least RSS in a window) rose from the second quarter
+    of a run of ``n`` cases to the last: a flat process rises by less than half of what
+    holding the records between the windows would take (hold_mb scaled to them)."""
+    early = [x for x in samples if n / 4 <= x["cases"] <= n / 2]
+    late = [x for x in samples if x["cases"] >= 3 * n / 4]
+
+    def rise(rss) -> float:
+        return round(min(map(rss, late)) - min(map(rss, early)), 2)
+
+    rises = {"client": rise(lambda x: x["client_rss_mb"])}
+    for pid in samples[-1]["workers"]:
+        rises[pid] = rise(lambda x, pid=pid: x["workers"].get(pid, {"rss_mb": np.inf})["rss_mb"])
+    return rises
+
+
+def _cpu_ms_per_case(samples: list[dict], n: int) -> dict:
+    """CPU ms per case of the client and of the workers together after the first sample."""
+    first, last = samples[0], samples[-1]
+    workers_s = sum(w["cpu_s"] - first["workers"][p]["cpu_s"] for p, w in last["workers"].items())
+    computed = n - first["cases"]
+    return {
+        "client_cpu_ms_per_case": round(
+            1e3 * (last["client_cpu_s"] - first["client_cpu_s"]) / computed, 2
+        ),
+        "workers_cpu_ms_per_case": round(1e3 * workers_s / computed, 1),
+    }
+
+
 def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> dict:
     """Run the scale spec on a LocalCluster of ``n_workers`` into ``directory`` (empty, or a
     previous run's: then only the missing cases), then rerun it (nothing left to compute:
@@ -200,25 +235,8 @@ def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> 
     samples, store_ms = sampler.samples, 1e3 * np.asarray(sampler.store_s)
     n, first = run.computed, samples[0]
     block = min(200, n // 4)
-    times = [s["elapsed_s"] for s in samples]
-    cases = [s["cases"] for s in samples]
-
-    def rate(i: int, j: int) -> float:  # cases/min between samples i and j
-        return round(60 * (cases[j] - cases[i]) / (times[j] - times[i]), 1)
-
     k = block // sampler.every
-    # each process's baseline (the least RSS in a window) from the second quarter of the run
-    # to the last: a flat process rises by less than half of what holding the records
-    # between the windows would take (hold_mb scaled to them)
-    early = [x for x in samples if n / 4 <= x["cases"] <= n / 2]
-    late = [x for x in samples if x["cases"] >= 3 * n / 4]
-
-    def rise(rss) -> float:
-        return round(min(map(rss, late)) - min(map(rss, early)), 2)
-
-    rises = {"client": rise(lambda x: x["client_rss_mb"])}
-    for pid in samples[-1]["workers"]:
-        rises[pid] = rise(lambda x, pid=pid: x["workers"].get(pid, {"rss_mb": np.inf})["rss_mb"])
+    rises = _baseline_rises(samples, n)
     bound_mb = round(0.5 * hold_mb * (n / 2) / max(len(held), 1), 2)
     return {
         "spec": spec.name,
@@ -230,8 +248,8 @@ def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> 
         "peak_in_flight": run.peak_in_flight,
         "wall_s": round(run.wall_s, 1),
         "cases_per_min": round(60 * n / run.wall_s, 1),
-        "cases_per_min_early": rate(0, k),  # after the first SAMPLE_EVERY (compilation)
-        "cases_per_min_late": rate(len(samples) - 1 - k, len(samples) - 1),
+        "cases_per_min_early": _rate(samples, 0, k),  # after the first SAMPLE_EVERY (compiling)
+        "cases_per_min_late": _rate(samples, len(samples) - 1 - k, len(samples) - 1),
         "store_ms_per_case_first": round(_block(store_ms, 0, block), 3),
         "store_ms_per_case_last": round(_block(store_ms, n - block, n), 3),
         "store_block_cases": block,
@@ -245,17 +263,7 @@ def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> 
         "memory_flat": all(r < bound_mb for r in rises.values()),
         "rerun_s": round(rerun_s, 2),
         "rerun_ms_per_stored_case": round(1e3 * rerun_s / max(rerun.skipped, 1), 3),
-        "client_cpu_ms_per_case": round(
-            1e3 * (samples[-1]["client_cpu_s"] - first["client_cpu_s"]) / (n - first["cases"]), 2
-        ),
-        "workers_cpu_ms_per_case": round(
-            1e3
-            * sum(
-                w["cpu_s"] - first["workers"][p]["cpu_s"] for p, w in samples[-1]["workers"].items()
-            )
-            / (n - first["cases"]),
-            1,
-        ),
+        **_cpu_ms_per_case(samples, n),
         "client_objects_first": first["client_objects"],
         "client_objects_last": samples[-1]["client_objects"],
         "client_rss_mb_first": first["client_rss_mb"],

@@ -14,7 +14,7 @@ threshold 0.5 mm, dt 10 ms) it reports
 * the exact route (scipy HiGHS and casadi + Clp) against the gradient route (Ipopt and
   SLSQP) on the same problems.
 
-Run: ``python -m fmu.bench.optim --scene fem-plate -o optim_bench.json`` (or ``--model
+Run: ``python -m optim.bench.optim --scene fem-plate -o optim_bench.json`` (or ``--model
 part.npz``); ``run(model)`` from Python.
 """
 
@@ -66,7 +66,7 @@ def few_mode_model(freq_hz=(1.7, 4.3, 9.8), zeta=0.02) -> ModalModel:
         gamma=[[0.1, 0.05, 2.0], [0.05, -0.2, 0.9], [-0.1, 0.1, 0.5]],
         shapes=shapes,
         points=rng.uniform(size=(16, 3)),
-        meta={"source": "fmu.bench.optim.few_mode_model"},
+        meta={"source": "optim.bench.optim.few_mode_model"},
     )
 
 
@@ -103,11 +103,12 @@ def run(
     threshold_m: float = THRESHOLD_M,
     dt_s: float = DT_S,
     robust: RobustSpec | None = None,
-    nominal_routes=NOMINAL_ROUTES,
-    robust_routes=ROBUST_ROUTES,
+    routes=(NOMINAL_ROUTES, ROBUST_ROUTES),
     log=print,
 ) -> dict:
-    """Measure every figure of the module docstring for ``model``; returns a JSON-ready dict."""
+    """Measure every figure of the module docstring for ``model`` over ``routes`` (the
+    (method, solver) pairs of the nominal and of the robust runs); returns a JSON-ready dict."""
+    nominal_routes, robust_routes = routes
     limits = limits or Limits(2.0, 10.0, 100.0)
     robust = robust or RobustSpec((0.9, 1.1), (0.01, 0.03))
     report: dict = {
@@ -192,7 +193,7 @@ def _targets(report: dict) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m fmu.bench.optim", description=__doc__.split("\n")[0]
+        prog="python -m optim.bench.optim", description=__doc__.split("\n")[0]
     )
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--model", help="modal model file (.npz)")
@@ -210,8 +211,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("-o", "--output", default="optim_bench.json", help="JSON file")
     args = parser.parse_args(argv)
     model = load_model(args.model) if args.model else scene_model(args.scene)
-    routes = {"nominal_routes": NOMINAL_ROUTES[:1], "robust_routes": ROBUST_ROUTES[:1]}
-    report = run(model, threshold_m=args.threshold, **(routes if args.quick else {}))
+    routes = (
+        NOMINAL_ROUTES[: 1 if args.quick else None],
+        ROBUST_ROUTES[: 1 if args.quick else None],
+    )
+    report = run(model, threshold_m=args.threshold, routes=routes)
     report["model"]["scene"] = args.model or args.scene
     write_text_atomic(args.output, json.dumps(report, indent=2))
     print(json.dumps(report["targets"], indent=2))

@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.signal
 
-from fmu.bench.metrics import settle_from_samples
+from fem.bench.metrics import settle_from_samples
 from jaxflex import simulate
 from jaxflex.defaults import DT_S
 from jaxflex.model import ModalModel

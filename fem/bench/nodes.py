@@ -28,10 +28,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from fem.bench.core import sine_move
+from fem.bench.timing import best_time_s
 from fem.modal import modal_analysis
 from fem.scenes import scene as built_in
-from fmu.bench.core import sine_move
-from fmu.bench.timing import best_time_s
 from jaxflex import cycle_time
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import write_text_atomic
@@ -78,7 +78,7 @@ def curved_part(n_points: int, n_modes: int = 40, seed: int = 0) -> ModalModel:
         gamma=gamma,
         shapes=shapes,
         points=points,
-        meta={"source": "fmu.bench.nodes curved analytic part"},
+        meta={"source": "fem.bench.nodes curved analytic part"},
     )
 
 
@@ -249,9 +249,9 @@ def format_nodes(report: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m fmu.bench.nodes [--large K] [--scenes plate panel]``: this section alone,
+    """``python -m fem.bench.nodes [--large K] [--scenes plate panel]``: this section alone,
     figures as text and JSON (``-o FILE``)."""
-    parser = argparse.ArgumentParser(prog="python -m fmu.bench.nodes", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m fem.bench.nodes", description=__doc__)
     parser.add_argument("--large", type=int, default=1_000_000, help="points of the large case")
     parser.add_argument("--no-large", action="store_true", help="skip the large case")
     parser.add_argument("--scenes", nargs="*", default=["plate"], choices=["plate", "panel"])

@@ -13,8 +13,8 @@
 
 JSON on stdout (and ``-o FILE``)::
 
-    python -m fmu.bench.budget -o budget.json
-    python -m fmu.bench.budget --refusals -o refusals.json
+    python -m fem.bench.budget -o budget.json
+    python -m fem.bench.budget --refusals -o refusals.json
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fmu.bench.emit import emit_json
+from fem.bench.emit import emit_json
 from jaxflex.defaults import THRESHOLD_M
 
 CASES = {
@@ -280,7 +280,7 @@ def main(argv: list[str] | None = None) -> int:
     for element, sizes in CASES.items():
         for size in sizes:
             out = subprocess.run(
-                [sys.executable, "-m", "fmu.bench.budget", "--case", element, str(size)],
+                [sys.executable, "-m", "fem.bench.budget", "--case", element, str(size)],
                 capture_output=True,
                 text=True,
                 check=True,

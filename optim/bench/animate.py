@@ -1,6 +1,6 @@
 """The animation's figures, as JSON: the README's press scene animated (optim.animate).
 
-    python -m fmu.bench.animate [-o animate_bench.json] [--repeat 3]
+    python -m optim.bench.animate [-o animate_bench.json] [--repeat 3]
 
 The built-in plate (1.5 x 0.8 m, 20 modes, all 7 854 FE nodes) optimised through
 examples/press_cell.toml as the README's command does (10 mm from the dies, cups at safety

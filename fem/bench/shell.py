@@ -1,7 +1,7 @@
 """Convergence of the shell (DKT + OPT flat facets) against closed forms, published values
 and the thin solid, as JSON and as the tables of docs/fem.md.
 
-    .venv/bin/python -m fmu.bench.shell [--cases leissa donnell locking bracket scene]
+    .venv/bin/python -m fem.bench.shell [--cases leissa donnell locking bracket scene]
                                          [-o shell_bench.json]
 
 leissa   clamped 1 m square plate, 1 mm, lambda_1..6 vs Leissa (1969), 50 ... 12.5 mm
@@ -228,7 +228,7 @@ def case_doors() -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m fmu.bench.shell", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m fem.bench.shell", description=__doc__)
     parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
     parser.add_argument("-o", "--output", default="shell_bench.json", help="JSON file")
     args = parser.parse_args(argv)

@@ -24,7 +24,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from fmu.bench.timing import best_time_s, machine
+from fem.bench.timing import best_time_s, machine
 from jaxflex import cycle_time, cycle_time_smooth, simulate
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.model import ModalModel
@@ -62,7 +62,7 @@ def synthetic_model(case: BenchCase) -> ModalModel:
         gamma=gamma,
         shapes=shapes,
         points=points,
-        meta={"source": "fmu.bench.core synthetic model"},
+        meta={"source": "fem.bench.core synthetic model"},
     )
 
 

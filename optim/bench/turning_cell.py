@@ -1,6 +1,6 @@
 """The cell's constraints and the robust grid on turning moves (optim.turn_cell), as JSON.
 
-    python -m fmu.bench.turning_cell [-o turning_cell_bench.json]
+    python -m optim.bench.turning_cell [-o turning_cell_bench.json]
 
 The scenes of tests/test_optim_turning_cell.py on the same part (a 1.2 x 0.8 m, 1 mm steel
 plate on four cups, 4 modes, 54 points; limits 2 / 10 / 100, 10 ms, 0.5 mm, turns within 3

@@ -1,6 +1,6 @@
 """Wall time of the imports at the preprint's size, as JSON.
 
-    python -m fmu.bench.imports [--nodes 66308] [--steps 1000] [--imports r1 nastran]
+    python -m fem.bench.imports [--nodes 66308] [--steps 1000] [--imports r1 nastran]
                                  [--dir DIR] [-o imports_bench.json]
 
 * R1: the built-in plate meshed finely enough for ``--nodes`` nodes (every mode below 40 Hz,
@@ -11,7 +11,7 @@
   CTRIA3) with its cups, then timed: fem.from_nastran (fem.imports.nastran.bdf read, our plate,
   20 modes).
 ANSYS files of that size cannot be made here (no MAPDL); the .full import is read + our
-eigen solve, which fmu.bench.fem times.
+eigen solve, which fem.bench.fem times.
 """
 
 from __future__ import annotations
@@ -134,7 +134,7 @@ def _nastran_import(result, mesh, cups, workdir: Path) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m fmu.bench.imports", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m fem.bench.imports", description=__doc__)
     parser.add_argument("--nodes", type=int, default=66308, help="R1 rows / deck grids")
     parser.add_argument("--steps", type=int, default=1000, help="R1 time steps of 10 ms")
     parser.add_argument("--dir", help="where to write the R1 CSV and the deck (default: temp)")
