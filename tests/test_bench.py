@@ -15,8 +15,8 @@ from fmu.bench.methods import METHODS, prepare, stable_substeps
 from fmu.bench.metrics import compare, curve_errors, settle_from_samples
 from fmu.bench.turning import format_turning, swivel
 from fmu.bench.turning import run as turning_bench
+from jaxflex._turning import simulate_turning
 from jaxflex.errors import InputError
-from jaxflex.turning import simulate_turning
 
 
 def test_curve_errors_hand_computed():

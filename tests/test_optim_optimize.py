@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 import jaxflex
 import optim
 from fmu.bench.optim import few_mode_model as bench_model
+from jaxflex._trajectory_io import read_trajectory_csv
 from jaxflex.errors import InputError
-from jaxflex.trajectory_io import read_trajectory_csv
 from optim import stages
 from optim.choice import Candidate
 from optim.exact import LPSubsolver
