@@ -621,7 +621,7 @@ def _move(args):
 
 
 def _threshold_advice(model, move: Move, threshold_m: float) -> None:
-    """Warn about a --threshold the sized model cannot mean (jaxflex.advice)."""
+    """Warn about a --threshold the sized model cannot mean (jaxflex._advice)."""
     import numpy as np
 
     from jaxflex.response import analyze_move, deviation_curve

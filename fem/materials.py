@@ -20,7 +20,7 @@ class Material:
         nu: Poisson ratio, 0 <= nu < 0.5.
         rho_kg_m3: density in kg/m^3 (> 0).
         yield_pa: yield strength in Pa (> 0) or None (unknown): the default stress limit of
-            the optimiser is yield / 1.5 (jaxflex.loads).
+            the optimiser is yield / 1.5 (jaxflex._loads).
     """
 
     name: str

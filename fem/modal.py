@@ -494,7 +494,7 @@ def modal_analysis(
             stress (fem.discretisation: a second analysis on a mesh twice as coarse, about a
             fifth of the cost; parts whose mesh is meshed here) as ``result.discretisation``,
             in the model's meta and summary; a JaxflexWarning where it exceeds 2 %.
-        progress: show progress (jaxflex.progress; None: unless the process is quiet).
+        progress: show progress (jaxflex._progress; None: unless the process is quiet).
     """
     t_start = time.perf_counter()
     if not isinstance(part, Part):
@@ -506,7 +506,7 @@ def modal_analysis(
     max_freq_hz = check_request(n_modes, max_freq_hz, zeta)
     check_positive("sigma_hz", sigma_hz)
     check_layout(supports, part, allow_rigid_modes=allow_rigid_modes)
-    # jaxflex.budget, before any meshing
+    # jaxflex._budget, before any meshing
     require(fe_plan(part, n_modes, supports, estimate=error_estimate).need())
     request = _Request(n_modes, zeta, max_freq_hz, allow_rigid_modes, sigma_hz, rigid_tol_hz)
     result = _analyse(part, supports, request, progress, t_start)

@@ -8,7 +8,7 @@ warnings), under a key that hashes the request (every option that changes the mo
 input file's content), the source of
 the ``fem`` and ``jaxflex`` packages and the versions of the libraries the FE solve uses, so
 any change of input, code or library is a new key. Beyond the store's own checks (the
-entry's key and content hash, jaxflex.compile_cache), a model read from it must match the
+entry's key and content hash, jaxflex._compile_cache), a model read from it must match the
 request's fingerprint (:func:`check_fingerprint`: the part, material, gripper, damping, the
 number of modes and of points, the mesh's node count when every node is a point) or it is a
 miss, solved again and replaced. Runs that want the same model at the same time solve it

@@ -16,7 +16,7 @@ A_v = alpha A_acc + beta A_u for Rayleigh damping, and for modal damping the per
 equivalent (2 zeta_i / omega_i) A_u phi_i (stiffness proportional, which reproduces every
 modal damping ratio). Stresses carry no damping force.
 
-The modal outputs (jaxflex.outputs.LinearOutputs) follow by the mode-acceleration method:
+The modal outputs (jaxflex._outputs.LinearOutputs) follow by the mode-acceleration method:
 the quasi-static response to a is taken exactly (z_s = K_ff^-1 b, one sparse solve), the
 modes correct it, z = -z_s a + Phi (q + Omega^-2 Gamma a), z'' = Phi q''. With
 q'' = -Gamma a - 2 Z Omega q' - Omega^2 q this gives
@@ -24,7 +24,7 @@ q'' = -Gamma a - 2 Z Omega q' - Omega^2 q this gives
     Q = A_u Phi - A_acc Phi Omega^2,   V = A_v Phi - A_acc Phi 2 Z Omega,
     S = A_b - A_u z_s  (the exact static response),   A = S + Q Omega^-2 Gamma.      (2)
 
-The model stores S (jaxflex.outputs derives A from the modes it keeps), and the points'
+The model stores S (jaxflex._outputs derives A from the modes it keeps), and the points'
 exact static displacement -T z_s (:func:`static_displacements`, the model's static_shapes).
 
 Checks (tests): summed over the cups, A = m I - sum_i Gamma_i Gamma_i^T and Q = -Omega^2

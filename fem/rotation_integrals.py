@@ -1,4 +1,4 @@
-"""The inertia data of turning moves from an FE modal analysis (jaxflex.rotation).
+"""The inertia data of turning moves from an FE modal analysis (jaxflex._rotation).
 
 The inertia shape integrals S_m[i, j] = phi_m^T M (e_j r_i) need the DOF vectors of the
 linear fields u = e_j r_i (component j equal to the coordinate r_i, m, in the model frame):
@@ -31,7 +31,7 @@ m c_i e_j, moment about the centre of mass from the mass's second moments.
 
 The couplings of the deformation, G_k = phi^T M X_k phi and P_kl = phi^T M X_k X_l phi with
 X_k the DOF operator of u -> e_k x u (:func:`coupling_matrices`; the neglected terms' bound of
-jaxflex.turning): the thin solid's X_k turns each node's translation (its shape functions
+jaxflex._turning): the thin solid's X_k turns each node's translation (its shape functions
 are the same for the three components, so this is exact for its field); the shell's are the
 integrals int rho v_m . (e_k x v_n) dV of its own displacement field
 (fem.elements.shell.ShellOutputs.mass_products: the cubic normal deflection and the fibres; turning
@@ -39,12 +39,12 @@ its nodal rotation vectors, as done before, missed G by 2.4 % against the thin s
 plate's deflection w e_z turned about any axis is in its plane (G_k = 0) and e_k x (e_l x w e_z) has
 the z component (d_kz d_lz - d_kl) w, so P_kl = (d_kz d_lz - d_kl) phi^T M phi (its kinetic energy
 has no rotary inertia: exact); decks and ANSYS imports get none (their DOFs may be in rotated nodal
-systems), and jaxflex.turning falls back to its energy bound.
+systems), and jaxflex._turning falls back to its energy bound.
 
 Every formulation's fields are checked against its own rigid rotations (eps_kij e_j r_i =
 e_k x r: fem.system.FormulationOutputs.rigid_motion) before use. Sources without a mass
 matrix and coordinates (R1 matrices, ``.rst`` results alone, modal results from other
-solvers) get no data: their models refuse turning moves (jaxflex.rotation.require_rotation).
+solvers) get no data: their models refuse turning moves (jaxflex._rotation.require_rotation).
 """
 
 from __future__ import annotations

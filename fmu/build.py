@@ -6,7 +6,7 @@ A binary is built once per input: the store ``fmu-binaries`` of jaxflex's cache
 fmpy's FMI headers; a later build of the same input copies it (a changed model data header
 or source is a new key; the FMU's file name is not in it: the instantiation token the
 sources carry is derived from the content alone, fmu.archive.content_token). The store
-checks every entry it returns (jaxflex.compile_cache); two runs building the same binary at
+checks every entry it returns (jaxflex._compile_cache); two runs building the same binary at
 once build it once. Whether compiled or copied, every binary is checked in the FMU before
 the FMU is reported built (fmu.binary_check: it loads, exports every FMI function, and one
 step of the part agrees with the engine); a copied binary that fails is compiled again.

@@ -148,7 +148,7 @@ def load_case(path: Path) -> tuple[Move, dict | None]:
     """(the Move, report dict or None) from an optimize folder or a CSV.
 
     The trajectory and its report are used together only as members of one complete result
-    set (jaxflex.fileset: the manifest lists both with their hashes): a folder whose run was
+    set (jaxflex._fileset: the manifest lists both with their hashes): a folder whose run was
     interrupted, or a CSV beside a report of another run, is refused naming the file."""
     from jaxflex.files import read_set, read_trajectory_csv
     from optim.result import RESULT_KIND

@@ -49,9 +49,9 @@ DEFAULT_RTOL = 1e-9
 FMU_HOSTS = ("ecospy", "libcosimpy")
 SSP_HOSTS = ("fmpy", "ecospy", "libcosimpy", "jaxflex-master")
 _LINEAR = "jaxflex.simulate (linear between samples)"
-_HELD = "exact zero-order hold of the samples (jaxflex.engine)"
+_HELD = "exact zero-order hold of the samples (jaxflex's engine)"
 _TURNING = "jaxflex.simulate_turning (forcing linear between the pose samples)"
-_TURNING_HELD = "exact zero-order hold of the pose samples' forcing (jaxflex.engine)"
+_TURNING_HELD = "exact zero-order hold of the pose samples' forcing (jaxflex's engine)"
 _FMPY_TURNING = (
     "fmpy's simulate_ssp starts every connection at 0 instead of the source's first output: "
     "a zero quaternion, which the turning part refuses"

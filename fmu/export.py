@@ -133,7 +133,7 @@ def _check_trajectory(trajectory) -> tuple[np.ndarray | None, float | None]:
 
 def _case_summary(model, acc, dt_s, threshold_m, case, turning, pose) -> dict[str, Any]:
     """Limits, threshold and the exact cycle time of the exported move (a turning part's:
-    of its ``pose`` path with jaxflex.turning)."""
+    of its ``pose`` path with jaxflex._turning)."""
     case = dict(case or {})
     summary: dict[str, Any] = {
         "threshold_m": threshold_m,
@@ -240,7 +240,7 @@ def _turning_data(
     if pose is None:
         raise InputError(
             "pose: a turning part's embedded move needs its orientation path (a "
-            "jaxflex.pose.PosePath at the trajectory's samples; --trajectory: the turn of "
+            "jaxflex.response.PosePath at the trajectory's samples; --trajectory: the turn of "
             "`jaxflex optimize --rotate`)"
         )
     return TurningData(pivot, gravity, pose_samples(check_pose(pose, acc.shape[0], dt_s)))
@@ -251,7 +251,7 @@ def check_pose(pose: PosePath, n_samples: int, dt_s: float) -> PosePath:
     that starts and ends at rest with rotations (orthonormal, det +1), else InputError
     naming ``pose`` and what is wrong."""
     if not isinstance(pose, PosePath):
-        raise InputError(f"pose: expected a jaxflex.pose.PosePath, got {type(pose).__name__}")
+        raise InputError(f"pose: expected a jaxflex.response.PosePath, got {type(pose).__name__}")
     shapes = [np.shape(pose.rotation), np.shape(pose.omega_rad_s), np.shape(pose.alpha_rad_s2)]
     if shapes != [(n_samples, 3, 3), (n_samples, 3), (n_samples, 3)]:
         raise InputError(
@@ -324,7 +324,7 @@ def export_fmu(
         damping_scale: start value of the ``damping_scale`` parameter.
         model_name, description: text for modelDescription.xml.
         windows: build the Windows DLL too: None = when mingw-w64 is installed, True = must.
-        cell: a jaxflex.cell.Cell: the model is posed in it (inputs and points in cell
+        cell: a jaxflex._cell.Cell: the model is posed in it (inputs and points in cell
             coordinates, the trajectory too) and the FMU reports the distance to its
             obstacles (``min_distance``; FMI 3.0 also ``point_distances``).
         cup_safety: safety factor of the cup utilisation outputs (``cup_utilisation``; FMI 3.0
@@ -334,15 +334,15 @@ def export_fmu(
         turning: the part turns: the FMU takes the pose as inputs as well (the orientation
             quaternion quat_w..quat_z body -> world, the angular velocity omega_x..z and
             acceleration alpha_x..z in body components; ax, ay, az the world acceleration of
-            ``pivot_m``) and is forced as jaxflex.turning (needs the model's rotation data).
+            ``pivot_m``) and is forced as jaxflex._turning (needs the model's rotation data).
             With a ``trajectory`` it embeds the move of poses: ``acc`` the pivot's world
             acceleration and ``pose``. The cell's outputs follow the turning part
-            (jaxflex.turning_outputs, jaxflex.turning_collision; with a ``cell`` the pivot
+            (jaxflex._turning_outputs, jaxflex._turning_collision; with a ``cell`` the pivot
             is in its coordinates at the start, the posed model's frame, and gravity the
             cell's).
         pivot_m: (3,) m, model frame: the point whose acceleration ax, ay, az are (turning).
         gravity_m_s2: (3,) m/s^2 in world components (turning; the cell's otherwise).
-        pose: a turning part's embedded orientation path (jaxflex.pose.PosePath at the
+        pose: a turning part's embedded orientation path (jaxflex._pose.PosePath at the
             trajectory's samples and step, starting and ending at rest), replayed with
             ``acc`` as jaxflex.simulate_turning does (the forcing linear between samples).
     """

@@ -1,7 +1,7 @@
 """The obstacle records of the FMU resource: ONE table of kinds for the Python writer and the
 C reader.
 
-Every obstacle of a jaxflex.cell.Cell is written as records of :data:`RECORD_VALUES` f64
+Every obstacle of a jaxflex._cell.Cell is written as records of :data:`RECORD_VALUES` f64
 values: the kind's code, then its values (:attr:`ObstacleKind.layout`, padded with 0). The C
 reader (``fmu/c/jxf_cell.c``) sees the same table as macros of the generated ``jxf_config.h``
 (:func:`config_lines`: ``JXF_OBSTACLE_<NAME>`` codes and the list of codes); it refuses a
@@ -26,7 +26,7 @@ RECORD_VALUES = 16
 @dataclass(frozen=True)
 class ObstacleKind:
     """One kind of record: ``name`` (in messages; C macro ``JXF_OBSTACLE_<NAME>``), ``code``
-    (the record's first value), the jaxflex.cell class written as it, the function giving that
+    (the record's first value), the jaxflex._cell class written as it, the function giving that
     obstacle's records (rows of values after the code, m) and the layout of those values."""
 
     name: str
@@ -61,7 +61,7 @@ def allowed_kinds() -> str:
 
 
 def obstacle_records(obstacles: Iterable) -> np.ndarray:
-    """(O, RECORD_VALUES) records of jaxflex.cell obstacles (a mesh gives one per triangle);
+    """(O, RECORD_VALUES) records of jaxflex._cell obstacles (a mesh gives one per triangle);
     InputError naming an obstacle whose kind is not in :data:`OBSTACLE_KINDS`."""
     by_class = {kind.obstacle: kind for kind in OBSTACLE_KINDS}
     rows = []

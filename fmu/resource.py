@@ -19,7 +19,7 @@ Format version 3, little-endian throughout (read by ``fmu/c/jxf_core.c``):
                          last R "modes" are the static residual D, m per m/s^2, whose
                          coordinates are the base acceleration: u = Phi q + D a; for
                          R = 12 then D_rot, m s^2, whose coordinates are the rotational
-                         load coefficients b: + D_rot b, jaxflex.rotation_residual),
+                         load coefficients b: + D_rot b, jaxflex._rotation_residual),
                          points (K, 3) m, trajectory (N, 3) m/s^2; then, when C + S + O > 0,
                          the cell (:class:`CellData`): gravity (3) m/s^2, cup safety factor,
                          half the part's thickness (m); cups: normals (C, 3), radii (C) m,
@@ -29,15 +29,15 @@ Format version 3, little-endian throughout (read by ``fmu/c/jxf_core.c``):
                          points at rest under gravity (K, 3) m and the records (O, 16) of
                          :func:`fmu.obstacles.obstacle_records`; then, when T = 1, the
                          turning part (:class:`TurningData`): the inertia shape integrals
-                         S (M, 3, 3) kg^0.5 m (jaxflex.rotation), the pivot (3) m in the
+                         S (M, 3, 3) kg^0.5 m (jaxflex._rotation), the pivot (3) m in the
                          model frame, gravity (3) m/s^2 in world components, the
                          embedded move's poses (N, 10: :func:`pose_samples`) and the maps
-                         A_rot (jaxflex.rotation_residual.output_residual) of the cups
+                         A_rot (jaxflex._rotation_residual.output_residual) of the cups
                          (6C, 9) and stresses (6S, 9); a turning part's cell has no rest
                          terms (zeros: its state carries the sag)
     end     u32 CRC-32 (zlib) of everything before it, u32 0
 
-The outputs are y = Q q + V v + A a + y_rest (jaxflex.outputs: y_rest = -S g, exact), the
+The outputs are y = Q q + V v + A a + y_rest (jaxflex._outputs: y_rest = -S g, exact), the
 distance that of the part's skins (the mid-surface's less half the thickness).
 """
 
@@ -97,7 +97,7 @@ class Counts:
 
 @dataclass(frozen=True)
 class TurningData:
-    """What a turning part's FMU needs besides the model (the forcing of jaxflex.turning):
+    """What a turning part's FMU needs besides the model (the forcing of jaxflex._turning):
     the ``pivot_m`` (3,) m in the model frame, whose world acceleration the inputs ax, ay, az
     are, and ``gravity_m_s2`` (3,) in world components; with an embedded move its poses
     ``pose_samples`` (N, 10) (:func:`pose_samples`, at the trajectory's samples). The
@@ -116,7 +116,7 @@ POSE_VALUES = 10  # per pose sample: quaternion (w, x, y, z), omega (3), alpha (
 
 
 def pose_samples(path) -> np.ndarray:
-    """(n+1, 10) the samples of the jaxflex.pose.PosePath ``path`` as the FMU embeds them:
+    """(n+1, 10) the samples of the jaxflex._pose.PosePath ``path`` as the FMU embeds them:
     the orientation as a unit quaternion body -> world, scalar first (w, x, y, z, Hamilton),
     then the angular velocity (rad/s) and acceleration (rad/s^2) in body components."""
     quat = Rotation.from_matrix(np.asarray(path.rotation)).as_quat(scalar_first=True)
@@ -196,7 +196,7 @@ def _output_maps(outputs, gravity: np.ndarray) -> list[np.ndarray]:
 def static_count(model: ModalModel, turning: bool = False) -> int:
     """R: the coordinates of the static residual: 3 where the model has one (driven by the
     base acceleration), 12 for a turning part whose model also has the static response to
-    the rotational loads (then the nine load coefficients b of jaxflex.rotation_residual
+    the rotational loads (then the nine load coefficients b of jaxflex._rotation_residual
     follow), else 0."""
     if model.static_residual is None:
         return 0
@@ -205,7 +205,7 @@ def static_count(model: ModalModel, turning: bool = False) -> int:
 
 def resource_shapes(model: ModalModel, turning: bool = False) -> np.ndarray:
     """(M + R, 3, K) the shapes the FMU evaluates: the modes, then the static residual (and,
-    for a turning part, the rotational one, jaxflex.rotation_residual)."""
+    for a turning part, the rotational one, jaxflex._rotation_residual)."""
     shapes = np.asarray(model.shapes)
     if model.static_residual is not None:
         shapes = np.concatenate([shapes, np.asarray(model.static_residual)], axis=2)

@@ -269,7 +269,7 @@ def config_header(
         f"#define JXF_START_THRESHOLD {float(threshold_m)!r}",
         f"#define JXF_START_DAMPING_SCALE {float(damping_scale)!r}",
     ]
-    lines += [  # the physical ranges every model is checked against (jaxflex.model_file)
+    lines += [  # the physical ranges every model is checked against (jaxflex._model_file)
         f"#define JXF_RANGE_{name.upper()} {float(low)!r}, {float(high)!r}"
         for name, (low, high) in VALUE_RANGES.items()
     ]

@@ -3,12 +3,12 @@
 Three ways to drive the FMU, each with the reference that describes it exactly:
 
 - "embedded": ``use_embedded_trajectory = true``; the FMU replays its own trajectory (linear
-  between samples). Reference: the exact recursion (jaxflex.engine) of the same samples.
+  between samples). Reference: the exact recursion (jaxflex._engine) of the same samples.
 - "linear" (FMI 2.0): inputs set with their time derivatives (fmi2SetRealInputDerivatives),
   so the acceleration is linear over each step; driven by :class:`fmu.master.Session` (fmpy's
   FMU2Slave). Reference: the same.
 - "held": inputs only (FMI 3.0, or FMI 2.0 on request), constant over each step. Reference:
-  the exact zero-order-hold recursion (jaxflex.engine, ``hold="zero"``).
+  the exact zero-order-hold recursion (jaxflex._engine, ``hold="zero"``).
 """
 
 from __future__ import annotations
@@ -235,7 +235,7 @@ def verify(
     ref_dev, ref_disp = reference_response(
         simulated_model(stored, path), acc, dt_s, n_steps, hold=hold, points=points
     )
-    reference = f"jaxflex.engine ({'zero-order hold' if mode == 'held' else 'first-order hold'})"
+    reference = f"jaxflex's engine ({'zero-order hold' if mode == 'held' else 'first-order hold'})"
     diff_p = rel_p = None
     if points:
         disp = np.asarray(result["displaced_points"]) - np.asarray(stored.model.points)[None]

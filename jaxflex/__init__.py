@@ -31,7 +31,8 @@ The layers above take names from these submodules (``from jaxflex.model import
 ModalModel``), not from this package's ``__init__``, which a reader's child process does not
 run; the submodules re-export what they need of this package's names.
 
-Every other submodule is private to the core and free to change.
+Every other submodule is private to the core (its name begins with an underscore) and free
+to change.
 """
 
 from importlib.metadata import version
@@ -40,7 +41,17 @@ from typing import TYPE_CHECKING
 from jaxflex.lazy import after_import, lazy_names
 
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): `import jaxflex` loads no JAX
-    from jaxflex.engine import free_states, modal_states, upsample
+    from jaxflex._engine import free_states, modal_states, upsample
+    from jaxflex._profile import Move, as_move, integrate, jerk_limited_move
+    from jaxflex._settle import SettleReport, analyze_move, cycle_time, settle_time
+    from jaxflex._simulate import Response, batch_deviation, end_state, simulate
+    from jaxflex._surrogate import (
+        cycle_time_smooth,
+        envelope_time,
+        soft_max,
+        soft_max_excess,
+    )
+    from jaxflex._turning import Turn, TurningResponse, simulate_turning
     from jaxflex.errors import (
         BudgetError,
         InputError,
@@ -50,16 +61,6 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): `import jaxflex` load
         ModelFileError,
     )
     from jaxflex.model import ModalModel, load_model, save_model, stack_models
-    from jaxflex.profile import Move, as_move, integrate, jerk_limited_move
-    from jaxflex.settle import SettleReport, analyze_move, cycle_time, settle_time
-    from jaxflex.simulate import Response, batch_deviation, end_state, simulate
-    from jaxflex.surrogate import (
-        cycle_time_smooth,
-        envelope_time,
-        soft_max,
-        soft_max_excess,
-    )
-    from jaxflex.turning import Turn, TurningResponse, simulate_turning
 
 __getattr__, __dir__ = lazy_names(__name__)
 __all__ = [

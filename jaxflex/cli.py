@@ -15,7 +15,7 @@ packages import their names on first use, jaxflex.lazy; a command module imports
 its ``run`` after checking its options and files), so ``--version``, ``--help`` and argument
 errors answer without JAX, SciPy or scikit-fem; the list that ``jaxflex --help`` prints is
 read from the literals in each command module's source, without running it. Every command
-runs with JAX's persistent compilation cache (jaxflex.compile_cache), set up as JAX is
+runs with JAX's persistent compilation cache (jaxflex._compile_cache), set up as JAX is
 imported.
 """
 
@@ -34,12 +34,12 @@ from dataclasses import dataclass
 from importlib.metadata import entry_points, version
 from pathlib import Path
 
-from jaxflex import compile_cache
-from jaxflex.budget import DEFAULT_TIME_S, make_budget, use_budget
+from jaxflex import _compile_cache as compile_cache
+from jaxflex._budget import DEFAULT_TIME_S, make_budget, use_budget
+from jaxflex._progress import set_quiet, step
+from jaxflex._scalars import check_positive
+from jaxflex._undo import whole_or_absent
 from jaxflex.errors import InputError, JaxflexError, JaxflexWarning
-from jaxflex.progress import set_quiet, step
-from jaxflex.scalars import check_positive
-from jaxflex.undo import whole_or_absent
 
 # the command plugin interface (public): what a subcommand's module may use
 __all__ = ["AXIS_LIMITS", "add_axis_limits", "axis_limit_values", "main"]
@@ -229,7 +229,7 @@ def _warning_printer(command: str, fallback):
 
 
 def add_budget_arguments(parser: argparse.ArgumentParser) -> None:
-    """--max-memory and --max-time, the budget of every command (jaxflex.budget)."""
+    """--max-memory and --max-time, the budget of every command (jaxflex._budget)."""
     parser.add_argument(
         "--max-memory",
         type=float,

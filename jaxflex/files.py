@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from jaxflex.atomic import (
+from jaxflex._atomic import (
     atomic_open,
     atomic_path,
     check_target,
@@ -27,7 +27,7 @@ from jaxflex.atomic import (
     remove_stale_temporaries,
     write_text_atomic,
 )
-from jaxflex.fileset import (
+from jaxflex._fileset import (
     MANIFEST,
     SetWriter,
     check_set_dir,
@@ -35,25 +35,25 @@ from jaxflex.fileset import (
     read_set,
     writing,
 )
-from jaxflex.inputs import (
+from jaxflex._inputs import (
     check_input_file,
     check_text_file,
     named,
     read_settings_file,
     read_text,
 )
-from jaxflex.lazy import lazy_names
-from jaxflex.model_file import read_model_file
-from jaxflex.scalars import check_positive
-from jaxflex.undo import kept_writes, whole_or_absent
-from jaxflex.validation import (
+from jaxflex._model_file import read_model_file
+from jaxflex._scalars import check_positive
+from jaxflex._undo import kept_writes, whole_or_absent
+from jaxflex._validation import (
     check_output_dir,
     check_output_file,
 )
+from jaxflex.lazy import lazy_names
 
 if TYPE_CHECKING:  # they load JAX: imported on first use (jaxflex.lazy), the checks at once
-    from jaxflex.convolution import read_unit_response_csv
-    from jaxflex.trajectory_io import read_trajectory_csv, read_turn_csv, write_trajectory_csv
+    from jaxflex._convolution import read_unit_response_csv
+    from jaxflex._trajectory_io import read_trajectory_csv, read_turn_csv, write_trajectory_csv
 
 __getattr__, __dir__ = lazy_names(__name__)
 

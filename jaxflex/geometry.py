@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from jaxflex.lazy import lazy_names
 
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only its module
-    from jaxflex.cell import (
+    from jaxflex._cell import (
         DEFAULT_GRAVITY_M_S2,
         Box,
         Cell,
@@ -26,7 +26,7 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
         Via,
         rotation_from_degrees,
     )
-    from jaxflex.collision import (
+    from jaxflex._collision import (
         BLOCK_POINTS,
         Approaches,
         Clearance,
@@ -41,7 +41,7 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
         part_half_thickness,
         positions_at,
     )
-    from jaxflex.turning_collision import (
+    from jaxflex._turning_collision import (
         rotations_between,
         turning_min_distance,
         turning_positions_at,

@@ -6,7 +6,7 @@ an abort), allocate without bound or loop. Decorated with :func:`isolated`, a re
 a fresh interpreter (``subprocess``: allowed in dask's daemonic workers, where
 multiprocessing may not start children) that imports only the reader's own module (its
 packages' ``__init__`` are not run: no JAX, no scikit-fem where the reader does not need
-them), under the process's budget (jaxflex.budget): its address space is limited to the
+them), under the process's budget (jaxflex._budget): its address space is limited to the
 memory budget on top of what its imports mapped (``RLIMIT_AS``), and it is stopped when the
 time budget runs out. The result comes back pickled (numpy arrays, dataclasses of them).
 
@@ -22,11 +22,11 @@ Inside the child the decorated functions run directly (a reader that calls anoth
 stays in the same child).
 
 The child ends with its parent, however the parent ends (SIGTERM, SIGKILL, Ctrl-C, its
-budget): it asks for the parent-death signal first thing (jaxflex.children.GUARD, Linux),
+budget): it asks for the parent-death signal first thing (jaxflex._children.GUARD, Linux),
 and a thread of it exits the process when its lifeline, a pipe whose other end only the
 parent holds, closes (every POSIX system). Other programs a command runs (a compiler, a
 test harness, wine) go through :func:`run_child`, ``subprocess.run`` whose child dies with
-the command the same way (jaxflex.children).
+the command the same way (jaxflex._children).
 """
 
 from __future__ import annotations
@@ -41,11 +41,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
-from jaxflex.budget import current_budget, format_bytes, format_seconds
-from jaxflex.children import GUARD
-from jaxflex.children import run as run_child
+from jaxflex._budget import current_budget, format_bytes, format_seconds
+from jaxflex._children import GUARD
+from jaxflex._children import run as run_child
+from jaxflex._inputs import check_input_file
 from jaxflex.errors import BudgetError, InputError, JaxflexError
-from jaxflex.inputs import check_input_file
 
 __all__ = ["isolated", "run_child"]
 

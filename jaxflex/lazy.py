@@ -36,9 +36,9 @@ __all__ = ["lazy_names"]
 
 class _LazyModule(types.ModuleType):
     """A module whose lazily imported names stay what its imports say: importing a submodule
-    that shares a public name (``jaxflex.simulate``, ``optim.optimize``) does not replace the
-    name by the submodule (the import system binds every submodule to its package's
-    attribute); the name is the function, as when the package imported it eagerly."""
+    that shares a public name (``optim.optimize``) does not replace the name by the submodule
+    (the import system binds every submodule to its package's attribute); the name is the
+    function, as when the package imported it eagerly."""
 
     _lazy_sources: Mapping[str, str] = {}
 

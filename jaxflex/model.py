@@ -22,9 +22,8 @@ from typing import Any
 import jax
 import numpy as np
 
-from jaxflex.errors import ModelError
-from jaxflex.model_file import ARRAY_FIELDS, VALUE_RANGES, read_model_file, write_model_file
-from jaxflex.outputs import (
+from jaxflex._model_file import ARRAY_FIELDS, VALUE_RANGES, read_model_file, write_model_file
+from jaxflex._outputs import (
     CupSet,
     LinearOutputs,
     StressSet,
@@ -36,11 +35,12 @@ from jaxflex.outputs import (
     stress_to_fields,
     voigt_rotation,
 )
-from jaxflex.rotation import RotationalInertia, checked_rotation, posed_tensor
-from jaxflex.validation import is_validated, validated
+from jaxflex._rotation import RotationalInertia, checked_rotation, posed_tensor
+from jaxflex._validation import is_validated, validated
+from jaxflex.errors import ModelError
 
 # Data derived from a concrete model's shapes and points alone (the point blocks of
-# jaxflex.deviation and jaxflex.settle), shared by every model with the same arrays: the
+# jaxflex._deviation and jaxflex._settle), shared by every model with the same arrays: the
 # models a robust grid derives (other frequencies or damping) keep them (a validated array
 # is not copied). (id(shapes), id(points)) -> (weak references to both, the cache).
 _SHAPE_CACHES: dict[tuple[int, int], tuple[weakref.ref, weakref.ref, dict]] = {}
@@ -117,7 +117,7 @@ def _checked_surface(value: Any, n_points: int) -> np.ndarray:
 
 
 def _check_range(name: str, arr: np.ndarray) -> None:
-    """Values within jaxflex.model_file.VALUE_RANGES (where it says why)."""
+    """Values within jaxflex._model_file.VALUE_RANGES (where it says why)."""
     low, high = VALUE_RANGES[name]
     outside = (arr < low) | (arr > high)
     if outside.any():
@@ -142,8 +142,8 @@ class ModalModel:
         points: (K, 3) undeformed point coordinates in m.
         labels: optional K point labels (e.g. "weld_3"); empty strings for unlabelled points.
         meta: free JSON-serialisable description (source, material, gripper, mesh).
-        cups: optional jaxflex.outputs.CupSet (the suction cups and their reactions).
-        stress: optional jaxflex.outputs.StressSet (surface stresses).
+        cups: optional jaxflex._outputs.CupSet (the suction cups and their reactions).
+        stress: optional jaxflex._outputs.StressSet (surface stresses).
         static_shapes: optional (K, 3, 3) exact static displacement of the points per unit
             base acceleration, m per m/s^2: column d is the part at rest under a constant
             unit acceleration of its gripper along d (the FE's static solve, fem). The
@@ -152,7 +152,7 @@ class ModalModel:
             kept: the mode-acceleration method), and gravity g sags the part at rest by
             -static_shapes g. None: only the modes are known (D = 0; the sag from the modes,
             truncated).
-        rotation: optional jaxflex.rotation.RotationalInertia (inertia shape integrals and
+        rotation: optional jaxflex._rotation.RotationalInertia (inertia shape integrals and
             the rigid inertia: what moves that turn the part need). None: the model cannot
             turn the part.
         surface: optional (T, 3) int point indices: the triangles of the surface the points
@@ -260,7 +260,7 @@ class ModalModel:
             if value is not None:
                 if not isinstance(value, kind):
                     raise ModelError(
-                        f"ModalModel.{name}: expected jaxflex.outputs.{kind.__name__} or None, "
+                        f"ModalModel.{name}: expected jaxflex.response.{kind.__name__} or None, "
                         f"got {type(value).__name__}"
                     )
                 object.__setattr__(self, name, check(value, freq, gamma))
@@ -481,7 +481,7 @@ class ModalModel:
     def with_outputs(
         self, *, cups: CupSet | None = None, stress: StressSet | None = None
     ) -> ModalModel:
-        """Same model with the cups and/or the stresses given replaced (jaxflex.outputs)."""
+        """Same model with the cups and/or the stresses given replaced (jaxflex._outputs)."""
         changes = {k: v for k, v in (("cups", cups), ("stress", stress)) if v is not None}
         return self._replace(**changes)
 
@@ -513,7 +513,7 @@ class ModalModel:
 
     def _static_posers(self) -> dict[str, Any]:
         """For RotationalInertia.posed: how each static response to the rotational loads
-        moves to another frame (jaxflex.rotation.posed_tensor with the translation's static
+        moves to another frame (jaxflex._rotation.posed_tensor with the translation's static
         response of the same quantity and the rotation of its rows)."""
         out: dict[str, Any] = {}
         if self.static_shapes is not None:
@@ -551,7 +551,7 @@ class ModalModel:
         return ModalModel(**fields)
 
     def save(self, path) -> None:
-        """Write the model to a versioned ``.npz`` file, atomically (jaxflex.model_file)."""
+        """Write the model to a versioned ``.npz`` file, atomically (jaxflex._model_file)."""
         arrays = {name: getattr(self, name) for name in ARRAY_FIELDS}
         if self.static_shapes is not None:
             arrays["static_shapes"] = self.static_shapes
@@ -664,7 +664,7 @@ def _legacy_static(version: int) -> str:
 def stack_models(models: Sequence[ModalModel]) -> ModalModel:
     """B models of equal size (K points, M modes) as one model whose arrays have a leading
     batch axis (B, ...): the input of ``jax.vmap`` over models and of
-    jaxflex.simulate.batch_deviation. Labels and meta are those of the first model."""
+    jaxflex._simulate.batch_deviation. Labels and meta are those of the first model."""
     models = list(models)
     if not models:
         raise ModelError("stack_models: needs at least one model")

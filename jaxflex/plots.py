@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 from matplotlib.ticker import FuncFormatter
 
-from jaxflex.atomic import atomic_open
+from jaxflex._atomic import atomic_open
 
 __all__ = ["PLAIN", "PLAIN_MINOR", "deviation_axes", "plt", "save_figure"]
 

@@ -12,13 +12,13 @@ from typing import TYPE_CHECKING
 from jaxflex.lazy import lazy_names
 
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only its module
-    from jaxflex.analytic import cylindrical_panel_frequencies_hz, simply_supported_plate
-    from jaxflex.convolution import (
+    from jaxflex._analytic import cylindrical_panel_frequencies_hz, simply_supported_plate
+    from jaxflex._convolution import (
         convolve_unit_response,
         deviation_from_displacement,
         unit_response,
     )
-    from jaxflex.integrators import central_difference_modal, newmark_modal
+    from jaxflex._integrators import central_difference_modal, newmark_modal
 
 __getattr__, __dir__ = lazy_names(__name__)
 

@@ -19,12 +19,12 @@ from typing import TYPE_CHECKING
 from jaxflex.lazy import lazy_names
 
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only its module
-    from jaxflex.decay import (
+    from jaxflex._decay import (
         amplitudes,
         envelope_horizon,
         free_rows,
     )
-    from jaxflex.deviation import (
+    from jaxflex._deviation import (
         component_blocks,
         deviation,
         deviation_curve,
@@ -35,7 +35,7 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
         response_shapes,
         with_acceleration,
     )
-    from jaxflex.engine import (
+    from jaxflex._engine import (
         end_state_map,
         forced_states,
         free_states,
@@ -49,25 +49,25 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
         states_between,
         upsample,
     )
-    from jaxflex.grid import (
+    from jaxflex._grid import (
         grid_values,
     )
-    from jaxflex.loads import (
+    from jaxflex._loads import (
         DEFAULT_CUP_SAFETY,
         DEFAULT_STRESS_SAFETY,
         CupUtilisation,
         VonMises,
     )
-    from jaxflex.model_file import (
+    from jaxflex._model_file import (
         ARRAY_FIELDS,
         VALUE_RANGES,
     )
-    from jaxflex.outputs import (
+    from jaxflex._outputs import (
         CupSet,
         LinearOutputs,
         StressSet,
     )
-    from jaxflex.peaks import (
+    from jaxflex._peaks import (
         Peak,
         SearchState,
         certified_max,
@@ -78,12 +78,12 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
         outputs_above,
         settling_windows,
     )
-    from jaxflex.points import (
+    from jaxflex._points import (
         downsample_to_count,
         snap_key_points,
         voxel_downsample,
     )
-    from jaxflex.pose import (
+    from jaxflex._pose import (
         PosePath,
         axis_angle,
         axis_rotation,
@@ -93,7 +93,7 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
         turn_acceleration,
         unit_axis,
     )
-    from jaxflex.profile import (
+    from jaxflex._profile import (
         Move,
         acceleration_at,
         as_move,
@@ -105,8 +105,8 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
         position_weights,
         samples_at,
     )
-    from jaxflex.rotation import LEVI_CIVITA, RotationalInertia, require_rotation
-    from jaxflex.rotation_residual import (
+    from jaxflex._rotation import LEVI_CIVITA, RotationalInertia, require_rotation
+    from jaxflex._rotation_residual import (
         load_coefficients,
         output_residual,
         rotation_residual,
@@ -114,13 +114,13 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
         turning_coordinates,
         turning_shapes,
     )
-    from jaxflex.settle import SettleReport, analyze_move
-    from jaxflex.simulate import (
+    from jaxflex._settle import SettleReport, analyze_move
+    from jaxflex._simulate import (
         move_deviation,
         on_device,
     )
-    from jaxflex.surrogate import soft_max
-    from jaxflex.turning import (
+    from jaxflex._surrogate import soft_max
+    from jaxflex._turning import (
         GRAVITY_M_S2,
         Turn,
         TurningInputs,
@@ -132,8 +132,8 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
         turning_inputs,
         turning_settle,
     )
-    from jaxflex.turning_outputs import TurningLoads, turning_loads
-    from jaxflex.turning_peaks import turning_output_peak
+    from jaxflex._turning_outputs import TurningLoads, turning_loads
+    from jaxflex._turning_peaks import turning_output_peak
 
 __getattr__, __dir__ = lazy_names(__name__)
 

@@ -13,30 +13,30 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from jaxflex.budget import (
+from jaxflex._budget import (
     Need,
     check_time,
     current_budget,
     format_bytes,
     require,
 )
-from jaxflex.compile_cache import ENV_VAR as COMPILE_CACHE_ENV
-from jaxflex.compile_cache import SUFFIX as COMPILE_CACHE_SUFFIX
-from jaxflex.compile_cache import FileStore as CacheStore
-from jaxflex.compile_cache import enable as enable_compile_cache
-from jaxflex.compile_cache import fetch as cache_fetch
-from jaxflex.compile_cache import pack_text as cache_pack_text
-from jaxflex.compile_cache import store as cache_store
-from jaxflex.compile_cache import unpack_text as cache_unpack_text
-from jaxflex.lazy import lazy_names
-from jaxflex.progress import (
+from jaxflex._compile_cache import ENV_VAR as COMPILE_CACHE_ENV
+from jaxflex._compile_cache import SUFFIX as COMPILE_CACHE_SUFFIX
+from jaxflex._compile_cache import FileStore as CacheStore
+from jaxflex._compile_cache import enable as enable_compile_cache
+from jaxflex._compile_cache import fetch as cache_fetch
+from jaxflex._compile_cache import pack_text as cache_pack_text
+from jaxflex._compile_cache import store as cache_store
+from jaxflex._compile_cache import unpack_text as cache_unpack_text
+from jaxflex._progress import (
     note,
     progress_bar,
     step,
 )
+from jaxflex.lazy import lazy_names
 
 if TYPE_CHECKING:  # it reads models (JAX): imported on first use (jaxflex.lazy)
-    from jaxflex.advice import Advice, issue, model_resolution, threshold_advice
+    from jaxflex._advice import Advice, issue, model_resolution, threshold_advice
 
 __getattr__, __dir__ = lazy_names(__name__)
 

@@ -1,4 +1,4 @@
-"""Advice on the robust check grid (jaxflex.advice has the threshold's): a range with width
+"""Advice on the robust check grid (jaxflex._advice has the threshold's): a range with width
 checked at too few points. ``optim.optimize`` puts every advice on its result (report
 ``warnings``) and issues it as a jaxflex.errors.JaxflexWarning.
 """

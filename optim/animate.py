@@ -2,7 +2,7 @@
 
 :func:`animate` (``jaxflex optimize ... --animate``; ``jaxflex animate RESULT_DIR`` for a
 result written before) writes into ``RESULT_DIR/animation/`` one set of files
-(jaxflex.fileset, kind ``jaxflex.animation``):
+(jaxflex._fileset, kind ``jaxflex.animation``):
 
 * ``part.xdmf`` over ``part.h5``: the part's surface at every frame, for ParaView
   (optim.animate_series; the fields it carries are listed there);

@@ -13,7 +13,7 @@ and the displacement d_k from the rigid pose (the sag under gravity and the vibr
 its static residual). Each frame carries d (scalable in the viewers), the deviation |u_k|
 about the sag of the current pose (what the threshold limits), von Mises at the model's
 stress points (the nearest one drawn at each surface point) and the distance of each point
-(its ball of half the thickness, as jaxflex.collision certifies) to the nearest obstacle.
+(its ball of half the thickness, as jaxflex._collision certifies) to the nearest obstacle.
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ holes and notches stay open), else as a point cloud; :attr:`Surface.kind` and
 
 A sheet is drawn as its two skins, each half the thickness off the mid-surface along the
 node's normal at rest (the area-weighted normal of its triangles), closed along the
-boundary by the sheet's edge: the surface jaxflex.collision certifies the distance of (its
+boundary by the sheet's edge: the surface jaxflex._collision certifies the distance of (its
 ball of half the thickness about each mid-surface point; exact where a skin faces the
 obstacle). :func:`reduced` thins a surface for the browser page by clustering its points on
 a grid, keeping one real point per cluster (so every value drawn is the engine's at a point).

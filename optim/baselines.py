@@ -67,7 +67,7 @@ class Baseline:
     constraints: list[dict] | None = None  # their certified values for this move
     clearance_ok: bool = True  # its deviation during the move within the clearance, if any
     angular_acc: np.ndarray | None = None  # (n+1,) rad/s^2: the turn with the move, if any
-    neglected_bound_m: float | None = None  # turning moves: jaxflex.turning's bound
+    neglected_bound_m: float | None = None  # turning moves: jaxflex._turning's bound
 
     @property
     def acc(self) -> np.ndarray:

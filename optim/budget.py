@@ -12,7 +12,7 @@ during it.
   the modal end state (M x 2 x (n+1) x 3 values) and its rows in the LP, and with a clearance
   limit the response during the move at every dt / 8 (8n x M x (n+1) values).
   :func:`search_bytes` estimates them at n steps; the search never builds a problem above the
-  memory budget (jaxflex.budget: ``--max-memory``, default half the machine's memory), and a
+  memory budget (jaxflex._budget: ``--max-memory``, default half the machine's memory), and a
   request whose shortest move is already above it is refused up front. A robust grid's
   models are kept once built (:func:`models_need`: a few arrays per point each).
 * **Time.** :func:`search_need` estimates what the search takes (its tests of moves near the
@@ -160,7 +160,7 @@ ROUNDS = 1.5  # LPs (rounds of rows) per test of a search without the cell's con
 CELL_ROUNDS = 3  # ... with them (2.3 on the press scene, 2.8 with its stress active)
 TRAINING = 4  # robust scenarios an LP holds, typically
 CYCLE_S = 2e-3  # one scenario's exact cycle time: a fixed part ...
-CYCLE_S_PER = 1e-10  # ... and per point, step and mode (jaxflex.settle's pruned blocks)
+CYCLE_S_PER = 1e-10  # ... and per point, step and mode (jaxflex._settle's pruned blocks)
 RESIDUAL_S = 1e-7  # a training scenario's scan of its residual vibration, per point and mode
 PIECE_S = 2.5e-7  # a distance certificate: per block of points, obstacle piece and sample
 LOAD_S = 4e-9  # a load certificate: per output row and mode
@@ -197,7 +197,7 @@ def search_need(
     *,
     cell: CellCost | None = None,
 ) -> Need:
-    """What the search will take (a jaxflex.budget.Need; constants above): its tests of moves
+    """What the search will take (a jaxflex._budget.Need; constants above): its tests of moves
     near ``floor_steps`` (the gallop, the bisection, the polish, the lengths tried below the
     answer: NEAR_FLOOR_TESTS), or, given ``lp_steps`` (a baseline's length bracketing the
     search), the bisection of the range up to it at that length. Each test makes ROUNDS

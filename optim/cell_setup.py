@@ -42,7 +42,7 @@ from optim.turn_cell import TurnDistanceFamily, TurnLoadFamily, TurnSource, rest
 @dataclass
 class CellSetup:
     """The posed model, the move, gravity, via points and the constraint families; ``advice``
-    (jaxflex.advice pairs) says what the model cannot make exact."""
+    (jaxflex._advice pairs) says what the model cannot make exact."""
 
     model: ModalModel
     distance_m: np.ndarray  # (3,) m, the move from A to B
@@ -138,7 +138,7 @@ def prepare_cell(
     (optim.turn_cell)."""
     if cell is not None:
         if not isinstance(cell, Cell):
-            raise InputError(f"cell: expected a jaxflex.cell.Cell, got {type(cell).__name__}")
+            raise InputError(f"cell: expected a jaxflex.geometry.Cell, got {type(cell).__name__}")
         if distance_m is not None and not np.allclose(distance_m, cell.distance_m, atol=1e-9):
             raise InputError(
                 f"distance_m: {list(distance_m)} differs from the cell's move "
@@ -206,7 +206,7 @@ def _load_maker(kind: str, limit: float, gravity, source: TurnSource | None):
 
 
 def _static_advice(model: ModalModel) -> list:
-    """Advice (jaxflex.advice pairs) for a model whose static response is not the FE's."""
+    """Advice (jaxflex._advice pairs) for a model whose static response is not the FE's."""
     note = str(dict(model.meta).get("static_response", "none recorded"))
     if model.static_shapes is not None and not note.startswith("schema"):
         return []

@@ -1,7 +1,7 @@
 """A rest-to-rest move of n steps as LP variables and rows: exact kinematics and limits.
 
 Per moving axis the variables are the samples a_0..a_n, v_0..v_n and x_0..x_n, tied by the
-exact recursions of the piecewise-linear acceleration (jaxflex.profile):
+exact recursions of the piecewise-linear acceleration (jaxflex._profile):
 
     v_{k+1} = v_k + dt (a_k + a_{k+1}) / 2,    x_{k+1} = x_k + dt v_k + dt^2 (2 a_k + a_{k+1}) / 6
 

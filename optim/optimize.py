@@ -75,14 +75,14 @@ def optimize(
     clearance_m: optional limit on the deviation of the nominal model during the move (m,
         at exact samples every dt / 8), e.g. to keep the part clear of a fixture.
     max_steps, max_memory_bytes: the budgets of optim.budget (the longest move any LP is
-        built for; the search's memory, default the process's budget, jaxflex.budget). A
+        built for; the search's memory, default the process's budget, jaxflex._budget). A
         request that cannot fit them, or the time budget, is refused before any work with a
         BudgetError that says what it needs.
-    cell: a jaxflex.cell.Cell (obstacles, the part's pose, via points, gravity); the move is
+    cell: a jaxflex._cell.Cell (obstacles, the part's pose, via points, gravity); the move is
         then the cell's (``distance_m`` None or equal) and in cell coordinates.
     min_distance_m: every monitored point keeps this distance (m) from every obstacle of the
         cell, over the move and the settling (certified).
-    cup_safety: every cup's utilisation (jaxflex.loads) with this safety factor stays <= 1.
+    cup_safety: every cup's utilisation (jaxflex._loads) with this safety factor stays <= 1.
     max_stress_pa: the von Mises stress stays below this (Pa; "yield": the material's yield
         strength / 1.5).
     With ``robust`` the cell's constraints hold for the nominal model and every model of the
@@ -90,7 +90,7 @@ def optimize(
     rotate: (axis, angle_deg): the part also turns by the angle (degrees) about the axis
         ("x", "y", "z" or three numbers, model frame, through the gripper origin) under
         gravity -9.81 m/s^2 along z, the turn on a fixed schedule per move length
-        (optim.turn; the model needs its rotation data, jaxflex.rotation). Both routes
+        (optim.turn; the model needs its rotation data, jaxflex._rotation). Both routes
         take it, with ``robust``, ``clearance_m`` and a cell (its via points and
         constraints on the exact route only, as for a straight move).
     angular_limits: (rate rad/s, acceleration rad/s^2, jerk rad/s^3) of the turn, default

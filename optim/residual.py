@@ -4,13 +4,13 @@ The modal state at the end of an n-step move is linear in the samples (first-ord
 
     x_end = sum_k Phi^{n-1-k} (G0 f_k + G1 f_{k+1}),   f_k = -Gamma . a_k,   Phi^j = Phi(j dt),
 
-so jaxflex.engine.end_state_map gives the matrix exactly (it equals ``jax.jacfwd`` of
+so jaxflex._engine.end_state_map gives the matrix exactly (it equals ``jax.jacfwd`` of
 ``jaxflex.end_state`` through the scan, in closed form because its shape changes with n and
 a jitted Jacobian would recompile for every n tried). After the move the
 part vibrates freely, u_p(t_n + tau) = sum_i phi_i(p) (P11_i(tau) q_i + P12_i(tau) qd_i), again
 linear in the end state. :class:`ResidualModel` samples that response densely to find the
 (point, time) pairs where it exceeds the threshold: those become the LP's rows. The largest
-point at every sample comes from the pruned blocked evaluation (jaxflex.deviation), so
+point at every sample comes from the pruned blocked evaluation (jaxflex._deviation), so
 all-node models cost little more than their few blocks near the maximum.
 """
 

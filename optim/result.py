@@ -1,10 +1,10 @@
 """The result of an optimisation: samples, exact timing, checks, statistics, baselines.
 
-``OptimizationResult.save(directory)`` writes one set of files (jaxflex.fileset: each file
+``OptimizationResult.save(directory)`` writes one set of files (jaxflex._fileset: each file
 atomically, then ``manifest.json`` with their hashes; readers such as ``jaxflex export``
 accept the files only as that set):
 
-* ``trajectory.csv`` — t, a, v, x per axis (jaxflex.trajectory_io format, SI units);
+* ``trajectory.csv`` — t, a, v, x per axis (jaxflex._trajectory_io format, SI units);
 * ``report.json`` — inputs, exact times, ratios to the baselines, the constraint check,
   solver statistics, the robust worst case (see :meth:`OptimizationResult.report`);
 * ``profiles.png`` — position, velocity, acceleration, jerk with the limits;
@@ -366,7 +366,7 @@ class OptimizationResult:
 
     def save(self, directory: str | os.PathLike, *, plots: bool = True) -> list[Path]:
         """Write trajectory.csv, report.json and (with ``plots``) the pictures into
-        ``directory`` (module docstring) as one set (jaxflex.fileset): each file atomically,
+        ``directory`` (module docstring) as one set (jaxflex._fileset): each file atomically,
         the manifest last, the files of an earlier run that this one does not write removed.
         Returns the paths written (manifest.json last)."""
         with writing(directory, RESULT_KIND, RESULT_FILES) as files:
@@ -435,7 +435,7 @@ class OptimizationResult:
     def _curve(self, acc, angular_acc, until: float) -> tuple[np.ndarray, np.ndarray]:
         """Deviation against time up to ``until`` s: exact samples every dt / SUBSTEPS for a
         straight move; for a turning one every dt / 8 during the move (optim.turn_clearance)
-        and at the samples after it (jaxflex.turning)."""
+        and at the samples after it (jaxflex._turning)."""
         move = as_move(acc, self.dt_s)
         if angular_acc is None:
             return deviation_curve(self.model, move, until, SUBSTEPS, PLOT_AFTER)

@@ -110,7 +110,7 @@ def output_scales(
     """(q_scale (M,), v_scale (M,)): the outputs of ``perturbed(model, scale, zeta,
     outputs=True)`` are ``model``'s with each mode's column of q_map multiplied by q_scale
     and of v_map by v_scale (their a_map and static response unchanged), so that a model of
-    the grid can share the nominal maps (jaxflex.peaks' ``state_scale``): the stiffness
+    the grid can share the nominal maps (jaxflex._peaks' ``state_scale``): the stiffness
     share scales by scale^2, the damping share by scale and by the change of each mode's
     damping ratio (jaxflex.model.with_frequency_scale, with_damping). None where the damping
     is no column scale (a mode without damping gets a share of q_map)."""

@@ -2,18 +2,18 @@
 
 For a FIXED turn schedule (optim.turn.TurnSchedule: the angular acceleration samples of an
 n-step move) every quantity of the turning engine is affine in the translation samples a
-(jaxflex.turning: the translation enters as R_k^T a_k, the Euler, centrifugal and turned-
+(jaxflex._turning: the translation enters as R_k^T a_k, the Euler, centrifugal and turned-
 gravity loads and the start's sag do not depend on a). At any time t during the move
 (between the samples k and k+1, w = t / dt - k) and after it (the part at rest in its
 final pose, vibrating freely about its sag there; the [..] terms are then 0):
 
-* an output (cup reactions, stresses; jaxflex.turning_outputs, equation (1)) is
+* an output (cup reactions, stresses; jaxflex._turning_outputs, equation (1)) is
   y(t) = y_0(t) + Q X_q(t) a + V X_v(t) a + A [(1 - w) R_k^T a_k + w R_k+1^T a_k+1], with
-  X(t) the straight move's state map (jaxflex.engine.state_maps_at) of the turned samples
+  X(t) the straight move's state map (jaxflex._engine.state_maps_at) of the turned samples
   R_j^T a_j;
-* a point's position (jaxflex.turning_collision, equation (1)) is
+* a point's position (jaxflex._turning_collision, equation (1)) is
   X_p(t) = X_p,0(t) + W(t) a + R(t) (Phi_p X_q(t) a + D_p [(1 - w) R_k^T a_k + ...]),
-  W the exact position weights of the pivot's path (jaxflex.profile.position_weights).
+  W the exact position weights of the pivot's path (jaxflex._profile.position_weights).
 
 So the rows of optim.cell_rows carry over unchanged: a convex positively homogeneous load
 functional's supporting plane at a violating (time, item) is an exact cut (it never cuts off
@@ -23,13 +23,13 @@ move). The constant parts y_0, X_0 come out of the evaluation of the current mov
 cut's value at the current samples minus its linear part), so no second simulation runs.
 
 The turning engine samples its forcing at the move's samples; between them the modal state
-is exact for that forcing and the loads' inputs are linear (jaxflex.turning_collision's
+is exact for that forcing and the loads' inputs are linear (jaxflex._turning_collision's
 definition). The families scan every dt / 8 during the move and, after it, every 1/16 of
 the shortest period for two periods of the longest. A move is then checked:
 
-* **distance**: certified by jaxflex.turning_collision.turning_min_distance (branch and
+* **distance**: certified by jaxflex._turning_collision.turning_min_distance (branch and
   bound over the move and the whole settling, every point, both skins);
-* **cups and stress**: certified by jaxflex.turning_peaks.turning_output_peak (branch and
+* **cups and stress**: certified by jaxflex._turning_peaks.turning_output_peak (branch and
   bound over the move, the settling and the rest in the final pose, every item).
 
 Which turn a family evaluates is the :class:`TurnSource`'s: the search's active schedule of
@@ -155,8 +155,8 @@ def move_times(n_steps: int, dt_s: float) -> np.ndarray:
 class TurnMotion:
     """The turning move ``turn`` (a jaxflex.response.Turn) of ``model`` at the times
     ``during`` (within the move, s) and ``tau`` (T,) s after the stop: the inputs of the
-    turning outputs (jaxflex.turning.TurningInputs; between samples the modal state exact
-    for the sampled forcing, the loads' inputs linear, as jaxflex.turning_collision), the
+    turning outputs (jaxflex._turning.TurningInputs; between samples the modal state exact
+    for the sampled forcing, the loads' inputs linear, as jaxflex._turning_collision), the
     orientation and the pivot's path."""
 
     def __init__(self, model, turn: Turn, during, tau) -> None:
@@ -234,7 +234,7 @@ class TurnMotion:
 
 class TurnLoadFamily(LoadFamily):
     """Cup utilisation or von Mises stress of a turning part (module docstring): the
-    outputs of jaxflex.turning_outputs with the static response to the rotational loads
+    outputs of jaxflex._turning_outputs with the static response to the rotational loads
     ``static_rot``; ``source`` the turn (:class:`TurnSource`)."""
 
     def __init__(self, name, model, outputs, static_rot, functional, limit, source) -> None:
@@ -262,7 +262,7 @@ class TurnLoadFamily(LoadFamily):
 
     def outputs_of(self, motion: TurnMotion, rows=None, times=slice(None)) -> np.ndarray:
         """(T, Y) the outputs ``rows`` (default all) at the motion's ``times`` (default all):
-        jaxflex.turning_outputs' equation (1), y = Q q + V q' + A (a_O - g_b) + A_rot b."""
+        jaxflex._turning_outputs' equation (1), y = Q q + V q' + A (a_O - g_b) + A_rot b."""
         rows = slice(None) if rows is None else rows
         inputs = motion.inputs
         return (
@@ -333,7 +333,7 @@ class TurnLoadFamily(LoadFamily):
 
     def _peak(self, move: Move, limit: float | None) -> Peak:
         """The supremum over ``move`` (a Move), the settling and the rest in the final pose,
-        certified by branch and bound (jaxflex.turning_peaks), to 1e-5 of the value or up to
+        certified by branch and bound (jaxflex._turning_peaks), to 1e-5 of the value or up to
         ``limit`` below it (where the bound stays below it the peak need not be located)."""
         turn = self.source.turn(move)
         return turning_output_peak(

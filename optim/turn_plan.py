@@ -1,10 +1,10 @@
 """What optimising a move that turns the part costs, planned before the work
-(jaxflex.budget Needs; optim.budget plans the straight move's search).
+(jaxflex._budget Needs; optim.budget plans the straight move's search).
 
 A turning search (optim.turn, optim.stages) differs from a straight one in where its time
 goes: every move length it tests has its own turn schedules (optim.turn.TurnSchedule: the
 stretched turn, then up to SHAPED_SCHEDULES shaped ones, each tried while none is
-certified), and for each schedule the turning engine runs (jaxflex.turning: the turn's own
+certified), and for each schedule the turning engine runs (jaxflex._turning: the turn's own
 end state, the certification of an LP's answer), whose programs are compiled once per move
 length. Measured on the project's 2-core machine (CPU s, a cold JAX cache, whole runs of
 `jaxflex optimize --rotate` logged stage by stage; the 1.2 x 0.8 m turning plate at 54
@@ -173,7 +173,7 @@ def turn_search_need(request, model, floor_steps: int, bracket_steps: int, famil
 class LengthPlanner:
     """Plans a turning search a length at a time where no baseline brackets it: before a
     length beyond those planned is tested (optim.turn.TurnSchedule.variants), the test of
-    that length and the bisection below it must fit the time left (jaxflex.budget.require)."""
+    that length and the bisection below it must fit the time left (jaxflex._budget.require)."""
 
     def __init__(self, request, model, families: int, planned_steps: int) -> None:
         self.request, self.model, self.families = request, model, families

@@ -6,7 +6,7 @@ q'' + 2 zeta w q' + w^2 q = f(t), at rest at t = 0. A ramp f = t (from t = 0) gi
                     + e^{-zeta w t} ((2 zeta / w) cos(wd t) - ((1 - 2 zeta^2) / wd) sin(wd t))]
 
 and any piecewise-linear force with breakpoints t_k is a sum of ramps started at t_k with
-the change of slope there. This derivation is independent of jaxflex.discretize.
+the change of slope there. This derivation is independent of jaxflex._discretize.
 """
 
 from __future__ import annotations

@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 
 import jaxflex
-from jaxflex.analytic import simply_supported_plate
-from jaxflex.compile_cache import ENV_VAR as COMPILE_CACHE_VAR
+from jaxflex._analytic import simply_supported_plate
+from jaxflex._compile_cache import ENV_VAR as COMPILE_CACHE_VAR
 
 
 def pytest_configure(config):
-    """JAX's compilation cache (jaxflex.compile_cache) in a directory of this session, never
+    """JAX's compilation cache (jaxflex._compile_cache) in a directory of this session, never
     the user's: the commands run in-process and the subprocesses (which inherit it, as the
     xdist workers do) share it, as concurrent runs of a user's commands share theirs."""
     if hasattr(config, "workerinput"):

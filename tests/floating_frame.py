@@ -1,4 +1,4 @@
-"""An independent floating-frame reference for turning moves (no jaxflex.turning code).
+"""An independent floating-frame reference for turning moves (no jaxflex._turning code).
 
 :class:`FloatingFrame` projects the FE's floating-frame equations on the kept modes, written
 here from the mass matrix and the node coordinates of a thin solid: body-frame gravity and
@@ -141,7 +141,7 @@ def scenes(dt_s: float, rate=RATE, acc=ACC, jerk=JERK):
     from scipy.spatial.transform import Rotation
 
     import jaxflex
-    from jaxflex.pose import fixed_axis_path, orientation_path, turn_acceleration
+    from jaxflex._pose import fixed_axis_path, orientation_path, turn_acceleration
 
     for name, axis, angle_deg in (
         ("swivel 90 deg about z", "z", 90.0),
@@ -166,7 +166,7 @@ def panel_scenes(dt_s: float):
     30 degrees about x while it lifts 1 m, and the combined move of :func:`scenes` (a swivel
     then a tilt through orientations while it travels 0.5 m)."""
     import jaxflex
-    from jaxflex.pose import fixed_axis_path, turn_acceleration
+    from jaxflex._pose import fixed_axis_path, turn_acceleration
 
     for name, axis, angle_deg, distance in (
         ("swivel 90 deg about z, 1 m along x", "z", 90.0, (1.0, 0.0, 0.0)),
@@ -205,7 +205,7 @@ def cantilever():
 def bound_table(result, model, moves, extend_s: float = 0.3, eval_dt_s: float = 1e-4):
     """(scene, peak deviation, true effect, a-posteriori bound, energy bound) in m for the
     ``moves`` (name, path, translation) and ``extend_s`` s of free decay."""
-    from jaxflex.turning import Turn, simulate_turning
+    from jaxflex._turning import Turn, simulate_turning
 
     frame = FloatingFrame(result, model)
     energy_only = model._replace(rotation=model.rotation.replace(gyroscopic=None, spin=None))

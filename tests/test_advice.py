@@ -11,7 +11,7 @@ from conftest import run_jaxflex
 from test_optim_optimize import few_mode_model
 
 import optim
-from jaxflex.advice import DEFAULT_RESOLUTION, model_resolution, threshold_advice
+from jaxflex._advice import DEFAULT_RESOLUTION, model_resolution, threshold_advice
 from optim.advice import grid_advice
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jaxflex.analytic import plate_frequencies_hz, simply_supported_plate
+from jaxflex._analytic import plate_frequencies_hz, simply_supported_plate
 
 
 def test_fundamental_frequency_of_a_square_plate():

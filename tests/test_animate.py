@@ -320,7 +320,7 @@ def test_a_turning_move_ends_at_rest_in_its_final_pose(turning_plate, tmp_path):
     gravity = np.array([0.0, 0.0, -9.81])
     # every frame: c + s + R (x - c + u), u the whole elastic displacement of the turning
     # engine's state (modes, the static residuals of the translation and the rotational
-    # loads; jaxflex.turning), written here as tests/test_fmu_turning.py does
+    # loads; jaxflex._turning), written here as tests/test_fmu_turning.py does
     path = result.turn.path(result.angular_acc, DT)
     times = np.array([t for t, _ in frames])
     extend = times[-1] - result.move.duration_s

@@ -16,8 +16,8 @@ from fem.bench.methods import METHODS, prepare, stable_substeps
 from fem.bench.metrics import compare, curve_errors, settle_from_samples
 from fem.bench.turning import format_turning, swivel
 from fem.bench.turning import run as turning_bench
+from jaxflex._turning import simulate_turning
 from jaxflex.errors import InputError
-from jaxflex.turning import simulate_turning
 
 
 def test_curve_errors_hand_computed():

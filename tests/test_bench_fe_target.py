@@ -23,7 +23,7 @@ def test_panel_reduced_model_against_full_order_fe():
     Newmark at omega_1 h = 0.5 (its plain fine run differs from it by 0.15 % of the peak).
 
     With the static residual of the FE's static solve (the modes left out respond
-    quasi-statically: jaxflex.deviation.response_shapes) 60 and 200 modes agree to 1e-6 of
+    quasi-statically: jaxflex._deviation.response_shapes) 60 and 200 modes agree to 1e-6 of
     the peak: the modes have converged, and what is left (L-inf 0.31 %, R^2 0.9999913 /
     0.9999974, measured) is the reference's. R^2 and settle time meet the target; L-inf is
     above 0.2 % (reported as not met in docs/bench.md)."""

@@ -1,4 +1,4 @@
-"""One budget for all work (jaxflex.budget): every command takes --max-memory and --max-time,
+"""One budget for all work (jaxflex._budget): every command takes --max-memory and --max-time,
 plans its work from its inputs and refuses what does not fit, before any of it.
 
 The hostile requests of issue 23 (fem.bench.budget.refusal_cases: robust grids of
@@ -22,7 +22,7 @@ from conftest import random_model, run_jaxflex
 from sweep_cases import SPEC
 
 from fem.bench.budget import refusal_cases, run_limited
-from jaxflex.budget import (
+from jaxflex._budget import (
     Budget,
     Need,
     check_time,
@@ -80,10 +80,10 @@ def test_budget_options_are_checked(tmp_path):
 
 
 def test_require_names_the_stage_its_need_and_the_budget(capsys, monkeypatch):
-    import jaxflex.progress
+    import jaxflex._progress
 
     # not quiet, whatever a command run in-process before this test in the worker left set
-    monkeypatch.setitem(jaxflex.progress._state, "quiet", False)
+    monkeypatch.setitem(jaxflex._progress._state, "quiet", False)
     small = Need("reading", 1e5, 1.0)
     big = Need("the analysis (5 cells)", 3e6, 2.0, "use a coarser mesh")
     with pytest.raises(

@@ -29,8 +29,8 @@ import fmu.build
 from fmu.binary_check import check_library, fmi_functions
 from fmu.export import export_fmu
 from fmu.toolchain import FmuBuildError
+from jaxflex._compile_cache import ENV_VAR, SUFFIX, FileStore, encode_entry, fetch
 from jaxflex.cli import main
-from jaxflex.compile_cache import ENV_VAR, SUFFIX, FileStore, encode_entry, fetch
 
 DT_S = 0.01
 # a FIFO in an entry's place must not block a read: a test that waits longer has failed

@@ -15,9 +15,9 @@ from conftest import run_jaxflex
 
 import jaxflex
 import optim.sweep.cli
+from jaxflex._grid import grid_time
+from jaxflex._trajectory_io import read_trajectory_csv
 from jaxflex.cli import GROUP, commands, main
-from jaxflex.grid import grid_time
-from jaxflex.trajectory_io import read_trajectory_csv
 
 # what each package contributes, in the order of `jaxflex --help`
 COMMANDS = {

@@ -12,10 +12,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import jaxflex
-from jaxflex.cell import Box, Cell, HalfSpace, TriangleMesh, Via, rotation_from_degrees
-from jaxflex.collision import distances, gravity_offset, min_distance
-from jaxflex.engine import states_at
-from jaxflex.profile import kinematics_at
+from jaxflex._cell import Box, Cell, HalfSpace, TriangleMesh, Via, rotation_from_degrees
+from jaxflex._collision import distances, gravity_offset, min_distance
+from jaxflex._engine import states_at
+from jaxflex._profile import kinematics_at
 from optim.cell_file import load_cell
 
 DT = 0.01

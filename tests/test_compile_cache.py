@@ -1,4 +1,4 @@
-"""JAX's persistent compilation cache of the commands (jaxflex.compile_cache): a second
+"""JAX's persistent compilation cache of the commands (jaxflex._compile_cache): a second
 process loads what the first compiled, a damaged entry is recompiled and replaced, an
 unwritable or disabled cache leaves the results as they are, concurrent writers never leave
 a half-written entry."""
@@ -17,8 +17,8 @@ import pytest
 from test_cache_stores import FILE_DAMAGES
 from test_optim_optimize import few_mode_model
 
-from jaxflex import compile_cache
-from jaxflex.compile_cache import ENV_VAR, SUFFIX, FileStore, _evict, _writable, decode_entry
+from jaxflex import _compile_cache as compile_cache
+from jaxflex._compile_cache import ENV_VAR, SUFFIX, FileStore, _evict, _writable, decode_entry
 
 # runs the command in a fresh interpreter and prints JAX's own count of its compilation-cache
 # events (jax.monitoring) as the last line: what was asked of the cache, found, written

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import smooth_move
 
-from jaxflex.convolution import (
+from jaxflex._convolution import (
     convolve_unit_response,
     read_unit_response_csv,
     unit_response,

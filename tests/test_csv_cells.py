@@ -11,7 +11,7 @@ import numpy as np
 from conftest import smooth_move
 from sweep_cases import SPEC
 
-from jaxflex.trajectory_io import COLUMNS, write_trajectory_csv
+from jaxflex._trajectory_io import COLUMNS, write_trajectory_csv
 from optim.sweep import expand, parse_spec, read_table
 from optim.sweep.table import FORMULA_STARTS, table_rows, write_table
 

@@ -2,7 +2,7 @@
 
 One demo run per scene for the whole module (its FE, optimisation and FMUs take 20-60 s);
 every check reads what the run wrote: the optimum against the baselines, the trajectory
-re-simulated from trajectory.csv by jaxflex.turning.simulate_turning, the plots, and the
+re-simulated from trajectory.csv by jaxflex._turning.simulate_turning, the plots, and the
 turning FMUs (fmpy's validation and its replay against jaxflex, run by the demo, plus the
 pose the FMU's input file carries against the closed form of the turn)."""
 
@@ -20,8 +20,8 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
 import jaxflex
-from jaxflex.pose import fixed_axis_path
-from jaxflex.turning import Turn, simulate_turning
+from jaxflex._pose import fixed_axis_path
+from jaxflex._turning import Turn, simulate_turning
 
 PLOTS = ("profiles.png", "deviation.png", "turn.png")
 # the turning FMU replays jaxflex.simulate_turning's forcing exactly (first-order hold at the
@@ -44,7 +44,7 @@ class Demo:
     def resimulated(self, extend_s: float = 0.5):
         """(deviation during the move, from its end on) in m: trajectory.csv's translation and
         turn columns and report.json's axis, pivot and gravity through
-        jaxflex.turning.simulate_turning, the free vibration ``extend_s`` s past the move."""
+        jaxflex._turning.simulate_turning, the free vibration ``extend_s`` s past the move."""
         model = jaxflex.load_model(self.out / "model.npz")
         csv_path = self.out / "optimized" / "trajectory.csv"
         table = np.loadtxt(csv_path, delimiter=",", skiprows=1)

@@ -11,11 +11,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import jaxflex
-from jaxflex.analytic import simply_supported_plate
-from jaxflex.blocks import kd_order, point_blocks
-from jaxflex.deviation import UNIT_STEPS, blocks_of, deviation, deviation_point, max_norms
-from jaxflex.engine import modal_states
-from jaxflex.simulate import on_device
+from jaxflex._analytic import simply_supported_plate
+from jaxflex._blocks import kd_order, point_blocks
+from jaxflex._deviation import UNIT_STEPS, blocks_of, deviation, deviation_point, max_norms
+from jaxflex._engine import modal_states
+from jaxflex._simulate import on_device
 
 EPS64 = np.finfo(np.float64).eps
 
@@ -76,7 +76,7 @@ def test_pruned_equals_dense_on_a_smooth_part_and_prunes():
     blocks = blocks_of(model)
     d, point = max_norms(blocks, q)
     check_against_dense(model, q, d, point, TOL64)
-    from jaxflex.deviation import _alive_tiles
+    from jaxflex._deviation import _alive_tiles
 
     padded = np.zeros((-(-q.shape[0] // UNIT_STEPS) * UNIT_STEPS, q.shape[1]))
     padded[: q.shape[0]] = q

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from jaxflex.discretize import foh_coefficients, propagators
+from jaxflex._discretize import foh_coefficients, propagators
 
 
 def reference(omega: float, zeta: float, h: float):

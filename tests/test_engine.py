@@ -20,9 +20,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import jaxflex
-from jaxflex import engine
-from jaxflex.deviation import deviation_curve, deviation_curves, point_norms
-from jaxflex.profile import as_move
+from jaxflex import _engine as engine
+from jaxflex._deviation import deviation_curve, deviation_curves, point_norms
+from jaxflex._profile import as_move
 
 RTOL = 1e-11
 

@@ -15,9 +15,9 @@ from conftest import random_model
 import fem
 import jaxflex
 from fem.imports.r1 import hat_responses, identify_r1, round_significant, significant_digits
-from jaxflex.convolution import convolve_unit_response, unit_response, write_unit_response_csv
+from jaxflex._convolution import convolve_unit_response, unit_response, write_unit_response_csv
+from jaxflex._profile import jerk_limited_move
 from jaxflex.errors import InputError
-from jaxflex.profile import jerk_limited_move
 
 DT = 0.01
 STEPS = 1000

@@ -12,8 +12,8 @@ from test_fem_nastran import STEEL_SI, meshio_deck
 import fem
 import jaxflex
 from fem.imports.r1 import round_significant
+from jaxflex._convolution import unit_response, write_unit_response_csv
 from jaxflex.cli import main
-from jaxflex.convolution import unit_response, write_unit_response_csv
 
 
 def test_from_ansys_full_and_the_refused_pairing(tmp_path):

@@ -9,7 +9,7 @@ from closed_forms import ss_plate_stress_error
 import fem
 import jaxflex
 from fem.outputs import reaction_outputs, stress_outputs
-from jaxflex.deviation import outputs_at
+from jaxflex._deviation import outputs_at
 
 DT = 0.01
 
@@ -60,7 +60,7 @@ def test_reactions_add_up_to_the_part_mass(plate_result):
     acc = _sine_move()
     t = DT * np.arange(acc.shape[0])
     forces = outputs_at(model, cups.reaction, acc, DT, t).reshape(len(t), -1, 6)[..., :3]
-    states = jaxflex.engine.states_at(model, acc, DT, t)
+    states = jaxflex._engine.states_at(model, acc, DT, t)
     omega, zeta = np.asarray(model.omega_rad_s), np.asarray(model.zeta)
     qdd = -acc @ gamma.T - 2 * zeta * omega * states[..., 1] - omega**2 * states[..., 0]
     np.testing.assert_allclose(
@@ -83,7 +83,7 @@ def test_a_stiff_part_loads_its_cups_with_m_a():
         acc = _sine_move()
         t = np.linspace(0, 0.3, 61)
         forces = outputs_at(model, model.cups.reaction, acc, DT, t).reshape(len(t), 4, 6)
-        expected = result.mass_kg * jaxflex.profile.acceleration_at(acc, DT, t)
+        expected = result.mass_kg * jaxflex._profile.acceleration_at(acc, DT, t)
         np.testing.assert_allclose(forces[..., :3].sum(axis=1), expected, atol=1e-6 * 20)
 
 

@@ -41,9 +41,9 @@ def test_simply_supported_argyris_within_005_percent():
 
 
 def test_rectangular_simply_supported_plate_matches_analytic_fixture():
-    # the 1.5 x 0.8 m plate of jaxflex.analytic: 12 modes, with the mode ordering of the
+    # the 1.5 x 0.8 m plate of jaxflex._analytic: 12 modes, with the mode ordering of the
     # closed form (rectangular plates have no repeated frequencies here)
-    from jaxflex.analytic import simply_supported_plate
+    from jaxflex._analytic import simply_supported_plate
 
     exact = simply_supported_plate(n_modes=12).freq_hz
     result = fem.modal_analysis(

@@ -14,7 +14,7 @@ from fem.elements import shell_element as se
 from fem.elements.shell import assemble_shell
 from fem.mesh.mesh_io import sheet_from_cells
 from fem.parts import part_from_mesh
-from jaxflex.analytic import cylindrical_panel_frequencies_hz
+from jaxflex._analytic import cylindrical_panel_frequencies_hz
 
 STEEL = fem.PRESETS["steel"]
 E, NU, RHO = STEEL.E_pa, STEEL.nu, STEEL.rho_kg_m3
@@ -157,7 +157,7 @@ def test_clamped_square_plate_with_triangles_against_leissa():
 
 
 def _donnell_hz(a, chord, thickness, radius, count=6):
-    """Donnell's closed form of the simply supported cylindrical panel (jaxflex.analytic)."""
+    """Donnell's closed form of the simply supported cylindrical panel (jaxflex._analytic)."""
     arc = 2 * radius * np.arcsin(chord / (2 * radius))
     return cylindrical_panel_frequencies_hz(a, arc, radius, thickness, E, NU, RHO, count)
 

@@ -18,8 +18,8 @@ import pytest
 
 import fem
 import jaxflex
+from jaxflex._profile import jerk_limited_move
 from jaxflex.errors import InputError
-from jaxflex.profile import jerk_limited_move
 
 DT_S = 0.01
 FACTOR = 10  # evaluation step dt / 10 = 1 ms: >= 1.5 samples per period of every mode kept

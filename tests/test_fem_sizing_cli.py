@@ -7,9 +7,9 @@ import json
 import pytest
 
 import jaxflex
+from jaxflex._profile import jerk_limited_move
+from jaxflex._trajectory_io import write_trajectory_csv
 from jaxflex.cli import main
-from jaxflex.profile import jerk_limited_move
-from jaxflex.trajectory_io import write_trajectory_csv
 
 # The full plate scene on a coarse sequence (70, 50, 35 mm): seconds, converges at 10 %
 # (100 mm, with cups of 33 mm for their 40 mm radius, is not yet converging regularly)

@@ -11,7 +11,7 @@ from skfem.models.elasticity import lame_parameters, linear_elasticity
 
 import fem
 from fem.elements.solid import Hex2Layer, assemble_solid
-from jaxflex.analytic import cylindrical_panel_frequencies_hz
+from jaxflex._analytic import cylindrical_panel_frequencies_hz
 
 STEEL = fem.PRESETS["steel"]
 

@@ -12,7 +12,7 @@ import pytest
 from conftest import random_model, smooth_move
 
 from fmu import export_fmu
-from jaxflex.atomic import atomic_open, atomic_path, write_text_atomic
+from jaxflex._atomic import atomic_open, atomic_path, write_text_atomic
 
 
 @contextlib.contextmanager

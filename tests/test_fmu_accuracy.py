@@ -3,7 +3,7 @@ inputs (linear with FMI 2.0 input derivatives, held otherwise), step-size change
 reset, two instances, parameters and the settled flag.
 
 Tolerance: the issue asks for <= 1e-9 relative. The C code evaluates the same closed forms
-as jaxflex.discretize in float64, so the two differ only by rounding (~1e-16 per operation,
+as jaxflex._discretize in float64, so the two differ only by rounding (~1e-16 per operation,
 growing roughly linearly over a few hundred steps); observed differences are ~1e-14.
 """
 

@@ -2,7 +2,7 @@
 
 The FMU evaluates them in C from its exact modal state, the exact path (integrated from its
 inputs) and the model's linear output maps; here they are compared with jaxflex's own
-evaluation (jaxflex.collision, jaxflex.loads) at every communication point of the embedded
+evaluation (jaxflex._collision, jaxflex._loads) at every communication point of the embedded
 move: the same float64 arithmetic in another order, so they agree to ~1e-12 of the peak.
 """
 
@@ -16,10 +16,10 @@ import fem
 import jaxflex
 from fmu import export_fmu
 from fmu.master import Session
-from jaxflex.cell import Box, Cell, HalfSpace, TriangleMesh, rotation_from_degrees
-from jaxflex.collision import distances, positions_at
-from jaxflex.deviation import outputs_at
-from jaxflex.loads import CupUtilisation, VonMises
+from jaxflex._cell import Box, Cell, HalfSpace, TriangleMesh, rotation_from_degrees
+from jaxflex._collision import distances, positions_at
+from jaxflex._deviation import outputs_at
+from jaxflex._loads import CupUtilisation, VonMises
 
 DT = 0.01
 

@@ -11,9 +11,9 @@ from test_fmu_export import smooth_profile
 
 from fmu.ssp import read_parameters
 from fmu.verify import read_fmu_resource
+from jaxflex._fileset import writing
+from jaxflex._trajectory_io import write_trajectory_csv
 from jaxflex.cli import main
-from jaxflex.fileset import writing
-from jaxflex.trajectory_io import write_trajectory_csv
 from optim.result import RESULT_FILES, RESULT_KIND
 
 DT = 0.01

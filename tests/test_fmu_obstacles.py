@@ -20,7 +20,7 @@ from fmu import export_fmu
 from fmu.harness import resource_location
 from fmu.obstacles import OBSTACLE_KINDS, RECORD_VALUES, obstacle_records
 from fmu.resource import decode_resource
-from jaxflex.cell import Box, Cell, HalfSpace, TriangleMesh
+from jaxflex._cell import Box, Cell, HalfSpace, TriangleMesh
 from jaxflex.errors import InputError, ModelFileError
 
 UNKNOWN_CODE = 7.0

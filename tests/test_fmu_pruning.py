@@ -31,7 +31,7 @@ from fmu.build import compile_library
 from fmu.master import Session
 from fmu.toolchain import host_target
 from fmu.variables import POSE_INPUT_NAMES
-from jaxflex.cell import Box, Cell, HalfSpace, TriangleMesh, rotation_from_degrees
+from jaxflex._cell import Box, Cell, HalfSpace, TriangleMesh, rotation_from_degrees
 
 DT = 0.01
 REL = 1e-15  # the tolerance; the builds agree bit for bit

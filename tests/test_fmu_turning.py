@@ -1,12 +1,12 @@
 """The FMU of a turning part (export_fmu(turning=True)): the pose as inputs, the body-frame
-forcing of jaxflex.turning, the deviation about the current pose's sag.
+forcing of jaxflex._turning, the deviation about the current pose's sag.
 
 Along a swivel about the vertical and a tilt about an in-plane axis under gravity (each with
 a translation of the pivot), driven by fmpy:
 
 * FMI 2.0 with the inputs linear over each step (the master sets every input's sample and the
   slope to the next sample, fmi2SetRealInputDerivatives): the FMU evaluates the forcing at
-  the same pose samples as jaxflex.turning.simulate_turning and advances it by the same exact
+  the same pose samples as jaxflex._turning.simulate_turning and advances it by the same exact
   first-order-hold recursion, so the two agree to rounding: a few ulps per step (the
   quaternion round trip of the rotation, the step matrices in C, another summation order),
   accumulated over ~1000 damped steps, far below the 1e-9 of the peak asserted (the bound the
@@ -43,14 +43,11 @@ from fmu.resource import decode_resource
 from fmu.toolchain import host_target
 from fmu.variables import POSE_INPUT_NAMES
 from fmu.verify import read_fmu_resource
-from jaxflex.cell import Box, Cell, HalfSpace
-from jaxflex.cli import main
-from jaxflex.collision import distances
-from jaxflex.errors import InputError, ModelError
-from jaxflex.pose import fixed_axis_path, turn_acceleration
-from jaxflex.profile import kinematics_at
-from jaxflex.response import rotation_residual
-from jaxflex.turning import (
+from jaxflex._cell import Box, Cell, HalfSpace
+from jaxflex._collision import distances
+from jaxflex._pose import fixed_axis_path, turn_acceleration
+from jaxflex._profile import kinematics_at
+from jaxflex._turning import (
     Turn,
     body_loads,
     simulate_turning,
@@ -58,8 +55,11 @@ from jaxflex.turning import (
     turning_inputs,
     turning_settle,
 )
-from jaxflex.turning_collision import turning_min_distance
-from jaxflex.turning_outputs import turning_loads
+from jaxflex._turning_collision import turning_min_distance
+from jaxflex._turning_outputs import turning_loads
+from jaxflex.cli import main
+from jaxflex.errors import InputError, ModelError
+from jaxflex.response import rotation_residual
 
 DT = 2e-3
 PIVOT = np.array([0.3, 0.2, 0.05])  # m, model frame: near the panel's middle, above it
@@ -480,7 +480,7 @@ def test_export_command_embeds_an_optimised_turning_move(panel, tmp_path, capsys
 def _world_points(model, path, acc):
     """(n+1, K, 3) every point's position in the cell at the move's samples, written here:
     c + s + R (x - c + u), u the whole elastic displacement (modes, static residual of the
-    translation and of the rotational loads) of jaxflex.turning's state, s the pivot's
+    translation and of the rotational loads) of jaxflex._turning's state, s the pivot's
     exact path."""
     inputs = turning_inputs(model, Turn(path, acc, pivot_m=PIVOT, gravity_m_s2=GRAVITY))
     u = (
@@ -504,10 +504,10 @@ HALF = 0.5e-3  # m: half the 1 mm sheet
 def test_cell_outputs_of_the_turning_part_agree_with_jaxflex(panel, kind, tmp_path):
     """The turning panel with its move embedded, posed in a cell (a post and a floor) with
     stresses: at every communication point on a sample (steps of 1 and 2.5 samples) the cup
-    utilisations and von Mises stresses equal jaxflex.turning_outputs.turning_loads' and
+    utilisations and von Mises stresses equal jaxflex._turning_outputs.turning_loads' and
     every point's distance the distance of its position written here (_world_points), to
     rounding (1e-9 of the peak, as above); the smallest distance over the samples lies above
-    the certified lower bound of jaxflex.turning_collision's minimum over the whole move and
+    the certified lower bound of jaxflex._turning_collision's minimum over the whole move and
     above its minimum by at most what a point travels in half a sample (< 3.5 m/s: 1.5 m/s
     of the pivot, 3 rad/s x 0.6 m)."""
     path, acc = _move(kind)

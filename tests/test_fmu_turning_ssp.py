@@ -1,6 +1,6 @@
 """The trajectory source of a turning move and the SSP package of a turning part.
 
-* The source's outputs at the communication points against the jaxflex.pose.PosePath
+* The source's outputs at the communication points against the jaxflex._pose.PosePath
   evaluated here (the rotation matrices, the angular velocity and acceleration, the pivot's
   acceleration), and independent kinematic checks between the samples: the quaternion stays
   a unit quaternion and its central finite difference gives the angular velocity the source
@@ -37,9 +37,9 @@ from fmu.master import Session, run_chained
 from fmu.source import export_source_fmu
 from fmu.ssp import SSD_FILE, export_ssp, steps_for
 from fmu.variables import POSE_INPUT_NAMES
+from jaxflex._pose import PosePath, fixed_axis_path, turn_acceleration
 from jaxflex.cli import main
 from jaxflex.errors import InputError
-from jaxflex.pose import PosePath, fixed_axis_path, turn_acceleration
 from jaxflex.response import Turn, simulate_turning
 
 NAMES = ("ax", "ay", "az", *POSE_INPUT_NAMES)

@@ -50,9 +50,9 @@ import fem
 from fem.imports.ansys import read_full, read_node_coordinates, read_rst
 from fem.imports.nastran.door import from_nastran
 from fmu.export import sidecar_paths
-from jaxflex.budget import make_budget, require, use_budget
+from jaxflex._budget import make_budget, require, use_budget
+from jaxflex._convolution import unit_response, write_unit_response_csv
 from jaxflex.cli import main
-from jaxflex.convolution import unit_response, write_unit_response_csv
 from jaxflex.errors import BudgetError, JaxflexError
 from jaxflex.files import MANIFEST
 from optim.animate_page import PAGE
@@ -633,7 +633,7 @@ SWEEP_ABSURD = [
 
 def sweep_plan(path: Path):
     """The spec of ``path`` as a sweep would have it: read, and planned before its first
-    case on one worker (the refusals of jaxflex.budget)."""
+    case on one worker (the refusals of jaxflex._budget)."""
     spec = load_spec(path)
     require(*sweep_needs(spec, len(spec.layouts) * len(spec.moves), len(spec.layouts), 1))
     return spec

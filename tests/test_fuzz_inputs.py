@@ -21,9 +21,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxflex
+from jaxflex._model_file import VALUE_RANGES
 from jaxflex.cli import main
 from jaxflex.errors import ModelError, ModelFileError
-from jaxflex.model_file import VALUE_RANGES
 
 REAL = ("freq_hz", "zeta", "gamma", "shapes", "points")
 MODEL_EXAMPLES = 400

@@ -1,4 +1,4 @@
-"""Times on the sample grid as the decimals the user wrote (jaxflex.grid), in the trajectory
+"""Times on the sample grid as the decimals the user wrote (jaxflex._grid), in the trajectory
 file (with its jerk columns) and in the optimiser's report."""
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ from hypothesis import strategies as st
 
 import jaxflex
 import optim
-from jaxflex.analytic import simply_supported_plate
-from jaxflex.grid import grid_time, grid_times, grid_values
-from jaxflex.trajectory_io import COLUMNS, read_trajectory_csv, write_trajectory_csv
+from jaxflex._analytic import simply_supported_plate
+from jaxflex._grid import grid_time, grid_times, grid_values
+from jaxflex._trajectory_io import COLUMNS, read_trajectory_csv, write_trajectory_csv
 
 
 def test_known_cases_print_as_written():

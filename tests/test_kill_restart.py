@@ -213,7 +213,7 @@ SLOW_COMMAND = """
 import sys
 sys.path.insert(0, sys.argv[1])
 import slow_reader
-from jaxflex.budget import make_budget, use_budget
+from jaxflex._budget import make_budget, use_budget
 seconds = float(sys.argv[3]) if len(sys.argv) > 3 else None
 with use_budget(make_budget(None, seconds)):
     slow_reader.read_slowly(sys.argv[2])

@@ -12,8 +12,8 @@ import pytest
 from conftest import random_model
 
 import jaxflex
-from jaxflex import model_file
-from jaxflex.deviation import blocks_of, component_blocks
+from jaxflex import _model_file as model_file
+from jaxflex._deviation import blocks_of, component_blocks
 
 
 def fields(model):

@@ -1,6 +1,6 @@
 """Obstacles left out before a cell's distance is measured (optim.obstacle_reach): the bound
 on how far the part can come is checked against the exact response of real moves
-(jaxflex.collision.positions_at: the modal response with the static residual and the sag),
+(jaxflex._collision.positions_at: the modal response with the static residual and the sag),
 and every piece left out against the brute-force distance of every point at every sample."""
 
 from __future__ import annotations
@@ -11,9 +11,9 @@ import pytest
 import fem
 import jaxflex
 import optim
-from jaxflex.cell import Box, Cell, HalfSpace, TriangleMesh
-from jaxflex.collision import distances, positions_at
-from jaxflex.profile import kinematics_at
+from jaxflex._cell import Box, Cell, HalfSpace, TriangleMesh
+from jaxflex._collision import distances, positions_at
+from jaxflex._profile import kinematics_at
 from optim.obstacle_reach import deviation_bound_m, pivot_box, reachable
 
 DT = 0.01

@@ -14,8 +14,8 @@ from test_optim_optimize import DISTANCE, DT, LIMITS, THRESHOLD, few_mode_model
 
 import jaxflex
 import optim
-from jaxflex.profile import as_move
-from jaxflex.settle import analyze_move
+from jaxflex._profile import as_move
+from jaxflex._settle import analyze_move
 from optim.baselines import dominant_modes
 from optim.robust import perturbed
 from optim.ruckig_move import kinematic_floor_move, shaped_grid_move, time_optimal_move

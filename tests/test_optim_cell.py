@@ -21,11 +21,11 @@ from independent import (
 
 import fem
 import optim
-from jaxflex.cell import Box, Cell
-from jaxflex.collision import distances, min_distance, positions_at
+from jaxflex._cell import Box, Cell
+from jaxflex._collision import distances, min_distance, positions_at
+from jaxflex._loads import CupUtilisation, VonMises
+from jaxflex._profile import as_move, integrate
 from jaxflex.errors import InputError
-from jaxflex.loads import CupUtilisation, VonMises
-from jaxflex.profile import as_move, integrate
 from optim.cell_file import load_cell
 from optim.cell_rows import (
     ROW_MARGIN,

@@ -57,7 +57,7 @@ def test_plate_threshold_above_every_deviation_gives_the_kinematic_floor():
     with pytest.warns(jaxflex.errors.JaxflexWarning, match="above the deviation"):
         result = optim.optimize(model, DISTANCE, LIMITS, DT, 0.5, progress=False)
     assert result.n_steps == result.baselines.floor_steps == 80
-    assert result.cycle_time_s == 0.8  # on the grid, exactly (jaxflex.grid)
+    assert result.cycle_time_s == 0.8  # on the grid, exactly (jaxflex._grid)
     assert result.source == "optimised" and not result.solver_stats["notes"]
     assert result.headline().endswith("= the kinematic floor, no move is shorter")
     assert [w["kind"] for w in result.warnings] == ["threshold_above_peak"]

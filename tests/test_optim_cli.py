@@ -10,8 +10,8 @@ from conftest import run_jaxflex
 from test_optim_optimize import few_mode_model
 
 import jaxflex
-from jaxflex.model_file import ARRAY_FIELDS, write_model_file
-from jaxflex.trajectory_io import read_trajectory_csv
+from jaxflex._model_file import ARRAY_FIELDS, write_model_file
+from jaxflex._trajectory_io import read_trajectory_csv
 
 
 @pytest.fixture(scope="module")

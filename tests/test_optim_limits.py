@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from jaxflex._profile import as_move, end_weights, enforce_end_state, integrate
 from jaxflex.errors import InputError
-from jaxflex.profile import as_move, end_weights, enforce_end_state, integrate
 from optim.limits import Limits, check_profile, velocity_extrema
 from optim.robust import RobustSpec
 

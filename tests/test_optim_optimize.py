@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 
 import jaxflex
 import optim
+from jaxflex._trajectory_io import read_trajectory_csv
 from jaxflex.errors import InputError
-from jaxflex.trajectory_io import read_trajectory_csv
 from optim import stages
 from optim.bench.optim import few_mode_model as bench_model
 from optim.choice import Candidate

@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import jaxflex
-from jaxflex.engine import end_state_map
-from jaxflex.settle import analyze_move
+from jaxflex._engine import end_state_map
+from jaxflex._settle import analyze_move
 from optim.move_response import MoveResponse
 from optim.polytope import ball_normals, support
 from optim.residual import ResidualModel

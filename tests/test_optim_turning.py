@@ -16,8 +16,8 @@ from conftest import run_jaxflex
 
 import jaxflex
 import optim
-from jaxflex.trajectory_io import TURN_COLUMNS
-from jaxflex.turning import Turn, simulate_turning
+from jaxflex._trajectory_io import TURN_COLUMNS
+from jaxflex._turning import Turn, simulate_turning
 from optim.search import make_problem
 from optim.turn import TurnSchedule, TurnSpec
 
@@ -98,7 +98,7 @@ def test_turning_optimum_beats_baselines_and_is_certified(plate, axis, angle_deg
     assert settle <= result.cycle_time_s + DT
     if result.settle_time_s > result.transfer_time_s:
         assert settle >= result.cycle_time_s - DT
-    # the reported bound is the turning engine's for the returned move (jaxflex.turning_bound,
+    # the reported bound is the turning engine's for the returned move (jaxflex._turning_bound,
     # true for the continuous neglected load at any step; rounding: 1e-9). The fine
     # evaluation's bounds the same continuous move (its kept response differs by the hold's
     # O(dt^2)) with its own slack: both lie within 1-2.5 times the true effect

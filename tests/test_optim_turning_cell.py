@@ -2,10 +2,10 @@
 
 Each constraint family is made active on a turning scene (its limit below what the
 unconstrained optimum reaches) and the returned move is checked independently: the cups
-and stresses by the turning engine's outputs (jaxflex.turning_outputs.turning_loads) on the
+and stresses by the turning engine's outputs (jaxflex._turning_outputs.turning_loads) on the
 same continuous profiles sampled 10 x finer, over the move and 2 s of settling; the
 distance by every node's world position written here (the turn's angle integrated in closed
-form by jaxflex.pose on the refined grid, the pivot's path by tests/independent.py's own
+form by jaxflex._pose on the refined grid, the pivot's path by tests/independent.py's own
 integration, the elastic displacement from the refined turning response) on a grid 8 x
 finer than the samples. The robust optimum is re-timed on every model of its grid."""
 
@@ -17,12 +17,12 @@ from independent import path_positions
 
 import jaxflex
 import optim
-from jaxflex.cell import Box, Cell
-from jaxflex.engine import upsample
-from jaxflex.pose import fixed_axis_path
-from jaxflex.rotation_residual import rotation_residual
-from jaxflex.turning import Turn, turning_inputs
-from jaxflex.turning_outputs import turning_loads
+from jaxflex._cell import Box, Cell
+from jaxflex._engine import upsample
+from jaxflex._pose import fixed_axis_path
+from jaxflex._rotation_residual import rotation_residual
+from jaxflex._turning import Turn, turning_inputs
+from jaxflex._turning_outputs import turning_loads
 from optim.cell_file import cell_from_dict
 from optim.search import make_problem
 from optim.turn import TurnSchedule, TurnSpec

@@ -3,7 +3,7 @@
 
 The optimised move is integrated independently: scipy's solve_ivp (DOP853, rtol 1e-10) of
 the modal equations with the turning forcing written out here from the model's rotation data
-(jaxflex.rotation's definitions: Gamma, the inertia shape integrals S, the orientation by
+(jaxflex._rotation's definitions: Gamma, the inertia shape integrals S, the orientation by
 scipy's Rotation), every dt / 32, and its deviation about the sag of the current pose must
 stay within the clearance plus the allowance between the dt / 8 samples the clearance is held
 at (derived below). The affine map the LP uses is checked against the turning engine."""
@@ -77,7 +77,7 @@ def _reference(model, spec: TurnSpec, alpha: np.ndarray, acc: np.ndarray):
 
         f_m = -Gamma_m . (a_O - g_b) - sum_ij B_ji S_m[i, j],  B = [alpha]x + w w^T - |w|^2 I
 
-    (jaxflex.rotation: the modal load of the field B r; the body frame's turn about the
+    (jaxflex._rotation: the modal load of the field B r; the body frame's turn about the
     fixed axis), a_O = R^T a + alpha x (-c) + w x (w x (-c)) the origin's acceleration with
     the pivot c, g_b = R^T g. The deviation about the sag of the current pose is
     u_p = Phi_p (q - Omega^-2 Gamma g_b), g_b linear between the samples."""

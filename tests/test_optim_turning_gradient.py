@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import optim
+from jaxflex._turning import Turn, simulate_turning
 from jaxflex.response import as_move, max_norms, turning_blocks
-from jaxflex.turning import Turn, simulate_turning
 from optim.move_response import MoveResponse
 from optim.search import active_components
 from optim.turn import TurnSchedule, TurnSpec
@@ -47,7 +47,7 @@ def _fine(samples: np.ndarray, factor: int) -> np.ndarray:
 
 
 def _rerun(model, spec: TurnSpec, acc, alpha, factor: int, until_s: float):
-    """jaxflex.turning.simulate_turning of the move's profiles sampled ``factor`` x finer,
+    """jaxflex._turning.simulate_turning of the move's profiles sampled ``factor`` x finer,
     up to ``until_s``."""
     dt = DT / factor
     n_fine = (acc.shape[0] - 1) * factor

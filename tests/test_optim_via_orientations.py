@@ -10,7 +10,7 @@ PosePath's rotation there is the via orientation and at the end the turn's; the 
 PosePath integrated independently (R' = R [w]x, scipy's solve_ivp on the angular velocity
 written in the path) ends in the same orientations; the angular limits hold on the path's
 rate, acceleration and jerk (norms, every sample and step); the cycle time is re-timed by
-jaxflex.turning.simulate_turning on the path and translation sampled 10 x finer, scanned
+jaxflex._turning.simulate_turning on the path and translation sampled 10 x finer, scanned
 sample by sample."""
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ from scipy.spatial.transform import Rotation
 
 import jaxflex
 import optim
-from jaxflex.pose import fixed_axis_path, joined_paths
-from jaxflex.trajectory_io import TURN_COLUMNS
-from jaxflex.turning import Turn, simulate_turning
+from jaxflex._pose import fixed_axis_path, joined_paths
+from jaxflex._trajectory_io import TURN_COLUMNS
+from jaxflex._turning import Turn, simulate_turning
 from optim.cell_file import cell_from_dict
 from optim.turn_via import reported_path
 

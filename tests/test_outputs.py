@@ -9,11 +9,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import jaxflex
-from jaxflex.cell import rotation_from_degrees
-from jaxflex.deviation import outputs_at
-from jaxflex.loads import CupUtilisation, VonMises
-from jaxflex.outputs import CupSet, LinearOutputs, StressSet, voigt_rotation
-from jaxflex.peaks import output_peak
+from jaxflex._cell import rotation_from_degrees
+from jaxflex._deviation import outputs_at
+from jaxflex._loads import CupUtilisation, VonMises
+from jaxflex._outputs import CupSet, LinearOutputs, StressSet, voigt_rotation
+from jaxflex._peaks import output_peak
 
 DT = 0.01
 

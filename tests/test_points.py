@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.distance import pdist
 
+from jaxflex._points import downsample_to_count, voxel_downsample
 from jaxflex.errors import InputError
-from jaxflex.points import downsample_to_count, voxel_downsample
 
 
 def plate_nodes(n=60, m=40):

@@ -1,4 +1,4 @@
-"""Orientation paths through given orientations (jaxflex.pose.orientation_path) against
+"""Orientation paths through given orientations (jaxflex._pose.orientation_path) against
 scipy's rotations and the kinematics of rigid rotation."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
+from jaxflex._pose import axis_angle, orientation_path
 from jaxflex.errors import InputError
-from jaxflex.pose import axis_angle, orientation_path
 
 DT = 1e-3
 LIMITS = (3.0, 20.0, 400.0)  # rad/s, rad/s^2, rad/s^3

@@ -1,4 +1,4 @@
-"""Blended orientation paths (jaxflex.pose_blend) against scipy.spatial.transform: the
+"""Blended orientation paths (jaxflex._pose_blend) against scipy.spatial.transform: the
 angular velocity and acceleration against central differences of the rotations, the limits,
 the vias passed without stopping; and the turning engine driven by one against the
 independent floating-frame integration (tests/floating_frame.py)."""
@@ -11,10 +11,10 @@ from floating_frame import ACC, DT, JERK, RATE, floating_frame_deviation
 from scipy.spatial.transform import Rotation
 
 import fem
+from jaxflex._pose import orientation_path
+from jaxflex._pose_blend import blended_path
+from jaxflex._turning import Turn, simulate_turning
 from jaxflex.errors import InputError
-from jaxflex.pose import orientation_path
-from jaxflex.pose_blend import blended_path
-from jaxflex.turning import Turn, simulate_turning
 
 SHARP = [np.zeros(3), [0.0, 0.0, np.pi / 2], Rotation.from_euler("ZX", [90, 30], degrees=True)]
 GENTLE = [np.zeros(3), [0.0, 0.0, np.radians(60)], [0.3, 0.0, np.radians(150)]]

@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from ruckig import InputParameter, Ruckig, Trajectory
 
+from jaxflex._profile import integrate, jerk_limited_move
 from jaxflex.errors import InputError
-from jaxflex.profile import integrate, jerk_limited_move
 
 
 def test_integration_is_exact_for_a_cubic_position():

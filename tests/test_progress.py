@@ -1,4 +1,4 @@
-"""jaxflex.progress: a bar with total and ETA on a terminal, plain lines in a log (never a
+"""jaxflex._progress: a bar with total and ETA on a terminal, plain lines in a log (never a
 carriage return), nothing when quiet; and the command line around it: --quiet on every
 command, --version, warnings as one line."""
 
@@ -12,7 +12,7 @@ import pytest
 from conftest import run_jaxflex
 
 import jaxflex
-from jaxflex import progress
+from jaxflex import _progress as progress
 from jaxflex.cli import build_parser, commands
 
 

@@ -1,7 +1,7 @@
 """The upper layers (fem, optim, fmu) enter the core only through its public interface:
 `jaxflex` and the submodules listed in jaxflex/__init__.py's docstring (docs/design.md,
 "The public core"), each name in that module's ``__all__``. Every other core module is
-private and free to change. Read from the sources (ast), nothing imported."""
+private by name (``_x.py``) and free to change. Read from the sources (ast), nothing imported."""
 
 from __future__ import annotations
 
@@ -105,16 +105,27 @@ def private_uses(source: str) -> list[str]:
 
 def test_the_scan_finds_private_uses():
     source = (
-        "import jaxflex\nimport jaxflex.engine\nfrom jaxflex.engine import state_map\n"
+        "import jaxflex\nimport jaxflex._engine\nfrom jaxflex._engine import state_map\n"
         "from jaxflex import simulate, _private\nfrom jaxflex.response import state_map\n"
-        "jaxflex.collision.min_distance()\njaxflex.simulate()\n"
+        "jaxflex._collision.min_distance()\njaxflex.simulate()\n"
     )
     assert private_uses(source) == [
+        "jaxflex._collision (not in its __all__)",
         "jaxflex._private (not in its __all__)",
-        "jaxflex.collision (not in its __all__)",
-        "jaxflex.engine (a private module)",
-        "jaxflex.engine (a private module)",
+        "jaxflex._engine (a private module)",
+        "jaxflex._engine (a private module)",
     ]
+
+
+def test_privacy_is_in_the_module_names():
+    """A core module is public exactly when its name has no leading underscore: the plain
+    names are PUBLIC's, every other module (or sub-package) is private by name, ``_x.py``
+    (docs/design.md, "The public core")."""
+    core = ROOT / "jaxflex"
+    modules = {p.stem for p in core.glob("*.py")} - {"__init__", "__main__"}
+    modules |= {p.parent.name for p in core.glob("*/__init__.py")}
+    public = {module.removeprefix("jaxflex.") for module in PUBLIC[1:]}
+    assert {m for m in modules if not m.startswith("_")} == public
 
 
 @pytest.mark.parametrize("module", PUBLIC)
@@ -200,15 +211,15 @@ def private_mentions(text: str) -> list[str]:
 def test_the_mention_scan_finds_private_names():
     text = (
         "`jaxflex.simulate`, `jaxflex.Turn` and `jaxflex.response.state_map`, `jaxflex.cli`\n"
-        "see `jaxflex.turning_bound` and jaxflex/engine.py, not jaxflex/cli.py\n"
-        "`jaxflex.Private`, `jaxflex.response.blocks_of`, `jaxflex.turning.Turn`\n"
+        "see `jaxflex._turning_bound` and jaxflex/_engine.py, not jaxflex/cli.py\n"
+        "`jaxflex.Private`, `jaxflex.response.blocks_of`, `jaxflex._turning.Turn`\n"
     )
     assert private_mentions(text) == [
-        "line 2: jaxflex.turning_bound",
-        "line 2: jaxflex/engine.py",
+        "line 2: jaxflex._turning_bound",
+        "line 2: jaxflex/_engine.py",
         "line 3: jaxflex.Private",
+        "line 3: jaxflex._turning",
         "line 3: jaxflex.response.blocks_of",
-        "line 3: jaxflex.turning",
     ]
 
 

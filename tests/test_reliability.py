@@ -24,7 +24,8 @@ from sweep_cases import SPEC
 
 import fem
 import jaxflex
-from jaxflex.atomic import write_text_atomic
+from jaxflex._atomic import write_text_atomic
+from jaxflex._trajectory_io import read_trajectory_csv
 from jaxflex.cli import main
 from jaxflex.errors import BudgetError, InputError, ModelFileError, OutputError
 from jaxflex.files import (
@@ -36,7 +37,6 @@ from jaxflex.files import (
     whole_or_absent,
 )
 from jaxflex.isolated import isolated
-from jaxflex.trajectory_io import read_trajectory_csv
 from optim.cell_file import load_cell
 from optim.sweep import load_spec
 

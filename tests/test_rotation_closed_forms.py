@@ -17,7 +17,7 @@ vanish: w = 0 on the whole boundary), products of the 1-D integrals
 and every in-plane column S[:, x], S[:, y] is 0. The rotational participation about x is
 int rho h w y dA = S[y, z], about y -int rho h w x dA = -S[x, z], about z 0.
 
-The static response to the unit inertia load rho h r_i along z (jaxflex.rotation: the
+The static response to the unit inertia load rho h r_i along z (jaxflex._rotation: the
 displacement under the load -M (e_z r_i), per unit B_zi) is Navier's double series
 -sum_mn phi_mn S_mn[i, z] / omega_mn^2, omega_mn^2 = D k^4 / (rho h) (the rotary inertia
 does not enter a static solve), summed to m, n <= 300 (the terms fall as 1/(m n (m^2 +

@@ -22,8 +22,8 @@ from test_fem_deck_points import (
 
 import fem
 from fem.imports.ansys import from_rst_modes, read_full
-from jaxflex.pose import fixed_axis_path, turn_acceleration
-from jaxflex.turning import Turn, simulate_turning
+from jaxflex._pose import fixed_axis_path, turn_acceleration
+from jaxflex._turning import Turn, simulate_turning
 
 
 def about_origin(mass_6x6: np.ndarray, point: np.ndarray) -> np.ndarray:

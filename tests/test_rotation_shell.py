@@ -17,7 +17,7 @@ import fem
 from fem.mesh.mesh_io import sheet_from_cells
 from fem.parts import part_from_mesh
 from fem.rotation_integrals import inertia_loads, linear_fields
-from jaxflex.rotation import LEVI_CIVITA
+from jaxflex._rotation import LEVI_CIVITA
 
 CUPS = [fem.SuctionCup(x, y, 0.03) for x in (0.15, 0.45) for y in (0.1, 0.3)]
 
@@ -137,7 +137,7 @@ def test_mode_shape_integrals_against_a_quadrature_of_the_stored_shapes(name, bu
 
 def test_mass_products_of_rigid_motions_are_the_sheets_moments(held):
     """The shell's displacement fields at its mass rule's points (fem.elements.shell.ShellOutputs.
-    mass_products, from which the couplings G and P of jaxflex.rotation come), for the six
+    mass_products, from which the couplings G and P of jaxflex._rotation come), for the six
     rigid motions as 'modes' (fields the shell holds exactly): C[a, b] = int rho (v_m)_a
     (v_n)_b dV is m delta_ab between translations, eps_bjc (m c)_c between translation i and
     rotation j, eps_aic eps_bjd Sigma_cd between rotations (the sheet's closed form, fibres

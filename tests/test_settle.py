@@ -11,9 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import jaxflex
-from jaxflex.analytic import simply_supported_plate
-from jaxflex.grid import grid_time
-from jaxflex.profile import jerk_limited_move
+from jaxflex._analytic import simply_supported_plate
+from jaxflex._grid import grid_time
+from jaxflex._profile import jerk_limited_move
 
 BRUTE_STEP_S = 1e-4
 
@@ -228,7 +228,7 @@ def test_search_budget_stops_a_runaway_search_and_scales_with_the_points(monkeyp
     """The evaluation budget is a guard against tangent responses; it must not refuse honest
     searches on many-point models (their cost grows with K), and it must stop a search that
     exceeds it with a message instead of running on."""
-    from jaxflex import settle
+    from jaxflex import _settle as settle
 
     model = random_model(seed=3, n_points=40, n_modes=8)
     acc = smooth_move(60, 0.01)

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 import jaxflex
-from jaxflex.convolution import convolve_unit_response, deviation_from_displacement, unit_response
+from jaxflex._convolution import convolve_unit_response, deviation_from_displacement, unit_response
 
 
 def test_multi_mode_against_solve_ivp():

@@ -12,7 +12,7 @@ from threadpoolctl import threadpool_limits
 import fem
 import jaxflex
 from fem.bench.metrics import settle_from_samples
-from jaxflex.integrators import central_difference_modal, newmark_modal
+from jaxflex._integrators import central_difference_modal, newmark_modal
 
 
 def one_mode(freq_hz: float, zeta: float = 0.0) -> jaxflex.ModalModel:

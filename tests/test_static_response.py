@@ -18,8 +18,8 @@ from independent import static_nodes
 import fem
 import jaxflex
 from fem.outputs import stress_outputs
-from jaxflex.deviation import outputs_at
-from jaxflex.profile import acceleration_at
+from jaxflex._deviation import outputs_at
+from jaxflex._profile import acceleration_at
 
 DT = 0.01
 G = 9.81
@@ -161,7 +161,7 @@ def _plate_and_cups(material):
 
 def test_the_static_residual_brings_the_reduced_model_to_the_full_order_transient():
     """During a move the modes a model leaves out respond quasi-statically (the
-    mode-acceleration method, jaxflex.deviation.response_shapes): with 4 modes the
+    mode-acceleration method, jaxflex._deviation.response_shapes): with 4 modes the
     displacement error against the full-order Newmark transient drops from that of the
     truncation to that of the dynamic share of the dropped modes."""
     part = fem.rectangular_plate(0.6, 0.4, 1e-3, "steel", 0.025)

@@ -6,7 +6,7 @@ A stiff mode's response to a piecewise-linear acceleration is quasi-static plus 
 vibration; bounding its curvature by the energy radius (which grows like omega dt per step)
 made the branch and bound refine every step down to the mode's period (31 257 evaluations
 here, 136 000 calls on the plate); the free vibration about the quasi-static response
-(jaxflex.engine.derivative_bounds) needs almost none.
+(jaxflex._engine.derivative_bounds) needs almost none.
 """
 
 from __future__ import annotations
@@ -18,11 +18,11 @@ from test_collision import dense_distances
 from test_outputs import _dense_max, with_outputs
 
 import jaxflex
-from jaxflex.cell import Box, HalfSpace
-from jaxflex.collision import min_distance
-from jaxflex.engine import derivative_bounds, modal_forces, modal_states, states_at
-from jaxflex.loads import CupUtilisation
-from jaxflex.peaks import output_peak
+from jaxflex._cell import Box, HalfSpace
+from jaxflex._collision import min_distance
+from jaxflex._engine import derivative_bounds, modal_forces, modal_states, states_at
+from jaxflex._loads import CupUtilisation
+from jaxflex._peaks import output_peak
 
 DT = 0.01
 STIFF_HZ = (5000.0, 8000.0)
@@ -74,7 +74,7 @@ def test_stiff_peak_is_certified_with_few_evaluations(stiff):
 
 def test_stiff_distance_is_certified(stiff):
     """The minimum distance of a stiff part to a post and the floor (its modal speed bounded
-    by jaxflex.engine.derivative_bounds): certified against a 0.1 ms grid, found within
+    by jaxflex._engine.derivative_bounds): certified against a 0.1 ms grid, found within
     four times the first grid's evaluations."""
     model = stiff.posed(np.eye(3), [0.0, 0.0, 1.0])
     acc = jaxflex.jerk_limited_move([1.2, 0.3, -0.4], 2, 10, 100, DT)

@@ -13,7 +13,7 @@ import pytest
 
 import optim
 import optim.stages
-from jaxflex.budget import make_budget, use_budget
+from jaxflex._budget import make_budget, use_budget
 from jaxflex.errors import BudgetError, InputError
 from optim.search import bisect
 from optim.turn_plan import gallop_lengths, resolution_m

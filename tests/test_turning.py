@@ -13,10 +13,10 @@ from scipy.spatial.transform import Rotation
 import fem
 import jaxflex
 from fem.rotation_integrals import linear_fields
+from jaxflex._pose import fixed_axis_path, orientation_path, turn_acceleration
+from jaxflex._rotation import LEVI_CIVITA
+from jaxflex._turning import Turn, simulate_turning, turning_settle
 from jaxflex.errors import InputError, ModelError
-from jaxflex.pose import fixed_axis_path, orientation_path, turn_acceleration
-from jaxflex.rotation import LEVI_CIVITA
-from jaxflex.turning import Turn, simulate_turning, turning_settle
 
 
 def _rigid_participation(result):
@@ -166,7 +166,7 @@ def test_against_floating_frame_reference(cantilever, axis, angle_deg):
     sampling = 1e-4 * peak
     assert np.abs(response.deviation_m - kept).max() <= sampling
     assert np.abs(response.deviation_m - full).max() <= 5e-3 * peak
-    # the bound holds for the continuous neglected load at any step (jaxflex.turning_bound;
+    # the bound holds for the continuous neglected load at any step (jaxflex._turning_bound;
     # tests/test_turning_bound.py checks it at 10 ms and 2 ms against a finer reading of the
     # reference) and the reference is integrated at rtol 1e-10 and read at the samples only:
     # 1e-6 of the peak covers its rounding; measured bound / effect 1.4-1.9, held to 2 so
@@ -178,7 +178,7 @@ def test_against_floating_frame_reference(cantilever, axis, angle_deg):
 
 def test_turning_settle_time_against_the_reference(cantilever):
     """The settle time of a 90 degree swivel about the vertical, certified from the end state
-    (jaxflex.turning.turning_settle), against the last exceedance of the independent
+    (jaxflex._turning.turning_settle), against the last exceedance of the independent
     floating-frame integration with every term, sampled at DT: within one sample (the
     reference is sampled; the neglected terms move the curve by < 5e-3 of its peak, a shift
     of the crossing far below DT where the envelope decays at sigma = zeta omega_1)."""
@@ -204,7 +204,7 @@ def test_turning_settle_time_against_the_reference(cantilever):
 
 def test_combined_move_through_orientations_against_the_reference(cantilever):
     """The combined move of the issue: a swivel of 90 degrees about the vertical, then a
-    30 degree tilt about the part's own x axis (jaxflex.pose.orientation_path through three
+    30 degree tilt about the part's own x axis (jaxflex._pose.orientation_path through three
     orientations), while the gripper travels 0.5 m along x and 0.2 m up (a jerk-limited
     move, at rest once it arrives), and 0.3 s of free decay: against the independent
     integration, as the single turns (1e-4 of the peak with the kept terms: the sampled

@@ -1,5 +1,5 @@
 """The turning engine in one compiled call and its bound on the terms it neglects
-(jaxflex.turning, jaxflex.turning_bound): the bound against an independent floating-frame
+(jaxflex._turning, jaxflex._turning_bound): the bound against an independent floating-frame
 integration with every term (tests/floating_frame.py) at the sample steps 10 ms and 2 ms, its
 first-order response against an adaptive integration of that response's own equation, the
 compiled response against the NumPy one, and a settling inside the move against a dense
@@ -13,12 +13,12 @@ from floating_frame import FloatingFrame, built_in_panel, cantilever, panel_scen
 from scipy.integrate import solve_ivp
 
 import jaxflex
-from jaxflex.deviation import deviation_curves
-from jaxflex.engine import states_between
-from jaxflex.pose import fixed_axis_path, turn_acceleration
-from jaxflex.profile import samples_at
-from jaxflex.rotation_residual import turning_coordinates, turning_shapes
-from jaxflex.turning import (
+from jaxflex._deviation import deviation_curves
+from jaxflex._engine import states_between
+from jaxflex._pose import fixed_axis_path, turn_acceleration
+from jaxflex._profile import samples_at
+from jaxflex._rotation_residual import turning_coordinates, turning_shapes
+from jaxflex._turning import (
     Turn,
     gravity_coordinates,
     simulate_turning,
@@ -26,7 +26,7 @@ from jaxflex.turning import (
     turning_motion,
     turning_settle,
 )
-from jaxflex.turning_bound import bound_data, first_order_response, frame_basis, principal_axes
+from jaxflex._turning_bound import bound_data, first_order_response, frame_basis, principal_axes
 
 EVAL_DT_S = 1e-4  # the reference's grid: omega_max h = 0.24 for the cantilever's 381 Hz
 
@@ -88,7 +88,7 @@ def test_bound_covers_the_neglected_terms_on_the_built_in_panel(dt_s):
 def test_first_order_response_against_an_adaptive_integration(cantilever_case):
     """The first-order response y'' + 2 Z Omega y' + Omega^2 y = N(t) x(t) of the combined
     move at 10 ms, at every sub-sample, against DOP853 (rtol 1e-11) of that equation with the
-    engine's kept state between samples (jaxflex.engine.states_between) and the path's rates
+    engine's kept state between samples (jaxflex._engine.states_between) and the path's rates
     between samples (alpha linear, w = L + J its integral, L = w_k + alpha_k s, J = jerk
     s^2 / 2): equal to 1e-8 of its peak (the kernels' quadrature is exact to rounding; the
     integration's tolerance dominates). The load integrated is N(t) less the spin softening
@@ -137,7 +137,7 @@ def test_first_order_response_against_an_adaptive_integration(cantilever_case):
 
 def _numpy_response(model, path, acc, pivot_m, extend_s):
     """(q, qd, deviation) of the deviation about the current pose's sag from the NumPy
-    response (jaxflex.turning.turning_inputs) and every point's displacement (dense)."""
+    response (jaxflex._turning.turning_inputs) and every point's displacement (dense)."""
     inputs = turning_inputs(model, Turn(path, acc, pivot_m=pivot_m), extend_s=extend_s)
     gravity = inputs.gravity_body_m_s2
     w = np.zeros_like(gravity)
@@ -154,7 +154,7 @@ def test_compiled_response_is_the_numpy_response(turning_plate, rest_steps):
     samples followed by ``rest_steps`` steps at rest and 0.25 s of free vibration: the
     compiled simulate_turning (the move padded to whole blocks of steps) gives the NumPy
     response and the dense all-point deviation to rounding (1e-12 of each array's size), and
-    the bound is the same whatever rest follows the turn (the window of jaxflex.turning_bound)."""
+    the bound is the same whatever rest follows the turn (the window of jaxflex._turning_bound)."""
     turn = turn_acceleration(np.radians(40.0), 2.0, 10.0, 100.0, 0.01)
     travel = jaxflex.jerk_limited_move([0.3, 0.0, 0.4], 1.0, 5.0, 50.0, 0.01)
     samples = max(turn.size, len(travel)) + rest_steps
@@ -187,8 +187,8 @@ def _dense_deviation(model, path, response, t_s):
     motion_q = response.q[: n + 1] + sag
     spin = gravity_coordinates(model, np.cross(path.omega_rad_s, gravity))
     states = np.stack([motion_q, response.qd[: n + 1] - spin], axis=-1)
-    from jaxflex.rotation_residual import load_coefficients
-    from jaxflex.turning import turning_forces
+    from jaxflex._rotation_residual import load_coefficients
+    from jaxflex._turning import turning_forces
 
     force = turning_forces(model, path, response.acc_body_m_s2, gravity)
     q = states_between(model, states, force, path.dt_s, t_s, np)[..., 0]

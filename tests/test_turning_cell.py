@@ -15,15 +15,15 @@ from sheet_parts import sheet_moments
 import fem
 import jaxflex
 from fem.elements.solid import SolidOutputs
-from jaxflex.cell import Box, HalfSpace
+from jaxflex._cell import Box, HalfSpace
+from jaxflex._outputs import voigt_rotation
+from jaxflex._pose import axis_rotation, fixed_axis_path, turn_acceleration
+from jaxflex._profile import jerk_limited_move, kinematics_at
+from jaxflex._rotation_residual import rotation_residual
+from jaxflex._turning import Turn, simulate_turning
+from jaxflex._turning_collision import turning_min_distance
+from jaxflex._turning_outputs import TurningInputs, output_values, turning_inputs, turning_loads
 from jaxflex.errors import JaxflexWarning
-from jaxflex.outputs import voigt_rotation
-from jaxflex.pose import axis_rotation, fixed_axis_path, turn_acceleration
-from jaxflex.profile import jerk_limited_move, kinematics_at
-from jaxflex.rotation_residual import rotation_residual
-from jaxflex.turning import Turn, simulate_turning
-from jaxflex.turning_collision import turning_min_distance
-from jaxflex.turning_outputs import TurningInputs, output_values, turning_inputs, turning_loads
 
 DT = 1e-3
 G_WORLD = np.array([0.0, 0.0, -9.81])
@@ -134,7 +134,7 @@ def newton_euler(result, path, acc, pivot, n_all):
 
 
 def _rest_inputs(model, g_body, b):
-    """The inputs of jaxflex.turning_outputs at rest under the base acceleration -g_body and
+    """The inputs of jaxflex._turning_outputs at rest under the base acceleration -g_body and
     the constant rotational load coefficients b: the modes at their static coordinates."""
     omega = np.asarray(model.omega_rad_s)
     s = np.asarray(model.rotation.shape_integrals).reshape(-1, 9)
@@ -148,7 +148,7 @@ def _rest_inputs(model, g_body, b):
 def test_static_response_against_a_sparse_solve(element, case):
     """At rest under a constant spin (the centrifugal load) and/or a static tilt of 35 degrees
     under gravity, with only 3 of the modes kept: the points' displacement Phi q + D a +
-    D_rot b and the stresses (jaxflex.turning_outputs) equal an independent scipy spsolve of
+    D_rot b and the stresses (jaxflex._turning_outputs) equal an independent scipy spsolve of
     the FE system K u = -M (a + B r) written here from the node coordinates, to 1e-8 of the
     peak (two sparse solves of the same system: round-off)."""
     result = _sheet(element, n_modes=3, mesh=0.05)

@@ -1,4 +1,4 @@
-"""The couplings of the deformation (jaxflex.rotation: G_k = phi^T M X_k phi, P_kl =
+"""The couplings of the deformation (jaxflex._rotation: G_k = phi^T M X_k phi, P_kl =
 phi^T M X_k X_l phi) against operators built here from the node coordinates and the mass
 matrix, their closed form on a Kirchhoff plate, and their path through the model file,
 truncation and a change of frame (the bound on the neglected terms does not depend on it)."""
@@ -12,8 +12,8 @@ from scipy.spatial.transform import Rotation
 
 import fem
 import jaxflex
-from jaxflex.pose import fixed_axis_path, turn_acceleration
-from jaxflex.turning import Turn, simulate_turning
+from jaxflex._pose import fixed_axis_path, turn_acceleration
+from jaxflex._turning import Turn, simulate_turning
 
 
 @pytest.fixture(scope="module")

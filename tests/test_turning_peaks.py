@@ -1,4 +1,4 @@
-"""The certified peak of a turning part's cup loads and stresses (jaxflex.turning_peaks)
+"""The certified peak of a turning part's cup loads and stresses (jaxflex._turning_peaks)
 against a dense brute-force evaluation of the same response, the public turning_loads at the
 samples, and turning_loads of the same piecewise-linear inputs sampled 16 times finer."""
 
@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from test_turning_cell import _sheet
 
-from jaxflex.loads import CupUtilisation, VonMises
-from jaxflex.pose import fixed_axis_path, turn_acceleration
-from jaxflex.profile import jerk_limited_move
-from jaxflex.turning import Turn
-from jaxflex.turning_outputs import turning_loads
-from jaxflex.turning_peaks import TurningLoadSearch, turning_output_peak
+from jaxflex._loads import CupUtilisation, VonMises
+from jaxflex._pose import fixed_axis_path, turn_acceleration
+from jaxflex._profile import jerk_limited_move
+from jaxflex._turning import Turn
+from jaxflex._turning_outputs import turning_loads
+from jaxflex._turning_peaks import TurningLoadSearch, turning_output_peak
 
 DT = 2e-3
 PIVOT = np.array([0.05, 0.05, 0.0])

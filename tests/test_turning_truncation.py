@@ -13,8 +13,8 @@ from scipy.spatial.transform import Rotation
 
 import fem
 import jaxflex
-from jaxflex.pose import fixed_axis_path, orientation_path, turn_acceleration
-from jaxflex.turning import Turn, simulate_turning
+from jaxflex._pose import fixed_axis_path, orientation_path, turn_acceleration
+from jaxflex._turning import Turn, simulate_turning
 
 
 @pytest.fixture(scope="module")

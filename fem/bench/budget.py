@@ -1,4 +1,4 @@
-"""The budget (jaxflex.budget) measured.
+"""The budget (jaxflex._budget) measured.
 
 * Calibration of the finite-element plan (fem.mesh.plan): cells, DOFs, wall time and peak memory
   of modal analyses of the built-in footprint (1.5 x 0.8 m, four 40 mm cups, 20 modes) for

@@ -9,7 +9,7 @@ components; frequencies 5-300 Hz, zeta 0.02) and a smooth vertical move. Measure
 * gradient: jax.grad of the peak deviation with respect to the samples;
 * float32 forward and its deviation error against float64;
 * the preprint's direct convolution of R1 (numpy), and its agreement with the scan;
-* exact cycle time (jaxflex.settle) and the smooth surrogate with its gradient.
+* exact cycle time (jaxflex._settle) and the smooth surrogate with its gradient.
 
 Timings are the best of several repeats of ``jax.block_until_ready`` loops after compilation.
 """

@@ -4,7 +4,7 @@ reduction of the monitored points costs.
 ``scale``: a synthetic curved part (the analytic simply supported plate's bending modes,
 1.5 x 0.8 m, carried along the normal of a doubly curved surface, radii 2.5 m / 1.2 m, so
 every shape has three components) at K grid nodes, M = 40 modes. Timed: the jitted forward
-deviation (modal scan plus the pruned blocked evaluation of jaxflex.deviation) at K = 1 099
+deviation (modal scan plus the pruned blocked evaluation of jaxflex._deviation) at K = 1 099
 (the preprint's voxel count) and K = 66 308 (its fender mesh), N = 1 000 steps, and at
 K = 1 000 000, N = 300 (its largest case) with float64 and float32 shapes; the exact cycle
 time (jaxflex.cycle_time) at K = 66 308; the one-off preparation of the blocks; the peak

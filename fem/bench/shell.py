@@ -64,7 +64,7 @@ def case_leissa() -> dict:
 
 
 def donnell_hz(thickness_m: float, count: int = 6) -> np.ndarray:
-    """Donnell's closed form of the simply supported panel (jaxflex.analytic)."""
+    """Donnell's closed form of the simply supported panel (jaxflex._analytic)."""
     radius = PANEL["radius"]
     arc = 2 * radius * np.arcsin(PANEL["chord"] / (2 * radius))
     return cylindrical_panel_frequencies_hz(

@@ -3,7 +3,7 @@
 One mode q'' + 2 zeta w q' + w^2 q = -a(t), dt = 10 ms, w swept so that w dt runs over
 ``OMEGA_DT``. The reference is scipy.signal.lsim with linear interpolation of the input
 (an augmented matrix exponential per step: exact for the piecewise-linear input, and
-independent of jaxflex.discretize). Measured per w dt:
+independent of jaxflex._discretize). Measured per w dt:
 
 * ``error``: max |q - q_ref| / max |q_ref| over ``ERROR_STEPS`` steps (10 periods at the
   smallest w dt) after a hat impulse, for the exact scan (float64, float32), Newmark and

@@ -388,7 +388,7 @@ def _dof_rotation(
 
 
 def _rotation_data(full: FullMatrices, free, M, vectors, node_ids, coords, rotations, unit):
-    """The turning moves' RotationalInertia (jaxflex.rotation) of the modes ``vectors``
+    """The turning moves' RotationalInertia (jaxflex._rotation) of the modes ``vectors``
     (free DOFs, file units) from the .full's mass matrix ``M`` and the coordinates ``coords``
     (file units) of ``node_ids`` (fem.rotation_integrals.imported_inertia)."""
     dof_nodes, labels = full.node_ids[free], full.labels[free]

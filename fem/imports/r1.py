@@ -1,12 +1,12 @@
 """The preprint's unit response R1 -> a modal model, by system identification.
 
 R1 is the response of K points (x, y, z) at t_j = j dt to a unit hat of acceleration at t_1
-along one axis (jaxflex.convolution). For a part with real modes, each channel c is
+along one axis (jaxflex._convolution). For a part with real modes, each channel c is
 
     R1_c(t_j) = sum_i rho_ic g_i(t_j),    rho_ic = phi_i(c) Gamma_i,a,
 
 where g_i is the exact response of mode i (omega_i, zeta_i, unit participation) to the hat
-(first-order hold, jaxflex.discretize). The identification:
+(first-order hold, jaxflex._discretize). The identification:
 
 1. Compression and model order: the data matrix D (channels x samples) has rank M, one
    per mode, plus noise. Its singular values are cut at the optimal hard threshold of
@@ -64,7 +64,7 @@ FREE_FROM = 2  # the first sample after the hat (at t_1) is over: the modes alon
 def hat_responses(freq_hz, zeta, dt_s: float, n_steps: int) -> np.ndarray:
     """g_i(t_j), (n_steps + 1, M): displacement of unit-participation modes (q'' + 2 zeta w
     q' + w^2 q = -h_1(t)) for the unit hat h_1 at t_1, sampled at t_j = j dt_s (the exact
-    recursion of jaxflex.engine)."""
+    recursion of jaxflex._engine)."""
     n_modes = np.size(freq_hz)
     probe = ModalModel(
         freq_hz,

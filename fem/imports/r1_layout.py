@@ -1,6 +1,6 @@
 """Where an R1 file's columns sit in time: the three layouts users bring.
 
-An R1 CSV has one row per point and x, y, z per time step (jaxflex.convolution). What the
+An R1 CSV has one row per point and x, y, z per time step (jaxflex._convolution). What the
 first step is differs between tools:
 
 * **t = 0**: the first triple is the state at rest before the hat (all zeros), as

@@ -52,7 +52,7 @@ class TimeGrid:
 
 def modal_coordinates(model: ModalModel, grid: TimeGrid, n_samples: int) -> np.ndarray:
     """(n_samples, M) modal coordinates q_i(t) (kg^0.5 m) of ``model`` on ``grid``: the exact
-    recursion (jaxflex.engine, NumPy) over the finely sampled move, then at rest."""
+    recursion (jaxflex._engine, NumPy) over the finely sampled move, then at rest."""
     return modal_states(model, grid.fine_acc(n_samples), grid.step_s, xp=np)[..., 0]
 
 

@@ -22,7 +22,7 @@ check of the combined choice against the richer model confirms it:
    A level is accepted when its difference to the next finer level plus the Richardson
    estimate of that finer level's own error (i.e. its estimated error against the converged
    mesh) is within the mesh share; the finer level is the reference for the later stages.
-2. points: the coarsest voxel size (jaxflex.points) whose monitored points reproduce the
+2. points: the coarsest voxel size (jaxflex._points) whose monitored points reproduce the
    deviation over every node; the nodes where the reference deviation peaks are always kept.
 3. modes: the lowest n modes whose deviation matches that of all computed modes. The
    computed count is raised (by MODES_GROWTH, up to ``max_modes``) until the quasi-static residual

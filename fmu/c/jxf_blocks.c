@@ -1,5 +1,5 @@
 /* jaxflex part FMU: the monitored points in blocks with bounds per block (the C form of
- * jaxflex.blocks), so that an output over every point evaluates only the blocks that can
+ * jaxflex._blocks), so that an output over every point evaluates only the blocks that can
  * decide it and still equals the evaluation of every point.
  *
  * When the model is loaded, the K points are ordered by a k-d bisection of their

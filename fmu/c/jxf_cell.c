@@ -1,11 +1,11 @@
 /* jaxflex FMU: the cell's outputs at the communication point (resource format 3).
  *
  * Cup reactions and stresses are linear in the modal state and the base acceleration,
- * y = Q q + V v + A a + y_rest (jaxflex.outputs: y_rest = -S g, the exact outputs of the part
+ * y = Q q + V v + A a + y_rest (jaxflex._outputs: y_rest = -S g, the exact outputs of the part
  * at rest under gravity); they are evaluated when read, from m->q, m->v and m->a_now. The cup
- * utilisation and the von Mises stress are those of jaxflex.loads; the distance of a point
+ * utilisation and the von Mises stress are those of jaxflex._loads; the distance of a point
  * (at rest under gravity, moved by the path m->pos and its displacement) to the nearest
- * obstacle is that of jaxflex.cell, less half the part's thickness (its skins). SI units.
+ * obstacle is that of jaxflex._cell, less half the part's thickness (its skins). SI units.
  *
  * Obstacle records of JXF_OBSTACLE_VALUES values: a kind code, then the kind's values. The
  * kinds are one table, fmu/obstacles.py, which jxf_config.h carries as JXF_OBSTACLE_* macros:
@@ -212,7 +212,7 @@ static double point_distance(const jxf_model *m, const double p[3]) {
 /* The coordinates of the shapes' rows that place the points, into x (M + R): a part that
  * does not turn, those of its displacement (m->coords: q, a); a turning part, the whole
  * elastic displacement (the sag in the current pose included): q the total modal state,
- * a_O - g_b and b (jaxflex.turning_collision). */
+ * a_O - g_b and b (jaxflex._turning_collision). */
 static const double *position_coords(const jxf_model *m, double *x) {
     int i;
     if (!m->turning) return m->coords;

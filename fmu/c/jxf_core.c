@@ -50,7 +50,7 @@
 #define JXF_TOKEN_BYTES 64u
 #define JXF_TRAILER_BYTES 8u
 
-/* Series below this value of omega * h (as jaxflex.discretize). */
+/* Series below this value of omega * h (as jaxflex._discretize). */
 #define JXF_SERIES_LIMIT 0.1
 #define JXF_SERIES_TERMS 16
 /* Two step lengths within this relative distance share their coefficients. */
@@ -345,7 +345,7 @@ static int all_finite(const double *x, size_t n) {
     return 1;
 }
 
-/* 1 if every value of `x` lies in [low, high] (the physical ranges of jaxflex.model_file,
+/* 1 if every value of `x` lies in [low, high] (the physical ranges of jaxflex._model_file,
  * compiled in as JXF_RANGE_*), else 0 after logging the first one outside. */
 static int in_range(const jxf_model *m, const char *name, const char *what, const double *x,
                     size_t n, double low, double high) {
@@ -580,7 +580,7 @@ static void sample_drive(const jxf_model *m, long k, int moving, double d[JXF_IN
 /* The orientation `r` (9, row-major, body -> world; it holds sample k's on entry) at the
  * fraction `w` of the step after sample k of the embedded move: R_k exp([phi]_x) with
  * phi = w_k s + alpha_k s^2 / 2 + (alpha_k+1 - alpha_k) s^3 / (6 dt), s = w dt (body
- * components; exact for a turn about a fixed axis, as jaxflex.turning_collision). */
+ * components; exact for a turn about a fixed axis, as jaxflex._turning_collision). */
 static void turn_between(const jxf_model *m, long k, double w, double r[9]) {
     const double *now = m->traj_pose + JXF_POSE_VALUES * k, *next = now + JXF_POSE_VALUES;
     const double s = w * m->traj_dt;
@@ -661,7 +661,7 @@ static void update_outputs(jxf_model *m) {
     ++m->state;
     /* the coordinates of the shapes: q (a turning part: less its sag in the current pose,
      * Omega^-2 gamma . g_b), then the base acceleration (the static residual) and, R = 12,
-     * the rotational load coefficients (jaxflex.rotation_residual) */
+     * the rotational load coefficients (jaxflex._rotation_residual) */
     for (i = 0; i < m->n_modes; ++i) m->coords[i] = m->q[i] - sag(m, i);
     for (i = 0; i < m->n_static; ++i)
         m->coords[m->n_modes + i] = i < 3 ? m->a_now[i] : m->b_now[i - 3];

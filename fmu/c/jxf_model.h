@@ -5,12 +5,12 @@
  * and the point displacements are u_p = sum_i phi_i(p) q_i. Over a step of length h with an
  * acceleration that is linear in time (first-order hold) the state advances exactly as
  *     x(h) = Phi x(0) + G0 f(0) + G1 f(h),    G0 = J1 / h,  G1 = J0 - G0
- * (the same discretisation as jaxflex.discretize: closed form for omega h >= 0.1, a 16-term
+ * (the same discretisation as jaxflex._discretize: closed form for omega h >= 0.1, a 16-term
  * series of the matrix exponential; jxf_core.c). A held input is the special case
  * f(h) = f(0).
  *
  * A turning part (JXF_TURNING, jxf_turning.c) takes its pose as inputs as well and is forced
- * in its body frame as in jaxflex.turning: f = -gamma . (a_O - g_b) - gamma_rot . alpha
+ * in its body frame as in jaxflex._turning: f = -gamma . (a_O - g_b) - gamma_rot . alpha
  * - tr(A(w) S), with the same first-order hold of f over a step.
  *
  * This header holds the part's state, struct jxf_model, and only that: the part FMU's

@@ -4,7 +4,7 @@
  * the step dt, the body rotation vector `s` s later is
  *     phi = w_k s + alpha_k s^2 / 2 + (alpha_k+1 - alpha_k) s^3 / (6 dt),
  * and the angular velocity w_k + alpha_k s + (alpha_k+1 - alpha_k) s^2 / (2 dt); the
- * orientation is R_k exp([phi]_x), exact for a turn about a fixed axis (jaxflex.pose). */
+ * orientation is R_k exp([phi]_x), exact for a turn about a fixed axis (jaxflex._pose). */
 #ifndef JXF_TURN_ANGLE_H
 #define JXF_TURN_ANGLE_H
 

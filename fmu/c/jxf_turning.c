@@ -2,7 +2,7 @@
  *
  * A part that does not turn: f_m = -gamma_m . a, a the gripper's acceleration (m/s^2).
  *
- * A turning part (jaxflex.turning, in the body frame of the gripper = the model frame, origin
+ * A turning part (jaxflex._turning, in the body frame of the gripper = the model frame, origin
  * O): the pivot c (model frame) moves with the world acceleration a; the orientation R (body
  * -> world) is the unit quaternion (w, x, y, z) of the inputs (normalised here), the angular
  * velocity w and acceleration alpha are body components. Then
@@ -11,7 +11,7 @@
  * with A(w) = w w^T - |w|^2 I, S_m[i][j] = phi_m^T M (e_j r_i) the inertia shape integrals
  * and gamma_rot,m[k] = eps_kij S_m[i][j]. The coefficients b[3 i + j] = B_ji of the
  * rotational loads (B = [alpha]_x + A(w)) drive the static response to them, the last nine
- * residual coordinates where the resource has R = 12 (jaxflex.rotation_residual). SI units.
+ * residual coordinates where the resource has R = 12 (jaxflex._rotation_residual). SI units.
  */
 #include <math.h>
 

@@ -12,7 +12,7 @@ extern "C" {
  * model frame's origin `a_body` and gravity `g_body` (body components, m/s^2; zero for a part
  * that does not turn, whose state is measured from its sag), the rotational
  * load coefficients `b` (9: b[3 i + j] = B_ji, B = [alpha]_x + w w^T - |w|^2 I, 1/s^2, as
- * jaxflex.rotation_residual.load_coefficients; zero for a part that does not turn) and
+ * jaxflex._rotation_residual.load_coefficients; zero for a part that does not turn) and
  * the orientation `rotation` (9, row-major, body -> world; the identity for a part that
  * does not turn). 0, or -1 after logging when the orientation quaternion has no direction
  * (zero or not finite). */

@@ -3,7 +3,7 @@
 Each run is ``python -m jaxflex ...`` in a fresh interpreter, timed from outside (wall clock
 around the child, its CPU time from the operating system's accounting of children):
 
-* ``cold``: with an empty JAX compilation cache (jaxflex.compile_cache): imports, every
+* ``cold``: with an empty JAX compilation cache (jaxflex._compile_cache): imports, every
   compilation, the work, the pictures;
 * ``warm``: the same command again with the cache the cold run filled;
 * ``warm_no_plots``: the same with ``--no-plots`` (the answer, trajectory and report only).

@@ -55,7 +55,7 @@ def deviation_traces(
     """Times t (T,) s and deviations d (B, T) m of each model under its move ``accs[b]``
     ((n_b + 1, 3) m/s^2 at step ``dt_s``), from 0 to ``horizon_s``. All models must have
     the same number of points and modes (one group of the sweep). The horizon is rounded up
-    to whole blocks of jaxflex.engine.PAD_STEPS steps (t reaches at least ``horizon_s``)."""
+    to whole blocks of jaxflex._engine.PAD_STEPS steps (t reaches at least ``horizon_s``)."""
     if method not in METHODS:
         raise InputError(f"method: must be one of {list(METHODS)}, got {method!r}")
     if len(models) != len(accs) or not models:

@@ -1,4 +1,4 @@
-"""What a sweep will cost, planned before its first case (jaxflex.budget).
+"""What a sweep will cost, planned before its first case (jaxflex._budget).
 
 * **The spec** (:func:`spec_need`, while it is read, before its grids are expanded): every
   layout and case is an object of the run (``BYTES_PER_CASE``) and takes at least

@@ -261,7 +261,7 @@ class DeckOutputs:
     inertia_loads = staticmethod(mass_field_loads)
 
     def couplings(self, phi: np.ndarray, mass_phi: np.ndarray) -> None:
-        """None: the deck's DOFs may sit in rotated nodal systems (jaxflex.turning then
+        """None: the deck's DOFs may sit in rotated nodal systems (jaxflex._turning then
         bounds the couplings by energy)."""
         return None
 
