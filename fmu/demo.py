@@ -71,8 +71,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--scene",
         choices=("plate", "panel", *TURNS),
         default="plate",
-        help="built-in part: flat steel plate (default; its FE ~3 s of CPU) or curved panel "
-        "(~15 s of CPU); or a move that turns the part about the middle of its cups (nominal "
+        help="built-in part: flat steel plate (default; its FE ~5 s of CPU) or curved panel "
+        "(~30 s of CPU); or a move that turns the part about the middle of its cups (nominal "
         "optimum, turning FMUs): swivel (the panel turned 90 deg about the vertical while it "
         "moves 1 m along x), swivel-upright (the same with the plate carried upright, where "
         "vibration limits the cycle) or tilt (the plate tilted 30 deg about its long axis "
