@@ -37,11 +37,14 @@ and the polynomial terms the same with the kernels int_0^tau Phi_m(tau - s) b s^
 kernels depend only on the modes and the step: computed once per model and dt by composite
 Gauss-Legendre quadrature (QUADRATURE_NODES per panel, panels short enough that (omega_m +
 omega_j) times a panel is at most PANEL_RAD: the integrands are entire, the quadrature error
-is far below rounding; tests/test_turning_bound.py checks y against an adaptive integration
-of its equation). y is so exact for the continuous load, not its samples: the load
-oscillates at the modes' frequencies, which a 10 ms step does not resolve (the bound taken at
-the samples saw 0.78-0.97 of the true effect there). Only the steps where the path turns
-carry a load (:func:`turning_window`): y is zero before them and vibrates freely after them.
+is far below rounding), stepped from one sub-sample to the next (K(tau') = Phi_m(tau' - tau)
+K(tau) + the integral over [tau, tau']), so the set-up grows with omega_max dt, not with its
+square (a part 1e6 times stiffer than steel at 1 ms: 16 min before, about a minute now);
+tests/test_turning_bound.py checks the kernels and y against adaptive integrations. y is so
+exact for the continuous load, not its samples: the load oscillates at the modes'
+frequencies, which a 10 ms step does not resolve (the bound taken at the samples saw
+0.78-0.97 of the true effect there). Only the steps where the path turns carry a load
+(:func:`turning_window`): y is zero before them and vibrates freely after them.
 
 **Its largest displacement, certified.** y is evaluated at S sub-samples per step (S from the
 modes: omega_max h / S <= SUBSTEP_RAD and omega_1 h / S <= FIRST_MODE_RAD). At every point,
@@ -122,22 +125,21 @@ def substeps(omega_rad_s: np.ndarray, dt_s: float) -> int:
     return max(1, math.ceil(need - 1e-9))
 
 
-def _quadrature(length_s: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
-    """(nodes, weights) of composite Gauss-Legendre on [0, length_s], panels of at most
+def _quadrature(start_s: float, end_s: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """(nodes, weights) of composite Gauss-Legendre on [start_s, end_s], panels of at most
     PANEL_RAD / rate."""
-    panels = max(1, math.ceil(rate * length_s / PANEL_RAD))
+    panels = max(1, math.ceil(rate * (end_s - start_s) / PANEL_RAD))
     x, w = leggauss(QUADRATURE_NODES)
-    edges = np.linspace(0.0, length_s, panels + 1)
+    edges = np.linspace(start_s, end_s, panels + 1)
     mid, half = 0.5 * (edges[:-1] + edges[1:]), 0.5 * np.diff(edges)
     return (mid[:, None] + half[:, None] * x).ravel(), (half[:, None] * w).ravel()
 
 
-def _kernels(omega, zeta, tau_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """The kernels of the module docstring over [0, tau_s]: homogeneous (M, EXACT, M, 2 i,
-    2 o) [m, c, j, i, o] = int_0^tau [Phi_m(tau - s) b]_o s^p [Phi_j(s)]_(r, i) (p, r of row
-    c) and polynomial (4, M, 2) [p, m, o] = int_0^tau [Phi_m(tau - s) b]_o s^p."""
-    s, w = _quadrature(tau_s, 2.0 * float(np.max(omega)))
-    left = propagators(omega, zeta, (tau_s - s)[:, None], np).phi[..., :, 1]  # (X, M, 2)
+def _kernel_steps(omega, zeta, start_s: float, end_s: float):
+    """The kernels of the module docstring's integrands over [start_s, end_s] only, taken at
+    tau = end_s: homogeneous (M, EXACT, M, 2 i, 2 o) and polynomial (4, M, 2)."""
+    s, w = _quadrature(start_s, end_s, 2.0 * float(np.max(omega)))
+    left = propagators(omega, zeta, (end_s - s)[:, None], np).phi[..., :, 1]  # (X, M, 2)
     right = propagators(omega, zeta, s[:, None], np).phi  # (X, M, 2 r, 2 i)
     powers = s[:, None] ** np.arange(4)
     rows = right[:, :, ROW_OF[:EXACT], :]  # (X, M j, EXACT, 2 i)
@@ -145,6 +147,26 @@ def _kernels(omega, zeta, tau_s: float) -> tuple[np.ndarray, np.ndarray]:
     homogeneous = np.einsum("xc,xmo,xjci->mcjio", weighted, left, rows)
     polynomial = np.einsum("x,xp,xmo->pmo", w, powers, left)
     return homogeneous, polynomial
+
+
+def _kernels(omega, zeta, taus_s: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The kernels of the module docstring at each tau of ``taus_s`` (increasing): homogeneous
+    (M, EXACT, M, 2 i, 2 o) [m, c, j, i, o] = int_0^tau [Phi_m(tau - s) b]_o s^p [Phi_j(s)]_(r,
+    i) (p, r of row c) and polynomial (4, M, 2) [p, m, o] = int_0^tau [Phi_m(tau - s) b]_o s^p.
+    Stepped from one tau to the next, K(tau') = Phi_m(tau' - tau) K(tau) + the integral over
+    [tau, tau'] (Phi_m(tau' - s) = Phi_m(tau' - tau) Phi_m(tau - s)), so the quadrature covers
+    [0, dt] once: its cost grows with omega_max dt, not with its square."""
+    m = np.size(omega)
+    found, start = [], 0.0
+    homogeneous, polynomial = np.zeros((m, EXACT, m, 2, 2)), np.zeros((4, m, 2))
+    for tau in taus_s:
+        carry = propagators(omega, zeta, float(tau) - start, np).phi  # (M, 2, 2)
+        step_h, step_p = _kernel_steps(omega, zeta, start, float(tau))
+        homogeneous = np.einsum("mab,mcjib->mcjia", carry, homogeneous) + step_h
+        polynomial = np.einsum("mab,pmb->pma", carry, polynomial) + step_p
+        found.append((homogeneous, polynomial))
+        start = float(tau)
+    return found
 
 
 @jax.tree_util.register_pytree_node_class
@@ -203,7 +225,7 @@ def _build(model, dt_s: float, n_sub) -> BoundData:
     rotation = model.rotation
     homogeneous = polynomial = None
     if rotation.gyroscopic is not None:
-        parts = [_kernels(omega, zeta, tau) for tau in taus]
+        parts = _kernels(omega, zeta, taus)
         m = omega.size
         homogeneous = np.stack([h for h, _ in parts], axis=-2)  # (M, 6, M, 2, S, 2)
         homogeneous = homogeneous.reshape(m, EXACT, m, 2, 2 * n_sub)
