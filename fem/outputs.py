@@ -16,7 +16,7 @@ A_v = alpha A_acc + beta A_u for Rayleigh damping, and for modal damping the per
 equivalent (2 zeta_i / omega_i) A_u phi_i (stiffness proportional, which reproduces every
 modal damping ratio). Stresses carry no damping force.
 
-The modal outputs (jaxflex._outputs.LinearOutputs) follow by the mode-acceleration method:
+The modal outputs (jaxflex.response.LinearOutputs) follow by the mode-acceleration method:
 the quasi-static response to a is taken exactly (z_s = K_ff^-1 b, one sparse solve), the
 modes correct it, z = -z_s a + Phi (q + Omega^-2 Gamma a), z'' = Phi q''. With
 q'' = -Gamma a - 2 Z Omega q' - Omega^2 q this gives

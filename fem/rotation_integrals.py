@@ -44,7 +44,7 @@ systems), and jaxflex._turning falls back to its energy bound.
 Every formulation's fields are checked against its own rigid rotations (eps_kij e_j r_i =
 e_k x r: fem.system.FormulationOutputs.rigid_motion) before use. Sources without a mass
 matrix and coordinates (R1 matrices, ``.rst`` results alone, modal results from other
-solvers) get no data: their models refuse turning moves (jaxflex._rotation.require_rotation).
+solvers) get no data: their models refuse turning moves (jaxflex.response.require_rotation).
 """
 
 from __future__ import annotations

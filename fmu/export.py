@@ -324,7 +324,7 @@ def export_fmu(
         damping_scale: start value of the ``damping_scale`` parameter.
         model_name, description: text for modelDescription.xml.
         windows: build the Windows DLL too: None = when mingw-w64 is installed, True = must.
-        cell: a jaxflex._cell.Cell: the model is posed in it (inputs and points in cell
+        cell: a jaxflex.geometry.Cell: the model is posed in it (inputs and points in cell
             coordinates, the trajectory too) and the FMU reports the distance to its
             obstacles (``min_distance``; FMI 3.0 also ``point_distances``).
         cup_safety: safety factor of the cup utilisation outputs (``cup_utilisation``; FMI 3.0
@@ -342,7 +342,7 @@ def export_fmu(
             cell's).
         pivot_m: (3,) m, model frame: the point whose acceleration ax, ay, az are (turning).
         gravity_m_s2: (3,) m/s^2 in world components (turning; the cell's otherwise).
-        pose: a turning part's embedded orientation path (jaxflex._pose.PosePath at the
+        pose: a turning part's embedded orientation path (jaxflex.response.PosePath at the
             trajectory's samples and step, starting and ending at rest), replayed with
             ``acc`` as jaxflex.simulate_turning does (the forcing linear between samples).
     """

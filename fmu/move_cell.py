@@ -25,7 +25,7 @@ ADVICE = (
 def check_move_cell(report_path: Path, cell_path: str | Path, cell) -> None:
     """InputError unless the move of the `jaxflex optimize` result whose report is
     ``report_path`` (already read once by the export, as a member of its result set) was
-    optimised in the cell of the file ``cell_path`` (the jaxflex._cell.Cell ``cell``): the
+    optimised in the cell of the file ``cell_path`` (the jaxflex.geometry.Cell ``cell``): the
     same file (report.json's inputs.cell, by its SHA-256) or the same cell (its
     description)."""
     try:

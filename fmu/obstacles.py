@@ -1,7 +1,7 @@
 """The obstacle records of the FMU resource: ONE table of kinds for the Python writer and the
 C reader.
 
-Every obstacle of a jaxflex._cell.Cell is written as records of :data:`RECORD_VALUES` f64
+Every obstacle of a jaxflex.geometry.Cell is written as records of :data:`RECORD_VALUES` f64
 values: the kind's code, then its values (:attr:`ObstacleKind.layout`, padded with 0). The C
 reader (``fmu/c/jxf_cell.c``) sees the same table as macros of the generated ``jxf_config.h``
 (:func:`config_lines`: ``JXF_OBSTACLE_<NAME>`` codes and the list of codes); it refuses a

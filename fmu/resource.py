@@ -32,7 +32,7 @@ Format version 3, little-endian throughout (read by ``fmu/c/jxf_core.c``):
                          S (M, 3, 3) kg^0.5 m (jaxflex._rotation), the pivot (3) m in the
                          model frame, gravity (3) m/s^2 in world components, the
                          embedded move's poses (N, 10: :func:`pose_samples`) and the maps
-                         A_rot (jaxflex._rotation_residual.output_residual) of the cups
+                         A_rot (jaxflex.response.output_residual) of the cups
                          (6C, 9) and stresses (6S, 9); a turning part's cell has no rest
                          terms (zeros: its state carries the sag)
     end     u32 CRC-32 (zlib) of everything before it, u32 0
@@ -116,7 +116,7 @@ POSE_VALUES = 10  # per pose sample: quaternion (w, x, y, z), omega (3), alpha (
 
 
 def pose_samples(path) -> np.ndarray:
-    """(n+1, 10) the samples of the jaxflex._pose.PosePath ``path`` as the FMU embeds them:
+    """(n+1, 10) the samples of the jaxflex.response.PosePath ``path`` as the FMU embeds them:
     the orientation as a unit quaternion body -> world, scalar first (w, x, y, z, Hamilton),
     then the angular velocity (rad/s) and acceleration (rad/s^2) in body components."""
     quat = Rotation.from_matrix(np.asarray(path.rotation)).as_quat(scalar_first=True)

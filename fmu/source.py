@@ -3,7 +3,7 @@
 Outputs ``ax``, ``ay``, ``az`` (m/s^2, value references 1-3, the names of the part FMU's
 inputs) at a communication point t: the samples taken every ``dt_s`` from the start time,
 linear between them, at rest before the start and after the last sample. A turning move's
-source (``pose=``, a jaxflex._pose.PosePath) also outputs the pose a turning part FMU takes,
+source (``pose=``, a jaxflex.response.PosePath) also outputs the pose a turning part FMU takes,
 with the part's names and value references (fmu.variables.POSE_INPUT_NAMES, 40-49):
 quaternion body -> world, angular velocity and acceleration in body components, exactly the
 samples jaxflex.simulate_turning uses at the sample times; between them the orientation
@@ -244,7 +244,7 @@ def export_source_fmu(
 ) -> SourceResult:
     """Write the trajectory source FMU for the samples ``acc`` ((n+1, 3) m/s^2, at rest at
     both ends) taken every ``dt_s`` s, atomically at ``path`` (.fmu; its stem becomes the
-    model identifier). ``pose``: a turning move's orientation path (jaxflex._pose.PosePath at
+    model identifier). ``pose``: a turning move's orientation path (jaxflex.response.PosePath at
     the same samples and step, at rest at both ends; ``acc`` is then the pivot's world
     acceleration), output as the turning part's pose inputs. ``windows``: build the Windows
     DLL too (None = when mingw-w64 is installed, True = must)."""

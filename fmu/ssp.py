@@ -210,7 +210,7 @@ def export_ssp(
     ``fmi_version`` for both FMUs.
     ``threshold_m``, ``case``, ``damping_scale``, ``model_name`` and ``windows`` as in
     :func:`fmu.export_fmu`; the threshold and damping scale are also bound as SSP parameters.
-    A turning move (``turning=True``; ``pose`` the jaxflex._pose.PosePath at the samples,
+    A turning move (``turning=True``; ``pose`` the jaxflex.response.PosePath at the samples,
     ``acc`` the world acceleration of ``pivot_m``, gravity ``gravity_m_s2`` in world
     components, as :func:`fmu.export_fmu`): the turning part FMU, its pose inputs connected to
     the turning source's pose outputs."""

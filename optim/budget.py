@@ -197,7 +197,7 @@ def search_need(
     *,
     cell: CellCost | None = None,
 ) -> Need:
-    """What the search will take (a jaxflex._budget.Need; constants above): its tests of moves
+    """What the search will take (a jaxflex.runtime.Need; constants above): its tests of moves
     near ``floor_steps`` (the gallop, the bisection, the polish, the lengths tried below the
     answer: NEAR_FLOOR_TESTS), or, given ``lp_steps`` (a baseline's length bracketing the
     search), the bisection of the range up to it at that length. Each test makes ROUNDS

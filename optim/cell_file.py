@@ -1,4 +1,4 @@
-"""The cell file: a robot cell (jaxflex._cell.Cell) read from TOML or JSON, its mesh obstacles
+"""The cell file: a robot cell (jaxflex.geometry.Cell) read from TOML or JSON, its mesh obstacles
 from mesh files (fem.mesh.meshfile, read in a child process). Every field is checked; an error
 names the field and what is allowed.
 

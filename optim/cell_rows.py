@@ -4,7 +4,7 @@ Each family checks a move, proposes rows where it is violated, and certifies:
 
 * **loads** (cup utilisation u_c <= 1, von Mises stress <= limit): the outputs are
   y(t) = Q q + V q' + A a + offset (jaxflex._outputs), linear in the samples at any time
-  (jaxflex._engine.state_maps_at); the functional is convex and positively homogeneous, so the
+  (jaxflex.response.state_maps_at); the functional is convex and positively homogeneous, so the
   cut g at a violating (time, item) (jaxflex._loads: f(y') >= g . y', equality at the peak)
   is a valid row g . y(t) <= limit: every feasible move satisfies it, and repeated at the
   worst peaks these rows converge to the exact constraint (as the residual rows do: convex
@@ -91,7 +91,7 @@ class Row:
 
 
 def state_maps(model, n_steps: int, dt_s: float, time_s: float) -> np.ndarray:
-    """(M, 2, n+1, 3) jaxflex._engine.state_maps_at of one time, the last MAPS_KEPT kept per
+    """(M, 2, n+1, 3) jaxflex.response.state_maps_at of one time, the last MAPS_KEPT kept per
     model (the rows of one round, and the rows moved to a length, share their times)."""
     cache = model.__dict__.setdefault("_cell_state_maps", {})
     key = (int(n_steps), float(dt_s), float(time_s))
@@ -253,7 +253,7 @@ class LoadFamily:
 
     def scan(self, move: Move, axes) -> list[Row]:
         """Rows at the worst sampled violations of ``move`` (a Move); only the items whose
-        bound over the whole move and settling (jaxflex._peaks.item_bounds) reaches the row
+        bound over the whole move and settling (jaxflex.response.item_bounds) reaches the row
         threshold are evaluated (an inactive constraint costs almost nothing), at the
         samples and, between them, where a curvature bound reaches it
         (jaxflex.response.outputs_above: the samples above the threshold are those of
@@ -323,7 +323,7 @@ class LoadFamily:
         return self._peak(move, None if worst is None else min(worst.value, self.limit))
 
     def _peak(self, move: Move, limit: float | None) -> Peak:
-        """jaxflex._peaks.output_peak of ``move`` to 1e-5, decided against ``limit``."""
+        """jaxflex.response.output_peak of ``move`` to 1e-5, decided against ``limit``."""
         return output_peak(
             self.model,
             self.outputs,
@@ -346,7 +346,7 @@ class LoadFamily:
     def curve(self, move: Move, t) -> np.ndarray:
         """(T,) the largest load of ``move`` (a Move) at times ``t`` (for plots), exact: the
         items in the order of their bound over the move and the settling
-        (jaxflex._peaks.item_bounds), a chunk evaluated only at the times where its largest
+        (jaxflex.response.item_bounds), a chunk evaluated only at the times where its largest
         bound exceeds the largest load found."""
         t = np.asarray(t, dtype=np.float64)
         bounds = item_bounds(

@@ -206,7 +206,7 @@ def _path_speed_peaks(acc: np.ndarray, vel: np.ndarray, dt_s: float):
 def check_profile(
     move: Move, limits: Limits, distance_m=None, *, rtol: float = CHECK_RTOL
 ) -> ConstraintCheck:
-    """Check a :class:`~jaxflex._profile.Move` (samples (n+1, 3) m/s^2 and their step, s)
+    """Check a :class:`~jaxflex.Move` (samples (n+1, 3) m/s^2 and their step, s)
     against ``limits`` and, if ``distance_m`` (3,) is given, the boundary conditions: rest at
     both ends (a_0 = a_n = 0, v_n = 0) and arrival at ``distance_m``. Velocity is checked
     between samples too. Returns every violation with its time and size."""

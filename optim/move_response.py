@@ -1,12 +1,12 @@
 """The response during the move as a linear map of the samples, for the clearance limit.
 
 The modal coordinates during the move are linear in the modal forces at the samples
-(jaxflex._engine.state_map). :class:`MoveResponse` holds that map at every dt / substeps during
+(jaxflex.response.state_map). :class:`MoveResponse` holds that map at every dt / substeps during
 the move, so that the deviation there is |shapes_p q(t)| with q linear in the samples: the exact
 route bounds it with tangent-plane rows, the gradient route with a soft maximum. The largest
 point at every time comes from the pruned blocked evaluation (jaxflex._deviation). Where the
 model has a static residual D (u = Phi q + D a), the coordinates are q followed by the base
-acceleration a(t), linear in the samples as well (jaxflex._deviation.response_shapes).
+acceleration a(t), linear in the samples as well (jaxflex.response.response_shapes).
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ class MoveResponse:
 def clearance_peaks(blocks, shapes, coords: np.ndarray, limit_m: float, tol: float, most: int):
     """The local maxima in time of max_p |u_p| above ``limit_m`` (worst first, at most
     ``most``), u_p = shapes_p coords of the coordinates ``coords`` (T, M') and their
-    ``blocks`` (jaxflex._deviation.max_norms)."""
+    ``blocks`` (jaxflex.response.max_norms)."""
     d, worst = max_norms(blocks, coords)
     d = d / limit_m
     padded = np.concatenate([[-np.inf], d, [-np.inf]])

@@ -78,7 +78,7 @@ def optimize(
         built for; the search's memory, default the process's budget, jaxflex._budget). A
         request that cannot fit them, or the time budget, is refused before any work with a
         BudgetError that says what it needs.
-    cell: a jaxflex._cell.Cell (obstacles, the part's pose, via points, gravity); the move is
+    cell: a jaxflex.geometry.Cell (obstacles, the part's pose, via points, gravity); the move is
         then the cell's (``distance_m`` None or equal) and in cell coordinates.
     min_distance_m: every monitored point keeps this distance (m) from every obstacle of the
         cell, over the move and the settling (certified).

@@ -73,7 +73,7 @@ def _check_model(model: Any, robust: RobustSpec | None) -> None:
 
 
 def _in_cell(turn: TurnSpec, cell: Any) -> TurnSpec:
-    """The turn in the cell's coordinates (the model posed there: jaxflex._cell.Cell.posed):
+    """The turn in the cell's coordinates (the model posed there: jaxflex.geometry.Cell.posed):
     its axis turned and its pivot placed with the part, under the cell's gravity; the turn
     itself without a cell."""
     if cell is None:
@@ -108,7 +108,7 @@ class Request:
     clearance_m: float | None = None
     max_steps: int = MAX_STEPS
     max_memory_bytes: int | None = None
-    cell: Any = None  # a jaxflex._cell.Cell
+    cell: Any = None  # a jaxflex.geometry.Cell
     min_distance_m: float | None = None
     cup_safety: float | None = None
     max_stress_pa: float | str | None = None

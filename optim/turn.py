@@ -13,7 +13,7 @@ the sag at the current pose are fixed) is affine in the translation samples:
     x_end = E_R a + x_turn,   E_R[m, i, k, c] = sum_j E[m, i, k, j] R_k[c, j],
 
 E the straight move's end-state map (jaxflex.response.end_state_map) and x_turn the end
-state of the turn alone (jaxflex._turning.simulate_turning with the translation at rest).
+state of the turn alone (jaxflex.simulate_turning with the translation at rest).
 So the search's LP over the translation is exact for the schedule; the schedule itself
 (stretched to the move) is the heuristic.
 """
@@ -210,7 +210,7 @@ class TurnSpec:
     def response(
         self, model, angular_acc: np.ndarray, move: Move, extend_s: float = 0.0
     ) -> TurningResponse:
-        """jaxflex._turning.simulate_turning of the translation ``move`` (a Move) with the turn
+        """jaxflex.simulate_turning of the translation ``move`` (a Move) with the turn
         ``angular_acc`` (:meth:`with_move`)."""
         return simulate_turning(model, self.with_move(angular_acc, move), extend_s=extend_s)
 
@@ -218,7 +218,7 @@ class TurnSpec:
         self, model, angular_acc: np.ndarray, move: Move, threshold_m: float
     ) -> tuple[SettleReport, TurningResponse]:
         """Exact settle and cycle time of the turning move (the translation ``move``, a Move,
-        with the turn ``angular_acc``; jaxflex._turning.turning_settle) and its response (with
+        with the turn ``angular_acc``; jaxflex.response.turning_settle) and its response (with
         the neglected terms' bound)."""
         turn = self.with_move(angular_acc, move)
         response = simulate_turning(model, turn)

@@ -1,5 +1,5 @@
 """Baselines of a move that turns the part (optim.turn), each with its exact cycle time
-(jaxflex._turning.turning_settle) and the bound on the terms the turning engine neglects.
+(jaxflex.response.turning_settle) and the bound on the terms the turning engine neglects.
 
 * "ruckig + free decay": ruckig's time-optimal motion of every axis, the angle as a fourth
   synchronised axis: the translation and the turn both stretched by ruckig to the slower
@@ -65,7 +65,7 @@ def _evaluate(model, request: Request, name, acc, alpha, freqs) -> Baseline:
 def turn_worst_case(
     model: ModalModel, turn: TurnSpec, move: Move, alpha, threshold_m: float, grid
 ) -> tuple[float, dict, list[dict]]:
-    """The largest exact cycle time (jaxflex._turning.turning_settle) of the turning move
+    """The largest exact cycle time (jaxflex.response.turning_settle) of the turning move
     (the translation ``move``, a Move, with the turn ``alpha`` rad/s^2 at its step) over the
     (frequency scale, zeta) points of ``grid``: (worst, where, every point), as
     optim.baselines.worst_case of a straight move."""

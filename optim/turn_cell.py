@@ -9,11 +9,11 @@ final pose, vibrating freely about its sag there; the [..] terms are then 0):
 
 * an output (cup reactions, stresses; jaxflex._turning_outputs, equation (1)) is
   y(t) = y_0(t) + Q X_q(t) a + V X_v(t) a + A [(1 - w) R_k^T a_k + w R_k+1^T a_k+1], with
-  X(t) the straight move's state map (jaxflex._engine.state_maps_at) of the turned samples
+  X(t) the straight move's state map (jaxflex.response.state_maps_at) of the turned samples
   R_j^T a_j;
 * a point's position (jaxflex._turning_collision, equation (1)) is
   X_p(t) = X_p,0(t) + W(t) a + R(t) (Phi_p X_q(t) a + D_p [(1 - w) R_k^T a_k + ...]),
-  W the exact position weights of the pivot's path (jaxflex._profile.position_weights).
+  W the exact position weights of the pivot's path (jaxflex.response.position_weights).
 
 So the rows of optim.cell_rows carry over unchanged: a convex positively homogeneous load
 functional's supporting plane at a violating (time, item) is an exact cut (it never cuts off
@@ -27,9 +27,9 @@ is exact for that forcing and the loads' inputs are linear (jaxflex._turning_col
 definition). The families scan every dt / 8 during the move and, after it, every 1/16 of
 the shortest period for two periods of the longest. A move is then checked:
 
-* **distance**: certified by jaxflex._turning_collision.turning_min_distance (branch and
+* **distance**: certified by jaxflex.geometry.turning_min_distance (branch and
   bound over the move and the whole settling, every point, both skins);
-* **cups and stress**: certified by jaxflex._turning_peaks.turning_output_peak (branch and
+* **cups and stress**: certified by jaxflex.response.turning_output_peak (branch and
   bound over the move, the settling and the rest in the final pose, every item).
 
 Which turn a family evaluates is the :class:`TurnSource`'s: the search's active schedule of
@@ -155,7 +155,7 @@ def move_times(n_steps: int, dt_s: float) -> np.ndarray:
 class TurnMotion:
     """The turning move ``turn`` (a jaxflex.response.Turn) of ``model`` at the times
     ``during`` (within the move, s) and ``tau`` (T,) s after the stop: the inputs of the
-    turning outputs (jaxflex._turning.TurningInputs; between samples the modal state exact
+    turning outputs (jaxflex.response.TurningInputs; between samples the modal state exact
     for the sampled forcing, the loads' inputs linear, as jaxflex._turning_collision), the
     orientation and the pivot's path."""
 

@@ -7,9 +7,9 @@ The deviation of a turning move is measured about the static equilibrium at the 
     u_p(t) = Phi_p (q(t) - Omega^-2 Gamma g_b(t)) + D_p a_O(t) + D_rot,p b(t),
 
 q the turning engine's modal state (exact between the samples for its sampled forcing,
-jaxflex._engine.states_between) and the inputs g_b, a_O, b linear between the samples: the
+jaxflex.response.states_between) and the inputs g_b, a_O, b linear between the samples: the
 definition the turning cell's families use (optim.turn_cell.TurnMotion); at the samples it is
-jaxflex._turning.simulate_turning's deviation. It is checked at the exact samples every
+jaxflex.simulate_turning's deviation. It is checked at the exact samples every
 dt / 8, as a straight move's clearance (optim.move_response).
 
 For a FIXED turn schedule (optim.turn.TurnSchedule: the angular acceleration samples of an

@@ -173,7 +173,7 @@ def turn_search_need(request, model, floor_steps: int, bracket_steps: int, famil
 class LengthPlanner:
     """Plans a turning search a length at a time where no baseline brackets it: before a
     length beyond those planned is tested (optim.turn.TurnSchedule.variants), the test of
-    that length and the bisection below it must fit the time left (jaxflex._budget.require)."""
+    that length and the bisection below it must fit the time left (jaxflex.runtime.require)."""
 
     def __init__(self, request, model, families: int, planned_steps: int) -> None:
         self.request, self.model, self.families = request, model, families

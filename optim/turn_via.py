@@ -4,10 +4,10 @@ oriented via point of the cell (``rotation_deg``, optim.cell_file) to the end or
 segment's turn synchronised with the via passage of the translation.
 
 **The path.** In the posed model's frame (the cell's axes at the start,
-jaxflex._cell.Cell.posed) a via point's orientation is R_i = R_via R_A^T (R_via the part's
+jaxflex.geometry.Cell.posed) a via point's orientation is R_i = R_via R_A^T (R_via the part's
 axes there, R_A at A) and the end's is the turn's (TurnSpec.end_rotation). Each segment
 goes from one orientation to the next by the shortest turn (the geodesic: the axis and angle
-of R_i^T R_i+1, an axis fixed in the body, as jaxflex._pose.orientation_path), from rest to
+of R_i^T R_i+1, an axis fixed in the body, as jaxflex.response.orientation_path), from rest to
 rest: the part's orientation comes to rest at every via orientation, at the sample where the
 translation passes that via point.
 
@@ -25,12 +25,12 @@ the limits hold on every segment, and the angular rate and acceleration are 0 at
 boundaries. It is one number per sample, the angular acceleration about the current
 segment's axis (optim.turn's form, so the trajectory file's turn columns are the angle
 turned along the path), and :meth:`ViaTurn.path` integrates it segment by segment exactly
-(jaxflex._pose.fixed_axis_path): the jaxflex._pose.PosePath the turning engine takes. Within
+(jaxflex.response.fixed_axis_path): the jaxflex.response.PosePath the turning engine takes. Within
 every step the axis is fixed, so the orientation between samples (jaxflex._turning_collision)
 stays exact. For this fixed schedule the turning engine's end state, loads and positions are
 affine in the translation samples (optim.turn, optim.turn_cell, optim.turn_clearance), so
 the LP over the translation stays exact and every answer is certified by the turning engine
-(jaxflex._turning.turning_settle); the schedule itself (rest at each via orientation, the
+(jaxflex.response.turning_settle); the schedule itself (rest at each via orientation, the
 fractions, the stretch) is the heuristic.
 
 The schedule's length fixes its via samples: it is never padded with rest (the search, the
@@ -130,7 +130,7 @@ class ViaTurn(TurnSpec):
     def path(self, angular_acc: np.ndarray, dt_s: float) -> PosePath:
         """The orientation path of the schedule ``angular_acc`` (n+1,) rad/s^2 (one of
         :meth:`stretched`): each segment about its axis from the orientation the previous
-        one reached (jaxflex._pose.fixed_axis_path, exact)."""
+        one reached (jaxflex.response.fixed_axis_path, exact)."""
         alpha = np.asarray(angular_acc, dtype=np.float64).reshape(-1)
         axes = [axis for axis, _ in self.segments()]
         return segmented_path(axes, self.boundaries(alpha.size - 1), alpha, dt_s)
@@ -155,7 +155,7 @@ def segmented_path(axes, boundaries, angular_acc: np.ndarray, dt_s: float) -> Po
     """The orientation path of a turn through via orientations: segment i about ``axes[i]``
     (body components) over the samples ``boundaries[i]``..``boundaries[i+1]`` of the
     schedule ``angular_acc`` (n+1,) rad/s^2, from the orientation the previous segment
-    reached (jaxflex._pose.fixed_axis_path, exact)."""
+    reached (jaxflex.response.fixed_axis_path, exact)."""
     pieces, current = [], np.eye(3)
     for axis, (k0, k1) in zip(axes, itertools.pairwise(boundaries), strict=True):
         piece = fixed_axis_path(axis, angular_acc[k0 : k1 + 1], dt_s, start=current)

@@ -45,7 +45,7 @@ class ImportedModes:
             and the part is held (jaxflex.ModalModel.static_shapes), else None;
             ``static_note`` says where it came from.
         provenance: what was read from where and what was derived how (the model's meta).
-        rotation: the turning moves' inertia data (jaxflex._rotation.RotationalInertia) where
+        rotation: the turning moves' inertia data (jaxflex.response.RotationalInertia) where
             the source has a mass matrix and node coordinates, else None.
     """
 

@@ -68,7 +68,7 @@ class FePlan:
     estimate_cells: int | None = None
 
     def need(self, what: str = "the modal analysis") -> Need:
-        """This plan as a jaxflex._budget.Need, with what makes it smaller."""
+        """This plan as a jaxflex.runtime.Need, with what makes it smaller."""
         size = "" if self.size_m is None else f" at {self.size_m:.3g} m elements"
         cells = "quadrilaterals" if self.element == "hex2" else "cells"
         if self.estimate_cells is not None:

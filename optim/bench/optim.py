@@ -72,7 +72,7 @@ def few_mode_model(freq_hz=(1.7, 4.3, 9.8), zeta=0.02) -> ModalModel:
 
 def scene_model(name: str) -> ModalModel:
     """ "fem-plate" (fem.default_model("plate"), the issue's scene), "analytic-plate"
-    (jaxflex._analytic.simply_supported_plate) or "few-mode" (:func:`few_mode_model`)."""
+    (jaxflex.reference.simply_supported_plate) or "few-mode" (:func:`few_mode_model`)."""
     if name == "fem-plate":
         return fem.default_model("plate", progress=False)
     if name == "analytic-plate":
