@@ -1,24 +1,22 @@
-"""Every example runs: the fenced code blocks of README.md and docs/*.md are executed as a
-user would (docs/design.md, "Examples in the docs"):
+"""Every page runs pasted top to bottom: the fenced code blocks of README.md and docs/*.md
+are executed in order, as a user who pastes the page would (docs/design.md, "Examples in the
+docs"), in one fresh directory per page that holds only a copy of examples/:
 
-* ``python`` blocks: in a fresh interpreter, in a temporary directory of their own;
-* ``bash`` / ``sh`` blocks: with ``bash -eo pipefail`` there (every command must succeed);
+* ``python`` blocks: each in a fresh interpreter;
+* ``bash`` / ``sh`` blocks: with ``bash -eo pipefail`` (every command must succeed);
 * ``toml`` blocks: parsed;
 * ``text`` blocks (output listings, usage synopses, file trees): never run.
 
-A block marked by an HTML comment on the line before its fence is run under a condition:
-``<!-- slow -->`` runs it under ``@pytest.mark.slow``; ``<!-- not run: REASON -->`` skips it
-(the reason is required: install commands, a cluster, a benchmark run of minutes). A fence
-without a language fails the test, so that nothing is left unrun by accident.
-
-The temporary directory holds a copy of examples/ and the files the docs take as given when
-the block names them: ``plate.npz`` and ``model.npz`` (the demo plate of ``jaxflex model
---scene plate``) and ``opt/`` (its move from ``jaxflex optimize``), built once per run and
-shared by every worker."""
+So a page stands alone: what a block reads (a model file, an optimised move) is made by an
+earlier block of the same page, never provided by the test. A block marked by an HTML comment
+on the line before its fence is run under a condition: ``<!-- slow -->`` puts its page under
+``@pytest.mark.slow``; ``<!-- not run: REASON -->`` skips it (the reason is required: install
+commands, a cluster, a benchmark run of minutes), so a later block must not read what it
+writes. A fence without a language fails the test, so that nothing is left unrun by
+accident."""
 
 from __future__ import annotations
 
-import fcntl
 import os
 import re
 import shutil
@@ -35,8 +33,6 @@ PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 FENCE = re.compile(r"^```(.*)$")
 MARK = re.compile(r"^<!--\s*(slow|not run:\s*\S.*?)\s*-->$")
 RUN = ("python", "bash", "sh", "toml")
-# the files the docs take as given (built once by `given_files`), by the name a block uses
-GIVEN = ("plate.npz", "model.npz", "opt")
 
 
 @dataclass(frozen=True)
@@ -96,44 +92,19 @@ def test_every_block_says_how_it_is_treated(block):
     assert block.language in RUN or not block.mark, f"{block.id}: a text block is never run"
 
 
-def _runnable() -> list:
+def _runnable(page: Path) -> list[Block]:
+    """The blocks of a page that run, in page order."""
+    return [b for b in blocks(page) if b.language in RUN and not b.mark.startswith("not run")]
+
+
+def _pages() -> list:
     params = []
-    for block in ALL:
-        if block.language not in RUN or block.mark.startswith("not run"):
-            continue
-        marks = [pytest.mark.slow] if block.mark == "slow" else []
-        params.append(pytest.param(block, id=block.id, marks=marks))
+    for page in PAGES:
+        runnable = _runnable(page)
+        if runnable:
+            marks = [pytest.mark.slow] if any(b.mark == "slow" for b in runnable) else []
+            params.append(pytest.param(page, id=str(page.relative_to(ROOT)), marks=marks))
     return params
-
-
-def _build_given(folder: Path) -> None:
-    """The plate model and its optimised move, as the docs' commands make them."""
-    env = _environment()
-    jaxflex = [sys.executable, "-m", "jaxflex"]
-    for args in (
-        ["model", "--scene", "plate", "-q", "-o", "plate.npz"],
-        ["optimize", "plate.npz", "--distance", "0", "0", "1", "--threshold", "5e-4", "-o", "opt"],
-    ):
-        done = subprocess.run(jaxflex + args, cwd=folder, env=env, capture_output=True, text=True)
-        assert done.returncode == 0, f"jaxflex {' '.join(args)}:\n{done.stderr[-3000:]}"
-    shutil.copy(folder / "plate.npz", folder / "model.npz")
-
-
-@pytest.fixture(scope="session")
-def given_files(tmp_path_factory) -> Path:
-    """A folder with plate.npz, model.npz and opt/, built by the first worker that needs it
-    (a lock on a file in the session's root: every xdist worker shares one build)."""
-    base = tmp_path_factory.getbasetemp()
-    root = base.parent if base.name.startswith("popen-") else base
-    folder = root / "docs-given"
-    with open(root / "docs-given.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        if not (folder / "done").is_file():
-            shutil.rmtree(folder, ignore_errors=True)
-            folder.mkdir()
-            _build_given(folder)
-            (folder / "done").write_text("")
-    return folder
 
 
 def _environment() -> dict[str, str]:
@@ -143,16 +114,7 @@ def _environment() -> dict[str, str]:
     return env
 
 
-@pytest.mark.parametrize("block", _runnable())
-def test_example_runs(block, tmp_path, request):
-    shutil.copytree(ROOT / "examples", tmp_path / "examples")
-    needed = [name for name in GIVEN if re.search(rf"\b{re.escape(name)}\b", block.code)]
-    if needed:
-        given = request.getfixturevalue("given_files")
-        for name in needed:
-            source = given / name
-            copy = shutil.copytree if source.is_dir() else shutil.copy
-            copy(source, tmp_path / name)
+def _run(block: Block, folder: Path) -> None:
     if block.language == "toml":
         assert tomllib.loads(block.code), block.id
         return
@@ -161,5 +123,24 @@ def test_example_runs(block, tmp_path, request):
         if block.language == "python"
         else ["bash", "-eo", "pipefail", "-c", block.code]
     )
-    done = subprocess.run(command, cwd=tmp_path, env=_environment(), capture_output=True, text=True)
+    done = subprocess.run(command, cwd=folder, env=_environment(), capture_output=True, text=True)
     assert done.returncode == 0, f"{block.id} failed:\n{done.stdout[-2000:]}\n{done.stderr[-4000:]}"
+
+
+@pytest.mark.parametrize("page", _pages())
+def test_page_runs_top_to_bottom(page, tmp_path):
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    for block in _runnable(page):
+        _run(block, tmp_path)
+
+
+def test_a_page_that_reads_what_no_earlier_block_made_fails(tmp_path):
+    """The harness itself: a block reading a model no earlier block of its page wrote fails
+    in the page's fresh directory (nothing is provided beside examples/)."""
+    page = tmp_path / "page.md"
+    page.write_text('```python\nimport jaxflex\njaxflex.load_model("plate.npz")\n```\n')
+    folder = tmp_path / "run"
+    folder.mkdir()
+    with pytest.raises(AssertionError, match=r"page\.md:1 failed"):
+        for block in _runnable(page):
+            _run(block, folder)
