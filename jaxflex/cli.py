@@ -36,6 +36,7 @@ from pathlib import Path
 
 from jaxflex import _compile_cache as compile_cache
 from jaxflex._budget import DEFAULT_TIME_S, make_budget, use_budget
+from jaxflex._option_style import command_options, in_option_style
 from jaxflex._progress import set_quiet, step
 from jaxflex._scalars import check_positive
 from jaxflex._undo import whole_or_absent
@@ -158,7 +159,8 @@ def _main(argv: list[str]) -> int:
     # jaxflex itself takes no option but --help and --version: the first other word names the
     # command
     chosen = next((arg for arg in argv if not arg.startswith("-")), None)
-    args = build_parser(chosen).parse_args(argv)
+    parser = build_parser(chosen)
+    args = parser.parse_args(argv)
     set_quiet(args.quiet)
     cache_dir, cache_note = compile_cache.enable()
     if cache_dir is None and cache_note.startswith("off:"):
@@ -167,20 +169,19 @@ def _main(argv: list[str]) -> int:
         _refuse_empty(args)
         budget = make_budget(args.max_memory, args.max_time)
     except JaxflexError as exc:
-        print(f"jaxflex {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return _error(parser, args.command, exc)
     interrupts = _Interrupts()
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, interrupts) if main_thread else None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("always", JaxflexWarning)
-            warnings.showwarning = _warning_printer(args.command, warnings.showwarning)
+            options = command_options(parser, args.command)
+            warnings.showwarning = _warning_printer(args.command, options, warnings.showwarning)
             with use_budget(budget), whole_or_absent():  # a failure undoes the outputs
                 return int(args._run(args) or 0)
     except JaxflexError as exc:
-        print(f"jaxflex {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return _error(parser, args.command, exc)
     except BrokenPipeError:
         raise  # main: the reader went away
     except OSError as exc:  # the system refused a file operation: disk full, permissions
@@ -194,6 +195,13 @@ def _main(argv: list[str]) -> int:
         interrupts.handled()
         if main_thread:
             signal.signal(signal.SIGINT, previous)
+
+
+def _error(parser: argparse.ArgumentParser, command: str, exc: JaxflexError) -> int:
+    """Print a refusal as one line, led by the option the user typed (jaxflex._option_style)."""
+    message = in_option_style(str(exc), command_options(parser, command))
+    print(f"jaxflex {command}: error: {message}", file=sys.stderr)
+    return 2
 
 
 def _refuse_empty(args: argparse.Namespace) -> None:
@@ -215,13 +223,15 @@ def _silence_stdout() -> None:
         pass
 
 
-def _warning_printer(command: str, fallback):
+def _warning_printer(command: str, options: dict[str, str], fallback):
     """``warnings.showwarning`` that prints a JaxflexWarning as one line on stderr, like the
-    errors (``jaxflex COMMAND: warning: ...``), and leaves other warnings to ``fallback``."""
+    errors (``jaxflex COMMAND: warning: --option (field): ...``), and leaves other warnings
+    to ``fallback``."""
 
     def show(message, category, filename, lineno, file=None, line=None):
         if issubclass(category, JaxflexWarning):
-            print(f"jaxflex {command}: warning: {message}", file=sys.stderr, flush=True)
+            text = in_option_style(str(message), options)
+            print(f"jaxflex {command}: warning: {text}", file=sys.stderr, flush=True)
         else:
             fallback(message, category, filename, lineno, file, line)
 

@@ -98,7 +98,7 @@ def test_the_command_meshes_a_cad_part_with_progress_and_refuses_absurd_mesh_siz
         refused = run_jaxflex(*args, "--mesh-size", size, "-o", str(out))
         assert refused.returncode == 2
         last = refused.stderr.strip().splitlines()[-1]
-        assert last.startswith("jaxflex model: error: mesh_size (--mesh-size):"), refused.stderr
+        assert last.startswith("jaxflex model: error: --mesh-size (mesh_size):"), refused.stderr
         assert "Traceback" not in refused.stderr
 
 

@@ -169,7 +169,7 @@ def test_more_modes_asked_than_the_file_holds_are_named(tmp_path, plate):
         "-o", str(tmp_path / "m.npz"),
     )  # fmt: skip
     assert out.returncode == 0, out.stderr
-    assert f"warning: n_modes (--n-modes): 100,000 modes asked, '{path}' holds" in out.stderr
+    assert f"warning: --n-modes (n_modes): 100,000 modes asked, '{path}' holds" in out.stderr
     assert f"all {freq.size} kept" in out.stderr
     assert jaxflex.load_model(tmp_path / "m.npz").n_modes == freq.size
 
