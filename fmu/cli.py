@@ -243,32 +243,43 @@ def _need(model, trajectory, cell, *, verify: bool) -> Need:
     )
 
 
-def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> int:
+def _options(args, trajectory: Move | None, case: dict | None, cell) -> tuple:
+    """(fmu.Fmi, fmu.CellOutputs, fmu.Turning or None, the embedded turning move or None)
+    of the command's options: a turning part's embedded move is the turn of ``--trajectory``
+    (:func:`turning_move`), its pivot without one ``--pivot``."""
+    from fmu.options import CellOutputs, Fmi, Turning
+
+    windows = {"auto": None, "yes": True, "no": False}[args.windows]
+    fmi = Fmi(args.fmi, windows=windows, model_name=args.name)
+    outputs = CellOutputs(cell, cup_safety=args.cup_safety, stress=args.stress)
+    turn = turning = None
+    if args.turning and trajectory is not None:
+        turn = turning_move(Path(args.trajectory), trajectory, case, args.pivot)
+        turning = Turning.of(turn)
+    elif args.turning:
+        turning = Turning((0.0, 0.0, 0.0) if args.pivot is None else args.pivot)
+    return fmi, outputs, turning, turn
+
+
+def _export_fmu(args, model, trajectory, threshold_m, case, cell) -> int:
     from fmpy.validation import validate_fmu
 
     from fmu.crosscheck import crosscheck_fmu
-    from fmu.export import export_fmu, pose_options
+    from fmu.export import export_fmu
     from fmu.verify import verify
     from fmu.verify_turning import after_move_s, verify_turning
 
-    turn = None
-    if args.turning and trajectory is not None:
-        turn = turning_move(Path(args.trajectory), trajectory, case, args.pivot)
+    fmi, outputs, turning, turn = _options(args, trajectory, case, cell)
     result = export_fmu(
         model,
         args.output,
-        args.fmi,
         trajectory,
+        fmi=fmi,
         threshold_m=threshold_m,
-        case=case,
         damping_scale=args.damping_scale,
-        model_name=args.name,
-        windows=windows,
-        cell=cell,
-        cup_safety=args.cup_safety,
-        stress=args.stress,
-        turning=args.turning,
-        **pose_options(turn, args.pivot),
+        case=case,
+        outputs=outputs,
+        turning=turning,
     )
     print(
         f"wrote {result.fmu_path}: FMI {result.fmi_version}.0 co-simulation, "
@@ -308,28 +319,20 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
     return 0 if report.ok and hosts.ok else 1
 
 
-def _export_ssp(args, model, trajectory, threshold_m, case, windows) -> int:
+def _export_ssp(args, model, trajectory, threshold_m, case) -> int:
     from fmu.crosscheck import crosscheck_ssp
-    from fmu.export import pose_options
     from fmu.ssp import export_ssp
 
-    move = {}
-    if args.turning:
-        move = {
-            "turning": True,
-            **pose_options(turning_move(Path(args.trajectory), trajectory, case, args.pivot)),
-        }
+    fmi, _, turning, _ = _options(args, trajectory, case, None)
     result = export_ssp(
         model,
         args.ssp,
-        args.fmi,
         trajectory,
-        threshold_m,
-        case,
+        fmi=fmi,
+        threshold_m=threshold_m,
         damping_scale=args.damping_scale,
-        model_name=args.name,
-        windows=windows,
-        **move,
+        case=case,
+        turning=turning,
     )
     part, source = result.part, result.source
     print(
@@ -364,6 +367,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--points: a count >= 1, got {args.points}")
     if args.threshold is not None:
         check_positive("--threshold", args.threshold)
+    check_positive("--cup-safety", args.cup_safety)
     check_input_file("model", args.model)
     if args.trajectory:
         trajectory_file(Path(args.trajectory))
@@ -394,7 +398,6 @@ def run(args: argparse.Namespace) -> int:
     if threshold_m is None:
         threshold_m = (case or {}).get("threshold_m", THRESHOLD_M)
     threshold_m = check_positive("--threshold", threshold_m)
-    windows = {"auto": None, "yes": True, "no": False}[args.windows]
     cell = None if args.cell is None else load_cell(args.cell)
     if cell is not None and case is not None:  # a move of `jaxflex optimize`: made in it?
         report = trajectory_file(Path(args.trajectory)).with_name("report.json")
@@ -402,7 +405,7 @@ def run(args: argparse.Namespace) -> int:
     require(_need(model, trajectory, cell, verify=not args.no_verify))
     status = 0
     if args.output:
-        status = _export_fmu(args, model, trajectory, threshold_m, case, windows, cell)
+        status = _export_fmu(args, model, trajectory, threshold_m, case, cell)
     if args.ssp:
-        status = max(status, _export_ssp(args, model, trajectory, threshold_m, case, windows))
+        status = max(status, _export_ssp(args, model, trajectory, threshold_m, case))
     return status

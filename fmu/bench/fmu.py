@@ -44,6 +44,7 @@ import fem
 from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.export import export_fmu
 from fmu.harness import compile_harness, resource_location, unpack
+from fmu.options import CellOutputs, Fmi, Turning
 from fmu.ssp import export_ssp
 from fmu.windows import (
     replay,
@@ -55,7 +56,7 @@ from fmu.windows import (
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.geometry import Cell
 from jaxflex.model import ModalModel
-from jaxflex.response import RotationalInertia
+from jaxflex.response import RotationalInertia, as_move
 from jaxflex.runtime import step
 from optim.cell_file import load_cell
 
@@ -86,7 +87,7 @@ def bench_model(n_points: int, n_modes: int, seed: int = 0, turning: bool = Fals
 
 def _export_s(model: ModalModel, path: Path, version: int, windows: bool) -> float:
     t0 = time.perf_counter()
-    export_fmu(model, path, fmi_version=version, windows=windows)
+    export_fmu(model, path, fmi=Fmi(version, windows=windows))
     return time.perf_counter() - t0
 
 
@@ -103,7 +104,8 @@ def host_figures(model: ModalModel, version: int, folder: Path, dt_s: float) -> 
     part FMU inside it, run in every available host: max |deviation - jaxflex| / peak per
     host (see fmu.crosscheck for which reference each host gets)."""
     folder.mkdir(parents=True, exist_ok=True)
-    ssp = export_ssp(model, folder / "case.ssp", version, (smooth_move(dt_s), dt_s), THRESHOLD_M)
+    move = as_move(smooth_move(dt_s), dt_s)
+    ssp = export_ssp(model, folder / "case.ssp", move, fmi=Fmi(version), threshold_m=THRESHOLD_M)
     with zipfile.ZipFile(ssp.ssp_path) as zf:
         part = Path(zf.extract("resources/part.fmu", folder))
     figures: dict[str, Any] = {"n_steps": None}
@@ -129,9 +131,8 @@ def windows_figures(
         for dll in (False, True):
             times[dll].append(_export_s(model, folder / f"t{k}{int(dll)}.fmu", version, dll))
     linux_s, with_dll_s = (statistics.median(times[dll]) for dll in (False, True))
-    result = export_fmu(
-        model, folder / "move.fmu", version, (smooth_move(dt_s), dt_s), windows=True
-    )
+    move = as_move(smooth_move(dt_s), dt_s)
+    result = export_fmu(model, folder / "move.fmu", move, fmi=Fmi(version, windows=True))
     harnesses = (
         compile_harness(version, folder / "harness"),
         compile_harness(version, folder / "harness.exe", windows=True),
@@ -236,9 +237,12 @@ def run(
         for version in fmi_versions:
             say(f"FMI {version}.0: export K={model.n_points}, M={model.n_modes}")
             result = export_fmu(
-                model, tmp / f"bench{version}.fmu", fmi_version=version, turning=turning,
-                cell=cell,
-            )  # fmt: skip
+                model,
+                tmp / f"bench{version}.fmu",
+                fmi=Fmi(version),
+                outputs=CellOutputs(cell),
+                turning=Turning() if turning else None,
+            )
             library, resources, token = unpack(result.fmu_path, tmp / f"fmu{version}")
             array = model.n_points if read_array and version == 3 else None
             harness = compile_harness(
@@ -313,7 +317,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--turning",
         action="store_true",
-        help="a turning part's FMU (export_fmu(turning=True)): the pose inputs set every step",
+        help="a turning part's FMU (export_fmu(turning=fmu.Turning())): the pose inputs set every "
+        "step",
     )
     parser.add_argument(
         "--scene",
