@@ -39,49 +39,75 @@ CASE_KEYS = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", help="modal model file (.npz from `jaxflex model`)")
-    parser.add_argument(
-        "--fmi", type=int, choices=(2, 3), default=2, help="FMI version 2 or 3 (default 2)"
-    )
-    parser.add_argument(
-        "--trajectory",
-        help="output folder of `jaxflex optimize` (trajectory.csv, report.json) or a trajectory "
-        "CSV (columns t_s, ax_m_s2, ay_m_s2, az_m_s2, ...; SI units): embedded in the FMU and "
-        "written beside it as <name>_input.csv and <name>_case.json",
-    )
-    parser.add_argument("-o", "--output", help="FMU file to write (.fmu)")
-    parser.add_argument(
+    _add_target(parser.add_argument_group("the FMU or package and its build"))
+    _add_move(parser.add_argument_group("the move and the FMU's parameters"))
+    _add_cell(parser.add_argument_group("the robot cell's outputs (fmu.CellOutputs)"))
+    _add_turning(parser.add_argument_group("a turning part (fmu.Turning)"))
+
+
+def _add_target(group) -> None:
+    group.add_argument("-o", "--output", help="FMU file to write (.fmu)")
+    group.add_argument(
         "--ssp",
         help="SSP 1.0 package to write (.ssp): the part FMU and a trajectory source FMU playing "
         "the --trajectory move, connected ax/ay/az (with --turning the pose too), with the "
         "threshold and damping scale as parameters (with or instead of -o)",
     )
-    parser.add_argument(
-        "--threshold",
-        type=float,
-        metavar="M",
-        help="start value of the deviation threshold in m (default: from report.json, else 0.5 mm)",
+    group.add_argument(
+        "--fmi", type=int, choices=(2, 3), default=2, help="FMI version 2 or 3 (default 2)"
     )
-    parser.add_argument(
-        "--damping-scale",
-        type=float,
-        default=1.0,
-        help="start value of the factor on every modal damping ratio (default 1)",
-    )
-    parser.add_argument("--name", help="model name in modelDescription.xml (default: file name)")
-    parser.add_argument(
+    group.add_argument("--name", help="model name in modelDescription.xml (default: file name)")
+    group.add_argument(
         "--windows",
         choices=("auto", "yes", "no"),
         default="auto",
         help="also build the Windows DLLs: auto = when mingw-w64 is installed (default)",
     )
-    parser.add_argument(
+    group.add_argument(
+        "--points",
+        type=int,
+        metavar="N",
+        help="export about N voxel-reduced points of the model instead of all of them (a "
+        "smaller resource and a faster FMU step; the FMU's deviation, settled flag and "
+        "distances then only cover those points)",
+    )
+    group.add_argument(
+        "--no-verify",
+        action="store_true",
+        help="skip the simulations against jaxflex (fmpy; ecospy and libcosimpy when installed)",
+    )
+
+
+def _add_move(group) -> None:
+    group.add_argument(
+        "--trajectory",
+        help="output folder of `jaxflex optimize` (trajectory.csv, report.json) or a trajectory "
+        "CSV (columns t_s, ax_m_s2, ay_m_s2, az_m_s2, ...; SI units): embedded in the FMU and "
+        "written beside it as <name>_input.csv and <name>_case.json",
+    )
+    group.add_argument(
+        "--threshold",
+        type=float,
+        metavar="M",
+        help="start value of the deviation threshold in m (default: from report.json, else 0.5 mm)",
+    )
+    group.add_argument(
+        "--damping-scale",
+        type=float,
+        default=1.0,
+        help="start value of the factor on every modal damping ratio (default 1)",
+    )
+
+
+def _add_cell(group) -> None:
+    group.add_argument(
         "--cell",
         default=None,
         metavar="FILE",
         help="robot cell (.toml or .json): the part is posed in it (inputs and the trajectory "
         "in cell coordinates) and the FMU reports the distance to its obstacles",
     )
-    parser.add_argument(
+    group.add_argument(
         "--cup-safety",
         type=float,
         default=1.5,
@@ -89,12 +115,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="safety factor of the cup utilisation outputs (models with cup reactions; "
         "default 1.5)",
     )
-    parser.add_argument(
+    group.add_argument(
         "--stress",
         action="store_true",
         help="also output the von Mises stress (max_stress; FMI 3.0 point_stresses)",
     )
-    parser.add_argument(
+
+
+def _add_turning(group) -> None:
+    group.add_argument(
         "--turning",
         action="store_true",
         help="the part turns: the FMU takes the pose as inputs too (orientation quaternion "
@@ -106,7 +135,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "part (not in the SSP package); with --ssp the package of the turning part and a "
         "source playing the pose",
     )
-    parser.add_argument(
+    group.add_argument(
         "--pivot",
         type=float,
         nargs=3,
@@ -114,19 +143,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --turning: the point of the part (model frame, m) whose acceleration the "
         "inputs ax, ay, az are, e.g. the robot's tool centre point (default: the origin; with "
         "--trajectory the pivot the move was optimised about)",
-    )
-    parser.add_argument(
-        "--points",
-        type=int,
-        metavar="N",
-        help="export about N voxel-reduced points of the model instead of all of them (a "
-        "smaller resource and a faster FMU step; the FMU's deviation, settled flag and "
-        "distances then only cover those points)",
-    )
-    parser.add_argument(
-        "--no-verify",
-        action="store_true",
-        help="skip the simulations against jaxflex (fmpy; ecospy and libcosimpy when installed)",
     )
 
 
