@@ -231,9 +231,7 @@ def _half_thickness(model: ModalModel, cell: Cell | None) -> float:
 def _cell_data(model: ModalModel, outputs: CellOutputs) -> CellData:
     """The resource's cell block of the model posed in ``outputs.cell`` (if any)."""
     if outputs.stress and model.stress is None:
-        raise InputError(
-            "CellOutputs.stress: the model has no stresses (make it with fem of this version)"
-        )
+        raise InputError("stress: the model has no stresses (make it with fem of this version)")
     cell = outputs.cell
     return CellData(
         outputs.gravity_m_s2,
@@ -257,13 +255,11 @@ def _turning_data(
     gravity = turning.gravity_in(outputs)
     if move is None:
         if turning.pose is not None:
-            raise InputError(
-                "Turning.pose: the orientation path of an embedded move needs trajectory"
-            )
+            raise InputError("pose: the orientation path of an embedded move needs trajectory")
         return TurningData(turning.pivot_m, gravity)
     if turning.pose is None:
         raise InputError(
-            "Turning.pose: a turning part's embedded move needs its orientation path (a "
+            "pose: a turning part's embedded move needs its orientation path (a "
             "jaxflex.response.PosePath at the trajectory's samples; --trajectory: the turn of "
             "`jaxflex optimize --rotate`)"
         )

@@ -2,7 +2,7 @@
 when made (the style of ``jaxflex.Turn`` and diffrax's ``SaveAt``): what FMU to build
 (:class:`Fmi`), which outputs of the robot cell it reports (:class:`CellOutputs`) and the
 pose inputs of a turning part (:class:`Turning`). Each refuses a bad field with an InputError
-naming it (``Fmi.version: ...``), what is allowed and what was given."""
+naming it (``version: ...``), what is allowed and what was given."""
 
 from __future__ import annotations
 
@@ -47,15 +47,14 @@ class Fmi:
 
     def __post_init__(self) -> None:
         if isinstance(self.version, bool) or self.version not in (2, 3):
-            raise InputError(f"Fmi.version: 2 or 3, got {self.version!r}")
+            raise InputError(f"version: the FMI version, 2 or 3, got {self.version!r}")
         object.__setattr__(self, "version", int(self.version))
         if not (self.windows is None or isinstance(self.windows, bool)):
             raise InputError(
-                f"Fmi.windows: None (when mingw-w64 is installed), True or False, got "
-                f"{self.windows!r}"
+                f"windows: None (when mingw-w64 is installed), True or False, got {self.windows!r}"
             )
-        _text("Fmi.model_name", self.model_name)
-        _text("Fmi.description", self.description)
+        _text("model_name", self.model_name)
+        _text("description", self.description)
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,14 +74,12 @@ class CellOutputs:
     def __post_init__(self) -> None:
         if self.cell is not None and not isinstance(self.cell, Cell):
             raise InputError(
-                "CellOutputs.cell: None or a jaxflex.geometry.Cell (optim.cell_file.load_cell), "
+                "cell: None or a jaxflex.geometry.Cell (optim.cell_file.load_cell), "
                 f"got {type(self.cell).__name__}"
             )
-        object.__setattr__(
-            self, "cup_safety", check_positive("CellOutputs.cup_safety", self.cup_safety)
-        )
+        object.__setattr__(self, "cup_safety", check_positive("cup_safety", self.cup_safety))
         if not isinstance(self.stress, bool):
-            raise InputError(f"CellOutputs.stress: True or False, got {self.stress!r}")
+            raise InputError(f"stress: True or False, got {self.stress!r}")
 
     @property
     def gravity_m_s2(self) -> tuple[float, float, float]:
@@ -110,14 +107,14 @@ class Turning:
 
     def __post_init__(self) -> None:
         object.__setattr__(
-            self, "pivot_m", _vector("Turning.pivot_m", self.pivot_m, "m in the model frame")
+            self, "pivot_m", _vector("pivot_m", self.pivot_m, "m in the model frame")
         )
         if self.gravity_m_s2 is not None:
-            gravity = _vector("Turning.gravity_m_s2", self.gravity_m_s2, "m/s^2 in the world frame")
+            gravity = _vector("gravity_m_s2", self.gravity_m_s2, "m/s^2 in the world frame")
             object.__setattr__(self, "gravity_m_s2", gravity)
         if self.pose is not None and not isinstance(self.pose, PosePath):
             raise InputError(
-                "Turning.pose: None or a jaxflex.response.PosePath (e.g. fixed_axis_path), got "
+                "pose: None or a jaxflex.response.PosePath (e.g. fixed_axis_path), got "
                 f"{type(self.pose).__name__}"
             )
 
@@ -140,7 +137,7 @@ class Turning:
             self.gravity_m_s2, cell_gravity, rtol=1e-12, atol=0.0
         ):
             raise InputError(
-                f"Turning.gravity_m_s2: with a cell the cell's gravity "
+                f"gravity_m_s2: with a cell the cell's gravity "
                 f"{cell_gravity.tolist()} m/s^2 (or None), got {self.gravity_m_s2.tolist()}"
             )
         return self.gravity_m_s2

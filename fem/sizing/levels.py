@@ -104,7 +104,7 @@ def refinement_parts(part: Part, mesh_sizes_m, radius_m: float | None) -> list[P
     used as is."""
     if part.mesh_is_given:
         if mesh_sizes_m is not None:
-            raise InputError("Accuracy.mesh_sizes_m: a part read from a mesh file is used as is")
+            raise InputError("mesh_sizes_m: a part read from a mesh file is used as is")
         return [part]
     sizes = mesh_sizes_m  # checked by fem.sizing.request.Accuracy: coarse to fine
     if sizes is None:

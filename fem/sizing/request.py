@@ -3,7 +3,7 @@ and ``Accuracy``, the option object of what a sizing must meet and how it search
 
 The constructor resolves a scene name to its part and gripper, checks the move (a
 jaxflex.Move: samples at rest at both ends and their step, one object) and every number, and
-refuses what no sizing can use with an InputError naming the argument (``Accuracy.tolerance:
+refuses what no sizing can use with an InputError naming the argument (``tolerance:
 ...`` for a field of the option object); the stages (fem.sizing.run) take its values as
 they are.
 """
@@ -30,7 +30,7 @@ STAGES = ("mesh", "points", "modes")  # the order of the shares
 
 
 def _check_shares(shares: Any) -> tuple[float, float, float]:
-    name = "Accuracy.shares"
+    name = "shares"
     try:
         values = tuple(float(s) for s in shares)
     except (TypeError, ValueError) as exc:
@@ -44,7 +44,7 @@ def _check_shares(shares: Any) -> tuple[float, float, float]:
 
 
 def _check_mesh_sizes(sizes: Any) -> tuple[float, ...] | None:
-    name = "Accuracy.mesh_sizes_m"
+    name = "mesh_sizes_m"
     if sizes is None:
         return None
     if isinstance(sizes, str) or not isinstance(sizes, Sequence | np.ndarray):
@@ -84,7 +84,7 @@ def _part_and_supports(part: Any, supports: Any) -> tuple[Part, list]:
 @dataclass(frozen=True)
 class Accuracy:
     """What :func:`fem.size_model` must meet and how it searches (SI units), checked when made
-    (InputError naming the field, ``Accuracy.tolerance: ...``).
+    (InputError naming the field, ``tolerance: ...``).
 
     ``tolerance``: the accuracy as a fraction (0.01 = 1 %) of the peak deviation and of the
     cycle time, 0 < tolerance < 0.5; ``shares``: the fractions of it for the mesh, points and
@@ -105,21 +105,21 @@ class Accuracy:
     eval_step_s: float | None = None
 
     def __post_init__(self) -> None:
-        tolerance = check_positive("Accuracy.tolerance", self.tolerance)
+        tolerance = check_positive("tolerance", self.tolerance)
         if tolerance >= 0.5:
             raise InputError(
-                f"Accuracy.tolerance: a fraction in (0, 0.5) (0.01 = 1 %), got {tolerance!r}"
+                f"tolerance: a fraction in (0, 0.5) (0.01 = 1 %), got {tolerance!r}"
                 + (f"; did you mean {tolerance / 100:g}?" if tolerance < 50 else "")
             )
         object.__setattr__(self, "tolerance", tolerance)
         object.__setattr__(self, "shares", _check_shares(self.shares))
         object.__setattr__(self, "mesh_sizes_m", _check_mesh_sizes(self.mesh_sizes_m))
-        reference_modes = _check_count("Accuracy.reference_modes", self.reference_modes, 2)
+        reference_modes = _check_count("reference_modes", self.reference_modes, 2)
         object.__setattr__(self, "reference_modes", reference_modes)
-        max_modes = _check_count("Accuracy.max_modes", self.max_modes, reference_modes)
+        max_modes = _check_count("max_modes", self.max_modes, reference_modes)
         object.__setattr__(self, "max_modes", max_modes)
         if self.eval_step_s is not None:
-            step = check_positive("Accuracy.eval_step_s", self.eval_step_s)
+            step = check_positive("eval_step_s", self.eval_step_s)
             object.__setattr__(self, "eval_step_s", step)
 
     def share(self, stage: str) -> float:
