@@ -383,7 +383,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--points: a count >= 1, got {args.points}")
     if args.threshold is not None:
         check_positive("--threshold", args.threshold)
-    check_positive("--cup-safety", args.cup_safety)
+    check_positive("cup_safety", args.cup_safety)  # before any work
     check_input_file("model", args.model)
     if args.trajectory:
         trajectory_file(Path(args.trajectory))
