@@ -19,6 +19,7 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at 
     from fem.modal import ModalResult, describe_model, modal_analysis
     from fem.parts import Part, curved_panel, read_cad, read_mesh, rectangular_plate
     from fem.scenes import SCENES, default_gripper, default_model, scene
+    from fem.sizing.request import Accuracy
     from fem.sizing.run import SizingResult, size_model
     from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup, Support
     from fem.transient import TransientResult, agreement, transient_reference
@@ -28,6 +29,7 @@ __getattr__, __dir__ = lazy_names(__name__)
 __all__ = [
     "PRESETS",
     "SCENES",
+    "Accuracy",
     "ClampedEdge",
     "ImportedModes",
     "Material",

@@ -641,6 +641,7 @@ def _threshold_advice(model, move: Move, threshold_m: float) -> None:
 
 
 def _run_sizing(args, part, supports) -> int:
+    from fem.sizing.request import Accuracy
     from fem.sizing.run import size_model
 
     for name in ("n_modes", "max_freq", "points"):
@@ -659,11 +660,13 @@ def _run_sizing(args, part, supports) -> int:
         supports,
         move,
         args.threshold,
-        args.tolerance,
+        Accuracy(
+            args.tolerance,
+            mesh_sizes_m=args.mesh_sizes,
+            reference_modes=min(40, args.max_modes),
+            max_modes=args.max_modes,
+        ),
         zeta=args.zeta,
-        mesh_sizes_m=args.mesh_sizes,
-        max_modes=args.max_modes,
-        reference_modes=min(40, args.max_modes),
         key_points=args.key_points,
         allow_rigid_modes=args.allow_rigid_modes,
         log=print,

@@ -39,49 +39,75 @@ CASE_KEYS = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", help="modal model file (.npz from `jaxflex model`)")
-    parser.add_argument(
-        "--fmi", type=int, choices=(2, 3), default=2, help="FMI version 2 or 3 (default 2)"
-    )
-    parser.add_argument(
-        "--trajectory",
-        help="output folder of `jaxflex optimize` (trajectory.csv, report.json) or a trajectory "
-        "CSV (columns t_s, ax_m_s2, ay_m_s2, az_m_s2, ...; SI units): embedded in the FMU and "
-        "written beside it as <name>_input.csv and <name>_case.json",
-    )
-    parser.add_argument("-o", "--output", help="FMU file to write (.fmu)")
-    parser.add_argument(
+    _add_target(parser.add_argument_group("the FMU or package and its build"))
+    _add_move(parser.add_argument_group("the move and the FMU's parameters"))
+    _add_cell(parser.add_argument_group("the robot cell's outputs (fmu.CellOutputs)"))
+    _add_turning(parser.add_argument_group("a turning part (fmu.Turning)"))
+
+
+def _add_target(group) -> None:
+    group.add_argument("-o", "--output", help="FMU file to write (.fmu)")
+    group.add_argument(
         "--ssp",
         help="SSP 1.0 package to write (.ssp): the part FMU and a trajectory source FMU playing "
         "the --trajectory move, connected ax/ay/az (with --turning the pose too), with the "
         "threshold and damping scale as parameters (with or instead of -o)",
     )
-    parser.add_argument(
-        "--threshold",
-        type=float,
-        metavar="M",
-        help="start value of the deviation threshold in m (default: from report.json, else 0.5 mm)",
+    group.add_argument(
+        "--fmi", type=int, choices=(2, 3), default=2, help="FMI version 2 or 3 (default 2)"
     )
-    parser.add_argument(
-        "--damping-scale",
-        type=float,
-        default=1.0,
-        help="start value of the factor on every modal damping ratio (default 1)",
-    )
-    parser.add_argument("--name", help="model name in modelDescription.xml (default: file name)")
-    parser.add_argument(
+    group.add_argument("--name", help="model name in modelDescription.xml (default: file name)")
+    group.add_argument(
         "--windows",
         choices=("auto", "yes", "no"),
         default="auto",
         help="also build the Windows DLLs: auto = when mingw-w64 is installed (default)",
     )
-    parser.add_argument(
+    group.add_argument(
+        "--points",
+        type=int,
+        metavar="N",
+        help="export about N voxel-reduced points of the model instead of all of them (a "
+        "smaller resource and a faster FMU step; the FMU's deviation, settled flag and "
+        "distances then only cover those points)",
+    )
+    group.add_argument(
+        "--no-verify",
+        action="store_true",
+        help="skip the simulations against jaxflex (fmpy; ecospy and libcosimpy when installed)",
+    )
+
+
+def _add_move(group) -> None:
+    group.add_argument(
+        "--trajectory",
+        help="output folder of `jaxflex optimize` (trajectory.csv, report.json) or a trajectory "
+        "CSV (columns t_s, ax_m_s2, ay_m_s2, az_m_s2, ...; SI units): embedded in the FMU and "
+        "written beside it as <name>_input.csv and <name>_case.json",
+    )
+    group.add_argument(
+        "--threshold",
+        type=float,
+        metavar="M",
+        help="start value of the deviation threshold in m (default: from report.json, else 0.5 mm)",
+    )
+    group.add_argument(
+        "--damping-scale",
+        type=float,
+        default=1.0,
+        help="start value of the factor on every modal damping ratio (default 1)",
+    )
+
+
+def _add_cell(group) -> None:
+    group.add_argument(
         "--cell",
         default=None,
         metavar="FILE",
         help="robot cell (.toml or .json): the part is posed in it (inputs and the trajectory "
         "in cell coordinates) and the FMU reports the distance to its obstacles",
     )
-    parser.add_argument(
+    group.add_argument(
         "--cup-safety",
         type=float,
         default=1.5,
@@ -89,12 +115,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="safety factor of the cup utilisation outputs (models with cup reactions; "
         "default 1.5)",
     )
-    parser.add_argument(
+    group.add_argument(
         "--stress",
         action="store_true",
         help="also output the von Mises stress (max_stress; FMI 3.0 point_stresses)",
     )
-    parser.add_argument(
+
+
+def _add_turning(group) -> None:
+    group.add_argument(
         "--turning",
         action="store_true",
         help="the part turns: the FMU takes the pose as inputs too (orientation quaternion "
@@ -106,7 +135,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "part (not in the SSP package); with --ssp the package of the turning part and a "
         "source playing the pose",
     )
-    parser.add_argument(
+    group.add_argument(
         "--pivot",
         type=float,
         nargs=3,
@@ -114,19 +143,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --turning: the point of the part (model frame, m) whose acceleration the "
         "inputs ax, ay, az are, e.g. the robot's tool centre point (default: the origin; with "
         "--trajectory the pivot the move was optimised about)",
-    )
-    parser.add_argument(
-        "--points",
-        type=int,
-        metavar="N",
-        help="export about N voxel-reduced points of the model instead of all of them (a "
-        "smaller resource and a faster FMU step; the FMU's deviation, settled flag and "
-        "distances then only cover those points)",
-    )
-    parser.add_argument(
-        "--no-verify",
-        action="store_true",
-        help="skip the simulations against jaxflex (fmpy; ecospy and libcosimpy when installed)",
     )
 
 
@@ -243,32 +259,43 @@ def _need(model, trajectory, cell, *, verify: bool) -> Need:
     )
 
 
-def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> int:
+def _options(args, trajectory: Move | None, case: dict | None, cell) -> tuple:
+    """(fmu.Fmi, fmu.CellOutputs, fmu.Turning or None, the embedded turning move or None)
+    of the command's options: a turning part's embedded move is the turn of ``--trajectory``
+    (:func:`turning_move`), its pivot without one ``--pivot``."""
+    from fmu.options import CellOutputs, Fmi, Turning
+
+    windows = {"auto": None, "yes": True, "no": False}[args.windows]
+    fmi = Fmi(args.fmi, windows=windows, model_name=args.name)
+    outputs = CellOutputs(cell, cup_safety=args.cup_safety, stress=args.stress)
+    turn = turning = None
+    if args.turning and trajectory is not None:
+        turn = turning_move(Path(args.trajectory), trajectory, case, args.pivot)
+        turning = Turning.of(turn)
+    elif args.turning:
+        turning = Turning((0.0, 0.0, 0.0) if args.pivot is None else args.pivot)
+    return fmi, outputs, turning, turn
+
+
+def _export_fmu(args, model, trajectory, threshold_m, case, cell) -> int:
     from fmpy.validation import validate_fmu
 
     from fmu.crosscheck import crosscheck_fmu
-    from fmu.export import export_fmu, pose_options
+    from fmu.export import export_fmu
     from fmu.verify import verify
     from fmu.verify_turning import after_move_s, verify_turning
 
-    turn = None
-    if args.turning and trajectory is not None:
-        turn = turning_move(Path(args.trajectory), trajectory, case, args.pivot)
+    fmi, outputs, turning, turn = _options(args, trajectory, case, cell)
     result = export_fmu(
         model,
         args.output,
-        args.fmi,
         trajectory,
+        fmi=fmi,
         threshold_m=threshold_m,
-        case=case,
         damping_scale=args.damping_scale,
-        model_name=args.name,
-        windows=windows,
-        cell=cell,
-        cup_safety=args.cup_safety,
-        stress=args.stress,
-        turning=args.turning,
-        **pose_options(turn, args.pivot),
+        case=case,
+        outputs=outputs,
+        turning=turning,
     )
     print(
         f"wrote {result.fmu_path}: FMI {result.fmi_version}.0 co-simulation, "
@@ -308,28 +335,20 @@ def _export_fmu(args, model, trajectory, threshold_m, case, windows, cell) -> in
     return 0 if report.ok and hosts.ok else 1
 
 
-def _export_ssp(args, model, trajectory, threshold_m, case, windows) -> int:
+def _export_ssp(args, model, trajectory, threshold_m, case) -> int:
     from fmu.crosscheck import crosscheck_ssp
-    from fmu.export import pose_options
     from fmu.ssp import export_ssp
 
-    move = {}
-    if args.turning:
-        move = {
-            "turning": True,
-            **pose_options(turning_move(Path(args.trajectory), trajectory, case, args.pivot)),
-        }
+    fmi, _, turning, _ = _options(args, trajectory, case, None)
     result = export_ssp(
         model,
         args.ssp,
-        args.fmi,
         trajectory,
-        threshold_m,
-        case,
+        fmi=fmi,
+        threshold_m=threshold_m,
         damping_scale=args.damping_scale,
-        model_name=args.name,
-        windows=windows,
-        **move,
+        case=case,
+        turning=turning,
     )
     part, source = result.part, result.source
     print(
@@ -364,6 +383,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--points: a count >= 1, got {args.points}")
     if args.threshold is not None:
         check_positive("--threshold", args.threshold)
+    check_positive("cup_safety", args.cup_safety)  # before any work
     check_input_file("model", args.model)
     if args.trajectory:
         trajectory_file(Path(args.trajectory))
@@ -394,7 +414,6 @@ def run(args: argparse.Namespace) -> int:
     if threshold_m is None:
         threshold_m = (case or {}).get("threshold_m", THRESHOLD_M)
     threshold_m = check_positive("--threshold", threshold_m)
-    windows = {"auto": None, "yes": True, "no": False}[args.windows]
     cell = None if args.cell is None else load_cell(args.cell)
     if cell is not None and case is not None:  # a move of `jaxflex optimize`: made in it?
         report = trajectory_file(Path(args.trajectory)).with_name("report.json")
@@ -402,7 +421,7 @@ def run(args: argparse.Namespace) -> int:
     require(_need(model, trajectory, cell, verify=not args.no_verify))
     status = 0
     if args.output:
-        status = _export_fmu(args, model, trajectory, threshold_m, case, windows, cell)
+        status = _export_fmu(args, model, trajectory, threshold_m, case, cell)
     if args.ssp:
-        status = max(status, _export_ssp(args, model, trajectory, threshold_m, case, windows))
+        status = max(status, _export_ssp(args, model, trajectory, threshold_m, case))
     return status

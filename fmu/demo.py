@@ -132,17 +132,18 @@ def _export(model, result, path: Path, version: int, threshold_m: float):
     it with fmpy against jaxflex: a turning move's FMU takes the pose, its move of poses
     embedded (fmu.verify_turning), a straight move's the translation (fmu.verify). Returns
     (the export's fmu.export.ExportResult, the replay's report)."""
-    from fmu.export import export_fmu, pose_options
+    from fmu.export import export_fmu
+    from fmu.options import Fmi, Turning
     from fmu.verify import verify
     from fmu.verify_turning import after_move_s, verify_turning
 
-    trajectory, case = result.move, result.report()
+    trajectory, fmi = result.move, Fmi(version)
+    options = {"fmi": fmi, "threshold_m": threshold_m, "case": result.report()}
     if result.turn is None:
-        written = export_fmu(model, path, version, trajectory, threshold_m, case)
+        written = export_fmu(model, path, trajectory, **options)
         return written, verify(path)
     turn = result.turn.with_move(result.angular_acc, trajectory)
-    pose = pose_options(turn)
-    written = export_fmu(model, path, version, trajectory, threshold_m, case, turning=True, **pose)
+    written = export_fmu(model, path, trajectory, turning=Turning.of(turn), **options)
     extend_s = after_move_s(written.case)
     return written, verify_turning(path, model, turn, extend_s=extend_s)
 

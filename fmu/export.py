@@ -25,6 +25,7 @@ from fmu.archive import content_token, zip_folder
 from fmu.build import BuildReport, WrittenFmu, build_binaries, sources_for
 from fmu.model_description import Description, build_description, model_description
 from fmu.obstacles import obstacle_records
+from fmu.options import CellOutputs, Fmi, Turning
 from fmu.resource import (
     CellData,
     Counts,
@@ -44,10 +45,9 @@ from fmu.variables import (
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import check_output_file, check_positive, whole_or_absent, write_text_atomic
-from jaxflex.geometry import DEFAULT_GRAVITY_M_S2, Cell, part_half_thickness
+from jaxflex.geometry import Cell, part_half_thickness
 from jaxflex.model import ModalModel
 from jaxflex.response import (
-    DEFAULT_CUP_SAFETY,
     Move,
     PosePath,
     Turn,
@@ -59,6 +59,8 @@ from jaxflex.response import (
 )
 
 CASE_FORMAT = "jaxflex.fmu_case"
+DEFAULT_FMI = Fmi()  # FMI 2.0, the Windows DLL when mingw-w64 is installed
+NO_CELL = CellOutputs()  # no cell: the cups' and (with stress) the stresses' outputs only
 _CASE_TIMES = ("cycle_time_s", "transfer_time_s", "settle_time_s")
 
 
@@ -86,11 +88,9 @@ def sidecar_paths(fmu_path: str | os.PathLike) -> tuple[Path, Path]:
     return path.with_name(f"{path.stem}_input.csv"), path.with_name(f"{path.stem}_case.json")
 
 
-def _check_arguments(model, path, fmi_version, threshold_m, damping_scale):
+def _check_arguments(model, path, threshold_m, damping_scale):
     if not isinstance(model, ModalModel):
         raise InputError(f"model: expected a jaxflex.ModalModel, got {type(model).__name__}")
-    if fmi_version not in (2, 3):
-        raise InputError(f"fmi_version: must be 2 or 3, got {fmi_version!r}")
     path = Path(path)
     if path.suffix.lower() != ".fmu":
         raise InputError(f"path: an FMU file name must end in .fmu, got {str(path)!r}")
@@ -105,6 +105,16 @@ def _check_arguments(model, path, fmi_version, threshold_m, damping_scale):
     return path, threshold_m, scale
 
 
+def _check_options(fmi, outputs, turning) -> None:
+    """InputError naming the keyword unless each option is its object (fmu.options)."""
+    if not isinstance(fmi, Fmi):
+        raise InputError(f"fmi: expected an fmu.Fmi, got {type(fmi).__name__}")
+    if not isinstance(outputs, CellOutputs):
+        raise InputError(f"outputs: expected an fmu.CellOutputs, got {type(outputs).__name__}")
+    if turning is not None and not isinstance(turning, Turning):
+        raise InputError(f"turning: None or an fmu.Turning, got {type(turning).__name__}")
+
+
 def _check_outputs(path: Path, *, with_sidecars: bool) -> None:
     """InputError naming the file unless the FMU (and with a trajectory its input CSV and
     case JSON) may be written: absent or regular files, never links (jaxflex.files)."""
@@ -115,25 +125,23 @@ def _check_outputs(path: Path, *, with_sidecars: bool) -> None:
         check_output_file("path (the case JSON beside the FMU)", json_path)
 
 
-def _check_trajectory(trajectory) -> tuple[np.ndarray | None, float | None]:
+def check_trajectory(trajectory) -> Move | None:
+    """``trajectory`` if it is None or a Move at rest at both ends; InputError naming
+    ``trajectory`` otherwise."""
     if trajectory is None:
-        return None, None
-    if isinstance(trajectory, Move):
-        acc, dt_s = trajectory, None
-    else:
-        try:
-            acc, dt_s = trajectory
-        except (TypeError, ValueError) as exc:
-            raise InputError(
-                "trajectory: expected a jaxflex.Move or a pair (acc (n+1, 3) m/s^2, dt_s)"
-            ) from exc
-    move = as_move(acc, dt_s, at_rest=True, name="trajectory acc", dt_name="trajectory dt_s")
-    return move.acc, move.dt_s
+        return None
+    if not isinstance(trajectory, Move):
+        raise InputError(
+            "trajectory: None or a jaxflex.Move (jaxflex.as_move(acc, dt_s): acc (n+1, 3) "
+            f"m/s^2), got {type(trajectory).__name__}"
+        )
+    return as_move(trajectory, at_rest=True, name="trajectory acc")
 
 
-def _case_summary(model, acc, dt_s, threshold_m, case, turning, pose) -> dict[str, Any]:
+def _case_summary(model, move: Move, threshold_m, case, turning_data, turning) -> dict[str, Any]:
     """Limits, threshold and the exact cycle time of the exported move (a turning part's:
-    of its ``pose`` path with jaxflex._turning)."""
+    of its poses ``turning.pose`` with jaxflex._turning)."""
+    acc, dt_s = move.acc, move.dt_s
     case = dict(case or {})
     summary: dict[str, Any] = {
         "threshold_m": threshold_m,
@@ -146,10 +154,11 @@ def _case_summary(model, acc, dt_s, threshold_m, case, turning, pose) -> dict[st
     times = {key: case.pop(key) for key in _CASE_TIMES if key in case}
     if len(times) < len(_CASE_TIMES) or not math.isclose(case_threshold, threshold_m):
         if turning is None:
-            report = analyze_move(model, acc, dt_s, threshold_m)
+            report = analyze_move(model, move, threshold_m=threshold_m)
         else:
-            turn = Turn(pose, acc, pivot_m=turning.pivot_m, gravity_m_s2=turning.gravity_m_s2)
-            report = turning_settle(pose, model, simulate_turning(model, turn), threshold_m)
+            pivot, gravity = turning_data.pivot_m, turning_data.gravity_m_s2
+            turn = Turn(turning.pose, acc, pivot_m=pivot, gravity_m_s2=gravity)
+            report = turning_settle(turn.path, model, simulate_turning(model, turn), threshold_m)
         times = {key: float(getattr(report, key)) for key in _CASE_TIMES}
     summary.update(times)
     summary["optimisation"] = case  # everything else the optimiser reported, unchanged
@@ -176,14 +185,12 @@ def _stage(stage: Path, fmi_version: int, ident: str, config: str, xml: str, res
     (stage / "modelDescription.xml").write_text(xml, encoding="utf-8")
 
 
-def _write_sidecars(
-    path: Path, acc, dt_s, summary, result_fields, poses=None
-) -> tuple[Path, Path, dict]:
+def _write_sidecars(path: Path, move: Move, summary, desc: Description, poses=None) -> dict:
     """The input CSV (a turning part's with the pose columns: ``poses`` (N, 10)) and the
-    case JSON beside the FMU."""
+    case JSON beside the FMU: ExportResult's ``input_csv``, ``case_json`` and ``case``."""
     csv_path, json_path = sidecar_paths(path)
-    t = dt_s * np.arange(acc.shape[0])
-    names, values = list(INPUT_COLUMNS), np.column_stack([t, acc])
+    t = move.dt_s * np.arange(move.n_steps + 1)
+    names, values = list(INPUT_COLUMNS), np.column_stack([t, move.acc])
     if poses is not None:
         names += POSE_INPUT_NAMES
         values = np.column_stack([values, poses])
@@ -193,7 +200,11 @@ def _write_sidecars(
     case = {
         "format": CASE_FORMAT,
         "schema_version": 1,
-        **result_fields,
+        "fmu": path.name,
+        "fmi_version": desc.fmi_version,
+        "instantiation_token": desc.token,
+        "n_points": desc.counts.points,
+        "n_modes": desc.counts.modes,
         "input_csv": csv_path.name,
         "input_units": dict(zip(INPUT_COLUMNS, ("s", "m/s2", "m/s2", "m/s2"), strict=True))
         | ({} if poses is None else {name: pose_unit(name) for name in POSE_INPUT_NAMES}),
@@ -205,7 +216,7 @@ def _write_sidecars(
         **summary,
     }
     write_text_atomic(json_path, json.dumps(case, indent=2))
-    return csv_path, json_path, case
+    return {"input_csv": csv_path, "case_json": json_path, "case": case}
 
 
 def _half_thickness(model: ModalModel, cell: Cell | None) -> float:
@@ -217,33 +228,84 @@ def _half_thickness(model: ModalModel, cell: Cell | None) -> float:
     return 0.0 if half is None else half
 
 
+def _cell_data(model: ModalModel, outputs: CellOutputs) -> CellData:
+    """The resource's cell block of the model posed in ``outputs.cell`` (if any)."""
+    if outputs.stress and model.stress is None:
+        raise InputError("stress: the model has no stresses (make it with fem of this version)")
+    cell = outputs.cell
+    return CellData(
+        outputs.gravity_m_s2,
+        outputs.cup_safety,
+        obstacle_records(() if cell is None else cell.obstacles),
+        cups=model.cups is not None,
+        stress=outputs.stress,
+        half_thickness_m=_half_thickness(model, cell),
+    )
+
+
 def _turning_data(
-    model: ModalModel, turning: bool, pivot_m, gravity_m_s2, acc, dt_s, pose
+    model: ModalModel, turning: Turning | None, outputs: CellOutputs, move: Move | None
 ) -> TurningData | None:
-    """The data of a turning part (None when ``turning`` is off): pivot, gravity and, with a
-    trajectory ``acc`` at ``dt_s``, the poses of the PosePath ``pose`` at its samples; refuses
-    inconsistent inputs, naming the option."""
-    if not turning:
-        if pose is not None:
-            raise InputError("pose: only for a turning part (turning=True, --turning)")
+    """The data of a turning part (None without ``turning``): pivot, gravity (the cell's with
+    a cell) and, with a trajectory ``move``, the poses of ``turning.pose`` at its samples;
+    refuses inconsistent inputs, naming the field."""
+    if turning is None:
         return None
     require_rotation(model)  # ModelError saying what the model lacks
-    pivot = np.asarray(pivot_m, dtype=np.float64)
-    gravity = np.asarray(gravity_m_s2, dtype=np.float64)
-    for name, value in (("pivot_m", pivot), ("gravity_m_s2", gravity)):
-        if value.shape != (3,) or not np.isfinite(value).all():
-            raise InputError(f"{name}: three finite numbers, got {value.tolist()!r}")
-    if acc is None:
-        if pose is not None:
+    gravity = turning.gravity_in(outputs)
+    if move is None:
+        if turning.pose is not None:
             raise InputError("pose: the orientation path of an embedded move needs trajectory")
-        return TurningData(pivot, gravity)
-    if pose is None:
+        return TurningData(turning.pivot_m, gravity)
+    if turning.pose is None:
         raise InputError(
             "pose: a turning part's embedded move needs its orientation path (a "
             "jaxflex.response.PosePath at the trajectory's samples; --trajectory: the turn of "
             "`jaxflex optimize --rotate`)"
         )
-    return TurningData(pivot, gravity, pose_samples(check_pose(pose, acc.shape[0], dt_s)))
+    pose = check_pose(turning.pose, move.n_steps + 1, move.dt_s)
+    return TurningData(turning.pivot_m, gravity, pose_samples(pose))
+
+
+def _description(model, fmi: Fmi, ident: str, token: str, counts: Counts, start: dict):
+    """What modelDescription.xml states: the options' name and text or made here, and the
+    ``start`` values (threshold_m, damping_scale, stop_time_s, step_s)."""
+    text = fmi.description or (
+        f"Flexible sheet-metal part carried by a robot: exact modal response of "
+        f"{model.n_modes} modes at {model.n_points} points (jaxflex)"
+        + (", turning: the pose as inputs" if counts.turning else "")
+    )
+    zeta_max = float(np.max(model.zeta))
+    return Description(
+        fmi_version=fmi.version,
+        model_name=fmi.model_name or ident,
+        model_identifier=ident,
+        token=token,
+        description=text,
+        counts=counts,
+        damping_scale_max=(1.0 / zeta_max) * (1 - 1e-12) if zeta_max > 0 else 1e6,
+        start_time_s=0.0,
+        **start,
+    )
+
+
+def _build(path: Path, desc: Description, resource: bytes, windows: bool | None) -> BuildReport:
+    """Stage the FMU's files (its C configuration from ``desc``), build its binaries and zip
+    it to ``path``."""
+    config = config_header(
+        fmi_version=desc.fmi_version,
+        token=desc.token,
+        counts=desc.counts,
+        threshold_m=desc.threshold_m,
+        damping_scale=desc.damping_scale,
+    )
+    version, ident = desc.fmi_version, desc.model_identifier
+    with tempfile.TemporaryDirectory(prefix="jaxflex_fmu_") as tmp:
+        stage = Path(tmp) / "fmu"
+        _stage(stage, version, ident, config, model_description(desc), resource)
+        built = build_binaries(stage / "sources", stage / "binaries", version, ident, windows)
+        zip_folder(stage, path)
+    return built
 
 
 def check_pose(pose: PosePath, n_samples: int, dt_s: float) -> PosePath:
@@ -276,163 +338,78 @@ def check_pose(pose: PosePath, n_samples: int, dt_s: float) -> PosePath:
     return pose
 
 
-def pose_options(turn: Turn | None, pivot_m=None) -> dict:
-    """:func:`export_fmu`'s (and fmu.ssp.export_ssp's) keywords of a turning part's
-    embedded move ``turn`` (a jaxflex.response.Turn: its pose path, pivot and gravity), or
-    without one of the pivot ``pivot_m`` alone (default the origin)."""
-    if turn is None:
-        return {"pivot_m": (0.0, 0.0, 0.0) if pivot_m is None else pivot_m}
-    return {"pose": turn.path, "pivot_m": turn.pivot_m, "gravity_m_s2": turn.gravity_m_s2}
-
-
 @whole_or_absent()  # the FMU and its side files: all of them or none
 def export_fmu(
     model: ModalModel,
     path: str | os.PathLike,
-    fmi_version: int = 2,
-    trajectory: Move | tuple[Any, float] | None = None,
-    threshold_m: float = THRESHOLD_M,
-    case: dict[str, Any] | None = None,
+    trajectory: Move | None = None,
     *,
+    fmi: Fmi = DEFAULT_FMI,
+    threshold_m: float = THRESHOLD_M,
     damping_scale: float = 1.0,
-    model_name: str | None = None,
-    description: str | None = None,
-    windows: bool | None = None,
-    cell: Cell | None = None,
-    cup_safety: float = DEFAULT_CUP_SAFETY,
-    stress: bool = False,
-    turning: bool = False,
-    pivot_m=(0.0, 0.0, 0.0),
-    gravity_m_s2=DEFAULT_GRAVITY_M_S2,
-    pose: PosePath | None = None,
+    case: dict[str, Any] | None = None,
+    outputs: CellOutputs = NO_CELL,
+    turning: Turning | None = None,
 ) -> ExportResult:
-    """Write ``model`` as an FMI 2.0 or 3.0 co-simulation FMU at ``path`` (atomically; with
-    a trajectory its side files too: every path is checked before the work, and a failure
-    leaves none of them written, jaxflex.files.whole_or_absent).
+    """Write ``model`` (K points, M modes) as an FMI 2.0 or 3.0 co-simulation FMU at ``path``
+    (.fmu; its stem is the model identifier, made a C identifier), atomically; with a
+    trajectory its side files too: every path is checked before the work, and a failure
+    leaves none of them written (jaxflex.files.whole_or_absent).
 
     Args:
-        model: the part (K points, M modes).
-        path: the .fmu file; its stem is the model identifier (made a C identifier).
-        fmi_version: 2 or 3.
-        trajectory: optional Move (or its pair ``(acc, dt_s)``), acc (n+1, 3) m/s^2 starting
-            and ending at 0,
-            embedded in the resource (replayed with ``use_embedded_trajectory = true``) and
-            written beside the FMU as ``<name>_input.csv`` with ``<name>_case.json``.
+        trajectory: optional jaxflex.Move (``jaxflex.as_move(acc, dt_s)``, acc (n+1, 3)
+            m/s^2 starting and ending at 0), embedded in the resource (replayed with
+            ``use_embedded_trajectory = true``) and written beside the FMU as
+            ``<name>_input.csv`` with ``<name>_case.json``; a turning part's: the pivot's
+            world acceleration, its poses ``turning.pose``.
+        fmi: the FMU to build (fmu.Fmi: FMI version, Windows DLL, model name, description).
         threshold_m: start value of the ``threshold`` parameter, m.
+        damping_scale: start value of the ``damping_scale`` parameter.
         case: what the optimiser reported (``limits``, ``cycle_time_s``, ``transfer_time_s``,
             ``settle_time_s``, ``threshold_m``, ...); missing times are computed exactly.
-        damping_scale: start value of the ``damping_scale`` parameter.
-        model_name, description: text for modelDescription.xml.
-        windows: build the Windows DLL too: None = when mingw-w64 is installed, True = must.
-        cell: a jaxflex.geometry.Cell: the model is posed in it (inputs and points in cell
-            coordinates, the trajectory too) and the FMU reports the distance to its
-            obstacles (``min_distance``; FMI 3.0 also ``point_distances``).
-        cup_safety: safety factor of the cup utilisation outputs (``cup_utilisation``; FMI 3.0
-            also ``cup_utilisations``), present when the model has cup reactions.
-        stress: also the von Mises outputs (``max_stress``; FMI 3.0 ``point_stresses``; the
-            stress maps can make the resource large: 1.9 kB per stress point at 20 modes).
-        turning: the part turns: the FMU takes the pose as inputs as well (the orientation
-            quaternion quat_w..quat_z body -> world, the angular velocity omega_x..z and
-            acceleration alpha_x..z in body components; ax, ay, az the world acceleration of
-            ``pivot_m``) and is forced as jaxflex._turning (needs the model's rotation data).
-            With a ``trajectory`` it embeds the move of poses: ``acc`` the pivot's world
-            acceleration and ``pose``. The cell's outputs follow the turning part
-            (jaxflex._turning_outputs, jaxflex._turning_collision; with a ``cell`` the pivot
-            is in its coordinates at the start, the posed model's frame, and gravity the
-            cell's).
-        pivot_m: (3,) m, model frame: the point whose acceleration ax, ay, az are (turning).
-        gravity_m_s2: (3,) m/s^2 in world components (turning; the cell's otherwise).
-        pose: a turning part's embedded orientation path (jaxflex.response.PosePath at the
-            trajectory's samples and step, starting and ending at rest), replayed with
-            ``acc`` as jaxflex.simulate_turning does (the forcing linear between samples).
+        outputs: the robot cell's outputs (fmu.CellOutputs: the cell the model is posed in
+            and its obstacles' distance, the cups' safety factor, the stresses).
+        turning: a turning part (fmu.Turning: pivot, gravity, the embedded move's poses): the
+            FMU takes the pose as inputs and is forced as jaxflex.simulate_turning; its cell
+            outputs follow the turning part (jaxflex._turning_outputs, _turning_collision).
     """
-    path, threshold_m, damping_scale = _check_arguments(
-        model, path, fmi_version, threshold_m, damping_scale
-    )
-    acc, dt_s = _check_trajectory(trajectory)
-    _check_outputs(path, with_sidecars=acc is not None)
-    if turning and cell is not None:  # the turning part's gravity is the cell's
-        gravity_m_s2 = cell.gravity_m_s2
-    turning_data = _turning_data(model, turning, pivot_m, gravity_m_s2, acc, dt_s, pose)
-    if cell is not None:
-        model = cell.posed(model)
-    if stress and model.stress is None:
-        raise InputError("stress: the model has no stresses (make it with fem of this version)")
-    cell_data = CellData(
-        DEFAULT_GRAVITY_M_S2 if cell is None else cell.gravity_m_s2,
-        check_positive("cup_safety", cup_safety),
-        obstacle_records(() if cell is None else cell.obstacles),
-        cups=model.cups is not None,
-        stress=stress,
-        half_thickness_m=_half_thickness(model, cell),
-    )
+    path, threshold_m, damping_scale = _check_arguments(model, path, threshold_m, damping_scale)
+    _check_options(fmi, outputs, turning)
+    move = check_trajectory(trajectory)
+    _check_outputs(path, with_sidecars=move is not None)
+    if case is not None and move is None:
+        raise InputError("case: describes a trajectory, so it needs trajectory (a jaxflex.Move)")
+    turning_data = _turning_data(model, turning, outputs, move)
+    if outputs.cell is not None:
+        model = outputs.cell.posed(model)
+    cell_data = _cell_data(model, outputs)
+    acc, dt_s = (None, None) if move is None else (move.acc, move.dt_s)
     counts = resource_counts(model, acc, cell_data, turning_data)
-    if case is not None and acc is None:
-        raise InputError("case: describes a trajectory, so it needs trajectory=(acc, dt_s)")
     summary = None
-    if acc is not None:
-        summary = _case_summary(model, acc, dt_s, threshold_m, case, turning_data, pose)
+    if move is not None:
+        summary = _case_summary(model, move, threshold_m, case, turning_data, turning)
     ident = model_identifier(path)
-    stop_time_s = _stop_time(acc, dt_s, summary)
+    start = {"threshold_m": threshold_m, "damping_scale": damping_scale, "step_s": dt_s or DT_S}
+    start["stop_time_s"] = stop_time_s = _stop_time(acc, dt_s, summary)
     # the token covers what the binary and the resource must agree on, not the file's name
     # (its model identifier): an FMU exported under another name reuses the stored binary
-    options = (fmi_version, model_name, description, threshold_m, damping_scale, stop_time_s)
-    token = content_token(
-        encode_resource(model, "", acc, dt_s, cell_data, turning_data), repr(options).encode()
-    )
-    zeta_max = float(np.max(model.zeta))
-    desc = Description(
-        fmi_version=fmi_version,
-        model_name=model_name or ident,
-        model_identifier=ident,
-        token=token,
-        description=description
-        or f"Flexible sheet-metal part carried by a robot: exact modal response of "
-        f"{model.n_modes} modes at {model.n_points} points (jaxflex)"
-        + (", turning: the pose as inputs" if turning_data else ""),
-        counts=counts,
-        threshold_m=threshold_m,
-        damping_scale=damping_scale,
-        damping_scale_max=(1.0 / zeta_max) * (1 - 1e-12) if zeta_max > 0 else 1e6,
-        start_time_s=0.0,
-        stop_time_s=stop_time_s,
-        step_s=dt_s or DT_S,
-    )
-    config = config_header(
-        fmi_version=fmi_version,
-        token=token,
-        counts=counts,
-        threshold_m=threshold_m,
-        damping_scale=damping_scale,
-    )
+    options = (fmi.version, fmi.model_name, fmi.description, threshold_m, damping_scale)
+    blank = encode_resource(model, "", acc, dt_s, cell_data, turning_data)
+    token = content_token(blank, repr((*options, stop_time_s)).encode())
+    desc = _description(model, fmi, ident, token, counts, start)
     resource = encode_resource(model, token, acc, dt_s, cell_data, turning_data)
-    with tempfile.TemporaryDirectory(prefix="jaxflex_fmu_") as tmp:
-        stage = Path(tmp) / "fmu"
-        _stage(stage, fmi_version, ident, config, model_description(desc), resource)
-        built: BuildReport = build_binaries(
-            stage / "sources", stage / "binaries", fmi_version, ident, windows
-        )
-        zip_folder(stage, path)
-    fields = {
-        "fmu": path.name,
-        "fmi_version": fmi_version,
-        "instantiation_token": token,
-        "n_points": counts.points,
-        "n_modes": counts.modes,
-    }
-    csv_path = json_path = case_out = None
-    if acc is not None:
+    built = _build(path, desc, resource, fmi.windows)
+    sidecars = {}
+    if move is not None:
         poses = None if turning_data is None else turning_data.pose_samples
-        csv_path, json_path, case_out = _write_sidecars(path, acc, dt_s, summary, fields, poses)
+        sidecars = _write_sidecars(path, move, summary, desc, poses)
     return ExportResult(
         fmu_path=path,
-        fmi_version=fmi_version,
+        fmi_version=fmi.version,
         token=token,
         model_identifier=ident,
         counts=counts,
         resource_bytes=len(resource),
         **built.written(),
-        input_csv=csv_path,
-        case_json=json_path,
-        case=case_out,
+        **sidecars,
     )

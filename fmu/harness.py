@@ -40,7 +40,7 @@ def compile_harness(
     by fmu.windows. With ``array_points`` (FMI 3.0) it also reads the displaced-points array
     output (K x 3) after every step. With ``sanitize`` it is instrumented with SANITIZE_FLAGS,
     to load an FMU library built with them. With ``turning`` its bench mode also sets the
-    pose inputs of a turning part's FMU (export_fmu(turning=True)); with ``distance`` it also
+    pose inputs of a turning part's FMU (fmu.Turning); with ``distance`` it also
     reads ``min_distance`` (an FMU with obstacles) after every step."""
     if windows and shutil.which(WINDOWS_COMPILER) is None:
         raise FmuBuildError(f"{WINDOWS_COMPILER} is not installed ({WINE_HINT})")

@@ -1,6 +1,6 @@
 """An SSP 1.0 package (System Structure and Parameterization) of an optimised move.
 
-``export_ssp(model, "case.ssp", trajectory=(acc, dt_s))`` writes one archive a co-simulation
+``export_ssp(model, "case.ssp", move)`` (a jaxflex.Move) writes one archive a co-simulation
 tool opens as a whole:
 
     SystemStructure.ssd           system "case": components, connections, parameters
@@ -10,7 +10,7 @@ tool opens as a whole:
     resources/trajectory.fmu      the trajectory source playing the move (see fmu.source)
 
 The source's outputs ``ax``, ``ay``, ``az`` are connected to the part's inputs of the same
-names; a turning part (``turning=True`` with the move's ``pose``) also takes the pose from the
+names; a turning part (``turning=fmu.Turning(pose=..., pivot_m=...)``) also takes the pose from the
 source: quat_w..quat_z, omega_x..z, alpha_x..z, 13 connections in all. The part's
 ``threshold`` and ``damping_scale`` are bound in the parameter set named ``case`` (inline
 ``ssv:ParameterSet`` in a component ``ParameterBinding``). Both FMUs use the same FMI version.
@@ -34,15 +34,15 @@ from fmpy.ssp.ssd import read_ssd
 
 import jaxflex
 from fmu.archive import zip_folder
-from fmu.export import ExportResult, export_fmu
+from fmu.export import DEFAULT_FMI, ExportResult, export_fmu
 from fmu.model_description import UNITS
+from fmu.options import Fmi, Turning
 from fmu.source import SourceResult, export_source_fmu, source_channels
 from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import check_output_file, whole_or_absent
-from jaxflex.geometry import DEFAULT_GRAVITY_M_S2
 from jaxflex.model import ModalModel
-from jaxflex.response import Move, PosePath
+from jaxflex.response import Move
 
 PART, SOURCE = "part", "trajectory"
 PARAMETER_SET = "case"
@@ -192,33 +192,26 @@ def stop_time_of(fmu_path: Path) -> float:
 def export_ssp(
     model: ModalModel,
     path: str | os.PathLike,
-    fmi_version: int = 2,
-    trajectory: Move | tuple[Any, float] | None = None,
-    threshold_m: float = THRESHOLD_M,
-    case: dict[str, Any] | None = None,
+    trajectory: Move,
     *,
+    fmi: Fmi = DEFAULT_FMI,
+    threshold_m: float = THRESHOLD_M,
     damping_scale: float = 1.0,
-    model_name: str | None = None,
-    windows: bool | None = None,
-    turning: bool = False,
-    pivot_m=(0.0, 0.0, 0.0),
-    gravity_m_s2=DEFAULT_GRAVITY_M_S2,
-    pose: PosePath | None = None,
+    case: dict[str, Any] | None = None,
+    turning: Turning | None = None,
 ) -> SspResult:
-    """Write the SSP package of ``model`` moved by ``trajectory`` (a Move, or the pair (acc
-    (n+1, 3) m/s^2 at rest at both ends, dt_s)) at ``path`` (.ssp, atomically); FMI
-    ``fmi_version`` for both FMUs.
-    ``threshold_m``, ``case``, ``damping_scale``, ``model_name`` and ``windows`` as in
+    """Write the SSP package of ``model`` moved by ``trajectory`` (a jaxflex.Move at rest at
+    both ends) at ``path`` (.ssp, atomically); both FMUs of ``fmi``'s version, Windows DLLs
+    and model name. ``threshold_m``, ``case``, ``damping_scale`` and ``turning`` as in
     :func:`fmu.export_fmu`; the threshold and damping scale are also bound as SSP parameters.
-    A turning move (``turning=True``; ``pose`` the jaxflex.response.PosePath at the samples,
-    ``acc`` the world acceleration of ``pivot_m``, gravity ``gravity_m_s2`` in world
-    components, as :func:`fmu.export_fmu`): the turning part FMU, its pose inputs connected to
-    the turning source's pose outputs."""
+    A turning move (``turning`` with its ``pose``; the trajectory the pivot's world
+    acceleration): the turning part FMU, its pose inputs connected to the turning source's
+    pose outputs."""
     path = Path(path)
     if path.suffix.lower() != ".ssp":
         raise InputError(f"path: an SSP file name must end in .ssp, got {str(path)!r}")
     if trajectory is None:
-        raise InputError("trajectory: an SSP package plays a move; pass a Move or (acc, dt_s)")
+        raise InputError("trajectory: an SSP package plays a move; pass a jaxflex.Move")
     check_output_file("path", path)
     with tempfile.TemporaryDirectory(prefix="jaxflex_ssp_") as tmp:
         stage = Path(tmp) / "ssp"
@@ -227,23 +220,21 @@ def export_ssp(
         part = export_fmu(
             model,
             resources / f"{PART}.fmu",
-            fmi_version,
             trajectory,
-            threshold_m,
-            case,
+            fmi=replace(fmi, description=None),
+            threshold_m=threshold_m,
             damping_scale=damping_scale,
-            model_name=model_name,
-            windows=windows,
+            case=case,
             turning=turning,
-            pivot_m=pivot_m,
-            gravity_m_s2=gravity_m_s2,
-            pose=pose,
         )
-        acc, dt_s = (
-            (trajectory.acc, trajectory.dt_s) if isinstance(trajectory, Move) else trajectory
-        )
+        pose = None if turning is None else turning.pose
         source = export_source_fmu(
-            resources / f"{SOURCE}.fmu", acc, dt_s, fmi_version, pose=pose, windows=windows
+            resources / f"{SOURCE}.fmu",
+            trajectory.acc,
+            trajectory.dt_s,
+            fmi.version,
+            pose=pose,
+            windows=fmi.windows,
         )
         parameters = {"threshold": float(threshold_m), "damping_scale": float(damping_scale)}
         stop = stop_time_of(part.fmu_path)
@@ -252,17 +243,18 @@ def export_ssp(
             part_connectors(part.fmu_path),
             parameters,
             stop,
-            f"{model_name or path.stem}: a flexible part moved by the optimised trajectory"
-            f"{' and turned by its poses' if turning else ''} (FMI {fmi_version}.0 "
+            fmi.description
+            or f"{fmi.model_name or path.stem}: a flexible part moved by the optimised "
+            f"trajectory{' and turned by its poses' if turning else ''} (FMI {fmi.version}.0 "
             "co-simulation, jaxflex)",
-            turning=turning,
+            turning=turning is not None,
         )
         (stage / SSD_FILE).write_text(text, encoding="utf-8")
         zip_folder(stage, path)
     inside = Path("resources")
     return SspResult(
         ssp_path=path,
-        fmi_version=fmi_version,
+        fmi_version=fmi.version,
         part=replace(
             part,
             fmu_path=inside / part.fmu_path.name,

@@ -74,7 +74,7 @@ def _input(axis: str, vr: int) -> Variable:
     )
 
 
-# the pose inputs of a turning part (export with turning=True), in the order of the C's drive
+# the pose inputs of a turning part (export with fmu.Turning), in the order of the C's drive
 # (jxf_model.h: acceleration, quaternion, angular velocity, angular acceleration)
 _POSE_INPUTS = (
     ("quat_w", "1", "Orientation of the gripper (body to world) as a quaternion, scalar part"),

@@ -249,7 +249,7 @@ def verify(
             "about half a step of delay"
         )
     return replay_report(
-        path, md, mode, reference, dt_s, result, ref_dev, t, points=(diff_p, rel_p), rtol=rtol,
+        path, mode, reference, dt_s, result, ref_dev, t, points=(diff_p, rel_p), rtol=rtol,
         notes=notes,
     )  # fmt: skip
 
@@ -270,7 +270,6 @@ def replay(path: Path, stop_s: float, dt_s: float, outputs: list[str], **drive):
 
 def replay_report(
     path: Path,
-    md,
     mode: str,
     reference: str,
     dt_s: float,
@@ -282,13 +281,14 @@ def replay_report(
     rtol: float = DEFAULT_RTOL,
     notes: list[str],
 ) -> VerifyReport:
-    """The report of a replay of the FMU at ``path`` (model description ``md``: its FMI
+    """The report of a replay of the FMU at ``path`` (its model description: the FMI
     version and the threshold's start value, m) in ``mode`` at step ``dt_s`` s: fmpy's
     validation, the FMU's ``result`` (its deviation, m, and settle time, s, at the times
     ``t_s`` (n+1,) s) against the ``reference``'s deviation ``ref_dev`` (n+1,) m, and
     ``points`` (the largest absolute (m) and relative difference of the displaced points, or
     None without them)."""
     diff = float(np.max(np.abs(np.asarray(result["deviation"]) - ref_dev)))
+    md = read_model_description(str(path))
     threshold_m = next(float(v.start) for v in md.modelVariables if v.name == "threshold")
     n_steps = len(ref_dev) - 1
     return VerifyReport(

@@ -9,7 +9,6 @@ import os
 from pathlib import Path
 
 import numpy as np
-from fmpy import read_model_description
 
 from fmu.verify import DEFAULT_RTOL, VerifyReport, replay, replay_report
 from jaxflex.model import ModalModel
@@ -37,7 +36,6 @@ def verify_turning(
     gravity) for the move and ``extend_s`` s after it (whole steps) and compare its
     deviation, at every sample, with jaxflex.simulate_turning's."""
     path = Path(path)
-    md = read_model_description(str(path))
     dt_s = turn.dt_s
     reference = simulate_turning(model, turn, extend_s=extend_s)
     n_steps = len(reference.t_s) - 1
@@ -55,7 +53,6 @@ def verify_turning(
         raise ValueError(f"the FMU returned {dev.size} samples, jaxflex {ref.size}")
     return replay_report(
         path,
-        md,
         "embedded",
         "jaxflex.simulate_turning (first-order hold of the forcing)",
         dt_s,

@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import weakref
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from functools import cached_property
 from typing import Any
 
@@ -178,109 +178,10 @@ class ModalModel:
     surface: Any = None
 
     def __post_init__(self) -> None:
-        leaves = jax.tree_util.tree_leaves(
-            (
-                self.freq_hz,
-                self.zeta,
-                self.gamma,
-                self.shapes,
-                self.points,
-                self.cups,
-                self.stress,
-                self.static_shapes,
-                self.rotation,
-            )
-        )
-        if not all(_is_concrete(x) for x in leaves):
-            return
-        freq = _as_float_array("freq_hz", self.freq_hz, 1)
-        zeta = _as_float_array("zeta", self.zeta, 1)
-        gamma = _as_float_array("gamma", self.gamma, 2)
-        shapes = _as_float_array("shapes", self.shapes, 3)
-        points = _as_float_array("points", self.points, 2)
-        n_modes = freq.shape[0]
-        if n_modes == 0:
-            raise ModelError("ModalModel.freq_hz: needs at least one mode")
-        if (freq <= 0).any():
-            i = int(np.argmax(freq <= 0))
-            raise ModelError(
-                f"ModalModel.freq_hz: frequencies must be > 0 Hz (rigid-body modes are not "
-                f"allowed), got {freq[i]} at mode {i}"
-            )
-        if zeta.shape != (n_modes,):
-            raise ModelError(f"ModalModel.zeta: expected shape ({n_modes},), got {zeta.shape}")
-        if ((zeta < 0) | (zeta >= 1)).any():
-            i = int(np.argmax((zeta < 0) | (zeta >= 1)))
-            raise ModelError(
-                f"ModalModel.zeta: must satisfy 0 <= zeta < 1, got {zeta[i]} at mode {i}"
-            )
-        if gamma.shape != (n_modes, 3):
-            raise ModelError(f"ModalModel.gamma: expected shape ({n_modes}, 3), got {gamma.shape}")
-        if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] == 0:
-            raise ModelError(
-                f"ModalModel.points: expected shape (K, 3) with K >= 1, got {points.shape}"
-            )
-        n_points = points.shape[0]
-        if shapes.shape != (n_points, 3, n_modes):
-            raise ModelError(
-                f"ModalModel.shapes: expected shape (K, 3, M) = ({n_points}, 3, {n_modes}), "
-                f"got {shapes.shape}"
-            )
-        arrays = dict(zip(ARRAY_FIELDS, (freq, zeta, gamma, shapes, points), strict=True))
-        if self.static_shapes is not None:
-            static = _as_float_array("static_shapes", self.static_shapes, 3)
-            if static.shape != (n_points, 3, 3):
-                raise ModelError(
-                    f"ModalModel.static_shapes: expected shape (K, 3, 3) = ({n_points}, 3, 3), "
-                    f"got {static.shape}"
-                )
-            arrays["static_shapes"] = static
-        for name in VALUE_RANGES:
-            if name not in arrays:
-                continue
-            if arrays[name] is not getattr(self, name):  # else checked in the model it came from
-                _check_range(name, arrays[name])
-        labels = self.labels
-        if labels is not None:
-            labels = tuple(str(s) for s in labels)
-            if len(labels) != n_points:
-                raise ModelError(
-                    f"ModalModel.labels: expected {n_points} labels, got {len(labels)}"
-                )
-        meta = dict(self.meta)
-        try:
-            json.dumps(meta)
-        except TypeError as exc:
-            raise ModelError(f"ModalModel.meta: must be JSON-serialisable ({exc})") from exc
-        for name, kind, check in (
-            ("cups", CupSet, checked_cups),
-            ("stress", StressSet, checked_stress),
-        ):
-            value = getattr(self, name)
-            if value is not None:
-                if not isinstance(value, kind):
-                    raise ModelError(
-                        f"ModalModel.{name}: expected jaxflex.response.{kind.__name__} or None, "
-                        f"got {type(value).__name__}"
-                    )
-                object.__setattr__(self, name, check(value, freq, gamma))
-        if self.rotation is not None:
-            rows = (
-                None if self.static_shapes is None else n_points,
-                None if self.cups is None else 6 * self.cups.n_cups,
-                None if self.stress is None else 6 * self.stress.n_points,
-            )
-            object.__setattr__(self, "rotation", checked_rotation(self.rotation, n_modes, rows))
-        surface = self.surface
-        if surface is not None and not (is_validated(surface) and surface.dtype == np.int64):
-            surface = validated(_checked_surface(surface, n_points))
-        for name, value in (
-            *arrays.items(),
-            ("labels", labels),
-            ("meta", meta),
-            ("surface", surface),
-        ):
-            object.__setattr__(self, name, value)
+        traced = tuple(getattr(self, name) for name in (*ARRAY_FIELDS, *OUTPUT_FIELDS))
+        if all(_is_concrete(x) for x in jax.tree_util.tree_leaves(traced)):
+            for name, value in _checked_fields(self).items():
+                object.__setattr__(self, name, value)
 
     # -- pytree protocol: arrays are leaves, labels and meta ride along (_Annotations) -----
     def tree_flatten(self):
@@ -348,70 +249,13 @@ class ModalModel:
     def truncate_modes(
         self, n_modes: int | None = None, *, max_freq_hz: float | None = None
     ) -> ModalModel:
-        """Keep the lowest modes: the first ``n_modes`` and/or those at or below ``max_freq_hz``."""
-        order = np.argsort(np.asarray(self.freq_hz), kind="stable")
-        keep = order
-        if n_modes is not None:
-            if int(n_modes) < 1:
-                raise ModelError(f"truncate_modes: n_modes must be >= 1, got {n_modes}")
-            keep = keep[: int(n_modes)]
-        if max_freq_hz is not None:
-            keep = keep[np.asarray(self.freq_hz)[keep] <= max_freq_hz]
-            if keep.size == 0:
-                raise ModelError(
-                    f"truncate_modes: no mode at or below max_freq_hz={max_freq_hz} Hz "
-                    f"(lowest is {np.min(self.freq_hz):.4g} Hz)"
-                )
-        keep = np.sort(keep)
-        cups = self.cups
-        if cups is not None:
-            cups = CupSet(
-                cups.centre_m,
-                cups.normal,
-                cups.radius_m,
-                cups.holding_force_n,
-                cups.friction,
-                cups.reaction.take_modes(keep),
-            )
-        stress = self.stress
-        if stress is not None:
-            stress = StressSet(stress.points_m, stress.stress.take_modes(keep))
-        return self._replace(
-            freq_hz=self.freq_hz[keep],
-            zeta=self.zeta[keep],
-            gamma=self.gamma[keep],
-            shapes=self.shapes[:, :, keep],
-            cups=cups,
-            stress=stress,
-            rotation=None if self.rotation is None else self.rotation.take_modes(keep),
-        )  # the static displacement stays: the dropped modes join the static residual
+        """Keep the lowest modes: the first ``n_modes`` and/or those at or below ``max_freq_hz``
+        (the static displacement stays: the dropped modes join the static residual)."""
+        return _truncated(self, n_modes, max_freq_hz)
 
     def select_points(self, indices: Sequence[int] | np.ndarray) -> ModalModel:
         """Keep the points at ``indices`` (in that order)."""
-        idx = np.asarray(indices)
-        if idx.dtype == bool:
-            idx = np.flatnonzero(idx)
-        idx = idx.astype(np.int64)
-        if idx.ndim != 1 or idx.size == 0:
-            raise ModelError("select_points: indices must be a non-empty 1-D sequence")
-        if (idx < 0).any() or (idx >= self.n_points).any():
-            raise ModelError(
-                f"select_points: indices must lie in [0, {self.n_points - 1}], "
-                f"got min {idx.min()}, max {idx.max()}"
-            )
-        labels = None if self.labels is None else tuple(self.labels[i] for i in idx)
-        static = None if self.static_shapes is None else self.static_shapes[idx]
-        rotation = self.rotation
-        if rotation is not None and rotation.static_shapes is not None:
-            rotation = rotation.replace(static_shapes=np.asarray(rotation.static_shapes)[idx])
-        return self._replace(
-            shapes=self.shapes[idx],
-            points=self.points[idx],
-            labels=labels,
-            static_shapes=static,
-            rotation=rotation,
-            surface=kept_surface(self.surface, idx, self.n_points),
-        )
+        return _selected(self, indices)
 
     def with_damping(self, zeta: float | Sequence[float] | np.ndarray) -> ModalModel:
         """Same model with damping ratio ``zeta`` (scalar for all modes, or one per mode).
@@ -491,79 +335,205 @@ class ModalModel:
         Base accelerations, shapes, points, cups and stresses are expressed in that frame, so
         a move given in the new frame drives the posed model exactly as the rotated move
         drives this one."""
-        r = np.asarray(rotation, dtype=np.float64)
-        if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-9):
-            raise ModelError(f"posed: rotation must be a 3 x 3 rotation matrix, got {r.tolist()}")
-        if np.linalg.det(r) < 0:
-            raise ModelError("posed: rotation must be proper (determinant +1), not a reflection")
-        offset = np.asarray(offset_m, dtype=np.float64).reshape(3)
-        static = self.static_shapes
-        return self._replace(
-            static_shapes=None if static is None else r @ np.asarray(static) @ r.T,
-            gamma=np.asarray(self.gamma) @ r.T,
-            shapes=np.einsum("ij,kjm->kim", r, np.asarray(self.shapes)),
-            points=np.asarray(self.points) @ r.T + offset,
-            cups=None if self.cups is None else self.cups.rotated(r, offset),
-            stress=None if self.stress is None else self.stress.rotated(r, offset),
-            rotation=None
-            if self.rotation is None
-            else self.rotation.posed(r, offset, np.asarray(self.gamma), self._static_posers()),
-            meta={**dict(self.meta), "pose": {"rotation": r.tolist(), "offset_m": offset.tolist()}},
-        )
-
-    def _static_posers(self) -> dict[str, Any]:
-        """For RotationalInertia.posed: how each static response to the rotational loads
-        moves to another frame (jaxflex._rotation.posed_tensor with the translation's static
-        response of the same quantity and the rotation of its rows)."""
-        out: dict[str, Any] = {}
-        if self.static_shapes is not None:
-            static = np.asarray(self.static_shapes)
-
-            def points(values, r, o):
-                return np.einsum("ab,kb...->ka...", r, posed_tensor(values, static, r, o))
-
-            out["static_shapes"] = points
-        for name, owner, block in (
-            ("cup_static", self.cups, lambda r: r),
-            ("stress_static", self.stress, voigt_rotation),
-        ):
-            if owner is not None:
-                maps = owner.reaction if name == "cup_static" else owner.stress
-                out[name] = _rows_poser(np.asarray(maps.static_map), block)
-        return out
+        return _posed(self, rotation, offset_m)
 
     def _replace(self, **changes: Any) -> ModalModel:
-        fields = {
-            "freq_hz": self.freq_hz,
-            "zeta": self.zeta,
-            "gamma": self.gamma,
-            "shapes": self.shapes,
-            "points": self.points,
-            "labels": self.labels,
-            "meta": self.meta,
-            "cups": self.cups,
-            "stress": self.stress,
-            "static_shapes": self.static_shapes,
-            "rotation": self.rotation,
-            "surface": self.surface,
-        }
-        fields.update(changes)
-        return ModalModel(**fields)
+        return ModalModel(**{f.name: getattr(self, f.name) for f in fields(self)} | changes)
 
     def save(self, path) -> None:
         """Write the model to a versioned ``.npz`` file, atomically (jaxflex._model_file)."""
-        arrays = {name: getattr(self, name) for name in ARRAY_FIELDS}
-        if self.static_shapes is not None:
-            arrays["static_shapes"] = self.static_shapes
-        if self.cups is not None:
-            arrays.update(cups_to_fields(self.cups))
-        if self.stress is not None:
-            arrays.update(stress_to_fields(self.stress))
-        if self.rotation is not None:
-            arrays.update(self.rotation.to_fields())
-        if self.surface is not None:
-            arrays["surface_triangles"] = self.surface
-        write_model_file(path, arrays, self.labels, dict(self.meta))
+        save_model(self, path)
+
+
+def _checked_fields(model: ModalModel) -> dict[str, Any]:
+    """The fields of the concrete ``model`` checked and in their final form (read-only
+    float64 arrays, a labels tuple, a meta dict, checked outputs); ModelError naming the
+    field otherwise."""
+    freq = _as_float_array("freq_hz", model.freq_hz, 1)
+    zeta = _as_float_array("zeta", model.zeta, 1)
+    gamma = _as_float_array("gamma", model.gamma, 2)
+    shapes = _as_float_array("shapes", model.shapes, 3)
+    points = _as_float_array("points", model.points, 2)
+    n_modes = freq.shape[0]
+    if n_modes == 0:
+        raise ModelError("ModalModel.freq_hz: needs at least one mode")
+    if (freq <= 0).any():
+        i = int(np.argmax(freq <= 0))
+        raise ModelError(
+            f"ModalModel.freq_hz: frequencies must be > 0 Hz (rigid-body modes are not "
+            f"allowed), got {freq[i]} at mode {i}"
+        )
+    if zeta.shape != (n_modes,):
+        raise ModelError(f"ModalModel.zeta: expected shape ({n_modes},), got {zeta.shape}")
+    if ((zeta < 0) | (zeta >= 1)).any():
+        i = int(np.argmax((zeta < 0) | (zeta >= 1)))
+        raise ModelError(f"ModalModel.zeta: must satisfy 0 <= zeta < 1, got {zeta[i]} at mode {i}")
+    if gamma.shape != (n_modes, 3):
+        raise ModelError(f"ModalModel.gamma: expected shape ({n_modes}, 3), got {gamma.shape}")
+    if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] == 0:
+        raise ModelError(
+            f"ModalModel.points: expected shape (K, 3) with K >= 1, got {points.shape}"
+        )
+    n_points = points.shape[0]
+    if shapes.shape != (n_points, 3, n_modes):
+        raise ModelError(
+            f"ModalModel.shapes: expected shape (K, 3, M) = ({n_points}, 3, {n_modes}), "
+            f"got {shapes.shape}"
+        )
+    arrays = dict(zip(ARRAY_FIELDS, (freq, zeta, gamma, shapes, points), strict=True))
+    if model.static_shapes is not None:
+        static = _as_float_array("static_shapes", model.static_shapes, 3)
+        if static.shape != (n_points, 3, 3):
+            raise ModelError(
+                f"ModalModel.static_shapes: expected shape (K, 3, 3) = ({n_points}, 3, 3), "
+                f"got {static.shape}"
+            )
+        arrays["static_shapes"] = static
+    for name in VALUE_RANGES:
+        if name not in arrays:
+            continue
+        if arrays[name] is not getattr(model, name):  # else checked in the model it came from
+            _check_range(name, arrays[name])
+    labels = model.labels
+    if labels is not None:
+        labels = tuple(str(s) for s in labels)
+        if len(labels) != n_points:
+            raise ModelError(f"ModalModel.labels: expected {n_points} labels, got {len(labels)}")
+    meta = dict(model.meta)
+    try:
+        json.dumps(meta)
+    except TypeError as exc:
+        raise ModelError(f"ModalModel.meta: must be JSON-serialisable ({exc})") from exc
+    out = _checked_outputs(model, freq, gamma, n_points)
+    surface = model.surface
+    if surface is not None and not (is_validated(surface) and surface.dtype == np.int64):
+        surface = validated(_checked_surface(surface, n_points))
+    return {**arrays, **out, "labels": labels, "meta": meta, "surface": surface}
+
+
+def _checked_outputs(model: ModalModel, freq, gamma, n_points: int) -> dict[str, Any]:
+    """The model's cups, stresses and rotation data checked against its modes ``freq``,
+    ``gamma`` and ``n_points`` points (only those it carries)."""
+    out: dict[str, Any] = {}
+    for name, kind, check in (
+        ("cups", CupSet, checked_cups),
+        ("stress", StressSet, checked_stress),
+    ):
+        value = getattr(model, name)
+        if value is not None:
+            if not isinstance(value, kind):
+                raise ModelError(
+                    f"ModalModel.{name}: expected jaxflex.response.{kind.__name__} or None, "
+                    f"got {type(value).__name__}"
+                )
+            out[name] = check(value, freq, gamma)
+    if model.rotation is not None:
+        rows = (
+            None if model.static_shapes is None else n_points,
+            None if model.cups is None else 6 * model.cups.n_cups,
+            None if model.stress is None else 6 * model.stress.n_points,
+        )
+        out["rotation"] = checked_rotation(model.rotation, len(freq), rows)
+    return out
+
+
+def _truncated(model: ModalModel, n_modes: int | None, max_freq_hz: float | None) -> ModalModel:
+    """ModalModel.truncate_modes."""
+    freq = np.asarray(model.freq_hz)
+    keep = np.argsort(freq, kind="stable")
+    if n_modes is not None:
+        if int(n_modes) < 1:
+            raise ModelError(f"truncate_modes: n_modes must be >= 1, got {n_modes}")
+        keep = keep[: int(n_modes)]
+    if max_freq_hz is not None:
+        keep = keep[freq[keep] <= max_freq_hz]
+        if keep.size == 0:
+            raise ModelError(
+                f"truncate_modes: no mode at or below max_freq_hz={max_freq_hz} Hz "
+                f"(lowest is {freq.min():.4g} Hz)"
+            )
+    keep = np.sort(keep)
+    return model._replace(
+        freq_hz=model.freq_hz[keep],
+        zeta=model.zeta[keep],
+        gamma=model.gamma[keep],
+        shapes=model.shapes[:, :, keep],
+        rotation=None if model.rotation is None else model.rotation.take_modes(keep),
+        **model._mapped_outputs(lambda outputs: outputs.take_modes(keep)),
+    )
+
+
+def _selected(model: ModalModel, indices) -> ModalModel:
+    """ModalModel.select_points."""
+    idx = np.asarray(indices)
+    if idx.dtype == bool:
+        idx = np.flatnonzero(idx)
+    idx = idx.astype(np.int64)
+    if idx.ndim != 1 or idx.size == 0:
+        raise ModelError("select_points: indices must be a non-empty 1-D sequence")
+    if (idx < 0).any() or (idx >= model.n_points).any():
+        raise ModelError(
+            f"select_points: indices must lie in [0, {model.n_points - 1}], "
+            f"got min {idx.min()}, max {idx.max()}"
+        )
+    labels = None if model.labels is None else tuple(model.labels[i] for i in idx)
+    static = None if model.static_shapes is None else model.static_shapes[idx]
+    rotation = model.rotation
+    if rotation is not None and rotation.static_shapes is not None:
+        rotation = rotation.replace(static_shapes=np.asarray(rotation.static_shapes)[idx])
+    return model._replace(
+        shapes=model.shapes[idx],
+        points=model.points[idx],
+        labels=labels,
+        static_shapes=static,
+        rotation=rotation,
+        surface=kept_surface(model.surface, idx, model.n_points),
+    )
+
+
+def _posed(model: ModalModel, rotation, offset_m) -> ModalModel:
+    """ModalModel.posed."""
+    r = np.asarray(rotation, dtype=np.float64)
+    if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-9):
+        raise ModelError(f"posed: rotation must be a 3 x 3 rotation matrix, got {r.tolist()}")
+    if np.linalg.det(r) < 0:
+        raise ModelError("posed: rotation must be proper (determinant +1), not a reflection")
+    offset = np.asarray(offset_m, dtype=np.float64).reshape(3)
+    static = model.static_shapes
+    return model._replace(
+        static_shapes=None if static is None else r @ np.asarray(static) @ r.T,
+        gamma=np.asarray(model.gamma) @ r.T,
+        shapes=np.einsum("ij,kjm->kim", r, np.asarray(model.shapes)),
+        points=np.asarray(model.points) @ r.T + offset,
+        cups=None if model.cups is None else model.cups.rotated(r, offset),
+        stress=None if model.stress is None else model.stress.rotated(r, offset),
+        rotation=None
+        if model.rotation is None
+        else model.rotation.posed(r, offset, np.asarray(model.gamma), _static_posers(model)),
+        meta={**dict(model.meta), "pose": {"rotation": r.tolist(), "offset_m": offset.tolist()}},
+    )
+
+
+def _static_posers(model: ModalModel) -> dict[str, Any]:
+    """For RotationalInertia.posed: how each static response to the rotational loads
+    moves to another frame (jaxflex._rotation.posed_tensor with the translation's static
+    response of the same quantity and the rotation of its rows)."""
+    out: dict[str, Any] = {}
+    if model.static_shapes is not None:
+        static = np.asarray(model.static_shapes)
+
+        def points(values, r, o):
+            return np.einsum("ab,kb...->ka...", r, posed_tensor(values, static, r, o))
+
+        out["static_shapes"] = points
+    for name, owner, block in (
+        ("cup_static", model.cups, lambda r: r),
+        ("stress_static", model.stress, voigt_rotation),
+    ):
+        if owner is not None:
+            maps = owner.reaction if name == "cup_static" else owner.stress
+            out[name] = _rows_poser(np.asarray(maps.static_map), block)
+    return out
 
 
 def kept_surface(surface, indices: np.ndarray, n_points: int) -> np.ndarray | None:
@@ -607,8 +577,20 @@ def shape_cache(model: ModalModel) -> dict:
 
 
 def save_model(model: ModalModel, path) -> None:
-    """Write ``model`` to ``path`` (.npz) atomically: the file is complete or absent."""
-    model.save(path)
+    """Write ``model`` to ``path`` (a versioned .npz, jaxflex._model_file) atomically: the
+    file is complete or absent."""
+    arrays = {name: getattr(model, name) for name in ARRAY_FIELDS}
+    if model.static_shapes is not None:
+        arrays["static_shapes"] = model.static_shapes
+    if model.cups is not None:
+        arrays.update(cups_to_fields(model.cups))
+    if model.stress is not None:
+        arrays.update(stress_to_fields(model.stress))
+    if model.rotation is not None:
+        arrays.update(model.rotation.to_fields())
+    if model.surface is not None:
+        arrays["surface_triangles"] = model.surface
+    write_model_file(path, arrays, model.labels, dict(model.meta))
 
 
 def load_model(path) -> ModalModel:

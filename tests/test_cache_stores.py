@@ -26,8 +26,10 @@ import fem
 import fem.modal
 import fem.model_store
 import fmu.build
+import jaxflex
 from fmu.binary_check import check_library, fmi_functions
 from fmu.export import export_fmu
+from fmu.options import Fmi
 from fmu.toolchain import FmuBuildError
 from jaxflex._compile_cache import ENV_VAR, SUFFIX, FileStore, encode_entry, fetch
 from jaxflex.cli import main
@@ -186,7 +188,8 @@ def compiles(monkeypatch, tmp_path):
 def _export(model, folder, acc, fmi_version=2, name="part.fmu"):
     """The FMU of ``model`` with the move ``acc`` at folder/name, host binary only."""
     folder.mkdir(exist_ok=True)
-    return export_fmu(model, folder / name, fmi_version, (acc, DT_S), windows=False)
+    move = jaxflex.as_move(acc, DT_S)
+    return export_fmu(model, folder / name, move, fmi=Fmi(fmi_version, windows=False))
 
 
 def _members(result) -> dict[str, bytes]:

@@ -15,6 +15,8 @@ import re
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import fem
 import jaxflex
@@ -83,9 +85,11 @@ def sized(request):
         supports,
         jaxflex.as_move(lift(), DT_S),
         case["threshold_m"],
-        case["tolerance"],
-        mesh_sizes_m=case["sizes_m"],
-        reference_modes=case["reference_modes"],
+        fem.Accuracy(
+            case["tolerance"],
+            mesh_sizes_m=case["sizes_m"],
+            reference_modes=case["reference_modes"],
+        ),
         progress=False,
     )
     return kind, result
@@ -165,13 +169,10 @@ def test_richardson_recovers_a_power_law():
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"tolerance": 0.5}, "tolerance: a fraction in (0, 0.5)"),
-        ({"tolerance": -0.01}, "tolerance: must be a finite number > 0"),
+        ({"accuracy": 0.01}, "accuracy: an fem.Accuracy (e.g. fem.Accuracy(tolerance=0.01))"),
         ({"threshold_m": None}, "threshold_m: the settle threshold"),
         ({"move": jaxflex.as_move(np.zeros((5, 3)), DT_S)}, "move: every sample is 0"),
         ({"move": lift()}, "fem.size_model(part, supports, jaxflex.as_move(acc, dt_s)"),
-        ({"mesh_sizes_m": (0.03, 0.04)}, "mesh_sizes_m: give at least two element sizes"),
-        ({"shares": (0.7, 0.3, 0.2)}, "shares: three fractions"),
         ({"zeta": 0.0}, "zeta: must be > 0"),
         ({"part": "fender"}, "part: a fem part or a scene"),
     ],
@@ -182,6 +183,47 @@ def test_size_model_input_errors(kwargs, message):
     args.update({"threshold_m": 5e-5, **kwargs})
     with pytest.raises(InputError, match=re.escape(message)):
         fem.size_model(**args, progress=False)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"tolerance": 0.5}, "tolerance: a fraction in (0, 0.5)"),
+        ({"tolerance": 5.0}, "did you mean 0.05?"),
+        ({"tolerance": -0.01}, "tolerance: must be a finite number > 0, got -0.01"),
+        ({"shares": (0.7, 0.3, 0.2)}, "shares: three fractions of the tolerance"),
+        ({"shares": "even"}, "shares: three numbers (mesh, points, modes), got 'even'"),
+        ({"mesh_sizes_m": (0.03,)}, "mesh_sizes_m: give at least two element sizes"),
+        ({"mesh_sizes_m": (0.03, 0.04)}, "coarse to fine (strictly decreasing), got [0.03, 0.04]"),
+        ({"mesh_sizes_m": (0.03, -1.0)}, "mesh_sizes_m[1]: must be a finite number > 0"),
+        ({"mesh_sizes_m": 0.03}, "mesh_sizes_m: None or element sizes in m"),
+        ({"reference_modes": 1}, "reference_modes: must be an integer >= 2, got 1"),
+        ({"reference_modes": 4.0}, "reference_modes: must be an integer >= 2, got 4.0"),
+        ({"max_modes": 30}, "max_modes: must be an integer >= 40, got 30"),
+        ({"eval_step_s": 0.0}, "eval_step_s: must be a finite number > 0, got 0.0"),
+    ],
+)
+def test_accuracy_refuses_each_field_by_name(kwargs, message):
+    with pytest.raises(InputError, match=re.escape(message)):
+        fem.Accuracy(**kwargs)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    tolerance=st.floats(1e-6, 0.499),
+    shares=st.lists(st.floats(0.0, 1.0), min_size=3, max_size=3),
+)
+def test_accuracy_shares_split_the_tolerance(tolerance, shares):
+    """Each stage's share is its fraction of the tolerance, and the shares never add up to
+    more than the tolerance (the stages' errors add up by the triangle inequality)."""
+    if all(s > 0 for s in shares) and sum(shares) <= 1 + 1e-12:  # the check allows rounding
+        accuracy = fem.Accuracy(tolerance, shares=shares)
+        parts = [accuracy.share(stage) for stage in ("mesh", "points", "modes")]
+        assert parts == [s * tolerance for s in shares]
+        assert sum(parts) <= tolerance * (1 + 1e-11)
+    else:
+        with pytest.raises(InputError, match=r"shares: three fractions"):
+            fem.Accuracy(tolerance, shares=shares)
 
 
 def test_the_former_acc_dt_s_call_forms_are_refused_before_any_work():

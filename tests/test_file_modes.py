@@ -11,7 +11,9 @@ import stat
 import pytest
 from conftest import random_model, smooth_move
 
+import jaxflex
 from fmu import export_fmu
+from fmu.options import Fmi
 from jaxflex._atomic import atomic_open, atomic_path, write_text_atomic
 
 
@@ -45,7 +47,8 @@ def test_model_fmu_and_case_files_are_readable_by_others(tmp_path):
     model = random_model(2, n_points=8, n_modes=3)
     with umask(0o022):
         model.save(tmp_path / "model.npz")
-        export_fmu(model, tmp_path / "part.fmu", 2, (smooth_move(20, 0.01), 0.01), windows=False)
+        move = jaxflex.as_move(smooth_move(20, 0.01), 0.01)
+        export_fmu(model, tmp_path / "part.fmu", move, fmi=Fmi(windows=False))
     modes = _modes(tmp_path)
     assert set(modes) == {"model.npz", "part.fmu", "part_input.csv", "part_case.json"}
     assert set(modes.values()) == {0o644}

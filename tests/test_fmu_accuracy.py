@@ -24,6 +24,7 @@ from test_fmu_export import smooth_profile
 import jaxflex
 from fmu import export_fmu, verify
 from fmu.master import Session
+from fmu.options import Fmi
 from fmu.verify import reference_response, settle_time_at_points
 
 DT = 0.01
@@ -57,7 +58,7 @@ def fmus(part, move, threshold_m, tmp_path_factory):
     built = {}
     for version in (2, 3):
         path = out / f"part{version}.fmu"
-        export_fmu(part, path, version, (move, DT), threshold_m=threshold_m)
+        export_fmu(part, path, jaxflex.as_move(move, DT), fmi=Fmi(version), threshold_m=threshold_m)
         folder = out / f"x{version}"
         with zipfile.ZipFile(path) as zf:
             zf.extractall(folder)
@@ -116,7 +117,9 @@ def test_fmpy_replay_of_embedded_move_matches_jaxflex(fmus, version):
 def test_verify_compares_with_the_damping_the_fmu_was_exported_with(part, move, tmp_path):
     """An FMU exported with damping_scale 0.5 simulates zeta / 2: verify's reference too."""
     path = tmp_path / "half_damping.fmu"
-    export_fmu(part, path, 2, (move, DT), threshold_m=1e-3, damping_scale=0.5, windows=False)
+    no_dll = Fmi(windows=False)
+    move = jaxflex.as_move(move, DT)
+    export_fmu(part, path, move, fmi=no_dll, threshold_m=1e-3, damping_scale=0.5)
     report = verify(path)
     assert report.max_rel_diff <= RTOL and report.ok
 

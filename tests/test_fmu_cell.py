@@ -16,6 +16,7 @@ import fem
 import jaxflex
 from fmu import export_fmu
 from fmu.master import Session
+from fmu.options import CellOutputs, Fmi
 from jaxflex._cell import Box, Cell, HalfSpace, TriangleMesh, rotation_from_degrees
 from jaxflex._collision import distances, positions_at
 from jaxflex._deviation import outputs_at
@@ -62,8 +63,8 @@ def _reference(model, cell, acc, t):
 def test_cell_outputs_match_jaxflex(case, tmp_path, version):
     model, cell, acc = case
     result = export_fmu(
-        model, tmp_path / f"cell{version}.fmu", version, trajectory=(acc, DT), cell=cell,
-        cup_safety=1.7, stress=True, windows=False,
+        model, tmp_path / f"cell{version}.fmu", jaxflex.as_move(acc, DT),
+        fmi=Fmi(version, windows=False), outputs=CellOutputs(cell, cup_safety=1.7, stress=True),
     )  # fmt: skip
     assert result.compiler_messages == ""
     assert validate_fmu(str(result.fmu_path)) == []
@@ -95,7 +96,7 @@ def test_without_a_cell_the_fmu_has_no_cell_outputs(case, tmp_path):
     """A model without cups, no cell, no stress: the FMU is what it was."""
     model = case[0]
     plain = jaxflex.ModalModel(model.freq_hz, model.zeta, model.gamma, model.shapes, model.points)
-    result = export_fmu(plain, tmp_path / "plain.fmu", 2, windows=False)
+    result = export_fmu(plain, tmp_path / "plain.fmu", fmi=Fmi(windows=False))
     with Session(result.fmu_path) as session:
         assert not {"min_distance", "cup_utilisation", "max_stress"} & set(session.variables)
 

@@ -21,6 +21,7 @@ from conftest import random_model
 import jaxflex
 from fmu import FmuBuildError, export_fmu
 from fmu.export import model_identifier
+from fmu.options import Fmi
 from fmu.resource import FORMAT_VERSION, decode_resource, encode_resource
 from fmu.toolchain import fmi_headers
 from fmu.verify import read_fmu_resource
@@ -60,11 +61,16 @@ def exported(part, tmp_path_factory):
     return {
         2: (
             export_fmu(
-                part, out / "part2.fmu", 2, (acc, DT), threshold_m=2e-3, case=case, windows=False
+                part,
+                out / "part2.fmu",
+                jaxflex.as_move(acc, DT),
+                fmi=Fmi(2, windows=False),
+                threshold_m=2e-3,
+                case=case,
             ),
             acc,
         ),
-        3: (export_fmu(part, out / "part3.fmu", 3, windows=False), None),
+        3: (export_fmu(part, out / "part3.fmu", fmi=Fmi(3, windows=False)), None),
     }
 
 
@@ -271,7 +277,7 @@ def test_case_files_beside_the_fmu(exported):
 def test_case_times_are_computed_when_missing(part, tmp_path):
     acc = smooth_profile(2, 40)
     threshold_m = 0.05
-    result = export_fmu(part, tmp_path / "p.fmu", 2, (acc, DT), threshold_m=threshold_m)
+    result = export_fmu(part, tmp_path / "p.fmu", jaxflex.as_move(acc, DT), threshold_m=threshold_m)
     report = jaxflex.analyze_move(part, acc, DT, threshold_m)
     assert math.isclose(result.case["cycle_time_s"], report.cycle_time_s, rel_tol=1e-12)
     assert result.case["transfer_time_s"] == pytest.approx(40 * DT)
@@ -297,15 +303,16 @@ def test_failed_export_leaves_existing_fmu_untouched(part, tmp_path, monkeypatch
 @pytest.mark.parametrize(
     ("kwargs", "field"),
     [
-        ({"fmi_version": 4}, "fmi_version"),
+        ({"fmi": 3}, "fmi"),
+        ({"outputs": None}, "outputs"),
+        ({"turning": True}, "turning"),
         ({"path": "part.zip"}, "path"),
         ({"threshold_m": 0.0}, "threshold_m"),
         ({"threshold_m": float("nan")}, "threshold_m"),
         ({"damping_scale": 30.0}, "damping_scale"),
         ({"damping_scale": -1.0}, "damping_scale"),
-        ({"trajectory": (np.full((5, 3), np.nan), DT)}, "trajectory acc"),
-        ({"trajectory": (np.ones((5, 3)), DT)}, "trajectory acc"),
-        ({"trajectory": (np.zeros((5, 3)), 0.0)}, "trajectory dt_s"),
+        ({"trajectory": jaxflex.Move(np.ones((5, 3)), DT)}, "trajectory acc"),
+        ({"trajectory": (np.zeros((5, 3)), DT)}, "trajectory"),
         ({"trajectory": np.zeros((5, 3))}, "trajectory"),
         ({"case": {"cycle_time_s": 1.0}}, "case"),
         ({"model": "model.npz"}, "model"),

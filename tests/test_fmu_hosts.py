@@ -21,6 +21,7 @@ import jaxflex
 from fmu import importers
 from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.master import Session
+from fmu.options import Fmi
 from fmu.ssp import export_ssp, held_samples, read_parameters
 from fmu.toolchain import fmi_headers
 from fmu.verify import reference_response
@@ -45,12 +46,11 @@ def case(tmp_path_factory):
         results[v] = export_ssp(
             model,
             out / f"case{v}.ssp",
-            v,
-            (acc, DT),
-            THRESHOLD_M,
-            limits,
+            jaxflex.as_move(acc, DT),
+            fmi=Fmi(v, windows=False),
+            threshold_m=THRESHOLD_M,
             damping_scale=DAMPING_SCALE,
-            windows=False,
+            case=limits,
         )
         with zipfile.ZipFile(results[v].ssp_path) as zf:
             zf.extractall(out / f"case{v}")
@@ -259,7 +259,8 @@ def test_bound_parameters_reach_the_part_in_every_host(case, tmp_path):
 )
 def test_export_ssp_rejects_bad_arguments(case, tmp_path, kwargs, field):
     model, acc, _, _ = case
-    args = {"model": model, "path": tmp_path / "case.ssp", "trajectory": (acc, DT), **kwargs}
+    move = jaxflex.as_move(acc, DT)
+    args = {"model": model, "path": tmp_path / "case.ssp", "trajectory": move, **kwargs}
     if "path" in kwargs:
         args["path"] = tmp_path / kwargs["path"]
     with pytest.raises(InputError, match=field):

@@ -19,6 +19,7 @@ from test_fmu_robustness import RawFmu
 from fmu import export_fmu
 from fmu.harness import resource_location
 from fmu.obstacles import OBSTACLE_KINDS, RECORD_VALUES, obstacle_records
+from fmu.options import CellOutputs, Fmi
 from fmu.resource import decode_resource
 from jaxflex._cell import Box, Cell, HalfSpace, TriangleMesh
 from jaxflex.errors import InputError, ModelFileError
@@ -56,7 +57,10 @@ def test_an_unknown_obstacle_kind_is_refused_in_python(tmp_path):
     cell = _cell(RoundedBox([2.0, 0.0, 0.0], [0.2, 0.2, 0.2]))
     path = tmp_path / "rounded.fmu"
     with pytest.raises(InputError, match=r"'RoundedBox' cannot be written into an FMU"):
-        export_fmu(random_model(2, n_points=6, n_modes=2), path, 2, cell=cell, windows=False)
+        export_fmu(
+            random_model(2, n_points=6, n_modes=2), path, fmi=Fmi(windows=False),
+            outputs=CellOutputs(cell),
+        )  # fmt: skip
     assert not path.exists()
 
 
@@ -68,8 +72,8 @@ def exported(tmp_path_factory):
     out = {}
     for version in (2, 3):
         result = export_fmu(
-            random_model(4, n_points=6, n_modes=2), root / f"o{version}.fmu", version, cell=cell,
-            windows=False,
+            random_model(4, n_points=6, n_modes=2), root / f"o{version}.fmu",
+            fmi=Fmi(version, windows=False), outputs=CellOutputs(cell),
         )  # fmt: skip
         folder = root / f"x{version}"
         with zipfile.ZipFile(result.fmu_path) as zf:

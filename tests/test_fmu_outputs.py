@@ -21,6 +21,7 @@ import fmu.variables
 import jaxflex
 from fmu import export_fmu
 from fmu.master import Session
+from fmu.options import Fmi
 from fmu.toolchain import C_DIR
 from fmu.variables import Variable
 
@@ -79,7 +80,7 @@ def test_a_new_output_is_one_table_row_and_one_c_function(part, tmp_path, with_d
     acc[:61] = smooth_profile(3, 60)
     rates = np.diff(acc, axis=0) / DT
     for version in (2, 3):
-        result = export_fmu(part, tmp_path / f"z{version}.fmu", version, windows=False)
+        result = export_fmu(part, tmp_path / f"z{version}.fmu", fmi=Fmi(version, windows=False))
         assert result.compiler_messages == ""
         assert validate_fmu(str(result.fmu_path)) == []
         values, points, displaced = _run(result.fmu_path, acc, rates if version == 2 else None)

@@ -25,10 +25,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import fem
+import jaxflex
 from fem.scenes import default_gripper
 from fmu import export_fmu
 from fmu.build import compile_library
 from fmu.master import Session
+from fmu.options import CellOutputs, Fmi, Turning
 from fmu.toolchain import host_target
 from fmu.variables import POSE_INPUT_NAMES
 from jaxflex._cell import Box, Cell, HalfSpace, TriangleMesh, rotation_from_degrees
@@ -126,7 +128,12 @@ def test_straight_part_outputs_equal_every_point(part, cell, tmp_path, version):
     acc = np.zeros((61, 3))
     acc[1:60] = np.sin(np.linspace(0, 2 * np.pi, 59))[:, None] * [4.0, -2.0, 6.0]
     result = export_fmu(
-        part, tmp_path / f"p{version}.fmu", version, (acc, DT), 1e-4, cell=cell, windows=False
+        part,
+        tmp_path / f"p{version}.fmu",
+        jaxflex.as_move(acc, DT),
+        fmi=Fmi(version, windows=False),
+        threshold_m=1e-4,
+        outputs=CellOutputs(cell),
     )
     folders = _pair(result, tmp_path)
     start = {"use_embedded_trajectory": True}
@@ -159,8 +166,8 @@ def test_turning_part_outputs_equal_every_point(part, cell, tmp_path, version):
     deviation (about the sag of the current pose), settled flag and min_distance (the
     blocks' bounds turned with the part) equal the every-point build's."""
     result = export_fmu(
-        part, tmp_path / f"t{version}.fmu", version, threshold_m=5e-5, cell=cell,
-        turning=True, pivot_m=[0.4, 0.25, 0.0], windows=False,
+        part, tmp_path / f"t{version}.fmu", fmi=Fmi(version, windows=False), threshold_m=5e-5,
+        outputs=CellOutputs(cell), turning=Turning([0.4, 0.25, 0.0]),
     )  # fmt: skip
     folders = _pair(result, tmp_path)
     pruned, (evaluated, offered) = _run(folders["pruned"], _turn, 100)
@@ -194,7 +201,7 @@ def random_pairs(part, tmp_path_factory):
     scattered = random_model(7, n_points=300, n_modes=10)
     pairs = {}
     for name, model in (("plate", part), ("rigid", _nearly_rigid()), ("scattered", scattered)):
-        result = export_fmu(model, root / f"{name}.fmu", 2, threshold_m=1e-4, windows=False)
+        result = export_fmu(model, root / f"{name}.fmu", fmi=Fmi(windows=False), threshold_m=1e-4)
         pairs[name] = _pair(result, root / name)
     return pairs
 

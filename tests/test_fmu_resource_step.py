@@ -15,8 +15,10 @@ from conftest import random_model
 from test_fmu_export import smooth_profile
 from test_fmu_robustness import RawFmu
 
+import jaxflex
 from fmu import export_fmu
 from fmu.harness import resource_location
+from fmu.options import Fmi
 from fmu.resource import HEADER, TRAJECTORY_STEP_RANGE_S, decode_resource, encode_resource
 from jaxflex.errors import InputError, ModelFileError
 
@@ -33,8 +35,9 @@ def fmus(tmp_path_factory):
     for version in (2, 3):
         for move in (True, False):
             path = out / f"s{version}{int(move)}.fmu"
-            trajectory = (smooth_profile(2, 20), DT) if move else None
-            result = export_fmu(part, path, version, trajectory, threshold_m=0.01, windows=False)
+            trajectory = jaxflex.as_move(smooth_profile(2, 20), DT) if move else None
+            fmi = Fmi(version, windows=False)
+            result = export_fmu(part, path, trajectory, fmi=fmi, threshold_m=0.01)
             folder = out / f"x{version}{int(move)}"
             with zipfile.ZipFile(path) as zf:
                 zf.extractall(folder)

@@ -18,10 +18,12 @@ from conftest import random_model
 from fmpy.fmi1 import FMICallException
 from test_fmu_export import smooth_profile
 
+import jaxflex
 from fmu import export_fmu
 from fmu.bench.fmu import run
 from fmu.harness import compile_harness, resource_location, unpack
 from fmu.master import Session
+from fmu.options import Fmi
 
 DT = 0.01
 
@@ -34,7 +36,8 @@ def fmus(tmp_path_factory):
     built = {}
     for version in (2, 3):
         path = out / f"r{version}.fmu"
-        result = export_fmu(part, path, version, (smooth_profile(3, 40), DT), threshold_m=0.01)
+        move = jaxflex.as_move(smooth_profile(3, 40), DT)
+        result = export_fmu(part, path, move, fmi=Fmi(version), threshold_m=0.01)
         folder = out / f"x{version}"
         with zipfile.ZipFile(path) as zf:
             zf.extractall(folder)

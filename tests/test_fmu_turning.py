@@ -1,5 +1,5 @@
-"""The FMU of a turning part (export_fmu(turning=True)): the pose as inputs, the body-frame
-forcing of jaxflex._turning, the deviation about the current pose's sag.
+"""The FMU of a turning part (export_fmu(turning=fmu.Turning(...))): the pose as inputs, the
+body-frame forcing of jaxflex._turning, the deviation about the current pose's sag.
 
 Along a swivel about the vertical and a tilt about an in-plane axis under gravity (each with
 a translation of the pivot), driven by fmpy:
@@ -39,6 +39,7 @@ from fmu import export_fmu
 from fmu.build import compile_library
 from fmu.harness import SANITIZE_FLAGS, compile_harness, resource_location
 from fmu.master import Session
+from fmu.options import CellOutputs, Fmi, Turning
 from fmu.resource import decode_resource
 from fmu.toolchain import host_target
 from fmu.variables import POSE_INPUT_NAMES
@@ -105,8 +106,8 @@ def fmus(panel, tmp_path_factory):
     folder = tmp_path_factory.mktemp("turning")
     return {
         v: export_fmu(
-            panel, folder / f"turn{v}.fmu", v, turning=True, pivot_m=PIVOT,
-            gravity_m_s2=GRAVITY, windows=False,
+            panel, folder / f"turn{v}.fmu", fmi=Fmi(v, windows=False),
+            turning=Turning(PIVOT, gravity_m_s2=GRAVITY),
         )
         for v in (2, 3)
     }  # fmt: skip
@@ -208,14 +209,14 @@ def test_held_inputs_in_fmpy_are_the_exact_zero_order_hold(panel, fmus, version,
 def test_without_rotation_data_turning_is_refused(panel, tmp_path):
     bare = panel._replace(rotation=None)
     with pytest.raises(ModelError, match="inertia shape integrals"):
-        export_fmu(bare, tmp_path / "bare.fmu", 2, turning=True, windows=False)
+        export_fmu(bare, tmp_path / "bare.fmu", fmi=Fmi(windows=False), turning=Turning())
     assert not (tmp_path / "bare.fmu").exists()
 
 
 def test_straight_fmus_keep_their_variables(panel, tmp_path):
     """Without turning the FMU has the inputs ax, ay, az only (the connections of existing
     projects), whatever rotation data the model carries."""
-    result = export_fmu(panel, tmp_path / "straight.fmu", 2, windows=False)
+    result = export_fmu(panel, tmp_path / "straight.fmu", fmi=Fmi(windows=False))
     md = read_model_description(str(result.fmu_path))
     assert [v.name for v in md.modelVariables if v.causality == "input"] == ["ax", "ay", "az"]
     assert result.counts.turning == 0
@@ -317,7 +318,7 @@ def test_turning_fmu_under_sanitizers(fmus, version, tmp_path):
         assert (refused, int(logged) > 0) == ("refused", True), label
 
 
-# ---- the embedded move of poses (export_fmu(..., trajectory, turning=True, pose=...)) -------
+# ---- the embedded move of poses (export_fmu(..., move, turning=Turning(pose=...))) ---------
 
 
 @pytest.fixture(scope="module")
@@ -329,8 +330,9 @@ def embedded(panel, tmp_path_factory):
         path, acc = _move(kind)
         for version in (2, 3):
             out[kind, version] = export_fmu(
-                panel, folder / f"{kind}{version}.fmu", version, (acc, DT), turning=True,
-                pivot_m=PIVOT, gravity_m_s2=GRAVITY, pose=path, windows=False,
+                panel, folder / f"{kind}{version}.fmu", jaxflex.as_move(acc, DT),
+                fmi=Fmi(version, windows=False),
+                turning=Turning(PIVOT, gravity_m_s2=GRAVITY, pose=path),
             )  # fmt: skip
     return out
 
@@ -421,11 +423,11 @@ def test_inconsistent_embedded_moves_are_refused(panel, tmp_path):
     for message, (pose, samples) in cases.items():
         with pytest.raises(InputError, match=message):
             export_fmu(
-                panel, tmp_path / "bad.fmu", 2, (samples, DT), turning=True, pose=pose,
-                windows=False,
+                panel, tmp_path / "bad.fmu", jaxflex.as_move(samples, DT),
+                fmi=Fmi(windows=False), turning=Turning(pose=pose),
             )  # fmt: skip
-    with pytest.raises(InputError, match="pose: only for a turning part"):
-        export_fmu(panel, tmp_path / "bad.fmu", 2, (acc, DT), pose=path, windows=False)
+    with pytest.raises(InputError, match=r"pose: the orientation path of an embedded"):
+        export_fmu(panel, tmp_path / "bad.fmu", turning=Turning(pose=path))
     assert not (tmp_path / "bad.fmu").exists()
 
 
@@ -524,8 +526,8 @@ def test_cell_outputs_of_the_turning_part_agree_with_jaxflex(panel, kind, tmp_pa
     stop = (len(acc) - 1) * DT
     names = ["cup_utilisations", "point_stresses", "point_distances", "min_distance"]
     result = export_fmu(
-        panel, tmp_path / "cell.fmu", 3, (acc, DT), turning=True, pivot_m=PIVOT, pose=path,
-        cell=cell, stress=True, windows=False,
+        panel, tmp_path / "cell.fmu", jaxflex.as_move(acc, DT), fmi=Fmi(3, windows=False),
+        outputs=CellOutputs(cell, stress=True), turning=Turning(PIVOT, pose=path),
     )  # fmt: skip
     assert result.counts.cups == 4 and result.counts.obstacles == 2
     for interval in (DT, 2.5 * DT):
@@ -558,8 +560,8 @@ def test_turning_fmu_cups_carry_newton_euler(tmp_path):
     result, model = stiff_sheet(1e4)
     path, acc, pivot = skew_turn()
     exported = export_fmu(
-        model, tmp_path / "stiff.fmu", 3, (acc, path.dt_s), turning=True, pivot_m=pivot,
-        pose=path, windows=False,
+        model, tmp_path / "stiff.fmu", jaxflex.as_move(acc, path.dt_s),
+        fmi=Fmi(3, windows=False), turning=Turning(pivot, pose=path),
     )  # fmt: skip
     stop = (len(acc) - 1) * path.dt_s
     run = simulate_fmu(

@@ -34,6 +34,7 @@ import jaxflex
 from fmu import importers
 from fmu.crosscheck import crosscheck_ssp
 from fmu.master import Session, run_chained
+from fmu.options import Fmi, Turning
 from fmu.source import export_source_fmu
 from fmu.ssp import SSD_FILE, export_ssp, steps_for
 from fmu.variables import POSE_INPUT_NAMES
@@ -181,8 +182,9 @@ def packages(panel, tmp_path_factory):  # noqa: F811
     path, acc = _move()
     return path, acc, {
         v: export_ssp(
-            panel, folder / f"case{v}.ssp", v, (acc, DT), 2e-6, turning=True, pivot_m=PIVOT,
-            gravity_m_s2=GRAVITY, pose=path, windows=False,
+            panel, folder / f"case{v}.ssp", jaxflex.as_move(acc, DT),
+            fmi=Fmi(v, windows=False), threshold_m=2e-6,
+            turning=Turning(PIVOT, gravity_m_s2=GRAVITY, pose=path),
         )
         for v in (2, 3)
     }  # fmt: skip

@@ -12,8 +12,10 @@ import pytest
 from conftest import random_model
 from test_fmu_export import _exported_functions, smooth_profile
 
+import jaxflex
 from fmu import FmuBuildError, export_fmu
 from fmu.harness import compile_harness
+from fmu.options import Fmi
 from fmu.source import export_source_fmu
 from fmu.toolchain import fmi_headers
 from fmu.windows import (
@@ -72,7 +74,8 @@ def test_windows_dlls_export_fmi_import_system_dlls_and_run_like_linux(version, 
         pytest.skip(f"not installed: {', '.join(missing)} (.ci/run installs them)")
     model = random_model(8, n_points=25, n_modes=5, f_min_hz=2.0, f_max_hz=200, zeta=0.03)
     acc = smooth_profile(4, 40)
-    part = export_fmu(model, tmp_path / "part.fmu", version, (acc, DT), 1e-3, windows=True)
+    move, fmi = jaxflex.as_move(acc, DT), Fmi(version, windows=True)
+    part = export_fmu(model, tmp_path / "part.fmu", move, fmi=fmi, threshold_m=1e-3)
     source = export_source_fmu(tmp_path / "source.fmu", acc, DT, version, windows=True)
     harnesses = (
         compile_harness(version, tmp_path / "harness"),
@@ -98,9 +101,9 @@ def test_export_without_mingw_says_why(tmp_path, monkeypatch):
         lambda name: None if name == fmu.build.WINDOWS_COMPILER else real_which(name),
     )
     model = random_model(9, n_points=10, n_modes=3)
-    result = export_fmu(model, tmp_path / "w.fmu", 3)
+    result = export_fmu(model, tmp_path / "w.fmu", fmi=Fmi(3))
     assert result.platforms == ("x86_64-linux",)
     assert "not installed" in result.skipped["x86_64-windows"]
     assert "gcc-mingw-w64-x86-64" in result.skipped["x86_64-windows"]
     with pytest.raises(FmuBuildError, match="gcc-mingw-w64-x86-64"):
-        export_fmu(model, tmp_path / "w2.fmu", 2, windows=True)
+        export_fmu(model, tmp_path / "w2.fmu", fmi=Fmi(2, windows=True))

@@ -22,10 +22,12 @@ from fmpy.fmi1 import FMICallException
 from test_fmu_export import smooth_profile
 from test_fmu_robustness import RawFmu
 
+import jaxflex
 from fmu import export_fmu
 from fmu.build import compile_library
 from fmu.harness import SANITIZE_FLAGS, compile_harness, resource_location
 from fmu.master import Session
+from fmu.options import Fmi
 from fmu.resource import HEADER as _HEADER
 from fmu.resource import decode_resource
 from fmu.source import export_source_fmu
@@ -72,10 +74,9 @@ def built(tmp_path_factory):
         result = export_fmu(
             part,
             root / f"f{version}.fmu",
-            version,
-            (smooth_profile(2, N_STEPS), DT),
-            0.01,
-            windows=False,
+            jaxflex.as_move(smooth_profile(2, N_STEPS), DT),
+            fmi=Fmi(version, windows=False),
+            threshold_m=0.01,
         )
         folder = root / f"x{version}"
         with zipfile.ZipFile(result.fmu_path) as zf:

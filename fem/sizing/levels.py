@@ -9,7 +9,6 @@
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 import time
 from collections.abc import Callable
@@ -26,7 +25,6 @@ from fem.sizing.residual import TruncationResidual
 from fem.sizing.result import Row
 from fem.supports import contact_discs
 from jaxflex.errors import InputError
-from jaxflex.files import check_positive
 from jaxflex.model import ModalModel
 from jaxflex.response import deviation_curves
 
@@ -101,21 +99,16 @@ def cup_element_m(part: Part, supports) -> float | None:
 
 def refinement_parts(part: Part, mesh_sizes_m, radius_m: float | None) -> list[Part]:
     """The parts of the refinement sequence, coarse to fine, with cup elements of CUP_RATIO x
-    the base size (``radius_m``: the smallest cup radius, None without cups); a part read
-    from a mesh file is used as is."""
+    the base size (``radius_m``: the smallest cup radius, None without cups; ``mesh_sizes_m``
+    the base sizes of fem.sizing.request.Accuracy or None); a part read from a mesh file is
+    used as is."""
     if part.mesh_is_given:
         if mesh_sizes_m is not None:
             raise InputError("mesh_sizes_m: a part read from a mesh file is used as is")
         return [part]
-    if mesh_sizes_m is None:
+    sizes = mesh_sizes_m  # checked by fem.sizing.request.Accuracy: coarse to fine
+    if sizes is None:
         sizes = [part.element_size_m * f for f in REFINEMENT[part.element]]
-    else:
-        sizes = [check_positive(f"mesh_sizes_m[{i}]", h) for i, h in enumerate(mesh_sizes_m)]
-        if len(sizes) < 2 or any(b >= a for a, b in itertools.pairwise(sizes)):
-            raise InputError(
-                f"mesh_sizes_m: give at least two element sizes in m, coarse to fine (strictly "
-                f"decreasing), got {list(mesh_sizes_m)}"
-            )
     ratio = CUP_RATIO[part.element]
     return [
         dataclasses.replace(
@@ -132,14 +125,15 @@ class SizingRun:
 
     def __init__(self, request: SizingRequest, log: Callable[[str], None] | None) -> None:
         self.request = request
-        self.n_modes = request.reference_modes
+        self.n_modes = request.accuracy.reference_modes
         self.modal_options = {
             "zeta": request.zeta,
             "allow_rigid_modes": request.allow_rigid_modes,
             "progress": request.progress,
         }
         radii = [d.radius for d in contact_discs(request.supports)]
-        self.parts = refinement_parts(request.part, request.mesh_sizes_m, min(radii, default=None))
+        sizes = request.accuracy.mesh_sizes_m
+        self.parts = refinement_parts(request.part, sizes, min(radii, default=None))
         self.log = log or (lambda text: None)
         self.rows: list[Row] = []
         self.notes: list[str] = []
@@ -164,10 +158,10 @@ class SizingRun:
         level = Level(part, r.supports, self.n_modes, self.modal_options)
         if self.grid is None:
             f_grid = level.result.freq_hz[min(GRID_MODE, level.result.n_modes) - 1]
-            if r.eval_step_s is None:
+            if r.accuracy.eval_step_s is None:
                 factor = math.ceil(r.move.dt_s * SAMPLES_PER_PERIOD * f_grid - 1e-9)
             else:
-                factor = math.ceil(r.move.dt_s / r.eval_step_s - 1e-9)
+                factor = math.ceil(r.move.dt_s / r.accuracy.eval_step_s - 1e-9)
             self.grid = TimeGrid(r.move, max(1, factor))
         level.settle = SettleReference(level.model, self.grid, r.threshold_m)
         if not np.isfinite(level.settle.cycle_s):

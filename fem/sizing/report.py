@@ -97,7 +97,7 @@ def sizing_result(run: SizingRun, mesh: MeshChoice, final: Final, start_s: float
     out = SizingResult(
         model=final.model,
         result=level.result,
-        tolerance=r.tolerance,
+        tolerance=r.accuracy.tolerance,
         met=bool(mesh.ok and final.ok),
         choice=_choice(run, level, final),
         reference=_reference(mesh.reference, final.err["peak_m"], level.part.mesh_is_given),

@@ -1,9 +1,9 @@
 """Model no more than a scene needs: the cheapest mesh, points and modes for a tolerance.
 
-``size_model(part, supports, move, threshold_m, tolerance=0.01)`` builds the modal model of a
-part for one move (a jaxflex.Move: acceleration samples (n+1, 3) m/s^2 and their step dt_s,
-s) and a settle ``threshold_m`` (m) whose deviation d(t) = max_p |u_p(t)| and exact settle
-time agree with a richer model within ``tolerance``:
+``size_model(part, supports, move, threshold_m, Accuracy(tolerance=0.01))`` builds the modal
+model of a part for one move (a jaxflex.Move: acceleration samples (n+1, 3) m/s^2 and their
+step dt_s, s) and a settle ``threshold_m`` (m) whose deviation d(t) = max_p |u_p(t)| and
+exact settle time agree with a richer model within ``tolerance``:
 
 * deviation: max_t |d(t) - d_ref(t)| <= tolerance x max_t d_ref(t) (L-infinity relative to the
   peak) on a fine grid over the move and the settling (R^2 is reported);
@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 
 import numpy as np
 
@@ -43,7 +43,7 @@ from fem.parts import Part
 from fem.sizing.curves import SettleReference, curve_error, truncation_curves
 from fem.sizing.levels import Final, Level, MeshChoice, SizingRun
 from fem.sizing.report import sizing_result
-from fem.sizing.request import DEFAULT_SHARES, SizingRequest
+from fem.sizing.request import Accuracy, SizingRequest
 from fem.sizing.result import Row, SizingResult
 from jaxflex.response import Move, analyze_move, deviation_curves, voxel_downsample
 from jaxflex.runtime import progress_bar
@@ -53,6 +53,7 @@ REFERENCE_MODES_SHARE = 0.5  # quasi-static residual allowed in the modes' share
 MODES_GROWTH = 1.5  # eigen solves get dearer with the mode count: do not overshoot by 2x
 FINAL_RETRIES = 3
 MAX_ORDER = 2.0  # Richardson: displacement order of Morley; the cup clamp converges at 1
+DEFAULT_ACCURACY = Accuracy()  # a tolerance of 1 %, the default shares, meshes and modes
 
 
 def _richardson(deltas: list[float], ratios: list[float]) -> tuple[float, float | None, str]:
@@ -78,13 +79,13 @@ def _reference_modes(run: SizingRun, level: Level, index: int) -> Level:
     """Raise the computed mode count until the quasi-static residual of the truncated modes
     is within half the modes' share of the tolerance (or max_modes is reached)."""
     r = run.request
-    limit = REFERENCE_MODES_SHARE * r.shares[2] * r.tolerance
+    limit = REFERENCE_MODES_SHARE * r.accuracy.share("modes")
     while True:
         peak = run.peak(level)
         residual = level.residual.quasi_static_error_m(r.move.acc, level.result.n_modes) / peak
         enough = residual <= limit
         exhausted = level.result.n_modes < run.n_modes  # the mesh has no more modes
-        done = enough or exhausted or run.n_modes >= r.max_modes
+        done = enough or exhausted or run.n_modes >= r.accuracy.max_modes
         run.row(
             Row(
                 "modes",
@@ -104,7 +105,7 @@ def _reference_modes(run: SizingRun, level: Level, index: int) -> Level:
                     "max_modes"
                 )
             return level
-        run.n_modes = min(math.ceil(MODES_GROWTH * run.n_modes), r.max_modes)
+        run.n_modes = min(math.ceil(MODES_GROWTH * run.n_modes), r.accuracy.max_modes)
         level = run.level(index)
 
 
@@ -112,7 +113,7 @@ def _mesh_stage(run: SizingRun) -> MeshChoice:
     """Stage 1: the coarsest mesh of the sequence within the mesh share (module docstring)
     and the next finer one, the reference of the later stages."""
     r = run.request
-    share = r.shares[0] * r.tolerance
+    share = r.accuracy.share("mesh")
     coarse = _reference_modes(run, run.level(0), 0)
     if len(run.parts) == 1:
         run.row(Row("mesh", coarse.describe(), f"{coarse.n_dof} DOFs", "-", note="not refined"))
@@ -129,7 +130,7 @@ def _mesh_stage(run: SizingRun) -> MeshChoice:
         estimate, order, note = _richardson(deltas, ratios)
         # the coarse level's estimated error against the converged mesh
         measured = err["linf"] + estimate
-        settle = fine.settle.check(coarse.settle.settle_s, r.shares[0] * r.tolerance)
+        settle = fine.settle.check(coarse.settle.settle_s, r.accuracy.share("mesh"))
         ok = measured <= share and settle.ok
         run.row(
             Row.compared(
@@ -276,8 +277,8 @@ def _final(
     curve = deviation_curves(np.asarray(model.shapes), q).all
     reference = ref.curves(run.grid, n).all
     err = dict(curve_error(curve, reference), peak_m=float(reference.max()))
-    settle = ref.settle.check(report.settle_time_s, r.tolerance)
-    ok = err["linf"] <= r.tolerance and settle.ok
+    settle = ref.settle.check(report.settle_time_s, r.accuracy.tolerance)
+    ok = err["linf"] <= r.accuracy.tolerance and settle.ok
     run.row(
         Row.compared(
             "final",
@@ -300,8 +301,8 @@ def _reduce(run: SizingRun, mesh: MeshChoice) -> Final:
     for attempt in range(FINAL_RETRIES + 1):
         tick = time.perf_counter()
         if attempt < FINAL_RETRIES:
-            idx, voxel = _points_stage(run, level, scale * r.shares[1] * r.tolerance)
-            n_modes = _modes_stage(run, level, idx, scale * r.shares[2] * r.tolerance)
+            idx, voxel = _points_stage(run, level, scale * r.accuracy.share("points"))
+            n_modes = _modes_stage(run, level, idx, scale * r.accuracy.share("modes"))
         else:  # give up reducing: every node, every computed mode
             idx, voxel = np.arange(level.model.n_points), None
             n_modes = level.result.n_modes
@@ -334,47 +335,40 @@ def size_model(
     supports=None,
     move: Move | None = None,
     threshold_m: float | None = None,
-    tolerance: float = 0.01,
+    accuracy: Accuracy = DEFAULT_ACCURACY,
     *,
     zeta=0.02,
-    mesh_sizes_m: Sequence[float] | None = None,
-    reference_modes: int = 40,
-    max_modes: int = 160,
     key_points=None,
-    shares: Sequence[float] = DEFAULT_SHARES,
-    eval_step_s: float | None = None,
     allow_rigid_modes: bool = False,
     progress: bool | None = None,
     log: Callable[[str], None] | None = None,
 ) -> SizingResult:
-    """The cheapest modal model of ``part`` held by ``supports`` that meets ``tolerance`` for
+    """The cheapest modal model of ``part`` held by ``supports`` that meets ``accuracy`` for
     ``move`` (a jaxflex.Move: samples (n+1, 3) m/s^2 at rest at both ends and their step,
     e.g. ``jaxflex.as_move(acc, dt_s)``) and the settle ``threshold_m`` (m); see the module
-    docstring for the criteria and stages. Raw samples (the former ``acc, dt_s`` arguments)
-    are refused with an InputError naming this form.
+    docstring for the criteria and stages.
 
     Args:
         part: a fem part, or a built-in scene name ("plate", "panel"; then ``supports`` None
             means the scene's gripper).
-        tolerance: accuracy as a fraction (0.01 = 1 %) of the peak deviation and of the cycle
-            time; 0 < tolerance < 0.5.
+        accuracy: the tolerance to meet and the search's knobs (fem.Accuracy: tolerance,
+            its shares per stage, mesh sizes, reference and maximum mode counts, evaluation
+            step; default a tolerance of 1 %).
         zeta: modal damping (ratio, per mode, or fem.Rayleigh); must be > 0.
-        mesh_sizes_m: base element sizes to try, coarse to fine (default: REFINEMENT, 4 ...
-            1/2 x the part's element size for plates, 4 ... 1 x for thin solids); the
-            cup element size is CUP_RATIO x the base size.
-        reference_modes: modes computed at first (raised by MODES_GROWTH, up to ``max_modes``
-            while the truncated modes' quasi-static residual is too large).
         key_points: (Kk, 2|3) points (m) that must be monitored (weld spots).
-        shares: fractions of the tolerance for the mesh, points and modes stages.
-        eval_step_s: step of the evaluation grid (default: dt / ceil(16 dt f_10), 16 samples
-            per period of the 10th mode, a whole fraction of dt).
         allow_rigid_modes: passed to fem.modal_analysis (rigid modes are left out).
         progress: progress bars (None: on a terminal); ``log``: called with one line per
             candidate (e.g. print).
     """
     request = SizingRequest(
-        part, supports, move, threshold_m, tolerance, zeta, mesh_sizes_m,
-        reference_modes, max_modes, key_points, shares, eval_step_s, allow_rigid_modes,
-        progress,
-    )  # fmt: skip
+        part,
+        supports,
+        move,
+        threshold_m,
+        accuracy,
+        zeta=zeta,
+        key_points=key_points,
+        allow_rigid_modes=allow_rigid_modes,
+        progress=progress,
+    )
     return size(request, log)

@@ -35,6 +35,7 @@ import tempfile
 import time
 import zipfile
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +45,7 @@ import fem
 from fmu.crosscheck import crosscheck_fmu, crosscheck_ssp
 from fmu.export import export_fmu
 from fmu.harness import compile_harness, resource_location, unpack
+from fmu.options import CellOutputs, Fmi, Turning
 from fmu.ssp import export_ssp
 from fmu.windows import (
     replay,
@@ -55,7 +57,7 @@ from fmu.windows import (
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.geometry import Cell
 from jaxflex.model import ModalModel
-from jaxflex.response import RotationalInertia
+from jaxflex.response import RotationalInertia, as_move
 from jaxflex.runtime import step
 from optim.cell_file import load_cell
 
@@ -86,7 +88,7 @@ def bench_model(n_points: int, n_modes: int, seed: int = 0, turning: bool = Fals
 
 def _export_s(model: ModalModel, path: Path, version: int, windows: bool) -> float:
     t0 = time.perf_counter()
-    export_fmu(model, path, fmi_version=version, windows=windows)
+    export_fmu(model, path, fmi=Fmi(version, windows=windows))
     return time.perf_counter() - t0
 
 
@@ -103,7 +105,8 @@ def host_figures(model: ModalModel, version: int, folder: Path, dt_s: float) -> 
     part FMU inside it, run in every available host: max |deviation - jaxflex| / peak per
     host (see fmu.crosscheck for which reference each host gets)."""
     folder.mkdir(parents=True, exist_ok=True)
-    ssp = export_ssp(model, folder / "case.ssp", version, (smooth_move(dt_s), dt_s), THRESHOLD_M)
+    move = as_move(smooth_move(dt_s), dt_s)
+    ssp = export_ssp(model, folder / "case.ssp", move, fmi=Fmi(version), threshold_m=THRESHOLD_M)
     with zipfile.ZipFile(ssp.ssp_path) as zf:
         part = Path(zf.extract("resources/part.fmu", folder))
     figures: dict[str, Any] = {"n_steps": None}
@@ -129,9 +132,8 @@ def windows_figures(
         for dll in (False, True):
             times[dll].append(_export_s(model, folder / f"t{k}{int(dll)}.fmu", version, dll))
     linux_s, with_dll_s = (statistics.median(times[dll]) for dll in (False, True))
-    result = export_fmu(
-        model, folder / "move.fmu", version, (smooth_move(dt_s), dt_s), windows=True
-    )
+    move = as_move(smooth_move(dt_s), dt_s)
+    result = export_fmu(model, folder / "move.fmu", move, fmi=Fmi(version, windows=True))
     harnesses = (
         compile_harness(version, folder / "harness"),
         compile_harness(version, folder / "harness.exe", windows=True),
@@ -184,6 +186,25 @@ def instructions_per_step(harness_cmd: list[str], dt_s: float) -> float:
     return (counts[1] - counts[0]) / (CALLGRIND_STEPS[1] - CALLGRIND_STEPS[0])
 
 
+@dataclass(frozen=True)
+class Extras:
+    """What a benchmark run adds to the plain FMU's step and instantiation times: a turning
+    part's FMU with its pose inputs set every step (``turning``), FMI 3.0 reading the
+    displaced points of every node after each step (``read_array``), the Windows DLL
+    (``windows``: :func:`windows_figures`), other hosts (``hosts``: :func:`host_figures`),
+    instructions per step (``instructions``: :func:`instructions_per_step`); ``turning`` is not
+    for ``windows`` or ``hosts`` (they replay an embedded move)."""
+
+    turning: bool = False
+    read_array: bool = False
+    windows: bool = False
+    hosts: bool = False
+    instructions: bool = False
+
+
+NO_EXTRAS = Extras()
+
+
 def run(
     n_points: int = 1099,
     n_modes: int = 40,
@@ -193,28 +214,20 @@ def run(
     fmi_versions: tuple[int, ...] = (2, 3),
     progress: Callable[[str], None] | None = None,
     *,
-    windows: bool = False,
-    hosts: bool = False,
-    read_array: bool = False,
-    turning: bool = False,
     scene: str | None = None,
     cell: Cell | None = None,
-    instructions: bool = False,
+    extras: Extras = NO_EXTRAS,
 ) -> dict[str, Any]:
     """Export a K x M model (``scene``: the built-in part of ``jaxflex model --scene``
     instead, every node; ``cell``: posed in it, with the distance outputs, ``min_distance``
-    read every step), time it with the C harness; figures per FMI version (with
-    ``windows``, also :func:`windows_figures`; with ``hosts``, :func:`host_figures`; with
-    ``read_array``, FMI 3.0 also reads the displaced points of every node after each step;
-    with ``turning``, a turning part's FMU with its pose inputs set every step; with
-    ``instructions``, :func:`instructions_per_step` too)."""
+    read every step), time ``n_steps`` steps of ``dt_s`` s and ``repeats`` instantiations
+    with the C harness; figures per FMI version, with the ``extras`` asked for."""
     say = progress or (lambda msg: None)
     if scene is None:
-        model = bench_model(n_points, n_modes, turning=turning)
+        model = bench_model(n_points, n_modes, turning=extras.turning)
     else:
         say(f"the {scene} scene's model (jaxflex model --scene {scene})")
         model = fem.default_model(scene, cache=True)
-    step_target_us = STEP_TARGET_US if scene is None else SCENE_STEP_TARGET_US
     report: dict[str, Any] = {
         "command": f"{Path(sys.executable).name} -m fmu.bench.fmu",
         "scene": scene,
@@ -222,61 +235,66 @@ def run(
         "n_modes": model.n_modes,
         "static_residual": model.static_residual is not None,
         "dt_s": dt_s,
-        "reads_displaced_points_array": read_array,
+        "reads_displaced_points_array": extras.read_array,
         "reads_min_distance": cell is not None,
-        "turning": turning,
+        "turning": extras.turning,
         "targets": {
-            "step_us": step_target_us,
+            "step_us": STEP_TARGET_US if scene is None else SCENE_STEP_TARGET_US,
             "instantiate_us": INSTANTIATE_TARGET_US,
             "preprint_step_us": PREPRINT_STEP_US,
         },
     }
     with tempfile.TemporaryDirectory(prefix="jaxflex_fmu_bench_") as tmp:
-        tmp = Path(tmp)
         for version in fmi_versions:
             say(f"FMI {version}.0: export K={model.n_points}, M={model.n_modes}")
-            result = export_fmu(
-                model, tmp / f"bench{version}.fmu", fmi_version=version, turning=turning,
-                cell=cell,
-            )  # fmt: skip
-            library, resources, token = unpack(result.fmu_path, tmp / f"fmu{version}")
-            array = model.n_points if read_array and version == 3 else None
-            harness = compile_harness(
-                version, tmp / f"harness{version}", array_points=array, turning=turning,
-                distance=cell is not None,
-            )  # fmt: skip
-            say(f"FMI {version}.0: {repeats} instantiations, {n_steps} steps")
-            cmd = [
-                str(harness),
-                str(library),
-                resource_location(version, resources),
-                token,
-                "bench",
-                str(n_steps),
-                repr(dt_s),
-                str(repeats),
-            ]
-            proc = subprocess.run(cmd, capture_output=True, text=True, check=True)
-            figures = json.loads(proc.stdout)
-            if instructions:
-                say(f"FMI {version}.0: instructions per step (callgrind)")
-                figures["instructions_per_step"] = instructions_per_step(cmd[:4], dt_s)
-            figures["resource_bytes"] = result.resource_bytes
-            figures["speedup_vs_preprint"] = PREPRINT_STEP_US / figures["step_us_median"]
+            folder = Path(tmp) / f"fmi{version}"
+            folder.mkdir()
+            timing = (n_steps, dt_s, repeats)
+            figures = _step_figures(model, version, folder, cell, extras, timing, say)
             figures["meets_targets"] = (
-                figures["step_us_median"] <= step_target_us
+                figures["step_us_median"] <= report["targets"]["step_us"]
                 and figures["instantiate_us_median"] <= INSTANTIATE_TARGET_US
             )
-            if windows:
+            if extras.windows:
                 say(f"FMI {version}.0: the Windows DLL (export times, replay, wine timing)")
                 figures["windows"] = windows_figures(
-                    model, version, tmp / f"windows{version}", n_steps, dt_s, repeats
+                    model, version, folder / "windows", n_steps, dt_s, repeats
                 )
-            if hosts:
+            if extras.hosts:
                 say(f"FMI {version}.0: FMU and SSP package in other hosts")
-                figures["hosts"] = host_figures(model, version, tmp / f"hosts{version}", dt_s)
+                figures["hosts"] = host_figures(model, version, folder / "hosts", dt_s)
             report[f"fmi{version}"] = figures
     return report
+
+
+def _step_figures(model, version: int, folder: Path, cell, extras: Extras, timing, say) -> dict:
+    """The harness's step and instantiation figures of ``model``'s FMI ``version`` FMU
+    (``timing``: steps, step in s, instantiations), built and run in ``folder``."""
+    n_steps, dt_s, repeats = timing
+    result = export_fmu(
+        model,
+        folder / "bench.fmu",
+        fmi=Fmi(version),
+        outputs=CellOutputs(cell),
+        turning=Turning() if extras.turning else None,
+    )
+    library, resources, token = unpack(result.fmu_path, folder / "fmu")
+    array = model.n_points if extras.read_array and version == 3 else None
+    harness = compile_harness(
+        version, folder / "harness", array_points=array, turning=extras.turning,
+        distance=cell is not None,
+    )  # fmt: skip
+    say(f"FMI {version}.0: {repeats} instantiations, {n_steps} steps")
+    location = resource_location(version, resources)
+    cmd = [str(harness), str(library), location, token, "bench", str(n_steps), repr(dt_s)]
+    proc = subprocess.run([*cmd, str(repeats)], capture_output=True, text=True, check=True)
+    figures = json.loads(proc.stdout)
+    if extras.instructions:
+        say(f"FMI {version}.0: instructions per step (callgrind)")
+        figures["instructions_per_step"] = instructions_per_step(cmd[:4], dt_s)
+    figures["resource_bytes"] = result.resource_bytes
+    figures["speedup_vs_preprint"] = PREPRINT_STEP_US / figures["step_us_median"]
+    return figures
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -313,7 +331,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--turning",
         action="store_true",
-        help="a turning part's FMU (export_fmu(turning=True)): the pose inputs set every step",
+        help="a turning part's FMU (export_fmu(turning=fmu.Turning())): the pose inputs set every "
+        "step",
     )
     parser.add_argument(
         "--scene",
@@ -335,6 +354,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.turning and (args.windows or args.hosts):
         parser.error("--turning: not with --windows or --hosts (they replay an embedded move)")
+    extras = Extras(
+        turning=args.turning,
+        read_array=args.array,
+        windows=args.windows,
+        hosts=args.hosts,
+        instructions=args.instructions,
+    )
     for name in ("points", "modes", "steps"):
         if getattr(args, name) < 1:
             parser.error(f"--{name}: must be at least 1, got {getattr(args, name)}")
@@ -344,13 +370,9 @@ def main(argv: list[str] | None = None) -> int:
         n_steps=args.steps,
         fmi_versions=tuple(args.fmi),
         progress=step,
-        windows=args.windows,
-        hosts=args.hosts,
-        read_array=args.array,
-        turning=args.turning,
         scene=args.scene,
         cell=None if args.cell is None else load_cell(args.cell),
-        instructions=args.instructions,
+        extras=extras,
     )
     print(json.dumps(report, indent=2))
     return 0
