@@ -25,6 +25,7 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import jax.numpy as jnp
+import numpy as np
 
 _SERIES_LIMIT = 0.1  # switch to the series below this value of w*h
 _SERIES_TERMS = 16
@@ -87,6 +88,8 @@ def propagators(omega, zeta, h, xp: Any = jnp) -> Propagators:
     damping ratio ``zeta`` (0 <= zeta < 1) and step ``h`` (s, >= 0); arrays broadcast."""
     omega, zeta, h = xp.broadcast_arrays(xp.asarray(omega), xp.asarray(zeta), xp.asarray(h))
     small = omega * h < _SERIES_LIMIT
+    if xp is np:
+        return _numpy_propagators(omega, zeta, h, small)
     # Evaluate each branch only on arguments where it is accurate, so that neither the value
     # nor the gradient of the unused branch can be inf/nan ("double where").
     h_series = xp.where(small, h, 0.0)
@@ -102,6 +105,28 @@ def propagators(omega, zeta, h, xp: Any = jnp) -> Propagators:
     j1 = pick(closed[2], series[2])
     phi = xp.stack([xp.stack([p11, p12], axis=-1), xp.stack([p21, p22], axis=-1)], axis=-2)
     return Propagators(phi=phi, j0=xp.stack(j0, axis=-1), j1=xp.stack(j1, axis=-1))
+
+
+def _numpy_propagators(omega, zeta, h, small) -> Propagators:
+    """:func:`propagators` in NumPy, each branch evaluated only on its own entries (the
+    same element-wise operations, so the same values): the series' 16 terms cost nothing
+    where no ``omega h`` is small, and the closed form nothing where all are. The optimiser
+    and the certificates call this thousands of times on (M,) or (T, M) arrays."""
+    shape = omega.shape
+    phi = np.empty((*shape, 2, 2))
+    j0 = np.empty((*shape, 2))
+    j1 = np.empty((*shape, 2))
+    for mask, branch in ((~small, _closed_form), (small, _series)):
+        if not mask.any():
+            continue
+        every = bool(mask.all())
+        args = (omega, zeta, h) if every else (omega[mask], zeta[mask], h[mask])
+        (p11, p12, p21, p22), (j0q, j0v), (j1q, j1v) = branch(*args, np)
+        at = Ellipsis if every else mask
+        phi[at] = np.stack([np.stack([p11, p12], -1), np.stack([p21, p22], -1)], -2)
+        j0[at] = np.stack([j0q, j0v], -1)
+        j1[at] = np.stack([j1q, j1v], -1)
+    return Propagators(phi=phi, j0=j0, j1=j1)
 
 
 def foh_coefficients(omega, zeta, dt_s, xp: Any = jnp):

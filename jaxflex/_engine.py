@@ -32,6 +32,7 @@ HOLDS = ("linear", "zero")
 # compile once per move length (sweeps, sizing curves): one compilation per 128 steps.
 PAD_STEPS = 128
 POWER_TERMS_KEPT = 4  # (length, step) pairs of _power_terms kept per model
+SAMPLE_STATES_KEPT = 2  # moves whose sample states states_at keeps per model (n M 32 bytes)
 
 
 def modal_forces(model, acc, xp: Any = jnp):
@@ -152,14 +153,27 @@ def states_at(model, acc, dt_s: float, t_s) -> np.ndarray:
     ((n+1, 3) m/s^2, at rest at the end) and after it (free vibration). NumPy."""
     acc = np.asarray(acc, dtype=np.float64)
     t_s = np.asarray(t_s, dtype=np.float64)
-    states = modal_states(model, acc, dt_s, xp=np)
+    states, force = _sample_states(model, acc, float(dt_s))
     t_end = (acc.shape[0] - 1) * dt_s
     during = t_s < t_end
     out = np.empty((t_s.size, model.n_modes, 2))
-    force = modal_forces(model, acc, np)
     out[during] = states_between(model, states, force, dt_s, t_s[during], np)
     out[~during] = free_states(model, states[-1], t_s[~during] - t_end, np)
     return out
+
+
+def _sample_states(model, acc: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """(states (n+1, M, 2), modal forces (n+1, M)) at the samples of the move ``acc`` ((n+1,
+    3) float64, NumPy); of a concrete model kept for the last few moves (the optimiser's
+    rows and certificates evaluate one move at one time after another: the recursion over
+    the move once, not once per row)."""
+    cache = model.__dict__.setdefault("_sample_states", {})
+    key = (dt_s, acc.shape, acc.tobytes())
+    if key not in cache:
+        while len(cache) >= SAMPLE_STATES_KEPT:
+            del cache[next(iter(cache))]
+        cache[key] = (modal_states(model, acc, dt_s, xp=np), modal_forces(model, acc, np))
+    return cache[key]
 
 
 def _power_terms(model, n_steps: int, dt_s: float):

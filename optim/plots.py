@@ -36,6 +36,11 @@ OPTIMISED_COLOR = "tab:blue"
 # line style and marker per series after the optimum (baselines), distinct even in grey
 STYLES = (("-", "o"), ("--", "s"), ("-.", "^"), (":", "D"), ((0, (5, 1)), "v"), ("-", "P"))
 BASELINE_COLORS = ("tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:pink")
+INSET_S = 0.06  # constraints.png's inset: this many seconds either side of the closest approach
+# constraints.png's curves: every CURVE_STRIDE-th time of the deviation curves (dt / 8), so
+# every dt / 2 (5 ms at 10 ms: a few pixels apart on its 10-inch panels), and every time
+# within INSET_S of a certified peak
+CURVE_STRIDE = 4
 
 
 @dataclass(frozen=True)
@@ -341,21 +346,38 @@ def _constraint_range(name: str, limit: float, moves: list[np.ndarray]) -> tuple
     return 0.0, 1.1 * max(limit, float(np.max(moves[0])), min(others, 1.5 * limit))
 
 
+def constraint_times(t: np.ndarray, certified_s) -> np.ndarray:
+    """The times (s) of ``t`` ((T,) s, increasing: the deviation curves' grid) at which
+    constraints.png evaluates the constraints: every CURVE_STRIDE-th, the last, and every one
+    within INSET_S of a certified peak's time ``certified_s`` (s; non-finite ones ignored),
+    where the panels mark the certified value and the distance's inset zooms in. The
+    curves' exact evaluation over every point and item is what the picture costs; a panel
+    shows no more than one sample per few pixels elsewhere."""
+    t = np.asarray(t, dtype=np.float64)
+    keep = np.zeros(t.size, dtype=bool)
+    keep[::CURVE_STRIDE] = True
+    keep[-1:] = True
+    for when in certified_s:
+        if when is not None and np.isfinite(when):
+            keep |= np.abs(t - when) <= INSET_S
+    return t[keep]
+
+
 def _closest_inset(ax, moves: dict, limit: float, when: float, value: float, scale: float):
-    """An inset of the distance panel ``ax``: 60 ms either side of the certified closest
-    approach (``when`` s, ``value`` and ``limit`` in the panel's unit), where the part passes
-    the obstacle: the margin over the limit reads there."""
+    """An inset of the distance panel ``ax``: INSET_S (60 ms) either side of the certified
+    closest approach (``when`` s, ``value`` and ``limit`` in the panel's unit), where the
+    part passes the obstacle: the margin over the limit reads there."""
     inset = ax.inset_axes([0.56, 0.34, 0.3, 0.5])
     styles = _styles(len(moves))
     for (t, values), style in zip(moves.values(), styles, strict=True):
-        near = np.abs(np.asarray(t) - when) <= 0.06
+        near = np.abs(np.asarray(t) - when) <= INSET_S
         inset.plot(np.asarray(t)[near], np.asarray(values)[near] * scale, color=style["color"],
                    ls=style["ls"], lw=1.2)  # fmt: skip
     inset.axhline(limit, color="k", ls="--", lw=0.8)
     inset.plot([when], [value], "k+", ms=9, mew=1.5)
-    inset.set_xlim(when - 0.06, when + 0.06)
+    inset.set_xlim(when - INSET_S, when + INSET_S)
     inset.set_ylim(0.9 * limit, 2.0 * limit)
-    inset.set_title(f"{when:.3f} s +- 60 ms", fontsize=7)
+    inset.set_title(f"{when:.3f} s +- {INSET_S * 1e3:g} ms", fontsize=7)
     inset.tick_params(labelsize=6)
     inset.grid(True, alpha=0.3)
 

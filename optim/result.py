@@ -460,16 +460,18 @@ class OptimizationResult:
         return 1.15 * max(cycles) + self.dt_s
 
     def _plot_constraints(self, path: Path) -> None:
-        from optim.plots import plot_constraints  # matplotlib: only when drawing
+        from optim.plots import constraint_times, plot_constraints  # matplotlib: when drawing
 
+        certified = {c["name"]: (c["time_s"], c["peak"]) for c in self.constraints}
+        peaks_s = [when for when, _ in certified.values()]
         curves: dict[str, dict] = {}
         for trace in self._responses():
             turn = self._turn_of(trace.label)
             move = as_move(trace.acc, self.dt_s)
-            for name, values in self.cell.curves(move, trace.t, turn).items():
-                curves.setdefault(name, {})[trace.label] = (trace.t, values)
+            t = constraint_times(trace.t, peaks_s)
+            for name, values in self.cell.curves(move, t, turn).items():
+                curves.setdefault(name, {})[trace.label] = (t, values)
         limits = {c["name"]: c["limit"] for c in self.constraints}
-        certified = {c["name"]: (c["time_s"], c["peak"]) for c in self.constraints}
         plot_constraints(path, curves, limits, self.cycle_time_s, certified)
 
     def _plot_deviation(self, files: SetWriter) -> None:

@@ -56,6 +56,7 @@ PEAKS_PER_ROUND = 40
 TIME_RTOL = 1e-12
 SOLVER_FAILURES = ("failed", "row generation did not converge")
 PROOFS = ("infeasible", "rows cannot all hold")  # an LP of valid rows only: no move exists
+EXCLUDED = "excluded by the necessary test"  # (:func:`necessary`): no move exists
 KEPT_LENGTHS = 2
 SEEDED_CUTS = 120  # valid cuts of a certified length moved to the next length tested
 TIGHT_SLACK = 0.01  # ... those its certified move meets within 1 % of their limit
@@ -427,30 +428,36 @@ def _rejected(n_steps, value, rounds, start, reason, stats) -> Attempt:
     )
 
 
-def attempt(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray) -> Attempt:
+def attempt(
+    problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray, gate=None
+) -> Attempt:
     """Is there a certified move of ``n_steps`` steps? (module docstring). With a turn,
-    each of its schedules for n steps in order (optim.turn.TurnSchedule) until one is."""
+    each of its schedules for n steps in order (optim.turn.TurnSchedule) until one is.
+    ``gate``: a test run once the first LP has a solution, before any scan (the necessary
+    test of :func:`_below`); where it returns False the length is rejected."""
     turn = problem.turn
     if turn is None:
-        return _straight_attempt(problem, solver, n_steps, warm)
+        return _straight_attempt(problem, solver, n_steps, warm, gate)
     start = time.perf_counter()
     found = _rejected(n_steps, np.inf, 0, start, "the turn does not fit in the move", [])
     for variant in turn.variants(n_steps):
         turn.variant = variant
         problem.cell_rows = turn.cell_rows()  # the cell's rows hold for their schedule only
-        found = _attempt(problem, solver, n_steps, warm)
+        found = _attempt(problem, solver, n_steps, warm, gate)
         if found.feasible:
             found.turn_acc = turn.angular_acc(n_steps)
             break
     return found
 
 
-def _straight_attempt(problem: Problem, solver: Subsolver, n: int, warm: np.ndarray) -> Attempt:
+def _straight_attempt(
+    problem: Problem, solver: Subsolver, n: int, warm: np.ndarray, gate=None
+) -> Attempt:
     """The test of :func:`attempt` for a straight move, with the cell's rows seeded from the
     nearest certified length (:meth:`Problem.seed`). A length whose LP has no solution
     without any separating plane is proven too short (``problem.excluded``)."""
     problem.seed(n)
-    found = _attempt(problem, solver, n, warm)
+    found = _attempt(problem, solver, n, warm, gate)
     if found.feasible:
         problem.certified.add(n)
         problem.certified_moves[n] = found.acc
@@ -500,7 +507,9 @@ def _necessary(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarr
     return not (sub.status == "infeasible" or (sub.status == "solved" and sub.value > 1.0 + 1e-7))
 
 
-def _attempt(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray) -> Attempt:
+def _attempt(
+    problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray, gate=None
+) -> Attempt:
     """One certified-move test of :func:`attempt` (with the turn's active schedule)."""
     start = time.perf_counter()
     stats: list[dict] = []
@@ -512,6 +521,8 @@ def _attempt(problem: Problem, solver: Subsolver, n_steps: int, warm: np.ndarray
         if sub.status != "solved" or sub.value > 1.0 + 1e-7:
             reason = "rows cannot all hold" if sub.status == "solved" else sub.status
             return _rejected(n_steps, value, rounds, start, reason, stats)
+        if rounds == 1 and gate is not None and not gate():
+            return _rejected(n_steps, value, rounds, start, EXCLUDED, stats)
         acc = sub.acc
         warm = acc
         added = 0
@@ -606,8 +617,8 @@ def bisect(
         max(1, _tests_left(lo, cap)), f"{solver.name}: shortest move", progress, "test"
     )
 
-    def test(n_steps: int) -> Attempt:
-        result = attempt(problem, solver, n_steps, _warm_start(moves, n_steps))
+    def test(n_steps: int, gate=None) -> Attempt:
+        result = attempt(problem, solver, n_steps, _warm_start(moves, n_steps), gate)
         history.append(result)
         if result.feasible:
             moves.append(result.acc)
@@ -657,17 +668,21 @@ def bisect(
 def _below(problem: Problem, solver: Subsolver, best: Attempt, start, test) -> Attempt:
     """Where separating planes took part, a length the bisection declared too short is no
     proof (the planes are a restriction, and feasibility need not be monotone): every length
-    from the answer down to the kinematic floor that the necessary test (:func:`necessary`)
-    does not exclude and that has not been tried with the rows of the current answer is
-    tested again with them (:func:`attempt` seeds it from the nearest certified length, the
-    answer). ``start``: (the kinematic floor's steps, the moves that seed the subproblems).
+    from the answer down to the kinematic floor that has not been tried with the rows of the
+    current answer is tested again with them (:func:`attempt` seeds it from the nearest
+    certified length, the answer), unless the necessary test (:func:`necessary`) excludes
+    it. The test's first LP comes first: where it has no solution the length is done (tried
+    with the answer's rows) at the cost of one LP, and only where it has one does the
+    necessary test run, before any scan (on the press scene with the stress limited, the
+    planes, not the loads, rule the shorter lengths out: the necessary test never excluded
+    one). ``start``: (the kinematic floor's steps, the moves that seed the subproblems).
     Returns the shortest certified attempt."""
     floor_steps, moves = start
     for n in range(best.n_steps - 1, floor_steps - 1, -1):
-        if problem.seeded.get(n) == best.n_steps:
+        if problem.seeded.get(n) == best.n_steps or n in problem.excluded:
             continue
-        if necessary(problem, solver, n, _warm_start(moves, n)):
-            result = test(n)
-            if result.feasible:
-                best = result
+        warm = _warm_start(moves, n)
+        result = test(n, lambda n=n, warm=warm: necessary(problem, solver, n, warm))
+        if result.feasible:
+            best = result
     return best

@@ -51,6 +51,27 @@ def test_propagators_match_matrix_exponential(freq_hz, zeta, h):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-10)
 
 
+def test_numpy_arrays_mixing_both_branches_match_matrix_exponential():
+    """NumPy evaluates the closed form and the series each on its own entries only: a (T, M)
+    array with omega h on both sides of the switch (and h = 0) gives every entry the
+    independent matrix exponential's value, the shapes broadcast as documented."""
+    omega = 2 * np.pi * np.array([0.5, 7.0, 41.0, 2000.0])
+    zeta = np.array([0.0, 0.02, 0.3, 0.9])
+    h = np.array([0.0, 1e-6, 2e-4, 1.25e-3, 0.01])[:, None]  # omega h from 0 to 126
+    prop = propagators(omega[None], zeta[None], h, np)
+    assert prop.phi.shape == (5, 4, 2, 2) and prop.j0.shape == prop.j1.shape == (5, 4, 2)
+    for t in range(h.shape[0]):
+        for m in range(omega.size):
+            if h[t, 0] == 0.0:
+                np.testing.assert_array_equal(prop.phi[t, m], np.eye(2))
+                np.testing.assert_array_equal(prop.j0[t, m], 0.0)
+                continue
+            ours = scaled(omega[m], h[t, 0], prop.phi[t, m], prop.j0[t, m], prop.j1[t, m])
+            ref = scaled(omega[m], h[t, 0], *reference(omega[m], zeta[m], h[t, 0]))
+            for a, b in zip(ours, ref, strict=True):  # tolerance as for the scalars above
+                np.testing.assert_allclose(a, b, rtol=0, atol=1e-10)
+
+
 def test_numpy_and_jax_agree():
     omega = 2 * np.pi * np.array([0.5, 7.0, 2000.0])
     zeta = np.array([0.0, 0.05, 0.5])

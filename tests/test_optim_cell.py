@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 from cells import PRESS_TOML, press_cell
 from conftest import run_jaxflex
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from independent import (
     box_distance,
     half_space_distance,
@@ -36,6 +38,7 @@ from optim.cell_rows import (
     _worst_samples,
     check_times,
 )
+from optim.plots import CURVE_STRIDE, INSET_S, constraint_times
 from optim.robust import perturbed
 from optim.ruckig_move import kinematic_floor_move
 
@@ -450,3 +453,23 @@ def test_the_example_cell_from_the_command_line(tmp_path):
     (distance,) = report["constraints"]
     assert distance["name"] == "distance to obstacles"
     assert distance["peak"] >= distance["limit"] * (1 - 1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(2, 3000),
+    step=st.floats(1e-4, 2e-3),
+    peaks=st.lists(st.one_of(st.floats(-1.0, 8.0), st.just(float("nan")), st.none()), max_size=3),
+)
+def test_constraint_pictures_keep_every_sample_near_the_certified_peaks(n, step, peaks):
+    """constraints.png's curves (optim.plots.constraint_times) are evaluated every
+    CURVE_STRIDE-th time of the deviation grid, at its last time, and at every time within
+    INSET_S of a certified peak (where the mark and the distance's inset are), no other."""
+    t = step * np.arange(n)
+    kept = constraint_times(t, peaks)
+    near = np.zeros(n, dtype=bool)
+    for when in peaks:
+        if when is not None and np.isfinite(when):
+            near |= np.abs(t - when) <= INSET_S
+    expected = (np.arange(n) % CURVE_STRIDE == 0) | (np.arange(n) == n - 1) | near
+    np.testing.assert_array_equal(kept, t[expected])
