@@ -253,7 +253,7 @@ def test_kernels_stepped_through_the_step_equal_an_adaptive_integration():
     dt_s = 1e-3
     n_sub = substeps(omega, dt_s)
     taus = dt_s * np.arange(1, n_sub + 1) / n_sub
-    stepped = _kernels(omega, zeta, taus)
+    stepped = _kernels(omega, zeta, dt_s, n_sub)
     powers = np.asarray(POWER_OF[:EXACT])
 
     def phi(t: float) -> np.ndarray:  # (M, 2, 2) free response of each mode over t
@@ -273,5 +273,5 @@ def test_kernels_stepped_through_the_step_equal_an_adaptive_integration():
             return np.concatenate([homogeneous.ravel(), polynomial.ravel()])
 
         want, _ = scipy.integrate.quad_vec(integrand, 0.0, tau, epsabs=0.0, epsrel=1e-12)
-        got = np.concatenate([part.ravel() for part in stepped[k]])
+        got = np.concatenate([part[k].ravel() for part in stepped])
         assert np.abs(got - want).max() <= 1e-10 * np.abs(want).max()
