@@ -93,6 +93,7 @@ import jax.numpy as jnp
 import numpy as np
 from numpy.polynomial.legendre import leggauss
 
+from jaxflex._budget import Need
 from jaxflex._discretize import propagators
 from jaxflex._engine import padded_steps
 
@@ -116,6 +117,12 @@ EPS = float(np.finfo(np.float64).eps)
 # rates below this share of the path's largest are the rounding of its integration (a turn
 # ends at rest to ~1e-16 rad/s): the load they carry is far below the rounding of y
 REST_SHARE = 1e-12
+# the kernels' set-up (bound_data), planned: CPU s per term of its quadratures' einsum (6.2-8.4
+# ns measured on the project's 2-core machine for 4-30 modes and 330-3 300 sub-samples), and
+# the copies of the kernels held at once (the steps' integrals, the stepped kernels, their
+# reshaped copy, the device's)
+SETUP_S_PER_TERM = 1e-8
+SETUP_COPIES = 4
 
 
 def substeps(omega_rad_s: np.ndarray, dt_s: float) -> int:
@@ -216,6 +223,26 @@ class BoundData:
     @classmethod
     def tree_unflatten(cls, aux, children):
         return cls(*children, *aux)
+
+
+def setup_need(model, dt_s: float) -> Need:
+    """What :func:`bound_data` takes to build the kernels of ``model`` at step ``dt_s`` s
+    (nothing for a model without the modes' couplings): S sub-samples per step (growing with
+    omega_max dt), each kernel (M, 6, M, 2, 2) entries, one quadrature over the step; in
+    memory SETUP_COPIES of them, in time SETUP_S_PER_TERM per term of the quadratures."""
+    rotation = getattr(model, "rotation", None)
+    if rotation is None or rotation.gyroscopic is None:
+        return Need("the turning bound's kernels (none: no mode couplings)")
+    omega = np.asarray(model.omega_rad_s, dtype=np.float64)
+    n_sub, m = substeps(omega, dt_s), omega.size
+    panels = max(1, math.ceil(2.0 * float(omega.max()) * dt_s / n_sub / PANEL_RAD))
+    entries = n_sub * m * EXACT * m * 4
+    return Need(
+        f"the turning bound's kernels ({n_sub:,} sub-samples per {dt_s:g} s step, {m} modes)",
+        SETUP_COPIES * 8.0 * entries,
+        SETUP_S_PER_TERM * QUADRATURE_NODES * panels * entries,
+        "use a coarser --dt or fewer modes",
+    )
 
 
 def bound_data(model, dt_s: float, n_sub: int | None = None) -> BoundData:
