@@ -93,6 +93,7 @@ import jax.numpy as jnp
 import numpy as np
 from numpy.polynomial.legendre import leggauss
 
+from jaxflex._budget import Need
 from jaxflex._discretize import propagators
 from jaxflex._engine import padded_steps
 
@@ -116,6 +117,12 @@ EPS = float(np.finfo(np.float64).eps)
 # rates below this share of the path's largest are the rounding of its integration (a turn
 # ends at rest to ~1e-16 rad/s): the load they carry is far below the rounding of y
 REST_SHARE = 1e-12
+# the kernels' set-up (bound_data), planned: CPU s per term of its quadratures' einsum (6.2-8.4
+# ns measured on the project's 2-core machine for 4-30 modes and 330-3 300 sub-samples), and
+# the copies of the kernels held at once (the steps' integrals, the stepped kernels, their
+# reshaped copy, the device's)
+SETUP_S_PER_TERM = 1e-8
+SETUP_COPIES = 4
 
 
 def substeps(omega_rad_s: np.ndarray, dt_s: float) -> int:
@@ -125,48 +132,59 @@ def substeps(omega_rad_s: np.ndarray, dt_s: float) -> int:
     return max(1, math.ceil(need - 1e-9))
 
 
-def _quadrature(start_s: float, end_s: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
-    """(nodes, weights) of composite Gauss-Legendre on [start_s, end_s], panels of at most
+def _quadrature(length_s: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """(nodes, weights) of composite Gauss-Legendre on [0, length_s], panels of at most
     PANEL_RAD / rate."""
-    panels = max(1, math.ceil(rate * (end_s - start_s) / PANEL_RAD))
+    panels = max(1, math.ceil(rate * length_s / PANEL_RAD))
     x, w = leggauss(QUADRATURE_NODES)
-    edges = np.linspace(start_s, end_s, panels + 1)
+    edges = np.linspace(0.0, length_s, panels + 1)
     mid, half = 0.5 * (edges[:-1] + edges[1:]), 0.5 * np.diff(edges)
     return (mid[:, None] + half[:, None] * x).ravel(), (half[:, None] * w).ravel()
 
 
-def _kernel_steps(omega, zeta, start_s: float, end_s: float):
-    """The kernels of the module docstring's integrands over [start_s, end_s] only, taken at
-    tau = end_s: homogeneous (M, EXACT, M, 2 i, 2 o) and polynomial (4, M, 2)."""
-    s, w = _quadrature(start_s, end_s, 2.0 * float(np.max(omega)))
-    left = propagators(omega, zeta, (end_s - s)[:, None], np).phi[..., :, 1]  # (X, M, 2)
-    right = propagators(omega, zeta, s[:, None], np).phi  # (X, M, 2 r, 2 i)
-    powers = s[:, None] ** np.arange(4)
-    rows = right[:, :, ROW_OF[:EXACT], :]  # (X, M j, EXACT, 2 i)
-    weighted = w[:, None] * powers[:, list(POWER_OF[:EXACT])]  # (X, EXACT)
-    homogeneous = np.einsum("xc,xmo,xjci->mcjio", weighted, left, rows)
-    polynomial = np.einsum("x,xp,xmo->pmo", w, powers, left)
+def _kernel_steps(omega, zeta, starts_s: np.ndarray, step_s: float, u, w):
+    """The kernels of the module docstring's integrands over [start, start + step_s] only,
+    taken at tau = start + step_s, for each start of ``starts_s`` (K,): homogeneous (K, M,
+    EXACT, M, 2 i, 2 o) and polynomial (K, 4, M, 2), by the quadrature (nodes ``u``, weights
+    ``w``) on [0, step_s] shifted to each step: the left factor Phi_m(tau - s) is the same
+    for all."""
+    left = propagators(omega, zeta, (step_s - u)[:, None], np).phi[..., :, 1]  # (X, M, 2)
+    s = starts_s[:, None] + u  # (K, X)
+    right = propagators(omega, zeta, s[..., None], np).phi  # (K, X, M, 2 r, 2 i)
+    powers = s[..., None] ** np.arange(4)  # (K, X, 4)
+    rows = right[..., ROW_OF[:EXACT], :]  # (K, X, M j, EXACT, 2 i)
+    weighted = w[:, None] * powers[..., list(POWER_OF[:EXACT])]  # (K, X, EXACT)
+    homogeneous = np.einsum("kxc,xmo,kxjci->kmcjio", weighted, left, rows)
+    polynomial = np.einsum("x,kxp,xmo->kpmo", w, powers, left)
     return homogeneous, polynomial
 
 
-def _kernels(omega, zeta, taus_s: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The kernels of the module docstring at each tau of ``taus_s`` (increasing): homogeneous
-    (M, EXACT, M, 2 i, 2 o) [m, c, j, i, o] = int_0^tau [Phi_m(tau - s) b]_o s^p [Phi_j(s)]_(r,
-    i) (p, r of row c) and polynomial (4, M, 2) [p, m, o] = int_0^tau [Phi_m(tau - s) b]_o s^p.
-    Stepped from one tau to the next, K(tau') = Phi_m(tau' - tau) K(tau) + the integral over
-    [tau, tau'] (Phi_m(tau' - s) = Phi_m(tau' - tau) Phi_m(tau - s)), so the quadrature covers
-    [0, dt] once: its cost grows with omega_max dt, not with its square."""
-    m = np.size(omega)
-    found, start = [], 0.0
-    homogeneous, polynomial = np.zeros((m, EXACT, m, 2, 2)), np.zeros((4, m, 2))
-    for tau in taus_s:
-        carry = propagators(omega, zeta, float(tau) - start, np).phi  # (M, 2, 2)
-        step_h, step_p = _kernel_steps(omega, zeta, start, float(tau))
-        homogeneous = np.einsum("mab,mcjib->mcjia", carry, homogeneous) + step_h
-        polynomial = np.einsum("mab,pmb->pma", carry, polynomial) + step_p
-        found.append((homogeneous, polynomial))
-        start = float(tau)
-    return found
+def _kernels(omega, zeta, dt_s: float, n_sub: int) -> tuple[np.ndarray, np.ndarray]:
+    """The kernels of the module docstring at the sub-samples tau_s = s dt / S (s = 1..S):
+    homogeneous (S, M, EXACT, M, 2 i, 2 o) [s, m, c, j, i, o] = int_0^tau [Phi_m(tau - s') b]_o
+    s'^p [Phi_j(s')]_(r, i) ds' (p, r of row c) and polynomial (S, 4, M, 2) [s, p, m, o] =
+    int_0^tau [Phi_m(tau - s') b]_o s'^p ds'. Stepped from one tau to the next, K(tau') =
+    Phi_m(tau' - tau) K(tau) + the integral over [tau, tau'] (Phi_m(tau' - s) = Phi_m(tau' -
+    tau) Phi_m(tau - s)), so the quadrature covers [0, dt] once: its cost grows with omega_max
+    dt, not with its square. The sub-steps are equal: their integrals are evaluated together,
+    in chunks of steps (CHUNK_ELEMENTS entries of the homogeneous kernels each)."""
+    m, step_s = np.size(omega), dt_s / n_sub
+    starts = step_s * np.arange(n_sub)
+    u, w = _quadrature(step_s, 2.0 * float(np.max(omega)))
+    chunk = max(1, CHUNK_ELEMENTS // (u.size * m * EXACT * m * 4))  # terms of the einsum
+    parts = [
+        _kernel_steps(omega, zeta, starts[i : i + chunk], step_s, u, w)
+        for i in range(0, n_sub, chunk)
+    ]
+    step_h = np.concatenate([h for h, _ in parts])
+    step_p = np.concatenate([p for _, p in parts])
+    carry = propagators(omega, zeta, step_s, np).phi  # (M, 2, 2): Phi over one sub-step
+    homogeneous, polynomial = np.empty_like(step_h), np.empty_like(step_p)
+    homogeneous[0], polynomial[0] = step_h[0], step_p[0]
+    for k in range(1, n_sub):
+        homogeneous[k] = np.einsum("mab,mcjib->mcjia", carry, homogeneous[k - 1]) + step_h[k]
+        polynomial[k] = np.einsum("mab,pmb->pma", carry, polynomial[k - 1]) + step_p[k]
+    return homogeneous, polynomial
 
 
 @jax.tree_util.register_pytree_node_class
@@ -207,6 +225,26 @@ class BoundData:
         return cls(*children, *aux)
 
 
+def setup_need(model, dt_s: float) -> Need:
+    """What :func:`bound_data` takes to build the kernels of ``model`` at step ``dt_s`` s
+    (nothing for a model without the modes' couplings): S sub-samples per step (growing with
+    omega_max dt), each kernel (M, 6, M, 2, 2) entries, one quadrature over the step; in
+    memory SETUP_COPIES of them, in time SETUP_S_PER_TERM per term of the quadratures."""
+    rotation = getattr(model, "rotation", None)
+    if rotation is None or rotation.gyroscopic is None:
+        return Need("the turning bound's kernels (none: no mode couplings)")
+    omega = np.asarray(model.omega_rad_s, dtype=np.float64)
+    n_sub, m = substeps(omega, dt_s), omega.size
+    panels = max(1, math.ceil(2.0 * float(omega.max()) * dt_s / n_sub / PANEL_RAD))
+    entries = n_sub * m * EXACT * m * 4
+    return Need(
+        f"the turning bound's kernels ({n_sub:,} sub-samples per {dt_s:g} s step, {m} modes)",
+        SETUP_COPIES * 8.0 * entries,
+        SETUP_S_PER_TERM * QUADRATURE_NODES * panels * entries,
+        "use a coarser --dt or fewer modes",
+    )
+
+
 def bound_data(model, dt_s: float, n_sub: int | None = None) -> BoundData:
     """The :class:`BoundData` of a concrete ``model`` with its rotation data at step
     ``dt_s`` s, built with NumPy once per model and step (cached on the model)."""
@@ -225,11 +263,11 @@ def _build(model, dt_s: float, n_sub) -> BoundData:
     rotation = model.rotation
     homogeneous = polynomial = None
     if rotation.gyroscopic is not None:
-        parts = _kernels(omega, zeta, taus)
+        kernels, poly = _kernels(omega, zeta, dt_s, n_sub)
         m = omega.size
-        homogeneous = np.stack([h for h, _ in parts], axis=-2)  # (M, 6, M, 2, S, 2)
+        homogeneous = np.moveaxis(kernels, 0, -2)  # (M, 6, M, 2, S, 2)
         homogeneous = homogeneous.reshape(m, EXACT, m, 2, 2 * n_sub)
-        poly = np.stack([p for _, p in parts], axis=2)  # (4, M, S, 2)
+        poly = np.moveaxis(poly, 0, 2)  # (4, M, S, 2)
         rows = zip(ROW_OF[:EXACT], POWER_OF[:EXACT], strict=True)
         # the particular part (c0 + c1 s, c1): c0 s^p and c1 s^(p+1) on q, c1 s^p on q'
         pairs = [(p, p + 1) if row == 0 else (None, p) for row, p in rows]

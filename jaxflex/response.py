@@ -132,6 +132,7 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
         turning_inputs,
         turning_settle,
     )
+    from jaxflex._turning_bound import setup_need as turning_bound_need
     from jaxflex._turning_outputs import TurningLoads, turning_loads
     from jaxflex._turning_peaks import turning_output_peak
 
@@ -218,6 +219,7 @@ __all__ = [
     "states_between",
     "turn_acceleration",
     "turning_blocks",
+    "turning_bound_need",
     "turning_coordinates",
     "turning_forces",
     "turning_inputs",

@@ -18,7 +18,9 @@ engine's evaluations are dominated by fixed work at these sizes):
 * with a clearance, the response during the move every dt / 8 (optim.move_response's state
   map: 8 n x M x n values, shared by a length's schedules): CLEARANCE_S per value;
 * with the cell's constraints, their certificates (branch and bound over the turning
-  move): FAMILY_S per family and schedule.
+  move): FAMILY_S per family and schedule;
+* once per scenario's model, the turning bound's kernels (jaxflex.response.
+  turning_bound_need: time and memory growing with omega_max dt, the sub-samples per step).
 
 Every schedule of every length is counted (a search tries the shaped ones only while none
 is certified), so the plan errs high: over whole runs of the turning plate lifted 1 m and
@@ -48,6 +50,7 @@ import math
 import numpy as np
 
 from jaxflex.errors import InputError
+from jaxflex.response import turning_bound_need
 from jaxflex.runtime import Need, model_resolution, require
 from optim.budget import LP_S_AT_1000
 from optim.kinematics import clean_distance
@@ -149,12 +152,17 @@ def turn_plan_need(request, model, floor_steps: int, families: int) -> Need:
     evals = BASELINE_EVALS * request.n_scenarios
     baselines = evals * (EVAL_S + EVAL_STEP_S * floor_steps) + 4 * COMPILE_S
     lengths = gallop_lengths(floor_steps, 10 * floor_steps)[:NEAR_FLOOR_TESTS]
+    # each scenario's model builds the turning bound's kernels once (stiff parts at a long
+    # step: many sub-samples); they stay in memory with the model
+    bound = turning_bound_need(model, request.dt_s)
     return Need(
         f"the turning move's baselines ({evals:,} turning evaluations) and its search's first "
-        f"{_describe(request, model, lengths)}",
-        0.0,
-        baselines + search_s(request, model, lengths, families),
-        ADVICE,
+        f"{_describe(request, model, lengths)}; {bound.what}",
+        request.n_scenarios * bound.memory_bytes,
+        baselines
+        + search_s(request, model, lengths, families)
+        + request.n_scenarios * bound.time_s,
+        ADVICE if bound.time_s < 1.0 else f"{ADVICE}; {bound.advice}",
     )
 
 

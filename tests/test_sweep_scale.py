@@ -1,6 +1,8 @@
-"""A sweep of 400 small cases on a LocalCluster of 2 workers (optim.sweep.bench.sweep_scale with 2
-moves per layout): every case stored once, tasks in bounded batches, and the client holding
-no record once the run is under way. The figures (throughput, memory of every process, store
+"""A sweep of 400 small cases on a LocalCluster of 2 workers (optim.sweep.bench.sweep_scale with
+40 layouts of 10 moves: each layout is one FE analysis, so few layouts and many moves give
+the cases at a fifth of the FE work of 200 layouts of 2 moves; 10 of the layouts are still
+rejected by the FE step): every case stored once, tasks in bounded batches, and the client
+holding no record once the run is under way. The figures (throughput, memory of every process, store
 cost; 2 000 cases) are in docs/sweep.md, measured with ``python -m optim.sweep.bench.sweep_scale``;
 this test asserts no time and no resident size.
 The run is the benchmark's command in a fresh interpreter: the client's memory is then its
@@ -30,7 +32,7 @@ def test_four_hundred_cases_in_bounded_batches_and_no_record_held(tmp_path):
     out = tmp_path / "report.json"
     subprocess.run(
         [sys.executable, "-m", "optim.sweep.bench.sweep_scale", "--keep", str(tmp_path / "run"),
-         "--moves", "2", "-o", str(out)],
+         "--moves", "10", "--layouts", "40", "-o", str(out)],
         check=True,
         capture_output=True,
     )  # fmt: skip
@@ -41,7 +43,8 @@ def test_four_hundred_cases_in_bounded_batches_and_no_record_held(tmp_path):
     assert len({r["case_id"] for r in rows}) == len(rows) == N_CASES
     assert len(list((tmp_path / "cases").glob("*.json"))) == N_CASES
     assert report["ok"] + report["errors"] == N_CASES and report["ok"] > N_CASES // 2
-    assert {r["stage"] for r in rows if r["status"] == "error"} <= set(FINAL_STAGES)
+    errors = {r["stage"] for r in rows if r["status"] == "error"}
+    assert errors and errors <= set(FINAL_STAGES)  # the overlapping cups' layouts at least
     assert report["rerun_ms_per_stored_case"] > 0  # the rerun read them all, computed none
 
     # bounded batches: never more than TASKS_PER_THREAD case tasks per worker thread out

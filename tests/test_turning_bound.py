@@ -32,11 +32,13 @@ from jaxflex._turning_bound import (
     EXACT,
     POWER_OF,
     ROW_OF,
+    SETUP_COPIES,
     _kernels,
     bound_data,
     first_order_response,
     frame_basis,
     principal_axes,
+    setup_need,
     substeps,
 )
 
@@ -253,7 +255,7 @@ def test_kernels_stepped_through_the_step_equal_an_adaptive_integration():
     dt_s = 1e-3
     n_sub = substeps(omega, dt_s)
     taus = dt_s * np.arange(1, n_sub + 1) / n_sub
-    stepped = _kernels(omega, zeta, taus)
+    stepped = _kernels(omega, zeta, dt_s, n_sub)
     powers = np.asarray(POWER_OF[:EXACT])
 
     def phi(t: float) -> np.ndarray:  # (M, 2, 2) free response of each mode over t
@@ -273,5 +275,22 @@ def test_kernels_stepped_through_the_step_equal_an_adaptive_integration():
             return np.concatenate([homogeneous.ravel(), polynomial.ravel()])
 
         want, _ = scipy.integrate.quad_vec(integrand, 0.0, tau, epsabs=0.0, epsrel=1e-12)
-        got = np.concatenate([part.ravel() for part in stepped[k]])
+        got = np.concatenate([part[k].ravel() for part in stepped])
         assert np.abs(got - want).max() <= 1e-10 * np.abs(want).max()
+
+
+def test_the_planned_kernels_are_the_ones_built(turning_plate):
+    """The plan of the bound's set-up (setup_need, optim.turn_plan adds it to a turning
+    search's) counts the kernels bound_data builds: for a part 300 times stiffer than the
+    turning plate at 1 ms (its sub-samples per step from its omegas times dt), the memory is
+    SETUP_COPIES times the built kernels' bytes; the time grows with the sub-samples (linear
+    in omega_max dt: the kernels are stepped, not integrated from 0)."""
+    stiff = turning_plate._replace(freq_hz=300.0 * np.asarray(turning_plate.freq_hz))
+    need = setup_need(stiff, 1e-3)
+    data = bound_data(stiff, 1e-3)
+    assert data.substeps > 1
+    assert need.memory_bytes == SETUP_COPIES * data.homogeneous.nbytes
+    assert f"{data.substeps:,} sub-samples" in need.what
+    stiffer = setup_need(turning_plate._replace(freq_hz=10 * stiff.freq_hz), 1e-3)
+    assert 5 * need.time_s < stiffer.time_s < 20 * need.time_s
+    assert setup_need(turning_plate._replace(rotation=None), 1e-3).time_s == 0.0

@@ -2,13 +2,14 @@
 couplings of a formulation's own displacement field: the pieces every formulation shares
 when it answers the rotation integrals (fem.system.FormulationOutputs, fem.rotation_integrals).
 
-Pure NumPy: the finite elements and the readers of other tools' files use it alike."""
+Pure NumPy: the finite elements and the readers of other tools' files use it alike. The
+Levi-Civita symbol is imported where it is used: its home (jaxflex.response) loads JAX, which
+the readers' child interpreters (jaxflex.isolated) would otherwise import for nothing (1 s of
+CPU a file)."""
 
 from __future__ import annotations
 
 import numpy as np
-
-from jaxflex.response import LEVI_CIVITA
 
 DOFS_PER_NODE = 6  # translations x, y, z, then rotations about x, y, z
 
@@ -20,6 +21,8 @@ def nodal_fields(points_m: np.ndarray, translation: np.ndarray, rotation: np.nda
     rotation DOF), ``rotation`` (n, 3) the global axis of a rotation DOF (zeros else). A
     translation takes the field's component along it, a rotation the component of the
     field's infinitesimal rotation 1/2 curl(e_j r_i) = 1/2 eps_kij e_k along its axis."""
+    from jaxflex.response import LEVI_CIVITA
+
     return translation[:, None, :] * points_m[:, :, None] + 0.5 * np.einsum(
         "nk,kij->nij", rotation, LEVI_CIVITA
     )
@@ -46,6 +49,8 @@ def six_dof_fields(nodes_m: np.ndarray, n_dof: int) -> np.ndarray | None:
 def couplings_from_mass_products(products: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(G, P) from C[a, b, m, n] = int rho (v_m)_a (v_n)_b dV: G_k = int rho v_m . (e_k x
     v_n) = eps_kab C[b, a], P_kl = int rho v_m . (e_k x (e_l x v_n)) = C[l, k] - d_kl tr C."""
+    from jaxflex.response import LEVI_CIVITA
+
     gyroscopic = np.einsum("kab,bamn->kmn", LEVI_CIVITA, products)
     trace = np.einsum("aamn->mn", products)
     spin = products.transpose(1, 0, 2, 3) - np.eye(3)[:, :, None, None] * trace

@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from fem.discretisation import coarse_part
 from fem.eigen import DENSE_SHARE
 from fem.mesh.meshing import GROWTH, cup_bands, graded_count
 from fem.mesh.rim import ring_cells
@@ -162,6 +161,10 @@ def fe_plan(part, n_modes: int | str | None, supports=(), *, estimate: bool = Tr
     :func:`plan_of_cells`) held by ``supports`` (their contact discs refine a meshed
     part); with ``estimate`` the discretisation estimate's second analysis on a coarser
     mesh (fem.discretisation) is part of it."""
+    # imported here: fem.discretisation loads JAX (through fem.outputs), which the mesh
+    # readers' child interpreters (jaxflex.isolated, through fem.mesh.mesh_io) do not need
+    from fem.discretisation import coarse_part
+
     size = None if part.mesh_is_given else part.element_size_m
     plan = plan_of_cells(part.element, _cells(part, supports), n_modes, size)
     coarse = coarse_part(part) if estimate and n_modes != "all" else None

@@ -6,11 +6,14 @@ case do not grow with the number of finished cases. JSON on stdout (and ``-o FIL
 
 The spec (:func:`scale_spec`): a 0.6 x 0.4 m aluminium plate with 100 mm elements, 4 modes,
 6 monitored points; 200 rectangular layouts (2 or 3 cups per side, 5 x 5 insets, 2 radii)
-x 10 moves. Every ``SAMPLE_EVERY`` records the run notes the time, the client's memory (its
-process also runs the LocalCluster's scheduler) and its number of Python container objects
-(after a garbage collection), and each worker's memory (the workers are found from the
-records' ``worker`` field, ``host:pid``); the store's cost is timed per record, and after
-the run, interleaved, into the full results directory and into an empty one.
+x 10 moves (``--layouts 40``: one inset along y, the last, 0.32, where 3 cups of 40 mm
+overlap, so that the FE step still rejects 10 layouts; each layout is one FE analysis,
+whatever its number of moves). Every ``SAMPLE_EVERY`` records the run notes the time, the
+client's memory (its process also runs the LocalCluster's scheduler) and its number of
+Python container objects (after a garbage collection), and each worker's memory (the
+workers are found from the records' ``worker`` field, ``host:pid``); the store's cost is
+timed per record, and after the run, interleaved, into the full results directory and into
+an empty one.
 Memory figures are resident set sizes (MB): current (the client's after returning freed
 heap memory to the system, ``malloc_trim``, where the C library has it), and the process's
 peak so far (``VmHWM``, Linux). What holding the records would cost is measured in the same
@@ -35,6 +38,7 @@ import numpy as np
 import psutil
 
 from fem.bench.emit import emit_json
+from jaxflex.errors import InputError
 from optim.sweep.run import run_sweep
 from optim.sweep.spec import SweepSpec, parse_spec
 from optim.sweep.store import ResultStore
@@ -42,6 +46,7 @@ from optim.sweep.store import ResultStore
 SAMPLE_EVERY = 100  # records between two samples
 MB = 2**20
 HOLD_CASES = 1000  # records whose holding cost is measured (cases 500 ... 1 500)
+LAYOUT_CHOICES = (40, 80, 120, 160, 200)  # 2 x 2 cup counts x 5 insets x 2 radii x 1..5 insets
 
 
 def _trim() -> None:
@@ -53,9 +58,12 @@ def _trim() -> None:
         trim(0)
 
 
-def scale_spec(n_moves: int = 10) -> SweepSpec:
-    """200 layouts x ``n_moves`` moves of a small plate (see the module docstring)."""
+def scale_spec(n_moves: int = 10, n_layouts: int = 200) -> SweepSpec:
+    """``n_layouts`` (40, 80, ... 200) layouts x ``n_moves`` moves of a small plate (see the
+    module docstring)."""
     fractions = [0.12, 0.17, 0.22, 0.27, 0.32]
+    if n_layouts not in LAYOUT_CHOICES:
+        raise InputError(f"n_layouts: one of {LAYOUT_CHOICES}, got {n_layouts}")
     return parse_spec(
         {
             "name": "scale",
@@ -71,7 +79,7 @@ def scale_spec(n_moves: int = 10) -> SweepSpec:
                     "nx": [2, 3],
                     "ny": [2, 3],
                     "inset_x": fractions,
-                    "inset_y": fractions,
+                    "inset_y": fractions[len(fractions) - n_layouts // 40 :],
                     "radius_m": [0.03, 0.04],
                 }
             ],
@@ -206,11 +214,13 @@ def _cpu_ms_per_case(samples: list[dict], n: int) -> dict:
     }
 
 
-def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> dict:
+def measure(
+    directory: str | Path, *, n_workers: int = 2, n_moves: int = 10, n_layouts: int = 200
+) -> dict:
     """Run the scale spec on a LocalCluster of ``n_workers`` into ``directory`` (empty, or a
     previous run's: then only the missing cases), then rerun it (nothing left to compute:
     the cost of reading the stored records). The figures as a dict (see :func:`main`)."""
-    spec = scale_spec(n_moves)
+    spec = scale_spec(n_moves, n_layouts)
     sampler = Sampler(directory)
     run = run_sweep(
         spec,
@@ -284,16 +294,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--moves", type=int, default=10, help="moves per layout (default 10: 2 000 cases)"
     )
+    parser.add_argument(
+        "--layouts",
+        type=int,
+        default=200,
+        choices=LAYOUT_CHOICES,
+        help="layouts (default 200; each is one FE analysis, shared by its moves)",
+    )
     parser.add_argument("-o", "--output", help="also write the JSON here")
     parser.add_argument(
         "--keep", metavar="DIR", help="run into DIR (a new directory) and keep its results"
     )
     args = parser.parse_args(argv)
+    options = {"n_workers": args.workers, "n_moves": args.moves, "n_layouts": args.layouts}
     if args.keep:
-        report = measure(args.keep, n_workers=args.workers, n_moves=args.moves)
+        report = measure(args.keep, **options)
     else:
         with tempfile.TemporaryDirectory() as tmp:
-            report = measure(tmp, n_workers=args.workers, n_moves=args.moves)
+            report = measure(tmp, **options)
     return emit_json(report, args.output)
 
 
