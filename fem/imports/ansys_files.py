@@ -18,6 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fem.imports.mapdl_check import check_mapdl_file
+from fem.imports.numeric_csv import load_numeric_csv
 from jaxflex.errors import InputError
 from jaxflex.isolated import isolated
 
@@ -304,13 +305,7 @@ def read_node_coordinates(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarr
 
 
 def _read_csv_table(path: Path, width: int, name: str) -> np.ndarray:
-    try:
-        table = np.loadtxt(path, delimiter=",", ndmin=2)
-    except ValueError:
-        try:
-            table = np.loadtxt(path, delimiter=",", ndmin=2, skiprows=1)
-        except ValueError as exc:
-            raise InputError(f"{name}: {str(path)!r} is not a numeric CSV ({exc})") from exc
+    table = load_numeric_csv(path, name)
     if table.shape[1] != width or not np.isfinite(table).all():
         raise InputError(
             f"{name}: {str(path)!r} must have {width} finite numbers per row, got {table.shape[1]}"

@@ -49,6 +49,7 @@ import numpy as np
 import scipy.optimize
 
 from fem.imports.imported import ImportedModes, file_digest
+from fem.imports.numeric_csv import load_numeric_csv
 from fem.imports.r1_layout import detect_layout, steps_from_zero
 from fem.imports.solver_modes import rigid_mask, rigid_meta
 from jaxflex.errors import InputError
@@ -526,13 +527,7 @@ def _split(residues: np.ndarray, axes: tuple[str, ...]):
 
 def _read_nodes(path) -> tuple[np.ndarray, np.ndarray | None]:
     path = check_text_file("nodes", path)
-    try:
-        table = np.loadtxt(path, delimiter=",", ndmin=2)
-    except ValueError:
-        try:
-            table = np.loadtxt(path, delimiter=",", ndmin=2, skiprows=1)
-        except ValueError as exc:
-            raise InputError(f"nodes: {str(path)!r} is not a numeric CSV ({exc})") from exc
+    table = load_numeric_csv(path, "nodes")
     if table.shape[1] == 3:
         return table, None
     if table.shape[1] == 4:
