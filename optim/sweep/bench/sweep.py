@@ -26,6 +26,7 @@ from jaxflex.model import ModalModel
 from jaxflex.response import ARRAY_FIELDS
 from optim.limits import Limits
 from optim.optimize import optimize
+from optim.options import Search
 from optim.robust import RobustSpec
 from optim.sweep.cases import expand, layout_job
 from optim.sweep.evaluate import deviation_traces
@@ -88,7 +89,7 @@ def _meta_reuse(spec: SweepSpec, n_layouts: int = 4) -> dict:
                 limits,
                 spec.optimization.dt_s,
                 spec.optimization.threshold_m,
-                progress=False,
+                search=Search(progress=False),
             )
             out[label].append(round(time.perf_counter() - tick, 3))
     out["note"] = "per distinct layout, in order; the first layout's kept run also compiles"
