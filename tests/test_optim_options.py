@@ -260,3 +260,20 @@ def test_command_builds_and_refuses_the_objects(tmp_path):
         assert proc.returncode == 2, proc.stderr
         assert message in proc.stderr
         assert "none.npz" not in proc.stderr  # refused before the model file is looked at
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"kind": "threads"}, "executor: must be one of ['serial', 'dask'], got 'threads'"),
+        ({"kind": "serial", "scheduler": "tcp://h:8786"}, "scheduler: only used with the dask"),
+        ({"kind": "serial", "dashboard_address": ":8787"}, "dashboard_address: only used with"),
+        ({"n_workers": 0}, "n_workers: must be >= 1, got 0"),
+    ],
+)
+def test_sweep_executor_refuses_each_field_by_name(kwargs, message):
+    from optim.sweep import Executor
+
+    with pytest.raises(InputError) as info:
+        Executor(**kwargs)
+    assert message in str(info.value)

@@ -30,16 +30,15 @@ from optim.options import Search
 from optim.robust import RobustSpec
 from optim.sweep.cases import expand, layout_job
 from optim.sweep.evaluate import deviation_traces
-from optim.sweep.run import run_sweep
+from optim.sweep.run import Executor, run_sweep
 from optim.sweep.spec import EXAMPLE, SweepSpec, load_spec, parse_spec
 from optim.sweep.store import ResultStore
 from optim.sweep.work import analyse_layout, payload_model
 
 
 def _throughput(spec: SweepSpec, executor: str, n_workers: int | None, root: Path) -> dict:
-    run = run_sweep(
-        spec, root / executor, executor=executor, n_workers=n_workers, progress=False, plots=False
-    )
+    where = Executor(executor, n_workers=n_workers)
+    run = run_sweep(spec, root / executor, executor=where, progress=False, plots=False)
     ok = [r for r in run.records.values() if r["status"] == "ok"]
     fe_by_layout = {}  # layout -> (wall, cpu) of its one FE analysis
     for case in run.cases:

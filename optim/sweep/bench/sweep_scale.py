@@ -35,7 +35,7 @@ import numpy as np
 import psutil
 
 from fem.bench.emit import emit_json
-from optim.sweep.run import run_sweep
+from optim.sweep.run import Executor, run_sweep
 from optim.sweep.spec import SweepSpec, parse_spec
 from optim.sweep.store import ResultStore
 
@@ -215,10 +215,9 @@ def measure(directory: str | Path, *, n_workers: int = 2, n_moves: int = 10) -> 
     run = run_sweep(
         spec,
         directory,
-        n_workers=n_workers,
+        executor=Executor(n_workers=n_workers, notify=lambda message: None),
         progress=False,
         plots=False,
-        notify=lambda message: None,
         on_record=sampler,
     )
     store = ResultStore(directory)
