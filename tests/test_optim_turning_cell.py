@@ -34,6 +34,7 @@ THRESHOLD = 5e-4
 LIMITS = optim.Limits(vmax=2.0, amax=10.0, jmax=100.0)
 PIVOT = (0.6, 0.4, 0.0)  # the middle of the cups
 TILT = {"rotation": optim.Rotation("x", 30.0, pivot_m=PIVOT)}
+LIFT = ((0, 0, 1.0), LIMITS, DT, THRESHOLD)  # lifted 1 m while it tilts (TILT)
 SWIVEL = {"rotation": optim.Rotation("z", 90.0, pivot_m=PIVOT)}
 
 
@@ -124,26 +125,10 @@ def test_active_cups_on_a_tilt(plate):
     limit (certified), and the dense evaluation never finds more than the limit (the rows
     keep 1e-3 in reserve, the finer sampling of the body-frame loads changes the outputs
     by O(dt^2): measured 6e-5 of the peak)."""
-    plain = optim.optimize(
-        plate,
-        (0, 0, 1.0),
-        LIMITS,
-        DT,
-        THRESHOLD,
-        constraints=optim.Constraints(cup_safety=1.0),
-        **TILT,
-    )
+    plain = optim.optimize(plate, *LIFT, constraints=optim.Constraints(cup_safety=1.0), **TILT)
     peak = plain.constraints[0]["peak"]
     safety = 1.0 / (0.85 * peak)
-    result = optim.optimize(
-        plate,
-        (0, 0, 1.0),
-        LIMITS,
-        DT,
-        THRESHOLD,
-        constraints=optim.Constraints(cup_safety=safety),
-        **TILT,
-    )
+    result = optim.optimize(plate, *LIFT, constraints=optim.Constraints(cup_safety=safety), **TILT)
     assert not np.array_equal(result.acc, plain.acc)
     assert result.cycle_time_s >= plain.cycle_time_s
     assert all(
@@ -161,24 +146,10 @@ def test_active_cups_on_a_tilt(plate):
 def test_active_stress_on_a_tilt(plate):
     """Von Mises 15 % below the unconstrained tilt's peak: held, and the dense evaluation
     stays below the limit (as for the cups)."""
-    plain = optim.optimize(
-        plate,
-        (0, 0, 1.0),
-        LIMITS,
-        DT,
-        THRESHOLD,
-        constraints=optim.Constraints(max_stress_pa=1e12),
-        **TILT,
-    )
+    plain = optim.optimize(plate, *LIFT, constraints=optim.Constraints(max_stress_pa=1e12), **TILT)
     limit = 0.85 * plain.constraints[0]["peak"]
     result = optim.optimize(
-        plate,
-        (0, 0, 1.0),
-        LIMITS,
-        DT,
-        THRESHOLD,
-        constraints=optim.Constraints(max_stress_pa=limit),
-        **TILT,
+        plate, *LIFT, constraints=optim.Constraints(max_stress_pa=limit), **TILT
     )
     assert result.cycle_time_s >= plain.cycle_time_s
     (constraint,) = result.constraints
@@ -202,15 +173,8 @@ def test_active_distance_on_a_swivel(plate, tmp_path):
     post = Box(far.centre_m + np.array([0.0, start - 0.0055, 0.0]), far.size_m, name="post")
     cell = Cell(obstacles=(post,), end_m=np.array([1.0, 0.0, 0.0]), thickness_m=1e-3)
     assert _dense_distance(plate, plain, cell.obstacles, 5e-4) < 0.0075  # plain violates
-    result = optim.optimize(
-        plate,
-        None,
-        LIMITS,
-        DT,
-        THRESHOLD,
-        constraints=optim.Constraints(cell=cell, min_distance_m=0.01),
-        **SWIVEL,
-    )
+    in_cell = {"constraints": optim.Constraints(cell=cell, min_distance_m=0.01), **SWIVEL}
+    result = optim.optimize(plate, None, LIMITS, DT, THRESHOLD, **in_cell)
     (constraint,) = result.constraints
     assert constraint["bound"] >= 0.01 * (1 - 1e-9)
     dense = _dense_distance(plate, result, cell.obstacles, 5e-4)
@@ -230,7 +194,7 @@ def test_robust_turning_move_holds_on_every_model(plate):
     assert len(points) == 6
     assert worst == pytest.approx(result.worst_case["cycle_time_s"], abs=1e-9)
     assert all(worst <= b.score() + 1e-9 for b in result.baselines.entries)
-    nominal = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, **TILT)
+    nominal = optim.optimize(plate, *LIFT, **TILT)
     nominal_worst = turn_worst_case(
         plate, nominal.turn, nominal.move, nominal.angular_acc, THRESHOLD, robust.grid()
     )[0]
@@ -262,15 +226,8 @@ def test_turning_move_passes_the_via_point(plate, tmp_path):
     cell = cell_from_dict(
         {"path": {"end_m": [0.6, 0.0, 0.6], "via": via}, "part": {"thickness_m": 1e-3}}
     )
-    result = optim.optimize(
-        plate,
-        None,
-        LIMITS,
-        DT,
-        THRESHOLD,
-        constraints=optim.Constraints(cell=cell, cup_safety=1.5),
-        **TILT,
-    )
+    in_cell = {"constraints": optim.Constraints(cell=cell, cup_safety=1.5), **TILT}
+    result = optim.optimize(plate, None, LIMITS, DT, THRESHOLD, **in_cell)
     (baseline,) = result.baselines.entries
     assert baseline.name.startswith("ruckig via points")
     assert result.objective_s <= baseline.score()

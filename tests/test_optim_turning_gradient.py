@@ -25,6 +25,7 @@ THRESHOLD = 5e-4
 LIMITS = optim.Limits(vmax=2.0, amax=10.0, jmax=100.0)
 PIVOT = (0.6, 0.4, 0.0)  # the middle of the cups
 TILT = {"rotation": optim.Rotation("x", 30.0, pivot_m=PIVOT)}
+LIFT = ((0, 0, 1.0), LIMITS, DT, THRESHOLD)  # lifted 1 m while it tilts (TILT)
 # The gradient route's answer may differ from the exact route's by a step or two: both try
 # the same fixed turn schedules, but the soft maximum is minimised by a local NLP solver
 # whose answer is snapped onto the limits (an L1 grid fit), and the bisection assumes
@@ -73,15 +74,9 @@ def test_gradient_route_turns_the_part(plate, solver):
     part between the coarse pose samples, an O(dt^2) change of the body-frame loads,
     tests/test_optim_turning.py) and above it within one sample before it unless the cycle
     ends with the transfer."""
-    exact = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, **TILT)
+    exact = optim.optimize(plate, *LIFT, **TILT)
     result = optim.optimize(
-        plate,
-        (0, 0, 1.0),
-        LIMITS,
-        DT,
-        THRESHOLD,
-        search=optim.Search(method="gradient", solver=solver),
-        **TILT,
+        plate, *LIFT, search=optim.Search(method="gradient", solver=solver), **TILT
     )
     assert result.source == "optimised"
     assert result.solver_stats["route"] == f"gradient ({solver})"

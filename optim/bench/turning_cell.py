@@ -140,15 +140,7 @@ def main(argv=None) -> None:
     parser.add_argument("-o", "--output", default="turning_cell_bench.json")
     args = parser.parse_args(argv)
     model = _plate()
-    optim.optimize(
-        model,
-        (0, 0, 1.0),
-        LIMITS,
-        DT,
-        THRESHOLD,
-        constraints=optim.Constraints(cup_safety=1.0),
-        **TILT,
-    )  # compile
+    _timed(model, (0, 0, 1.0), {"cup_safety": 1.0}, **TILT)  # compile
     cases = [
         _load_case(model, "cups"),
         _load_case(model, "stress"),
