@@ -223,7 +223,7 @@ def run(args: argparse.Namespace) -> int:
     turning = {}
     if axis is not None:  # about the middle of the part's cups
         pivot_m = tuple(float(c) for c in model.cups.centre_m.mean(axis=0))
-        turning = {"rotate": (axis, angle_deg), "pivot_m": pivot_m}
+        turning = {"rotation": optim.Rotation(axis, angle_deg, pivot_m=pivot_m)}
     start = time.perf_counter()
     result = optim.optimize(
         model, distance_m, optim.Limits(**LIMITS), dt_s, threshold_m, robust=robust, **turning

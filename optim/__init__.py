@@ -7,8 +7,13 @@ Public interface (SI units throughout):
 * ``RobustSpec(freq_scale=(0.9, 1.1), zeta=(0.01, 0.03), n_freq=21, n_zeta=3)``;
 * ``baselines(model, distance_m, limits, dt_s, threshold_m)`` -> ruckig floor, ruckig + free
   decay, ZV / ZVD / EI multi-mode shaped moves, each with its exact cycle time;
-* ``optimize(model, distance_m, limits, dt_s, threshold_m, method="exact"|"gradient", ...)``
-  -> ``OptimizationResult`` (``.save(directory)`` writes trajectory.csv, report.json, plots);
+* ``optimize(model, distance_m, limits, dt_s, threshold_m, robust=None, constraints=None,
+  rotation=None, search=None, budget=None)`` -> ``OptimizationResult`` (``.save(directory)``
+  writes trajectory.csv, report.json, plots), its options frozen objects checked when made:
+  ``Search(method="exact"|"gradient", solver=None, max_shaped_modes=6, progress=None)``,
+  ``Constraints(cell=None, clearance_m=None, min_distance_m=None, cup_safety=None,
+  max_stress_pa=None)``, ``Rotation(axis, angle_deg, angular_limits=None, pivot_m=None)``,
+  ``Budget(max_duration_s=30, max_steps=5000, max_memory_bytes=None)``;
 * ``worst_case(model, move, threshold_m, RobustSpec().grid())`` -> the largest exact cycle
   time of a Move over a robust grid, where, and every grid point.
 """
@@ -22,6 +27,7 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at 
     from optim.cell_file import load_cell
     from optim.limits import ConstraintCheck, Limits, Violation, check_profile
     from optim.optimize import optimize
+    from optim.options import Budget, Constraints, Rotation, Search
     from optim.result import OptimizationResult
     from optim.robust import RobustSpec
 
@@ -30,10 +36,14 @@ __getattr__, __dir__ = lazy_names(__name__)
 __all__ = [
     "Baseline",
     "BaselineSet",
+    "Budget",
     "ConstraintCheck",
+    "Constraints",
     "Limits",
     "OptimizationResult",
     "RobustSpec",
+    "Rotation",
+    "Search",
     "Violation",
     "baselines",
     "check_profile",

@@ -29,6 +29,7 @@ from jaxflex.model import ModalModel
 from jaxflex.response import Move, SettleReport, analyze_move, as_move
 from jaxflex.runtime import progress_bar
 from optim.budget import MAX_STEPS
+from optim.defaults import MAX_SHAPED_MODES as MAX_SHAPED_MODES
 from optim.kinematics import clean_distance
 from optim.limits import Limits
 from optim.robust import RobustSpec, perturbed
@@ -39,8 +40,6 @@ from optim.ruckig_move import (
     time_optimal_move,
 )
 from optim.shapers import SHAPERS, convolve, shaper
-
-MAX_SHAPED_MODES = 6
 
 
 def _broken_line(c: dict) -> str:

@@ -1,7 +1,8 @@
 """``jaxflex optimize``: the minimum-cycle-time move for a modal model under robot limits.
 
-The options, the numbers, the move's length and the input files are checked before the
-optimiser (and JAX) loads and before the model file is read (optim.options): a bad request
+The command builds the option objects (optim.options: Search, Constraints, Rotation,
+Budget), which check themselves, and checks the numbers, the move's length and the input
+files before the optimiser (and JAX) loads and before the model file is read: a bad request
 is answered at once.
 """
 
@@ -15,8 +16,17 @@ from jaxflex.defaults import DT_S, MAX_DURATION_S
 from jaxflex.errors import InputError
 from jaxflex.files import check_input_file, check_set_dir
 from jaxflex.runtime import step
+from optim.cell_file import load_cell
 from optim.defaults import ANGULAR_LIMITS, FREQ_SCALE, GRID, MAX_STEPS, ZETA
-from optim.options import check_numbers, clean_distance, label
+from optim.options import (
+    Budget,
+    Constraints,
+    Rotation,
+    Search,
+    check_step,
+    clean_distance,
+    label,
+)
 from optim.result_files import RESULT_FILES, check_animation_dir
 
 COMMAND = "optimize"
@@ -243,10 +253,13 @@ def _add_budget(parser) -> None:
     )
 
 
-def rotate_argument(values: list[str] | None):
-    """``--rotate``'s words as (axis, angle_deg): AXIS ANGLE or X Y Z ANGLE (checked by
-    optim.turn.TurnSpec through the request)."""
+def rotation_argument(args: argparse.Namespace) -> Rotation | None:
+    """``--rotate`` (AXIS ANGLE or X Y Z ANGLE), ``--angular-limits`` and ``--pivot`` as an
+    optim.Rotation (None without --rotate)."""
+    values = args.rotate
     if values is None:
+        if args.angular_limits is not None or args.pivot is not None:
+            raise InputError("--angular-limits, --pivot: only with --rotate AXIS ANGLE_DEG")
         return None
     if len(values) not in (2, 4):
         raise InputError(
@@ -259,7 +272,7 @@ def rotate_argument(values: list[str] | None):
             axis = [float(v) for v in values[:3]]
         except ValueError as exc:
             raise InputError(f"--rotate: the axis must be three numbers, got {values[:3]}") from exc
-    return axis, values[-1]
+    return Rotation(axis, values[-1], args.angular_limits, args.pivot)
 
 
 def _max_stress(text: str | None) -> float | str | None:
@@ -272,9 +285,10 @@ def _max_stress(text: str | None) -> float | str | None:
         raise InputError(f"--max-stress: a stress in Pa or nothing, got {text!r}") from exc
 
 
-def _check_at_once(args: argparse.Namespace) -> None:
-    """What needs neither the model nor the optimiser: the output, the move, the numbers,
-    the input files (before JAX loads and the model file is read)."""
+def _options(args: argparse.Namespace) -> dict:
+    """What needs neither the model nor the optimiser, checked before JAX loads and the
+    model file is read: the output, the move, the numbers, the input files, the cell;
+    returns the option objects (optim.options) by their keyword of optim.optimize."""
     check_set_dir("-o/--output", args.output, RESULT_FILES)
     if args.animate:
         check_animation_dir("-o/--output", args.output)
@@ -282,26 +296,28 @@ def _check_at_once(args: argparse.Namespace) -> None:
         raise InputError("--distance / --cell: give the move by one of them")
     if args.distance is not None:
         clean_distance(args.distance, label("distance_m"))
-    check_numbers(
-        threshold_m=args.threshold,
-        dt_s=args.dt,
-        max_duration_s=args.max_duration,
-        clearance_m=args.clearance,
-        max_steps=args.max_steps,
-    )
+    check_step(args.threshold, args.dt)
     axis_limit_values(args)
-    rotate_argument(args.rotate)
+    search = Search(args.method, args.solver)
+    budget = Budget(args.max_duration, args.max_steps)
+    rotation = rotation_argument(args)
     check_input_file("model", args.model)
     if args.cell is not None:
         check_input_file("--cell", args.cell)
+    constraints = Constraints(
+        cell=None if args.cell is None else load_cell(args.cell),
+        clearance_m=args.clearance,
+        min_distance_m=args.min_distance,
+        cup_safety=args.cup_safety,
+        max_stress_pa=_max_stress(args.max_stress),
+    )
+    return {"search": search, "budget": budget, "rotation": rotation, "constraints": constraints}
 
 
 def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
-    _check_at_once(args)
-    max_stress = _max_stress(args.max_stress)
+    options = _options(args)
     import jaxflex
-    from optim.cell_file import load_cell
     from optim.cell_setup import with_cup_rating
     from optim.limits import Limits
     from optim.optimize import run as run_request
@@ -312,7 +328,6 @@ def run(args: argparse.Namespace) -> int:
     robust = None
     if args.robust:
         robust = RobustSpec(tuple(args.freq_scale), tuple(args.zeta), *args.grid)
-    cell = None if args.cell is None else load_cell(args.cell)
     model = jaxflex.load_model(args.model)
     if args.cup_friction is not None or args.cup_vacuum is not None:
         if args.cup_safety is None:
@@ -323,24 +338,13 @@ def run(args: argparse.Namespace) -> int:
         f"{'robust' if robust else 'nominal'} optimisation ({args.method})"
     )
     request = Request(
-        model,
-        args.distance,
-        limits,
-        args.dt,
-        args.threshold,
-        method=args.method,
-        solver=args.solver,
+        model=model,
+        distance_m=args.distance,
+        limits=limits,
+        dt_s=args.dt,
+        threshold_m=args.threshold,
         robust=robust,
-        max_duration_s=args.max_duration,
-        clearance_m=args.clearance,
-        max_steps=args.max_steps,
-        cell=cell,
-        min_distance_m=args.min_distance,
-        cup_safety=args.cup_safety,
-        max_stress_pa=max_stress,
-        rotate=rotate_argument(args.rotate),
-        angular_limits=args.angular_limits,
-        pivot_m=args.pivot,
+        **options,
     )
     result = run_request(request, start)
     print(result.summary(), flush=True)  # the answer first, then the files and pictures

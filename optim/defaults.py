@@ -14,3 +14,6 @@ GRID = (21, 3)  # robust: default check-grid points over the frequency and dampi
 # Rates of a typical 6-axis robot wrist (3 rad/s, 20 rad/s^2); the jerk 10 x the acceleration,
 # the ratio of the translation's defaults (10 m/s^2, 100 m/s^3).
 ANGULAR_LIMITS = (3.0, 20.0, 200.0)  # turns: rad/s, rad/s^2, rad/s^3 (optim.turn)
+MAX_SHAPED_MODES = 6  # the most modes a shaped baseline cancels (optim.baselines)
+LP_SOLVERS = ("highs", "casadi", "casadi-highs")  # the exact route's (optim.lp)
+GRADIENT_SOLVERS = ("ipopt", "slsqp")  # the gradient route's (optim.gradient)

@@ -44,12 +44,12 @@ from scipy.optimize import LinearConstraint, NonlinearConstraint, minimize
 
 from jaxflex.errors import InputError
 from jaxflex.response import integrate, soft_max
+from optim.defaults import GRADIENT_SOLVERS as GRADIENT_SOLVERS
 from optim.kinematics import add_cuts, add_move, path_cuts
 from optim.lp import LPBuilder
 from optim.ruckig_move import fit_to_grid
 from optim.search import Problem, SubResult, add_end_states
 
-GRADIENT_SOLVERS = ("ipopt", "slsqp")
 BETAS = (20.0, 200.0)
 # The surrogate only has to push every row below 1; where many moves achieve ~0 its minimum
 # is degenerate and tight tolerances only cost iterations.

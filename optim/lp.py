@@ -18,8 +18,8 @@ from scipy.optimize import linprog
 
 from jaxflex.errors import InputError
 from jaxflex.stdout import silenced_stdout
+from optim.defaults import LP_SOLVERS as LP_SOLVERS
 
-LP_SOLVERS = ("highs", "casadi", "casadi-highs")
 # Feasibility tolerance asked of every back end (absolute, on rows of O(1) scale); the
 # limits check allows 1e-9 relative, so a returned vertex meets it with room to spare.
 TOLERANCE = 1e-9

@@ -154,12 +154,16 @@ def reachable_cell(request):
     """The cell a straight move of ``request`` (an optim.request.Request) with
     ``min_distance_m`` measures its distance to: :func:`reachable`'s, the pieces left out
     said in a step line; the request's cell as it is otherwise (no limit, a turning move)."""
-    cell = request.cell
-    if cell is None or request.min_distance_m is None or request.rotate is not None:
+    cell = request.constraints.cell
+    if cell is None or request.constraints.min_distance_m is None or request.turn is not None:
         return cell
     found = reachable(
-        cell, request.model, request.limits, request.max_duration_s, request.min_distance_m
+        cell,
+        request.model,
+        request.limits,
+        request.budget.max_duration_s,
+        request.constraints.min_distance_m,
     )
     if found.dropped:
-        step(found.note(request.max_duration_s), enabled=request.progress)
+        step(found.note(request.budget.max_duration_s), enabled=request.search.progress)
     return found.cell

@@ -1,38 +1,33 @@
-"""``optim.Request``: one optimisation request, checked once, where it enters.
+"""``optim.request.Request``: one optimisation request, checked once, where it enters.
 
-Every argument of ``optim.optimize`` is a field; the constructor converts the loose forms
-(limits and the robust range as mappings, ``robust=True``) and refuses what no run can use,
-with an InputError naming the field and, for the fields the command sets, its option of
-``jaxflex optimize`` (``threshold_m (--threshold): ...``). The stages after it
-(optim.stages) take its values as they are. What needs the model posed in the cell (the
-move's length, the memory, the clearance) is checked by the plan stage.
+Every argument of ``optim.optimize`` is a field, given by keyword; the option objects
+(optim.options: Search, Constraints, Rotation, Budget) checked themselves when made. The
+constructor converts the loose forms (limits and the robust range as mappings,
+``robust=True``), checks what needs the model or more than one option (the model's damping,
+the route against the cell's constraints, the turn against the model and the budget) and
+refuses what no run can use, with an InputError naming the field and, for the fields the
+command sets, its option of ``jaxflex optimize`` (``threshold_m (--threshold): ...``). The
+stages after it (optim.stages) take its values as they are. What needs the model posed in
+the cell (the move's length, the memory, the clearance) is checked by the plan stage.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from jaxflex.defaults import MAX_DURATION_S
 from jaxflex.errors import InputError
-from jaxflex.files import check_positive
 from jaxflex.model import ModalModel
 from jaxflex.response import require_rotation
 from jaxflex.runtime import current_budget
-from optim.baselines import MAX_SHAPED_MODES
-from optim.budget import MAX_STEPS
-from optim.gradient import GRADIENT_SOLVERS
 from optim.limits import Limits
-from optim.lp import LP_SOLVERS
-from optim.options import check_numbers, label
+from optim.options import Budget, Constraints, Rotation, Search, check_step
 from optim.robust import RobustSpec
 from optim.turn import TurnSpec
 from optim.turn_via import with_via_orientations
-
-METHODS = {"exact": ("highs", LP_SOLVERS), "gradient": ("ipopt", GRADIENT_SOLVERS)}
 
 
 def _as_limits(limits: Any) -> Limits:
@@ -55,6 +50,18 @@ def _as_robust(robust: Any) -> RobustSpec | None:
     if isinstance(robust, Mapping):
         return RobustSpec.from_dict(dict(robust))
     raise InputError(f"robust: expected None, True or optim.RobustSpec(...), got {robust!r}")
+
+
+def _option(name: str, value: Any, kind: type) -> Any:
+    """``value`` if it is a ``kind`` (an option object of optim.options), ``kind()`` (its
+    defaults) for None; InputError naming the argument otherwise."""
+    if value is None:
+        return kind()
+    if not isinstance(value, kind):
+        raise InputError(
+            f"{name}: an optim.{kind.__name__}(...) or None, got {type(value).__name__}"
+        )
+    return value
 
 
 def _check_model(model: Any, robust: RobustSpec | None) -> None:
@@ -88,70 +95,54 @@ def _in_cell(turn: TurnSpec, cell: Any) -> TurnSpec:
     )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Request:
-    """The arguments of ``optim.optimize`` (see there), checked and in their final form:
-    ``limits`` a Limits, ``robust`` None or a RobustSpec, ``solver`` the method's default if
-    not given, ``max_memory_bytes`` the process's budget if not given, numbers as floats."""
+    """The arguments of ``optim.optimize`` (see there), by keyword, checked and in their
+    final form: ``limits`` a Limits, ``robust`` None or a RobustSpec, the option objects
+    given (their defaults for None), ``budget.max_memory_bytes`` the process's budget if
+    not given, ``turn`` the rotation's optim.turn.TurnSpec in the cell's coordinates (with
+    the cell's via orientations), None without a rotation."""
 
     model: ModalModel
     distance_m: Any  # (3,) m, or None with a cell (then the cell's move)
     limits: Limits
     dt_s: float
     threshold_m: float
-    method: str = "exact"
-    solver: str | None = None
     robust: RobustSpec | None = None
-    progress: bool | None = None
-    max_duration_s: float = MAX_DURATION_S
-    max_shaped_modes: int = MAX_SHAPED_MODES
-    clearance_m: float | None = None
-    max_steps: int = MAX_STEPS
-    max_memory_bytes: int | None = None
-    cell: Any = None  # a jaxflex.geometry.Cell
-    min_distance_m: float | None = None
-    cup_safety: float | None = None
-    max_stress_pa: float | str | None = None
-    rotate: Any = None  # (axis, angle_deg) or an optim.turn.TurnSpec; a TurnSpec once checked
-    angular_limits: Any = None  # (rate rad/s, acc rad/s^2, jerk rad/s^3); ANGULAR_LIMITS
-    pivot_m: Any = None  # (3,) m: the point the turn's axis passes through (default origin)
+    constraints: Constraints | None = None
+    rotation: Rotation | None = None
+    search: Search | None = None
+    budget: Budget | None = None
+    turn: TurnSpec | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         robust = _as_robust(self.robust)
         _check_model(self.model, robust)
         self._set("robust", robust)
         self._set("limits", _as_limits(self.limits))
-        numbers = check_numbers(
-            threshold_m=self.threshold_m,
-            dt_s=self.dt_s,
-            max_duration_s=self.max_duration_s,
-            clearance_m=self.clearance_m,
-            max_steps=self.max_steps,
-        )
-        for field, value in numbers.items():
-            self._set(field, value)
+        threshold_m, dt_s = check_step(self.threshold_m, self.dt_s)
+        self._set("threshold_m", threshold_m)
+        self._set("dt_s", dt_s)
+        for name, kind in (("constraints", Constraints), ("search", Search), ("budget", Budget)):
+            self._set(name, _option(name, getattr(self, name), kind))
+        if self.rotation is not None and not isinstance(self.rotation, Rotation):
+            raise InputError(
+                f"rotation: an optim.Rotation(axis, angle_deg, ...) or None, got "
+                f"{type(self.rotation).__name__}"
+            )
+        if self.budget.max_memory_bytes is None:
+            memory = current_budget().memory_bytes
+            self._set("budget", replace(self.budget, max_memory_bytes=memory))
         self._check_route()
         self._check_turn()
-        if self.rotate is not None:  # before ruckig or an LP sees the turn
-            self.rotate.check_length(self.dt_s, self.max_duration_s, self.max_steps)
-        memory = self.max_memory_bytes
-        memory = current_budget().memory_bytes if memory is None else memory
-        check_positive(label("max_memory_bytes"), memory)
-        self._set("max_memory_bytes", memory)
 
     def _set(self, field: str, value: Any) -> None:
         object.__setattr__(self, field, value)
 
     def _check_route(self) -> None:
-        """The method and its solver; the gradient route refuses the cell's constraints."""
-        if self.method not in METHODS:
-            raise InputError(f"method: must be one of {sorted(METHODS)}, got {self.method!r}")
-        default_solver, allowed = METHODS[self.method]
-        solver = default_solver if self.solver is None else self.solver
-        if solver not in allowed:
-            raise InputError(f"solver: method {self.method!r} accepts {allowed}, got {solver!r}")
-        self._set("solver", solver)
-        if self.method == "gradient" and (self.has_via or self.has_cell_limits):
+        """The gradient route refuses the cell's via points and constraints."""
+        c = self.constraints
+        if self.search.method == "gradient" and (c.has_via or c.has_cell_limits):
             raise InputError(
                 "method: the gradient route does not take via points or the cell's constraints "
                 "(min_distance_m, cup_safety, max_stress_pa); the exact route does: "
@@ -160,37 +151,16 @@ class Request:
 
     def _check_turn(self) -> None:
         """The turn (optim.turn.TurnSpec), for a model with the rotation data (both routes
-        take it: the turn's fixed schedules make the end state affine in the samples)."""
-        rotate = self.rotate
-        if rotate is None:
-            if self.angular_limits is not None or self.pivot_m is not None:
-                raise InputError(
-                    "angular_limits (--angular-limits), pivot_m (--pivot): only with rotate "
-                    "(--rotate)"
-                )
-            with_via_orientations(None, self.cell, self.limits)  # refused without a turn
+        take it: the turn's fixed schedules make the end state affine in the samples),
+        checked against the budget before ruckig or an LP sees it."""
+        cell = self.constraints.cell
+        if self.rotation is None:
+            with_via_orientations(None, cell, self.limits)  # refused without a turn
             return
-        if not isinstance(rotate, TurnSpec):
-            if isinstance(rotate, str) or not hasattr(rotate, "__len__") or len(rotate) != 2:
-                raise InputError(
-                    "rotate (--rotate AXIS ANGLE_DEG): (axis, angle in degrees), the axis "
-                    f"'x', 'y', 'z' or three numbers; got {rotate!r}"
-                )
-            rotate = TurnSpec.checked(rotate[0], rotate[1], self.angular_limits, self.pivot_m)
         require_rotation(self.model)
-        self._set(
-            "rotate", with_via_orientations(_in_cell(rotate, self.cell), self.cell, self.limits)
-        )
-
-    @property
-    def has_via(self) -> bool:
-        return bool(getattr(self.cell, "via", ()))
-
-    @property
-    def has_cell_limits(self) -> bool:
-        """Whether any of the cell's constraints is asked for."""
-        limits = (self.min_distance_m, self.cup_safety, self.max_stress_pa)
-        return any(limit is not None for limit in limits)
+        turn = with_via_orientations(_in_cell(TurnSpec.of(self.rotation), cell), cell, self.limits)
+        turn.check_length(self.dt_s, self.budget.max_duration_s, self.budget.max_steps)
+        self._set("turn", turn)
 
     @property
     def n_scenarios(self) -> int:

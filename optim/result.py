@@ -33,6 +33,7 @@ import numpy as np
 from jaxflex.files import MANIFEST, SetWriter, write_trajectory_csv, writing
 from jaxflex.model import ModalModel
 from jaxflex.response import Move, SettleReport, as_move, deviation_curve, integrate
+from optim import result_report
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
 from optim.result_files import ANIMATION_DIR as ANIMATION_DIR  # their home: the light names
@@ -61,30 +62,6 @@ def remove_animation(directory: Path) -> None:
         (folder / Path(str(name)).name).unlink(missing_ok=True)
     with contextlib.suppress(OSError):
         folder.rmdir()
-
-
-def constraint_line(c: dict) -> str:
-    """One line on a cell constraint's certified value (optim.cell_rows describe())."""
-    when = "at rest" if not np.isfinite(c["time_s"]) else f"at {c['time_s']:.3f} s"
-    if "distance" in c["name"]:
-        return (
-            f"{c['name']}: {c['peak'] * 1e3:.2f} mm (limit {c['limit'] * 1e3:g} mm) {when}, "
-            f"point {c['item']}, obstacle {c.get('obstacle')!r}"
-        )
-    scale, unit = (1e-6, " MPa") if "stress" in c["name"] else (1.0, "")
-    what = "cup" if "cup" in c["name"] else "stress point"
-    error = ""
-    if c.get("discretisation_error") is not None:  # the FE's estimate (fem.discretisation)
-        high = c["peak_with_discretisation"]
-        error = (
-            f"; FE discretisation error +-{100 * c['discretisation_error']:.2g} %: up to "
-            f"{high * scale:.3g}{unit} on the real part"
-            + (", above the limit" if high > c["limit"] else "")
-        )
-    return (
-        f"{c['name']}: {c['peak'] * scale:.3g}{unit} (limit {c['limit'] * scale:.3g}{unit}, "
-        f"utilisation {c['utilisation']:.1%}{error}) {when}, {what} {c['item']}"
-    )
 
 
 def deviation_summary(model: ModalModel, move: Move) -> dict:
@@ -179,190 +156,30 @@ class OptimizationResult:
         """The answer against the best baseline that meets the cell's constraints and the
         clearance (``baseline_allowed``), by the same objective: its name, its objective and
         the saving (s, and relative to the baseline). Where no baseline does, against the
-        fastest one, ``baseline_allowed`` False and ``breaks`` saying what it breaks."""
-        allowed = self.baselines.best_allowed()
-        best = allowed if allowed is not None else self.baselines.best()
-        saving = best.score() - self.objective_s
-        return {
-            "objective": "cycle_time_s" if self.worst_case is None else "worst_cycle_time_s",
-            "best_baseline": best.name,
-            "best_baseline_s": best.score(),
-            "saving_s": saving,
-            "saving_rel": saving / best.score(),
-            "baseline_allowed": allowed is not None,
-            "breaks": best.broken(),
-        }
+        fastest one, ``baseline_allowed`` False and ``breaks`` saying what it breaks
+        (optim.result_report)."""
+        return result_report.comparison(self)
 
     def ratios(self) -> dict:
         """The issue's figures: cycle time over the kinematic floor and over the best
-        shaper (nominal), and the robust worst case over the best shaper's worst case."""
-        base = self.baselines
-        shapers = [b for b in base.entries if b.shaped_freq_hz]
-        out = {
-            "cycle_over_kinematic_floor": self.cycle_time_s / base.kinematic_floor_s,
-            "cycle_over_floor_on_grid": self.cycle_time_s / (base.floor_steps * self.dt_s),
-        }
-        if shapers:
-            best = min(shapers, key=lambda b: b.cycle_time_s)
-            out["cycle_over_best_shaper"] = self.cycle_time_s / best.cycle_time_s
-            out["best_shaper"] = best.name
-            if self.worst_case is not None:
-                worst = min(shapers, key=lambda b: b.worst_cycle_time_s)
-                out["worst_over_best_shaper_worst"] = (
-                    self.worst_cycle_time_s / worst.worst_cycle_time_s
-                )
-                out["best_shaper_worst_case"] = worst.name
-        return out
+        shaper (nominal), and the robust worst case over the best shaper's worst case
+        (optim.result_report)."""
+        return result_report.ratios(self)
 
     def report(self) -> dict:
-        """Everything as JSON-ready data (the content of report.json)."""
-        model = self.model
-        return {
-            "units": "SI (m, s, m/s, m/s^2, m/s^3)",
-            "inputs": self.inputs or None,
-            "model": {
-                "n_modes": model.n_modes,
-                "n_points": model.n_points,
-                "freq_hz_range": [float(np.min(model.freq_hz)), float(np.max(model.freq_hz))],
-                "source": dict(model.meta).get("source"),
-            },
-            "distance_m": self.distance_m.tolist(),
-            "dt_s": self.dt_s,
-            "threshold_m": self.threshold_m,
-            "limits": self.limits.as_dict(),
-            "method": self.method,
-            "solver": self.solver,
-            "robust": None if self.robust is None else self.robust.as_dict(),
-            "clearance_m": self.clearance_m,
-            "source": self.source,
-            "notes": list(self.solver_stats.get("notes", [])),
-            "warnings": self.warnings,
-            "frame": "model" if self.cell is None or self.cell.cell is None else "cell",
-            "cell": None
-            if self.cell is None or self.cell.cell is None
-            else self.cell.cell.describe(),
-            "constraints": self.constraints,
-            "turn": None if self.turn is None else self._turn_report(),
-            "n_steps": self.n_steps,
-            "transfer_time_s": self.transfer_time_s,
-            "settle_time_s": self.settle_time_s,
-            "cycle_time_s": self.cycle_time_s,
-            "worst_case": self.worst_case,
-            "comparison": self.comparison(),
-            "deviation": self.deviation,
-            "ratios": self.ratios(),
-            "constraint_check": self.constraint_check.as_dict(),
-            "baselines": self.baselines.as_dict(),
-            "solver_stats": self.solver_stats,
-            "wall_time_s": self.wall_time_s,
-        }
-
-    def _turn_report(self) -> dict:
-        """The turn, its schedule's heuristic and the neglected terms' bound (optim.turn)."""
-        return {
-            "schedule": "fixed per move length: ruckig's turn stretched to the move, or shaped "
-            "like the best shaped baselines and stretched (optim.turn)",
-            **self.turn.as_dict(),  # a turn through via orientations says its own schedule
-            "neglected_bound_m": self.deviation["neglected_bound_m"],
-            "angular_acc_rad_s2": self.angular_acc.tolist(),
-        }
-
-    def _turn_line(self) -> str:
-        spec = self.turn.as_dict()
-        axis = ", ".join(f"{v:g}" for v in spec["axis"])
-        bound = self.deviation["neglected_bound_m"]
-        through = "".join(  # a turn through via orientations (optim.turn_via)
-            f"{' then' if i else ' through the via orientations:'} {s['angle_deg']:.4g} deg "
-            f"about ({', '.join(f'{v:.3g}' for v in s['axis'])})"
-            for i, s in enumerate(spec.get("via_turns", ()))
-        )
-        return (
-            f"  turn: {spec['angle_deg']:g} deg about ({axis}){through} within "
-            f"{spec['rate_rad_s']:g} "
-            f"rad/s, {spec['acc_rad_s2']:g} rad/s^2, {spec['jerk_rad_s3']:g} rad/s^3; the "
-            f"neglected gyroscopic and spin-softening terms change the deviation by at most "
-            f"{bound * 1e3:.3g} mm"
-        )
+        """Everything as JSON-ready data (the content of report.json; optim.result_report)."""
+        return result_report.report(self)
 
     def summary(self) -> str:
-        """The answer first (ruckig-style: one line), then the details, for the terminal."""
-        lines = [self.headline(), f"  {self._timeline()}"]
-        if self.worst_case is not None:
-            grid = self.worst_case["grid"]
-            lines.append(
-                f"  nominal model: cycle {self.cycle_time_s:.3f} s; worst over the "
-                f"{len(grid)} models of the robust grid at f x{self.worst_case['freq_scale']:.3g}"
-                + ("" if self.worst_case["zeta"] is None else f", zeta {self.worst_case['zeta']:g}")
-            )
-        peak = self.deviation["peak_during_move_m"]
-        clear = "" if self.clearance_m is None else f" (clearance {self.clearance_m * 1e3:g} mm)"
-        lines.append(f"  peak deviation during the move: {peak * 1e3:.3f} mm{clear}")
-        if self.turn is not None:
-            lines.append(self._turn_line())
-        for c in self.constraints:
-            lines.append("  " + constraint_line(c))
-        base = self.baselines
-        lines.append(
-            f"  kinematic floor (ruckig): {base.kinematic_floor_s:.3f} s, "
-            f"{base.floor_steps} steps on the {self.dt_s * 1e3:g} ms grid"
-        )
-        robust = self.worst_case is not None
-        lines.append("  baselines:" + " " * 16 + "cycle" + ("      worst" if robust else ""))
-        for b in base.entries:
-            worst = f"    {b.worst_cycle_time_s:7.3f} s" if robust else ""
-            bad = "" if b.allowed else f" (not allowed: breaks {b.broken()})"
-            lines.append(f"    {b.name:24s}{b.cycle_time_s:7.3f} s{worst}{bad}")
-        lines.append(f"  limits: {self.constraint_check.summary()}")
-        lines += [f"  note: {note}" for note in self.solver_stats.get("notes", [])]
-        lines.append(f"  ({self.method}, {self.solver}; {self.wall_time_s:.1f} s wall)")
-        return "\n".join(lines)
+        """The answer first (ruckig-style: one line), then the details, for the terminal
+        (optim.result_report)."""
+        return result_report.summary(self)
 
     def headline(self) -> str:
         """One line with the answer: which move, its objective, and how it compares with
         the best baseline that meets the cell's constraints and the clearance (the same
         objective), or that no baseline does."""
-        cmp = self.comparison()
-        what = "worst case" if self.worst_case is not None else "cycle"
-        base = f"{cmp['best_baseline']} {cmp['best_baseline_s']:.3f} s"
-        if self.source not in ("optimised", "search"):
-            return (
-                f"best move: the baseline {self.source!r}, {what} {self.objective_s:.3f} s (no "
-                "optimised move was shorter; see the note)"
-            )
-        head = f"best move: optimised, {what} {self.objective_s:.3f} s"
-        if not cmp["baseline_allowed"]:
-            return (
-                f"{head}; no baseline meets the cell's constraints (the fastest, {base}, "
-                f"breaks {cmp['breaks']})"
-            )
-        if cmp["saving_s"] > 0:
-            return (
-                f"{head}, {cmp['saving_s']:.3f} s ({100 * cmp['saving_rel']:.1f} %) shorter "
-                f"than the best feasible baseline, {base}"
-            )
-        if cmp["saving_s"] < -1e-9:  # not a candidate (optim.stages.choose's notes)
-            return (
-                f"{head}; the best baseline, {base}, is shorter but breaks the clearance or "
-                "a cell constraint"
-            )
-        floor = " = the kinematic floor, no move is shorter" if self._at_floor() else ""
-        return f"{head}, as short as the best feasible baseline, {base}{floor}"
-
-    def _at_floor(self) -> bool:
-        return (
-            self.n_steps == self.baselines.floor_steps and self.objective_s == self.transfer_time_s
-        )
-
-    def _timeline(self) -> str:
-        """Transfer, settle and cycle time in words: the cycle is max(transfer, settle)."""
-        transfer, settle = self.transfer_time_s, self.settle_time_s
-        mm = f"{self.threshold_m * 1e3:g} mm"
-        if settle == 0.0:
-            after = f"the deviation never exceeds {mm}"
-        else:
-            when = "before" if settle <= transfer else f"{settle - transfer:.3f} s after"
-            after = f"the deviation stays below {mm} from {settle:.3f} s on, {when} the stop"
-        return f"transfer {transfer:.3f} s; {after}; cycle {self.cycle_time_s:.3f} s (exact)"
+        return result_report.headline(self)
 
     def save(self, directory: str | os.PathLike, *, plots: bool = True) -> list[Path]:
         """Write trajectory.csv, report.json and (with ``plots``) the pictures into

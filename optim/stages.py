@@ -1,6 +1,7 @@
 """The stages of ``optim.optimize``, one job each, on a checked ``optim.request.Request``.
 
-plan -> baselines -> search -> choose -> certify -> report:
+plan -> baselines -> search -> choose -> certify -> report, each reading the one growing
+:class:`Run` (the request and what the stages before it found) and returning its part:
 
 * :func:`plan`: the cell set-up (optim.cell_setup) and the budgets (optim.budget): the
   longest move the search may try, refused before any work if it cannot fit;
@@ -115,42 +116,56 @@ class Certified:
     worst_case: dict | None
 
 
-def plan(request: Request) -> Plan:
+@dataclass
+class Run:
+    """One run of the stages: the checked request, the ``time.perf_counter()`` its wall
+    time counts from, and each stage's part as it is found (None before)."""
+
+    request: Request
+    start_s: float
+    plan: Plan | None = None
+    base: Baselines | None = None
+    found: Search | None = None
+    choice: Choice | None = None
+    certified: Certified | None = None
+
+
+def plan(run: Run) -> Plan:
     """Pose the model in the cell and fix the search's budget; refuse (InputError,
     BudgetError) what cannot fit before any work."""
-    r = request
+    r = run.request
     models = 1 + (0 if r.robust is None else r.robust.n_scenarios)  # the cell's
     cell = reachable_cell(r)  # far obstacles left out (optim.obstacle_reach)
-    if cell is not None and r.min_distance_m is not None:  # before the set-up measures
+    if cell is not None and r.constraints.min_distance_m is not None:  # before the set-up measures
         shortest, _ = check_move_length(
-            cell.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
+            cell.distance_m, r.limits, r.dt_s, r.budget.max_duration_s, r.budget.max_steps
         )
         require(distance_need(cell, r.model.n_points, shortest, models))
     setup = prepare_cell(
         r.model,
         r.distance_m,
         cell=cell,
-        min_distance_m=r.min_distance_m,
-        max_stress_pa=r.max_stress_pa,
-        cup_safety=r.cup_safety,
+        min_distance_m=r.constraints.min_distance_m,
+        max_stress_pa=r.constraints.max_stress_pa,
+        cup_safety=r.constraints.cup_safety,
         robust=r.robust,
-        turn=r.rotate,
+        turn=r.turn,
     )
     model = setup.model
     shortest, allowed = check_move_length(
-        setup.distance_m, r.limits, r.dt_s, r.max_duration_s, r.max_steps
+        setup.distance_m, r.limits, r.dt_s, r.budget.max_duration_s, r.budget.max_steps
     )
-    if setup.families and r.rotate is None:  # a stiff part's constraints cost (optim.budget)
+    if setup.families and r.turn is None:  # a stiff part's constraints cost (optim.budget)
         require(families_need(setup.families, model, shortest, r.dt_s, r.n_scenarios))
-    if r.rotate is not None:  # before its baselines: a turning move's plan (optim.turn_plan)
+    if r.turn is not None:  # before its baselines: a turning move's plan (optim.turn_plan)
         check_clearance_resolution(r, model, setup.distance_m)
         floor = turning_floor_steps(r, setup.distance_m, shortest)
         require(turn_plan_need(r, model, floor, len(setup.families)))
-    if r.clearance_m is not None and (r.rotate is None or not r.rotate.turns):
-        _check_clearance(setup, r.clearance_m, r.max_duration_s)
-    clearance = r.clearance_m is not None
+    if r.constraints.clearance_m is not None and (r.turn is None or not r.turn.turns):
+        _check_clearance(setup, r.constraints.clearance_m, r.budget.max_duration_s)
+    clearance = r.constraints.clearance_m is not None
     steps_cap = check_memory(
-        model.n_modes, shortest, allowed, r.n_scenarios, clearance, r.max_memory_bytes
+        model.n_modes, shortest, allowed, r.n_scenarios, clearance, r.budget.max_memory_bytes
     )
     cost = _cell_cost(cell, setup, models)
     need = search_need(model.n_modes, model.n_points, shortest, steps_cap, r.n_scenarios, cell=cost)
@@ -197,17 +212,18 @@ def _check_clearance(setup: CellSetup, clearance_m: float, max_duration_s: float
         )
 
 
-def baselines(request: Request, plan: Plan) -> Baselines:
+def baselines(run: Run) -> Baselines:
     """The baselines (along the via points, if any), each marked whether it meets the cell's
     constraints, and the advice on the threshold from the kinematic floor's response."""
-    r, setup = request, plan.setup
+    r, plan = run.request, run.plan
+    setup = plan.setup
     fractions: list[float] = []
     trains = []
-    if r.rotate is not None and setup.via:
+    if r.turn is not None and setup.via:
         via = [v[0] for v in setup.via]
-        through = oriented_via_baselines if isinstance(r.rotate, ViaTurn) else turn_via_baselines
+        through = oriented_via_baselines if isinstance(r.turn, ViaTurn) else turn_via_baselines
         moves, fractions = through(r, setup.model, setup.distance_m, via, plan.steps_cap)
-    elif r.rotate is not None:
+    elif r.turn is not None:
         moves, trains = turn_baselines(r, setup.model, setup.distance_m, plan.steps_cap)
     elif setup.via:
         via = [v[0] for v in setup.via]
@@ -218,15 +234,15 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     else:
         moves = compute_baselines(
             setup.model, setup.distance_m, r.limits, r.dt_s, r.threshold_m,
-            robust=r.robust, max_shaped_modes=r.max_shaped_modes, max_steps=plan.steps_cap,
-            progress=r.progress,
+            robust=r.robust, max_shaped_modes=r.search.max_shaped_modes, max_steps=plan.steps_cap,
+            progress=r.search.progress,
         )  # fmt: skip
     for entry in moves.entries:
         entry.constraints_ok, entry.constraints = setup.feasible(
             entry.move, entry.angular_acc, every=False
         )
     floor = moves.entries[0]  # the fastest move there is on the grid (along the path)
-    measured = [floor] if r.clearance_m is None else moves.entries
+    measured = [floor] if r.constraints.clearance_m is None else moves.entries
     deviations = {
         e.name: _deviation(r, setup.model, e.move, e.angular_acc, e.neglected_bound_m)
         for e in measured
@@ -234,7 +250,7 @@ def baselines(request: Request, plan: Plan) -> Baselines:
     peak = deviations[floor.name]["peak_during_move_m"]
     resolution = model_resolution(setup.model, setup.distance_m)
     advice = threshold_advice(r.threshold_m, floor.timing.settle_time_s, peak, resolution)
-    over = _over_clearance(r.clearance_m, deviations)
+    over = _over_clearance(r.constraints.clearance_m, deviations)
     for entry in moves.entries:
         entry.clearance_ok = entry.name not in over
     feasible = [e for e in moves.entries if e.allowed]
@@ -257,22 +273,25 @@ def _problem(request: Request, plan: Plan, base: Baselines) -> Problem:
     via = [(o, m, t, f) for (o, m, t), f in zip(setup.via, fractions, strict=True)]
     grid, training = scenarios(setup.model, r.robust, r.threshold_m)
     comps = active_components(setup.model)
-    turn = None if r.rotate is None else TurnSchedule(r.rotate, r.dt_s, base.turn_trains)
+    turn = None if r.turn is None else TurnSchedule(r.turn, r.dt_s, base.turn_trains)
     if setup.turn_source is not None:
         setup.turn_source.schedule = turn  # the cell's families evaluate the search's turn
+    clearance_m = r.constraints.clearance_m
     return Problem(
         setup.model, setup.distance_m, r.limits, r.threshold_m, r.dt_s, plan.steps_cap, r.robust,
-        grid, training, comps, r.clearance_m, via=via, families=setup.families, turn=turn,
+        grid, training, comps, clearance_m, via=via, families=setup.families, turn=turn,
     )  # fmt: skip
 
 
-def search(request: Request, plan: Plan, base: Baselines) -> Search:
+def search(run: Run) -> Search:
     """Bisect over the number of steps below the best feasible baseline (optim.search),
     then, on the exact route, smooth the search's move (:func:`_polish`). Refuses a request
     no move can meet (no move found and no baseline to fall back on)."""
-    r, model = request, plan.setup.model
+    r, plan, base = run.request, run.plan, run.base
+    model = plan.setup.model
     problem = _problem(r, plan, base)
-    sub = LPSubsolver(r.solver) if r.method == "exact" else GradientSubsolver(r.solver)
+    method, solver = r.search.method, r.search.solver
+    sub = LPSubsolver(solver) if method == "exact" else GradientSubsolver(solver)
     bound = min((e.score() for e in base.feasible), default=plan.steps_cap * r.dt_s)
     upper = math.ceil(bound / r.dt_s - 1e-9)
     if r.robust is None and not plan.setup.families:
@@ -283,24 +302,24 @@ def search(request: Request, plan: Plan, base: Baselines) -> Search:
         need = search_need(model.n_modes, model.n_points, plan.shortest, bracket, 1, bracket)
         require(need)
     notes = []
-    if r.rotate is not None:  # bracketed by the best baseline, and planned (optim.turn_plan)
+    if r.turn is not None:  # bracketed by the best baseline, and planned (optim.turn_plan)
         plan_turning_search(r, plan, base, problem, upper)
     moves = base.moves
     warm = [e.acc for e in moves.entries]
     start, nominal = _nominal_first(r, problem, sub, (moves.floor_acc, upper, warm))
     lowest = start if start is not None and problem.covers_nominal() else None
     best, history = bisect(
-        problem, sub, moves.floor_acc, upper, warm, progress=r.progress, start_steps=start,
+        problem, sub, moves.floor_acc, upper, warm, progress=r.search.progress, start_steps=start,
         lowest_steps=lowest,
     )  # fmt: skip
-    if best is None and not ((plan.setup.families or r.rotate is not None) and base.feasible):
+    if best is None and not ((plan.setup.families or r.turn is not None) and base.feasible):
         raise _no_move(r, plan)
-    if best is None and r.rotate is not None:
+    if best is None and r.turn is not None:
         notes.append(
             "the search's turn schedules found no certified move shorter than the best "
             "baseline; the best baseline is returned"
         )
-    if r.method != "exact" or best is None:
+    if r.search.method != "exact" or best is None:
         return Search(problem, sub, history, best, notes, nominal)
     final, notes = _polish(problem, sub, best, history)
     return Search(problem, sub, history, final, notes, nominal)
@@ -317,11 +336,11 @@ def _nominal_first(request: Request, problem: Problem, sub, bracket) -> tuple[in
     move"). Returns (the nominal answer's steps or None, the nominal search's attempts)."""
     if request.robust is None or not problem.families or problem.turn is not None:
         return None, []
-    if request.method != "exact":
+    if request.search.method != "exact":
         return None, []
     nominal = problem.nominal()
     floor, upper, warm = bracket
-    found, attempts = bisect(nominal, sub, floor, upper, warm, progress=request.progress)
+    found, attempts = bisect(nominal, sub, floor, upper, warm, progress=request.search.progress)
     problem.adopt(nominal)
     return (None if found is None else found.n_steps), attempts
 
@@ -329,21 +348,22 @@ def _nominal_first(request: Request, problem: Problem, sub, bracket) -> tuple[in
 def _no_move(request: Request, plan: Plan) -> JaxflexError:
     """The error for a search that found no move: the budget's (BudgetError) if longer
     moves were cut off by it, else the request's (InputError)."""
-    r, cap = request, plan.steps_cap
-    during = "" if r.clearance_m is None else f" (and below {r.clearance_m * 1e3:g} mm during it)"
+    r, cap, budget = request, plan.steps_cap, request.budget
+    clearance_m = r.constraints.clearance_m
+    during = "" if clearance_m is None else f" (and below {clearance_m * 1e3:g} mm during it)"
     during += " within the cell's constraints" if plan.setup.families else ""
-    if cap < math.floor(r.max_duration_s / r.dt_s + 1e-9):
+    if cap < math.floor(budget.max_duration_s / r.dt_s + 1e-9):
         return BudgetError(
             f"no move of at most {cap} steps ({cap * r.dt_s:g} s) keeps the "
             f"deviation below {r.threshold_m * 1e3:g} mm after it{during}; longer moves "
-            f"exceed the budget (--max-steps {r.max_steps}, --max-memory "
-            f"{r.max_memory_bytes / 1e9:.3g} GB); raise them, use a coarser --dt or raise the "
-            "threshold"
+            f"exceed the budget (--max-steps {budget.max_steps}, --max-memory "
+            f"{budget.max_memory_bytes / 1e9:.3g} GB); raise them, use a coarser --dt or raise "
+            "the threshold"
         )
     return InputError(
-        f"threshold_m: no move of at most max_duration_s = {r.max_duration_s:g} s keeps the "
+        f"threshold_m: no move of at most max_duration_s = {budget.max_duration_s:g} s keeps the "
         f"deviation below {r.threshold_m * 1e3:g} mm after it{during}; raise "
-        "max_duration_s, threshold_m" + ("" if r.clearance_m is None else " or clearance_m")
+        "max_duration_s, threshold_m" + ("" if clearance_m is None else " or clearance_m")
     )
 
 
@@ -364,11 +384,12 @@ def _polish(problem: Problem, sub: LPSubsolver, best: Attempt, history: list[Att
     ]
 
 
-def choose(request: Request, plan: Plan, base: Baselines, found: Search) -> Choice:
+def choose(run: Run) -> Choice:
     """The best certified move seen (the search's, the polish pass's, the baselines that meet
     the cell's constraints: the search's moves meet them by construction) that passes the
     exact limits check (optim.choice)."""
-    r, distance = request, plan.setup.distance_m
+    r, base, found = run.request, run.base, run.found
+    distance = run.plan.setup.distance_m
     usable = {e.name for e in base.feasible}  # the cell's constraints and the clearance met
     moves = candidates(
         found.problem, found.history, found.final, base.moves, eligible=lambda e: e.name in usable
@@ -387,19 +408,20 @@ def choose(request: Request, plan: Plan, base: Baselines, found: Search) -> Choi
     return Choice(move, check, found.notes + notes)
 
 
-def certify(request: Request, plan: Plan, base: Baselines, found: Search, choice: Choice):
+def certify(run: Run) -> Certified:
     """The chosen move's exact nominal timing and deviation, and in robust mode its worst
     exact cycle time over the check grid; what the baselines or the search already
     certified for this move is reused (a baseline's timing and, where the baselines stage
     measured it, its deviation; the search's grid of cycle times)."""
-    r, model, chosen = request, plan.setup.model, choice.move
+    r, model, chosen = run.request, run.plan.setup.model, run.choice.move
+    base, found = run.base, run.found
     move = chosen.move  # checked once, where the candidate was made, for every certificate
     entries = base.moves.entries
     known = next((e for e in entries if chosen.kind == "baseline" and e.name == chosen.name), None)
     if known:
         timing, bound = known.timing, known.neglected_bound_m
-    elif r.rotate is not None:
-        timing, response = r.rotate.timing(model, chosen.angular_acc, move, r.threshold_m)
+    elif r.turn is not None:
+        timing, response = r.turn.timing(model, chosen.angular_acc, move, r.threshold_m)
         bound = response.neglected_bound_m
     else:
         timing, bound = analyze_move(model, move, threshold_m=r.threshold_m), None
@@ -408,7 +430,7 @@ def certify(request: Request, plan: Plan, base: Baselines, found: Search, choice
         deviation = _deviation(r, model, move, chosen.angular_acc, bound)
     worst = None
     if r.robust is not None:
-        worst = _worst_case(found.problem, move, chosen.grid, chosen.angular_acc, r.rotate)
+        worst = _worst_case(found.problem, move, chosen.grid, chosen.angular_acc, r.turn)
     return Certified(timing, deviation, worst)
 
 
@@ -416,9 +438,9 @@ def _deviation(request: Request, model, move: Move, angular_acc, neglected_bound
     """The deviation summary of a move (optim.result); a turning move's (optim.turn, with
     the turn ``angular_acc``) carries ``neglected_bound_m``, the bound its timing's response
     gave (the move is not simulated again for it)."""
-    if request.rotate is None:
+    if request.turn is None:
         return deviation_summary(model, move)
-    found = turn_deviation(model, request.rotate, angular_acc, move)
+    found = turn_deviation(model, request.turn, angular_acc, move)
     return {**found, "neglected_bound_m": neglected_bound_m}
 
 
@@ -448,19 +470,11 @@ def _worst_case(problem: Problem, move: Move, grid, angular_acc, turn) -> dict:
     }
 
 
-def report(
-    request: Request,
-    plan: Plan,
-    base: Baselines,
-    found: Search,
-    choice: Choice,
-    certified: Certified,
-    start_s: float,
-) -> OptimizationResult:
+def report(run: Run) -> OptimizationResult:
     """The OptimizationResult: the chosen move, what is certified about it, the baselines,
-    the advice and the search's statistics; its wall time counted from ``start_s`` (a
-    ``time.perf_counter()``)."""
-    r, setup, move = request, plan.setup, choice.move
+    the advice and the search's statistics; its wall time counted from the run's start."""
+    r, plan, base, found, choice = run.request, run.plan, run.base, run.found, run.choice
+    setup, move, certified = plan.setup, choice.move, run.certified
     history, problem = found.history, found.problem
     stats = {
         "route": found.subsolver.name,
@@ -473,13 +487,13 @@ def report(
         "notes": choice.notes,
     }
     return OptimizationResult(
-        clearance_m=r.clearance_m,
+        clearance_m=r.constraints.clearance_m,
         model=setup.model,
         distance_m=setup.distance_m,
         threshold_m=r.threshold_m,
         limits=r.limits,
-        method=r.method,
-        solver=r.solver,
+        method=r.search.method,
+        solver=r.search.solver,
         robust=r.robust,
         move=move.move,
         timing=certified.timing,
@@ -488,12 +502,12 @@ def report(
         source=move.name if move.kind == "baseline" else move.kind,
         warnings=plan.advice + base.advice,
         solver_stats=stats,
-        wall_time_s=time.perf_counter() - start_s,
+        wall_time_s=time.perf_counter() - run.start_s,
         baselines=base.moves,
         worst_case=certified.worst_case,
         constraints=setup.describe_move(move.move, move.angular_acc) if setup.families else [],
         cell=setup,
-        turn=r.rotate,
+        turn=r.turn,
         angular_acc=move.angular_acc,
     )
 

@@ -43,8 +43,8 @@ from jaxflex.response import (
 )
 from optim.budget import kinematic_lower_bound_s
 from optim.defaults import ANGULAR_LIMITS
-from optim.kinematics import MOVE_ATOL_M
 from optim.limits import Limits
+from optim.options import Rotation
 from optim.ruckig_move import fit_to_grid, grid_steps, shaped_acceleration, time_optimal_move
 from optim.shapers import Shaper
 from optim.turn_clearance import turning_move_deviation
@@ -66,56 +66,17 @@ class TurnSpec:
     pivot_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     @classmethod
-    def checked(cls, axis, angle_deg, angular_limits=None, pivot_m=None) -> TurnSpec:
-        """From the user's axis ("x", "y", "z" or three numbers), angle (degrees), angular
-        limits (rate, acceleration, jerk; default ANGULAR_LIMITS) and pivot (m, default the
-        origin); InputError naming the field (and the command's option) otherwise."""
-        try:
-            unit = unit_axis(axis)
-        except InputError as exc:
-            raise InputError(f"rotate (--rotate AXIS ANGLE_DEG): {exc}") from exc
-        try:
-            angle = float(angle_deg)
-        except (TypeError, ValueError):
-            angle = float("nan")
-        if not np.isfinite(angle):
-            raise InputError(
-                f"rotate (--rotate AXIS ANGLE_DEG): the angle must be a finite number of "
-                f"degrees, got {angle_deg!r}"
-            )
-        if 0.0 < abs(np.radians(angle)) <= MOVE_ATOL_M:
-            raise InputError(
-                f"rotate (--rotate AXIS ANGLE_DEG): a turn of {angle_deg!r} degrees is below "
-                f"the smallest the optimiser resolves ({np.degrees(MOVE_ATOL_M):.2g} degrees, "
-                f"{MOVE_ATOL_M:g} rad); give 0 for no turn"
-            )
-        limits = ANGULAR_LIMITS if angular_limits is None else tuple(angular_limits)
-        values = []
-        names = ("rate_rad_s", "acc_rad_s2", "jerk_rad_s3")
-        if len(limits) != 3:
-            raise InputError(
-                "angular_limits (--angular-limits W A J): three numbers, rate rad/s, "
-                f"acceleration rad/s^2, jerk rad/s^3; got {angular_limits!r}"
-            )
-        for name, value in zip(names, limits, strict=True):
-            try:
-                number = float(value)
-            except (TypeError, ValueError):
-                number = float("nan")
-            if not (np.isfinite(number) and number > 0):
-                raise InputError(
-                    f"angular_limits (--angular-limits W A J): {name} must be a finite number "
-                    f"> 0, got {value!r}"
-                )
-            values.append(number)
-        pivot = np.zeros(3) if pivot_m is None else np.asarray(pivot_m, dtype=float).reshape(-1)
-        if pivot.shape != (3,) or not np.isfinite(pivot).all():
-            raise InputError(f"pivot_m (--pivot X Y Z): three finite numbers in m, got {pivot_m!r}")
+    def of(cls, rotation: Rotation) -> TurnSpec:
+        """The turn of a checked optim.options.Rotation (its axis a unit vector, its angle in
+        radians), under gravity -9.81 m/s^2 along z, in the model frame."""
+        rate, acc, jerk = rotation.angular_limits
         return cls(
-            tuple(float(v) for v in unit),
-            float(np.radians(angle)),
-            *values,
-            pivot_m=tuple(float(v) for v in pivot),
+            tuple(float(v) for v in unit_axis(rotation.axis)),
+            float(np.radians(rotation.angle_deg)),
+            rate,
+            acc,
+            jerk,
+            pivot_m=rotation.pivot_m,
         )
 
     def check_length(self, dt_s: float, max_duration_s: float, max_steps: int) -> None:

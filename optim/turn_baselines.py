@@ -44,7 +44,7 @@ SHAPED_SCHEDULES = 2  # the search's shaped turn schedules: those of the best 2 
 
 def _evaluate(model, request: Request, name, acc, alpha, freqs) -> Baseline:
     """The baseline ``name`` with its exact timing and, in robust mode, its worst case."""
-    turn, threshold_m = request.rotate, request.threshold_m
+    turn, threshold_m = request.turn, request.threshold_m
     move = as_move(acc, request.dt_s)  # checked once, for every certificate below
     timing, response = turn.timing(model, alpha, move, threshold_m)
     entry = Baseline(
@@ -118,8 +118,8 @@ def turn_baselines(
     ``max_steps`` (module docstring; ``kinematic_floor_s`` is the synchronised continuous
     duration T) and the shapers of the best SHAPED_SCHEDULES shaped baselines, best first
     (the search's shaped turn schedules, optim.turn.TurnSchedule)."""
-    turn, limits, dt_s = request.rotate, request.limits, request.dt_s
-    max_shaped_modes = request.max_shaped_modes
+    turn, limits, dt_s = request.turn, request.limits, request.dt_s
+    max_shaped_modes = request.search.max_shaped_modes
     distance = clean_distance(distance_m)
     floor_acc, floor_alpha, duration = synchronised_floor(distance, turn, limits, dt_s, max_steps)
     floor = _evaluate(model, request, "ruckig + free decay", floor_acc, floor_alpha, [])
@@ -132,7 +132,7 @@ def turn_baselines(
     skipped: dict[str, str] = {}
     trains: dict[str, Shaper] = {}
     bar = progress_bar(
-        len(SHAPERS) * len(order), "turning baselines", request.progress, unit="move"
+        len(SHAPERS) * len(order), "turning baselines", request.search.progress, unit="move"
     )
     for kind in SHAPERS:
         best: Baseline | None = None
@@ -171,7 +171,7 @@ def turn_via_baselines(
     longer), plus free decay; and the fractions of its steps at which it passes each via
     point (the search's via rows). The kinematic floor is the longer of the path's and the
     turn's."""
-    turn, dt_s = request.rotate, request.dt_s
+    turn, dt_s = request.turn, request.dt_s
     moves, fractions = via_baselines(
         model, distance_m, via_offsets, request.limits, dt_s, request.threshold_m,
         max_steps=max_steps,

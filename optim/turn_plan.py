@@ -107,7 +107,7 @@ def _tests_needed(floor_steps: int, bracket_steps: int) -> list[int]:
 
 def _describe(request, model, lengths: list[int]) -> str:
     parts = [f"{model.n_modes} modes", f"{request.n_scenarios:,} scenario(s)"]
-    if request.clearance_m is not None:
+    if request.constraints.clearance_m is not None:
         parts.append("the clearance during the move")
     return (
         f"{len(lengths)} tests of moves of {min(lengths)} to {max(lengths)} steps, up to "
@@ -117,7 +117,7 @@ def _describe(request, model, lengths: list[int]) -> str:
 
 def _schedules(request) -> int:
     """The turn schedules a test may try (optim.turn.TurnSchedule)."""
-    return 1 + (SHAPED_SCHEDULES if request.rotate.turns else 0)
+    return 1 + (SHAPED_SCHEDULES if request.turn.turns else 0)
 
 
 def search_s(request, model, lengths: list[int], families: int) -> float:
@@ -127,7 +127,7 @@ def search_s(request, model, lengths: list[int], families: int) -> float:
     total = 0.0
     for n in lengths:
         total += test_s(
-            n, model.n_modes, schedules, clearance=request.clearance_m is not None,
+            n, model.n_modes, schedules, clearance=request.constraints.clearance_m is not None,
             families=families,
         )  # fmt: skip
         total += (request.n_scenarios - 1) * (EVAL_S + EVAL_STEP_S * n)
@@ -140,7 +140,7 @@ def turning_floor_steps(request, distance_m, shortest_steps: int) -> int:
     closed-form bound of optim.budget)."""
     duration = max(
         time_optimal_move(clean_distance(distance_m), request.limits).duration_s,
-        request.rotate.fastest_s(),
+        request.turn.fastest_s(),
     )
     return max(shortest_steps, grid_steps(duration, request.dt_s))
 
@@ -232,15 +232,17 @@ def check_clearance_resolution(request, model, distance_m) -> None:
     resolution (:func:`resolution_m`): the search could not tell a move that meets it from
     one that does not, and would try ever longer moves. A straight move's clearance has a
     sharper test (optim.stages: the shortest move any clearance allows)."""
-    if request.clearance_m is None:
+    clearance_m = request.constraints.clearance_m
+    if clearance_m is None:
         return
-    floor, relative, deflection, acc = resolution_m(model, distance_m, request.max_duration_s)
-    if request.clearance_m < floor:
+    max_duration_s = request.budget.max_duration_s
+    floor, relative, deflection, acc = resolution_m(model, distance_m, max_duration_s)
+    if clearance_m < floor:
         raise InputError(
-            f"clearance_m (--clearance): {request.clearance_m:.3g} m is below the model's "
+            f"clearance_m (--clearance): {clearance_m:.3g} m is below the model's "
             f"resolution for this move, {floor:.3g} m ({relative:.2g} of {deflection:.3g} m, "
             "the quasi-static deflection under the gentlest acceleration that covers the "
-            f"distance in max_duration_s = {request.max_duration_s:g} s, {acc:.3g} m/s^2): no "
+            f"distance in max_duration_s = {max_duration_s:g} s, {acc:.3g} m/s^2): no "
             "move can be told to meet it; give a clearance above it"
         )
 

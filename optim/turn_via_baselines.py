@@ -53,12 +53,12 @@ def oriented_via_baselines(
     request, model, distance_m, via_offsets, max_steps: int
 ) -> tuple[BaselineSet, list[float]]:
     """The baseline of a move through via points some of which carry an orientation
-    (``request.rotate`` a :class:`ViaTurn`): ruckig segment by segment, stopping at every via
+    (``request.turn`` a :class:`ViaTurn`): ruckig segment by segment, stopping at every via
     point, and the turn through the via orientations, both on the fewest steps n >= the
     synchronised path's duration at which every segment fits at the via samples of
     ``turn.via_fractions``, plus free decay; and those fractions (the search's via rows). The
     kinematic floor is the longer of the straight move's and the turn's alone."""
-    turn, limits, dt_s = request.rotate, request.limits, request.dt_s
+    turn, limits, dt_s = request.turn, request.limits, request.dt_s
     distance = clean_distance(distance_m)
     stops = [np.zeros(3), *(np.asarray(v, dtype=np.float64) for v in via_offsets), distance]
     start = grid_steps(turn.duration_s, dt_s)

@@ -58,10 +58,9 @@ def press(fe_plate, tmp_path_factory):
         LIMITS,
         DT,
         THRESHOLD,
-        cell=press_cell(),
-        min_distance_m=0.01,
-        max_stress_pa="yield",
-        progress=False,
+        constraints=optim.Constraints(
+            cell=press_cell(), min_distance_m=0.01, max_stress_pa="yield"
+        ),
     )
     inputs = tmp_path_factory.mktemp("inputs")
     model.save(inputs / "plate.npz")
@@ -312,9 +311,13 @@ def test_a_turning_move_ends_at_rest_in_its_final_pose(turning_plate, tmp_path):
     statics, not the engine."""
     pivot = turning_plate.points.mean(axis=0)
     result = optim.optimize(
-        turning_plate, [0, 0, 0.3], LIMITS, DT, THRESHOLD, rotate=("x", 30), pivot_m=pivot,
-        progress=False,
-    )  # fmt: skip
+        turning_plate,
+        [0, 0, 0.3],
+        LIMITS,
+        DT,
+        THRESHOLD,
+        rotation=optim.Rotation("x", 30, pivot_m=pivot),
+    )
     animation = animate(result, tmp_path)
     frames = read_frames(animation.series)
     gravity = np.array([0.0, 0.0, -9.81])

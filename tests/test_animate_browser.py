@@ -59,7 +59,12 @@ def page(tmp_path_factory):
     cell = press_cell()
     limits = optim.Limits(2.0, 10.0, 100.0)
     result = optim.optimize(
-        model, None, limits, 0.01, 5e-4, cell=cell, min_distance_m=0.01, progress=False
+        model,
+        None,
+        limits,
+        0.01,
+        5e-4,
+        constraints=optim.Constraints(cell=cell, min_distance_m=0.01),
     )
     directory = tmp_path_factory.mktemp("page")
     animation = animate(result, directory)

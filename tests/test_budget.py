@@ -236,5 +236,11 @@ def test_a_stiff_parts_cup_constraints_are_planned_before_the_baselines(monkeypa
             BudgetError, match=r"time: the cell's constraints \(cup utilisation\) on 18 baselines"
         ),
     ):
-        optim.optimize(models["stiff"], (0, 0, 1), limits, 0.01, 5e-4, cup_safety=1.5,
-                       progress=False)  # fmt: skip
+        optim.optimize(
+            models["stiff"],
+            (0, 0, 1),
+            limits,
+            0.01,
+            5e-4,
+            constraints=optim.Constraints(cup_safety=1.5),
+        )

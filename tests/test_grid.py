@@ -57,9 +57,7 @@ def test_trajectory_file_has_exact_times_and_the_jerk(tmp_path):
 def test_report_json_prints_grid_times_exactly(tmp_path):
     model = simply_supported_plate(n_modes=4, points=20)
     spec = optim.RobustSpec(n_freq=3, n_zeta=2)
-    result = optim.optimize(
-        model, [0, 0, 1.0], optim.Limits(2, 10, 100), 0.01, 0.5, robust=spec, progress=False
-    )
+    result = optim.optimize(model, [0, 0, 1.0], optim.Limits(2, 10, 100), 0.01, 0.5, robust=spec)
     result.save(tmp_path)
     text = (tmp_path / "report.json").read_text()
     report = json.loads(text)

@@ -146,7 +146,7 @@ def test_a_shaper_registered_outside_optim_is_one_of_the_optimisers_baselines(
     h = 1e-3 * omega
     v = design.residual_vibration(np.array([omega - h, omega, omega + h]), zeta)
     assert v[1] < 1e-12 and v.max() < 1e-8
-    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, progress=False)
+    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD)
     entries = result.baselines.entries
     assert [b.name.split()[0] for b in entries] == ["ruckig", "ZV", "ZVD", "EI", "ZVDD"]
     zvdd = entries[-1]

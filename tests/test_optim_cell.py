@@ -139,9 +139,13 @@ def press_result(model_all_nodes):
     """The optimised via-point move of ``model_all_nodes`` through :func:`press`, 10 mm from
     the obstacles."""
     return optim.optimize(
-        model_all_nodes, None, LIMITS, DT, THRESHOLD, cell=press(), min_distance_m=0.01,
-        progress=False,
-    )  # fmt: skip
+        model_all_nodes,
+        None,
+        LIMITS,
+        DT,
+        THRESHOLD,
+        constraints=optim.Constraints(cell=press(), min_distance_m=0.01),
+    )
 
 
 def test_press_opening_via_point_move(model_all_nodes, fe_result, press_result):
@@ -279,12 +283,18 @@ def test_the_nominal_answer_is_no_longer_than_the_robust_one(model):
     run's: the same lengths, the same verdicts) and tests no shorter length: its answer is at
     least the nominal one (here with the distance, cups and stress on the press scene)."""
     cell = press()
-    options = {"cell": cell, "min_distance_m": 0.01, "cup_safety": 1.5, "max_stress_pa": "yield"}
-    nominal = optim.optimize(model, None, LIMITS, DT, THRESHOLD, progress=False, **options)
+    limits = {"min_distance_m": 0.01, "cup_safety": 1.5, "max_stress_pa": "yield"}
+    options = {"constraints": optim.Constraints(cell, **limits)}
+    nominal = optim.optimize(model, None, LIMITS, DT, THRESHOLD, **options)
     robust = optim.optimize(
-        model, None, LIMITS, DT, THRESHOLD, progress=False,
-        robust=optim.RobustSpec((0.9, 1.1), None, 3, 1), **options,
-    )  # fmt: skip
+        model,
+        None,
+        LIMITS,
+        DT,
+        THRESHOLD,
+        robust=optim.RobustSpec((0.9, 1.1), None, 3, 1),
+        **options,
+    )
     assert nominal.transfer_time_s <= robust.transfer_time_s
     assert nominal.cycle_time_s <= robust.worst_cycle_time_s
     before = robust.solver_stats["nominal_attempts"]
@@ -314,9 +324,14 @@ def test_robust_distance_holds_for_every_model_of_the_grid(model_all_nodes, fe_r
     cell = press()
     robust = optim.RobustSpec(freq_scale=(0.9, 1.1), zeta=None, n_freq=3, n_zeta=1)
     result = optim.optimize(
-        model_all_nodes, None, LIMITS, DT, THRESHOLD, robust=robust, cell=cell,
-        min_distance_m=0.01, progress=False,
-    )  # fmt: skip
+        model_all_nodes,
+        None,
+        LIMITS,
+        DT,
+        THRESHOLD,
+        robust=robust,
+        constraints=optim.Constraints(cell=cell, min_distance_m=0.01),
+    )
     (constraint,) = result.constraints
     assert constraint["scenarios"] == 4  # the nominal model and the grid's three
     assert constraint["bound"] >= 0.01 * (1 - 1e-9)
@@ -329,7 +344,12 @@ def test_stop_at_a_via_point(model):
     """A "stop" via point is passed at rest, exactly where it is."""
     cell = press("stop")
     result = optim.optimize(
-        model, None, LIMITS, DT, THRESHOLD, cell=cell, min_distance_m=0.01, progress=False
+        model,
+        None,
+        LIMITS,
+        DT,
+        THRESHOLD,
+        constraints=optim.Constraints(cell=cell, min_distance_m=0.01),
     )
     vel, pos = integrate(result.acc, DT)
     target = cell.via[0].position_m - cell.start_m
@@ -341,7 +361,7 @@ def test_stop_at_a_via_point(model):
 
 @pytest.fixture(scope="module")
 def plain(model):
-    return optim.optimize(model, [0.3, 0.0, 0.6], LIMITS, DT, 2e-5, progress=False)
+    return optim.optimize(model, [0.3, 0.0, 0.6], LIMITS, DT, 2e-5)
 
 
 def _peak(model, outputs, functional, acc, until_s):
@@ -359,10 +379,11 @@ def test_inactive_constraints_leave_the_optimum(model, plain):
         LIMITS,
         DT,
         2e-5,
-        progress=False,
-        cup_safety=0.5
-        / _peak(model, model.cups.reaction, CupUtilisation(model.cups, 1.0), plain.acc, 1.6),
-        max_stress_pa=3 * 7.4e6,
+        constraints=optim.Constraints(
+            cup_safety=0.5
+            / _peak(model, model.cups.reaction, CupUtilisation(model.cups, 1.0), plain.acc, 1.6),
+            max_stress_pa=3 * 7.4e6,
+        ),
     )
     np.testing.assert_array_equal(loose.acc, plain.acc)
     assert [c["name"] for c in loose.constraints] == ["cup utilisation", "von Mises stress"]
@@ -377,7 +398,7 @@ def test_active_load_constraints_hold(model, plain, kind):
     if kind == "cups":
         functional = CupUtilisation(model.cups, 1.0)
         peak0 = _peak(model, model.cups.reaction, functional, plain.acc, 1.6)
-        options = {"cup_safety": 1 / (0.85 * peak0)}
+        options = {"constraints": optim.Constraints(cup_safety=1 / (0.85 * peak0))}
         outputs, functional, limit = (
             model.cups.reaction,
             CupUtilisation(model.cups, 1 / (0.85 * peak0)),
@@ -386,9 +407,9 @@ def test_active_load_constraints_hold(model, plain, kind):
     else:
         functional = VonMises(model.stress.n_points)
         peak0 = _peak(model, model.stress.stress, functional, plain.acc, 1.6)
-        options = {"max_stress_pa": 0.85 * peak0}
+        options = {"constraints": optim.Constraints(max_stress_pa=0.85 * peak0)}
         outputs, limit = model.stress.stress, 0.85 * peak0
-    result = optim.optimize(model, [0.3, 0.0, 0.6], LIMITS, DT, 2e-5, progress=False, **options)
+    result = optim.optimize(model, [0.3, 0.0, 0.6], LIMITS, DT, 2e-5, **options)
     assert not np.array_equal(result.acc, plain.acc)
     assert result.cycle_time_s >= plain.cycle_time_s
     dense = _peak(model, outputs, functional, result.acc, result.n_steps * DT + 1.0)
@@ -400,20 +421,40 @@ def test_active_load_constraints_hold(model, plain, kind):
 
 def test_cell_options_are_checked(model):
     with pytest.raises(InputError, match="min_distance_m"):
-        optim.optimize(model, [0.3, 0, 0.6], LIMITS, DT, 2e-5, min_distance_m=0.01, progress=False)
+        optim.optimize(
+            model,
+            [0.3, 0, 0.6],
+            LIMITS,
+            DT,
+            2e-5,
+            constraints=optim.Constraints(min_distance_m=0.01),
+        )
     with pytest.raises(InputError, match="method"):
         optim.optimize(
-            model, None, LIMITS, DT, 2e-5, cell=press(), method="gradient", progress=False
+            model,
+            None,
+            LIMITS,
+            DT,
+            2e-5,
+            search=optim.Search(method="gradient"),
+            constraints=optim.Constraints(cell=press()),
         )
     blocked = Cell(
         obstacles=(Box([0.3, 0.0, 0.1], [0.2, 0.2, 0.2], name="pillar"),), end_m=[1, 0, 0]
     )
     with pytest.raises(InputError, match="pillar"):
         optim.optimize(
-            model, None, LIMITS, DT, 2e-5, cell=blocked, min_distance_m=0.01, progress=False
+            model,
+            None,
+            LIMITS,
+            DT,
+            2e-5,
+            constraints=optim.Constraints(cell=blocked, min_distance_m=0.01),
         )
     with pytest.raises(InputError, match="gravity alone"):
-        optim.optimize(model, [0.3, 0, 0.6], LIMITS, DT, 2e-5, cup_safety=1e4, progress=False)
+        optim.optimize(
+            model, [0.3, 0, 0.6], LIMITS, DT, 2e-5, constraints=optim.Constraints(cup_safety=1e4)
+        )
 
 
 def test_optimize_command_with_a_cell(tmp_path, model):

@@ -55,7 +55,7 @@ def test_plate_threshold_above_every_deviation_gives_the_kinematic_floor():
     # decay 0.800 s"; vibration does not limit the move, so the answer is ruckig's 80 steps
     model = scene_model("plate")
     with pytest.warns(jaxflex.errors.JaxflexWarning, match="above the deviation"):
-        result = optim.optimize(model, DISTANCE, LIMITS, DT, 0.5, progress=False)
+        result = optim.optimize(model, DISTANCE, LIMITS, DT, 0.5)
     assert result.n_steps == result.baselines.floor_steps == 80
     assert result.cycle_time_s == 0.8  # on the grid, exactly (jaxflex._grid)
     assert result.source == "optimised" and not result.solver_stats["notes"]
@@ -69,7 +69,7 @@ def test_panel_robust_ruckig_move_is_not_lost_by_the_smoothing_pass():
     # scenario, the search certified 80 steps, the final solve failed and 81 came back
     model = scene_model("panel")
     spec = optim.RobustSpec(n_freq=5, n_zeta=2)
-    result = optim.optimize(model, DISTANCE, LIMITS, DT, 2e-4, robust=spec, progress=False)
+    result = optim.optimize(model, DISTANCE, LIMITS, DT, 2e-4, robust=spec)
     ruckig = result.baselines.entries[0]
     assert ruckig.worst_cycle_time_s == 0.8  # ruckig settles within its move everywhere
     assert result.n_steps == 80 and result.worst_cycle_time_s == 0.8
@@ -103,5 +103,5 @@ def test_optimum_is_never_worse_than_a_baseline(
         threshold_m = threshold_mm * 1e-3
     spec = optim.RobustSpec(n_freq=5, n_zeta=2) if robust else None
     limits = optim.Limits(vmax, amax, jmax)
-    result = optim.optimize(model, distance, limits, DT, threshold_m, robust=spec, progress=False)
+    result = optim.optimize(model, distance, limits, DT, threshold_m, robust=spec)
     assert_never_worse(result, model, threshold_m)

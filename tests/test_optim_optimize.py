@@ -45,7 +45,7 @@ def model():
 
 @pytest.fixture(scope="module")
 def nominal(model):
-    return optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, progress=False)
+    return optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD)
 
 
 def test_optimum_beats_every_baseline(model, nominal):
@@ -72,7 +72,7 @@ def test_vibration_ignored_gives_ruckigs_duration_on_the_grid(model):
     # A threshold no deviation reaches: the minimum is the kinematic floor, i.e. ruckig's
     # time-optimal duration rounded up to the grid (at most one more step where no grid
     # move of ceil(T / dt) steps exists), and the LP proves one step less impossible.
-    result = optim.optimize(model, DISTANCE, LIMITS, DT, 10.0, progress=False)
+    result = optim.optimize(model, DISTANCE, LIMITS, DT, 10.0)
     base = result.baselines
     assert result.n_steps == base.floor_steps
     ceil_steps = math.ceil(base.kinematic_floor_s / DT - 1e-7)
@@ -87,7 +87,12 @@ def test_routes_agree_and_the_exact_route_is_never_worse(model, nominal):
     # Ipopt and SLSQP: same problem, answers within a few steps, the exact one the shortest.
     for method, solver in (("exact", "casadi"), ("gradient", "ipopt"), ("gradient", "slsqp")):
         other = optim.optimize(
-            model, DISTANCE, LIMITS, DT, THRESHOLD, method=method, solver=solver, progress=False
+            model,
+            DISTANCE,
+            LIMITS,
+            DT,
+            THRESHOLD,
+            search=optim.Search(method=method, solver=solver),
         )
         assert other.constraint_check.ok
         assert other.cycle_time_s == pytest.approx(
@@ -102,7 +107,7 @@ def test_routes_agree_and_the_exact_route_is_never_worse(model, nominal):
 
 def test_robust_worst_case_beats_every_shaper(model, nominal):
     spec = optim.RobustSpec((0.9, 1.1), (0.01, 0.03), n_freq=5, n_zeta=2)
-    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, robust=spec, progress=False)
+    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, robust=spec)
     assert result.constraint_check.ok
     shapers = [b for b in result.baselines.entries if b.shaped_freq_hz]
     assert len(shapers) == 3
@@ -122,7 +127,7 @@ def test_clearance_limits_the_deviation_during_the_move(model, nominal):
     clearance = 0.025  # the unconstrained optimum peaks at ~43 mm during the move
     assert nominal.peak_deviation_m > clearance
     result = optim.optimize(
-        model, DISTANCE, LIMITS, DT, THRESHOLD, clearance_m=clearance, progress=False
+        model, DISTANCE, LIMITS, DT, THRESHOLD, constraints=optim.Constraints(clearance_m=clearance)
     )
     # independent check: the exact response sampled every dt / 8 by jaxflex.simulate
     fine = jaxflex.simulate(model, jaxflex.upsample(result.acc, 8), DT / 8)
@@ -145,14 +150,16 @@ def test_each_baseline_is_simulated_once_for_its_deviation(model, monkeypatch):
         simulated[move.acc.tobytes()] += 1
         return summary(model, move)
 
-    def choose_a_shaped_baseline(request, plan, base, found):
-        shaped = base.moves.entries[-1]
+    def choose_a_shaped_baseline(run):
+        shaped = run.base.moves.entries[-1]
         move = Candidate("baseline", shaped.name, shaped.move, shaped.score(), None)
-        return replace(choose(request, plan, base, found), move=move)
+        return replace(choose(run), move=move)
 
     monkeypatch.setattr(stages, "deviation_summary", counted)
     monkeypatch.setattr(stages, "choose", choose_a_shaped_baseline)
-    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, clearance_m=1.0)
+    result = optim.optimize(
+        model, DISTANCE, LIMITS, DT, THRESHOLD, constraints=optim.Constraints(clearance_m=1.0)
+    )
     shaped = result.baselines.entries[-1]
     assert result.source == shaped.name
     assert set(simulated) == {b.acc.tobytes() for b in result.baselines.entries}
@@ -163,7 +170,7 @@ def test_each_baseline_is_simulated_once_for_its_deviation(model, monkeypatch):
 @pytest.mark.slow
 def test_gradient_route_meets_the_clearance_too(model):
     exact = optim.optimize(
-        model, DISTANCE, LIMITS, DT, THRESHOLD, clearance_m=0.025, progress=False
+        model, DISTANCE, LIMITS, DT, THRESHOLD, constraints=optim.Constraints(clearance_m=0.025)
     )
     other = optim.optimize(
         model,
@@ -171,10 +178,8 @@ def test_gradient_route_meets_the_clearance_too(model):
         LIMITS,
         DT,
         THRESHOLD,
-        clearance_m=0.025,
-        method="gradient",
-        solver="slsqp",
-        progress=False,
+        search=optim.Search(method="gradient", solver="slsqp"),
+        constraints=optim.Constraints(clearance_m=0.025),
     )
     assert other.peak_deviation_m <= 0.025
     assert exact.n_steps <= other.n_steps <= exact.n_steps + 3
@@ -202,7 +207,7 @@ def test_limits_and_boundary_conditions_hold_on_every_returned_profile(
         apath=1.1 * amax if path else None,
         jpath=1.1 * jmax if path else None,
     )
-    result = optim.optimize(model, distance, limits, DT, 2e-3, method=method, progress=False)
+    result = optim.optimize(model, distance, limits, DT, 2e-3, search=optim.Search(method=method))
     acc = result.acc
     # independent re-check: samples, every step's jerk, velocity between samples
     check = optim.check_profile(jaxflex.as_move(acc, DT), limits, distance)
@@ -226,10 +231,11 @@ def test_limits_and_boundary_conditions_hold_on_every_returned_profile(
         ({"distance_m": (0.0, np.nan, 1.0)}, "distance_m"),
         ({"distance_m": (0.0, 0.0, 50.0)}, "max_duration_s"),
         ({"dt_s": 0.0}, "dt_s"),
-        ({"method": "newton"}, "method"),
-        ({"solver": "ipopt"}, "solver"),
         ({"robust": optim.RobustSpec}, "robust"),
-        ({"clearance_m": -0.01}, "clearance_m"),
+        ({"search": {"method": "newton"}}, r"search: an optim\.Search\(\.\.\.\) or None, got dict"),
+        ({"budget": 5000}, r"budget: an optim\.Budget\(\.\.\.\) or None, got int"),
+        ({"constraints": 0.01}, "constraints: an optim.Constraints"),
+        ({"rotation": ("x", 30.0)}, r"rotation: an optim\.Rotation\(axis, angle_deg, \.\.\.\)"),
     ],
 )
 def test_infeasible_or_bad_requests_give_clear_errors(model, change, message):
@@ -239,7 +245,6 @@ def test_infeasible_or_bad_requests_give_clear_errors(model, change, message):
         "limits": LIMITS,
         "threshold_m": THRESHOLD,
         "dt_s": DT,
-        "progress": False,
     } | change
     with pytest.raises(InputError, match=message):
         optim.optimize(**kwargs)
@@ -247,12 +252,12 @@ def test_infeasible_or_bad_requests_give_clear_errors(model, change, message):
 
 def test_undamped_models_and_unreachable_thresholds_are_errors(model):
     with pytest.raises(InputError, match=r"model\.zeta"):
-        optim.optimize(model.with_damping(0.0), DISTANCE, LIMITS, DT, THRESHOLD, progress=False)
+        optim.optimize(model.with_damping(0.0), DISTANCE, LIMITS, DT, THRESHOLD)
     # only the kinematic floor fits in max_duration_s, and it leaves too much vibration
     floor_s = optim.baselines(model, DISTANCE, LIMITS, DT, THRESHOLD).floor_steps * DT
     with pytest.raises(InputError, match="no move of at most"):
         optim.optimize(
-            model, DISTANCE, LIMITS, DT, 1e-6, progress=False, max_duration_s=floor_s + 1e-9
+            model, DISTANCE, LIMITS, DT, 1e-6, budget=optim.Budget(max_duration_s=floor_s + 1e-9)
         )
 
 
@@ -305,7 +310,7 @@ def test_a_profile_that_fails_the_final_check_is_never_returned(model, monkeypat
         return real_check(move, *args, **kwargs)
 
     monkeypatch.setattr(optimize_module, "check_profile", check_rejecting_the_optimum)
-    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD, progress=False)
+    result = optim.optimize(model, DISTANCE, LIMITS, DT, THRESHOLD)
     assert any("rejected" in note for note in result.solver_stats["notes"])
     assert any("did not pass the limits check" in note for note in result.report()["notes"])
     assert not np.array_equal(result.acc, calls[0])

@@ -60,7 +60,7 @@ def _dense_settle(model, spec: TurnSpec, acc, alpha, until_s: float, factor: int
 def test_end_state_is_affine_in_the_translation(plate):
     """The LP's end state, E_R a + x_turn (optim.turn), equals the turning engine's for
     random translation samples (round-off: 1e-9 of its size)."""
-    spec = TurnSpec.checked("x", 30.0, pivot_m=PIVOT)
+    spec = TurnSpec.of(optim.Rotation("x", 30.0, pivot_m=PIVOT))
     problem = make_problem(plate, np.array([0, 0, 1.0]), LIMITS, DT, THRESHOLD, 200, None)
     problem.turn = TurnSchedule(spec, DT)
     n = 90
@@ -82,7 +82,12 @@ def test_turning_optimum_beats_baselines_and_is_certified(plate, axis, angle_deg
     the pose samples, an O(dt^2) change of the body-frame loads), and exceeds it within
     one coarse sample before it unless the cycle ends with the transfer."""
     result = optim.optimize(
-        plate, distance, LIMITS, DT, THRESHOLD, rotate=(axis, angle_deg), pivot_m=PIVOT
+        plate,
+        distance,
+        LIMITS,
+        DT,
+        THRESHOLD,
+        rotation=optim.Rotation(axis, angle_deg, pivot_m=PIVOT),
     )
     assert all(result.objective_s <= b.score() for b in result.baselines.entries)
     spec = result.turn
@@ -115,7 +120,9 @@ def test_zero_angle_turn_gives_the_straight_answer(plate):
     """A turn by 0 degrees goes through the turning route (rotated maps, the turn's end
     state, the turning engine's certificate) and finds the straight optimiser's move."""
     straight = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD)
-    turned = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, rotate=("z", 0.0))
+    turned = optim.optimize(
+        plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, rotation=optim.Rotation("z", 0.0)
+    )
     assert turned.turn is not None and not turned.angular_acc.any()
     assert turned.n_steps == straight.n_steps
     assert turned.cycle_time_s == pytest.approx(straight.cycle_time_s, abs=1e-9)
@@ -176,19 +183,27 @@ def test_bad_turns_exit_with_status_2(plate, tmp_path, args, message):
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"rotate": "z"}, "rotate"),
-        ({"rotate": ((0, 0, 0), 30)}, "rotate"),
-        ({"rotate": ("z", float("inf"))}, "rotate"),
-        ({"rotate": ("z", 30), "angular_limits": (3, 0, 200)}, "acc_rad_s2"),
-        ({"rotate": ("z", 30), "pivot_m": (0, 0)}, "pivot_m"),
-        ({"rotate": ("z", 30), "method": "gradient", "cup_safety": 1.5}, "the exact route does"),
-        ({"pivot_m": (0, 0, 0)}, "only with rotate"),
+        ({"axis": "w", "angle_deg": 30}, r"axis \(--rotate AXIS ANGLE_DEG\): 'x', 'y', 'z'"),
+        ({"axis": (0, 0, 0), "angle_deg": 30}, "axis .*not all zero"),
+        ({"axis": "z", "angle_deg": float("inf")}, r"angle_deg .*finite number of degrees"),
+        ({"axis": "z", "angle_deg": 30, "angular_limits": (3, 0, 200)}, "acc_rad_s2"),
+        ({"axis": "z", "angle_deg": 30, "pivot_m": (0, 0)}, "pivot_m"),
     ],
 )
-def test_request_checks_the_turn(plate, kwargs, message):
-    """The Python API: optim.Request checks the turn once, naming the field."""
+def test_rotation_checks_the_turn(kwargs, message):
+    """The Python API: optim.Rotation checks the turn when made, naming the field."""
     with pytest.raises(jaxflex.InputError, match=message):
-        optim.optimize(plate, (0, 0, 1), LIMITS, DT, THRESHOLD, **kwargs)
+        optim.Rotation(**kwargs)
+
+
+def test_request_refuses_the_gradient_route_with_the_cells_constraints(plate):
+    """A turn on the gradient route takes no cell constraint: refused, naming the route that
+    does."""
+    with pytest.raises(jaxflex.InputError, match="the exact route does"):
+        optim.optimize(
+            plate, (0, 0, 1), LIMITS, DT, THRESHOLD, rotation=optim.Rotation("z", 30),
+            constraints=optim.Constraints(cup_safety=1.5), search=optim.Search("gradient"),
+        )  # fmt: skip
 
 
 def test_model_without_rotation_data_is_refused(plate, tmp_path):
@@ -200,5 +215,10 @@ def test_model_without_rotation_data_is_refused(plate, tmp_path):
     assert "inertia shape integrals" in proc.stderr
     with pytest.raises(jaxflex.ModelError, match="inertia shape integrals"):
         optim.optimize(
-            jaxflex.load_model(model_file), (0, 0, 1), LIMITS, DT, THRESHOLD, rotate=("z", 90)
+            jaxflex.load_model(model_file),
+            (0, 0, 1),
+            LIMITS,
+            DT,
+            THRESHOLD,
+            rotation=optim.Rotation("z", 90),
         )

@@ -33,8 +33,9 @@ DT = 0.01
 THRESHOLD = 5e-4
 LIMITS = optim.Limits(vmax=2.0, amax=10.0, jmax=100.0)
 PIVOT = (0.6, 0.4, 0.0)  # the middle of the cups
-TILT = {"rotate": ("x", 30.0), "pivot_m": PIVOT, "progress": False}
-SWIVEL = {"rotate": ("z", 90.0), "pivot_m": PIVOT, "progress": False}
+TILT = {"rotation": optim.Rotation("x", 30.0, pivot_m=PIVOT)}
+LIFT = ((0, 0, 1.0), LIMITS, DT, THRESHOLD)  # lifted 1 m while it tilts (TILT)
+SWIVEL = {"rotation": optim.Rotation("z", 90.0, pivot_m=PIVOT)}
 
 
 @pytest.fixture(scope="module")
@@ -89,7 +90,7 @@ def test_rows_are_exact_for_the_schedule(plate):
     """For a fixed turn schedule a load row (the cut at one time and cup) and a distance row
     are affine in the translation samples: built at one move, they give the cut's value
     and the plane's distance of another random move (evaluated anew) to round-off."""
-    spec = TurnSpec.checked("x", 30.0, pivot_m=PIVOT)
+    spec = TurnSpec.of(optim.Rotation("x", 30.0, pivot_m=PIVOT))
     problem = make_problem(plate, np.array([0, 0, 1.0]), LIMITS, DT, THRESHOLD, 200, None)
     problem.turn = TurnSchedule(spec, DT)
     source = TurnSource(spec)
@@ -124,10 +125,10 @@ def test_active_cups_on_a_tilt(plate):
     limit (certified), and the dense evaluation never finds more than the limit (the rows
     keep 1e-3 in reserve, the finer sampling of the body-frame loads changes the outputs
     by O(dt^2): measured 6e-5 of the peak)."""
-    plain = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, cup_safety=1.0, **TILT)
+    plain = optim.optimize(plate, *LIFT, constraints=optim.Constraints(cup_safety=1.0), **TILT)
     peak = plain.constraints[0]["peak"]
     safety = 1.0 / (0.85 * peak)
-    result = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, cup_safety=safety, **TILT)
+    result = optim.optimize(plate, *LIFT, constraints=optim.Constraints(cup_safety=safety), **TILT)
     assert not np.array_equal(result.acc, plain.acc)
     assert result.cycle_time_s >= plain.cycle_time_s
     assert all(
@@ -145,9 +146,11 @@ def test_active_cups_on_a_tilt(plate):
 def test_active_stress_on_a_tilt(plate):
     """Von Mises 15 % below the unconstrained tilt's peak: held, and the dense evaluation
     stays below the limit (as for the cups)."""
-    plain = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, max_stress_pa=1e12, **TILT)
+    plain = optim.optimize(plate, *LIFT, constraints=optim.Constraints(max_stress_pa=1e12), **TILT)
     limit = 0.85 * plain.constraints[0]["peak"]
-    result = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, max_stress_pa=limit, **TILT)
+    result = optim.optimize(
+        plate, *LIFT, constraints=optim.Constraints(max_stress_pa=limit), **TILT
+    )
     assert result.cycle_time_s >= plain.cycle_time_s
     (constraint,) = result.constraints
     assert 0.99 * limit < constraint["peak"] <= constraint["bound"] <= limit
@@ -170,9 +173,8 @@ def test_active_distance_on_a_swivel(plate, tmp_path):
     post = Box(far.centre_m + np.array([0.0, start - 0.0055, 0.0]), far.size_m, name="post")
     cell = Cell(obstacles=(post,), end_m=np.array([1.0, 0.0, 0.0]), thickness_m=1e-3)
     assert _dense_distance(plate, plain, cell.obstacles, 5e-4) < 0.0075  # plain violates
-    result = optim.optimize(
-        plate, None, LIMITS, DT, THRESHOLD, cell=cell, min_distance_m=0.01, **SWIVEL
-    )
+    in_cell = {"constraints": optim.Constraints(cell=cell, min_distance_m=0.01), **SWIVEL}
+    result = optim.optimize(plate, None, LIMITS, DT, THRESHOLD, **in_cell)
     (constraint,) = result.constraints
     assert constraint["bound"] >= 0.01 * (1 - 1e-9)
     dense = _dense_distance(plate, result, cell.obstacles, 5e-4)
@@ -192,7 +194,7 @@ def test_robust_turning_move_holds_on_every_model(plate):
     assert len(points) == 6
     assert worst == pytest.approx(result.worst_case["cycle_time_s"], abs=1e-9)
     assert all(worst <= b.score() + 1e-9 for b in result.baselines.entries)
-    nominal = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, **TILT)
+    nominal = optim.optimize(plate, *LIFT, **TILT)
     nominal_worst = turn_worst_case(
         plate, nominal.turn, nominal.move, nominal.angular_acc, THRESHOLD, robust.grid()
     )[0]
@@ -204,7 +206,10 @@ def test_turning_refusals_name_what_does(plate):
     exact route; a via orientation in another form than rotation_deg is refused, naming the
     field and the form (tests/test_optim_via_orientations.py takes rotation_deg)."""
     with pytest.raises(jaxflex.InputError, match="the exact route does: method='exact'"):
-        gradient = {"method": "gradient", "cup_safety": 1.5}
+        gradient = {
+            "search": optim.Search("gradient"),
+            "constraints": optim.Constraints(cup_safety=1.5),
+        }
         optim.optimize(plate, (0, 0, 1), LIMITS, DT, THRESHOLD, **gradient, **TILT)
     base = {"path": {"end_m": [0, 0, 1.0]}, "part": {"thickness_m": 1e-3}}
     with pytest.raises(jaxflex.InputError, match=r"via\[0\].*orientation is rotation_deg ="):
@@ -221,7 +226,8 @@ def test_turning_move_passes_the_via_point(plate, tmp_path):
     cell = cell_from_dict(
         {"path": {"end_m": [0.6, 0.0, 0.6], "via": via}, "part": {"thickness_m": 1e-3}}
     )
-    result = optim.optimize(plate, None, LIMITS, DT, THRESHOLD, cell=cell, cup_safety=1.5, **TILT)
+    in_cell = {"constraints": optim.Constraints(cell=cell, cup_safety=1.5), **TILT}
+    result = optim.optimize(plate, None, LIMITS, DT, THRESHOLD, **in_cell)
     (baseline,) = result.baselines.entries
     assert baseline.name.startswith("ruckig via points")
     assert result.objective_s <= baseline.score()

@@ -41,7 +41,7 @@ def test_affine_map_is_the_turning_engines(plate):
     the rotation included) equals jaxflex.simulate_turning's deviation at the samples for
     random translation samples (round-off), and a cut's row and offset give c . u exactly
     at another move (it is affine in the samples)."""
-    spec = TurnSpec.checked("x", 30.0, pivot_m=PIVOT)
+    spec = TurnSpec.of(optim.Rotation("x", 30.0, pivot_m=PIVOT))
     n = 90
     alpha = TurnSchedule(spec, DT).angular_acc(n)
     straight = MoveResponse(plate, active_components(plate), n, DT)
@@ -136,10 +136,10 @@ def test_clearance_limits_the_turning_move(plate):
         static_shapes=None, rotation=plate.rotation.replace(static_shapes=None)
     )  # fmt: skip
     args = (bare, (0.0, 0.0, 1.0), LIMITS, DT, THRESHOLD)
-    turn = {"rotate": ("x", 30.0), "pivot_m": PIVOT, "progress": False}
+    turn = {"rotation": optim.Rotation("x", 30.0, pivot_m=PIVOT)}
     free = optim.optimize(*args, **turn)
     clearance = 0.5 * free.deviation["peak_during_move_m"]
-    result = optim.optimize(*args, clearance_m=clearance, **turn)
+    result = optim.optimize(*args, constraints=optim.Constraints(clearance_m=clearance), **turn)
     assert result.n_steps > free.n_steps  # the clearance is active: it costs time here
     assert result.cycle_time_s == pytest.approx(result.n_steps * DT)
     assert result.constraint_check.ok

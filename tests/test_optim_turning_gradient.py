@@ -24,7 +24,8 @@ DT = 0.01
 THRESHOLD = 5e-4
 LIMITS = optim.Limits(vmax=2.0, amax=10.0, jmax=100.0)
 PIVOT = (0.6, 0.4, 0.0)  # the middle of the cups
-TILT = {"rotate": ("x", 30.0), "pivot_m": PIVOT, "progress": False}
+TILT = {"rotation": optim.Rotation("x", 30.0, pivot_m=PIVOT)}
+LIFT = ((0, 0, 1.0), LIMITS, DT, THRESHOLD)  # lifted 1 m while it tilts (TILT)
 # The gradient route's answer may differ from the exact route's by a step or two: both try
 # the same fixed turn schedules, but the soft maximum is minimised by a local NLP solver
 # whose answer is snapped onto the limits (an L1 grid fit), and the bisection assumes
@@ -73,9 +74,9 @@ def test_gradient_route_turns_the_part(plate, solver):
     part between the coarse pose samples, an O(dt^2) change of the body-frame loads,
     tests/test_optim_turning.py) and above it within one sample before it unless the cycle
     ends with the transfer."""
-    exact = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, **TILT)
+    exact = optim.optimize(plate, *LIFT, **TILT)
     result = optim.optimize(
-        plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, method="gradient", solver=solver, **TILT
+        plate, *LIFT, search=optim.Search(method="gradient", solver=solver), **TILT
     )
     assert result.source == "optimised"
     assert result.solver_stats["route"] == f"gradient ({solver})"
@@ -98,7 +99,7 @@ def test_clearance_term_map_is_the_turning_engines(plate):
     on the moving axes plus the turn's own coordinates ``rest``) gives
     jaxflex.simulate_turning's deviation at the samples for random translation samples on
     two axes (round-off: 1e-9 of the peak)."""
-    spec = TurnSpec.checked("x", 30.0, pivot_m=PIVOT)
+    spec = TurnSpec.of(optim.Rotation("x", 30.0, pivot_m=PIVOT))
     n, axes = 60, (1, 2)
     alpha = TurnSchedule(spec, DT).angular_acc(n)
     response = TurnMoveResponse(MoveResponse(plate, active_components(plate), n, DT), spec, alpha)
@@ -120,9 +121,11 @@ def test_gradient_route_holds_a_turning_clearance(plate):
     reserve), is no worse than a baseline and within STEPS_FROM_EXACT steps of the exact
     route."""
     clearance = 2.033e-3
-    kwargs = {"clearance_m": clearance, **TILT}
+    kwargs = {"constraints": optim.Constraints(clearance_m=clearance), **TILT}
     exact = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, **kwargs)
-    result = optim.optimize(plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, method="gradient", **kwargs)
+    result = optim.optimize(
+        plate, (0, 0, 1.0), LIMITS, DT, THRESHOLD, search=optim.Search(method="gradient"), **kwargs
+    )
     assert result.source == "optimised"
     assert abs(result.n_steps - exact.n_steps) <= STEPS_FROM_EXACT
     assert result.objective_s <= min(b.score() for b in result.baselines.entries)

@@ -54,9 +54,15 @@ def _cell(via_extra: dict):
 
 def _optimise(model, cell, **extra):
     return optim.optimize(
-        model, None, LIMITS, DT, THRESHOLD, cell=cell, rotate=("x", 30.0), pivot_m=PIVOT,
-        angular_limits=ANGULAR, progress=False, **extra,
-    )  # fmt: skip
+        model,
+        None,
+        LIMITS,
+        DT,
+        THRESHOLD,
+        constraints=optim.Constraints(cell=cell),
+        rotation=optim.Rotation("x", 30.0, angular_limits=ANGULAR, pivot_m=PIVOT),
+        **extra,
+    )
 
 
 def _read_csv(path):
@@ -179,7 +185,9 @@ def test_bad_via_orientations_name_the_field(plate, via_extra, rotate, message):
         if rotate:
             _optimise(plate, cell)
         else:
-            optim.optimize(plate, None, LIMITS, DT, THRESHOLD, cell=cell, progress=False)
+            optim.optimize(
+                plate, None, LIMITS, DT, THRESHOLD, constraints=optim.Constraints(cell=cell)
+            )
 
 
 def test_command_takes_via_orientations(plate, tmp_path):

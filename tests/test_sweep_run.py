@@ -15,7 +15,7 @@ import psutil
 import pytest
 from sweep_cases import N_CASES, SPEC, assert_same_table, start_sweep, wait_for_records
 
-from optim.sweep import expand, parse_spec, read_table, run_sweep
+from optim.sweep import Executor, expand, parse_spec, read_table, run_sweep
 from optim.sweep.cluster import TASKS_PER_THREAD
 from optim.sweep.evaluate import deviation_traces
 from optim.sweep.store import ResultStore
@@ -68,11 +68,9 @@ def test_local_cluster_gives_the_serial_table_on_this_machine_only(serial_sweep,
     run = run_sweep(
         parse_spec(SPEC),
         tmp_path,
-        executor="dask",
-        n_workers=2,
+        executor=Executor("dask", n_workers=2, notify=messages.append),
         progress=False,
         plots=False,
-        notify=messages.append,
         on_record=look,
     )
     assert run.computed == N_CASES

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from jaxflex.cli import main
 from jaxflex.errors import InputError
 from optim.sweep.cases import expand, layout_job
-from optim.sweep.run import run_sweep
+from optim.sweep.run import Executor, run_sweep
 from optim.sweep.spec import EXAMPLE, load_spec, parse_spec
 from optim.sweep.work import analyse_layout, payload_model
 
@@ -163,11 +163,11 @@ def test_grid_expands_to_every_combination(nx, ny, inset, radius):
 @pytest.mark.parametrize(
     ("kwargs", "field"),
     [
-        ({"executor": "threads"}, "executor"),
-        ({"executor": "serial", "scheduler": "tcp://localhost:8786"}, "scheduler"),
+        ({"kind": "threads"}, "executor"),
+        ({"kind": "serial", "scheduler": "tcp://localhost:8786"}, "scheduler"),
         ({"scheduler": "localhost:8786"}, "scheduler: expected an address like tcp://"),
         ({"n_workers": 0}, "n_workers"),
-        ({"executor": "serial", "dashboard_address": "127.0.0.1:0"}, "dashboard_address"),
+        ({"kind": "serial", "dashboard_address": "127.0.0.1:0"}, "dashboard_address"),
         (
             {"scheduler": "tcp://127.0.0.1:8786", "dashboard_address": "0.0.0.0:8787"},
             "dashboard_address: only for the embedded LocalCluster",
@@ -175,8 +175,11 @@ def test_grid_expands_to_every_combination(nx, ny, inset, radius):
     ],
 )
 def test_bad_run_options_are_named(tmp_path, kwargs, field):
+    """Refused by optim.sweep.Executor when made, or (the scheduler's address) when the
+    sweep connects, naming the field."""
     with pytest.raises(InputError, match="^" + re.escape(field)):
-        run_sweep(parse_spec(BASE), tmp_path, progress=False, plots=False, **kwargs)
+        executor = Executor(**kwargs)
+        run_sweep(parse_spec(BASE), tmp_path, executor=executor, progress=False, plots=False)
 
 
 def test_a_sweep_over_the_users_own_part_file(tmp_path):

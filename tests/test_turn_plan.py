@@ -20,7 +20,7 @@ from optim.turn_plan import gallop_lengths, resolution_m
 
 DT = 0.01
 LIMITS = optim.Limits(vmax=2.0, amax=10.0, jmax=100.0)
-TURN = {"rotate": ("x", 30.0), "pivot_m": (0.6, 0.4, 0.0), "progress": False}
+TURN = {"rotation": optim.Rotation("x", 30.0, pivot_m=(0.6, 0.4, 0.0))}
 
 
 def _no_engine(*args, **kwargs):
@@ -34,8 +34,15 @@ def test_a_clearance_below_the_models_resolution_is_refused_at_once(turning_plat
     assert acc == pytest.approx(4.0 / 30.0**2)
     assert floor == pytest.approx(relative * deflection) and 1e-3 <= relative < 1
     with pytest.raises(InputError, match=r"clearance_m \(--clearance\): 1e-12 m is below"):
-        optim.optimize(turning_plate, (0.0, 0.0, 1.0), LIMITS, DT, 5e-4, clearance_m=1e-12,
-                       **TURN)  # fmt: skip
+        optim.optimize(
+            turning_plate,
+            (0.0, 0.0, 1.0),
+            LIMITS,
+            DT,
+            5e-4,
+            constraints=optim.Constraints(clearance_m=1e-12),
+            **TURN,
+        )
 
 
 def test_a_turning_search_over_the_budget_is_refused_before_its_baselines(

@@ -37,9 +37,16 @@ def press_result():
     cell = load_cell(EXAMPLES / "press_cell.toml")
     limits = optim.Limits(2.0, 10.0, 100.0)
     return optim.optimize(
-        model, None, limits, DT_S, THRESHOLD_M, cell=cell, min_distance_m=0.01, cup_safety=1.5,
-        max_stress_pa="yield", progress=False,
-    )  # fmt: skip
+        model,
+        None,
+        limits,
+        DT_S,
+        THRESHOLD_M,
+        search=optim.Search(progress=False),
+        constraints=optim.Constraints(
+            cell=cell, min_distance_m=0.01, cup_safety=1.5, max_stress_pa="yield"
+        ),
+    )
 
 
 def measure(repeat: int) -> dict:

@@ -83,7 +83,13 @@ def press() -> dict:
     cell = press_cell()
     tick, cpu = time.perf_counter(), time.process_time()
     result = optim.optimize(
-        model, None, LIMITS, DT, THRESHOLD, cell=cell, min_distance_m=0.01, progress=False
+        model,
+        None,
+        LIMITS,
+        DT,
+        THRESHOLD,
+        search=optim.Search(progress=False),
+        constraints=optim.Constraints(cell=cell, min_distance_m=0.01),
     )
     wall, cpu = time.perf_counter() - tick, time.process_time() - cpu
     (baseline,) = result.baselines.entries
@@ -181,9 +187,12 @@ def constraints() -> dict:
     distance = [0.0, 0.0, 1.0]
     runs = {}
 
-    def timed(label, **options):
+    def timed(label, **constraints):
         tick, cpu = time.perf_counter(), time.process_time()
-        result = optim.optimize(model, distance, LIMITS, DT, THRESHOLD, progress=False, **options)
+        result = optim.optimize(
+            model, distance, LIMITS, DT, THRESHOLD, constraints=optim.Constraints(**constraints),
+            search=optim.Search(progress=False),
+        )  # fmt: skip
         runs[label] = {
             "wall_s": time.perf_counter() - tick,
             "cpu_s": time.process_time() - cpu,
@@ -193,7 +202,7 @@ def constraints() -> dict:
         return result
 
     # the first run compiles the engine's JAX functions: not part of any constraint's cost
-    optim.optimize(model, distance, LIMITS, DT, THRESHOLD, progress=False)
+    optim.optimize(model, distance, LIMITS, DT, THRESHOLD, search=optim.Search(progress=False))
     plain = timed("none")
     cup0, stress0 = _peaks(model, plain.acc)
     # a ceiling 15 mm above the part's highest point at rest at B
@@ -222,7 +231,9 @@ def cups() -> dict:
         for kind in KINDS:
             model, result, fe_s = _plate_model(kind, scene)
             tick = time.perf_counter()
-            opt = optim.optimize(model, [0, 0, 1.0], LIMITS, DT, THRESHOLD, progress=False)
+            opt = optim.optimize(
+                model, [0, 0, 1.0], LIMITS, DT, THRESHOLD, search=optim.Search(progress=False)
+            )
             out[f"{scene}, {kind or 'rigid'}"] = {
                 "freq_hz": [float(f) for f in result.freq_hz[:8]],
                 "cycle_time_s": opt.cycle_time_s,

@@ -38,6 +38,7 @@ from jaxflex.reference import simply_supported_plate
 from optim.baselines import worst_case
 from optim.limits import Limits
 from optim.optimize import optimize
+from optim.options import Search
 from optim.robust import RobustSpec
 
 NOMINAL_ROUTES = (
@@ -141,10 +142,8 @@ def run(
                 limits,
                 dt_s,
                 threshold_m,
-                method=method,
-                solver=solver,
                 robust=spec,
-                progress=False,
+                search=Search(method=method, solver=solver, progress=False),
             )
             wall = time.perf_counter() - start
             key = f"{method}/{solver}"

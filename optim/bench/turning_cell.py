@@ -34,8 +34,14 @@ from optim.turn_baselines import turn_worst_case
 DT, THRESHOLD = DT_S, THRESHOLD_M
 LIMITS = optim.Limits(vmax=2.0, amax=10.0, jmax=100.0)
 PIVOT = (0.6, 0.4, 0.0)
-TILT = {"rotate": ("x", 30.0), "pivot_m": PIVOT, "progress": False}
-SWIVEL = {"rotate": ("z", 90.0), "pivot_m": PIVOT, "progress": False}
+TILT = {
+    "rotation": optim.Rotation("x", 30.0, pivot_m=PIVOT),
+    "search": optim.Search(progress=False),
+}
+SWIVEL = {
+    "rotation": optim.Rotation("z", 90.0, pivot_m=PIVOT),
+    "search": optim.Search(progress=False),
+}
 
 
 def _plate():
@@ -58,18 +64,19 @@ def _dense_loads(model, result, safety: float) -> tuple[float, float]:
     return float(loads.utilisation.max()), float(loads.von_mises_pa.max())
 
 
-def _timed(model, distance, **options):
+def _timed(model, distance, constraints=None, **options):
     start = time.perf_counter()
-    result = optim.optimize(model, distance, LIMITS, DT, THRESHOLD, **options)
+    limits = optim.Constraints(**(constraints or {}))
+    result = optim.optimize(model, distance, LIMITS, DT, THRESHOLD, constraints=limits, **options)
     return result, time.perf_counter() - start
 
 
 def _load_case(model, kind: str) -> dict:
     probe = {"cup_safety": 1.0} if kind == "cups" else {"max_stress_pa": 1e12}
-    plain, _ = _timed(model, (0, 0, 1.0), **TILT, **probe)
+    plain, _ = _timed(model, (0, 0, 1.0), probe, **TILT)
     peak = plain.constraints[0]["peak"]
     limit = {"cup_safety": 1 / (0.85 * peak)} if kind == "cups" else {"max_stress_pa": 0.85 * peak}
-    result, wall = _timed(model, (0, 0, 1.0), **TILT, **limit)
+    result, wall = _timed(model, (0, 0, 1.0), limit, **TILT)
     (constraint,) = result.constraints
     dense = _dense_loads(model, result, limit.get("cup_safety", 1.0))[kind != "cups"]
     return {
@@ -95,7 +102,7 @@ def _distance_case(model) -> dict:
     start = dense(plain, (far,))
     post = Box(far.centre_m + np.array([0.0, start - 0.0055, 0.0]), far.size_m, name="post")
     cell = Cell(obstacles=(post,), end_m=np.array([1.0, 0.0, 0.0]), thickness_m=1e-3)
-    result, wall = _timed(model, None, cell=cell, min_distance_m=0.01, **SWIVEL)
+    result, wall = _timed(model, None, {"cell": cell, "min_distance_m": 0.01}, **SWIVEL)
     (constraint,) = result.constraints
     return {
         "scene": "swivel 90 deg about z, 1 m along x, a post 5.5 mm from the corner's path",
@@ -133,7 +140,7 @@ def main(argv=None) -> None:
     parser.add_argument("-o", "--output", default="turning_cell_bench.json")
     args = parser.parse_args(argv)
     model = _plate()
-    optim.optimize(model, (0, 0, 1.0), LIMITS, DT, THRESHOLD, cup_safety=1.0, **TILT)  # compile
+    _timed(model, (0, 0, 1.0), {"cup_safety": 1.0}, **TILT)  # compile
     cases = [
         _load_case(model, "cups"),
         _load_case(model, "stress"),

@@ -68,11 +68,16 @@ def run(args: argparse.Namespace) -> int:
             )
     check_output_dir("-o/--output", args.output)
     check_input_file("spec", args.spec)
-    from optim.sweep.run import run_sweep  # the sweep loads after the checks
+    from optim.sweep.run import Executor, run_sweep  # the sweep loads after the checks
     from optim.sweep.spec import load_spec
 
     spec = load_spec(args.spec)
-    executor = "serial" if args.serial else "dask"
+    executor = Executor(
+        "serial" if args.serial else "dask",
+        n_workers=args.workers,
+        scheduler=args.scheduler,
+        dashboard_address=args.dashboard,
+    )
     where = args.scheduler or ("this process" if args.serial else "a local dask cluster")
     step(
         f"{args.spec}: {len(spec.layouts)} layouts x {len(spec.moves)} moves on {where}; "
@@ -82,9 +87,6 @@ def run(args: argparse.Namespace) -> int:
         spec,
         args.output,
         executor=executor,
-        scheduler=args.scheduler,
-        n_workers=args.workers,
-        dashboard_address=args.dashboard,
         retry_errors=args.retry_errors,
         plots=not args.no_plots,
     )

@@ -6,9 +6,10 @@ Executors:
 * ``"serial"``: in this process, layout by layout (the reference; no dask involved);
 * ``"dask"``: a ``dask.distributed.Client`` on an embedded ``LocalCluster`` (``n_workers``
   worker processes, one thread each; default one per core) or on the scheduler at
-  ``scheduler`` ("tcp://host:8786"); see optim.sweep.cluster for the connection, the version
-  gate and the lost workers. One task per layout runs the finite-element analysis; one task
-  per case optimises, depending on its layout's task, so dask schedules the FE analyses in
+  ``scheduler`` ("tcp://host:8786"), both options of :class:`Executor`; see
+  optim.sweep.cluster for the connection, the version gate and the lost workers. One task
+  per layout runs the finite-element analysis; one task per case optimises, depending on
+  its layout's task, so dask schedules the FE analyses in
   parallel processes and runs each case next to its model. Tasks are submitted in bounded
   batches: at most ``cluster.window`` case tasks (a few per worker thread) are out at once,
   and a new one goes out as a record comes back, so neither the task graph nor the client
@@ -133,42 +134,64 @@ class SweepRun:
         return "\n".join(lines)
 
 
+@dataclass(frozen=True)
+class Executor:
+    """Where a sweep's cases run (module docstring), checked when made: ``kind`` "dask"
+    (default) or "serial"; for dask the embedded LocalCluster's ``n_workers`` (default one
+    per core) and ``dashboard_address`` ("host:port"), or the ``scheduler`` to connect to
+    ("tcp://host:8786"; optim.sweep.cluster.connect), and ``notify`` for the messages about
+    the cluster (default: stderr)."""
+
+    kind: str = "dask"
+    n_workers: int | None = None
+    scheduler: str | None = None
+    dashboard_address: str | None = None
+    notify: Callable[[str], None] | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in EXECUTORS:
+            raise InputError(f"executor: must be one of {list(EXECUTORS)}, got {self.kind!r}")
+        for name in ("scheduler", "dashboard_address"):
+            if getattr(self, name) is not None and self.kind != "dask":
+                raise InputError(f"{name}: only used with the dask executor")
+        if self.n_workers is not None and self.n_workers < 1:
+            raise InputError(f"n_workers: must be >= 1, got {self.n_workers}")
+        check_dashboard(self.dashboard_address)
+
+    def connect(self):
+        """The dask client of this executor (optim.sweep.cluster.connect)."""
+        where = {"n_workers": self.n_workers, "dashboard_address": self.dashboard_address}
+        return connect(self.scheduler, notify=self.notify, **where)
+
+
 def run_sweep(
     spec: SweepSpec,
     directory: str | Path,
     *,
-    executor: str = "dask",
-    scheduler: str | None = None,
-    n_workers: int | None = None,
-    dashboard_address: str | None = None,
+    executor: Executor | str = "dask",
     retry_errors: bool = False,
     progress: bool | None = None,
     plots: bool = True,
-    notify: Callable[[str], None] | None = None,
     on_record: Callable[[dict, float], None] | None = None,
 ) -> SweepRun:
     """Compute every case of ``spec`` not yet stored in ``directory`` and write the table
-    (``results.csv``) and plots. See the module docstring for the executors and
-    optim.sweep.cluster.connect for ``scheduler``, ``n_workers``, ``dashboard_address``
-    ("host:port" of the LocalCluster's dashboard) and ``notify`` (messages about the cluster;
-    default: stderr). ``retry_errors`` recomputes cases whose stored record is an error.
-    ``on_record(record, store_s)`` is called after each record is stored, with the seconds
-    the store took."""
-    if executor not in EXECUTORS:
-        raise InputError(f"executor: must be one of {list(EXECUTORS)}, got {executor!r}")
-    for name, value in (("scheduler", scheduler), ("dashboard_address", dashboard_address)):
-        if value is not None and executor != "dask":
-            raise InputError(f"{name}: only used with the dask executor")
-    if n_workers is not None and n_workers < 1:
-        raise InputError(f"n_workers: must be >= 1, got {n_workers}")
-    check_dashboard(dashboard_address)
+    (``results.csv``) and plots, the cases run by ``executor`` (an :class:`Executor`, or
+    its kind "dask" or "serial" with the defaults). ``retry_errors`` recomputes cases whose
+    stored record is an error. ``on_record(record, store_s)`` is called after each record
+    is stored, with the seconds the store took."""
+    if isinstance(executor, str):
+        executor = Executor(executor)
+    elif not isinstance(executor, Executor):
+        raise InputError(
+            "executor: 'dask', 'serial' or an optim.sweep.Executor(...), got "
+            f"{type(executor).__name__}"
+        )
     store = ResultStore(directory, dt_s=spec.optimization.dt_s)
     with directory_lock(store.root, option="-o/--output"):
-        where = {"n_workers": n_workers, "dashboard_address": dashboard_address}
         options = _Options(
-            executor=executor,
-            n_workers=workers(n_workers, executor),
-            connect_to=lambda: connect(scheduler, notify=notify, **where),
+            executor=executor.kind,
+            n_workers=workers(executor.n_workers, executor.kind),
+            connect_to=executor.connect,
             retry_errors=retry_errors,
             progress=progress,
             plots=plots,

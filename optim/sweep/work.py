@@ -25,6 +25,7 @@ from jaxflex.model import ModalModel
 from jaxflex.runtime import enable_compile_cache
 from optim.limits import Limits
 from optim.optimize import optimize
+from optim.options import Budget, Search
 from optim.robust import RobustSpec
 from optim.sweep.part import build_part, monitor_points
 
@@ -127,10 +128,9 @@ def optimise_case(fe: dict, job: dict) -> dict:
                 Limits(move["vmax"], move["amax"], move["jmax"]),
                 settings["dt_s"],
                 settings["threshold_m"],
-                method=settings["method"],
                 robust=None if robust is None else RobustSpec.from_dict(robust),
-                progress=False,
-                max_duration_s=settings["max_duration_s"],
+                search=Search(method=settings["method"], progress=False),
+                budget=Budget(max_duration_s=settings["max_duration_s"]),
             )
     except Exception as exc:  # recorded, the sweep goes on
         return {

@@ -26,19 +26,19 @@ from jaxflex.model import ModalModel
 from jaxflex.response import ARRAY_FIELDS
 from optim.limits import Limits
 from optim.optimize import optimize
+from optim.options import Search
 from optim.robust import RobustSpec
 from optim.sweep.cases import expand, layout_job
 from optim.sweep.evaluate import deviation_traces
-from optim.sweep.run import run_sweep
+from optim.sweep.run import Executor, run_sweep
 from optim.sweep.spec import EXAMPLE, SweepSpec, load_spec, parse_spec
 from optim.sweep.store import ResultStore
 from optim.sweep.work import analyse_layout, payload_model
 
 
 def _throughput(spec: SweepSpec, executor: str, n_workers: int | None, root: Path) -> dict:
-    run = run_sweep(
-        spec, root / executor, executor=executor, n_workers=n_workers, progress=False, plots=False
-    )
+    where = Executor(executor, n_workers=n_workers)
+    run = run_sweep(spec, root / executor, executor=where, progress=False, plots=False)
     ok = [r for r in run.records.values() if r["status"] == "ok"]
     fe_by_layout = {}  # layout -> (wall, cpu) of its one FE analysis
     for case in run.cases:
@@ -88,7 +88,7 @@ def _meta_reuse(spec: SweepSpec, n_layouts: int = 4) -> dict:
                 limits,
                 spec.optimization.dt_s,
                 spec.optimization.threshold_m,
-                progress=False,
+                search=Search(progress=False),
             )
             out[label].append(round(time.perf_counter() - tick, 3))
     out["note"] = "per distinct layout, in order; the first layout's kept run also compiles"

@@ -39,7 +39,7 @@ import psutil
 
 from fem.bench.emit import emit_json
 from jaxflex.errors import InputError
-from optim.sweep.run import run_sweep
+from optim.sweep.run import Executor, run_sweep
 from optim.sweep.spec import SweepSpec, parse_spec
 from optim.sweep.store import ResultStore
 
@@ -225,10 +225,9 @@ def measure(
     run = run_sweep(
         spec,
         directory,
-        n_workers=n_workers,
+        executor=Executor(n_workers=n_workers, notify=lambda message: None),
         progress=False,
         plots=False,
-        notify=lambda message: None,
         on_record=sampler,
     )
     store = ResultStore(directory)
