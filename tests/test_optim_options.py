@@ -251,10 +251,10 @@ def test_command_builds_and_refuses_the_objects(tmp_path):
     base = ["optimize", str(tmp_path / "none.npz"), "--distance", "0", "0", "1"]
     base += ["--threshold", "5e-4", "-o", str(tmp_path / "o")]
     for extra, message in (
-        (["--max-steps", "1"], "max_steps (--max-steps): must be an integer >= 2, got 1"),
-        (["--rotate", "w", "30"], "axis (--rotate AXIS ANGLE_DEG): 'x', 'y', 'z'"),
+        (["--max-steps", "1"], "--max-steps (max_steps): must be an integer >= 2, got 1"),
+        (["--rotate", "w", "30"], "--rotate AXIS ANGLE_DEG (axis): 'x', 'y', 'z'"),
         (["--pivot", "0", "0", "0"], "--angular-limits, --pivot: only with --rotate"),
-        (["--method", "gradient", "--solver", "highs"], "solver (--solver): method 'gradient'"),
+        (["--method", "gradient", "--solver", "highs"], "--solver (solver): method 'gradient'"),
     ):
         proc = run_jaxflex(*base, *extra)
         assert proc.returncode == 2, proc.stderr

@@ -29,6 +29,8 @@ def test_the_field_is_led_by_the_option_that_sets_it():
 def test_the_older_order_is_turned_round():
     text = "mesh_size (--mesh-size): 1e+300 m for a part 1.7 m across"
     assert in_option_style(text, {}) == "--mesh-size (mesh_size): 1e+300 m for a part 1.7 m across"
+    text = "axis (--rotate AXIS ANGLE_DEG): 'x', 'y', 'z', got 'w'"
+    assert in_option_style(text, {}) == "--rotate AXIS ANGLE_DEG (axis): 'x', 'y', 'z', got 'w'"
 
 
 @given(st.text(alphabet=string.printable, max_size=60))
