@@ -33,12 +33,12 @@ import numpy as np
 from jaxflex.files import MANIFEST, SetWriter, write_trajectory_csv, writing
 from jaxflex.model import ModalModel
 from jaxflex.response import Move, SettleReport, as_move, deviation_curve, integrate
-from optim import result_report
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
 from optim.result_files import ANIMATION_DIR as ANIMATION_DIR  # their home: the light names
 from optim.result_files import RESULT_FILES as RESULT_FILES
 from optim.result_files import RESULT_KIND as RESULT_KIND
+from optim.result_report import Reported
 from optim.robust import RobustSpec, perturbed
 from optim.turn_clearance import turning_move_deviation
 
@@ -77,7 +77,7 @@ def deviation_summary(model: ModalModel, move: Move) -> dict:
 
 
 @dataclass
-class OptimizationResult:
+class OptimizationResult(Reported):
     """Optimised move and everything known about it. Times in s, lengths in m."""
 
     model: ModalModel
@@ -151,35 +151,6 @@ class OptimizationResult:
     def objective_s(self) -> float:
         """What was minimised: the worst case over the robust grid, else the cycle time."""
         return self.cycle_time_s if self.worst_case is None else self.worst_cycle_time_s
-
-    def comparison(self) -> dict:
-        """The answer against the best baseline that meets the cell's constraints and the
-        clearance (``baseline_allowed``), by the same objective: its name, its objective and
-        the saving (s, and relative to the baseline). Where no baseline does, against the
-        fastest one, ``baseline_allowed`` False and ``breaks`` saying what it breaks
-        (optim.result_report)."""
-        return result_report.comparison(self)
-
-    def ratios(self) -> dict:
-        """The issue's figures: cycle time over the kinematic floor and over the best
-        shaper (nominal), and the robust worst case over the best shaper's worst case
-        (optim.result_report)."""
-        return result_report.ratios(self)
-
-    def report(self) -> dict:
-        """Everything as JSON-ready data (the content of report.json; optim.result_report)."""
-        return result_report.report(self)
-
-    def summary(self) -> str:
-        """The answer first (ruckig-style: one line), then the details, for the terminal
-        (optim.result_report)."""
-        return result_report.summary(self)
-
-    def headline(self) -> str:
-        """One line with the answer: which move, its objective, and how it compares with
-        the best baseline that meets the cell's constraints and the clearance (the same
-        objective), or that no baseline does."""
-        return result_report.headline(self)
 
     def save(self, directory: str | os.PathLike, *, plots: bool = True) -> list[Path]:
         """Write trajectory.csv, report.json and (with ``plots``) the pictures into

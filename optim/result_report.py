@@ -1,16 +1,12 @@
 """An optimisation's result in words and as data: report.json's content (:func:`report`),
 the terminal summary with the answer first (:func:`summary`, :func:`headline`) and the
 comparison with the baselines (:func:`comparison`, :func:`ratios`), functions of an
-optim.result.OptimizationResult (its methods of the same names call them)."""
+optim.result.OptimizationResult, which has them as methods through the mixin
+:class:`Reported` (so this module needs nothing of optim.result)."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
-
-if TYPE_CHECKING:
-    from optim.result import OptimizationResult
 
 
 def constraint_line(c: dict) -> str:
@@ -37,7 +33,32 @@ def constraint_line(c: dict) -> str:
     )
 
 
-def comparison(result: OptimizationResult) -> dict:
+class Reported:
+    """The report methods of optim.result.OptimizationResult (a mixin: each calls this
+    module's function of its name on the result)."""
+
+    def comparison(self) -> dict:
+        """The answer against the best allowed baseline (:func:`comparison`)."""
+        return comparison(self)
+
+    def ratios(self) -> dict:
+        """Cycle time over the kinematic floor and the best shaper (:func:`ratios`)."""
+        return ratios(self)
+
+    def report(self) -> dict:
+        """Everything as JSON-ready data, report.json's content (:func:`report`)."""
+        return report(self)
+
+    def summary(self) -> str:
+        """The answer first, then the details, for the terminal (:func:`summary`)."""
+        return summary(self)
+
+    def headline(self) -> str:
+        """One line with the answer and how it compares (:func:`headline`)."""
+        return headline(self)
+
+
+def comparison(result: Reported) -> dict:
     """The answer against the best baseline that meets the cell's constraints and the
     clearance (``baseline_allowed``), by the same objective: its name, its objective and
     the saving (s, and relative to the baseline). Where no baseline does, against the
@@ -56,7 +77,7 @@ def comparison(result: OptimizationResult) -> dict:
     }
 
 
-def ratios(result: OptimizationResult) -> dict:
+def ratios(result: Reported) -> dict:
     """The issue's figures: cycle time over the kinematic floor and over the best
     shaper (nominal), and the robust worst case over the best shaper's worst case."""
     base = result.baselines
@@ -78,7 +99,7 @@ def ratios(result: OptimizationResult) -> dict:
     return out
 
 
-def report(result: OptimizationResult) -> dict:
+def report(result: Reported) -> dict:
     """Everything as JSON-ready data (the content of report.json)."""
     model = result.model
     return {
@@ -122,7 +143,7 @@ def report(result: OptimizationResult) -> dict:
     }
 
 
-def _turn_report(result: OptimizationResult) -> dict:
+def _turn_report(result: Reported) -> dict:
     """The turn, its schedule's heuristic and the neglected terms' bound (optim.turn)."""
     return {
         "schedule": "fixed per move length: ruckig's turn stretched to the move, or shaped "
@@ -133,7 +154,7 @@ def _turn_report(result: OptimizationResult) -> dict:
     }
 
 
-def _turn_line(result: OptimizationResult) -> str:
+def _turn_line(result: Reported) -> str:
     spec = result.turn.as_dict()
     axis = ", ".join(f"{v:g}" for v in spec["axis"])
     bound = result.deviation["neglected_bound_m"]
@@ -151,7 +172,7 @@ def _turn_line(result: OptimizationResult) -> str:
     )
 
 
-def summary(result: OptimizationResult) -> str:
+def summary(result: Reported) -> str:
     """The answer first (ruckig-style: one line), then the details, for the terminal."""
     lines = [headline(result), f"  {_timeline(result)}"]
     if result.worst_case is not None:
@@ -185,7 +206,7 @@ def summary(result: OptimizationResult) -> str:
     return "\n".join(lines)
 
 
-def headline(result: OptimizationResult) -> str:
+def headline(result: Reported) -> str:
     """One line with the answer: which move, its objective, and how it compares with
     the best baseline that meets the cell's constraints and the clearance (the same
     objective), or that no baseline does."""
@@ -217,14 +238,14 @@ def headline(result: OptimizationResult) -> str:
     return f"{head}, as short as the best feasible baseline, {base}{floor}"
 
 
-def _at_floor(result: OptimizationResult) -> bool:
+def _at_floor(result: Reported) -> bool:
     return (
         result.n_steps == result.baselines.floor_steps
         and result.objective_s == result.transfer_time_s
     )
 
 
-def _timeline(result: OptimizationResult) -> str:
+def _timeline(result: Reported) -> str:
     """Transfer, settle and cycle time in words: the cycle is max(transfer, settle)."""
     transfer, settle = result.transfer_time_s, result.settle_time_s
     mm = f"{result.threshold_m * 1e3:g} mm"
