@@ -231,7 +231,7 @@ def _moving_cache(model) -> dict | None:
 
 def blocks_of(model, dtype: str = "float64", *, moving: bool = False) -> PointBlocks:
     """The :class:`PointBlocks` of a concrete model's shapes in ``dtype`` (built once, then
-    shared by the models with the same shapes and points: jaxflex.model.shape_cache); with
+    shared by the models with the same shapes and points); with
     ``moving`` those of :func:`response_shapes` (coordinates :func:`with_acceleration`)."""
     moving_cache = _moving_cache(model) if moving else None
     if moving_cache is not None:
@@ -249,7 +249,7 @@ def component_blocks(
 ) -> tuple[np.ndarray, PointBlocks]:
     """The shapes (K, C, M) of a concrete model restricted to the displacement
     ``components`` it uses, and their :class:`PointBlocks` (float64), built once per shapes
-    and points (jaxflex.model.shape_cache: the scenarios of a robust grid share them); with
+    and points (cached per shapes and points: the scenarios of a robust grid share them); with
     ``moving`` those of :func:`response_shapes` (K, C, M + 3 where there is a residual)."""
     moving_cache = _moving_cache(model) if moving else None
     cache = shape_cache(model) if moving_cache is None else moving_cache

@@ -62,7 +62,7 @@ def modal_states(model, acc, dt_s, *, x0=None, hold: str = "linear", xp: Any = j
 
 def forced_states(model, force, dt_s, *, x0=None, hold: str = "linear", xp: Any = jnp):
     """:func:`modal_states` for given modal forces ``force`` (n+1, M) in kg^0.5 m/s^2 at the
-    samples (linear in between): the recursion of any forcing (jaxflex._turning)."""
+    samples (linear in between): the recursion of any forcing (the turning response uses it)."""
     phi, g0, g1 = step_matrices(model, dt_s, hold=hold, xp=xp)
     force = xp.asarray(force)
     drive = g0[None] * force[:-1, :, None] + g1[None] * force[1:, :, None]  # (n, M, 2)

@@ -209,7 +209,7 @@ def check_ends_at_rest(turn: Turn) -> None:
 class TurningInputs:
     """The inputs of the turning response at the samples t_s (T,) s: q, qd (T, M) total
     modal state, base (T, 3) a_O - g_b, coefficients (T, 9) of the rotational loads
-    (jaxflex._rotation_residual), gravity_body_m_s2 (T, 3) g_b (m/s^2, 1/s^2)."""
+    (their static residual's), gravity_body_m_s2 (T, 3) g_b (m/s^2, 1/s^2)."""
 
     t_s: np.ndarray
     q: np.ndarray
@@ -301,10 +301,11 @@ def padded_samples(turn: Turn, n_steps: int) -> np.ndarray:
 
 
 def simulate_turning(model, turn: Turn, *, extend_s: float = 0.0) -> TurningResponse:
-    """Response of ``model`` (with jaxflex._rotation data) to the turning move ``turn`` (its
-    path, the pivot's world acceleration samples, the pivot and gravity). With ``extend_s``
-    (s) the free vibration after the move follows (whole steps; the move must end at rest).
-    One compiled function per model size and block of PAD_STEPS steps (module docstring)."""
+    """Response of ``model`` (with its rotation data, jaxflex.response.RotationalInertia)
+    to the turning move ``turn`` (its path, the pivot's world acceleration samples, the
+    pivot and gravity). With ``extend_s`` (s) the free vibration after the move follows
+    (whole steps; the move must end at rest). One compiled function per model size and
+    block of PAD_STEPS steps (module docstring)."""
     rotation = require_rotation(model)
     if model.static_shapes is not None and rotation.static_shapes is None:
         warn_missing_static("deviation")

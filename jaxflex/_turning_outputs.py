@@ -70,7 +70,7 @@ def turning_loads(
     model, turn: Turn, *, extend_s: float = 0.0, cup_safety: float = DEFAULT_CUP_SAFETY
 ) -> TurningLoads:
     """Cup reactions, utilisation and stresses of ``model`` (with cups and/or stresses and
-    the jaxflex._rotation data) over the turning move ``turn`` and, with ``extend_s`` (s), the
+    its rotation data) over the turning move ``turn`` and, with ``extend_s`` (s), the
     free vibration after it (as jaxflex._turning.simulate_turning; module docstring).
     ModelError for a model with neither cups nor stresses."""
     if model.cups is None and model.stress is None:

@@ -577,8 +577,8 @@ def shape_cache(model: ModalModel) -> dict:
 
 
 def save_model(model: ModalModel, path) -> None:
-    """Write ``model`` to ``path`` (a versioned .npz, jaxflex._model_file) atomically: the
-    file is complete or absent."""
+    """Write ``model`` to ``path`` (a versioned .npz that jaxflex.files.read_model_file
+    reads) atomically: the file is complete or absent."""
     arrays = {name: getattr(model, name) for name in ARRAY_FIELDS}
     if model.static_shapes is not None:
         arrays["static_shapes"] = model.static_shapes
