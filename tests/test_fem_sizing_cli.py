@@ -44,9 +44,12 @@ def test_tolerance_writes_the_sized_model_and_report(tmp_path, capsys):
         ([], "--tolerance: give the move"),
         (
             ["--distance", "0", "0", "1", "--tolerance", "0"],
-            "tolerance: must be a finite number > 0",
+            "--tolerance (tolerance): must be a finite number > 0",
         ),
-        (["--distance", "0", "0", "1", "--tolerance", "50%"], "tolerance: a fraction in (0, 0.5)"),
+        (
+            ["--distance", "0", "0", "1", "--tolerance", "50%"],
+            "--tolerance (tolerance): a fraction in (0, 0.5)",
+        ),
         (["--distance", "0", "0", "1", "--tolerance", "1"], "did you mean 0.01"),
         (["--distance", "0", "0", "1", "--n-modes", "5"], "--n-modes: chosen by --tolerance"),
         (["--distance", "0", "0", "1", "--vmax", "1", "2"], "--vmax: give one value or three"),
