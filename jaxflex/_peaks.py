@@ -225,6 +225,22 @@ class _Response:
         w = self.functional.weights(items)  # (I, r)
         return np.einsum("ir,ir...->i...", w, per_row.reshape(*w.shape, *per_row.shape[1:]))
 
+    def states_at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(modal states (T, M, 2), accelerations (T, 3)) at times ``t`` (T,) s during the
+        move and after it (:meth:`during` and :meth:`after`'s, for any mix of times)."""
+        during = t <= self.t_end
+        states = np.empty((len(t), self.omega.size, 2))
+        acc = np.zeros((len(t), 3))
+        if during.any():
+            t_in = t[during]
+            states[during] = states_between(
+                self.model, self.states, self.force, self.dt_s, t_in, np
+            )
+            acc[during] = acceleration_at(self.acc, self.dt_s, t_in)
+        if not during.all():
+            states[~during] = free_states(self.model, self.end_state, t[~during] - self.t_end, np)
+        return states, acc
+
     # -- during the move ----------------------------------------------------------------
     def during(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
         states = states_between(self.model, self.states, self.force, self.dt_s, t, np)
@@ -358,12 +374,27 @@ def outputs_above(
                             (response.after_bound, b > response.t_end)):  # fmt: skip
             if part.any():
                 upper[:, part] = bound(a[part], b[part], va[:, part], vb[:, part], items)
-        for j in np.flatnonzero((upper > above).any(axis=0)):
-            inside = np.arange(coarse[j] + 1, coarse[j + 1])
-            if inside.size:
-                flagged = np.flatnonzero(upper[:, j] > above)
-                values[np.ix_(inside, flagged)] = _evaluate(response, t[inside], items[flagged]).T
+        _fill_between(response, t, coarse, upper > above, items, values)
         return items, values
+
+
+def _fill_between(response: _Response, t, coarse, flagged, items, values) -> None:
+    """:func:`outputs_above`'s refinement: ``values`` (T, I) filled at the times strictly
+    between the coarse times ``coarse`` where an item's interval bound reaches the threshold
+    (``flagged`` (I, C - 1)). The modal states of all those times come from one call (their
+    propagators computed once, not once per interval); each interval's flagged items are
+    evaluated on its own times, as before."""
+    intervals = [j for j in np.flatnonzero(flagged.any(axis=0)) if coarse[j + 1] > coarse[j] + 1]
+    if not intervals:
+        return
+    inside = [np.arange(coarse[j] + 1, coarse[j + 1]) for j in intervals]
+    states, acc = response.states_at(t[np.concatenate(inside)])
+    start = 0
+    for j, times in zip(intervals, inside, strict=True):
+        at = slice(start, start + times.size)
+        start += times.size
+        chosen = np.flatnonzero(flagged[:, j])
+        values[np.ix_(times, chosen)] = response.values(states[at], acc[at], items[chosen]).T
 
 
 def _evaluate(response: _Response, t: np.ndarray, items: np.ndarray) -> np.ndarray:
