@@ -352,8 +352,10 @@ def outputs_above(
     ``above``): the items whose bound over the move and the settling reaches it
     (:func:`item_bounds`), evaluated at every ``stride``-th time (and the end of the move),
     and between two of those only where the curvature bound of the interval (one step of
-    the move, or the decay envelope after it) reaches ``above``. The values above ``above``
-    are those of evaluating every item at every time."""
+    the move, or the decay envelope after it) reaches ``above``; of those, the items
+    returned are the ones with such an interval (the others provably stay at most
+    ``above``: no (T, I) array for them). The values above ``above`` are those of
+    evaluating every item at every time."""
     t = np.asarray(t_s, dtype=np.float64)
     offset = np.zeros(outputs.n_rows) if offset is None else offset
     with one_blas_thread():
@@ -361,21 +363,24 @@ def outputs_above(
         every = np.arange(functional.n_items)
         bounds = np.maximum(response.move_item_bounds(every), response.tail_item_bounds(every, 0.0))
         items = every[bounds > above]
-        values = np.full((len(t), len(items)), -np.inf)
         if items.size == 0 or t.size == 0:
-            return items, values
+            return items, np.full((len(t), len(items)), -np.inf)
         ends = np.searchsorted(t, response.t_end, side="right") - 1
         coarse = np.unique(np.r_[np.arange(0, len(t), stride), len(t) - 1, max(ends, 0)])
-        values[coarse] = _evaluate(response, t[coarse], items).T
+        at_coarse = _evaluate(response, t[coarse], items).T  # (C, I)
         a, b = t[coarse[:-1]], t[coarse[1:]]
-        va, vb = values[coarse[:-1]].T, values[coarse[1:]].T
+        va, vb = at_coarse[:-1].T, at_coarse[1:].T
         upper = np.empty_like(va)
         for bound, part in ((response.during_bound, b <= response.t_end),
                             (response.after_bound, b > response.t_end)):  # fmt: skip
             if part.any():
                 upper[:, part] = bound(a[part], b[part], va[:, part], vb[:, part], items)
-        _fill_between(response, t, coarse, upper > above, items, values)
-        return items, values
+        flagged = upper > above  # (I, C - 1); an interval's bound is >= its ends' values
+        keep = flagged.any(axis=1) | (at_coarse > above).any(axis=0)
+        values = np.full((len(t), int(keep.sum())), -np.inf)
+        values[coarse] = at_coarse[:, keep]
+        _fill_between(response, t, coarse, flagged[keep], items[keep], values)
+        return items[keep], values
 
 
 def _fill_between(response: _Response, t, coarse, flagged, items, values) -> None:
