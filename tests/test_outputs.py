@@ -170,6 +170,15 @@ def _dense_max(model, outputs, functional, acc, offset, until_s):
     return values.max(), t[np.unravel_index(np.argmax(values), values.shape)[0]]
 
 
+def _load(model, kind: str):
+    """(outputs, functional, offset under gravity) of the model's cups or stress points."""
+    if kind == "cups":
+        outputs, functional = model.cups.reaction, CupUtilisation(model.cups)
+    else:
+        outputs, functional = model.stress.stress, VonMises(model.stress.n_points)
+    return outputs, functional, outputs.offset([0.0, 0.0, -9.81])
+
+
 @pytest.mark.parametrize("kind", ["cups", "stress"])
 def test_certified_peak_against_a_dense_grid(model, kind):
     """The certified peak is attained and bounds the supremum: a 20 us grid over the move
@@ -177,11 +186,7 @@ def test_certified_peak_against_a_dense_grid(model, kind):
     above the bound and nothing more than the interpolation error (h^2/8 sup|y''| ~ 1e-6
     of the peak) below the value."""
     acc = smooth_move(40, DT)
-    if kind == "cups":
-        outputs, functional = model.cups.reaction, CupUtilisation(model.cups)
-    else:
-        outputs, functional = model.stress.stress, VonMises(model.stress.n_points)
-    offset = outputs.offset([0.0, 0.0, -9.81])
+    outputs, functional, offset = _load(model, kind)
     peak = output_peak(model, outputs, functional, acc, DT, offset=offset, rtol=1e-6)
     dense, when = _dense_max(model, outputs, functional, acc, offset, 4.4)
     assert peak.value <= peak.bound
@@ -198,11 +203,7 @@ def test_outputs_above_against_every_item_at_every_time(model, kind, fraction):
     above the threshold, with the same values (1e-9 of the peak: two evaluations of the
     same linear outputs in float64), and an item it leaves out never comes above it."""
     acc = smooth_move(40, DT)
-    if kind == "cups":
-        outputs, functional = model.cups.reaction, CupUtilisation(model.cups)
-    else:
-        outputs, functional = model.stress.stress, VonMises(model.stress.n_points)
-    offset = outputs.offset([0.0, 0.0, -9.81])
+    outputs, functional, offset = _load(model, kind)
     t = np.r_[np.arange(0, 40 * 8 + 1) * DT / 8, 40 * DT + np.arange(1, 301) * 0.01]
     y = outputs_at(model, outputs, acc, DT, t, offset).reshape(len(t), functional.n_items, -1)
     dense = functional.values(y, np.arange(functional.n_items))  # (T, I)
