@@ -225,6 +225,22 @@ class _Response:
         w = self.functional.weights(items)  # (I, r)
         return np.einsum("ir,ir...->i...", w, per_row.reshape(*w.shape, *per_row.shape[1:]))
 
+    def states_at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(modal states (T, M, 2), accelerations (T, 3)) at times ``t`` (T,) s during the
+        move and after it (:meth:`during` and :meth:`after`'s, for any mix of times)."""
+        during = t <= self.t_end
+        states = np.empty((len(t), self.omega.size, 2))
+        acc = np.zeros((len(t), 3))
+        if during.any():
+            t_in = t[during]
+            states[during] = states_between(
+                self.model, self.states, self.force, self.dt_s, t_in, np
+            )
+            acc[during] = acceleration_at(self.acc, self.dt_s, t_in)
+        if not during.all():
+            states[~during] = free_states(self.model, self.end_state, t[~during] - self.t_end, np)
+        return states, acc
+
     # -- during the move ----------------------------------------------------------------
     def during(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
         states = states_between(self.model, self.states, self.force, self.dt_s, t, np)
@@ -336,8 +352,10 @@ def outputs_above(
     ``above``): the items whose bound over the move and the settling reaches it
     (:func:`item_bounds`), evaluated at every ``stride``-th time (and the end of the move),
     and between two of those only where the curvature bound of the interval (one step of
-    the move, or the decay envelope after it) reaches ``above``. The values above ``above``
-    are those of evaluating every item at every time."""
+    the move, or the decay envelope after it) reaches ``above``; of those, the items
+    returned are the ones with such an interval (the others provably stay at most
+    ``above``: no (T, I) array for them). The values above ``above`` are those of
+    evaluating every item at every time."""
     t = np.asarray(t_s, dtype=np.float64)
     offset = np.zeros(outputs.n_rows) if offset is None else offset
     with one_blas_thread():
@@ -345,25 +363,43 @@ def outputs_above(
         every = np.arange(functional.n_items)
         bounds = np.maximum(response.move_item_bounds(every), response.tail_item_bounds(every, 0.0))
         items = every[bounds > above]
-        values = np.full((len(t), len(items)), -np.inf)
         if items.size == 0 or t.size == 0:
-            return items, values
+            return items, np.full((len(t), len(items)), -np.inf)
         ends = np.searchsorted(t, response.t_end, side="right") - 1
         coarse = np.unique(np.r_[np.arange(0, len(t), stride), len(t) - 1, max(ends, 0)])
-        values[coarse] = _evaluate(response, t[coarse], items).T
+        at_coarse = _evaluate(response, t[coarse], items).T  # (C, I)
         a, b = t[coarse[:-1]], t[coarse[1:]]
-        va, vb = values[coarse[:-1]].T, values[coarse[1:]].T
+        va, vb = at_coarse[:-1].T, at_coarse[1:].T
         upper = np.empty_like(va)
         for bound, part in ((response.during_bound, b <= response.t_end),
                             (response.after_bound, b > response.t_end)):  # fmt: skip
             if part.any():
                 upper[:, part] = bound(a[part], b[part], va[:, part], vb[:, part], items)
-        for j in np.flatnonzero((upper > above).any(axis=0)):
-            inside = np.arange(coarse[j] + 1, coarse[j + 1])
-            if inside.size:
-                flagged = np.flatnonzero(upper[:, j] > above)
-                values[np.ix_(inside, flagged)] = _evaluate(response, t[inside], items[flagged]).T
-        return items, values
+        flagged = upper > above  # (I, C - 1); an interval's bound is >= its ends' values
+        keep = flagged.any(axis=1) | (at_coarse > above).any(axis=0)
+        values = np.full((len(t), int(keep.sum())), -np.inf)
+        values[coarse] = at_coarse[:, keep]
+        _fill_between(response, t, coarse, flagged[keep], items[keep], values)
+        return items[keep], values
+
+
+def _fill_between(response: _Response, t, coarse, flagged, items, values) -> None:
+    """:func:`outputs_above`'s refinement: ``values`` (T, I) filled at the times strictly
+    between the coarse times ``coarse`` where an item's interval bound reaches the threshold
+    (``flagged`` (I, C - 1)). The modal states of all those times come from one call (their
+    propagators computed once, not once per interval); each interval's flagged items are
+    evaluated on its own times, as before."""
+    intervals = [j for j in np.flatnonzero(flagged.any(axis=0)) if coarse[j + 1] > coarse[j] + 1]
+    if not intervals:
+        return
+    inside = [np.arange(coarse[j] + 1, coarse[j + 1]) for j in intervals]
+    states, acc = response.states_at(t[np.concatenate(inside)])
+    start = 0
+    for j, times in zip(intervals, inside, strict=True):
+        at = slice(start, start + times.size)
+        start += times.size
+        chosen = np.flatnonzero(flagged[:, j])
+        values[np.ix_(times, chosen)] = response.values(states[at], acc[at], items[chosen]).T
 
 
 def _evaluate(response: _Response, t: np.ndarray, items: np.ndarray) -> np.ndarray:

@@ -9,6 +9,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.ticker import FuncFormatter
 
 from jaxflex._atomic import atomic_open
@@ -16,13 +17,24 @@ from jaxflex._atomic import atomic_open
 __all__ = ["PLAIN", "PLAIN_MINOR", "deviation_axes", "plt", "save_figure"]
 
 
+DPI = 120
+
+
 def save_figure(fig, path: str | os.PathLike) -> None:
-    """Save ``fig`` as PNG atomically and close it. A figure without a layout engine is
-    trimmed to its drawn extent (bbox "tight": one more draw); a constrained layout already
-    fits its page, and is drawn once."""
-    trim = None if fig.get_layout_engine() is not None else "tight"
+    """Save ``fig`` as PNG (DPI dots per inch) atomically and close it. A figure without a
+    layout engine is trimmed to its drawn extent (bbox "tight": one more draw); a
+    constrained layout already fits its page: it is laid out once here, at the saved
+    resolution, and the figure drawn once (savefig would draw it twice, once without
+    rendering to lay it out)."""
+    engine = fig.get_layout_engine()
     with atomic_open(path, "wb") as handle:
-        fig.savefig(handle, format="png", dpi=120, bbox_inches=trim)
+        if engine is None:
+            fig.savefig(handle, format="png", dpi=DPI, bbox_inches="tight")
+        else:
+            fig.set_dpi(DPI)
+            engine.execute(fig)
+            fig.set_layout_engine("none")
+            FigureCanvasAgg(fig).print_png(handle)
     plt.close(fig)
 
 

@@ -81,6 +81,18 @@ class CellSetup:
         return self.turn_source.holding(angular_acc)
 
 
+def posed_in(cell: Cell, model: ModalModel) -> ModalModel:
+    """``cell.posed(model)``, posed once per model and pose (the last one kept): the plan's
+    obstacle pruning (optim.obstacle_reach) and :func:`prepare_cell` share it (posing the
+    plate's 10 821 points, cups and stress points costs about 0.4 s of CPU)."""
+    cache = model.__dict__.setdefault("_cell_posed", {})
+    key = (np.asarray(cell.rotation).tobytes(), np.asarray(cell.start_m).tobytes())
+    if key not in cache:
+        cache.clear()
+        cache[key] = cell.posed(model)
+    return cache[key]
+
+
 def _measure_all(family, move: Move, every: bool):
     """A family's report of ``move`` (a robust family's on every model of its grid, or up to
     the first that fails without ``every``)."""
@@ -144,7 +156,7 @@ def prepare_cell(
                 f"distance_m: {list(distance_m)} differs from the cell's move "
                 f"{cell.distance_m.tolist()} (end_m - start_m); give one of them"
             )
-        model = cell.posed(model)
+        model = posed_in(cell, model)
         distance = clean_distance(cell.distance_m)
         gravity = cell.gravity_m_s2
         via = cell.via_offsets()

@@ -34,6 +34,7 @@ import numpy as np
 from jaxflex.geometry import Box, HalfSpace, TriangleMesh
 from jaxflex.model import ModalModel
 from jaxflex.runtime import step
+from optim.cell_setup import posed_in
 from optim.limits import Limits
 
 SKIN_M = 0.05  # more than half of any sheet's thickness: distances are to the skins
@@ -126,7 +127,7 @@ def reachable(
     frame; posed here) within ``limits`` and ``max_duration_s`` can bring within
     ``limit_m`` of the part (module docstring); the obstacle nearest the part at rest is
     always kept."""
-    posed = cell.posed(model)
+    posed = posed_in(cell, model)
     points = np.asarray(posed.points)
     low, high = pivot_box(cell, limits, max_duration_s)
     reach = deviation_bound_m(posed, limits.amax, max_duration_s, cell.gravity_m_s2)

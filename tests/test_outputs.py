@@ -13,7 +13,8 @@ from jaxflex._cell import rotation_from_degrees
 from jaxflex._deviation import outputs_at
 from jaxflex._loads import CupUtilisation, VonMises
 from jaxflex._outputs import CupSet, LinearOutputs, StressSet, voigt_rotation
-from jaxflex._peaks import output_peak
+from jaxflex._peaks import output_peak, outputs_above
+from jaxflex._profile import as_move
 
 DT = 0.01
 
@@ -169,6 +170,15 @@ def _dense_max(model, outputs, functional, acc, offset, until_s):
     return values.max(), t[np.unravel_index(np.argmax(values), values.shape)[0]]
 
 
+def _load(model, kind: str):
+    """(outputs, functional, offset under gravity) of the model's cups or stress points."""
+    if kind == "cups":
+        outputs, functional = model.cups.reaction, CupUtilisation(model.cups)
+    else:
+        outputs, functional = model.stress.stress, VonMises(model.stress.n_points)
+    return outputs, functional, outputs.offset([0.0, 0.0, -9.81])
+
+
 @pytest.mark.parametrize("kind", ["cups", "stress"])
 def test_certified_peak_against_a_dense_grid(model, kind):
     """The certified peak is attained and bounds the supremum: a 20 us grid over the move
@@ -176,17 +186,38 @@ def test_certified_peak_against_a_dense_grid(model, kind):
     above the bound and nothing more than the interpolation error (h^2/8 sup|y''| ~ 1e-6
     of the peak) below the value."""
     acc = smooth_move(40, DT)
-    if kind == "cups":
-        outputs, functional = model.cups.reaction, CupUtilisation(model.cups)
-    else:
-        outputs, functional = model.stress.stress, VonMises(model.stress.n_points)
-    offset = outputs.offset([0.0, 0.0, -9.81])
+    outputs, functional, offset = _load(model, kind)
     peak = output_peak(model, outputs, functional, acc, DT, offset=offset, rtol=1e-6)
     dense, when = _dense_max(model, outputs, functional, acc, offset, 4.4)
     assert peak.value <= peak.bound
     assert dense <= peak.bound
     assert peak.value >= dense * (1 - 1e-5)
     assert abs(peak.time_s - when) < 2e-3
+
+
+@pytest.mark.parametrize("kind", ["cups", "stress"])
+@pytest.mark.parametrize("fraction", [0.3, 0.7, 0.95])
+def test_outputs_above_against_every_item_at_every_time(model, kind, fraction):
+    """outputs_above (the cell's load scans) against evaluating every item at every time of
+    a grid of dt / 8 during the move and 3 s after it: the same (time, item) samples lie
+    above the threshold, with the same values (1e-9 of the peak: two evaluations of the
+    same linear outputs in float64), and an item it leaves out never comes above it."""
+    acc = smooth_move(40, DT)
+    outputs, functional, offset = _load(model, kind)
+    t = np.r_[np.arange(0, 40 * 8 + 1) * DT / 8, 40 * DT + np.arange(1, 301) * 0.01]
+    y = outputs_at(model, outputs, acc, DT, t, offset).reshape(len(t), functional.n_items, -1)
+    dense = functional.values(y, np.arange(functional.n_items))  # (T, I)
+    above = fraction * dense.max()
+    move = as_move(acc, DT, at_rest=True)
+    items, values = outputs_above(model, outputs, functional, move, t, above, offset=offset)
+    tol = 1e-9 * dense.max()
+    left_out = np.setdiff1d(np.arange(functional.n_items), items)
+    assert (dense[:, left_out] <= above + tol).all()
+    near = np.abs(dense[:, items] - above) <= tol  # on the threshold: either side is right
+    assert np.array_equal((values > above) | near, (dense[:, items] > above) | near)
+    hits = values > above
+    assert hits.any()
+    np.testing.assert_allclose(values[hits], dense[:, items][hits], rtol=0, atol=tol)
 
 
 def test_peak_of_a_static_load_is_its_limit(model):
