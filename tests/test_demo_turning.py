@@ -1,6 +1,6 @@
 """`jaxflex demo --scene swivel|swivel-upright|tilt`: the moves that turn the part (issue 26).
 
-One demo run per scene for the whole module (its FE, optimisation and FMUs take 20-60 s);
+One demo run per scene, in one test per scene (its FE, optimisation and FMUs take 20-60 s);
 every check reads what the run wrote: the optimum against the baselines, the trajectory
 re-simulated from trajectory.csv by jaxflex._turning.simulate_turning, the plots, and the
 turning FMUs (fmpy's validation and its replay against jaxflex, run by the demo, plus the
@@ -111,10 +111,12 @@ def _check_fmus(run: Demo, axis: np.ndarray, angle_deg: float) -> None:
 
 
 @pytest.mark.slow
-def test_panel_swivel_is_the_kinematic_floor(demo):
+def test_panel_swivel_is_the_kinematic_floor_and_its_fmus_agree(demo):
     """`--scene swivel`: the curved panel turned 90 degrees about the vertical through the
     middle of its cups while it moves 1 m along x. The fastest move stays below the threshold
-    (peak 0.237 mm), so the optimum is the kinematic floor, and no baseline is shorter."""
+    (peak 0.237 mm), so the optimum is the kinematic floor, and no baseline is shorter; its
+    turning FMUs agree with jaxflex. One test per scene: under xdist two tests of one scene
+    could land on both workers, each running the demo (its FE, optimisation and FMUs)."""
     run = demo("swivel")
     assert "curved panel" in run.stdout and "turned 90 deg about z," in run.stdout
     # the kinematic floor by hand: 1 m at 2 m/s, 10 m/s^2, 100 m/s^3 takes 0.3 s to reach
@@ -134,11 +136,6 @@ def test_panel_swivel_is_the_kinematic_floor(demo):
     assert during.max() > 0.2 * run.threshold_m  # but the turn bends the curved panel
     assert after.max() <= run.threshold_m
     _check_plots(run)
-
-
-@pytest.mark.slow
-def test_panel_swivel_fmus_agree_with_jaxflex(demo):
-    run = demo("swivel")
     _check_fmus(run, np.array([0.0, 0.0, 1.0]), 90.0)
 
 
