@@ -282,7 +282,14 @@ def _slow_read(tmp_path: Path, *extra: str) -> subprocess.Popen:
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
+        preexec_fn=_interruptible,
     )
+
+
+def _interruptible() -> None:
+    """The command's Ctrl-C as in a user's shell: a test run started in the background
+    (``pytest ... &`` in a script) ignores SIGINT, and a child would inherit that."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 @pytest.mark.parametrize("how", ["SIGTERM", "SIGKILL", "SIGINT"])
