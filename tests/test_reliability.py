@@ -387,7 +387,7 @@ def test_turn_options_out_of_range_are_refused_naming_them(tmp_path, turning_pla
     cases = {
         ("--rotate", "x", "1e308"): r"rotate / angular_limits \(--rotate, --angular-limits W A "
         r"J\): the turn of 1e\+308 degrees needs at least 5\.818e\+305 s",
-        ("--rotate", "x", "1e-300"): r"rotate \(--rotate AXIS ANGLE_DEG\): a turn of '1e-300' "
+        ("--rotate", "x", "1e-300"): r"--rotate AXIS ANGLE_DEG \(angle_deg\): a turn of '1e-300' "
         r"degrees is below the smallest the optimiser resolves",
         ("--rotate", "x", "90", "--angular-limits", "1e-300", "1", "1"): r"the turn of 90 "
         r"degrees needs at least 1\.571e\+300 s at the angular limits 1e-300 rad/s",
@@ -404,7 +404,7 @@ def test_a_dashboard_address_that_is_none_is_refused_before_the_cluster(tmp_path
     spec.write_text(json.dumps(SPEC), encoding="utf-8")
     code, err = _run("sweep", str(spec), "-o", str(tmp_path / "s"), "--dashboard", "nonsense")
     assert code == 2 and "Traceback" not in err
-    assert "dashboard_address (--dashboard): HOST:PORT, e.g. 127.0.0.1:8787" in err
+    assert "--dashboard (dashboard_address): HOST:PORT, e.g. 127.0.0.1:8787" in err
     assert "got 'nonsense'" in err and not (tmp_path / "s").exists()
 
 

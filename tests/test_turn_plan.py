@@ -68,7 +68,7 @@ def test_the_planned_lengths_are_the_searchs(floor, feasible_from, monkeypatch):
 
     tested = []
 
-    def fake_attempt(problem, solver, n_steps, warm):
+    def fake_attempt(problem, solver, n_steps, warm, gate=None):
         tested.append(n_steps)
         ok = n_steps >= feasible_from
         return SimpleNamespace(feasible=ok, n_steps=n_steps, acc=np.zeros((n_steps + 1, 3)),
