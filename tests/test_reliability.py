@@ -23,6 +23,7 @@ from sheet_parts import write_panel_step
 from sweep_cases import SPEC
 
 import fem
+import fem.imports.ansys
 import jaxflex
 from jaxflex._atomic import write_text_atomic
 from jaxflex._trajectory_io import read_trajectory_csv

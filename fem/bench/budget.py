@@ -156,7 +156,10 @@ def _sheet_step(path: Path, width_m: float, height_m: float) -> str:
     gmsh.initialize(readConfigFiles=False, interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.occ.addRectangle(0, 0, 0, 1e3 * width_m, 1e3 * height_m)  # STEP in mm
+        # given in m, written in mm; set each time: OpenCASCADE keeps the unit of an earlier
+        # gmsh session of the process (tests/sheet_parts.py sets it too)
+        gmsh.option.setString("Geometry.OCCTargetUnit", "M")
+        gmsh.model.occ.addRectangle(0, 0, 0, width_m, height_m)
         gmsh.model.occ.synchronize()
         gmsh.write(str(path))
     finally:
