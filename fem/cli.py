@@ -388,16 +388,12 @@ def run(args: argparse.Namespace) -> int:
             "--allow-rigid-modes for the free part (its rigid-body modes are left out)"
         )
     if args.tolerance is not None:
-        return _run_sizing(args, _part(args, material), supports)
-    for name in SIZING_ONLY:
-        if getattr(args, name) is not None:
-            raise InputError(f"--{name.replace('_', '-')}: only with --tolerance")
-    if args.plot or args.vtu:  # the pictures need the FE solution itself: solved
-        model, result = _solve(args, _part(args, material), supports)
-        _write(args, model, result)
-        return 0
-    _model_from_store(args, material, supports)
-    return 0
+        _check_sizing(args)
+    else:
+        for name in SIZING_ONLY:
+            if getattr(args, name) is not None:
+                raise InputError(f"--{name.replace('_', '-')}: only with --tolerance")
+    return _model_from_store(args, material, supports)
 
 
 def _n_modes(args) -> int | None:
@@ -463,12 +459,69 @@ def _solve(args, part, supports):
     return result.to_modal_model(points=points), result
 
 
-def _model_from_store(args, material, supports) -> None:
-    """Solve the part and write its model, or copy the model of the same inputs and code
-    from the FE store (fem.model_store: no FE work, no JAX)."""
+SIDE_FILES = ("plot", "vtu", "report")  # the command's other outputs, by option
+
+
+def _model_from_store(args, material, supports) -> int:
+    """Solve (or size) the part and write its model and the other files asked for (--plot,
+    --vtu, --report), or copy them from the FE store where the same inputs were solved with
+    this code (fem.model_store: no FE work, no JAX); the exit status (1: a tolerance not
+    met, as the solve found it)."""
     from fem import model_store
-    from fem.materials import resolve_material
     from jaxflex.files import atomic_open
+
+    expected = model_store.fingerprint(
+        n_modes=_n_modes(args) if args.max_freq is None and args.tolerance is None else None,
+        n_points=None if args.points in (None, "all") else args.points,
+        zeta=args.zeta,
+        material=resolve_material(material).as_dict(),
+        supports=supports,
+        part=_part(args, material) if args.scene and args.tolerance is None else None,
+        sized=args.tolerance is not None,
+    )
+    sides = {role: path for role in SIDE_FILES if (path := getattr(args, role))}
+
+    def solve() -> tuple[bytes, str, dict[str, bytes]]:
+        with _recorded() as output:
+            model, result, sized = _solved_or_sized(args, material, supports)
+        _write(args, model, result, sized)
+        output["met"] = sized is None or sized.met
+        files = {role: Path(path).read_bytes() for role, path in sides.items()}
+        return Path(args.output).read_bytes(), json.dumps(output), files
+
+    stored = model_store.model_file(_request(args, material, supports), expected, solve)
+    output = json.loads(stored.output or '{"stdout": "", "warnings": [], "met": true}')
+    if stored.from_store:
+        print(
+            f"FE model from the cache ({model_store.MODEL_STORE}: these inputs were solved "
+            "before with this code; what that solve printed:)"
+        )
+        print(output["stdout"], end="")
+        for line in output["warnings"]:
+            print(line, file=sys.stderr)
+        for role, data in {"output": stored.data, **stored.files}.items():
+            with atomic_open(getattr(args, role), "wb") as handle:
+                handle.write(data)
+        fields = stored.fields
+        print(
+            f"wrote {args.output}: {len(fields['freq_hz'])} modes, {len(fields['points'])} "
+            "points (SI units)"
+        )
+        for role in stored.files:
+            print(f"wrote {getattr(args, role)}")
+    if output.get("met", True):
+        return 0
+    print(
+        f"jaxflex model: tolerance {100 * args.tolerance:g} % not met; the best model found "
+        "was written (see the notes above)",
+        file=sys.stderr,
+    )
+    return 1
+
+
+def _request(args, material, supports) -> dict:
+    """The store key's inputs: every option that changes what the command writes."""
+    from fem import model_store
 
     source = "scene" if args.scene else "mesh" if args.mesh else "cad"
     path = getattr(args, source)
@@ -482,39 +535,22 @@ def _model_from_store(args, material, supports) -> None:
         "supports": [support.describe() for support in supports],
         **{k: getattr(args, k) for k in ("allow_rigid_modes", "max_freq", "zeta", "points")},
         "n_modes": _n_modes(args),
+        # the other files by kind (a picture's format follows its suffix), not by path
+        "files": {
+            role: Path(p).suffix.lower() for role in SIDE_FILES if (p := getattr(args, role))
+        },
     }
-    expected = model_store.fingerprint(
-        n_modes=_n_modes(args) if args.max_freq is None else None,
-        n_points=None if args.points in (None, "all") else args.points,
-        zeta=args.zeta,
-        material=resolve_material(material).as_dict(),
-        supports=supports,
-        part=_part(args, material) if args.scene else None,
-    )
-
-    def solve() -> tuple[bytes, str]:
-        with _recorded() as output:
-            model, result = _solve(args, _part(args, material), supports)
-        _write(args, model, result)
-        return Path(args.output).read_bytes(), json.dumps(output)
-
-    stored = model_store.model_file(request, expected, solve)
-    if stored.from_store:
-        with atomic_open(args.output, "wb") as handle:
-            handle.write(stored.data)
-        print(
-            f"FE model from the cache ({model_store.MODEL_STORE}: these inputs were solved "
-            "before with this code; what that solve printed:)"
-        )
-        output = json.loads(stored.output or '{"stdout": "", "warnings": []}')
-        print(output["stdout"], end="")
-        for line in output["warnings"]:
-            print(line, file=sys.stderr)
-        fields = stored.fields
-        print(
-            f"wrote {args.output}: {len(fields['freq_hz'])} modes, {len(fields['points'])} "
-            "points (SI units)"
-        )
+    if args.tolerance is None:
+        return request
+    trajectory = args.trajectory and Path(args.trajectory)
+    if trajectory:  # read only if it is a regular file (a FIFO would block the hash)
+        trajectory = trajectory / "trajectory.csv" if trajectory.is_dir() else trajectory
+        trajectory = check_input_file("--trajectory", trajectory)
+    sizing = ("tolerance", "distance", "vmax", "amax", "jmax", "dt", "threshold", "mesh_sizes")
+    return request | {
+        **{k: getattr(args, k) for k in (*sizing, "max_modes", "key_points")},
+        "trajectory": trajectory and model_store.file_digest(trajectory),
+    }
 
 
 class _Tee(io.TextIOBase):
@@ -587,7 +623,9 @@ def _read_part(args, material):
     return part
 
 
-def _write(args, model, result) -> None:
+def _write(args, model, result, sized=None) -> None:
+    """Write the model, its pictures and the sizing report (``sized``: fem.size_model's
+    result) as the options ask."""
     from fem.export import export_modes, plot_part
 
     model.save(args.output)
@@ -598,6 +636,9 @@ def _write(args, model, result) -> None:
     if args.vtu:
         export_modes(result, args.vtu)
         print(f"wrote {args.vtu}")
+    if sized is not None and args.report:
+        sized.save_report(args.report)
+        print(f"wrote {args.report}")
 
 
 def _move(args):
@@ -640,10 +681,8 @@ def _threshold_advice(model, move: Move, threshold_m: float) -> None:
     )
 
 
-def _run_sizing(args, part, supports) -> int:
-    from fem.sizing.request import Accuracy
-    from fem.sizing.run import size_model
-
+def _check_sizing(args) -> None:
+    """The sizing's options that no other option may accompany, before any work."""
     for name in ("n_modes", "max_freq", "points"):
         if getattr(args, name) is not None:
             raise InputError(
@@ -654,6 +693,17 @@ def _run_sizing(args, part, supports) -> int:
         raise InputError("--threshold: the settle threshold in m is required with --tolerance")
     if args.mesh is not None and args.mesh_sizes is not None:
         raise InputError("--mesh-sizes: a mesh file is used as is (a CAD part can be re-meshed)")
+
+
+def _solved_or_sized(args, material, supports):
+    """(model, FE result, fem.size_model's result or None): the part solved as the options
+    say, or sized with --tolerance for the move; prints the summaries and the warnings."""
+    part = _part(args, material)
+    if args.tolerance is None:
+        return (*_solve(args, part, supports), None)
+    from fem.sizing.request import Accuracy
+    from fem.sizing.run import size_model
+
     move = _move(args)
     sized = size_model(
         part,
@@ -673,15 +723,4 @@ def _run_sizing(args, part, supports) -> int:
     )
     print(sized.summary())
     _threshold_advice(sized.model, move, args.threshold)
-    _write(args, sized.model, sized.result)
-    if args.report:
-        sized.save_report(args.report)
-        print(f"wrote {args.report}")
-    if not sized.met:
-        print(
-            f"jaxflex model: tolerance {100 * args.tolerance:g} % not met; the best model found "
-            "was written (see the notes above)",
-            file=sys.stderr,
-        )
-        return 1
-    return 0
+    return sized.model, sized.result, sized

@@ -23,7 +23,7 @@ import json
 import os
 import tempfile
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib.metadata import version
 from importlib.util import find_spec
 from pathlib import Path
@@ -73,10 +73,12 @@ def fingerprint(
     supports=None,
     part=None,
     scene: str | None = None,
+    sized: bool = False,
 ) -> dict[str, Any]:
     """What a model of the request must show (the fields given): its number of modes (None:
-    not fixed, e.g. up to a frequency), every FE node as a point (``n_points`` None; a count
-    is voxel-reduced to about that many, checked by the key alone), damping, material
+    not fixed, e.g. up to a frequency), every FE node as a point (``n_points`` None, unless
+    the points are ``sized``: chosen by fem.size_model; a count is voxel-reduced to about
+    that many, checked by the key alone), damping, material
     (Material.as_dict), gripper (the supports) and part (fem.parts.Part), and the scene's
     name. Compared by :func:`check_fingerprint` with the model's meta as written (JSON)."""
     from fem.damping import describe_damping
@@ -90,7 +92,8 @@ def fingerprint(
         meta["part"] = part.describe()
     if scene is not None:
         meta["scene"] = scene
-    return {"n_modes": n_modes, "n_points": n_points, "meta": json.loads(json.dumps(meta))}
+    every_node = n_points is None and not sized
+    return {"n_modes": n_modes, "every_node": every_node, "meta": json.loads(json.dumps(meta))}
 
 
 def check_fingerprint(fields: dict[str, Any], expected: dict[str, Any]) -> None:
@@ -101,7 +104,7 @@ def check_fingerprint(fields: dict[str, Any], expected: dict[str, Any]) -> None:
     if expected["n_modes"] is not None and n_modes != expected["n_modes"]:
         raise ValueError(f"{n_modes} modes, not {expected['n_modes']}")
     nodes = (meta.get("mesh") or {}).get("n_nodes")
-    if expected["n_points"] is None and n_points != nodes:
+    if expected["every_node"] and n_points != nodes:
         raise ValueError(f"{n_points} points, not every one of the mesh's {nodes} nodes")
     if meta.get("n_points") != n_points:
         raise ValueError(f"{n_points} points, its meta says {meta.get('n_points')}")
@@ -114,33 +117,70 @@ def check_fingerprint(fields: dict[str, Any], expected: dict[str, Any]) -> None:
 class StoredModel:
     """A model file of the store or just solved: its bytes, its fields (read_model_file;
     None when solved here), what the solve printed (``output``: the text a run that finds it
-    in the store shows again) and whether it came from the store."""
+    in the store shows again), whether it came from the store, and the other files the solve
+    wrote (``files``: their bytes by role, e.g. "plot", "vtu", "report")."""
 
     data: bytes
     fields: dict[str, Any] | None
     output: str
     from_store: bool
+    files: dict[str, bytes] = field(default_factory=dict)
+
+
+Solved = tuple[bytes, str] | tuple[bytes, str, dict[str, bytes]]
 
 
 def model_file(
-    request: dict[str, Any], expected: dict[str, Any], solve: Callable[[], tuple[bytes, str]]
+    request: dict[str, Any], expected: dict[str, Any], solve: Callable[[], Solved]
 ) -> StoredModel:
     """The model file of ``request``: the store's entry if it matches the ``expected``
     fingerprint, else ``solve()`` -> (the bytes of the solved model's file, what the solve
-    printed), stored. Without a store (cache off) always solved."""
+    printed[, the bytes of the other files it wrote, by role]), stored. Without a store
+    (cache off) always solved."""
     models = cache_store(MODEL_STORE, MODEL_STORE_BYTES)
 
     def matching(entry: bytes) -> StoredModel:
-        output, data = cache_unpack_text(entry)
+        output, files = _unpacked(entry)
+        data = files.pop(MODEL_ROLE)
         fields = model_fields(data)
         check_fingerprint(fields, expected)
-        return StoredModel(data, fields, output, True)
+        return StoredModel(data, fields, output, True, files)
 
     def solved() -> tuple[StoredModel, bytes]:
-        data, output = solve()
-        return StoredModel(data, None, output, False), cache_pack_text(output, data)
+        data, output, *rest = solve()
+        files = rest[0] if rest else {}
+        return StoredModel(data, None, output, False, files), _packed(output, data, files)
 
     return cache_fetch(models, model_key(request), solved, matching, "FE model")[0]
+
+
+MODEL_ROLE = "model"
+
+
+def _packed(output: str, data: bytes, files: dict[str, bytes]) -> bytes:
+    """An entry: a JSON header (what the solve printed, each file's role and size) and the
+    files one after the other, the model first."""
+    parts = {MODEL_ROLE: data, **files}
+    header = {"output": output, "sizes": [[role, len(value)] for role, value in parts.items()]}
+    return cache_pack_text(json.dumps(header), b"".join(parts.values()))
+
+
+def _unpacked(entry: bytes) -> tuple[str, dict[str, bytes]]:
+    """(what the solve printed, the files by role) of a :func:`_packed` entry; ValueError if
+    it is not one."""
+    text, blob = cache_unpack_text(entry)
+    try:
+        header = json.loads(text)
+        sizes = [(str(role), int(size)) for role, size in header["sizes"]]
+        output = str(header["output"])
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"not a model entry ({exc})") from exc
+    if sum(size for _, size in sizes) != len(blob) or not sizes or sizes[0][0] != MODEL_ROLE:
+        raise ValueError("not a model entry (its files' sizes)")
+    files, start = {}, 0
+    for role, size in sizes:
+        files[role], start = blob[start : start + size], start + size
+    return output, files
 
 
 def model_fields(data: bytes) -> dict[str, Any]:

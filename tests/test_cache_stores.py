@@ -321,11 +321,11 @@ def _model(path: Path, *extra: str) -> Path:
 
 
 def _fields(path: Path) -> dict:
-    """The model file's arrays and meta, the FE timings left out (wall times of the solve and
-    of the discretisation estimate's second analysis)."""
+    """The model file's arrays and meta, the FE timings left out (wall times of the solve, of
+    the discretisation estimate's second analysis and of a sizing's analyses)."""
     with np.load(path) as archive:
         arrays = {name: archive[name] for name in archive.files}
-    timings = r'"timings_s": \{[^}]*\}|"time_s": [-+.0-9eE]+'
+    timings = r'"timings_s": \{[^}]*\}|"(modal_analysis_s|time_s)": [-+.0-9eE]+'
     meta = re.sub(timings, "", str(arrays.pop("meta_json")))
     return {name: (a.dtype.str, a.shape, a.tobytes()) for name, a in arrays.items()} | {
         "meta": meta
@@ -460,3 +460,107 @@ def test_two_runs_at_once_solve_a_model_once(tmp_path):
     assert [run.returncode for run in runs] == [0, 0], outputs
     assert sum("FE model from the cache" in out for out, _ in outputs) == 1
     assert (tmp_path / "0.npz").read_bytes() == (tmp_path / "1.npz").read_bytes()
+
+
+# a sizing of the coarse plate on two meshes (the tolerance is not met: exit status 1, which
+# the run served from the store gives too), with its report and the part's picture
+SIZING_BASE = (
+    *("model", "--scene", "plate", "--tolerance", "5%", "--threshold", "5e-4"),
+    *("--mesh-sizes", "0.2", "0.1", "--max-modes", "30", "-q"),
+)
+SIZING_ARGS = (*SIZING_BASE, "--distance", "0", "0", "1")
+
+
+def _sized(folder: Path, name: str, *extra: str) -> tuple[int, dict[str, Path]]:
+    files = {
+        "model": folder / f"{name}.npz",
+        "report": folder / f"{name}.json",
+        "plot": folder / f"{name}.png",
+    }
+    argv = [*SIZING_ARGS, *extra, "-o", str(files["model"]), "--report", str(files["report"])]
+    return main([*argv, "--plot", str(files["plot"])]), files
+
+
+def _counting_work(monkeypatch) -> list:
+    """The FE work of `jaxflex model` (solve or sizing), counted."""
+    import fem.cli
+
+    calls = []
+    real = fem.cli._solved_or_sized
+
+    def counting(*args, **kwargs):
+        calls.append(args)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(fem.cli, "_solved_or_sized", counting)
+    return calls
+
+
+@pytest.fixture(scope="module")
+def sized_without_cache(tmp_path_factory):
+    """The sizing's files from a run with the cache off."""
+    folder = tmp_path_factory.mktemp("sized-reference")
+    previous = os.environ.get(ENV_VAR)
+    os.environ[ENV_VAR] = "off"
+    try:
+        return _sized(folder, "reference")
+    finally:
+        os.environ[ENV_VAR] = previous
+
+
+def test_a_sizing_is_served_with_its_report_picture_and_exit_status(
+    monkeypatch, tmp_path, capsys, sized_without_cache
+):
+    monkeypatch.setenv(ENV_VAR, str(tmp_path / "cache"))
+    work = _counting_work(monkeypatch)
+    status, first = _sized(tmp_path, "first")
+    solved_out = capsys.readouterr()
+    again, second = _sized(tmp_path, "second")
+    served = capsys.readouterr()
+    assert len(work) == 1
+    reference_status, reference = sized_without_cache
+    assert status == again == reference_status == 1  # 5 % is not met on these two meshes
+    assert "FE model from the cache" in served.out and "not met" in served.err
+    # what the sizing printed (its candidates and summary) is shown again
+    assert solved_out.out.split("wrote ")[0] in served.out
+    for role in ("model", "report", "plot"):
+        assert second[role].read_bytes() == first[role].read_bytes(), role
+    assert _fields(second["model"]) == _fields(reference["model"])  # as with no cache
+    # another input of the sizing is new work: the threshold, the move
+    _sized(tmp_path, "threshold", "--threshold", "4e-4")
+    assert len(work) == 2
+    _sized(tmp_path, "limits", "--vmax", "1.5")
+    assert len(work) == 3
+
+
+def test_a_sizing_for_a_trajectory_file_is_keyed_by_its_content(monkeypatch, tmp_path):
+    monkeypatch.setenv(ENV_VAR, str(tmp_path / "cache"))
+    work = _counting_work(monkeypatch)
+    acc = jaxflex.jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=DT_S)
+    trajectory = tmp_path / "move.csv"
+    jaxflex.files.write_trajectory_csv(trajectory, jaxflex.as_move(acc, DT_S))
+    argv = [*SIZING_BASE, "--trajectory", str(trajectory)]
+    for name in ("first", "second"):
+        main([*argv, "-o", str(tmp_path / f"{name}.npz")])
+    assert len(work) == 1
+    slower = jaxflex.jerk_limited_move([0, 0, 1.0], vmax=1.5, amax=10, jmax=100, dt_s=DT_S)
+    jaxflex.files.write_trajectory_csv(trajectory, jaxflex.as_move(slower, DT_S))
+    main([*argv, "-o", str(tmp_path / "third.npz")])
+    assert len(work) == 2
+
+
+def test_pictures_are_served_with_the_model(monkeypatch, tmp_path, capsys):
+    monkeypatch.setenv(ENV_VAR, str(tmp_path / "cache"))
+    work = _counting_work(monkeypatch)
+    for name in ("first", "second"):
+        pictures = ["--plot", str(tmp_path / f"{name}.png"), "--vtu", str(tmp_path / f"{name}.vtu")]
+        _model(tmp_path / f"{name}.npz", *pictures)
+    assert len(work) == 1
+    assert "FE model from the cache" in capsys.readouterr().out
+    for suffix in ("npz", "png", "vtu"):
+        assert (tmp_path / f"second.{suffix}").read_bytes() == (
+            tmp_path / f"first.{suffix}"
+        ).read_bytes()
+    _model(tmp_path / "third.npz", "--vtu", str(tmp_path / "third.xdmf"))  # another format
+    assert len(work) == 2
+    assert (tmp_path / "third.xdmf").read_bytes().lstrip().startswith(b"<")
