@@ -7,6 +7,7 @@ run with an empty cache. JAX's own store: tests/test_compile_cache.py."""
 
 from __future__ import annotations
 
+import contextlib
 import ctypes.util
 import os
 import re
@@ -336,26 +337,42 @@ def _fields(path: Path) -> dict:
 def reference_model(tmp_path_factory):
     """The coarse plate's model file from an empty cache, and another valid model."""
     folder = tmp_path_factory.mktemp("reference-model")
+    with _cache_off():
+        other = _model(folder / "other.npz", "--zeta", "0.03")
+        return _fields(_model(folder / "model.npz")), other.read_bytes()
+
+
+@contextlib.contextmanager
+def _cache_off():
+    """Runs without jaxflex's cache (a module fixture cannot use monkeypatch)."""
     previous = os.environ.get(ENV_VAR)
     os.environ[ENV_VAR] = "off"
     try:
-        other = _model(folder / "other.npz", "--zeta", "0.03")
-        return _fields(_model(folder / "model.npz")), other.read_bytes()
+        yield
     finally:
-        os.environ[ENV_VAR] = previous
+        if previous is None:
+            os.environ.pop(ENV_VAR, None)
+        else:
+            os.environ[ENV_VAR] = previous
+
+
+def _counted(monkeypatch, module, name: str) -> list:
+    """The calls of ``module.name`` from now on (their keyword arguments), in a list."""
+    calls = []
+    real = getattr(module, name)
+
+    def counting(*args, **kwargs):
+        calls.append(kwargs)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(module, name, counting)
+    return calls
 
 
 def _store_fe(monkeypatch, tmp_path) -> tuple[Path, list]:
     """A fresh cache at tmp_path/cache and the list of FE solves."""
     monkeypatch.setenv(ENV_VAR, str(tmp_path / "cache"))
-    solves = []
-    real_analysis = fem.modal.modal_analysis
-
-    def counting_analysis(*args, **kwargs):
-        solves.append(kwargs)
-        return real_analysis(*args, **kwargs)
-
-    monkeypatch.setattr(fem.modal, "modal_analysis", counting_analysis)
+    solves = _counted(monkeypatch, fem.modal, "modal_analysis")
     return tmp_path / "cache" / fem.model_store.MODEL_STORE, solves
 
 
@@ -485,27 +502,15 @@ def _counting_work(monkeypatch) -> list:
     """The FE work of `jaxflex model` (solve or sizing), counted."""
     import fem.cli
 
-    calls = []
-    real = fem.cli._solved_or_sized
-
-    def counting(*args, **kwargs):
-        calls.append(args)
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(fem.cli, "_solved_or_sized", counting)
-    return calls
+    return _counted(monkeypatch, fem.cli, "_solved_or_sized")
 
 
 @pytest.fixture(scope="module")
 def sized_without_cache(tmp_path_factory):
     """The sizing's files from a run with the cache off."""
     folder = tmp_path_factory.mktemp("sized-reference")
-    previous = os.environ.get(ENV_VAR)
-    os.environ[ENV_VAR] = "off"
-    try:
+    with _cache_off():
         return _sized(folder, "reference")
-    finally:
-        os.environ[ENV_VAR] = previous
 
 
 def test_a_sizing_is_served_with_its_report_picture_and_exit_status(
