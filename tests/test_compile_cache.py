@@ -116,7 +116,14 @@ def test_a_second_process_loads_what_the_first_compiled(model_file, tmp_path):
         assert "compilation cache" not in third.stderr, third.stderr
         assert events.get("cache_hits", 0) == len(written) - len(damaged)
         assert events.get("cache_misses", 0) == len(damaged)
-        assert programs(cache) == compiled  # replaced by the same programs
+        # every entry whole again; the hits untouched, byte for byte. A recompiled program is
+        # not compared by its bytes: XLA need not emit the same executable twice (one did not
+        # in a full run of the suite); its answer is compared below
+        now = programs(cache)
+        assert now.keys() == compiled.keys()
+        assert {k: v for k, v in now.items() if k not in damaged} == {
+            k: v for k, v in compiled.items() if k not in damaged
+        }
         assert (out / "trajectory.csv").read_bytes() == (
             tmp_path / "a" / "trajectory.csv"
         ).read_bytes()
