@@ -151,7 +151,7 @@ def check_memory(
 
 
 # What a search costs, CPU seconds on this project's 2-core machine (measured with
-# python -m optim.bench.cell --cases press and optim.bench.optim; docs/optim.md, Budget):
+# python -m optim.bench.cell --cases press and optim.bench.targets; docs/optim.md, Budget):
 LP_S_AT_1000 = 0.9  # an LP of the kinematic rows at 1 000 steps, growing with the square
 CELL_LP_FACTOR = 4.0  # the search's LPs with the cell's rows (via points, planes, cuts)
 NEAR_FLOOR_TESTS = 8  # tests of a search whose answer lies near the floor (module docstring)

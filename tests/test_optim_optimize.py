@@ -19,7 +19,7 @@ import optim
 from jaxflex._trajectory_io import read_trajectory_csv
 from jaxflex.errors import InputError
 from optim import stages
-from optim.bench.optim import few_mode_model as bench_model
+from optim.bench.targets import few_mode_model as bench_model
 from optim.choice import Candidate
 from optim.exact import LPSubsolver
 from optim.limits import ConstraintCheck, Violation
@@ -33,7 +33,7 @@ THRESHOLD = 1e-3
 
 
 def few_mode_model() -> jaxflex.ModalModel:
-    """optim.bench.optim's synthetic three-mode part (full 3-D shapes at 16 points, participation
+    """optim.bench.targets's synthetic three-mode part (full 3-D shapes at 16 points, participation
     mostly along z) at 3, 7 and 15 Hz: stiff enough for short test runs."""
     return bench_model(freq_hz=(3.0, 7.0, 15.0))
 

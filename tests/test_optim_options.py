@@ -19,7 +19,7 @@ import jaxflex
 import optim
 from jaxflex.errors import BudgetError, InputError
 from jaxflex.geometry import Box, Cell
-from optim.bench.optim import few_mode_model
+from optim.bench.targets import few_mode_model
 from optim.exact import LPSubsolver
 from optim.search import attempt, make_problem
 

@@ -7,7 +7,7 @@ core carries none). Each module runs on its own (``python -m fem.bench.X``, JSON
 * :mod:`fem.bench.timing`: wall-time measurement and a description of the machine;
 * the methods against the full-order FE transient (``accuracy``, ``methods``, ``fe``,
   ``stability``, ``charts``), every node (``nodes``), turning moves (``turning``);
-* fem's own figures: modal analyses (``fem``), the shell's convergence (``shell``), the
+* fem's own figures: modal analyses (``solves``), the shell's convergence (``shell``), the
   budget's calibration (``budget``), the imports (``imports``, ``nastran_corpus``,
   ``solver_files``).
 """

@@ -11,7 +11,7 @@
   CTRIA3) with its cups, then timed: fem.from_nastran (fem.imports.nastran.bdf read, our plate,
   20 modes).
 ANSYS files of that size cannot be made here (no MAPDL); the .full import is read + our
-eigen solve, which fem.bench.fem times.
+eigen solve, which fem.bench.solves times.
 """
 
 from __future__ import annotations

@@ -49,7 +49,7 @@ from jaxflex.errors import InputError
 from jaxflex.files import make_output_dir, write_text_atomic
 from jaxflex.runtime import step
 from optim.bench.commands import format_commands, run_commands
-from optim.bench.optim import scene_model
+from optim.bench.targets import scene_model
 
 SMALL_PLATE = SceneSpec(
     "plate",

@@ -1,6 +1,6 @@
 """Benchmarks of optim, each run on its own (``python -m optim.bench.X``, JSON out):
 
-* :mod:`optim.bench.optim`: the optimiser's target figures (nominal and robust cycle times
+* :mod:`optim.bench.targets`: the optimiser's target figures (nominal and robust cycle times
   against the baselines);
 * :mod:`optim.bench.cell`: the real cell (obstacles, via points, cup forces, stress);
 * :mod:`optim.bench.turning_cell`: the cell's constraints on turning moves;

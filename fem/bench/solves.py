@@ -1,6 +1,6 @@
 """Benchmarks of the fem package: speed, memory and accuracy figures as JSON.
 
-    .venv/bin/python -m fem.bench.fem [--cases plate solid scenes transient] [-o fem_bench.json]
+    .venv/bin/python -m fem.bench.solves [--cases plate solid scenes transient] [-o fem_bench.json]
 
 Each case runs in its own process so that its peak memory (max RSS) is its own.
 Targets (docs/design.md): plate ~25k DOFs, 20 modes <= 10 s; thin solid ~50k DOFs, 30 modes <= 30 s
@@ -127,7 +127,7 @@ def _child(case: str) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m fem.bench.fem", description=__doc__.split("\n")[0]
+        prog="python -m fem.bench.solves", description=__doc__.split("\n")[0]
     )
     parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
     parser.add_argument("-o", "--output", help="write the figures as JSON here")
@@ -139,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
     figures = {}
     for case in args.cases:
         proc = subprocess.run(
-            [sys.executable, "-m", "fem.bench.fem", "--child", case],
+            [sys.executable, "-m", "fem.bench.solves", "--child", case],
             capture_output=True,
             text=True,
             check=False,

@@ -14,7 +14,7 @@ threshold 0.5 mm, dt 10 ms) it reports
 * the exact route (scipy HiGHS and casadi + Clp) against the gradient route (Ipopt and
   SLSQP) on the same problems.
 
-Run: ``python -m optim.bench.optim --scene fem-plate -o optim_bench.json`` (or ``--model
+Run: ``python -m optim.bench.targets --scene fem-plate -o optim_bench.json`` (or ``--model
 part.npz``); ``run(model)`` from Python.
 """
 
@@ -67,7 +67,7 @@ def few_mode_model(freq_hz=(1.7, 4.3, 9.8), zeta=0.02) -> ModalModel:
         gamma=[[0.1, 0.05, 2.0], [0.05, -0.2, 0.9], [-0.1, 0.1, 0.5]],
         shapes=shapes,
         points=rng.uniform(size=(16, 3)),
-        meta={"source": "optim.bench.optim.few_mode_model"},
+        meta={"source": "optim.bench.targets.few_mode_model"},
     )
 
 
@@ -192,7 +192,7 @@ def _targets(report: dict) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m optim.bench.optim", description=__doc__.split("\n")[0]
+        prog="python -m optim.bench.targets", description=__doc__.split("\n")[0]
     )
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--model", help="modal model file (.npz)")
