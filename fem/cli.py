@@ -542,15 +542,23 @@ def _request(args, material, supports) -> dict:
     }
     if args.tolerance is None:
         return request
-    trajectory = args.trajectory and Path(args.trajectory)
+    # every sizing option by value, the trajectory by its content, the report as a side file
+    sizing = [k for k in SIZING_ONLY if k not in ("trajectory", "report")]
+    trajectory = _trajectory_file(args)
     if trajectory:  # read only if it is a regular file (a FIFO would block the hash)
-        trajectory = trajectory / "trajectory.csv" if trajectory.is_dir() else trajectory
         trajectory = check_input_file("--trajectory", trajectory)
-    sizing = ("tolerance", "distance", "vmax", "amax", "jmax", "dt", "threshold", "mesh_sizes")
     return request | {
-        **{k: getattr(args, k) for k in (*sizing, "max_modes", "key_points")},
+        **{k: getattr(args, k) for k in ("tolerance", "max_modes", *sizing)},
         "trajectory": trajectory and model_store.file_digest(trajectory),
     }
+
+
+def _trajectory_file(args) -> Path | None:
+    """The CSV of --trajectory (a file, or a result directory's trajectory.csv), or None."""
+    if args.trajectory is None:
+        return None
+    path = Path(args.trajectory)
+    return path / "trajectory.csv" if path.is_dir() else path
 
 
 class _Tee(io.TextIOBase):
@@ -653,8 +661,7 @@ def _move(args):
     if args.trajectory is not None:
         if args.dt is not None:
             raise InputError("--dt: only with --distance (the trajectory file has its step)")
-        path = Path(args.trajectory)
-        return read_trajectory_csv(path / "trajectory.csv" if path.is_dir() else path)
+        return read_trajectory_csv(_trajectory_file(args))
     if args.distance is None:
         raise InputError("--tolerance: give the move, --trajectory FILE or --distance X Y Z")
     dt_s = DT_S if args.dt is None else args.dt

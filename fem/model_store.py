@@ -34,6 +34,7 @@ from jaxflex.runtime import cache_fetch, cache_pack_text, cache_store, cache_unp
 
 MODEL_STORE = "fe-models"  # jaxflex.runtime.cache_store of the FE models
 MODEL_STORE_BYTES = 1024**3
+MODEL_ROLE = "model"  # the model file's role among an entry's files
 SOLVER_LIBRARIES = ("numpy", "scipy", "scikit-fem", "meshio", "jax")
 
 
@@ -127,15 +128,14 @@ class StoredModel:
     files: dict[str, bytes] = field(default_factory=dict)
 
 
-Solved = tuple[bytes, str] | tuple[bytes, str, dict[str, bytes]]
-
-
 def model_file(
-    request: dict[str, Any], expected: dict[str, Any], solve: Callable[[], Solved]
+    request: dict[str, Any],
+    expected: dict[str, Any],
+    solve: Callable[[], tuple[bytes, str, dict[str, bytes]]],
 ) -> StoredModel:
     """The model file of ``request``: the store's entry if it matches the ``expected``
     fingerprint, else ``solve()`` -> (the bytes of the solved model's file, what the solve
-    printed[, the bytes of the other files it wrote, by role]), stored. Without a store
+    printed, the bytes of the other files it wrote by role), stored. Without a store
     (cache off) always solved."""
     models = cache_store(MODEL_STORE, MODEL_STORE_BYTES)
 
@@ -147,14 +147,10 @@ def model_file(
         return StoredModel(data, fields, output, True, files)
 
     def solved() -> tuple[StoredModel, bytes]:
-        data, output, *rest = solve()
-        files = rest[0] if rest else {}
+        data, output, files = solve()
         return StoredModel(data, None, output, False, files), _packed(output, data, files)
 
     return cache_fetch(models, model_key(request), solved, matching, "FE model")[0]
-
-
-MODEL_ROLE = "model"
 
 
 def _packed(output: str, data: bytes, files: dict[str, bytes]) -> bytes:

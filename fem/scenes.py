@@ -83,9 +83,9 @@ def default_model(
     )
     solved: list[ModalModel] = []
 
-    def solved_file() -> tuple[bytes, str]:
+    def solved_file() -> tuple[bytes, str, dict[str, bytes]]:
         solved.append(solve())
-        return _file_bytes(solved[0]), ""
+        return _file_bytes(solved[0]), "", {}
 
     stored = model_store.model_file(request, expected, solved_file)
     if solved:
