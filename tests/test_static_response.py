@@ -80,11 +80,11 @@ def test_cups_carry_the_moment_of_the_weight(analysed):
 
 def test_sag_and_stress_equal_a_static_fe_solve(analysed):
     """The points' sag under gravity and the stresses at rest equal an independent static
-    FE solve (spsolve of K_ff z = (M R)_free g): both are exact, they differ by the round-off
-    of two sparse solvers, at most about cond(K_ff) x machine epsilon of the largest value
-    (the condition number estimated in the 1-norm; 1e7-1e9 for these parts, the soft
-    bellows cups the largest). The modes alone miss a share of both (the part's modes above
-    the sixth)."""
+    FE solve (scipy's own sparse LU of K_ff z = (M R)_free g, COLAMD with pivoting, not fem's
+    symmetric MMD one): both are exact, they differ by the round-off of two sparse solvers, at
+    most about cond(K_ff) x machine epsilon of the largest value (the condition number
+    estimated in the 1-norm; 1e7-1e9 for these parts, the soft bellows cups the largest). The
+    modes alone miss a share of both (the part's modes above the sixth)."""
     name, result, model = analysed
     g = np.array([0.0, 0.0, -G])
     stiffness = result.K_free.tocsc()
@@ -97,7 +97,7 @@ def test_sag_and_stress_equal_a_static_fe_solve(analysed):
     sag = static_nodes(result, -g)
     np.testing.assert_allclose(model.static_displacement(-g), sag, atol=rel * np.abs(sag).max())
     load = np.asarray(result.load) @ g
-    z = scipy.sparse.linalg.spsolve(stiffness, load)
+    z = factor.solve(load)  # the same independent LU (scipy's defaults: COLAMD, pivoting)
     _, stress = stress_outputs(result)
     expected = stress.stiffness @ z
     np.testing.assert_allclose(

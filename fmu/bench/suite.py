@@ -88,7 +88,11 @@ SMALL_PANEL = replace(
     rest_s=0.1,
 )
 QUICK_PANEL = replace(
-    SMALL_PANEL, omega1_h=2.0, mode_counts=(30,), voxel_sizes_m=(), **QUICK_SWEEPS
+    SMALL_PANEL,
+    omega1_h=2.0,
+    mode_counts=(30,),
+    voxel_sizes_m=(),
+    **{**QUICK_SWEEPS, "dt_sweep_s": (0.01,), "newmark_substeps": (1,)},
 )
 FULL_SCENE = SceneSpec(
     "plate",
