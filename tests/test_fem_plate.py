@@ -125,3 +125,31 @@ def test_argyris_in_element_coordinates_is_scikit_fems_element():
         ours = form.assemble(skfem.Basis(mesh, ElementTriArgyrisLocal())).toarray()
         theirs = form.assemble(skfem.Basis(mesh, skfem.ElementTriArgyris())).toarray()
         np.testing.assert_allclose(ours, theirs, atol=1e-9 * np.abs(theirs).max())
+
+
+@pytest.mark.parametrize("element", ["morley", "argyris"])
+def test_rigid_fields_fitted_chunk_by_chunk_are_exact(element, monkeypatch):
+    """The DOF vectors of w = 1, x, y, fitted chunk by chunk from the assembly's bases
+    (fem.elements.plate.RigidFit), give 1, x and y at points the fit never saw (another
+    quadrature rule), to 1e-10 of the part's size (round-off: ~1e-12 on regular elements);
+    chunks of 7 elements give the vectors of one chunk bit for bit (an edge's slope comes
+    from its first element either way)."""
+    import skfem
+
+    from fem.elements import plate as plate_module
+
+    part = fem.rectangular_plate(0.6, 0.4, THICKNESS, "steel", 0.1, element=element)
+
+    def outputs():
+        return fem.modal_analysis(part, fem.SimplySupportedEdge(), 2, progress=False).system.outputs
+
+    whole = outputs()
+    monkeypatch.setattr(plate_module, "CHUNK_ELEMENTS", 7)
+    chunked = outputs()
+    assert whole.mesh.t.shape[1] > 7 * 3  # several chunks
+    np.testing.assert_array_equal(chunked.linear_dofs(), whole.linear_dofs())
+    basis = skfem.Basis(whole.mesh, whole.elem, intorder=3)
+    x, y = (np.asarray(c) for c in basis.global_coordinates())
+    for k, target in enumerate((np.ones_like(x), x, y)):
+        field = np.asarray(basis.interpolate(whole.linear_dofs()[:, k]))
+        assert np.abs(field - target).max() < 1e-10 * 0.6, k

@@ -65,8 +65,7 @@ def assemble_plate(
     )
     n_el = skmesh.t.shape[1]
     chunks = np.array_split(np.arange(n_el), max(1, int(np.ceil(n_el / CHUNK_ELEMENTS))))
-    K = M = None
-    basis = None
+    K = M = linear = None
     with progress_bar(
         len(chunks), f"assembly ({element}, {n_el} elements)", progress, unit="chunk"
     ) as bar:
@@ -76,17 +75,20 @@ def assemble_plate(
             m_part = mass.assemble(part_basis)
             K = k_part if K is None else K + k_part
             M = m_part if M is None else M + m_part
-            basis = basis or part_basis
+            if linear is None:
+                linear = RigidFit(part_basis, element)
+            linear.add(part_basis)
             bar.update(1)
     n_dof = K.shape[0]
-    nodal = basis.nodal_dofs  # (n nodal dofs per vertex, N): u [, u_x, u_y, u_xx, u_xy, u_yy]
-    facet_dofs = basis.facet_dofs[0]  # u_n per edge
+    nodal = linear.nodal  # (n nodal dofs per vertex, N): u [, u_x, u_y, u_xx, u_xy, u_yy]
+    facet_dofs = linear.facet_dofs  # u_n per edge
     rigid = np.zeros((n_dof, 3))
     rigid[nodal[0], 2] = 1.0
     nodes = np.column_stack([mesh.nodes_xy, np.full(len(mesh.nodes_xy), mesh.z0)])
     node_dofs = np.full((len(nodes), 3), -1, dtype=np.int64)
     node_dofs[:, 2] = nodal[0]
     outputs = PlateOutputs(skmesh, elem, element, nodal, facet_dofs, material, thickness_m, mesh.z0)
+    outputs.linear = linear.result()
     dofs = PlateMeshDofs(skmesh, element, nodal, facet_dofs, outputs)
     held = [s.hold_plate(dofs, i) for i, s in enumerate(supports)]
     constraints = Constraints.union(held)
@@ -108,6 +110,66 @@ def assemble_plate(
     )
 
 
+class RigidFit:
+    """The DOF vectors (n_dof, 3) of w = 1, x, y, made chunk by chunk from the assembly's own
+    bases (one basis of the whole mesh more cost as much as the assembly's): values at the
+    vertices, gradients (Argyris), normal slopes on the edges. Each edge's normal slope (its
+    sign is the element's convention) is solved from the first element next to it: the field
+    of that element's other DOFs plus its three edge DOFs must be x (and y) at its quadrature
+    points (a 3-unknown least-squares fit, exact in exact arithmetic; an L2 projection of x
+    over the whole mesh is ill-conditioned through the second-derivative DOFs). Chunks are
+    runs of ascending elements, so an edge's first element is in the first chunk that has
+    the edge, and every edge of a chunk is set once the chunk is fitted: the vectors are
+    then checked there exactly (the fields they give must be 1, x and y at every quadrature
+    point)."""
+
+    def __init__(self, basis, element: str):
+        self.nodal, self.facet_dofs = basis.nodal_dofs, basis.facet_dofs[0]
+        p = basis.mesh.p
+        self.scale = max(np.abs(p).max(), 1.0)
+        self.out = np.zeros((basis.N, 3))
+        self.out[self.nodal[0], 0] = 1.0
+        self.out[self.nodal[0], 1:] = p.T
+        if element == "argyris":
+            self.out[self.nodal[1], 1] = self.out[self.nodal[2], 2] = 1.0
+        self.is_edge = np.zeros(basis.N, dtype=bool)
+        self.is_edge[self.facet_dofs] = True
+        self.is_set = ~self.is_edge
+        self.error = 0.0
+
+    def add(self, basis) -> None:
+        """Fit the edge slopes first met in the chunk of ``basis`` and check its elements."""
+        element_dofs = basis.element_dofs  # (n_local, E)
+        local_edge = np.flatnonzero(self.is_edge[element_dofs[:, 0]])
+        known = np.setdiff1d(np.arange(element_dofs.shape[0]), local_edge)
+        # local basis values at the quadrature points: (n_local, E, Q)
+        values = np.stack([np.asarray(b[0].value) for b in basis.basis])
+        edges, first = np.unique(element_dofs[local_edge].T, return_index=True)
+        new = ~self.is_set[edges]
+        edges, first = edges[new], first[new]
+        x, y = np.asarray(basis.global_coordinates())  # (E, Q) each
+        if edges.size:
+            fits = np.linalg.pinv(values[local_edge].transpose(1, 2, 0))  # (E, 3, Q)
+            for k, target in ((1, x), (2, y)):
+                rest = target - np.einsum(
+                    "le,leq->eq", self.out[element_dofs[known], k], values[known]
+                )
+                self.out[edges, k] = np.einsum("ejq,eq->ej", fits, rest).ravel()[first]
+            self.is_set[edges] = True
+        fields = np.einsum("leq,lek->keq", values, self.out[element_dofs])
+        for k, target in enumerate((np.ones_like(x), x, y)):
+            self.error = max(self.error, np.abs(fields[k] - target).max() / self.scale)
+
+    def result(self) -> np.ndarray:
+        """The vectors, once every chunk is added: a wrong slope DOF misses by O(its element's
+        size) (>= 1e-4 here); round-off is ~1e-12 on regular elements (fem.elements.argyris),
+        up to 1.4e-8 on the slender elements of the rings around a cup (fem.mesh.rim;
+        measured with 4.4 mm cup cells)."""
+        if not self.is_set.all() or self.error > 1e-6:
+            raise RuntimeError(f"plate rigid motions: 1, x, y are missed by {self.error:.1e}")
+        return self.out
+
+
 class PlateOutputs:
     """Rigid motions and surface stresses of the plate (fem.system.FormulationOutputs)."""
 
@@ -117,54 +179,11 @@ class PlateOutputs:
         self.mesh, self.elem, self.element = mesh, elem, element
         self.nodal, self.facet_dofs = nodal, facet_dofs
         self.material, self.thickness_m, self.z0 = material, thickness_m, z0
-        self._linear = None
+        self.linear: np.ndarray | None = None  # set by assemble_plate
 
     def linear_dofs(self) -> np.ndarray:
-        """(n_dof, 3) DOF vectors of w = 1, x, y: values at the vertices, gradients (Argyris),
-        normal slopes on the edges. Each edge's normal slope (its sign is the element's
-        convention) is solved from one element next to it: the field of that element's other
-        DOFs plus its three edge DOFs must be x (and y) at its quadrature points (a 3-unknown
-        least-squares fit, exact in exact arithmetic; an L2 projection of x over the whole
-        mesh is ill-conditioned through the second-derivative DOFs); the vectors are then
-        checked exactly: the fields they give must be 1, x and y at every quadrature point."""
-        if self._linear is None:
-            basis = skfem.Basis(self.mesh, self.elem, intorder=4)
-            p = self.mesh.p
-            out = np.zeros((basis.N, 3))
-            out[self.nodal[0], 0] = 1.0
-            out[self.nodal[0], 1:] = p.T
-            if self.element == "argyris":
-                out[self.nodal[1], 1] = out[self.nodal[2], 2] = 1.0
-            self._edge_slopes(basis, out)
-            x, y = np.asarray(basis.global_coordinates())  # (E, Q) each
-            error = max(
-                np.abs(np.asarray(basis.interpolate(out[:, k])) - target).max()
-                for k, target in enumerate((np.ones_like(x), x, y))
-            ) / max(np.abs(p).max(), 1.0)
-            # a wrong slope DOF misses by O(its element's size) (>= 1e-4 here); round-off is
-            # ~1e-12 on regular elements (fem.elements.argyris), up to 1.4e-8 on the slender
-            # elements of the rings around a cup (fem.mesh.rim; measured with 4.4 mm cup cells)
-            if error > 1e-6:
-                raise RuntimeError(f"plate rigid motions: 1, x, y are missed by {error:.1e}")
-            self._linear = out
-        return self._linear
-
-    def _edge_slopes(self, basis, out: np.ndarray) -> None:
-        """Fill the edge DOFs of columns x, y of ``out`` (the other DOFs set) by the local fit
-        of :meth:`linear_dofs`, every element at once (each edge from its first element)."""
-        element_dofs = basis.element_dofs  # (n_local, E)
-        is_edge = np.zeros(basis.N, dtype=bool)
-        is_edge[self.facet_dofs] = True
-        local_edge = np.flatnonzero(is_edge[element_dofs[:, 0]])
-        known = np.setdiff1d(np.arange(element_dofs.shape[0]), local_edge)
-        # local basis values at the quadrature points: (n_local, E, Q)
-        values = np.stack([np.asarray(b[0].value) for b in basis.basis])
-        fits = np.linalg.pinv(values[local_edge].transpose(1, 2, 0))  # (E, 3, Q)
-        edges, first = np.unique(element_dofs[local_edge].T, return_index=True)
-        x, y = np.asarray(basis.global_coordinates())
-        for k, target in ((1, x), (2, y)):
-            rest = target - np.einsum("le,leq->eq", out[element_dofs[known], k], values[known])
-            out[edges, k] = np.einsum("ejq,eq->ej", fits, rest).ravel()[first]
+        """(n_dof, 3) DOF vectors of w = 1, x, y (:class:`RigidFit`, made at assembly)."""
+        return self.linear
 
     def linear_fields(self, n_dof: int) -> np.ndarray:
         """(n_dof, 3, 3) the fields e_j r_i along z only (w = x, y or the mid-plane height
