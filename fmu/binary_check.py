@@ -109,12 +109,13 @@ def _check_step(folder: Path, library: Path, deviation_m: float, dt_s: float) ->
     from fmu.resource import decode_resource
     from fmu.variables import RESOURCE_FILE
     from fmu.verify import DEFAULT_RTOL, reference_response, simulated_model
+    from jaxflex.response import as_move
 
     resource = folder / "resources" / RESOURCE_FILE
     stored = decode_resource(resource.read_bytes(), source=str(resource))
     acc = np.array([STEP_ACC_M_S2, (0.0, 0.0, 0.0)])
     model = simulated_model(stored, folder)
-    reference = float(reference_response(model, acc, dt_s, 1, hold="zero")[0][1])
+    reference = float(reference_response(model, as_move(acc, dt_s), 1, hold="zero")[0][1])
     if not abs(deviation_m - reference) <= DEFAULT_RTOL * abs(reference):
         raise FmuBuildError(
             f"{library.name}: one step gives a deviation of {deviation_m!r} m, jaxflex "

@@ -44,6 +44,7 @@ from fmu.turning_reference import stored_turn, turning_reference
 from fmu.verify import read_fmu_resource, reference_response, simulated_model
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel
+from jaxflex.response import as_move
 
 DEFAULT_RTOL = 1e-9
 FMU_HOSTS = ("ecospy", "libcosimpy")
@@ -153,7 +154,8 @@ def crosscheck_fmu(
     dt_s = stored.dt_s
     n_steps = steps_for(stop_time_of(path), dt_s)
     report = CrossReport(str(path), "FMU", importers.fmi_version_of(path), dt_s, n_steps, rtol=rtol)
-    reference, _ = reference_response(simulated_model(stored, path), stored.acc, dt_s, n_steps)
+    move = as_move(stored.acc, dt_s)
+    reference, _ = reference_response(simulated_model(stored, path), move, n_steps)
     replay = {"use_embedded_trajectory": True}
     runners = {"ecospy": importers.ecos_fmu, "libcosimpy": importers.libcosim_fmu}
     for host in hosts:
@@ -198,13 +200,11 @@ def _references(path, stored, model, part_model, n_steps: int) -> dict[str, Call
     points). ``model`` is the stored model as simulated, ``part_model`` the turning part's."""
     dt_s = stored.dt_s
     if stored.turning is None:
-        samples = held_samples(stored.acc, dt_s, dt_s, n_steps)
+        move = as_move(stored.acc, dt_s)
+        held = as_move(held_samples(move, dt_s, n_steps), dt_s)
         return {
-            "linear": lambda: (_LINEAR, reference_response(model, stored.acc, dt_s, n_steps)[0]),
-            "zero": lambda: (
-                _HELD,
-                reference_response(model, samples, dt_s, n_steps, hold="zero")[0],
-            ),
+            "linear": lambda: (_LINEAR, reference_response(model, move, n_steps)[0]),
+            "zero": lambda: (_HELD, reference_response(model, held, n_steps, hold="zero")[0]),
         }
     if part_model is None:
         raise InputError(

@@ -29,6 +29,8 @@ from fmpy.fmi2 import (
 from fmpy.fmi3 import FMU3Slave
 from fmpy.logging import addLoggerProxy
 
+from jaxflex.response import Move
+
 _LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
 # FMI 2.0 log messages of open sessions, by the componentEnvironment their instance got
 _FMI2_LOGS: dict[int, list[tuple[str, str]]] = {}
@@ -190,10 +192,11 @@ class Session:
         self.close()
 
 
-def run_linear(session: Session, acc, dt_s: float, n_steps: int) -> dict[str, np.ndarray]:
-    """Drive an initialized FMI 2.0 session with samples ``acc`` (linear between them, 0 after
-    the last) for ``n_steps`` steps of ``dt_s``: recorded outputs at t_0 .. t_n."""
-    acc = np.asarray(acc, dtype=np.float64)
+def run_linear(session: Session, move: Move, n_steps: int) -> dict[str, np.ndarray]:
+    """Drive an initialized FMI 2.0 session with the samples of ``move`` (a jaxflex.Move;
+    linear between them, 0 after the last) for ``n_steps`` steps of its ``dt_s``: recorded
+    outputs at t_0 .. t_n."""
+    acc, dt_s = move.acc, move.dt_s
     padded = np.zeros((max(n_steps + 1, len(acc)) + 1, 3))
     padded[: len(acc)] = acc
     rates = np.diff(padded, axis=0) / dt_s

@@ -297,12 +297,13 @@ def package_fmi_version(ssp_path: str | os.PathLike) -> int:
     return versions.pop()
 
 
-def held_samples(acc: np.ndarray, dt_s: float, step_s: float, n_steps: int) -> np.ndarray:
+def held_samples(move: Move, step_s: float, n_steps: int) -> np.ndarray:
     """What a host that copies values at communication points k * step_s feeds the part:
-    the source's output there (the samples, linear between them, 0 after), (n_steps + 1, 3)."""
+    the source's output there (the samples of ``move``, linear between them, 0 after),
+    (n_steps + 1, 3) m/s^2."""
     t = step_s * np.arange(n_steps + 1)
-    grid = dt_s * np.arange(len(acc))
-    return np.column_stack([np.interp(t, grid, acc[:, i], right=0.0) for i in range(3)])
+    grid = move.dt_s * np.arange(move.acc.shape[0])
+    return np.column_stack([np.interp(t, grid, move.acc[:, i], right=0.0) for i in range(3)])
 
 
 def steps_for(stop_time_s: float, step_s: float) -> int:

@@ -30,6 +30,7 @@ from fmu.variables import INPUT_COLUMNS, RESOURCE_FILE
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.model import ModalModel
 from jaxflex.response import (
+    Move,
     as_move,
     modal_states,
     point_displacements,
@@ -102,27 +103,26 @@ class VerifyReport:
         return "\n".join(lines)
 
 
-def input_signal(acc, dt_s: float) -> np.ndarray:
+def input_signal(move: Move) -> np.ndarray:
     """Input for ``fmpy.simulate_fmu``: a structured array with fields time, ax, ay, az (the
-    columns of the ``<name>_input.csv`` written beside an exported FMU)."""
-    acc = np.asarray(acc, dtype=np.float64)
-    signal = np.zeros(acc.shape[0], dtype=[(name, np.float64) for name in INPUT_COLUMNS])
-    signal["time"] = dt_s * np.arange(acc.shape[0])
+    columns of the ``<name>_input.csv`` written beside an exported FMU) of ``move``'s samples."""
+    signal = np.zeros(move.acc.shape[0], dtype=[(name, np.float64) for name in INPUT_COLUMNS])
+    signal["time"] = move.dt_s * np.arange(move.acc.shape[0])
     for i, name in enumerate(INPUT_COLUMNS[1:]):
-        signal[name] = acc[:, i]
+        signal[name] = move.acc[:, i]
     return signal
 
 
 def reference_response(
-    model: ModalModel, acc, dt_s: float, n_steps: int, *, hold: str = "linear", points=False
+    model: ModalModel, move: Move, n_steps: int, *, hold: str = "linear", points=False
 ):
     """Exact response at the communication points t_k = k dt_s, k = 0..n_steps, to the samples
-    ``acc`` (linear between them, or each held over its step with ``hold="zero"``) and rest
-    after them: (deviation (n_steps + 1,) m, displacement (n_steps + 1, K, 3) m or None).
-    The static residual's share D a uses the acceleration at the end of each step, as the
-    FMU reports it (with held inputs: the value held over the step just done)."""
-    acc = rest_padded(np.asarray(acc, dtype=np.float64)[: n_steps + 1], n_steps)
-    q = modal_states(model, acc, dt_s, hold=hold, xp=np)[..., 0]
+    of ``move`` (linear between them, or each held over its step with ``hold="zero"``) and
+    rest after them: (deviation (n_steps + 1,) m, displacement (n_steps + 1, K, 3) m or
+    None). The static residual's share D a uses the acceleration at the end of each step, as
+    the FMU reports it (with held inputs: the value held over the step just done)."""
+    acc = rest_padded(move.acc[: n_steps + 1], n_steps)
+    q = modal_states(model, acc, move.dt_s, hold=hold, xp=np)[..., 0]
     a_end = acc if hold == "linear" else np.vstack([np.zeros((1, 3)), acc[:-1]])
     disp = point_displacements(response_shapes(model), with_acceleration(model, q, a_end))
     return np.linalg.norm(disp, axis=2).max(axis=1), (disp if points else None)
@@ -168,17 +168,16 @@ def _choose_mode(fmi_version: int, given: bool, mode: str) -> str:
         raise InputError("input_mode 'linear' needs FMI 2.0 (FMI 3.0 has no input derivatives)")
     if (mode == "embedded") == given:
         raise InputError(
-            "input_mode 'embedded' replays the FMU's own trajectory: do not pass acc"
+            "input_mode 'embedded' replays the FMU's own trajectory: do not pass a move"
             if given
-            else f"input_mode {mode!r} needs acc and dt_s"
+            else f"input_mode {mode!r} needs a move (jaxflex.as_move(acc, dt_s))"
         )
     return mode
 
 
 def verify(
     path: str | os.PathLike,
-    acc=None,
-    dt_s: float | None = None,
+    move: Move | None = None,
     *,
     input_mode: str = "auto",
     extend_s: float | None = None,
@@ -188,10 +187,10 @@ def verify(
     interval = the sample step; the "linear" mode uses fmpy's FMU2Slave through
     :class:`fmu.master.Session`) and compare with jaxflex.
 
-    Without ``acc`` the FMU replays its embedded trajectory; otherwise ``acc`` ((n+1, 3)
-    m/s^2 at step ``dt_s`` s) drives the inputs ("linear" for FMI 2.0, "held" for FMI 3.0 by
-    default, see the module docstring). The run lasts until the FMU's default stop time or
-    ``extend_s`` s after the last sample.
+    Without ``move`` the FMU replays its embedded trajectory; otherwise ``move`` (a
+    jaxflex.Move: samples (n+1, 3) m/s^2 and their step, s) drives the inputs ("linear" for
+    FMI 2.0, "held" for FMI 3.0 by default, see the module docstring). The run lasts until
+    the FMU's default stop time or ``extend_s`` s after the last sample.
     """
     path = Path(path)
     if not path.is_file():
@@ -199,15 +198,15 @@ def verify(
     stored = read_fmu_resource(path)
     md = read_model_description(str(path))
     fmi_version = int(md.fmiVersion[0])
-    mode = _choose_mode(fmi_version, acc is not None, input_mode)
+    mode = _choose_mode(fmi_version, move is not None, input_mode)
     if mode == "embedded":
         if stored.acc is None:
-            raise InputError(f"{str(path)!r} has no embedded trajectory: pass acc and dt_s")
-        acc, dt_s = stored.acc, stored.dt_s
+            raise InputError(f"{str(path)!r} has no embedded trajectory: pass a move")
+        move = as_move(stored.acc, stored.dt_s)
     else:
-        move = as_move(acc, dt_s)
-        acc, dt_s = move.acc, move.dt_s
-    duration = (len(acc) - 1) * dt_s
+        move = as_move(move, name="move")
+    dt_s = move.dt_s
+    duration = move.n_steps * dt_s
     if extend_s is not None:
         stop = duration + float(extend_s)
     else:
@@ -218,13 +217,13 @@ def verify(
     if mode == "linear":
         with Session(path, instance_name="jaxflex_verify") as session:
             session.start(0.0)
-            result = run_linear(session, acc, dt_s, n_steps)
+            result = run_linear(session, move, n_steps)
     else:
         outputs = ["deviation", "settle_time", "settled"] + (["displaced_points"] * points)
         if mode == "embedded":
             drive: dict[str, Any] = {"start_values": {"use_embedded_trajectory": True}}
         else:
-            drive = {"input": input_signal(acc, dt_s)}
+            drive = {"input": input_signal(move)}
         result = replay(path, stop, dt_s, outputs, **drive)
     if len(result["time"]) != n_steps + 1:
         raise InputError(
@@ -233,7 +232,7 @@ def verify(
         )
     hold = "zero" if mode == "held" else "linear"
     ref_dev, ref_disp = reference_response(
-        simulated_model(stored, path), acc, dt_s, n_steps, hold=hold, points=points
+        simulated_model(stored, path), move, n_steps, hold=hold, points=points
     )
     reference = f"jaxflex's engine ({'zero-order hold' if mode == 'held' else 'first-order hold'})"
     diff_p = rel_p = None

@@ -126,7 +126,7 @@ def test_verify_compares_with_the_damping_the_fmu_was_exported_with(part, move, 
 
 def test_fmpy_with_input_derivatives_matches_jaxflex_on_a_random_profile(fmus):
     """FMI 2.0 inputs with their slopes: linear over each step, exactly jaxflex's profile."""
-    report = verify(fmus[2][0], smooth_profile(11, N), DT, extend_s=0.5)
+    report = verify(fmus[2][0], jaxflex.as_move(smooth_profile(11, N), DT), extend_s=0.5)
     assert report.mode == "linear" and "first-order hold" in report.reference
     assert report.max_rel_diff <= RTOL and report.ok
 
@@ -136,11 +136,12 @@ def test_held_inputs_are_an_exact_zero_order_hold(fmus, part, version):
     """Without derivatives the FMU holds each input over the step; that is a different (and
     exactly computable) response, clearly distinguishable from jaxflex's linear profile."""
     acc = smooth_profile(12, N)
-    report = verify(fmus[version][0], acc, DT, input_mode="held", extend_s=0.5)
+    move = jaxflex.as_move(acc, DT)
+    report = verify(fmus[version][0], move, input_mode="held", extend_s=0.5)
     assert report.max_rel_diff <= RTOL and report.ok
     if version == 3:
         assert report.max_rel_diff_points <= RTOL
-    held, _ = reference_response(part, acc, DT, report.n_steps, hold="zero")
+    held, _ = reference_response(part, move, report.n_steps, hold="zero")
     linear = np.asarray(jaxflex.simulate(part, acc, DT, extend_s=0.5).deviation)
     assert rel_error(held, linear) > 1e-3
 
