@@ -394,10 +394,10 @@ def export_fmu(
     # the token covers what the binary and the resource must agree on, not the file's name
     # (its model identifier): an FMU exported under another name reuses the stored binary
     options = (fmi.version, fmi.model_name, fmi.description, threshold_m, damping_scale)
-    blank = encode_resource(model, "", acc, dt_s, cell_data, turning_data)
+    blank = encode_resource(model, "", move, cell_data, turning_data)
     token = content_token(blank, repr((*options, stop_time_s)).encode())
     desc = _description(model, fmi, ident, token, counts, start)
-    resource = encode_resource(model, token, acc, dt_s, cell_data, turning_data)
+    resource = encode_resource(model, token, move, cell_data, turning_data)
     built = _build(path, desc, resource, fmi.windows)
     sidecars = {}
     if move is not None:

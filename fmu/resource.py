@@ -54,7 +54,7 @@ from fmu.obstacles import RECORD_VALUES, allowed_kinds, unknown_codes
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.geometry import gravity_offset
 from jaxflex.model import ModalModel
-from jaxflex.response import output_residual, rotation_residual
+from jaxflex.response import Move, output_residual, rotation_residual
 
 MAGIC = b"JXFLXFMU"
 FORMAT_VERSION = 3
@@ -257,17 +257,17 @@ def check_trajectory_step(dt_s, error: type[Exception], source: str) -> None:
 def encode_resource(
     model: ModalModel,
     token: str,
-    acc: np.ndarray | None = None,
-    dt_s: float | None = None,
+    move: Move | None = None,
     cell: CellData | None = None,
     turning: TurningData | None = None,
 ) -> bytes:
-    """The resource file for ``model`` (and the trajectory ``acc`` sampled at ``dt_s``, the
+    """The resource file for ``model`` (and the trajectory ``move``, a jaxflex.Move, the
     ``cell``'s outputs, the ``turning`` part's data)."""
     raw_token = token.encode("ascii")
     if len(raw_token) >= TOKEN_BYTES:
         raise ValueError(f"token: at most {TOKEN_BYTES - 1} ASCII characters, got {token!r}")
-    if acc is not None:
+    acc, dt_s = (None, None) if move is None else (move.acc, move.dt_s)
+    if move is not None:
         check_trajectory_step(dt_s, InputError, "trajectory")
     counts = resource_counts(model, acc, cell, turning)
     extra = _cell_parts(model, cell, counts) if cell is not None else []

@@ -38,7 +38,7 @@ from fmu.resource import pose_samples
 from fmu.toolchain import C_DIR
 from fmu.variables import POSE_INPUT_NAMES, pose_unit
 from jaxflex.errors import InputError
-from jaxflex.response import PosePath, as_move
+from jaxflex.response import Move, PosePath, as_move
 
 DATA_FILE = "jxf_source_data.h"
 OUTPUTS = ("ax", "ay", "az")  # value references 1, 2, 3
@@ -235,25 +235,24 @@ def source_model_description(
 
 def export_source_fmu(
     path: str | os.PathLike,
-    acc,
-    dt_s: float,
+    move: Move,
     fmi_version: int = 2,
     *,
     pose: PosePath | None = None,
     windows: bool | None = None,
 ) -> SourceResult:
-    """Write the trajectory source FMU for the samples ``acc`` ((n+1, 3) m/s^2, at rest at
-    both ends) taken every ``dt_s`` s, atomically at ``path`` (.fmu; its stem becomes the
+    """Write the trajectory source FMU for ``move`` (a jaxflex.Move: samples (n+1, 3) m/s^2,
+    at rest at both ends, and their step), atomically at ``path`` (.fmu; its stem becomes the
     model identifier). ``pose``: a turning move's orientation path (jaxflex.response.PosePath at
-    the same samples and step, at rest at both ends; ``acc`` is then the pivot's world
-    acceleration), output as the turning part's pose inputs. ``windows``: build the Windows
+    the same samples and step, at rest at both ends; the move's samples are then the pivot's
+    world acceleration), output as the turning part's pose inputs. ``windows``: build the Windows
     DLL too (None = when mingw-w64 is installed, True = must)."""
     if fmi_version not in (2, 3):
         raise InputError(f"fmi_version: must be 2 or 3, got {fmi_version!r}")
     path = Path(path)
     if path.suffix.lower() != ".fmu":
         raise InputError(f"path: an FMU file name must end in .fmu, got {str(path)!r}")
-    move = as_move(acc, dt_s, at_rest=True, name="trajectory acc", dt_name="trajectory dt_s")
+    move = as_move(move, at_rest=True, name="trajectory", dt_name="trajectory dt_s")
     acc, dt_s = move.acc, move.dt_s
     if pose is not None:
         pose = check_pose(pose, len(acc), dt_s)

@@ -230,8 +230,7 @@ def export_ssp(
         pose = None if turning is None else turning.pose
         source = export_source_fmu(
             resources / f"{SOURCE}.fmu",
-            trajectory.acc,
-            trajectory.dt_s,
+            trajectory,
             fmi.version,
             pose=pose,
             windows=fmi.windows,

@@ -92,4 +92,5 @@ def test_the_fmu_checks_the_trajectory_step(fmus, version, tmp_path, move, step_
 @pytest.mark.parametrize("step_s", [5e-324, 1e300, 1e-7, 1e4])
 def test_a_resource_with_such_a_step_is_not_written(step_s):
     with pytest.raises(InputError, match="trajectory sample step"):
-        encode_resource(random_model(3, n_points=4, n_modes=2), "t", smooth_profile(1, 10), step_s)
+        move = jaxflex.as_move(smooth_profile(1, 10), step_s)
+        encode_resource(random_model(3, n_points=4, n_modes=2), "t", move)

@@ -98,7 +98,9 @@ def sources(tmp_path_factory):
         path,
         acc,
         {
-            v: export_source_fmu(folder / f"source{v}.fmu", acc, DT, v, pose=path, windows=False)
+            v: export_source_fmu(
+                folder / f"source{v}.fmu", jaxflex.as_move(acc, DT), v, pose=path, windows=False
+            )
             for v in (2, 3)
         },
     )
@@ -172,7 +174,9 @@ def test_source_between_samples_turns_as_the_kinematics_say(sources):
 def test_pose_of_another_length_is_refused(tmp_path):
     path, acc = _move()
     with pytest.raises(InputError, match="pose:"):
-        export_source_fmu(tmp_path / "s.fmu", acc[:-1], DT, 2, pose=path, windows=False)
+        export_source_fmu(
+            tmp_path / "s.fmu", jaxflex.as_move(acc[:-1], DT), 2, pose=path, windows=False
+        )
     assert not (tmp_path / "s.fmu").exists()
 
 

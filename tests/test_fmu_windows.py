@@ -76,7 +76,7 @@ def test_windows_dlls_export_fmi_import_system_dlls_and_run_like_linux(version, 
     acc = smooth_profile(4, 40)
     move, fmi = jaxflex.as_move(acc, DT), Fmi(version, windows=True)
     part = export_fmu(model, tmp_path / "part.fmu", move, fmi=fmi, threshold_m=1e-3)
-    source = export_source_fmu(tmp_path / "source.fmu", acc, DT, version, windows=True)
+    source = export_source_fmu(tmp_path / "source.fmu", move, version, windows=True)
     harnesses = (
         compile_harness(version, tmp_path / "harness"),
         compile_harness(version, tmp_path / "harness.exe", windows=True),

@@ -317,7 +317,7 @@ def test_a_huge_step_is_refused_not_turned_into_nan(built, version):
 
 def test_source_fmu_refuses_steps_that_overflow_or_do_not_advance_the_time(tmp_path):
     acc = smooth_profile(4, 30)
-    result = export_source_fmu(tmp_path / "src.fmu", acc, DT, 2, windows=False)
+    result = export_source_fmu(tmp_path / "src.fmu", jaxflex.as_move(acc, DT), 2, windows=False)
     with Session(result.fmu_path) as s:
         s.start(0.0)
         for t, h in ((1e308, 1e308), (1e20, 1e-3)):
