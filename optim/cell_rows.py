@@ -221,19 +221,17 @@ class LoadFamily:
         r = self.functional.rows_per_item
         return np.arange(r * item, r * item + r)
 
-    def values(
-        self, acc: np.ndarray, dt_s: float, t: np.ndarray, items: np.ndarray | None = None
-    ) -> np.ndarray:
-        """(T, I) the functional of ``items`` (default every item) at times ``t`` (in blocks
-        of ITEM_BLOCK items)."""
+    def values(self, move: Move, t: np.ndarray, items: np.ndarray | None = None) -> np.ndarray:
+        """(T, I) the functional of ``items`` (default every item) at times ``t`` (s) during
+        and after ``move`` (a Move), in blocks of ITEM_BLOCK items."""
         if items is None:
             items = np.arange(self.functional.n_items)
         with one_blas_thread():
-            return self._values(acc, dt_s, t, items)
+            return self._values(move, t, items)
 
-    def _values(self, acc: np.ndarray, dt_s: float, t: np.ndarray, items: np.ndarray):
-        states = states_at(self.model, acc, dt_s, t)
-        a = acceleration_at(acc, dt_s, t)
+    def _values(self, move: Move, t: np.ndarray, items: np.ndarray):
+        states = states_at(self.model, move.acc, move.dt_s, t)
+        a = acceleration_at(move.acc, move.dt_s, t)
         r = self.functional.rows_per_item
         out = [np.zeros((len(t), 0))]
         for start in range(0, len(items), ITEM_BLOCK):
@@ -258,12 +256,11 @@ class LoadFamily:
         samples and, between them, where a curvature bound reaches it
         (jaxflex.response.outputs_above: the samples above the threshold are those of
         every time)."""
-        acc, dt_s = move.acc, move.dt_s
         above = self.limit * (1 - ROW_MARGIN + SCAN_RTOL)
-        t = check_times(self.model, acc.shape[0] - 1, dt_s)
+        t = check_times(self.model, move.n_steps, move.dt_s)
         candidates, values = outputs_above(
-            self.model, self.outputs, self.functional, as_move(acc, dt_s, at_rest=True), t,
-            above, offset=self.offset, state_scale=self.state_scale,
+            self.model, self.outputs, self.functional, as_move(move, at_rest=True), t, above,
+            offset=self.offset, state_scale=self.state_scale,
         )  # fmt: skip
         if candidates.size == 0:
             return []
@@ -271,17 +268,18 @@ class LoadFamily:
         by_time: dict[int, list[int]] = {}
         for j, column in found:
             by_time.setdefault(j, []).append(int(candidates[column]))
-        return [r for j, items in by_time.items() for r in self.rows(acc, dt_s, t[j], items, axes)]
+        return [r for j, items in by_time.items() for r in self.rows(move, t[j], items, axes)]
 
-    def row(self, acc: np.ndarray, dt_s: float, time_s: float, item: int, axes) -> Row:
-        """The cut at (``time_s``, ``item``) of the move ``acc`` (module docstring)."""
-        return self.rows(acc, dt_s, time_s, [item], axes)[0]
+    def row(self, move: Move, time_s: float, item: int, axes) -> Row:
+        """The cut at (``time_s``, ``item``) of ``move`` (a Move; module docstring)."""
+        return self.rows(move, time_s, [item], axes)[0]
 
-    def rows(self, acc: np.ndarray, dt_s: float, time_s: float, items, axes) -> list[Row]:
+    def rows(self, move: Move, time_s: float, items, axes) -> list[Row]:
         """The cuts of ``items`` at ``time_s`` (one state map for all of them)."""
-        n = acc.shape[0] - 1
+        n, dt_s = move.n_steps, move.dt_s
         t = np.array([time_s])
-        states, a = states_at(self.model, acc, dt_s, t), acceleration_at(acc, dt_s, t)
+        states = states_at(self.model, move.acc, dt_s, t)
+        a = acceleration_at(move.acc, dt_s, t)
         maps = state_maps(self.model, n, dt_s, time_s)  # (M, 2, n+1, 3)
         found = []
         for item in items:
@@ -341,7 +339,7 @@ class LoadFamily:
 
     def failure_row(self, peak: Peak, move: Move, axes) -> Row:
         """The cut at the certified worst point of ``move`` (a Move), which failed."""
-        return self.row(move.acc, move.dt_s, *self.worst(peak), axes)
+        return self.row(move, *self.worst(peak), axes)
 
     def curve(self, move: Move, t) -> np.ndarray:
         """(T,) the largest load of ``move`` (a Move) at times ``t`` (for plots), exact: the
@@ -360,7 +358,7 @@ class LoadFamily:
             times = np.flatnonzero(bounds[chunk[0]] > largest)
             if times.size == 0:
                 break
-            found = self.values(move.acc, move.dt_s, t[times], chunk).max(axis=1)
+            found = self.values(move, t[times], chunk).max(axis=1)
             largest[times] = np.maximum(largest[times], found)
         return largest
 
@@ -435,17 +433,17 @@ class DistanceFamily:
         grid that never gives rows never builds them)."""
         return response_shapes(self.model)
 
-    def positions(self, acc, dt_s, t, points=None, coords=None) -> np.ndarray:
-        """(T, P, 3) mid-surface positions of ``points`` (default all) at times ``t``."""
-        return positions_at(self.model, acc, dt_s, t, self.gravity, points, coords)
+    def positions(self, move: Move, t, points=None, coords=None) -> np.ndarray:
+        """(T, P, 3) mid-surface positions of ``points`` (default all) at times ``t`` (s)
+        during and after ``move`` (a Move)."""
+        return positions_at(self.model, move.acc, move.dt_s, t, self.gravity, points, coords)
 
     def scan(self, move: Move, axes) -> list[Row]:
         """Separating planes at the sampled closest approaches of ``move`` (a Move): the
         closest point at each check time, and every point that may come closer than the row
         threshold at the times of the worst approaches (jaxflex.geometry.close_approaches;
         the rows of evaluating every point at every check time)."""
-        acc, dt_s = move.acc, move.dt_s
-        t = check_times(self.model, move.n_steps, dt_s)
+        t = check_times(self.model, move.n_steps, move.dt_s)
         threshold = self.limit * (1 + ROW_MARGIN - SCAN_RTOL)
         found = close_approaches(
             self.model, self.obstacles, move, t, threshold, gravity_m_s2=self.gravity,
@@ -455,19 +453,20 @@ class DistanceFamily:
             return []
         found.fill(_peak_times(-found.distances, -threshold))
         peaks = _local_peaks(-found.distances, -threshold)
-        rows = (self.row(acc, dt_s, t[j], int(found.points[k]), axes) for j, k in peaks)
+        rows = (self.row(move, t[j], int(found.points[k]), axes) for j, k in peaks)
         return [r for r in rows if r is not None]
 
-    def row(self, acc: np.ndarray, dt_s: float, time_s: float, point: int, axes) -> Row | None:
-        """The separating plane at (``time_s``, ``point``) (module docstring); None where the
-        point touches the obstacle's surface exactly (no direction)."""
-        p = self.positions(acc, dt_s, np.array([time_s]), [point])[0, 0]
+    def row(self, move: Move, time_s: float, point: int, axes) -> Row | None:
+        """The separating plane at (``time_s``, ``point``) of ``move`` (a Move; module
+        docstring); None where the point touches the obstacle's surface exactly (no
+        direction)."""
+        p = self.positions(move, np.array([time_s]), [point])[0, 0]
         d, _, c = distances(self.obstacles, p[None])
         gap = p - c[0]
         if np.linalg.norm(gap) < 1e-12:
             return None
         normal = np.sign(d[0]) * gap / np.linalg.norm(gap)
-        return self.plane(normal, c[0], point, time_s, acc.shape[0] - 1, dt_s, axes)
+        return self.plane(normal, c[0], point, time_s, move.n_steps, move.dt_s, axes)
 
     def plane(self, normal, closest, point: int, time_s: float, n_steps: int, dt_s: float, axes):
         """The row n . (p(``time_s``) - c) >= margin of ``point`` on an ``n_steps``-step move,
@@ -523,7 +522,7 @@ class DistanceFamily:
 
     def failure_row(self, found: Clearance, move: Move, axes) -> Row | None:
         """The separating plane at the certified closest point of ``move``, which failed."""
-        return self.row(move.acc, move.dt_s, *self.worst(found), axes)
+        return self.row(move, *self.worst(found), axes)
 
     def worst(self, found: Clearance) -> tuple[float, int]:
         return found.time_s, found.point

@@ -54,7 +54,6 @@ from jaxflex.response import (
     Turn,
     TurningInputs,
     VonMises,
-    as_move,
     free_states,
     kinematics_at,
     output_residual,
@@ -108,10 +107,11 @@ class TurnSource:
         Move) with the turn of its length (optim.turn.TurnSpec.with_move)."""
         return self.spec.with_move(self.angular_acc(move.n_steps), move)
 
-    def motion(self, model, acc: np.ndarray, dt_s: float, during, tau) -> TurnMotion:
-        """The :class:`TurnMotion` of ``model`` for the translation samples ``acc`` (n+1, 3)
-        m/s^2 at step ``dt_s`` s with the turn of their length."""
-        return TurnMotion(model, self.turn(as_move(acc, dt_s)), during, tau)
+    def motion(self, model, move: Move, during, tau) -> TurnMotion:
+        """The :class:`TurnMotion` of ``model`` for the translation ``move`` (a Move) with the
+        turn of its length, at the times ``during`` the move (s from its start) and ``tau``
+        after it (s from its end)."""
+        return TurnMotion(model, self.turn(move), during, tau)
 
     @contextmanager
     def holding(self, angular_acc) -> Iterator[None]:
@@ -257,8 +257,8 @@ class TurnLoadFamily(LoadFamily):
             "von Mises stress", model, model.stress.stress, static, functional, limit_pa, source
         )
 
-    def motion(self, acc: np.ndarray, dt_s: float, during, tau) -> TurnMotion:
-        return self.source.motion(self.model, acc, dt_s, during, tau)
+    def motion(self, move: Move, during, tau) -> TurnMotion:
+        return self.source.motion(self.model, move, during, tau)
 
     def outputs_of(self, motion: TurnMotion, rows=None, times=slice(None)) -> np.ndarray:
         """(T, Y) the outputs ``rows`` (default all) at the motion's ``times`` (default all):
@@ -309,7 +309,7 @@ class TurnLoadFamily(LoadFamily):
         bound (:meth:`item_bounds`) reaches the row threshold are evaluated."""
         above = self.limit * (1 - ROW_MARGIN + SCAN_RTOL)
         during = move_times(move.n_steps, move.dt_s)
-        motion = self.motion(move.acc, move.dt_s, during, tail_times(self.model))
+        motion = self.motion(move, during, tail_times(self.model))
         candidates = np.flatnonzero(self.item_bounds(motion) > above)
         if candidates.size == 0:
             return []
@@ -342,15 +342,16 @@ class TurnLoadFamily(LoadFamily):
 
     def failure_row(self, peak: Peak, move: Move, axes) -> Row:
         """The cut at the certified worst point of ``move`` (a Move), which failed."""
-        motion = self._motion_at(move.acc, move.dt_s, peak.time_s)
+        motion = self._motion_at(move, peak.time_s)
         return self._turn_row(motion, 0, peak.item, axes)
 
-    def _motion_at(self, acc: np.ndarray, dt_s: float, time_s: float) -> TurnMotion:
-        """The motion at the one time ``time_s`` (s from the start; inf: at rest at B)."""
-        tau = min(time_s, 1e9) - (acc.shape[0] - 1) * dt_s
+    def _motion_at(self, move: Move, time_s: float) -> TurnMotion:
+        """The motion of ``move`` at the one time ``time_s`` (s from the start; inf: at rest
+        at B)."""
+        tau = min(time_s, 1e9) - move.n_steps * move.dt_s
         if tau > 0:
-            return self.motion(acc, dt_s, np.zeros(0), np.array([tau]))
-        return self.motion(acc, dt_s, np.array([time_s]), np.zeros(0))
+            return self.motion(move, np.zeros(0), np.array([tau]))
+        return self.motion(move, np.array([time_s]), np.zeros(0))
 
     def curve(self, move: Move, t) -> np.ndarray:
         """(T,) the largest load of ``move`` (a Move) at times ``t`` (during and after)."""
@@ -361,7 +362,7 @@ def _plot_motion(family, move: Move, t) -> TurnMotion:
     """The motion of ``family``'s turn at the times ``t`` (T,) s (during and after)."""
     t = np.asarray(t, dtype=np.float64)
     t_end = move.n_steps * move.dt_s
-    return family.motion(move.acc, move.dt_s, t[t <= t_end], t[t > t_end] - t_end)
+    return family.motion(move, t[t <= t_end], t[t > t_end] - t_end)
 
 
 class TurnDistanceFamily:
@@ -377,8 +378,8 @@ class TurnDistanceFamily:
         self.points = np.arange(model.n_points)
         self.n_base = response_shapes(model).shape[-1] - model.n_modes  # 3 or 0: D
 
-    def motion(self, acc: np.ndarray, dt_s: float, during, tau) -> TurnMotion:
-        return self.source.motion(self.model, acc, dt_s, during, tau)
+    def motion(self, move: Move, during, tau) -> TurnMotion:
+        return self.source.motion(self.model, move, during, tau)
 
     def skin_distances(self, motion: TurnMotion) -> np.ndarray:
         """(T, P) every point's skin distance at the motion's times."""
@@ -390,7 +391,7 @@ class TurnDistanceFamily:
         """Separating planes at the sampled closest approaches of ``move`` (a Move)."""
         threshold = self.limit * (1 + ROW_MARGIN - SCAN_RTOL)
         during = move_times(move.n_steps, move.dt_s)
-        motion = self.motion(move.acc, move.dt_s, during, tail_times(self.model))
+        motion = self.motion(move, during, tail_times(self.model))
         d = self.skin_distances(motion)
         rows = (self._row(motion, j, p, axes) for j, p in _local_peaks(-d, -threshold))
         return [r for r in rows if r is not None]
@@ -435,12 +436,11 @@ class TurnDistanceFamily:
         """The separating plane at the certified closest point of ``move``, which failed."""
         if not math.isfinite(found.time_s):
             return None  # at rest in the final pose: checked before the search
-        acc, dt_s = move.acc, move.dt_s
-        tau = found.time_s - move.n_steps * dt_s
+        tau = found.time_s - move.n_steps * move.dt_s
         if tau > 0:
-            motion = self.motion(acc, dt_s, np.zeros(0), np.array([tau]))
+            motion = self.motion(move, np.zeros(0), np.array([tau]))
         else:
-            motion = self.motion(acc, dt_s, np.array([found.time_s]), np.zeros(0))
+            motion = self.motion(move, np.array([found.time_s]), np.zeros(0))
         return self._row(motion, 0, found.point, axes)
 
     describe = DistanceFamily.describe

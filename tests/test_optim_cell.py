@@ -242,14 +242,14 @@ def test_pruned_loads_agree_with_every_item_at_every_time(model_all_nodes, press
     moves = _pruning_moves(press_result, cell)
     make = LoadFamily.cups if kind == "cups" else LoadFamily.stress
     unit = make(model, 1.0, GRAVITY)  # utilisation at safety 1, or the stress in Pa
-    largest = max(unit.values(m.acc, DT, check_times(model, m.n_steps, DT)).max() for m in moves)
+    largest = max(unit.values(m, check_times(model, m.n_steps, DT)).max() for m in moves)
     # a limit that the move of the largest load breaks (safety factor, or Pa)
     family = make(model, 1 / (0.95 * largest) if kind == "cups" else 0.95 * largest, GRAVITY)
     above = family.limit * (1 - ROW_MARGIN + SCAN_RTOL)
     broken = 0
     for move in moves:
         t = check_times(model, move.n_steps, DT)
-        dense = family.values(move.acc, DT, t)  # every item at every time
+        dense = family.values(move, t)  # every item at every time
         found = [
             (r.time_s, dense[np.searchsorted(t, r.time_s), r.item])
             for r in family.scan(move, (0, 2))

@@ -102,18 +102,18 @@ def test_rows_are_exact_for_the_schedule(plate):
     axes = (0, 1, 2)
     during = move_times(n, DT)
     j, item = 333, 2  # a time between samples, within the move
-    motion = cups.motion(first, DT, during, [])
+    motion = cups.motion(jaxflex.as_move(first, DT), during, [])
     row = cups._turn_row(motion, j, item, axes)
     g = cups.functional.cut(cups.outputs_of(motion)[j, cups._rows_of(item)], item)
-    again = cups.motion(second, DT, during, [])
+    again = cups.motion(jaxflex.as_move(second, DT), during, [])
     value = g @ cups.outputs_of(again)[j, cups._rows_of(item)]
     linear = np.sum(row.coef * second) + (cups.limit * (1 - 1e-3) - row.rhs * cups.limit)
     assert linear == pytest.approx(value, rel=1e-9, abs=1e-12)
     box = Box(np.array([0.6, 0.4, -0.3]), np.array([2.0, 2.0, 0.2]), name="floor")
     family = TurnDistanceFamily(plate, [box], 0.01, 5e-4, source)
-    motion = family.motion(first, DT, during, [])
+    motion = family.motion(jaxflex.as_move(first, DT), during, [])
     plane = family._row(motion, j, 7, axes)
-    p = family.motion(second, DT, during, []).positions(np.array([7]))[j, 0]
+    p = family.motion(jaxflex.as_move(second, DT), during, []).positions(np.array([7]))[j, 0]
     # the row: -coef . a <= rhs, rhs = n . (p - c) - coef . a at the first move - margin
     margin = 0.01 * (1 + 1e-3) + 5e-4
     gap = -np.sum(plane.coef * second) * 0.01 + plane.rhs * 0.01 + margin  # n . (p(a2) - c)
