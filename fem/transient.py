@@ -21,7 +21,7 @@ from fem.damping import Rayleigh
 from fem.eigen import factorize
 from fem.modal import ModalResult
 from jaxflex.errors import InputError
-from jaxflex.response import as_move
+from jaxflex.response import Move, as_move
 from jaxflex.runtime import progress_bar
 
 DEFAULT_OMEGA_H = 0.05  # omega h at the reference mode: Newmark period error ~ 2e-4
@@ -56,8 +56,7 @@ class TransientResult:
 
 def transient_reference(
     result: ModalResult,
-    acc,
-    dt_s: float,
+    move: Move,
     *,
     damping: Rayleigh | None = None,
     points=None,
@@ -68,8 +67,9 @@ def transient_reference(
     outputs: dict | None = None,
     progress: bool | None = None,
 ) -> TransientResult:
-    """Integrate the full FE model of ``result`` under base acceleration ``acc`` (n+1, 3) m/s^2
-    sampled every ``dt_s`` s (then ``extend_s`` s at rest) and report displacements at
+    """Integrate the full FE model of ``result`` under the base acceleration of ``move`` (a
+    jaxflex.Move: samples (n+1, 3) m/s^2 and their step dt_s, s; then ``extend_s`` s at rest)
+    and report displacements at
     ``points`` (same meaning as ModalResult.to_modal_model) ``output_substeps`` times per
     sample interval, and the ``outputs`` ({name: fem.outputs.PhysicalOutputs}: cup
     reactions, stresses) from the full state (z, z', z'', a).
@@ -78,7 +78,7 @@ def transient_reference(
     (fine steps per dt) defaults to omega h <= 0.05 for the 10th mode of ``result``.
     """
     start = time.perf_counter()
-    move = as_move(acc, dt_s)
+    move = as_move(move, name="move")
     acc, dt_s = move.acc, move.dt_s
     damping = damping if damping is not None else result.damping
     if not isinstance(damping, Rayleigh):

@@ -100,8 +100,7 @@ def test_reactions_and_stress_match_the_full_order_transient():
     acc = _sine_move(20)
     full = fem.transient_reference(
         result,
-        acc,
-        DT,
+        jaxflex.as_move(acc, DT),
         points=model.points,
         extend_s=0.1,
         substeps=100,

@@ -59,7 +59,7 @@ def test_export_modes_and_transient_xdmf(small_result, tmp_path):
     fem.export_modes(small_result, tmp_path / "modes.xdmf")
     acc = np.zeros((11, 3))
     acc[1:-1, 2] = 2.0
-    transient = fem.transient_reference(small_result, acc, 0.01, substeps=5)
+    transient = fem.transient_reference(small_result, jaxflex.as_move(acc, 0.01), substeps=5)
     fem.export_transient(small_result, transient, tmp_path / "move.xdmf")
     with meshio.xdmf.TimeSeriesReader(str(tmp_path / "move.xdmf")) as reader:
         points, _ = reader.read_points_cells()

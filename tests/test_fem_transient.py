@@ -34,7 +34,12 @@ def reference():
     result = fem.modal_analysis(part, cups, max(MODE_COUNTS), zeta=damping)
     # h = 1e-4 s: omega h <= 0.07 up to the 10th mode (Newmark period error ~4e-4)
     full = fem.transient_reference(
-        result, _smooth_move(), DT, points=120, extend_s=0.3, substeps=100, output_substeps=10
+        result,
+        jaxflex.as_move(_smooth_move(), DT),
+        points=120,
+        extend_s=0.3,
+        substeps=100,
+        output_substeps=10,
     )
     return result, full
 
@@ -83,4 +88,4 @@ def test_transient_needs_rayleigh_damping():
     part = fem.rectangular_plate(0.3, 0.2, mesh_size=0.03)
     result = fem.modal_analysis(part, fem.default_gripper(0.3, 0.2, 0.03), 4, zeta=0.02)
     with pytest.raises(jaxflex.InputError, match="Rayleigh"):
-        fem.transient_reference(result, _smooth_move(), DT)
+        fem.transient_reference(result, jaxflex.as_move(_smooth_move(), DT))

@@ -172,7 +172,12 @@ def test_the_static_residual_brings_the_reduced_model_to_the_full_order_transien
     acc[[0, -1]] = 0.0
     model = result.to_modal_model(points=60)
     full = fem.transient_reference(
-        result, acc, DT, points=model.points, extend_s=0.0, substeps=100, output_substeps=10
+        result,
+        jaxflex.as_move(acc, DT),
+        points=model.points,
+        extend_s=0.0,
+        substeps=100,
+        output_substeps=10,
     )
     fine = jaxflex.upsample(acc, 10)
     four = model.truncate_modes(4)

@@ -20,6 +20,7 @@ import numpy as np
 
 import fem
 from jaxflex.errors import InputError
+from jaxflex.response import as_move
 
 KNOT_S = 0.1  # knot spacing of the move: a multiple of every swept dt (10, 20, 25 ms)
 BASE_S = 0.005  # the move is handed to the FE transient at this step (divides 10, 20, 25 ms)
@@ -164,8 +165,7 @@ def fe_reference(result, damping, spec: SceneSpec, progress: bool | None = None)
     for factor in factors:
         run = fem.transient_reference(
             result,
-            acc,
-            base,
+            as_move(acc, base),
             damping=damping,
             points=spec.n_points if points is None else points,
             substeps=substeps // factor,

@@ -89,7 +89,12 @@ def case_transient() -> dict:
     result = fem.modal_analysis(part, cups, 160, zeta=damping)
     start = time.perf_counter()
     full = fem.transient_reference(
-        result, acc, dt_s, points=1000, extend_s=n_rest * dt_s, substeps=200, output_substeps=10
+        result,
+        jaxflex.as_move(acc, dt_s),
+        points=1000,
+        extend_s=n_rest * dt_s,
+        substeps=200,
+        output_substeps=10,
     )
     full_s = time.perf_counter() - start
     fine = jaxflex.upsample(np.concatenate([acc, np.zeros((n_rest, 3))]), 10)

@@ -46,7 +46,14 @@ from fem.outputs import reaction_outputs, stress_outputs
 from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import write_text_atomic
 from jaxflex.geometry import Box, Cell, min_distance
-from jaxflex.response import CupUtilisation, VonMises, acceleration_at, output_peak, outputs_at
+from jaxflex.response import (
+    CupUtilisation,
+    VonMises,
+    acceleration_at,
+    as_move,
+    output_peak,
+    outputs_at,
+)
 from optim.bench.commands import timed_run
 from optim.cell_file import load_cell
 from optim.ruckig_move import kinematic_floor_move
@@ -121,7 +128,7 @@ def press() -> dict:
 
 def accuracy() -> dict:
     out = {}
-    steel = fem.materials.PRESETS["steel"]
+    steel = fem.PRESETS["steel"]
     stiff = fem.Material("stiff steel", steel.E_pa * 1e6, steel.nu, steel.rho_kg_m3)
     cups = [fem.SuctionCup(x, y, 0.03) for x in (0.15, 0.45) for y in (0.1, 0.3)]
     t = np.linspace(0, 0.3, 61)
@@ -144,7 +151,7 @@ def accuracy() -> dict:
         result = fem.modal_analysis(part, cups, n_modes=n_modes, zeta=damping)
         model = result.to_modal_model(points=30)
         full = fem.transient_reference(
-            result, acc, DT, points=model.points, extend_s=0.1, substeps=100,
+            result, as_move(acc, DT), points=model.points, extend_s=0.1, substeps=100,
             output_substeps=4,
             outputs={"cups": reaction_outputs(result), "stress": stress_outputs(result)[1]},
         )  # fmt: skip
