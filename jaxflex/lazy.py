@@ -70,7 +70,10 @@ def lazy_names(module_name: str) -> tuple[Callable[[str], object], Callable[[], 
 
     def __getattr__(name: str):
         if name not in sources:
-            raise AttributeError(f"module {module_name!r} has no attribute {name!r}")
+            submodule = _submodule(module, name)
+            if submodule is None:
+                raise AttributeError(f"module {module_name!r} has no attribute {name!r}")
+            return submodule
         source, attribute = sources[name]
         value = getattr(importlib.import_module(source), attribute)
         module.__dict__[name] = value
@@ -82,6 +85,20 @@ def lazy_names(module_name: str) -> tuple[Callable[[str], object], Callable[[], 
     module.__class__ = _LazyModule
     module._lazy_sources = sources
     return __getattr__, __dir__
+
+
+def _submodule(package: types.ModuleType, name: str) -> types.ModuleType | None:
+    """The submodule ``name`` of ``package``, imported (None: the package has none of that
+    name). A package that imported its names eagerly had every submodule they come from bound
+    as an attribute (``fem.materials.PRESETS`` after ``import fem``); a lazy package binds one
+    only when it is imported, so without this an attribute would work or not depending on
+    what the process had imported before."""
+    if name.startswith("__") or "__path__" not in package.__dict__:  # not a package
+        return None
+    full = f"{package.__name__}.{name}"
+    if full not in sys.modules and importlib.util.find_spec(full) is None:
+        return None
+    return importlib.import_module(full)
 
 
 _after: dict[str, list[Callable[[types.ModuleType], None]]] = {}  # module name: callbacks

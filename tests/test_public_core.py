@@ -240,3 +240,18 @@ def test_the_user_docs_name_only_public_core_names(page):
 
 def _pyproject() -> str:
     return (ROOT / "pyproject.toml").read_text(encoding="utf-8")
+
+
+def test_a_lazy_package_gives_its_submodules_whatever_was_imported_before():
+    """In a fresh interpreter, ``import fem`` then ``fem.materials.PRESETS``: a submodule is an
+    attribute of its lazy package as it was of the eager one, not only after something else
+    imported it; a name that is neither a lazy name nor a submodule is an AttributeError."""
+    code = (
+        "import fem, optim\n"
+        "assert fem.materials.PRESETS['steel'].E_pa > 1e11\n"
+        "assert optim.sweep.read_table\n"
+        "try:\n    fem.no_such_module\nexcept AttributeError:\n    print('refused')\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "refused"

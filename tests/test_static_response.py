@@ -171,13 +171,9 @@ def test_the_static_residual_brings_the_reduced_model_to_the_full_order_transien
     acc = np.outer(np.sin(2 * np.pi * t / 0.3), [0.0, 0.0, 20.0])
     acc[[0, -1]] = 0.0
     model = result.to_modal_model(points=60)
+    move = jaxflex.as_move(acc, DT)
     full = fem.transient_reference(
-        result,
-        jaxflex.as_move(acc, DT),
-        points=model.points,
-        extend_s=0.0,
-        substeps=100,
-        output_substeps=10,
+        result, move, points=model.points, substeps=100, output_substeps=10
     )
     fine = jaxflex.upsample(acc, 10)
     four = model.truncate_modes(4)
