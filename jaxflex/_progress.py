@@ -33,10 +33,6 @@ def set_quiet(quiet: bool) -> None:
     _state["quiet"] = bool(quiet)
 
 
-def is_quiet() -> bool:
-    return _state["quiet"]
-
-
 def _shown(enabled: bool | None) -> bool:
     return not _state["quiet"] if enabled is None else bool(enabled)
 

@@ -173,7 +173,6 @@ class TurnMotion:
         omega = np.asarray(model.omega_rad_s)
         sag = (gravity[-1] @ np.asarray(model.gamma).T) / omega**2
         end = np.stack([inputs.q[-1] - sag, inputs.qd[-1]], axis=-1)
-        self.end_deviation = end  # (M, 2) about the final pose's sag
         free = free_states(model, end, tau, np)
         count = len(tau)
         self.n_during = len(during)

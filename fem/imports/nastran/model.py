@@ -44,7 +44,6 @@ from fem.mesh.mesh_io import sheet_from_cells
 from fem.mesh.meshes import ShellMesh
 from fem.parts import part_from_mesh
 from fem.system import mesh_stats, rigid_motions
-from jaxflex.errors import InputError
 
 FORMULATION = (
     "Nastran deck, 6 DOFs per grid: shell facets (DKT bending + ANDES OPT membrane, "
@@ -294,12 +293,3 @@ def stats(parts: DeckParts, nodes_m: np.ndarray) -> dict:
     lengths = np.linalg.norm(nodes_m[edges[:, 0]] - nodes_m[edges[:, 1]], axis=1)
     n_elements = len(f.triangles) + len(parts.lines.cards) + len(parts.points.cards)
     return mesh_stats("triangle (shell)", len(nodes_m), n_elements, 6 * len(nodes_m), lengths)
-
-
-def check_mass(mass_kg: float, bulk: BulkData) -> None:
-    if mass_kg <= 0:
-        raise InputError(
-            "deck: the model has no mass (no density on its materials, no CONM1/CONM2/CMASS); "
-            "a modal analysis needs it: give RHO on the MAT cards"
-        )
-    del bulk
