@@ -165,11 +165,13 @@ def _case_summary(model, move: Move, threshold_m, case, turning_data, turning) -
     return summary
 
 
-def _stop_time(acc, dt_s, summary) -> float:
-    if acc is None:
+def _stop_time(move: Move | None, summary) -> float:
+    """The FMU's default stop time, s: 1.25 x the embedded move's cycle (whole steps of it),
+    2 s without a move."""
+    if move is None:
         return 2.0
     horizon = max(summary["duration_s"], summary["cycle_time_s"])
-    return math.ceil(1.25 * horizon / dt_s - 1e-9) * dt_s
+    return math.ceil(1.25 * horizon / move.dt_s - 1e-9) * move.dt_s
 
 
 def _stage(stage: Path, fmi_version: int, ident: str, config: str, xml: str, resource: bytes):
@@ -390,7 +392,7 @@ def export_fmu(
         summary = _case_summary(model, move, threshold_m, case, turning_data, turning)
     ident = model_identifier(path)
     start = {"threshold_m": threshold_m, "damping_scale": damping_scale, "step_s": dt_s or DT_S}
-    start["stop_time_s"] = stop_time_s = _stop_time(acc, dt_s, summary)
+    start["stop_time_s"] = stop_time_s = _stop_time(move, summary)
     # the token covers what the binary and the resource must agree on, not the file's name
     # (its model identifier): an FMU exported under another name reuses the stored binary
     options = (fmi.version, fmi.model_name, fmi.description, threshold_m, damping_scale)
