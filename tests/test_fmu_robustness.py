@@ -20,7 +20,7 @@ from test_fmu_export import smooth_profile
 
 import jaxflex
 from fmu import export_fmu
-from fmu.bench.fmu import run
+from fmu.bench.steps import run
 from fmu.harness import compile_harness, resource_location, unpack
 from fmu.master import Session
 from fmu.options import Fmi
@@ -310,7 +310,7 @@ def test_valgrind_finds_no_errors_and_no_leaks(fmus, version, tmp_path):
 
 
 def test_benchmark_runs_at_small_size():
-    """fmu.bench.fmu at a toy size (speed targets are benchmark figures, not asserted here)."""
+    """fmu.bench.steps at a toy size (speed targets are benchmark figures, not asserted here)."""
     report = run(n_points=40, n_modes=8, n_steps=300, repeats=3, fmi_versions=(3,))
     figures = report["fmi3"]
     assert figures["n_steps"] == 300 and np.isfinite(figures["checksum"])

@@ -6,7 +6,7 @@ fem's figures in :mod:`fem.bench`, optim's in :mod:`optim.bench`, the sweeps' in
   ("tiny", "quick", "medium", "full"), gathering the sections of the layers below, JSON and
   charts written to a directory, and :func:`summary_lines`, its findings as text (what the
   notebooks use);
-* :mod:`fmu.bench.fmu`: the FMU's step, export and hosts (``python -m fmu.bench.fmu``).
+* :mod:`fmu.bench.steps`: the FMU's step, export and hosts (``python -m fmu.bench.steps``).
 """
 
 from typing import TYPE_CHECKING

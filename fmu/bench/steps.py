@@ -6,13 +6,13 @@ inputs and input derivatives set and the scalar outputs read every step; timed i
 100 steps, so the median is robust against other processes on the machine), and prints the
 figures as JSON.
 
-    python -m fmu.bench.fmu            # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
-    python -m fmu.bench.fmu --scene plate  # the default model: every node of the plate
-    python -m fmu.bench.fmu --scene plate --cell examples/press_cell.toml  # + min_distance
-    python -m fmu.bench.fmu --windows  # also: the Windows DLL under wine (fmu.windows)
-    python -m fmu.bench.fmu --hosts    # also: FMU and SSP in other hosts (fmu.crosscheck)
-    python -m fmu.bench.fmu --points 66308 --fmi 3 --array  # every node, read each step
-    python -m fmu.bench.fmu --turning  # a turning part: the pose inputs set every step too
+    python -m fmu.bench.steps            # K = 1099 points, M = 40 modes, FMI 2.0 and 3.0
+    python -m fmu.bench.steps --scene plate  # the default model: every node of the plate
+    python -m fmu.bench.steps --scene plate --cell examples/press_cell.toml  # + min_distance
+    python -m fmu.bench.steps --windows  # also: the Windows DLL under wine (fmu.windows)
+    python -m fmu.bench.steps --hosts    # also: FMU and SSP in other hosts (fmu.crosscheck)
+    python -m fmu.bench.steps --points 66308 --fmi 3 --array  # every node, read each step
+    python -m fmu.bench.steps --turning  # a turning part: the pose inputs set every step too
 
 The synthetic model (random shapes without spatial order) is the worst case of the pruned
 evaluation of the scalar outputs (jxf_blocks.c): no block's bound excludes it, so every
@@ -81,7 +81,7 @@ def bench_model(n_points: int, n_modes: int, seed: int = 0, turning: bool = Fals
         gamma=rng.normal(size=(n_modes, 3)),
         shapes=rng.normal(size=(n_points, 3, n_modes)) * 0.05,
         points=rng.uniform(size=(n_points, 3)),
-        meta={"source": "fmu.bench.fmu"},
+        meta={"source": "fmu.bench.steps"},
         rotation=rotation,
     )
 
@@ -229,7 +229,7 @@ def run(
         say(f"the {scene} scene's model (jaxflex model --scene {scene})")
         model = fem.default_model(scene, cache=True)
     report: dict[str, Any] = {
-        "command": f"{Path(sys.executable).name} -m fmu.bench.fmu",
+        "command": f"{Path(sys.executable).name} -m fmu.bench.steps",
         "scene": scene,
         "n_points": model.n_points,
         "n_modes": model.n_modes,
@@ -299,7 +299,7 @@ def _step_figures(model, version: int, folder: Path, cell, extras: Extras, timin
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m fmu.bench.fmu", description=__doc__.split("\n")[0]
+        prog="python -m fmu.bench.steps", description=__doc__.split("\n")[0]
     )
     parser.add_argument(
         "--points", type=int, default=1099, help="monitored points K (default 1099)"
