@@ -154,8 +154,7 @@ def crosscheck_fmu(
     dt_s = stored.dt_s
     n_steps = steps_for(stop_time_of(path), dt_s)
     report = CrossReport(str(path), "FMU", importers.fmi_version_of(path), dt_s, n_steps, rtol=rtol)
-    move = as_move(stored.acc, dt_s)
-    reference, _ = reference_response(simulated_model(stored, path), move, n_steps)
+    reference, _ = reference_response(simulated_model(stored, path), stored.move, n_steps)
     replay = {"use_embedded_trajectory": True}
     runners = {"ecospy": importers.ecos_fmu, "libcosimpy": importers.libcosim_fmu}
     for host in hosts:
@@ -200,7 +199,7 @@ def _references(path, stored, model, part_model, n_steps: int) -> dict[str, Call
     points). ``model`` is the stored model as simulated, ``part_model`` the turning part's."""
     dt_s = stored.dt_s
     if stored.turning is None:
-        move = as_move(stored.acc, dt_s)
+        move = stored.move
         held = as_move(held_samples(move, dt_s, n_steps), dt_s)
         return {
             "linear": lambda: (_LINEAR, reference_response(model, move, n_steps)[0]),

@@ -54,7 +54,7 @@ from fmu.obstacles import RECORD_VALUES, allowed_kinds, unknown_codes
 from jaxflex.errors import InputError, ModelFileError
 from jaxflex.geometry import gravity_offset
 from jaxflex.model import ModalModel
-from jaxflex.response import Move, output_residual, rotation_residual
+from jaxflex.response import Move, as_move, output_residual, rotation_residual
 
 MAGIC = b"JXFLXFMU"
 FORMAT_VERSION = 3
@@ -241,6 +241,11 @@ class ResourceData:
     dt_s: float | None
     counts: tuple[int, int, int] = (0, 0, 0)
     turning: TurningData | None = None
+
+    @property
+    def move(self) -> Move | None:
+        """The embedded trajectory as a jaxflex.Move (None without one)."""
+        return None if self.acc is None else as_move(self.acc, self.dt_s)
 
 
 def check_trajectory_step(dt_s, error: type[Exception], source: str) -> None:

@@ -202,7 +202,7 @@ def verify(
     if mode == "embedded":
         if stored.acc is None:
             raise InputError(f"{str(path)!r} has no embedded trajectory: pass a move")
-        move = as_move(stored.acc, stored.dt_s)
+        move = stored.move
     else:
         move = as_move(move, name="move")
     dt_s = move.dt_s
