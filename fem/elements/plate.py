@@ -87,8 +87,9 @@ def assemble_plate(
     nodes = np.column_stack([mesh.nodes_xy, np.full(len(mesh.nodes_xy), mesh.z0)])
     node_dofs = np.full((len(nodes), 3), -1, dtype=np.int64)
     node_dofs[:, 2] = nodal[0]
-    outputs = PlateOutputs(skmesh, elem, element, nodal, facet_dofs, material, thickness_m, mesh.z0)
-    outputs.linear = linear.result()
+    outputs = PlateOutputs(
+        skmesh, elem, element, nodal, facet_dofs, material, thickness_m, mesh.z0, linear.result()
+    )
     dofs = PlateMeshDofs(skmesh, element, nodal, facet_dofs, outputs)
     held = [s.hold_plate(dofs, i) for i, s in enumerate(supports)]
     constraints = Constraints.union(held)
@@ -156,9 +157,9 @@ class RigidFit:
                 )
                 self.out[edges, k] = np.einsum("ejq,eq->ej", fits, rest).ravel()[first]
             self.is_set[edges] = True
-        fields = np.einsum("leq,lek->keq", values, self.out[element_dofs])
         for k, target in enumerate((np.ones_like(x), x, y)):
-            self.error = max(self.error, np.abs(fields[k] - target).max() / self.scale)
+            field = np.asarray(basis.interpolate(self.out[:, k]))  # (E, Q) on the chunk
+            self.error = max(self.error, np.abs(field - target).max() / self.scale)
 
     def result(self) -> np.ndarray:
         """The vectors, once every chunk is added: a wrong slope DOF misses by O(its element's
@@ -175,11 +176,11 @@ class PlateOutputs:
 
     moves_in_plane = False
 
-    def __init__(self, mesh, elem, element, nodal, facet_dofs, material, thickness_m, z0):
+    def __init__(self, mesh, elem, element, nodal, facet_dofs, material, thickness_m, z0, linear):
         self.mesh, self.elem, self.element = mesh, elem, element
         self.nodal, self.facet_dofs = nodal, facet_dofs
         self.material, self.thickness_m, self.z0 = material, thickness_m, z0
-        self.linear: np.ndarray | None = None  # set by assemble_plate
+        self.linear = linear  # (n_dof, 3) the DOF vectors of w = 1, x, y (RigidFit)
 
     def linear_dofs(self) -> np.ndarray:
         """(n_dof, 3) DOF vectors of w = 1, x, y (:class:`RigidFit`, made at assembly)."""
