@@ -107,7 +107,7 @@ def plot_profiles(path: str | os.PathLike, move: Move, limits: Limits, title: st
     t = dt_s * np.arange(acc.shape[0])
     jerk = np.diff(acc, axis=0) / dt_s
     groups = _same_profile_groups(acc)
-    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
+    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True, layout="constrained")
     panels = (
         ("position [m]", pos, None, None),
         ("velocity [m/s]", vel, limits.vmax, limits.vpath),
