@@ -25,7 +25,9 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import os
+import shutil
 import sys
+import tempfile
 import xml.etree.ElementTree as ET
 import zipfile
 from collections.abc import Iterator
@@ -88,6 +90,24 @@ def _c_stdout_to_stderr() -> Iterator[None]:
         os.close(saved)
 
 
+@contextlib.contextmanager
+def _own_temp_directory() -> Iterator[None]:
+    """Ecos unpacks an SSP package into a folder of the system's temporary directory and
+    leaves it there; point its temporary directory (TMPDIR, read by the C++ library at each
+    use) at a folder of ours for the call, and remove that folder afterwards."""
+    folder = tempfile.mkdtemp(prefix="jaxflex_ecos_")
+    saved = os.environ.get("TMPDIR")
+    os.environ["TMPDIR"] = folder
+    try:
+        yield
+    finally:
+        if saved is None:
+            os.environ.pop("TMPDIR", None)
+        else:
+            os.environ["TMPDIR"] = saved
+        shutil.rmtree(folder, ignore_errors=True)
+
+
 def _stack(rows: list[tuple]) -> dict[str, np.ndarray]:
     names = rows[0]
     return {name: np.asarray([row[i] for row in rows[1:]]) for i, name in enumerate(names)}
@@ -139,6 +159,7 @@ def ecos_ssp(
     EcosLib.set_log_level("warn")
     with (
         _c_stdout_to_stderr(),
+        _own_temp_directory(),
         EcosSimulation(ssp_path=os.fspath(ssp_path), step_size=dt_s) as sim,
     ):
         sim.init(parameter_set=parameter_set)

@@ -7,6 +7,7 @@ values and slopes, its exports, its token check."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import xml.etree.ElementTree as ET
@@ -236,6 +237,22 @@ def test_package_runs_in_every_host_as_jaxflex(case, version):
     held, _ = reference_response(scaled, samples, n, hold="zero")
     linear = np.asarray(jaxflex.simulate(scaled, acc, DT, extend_s=(n - 40) * DT).deviation)
     assert np.abs(held - linear[: n + 1]).max() > 1e-3 * np.abs(linear).max()
+
+
+def test_ecos_leaves_nothing_in_the_temporary_directory(case, tmp_path, monkeypatch):
+    """Ecos unpacks an SSP package into the system's temporary directory (TMPDIR) and leaves
+    the folder there (110 of them gathered in /tmp over a day of test runs): after a run in
+    Ecos the temporary directory holds what it held before, and the run still answers."""
+    why = importers.ecospy_unavailable()
+    if why is not None:
+        pytest.skip(why)
+    system_tmp = tmp_path / "system-tmp"
+    system_tmp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(system_tmp))
+    out = importers.ecos_ssp(case[2][2].ssp_path, 5, DT)
+    assert len(out["time"]) == 6
+    assert list(system_tmp.iterdir()) == []
+    assert os.environ["TMPDIR"] == str(system_tmp)
 
 
 def test_bound_parameters_reach_the_part_in_every_host(case, tmp_path):
