@@ -302,7 +302,7 @@ def one_session():
 one_session()
 import gc
 gc.collect()
-folder = extract({str(fmus[2][0])!r})
+folder = extract({str(fmus[2][0])!r}, unzipdir={str(tmp_path / "unzipped")!r})
 slave = FMU2Slave(guid="{{wrong}}", unzipDirectory=folder, modelIdentifier="part2",
                   instanceName="wrong-token")
 with pytest.raises(Exception):
