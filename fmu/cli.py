@@ -370,7 +370,12 @@ def _export_ssp(args, model, trajectory, threshold_m, case) -> int:
 def run(args: argparse.Namespace) -> int:
     if not args.output and not args.ssp:
         raise InputError("give -o FILE.fmu, --ssp FILE.ssp or both")
-    for option, value in (("-o/--output", args.output), ("--ssp", args.ssp)):
+    for option, value, suffix in (
+        ("-o/--output", args.output, ".fmu"),
+        ("--ssp", args.ssp, ".ssp"),
+    ):
+        if value and Path(value).suffix.lower() != suffix:
+            raise InputError(f"{option}: the file name must end in {suffix}, got {value!r}")
         if value:
             check_output_file(option, value)
     if args.ssp and not args.trajectory:
