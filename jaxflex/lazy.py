@@ -11,7 +11,7 @@ see) and hands itself to :func:`lazy_names`, which reads those imports from its 
     from jaxflex.lazy import lazy_names
 
     if TYPE_CHECKING:
-        from optim.robust import RobustSpec
+        from optim.options import Search
 
     __getattr__, __dir__ = lazy_names(__name__)
 

@@ -27,9 +27,8 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at 
     from optim.cell_file import load_cell
     from optim.limits import ConstraintCheck, Limits, Violation, check_profile
     from optim.optimize import optimize
-    from optim.options import Budget, Constraints, Rotation, Search
+    from optim.options import Budget, Constraints, RobustSpec, Rotation, Search
     from optim.result import OptimizationResult
-    from optim.robust import RobustSpec
 
 __getattr__, __dir__ = lazy_names(__name__)
 

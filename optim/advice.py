@@ -6,7 +6,7 @@ checked at too few points. ``optim.optimize`` puts every advice on its result (r
 from __future__ import annotations
 
 from jaxflex.runtime import Advice
-from optim.robust import RobustSpec
+from optim.options import RobustSpec
 
 # Fewest check-grid points over a range with width: the cycle time jumps with the frequency
 # scale (a peak crosses the threshold), so its range needs its ends and its middle at least;

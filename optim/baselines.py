@@ -32,7 +32,8 @@ from optim.budget import MAX_STEPS
 from optim.defaults import MAX_SHAPED_MODES as MAX_SHAPED_MODES
 from optim.kinematics import clean_distance
 from optim.limits import Limits
-from optim.robust import RobustSpec, perturbed
+from optim.options import RobustSpec
+from optim.robust import perturbed
 from optim.ruckig_move import (
     grid_steps,
     kinematic_floor_move,

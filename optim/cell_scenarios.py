@@ -23,7 +23,8 @@ import numpy as np
 
 from jaxflex.response import Move
 from optim.cell_rows import Row
-from optim.robust import RobustSpec, perturbed
+from optim.options import RobustSpec
+from optim.robust import perturbed
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ from jaxflex.response import DEFAULT_STRESS_SAFETY, CupSet, Move
 from optim.cell_rows import DistanceFamily, LoadFamily
 from optim.cell_scenarios import ScenarioFamily, measured
 from optim.kinematics import clean_distance
-from optim.robust import RobustSpec
+from optim.options import RobustSpec
 from optim.turn_cell import TurnDistanceFamily, TurnLoadFamily, TurnSource, rest_at_end
 
 

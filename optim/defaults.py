@@ -1,6 +1,6 @@
 """The optimiser's defaults, in one place (SI units; light: no imports, so that
 ``jaxflex optimize`` builds its options and answers an argument error before the optimiser
-loads). The modules that use them re-export them (``optim.robust.FREQ_SCALE``,
+loads). The modules that use them re-export them (``optim.options.FREQ_SCALE``,
 ``optim.budget.MAX_STEPS``, ``optim.turn.ANGULAR_LIMITS``); the defaults every layer shares
 are jaxflex.defaults.
 """

@@ -33,10 +33,9 @@ import time
 from jaxflex.model import ModalModel
 from optim import stages
 from optim.limits import Limits
-from optim.options import Budget, Constraints, Rotation, Search
+from optim.options import Budget, Constraints, RobustSpec, Rotation, Search
 from optim.request import Request
 from optim.result import OptimizationResult
-from optim.robust import RobustSpec
 
 
 def optimize(

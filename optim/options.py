@@ -6,7 +6,9 @@ or a zero-length move, before it reads the model file or imports JAX.
 * :class:`Constraints`: the cell the part moves in and what the move must keep (the
   clearance, the distance to the cell's obstacles, the cups, the stress);
 * :class:`Rotation`: a turn of the part with the move (axis, angle, angular limits, pivot);
-* :class:`Budget`: the longest move, the most steps of an LP, the search's memory.
+* :class:`Budget`: the longest move, the most steps of an LP, the search's memory;
+* :class:`RobustSpec`: the robust mode's range of frequency scales and damping ratios and
+  its check grid (the models of the grid: optim.robust).
 
 Each refuses a field with an InputError naming it and the command's option that sets it,
 what is allowed and what was given (``max_steps (--max-steps): must be an integer >= 2,
@@ -24,12 +26,16 @@ from jaxflex.defaults import MAX_DURATION_S
 from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 from jaxflex.geometry import Cell
+from jaxflex.response import grid_values
 from optim.defaults import (
     ANGULAR_LIMITS,
+    FREQ_SCALE,
     GRADIENT_SOLVERS,
+    GRID,
     LP_SOLVERS,
     MAX_SHAPED_MODES,
     MAX_STEPS,
+    ZETA,
 )
 
 # the option of `jaxflex optimize` that sets each field (named in its errors)
@@ -51,6 +57,10 @@ OPTIONS = {
     "angle_deg": "--rotate AXIS ANGLE_DEG",
     "angular_limits": "--angular-limits W A J",
     "pivot_m": "--pivot X Y Z",
+    "freq_scale": "--freq-scale",
+    "zeta": "--zeta",
+    "n_freq": "--grid N_FREQ N_ZETA",
+    "n_zeta": "--grid N_FREQ N_ZETA",
 }
 # each method's default solver and the solvers it accepts
 METHODS = {"exact": ("highs", LP_SOLVERS), "gradient": ("ipopt", GRADIENT_SOLVERS)}
@@ -274,3 +284,78 @@ def clean_distance(distance_m, name: str = "distance_m") -> np.ndarray:
     if not np.any(dist):
         raise InputError(f"{name}: the move has zero length")
     return dist
+
+
+@dataclass(frozen=True)
+class RobustSpec:
+    """Uncertainty range and its check grid.
+
+    freq_scale: (min, max) factor on every natural frequency, 0 < min <= 1 <= max.
+    zeta: (min, max) damping ratio for every mode, 0 < min <= max < 1, or None to keep
+        the model's damping.
+    n_freq, n_zeta: points of the check grid over each range (end points included).
+    """
+
+    freq_scale: tuple[float, float] = FREQ_SCALE
+    zeta: tuple[float, float] | None = ZETA
+    n_freq: int = GRID[0]
+    n_zeta: int = GRID[1]
+
+    def __post_init__(self) -> None:
+        lo, hi = (float(v) for v in self.freq_scale)
+        if not (0 < lo <= 1 <= hi and np.isfinite(hi)):
+            raise InputError(
+                f"{label('freq_scale')}: expected (min, max) with 0 < min <= 1 <= max, "
+                f"got {self.freq_scale}"
+            )
+        object.__setattr__(self, "freq_scale", (lo, hi))
+        if self.zeta is not None:
+            zlo, zhi = (float(v) for v in self.zeta)
+            if not 0 < zlo <= zhi < 1:
+                raise InputError(
+                    f"{label('zeta')}: expected (min, max) with 0 < min <= max < 1, "
+                    f"got {self.zeta} (undamped modes never settle)"
+                )
+            object.__setattr__(self, "zeta", (zlo, zhi))
+        for name in ("n_freq", "n_zeta"):
+            value = getattr(self, name)
+            if int(value) != value or value < 1:
+                raise InputError(f"{label(name)}: must be an integer >= 1, got {value!r}")
+            object.__setattr__(self, name, int(value))
+
+    @property
+    def n_scenarios(self) -> int:
+        """The number of models on the check grid (what :meth:`grid` lists, without
+        building the list)."""
+        n_scale = self.n_freq if self.freq_scale[1] > self.freq_scale[0] else 1
+        n_zeta = 1 if self.zeta is None or self.zeta[1] <= self.zeta[0] else self.n_zeta
+        return n_scale * n_zeta
+
+    def grid(self) -> list[tuple[float, float | None]]:
+        """(frequency scale, zeta or None) of every model on the check grid."""
+        lo, hi = self.freq_scale
+        scales = grid_values(lo, hi, self.n_freq) if hi > lo else [lo]
+        if self.zeta is None:
+            zetas: list[float | None] = [None]
+        else:
+            zlo, zhi = self.zeta
+            zetas = list(grid_values(zlo, zhi, self.n_zeta)) if zhi > zlo else [zlo]
+        return [(s, z) for z in zetas for s in scales]
+
+    def as_dict(self) -> dict:
+        return {
+            "freq_scale": list(self.freq_scale),
+            "zeta": None if self.zeta is None else list(self.zeta),
+            "n_freq": self.n_freq,
+            "n_zeta": self.n_zeta,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> RobustSpec:
+        zeta = data.get("zeta")
+        return cls(
+            tuple(data["freq_scale"]),
+            None if zeta is None else tuple(zeta),
+            data.get("n_freq", 21),
+            data.get("n_zeta", 3),
+        )

@@ -24,8 +24,7 @@ from jaxflex.model import ModalModel
 from jaxflex.response import require_rotation
 from jaxflex.runtime import current_budget
 from optim.limits import Limits
-from optim.options import Budget, Constraints, Rotation, Search, check_step
-from optim.robust import RobustSpec
+from optim.options import Budget, Constraints, RobustSpec, Rotation, Search, check_step
 from optim.turn import TurnSpec
 from optim.turn_via import with_via_orientations
 

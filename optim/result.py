@@ -35,11 +35,12 @@ from jaxflex.model import ModalModel
 from jaxflex.response import Move, SettleReport, as_move, deviation_curve, integrate
 from optim.baselines import BaselineSet
 from optim.limits import ConstraintCheck, Limits
+from optim.options import RobustSpec
 from optim.result_files import ANIMATION_DIR as ANIMATION_DIR  # their home: the light names
 from optim.result_files import RESULT_FILES as RESULT_FILES
 from optim.result_files import RESULT_KIND as RESULT_KIND
 from optim.result_report import Reported
-from optim.robust import RobustSpec, perturbed
+from optim.robust import perturbed
 from optim.turn_clearance import turning_move_deviation
 
 SUBSTEPS = 8  # deviation curves in reports and plots: exact samples every dt / 8

@@ -46,8 +46,9 @@ from optim.cell_rows import Row
 from optim.kinematics import ViaRow, moving_axes, via_step
 from optim.limits import Limits
 from optim.move_response import ClearancePeak, MoveResponse
+from optim.options import RobustSpec
 from optim.residual import Peak, ResidualModel
-from optim.robust import RobustSpec, perturbed
+from optim.robust import perturbed
 from optim.turn_clearance import TurnMoveResponse
 
 RESIDUAL_MARGIN = 1e-3

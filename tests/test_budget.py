@@ -34,7 +34,7 @@ from jaxflex._budget import (
     use_budget,
 )
 from jaxflex.errors import BudgetError, InputError
-from optim.robust import RobustSpec
+from optim.options import RobustSpec
 
 
 @pytest.mark.slow

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from jaxflex._profile import as_move, end_weights, enforce_end_state, integrate
 from jaxflex.errors import InputError
 from optim.limits import Limits, check_profile, velocity_extrema
-from optim.robust import RobustSpec
+from optim.options import RobustSpec
 
 
 def dense_velocity(acc, dt_s, samples=2001):

@@ -38,8 +38,7 @@ from jaxflex.reference import simply_supported_plate
 from optim.baselines import worst_case
 from optim.limits import Limits
 from optim.optimize import optimize
-from optim.options import Search
-from optim.robust import RobustSpec
+from optim.options import RobustSpec, Search
 
 NOMINAL_ROUTES = (
     ("exact", "highs"),

@@ -27,7 +27,7 @@ from jaxflex.errors import InputError
 from jaxflex.runtime import Need, current_budget
 from optim.budget import MAX_STEPS, check_memory, check_move_length, search_bytes, search_need
 from optim.limits import Limits
-from optim.robust import RobustSpec
+from optim.options import RobustSpec
 from optim.sweep.part import build_part
 
 BYTES_PER_CASE = 3e3  # a case, its layout, its id and status in the run, its table row

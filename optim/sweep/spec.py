@@ -27,7 +27,7 @@ from jaxflex.defaults import DT_S, MAX_DURATION_S, THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import read_settings_file
 from jaxflex.runtime import require
-from optim.robust import FREQ_SCALE, ZETA, RobustSpec
+from optim.options import FREQ_SCALE, ZETA, RobustSpec
 from optim.sweep.part import build_part, footprint_box
 from optim.sweep.plan import spec_need
 

@@ -25,8 +25,7 @@ from jaxflex.model import ModalModel
 from jaxflex.runtime import enable_compile_cache
 from optim.limits import Limits
 from optim.optimize import optimize
-from optim.options import Budget, Search
-from optim.robust import RobustSpec
+from optim.options import Budget, RobustSpec, Search
 from optim.sweep.part import build_part, monitor_points
 
 _ARRAYS = ("freq_hz", "zeta", "gamma", "shapes", "points")

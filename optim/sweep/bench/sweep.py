@@ -26,8 +26,7 @@ from jaxflex.model import ModalModel
 from jaxflex.response import ARRAY_FIELDS
 from optim.limits import Limits
 from optim.optimize import optimize
-from optim.options import Search
-from optim.robust import RobustSpec
+from optim.options import RobustSpec, Search
 from optim.sweep.cases import expand, layout_job
 from optim.sweep.evaluate import deviation_traces
 from optim.sweep.run import Executor, run_sweep
