@@ -28,7 +28,7 @@ from fem.materials import resolve_material
 from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
 from jaxflex.defaults import DT_S
 from jaxflex.errors import InputError
-from jaxflex.files import check_input_file, check_output_file
+from jaxflex.files import check_input_file, check_output_file, file_digest
 
 if TYPE_CHECKING:
     from fem.supports import SuctionCup
@@ -521,7 +521,6 @@ def _model_from_store(args, material, supports) -> int:
 
 def _request(args, material, supports) -> dict:
     """The store key's inputs: every option that changes what the command writes."""
-    from fem import model_store
 
     source = "scene" if args.scene else "mesh" if args.mesh else "cad"
     path = getattr(args, source)
@@ -529,7 +528,7 @@ def _request(args, material, supports) -> dict:
         "command": "model",
         "source": source,
         "scene": args.scene,
-        "file": None if args.scene else [Path(path).suffix.lower(), model_store.file_digest(path)],
+        "file": None if args.scene else [Path(path).suffix.lower(), file_digest(path)],
         **{k: getattr(args, k) for k in ("thickness", "scale", "element", "mesh_size")},
         "material": material,
         "supports": [support.describe() for support in supports],
@@ -549,7 +548,7 @@ def _request(args, material, supports) -> dict:
         trajectory = check_input_file("--trajectory", trajectory)
     return request | {
         **{k: getattr(args, k) for k in ("tolerance", "max_modes", *sizing)},
-        "trajectory": trajectory and model_store.file_digest(trajectory),
+        "trajectory": trajectory and file_digest(trajectory),
     }
 
 

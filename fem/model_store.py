@@ -20,7 +20,6 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
-import os
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -47,15 +46,6 @@ def code_digest() -> str:
             relative = path.relative_to(package.parent).as_posix()
             digest.update(relative.encode() + b"\0" + path.read_bytes())
     digest.update(" ".join(version(lib) for lib in SOLVER_LIBRARIES).encode())
-    return digest.hexdigest()
-
-
-def file_digest(path: str | os.PathLike) -> str:
-    """The SHA-256 of a file's content (an input of a request: a mesh or CAD file)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
     return digest.hexdigest()
 
 

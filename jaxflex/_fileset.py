@@ -49,8 +49,8 @@ except ImportError:  # Windows: sets are written without a lock
     fcntl = None
 
 
-def file_digest(path: Path) -> str:
-    """SHA-256 of a file's content (hex)."""
+def file_digest(path: str | os.PathLike) -> str:
+    """SHA-256 of a file's content (hex), read in blocks of 1 MiB."""
     digest = hashlib.sha256()
     with open(path, "rb") as handle:
         for block in iter(lambda: handle.read(1 << 20), b""):

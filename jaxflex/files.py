@@ -32,6 +32,7 @@ from jaxflex._fileset import (
     SetWriter,
     check_set_dir,
     directory_lock,
+    file_digest,
     read_set,
     writing,
 )
@@ -70,6 +71,7 @@ __all__ = [
     "check_target",
     "check_text_file",
     "directory_lock",
+    "file_digest",
     "kept_writes",
     "make_output_dir",
     "named",

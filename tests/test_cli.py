@@ -91,6 +91,7 @@ AT_ONCE = [
     (["bench", "--size", "huge"], 2, "argument --size: invalid choice"),
     (["demo", "--threshold", "-1"], 2, "--threshold: must be a finite number > 0"),
     (["sweep", "MISSING", "-o", "OUT"], 2, "does not exist"),
+    (["sweep", "SPEC", "-o", "OUT"], 2, "spec: spec.toml is not valid TOML"),
     # cheap input checks: a zero-length move, a missing file, bad numbers
     (["optimize", "MODEL", "--distance", "0", "0", "0", "--threshold", "1e-3", "-o", "OUT"], 2,
      "the move has zero length"),
@@ -143,7 +144,10 @@ def test_a_command_answers_without_importing_jax(tmp_path, args, status, answer)
     import (a child interpreter's sys.modules, not a time), and before the model is read."""
     model = tmp_path / "model.npz"
     model.write_bytes(b"not read before the arguments are checked")
+    spec = tmp_path / "spec.toml"
+    spec.write_text("moves = [\n")  # a sweep spec that is no TOML
     names = {"MODEL": str(model), "MISSING": str(tmp_path / "missing"), "OUT": str(tmp_path / "o")}
+    names["SPEC"] = str(spec)
     argv = [names.get(arg, arg.replace("OUT", str(tmp_path / "o"))) for arg in args]
     loaded, answered = _answered_in_child(argv)
     assert loaded == f"loaded: [] {status}", answered

@@ -7,7 +7,6 @@ need the mass matrix, point coordinates need the mesh.
 
 from __future__ import annotations
 
-import hashlib
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -20,6 +19,7 @@ from fem.damping import describe_damping, modal_zeta
 from fem.imports.checks import check_finite, check_nodes, check_participation, check_shapes
 from fem.modal import select_node_indices
 from jaxflex.errors import InputError
+from jaxflex.files import file_digest as sha256_of
 from jaxflex.model import MODES_ONLY_STATIC, ModalModel
 from jaxflex.response import RotationalInertia
 
@@ -187,8 +187,4 @@ class ImportedModes:
 
 def file_digest(path: str | os.PathLike) -> dict:
     """{"path", "sha256", "bytes"} of an input file (recorded in the model's meta)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return {"path": str(path), "sha256": digest.hexdigest(), "bytes": os.path.getsize(path)}
+    return {"path": str(path), "sha256": sha256_of(path), "bytes": os.path.getsize(path)}

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from jaxflex.errors import InputError
-from jaxflex.files import check_input_file, check_output_dir
+from jaxflex.files import check_input_file, check_output_dir, read_settings_file
 from jaxflex.runtime import step
 
 COMMAND = "sweep"
@@ -68,10 +68,12 @@ def run(args: argparse.Namespace) -> int:
             )
     check_output_dir("-o/--output", args.output)
     check_input_file("spec", args.spec)
-    from optim.sweep.run import Executor, run_sweep  # the sweep loads after the checks
+    table = read_settings_file("spec", args.spec)  # syntax errors before the sweep loads
+    from optim.sweep.run import Executor, run_sweep
     from optim.sweep.spec import load_spec
 
-    spec = load_spec(args.spec)
+    spec = load_spec(args.spec, table)
+
     executor = Executor(
         "serial" if args.serial else "dask",
         n_workers=args.workers,

@@ -20,12 +20,11 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from fem.imports.imported import file_digest
 from fem.parts import ELEMENTS
 from jaxflex.cli import AXIS_LIMITS
 from jaxflex.defaults import DT_S, MAX_DURATION_S, THRESHOLD_M
 from jaxflex.errors import InputError
-from jaxflex.files import read_settings_file
+from jaxflex.files import file_digest, read_settings_file
 from jaxflex.runtime import require
 from optim.options import FREQ_SCALE, ZETA, RobustSpec
 from optim.sweep.part import build_part, footprint_box
@@ -276,7 +275,7 @@ def _file_part(d: Mapping, base: Path) -> PartSpec:
         path=str(path),
         scale=_number("part.scale", d.get("scale", 1.0)),
         element=element,
-        file_sha256=file_digest(path)["sha256"],
+        file_sha256=file_digest(path),
     )
 
 
@@ -470,10 +469,13 @@ def parse_spec(data: Mapping, base: str | Path = ".") -> SweepSpec:
     )
 
 
-def load_spec(path: str | Path) -> SweepSpec:
-    """Read and validate a ``.json`` or ``.toml`` specification file."""
+def load_spec(path: str | Path, data: dict | None = None) -> SweepSpec:
+    """Read and validate a ``.json`` or ``.toml`` specification file; ``data``: its table,
+    if already read (jaxflex.files.read_settings_file: light, so that ``jaxflex sweep``
+    refuses a file it cannot read before the sweep's modules load)."""
     path = Path(path)
-    data = read_settings_file("spec", path)
+    if data is None:
+        data = read_settings_file("spec", path)
     try:
         return parse_spec(data, path.parent)
     except InputError as exc:
