@@ -28,7 +28,7 @@ from fem.materials import resolve_material
 from jaxflex.cli import AXIS_LIMITS, add_axis_limits, axis_limit_values
 from jaxflex.defaults import DT_S
 from jaxflex.errors import InputError
-from jaxflex.files import check_input_file, check_output_file, file_digest
+from jaxflex.files import check_input_file, check_output_file, check_positive, file_digest
 
 if TYPE_CHECKING:
     from fem.supports import SuctionCup
@@ -373,8 +373,25 @@ def _check_files(args: argparse.Namespace) -> None:
             check_input_file(f"--{option}", getattr(args, option))
 
 
+# numbers checked at the door (before the FE modules load), by the field the errors name
+POSITIVE = ("thickness", "scale", "E_pa", "rho_kg_m3", "mesh_size", "max_freq", "dt", "threshold")
+COUNTS = ("n_modes", "max_modes")
+
+
+def _check_numbers(args: argparse.Namespace) -> None:
+    """Each given positive number finite and > 0, each count >= 1: InputError naming it."""
+    for name in POSITIVE:
+        if getattr(args, name, None) is not None:
+            check_positive(name, getattr(args, name))
+    for name in COUNTS:
+        value = getattr(args, name, None)
+        if value is not None and value < 1:
+            raise InputError(f"{name}: must be an integer >= 1, got {value!r}")
+
+
 def run(args: argparse.Namespace) -> int:
     _check_files(args)
+    _check_numbers(args)
     if cli_imports.requested(args):
         return cli_imports.run(args, _defaults(), _write)
     cli_imports.refuse_import_options(args)

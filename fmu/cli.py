@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import check_input_file, check_output_file, check_positive
+from optim.cell_file import load_cell
 
 if TYPE_CHECKING:
     from jaxflex.response import Move, Turn
@@ -160,20 +161,30 @@ def trajectory_file(path: Path) -> Path:
     return csv
 
 
+def _read_csv(csv: Path) -> Move:
+    """The Move of a trajectory CSV; its refusal names --trajectory."""
+    from jaxflex.files import read_trajectory_csv
+
+    try:
+        return read_trajectory_csv(csv)
+    except InputError as exc:
+        raise InputError(f"--trajectory: {exc}") from exc
+
+
 def load_case(path: Path) -> tuple[Move, dict | None]:
     """(the Move, report dict or None) from an optimize folder or a CSV.
 
     The trajectory and its report are used together only as members of one complete result
     set (jaxflex._fileset: the manifest lists both with their hashes): a folder whose run was
     interrupted, or a CSV beside a report of another run, is refused naming the file."""
-    from jaxflex.files import read_set, read_trajectory_csv
-    from optim.result import RESULT_KIND
+    from jaxflex.files import read_set
+    from optim.result_files import RESULT_KIND
 
     csv = trajectory_file(path)
     if not path.is_dir() and not csv.with_name("report.json").exists():
-        return read_trajectory_csv(csv), None  # a trajectory on its own
+        return _read_csv(csv), None  # a trajectory on its own
     members = read_set(csv.parent, RESULT_KIND, (csv.name, "report.json"), option="--trajectory")
-    move = read_trajectory_csv(csv)
+    move = _read_csv(csv)
     dt_s = move.dt_s
     report_path = members["report.json"]
     try:
@@ -392,23 +403,9 @@ def run(args: argparse.Namespace) -> int:
     check_input_file("model", args.model)
     if args.trajectory:
         trajectory_file(Path(args.trajectory))
-    if args.cell is not None:
-        check_input_file("--cell", args.cell)
-    import numpy as np
-
-    import jaxflex
-    from fmu.move_cell import check_move_cell
-    from jaxflex.response import downsample_to_count
-    from jaxflex.runtime import require
-    from optim.cell_file import load_cell
-
-    model = jaxflex.load_model(args.model)
-    if args.points is not None:
-        kept = downsample_to_count(np.asarray(model.points), args.points)
-        print(f"{len(kept)} of {model.n_points} points kept for the FMU (voxel reduction)")
-        model = model.select_points(kept)
+    cell = None if args.cell is None else load_cell(args.cell)  # light: before JAX loads
     trajectory, case = None, None
-    if args.trajectory:
+    if args.trajectory:  # before the model: a refused move costs no model read
         trajectory, case = load_case(Path(args.trajectory))
         if not args.turning and (case or {}).get("turn") is not None:
             raise InputError(
@@ -419,7 +416,18 @@ def run(args: argparse.Namespace) -> int:
     if threshold_m is None:
         threshold_m = (case or {}).get("threshold_m", THRESHOLD_M)
     threshold_m = check_positive("--threshold", threshold_m)
-    cell = None if args.cell is None else load_cell(args.cell)
+    import numpy as np
+
+    import jaxflex
+    from fmu.move_cell import check_move_cell
+    from jaxflex.response import downsample_to_count
+    from jaxflex.runtime import require
+
+    model = jaxflex.load_model(args.model)
+    if args.points is not None:
+        kept = downsample_to_count(np.asarray(model.points), args.points)
+        print(f"{len(kept)} of {model.n_points} points kept for the FMU (voxel reduction)")
+        model = model.select_points(kept)
     if cell is not None and case is not None:  # a move of `jaxflex optimize`: made in it?
         report = trajectory_file(Path(args.trajectory)).with_name("report.json")
         check_move_cell(report, args.cell, cell)

@@ -18,6 +18,7 @@ from jaxflex.files import check_input_file, check_set_dir
 from jaxflex.runtime import step
 from optim.cell_file import load_cell
 from optim.defaults import ANGULAR_LIMITS, FREQ_SCALE, GRID, MAX_STEPS, ZETA
+from optim.limits import Limits
 from optim.options import (
     Budget,
     Constraints,
@@ -318,16 +319,15 @@ def _options(args: argparse.Namespace) -> dict:
 def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     options = _options(args)
+    limits = Limits(**axis_limit_values(args), vpath=args.vpath, apath=args.apath, jpath=args.jpath)
     robust = None
     if args.robust:
         robust = RobustSpec(tuple(args.freq_scale), tuple(args.zeta), *args.grid)
     import jaxflex
     from optim.cell_setup import with_cup_rating
-    from optim.limits import Limits
     from optim.optimize import run as run_request
     from optim.request import Request
 
-    limits = Limits(**axis_limit_values(args), vpath=args.vpath, apath=args.apath, jpath=args.jpath)
     model = jaxflex.load_model(args.model)
     if args.cup_friction is not None or args.cup_vacuum is not None:
         if args.cup_safety is None:
