@@ -19,7 +19,9 @@ import re
 UNIT_SUFFIXES = (
     "_m_s2", "_m_s3", "_m_s", "_bytes", "_hz", "_pa", "_deg", "_rad", "_kg", "_m", "_s",
 )  # fmt: skip
-_LEAD = re.compile(r"(?P<field>[A-Za-z][A-Za-z0-9_]*)(?: \((?P<option>--[a-z0-9-]+(?: [A-Z_]+)*)\))?: ")
+_LEAD = re.compile(
+    r"(?P<field>[A-Za-z][A-Za-z0-9_]*)(?: \((?P<option>--[a-z0-9-]+(?: [A-Z_]+)*)\))?: "
+)
 
 
 def command_options(parser: argparse.ArgumentParser, command: str | None) -> dict[str, str]:

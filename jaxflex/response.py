@@ -69,14 +69,11 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): each name loads only 
     )
     from jaxflex._peaks import (
         Peak,
-        SearchState,
-        certified_max,
         item_bounds,
         once_per_array,
         one_blas_thread,
         output_peak,
         outputs_above,
-        settling_windows,
     )
     from jaxflex._points import (
         downsample_to_count,
@@ -152,7 +149,6 @@ __all__ = [
     "Peak",
     "PosePath",
     "RotationalInertia",
-    "SearchState",
     "SettleReport",
     "StressSet",
     "Turn",
@@ -168,7 +164,6 @@ __all__ = [
     "axis_limits",
     "axis_rotation",
     "body_loads",
-    "certified_max",
     "component_blocks",
     "deviation",
     "deviation_curve",
@@ -209,7 +204,6 @@ __all__ = [
     "rest_padded",
     "rotation_residual",
     "samples_at",
-    "settling_windows",
     "simulate_turning",
     "snap_key_points",
     "soft_max",
