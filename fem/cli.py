@@ -442,9 +442,13 @@ def _supports(args, material) -> list:
     if args.cup_stiffness is not None:
         spec = args.cup_stiffness
         stiffness = spec if spec in ("flat", "bellows") else spec.split(",")
-        supports = [
-            replace(s, stiffness=stiffness) if isinstance(s, SuctionCup) else s for s in supports
-        ]
+        try:
+            supports = [
+                replace(s, stiffness=stiffness) if isinstance(s, SuctionCup) else s
+                for s in supports
+            ]
+        except InputError as exc:
+            raise InputError(f"--cup-stiffness: {exc}") from exc
     supports += [PointSupport(x, y) for x, y in args.point_supports]
     supports += [ClampedEdge(side) for side in args.clamped_edges]
     return supports

@@ -306,6 +306,8 @@ def _options(args: argparse.Namespace) -> dict:
     check_input_file("model", args.model)
     if args.cell is not None:
         check_input_file("--cell", args.cell)
+    if args.cup_safety is None and (args.cup_friction is not None or args.cup_vacuum is not None):
+        raise InputError("--cup-friction / --cup-vacuum: only with --cup-safety")
     constraints = Constraints(
         cell=None if args.cell is None else load_cell(args.cell),
         clearance_m=args.clearance,
@@ -330,8 +332,6 @@ def run(args: argparse.Namespace) -> int:
 
     model = jaxflex.load_model(args.model)
     if args.cup_friction is not None or args.cup_vacuum is not None:
-        if args.cup_safety is None:
-            raise InputError("--cup-friction / --cup-vacuum: only with --cup-safety")
         model = with_cup_rating(model, friction=args.cup_friction, vacuum_pa=args.cup_vacuum)
     step(
         f"{args.model}: {model.n_modes} modes, {model.n_points} points; "

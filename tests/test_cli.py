@@ -114,6 +114,8 @@ AT_ONCE = [
      "--ssp: the file name must end in .ssp"),
     (["model", "--mesh", "MISSING", "--thickness", "1e-3"], 2, "--mesh: file"),
     (["model", "--scene", "plate", "--n-modes", "0"], 2, "--n-modes (n_modes): must be an"),
+    (["optimize", "MODEL", "--distance", "0", "0", "1", "--threshold", "1e-3", "-o", "OUT",
+      "--cup-friction", "0.5"], 2, "--cup-friction / --cup-vacuum: only with --cup-safety"),
     (["model", "--scene", "plate", "--mesh-size", "-1"], 2, "--mesh-size (mesh_size): must be"),
     (["model", "--scene", "plate", "--E", "-5"], 2, "--E (E_pa): must be a finite number > 0"),
     (["export", "MODEL", "-o", "OUT.fmu", "--cell", "SPEC"], 2, "--cell (cell): spec.toml is not"),
@@ -251,6 +253,10 @@ def test_bad_option_gives_a_clear_error(tmp_path):
     proc = run_jaxflex("demo", "-o", str(tmp_path), "--threshold", "-1")
     assert proc.returncode == 2
     assert "--threshold" in proc.stderr and "Traceback" not in proc.stderr
+    stiffness = ("--cup-stiffness", "1,2")
+    proc = run_jaxflex("model", "--scene", "plate", *stiffness, "-o", str(tmp_path / "m"))
+    assert proc.returncode == 2
+    assert "error: --cup-stiffness: stiffness: expected four numbers, got 2" in proc.stderr
 
 
 def test_model_takes_one_material_constant(tmp_path):
