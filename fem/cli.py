@@ -21,7 +21,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from fem.choices import CAD_SUFFIXES, ELEMENTS, FORMATS_HELP
+from fem.choices import CAD_SUFFIXES, ELEMENTS, FORMATS_HELP, PICTURE_SUFFIXES, VIEW_SUFFIXES
 from fem.damping import check_damping
 from fem.imports import cli as cli_imports
 from fem.materials import resolve_material
@@ -365,6 +365,11 @@ def _defaults() -> dict:
 def _check_files(args: argparse.Namespace) -> None:
     """The outputs can be written and the inputs read: before any work (and before the
     finite-element modules load)."""
+    for option, suffixes in (("plot", PICTURE_SUFFIXES), ("vtu", VIEW_SUFFIXES)):
+        path = getattr(args, option)
+        if path is not None and Path(path).suffix.lower() not in suffixes:
+            ends = " or ".join(suffixes)
+            raise InputError(f"--{option}: the file name must end in {ends}, got {path!r}")
     for option in ("output", "plot", "vtu", "report"):
         if getattr(args, option) is not None:
             check_output_file(f"--{option}", getattr(args, option))

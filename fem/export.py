@@ -13,13 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
+from fem.choices import VIEW_SUFFIXES as FORMATS
 from fem.modal import ModalResult
 from fem.system import surface_triangles
 from fem.transient import TransientResult
 from jaxflex.errors import InputError
 from jaxflex.files import atomic_path
-
-FORMATS = (".vtu", ".vtk", ".xdmf", ".xmf")
 
 
 def _atomic_path(path: str | os.PathLike):

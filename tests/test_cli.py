@@ -114,6 +114,8 @@ AT_ONCE = [
      "--ssp: the file name must end in .ssp"),
     (["model", "--mesh", "MISSING", "--thickness", "1e-3"], 2, "--mesh: file"),
     (["model", "--scene", "plate", "--n-modes", "0"], 2, "--n-modes (n_modes): must be an"),
+    (["model", "--scene", "plate", "--plot", "OUT.txt"], 2, "--plot: the file name must end in"),
+    (["model", "--scene", "plate", "--vtu", "OUT.txt"], 2, "--vtu: the file name must end in"),
     (["optimize", "MODEL", "--distance", "0", "0", "1", "--threshold", "1e-3", "-o", "OUT",
       "--cup-friction", "0.5"], 2, "--cup-friction / --cup-vacuum: only with --cup-safety"),
     (["model", "--scene", "plate", "--mesh-size", "-1"], 2, "--mesh-size (mesh_size): must be"),
