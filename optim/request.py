@@ -28,14 +28,27 @@ from optim.options import Budget, Constraints, RobustSpec, Rotation, Search, che
 from optim.turn import TurnSpec
 from optim.turn_via import with_via_orientations
 
+# the keys of a limits mapping: (required, optional), plain (Limits' fields) or with units
+_LIMIT_KEYS = {
+    False: (("vmax", "amax", "jmax"), ("vpath", "apath", "jpath")),
+    True: (("vmax_m_s", "amax_m_s2", "jmax_m_s3"), ("vpath_m_s", "apath_m_s2", "jpath_m_s3")),
+}
+
 
 def _as_limits(limits: Any) -> Limits:
     if isinstance(limits, Limits):
         return limits
     if isinstance(limits, Mapping):
-        if "vmax_m_s" in limits:
-            return Limits.from_dict(dict(limits))
-        return Limits(**limits)
+        json_form = "vmax_m_s" in limits  # Limits.as_dict's keys, with their units
+        required, optional = _LIMIT_KEYS[json_form]
+        missing = [key for key in required if key not in limits]
+        unknown = sorted(set(limits) - set(required) - set(optional), key=str)
+        if missing or unknown:
+            raise InputError(
+                f"limits: a mapping takes {', '.join(required)} and optionally "
+                f"{', '.join(optional)}; missing {missing}, unknown {unknown}"
+            )
+        return Limits.from_dict(dict(limits)) if json_form else Limits(**limits)
     raise InputError(
         f"limits: expected optim.Limits(vmax, amax, jmax, ...) or a mapping, got {limits!r}"
     )

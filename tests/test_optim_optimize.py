@@ -225,6 +225,8 @@ def test_limits_and_boundary_conditions_hold_on_every_returned_profile(
     [
         ({"limits": {"vmax": 0.0, "amax": 8.0, "jmax": 80.0}}, r"vmax\[x\]"),
         ({"limits": {"vmax": 1.5, "amax": -8.0, "jmax": 80.0}}, r"amax\[x\]"),
+        ({"limits": {"vmax": 1.5}}, r"limits: .*missing \['amax', 'jmax'\]"),
+        ({"limits": {"vmax": 1, "amax": 8, "jmax": 80, "vmx": 2}}, r"unknown \['vmx'\]"),
         ({"threshold_m": 0.0}, "threshold_m"),
         ({"threshold_m": -1e-3}, "threshold_m"),
         ({"distance_m": (0.0, 0.0, 0.0)}, "zero length"),
