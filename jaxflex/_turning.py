@@ -193,6 +193,15 @@ class TurningResponse:
         return np.stack([self.q[n], self.qd[n]], axis=-1)
 
 
+def require_turn(turn) -> Turn:
+    """``turn`` if it is a :class:`Turn`; InputError naming it otherwise."""
+    if not isinstance(turn, Turn):
+        raise InputError(
+            f"turn: a jaxflex.Turn(path, acc, pivot_m, gravity_m_s2), got {type(turn).__name__}"
+        )
+    return turn
+
+
 def check_ends_at_rest(turn: Turn) -> None:
     """InputError unless the move ends at rest (the free vibration may follow it)."""
     path = turn.path
@@ -223,7 +232,7 @@ def turning_inputs(model, turn: Turn, *, extend_s: float = 0.0) -> TurningInputs
     """The :class:`TurningInputs` of the turning move ``turn``; with ``extend_s`` (s) the
     free vibration after the move follows (the move must end at rest), whole steps. NumPy."""
     require_rotation(model)
-    path = turn.path
+    path = require_turn(turn).path
     states, _, a_origin, gravity, _ = _turning_coordinates(
         model, path, turn.acc, turn.gravity_m_s2, turn.pivot_m, path.dt_s, np
     )
@@ -309,7 +318,7 @@ def simulate_turning(model, turn: Turn, *, extend_s: float = 0.0) -> TurningResp
     rotation = require_rotation(model)
     if model.static_shapes is not None and rotation.static_shapes is None:
         warn_missing_static("deviation")
-    path = turn.path
+    path = require_turn(turn).path
     n, n_free = path.n_steps, 0
     if extend_s:
         check_ends_at_rest(turn)

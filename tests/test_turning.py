@@ -15,7 +15,7 @@ import jaxflex
 from fem.rotation_integrals import linear_fields
 from jaxflex._pose import fixed_axis_path, orientation_path, turn_acceleration
 from jaxflex._rotation import LEVI_CIVITA
-from jaxflex._turning import Turn, simulate_turning, turning_settle
+from jaxflex._turning import Turn, simulate_turning, turning_motion, turning_settle
 from jaxflex.errors import InputError, ModelError
 
 
@@ -255,6 +255,15 @@ def test_a_turn_is_checked_once_naming_the_field(field, value, says):
     fields = _swivel_fields()
     with pytest.raises(InputError, match=rf"^{field}: .*{says}"):
         jaxflex.Turn(**{**fields, field: value})
+
+
+def test_the_turning_functions_refuse_what_is_not_a_turn(cantilever):
+    """What is not a jaxflex.Turn (None, the fields as a dict) is refused by name before any
+    work, not an AttributeError from deep inside."""
+    for turn in (None, _swivel_fields()):
+        for call in (jaxflex.simulate_turning, turning_motion):
+            with pytest.raises(InputError, match=r"^turn: a jaxflex\.Turn\(path, acc, "):
+                call(cantilever[1], turn)
 
 
 def test_a_turn_refuses_samples_that_are_not_finite():
