@@ -46,7 +46,7 @@ from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.errors import InputError
 from jaxflex.files import check_output_file, check_positive, whole_or_absent, write_text_atomic
 from jaxflex.geometry import Cell, part_half_thickness
-from jaxflex.model import ModalModel
+from jaxflex.model import ModalModel, require_model
 from jaxflex.response import (
     Move,
     PosePath,
@@ -89,8 +89,7 @@ def sidecar_paths(fmu_path: str | os.PathLike) -> tuple[Path, Path]:
 
 
 def _check_arguments(model, path, threshold_m, damping_scale):
-    if not isinstance(model, ModalModel):
-        raise InputError(f"model: expected a jaxflex.ModalModel, got {type(model).__name__}")
+    require_model(model)
     path = Path(path)
     if path.suffix.lower() != ".fmu":
         raise InputError(f"path: an FMU file name must end in .fmu, got {str(path)!r}")

@@ -49,7 +49,7 @@ from jaxflex._profile import acceleration_at, as_move
 from jaxflex._scalars import check_positive
 from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import BudgetError
-from jaxflex.model import ModalModel, shape_cache
+from jaxflex.model import ModalModel, require_model, shape_cache
 
 SUBDIVISIONS = 16
 TIME_TOL_S = 1e-9
@@ -372,6 +372,7 @@ def _tail_settle(decay: _FreeDecay, threshold_m: float) -> tuple[float | None, f
 
 
 def _prepare(model: ModalModel, acc, dt_s, threshold_m):
+    require_model(model)
     move = as_move(acc, dt_s, at_rest=True)
     threshold_m = check_positive("threshold_m", threshold_m)
     states = modal_states(model, move.acc, move.dt_s, xp=np)

@@ -24,7 +24,7 @@ from jaxflex._profile import Move, as_move
 from jaxflex._scalars import check_positive
 from jaxflex._validation import check_acc, is_traced
 from jaxflex.errors import InputError
-from jaxflex.model import ModalModel
+from jaxflex.model import ModalModel, require_model
 
 _DTYPES = {"float64": jnp.float64, "float32": jnp.float32}
 
@@ -96,7 +96,7 @@ def on_device(model: ModalModel, dtype: str = "float64") -> tuple[ModalModel, Po
     reorder nothing; traced models (inside jit/vmap) are converted on the fly.
     """
     jdtype = _check_dtype(dtype)
-    traced = is_traced(model)
+    traced = is_traced(require_model(model))
     cache = None if traced else model.__dict__.setdefault("_device_cache", {})
     if cache is not None and dtype in cache:
         return cache[dtype]

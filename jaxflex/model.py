@@ -37,7 +37,7 @@ from jaxflex._outputs import (
 )
 from jaxflex._rotation import RotationalInertia, checked_rotation, posed_tensor
 from jaxflex._validation import is_validated, validated
-from jaxflex.errors import ModelError
+from jaxflex.errors import InputError, ModelError
 
 # Data derived from a concrete model's shapes and points alone (the point blocks of
 # jaxflex._deviation and jaxflex._settle), shared by every model with the same arrays: the
@@ -48,7 +48,14 @@ _SHAPE_CACHES: dict[tuple[int, int], tuple[weakref.ref, weakref.ref, dict]] = {}
 OUTPUT_FIELDS = ("cups", "stress", "static_shapes", "rotation")
 # meta["static_response"] of a model whose static displacement is not the FE's (an older file,
 # or a source without a stiffness matrix): what its gravity sag and quasi-static share are
-__all__ = ["MODES_ONLY_STATIC", "ModalModel", "load_model", "save_model", "stack_models"]
+__all__ = [
+    "MODES_ONLY_STATIC",
+    "ModalModel",
+    "load_model",
+    "require_model",
+    "save_model",
+    "stack_models",
+]
 
 MODES_ONLY_STATIC = (
     "from the kept modes only (no FE static solve): the sag under gravity and the quasi-static "
@@ -591,6 +598,17 @@ def save_model(model: ModalModel, path) -> None:
     if model.surface is not None:
         arrays["surface_triangles"] = model.surface
     write_model_file(path, arrays, model.labels, dict(model.meta))
+
+
+def require_model(model: Any) -> ModalModel:
+    """``model`` if it is a :class:`ModalModel`; InputError naming the argument otherwise
+    (what every function of a model checks at its door)."""
+    if not isinstance(model, ModalModel):
+        raise InputError(
+            "model: expected a jaxflex.ModalModel (jaxflex.load_model, fem's "
+            f"to_modal_model), got {type(model).__name__}"
+        )
+    return model
 
 
 def load_model(path) -> ModalModel:

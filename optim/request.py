@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from jaxflex.errors import InputError
-from jaxflex.model import ModalModel
+from jaxflex.model import ModalModel, require_model
 from jaxflex.response import require_rotation
 from jaxflex.runtime import current_budget
 from optim.limits import Limits
@@ -77,8 +77,7 @@ def _option(name: str, value: Any, kind: type) -> Any:
 
 
 def _check_model(model: Any, robust: RobustSpec | None) -> None:
-    if not isinstance(model, ModalModel):
-        raise InputError(f"model: expected a jaxflex.ModalModel, got {type(model).__name__}")
+    require_model(model)
     zeta = np.asarray(model.zeta)
     if robust is None or robust.zeta is None:
         undamped = np.flatnonzero(zeta <= 0)

@@ -223,3 +223,17 @@ def test_bad_input_is_named(small_model, acc, dt_s, message):
 def test_bad_dtype(small_model):
     with pytest.raises(ValueError, match="dtype"):
         jaxflex.simulate(small_model, np.zeros((5, 3)), 0.01, dtype="float16")
+
+
+@pytest.mark.parametrize("not_a_model", [None, "plate.npz", {"freq_hz": [5.0]}])
+def test_every_door_of_a_model_refuses_what_is_not_one(not_a_model):
+    """A path, a dict or None where a ModalModel belongs is refused by name at the door,
+    not an AttributeError from inside the engine."""
+    acc = smooth_move(20, 0.01)
+    for call in (
+        lambda: jaxflex.simulate(not_a_model, acc, 0.01),
+        lambda: jaxflex.analyze_move(not_a_model, acc, 0.01, 1e-3),
+        lambda: jaxflex.cycle_time(not_a_model, acc, 0.01, 1e-3),
+    ):
+        with pytest.raises(jaxflex.InputError, match=r"^model: expected a jaxflex\.ModalModel"):
+            call()
