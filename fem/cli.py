@@ -253,8 +253,10 @@ def _add_modes(group) -> None:
 
 def _add_outputs(group) -> None:
     """The model file and its pictures."""
-    group.add_argument("--plot", metavar="PNG", help="picture of the part, cups and modes")
-    group.add_argument("--vtu", metavar="FILE", help="mode shapes for ParaView (.vtu/.xdmf)")
+    group.add_argument("--plot", metavar="PNG", help="picture of the part, cups and modes (.png)")
+    group.add_argument(
+        "--vtu", metavar="FILE", help="mode shapes for ParaView (.vtu, .vtk, .xdmf or .xmf)"
+    )
     group.add_argument(
         "-o", "--output", default="model.npz", metavar="FILE", help="model file (.npz)"
     )
