@@ -251,6 +251,12 @@ def test_the_command_animates_a_result_directory(press, tmp_path):
     refused = run_jaxflex("animate", str(copy), "--model", str(changed))
     assert refused.returncode == 2
     assert "--model" in refused.stderr and "SHA-256" in refused.stderr
+    # a settling of 1e9 s would be 1e11 frames (745 GiB for their times alone): planned
+    # and refused before any array is made, naming what to change
+    endless = run_jaxflex("animate", str(copy), "--after", "1e9")
+    assert endless.returncode == 2, endless.stderr
+    assert "Traceback" not in endless.stderr
+    assert "memory: the animation (100000" in endless.stderr and "--after" in endless.stderr
 
 
 def test_the_model_file_carries_the_mesh(fe_plate, tmp_path):
