@@ -9,6 +9,7 @@ second solver.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -16,7 +17,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
 
-from jaxflex.errors import InputError
+from jaxflex.errors import BudgetError, InputError
+from jaxflex.runtime import current_budget
 from jaxflex.stdout import silenced_stdout
 from optim.defaults import LP_SOLVERS as LP_SOLVERS
 
@@ -121,6 +123,14 @@ def _solve_highs(lp: LinearProgram) -> LPSolution:
     lower = ~eq & np.isfinite(lp.row_lo)
     a_ub = sp.vstack([a[upper], -a[lower]]).tocsr()
     b_ub = np.concatenate([lp.row_hi[upper], -lp.row_lo[lower]])
+    options = {
+        "primal_feasibility_tolerance": TOLERANCE,
+        "dual_feasibility_tolerance": TOLERANCE,
+    }
+    budget = current_budget()
+    left_s = budget.remaining_s()  # --max-time holds inside a long LP too
+    if math.isfinite(left_s):
+        options["time_limit"] = max(left_s, 0.01)
     start = time.perf_counter()
     res = linprog(
         lp.cost,
@@ -130,12 +140,15 @@ def _solve_highs(lp: LinearProgram) -> LPSolution:
         b_eq=lp.row_lo[eq] if eq.any() else None,
         bounds=np.column_stack([lp.var_lo, lp.var_hi]),
         method="highs",
-        options={
-            "primal_feasibility_tolerance": TOLERANCE,
-            "dual_feasibility_tolerance": TOLERANCE,
-        },
+        options=options,
     )
     wall = time.perf_counter() - start
+    if res.status == 1 and "time" in str(res.message).lower():
+        raise BudgetError(
+            f"time: a linear program of the search ({lp.matrix.shape[0]} rows, "
+            f"{lp.cost.size} variables) ran out of the budget of {budget.time_s:g} s "
+            f"({budget.time_source}) after {wall:.1f} s"
+        )
     status = {0: "optimal", 2: "infeasible"}.get(res.status, "failed")
     return LPSolution(
         status=status,

@@ -41,7 +41,7 @@ from jaxflex.response import (
     end_state_map,
     enforce_end_state,
 )
-from jaxflex.runtime import progress_bar
+from jaxflex.runtime import check_time, progress_bar
 from optim.cell_rows import Row
 from optim.kinematics import ViaRow, moving_axes, via_step
 from optim.limits import Limits
@@ -516,6 +516,7 @@ def _attempt(
     stats: list[dict] = []
     value = np.inf
     for rounds in range(1, MAX_ROUNDS + 1):
+        check_time(f"the search (a move of {n_steps} steps, round {rounds})")
         sub = solver.solve(problem, n_steps, warm)
         stats.append(sub.stats)
         value = sub.value

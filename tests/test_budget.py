@@ -165,6 +165,35 @@ def test_an_optimisation_that_cannot_fit_the_time_budget_is_refused(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_a_linear_program_stops_at_the_time_budget():
+    """--max-time holds inside one LP (HiGHS's time limit is the budget left): a dense LP of
+    1 000 rows and 500 variables (presolve alone takes longer than the 10 ms left) ends in
+    a BudgetError naming its size and the budget, not after the LP; with the budget's time it
+    solves."""
+    import scipy.sparse as sp
+
+    from optim.lp import LinearProgram, solve_lp
+
+    rng = np.random.default_rng(0)
+    matrix = rng.uniform(0.0, 1.0, (1000, 500))
+    lp = LinearProgram(
+        cost=-rng.uniform(0.5, 1.0, 500),  # maximise: the rows bind
+        matrix=sp.csr_matrix(matrix),
+        row_lo=np.full(1000, -np.inf),
+        row_hi=matrix @ np.full(500, 0.5),  # x = 0.5 is feasible
+        var_lo=np.zeros(500),
+        var_hi=np.ones(500),
+    )
+    with (
+        use_budget(make_budget(None, 0.01)),
+        pytest.raises(
+            BudgetError, match=r"time: a linear program of the search \(1000 rows, 500 variables\)"
+        ),
+    ):
+        solve_lp(lp)
+    assert solve_lp(lp).status == "optimal"
+
+
 def test_more_modes_than_dofs_are_said_and_solved_densely():
     """--n-modes 100000 on a plate of a few hundred DOFs: a warning names both numbers and
     the lowest modes come from a dense solve (equal to the iterative solve's first ones)."""
