@@ -194,6 +194,35 @@ def test_a_linear_program_stops_at_the_time_budget():
     assert solve_lp(lp).status == "optimal"
 
 
+def test_entries_below_the_tolerance_are_dropped_before_highs():
+    """The search's residual rows carry entries down to 1e-20 (modes decayed over a long
+    settling; HiGHS stalled on such a program for minutes, `--robust --freq-scale 0.5 2`):
+    an entry whose largest contribution |a_ij| max|x_j| is below 1e-15 is dropped, the
+    others kept, and the program's solution is that of the program without them."""
+    import scipy.sparse as sp
+
+    from optim.lp import LinearProgram, _negligible_dropped, solve_lp
+
+    rng = np.random.default_rng(1)
+    matrix = rng.uniform(0.1, 1.0, (40, 20)) * (rng.uniform(size=(40, 20)) < 0.5)
+    tiny = np.zeros_like(matrix)
+    tiny[matrix == 0] = 5e-20  # below: dropped
+    tiny[tuple(np.argwhere(matrix == 0)[0])] = 1e-14  # x reaches 10: up to 1e-13, kept
+    bounds = np.full(20, 10.0)
+
+    def program(a):
+        return LinearProgram(
+            cost=-np.ones(20), matrix=sp.csr_matrix(a), row_lo=np.full(40, -np.inf),
+            row_hi=np.full(40, 5.0), var_lo=-bounds, var_hi=bounds,
+        )  # fmt: skip
+
+    kept = _negligible_dropped(program(matrix + tiny)).toarray()
+    assert np.array_equal(kept, matrix + (tiny == 1e-14) * tiny)
+    with_tiny, without = solve_lp(program(matrix + tiny)), solve_lp(program(matrix))
+    assert with_tiny.status == without.status == "optimal"
+    assert with_tiny.objective == pytest.approx(without.objective, abs=1e-9)
+
+
 def test_more_modes_than_dofs_are_said_and_solved_densely():
     """--n-modes 100000 on a plate of a few hundred DOFs: a warning names both numbers and
     the lowest modes come from a dense solve (equal to the iterative solve's first ones)."""
