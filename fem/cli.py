@@ -549,7 +549,6 @@ def _model_from_store(args, material, supports) -> int:
 
 def _request(args, material, supports) -> dict:
     """The store key's inputs: every option that changes what the command writes."""
-
     source = "scene" if args.scene else "mesh" if args.mesh else "cad"
     path = getattr(args, source)
     request = {

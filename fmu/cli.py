@@ -385,10 +385,11 @@ def run(args: argparse.Namespace) -> int:
         ("-o/--output", args.output, ".fmu"),
         ("--ssp", args.ssp, ".ssp"),
     ):
-        if value and Path(value).suffix.lower() != suffix:
+        if not value:
+            continue
+        if Path(value).suffix.lower() != suffix:
             raise InputError(f"{option}: the file name must end in {suffix}, got {value!r}")
-        if value:
-            check_output_file(option, value)
+        check_output_file(option, value)
     if args.ssp and not args.trajectory:
         raise InputError("--ssp: the package plays a move; give --trajectory as well")
     if args.ssp and (args.cell or args.stress):
