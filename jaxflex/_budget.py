@@ -59,6 +59,10 @@ class Budget:
             return math.inf
         return max(0.0, self.time_s - (time.monotonic() - self.start_s))
 
+    def time_limit_text(self) -> str:
+        """``the budget of 20 s (--max-time)``: the time budget as the errors name it."""
+        return f"the budget of {format_seconds(self.time_s)} ({self.time_source})"
+
 
 @dataclass(frozen=True)
 class Need:
@@ -259,6 +263,6 @@ def check_time(what: str, advice: str = "") -> None:
     budget = current_budget()
     if budget.remaining_s() <= 0:
         raise BudgetError(
-            f"time: {what} ran out of the budget of {format_seconds(budget.time_s)} "
-            f"({budget.time_source})" + (f"; {advice}" if advice else "")
+            f"time: {what} ran out of {budget.time_limit_text()}"
+            + (f"; {advice}" if advice else "")
         )

@@ -161,8 +161,8 @@ def _solve_highs(lp: LinearProgram) -> LPSolution:
     if res.status == 1 and "time" in str(res.message).lower():
         raise BudgetError(
             f"time: a linear program of the search ({lp.matrix.shape[0]} rows, "
-            f"{lp.cost.size} variables) ran out of the budget of {budget.time_s:g} s "
-            f"({budget.time_source}) after {wall:.1f} s"
+            f"{lp.cost.size} variables) ran out of {budget.time_limit_text()} after "
+            f"{wall:.1f} s"
         )
     status = {0: "optimal", 2: "infeasible"}.get(res.status, "failed")
     return LPSolution(
