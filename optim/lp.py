@@ -131,6 +131,22 @@ def _negligible_dropped(lp: LinearProgram) -> sp.csr_matrix:
     return sp.csr_matrix((a.data[keep], (a.row[keep], a.col[keep])), shape=a.shape)
 
 
+def _time_left_s() -> float | None:
+    """The seconds of the process's time budget left, as a solver's time limit (at least
+    10 ms), None without a limit: --max-time holds inside a long LP too."""
+    left_s = current_budget().remaining_s()
+    return max(left_s, 0.01) if math.isfinite(left_s) else None
+
+
+def _out_of_time(lp: LinearProgram, wall_s: float) -> BudgetError:
+    """The error of an LP stopped by its time limit, naming the program's size."""
+    return BudgetError(
+        f"time: a linear program of the search ({lp.matrix.shape[0]} rows, "
+        f"{lp.cost.size} variables) ran out of {current_budget().time_limit_text()} after "
+        f"{wall_s:.1f} s"
+    )
+
+
 def _solve_highs(lp: LinearProgram) -> LPSolution:
     a = _negligible_dropped(lp)
     eq = lp.row_lo == lp.row_hi
@@ -142,10 +158,9 @@ def _solve_highs(lp: LinearProgram) -> LPSolution:
         "primal_feasibility_tolerance": TOLERANCE,
         "dual_feasibility_tolerance": TOLERANCE,
     }
-    budget = current_budget()
-    left_s = budget.remaining_s()  # --max-time holds inside a long LP too
-    if math.isfinite(left_s):
-        options["time_limit"] = max(left_s, 0.01)
+    left_s = _time_left_s()
+    if left_s is not None:
+        options["time_limit"] = left_s
     start = time.perf_counter()
     res = linprog(
         lp.cost,
@@ -159,11 +174,7 @@ def _solve_highs(lp: LinearProgram) -> LPSolution:
     )
     wall = time.perf_counter() - start
     if res.status == 1 and "time" in str(res.message).lower():
-        raise BudgetError(
-            f"time: a linear program of the search ({lp.matrix.shape[0]} rows, "
-            f"{lp.cost.size} variables) ran out of {budget.time_limit_text()} after "
-            f"{wall:.1f} s"
-        )
+        raise _out_of_time(lp, wall)
     status = {0: "optimal", 2: "infeasible"}.get(res.status, "failed")
     return LPSolution(
         status=status,
@@ -178,17 +189,20 @@ def _solve_highs(lp: LinearProgram) -> LPSolution:
 def _solve_casadi(lp: LinearProgram, plugin: str) -> LPSolution:
     import casadi as ca  # ~0.1 s: only for the casadi back ends
 
-    a = ca.DM(lp.matrix.tocsc())
+    a = ca.DM(_negligible_dropped(lp).tocsc())
     n = lp.cost.size
     options = {"verbose": False, "print_time": False, "error_on_fail": False}
+    left_s = _time_left_s()
     if plugin == "highs":
         options["highs"] = {
             "output_flag": False,
             "primal_feasibility_tolerance": TOLERANCE,
             "dual_feasibility_tolerance": TOLERANCE,
-        }
+        } | ({} if left_s is None else {"time_limit": left_s})
     else:
-        options["clp"] = {"PrimalTolerance": TOLERANCE, "DualTolerance": TOLERANCE}
+        options["clp"] = {"PrimalTolerance": TOLERANCE, "DualTolerance": TOLERANCE} | (
+            {} if left_s is None else {"MaxWallSeconds": left_s}
+        )
     solver = ca.conic("lp", plugin, {"a": a.sparsity(), "h": ca.Sparsity(n, n)}, options)
     start = time.perf_counter()
     with silenced_stdout():  # Clp logs to the C-level stdout and has no option to stop it
@@ -196,6 +210,8 @@ def _solve_casadi(lp: LinearProgram, plugin: str) -> LPSolution:
     wall = time.perf_counter() - start
     stats = solver.stats()
     message = str(stats.get("return_status", ""))
+    if left_s is not None and not stats.get("success", False) and "time" in message.lower():
+        raise _out_of_time(lp, wall)  # Clp: "stopped on iterations or time" (no iteration cap)
     if stats.get("success", False):
         status = "optimal"
     elif "infeas" in message.lower():
