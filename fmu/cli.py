@@ -270,14 +270,15 @@ def _need(model, trajectory, cell, *, verify: bool) -> Need:
     )
 
 
-def _options(args, trajectory: Move | None, case: dict | None, cell) -> tuple:
-    """(fmu.Fmi, fmu.CellOutputs, fmu.Turning or None, the embedded turning move or None)
-    of the command's options: a turning part's embedded move is the turn of ``--trajectory``
-    (:func:`turning_move`), its pivot without one ``--pivot``."""
+def _options(args, trajectory: Move | None, threshold_m, case: dict | None, cell) -> tuple:
+    """(the keyword arguments the FMU and SSP exports share: ``fmi`` (fmu.Fmi),
+    ``threshold_m``, ``damping_scale``, ``case``, ``turning`` (fmu.Turning or None); the cell's
+    fmu.CellOutputs; the embedded turning move or None) of the command's options: a turning
+    part's embedded move is the turn of ``--trajectory`` (:func:`turning_move`), its pivot
+    without one ``--pivot``."""
     from fmu.options import CellOutputs, Fmi, Turning
 
     windows = {"auto": None, "yes": True, "no": False}[args.windows]
-    fmi = Fmi(args.fmi, windows=windows, model_name=args.name)
     outputs = CellOutputs(cell, cup_safety=args.cup_safety, stress=args.stress)
     turn = turning = None
     if args.turning and trajectory is not None:
@@ -285,7 +286,14 @@ def _options(args, trajectory: Move | None, case: dict | None, cell) -> tuple:
         turning = Turning.of(turn)
     elif args.turning:
         turning = Turning((0.0, 0.0, 0.0) if args.pivot is None else args.pivot)
-    return fmi, outputs, turning, turn
+    shared = {
+        "fmi": Fmi(args.fmi, windows=windows, model_name=args.name),
+        "threshold_m": threshold_m,
+        "damping_scale": args.damping_scale,
+        "case": case,
+        "turning": turning,
+    }
+    return shared, outputs, turn
 
 
 def _export_fmu(args, model, trajectory, threshold_m, case, cell) -> int:
@@ -296,18 +304,8 @@ def _export_fmu(args, model, trajectory, threshold_m, case, cell) -> int:
     from fmu.verify import verify
     from fmu.verify_turning import after_move_s, verify_turning
 
-    fmi, outputs, turning, turn = _options(args, trajectory, case, cell)
-    result = export_fmu(
-        model,
-        args.output,
-        trajectory,
-        fmi=fmi,
-        threshold_m=threshold_m,
-        damping_scale=args.damping_scale,
-        case=case,
-        outputs=outputs,
-        turning=turning,
-    )
+    shared, outputs, turn = _options(args, trajectory, threshold_m, case, cell)
+    result = export_fmu(model, args.output, trajectory, outputs=outputs, **shared)
     print(
         f"wrote {result.fmu_path}: FMI {result.fmi_version}.0 co-simulation, "
         f"{result.counts.points} points, {result.counts.modes} modes, resource "
@@ -350,17 +348,8 @@ def _export_ssp(args, model, trajectory, threshold_m, case) -> int:
     from fmu.crosscheck import crosscheck_ssp
     from fmu.ssp import export_ssp
 
-    fmi, _, turning, _ = _options(args, trajectory, case, None)
-    result = export_ssp(
-        model,
-        args.ssp,
-        trajectory,
-        fmi=fmi,
-        threshold_m=threshold_m,
-        damping_scale=args.damping_scale,
-        case=case,
-        turning=turning,
-    )
+    shared, _, _ = _options(args, trajectory, threshold_m, case, None)
+    result = export_ssp(model, args.ssp, trajectory, **shared)
     part, source = result.part, result.source
     print(
         f"wrote {result.ssp_path}: SSP 1.0, part FMU ({part.counts.points} points, "
