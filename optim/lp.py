@@ -127,7 +127,9 @@ def _negligible_dropped(lp: LinearProgram) -> sp.csr_matrix:
     certified afterwards whatever the program held."""
     a = lp.matrix.tocoo()
     reach = np.maximum(np.abs(lp.var_lo), np.abs(lp.var_hi))[a.col]
-    keep = np.abs(a.data) * reach >= NEGLIGIBLE
+    unbounded = np.isinf(reach)  # its entries are kept, but a stored zero (0 inf: nan)
+    contribution = np.abs(a.data) * np.where(unbounded, 1.0, reach)
+    keep = (a.data != 0) & (unbounded | (contribution >= NEGLIGIBLE))
     return sp.csr_matrix((a.data[keep], (a.row[keep], a.col[keep])), shape=a.shape)
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -224,6 +225,16 @@ def test_entries_below_the_tolerance_are_dropped_before_highs():
 
     kept = _negligible_dropped(program(matrix + tiny)).toarray()
     assert np.array_equal(kept, matrix + (tiny == 1e-14) * tiny)
+    # an unbounded variable keeps its entries, however small, and a stored zero is no nan
+    free = program(matrix)
+    free.matrix = sp.vstack(  # entries of the last variable: 1e-30 and a stored zero
+        [sp.csr_matrix(([1e-30, 0.0], ([0, 1], [19, 19])), shape=(2, 20)), free.matrix[2:]]
+    ).tocsr()
+    free.var_lo, free.var_hi = np.r_[-bounds[1:], -np.inf], np.r_[bounds[1:], np.inf]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # 0 * inf would warn "invalid value"
+        kept = _negligible_dropped(free).toarray()
+    assert kept[0, -1] == 1e-30 and free.matrix.nnz == kept.astype(bool).sum() + 1
     for solver in ("highs", "casadi", "casadi-highs"):  # every back end gets the same matrix
         with_tiny = solve_lp(program(matrix + tiny), solver)
         without = solve_lp(program(matrix), solver)
