@@ -158,7 +158,13 @@ class RigidFit:
                 self.out[edges, k] = np.einsum("ejq,eq->ej", fits, rest).ravel()[first]
             self.is_set[edges] = True
         for k, target in enumerate((np.ones_like(x), x, y)):
-            field = np.asarray(basis.interpolate(self.out[:, k]))  # (E, Q) on the chunk
+            # the field on the chunk, (E, Q): what basis.interpolate sums, from the values
+            # above (interpolate first splits the vector by np.unique over the whole mesh's
+            # element DOFs, once per call: 27 of 104 s of CPU in a 2 % sizing of the plate)
+            w = self.out[:, k]
+            field = np.zeros_like(x)
+            for i in range(element_dofs.shape[0]):
+                field += w[element_dofs[i]][:, None] * values[i]
             self.error = max(self.error, np.abs(field - target).max() / self.scale)
 
     def result(self) -> np.ndarray:
