@@ -6,9 +6,11 @@ an abort), allocate without bound or loop. Decorated with :func:`isolated`, a re
 a fresh interpreter (``subprocess``: allowed in dask's daemonic workers, where
 multiprocessing may not start children) that imports only the reader's own module (its
 packages' ``__init__`` are not run: no JAX, no scikit-fem where the reader does not need
-them), under the process's budget (jaxflex._budget): its address space is limited to the
-memory budget on top of what its imports mapped (``RLIMIT_AS``), and it is stopped when the
-time budget runs out. The result comes back pickled (numpy arrays, dataclasses of them).
+them; nor those of the third-party packages the decorator names, ``bare``:
+ansys-mapdl-reader's imports pyvista's plotting and matplotlib, 1 s of CPU, for a reader of
+binary records), under the process's budget (jaxflex._budget): its address space is limited
+to the memory budget on top of what its imports mapped (``RLIMIT_AS``), and it is stopped
+when the time budget runs out. The result comes back pickled (numpy arrays, dataclasses of them).
 
 What reaches the caller is the reader's result or one error naming the file:
 
@@ -32,6 +34,7 @@ the command the same way (jaxflex._children).
 from __future__ import annotations
 
 import functools
+import importlib.util
 import os
 import pickle
 import signal
@@ -76,6 +79,9 @@ for name, folder in request["packages"].items():
     package = types.ModuleType(name)
     package.__path__ = [folder]
     sys.modules[name] = package
+    if "." in name:  # a subpackage: an attribute of its parent too, as an import makes it
+        parent, _, leaf = name.rpartition(".")
+        setattr(importlib.import_module(parent), leaf, package)
 try:
     importlib.import_module("jaxflex.isolated")._IN_CHILD = True
     target = importlib.import_module(request["module"])
@@ -108,15 +114,25 @@ out.flush()
 )
 
 
-def _packages(module: str) -> dict[str, str]:
-    """The top-level package of ``module`` (if it is in one) and the project's core, by
-    folder."""
+def _packages(module: str, bare: tuple[str, ...] = ()) -> dict[str, str]:
+    """The top-level package of ``module`` (if it is in one), the project's core and the
+    (third-party) packages ``bare``, by folder: the child does not run their ``__init__``."""
     names = {module.split(".")[0], "jaxflex"}
-    return {
+    folders = {
         name: str(Path(sys.modules[name].__file__).parent)
         for name in names
         if hasattr(sys.modules[name], "__path__")
     }
+    return folders | {name: _folder(name) for name in bare}
+
+
+@functools.cache
+def _folder(package: str) -> str:
+    """The folder of ``package``, found without running its ``__init__`` (only its parents')."""
+    spec = importlib.util.find_spec(package)
+    if spec is None or not spec.submodule_search_locations:
+        raise ImportError(f"no package {package!r}")
+    return next(iter(spec.submodule_search_locations))
 
 
 def _signal_name(returncode: int) -> str:
@@ -127,16 +143,24 @@ def _signal_name(returncode: int) -> str:
 
 
 def run_isolated(
-    func: Callable, args: tuple, kwargs: dict, *, field: str, reader: str, path: str
+    func: Callable,
+    args: tuple,
+    kwargs: dict,
+    *,
+    field: str,
+    reader: str,
+    path: str,
+    bare: tuple[str, ...] = (),
 ) -> Any:
     """``func(*args, **kwargs)`` in a child interpreter under the process's budget (module
-    docstring); ``field`` and ``path`` name the input in messages, ``reader`` the library."""
+    docstring); ``field`` and ``path`` name the input in messages, ``reader`` the library;
+    the child does not run the ``__init__`` of the packages ``bare``."""
     budget = current_budget()
     memory = 0 if budget.memory_bytes <= 0 else int(budget.memory_bytes)
     request = pickle.dumps(
         {
             "sys_path": list(sys.path),
-            "packages": _packages(func.__module__),
+            "packages": _packages(func.__module__, bare),
             "module": func.__module__,
             "qualname": func.__qualname__,
             "args": args,
@@ -218,13 +242,18 @@ def _answer(out: bytes, err: bytes, returncode: int, field, reader, path, memory
 
 
 def isolated(
-    field: str, reader: str, path_arg: int = 0, precheck: Callable[[Path], None] | None = None
+    field: str,
+    reader: str,
+    path_arg: int = 0,
+    precheck: Callable[[Path], None] | None = None,
+    bare: tuple[str, ...] = (),
 ) -> Callable[[F], F]:
     """Decorator: the function (a module-level reader whose argument ``path_arg`` is the
     file) runs in a child interpreter (module docstring); ``field`` names the input in
     messages (``mesh``, ``cad``, ``--from-ansys``), ``reader`` the library. The file is
     checked to be a readable regular file first, and by ``precheck(path)`` (a structural
-    check of the format, raising InputError) where given."""
+    check of the format, raising InputError) where given. The child skips the ``__init__``
+    of the packages ``bare`` (the reader then imports what it uses from their submodules)."""
 
     def wrap(func: F) -> F:
         @functools.wraps(func)
@@ -234,7 +263,9 @@ def isolated(
             path = check_input_file(field, args[path_arg])
             if precheck is not None:
                 precheck(path)
-            return run_isolated(func, args, kwargs, field=field, reader=reader, path=str(path))
+            return run_isolated(
+                func, args, kwargs, field=field, reader=reader, path=str(path), bare=bare
+            )
 
         return call  # type: ignore[return-value]
 

@@ -4,7 +4,9 @@ read with ansys-mapdl-reader in a child interpreter (jaxflex.isolated). What is 
 the modal model, is fem.imports.ansys's.
 
 This module imports no more than the readers need (no JAX, no FE solver): each read starts a
-fresh interpreter that imports it.
+fresh interpreter that imports it, and ansys-mapdl-reader's submodules without its package's
+``__init__`` (``MAPDL``: that one imports pyvista's plotting and matplotlib, about 1 s of CPU
+per read; a ``.rst``'s reader still imports them itself).
 """
 
 from __future__ import annotations
@@ -13,15 +15,19 @@ import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
 
 from fem.imports.mapdl_check import check_mapdl_file
 from fem.imports.numeric_csv import load_numeric_csv
 from jaxflex.errors import InputError
 from jaxflex.isolated import isolated
 
+if TYPE_CHECKING:  # imported by read_full: an archive's or a .rst's reader does not need it
+    import scipy.sparse as sp
+
+MAPDL = ("ansys.mapdl.reader",)  # run in the child without its __init__ (module docstring)
 DOF_LABELS = {1: "UX", 2: "UY", 3: "UZ", 4: "ROTX", 5: "ROTY", 6: "ROTZ"}
 TRANSLATIONS = ("UX", "UY", "UZ")
 ROTATIONS = ("ROTX", "ROTY", "ROTZ")
@@ -125,7 +131,7 @@ def listed(values: np.ndarray, shown: int = 4) -> str:
 
 
 def _binary(path, suffix: str):
-    from ansys.mapdl.reader import read_binary
+    from ansys.mapdl.reader.common import read_binary
 
     path = Path(path)
     if not path.is_file():
@@ -141,9 +147,10 @@ def _binary(path, suffix: str):
         ) from exc
 
 
-@isolated("--from-ansys", "ansys-mapdl-reader", precheck=check_mapdl_file)
+@isolated("--from-ansys", "ansys-mapdl-reader", precheck=check_mapdl_file, bare=MAPDL)
 def read_full(path: str | os.PathLike) -> FullMatrices:
     """K and M of a MAPDL ``.full`` file, symmetrised, with the DOF reference."""
+    import scipy.sparse as sp
     from ansys.mapdl.reader.common import read_table
     from ansys.mapdl.reader.full import FullFile
 
@@ -191,7 +198,7 @@ def read_full(path: str | os.PathLike) -> FullMatrices:
     )
 
 
-@isolated("--from-ansys", "ansys-mapdl-reader", precheck=check_mapdl_file)
+@isolated("--from-ansys", "ansys-mapdl-reader", precheck=check_mapdl_file, bare=MAPDL)
 def read_rst(path: str | os.PathLike) -> RstModes:
     """Frequencies, shapes, coordinates and nodal stresses of a MAPDL modal ``.rst`` file."""
     from ansys.mapdl.reader.rst import Result
@@ -248,7 +255,7 @@ def _angles(mesh) -> np.ndarray | None:
     return np.asarray(angles, dtype=float)[:, :3]
 
 
-@isolated("nodes", "ansys-mapdl-reader", precheck=check_mapdl_file)
+@isolated("nodes", "ansys-mapdl-reader", precheck=check_mapdl_file, bare=MAPDL)
 def read_node_rotations(path: str | os.PathLike) -> dict[int, np.ndarray]:
     """{node: T (3, 3)} of the rotated nodal coordinate systems (u_global = T u_nodal) of a
     .cdb archive or a .rst (empty: none rotated, or a CSV, which cannot say)."""
@@ -257,7 +264,7 @@ def read_node_rotations(path: str | os.PathLike) -> dict[int, np.ndarray]:
         modes = read_rst(path)
         ids, angles = modes.node_ids, modes.angles_deg
     elif suffix == ".cdb":
-        from ansys.mapdl.reader import Archive
+        from ansys.mapdl.reader.archive import Archive
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -271,7 +278,7 @@ def read_node_rotations(path: str | os.PathLike) -> dict[int, np.ndarray]:
     return dict(zip(ids[turned].tolist(), nodal_rotations(angles[turned]), strict=True))
 
 
-@isolated("nodes", "ansys-mapdl-reader", precheck=check_mapdl_file)
+@isolated("nodes", "ansys-mapdl-reader", precheck=check_mapdl_file, bare=MAPDL)
 def read_node_coordinates(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     """(node_ids (N,), coordinates (N, 3)) in file units from a MAPDL archive (.cdb), a
     result (.rst) or a CSV with rows ``node, x, y, z`` (an optional header row)."""
@@ -280,7 +287,7 @@ def read_node_coordinates(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarr
         raise InputError(f"nodes: file {str(path)!r} does not exist")
     suffix = path.suffix.lower()
     if suffix == ".cdb":
-        from ansys.mapdl.reader import Archive
+        from ansys.mapdl.reader.archive import Archive
 
         try:
             with warnings.catch_warnings():
