@@ -32,18 +32,22 @@ import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager, nullcontext
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from fem.choices import CAD_SUFFIXES
 from fem.mesh.cad_check import check_cad_file
 from fem.mesh.iges import IgesUnits, iges_units
-from fem.mesh.mesh_io import CAD_SUFFIXES, SheetMesh, sheet_from_cells
 from fem.mesh.meshing import GROWTH
 from fem.sanity import PartWarning
 from jaxflex.errors import InputError
 from jaxflex.isolated import isolated
 from jaxflex.runtime import step
 from jaxflex.stdout import silenced_stdout
+
+if TYPE_CHECKING:  # fem.mesh.mesh_io imports scipy: only the meshing child needs it
+    from fem.mesh.mesh_io import SheetMesh
 
 CURVATURE_ELEMENTS = 12
 FINEST_PER_SPAN = 1e-5  # a mesh size below this share of the part's diagonal: 1e10 elements
@@ -211,6 +215,8 @@ def mesh_cad(
     """Mesh the sheet body of a CAD file (see the module): a SheetMesh of triangles (or
     quadrilaterals with ``quads``), element size ``mesh_size_m`` m, refined in ``discs``
     ((centre (3,) m, radius m, element size m) each)."""
+    from fem.mesh.mesh_io import sheet_from_cells  # scipy: not imported by cad_bounds' child
+
     with _session() as gmsh:
         _import(gmsh, path, scale)
         gmsh.option.setNumber("Mesh.MeshSizeMax", float(mesh_size_m))
