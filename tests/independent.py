@@ -92,11 +92,12 @@ def path_positions(acc: np.ndarray, dt_s: float, t_s: np.ndarray) -> np.ndarray:
     return out
 
 
-def static_nodes(result, acceleration_m_s2) -> np.ndarray:
+def static_nodes(result, acceleration_m_s2, solve=None) -> np.ndarray:
     """(N, 3) every node's static displacement (m) under the constant base acceleration
-    (3,): K_ff z = -(M R)_free a, by one direct sparse solve."""
+    (3,): K_ff z = -(M R)_free a, by one direct sparse solve (``solve(rhs)``: a caller's
+    own factorisation of K_ff by scipy, to solve with it again; default spsolve)."""
     load = -(np.asarray(result.load) @ np.asarray(acceleration_m_s2, dtype=float))
-    z = scipy.sparse.linalg.spsolve(result.K_free.tocsc(), load)
+    z = solve(load) if solve else scipy.sparse.linalg.spsolve(result.K_free.tocsc(), load)
     return (result.observation @ z).reshape(-1, 3)
 
 
