@@ -95,7 +95,7 @@ def test_sag_and_stress_equal_a_static_fe_solve(analysed):
     cond = scipy.sparse.linalg.onenormest(stiffness) * scipy.sparse.linalg.onenormest(inverse)
     rel = max(1e-10, 10 * cond * np.finfo(float).eps)  # 10: the estimate's own slack
     # one independent LU (scipy's defaults: COLAMD, pivoting) for both: the sag's right-hand
-    # side (M R)_free g is the stresses' (a second factorisation, spsolve's, cost 40 s CPU of
+    # side (M R)_free g is the stresses' (a second factorisation, spsolve's, cost ~19 s CPU of
     # the thin solid's 47 295 DOFs and differed from this one only by round-off)
     sag = static_nodes(result, -g, solve=factor.solve)
     np.testing.assert_allclose(model.static_displacement(-g), sag, atol=rel * np.abs(sag).max())
