@@ -95,7 +95,9 @@ def independent_distance(result, n_modes, cell, acc, until_s, step_s=1e-4) -> fl
     Euclidean distance (1-Lipschitz) and a skin point lies h/2 from its mid-surface point, so
     a mid point whose lower bound (a box's: the largest axis gap, at most the distance; a
     half-space's: the distance itself) less h/2 is not below the smallest distance found so
-    far cannot give a smaller one; the others' skins are measured as they are."""
+    far cannot give a smaller one; the others' skins are measured as they are. A chunk of
+    times is passed over for an obstacle at once where the same lower bound over the box
+    around all its mid points (each point's bound is at least it) is not below either."""
     rotation, start = cell.rotation, cell.start_m
     g_part = rotation.T @ cell.gravity_m_s2
     t = step_s * np.arange(round(until_s / step_s) + 1)
@@ -107,25 +109,36 @@ def independent_distance(result, n_modes, cell, acc, until_s, step_s=1e-4) -> fl
     shapes = result.node_shapes()[:, :, :n_modes]
     path = path_positions(acc, DT, t)
     thickness = result.part.thickness_m
-    # the shapes and the rest in the cell's frame (3 N, M), (N, 3): one product per chunk
-    world = np.einsum("ij,kjm->kim", rotation, shapes).reshape(-1, n_modes)
-    rest = rest @ rotation.T + start
+    # the shapes and the rest in the cell's frame by coordinate (3, N, M), (3, N): per chunk
+    # of times one contiguous (times, N) array of mid points per coordinate
+    world = np.einsum("ij,kjm->ikm", rotation, shapes)
+    rest = (rest @ rotation.T + start).T
     best = np.inf
     for chunk in np.array_split(np.arange(len(t)), max(1, len(t) // 500)):
-        mid = (q[chunk] @ world.T).reshape(len(chunk), *rest.shape)
-        mid += rest
-        mid += path[chunk][:, None]
-        mid = mid.reshape(-1, 3)
+        mid = [q[chunk] @ world[i].T for i in range(3)]
+        for i, coordinate in enumerate(mid):
+            coordinate += rest[i]
+            coordinate += path[chunk, i][:, None]
+        lo, hi = np.array([c.min() for c in mid]), np.array([c.max() for c in mid])
         for o in cell.obstacles:
-            if isinstance(o, Box):
-                gap = np.abs(mid - o.centre_m) - np.asarray(o.size_m) / 2
-                low = np.maximum(np.maximum(gap[:, 0], gap[:, 1]), gap[:, 2])
-            else:
-                low = half_space_distance(mid, o.normal, o.offset_m)
-            near = mid[low - thickness / 2 < best]
-            if not len(near):
+            if isinstance(o, Box):  # the axis gaps' bound at the box's point nearest the centre
+                centre, half = np.asarray(o.centre_m), np.asarray(o.size_m) / 2
+                around = np.max(np.abs(np.clip(centre, lo, hi) - centre) - half)
+            else:  # the half-space's distance at the box's lowest corner, less round-off
+                n = np.asarray(o.normal, dtype=float) / np.linalg.norm(o.normal)
+                around = np.minimum(n * lo, n * hi).sum() - o.offset_m - 1e-9
+            if around - thickness / 2 >= best:
                 continue
-            skins = skin_points(near, rotation[:, 2], thickness)
+            if isinstance(o, Box):  # the largest axis gap
+                low = np.abs(mid[0] - centre[0]) - half[0]
+                for i in (1, 2):
+                    np.maximum(low, np.abs(mid[i] - centre[i]) - half[i], out=low)
+            else:
+                low = mid[0] * n[0] + mid[1] * n[1] + mid[2] * n[2] - o.offset_m
+            keep = low - thickness / 2 < best
+            if not keep.any():
+                continue
+            skins = skin_points(np.column_stack([c[keep] for c in mid]), rotation[:, 2], thickness)
             if isinstance(o, Box):
                 d = box_distance(skins, o.centre_m, o.size_m)
             else:
