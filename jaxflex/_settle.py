@@ -15,7 +15,9 @@ t_s = sup{t : d(t) > threshold} (0 if never), cycle time T_c = max(n dt_s, t_s).
   where sup |u_p''| <= sum_i |phi_i(p)| sup |q_i''| is bounded in closed form: omega_i^2 R_i
   e^{-sigma_i a} after the move, and, during the move (force f_i linear on the step, so the
   energy radius r_i = sqrt(q_i'^2 + omega_i^2 q_i^2) grows at most like |f_i|),
-  max|f_i| + (1 + 2 zeta_i) omega_i (r_i(t_k) + dt_s max|f_i|). Intervals that cannot be
+  max|f_i| + (1 + 2 zeta_i) omega_i (r_i(t_k) + dt_s max|f_i|), or where smaller the bound
+  of the free vibration about the quasi-static response (jaxflex._engine.derivative_bounds:
+  what keeps stiff modes, whose first bound grows with omega dt, cheap). Intervals that cannot be
   certified are subdivided (16-fold) until they are certified, or an exceedance is found and
   the last crossing is located to 1e-9 s.
 * Points are first certified a block at a time (jaxflex._blocks: a block's centre and
@@ -43,7 +45,13 @@ from jaxflex._deviation import (
     round_off_slack,
     with_acceleration,
 )
-from jaxflex._engine import free_states, modal_forces, modal_states, states_between
+from jaxflex._engine import (
+    derivative_bounds,
+    free_states,
+    modal_forces,
+    modal_states,
+    states_between,
+)
 from jaxflex._grid import grid_time
 from jaxflex._profile import acceleration_at, as_move
 from jaxflex._scalars import check_positive
@@ -244,11 +252,7 @@ class _ForcedMotion(_ModalSignal):
         self.acc = move.acc
         self.states, self.force, self.dt_s = states, force, move.dt_s
         self.n_steps = states.shape[0] - 1
-        step_force = np.maximum(np.abs(force[:-1]), np.abs(force[1:]))  # (n, M)
-        radius = np.hypot(states[:-1, :, 1], self.omega * states[:-1, :, 0])  # r_i(t_k)
-        acc_bound = step_force + (1.0 + 2.0 * self.zeta) * self.omega * (
-            radius + move.dt_s * step_force
-        )  # (n, M): sup |q_i''| on step k
+        _, acc_bound, _ = derivative_bounds(model, states, force, move.dt_s)  # (n, M): sup |q_i''|
         extra = self.shapes.shape[2] - acc_bound.shape[1]
         self.acc_bound = np.pad(acc_bound, ((0, 0), (0, extra)))  # (n, M')
 
