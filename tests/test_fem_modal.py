@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+import scipy.sparse.linalg
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -89,8 +90,9 @@ def test_modal_model_from_analysis():
     # mass normalisation at the nodes: the shapes come from M-orthonormal vectors
     phi = result.vectors
     np.testing.assert_allclose(phi.T @ (result.M_free @ phi), np.eye(8), atol=1e-9)
-    # static response to 1 m/s^2 along z: modal sum vs a direct solve (residual check)
-    static = -np.linalg.solve(result.K_free.toarray(), result.load[:, 2])
+    # static response to 1 m/s^2 along z: modal sum vs a direct solve (residual check; scipy's
+    # sparse LU: the dense LU of these 12 385 DOFs, equal to 2e-12, took 31 s of CPU)
+    static = -scipy.sparse.linalg.spsolve(result.K_free.tocsc(), result.load[:, 2])
     modal = -(phi * (result.gamma[:, 2] / (2 * np.pi * result.freq_hz) ** 2)) @ np.ones(8)
     missing = 1 - (modal @ (result.K_free @ modal)) / (static @ (result.K_free @ static))
     assert missing == pytest.approx(result.static_residual_fraction[2], abs=0.02)
