@@ -174,8 +174,7 @@ class _ModalSignal:
         layout = _layout(model, moving) if layout is None else layout
         self.shapes, self.weights = layout.shapes, layout.weights  # (K, C, M'), (K, M')
         self.omega = np.asarray(model.omega_rad_s)
-        self.zeta = np.asarray(model.zeta)
-        self.sigma = self.zeta * self.omega
+        self.sigma = np.asarray(model.zeta) * self.omega
         self.budget = _SearchBudget(self.weights.shape[0])
         self.members, self.centres = layout.members, layout.centres
         self.radius, self.block_weights = layout.radius, layout.block_weights
