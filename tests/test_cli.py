@@ -78,6 +78,28 @@ def test_command_modules_import_nothing_heavy():
         assert json.loads(proc.stdout) == [], module
 
 
+# what OpenBLAS runs with (threadpoolctl reads it from the loaded library) after the
+# dispatcher's setup, then NumPy's import, in a fresh interpreter
+BLAS_THREADS = (
+    "import json; from jaxflex.cli import _one_blas_thread; _one_blas_thread(); import numpy; "
+    "from threadpoolctl import threadpool_info; "
+    "print(json.dumps([i['num_threads'] for i in threadpool_info() if i['internal_api'] == "
+    "'openblas']))"
+)
+
+
+@pytest.mark.parametrize(("chosen", "expected"), [(None, 1), ("2", 2)])
+def test_a_command_runs_one_blas_thread_unless_the_user_chose(chosen, expected):
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if chosen is not None:
+        env["OPENBLAS_NUM_THREADS"] = chosen
+    proc = subprocess.run(
+        [sys.executable, "-c", BLAS_THREADS], capture_output=True, text=True, env=env
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout) == [expected]
+
+
 # `jaxflex ARGS` answered without importing JAX: (ARGS, exit status, what the answer says);
 # a path that does not exist is MISSING, the model file of a test is MODEL
 AT_ONCE = [
