@@ -16,16 +16,22 @@ import pytest
 import jaxflex
 from jaxflex._analytic import simply_supported_plate
 from jaxflex._compile_cache import ENV_VAR as COMPILE_CACHE_VAR
+from jaxflex.cli import BLAS_THREADS_VAR
 
 
 def pytest_configure(config):
     """JAX's compilation cache (jaxflex._compile_cache) in a directory of this session, never
     the user's: the commands run in-process and the subprocesses (which inherit it, as the
-    xdist workers do) share it, as concurrent runs of a user's commands share theirs."""
+    xdist workers do) share it, as concurrent runs of a user's commands share theirs; and
+    the commands' single BLAS thread."""
     if hasattr(config, "workerinput"):
         return
     directory = tempfile.mkdtemp(prefix="jaxflex-test-jax-cache-")
     os.environ[COMPILE_CACHE_VAR] = directory
+    # one OpenBLAS thread in the xdist workers (spawned after this, with NumPy not yet loaded)
+    # and the commands' interpreters, as every jaxflex command runs (jaxflex.cli): two workers
+    # on two cores would otherwise each spin a second thread between calls
+    os.environ.setdefault(BLAS_THREADS_VAR, "1")
     config.add_cleanup(lambda: shutil.rmtree(directory, ignore_errors=True))
 
 
