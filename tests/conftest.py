@@ -28,9 +28,9 @@ def pytest_configure(config):
         return
     directory = tempfile.mkdtemp(prefix="jaxflex-test-jax-cache-")
     os.environ[COMPILE_CACHE_VAR] = directory
-    # one OpenBLAS thread in the xdist workers (spawned after this, with NumPy not yet loaded)
-    # and the commands' interpreters, as every jaxflex command runs (jaxflex.cli): two workers
-    # on two cores would otherwise each spin a second thread between calls
+    # one OpenBLAS thread in the xdist workers (fresh interpreters started after this, which
+    # load NumPy with it) and the commands' interpreters, as every jaxflex command runs
+    # (jaxflex.cli): two workers on two cores would otherwise each spin a second thread
     os.environ.setdefault(BLAS_THREADS_VAR, "1")
     config.add_cleanup(lambda: shutil.rmtree(directory, ignore_errors=True))
 
