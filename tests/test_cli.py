@@ -17,7 +17,7 @@ import jaxflex
 import optim.sweep.cli
 from jaxflex._grid import grid_time
 from jaxflex._trajectory_io import read_trajectory_csv
-from jaxflex.cli import GROUP, commands, main
+from jaxflex.cli import BLAS_THREADS_VAR, GROUP, commands, main
 
 # what each package contributes, in the order of `jaxflex --help`
 COMMANDS = {
@@ -90,9 +90,9 @@ BLAS_THREADS = (
 
 @pytest.mark.parametrize(("chosen", "expected"), [(None, 1), ("2", 2)])
 def test_a_command_runs_one_blas_thread_unless_the_user_chose(chosen, expected):
-    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    env = {k: v for k, v in os.environ.items() if k != BLAS_THREADS_VAR}
     if chosen is not None:
-        env["OPENBLAS_NUM_THREADS"] = chosen
+        env[BLAS_THREADS_VAR] = chosen
     proc = subprocess.run(
         [sys.executable, "-c", BLAS_THREADS], capture_output=True, text=True, env=env
     )
