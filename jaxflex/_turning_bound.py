@@ -250,7 +250,7 @@ def bound_data(model, dt_s: float, n_sub: int | None = None) -> BoundData:
     ``dt_s`` s, built with NumPy once per model and step (cached on the model)."""
     cache = model.__dict__.setdefault("_turning_bound", {})
     if (dt_s, n_sub) not in cache:
-        cache[dt_s, n_sub] = jax.tree_util.tree_map(jnp.asarray, _build(model, float(dt_s), n_sub))
+        cache[dt_s, n_sub] = jax.device_put(_build(model, float(dt_s), n_sub))
     return cache[dt_s, n_sub]
 
 

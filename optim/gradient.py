@@ -278,7 +278,7 @@ def _ipopt(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: floa
 
     x = ca.MX.sym("x", program.cost.size)
     f_cb = _casadi_term(objective, beta, "surrogate")
-    g = [ca.mtimes(_casadi_matrix(program.matrix), x)]
+    g = [ca.mtimes(_casadi_matrix(program.matrix.to_scipy()), x)]
     lbg, ubg = [program.row_lo], [program.row_hi]
     callbacks = [f_cb]
 
@@ -351,8 +351,9 @@ def _slsqp(program, objective: SmoothTerm, clearance, x0: np.ndarray, beta: floa
     """SLSQP over the interior samples only (it works with dense matrices, so the sparse
     variables v, x, z are eliminated through ``sample_map``, x = T y + c)."""
     t, c = sample_map
-    rows = np.vstack([program.matrix @ t, t])
-    shift = np.concatenate([program.matrix @ c, c])
+    matrix = program.matrix.to_scipy()
+    rows = np.vstack([matrix @ t, t])
+    shift = np.concatenate([matrix @ c, c])
     lo = np.concatenate([program.row_lo, program.var_lo]) - shift
     hi = np.concatenate([program.row_hi, program.var_hi]) - shift
     trivial = np.all(np.abs(rows) <= 1e-14, axis=1)  # recursions: satisfied identically

@@ -12,7 +12,6 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
 POLYGON_SIDES = 32
 SPHERE_NORMALS = 400
@@ -33,6 +32,8 @@ def ball_normals(dim: int) -> tuple[np.ndarray, float]:
         normals = np.column_stack([np.cos(angle), np.sin(angle)])
         rho = float(np.cos(np.pi / POLYGON_SIDES))
     elif dim == 3:
+        from scipy.spatial import ConvexHull  # ~0.2 s: only for limits on 3-D norms
+
         i = np.arange(SPHERE_NORMALS) + 0.5
         polar = np.arccos(1 - 2 * i / SPHERE_NORMALS)
         azimuth = np.pi * (1 + 5**0.5) * i

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from jaxflex.errors import BudgetError, InputError, JaxflexError
 from jaxflex.geometry import BLOCK_POINTS
@@ -43,7 +44,6 @@ from optim.cell_setup import CellSetup, prepare_cell
 from optim.choice import Candidate, candidates
 from optim.choice import choose as choose_candidate
 from optim.exact import POLISH_MARGIN, LPSubsolver
-from optim.gradient import GradientSubsolver
 from optim.limits import ConstraintCheck, check_profile
 from optim.move_response import SAMPLING_ALLOWANCE, shortest_clearance_move_s
 from optim.obstacle_reach import reachable_cell
@@ -59,6 +59,9 @@ from optim.turn_plan import (
     turning_floor_steps,
 )
 from optim.turn_via import ViaTurn
+
+if TYPE_CHECKING:
+    from optim.gradient import GradientSubsolver
 from optim.turn_via_baselines import oriented_via_baselines
 
 
@@ -291,7 +294,12 @@ def search(run: Run) -> Search:
     model = plan.setup.model
     problem = _problem(r, plan, base)
     method, solver = r.search.method, r.search.solver
-    sub = LPSubsolver(solver) if method == "exact" else GradientSubsolver(solver)
+    if method == "exact":
+        sub = LPSubsolver(solver)
+    else:
+        from optim.gradient import GradientSubsolver  # scipy.optimize: ~0.1 s, when chosen
+
+        sub = GradientSubsolver(solver)
     bound = min((e.score() for e in base.feasible), default=plan.steps_cap * r.dt_s)
     upper = math.ceil(bound / r.dt_s - 1e-9)
     if r.robust is None and not plan.setup.families:

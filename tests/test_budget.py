@@ -175,15 +175,13 @@ def test_a_linear_program_stops_at_the_time_budget(solver):
     budget left): a dense LP of 1 000 rows and 500 variables (more than the 10 ms left for
     each) ends in a BudgetError naming its size and the budget, not after the LP; with the
     budget's time it solves."""
-    import scipy.sparse as sp
-
-    from optim.lp import LinearProgram, solve_lp
+    from optim.lp import LinearProgram, SparseMatrix, solve_lp
 
     rng = np.random.default_rng(0)
     matrix = rng.uniform(0.0, 1.0, (1000, 500))
     lp = LinearProgram(
         cost=-rng.uniform(0.5, 1.0, 500),  # maximise: the rows bind
-        matrix=sp.csr_matrix(matrix),
+        matrix=SparseMatrix.from_dense(matrix),
         row_lo=np.full(1000, -np.inf),
         row_hi=matrix @ np.full(500, 0.5),  # x = 0.5 is feasible
         var_lo=np.zeros(500),
@@ -206,9 +204,7 @@ def test_entries_below_the_tolerance_are_dropped_before_highs():
     settling; HiGHS stalled on such a program for minutes, `--robust --freq-scale 0.5 2`):
     an entry whose largest contribution |a_ij| max|x_j| is below 1e-15 is dropped, the
     others kept, and the program's solution is that of the program without them."""
-    import scipy.sparse as sp
-
-    from optim.lp import LinearProgram, _negligible_dropped, solve_lp
+    from optim.lp import LinearProgram, SparseMatrix, _negligible_dropped, solve_lp
 
     rng = np.random.default_rng(1)
     matrix = rng.uniform(0.1, 1.0, (40, 20)) * (rng.uniform(size=(40, 20)) < 0.5)
@@ -219,7 +215,7 @@ def test_entries_below_the_tolerance_are_dropped_before_highs():
 
     def program(a):
         return LinearProgram(
-            cost=-np.ones(20), matrix=sp.csr_matrix(a), row_lo=np.full(40, -np.inf),
+            cost=-np.ones(20), matrix=SparseMatrix.from_dense(a), row_lo=np.full(40, -np.inf),
             row_hi=np.full(40, 5.0), var_lo=-bounds, var_hi=bounds,
         )  # fmt: skip
 
@@ -227,9 +223,13 @@ def test_entries_below_the_tolerance_are_dropped_before_highs():
     assert np.array_equal(kept, matrix + (tiny == 1e-14) * tiny)
     # an unbounded variable keeps its entries, however small, and a stored zero is no nan
     free = program(matrix)
-    free.matrix = sp.vstack(  # entries of the last variable: 1e-30 and a stored zero
-        [sp.csr_matrix(([1e-30, 0.0], ([0, 1], [19, 19])), shape=(2, 20)), free.matrix[2:]]
-    ).tocsr()
+    rows, cols = np.nonzero(matrix[2:])  # rows 0 and 1: in the last column 1e-30, a stored 0
+    free.matrix = SparseMatrix.from_entries(
+        np.r_[0, 1, rows + 2],
+        np.r_[19, 19, cols],
+        np.r_[1e-30, 0.0, matrix[2:][rows, cols]],
+        matrix.shape,
+    )
     free.var_lo, free.var_hi = np.r_[-bounds[1:], -np.inf], np.r_[bounds[1:], np.inf]
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # 0 * inf would warn "invalid value"
