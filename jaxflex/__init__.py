@@ -35,7 +35,6 @@ Every other submodule is private to the core (its name begins with an underscore
 to change.
 """
 
-from importlib.metadata import version
 from typing import TYPE_CHECKING
 
 from jaxflex.lazy import after_import, lazy_names
@@ -62,7 +61,7 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): `import jaxflex` load
     )
     from jaxflex.model import ModalModel, load_model, save_model, stack_models
 
-__getattr__, __dir__ = lazy_names(__name__)
+_lazy_getattr, __dir__ = lazy_names(__name__)
 __all__ = [
     "BudgetError",
     "InputError",
@@ -97,7 +96,18 @@ __all__ = [
     "stack_models",
     "upsample",
 ]
-__version__ = version("jaxflex")  # pyproject.toml's, the one place it is set
+
+
+def __getattr__(name: str):
+    """The lazy names, and ``__version__``: pyproject.toml's, the one place it is set, read
+    from the installed metadata when first asked (importlib.metadata: ~0.03 s of CPU that a
+    command which never prints it does not pay)."""
+    if name == "__version__":
+        from importlib.metadata import version
+
+        globals()["__version__"] = version("jaxflex")
+        return globals()["__version__"]
+    return _lazy_getattr(name)
 
 
 def _float64(jax) -> None:

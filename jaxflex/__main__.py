@@ -1,5 +1,3 @@
-import sys
+from jaxflex.cli import console
 
-from jaxflex.cli import main
-
-sys.exit(main())
+console()

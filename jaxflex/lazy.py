@@ -106,10 +106,10 @@ _after_lock = threading.Lock()
 
 
 def after_import(name: str, callback: Callable[[types.ModuleType], None]) -> None:
-    """Call ``callback(module)`` once the top-level module ``name`` is imported: now if it
-    is, else right after its import (before anything can use it). The core's set-up of JAX
-    (float64, the compilation cache) runs this way, so that a command that needs no JAX
-    does not load it."""
+    """Call ``callback(module)`` once the module ``name`` (``jax``, ``matplotlib.pyplot``) is
+    imported: now if it is, else right after its import (before anything can use it). The
+    core's set-up of JAX (float64, the compilation cache) runs this way, so that a command
+    that needs no JAX does not load it."""
     with _after_lock:
         module = sys.modules.get(name)
         if module is None:
@@ -122,7 +122,7 @@ def after_import(name: str, callback: Callable[[types.ModuleType], None]) -> Non
 
 
 class _AfterImport:
-    """A finder and loader of the import system (sys.meta_path) for one top-level module:
+    """A finder and loader of the import system (sys.meta_path) for one module:
     it loads the module with the module's own loader, then calls the module's
     :func:`after_import` callbacks."""
 

@@ -34,7 +34,9 @@ def save_figure(fig, path: str | os.PathLike) -> None:
             fig.set_dpi(DPI)
             engine.execute(fig)
             fig.set_layout_engine("none")
-            FigureCanvasAgg(fig).print_png(handle)
+            # the canvas that laid it out draws it: its renderer's text metrics are reused
+            canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+            canvas.print_png(handle)
     plt.close(fig)
 
 

@@ -100,6 +100,31 @@ def test_a_command_runs_one_blas_thread_unless_the_user_chose(chosen, expected):
     assert json.loads(proc.stdout) == [expected]
 
 
+# the objects frozen for the collector (gc.freeze) in a fresh interpreter after the command's
+# setup: none before JAX's import, some after it, more after matplotlib.pyplot's; JAX's own
+# setup (float64) still runs after its import
+COLLECT_LESS = (
+    "import gc, json; from jaxflex.cli import _collect_less; _collect_less(); "
+    "counts = [gc.get_freeze_count()]; import jax; counts.append(gc.get_freeze_count()); "
+    "import matplotlib.pyplot; counts.append(gc.get_freeze_count()); "
+    "print(json.dumps([counts, bool(jax.config.jax_enable_x64)]))"
+)
+
+
+def test_a_command_freezes_what_jax_and_matplotlib_import_for_the_collector():
+    proc = subprocess.run([sys.executable, "-c", COLLECT_LESS], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    (before, after_jax, after_pyplot), float64 = json.loads(proc.stdout)
+    assert before == 0 < after_jax < after_pyplot and float64
+
+
+def test_the_installed_command_and_python_m_run_the_console_entry():
+    (script,) = [e for e in entry_points(group="console_scripts") if e.name == "jaxflex"]
+    assert script.value == "jaxflex.cli:console"
+    with open(os.path.join(os.path.dirname(jaxflex.__file__), "__main__.py")) as source:
+        assert "console()" in source.read()
+
+
 # `jaxflex ARGS` answered without importing JAX: (ARGS, exit status, what the answer says);
 # a path that does not exist is MISSING, the model file of a test is MODEL
 AT_ONCE = [
