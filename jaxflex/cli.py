@@ -161,10 +161,11 @@ def console() -> None:
 # Python's cyclic garbage collector walks every object the process holds at each full
 # collection and once more at exit. The imports of JAX and matplotlib leave some 10^6
 # objects that live as long as the process: a second `jaxflex optimize` of the plate spent
-# 0.10 s of CPU in three full collections during its work and 0.15 s at its exit, of 2.6 s.
-# Frozen (gc.freeze) right after each import and before exit, they are never walked again
-# (nor freed before exit, which they would not be anyway): 2.57 -> 2.29 s. Garbage that
-# exists when a freeze comes is kept to the end, once: a command runs once per process.
+# 0.10 s of CPU in three full collections during its work and 0.15 s at its exit. Frozen
+# (gc.freeze) right after each import and before exit, they are never walked again (nor
+# freed before exit, which they would not be anyway): 2.71 -> 2.31 s (medians of 8,
+# interleaved). Garbage that exists when a freeze comes is kept to the end, once: a command
+# runs once per process.
 FROZEN_AFTER = ("jax", "matplotlib.pyplot")
 
 
