@@ -80,6 +80,23 @@ def programs(directory: Path) -> dict[str, bytes]:
     return found
 
 
+# a program no command compiles, compiled with the commands' cache settings
+OTHER_PROGRAM = (
+    "import jax; from jaxflex._compile_cache import enable; enable(); "
+    "jax.jit(lambda x: x * 2.0 + 1.0)(1.0).block_until_ready()"
+)
+
+
+def other_program_entries(cache: Path) -> dict[str, bytes]:
+    """The entries a fresh interpreter writes into ``cache`` for :data:`OTHER_PROGRAM`."""
+    env = {**os.environ, ENV_VAR: str(cache)}
+    proc = subprocess.run([sys.executable, "-c", OTHER_PROGRAM], env=env, capture_output=True)
+    assert proc.returncode == 0, proc.stderr
+    found = entries(cache)
+    assert found
+    return found
+
+
 def test_a_second_process_loads_what_the_first_compiled(model_file, tmp_path):
     cache = tmp_path / "cache"
     first, events = optimize(model_file, tmp_path / "a", str(cache), "-q")
@@ -106,11 +123,14 @@ def test_a_second_process_loads_what_the_first_compiled(model_file, tmp_path):
     # in an entry's place; as many rounds as the programs take): each a miss, recompiled and
     # replaced, without a warning, with the same answer; the others are hits
     damages = list(FILE_DAMAGES.values())
+    # the entries an entry can be swapped with: the run's own and another program's (the
+    # run may compile a single program)
+    genuine = {**written, **other_program_entries(tmp_path / "other")}
     for round_ in range(0, len(damages), len(written)):
         chunk = damages[round_ : round_ + len(written)]
         damaged = dict(zip(sorted(written)[: len(chunk)], chunk, strict=True))
         for name, damage in damaged.items():
-            damage(cache / name, written)
+            damage(cache / name, genuine)
         out = tmp_path / f"c{round_}"
         third, events = optimize(model_file, out, str(cache))
         assert "compilation cache" not in third.stderr, third.stderr
