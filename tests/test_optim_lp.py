@@ -31,8 +31,9 @@ def test_entries_at_the_same_place_are_summed_as_dense_numpy_sums_them(rows, col
     assert matrix.start[-1] == matrix.nnz and np.all(np.diff(matrix.start) >= 0)
     for j in range(cols):  # rows ascending within each column, each at most once
         assert np.all(np.diff(matrix.index[matrix.start[j] : matrix.start[j + 1]]) > 0)
-    keep = matrix.data > 0
-    np.testing.assert_array_equal(matrix.kept(keep).toarray(), np.where(dense > 0, dense, 0.0))
+    keep = matrix.data > 0  # a selection of the stored entries: exactly those values
+    whole = matrix.toarray()
+    np.testing.assert_array_equal(matrix.kept(keep).toarray(), np.where(whole > 0, whole, 0.0))
     np.testing.assert_array_equal(matrix.to_scipy().toarray(), matrix.toarray())
 
 
