@@ -159,7 +159,7 @@ def console() -> None:
 
 
 # Python's cyclic garbage collector walks every object the process holds at each full
-# collection and once more at exit. The imports of JAX and matplotlib leave some 10^6
+# collection and once more at exit. The imports of JAX and matplotlib leave some 10^5
 # objects that live as long as the process: a second `jaxflex optimize` of the plate spent
 # 0.10 s of CPU in three full collections during its work and 0.15 s at its exit. Frozen
 # (gc.freeze) right after each import and before exit, they are never walked again (nor

@@ -57,6 +57,14 @@ class SparseMatrix:
         return cls(shape, start, rows.astype(np.int32), values)
 
     @classmethod
+    def from_scipy(cls, matrix) -> SparseMatrix:
+        """The same matrix as a scipy.sparse one (stored zeros kept)."""
+        csc = matrix.tocsc(copy=True)
+        csc.sort_indices()
+        start, index = csc.indptr.astype(np.int32), csc.indices.astype(np.int32)
+        return cls(csc.shape, start, index, np.asarray(csc.data, np.float64))
+
+    @classmethod
     def from_dense(cls, matrix) -> SparseMatrix:
         """The nonzero entries of the dense ``matrix`` (R, C)."""
         matrix = np.asarray(matrix, np.float64)
@@ -81,6 +89,15 @@ class SparseMatrix:
         dense = np.zeros(self.shape)
         dense[self.index, self.columns()] = self.data
         return dense
+
+    def to_casadi(self):
+        """The same matrix as a casadi DM of the same pattern (stored zeros kept), built from
+        the compressed columns: ~4x less CPU than casadi's conversion of a scipy matrix (0.4 s
+        for a clearance map of 576 000 entries)."""
+        import casadi as ca  # ~0.1 s: only for the casadi back ends and Ipopt
+
+        pattern = ca.Sparsity(*self.shape, self.start.tolist(), self.index.tolist())
+        return ca.DM(pattern, self.data)
 
     def to_scipy(self):
         """The same matrix as a scipy.sparse CSC matrix (imported here: ~0.1 s)."""
@@ -256,9 +273,7 @@ def _solve_highs(lp: LinearProgram) -> LPSolution:
 def _solve_casadi(lp: LinearProgram, plugin: str) -> LPSolution:
     import casadi as ca  # ~0.1 s: only for the casadi back ends
 
-    dropped = _negligible_dropped(lp)
-    pattern = ca.Sparsity(*dropped.shape, dropped.start.tolist(), dropped.index.tolist())
-    a = ca.DM(pattern, dropped.data)
+    a = _negligible_dropped(lp).to_casadi()
     n = lp.cost.size
     options = {"verbose": False, "print_time": False, "error_on_fail": False}
     left_s = _time_left_s()

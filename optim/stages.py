@@ -59,10 +59,10 @@ from optim.turn_plan import (
     turning_floor_steps,
 )
 from optim.turn_via import ViaTurn
+from optim.turn_via_baselines import oriented_via_baselines
 
 if TYPE_CHECKING:
     from optim.gradient import GradientSubsolver
-from optim.turn_via_baselines import oriented_via_baselines
 
 
 @dataclass(frozen=True)
