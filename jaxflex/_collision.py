@@ -58,7 +58,7 @@ from jaxflex._peaks import (
     one_blas_thread,
     settling_windows,
 )
-from jaxflex._profile import acceleration_at, as_move, kinematics_at
+from jaxflex._profile import Move, acceleration_at, as_move, kinematics_at
 
 BLOCK_POINTS = 32
 COARSE_STRIDE = 8  # close_approaches: the block centres at every 8th time first
@@ -98,27 +98,26 @@ def gravity_offset(model, gravity_m_s2) -> np.ndarray:
     return model.static_displacement(-np.asarray(gravity_m_s2, dtype=np.float64))
 
 
-def positions_at(model, acc, dt_s: float, t_s, gravity_m_s2, points=None, coords=None):
+def positions_at(model, move: Move, t_s, gravity_m_s2, points=None, coords=None):
     """(T, P, 3) exact mid-surface positions (m) of ``points`` (indices; default all) of
-    ``model`` (posed in the cell) at times ``t_s`` (T,) s of the move ``acc`` ((n+1, 3) m/s^2
-    at step ``dt_s``, from rest) and after it, hanging at rest in ``gravity_m_s2`` before it
-    (module docstring). ``coords``: the displacement coordinates at ``t_s`` when known
-    (:func:`displacement_coordinates`)."""
+    ``model`` (posed in the cell) at times ``t_s`` (T,) s of ``move`` (from rest) and after
+    it, hanging at rest in ``gravity_m_s2`` before it (module docstring). ``coords``: the
+    displacement coordinates at ``t_s`` when known (:func:`displacement_coordinates`)."""
     t = np.asarray(t_s, dtype=np.float64)
     points = slice(None) if points is None else points
     if coords is None:
-        coords = displacement_coordinates(model, acc, dt_s, t)
+        coords = displacement_coordinates(model, move, t)
     base = np.asarray(model.points)[points] + gravity_offset(model, gravity_m_s2)[points]
     u = np.einsum("kcm,tm->tkc", response_shapes(model)[points], coords)
-    return base[None] + kinematics_at(acc, dt_s, t)[0][:, None] + u
+    return base[None] + kinematics_at(move, t)[0][:, None] + u
 
 
-def displacement_coordinates(model, acc, dt_s: float, t_s) -> np.ndarray:
+def displacement_coordinates(model, move: Move, t_s) -> np.ndarray:
     """(T, M') the coordinates of the displacement shapes (jaxflex._deviation.response_shapes:
-    q, then the base acceleration) at times ``t_s`` (T,) s of the move ``acc`` and after."""
+    q, then the base acceleration) at times ``t_s`` (T,) s of ``move`` and after."""
     t = np.asarray(t_s, dtype=np.float64)
-    q = states_at(model, acc, dt_s, t)[..., 0]
-    return with_acceleration(model, q, acceleration_at(acc, dt_s, t))
+    q = states_at(model, move, t)[..., 0]
+    return with_acceleration(model, q, acceleration_at(move, t))
 
 
 def distances(obstacles, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -266,7 +265,7 @@ def close_approaches(
     with one_blas_thread():
         motion = _Motion(model, obstacles, move, gravity_m_s2, half_thickness_m)
         blocks = part_blocks(model)
-        coords = displacement_coordinates(model, move.acc, move.dt_s, t)
+        coords = displacement_coordinates(model, move, t)
         extents = blocks.extents(motion.base)
         coarse = np.unique(np.r_[np.arange(0, len(t), stride), len(t) - 1])
         lower = _block_bounds(motion, blocks, extents, t[coarse], coords[coarse])  # (C, nB)
@@ -285,7 +284,7 @@ def close_approaches(
             fine[times, which] = np.where(bounds <= within[times], bounds, np.inf)
         close = np.isfinite(fine)
         points = blocks.points_of(np.flatnonzero(close.any(axis=0)))
-        path = kinematics_at(move.acc, move.dt_s, t)[0]
+        path = kinematics_at(move, t)[0]
         found = Approaches(
             points, np.full((len(t), len(points)), np.inf), motion, coords, path, close
         )
@@ -305,9 +304,9 @@ def nearest_distances(
     with one_blas_thread():
         motion = _Motion(model, tuple(obstacles), move, gravity_m_s2, half_thickness_m)
         blocks = part_blocks(model)
-        coords = displacement_coordinates(model, move.acc, move.dt_s, t)
+        coords = displacement_coordinates(model, move, t)
         lower = _block_bounds(motion, blocks, blocks.extents(motion.base), t, coords)
-        path = kinematics_at(move.acc, move.dt_s, t)[0]
+        path = kinematics_at(move, t)[0]
         frame = Approaches(np.zeros(0, np.int64), np.zeros((0, 0)), motion, coords, path, None)
         return _smallest(frame, blocks, lower)
 
@@ -350,7 +349,7 @@ def _block_bounds(motion, blocks: PartBlocks, extents, t, coords, which=None) ->
     for every block, or (P,) for the (time, block) pairs ``t`` (P,), ``which`` (P,)."""
     centres = blocks.centre if which is None else blocks.centre[which]
     shapes = motion.shapes[centres]  # (B, 3, M')
-    path = kinematics_at(motion.acc, motion.dt_s, t)[0]
+    path = kinematics_at(motion.move, t)[0]
     if which is None:
         positions = (
             motion.base[centres][None] + path[:, None] + np.einsum("bcm,tm->tbc", shapes, coords)
@@ -408,7 +407,7 @@ class _Motion:
 
     def __init__(self, model, obstacles, move, gravity_m_s2, half_thickness_m: float) -> None:
         self.model, self.obstacles = model, obstacles
-        self.acc, self.dt_s = move.acc, move.dt_s
+        self.move, self.dt_s = move, move.dt_s
         self.half = float(half_thickness_m)
         self.modes = np.asarray(model.shapes)  # (K, 3, M): after the move
         self.shapes = response_shapes(model)  # (K, 3, M'): during it
@@ -431,7 +430,7 @@ class _Motion:
         acc_size = np.maximum(np.abs(move.acc[:-1]), np.abs(move.acc[1:]))  # (n, 3) sup |a|
         self.coordinate_speed = np.hstack([speed, jerk[:, :extra]])  # (n, M')
         self.coordinate_size = np.hstack([size, acc_size[:, :extra]])  # (n, M') sup |c|
-        pos, vel = kinematics_at(move.acc, move.dt_s, move.dt_s * np.arange(move.n_steps + 1))
+        pos, vel = kinematics_at(move, move.dt_s * np.arange(move.n_steps + 1))
         speed_path = np.linalg.norm(vel, axis=1)
         acc_norm = np.linalg.norm(move.acc, axis=1)
         self.path_speed = np.maximum(speed_path[:-1], speed_path[1:]) + move.dt_s * np.maximum(
@@ -449,11 +448,11 @@ class _Motion:
     def coordinates(self, t: np.ndarray) -> np.ndarray:
         """(T, M') the displacement coordinates during the move (q, then a)."""
         q = states_between(self.model, self.states, self.force, self.dt_s, t, np)[..., 0]
-        return with_acceleration(self.model, q, acceleration_at(self.acc, self.dt_s, t))
+        return with_acceleration(self.model, q, acceleration_at(self.move, t))
 
     def during(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
         u = np.einsum("kcm,tm->tkc", self.shapes[items], self.coordinates(t))
-        return self._distance(u, kinematics_at(self.acc, self.dt_s, t)[0], items)
+        return self._distance(u, kinematics_at(self.move, t)[0], items)
 
     def _steps(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.clip(np.floor(0.5 * (a + b) / self.dt_s).astype(np.int64), 0, self.n_steps - 1)
@@ -501,7 +500,7 @@ class _Motion:
         else:
             q = free_states(self.model, self.states[-1], t - self.t_end, np)[0, :, 0]
             u = self.modes[point] @ q
-        return self.base[point] + kinematics_at(self.acc, self.dt_s, t)[0][0] + u
+        return self.base[point] + kinematics_at(self.move, t)[0][0] + u
 
 
 def part_half_thickness(model) -> float | None:
@@ -515,8 +514,7 @@ def part_half_thickness(model) -> float | None:
 def min_distance(
     model,
     obstacles,
-    acc,
-    dt_s: float,
+    move: Move,
     *,
     gravity_m_s2=(0.0, 0.0, -9.81),
     half_thickness_m: float = 0.0,
@@ -525,8 +523,8 @@ def min_distance(
 ) -> Clearance:
     """The smallest distance (m) between the part (every point of ``model``, posed in cell
     coordinates, its skins ``half_thickness_m`` off the mid-surface) and ``obstacles`` (or a
-    jaxflex._cell.Cell's) over the move ``acc`` ((n+1, 3) m/s^2 in cell coordinates at step
-    ``dt_s`` s, at rest at both ends) and the settling after it, to within ``atol`` m (module
+    jaxflex._cell.Cell's) over ``move`` (in cell coordinates, at rest at both ends) and the
+    settling after it, to within ``atol`` m (module
     docstring). With ``limit_m`` the search only decides whether the distance stays above it
     (``bound_m`` >= limit_m certifies; below it the minimum is located to ``atol``)."""
     if isinstance(obstacles, Cell):
@@ -534,7 +532,7 @@ def min_distance(
     obstacles = tuple(obstacles)
     if not obstacles:
         return Clearance(math.inf, math.nan, -1, -1, "", math.inf, 0, half_thickness_m)
-    move = as_move(acc, dt_s, at_rest=True)
+    move = as_move(move, at_rest=True)
     with one_blas_thread():
         motion = _Motion(model, obstacles, move, gravity_m_s2, half_thickness_m)
         return search_clearance(motion, part_blocks(model), atol, limit_m)

@@ -346,7 +346,7 @@ def deviation_curve(
     settling of hours needs no millisecond samples). Exact samples of d(t), not
     interpolations; the points are evaluated by the pruned blocked evaluation
     (:func:`max_norms`)."""
-    acc, dt_s, n_steps = move.acc, move.dt_s, move.n_steps
+    dt_s, n_steps = move.dt_s, move.n_steps
     h = dt_s / substeps
     t_move = h * np.arange(n_steps * substeps)
     span = until_s - n_steps * dt_s
@@ -354,15 +354,15 @@ def deviation_curve(
         h = span / max_after
     after = max(1, int(np.ceil(span / h)) + 1)
     t = np.concatenate([t_move, n_steps * dt_s + h * np.arange(after)])
-    q = states_at(model, acc, dt_s, t)[..., 0]
-    q = with_acceleration(model, q, acceleration_at(acc, dt_s, t))
+    q = states_at(model, move, t)[..., 0]
+    q = with_acceleration(model, q, acceleration_at(move, t))
     return t, max_norms(blocks_of(model, moving=True), q)[0]
 
 
-def outputs_at(model, outputs, acc, dt_s: float, t_s, offset=None) -> np.ndarray:
+def outputs_at(model, outputs, move: Move, t_s, offset=None) -> np.ndarray:
     """(T, Y) exact values of ``outputs`` (jaxflex._outputs.LinearOutputs of ``model``) at
-    times ``t_s`` (T,) s during the move ``acc`` ((n+1, 3) m/s^2, at rest at its end) and
-    after it, plus the constant ``offset`` (Y,) (e.g. the share of gravity)."""
+    times ``t_s`` (T,) s during ``move`` (at rest at its end) and after it, plus the constant
+    ``offset`` (Y,) (e.g. the share of gravity)."""
     t = np.asarray(t_s, dtype=np.float64)
-    values = outputs.values(states_at(model, acc, dt_s, t), acceleration_at(acc, dt_s, t))
+    values = outputs.values(states_at(model, move, t), acceleration_at(move, t))
     return values if offset is None else values + offset

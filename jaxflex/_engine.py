@@ -148,13 +148,13 @@ def free_states(model, x_start, tau_s, xp: Any = jnp):
     return xp.einsum("tmij,mj->tmi", phi, x_start)
 
 
-def states_at(model, acc, dt_s: float, t_s) -> np.ndarray:
-    """Exact states (T, M, 2) at any times ``t_s`` (T,) >= 0 s, during the move ``acc``
-    ((n+1, 3) m/s^2, at rest at the end) and after it (free vibration). NumPy."""
-    acc = np.asarray(acc, dtype=np.float64)
+def states_at(model, move, t_s) -> np.ndarray:
+    """Exact states (T, M, 2) at any times ``t_s`` (T,) >= 0 s, during ``move`` (a
+    jaxflex._profile.Move, at rest at the end) and after it (free vibration). NumPy."""
     t_s = np.asarray(t_s, dtype=np.float64)
-    states, force = _sample_states(model, acc, float(dt_s))
-    t_end = (acc.shape[0] - 1) * dt_s
+    dt_s = move.dt_s
+    states, force = _sample_states(model, move.acc, dt_s)
+    t_end = move.n_steps * dt_s
     during = t_s < t_end
     out = np.empty((t_s.size, model.n_modes, 2))
     out[during] = states_between(model, states, force, dt_s, t_s[during], np)

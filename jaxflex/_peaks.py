@@ -186,7 +186,7 @@ class _Response:
                 raise ValueError("state_scale: the scales of the maps' columns must be >= 0")
         self.a_map = np.asarray(outputs.a_map)
         self.offset = np.asarray(offset, dtype=np.float64)
-        self.acc, self.dt_s = move.acc, move.dt_s
+        self.move, self.dt_s = move, move.dt_s
         self.states = modal_states(model, move.acc, move.dt_s, xp=np)
         self.force = modal_forces(model, move.acc, np)
         self.n_steps = move.n_steps
@@ -236,7 +236,7 @@ class _Response:
             states[during] = states_between(
                 self.model, self.states, self.force, self.dt_s, t_in, np
             )
-            acc[during] = acceleration_at(self.acc, self.dt_s, t_in)
+            acc[during] = acceleration_at(self.move, t_in)
         if not during.all():
             states[~during] = free_states(self.model, self.end_state, t[~during] - self.t_end, np)
         return states, acc
@@ -244,7 +244,7 @@ class _Response:
     # -- during the move ----------------------------------------------------------------
     def during(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
         states = states_between(self.model, self.states, self.force, self.dt_s, t, np)
-        return self.values(states, acceleration_at(self.acc, self.dt_s, t), items)
+        return self.values(states, acceleration_at(self.move, t), items)
 
     def during_bound(self, a, b, va, vb, items):
         k = np.clip(np.floor(0.5 * (a + b) / self.dt_s).astype(np.int64), 0, self.n_steps - 1)
@@ -262,7 +262,7 @@ class _Response:
         per_row = (
             magnitude(self.q_map)[rows] @ (vel / self.omega * self.q_scale)
             + magnitude(self.v_map)[rows] @ (vel * self.v_scale)
-            + magnitude(self.a_map)[rows] @ np.abs(self.acc).max(axis=0)
+            + magnitude(self.a_map)[rows] @ np.abs(self.move.acc).max(axis=0)
             + np.abs(self.offset[rows])
         )
         return self.weighted(items, per_row)
@@ -320,13 +320,13 @@ class _Response:
 
 
 def item_bounds(
-    model, outputs, functional, acc, dt_s: float, *, offset=None, state_scale=None
+    model, outputs, functional, move: Move, *, offset=None, state_scale=None
 ) -> np.ndarray:
     """(I,) an upper bound of each item of ``functional`` (arguments as :func:`output_peak`)
     over the move and all the settling after it: the energy-radius bound of the move and the
     decay envelope from its end. Cheap (no evaluation of the outputs); an item below a limit
     here cannot reach it."""
-    move = as_move(acc, dt_s, at_rest=True)
+    move = as_move(move, at_rest=True)
     offset = np.zeros(outputs.n_rows) if offset is None else offset
     response = _Response(model, outputs, functional, move, offset, state_scale)
     items = np.arange(functional.n_items)
@@ -417,8 +417,7 @@ def output_peak(
     model,
     outputs,
     functional,
-    acc,
-    dt_s: float,
+    move: Move,
     *,
     offset=None,
     rtol: float = 1e-4,
@@ -427,15 +426,15 @@ def output_peak(
     state_scale=None,
 ) -> Peak:
     """The largest value of ``functional`` (items of rows of ``outputs``, a
-    jaxflex._outputs.LinearOutputs of ``model``) over the move ``acc`` ((n+1, 3) m/s^2 at step
-    ``dt_s`` s, at rest at both ends) and the settling after it, plus the constant ``offset``
+    jaxflex._outputs.LinearOutputs of ``model``) over ``move`` (a jaxflex._profile.Move, at
+    rest at both ends) and the settling after it, plus the constant ``offset``
     (Y,), to within max(rtol * value, atol) (module docstring). With ``limit`` the search
     only decides whether the peak stays below it: where the bound is below the limit it stops
     refining and evaluates only the items whose bound reaches it (the peak reported is then a
     value found, and ``bound`` <= limit certifies); above the limit it locates the peak as
     without one. ``state_scale`` (q_scale (M,), v_scale (M,)): ``model``'s maps are those of
     ``outputs`` with each mode's column scaled (:class:`_Response`; a robust grid's model)."""
-    move = as_move(acc, dt_s, at_rest=True)
+    move = as_move(move, at_rest=True)
     offset = np.zeros(outputs.n_rows) if offset is None else offset
     with one_blas_thread():
         response = _Response(model, outputs, functional, move, offset, state_scale)

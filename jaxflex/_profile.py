@@ -95,17 +95,17 @@ def samples_at(values, dt_s: float, t_s, outside: float | None = None) -> np.nda
     return np.column_stack([np.interp(t, grid, values[:, c], outside, outside) for c in columns])
 
 
-def acceleration_at(acc, dt_s: float, t_s) -> np.ndarray:
-    """(T, 3) acceleration (m/s^2) of the samples ``acc`` ((n+1, 3) at step ``dt_s`` s) at
-    times ``t_s`` (T,) s: linear between samples, 0 before the start and after the end."""
-    return samples_at(acc, dt_s, t_s, outside=0.0)
+def acceleration_at(move: Move, t_s) -> np.ndarray:
+    """(T, 3) acceleration (m/s^2) of ``move`` at times ``t_s`` (T,) s: linear between
+    samples, 0 before the start and after the end."""
+    return samples_at(move.acc, move.dt_s, t_s, outside=0.0)
 
 
-def kinematics_at(acc, dt_s: float, t_s) -> tuple[np.ndarray, np.ndarray]:
-    """Exact (position (T, 3) m, velocity (T, 3) m/s) of the move ``acc`` ((n+1, 3) m/s^2 at
-    step ``dt_s`` s, from rest at the origin) at times ``t_s`` (T,) s; held after the end."""
-    acc = np.asarray(acc, dtype=np.float64)
-    vel, pos = integrate(acc, dt_s)
+def kinematics_at(move: Move, t_s) -> tuple[np.ndarray, np.ndarray]:
+    """Exact (position (T, 3) m, velocity (T, 3) m/s) of ``move`` (from rest at the origin)
+    at times ``t_s`` (T,) s; held after the end."""
+    acc, dt_s = move.acc, move.dt_s
+    vel, pos = integrate(move)
     n = acc.shape[0] - 1
     t = np.asarray(t_s, dtype=np.float64)
     k = np.clip(np.floor(t / dt_s).astype(np.int64), 0, n - 1)
@@ -201,13 +201,14 @@ def end_weights(n_steps: int, dt_s: float) -> np.ndarray:
     return np.stack([w_v, w_x])
 
 
-def enforce_end_state(acc, dt_s: float, distance_m) -> np.ndarray:
-    """The closest profile (least-squares change of the interior samples) that starts and
-    ends at rest (a_0 = a_n = 0, v_n = 0) and arrives exactly at ``distance_m`` (3,).
+def enforce_end_state(move: Move, distance_m) -> Move:
+    """The closest move (least-squares change of the interior samples of ``move``) that
+    starts and ends at rest (a_0 = a_n = 0, v_n = 0) and arrives exactly at ``distance_m``
+    (3,) m.
 
     Used to remove the ~1e-9 residue a solver leaves on the end conditions; the change is of
     that size, far inside the margin the optimiser keeps below every limit."""
-    acc = np.array(acc, dtype=np.float64)
+    acc, dt_s = np.array(move.acc), move.dt_s
     acc[[0, -1]] = 0.0
     n = acc.shape[0] - 1
     if n < 2:
@@ -217,4 +218,5 @@ def enforce_end_state(acc, dt_s: float, distance_m) -> np.ndarray:
     dist = np.asarray(distance_m, dtype=np.float64).reshape(3)
     residual = w @ acc[1:-1] - np.stack([np.zeros(3), dist])  # (2, 3): v_n, x_n - d
     acc[1:-1] -= w.T @ (gram_inv @ residual)
-    return acc
+    acc.setflags(write=False)
+    return Move(acc, dt_s)

@@ -248,7 +248,7 @@ class _ForcedMotion(_ModalSignal):
 
     def __init__(self, model: ModalModel, move, states: np.ndarray, force: np.ndarray, layout=None):
         super().__init__(model, moving=True, layout=layout)
-        self.acc = move.acc
+        self.move = move
         self.states, self.force, self.dt_s = states, force, move.dt_s
         self.n_steps = states.shape[0] - 1
         _, acc_bound, _ = derivative_bounds(model, states, force, move.dt_s)  # (n, M): sup |q_i''|
@@ -263,7 +263,7 @@ class _ForcedMotion(_ModalSignal):
         """The coordinates of the layout's shapes for the modal q (T, M) at times t (T,):
         here q and the acceleration a(t) of the static residual (linear within a step, so
         that they add no curvature; a subclass may add others that are linear too)."""
-        return with_acceleration(self.model, q, acceleration_at(self.acc, self.dt_s, t))
+        return with_acceleration(self.model, q, acceleration_at(self.move, t))
 
     def curvature(self, a: np.ndarray, b: np.ndarray, weights: np.ndarray) -> np.ndarray:
         k = np.clip(np.floor(0.5 * (a + b) / self.dt_s).astype(np.int64), 0, self.n_steps - 1)

@@ -45,14 +45,11 @@ COLUMNS = (
 TURN_COLUMNS = ("turn_angle_rad", "turn_rate_rad_s", "turn_acc_rad_s2")
 
 
-def write_trajectory_csv(
-    path: str | os.PathLike, acc, dt_s: float | None = None, turn_acc_rad_s2=None
-) -> None:
-    """Write a :class:`~jaxflex._profile.Move` (or samples ``acc`` ((n+1, 3) m/s^2) at step
-    ``dt_s`` s) with velocity, position and jerk (module docstring), and with
-    ``turn_acc_rad_s2`` ((n+1,) rad/s^2, a turn about a fixed axis) the turn's angle, rate
-    and angular acceleration."""
-    move = as_move(acc, dt_s)
+def write_trajectory_csv(path: str | os.PathLike, move: Move, turn_acc_rad_s2=None) -> None:
+    """Write a :class:`~jaxflex._profile.Move` with velocity, position and jerk (module
+    docstring), and with ``turn_acc_rad_s2`` ((n+1,) rad/s^2, a turn about a fixed axis) the
+    turn's angle, rate and angular acceleration."""
+    move = as_move(move, name="move")
     acc, dt_s = move.acc, move.dt_s
     vel, pos = integrate(move)
     jerk = np.vstack([np.diff(acc, axis=0) / dt_s, np.zeros((1, 3))])

@@ -54,7 +54,7 @@ import numpy as np
 from jaxflex._deviation import deviation
 from jaxflex._engine import forced_states, free_states, padded_steps
 from jaxflex._pose import PosePath
-from jaxflex._profile import as_move, samples_at
+from jaxflex._profile import Move, as_move, samples_at
 from jaxflex._rotation import LEVI_CIVITA, require_rotation
 from jaxflex._rotation_residual import (
     load_coefficients,
@@ -124,6 +124,11 @@ class Turn:
     def dt_s(self) -> float:
         """The sample step (s), the path's."""
         return self.path.dt_s
+
+    @property
+    def move(self) -> Move:
+        """The pivot's translation: ``acc`` at the path's step, as a jaxflex._profile.Move."""
+        return Move(self.acc, self.dt_s)
 
 
 def body_loads(path: PosePath, acc_m_s2, gravity_m_s2, pivot_m, xp=np):

@@ -74,7 +74,7 @@ class _TurningMotion(_Motion):
     def __init__(self, model, obstacles, turn: Turn, half_thickness_m: float) -> None:
         path = turn.path
         self.model, self.obstacles, self.path = model, obstacles, path
-        self.acc, self.dt_s = turn.acc, path.dt_s
+        self.move, self.dt_s = turn.move, path.dt_s
         self.half = float(half_thickness_m)
         self.pivot = turn.pivot_m
         self.modes = np.asarray(model.shapes)
@@ -100,9 +100,9 @@ class _TurningMotion(_Motion):
         extra = extra[:, model.n_modes :]  # (n+1, M' - M) the linear coordinates
         self.coordinate_speed = np.hstack([speed, np.abs(np.diff(extra, axis=0)) / dt])
         self.coordinate_size = np.hstack([size, np.maximum(np.abs(extra[:-1]), np.abs(extra[1:]))])
-        pos, vel = kinematics_at(self.acc, dt, dt * np.arange(self.n_steps + 1))
+        pos, vel = kinematics_at(self.move, dt * np.arange(self.n_steps + 1))
         speed_path = np.linalg.norm(vel, axis=1)
-        acc_norm = np.linalg.norm(self.acc, axis=1)
+        acc_norm = np.linalg.norm(self.move.acc, axis=1)
         self.path_speed = np.maximum(speed_path[:-1], speed_path[1:]) + dt * np.maximum(
             acc_norm[:-1], acc_norm[1:]
         )
@@ -139,7 +139,7 @@ class _TurningMotion(_Motion):
     def during(self, t: np.ndarray, items: np.ndarray) -> np.ndarray:
         u = np.einsum("kcm,tm->tkc", self.shapes[items], self.coordinates(t))
         local = (self.base[items] - self.pivot)[None] + u
-        path = kinematics_at(self.acc, self.dt_s, t)[0]
+        path = kinematics_at(self.move, t)[0]
         return self._skins(self._world(local, path, rotations_between(self.path, t)))
 
     def during_bound(self, a, b, va, vb, items):
@@ -177,7 +177,7 @@ class _TurningMotion(_Motion):
             local[after] = self._after_local(t[after], items)
         local[rest] = self.rest[items]
         t_path = np.where(during, t, self.t_end)
-        path = kinematics_at(self.acc, self.dt_s, t_path)[0]
+        path = kinematics_at(self.move, t_path)[0]
         return self._world(local, path, rotations_between(self.path, t_path))
 
     def position(self, point: int, time_s: float) -> np.ndarray:

@@ -175,12 +175,12 @@ def _frame_chunk(scene: Scene, t: np.ndarray) -> dict:
     points = np.asarray(model.points)
     t_end = move.duration_s
     if scene.path is None:
-        positions = positions_at(model, move.acc, move.dt_s, t, scene.gravity_m_s2)
+        positions = positions_at(model, move, t, scene.gravity_m_s2)
         rotation = np.broadcast_to(np.eye(3), (len(t), 3, 3))
     else:
         positions = turning_positions_at(model, scene.turn, t)
         rotation = rotations_between(scene.path, np.minimum(t, t_end))
-    path = kinematics_at(move.acc, move.dt_s, np.minimum(t, t_end))[0]
+    path = kinematics_at(move, np.minimum(t, t_end))[0]
     pivot = np.asarray(scene.pivot_m, dtype=np.float64)
     rigid = pivot + path[:, None] + np.einsum("tab,kb->tka", rotation, points - pivot)
     displacement = positions - rigid
@@ -191,7 +191,7 @@ def _frame_chunk(scene: Scene, t: np.ndarray) -> dict:
     von_mises = None
     if model.stress is not None and scene.path is None:
         stress = model.stress.stress
-        y = outputs_at(model, stress, move.acc, move.dt_s, t, stress.offset(scene.gravity_m_s2))
+        y = outputs_at(model, stress, move, t, stress.offset(scene.gravity_m_s2))
         von_mises = VonMises(model.stress.n_points).values(y.reshape(len(t), -1, 6), None)
     distance = None
     if scene.obstacles:

@@ -230,8 +230,8 @@ class LoadFamily:
             return self._values(move, t, items)
 
     def _values(self, move: Move, t: np.ndarray, items: np.ndarray):
-        states = states_at(self.model, move.acc, move.dt_s, t)
-        a = acceleration_at(move.acc, move.dt_s, t)
+        states = states_at(self.model, move, t)
+        a = acceleration_at(move, t)
         r = self.functional.rows_per_item
         out = [np.zeros((len(t), 0))]
         for start in range(0, len(items), ITEM_BLOCK):
@@ -278,8 +278,8 @@ class LoadFamily:
         """The cuts of ``items`` at ``time_s`` (one state map for all of them)."""
         n, dt_s = move.n_steps, move.dt_s
         t = np.array([time_s])
-        states = states_at(self.model, move.acc, dt_s, t)
-        a = acceleration_at(move.acc, dt_s, t)
+        states = states_at(self.model, move, t)
+        a = acceleration_at(move, t)
         maps = state_maps(self.model, n, dt_s, time_s)  # (M, 2, n+1, 3)
         found = []
         for item in items:
@@ -327,7 +327,6 @@ class LoadFamily:
             self.outputs,
             self.functional,
             move,
-            move.dt_s,
             offset=self.offset,
             rtol=1e-5,
             limit=limit,
@@ -348,7 +347,7 @@ class LoadFamily:
         bound exceeds the largest load found."""
         t = np.asarray(t, dtype=np.float64)
         bounds = item_bounds(
-            self.model, self.outputs, self.functional, move.acc, move.dt_s, offset=self.offset,
+            self.model, self.outputs, self.functional, move, offset=self.offset,
             state_scale=self.state_scale,
         )  # fmt: skip
         order = np.argsort(-bounds, kind="stable")
@@ -396,16 +395,16 @@ def stress_discretisation(model) -> float | None:
     return None if error is None else float(error)
 
 
-def certified_distance(family, measure, *move, limit_m=None, **frame):
+def certified_distance(family, measure, move, *, limit_m=None, **frame):
     """The certified clearance of a distance family (this module's or optim.turn_cell's):
     ``measure`` (jaxflex.geometry.min_distance or turning_min_distance) of the family's model
-    and obstacles for the ``move`` arguments (a Move, or a jaxflex.response.Turn) and the
+    and obstacles for ``move`` (a Move, or a jaxflex.response.Turn) and the
     ``frame`` keywords (a straight move's gravity), with the family's skin half thickness
     (m), to 1e-6 m, decided against ``limit_m`` (m; None: located everywhere)."""
     return measure(
         family.model,
         family.obstacles,
-        *move,
+        move,
         **frame,
         half_thickness_m=family.half,
         atol=CERTIFY_ATOL_M,
@@ -436,7 +435,7 @@ class DistanceFamily:
     def positions(self, move: Move, t, points=None, coords=None) -> np.ndarray:
         """(T, P, 3) mid-surface positions of ``points`` (default all) at times ``t`` (s)
         during and after ``move`` (a Move)."""
-        return positions_at(self.model, move.acc, move.dt_s, t, self.gravity, points, coords)
+        return positions_at(self.model, move, t, self.gravity, points, coords)
 
     def scan(self, move: Move, axes) -> list[Row]:
         """Separating planes at the sampled closest approaches of ``move`` (a Move): the
@@ -514,7 +513,7 @@ class DistanceFamily:
 
     def _clearance(self, move: Move, limit_m: float | None) -> Clearance:
         return certified_distance(
-            self, min_distance, move, move.dt_s, gravity_m_s2=self.gravity, limit_m=limit_m
+            self, min_distance, move, gravity_m_s2=self.gravity, limit_m=limit_m
         )
 
     def holds(self, found: Clearance) -> bool:

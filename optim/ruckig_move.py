@@ -21,7 +21,7 @@ import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
 
 from jaxflex.errors import InputError
-from jaxflex.response import enforce_end_state
+from jaxflex.response import as_move, enforce_end_state
 from optim.kinematics import add_cuts, add_move, clean_distance, path_cuts
 from optim.limits import Limits
 from optim.lp import LPBuilder, solve_lp
@@ -129,7 +129,7 @@ def fit_to_grid(
             return None
         cuts = path_cuts(layout, sol.x, limits)
         if not cuts:
-            return enforce_end_state(layout.acceleration(sol.x), dt_s, distance)
+            return enforce_end_state(as_move(layout.acceleration(sol.x), dt_s), distance).acc
         add_cuts(builder, cuts)
     return None
 

@@ -551,8 +551,7 @@ def _attempt(
             added += len(rows)
         if added:
             continue
-        acc = enforce_end_state(acc, problem.dt_s, problem.distance_m)
-        move = as_move(acc, problem.dt_s, at_rest=True)  # checked once for every certificate
+        move = as_move(enforce_end_state(lp_move, problem.distance_m), at_rest=True)
         timings, failures = _certify(problem, move)
         if not failures:
             failures = _certify_families(problem, move)
@@ -560,7 +559,7 @@ def _attempt(
             return Attempt(
                 n_steps,
                 True,
-                acc,
+                move.acc,
                 timings,
                 value,
                 rounds,

@@ -16,6 +16,7 @@ from fem.bench.methods import METHODS, prepare, stable_substeps
 from fem.bench.metrics import compare, curve_errors, settle_from_samples
 from fem.bench.turning import format_turning, swivel
 from fem.bench.turning import run as turning_bench
+from jaxflex._profile import as_move
 from jaxflex._turning import simulate_turning
 from jaxflex.errors import InputError
 
@@ -76,17 +77,17 @@ def test_pareto_front_and_dominance():
 def test_methods_agree_where_exact_and_converge_where_not():
     model = random_model(seed=3, n_points=20, n_modes=5, f_min_hz=2.0, f_max_hz=30.0)
     dt_s = 0.01
-    acc = np.concatenate([smooth_move(60, dt_s), np.zeros((40, 3))])
-    exact = np.asarray(prepare("scan64", model, acc, dt_s)())
+    move = as_move(np.concatenate([smooth_move(60, dt_s), np.zeros((40, 3))]), dt_s)
+    exact = np.asarray(prepare("scan64", model, move)())
     # the convolution of R1 is the same linear map: equal to round-off
-    conv = np.asarray(prepare("convolution", model, acc, dt_s)())
+    conv = np.asarray(prepare("convolution", model, move)())
     np.testing.assert_allclose(conv, exact, rtol=0, atol=1e-10 * exact.max())
     # float32: coefficient round-off ~6e-8 amplified over 100 steps
-    f32 = np.asarray(prepare("scan32", model, acc, dt_s)(), dtype=float)
+    f32 = np.asarray(prepare("scan32", model, move)(), dtype=float)
     assert np.abs(f32 - exact).max() < 1e-4 * exact.max()
 
     def err(method, substeps):
-        dev = np.asarray(prepare(method, model, acc, dt_s, substeps)())
+        dev = np.asarray(prepare(method, model, move, substeps)())
         return np.abs(dev - exact).max() / exact.max()
 
     # Newmark and central difference are second order: halving h quarters the error
@@ -97,7 +98,7 @@ def test_methods_agree_where_exact_and_converge_where_not():
     s = stable_substeps(model, 0.05)
     assert 2 * np.pi * model.freq_hz.max() * 0.05 / s <= 1.8 + 1e-12
     with pytest.raises(InputError, match="method"):
-        prepare("euler", model, acc, dt_s)
+        prepare("euler", model, move)
 
 
 def test_knot_move_is_one_profile_at_every_swept_dt():

@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import jaxflex
+from jaxflex import as_move
 from jaxflex._cell import Box, Cell, HalfSpace, TriangleMesh, Via, rotation_from_degrees
 from jaxflex._collision import distances, gravity_offset, min_distance
 from jaxflex._engine import states_at
@@ -87,10 +88,10 @@ def dense_distances(model, obstacles, acc, until_s, step_s=1e-4):
     """The 0.1 ms grid of the tests: (times (T,), distances (T, K) of every point to the
     nearest obstacle)."""
     t = np.arange(0.0, until_s, step_s)
-    q = states_at(model, acc, DT, t)[..., 0]
+    q = states_at(model, as_move(acc, DT), t)[..., 0]
     u = np.einsum("kcm,tm->tkc", np.asarray(model.shapes), q)
     base = np.asarray(model.points) + gravity_offset(model, [0, 0, -9.81])
-    points = base[None] + kinematics_at(acc, DT, t)[0][:, None] + u
+    points = base[None] + kinematics_at(as_move(acc, DT), t)[0][:, None] + u
     d, _, _ = distances(obstacles, points.reshape(-1, 3))
     return t, d.reshape(points.shape[:2])
 
@@ -102,7 +103,7 @@ def test_min_distance_against_a_dense_grid(scene):
     value at the nearest sample: which point and time among near-equal minima is not
     asked)."""
     model, acc, obstacles = scene
-    found = min_distance(model, obstacles, acc, DT, atol=1e-6)
+    found = min_distance(model, obstacles, as_move(acc, DT), atol=1e-6)
     t, d = dense_distances(model, obstacles, acc, 6.0 + acc.shape[0] * DT)
     dense, resolution = d.min(), 2.0 * 5e-5
     assert found.bound_m <= dense

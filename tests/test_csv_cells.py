@@ -11,6 +11,7 @@ import numpy as np
 from conftest import smooth_move
 from sweep_cases import SPEC
 
+from jaxflex import as_move
 from jaxflex._trajectory_io import COLUMNS, write_trajectory_csv
 from optim.sweep import expand, parse_spec, read_table
 from optim.sweep.table import FORMULA_STARTS, table_rows, write_table
@@ -52,7 +53,7 @@ def test_results_table_escapes_formulas_and_reads_them_back(tmp_path):
 
 def test_trajectory_file_is_numbers_only(tmp_path):
     path = tmp_path / "trajectory.csv"
-    write_trajectory_csv(path, smooth_move(40, 0.01), 0.01)
+    write_trajectory_csv(path, as_move(smooth_move(40, 0.01), 0.01))
     header, *cells = path.read_text(encoding="utf-8").splitlines()
     assert header.split(",") == list(COLUMNS)
     values = np.array([[float(v) for v in line.split(",")] for line in cells])

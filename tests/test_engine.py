@@ -63,7 +63,7 @@ def test_states_at_continue_as_free_vibration(small_model):
     acc = smooth_move(25, dt_s)
     longer = engine.rest_padded(acc, 150)  # the move ends at 0.25 s, rest until 1.5 s
     reference = engine.modal_states(small_model, longer, dt_s, xp=np)
-    on_grid = engine.states_at(small_model, acc, dt_s, dt_s * np.arange(longer.shape[0]))
+    on_grid = engine.states_at(small_model, as_move(acc, dt_s), dt_s * np.arange(longer.shape[0]))
     _close(on_grid, reference)
 
 

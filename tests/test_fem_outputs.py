@@ -9,6 +9,7 @@ from closed_forms import ss_plate_stress_error
 import fem
 import jaxflex
 from fem.outputs import reaction_outputs, stress_outputs
+from jaxflex import as_move
 from jaxflex._deviation import outputs_at
 
 DT = 0.01
@@ -59,8 +60,8 @@ def test_reactions_add_up_to_the_part_mass(plate_result):
     # the same identity over a move, at the samples: sum F = m a + sum_i Gamma_i q_i''
     acc = _sine_move()
     t = DT * np.arange(acc.shape[0])
-    forces = outputs_at(model, cups.reaction, acc, DT, t).reshape(len(t), -1, 6)[..., :3]
-    states = jaxflex._engine.states_at(model, acc, DT, t)
+    forces = outputs_at(model, cups.reaction, as_move(acc, DT), t).reshape(len(t), -1, 6)[..., :3]
+    states = jaxflex._engine.states_at(model, as_move(acc, DT), t)
     omega, zeta = np.asarray(model.omega_rad_s), np.asarray(model.zeta)
     qdd = -acc @ gamma.T - 2 * zeta * omega * states[..., 1] - omega**2 * states[..., 0]
     np.testing.assert_allclose(
@@ -82,8 +83,8 @@ def test_a_stiff_part_loads_its_cups_with_m_a():
         model = result.to_modal_model(points=10)
         acc = _sine_move()
         t = np.linspace(0, 0.3, 61)
-        forces = outputs_at(model, model.cups.reaction, acc, DT, t).reshape(len(t), 4, 6)
-        expected = result.mass_kg * jaxflex._profile.acceleration_at(acc, DT, t)
+        forces = outputs_at(model, model.cups.reaction, as_move(acc, DT), t).reshape(len(t), 4, 6)
+        expected = result.mass_kg * jaxflex._profile.acceleration_at(as_move(acc, DT), t)
         np.testing.assert_allclose(forces[..., :3].sum(axis=1), expected, atol=1e-6 * 20)
 
 
@@ -107,13 +108,15 @@ def test_reactions_and_stress_match_the_full_order_transient():
         output_substeps=4,
         outputs={"cups": reaction_outputs(result), "stress": stress_outputs(result)[1]},
     )
-    ours = outputs_at(model, model.cups.reaction, acc, DT, full.t_s)
+    ours = outputs_at(model, model.cups.reaction, as_move(acc, DT), full.t_s)
     ref = full.outputs["cups"]
     for rows in (slice(0, 3), slice(3, 6)):  # forces, moments
         a = ours.reshape(len(full.t_s), 4, 6)[..., rows]
         b = ref.reshape(len(full.t_s), 4, 6)[..., rows]
         assert np.abs(a - b).max() <= 0.01 * np.abs(b).max()
-    vm_ours = von_mises(outputs_at(model, model.stress.stress, acc, DT, full.t_s).reshape(-1, 6))
+    vm_ours = von_mises(
+        outputs_at(model, model.stress.stress, as_move(acc, DT), full.t_s).reshape(-1, 6)
+    )
     vm_ref = von_mises(full.outputs["stress"].reshape(-1, 6))
     assert abs(vm_ours.max() / vm_ref.max() - 1) <= 0.02
 

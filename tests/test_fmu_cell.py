@@ -17,6 +17,7 @@ import jaxflex
 from fmu import export_fmu
 from fmu.master import Session
 from fmu.options import CellOutputs, Fmi
+from jaxflex import as_move
 from jaxflex._cell import Box, Cell, HalfSpace, TriangleMesh, rotation_from_degrees
 from jaxflex._collision import distances, positions_at
 from jaxflex._deviation import outputs_at
@@ -47,14 +48,14 @@ def case():
 def _reference(model, cell, acc, t):
     posed = cell.posed(model)
     g = cell.gravity_m_s2
-    points = positions_at(posed, acc, DT, t, g)  # with the static residual's D a(t)
+    points = positions_at(posed, as_move(acc, DT), t, g)  # with the static residual's D a(t)
     dist = distances(cell.obstacles, points.reshape(-1, 3))[0].reshape(points.shape[:2])
     dist -= 0.5 * posed.meta["part"]["thickness_m"]  # the skins
     cups = CupUtilisation(posed.cups, 1.7)
-    y = outputs_at(posed, posed.cups.reaction, acc, DT, t, posed.cups.reaction.offset(g))
+    y = outputs_at(posed, posed.cups.reaction, as_move(acc, DT), t, posed.cups.reaction.offset(g))
     util = cups.values(y.reshape(len(t), -1, 6), np.arange(cups.n_items))
     vm = VonMises(posed.stress.n_points)
-    y = outputs_at(posed, posed.stress.stress, acc, DT, t, posed.stress.stress.offset(g))
+    y = outputs_at(posed, posed.stress.stress, as_move(acc, DT), t, posed.stress.stress.offset(g))
     stress = vm.values(y.reshape(len(t), -1, 6), np.arange(vm.n_items))
     return dist, util, stress
 

@@ -11,6 +11,7 @@ from test_fmu_export import smooth_profile
 
 from fmu.ssp import read_parameters
 from fmu.verify import read_fmu_resource
+from jaxflex import as_move
 from jaxflex._fileset import writing
 from jaxflex._trajectory_io import write_trajectory_csv
 from jaxflex.cli import main
@@ -43,7 +44,7 @@ def inputs(tmp_path_factory):
 def write_result_set(folder, acc, report) -> None:
     """trajectory.csv and report.json as the one set `jaxflex optimize -o DIR` writes."""
     with writing(folder, RESULT_KIND, RESULT_FILES) as files:
-        files.add("trajectory.csv", lambda path: write_trajectory_csv(path, acc, DT))
+        files.add("trajectory.csv", lambda path: write_trajectory_csv(path, as_move(acc, DT)))
         files.add_text("report.json", json.dumps(report))
 
 
@@ -70,7 +71,7 @@ def test_export_from_an_optimize_folder_verifies_the_fmu(inputs, capsys):
 def test_export_from_a_bare_csv_with_fmi3(inputs, tmp_path, capsys):
     root, acc, _ = inputs
     csv = tmp_path / "move.csv"
-    write_trajectory_csv(csv, acc, DT)
+    write_trajectory_csv(csv, as_move(acc, DT))
     out = tmp_path / "p3.fmu"
     argv = ["export", str(root / "model.npz"), "--fmi", "3", "--trajectory", str(csv)]
     assert main([*argv, "--threshold", "0.03", "--no-verify", "-o", str(out)]) == 0

@@ -44,6 +44,7 @@ from fmu.resource import decode_resource
 from fmu.toolchain import host_target
 from fmu.variables import POSE_INPUT_NAMES
 from fmu.verify import read_fmu_resource
+from jaxflex import as_move
 from jaxflex._cell import Box, Cell, HalfSpace
 from jaxflex._collision import distances
 from jaxflex._pose import fixed_axis_path, turn_acceleration
@@ -490,7 +491,7 @@ def _world_points(model, path, acc):
         + np.einsum("kcm,tm->tkc", np.asarray(model.static_residual), inputs.base)
         + np.einsum("kcm,tm->tkc", rotation_residual(model), inputs.coefficients)
     )
-    s = kinematics_at(acc, DT, inputs.t_s)[0]
+    s = kinematics_at(as_move(acc, DT), inputs.t_s)[0]
     local = np.asarray(model.points)[None] - PIVOT + u
     return PIVOT + s[:, None] + np.einsum("tab,tkb->tka", path.rotation, local)
 

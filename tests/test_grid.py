@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 import jaxflex
 import optim
+from jaxflex import as_move
 from jaxflex._analytic import simply_supported_plate
 from jaxflex._grid import grid_time, grid_times, grid_values
 from jaxflex._trajectory_io import COLUMNS, read_trajectory_csv, write_trajectory_csv
@@ -38,7 +39,7 @@ def test_trajectory_file_has_exact_times_and_the_jerk(tmp_path):
     dt = 0.01
     acc = jaxflex.jerk_limited_move([0.3, 0.0, 1.0], vmax=2, amax=10, jmax=100, dt_s=dt)
     path = tmp_path / "trajectory.csv"
-    write_trajectory_csv(path, acc, dt)
+    write_trajectory_csv(path, as_move(acc, dt))
     lines = path.read_text().splitlines()
     assert lines[0].split(",") == list(COLUMNS)
     n = len(acc) - 1
@@ -50,7 +51,7 @@ def test_trajectory_file_has_exact_times_and_the_jerk(tmp_path):
     read = read_trajectory_csv(path)
     np.testing.assert_array_equal(read.acc, acc)  # shortest round-trip decimals: exact
     assert read.dt_s == dt  # the step the file was written with, exactly
-    write_trajectory_csv(path, acc, 1 / 300)  # a step without a short decimal
+    write_trajectory_csv(path, as_move(acc, 1 / 300))  # a step without a short decimal
     assert read_trajectory_csv(path).dt_s == pytest.approx(1 / 300, rel=1e-12)
 
 

@@ -11,6 +11,7 @@ import pytest
 import fem
 import jaxflex
 import optim
+from jaxflex import as_move
 from jaxflex._cell import Box, Cell, HalfSpace, TriangleMesh
 from jaxflex._collision import distances, positions_at
 from jaxflex._profile import kinematics_at
@@ -36,8 +37,8 @@ def _motion(model, cell, distance_m, duration_s):
     acc = jaxflex.jerk_limited_move(distance_m, LIMITS.vmax, LIMITS.amax, LIMITS.jmax, DT)
     posed = cell.posed(model)
     t = np.arange(0.0, 2 * duration_s, DT / 4)
-    exact = positions_at(posed, acc, DT, t, cell.gravity_m_s2)
-    rigid = np.asarray(posed.points)[None] + kinematics_at(acc, DT, t)[0][:, None]
+    exact = positions_at(posed, as_move(acc, DT), t, cell.gravity_m_s2)
+    rigid = np.asarray(posed.points)[None] + kinematics_at(as_move(acc, DT), t)[0][:, None]
     return acc, exact, rigid
 
 

@@ -182,7 +182,7 @@ def test_press_opening_via_point_move(model_all_nodes, fe_result, press_result):
     assert baseline.constraints_ok
     assert result.cycle_time_s < baseline.cycle_time_s
     straight = kinematic_floor_move(cell.distance_m, LIMITS, DT, 1000).acc
-    assert min_distance(cell.posed(model), cell.obstacles, straight, DT).distance_m < 0
+    assert min_distance(cell.posed(model), cell.obstacles, as_move(straight, DT)).distance_m < 0
     report = result.report()
     assert report["frame"] == "cell" and report["constraints"][0]["obstacle"] == "lower die"
 
@@ -222,7 +222,7 @@ def test_pruned_distance_agrees_with_every_point_at_every_time(model_all_nodes, 
     rows = 0
     for move in _pruning_moves(press_result, cell):
         t = check_times(model, move.n_steps, DT)
-        every = positions_at(model, move.acc, DT, t, GRAVITY)  # (T, K, 3)
+        every = positions_at(model, move, t, GRAVITY)  # (T, K, 3)
         dense = distances(cell.obstacles, every.reshape(-1, 3))[0].reshape(every.shape[:2])
         dense -= 0.5e-3
         expected = [(t[j], dense[j, k]) for j, k in _local_peaks(-dense, -threshold)]

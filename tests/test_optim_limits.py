@@ -105,14 +105,15 @@ def test_end_state_correction_is_exact_and_minimal():
     acc = rng.normal(size=(41, 3))
     acc[[0, -1]] = 0
     target = np.array([0.2, -0.1, 0.05])
-    fixed = enforce_end_state(acc, 0.01, target)
-    vel, pos = integrate(fixed, 0.01)
+    fixed = enforce_end_state(as_move(acc, 0.01), target)
+    assert fixed.at_rest and fixed.dt_s == 0.01
+    vel, pos = integrate(fixed)
     # exact up to float64 round-off of sums of 40 O(1) terms
     np.testing.assert_allclose(vel[-1], 0, atol=1e-14)
     np.testing.assert_allclose(pos[-1], target, atol=1e-14)
     # minimal: the change lies in the row space of the two end functionals (least norm)
     w = end_weights(40, 0.01)[:, 1:-1]
-    change = (fixed - acc)[1:-1]
+    change = (fixed.acc - acc)[1:-1]
     projector = w.T @ np.linalg.solve(w @ w.T, w)
     np.testing.assert_allclose(projector @ change, change, atol=1e-9)
 

@@ -153,11 +153,11 @@ def test_posed_model_gives_the_rotated_response(model):
     np.testing.assert_allclose(
         np.asarray(posed.points), np.asarray(model.points) @ rotation.T + [1, 2, 3]
     )
-    ya = outputs_at(model, model.cups.reaction, acc_part, DT, t).reshape(len(t), -1, 3)
-    yb = outputs_at(posed, posed.cups.reaction, acc_cell, DT, t).reshape(len(t), -1, 3)
+    ya = outputs_at(model, model.cups.reaction, as_move(acc_part, DT), t).reshape(len(t), -1, 3)
+    yb = outputs_at(posed, posed.cups.reaction, as_move(acc_cell, DT), t).reshape(len(t), -1, 3)
     np.testing.assert_allclose(yb, ya @ rotation.T, atol=1e-9 * np.abs(ya).max())
-    sa = outputs_at(model, model.stress.stress, acc_part, DT, t).reshape(len(t), -1, 6)
-    sb = outputs_at(posed, posed.stress.stress, acc_cell, DT, t).reshape(len(t), -1, 6)
+    sa = outputs_at(model, model.stress.stress, as_move(acc_part, DT), t).reshape(len(t), -1, 6)
+    sb = outputs_at(posed, posed.stress.stress, as_move(acc_cell, DT), t).reshape(len(t), -1, 6)
     np.testing.assert_allclose(sb, sa @ voigt_rotation(rotation).T, atol=1e-9 * np.abs(sa).max())
     vm = VonMises(5)
     np.testing.assert_allclose(vm.values(sb, np.arange(5)), vm.values(sa, np.arange(5)), rtol=1e-9)
@@ -165,7 +165,9 @@ def test_posed_model_gives_the_rotated_response(model):
 
 def _dense_max(model, outputs, functional, acc, offset, until_s):
     t = np.arange(0.0, until_s, 2e-5)
-    y = outputs_at(model, outputs, acc, DT, t, offset).reshape(len(t), functional.n_items, -1)
+    y = outputs_at(model, outputs, as_move(acc, DT), t, offset).reshape(
+        len(t), functional.n_items, -1
+    )
     values = functional.values(y, np.arange(functional.n_items))
     return values.max(), t[np.unravel_index(np.argmax(values), values.shape)[0]]
 
@@ -187,7 +189,7 @@ def test_certified_peak_against_a_dense_grid(model, kind):
     of the peak) below the value."""
     acc = smooth_move(40, DT)
     outputs, functional, offset = _load(model, kind)
-    peak = output_peak(model, outputs, functional, acc, DT, offset=offset, rtol=1e-6)
+    peak = output_peak(model, outputs, functional, as_move(acc, DT), offset=offset, rtol=1e-6)
     dense, when = _dense_max(model, outputs, functional, acc, offset, 4.4)
     assert peak.value <= peak.bound
     assert dense <= peak.bound
@@ -205,7 +207,9 @@ def test_outputs_above_against_every_item_at_every_time(model, kind, fraction):
     acc = smooth_move(40, DT)
     outputs, functional, offset = _load(model, kind)
     t = np.r_[np.arange(0, 40 * 8 + 1) * DT / 8, 40 * DT + np.arange(1, 301) * 0.01]
-    y = outputs_at(model, outputs, acc, DT, t, offset).reshape(len(t), functional.n_items, -1)
+    y = outputs_at(model, outputs, as_move(acc, DT), t, offset).reshape(
+        len(t), functional.n_items, -1
+    )
     dense = functional.values(y, np.arange(functional.n_items))  # (T, I)
     above = fraction * dense.max()
     move = as_move(acc, DT, at_rest=True)
@@ -226,7 +230,7 @@ def test_peak_of_a_static_load_is_its_limit(model):
     outputs = model.cups.reaction
     functional = CupUtilisation(model.cups)
     offset = outputs.offset([0.0, 0.0, -9.81])
-    peak = output_peak(model, outputs, functional, acc, DT, offset=offset)
+    peak = output_peak(model, outputs, functional, as_move(acc, DT), offset=offset)
     expected = functional.values(offset.reshape(1, 2, 6), np.arange(2)).max()
     assert peak.value == pytest.approx(expected, rel=1e-12)
 

@@ -18,6 +18,7 @@ from test_collision import dense_distances
 from test_outputs import _dense_max, with_outputs
 
 import jaxflex
+from jaxflex import as_move
 from jaxflex._cell import Box, HalfSpace
 from jaxflex._collision import min_distance
 from jaxflex._engine import derivative_bounds, modal_forces, modal_states, states_at
@@ -42,7 +43,7 @@ def test_derivative_bounds_hold_between_the_samples(stiff):
     force = modal_forces(stiff, acc, np)
     bounds = derivative_bounds(stiff, states, force, DT)
     t = np.arange(0.0, 40 * DT, 2e-6)
-    x = states_at(stiff, acc, DT, t)
+    x = states_at(stiff, as_move(acc, DT), t)
     omega, zeta = np.asarray(stiff.omega_rad_s), np.asarray(stiff.zeta)
     k = np.minimum((t / DT).astype(int), 39)
     w = t / DT - k
@@ -64,7 +65,7 @@ def test_stiff_peak_is_certified_with_few_evaluations(stiff):
     acc = smooth_move(40, DT)
     outputs, functional = stiff.cups.reaction, CupUtilisation(stiff.cups)
     offset = outputs.offset([0.0, 0.0, -9.81])
-    peak = output_peak(stiff, outputs, functional, acc, DT, offset=offset, rtol=1e-6)
+    peak = output_peak(stiff, outputs, functional, as_move(acc, DT), offset=offset, rtol=1e-6)
     dense, _ = _dense_max(stiff, outputs, functional, acc, offset, 0.45)
     assert dense <= peak.bound
     assert peak.value >= dense * (1 - 1e-5)
@@ -79,7 +80,7 @@ def test_stiff_distance_is_certified(stiff):
     model = stiff.posed(np.eye(3), [0.0, 0.0, 1.0])
     acc = jaxflex.jerk_limited_move([1.2, 0.3, -0.4], 2, 10, 100, DT)
     obstacles = (Box([1.0, 0.8, 1.2], [0.4, 0.3, 0.6], name="post"), HalfSpace([0, 0, 1], 0.0))
-    found = min_distance(model, obstacles, acc, DT, atol=1e-6)
+    found = min_distance(model, obstacles, as_move(acc, DT), atol=1e-6)
     dense = dense_distances(model, obstacles, acc, acc.shape[0] * DT + 0.05)[1].min()
     assert found.bound_m <= dense
     assert found.distance_m <= dense + 1e-6

@@ -15,6 +15,7 @@ from sheet_parts import sheet_moments
 import fem
 import jaxflex
 from fem.elements.solid import SolidOutputs
+from jaxflex import as_move
 from jaxflex._cell import Box, HalfSpace
 from jaxflex._outputs import voigt_rotation
 from jaxflex._pose import axis_rotation, fixed_axis_path, turn_acceleration
@@ -270,7 +271,7 @@ def _brute_force_distance(model, obstacles, path, acc, pivot, half, extend_s, re
     coords = np.concatenate([inputs.q, inputs.base, inputs.coefficients], axis=1)
     n_all = len(inputs.t_s)
     rot = np.concatenate([fine.rotation, np.repeat(fine.rotation[-1:], n_all - len(grid), 0)])
-    path_pos = kinematics_at(acc, DT, inputs.t_s)[0]
+    path_pos = kinematics_at(as_move(acc, DT), inputs.t_s)[0]
     points = np.asarray(model.points)
     best = np.inf
     for begin in range(0, n_all, chunk):

@@ -24,7 +24,7 @@ from fem.bench.methods import METHODS, prepare, stable_substeps
 from fem.bench.metrics import compare, curve_errors, settle_from_samples
 from fem.bench.timing import best_time_s
 from jaxflex import simulate
-from jaxflex.response import analyze_move, upsample, voxel_downsample
+from jaxflex.response import analyze_move, as_move, upsample, voxel_downsample
 from jaxflex.runtime import progress_bar, step
 
 OURS = ("scan64", "scan32")
@@ -128,12 +128,12 @@ def _method_points(spec, model, dt_s: float, run: dict, min_time_s: float, refer
     """One accuracy-time point per method (and substep variant) for one model and dt.
     ``reference`` is (t_s, deviation_m, threshold_m, settle_s) of the FE reference."""
     ref_t_s, ref_dev, threshold_m, settle_ref = reference
-    acc = move_of(spec, dt_s)
-    t_s = dt_s * np.arange(acc.shape[0])
+    move = as_move(move_of(spec, dt_s), dt_s)
+    t_s = dt_s * np.arange(move.n_steps + 1)
     points = []
     for method in METHODS:
         for substeps in _variants(method, model, dt_s, spec):
-            fn = prepare(method, model, acc, dt_s, substeps)
+            fn = prepare(method, model, move, substeps)
             seconds = best_time_s(fn, repeats=3, min_total_s=min_time_s)
             dev = np.asarray(fn(), dtype=float)
             point = {
@@ -147,7 +147,7 @@ def _method_points(spec, model, dt_s: float, run: dict, min_time_s: float, refer
             }
             if method == "scan64":
                 tick = time.perf_counter()
-                report = analyze_move(model, acc, dt_s, threshold_m)
+                report = analyze_move(model, move, threshold_m=threshold_m)
                 point["settle_exact_s"] = report.settle_time_s
                 point["settle_exact_error_s"] = report.settle_time_s - settle_ref
                 point["settle_exact_time_s"] = time.perf_counter() - tick

@@ -34,7 +34,14 @@ from jaxflex.reference import (
     newmark_modal,
     unit_response,
 )
-from jaxflex.response import deviation, move_deviation, on_device, upsample, with_acceleration
+from jaxflex.response import (
+    Move,
+    deviation,
+    move_deviation,
+    on_device,
+    upsample,
+    with_acceleration,
+)
 
 METHODS = ("scan64", "scan32", "convolution", "newmark", "central_difference")
 LABELS = {
@@ -66,12 +73,10 @@ def stable_substeps(model: ModalModel, dt_s: float, margin: float = CD_STABILITY
     return max(1, math.ceil(omega_max * dt_s / (2.0 * margin)))
 
 
-def prepare(
-    method: str, model: ModalModel, acc, dt_s: float, substeps: int = 1
-) -> Callable[[], object]:
-    """Zero-argument callable computing the deviation (n+1,) of ``method`` (see module doc);
-    ``substeps`` only applies to the time integrators."""
-    acc = np.asarray(acc, dtype=float)
+def prepare(method: str, model: ModalModel, move: Move, substeps: int = 1) -> Callable[[], object]:
+    """Zero-argument callable computing the deviation (n+1,) of ``method`` (see module doc)
+    under ``move``; ``substeps`` only applies to the time integrators."""
+    acc, dt_s = move.acc, move.dt_s
     if method in ("scan64", "scan32"):
         dtype = "float64" if method == "scan64" else "float32"
         dev_model, blocks = on_device(model, dtype)

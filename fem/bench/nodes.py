@@ -37,7 +37,7 @@ from jaxflex.defaults import DT_S, THRESHOLD_M
 from jaxflex.files import write_text_atomic
 from jaxflex.model import ModalModel
 from jaxflex.reference import simply_supported_plate
-from jaxflex.response import analyze_move, move_deviation, on_device
+from jaxflex.response import analyze_move, as_move, move_deviation, on_device
 from jaxflex.runtime import step
 
 RADII_M = (2.5, 1.2)
@@ -158,10 +158,6 @@ def run_scale(
     return out
 
 
-def _settle(model: ModalModel, acc, dt_s: float, threshold_m: float) -> float:
-    return analyze_move(model, acc, dt_s, threshold_m).settle_time_s
-
-
 def run_reduction(
     scene: str = "plate",
     counts: tuple[int, ...] = (1_099, 300, 100),
@@ -178,8 +174,11 @@ def run_reduction(
     part, supports = built_in(scene, mesh_size=mesh_size_m)
     result = modal_analysis(part, supports, n_modes=n_modes, zeta=0.02, progress=False)
     dt = DT_S
-    acc = sine_move(80, dt)
-    acc_j = jnp.asarray(np.concatenate([acc, np.zeros((120, 3))]))
+    move = as_move(sine_move(80, dt), dt)
+    acc_j = jnp.asarray(np.concatenate([move.acc, np.zeros((120, 3))]))
+
+    def settle_s(model: ModalModel, threshold_m: float) -> float:
+        return analyze_move(model, move, threshold_m=threshold_m).settle_time_s
 
     @jax.jit
     def forward(m, b, a):
@@ -193,9 +192,9 @@ def run_reduction(
             "n_points": model.n_points,
             "peak_deviation_m": peak,
             "threshold_m": threshold_m,
-            "settle_time_s": _settle(model, acc, dt, threshold_m),
+            "settle_time_s": settle_s(model, threshold_m),
             "forward_ms": 1e3 * best_time_s(lambda: forward(device_model, blocks, acc_j)),
-            "settle_ms": 1e3 * best_time_s(lambda: _settle(model, acc, dt, threshold_m), repeats=3),
+            "settle_ms": 1e3 * best_time_s(lambda: settle_s(model, threshold_m), repeats=3),
         }
 
     progress(f"reduction study: {scene} at every node ...")

@@ -100,7 +100,7 @@ def press() -> dict:
     )
     wall, cpu = time.perf_counter() - tick, time.process_time() - cpu
     (baseline,) = result.baselines.entries
-    straight = kinematic_floor_move(cell.distance_m, LIMITS, DT, 3000).acc
+    straight = as_move(kinematic_floor_move(cell.distance_m, LIMITS, DT, 3000).acc, DT)
     posed = cell.posed(model)
     return {
         "model": repr(model),
@@ -120,9 +120,7 @@ def press() -> dict:
             "distance": baseline.constraints[0],
         },
         "kinematic_floor_s": result.baselines.kinematic_floor_s,
-        "straight_move_min_distance_m": min_distance(
-            posed, cell.obstacles, straight, DT
-        ).distance_m,
+        "straight_move_min_distance_m": min_distance(posed, cell.obstacles, straight).distance_m,
     }
 
 
@@ -135,14 +133,15 @@ def accuracy() -> dict:
     acc = np.zeros((21, 3))
     acc[:, :] = np.outer(np.sin(2 * np.pi * np.arange(21) / 20), [10.0, -5.0, 20.0])
     acc[[0, -1]] = 0
+    move = as_move(acc, DT)
     for name, part in (
         ("plate", fem.rectangular_plate(0.6, 0.4, 1e-3, stiff, 0.05)),
         ("panel", fem.curved_panel(0.6, 0.4, 1e-3, stiff, 0.1)),
     ):
         result = fem.modal_analysis(part, cups, n_modes=6, zeta=0.02)
         model = result.to_modal_model(points=10)
-        forces = outputs_at(model, model.cups.reaction, acc, DT, t).reshape(len(t), 4, 6)
-        expected = result.mass_kg * acceleration_at(acc, DT, t)
+        forces = outputs_at(model, model.cups.reaction, move, t).reshape(len(t), 4, 6)
+        expected = result.mass_kg * acceleration_at(move, t)
         error = np.abs(forces[..., :3].sum(axis=1) - expected).max()
         out[f"stiff_{name}_sum_error_rel_peak"] = float(error / np.abs(expected).max())
     part = fem.rectangular_plate(0.6, 0.4, 1e-3, "steel", 0.025)
@@ -151,15 +150,15 @@ def accuracy() -> dict:
         result = fem.modal_analysis(part, cups, n_modes=n_modes, zeta=damping)
         model = result.to_modal_model(points=30)
         full = fem.transient_reference(
-            result, as_move(acc, DT), points=model.points, extend_s=0.1, substeps=100,
+            result, move, points=model.points, extend_s=0.1, substeps=100,
             output_substeps=4,
             outputs={"cups": reaction_outputs(result), "stress": stress_outputs(result)[1]},
         )  # fmt: skip
-        ours = outputs_at(model, model.cups.reaction, acc, DT, full.t_s).reshape(-1, 4, 6)
+        ours = outputs_at(model, model.cups.reaction, move, full.t_s).reshape(-1, 4, 6)
         ref = full.outputs["cups"].reshape(ours.shape)
         vm = VonMises(model.stress.n_points)
         items = np.arange(vm.n_items)
-        s_ours = outputs_at(model, model.stress.stress, acc, DT, full.t_s)
+        s_ours = outputs_at(model, model.stress.stress, move, full.t_s)
         s_ref = full.outputs["stress"]
         vm_ours = vm.values(s_ours.reshape(len(full.t_s), -1, 6), items)
         vm_ref = vm.values(s_ref.reshape(len(full.t_s), -1, 6), items)
@@ -177,13 +176,13 @@ def accuracy() -> dict:
     return out
 
 
-def _peaks(model, acc):
+def _peaks(model, move):
     cup = output_peak(
-        model, model.cups.reaction, CupUtilisation(model.cups, 1.0), acc, DT,
+        model, model.cups.reaction, CupUtilisation(model.cups, 1.0), move,
         offset=model.cups.reaction.offset(GRAVITY),
     )  # fmt: skip
     stress = output_peak(
-        model, model.stress.stress, VonMises(model.stress.n_points), acc, DT,
+        model, model.stress.stress, VonMises(model.stress.n_points), move,
         offset=model.stress.stress.offset(GRAVITY),
     )  # fmt: skip
     return cup.value, stress.value
@@ -211,7 +210,7 @@ def constraints() -> dict:
     # the first run compiles the engine's JAX functions: not part of any constraint's cost
     optim.optimize(model, distance, LIMITS, DT, THRESHOLD, search=optim.Search(progress=False))
     plain = timed("none")
-    cup0, stress0 = _peaks(model, plain.acc)
+    cup0, stress0 = _peaks(model, plain.move)
     # a ceiling 15 mm above the part's highest point at rest at B
     top = np.asarray(model.points)[:, 2].max() + 1.0
     ceiling = Cell(
