@@ -81,8 +81,8 @@ class SparseMatrix:
 
     def kept(self, keep: np.ndarray) -> SparseMatrix:
         """The matrix of the stored entries where ``keep`` (nnz,) bool is True."""
-        start = np.zeros_like(self.start)
-        np.cumsum(np.bincount(self.columns()[keep], minlength=self.shape[1]), out=start[1:])
+        kept_before = np.concatenate([[0], np.cumsum(keep, dtype=np.int64)])  # (nnz + 1,)
+        start = kept_before[self.start].astype(self.start.dtype)
         return SparseMatrix(self.shape, start, self.index[keep], self.data[keep])
 
     def toarray(self) -> np.ndarray:
