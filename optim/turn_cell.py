@@ -161,7 +161,7 @@ class TurnMotion:
 
     def __init__(self, model, turn: Turn, during, tau) -> None:
         self.model, self.turn, self.dt_s = model, turn, turn.dt_s
-        self.path, dt_s = turn.path, turn.dt_s
+        self.acc, self.path, dt_s = turn.acc, turn.path, turn.dt_s
         self.n_steps, self.t_end = turn.path.n_steps, turn.path.n_steps * dt_s
         inputs = turning_inputs(model, turn)
         gravity = inputs.gravity_body_m_s2
