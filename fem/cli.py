@@ -678,7 +678,7 @@ def _write(args, model, result, sized=None) -> None:
 def _move(args):
     """The Move at hand from --trajectory or --distance and the limits."""
     from jaxflex.files import read_trajectory_csv
-    from jaxflex.response import as_move, jerk_limited_move
+    from jaxflex.response import jerk_limited_move
 
     for name, _unit, _default in AXIS_LIMITS:
         if getattr(args, name) is not None and args.distance is None:
@@ -691,7 +691,7 @@ def _move(args):
     if args.distance is None:
         raise InputError("--tolerance: give the move, --trajectory FILE or --distance X Y Z")
     dt_s = DT_S if args.dt is None else args.dt
-    return as_move(jerk_limited_move(args.distance, dt_s=dt_s, **limits), dt_s)
+    return jerk_limited_move(args.distance, dt_s=dt_s, **limits)
 
 
 def _threshold_advice(model, move: Move, threshold_m: float) -> None:

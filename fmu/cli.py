@@ -220,7 +220,7 @@ def turning_move(path: Path, move: Move, case: dict | None, pivot_m) -> Turn:
     if turn_acc is None and spec is None:  # a straight move: the part keeps its orientation
         pose = fixed_axis_path("z", np.zeros(move.n_steps + 1), move.dt_s)
         pivot = (0.0, 0.0, 0.0) if pivot_m is None else pivot_m
-        return Turn(pose, move.acc, pivot_m=pivot, gravity_m_s2=DEFAULT_GRAVITY_M_S2)
+        return Turn(pose, move, pivot_m=pivot, gravity_m_s2=DEFAULT_GRAVITY_M_S2)
     if turn_acc is None:
         raise InputError(
             "--trajectory: a turning move needs the turn columns of trajectory.csv and the turn "

@@ -102,7 +102,7 @@ def turn_acceleration(
     (jaxflex._profile.jerk_limited_move along one axis)."""
     limits = [check_positive(n, v) for n, v in (("rate", rate_rad_s), ("acc", acc_rad_s2))]
     jerk = check_positive("jerk", jerk_rad_s3)
-    return jerk_limited_move([float(angle_rad), 0.0, 0.0], *limits, jerk, dt_s)[:, 0]
+    return jerk_limited_move([float(angle_rad), 0.0, 0.0], *limits, jerk, dt_s).acc[:, 0]
 
 
 def as_rotation(value, name: str) -> np.ndarray:

@@ -149,10 +149,11 @@ def path_limit(direction: np.ndarray, per_axis: np.ndarray) -> float:
     return float(np.min(per_axis[moving] / np.abs(direction[moving])))
 
 
-def jerk_limited_move(distance_m, vmax, amax, jmax, dt_s: float) -> np.ndarray:
+def jerk_limited_move(distance_m, vmax, amax, jmax, dt_s: float) -> Move:
     """Shortest straight-line move with a symmetric trapezoidal acceleration whose corners lie
     on the dt grid, within per-axis |v| <= vmax (m/s), |a| <= amax (m/s^2), |jerk| <= jmax
-    (m/s^3). Returns (n+1, 3) samples; the move ends exactly at ``distance_m`` (3,) at rest.
+    (m/s^3): a :class:`Move` of (n+1, 3) samples at step ``dt_s`` (s) that ends exactly at
+    ``distance_m`` (3,) m, at rest.
 
     Corners on the grid make the piecewise-linear samples represent the profile exactly; the
     price is at most a few steps over the continuous time-optimal motion (see optim issue
@@ -184,7 +185,9 @@ def jerk_limited_move(distance_m, vmax, amax, jmax, dt_s: float) -> np.ndarray:
     ramp = accel * np.arange(n_j + 1) / n_j
     phase = np.concatenate([ramp, np.full(n_a, accel), ramp[::-1][1:]])  # 2 n_j + n_a + 1
     profile = np.concatenate([phase, np.zeros(n_v), -phase[1:]])
-    return np.outer(profile, direction)
+    acc = np.outer(profile, direction)
+    acc.setflags(write=False)
+    return Move(acc, dt_s)
 
 
 def end_weights(n_steps: int, dt_s: float) -> np.ndarray:

@@ -44,6 +44,7 @@ peaks and clearance (jaxflex._turning_outputs, turning_peaks, turning_collision)
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import partial
 
@@ -87,13 +88,14 @@ class Turn:
     """A turning move, what every turning response, output, peak and clearance of the core
     takes (SI units; checked once, when made): the orientation ``path`` (a
     jaxflex._pose.PosePath: rotation, rate and angular acceleration at its samples, step
-    ``dt_s``), the world acceleration samples ``acc`` (n+1, 3) m/s^2 of the pivot at the
-    path's samples, the pivot ``pivot_m`` (3,) m (model frame: the point the translation
-    moves, the one the part turns about) and gravity ``gravity_m_s2`` (3,) m/s^2 (world;
-    (0, 0, 0) for none). InputError naming the field otherwise."""
+    ``dt_s``), the world acceleration of the pivot ``acc`` (a jaxflex._profile.Move at the
+    path's step, or its samples (n+1, 3) m/s^2 at the path's samples; kept as the samples),
+    the pivot ``pivot_m`` (3,) m (model frame: the point the translation moves, the one the
+    part turns about) and gravity ``gravity_m_s2`` (3,) m/s^2 (world; (0, 0, 0) for none).
+    InputError naming the field otherwise."""
 
     path: PosePath
-    acc: np.ndarray
+    acc: np.ndarray  # given as a Move or samples, kept as the samples
     pivot_m: np.ndarray = (0.0, 0.0, 0.0)  # type: ignore[assignment]  # made (3,) float64
     gravity_m_s2: np.ndarray = GRAVITY_M_S2  # type: ignore[assignment]
 
@@ -105,8 +107,15 @@ class Turn:
                 f"got {type(path).__name__}"
             )
         n = path.n_steps
+        acc = self.acc
+        if isinstance(acc, Move):
+            if not math.isclose(acc.dt_s, path.dt_s, rel_tol=1e-12):
+                raise InputError(
+                    f"acc: the move is sampled every {acc.dt_s} s, the path every {path.dt_s} s"
+                )
+            acc = acc.acc
         try:
-            acc = np.asarray(self.acc, dtype=np.float64)
+            acc = np.asarray(acc, dtype=np.float64)
         except (TypeError, ValueError) as exc:
             raise InputError(f"acc: (n+1, 3) numbers in m/s^2, got {exc}") from None
         if acc.shape != (n + 1, 3):

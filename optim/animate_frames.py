@@ -93,7 +93,7 @@ class Scene:
     @property
     def turn(self) -> Turn:
         """The turning move (jaxflex.response.Turn) of a scene with a ``path``."""
-        return Turn(self.path, self.move.acc, pivot_m=self.pivot_m, gravity_m_s2=self.gravity_m_s2)
+        return Turn(self.path, self.move, pivot_m=self.pivot_m, gravity_m_s2=self.gravity_m_s2)
 
 
 @dataclass(frozen=True)

@@ -166,7 +166,7 @@ class TurnSpec:
         gravity."""
         move = as_move(move, name="move")
         path = self.path(_padded(angular_acc, move.n_steps), move.dt_s)
-        return Turn(path, move.acc, pivot_m=self.pivot_m, gravity_m_s2=self.gravity_m_s2)
+        return Turn(path, move, pivot_m=self.pivot_m, gravity_m_s2=self.gravity_m_s2)
 
     def response(
         self, model, angular_acc: np.ndarray, move: Move, extend_s: float = 0.0

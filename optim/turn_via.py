@@ -225,7 +225,7 @@ def reported_turn(spec, turn_acc: np.ndarray, move: Move, gravity_m_s2) -> Turn:
             )
     pivot, gravity = spec.get("pivot_m", (0.0, 0.0, 0.0)), spec.get("gravity_m_s2", gravity_m_s2)
     try:
-        return Turn(path, move.acc, pivot_m=pivot, gravity_m_s2=gravity)
+        return Turn(path, move, pivot_m=pivot, gravity_m_s2=gravity)
     except InputError as exc:
         raise InputError(f"--trajectory: report.json's turn: {exc}") from None
 

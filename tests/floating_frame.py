@@ -181,7 +181,7 @@ def scenes(dt_s: float, rate=RATE, acc=ACC, jerk=JERK):
     goals = [np.zeros(3), [0.0, 0.0, np.pi / 2]]
     goals.append(Rotation.from_euler("ZX", [90, 30], degrees=True).as_matrix())
     path = orientation_path(goals, rate, acc, jerk, dt_s)
-    travel = jaxflex.jerk_limited_move([0.5, 0.0, 0.2], 1.0, 5.0, 50.0, dt_s)
+    travel = jaxflex.jerk_limited_move([0.5, 0.0, 0.2], 1.0, 5.0, 50.0, dt_s).acc
     translation = np.zeros((path.n_steps + 1, 3))
     translation[: len(travel)] = travel
     yield "combined: swivel, tilt, 0.5 m travel", path, translation
@@ -201,7 +201,7 @@ def panel_scenes(dt_s: float):
         ("tilt 30 deg about x, 1 m up", "x", 30.0, (0.0, 0.0, 1.0)),
     ):
         turn = turn_acceleration(np.radians(angle_deg), 2.0, 10.0, 100.0, dt_s)
-        travel = jaxflex.jerk_limited_move(distance, 2.0, 10.0, 100.0, dt_s)
+        travel = jaxflex.jerk_limited_move(distance, 2.0, 10.0, 100.0, dt_s).acc
         samples = max(turn.size, len(travel))
         alpha, acc = np.zeros(samples), np.zeros((samples, 3))
         alpha[: turn.size], acc[: len(travel)] = turn, travel

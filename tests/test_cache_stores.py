@@ -541,14 +541,14 @@ def test_a_sizing_is_served_with_its_report_picture_and_exit_status(
 def test_a_sizing_for_a_trajectory_file_is_keyed_by_its_content(monkeypatch, tmp_path):
     monkeypatch.setenv(ENV_VAR, str(tmp_path / "cache"))
     work = _counting_work(monkeypatch)
-    acc = jaxflex.jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=DT_S)
+    acc = jaxflex.jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=DT_S).acc
     trajectory = tmp_path / "move.csv"
     jaxflex.files.write_trajectory_csv(trajectory, jaxflex.as_move(acc, DT_S))
     argv = [*SIZING_BASE, "--trajectory", str(trajectory)]
     for name in ("first", "second"):
         main([*argv, "-o", str(tmp_path / f"{name}.npz")])
     assert len(work) == 1
-    slower = jaxflex.jerk_limited_move([0, 0, 1.0], vmax=1.5, amax=10, jmax=100, dt_s=DT_S)
+    slower = jaxflex.jerk_limited_move([0, 0, 1.0], vmax=1.5, amax=10, jmax=100, dt_s=DT_S).acc
     jaxflex.files.write_trajectory_csv(trajectory, jaxflex.as_move(slower, DT_S))
     main([*argv, "-o", str(tmp_path / "third.npz")])
     assert len(work) == 2

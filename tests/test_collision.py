@@ -75,7 +75,7 @@ def test_half_space():
 def scene():
     model = random_model(n_points=25, n_modes=4, f_min_hz=2.0, f_max_hz=15.0)
     model = model.posed(rotation_from_degrees([0, 0, 30]), [0.0, 0.0, 1.0])
-    acc = jaxflex.jerk_limited_move([1.2, 0.3, -0.4], 2, 10, 100, DT)
+    acc = jaxflex.jerk_limited_move([1.2, 0.3, -0.4], 2, 10, 100, DT).acc
     obstacles = (
         Box([1.0, 0.8, 1.2], [0.4, 0.3, 0.6], rotation_from_degrees([0, 10, 0]), "post"),
         HalfSpace([0, 0, 1], 0.0, "floor"),

@@ -48,7 +48,7 @@ def _same_model(result, plate, rtol: float) -> None:
     np.testing.assert_allclose(result.nodes, nodes, atol=rtol)
     # the models move alike: the same deviation for a move (the FE model's modes alone:
     # modal results carry no static response)
-    acc = jaxflex._profile.jerk_limited_move([0, 0, 0.5], vmax=1, amax=5, jmax=50, dt_s=0.01)
+    acc = jaxflex._profile.jerk_limited_move([0, 0, 0.5], vmax=1, amax=5, jmax=50, dt_s=0.01).acc
     ours = jaxflex.simulate(result.to_modal_model(), acc, 0.01).deviation
     fe = plate.to_modal_model()
     modes = jaxflex.ModalModel(fe.freq_hz, fe.zeta, fe.gamma, fe.shapes, fe.points)

@@ -60,7 +60,7 @@ def test_identified_model_reproduces_r1(identified, r1):
 
 
 def test_response_to_another_profile_matches_the_direct_convolution(identified, r1):
-    acc = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=DT)
+    acc = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=DT).acc
     n = acc.shape[0] - 1
     direct = convolve_unit_response(r1[None], acc, axes=(2,))
     modal = jaxflex.simulate(identified.to_modal_model(), acc, DT, displacement=True)
@@ -95,7 +95,7 @@ def test_one_percent_noise_degrades_gracefully(r1, plate):
     assert "Gavish-Donoho" in result.fit.order_reason
     # the identified model is nearer the noise-free truth than the convolution of the noisy
     # R1 itself (measured 2.1 % vs 9.0 % of the peak): identification filters the noise
-    acc = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=DT)
+    acc = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=DT).acc
     n = acc.shape[0] - 1
     truth = convolve_unit_response(r1[None], acc, axes=(2,))
     direct = convolve_unit_response(noisy[None], acc, axes=(2,))

@@ -69,7 +69,7 @@ def small_scene(kind: str) -> tuple[fem.Part, list]:
 
 
 def lift() -> np.ndarray:
-    return jerk_limited_move((0.0, 0.0, 0.3), vmax=2.0, amax=10.0, jmax=100.0, dt_s=DT_S)
+    return jerk_limited_move((0.0, 0.0, 0.3), vmax=2.0, amax=10.0, jmax=100.0, dt_s=DT_S).acc
 
 
 @pytest.fixture(

@@ -7,7 +7,6 @@ import json
 import pytest
 
 import jaxflex
-from jaxflex import as_move
 from jaxflex._profile import jerk_limited_move
 from jaxflex._trajectory_io import write_trajectory_csv
 from jaxflex.cli import main
@@ -20,9 +19,7 @@ SIZED = ["model", "--scene", "plate", "--tolerance", "10%", "--threshold", "1e-3
 
 def test_tolerance_writes_the_sized_model_and_report(tmp_path, capsys):
     move = tmp_path / "move.csv"
-    write_trajectory_csv(
-        move, as_move(jerk_limited_move((0, 0, 0.3), 2.0, 10.0, 100.0, 0.01), 0.01)
-    )
+    write_trajectory_csv(move, jerk_limited_move((0, 0, 0.3), 2.0, 10.0, 100.0, 0.01))
     out, report = tmp_path / "m.npz", tmp_path / "sizing.json"
     code = main([*SIZED, "--trajectory", str(move), "-o", str(out), "--report", str(report)])
     text = capsys.readouterr().out

@@ -41,7 +41,7 @@ def case():
         end_m=[0.8, 0.2, 0.5],
         rotation=rotation_from_degrees([0, 0, 10]),
     )
-    acc = jaxflex.jerk_limited_move(cell.distance_m, 2.0, 10.0, 100.0, DT)
+    acc = jaxflex.jerk_limited_move(cell.distance_m, 2.0, 10.0, 100.0, DT).acc
     return model, cell, acc
 
 

@@ -84,7 +84,7 @@ def _move(kind):
     rad/s and 20 rad/s^2, while the pivot moves 0.4 m along x (world), then 0.1 s at rest."""
     angle, axis = {"swivel": (90.0, "z"), "tilt": (30.0, "x")}[kind]
     alpha = turn_acceleration(np.radians(angle), 3.0, 20.0, 400.0, DT)
-    acc = jaxflex.jerk_limited_move([0.4, 0.0, 0.0], 1.5, 10.0, 200.0, DT)
+    acc = jaxflex.jerk_limited_move([0.4, 0.0, 0.0], 1.5, 10.0, 200.0, DT).acc
     n = max(len(alpha), len(acc)) + round(0.1 / DT)
     alpha = np.pad(alpha, (0, n - len(alpha)))
     acc = np.pad(acc, ((0, n - len(acc)), (0, 0)))
@@ -257,7 +257,7 @@ def test_without_turning_the_pose_inputs_give_the_straight_response(panel, fmus)
     for a straight move) and driven by a translation only gives jaxflex.simulate's deviation
     of the straight move (another code path of jaxflex: the state about the rest sag, the
     static residual's share D a), to rounding; its resource says what it was exported with."""
-    acc = jaxflex.jerk_limited_move([0.3, -0.2, 0.1], 1.5, 10.0, 200.0, DT)
+    acc = jaxflex.jerk_limited_move([0.3, -0.2, 0.1], 1.5, 10.0, 200.0, DT).acc
     reference = np.asarray(jaxflex.simulate(panel, acc, DT).deviation)
     rates = np.diff(acc, axis=0) / DT
     got = []

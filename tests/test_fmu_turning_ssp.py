@@ -53,7 +53,7 @@ def _move():
     degrees about x (gravity then loads the part from the first sample on), while the pivot
     moves 0.3 m along x; at rest 0.05 s after."""
     alpha = turn_acceleration(np.radians(30.0), 3.0, 20.0, JERK, DT)
-    acc = jaxflex.jerk_limited_move([0.3, 0.0, 0.0], 1.5, 10.0, 200.0, DT)
+    acc = jaxflex.jerk_limited_move([0.3, 0.0, 0.0], 1.5, 10.0, 200.0, DT).acc
     n = max(len(alpha), len(acc)) + round(0.05 / DT)
     alpha = np.pad(alpha, (0, n - len(alpha)))
     acc = np.pad(acc, ((0, n - len(acc)), (0, 0)))

@@ -37,7 +37,7 @@ def test_grid_time_is_the_binary_product_to_a_few_ulp(n, dt):
 
 def test_trajectory_file_has_exact_times_and_the_jerk(tmp_path):
     dt = 0.01
-    acc = jaxflex.jerk_limited_move([0.3, 0.0, 1.0], vmax=2, amax=10, jmax=100, dt_s=dt)
+    acc = jaxflex.jerk_limited_move([0.3, 0.0, 1.0], vmax=2, amax=10, jmax=100, dt_s=dt).acc
     path = tmp_path / "trajectory.csv"
     write_trajectory_csv(path, as_move(acc, dt))
     lines = path.read_text().splitlines()

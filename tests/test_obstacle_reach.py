@@ -34,7 +34,7 @@ def posed():
 def _motion(model, cell, distance_m, duration_s):
     """(the move's acceleration (n+1, 3), the exact positions (T, P, 3) every dt / 4 over
     the move and as long again after it, the rigid positions (T, P, 3) without sag)."""
-    acc = jaxflex.jerk_limited_move(distance_m, LIMITS.vmax, LIMITS.amax, LIMITS.jmax, DT)
+    acc = jaxflex.jerk_limited_move(distance_m, LIMITS.vmax, LIMITS.amax, LIMITS.jmax, DT).acc
     posed = cell.posed(model)
     t = np.arange(0.0, 2 * duration_s, DT / 4)
     exact = positions_at(posed, as_move(acc, DT), t, cell.gravity_m_s2)

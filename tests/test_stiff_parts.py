@@ -78,7 +78,7 @@ def test_stiff_distance_is_certified(stiff):
     by jaxflex._engine.derivative_bounds): certified against a 0.1 ms grid, found within
     four times the first grid's evaluations."""
     model = stiff.posed(np.eye(3), [0.0, 0.0, 1.0])
-    acc = jaxflex.jerk_limited_move([1.2, 0.3, -0.4], 2, 10, 100, DT)
+    acc = jaxflex.jerk_limited_move([1.2, 0.3, -0.4], 2, 10, 100, DT).acc
     obstacles = (Box([1.0, 0.8, 1.2], [0.4, 0.3, 0.6], name="post"), HalfSpace([0, 0, 1], 0.0))
     found = min_distance(model, obstacles, as_move(acc, DT), atol=1e-6)
     dense = dense_distances(model, obstacles, acc, acc.shape[0] * DT + 0.05)[1].min()

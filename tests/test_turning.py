@@ -217,7 +217,7 @@ def test_combined_move_through_orientations_against_the_reference(cantilever):
         Rotation.from_euler("ZX", [90, 30], degrees=True).as_matrix(),
     ]
     path = orientation_path(goals, RATE, ACC, JERK, DT)
-    travel = jaxflex.jerk_limited_move([0.5, 0.0, 0.2], 1.0, 5.0, 50.0, DT)
+    travel = jaxflex.jerk_limited_move([0.5, 0.0, 0.2], 1.0, 5.0, 50.0, DT).acc
     acc = np.zeros((path.n_steps + 1, 3))
     acc[: len(travel)] = travel
     response = simulate_turning(model, Turn(path, acc), extend_s=0.3)
@@ -271,6 +271,18 @@ def test_a_turn_refuses_samples_that_are_not_finite():
     fields["acc"][3, 1] = np.nan
     with pytest.raises(InputError, match=r"^acc: finite numbers in m/s\^2, got NaN"):
         jaxflex.Turn(**fields)
+
+
+def test_a_turn_takes_a_move_at_the_path_step():
+    """A Move of the pivot's acceleration gives the turn its samples (Turn.move gives them
+    back at the path's step); a Move at another step is refused naming both steps."""
+    fields = _swivel_fields()
+    samples = np.linspace(0.0, 1.0, 3 * len(fields["acc"])).reshape(-1, 3)
+    turn = Turn(fields["path"], jaxflex.as_move(samples, DT))
+    np.testing.assert_array_equal(turn.acc, samples)
+    assert turn.move.dt_s == DT and np.array_equal(turn.move.acc, samples)
+    with pytest.raises(InputError, match=rf"^acc: the move is sampled every {2 * DT} s"):
+        Turn(fields["path"], jaxflex.as_move(samples, 2 * DT))
 
 
 def test_a_turn_holds_float64_arrays():

@@ -185,7 +185,7 @@ def test_compiled_response_is_the_numpy_response(turning_plate, rest_steps):
     response and the dense all-point deviation to rounding (1e-12 of each array's size), and
     the bound is the same whatever rest follows the turn (the window of jaxflex._turning_bound)."""
     turn = turn_acceleration(np.radians(40.0), 2.0, 10.0, 100.0, 0.01)
-    travel = jaxflex.jerk_limited_move([0.3, 0.0, 0.4], 1.0, 5.0, 50.0, 0.01)
+    travel = jaxflex.jerk_limited_move([0.3, 0.0, 0.4], 1.0, 5.0, 50.0, 0.01).acc
     samples = max(turn.size, len(travel)) + rest_steps
     alpha, acc = np.zeros(samples), np.zeros((samples, 3))
     alpha[: turn.size], acc[: len(travel)] = turn, travel

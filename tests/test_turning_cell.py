@@ -51,7 +51,7 @@ def _move(axis, angle_deg, distance_m, start=None):
     distance = np.asarray(distance_m, float)
     acc = np.zeros((2, 3))
     if distance.any():
-        acc = jerk_limited_move(distance, 2.0, 10.0, 100.0, DT)
+        acc = jerk_limited_move(distance, 2.0, 10.0, 100.0, DT).acc
     n = max(len(alpha), len(acc))
     alpha = np.pad(alpha, (0, n - len(alpha)))
     acc = np.pad(acc, ((0, n - len(acc)), (0, 0)))

@@ -39,7 +39,7 @@ def tilt():
     the 2 ms samples."""
     model = _sheet("morley", thickness=1e-3, n_modes=6, mesh=0.05).to_modal_model(points=50)
     alpha = turn_acceleration(np.radians(90.0), 6.0, 60.0, 1e5, DT)
-    acc = jerk_limited_move(np.array([0.0, 0.0, 0.3]), 3.0, 30.0, 1e5, DT)
+    acc = jerk_limited_move(np.array([0.0, 0.0, 0.3]), 3.0, 30.0, 1e5, DT).acc
     n = max(len(alpha), len(acc))
     alpha, acc = np.pad(alpha, (0, n - len(alpha))), np.pad(acc, ((0, n - len(acc)), (0, 0)))
     return model, fixed_axis_path("x", alpha, DT), acc

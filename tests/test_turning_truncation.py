@@ -38,7 +38,7 @@ def test_four_modes_with_the_static_response_match_twelve(panels, scene):
         goals = [np.zeros(3), [0.0, 0.0, np.pi / 2]]
         goals.append(Rotation.from_euler("ZX", [90, 30], degrees=True).as_matrix())
         path = orientation_path(goals, RATE, ACC, JERK, DT)
-        travel = jaxflex.jerk_limited_move([0.5, 0.0, 0.2], 1.0, 5.0, 50.0, DT)
+        travel = jaxflex.jerk_limited_move([0.5, 0.0, 0.2], 1.0, 5.0, 50.0, DT).acc
     else:
         axis, angle = ("z", 90.0) if scene == "swivel" else ("x", 30.0)
         alpha = turn_acceleration(np.radians(angle), RATE, ACC, JERK, DT)

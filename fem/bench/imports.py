@@ -102,12 +102,12 @@ def _r1_import(result, n_nodes: int, n_steps: int, workdir: Path) -> dict:
     match = [np.argmin(np.abs(true_f - f)) for f in identified.freq_hz]
     out["r1_freq_rel_err_max"] = float(np.max(np.abs(identified.freq_hz / true_f[match] - 1)))
     out["r1_zeta_rel_err_max"] = float(np.max(np.abs(identified.zeta / model.zeta[match] - 1)))
-    acc = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=DT_S)
-    direct = convolve_unit_response(r1[None], acc, axes=(2,))
+    move = jerk_limited_move([0, 0, 1.0], vmax=2, amax=10, jmax=100, dt_s=DT_S)
+    direct = convolve_unit_response(r1[None], move.acc, axes=(2,))
     full = identified.to_modal_model()
-    modal = np.asarray(jaxflex.simulate(full, acc, DT_S, displacement=True).displacement)
+    modal = np.asarray(jaxflex.simulate(full, move, displacement=True).displacement)
     out["r1_profile_err_of_peak"] = float(
-        np.abs(modal[: acc.shape[0]] - direct).max() / np.abs(direct).max()
+        np.abs(modal[: move.n_steps + 1] - direct).max() / np.abs(direct).max()
     )
     out["r1_reduced_points"] = reduced.n_points
     return out

@@ -66,7 +66,7 @@ def swivel(n_samples: int = N_SAMPLES, dt_s: float = DT_S) -> Turn:
     turn = turn_acceleration(*TURN, dt_s)
     alpha[: turn.size] = turn
     acc = np.zeros((n_samples, 3))
-    travel = jerk_limited_move(*TRAVEL, dt_s)
+    travel = jerk_limited_move(*TRAVEL, dt_s).acc
     acc[: len(travel)] = travel
     return Turn(fixed_axis_path("z", alpha, dt_s), acc)
 
