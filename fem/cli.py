@@ -153,10 +153,13 @@ def _add_part(group) -> None:
         "--scale",
         type=float,
         default=1.0,
+        metavar="FACTOR",
         help="factor from the file's coordinates to metres: 1e-3 for a mesh in millimetres "
         "(STEP and IGES state their unit and are converted first)",
     )
-    group.add_argument("--material", default="steel", help="steel (default) or aluminium")
+    group.add_argument(
+        "--material", default="steel", metavar="NAME", help="steel (default) or aluminium"
+    )
     group.add_argument(
         "--E",
         dest="E_pa",
@@ -164,7 +167,9 @@ def _add_part(group) -> None:
         metavar="PA",
         help="Young's modulus (others from --material)",
     )
-    group.add_argument("--nu", type=float, help="Poisson ratio (others from --material)")
+    group.add_argument(
+        "--nu", type=float, metavar="RATIO", help="Poisson ratio (others from --material)"
+    )
     group.add_argument(
         "--rho",
         dest="rho_kg_m3",
@@ -239,12 +244,17 @@ def _add_modes(group) -> None:
         "--max-freq", type=float, metavar="HZ", help="keep modes up to this frequency"
     )
     group.add_argument(
-        "--zeta", type=_zeta, default=0.02, help="damping ratio in [0, 1) (default 0.02 = 2 %%)"
+        "--zeta",
+        type=_zeta,
+        default=0.02,
+        metavar="RATIO",
+        help="damping ratio in [0, 1) (default 0.02 = 2 %%)",
     )
     group.add_argument(
         "--points",
         type=_points,
         default=None,
+        metavar="all|N",
         help="monitored points: 'all' FE nodes (default: the deviation, settle time and "
         "distances cover the whole part) or a count (voxel-reduced: a smaller file and faster "
         "FMU steps, but only those points are checked)",
@@ -270,6 +280,7 @@ def _add_sizing_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--tolerance",
         type=_tolerance,
+        metavar="SHARE",
         help="accuracy of the deviation (share of its peak) and of the settle time (share of "
         "the cycle time), e.g. 1%% or 0.01",
     )

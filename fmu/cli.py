@@ -47,9 +47,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _add_target(group) -> None:
-    group.add_argument("-o", "--output", help="FMU file to write (.fmu)")
+    group.add_argument("-o", "--output", metavar="FILE", help="FMU file to write (.fmu)")
     group.add_argument(
         "--ssp",
+        metavar="FILE",
         help="SSP 1.0 package to write (.ssp): the part FMU and a trajectory source FMU playing "
         "the --trajectory move, connected ax/ay/az (with --turning the pose too), with the "
         "threshold and damping scale as parameters (with or instead of -o)",
@@ -57,7 +58,9 @@ def _add_target(group) -> None:
     group.add_argument(
         "--fmi", type=int, choices=(2, 3), default=2, help="FMI version 2 or 3 (default 2)"
     )
-    group.add_argument("--name", help="model name in modelDescription.xml (default: file name)")
+    group.add_argument(
+        "--name", metavar="NAME", help="model name in modelDescription.xml (default: file name)"
+    )
     group.add_argument(
         "--windows",
         choices=("auto", "yes", "no"),
@@ -82,6 +85,7 @@ def _add_target(group) -> None:
 def _add_move(group) -> None:
     group.add_argument(
         "--trajectory",
+        metavar="CSV|DIR",
         help="output folder of `jaxflex optimize` (trajectory.csv, report.json) or a trajectory "
         "CSV (columns t_s, ax_m_s2, ay_m_s2, az_m_s2, ...; SI units): embedded in the FMU and "
         "written beside it as <name>_input.csv and <name>_case.json",
@@ -96,6 +100,7 @@ def _add_move(group) -> None:
         "--damping-scale",
         type=float,
         default=1.0,
+        metavar="FACTOR",
         help="start value of the factor on every modal damping ratio (default 1)",
     )
 
@@ -112,7 +117,7 @@ def _add_cell(group) -> None:
         "--cup-safety",
         type=float,
         default=1.5,
-        metavar="S",
+        metavar="FACTOR",
         help="safety factor of the cup utilisation outputs (models with cup reactions; "
         "default 1.5)",
     )

@@ -65,7 +65,11 @@ TURNS = {
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "-o", "--output", default=DEFAULT_DIR, help=f"output directory (default {DEFAULT_DIR})"
+        "-o",
+        "--output",
+        default=DEFAULT_DIR,
+        metavar="DIR",
+        help=f"output directory (default {DEFAULT_DIR})",
     )
     parser.add_argument(
         "--scene",
@@ -82,10 +86,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--threshold",
         type=float,
         default=THRESHOLD_M,
+        metavar="M",
         help=f"deviation threshold in m (default {THRESHOLD_M * 1e3:g} mm)",
     )
     parser.add_argument(
-        "--dt", type=float, default=DT_S, help=f"sample step in s (default {DT_S:g})"
+        "--dt", type=float, default=DT_S, metavar="S", help=f"sample step in s (default {DT_S:g})"
     )
     parser.add_argument(
         "--nominal",

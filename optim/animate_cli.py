@@ -23,23 +23,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--model",
         default=None,
+        metavar="FILE",
         help="the model file of the result (default: the one its report.json records)",
     )
     parser.add_argument(
         "--cell",
         default=None,
+        metavar="FILE",
         help="the cell file of the result (default: the one its report.json records)",
     )
     parser.add_argument(
         "--page-points",
         type=int,
         default=MAX_VERTICES,
+        metavar="N",
         help=f"the most points the page draws (default {MAX_VERTICES}; the series has all)",
     )
     parser.add_argument(
         "--page-frames",
         type=int,
         default=MAX_FRAMES,
+        metavar="N",
         help=f"the most frames the page shows (default {MAX_FRAMES}; the series has all)",
     )
     parser.add_argument(

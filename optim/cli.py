@@ -149,7 +149,7 @@ def _add_cell(parser) -> None:
         "--cup-safety",
         type=float,
         default=None,
-        metavar="S",
+        metavar="FACTOR",
         help="limit every suction cup's utilisation with this safety factor (1.5: smooth, "
         "dry sheet; 2 or more: oiled)",
     )
@@ -196,6 +196,7 @@ def _add_search(parser) -> None:
     parser.add_argument(
         "--solver",
         default=None,
+        metavar="NAME",
         help="exact: highs (default), casadi (Clp) or casadi-highs; gradient: ipopt "
         "(default) or slsqp",
     )

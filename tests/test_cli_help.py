@@ -5,6 +5,7 @@ shows its unit as its metavar (M, S, HZ, PA, GB ...), not the option's name in c
 from __future__ import annotations
 
 import argparse
+import re
 
 import pytest
 
@@ -80,3 +81,23 @@ def test_quantities_show_their_units(command):
         and action.option_strings[-1] not in UNITLESS
     ]
     assert nameless == [], f"{command}: float options without a unit metavar: {nameless}"
+
+
+@pytest.mark.parametrize(
+    "command", ["model", "optimize", "export", "sweep", "animate", "demo", "bench"]
+)
+def test_every_value_says_what_it_takes(command):
+    """An option that takes a value shows what it takes (a unit, N, FILE, DIR, FACTOR, NAME,
+    or its choices), never argparse's default, the option's name in capitals; S stands for
+    seconds only (a safety factor is FACTOR)."""
+    parser = _subparser(command)
+    takes = [a for a in parser._actions if a.option_strings and a.nargs != 0]
+    default_named = [a.option_strings[-1] for a in takes if a.choices is None and a.metavar is None]
+    assert default_named == [], f"{command}: options shown by their own name: {default_named}"
+    # every S option's help states its unit: "..., s (default ...)" or "... in s"
+    not_seconds = [
+        a.option_strings[-1]
+        for a in takes
+        if a.metavar == "S" and not re.search(r"(, | in )s\b", a.help or "")
+    ]
+    assert not_seconds == [], f"{command}: S shown for a value that is not in seconds"

@@ -81,6 +81,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--units",
+        metavar="SYSTEM",
         help="unit system of ANSYS/Nastran files that state none (required for them): SI, MPA "
         "(mm, t, s), BIN (in, lbf s^2/in, s), BFT, CGS, UMKS",
     )
@@ -93,6 +94,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--spc-id",
         type=int,
+        metavar="ID",
         help="--from-nastran: the SPC set to use (default: the one case control selects, or "
         "the deck's only set)",
     )

@@ -18,6 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "-o",
         "--output",
         default="jaxflex_bench",
+        metavar="DIR|JSON",
         help="directory for bench.json and the PNG charts (default jaxflex_bench); a path "
         "ending in .json names the JSON file itself, the charts go next to it",
     )

@@ -18,7 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "spec", nargs="?", help="sweep specification (.json or .toml; see --example)"
     )
-    parser.add_argument("-o", "--output", help="results directory (restartable)")
+    parser.add_argument("-o", "--output", metavar="DIR", help="results directory (restartable)")
     where = parser.add_mutually_exclusive_group()
     where.add_argument(
         "--serial", action="store_true", help="compute in this process, no dask (reference)"
@@ -33,6 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--workers",
         type=int,
         default=None,
+        metavar="N",
         help="worker processes of the embedded LocalCluster (default: one per core)",
     )
     parser.add_argument(
