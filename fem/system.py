@@ -56,6 +56,15 @@ class Spring:
         )
 
 
+def rigid_translations(n_dof: int, dofs_per_node: int) -> np.ndarray:
+    """(n_dof, 3) unit rigid translations along x, y, z of a mesh whose node p holds its x, y,
+    z displacements at the DOFs ``dofs_per_node`` p + (0, 1, 2)."""
+    rigid = np.zeros((n_dof, 3))
+    for d in range(3):
+        rigid[d::dofs_per_node, d] = 1.0
+    return rigid
+
+
 def rigid_motions(points_m: np.ndarray, centre_m) -> np.ndarray:
     """(N, 3, 6) displacements at ``points_m`` (N, 3) of unit translations along x, y, z and
     unit rotations about x, y, z through ``centre_m`` (3,): u = t + theta x (p - centre)."""
@@ -230,6 +239,12 @@ class FESystem:
     formulation: str
     outputs: FormulationOutputs | None = None
     support_constraints: list[Constraints] = field(default_factory=list)
+
+    @classmethod
+    def held_by(cls, held: list[Constraints], **fields) -> FESystem:
+        """The system of ``fields`` (every attribute but the constraints, by name) held by
+        the supports' constraints ``held`` (in the supports' order): their union."""
+        return cls(constraints=Constraints.union(held), support_constraints=held, **fields)
 
     @property
     def n_dof(self) -> int:

@@ -91,24 +91,14 @@ def assemble_plate(
         skmesh, elem, element, nodal, facet_dofs, material, thickness_m, mesh.z0, linear.result()
     )
     dofs = PlateMeshDofs(skmesh, element, nodal, facet_dofs, outputs)
-    held = [s.hold_plate(dofs, i) for i, s in enumerate(supports)]
-    constraints = Constraints.union(held)
     lengths = np.linalg.norm(np.diff(skmesh.p[:, skmesh.facets], axis=1)[:, 0], axis=0)
-    stats = mesh_stats("triangle", skmesh.p.shape[1], n_el, n_dof, lengths)
-    return FESystem(
-        K.tocsr(),
-        M.tocsr(),
-        rigid,
-        nodes,
-        node_dofs,
-        mesh.triangles.copy(),
-        "triangle",
-        constraints,
-        stats,
-        FORMULATION[element],
-        outputs,
-        held,
-    )
+    return FESystem.held_by(
+        [s.hold_plate(dofs, i) for i, s in enumerate(supports)],
+        K=K.tocsr(), M=M.tocsr(), rigid=rigid, nodes=nodes, node_dofs=node_dofs,
+        cells=mesh.triangles.copy(), cell_type="triangle",
+        stats=mesh_stats("triangle", skmesh.p.shape[1], n_el, n_dof, lengths),
+        formulation=FORMULATION[element], outputs=outputs,
+    )  # fmt: skip
 
 
 class RigidFit:

@@ -39,7 +39,14 @@ from fem.elements.shell_element import (
 from fem.elements.sides import side_nodes
 from fem.mesh.meshes import ShellMesh
 from fem.supports import Support
-from fem.system import Constraints, FESystem, Spring, mesh_stats, rigid_motions
+from fem.system import (
+    Constraints,
+    FESystem,
+    Spring,
+    mesh_stats,
+    rigid_motions,
+    rigid_translations,
+)
 
 FORMULATION = (
     "shell, flat-facet triangles: DKT bending + ANDES OPT membrane with drilling rotations "
@@ -117,30 +124,17 @@ def assemble_shell(
     )
     layer = ShellLayer(mesh, frames)
     n_dof = DOFS_PER_NODE * n_nodes
-    rigid = np.zeros((n_dof, 3))
-    for d in range(3):
-        rigid[d::DOFS_PER_NODE, d] = 1.0
     node_dofs = DOFS_PER_NODE * np.arange(n_nodes)[:, None] + np.arange(3)
     lengths = np.linalg.norm(np.diff(mesh.nodes[layer.edges], axis=1)[:, 0], axis=1)
     stats = mesh_stats("triangle (shell)", n_nodes, n_el, n_dof, lengths)
     outputs = ShellOutputs(layer, part)
     dofs = ShellMeshDofs(layer, part, outputs)
-    held = [s.hold_solid(dofs, i) for i, s in enumerate(supports)]
-    constraints = Constraints.union(held)
-    system = FESystem(
-        K,
-        M,
-        rigid,
-        mesh.nodes.copy(),
-        node_dofs,
-        mesh.triangles.copy(),
-        "triangle",
-        constraints,
-        stats,
-        FORMULATION,
-        outputs,
-        held,
-    )
+    system = FESystem.held_by(
+        [s.hold_solid(dofs, i) for i, s in enumerate(supports)],
+        K=K, M=M, rigid=rigid_translations(n_dof, DOFS_PER_NODE), nodes=mesh.nodes.copy(),
+        node_dofs=node_dofs, cells=mesh.triangles.copy(), cell_type="triangle", stats=stats,
+        formulation=FORMULATION, outputs=outputs,
+    )  # fmt: skip
     return system, layer
 
 

@@ -22,7 +22,14 @@ from fem.elements.rigid_fields import mass_field_loads
 from fem.elements.sides import side_nodes
 from fem.mesh.meshes import SurfaceMesh
 from fem.supports import Support
-from fem.system import Constraints, FESystem, Spring, mesh_stats, rigid_motions
+from fem.system import (
+    Constraints,
+    FESystem,
+    Spring,
+    mesh_stats,
+    rigid_motions,
+    rigid_translations,
+)
 from jaxflex.errors import InputError
 
 FORMULATION = (
@@ -175,31 +182,18 @@ def assemble_solid(
         label=f"assembly (hex2, {n_el} elements)",
         progress=progress,
     )
-    rigid = np.zeros((n_dof, 3))
-    for d in range(3):
-        rigid[d::3, d] = 1.0
     mid = np.arange(layer.n_surface) + layer.n_surface
     node_dofs = 3 * mid[:, None] + np.arange(3)
     lengths = np.linalg.norm(np.diff(surface.nodes[layer.edges], axis=1)[:, 0], axis=1)
     stats = mesh_stats("hexahedron27 (one layer)", len(layer.points), n_el, n_dof, lengths)
     outputs = SolidOutputs(layer, part)
     dofs = Hex2LayerDofs(layer, part, outputs)
-    held = [s.hold_solid(dofs, i) for i, s in enumerate(supports)]
-    constraints = Constraints.union(held)
-    system = FESystem(
-        K,
-        M,
-        rigid,
-        layer.surface_points.copy(),
-        node_dofs,
-        layer.surface_of_quad,
-        "quad9",
-        constraints,
-        stats,
-        FORMULATION,
-        outputs,
-        held,
-    )
+    system = FESystem.held_by(
+        [s.hold_solid(dofs, i) for i, s in enumerate(supports)],
+        K=K, M=M, rigid=rigid_translations(n_dof, 3), nodes=layer.surface_points.copy(),
+        node_dofs=node_dofs, cells=layer.surface_of_quad, cell_type="quad9", stats=stats,
+        formulation=FORMULATION, outputs=outputs,
+    )  # fmt: skip
     return system, layer
 
 

@@ -246,19 +246,12 @@ def _deck_result(
     timings["constraints_s"] = time.perf_counter() - tick
     n_shell = parts.n_shell
     system = FESystem(
-        K,
-        M,
-        rigid,
-        nodes[:n_shell],
-        6 * np.arange(n_shell)[:, None] + np.arange(3),
-        parts.facets.triangles,
-        "triangle",
-        reduction.constraints,
-        stats(parts, nodes),
-        FORMULATION,
-        outputs,
-        reduction.held_by_support,
-    )
+        K=K, M=M, rigid=rigid, nodes=nodes[:n_shell],
+        node_dofs=6 * np.arange(n_shell)[:, None] + np.arange(3),
+        cells=parts.facets.triangles, cell_type="triangle", constraints=reduction.constraints,
+        stats=stats(parts, nodes), formulation=FORMULATION, outputs=outputs,
+        support_constraints=reduction.held_by_support,
+    )  # fmt: skip
     T = reduction.basis
     observation = (system.observation() @ T).tocsr()
     load = T.T @ (M @ rigid)
