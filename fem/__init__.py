@@ -15,10 +15,10 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at 
     from fem.imports.imported import ImportedModes
     from fem.imports.nastran.door import from_nastran
     from fem.imports.r1 import R1Identification, from_r1
-    from fem.materials import PRESETS, Material, resolve_material
+    from fem.materials import PRESETS, Material
     from fem.modal import ModalResult, describe_model, modal_analysis
     from fem.parts import Part, curved_panel, read_cad, read_mesh, rectangular_plate
-    from fem.scenes import SCENES, default_gripper, default_model, scene
+    from fem.scenes import default_gripper, default_model, scene
     from fem.sizing.request import Accuracy
     from fem.sizing.run import SizingResult, size_model
     from fem.supports import ClampedEdge, PointSupport, SimplySupportedEdge, SuctionCup, Support
@@ -28,7 +28,6 @@ __getattr__, __dir__ = lazy_names(__name__)
 
 __all__ = [
     "PRESETS",
-    "SCENES",
     "Accuracy",
     "ClampedEdge",
     "ImportedModes",
@@ -59,7 +58,6 @@ __all__ = [
     "read_cad",
     "read_mesh",
     "rectangular_plate",
-    "resolve_material",
     "scene",
     "size_model",
     "transient_reference",

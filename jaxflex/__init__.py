@@ -40,16 +40,10 @@ from typing import TYPE_CHECKING
 from jaxflex.lazy import after_import, lazy_names
 
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): `import jaxflex` loads no JAX
-    from jaxflex._engine import free_states, modal_states, upsample
     from jaxflex._profile import Move, as_move, integrate, jerk_limited_move
     from jaxflex._settle import SettleReport, analyze_move, cycle_time, settle_time
     from jaxflex._simulate import Response, batch_deviation, end_state, simulate
-    from jaxflex._surrogate import (
-        cycle_time_smooth,
-        envelope_time,
-        soft_max,
-        soft_max_excess,
-    )
+    from jaxflex._surrogate import cycle_time_smooth, soft_max, soft_max_excess
     from jaxflex._turning import Turn, TurningResponse, simulate_turning
     from jaxflex.errors import (
         BudgetError,
@@ -81,12 +75,9 @@ __all__ = [
     "cycle_time",
     "cycle_time_smooth",
     "end_state",
-    "envelope_time",
-    "free_states",
     "integrate",
     "jerk_limited_move",
     "load_model",
-    "modal_states",
     "save_model",
     "settle_time",
     "simulate",
@@ -94,7 +85,6 @@ __all__ = [
     "soft_max",
     "soft_max_excess",
     "stack_models",
-    "upsample",
 ]
 
 

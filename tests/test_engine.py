@@ -2,7 +2,7 @@
 
 Each way of evaluating the response is checked against an independent one: the NumPy loop
 against the JAX scan, states between samples against the recursion on a finer grid
-(jaxflex.upsample is exact for piecewise-linear input), the linear maps against the
+(jaxflex.response.upsample is exact for piecewise-linear input), the linear maps against the
 recursion, the zero-order hold against a sum of closed-form step responses. Agreement is
 to round-off: every path evaluates the same exact formulas (differences ~1e-15 relative;
 1e-11 leaves room for the ~n accumulated roundings of a 1000-step recursion).
@@ -23,6 +23,7 @@ import jaxflex
 from jaxflex import _engine as engine
 from jaxflex._deviation import deviation_curve, deviation_curves, point_norms
 from jaxflex._profile import as_move
+from jaxflex.response import upsample
 
 RTOL = 1e-11
 
@@ -193,4 +194,4 @@ def test_simulate_raises_the_projects_input_error(small_model):
         with pytest.raises(jaxflex.InputError, match=field):
             jaxflex.simulate(small_model, acc, **kwargs)
     with pytest.raises(jaxflex.InputError, match="factor"):
-        jaxflex.upsample(acc, 0)
+        upsample(acc, 0)

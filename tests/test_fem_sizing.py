@@ -22,6 +22,7 @@ import fem
 import jaxflex
 from jaxflex._profile import jerk_limited_move
 from jaxflex.errors import InputError
+from jaxflex.response import upsample
 
 DT_S = 0.01
 FACTOR = 10  # evaluation step dt / 10 = 1 ms: >= 1.5 samples per period of every mode kept
@@ -113,9 +114,7 @@ def richer_model(kind: str, result: fem.SizingResult) -> jaxflex.ModalModel:
 def deviation(model: jaxflex.ModalModel, acc: np.ndarray, horizon_s: float) -> np.ndarray:
     """d(t) every dt / FACTOR (exact samples of the piecewise-linear move), then free decay."""
     extend = horizon_s - (acc.shape[0] - 1) * DT_S
-    response = jaxflex.simulate(
-        model, jaxflex.upsample(acc, FACTOR), DT_S / FACTOR, extend_s=extend
-    )
+    response = jaxflex.simulate(model, upsample(acc, FACTOR), DT_S / FACTOR, extend_s=extend)
     return np.asarray(response.deviation)
 
 

@@ -10,6 +10,7 @@ import pytest
 import fem
 import jaxflex
 from fem.transient import agreement
+from jaxflex.response import upsample
 
 DT = 0.01
 N_STEPS = 30  # a 0.3 s move, then 0.3 s of free decay
@@ -48,7 +49,7 @@ def reference():
 def test_reduced_model_matches_full_order_transient(reference):
     result, full = reference
     acc = np.concatenate([_smooth_move(), np.zeros((30, 3))])
-    fine = jaxflex.upsample(acc, 10)
+    fine = upsample(acc, 10)
     curve = {}
     for n_modes in MODE_COUNTS:
         model = result.to_modal_model(points=full.points).truncate_modes(n_modes)

@@ -26,6 +26,7 @@ from fmu import export_fmu, verify
 from fmu.master import Session
 from fmu.options import Fmi
 from fmu.verify import reference_response, settle_time_at_points
+from jaxflex.response import upsample
 
 DT = 0.01
 N = 60  # samples of the embedded move
@@ -69,7 +70,7 @@ def fmus(part, move, threshold_m, tmp_path_factory):
 def fine_reference(model, acc, times):
     """jaxflex on the quarter-step grid (exact there) over a fixed horizon (one compilation),
     sampled at ``times``, which lie on that grid."""
-    fine = jaxflex.simulate(model, jaxflex.upsample(acc, 4), QUARTER, extend_s=EXTEND_S)
+    fine = jaxflex.simulate(model, upsample(acc, 4), QUARTER, extend_s=EXTEND_S)
     index = np.round(np.asarray(times) / QUARTER).astype(int)
     return np.asarray(fine.deviation)[index]
 

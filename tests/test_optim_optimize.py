@@ -18,6 +18,7 @@ import jaxflex
 import optim
 from jaxflex._trajectory_io import read_trajectory_csv
 from jaxflex.errors import InputError
+from jaxflex.response import upsample
 from optim import stages
 from optim.bench.targets import few_mode_model as bench_model
 from optim.choice import Candidate
@@ -130,7 +131,7 @@ def test_clearance_limits_the_deviation_during_the_move(model, nominal):
         model, DISTANCE, LIMITS, DT, THRESHOLD, constraints=optim.Constraints(clearance_m=clearance)
     )
     # independent check: the exact response sampled every dt / 8 by jaxflex.simulate
-    fine = jaxflex.simulate(model, jaxflex.upsample(result.acc, 8), DT / 8)
+    fine = jaxflex.simulate(model, upsample(result.acc, 8), DT / 8)
     assert float(np.max(fine.deviation)) <= clearance
     assert result.peak_deviation_m == pytest.approx(float(np.max(fine.deviation)), rel=1e-9)
     assert result.n_steps > nominal.n_steps  # the limit costs time here

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 import jaxflex
 from jaxflex._engine import end_state_map
 from jaxflex._settle import analyze_move
+from jaxflex.response import upsample
 from optim.move_response import MoveResponse
 from optim.polytope import ball_normals, support
 from optim.residual import ResidualModel
@@ -47,7 +48,7 @@ def test_move_response_map_is_the_simulation_during_the_move():
     model = random_model(seed=6, n_points=10, n_modes=4, f_max_hz=60.0)
     dt_s, acc = 0.01, smooth_move(30, 0.01)
     response = MoveResponse(model, (0, 1, 2), 30, dt_s)
-    fine = jaxflex.simulate(model, jaxflex.upsample(acc, 8), dt_s / 8)
+    fine = jaxflex.simulate(model, upsample(acc, 8), dt_s / 8)
     # q at every dt / 8 from the tabulated linear map equals the scan at the finer step
     np.testing.assert_allclose(response.modal(acc), np.asarray(fine.q), atol=1e-13)
     # and a tangent row evaluates the projection of the deviation on its direction

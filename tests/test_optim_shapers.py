@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 import jaxflex
 from jaxflex.errors import InputError
+from jaxflex.response import modal_states
 from optim.shapers import convolve, residual_vibration, shaper
 
 
@@ -75,7 +76,7 @@ def test_shaped_step_response_leaves_no_residual_vibration():
     static = -1.0 / omega**2
 
     def amplitude(a):  # of the oscillation about the static deflection, at the end
-        q, qd = np.asarray(jaxflex.modal_states(model, a, dt_s))[-2, 0]
+        q, qd = np.asarray(modal_states(model, a, dt_s))[-2, 0]
         return np.hypot(q - static, qd / omega)
 
     unshaped = np.zeros_like(acc)

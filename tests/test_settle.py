@@ -14,6 +14,7 @@ import jaxflex
 from jaxflex._analytic import simply_supported_plate
 from jaxflex._grid import grid_time
 from jaxflex._profile import jerk_limited_move
+from jaxflex.response import free_states, upsample
 
 BRUTE_STEP_S = 1e-4
 
@@ -23,7 +24,7 @@ def dense_deviation(model, acc, dt_s, until_s):
     factor = round(dt_s / BRUTE_STEP_S)
     n = acc.shape[0] - 1
     extend = max(until_s - n * dt_s, BRUTE_STEP_S)
-    r = jaxflex.simulate(model, jaxflex.upsample(acc, factor), dt_s / factor, extend_s=extend)
+    r = jaxflex.simulate(model, upsample(acc, factor), dt_s / factor, extend_s=extend)
     return np.asarray(r.t), np.asarray(r.deviation)
 
 
@@ -31,7 +32,7 @@ def deviation_at(model, acc, dt_s, t):
     """d(t) for one time t after the move, from the free decay of the end state."""
     n = acc.shape[0] - 1
     x_end = jaxflex.end_state(model, acc, dt_s)
-    q = jaxflex.free_states(model, x_end, jnp.array([t - n * dt_s]))[0, :, 0]
+    q = free_states(model, x_end, jnp.array([t - n * dt_s]))[0, :, 0]
     u = np.einsum("kcm,m->kc", np.asarray(model.shapes), np.asarray(q))
     return float(np.sqrt((u**2).sum(axis=1)).max())
 

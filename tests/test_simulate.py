@@ -14,6 +14,7 @@ from scipy.integrate import solve_ivp
 
 import jaxflex
 from jaxflex._convolution import convolve_unit_response, deviation_from_displacement, unit_response
+from jaxflex.response import upsample
 
 
 def test_multi_mode_against_solve_ivp():
@@ -119,7 +120,7 @@ def test_upsampled_profile_gives_the_same_samples(small_model):
     dt_s, n, f = 0.02, 30, 8
     acc = smooth_move(n, dt_s)
     coarse = np.asarray(jaxflex.simulate(small_model, acc, dt_s).q)
-    fine = np.asarray(jaxflex.simulate(small_model, jaxflex.upsample(acc, f), dt_s / f).q)
+    fine = np.asarray(jaxflex.simulate(small_model, upsample(acc, f), dt_s / f).q)
     np.testing.assert_allclose(fine[::f], coarse, rtol=0, atol=1e-12 * np.abs(coarse).max())
 
 

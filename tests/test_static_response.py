@@ -21,6 +21,7 @@ from fem.outputs import stress_outputs
 from jaxflex import as_move
 from jaxflex._deviation import outputs_at
 from jaxflex._profile import acceleration_at
+from jaxflex.response import upsample
 
 DT = 0.01
 G = 9.81
@@ -181,7 +182,7 @@ def test_the_static_residual_brings_the_reduced_model_to_the_full_order_transien
     full = fem.transient_reference(
         result, move, points=model.points, substeps=100, output_substeps=10
     )
-    fine = jaxflex.upsample(acc, 10)
+    fine = upsample(acc, 10)
     four = model.truncate_modes(4)
     without = jaxflex.ModalModel(four.freq_hz, four.zeta, four.gamma, four.shapes, four.points)
     errors = {}

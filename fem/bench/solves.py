@@ -22,6 +22,7 @@ import fem
 import jaxflex
 from jaxflex.defaults import DT_S
 from jaxflex.files import write_text_atomic
+from jaxflex.response import upsample
 
 CASES = ("plate", "solid", "scenes", "transient")
 
@@ -97,7 +98,7 @@ def case_transient() -> dict:
         output_substeps=10,
     )
     full_s = time.perf_counter() - start
-    fine = jaxflex.upsample(np.concatenate([acc, np.zeros((n_rest, 3))]), 10)
+    fine = upsample(np.concatenate([acc, np.zeros((n_rest, 3))]), 10)
     threshold_m = 0.05 * full.deviation_m.max()
 
     def settle(t_s, deviation):

@@ -1,7 +1,7 @@
 """Deviation curves on a fine time grid and how far two of them differ (used by fem.sizing.run).
 
 A move is acceleration samples a_k at t_k = k dt (m/s^2), linear in between. The curves are
-evaluated on the same profile sampled ``factor`` times finer (jaxflex.upsample, exact) and
+evaluated on the same profile sampled ``factor`` times finer (jaxflex.response.upsample, exact) and
 continued at rest; the modal coordinates there are exact (first-order hold), so a curve
 differs from the continuous deviation only between its samples. Errors are measured on the
 samples: the largest difference relative to the reference peak (L-infinity) and R^2. Settle
@@ -43,7 +43,7 @@ class TimeGrid:
 
     def fine_acc(self, n_samples: int) -> np.ndarray:
         """(n_samples, 3) the move on the fine grid (the same piecewise-linear profile,
-        jaxflex.upsample), then at rest."""
+        jaxflex.response.upsample), then at rest."""
         fine = upsample(self.move.acc, self.factor, np)
         if n_samples < fine.shape[0]:
             raise ValueError(f"n_samples {n_samples} is shorter than the move ({fine.shape[0]})")

@@ -2,7 +2,7 @@
 
 For B cases with models of equal size (K points, M modes) and moves of any length, the
 deviation d(t) = max_p |u_p(t)| (m) is evaluated every dt / ``substeps`` (exact: the
-piecewise-linear profile is the same on the finer grid, as in jaxflex.upsample) up to a
+piecewise-linear profile is the same on the finer grid, as in jaxflex.response.upsample) up to a
 common horizon. Two methods give the same numbers (to round-off):
 
 * ``"batched"``: jaxflex.batch_deviation of the stacked models: one jitted function for the
@@ -34,7 +34,7 @@ METHODS = ("batched", "loop")
 
 def padded_moves(accs: Sequence[np.ndarray], horizon_steps: int, substeps: int) -> np.ndarray:
     """(B, horizon_steps * substeps + 1, 3): each move followed by rest up to the horizon,
-    on the grid dt / substeps (the same piecewise-linear profile, jaxflex.upsample)."""
+    on the grid dt / substeps (the same piecewise-linear profile, jaxflex.response.upsample)."""
     fine = []
     for b, acc in enumerate(accs):
         if np.shape(acc)[0] > horizon_steps + 1:
