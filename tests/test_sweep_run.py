@@ -9,15 +9,18 @@ import json
 import os
 import re
 import signal
+from types import SimpleNamespace
 
 import numpy as np
 import psutil
 import pytest
+from distributed.client import FutureCancelledError
 from sweep_cases import N_CASES, SPEC, assert_same_table, start_sweep, wait_for_records
 
 from optim.sweep import Executor, expand, parse_spec, read_table, run_sweep
-from optim.sweep.cluster import TASKS_PER_THREAD
+from optim.sweep.cluster import TASKS_PER_THREAD, ClusterError
 from optim.sweep.evaluate import deviation_traces
+from optim.sweep.run import _settled
 from optim.sweep.store import ResultStore
 
 
@@ -142,3 +145,44 @@ def test_batched_evaluation_matches_loop_and_optimiser(serial_sweep):
     for d, acc, record in zip(batched, accs, records, strict=True):
         during = d[: (acc.shape[0] - 1) * 8 + 1]
         assert during.max() == pytest.approx(record["opt"]["peak_deviation_m"], rel=1e-9)
+
+
+class _LostOnRead:
+    """A case future found finished whose result cannot be read because the scheduler is
+    gone: dask either cancels it first (``cancel``) or fails the fetch of a result that
+    lives on a worker while the future is still "finished"; the race of a scheduler killed
+    while the sweep reads its results (tests/test_sweep_cluster.py hit both)."""
+
+    def __init__(self, cancel: bool) -> None:
+        self.status, self.cancel = "finished", cancel
+
+    def result(self):
+        if self.cancel:
+            self.status = "cancelled"
+            raise FutureCancelledError("case", reason="scheduler-connection-lost")
+        raise OSError("Timed out trying to connect to tcp://h:1")
+
+    def exception(self):
+        return None
+
+
+CLUSTER = SimpleNamespace(client=SimpleNamespace(scheduler=SimpleNamespace(address="tcp://h:1")))
+
+
+@pytest.mark.parametrize("cancel", [True, False])
+def test_a_result_lost_while_read_stops_the_run_and_stores_no_record(cancel):
+    """A result that cannot be read because the scheduler is lost stops the run with
+    ClusterError naming the scheduler; it is not the case's error record."""
+    with pytest.raises(ClusterError, match=r"^lost the connection to the scheduler at tcp://h:1$"):
+        _settled(_LostOnRead(cancel), CLUSTER)
+
+
+def _raise():
+    raise RuntimeError("worker died")
+
+
+def test_a_finished_result_is_read_and_a_failed_task_is_its_case_s_error_record():
+    finished = SimpleNamespace(status="finished", result=lambda: {"case_id": "c"})
+    assert _settled(finished, CLUSTER) == {"case_id": "c"}
+    failed = SimpleNamespace(status="error", result=_raise)
+    assert _settled(failed, CLUSTER) is None

@@ -364,9 +364,7 @@ def _run_dask(cluster, run, store, pending) -> Iterator[dict]:
         top_up()
         for future in watched:
             kind, ident = out.pop(future)
-            if future.status == "cancelled":
-                raise ClusterError(_cancelled(future, cluster))
-            outcome = _outcome(future)
+            outcome = _settled(future, cluster)
             if kind == "fe":
                 if outcome is not None:
                     _keep_model(store, ident, outcome)
@@ -392,12 +390,23 @@ def _cancelled(future, cluster) -> str:
     return f"the scheduler at {address} cancelled the sweep's tasks ({reason})"
 
 
-def _outcome(fut):
-    """The future's result, or None if the task itself failed (lost worker, ...)."""
+def _settled(future, cluster):
+    """The result of a finished ``future``, or None if its task failed (status "error": a
+    lost worker, ...). ClusterError if the result cannot be read for another reason: the
+    future was cancelled from outside (dask cancels every future the client holds when the
+    scheduler is lost), or its result could not be fetched (a task finished on a worker
+    whose result the client asks for after the scheduler is gone: the future is still
+    "finished" when the read fails, and cancelled only after)."""
     try:
-        return fut.result()
+        return future.result()
     except Exception:
-        return None
+        if future.status == "error":
+            return None
+        if future.status == "cancelled":
+            raise ClusterError(_cancelled(future, cluster)) from None
+        raise ClusterError(
+            f"lost the connection to the scheduler at {cluster.client.scheduler.address}"
+        ) from None
 
 
 def _lost(case_id: str, fut) -> dict:
