@@ -524,9 +524,9 @@ def min_distance(
     """The smallest distance (m) between the part (every point of ``model``, posed in cell
     coordinates, its skins ``half_thickness_m`` off the mid-surface) and ``obstacles`` (or a
     jaxflex._cell.Cell's) over ``move`` (in cell coordinates, at rest at both ends) and the
-    settling after it, to within ``atol`` m (module
-    docstring). With ``limit_m`` the search only decides whether the distance stays above it
-    (``bound_m`` >= limit_m certifies; below it the minimum is located to ``atol``)."""
+    settling after it, to within ``atol`` m (module docstring). With ``limit_m`` the search
+    only decides whether the distance stays above it (``bound_m`` >= limit_m certifies; below
+    it the minimum is located to ``atol``)."""
     if isinstance(obstacles, Cell):
         obstacles = obstacles.obstacles
     obstacles = tuple(obstacles)

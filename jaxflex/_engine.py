@@ -18,7 +18,7 @@ co-simulation host that cannot interpolate inputs does): x_{k+1} = Phi x_k + J0 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import jax
 import jax.numpy as jnp
@@ -26,6 +26,9 @@ import numpy as np
 
 from jaxflex._discretize import Propagators, foh_coefficients, propagators, substep_state
 from jaxflex.errors import InputError
+
+if TYPE_CHECKING:
+    from jaxflex._profile import Move
 
 HOLDS = ("linear", "zero")
 # Moves are padded to a multiple of this many steps where a jitted function would otherwise
@@ -148,7 +151,7 @@ def free_states(model, x_start, tau_s, xp: Any = jnp):
     return xp.einsum("tmij,mj->tmi", phi, x_start)
 
 
-def states_at(model, move, t_s) -> np.ndarray:
+def states_at(model, move: Move, t_s) -> np.ndarray:
     """Exact states (T, M, 2) at any times ``t_s`` (T,) >= 0 s, during ``move`` (a
     jaxflex._profile.Move, at rest at the end) and after it (free vibration). NumPy."""
     t_s = np.asarray(t_s, dtype=np.float64)

@@ -427,8 +427,8 @@ def output_peak(
 ) -> Peak:
     """The largest value of ``functional`` (items of rows of ``outputs``, a
     jaxflex._outputs.LinearOutputs of ``model``) over ``move`` (a jaxflex._profile.Move, at
-    rest at both ends) and the settling after it, plus the constant ``offset``
-    (Y,), to within max(rtol * value, atol) (module docstring). With ``limit`` the search
+    rest at both ends) and the settling after it, plus the constant ``offset`` (Y,), to
+    within max(rtol * value, atol) (module docstring). With ``limit`` the search
     only decides whether the peak stays below it: where the bound is below the limit it stops
     refining and evaluates only the items whose bound reaches it (the peak reported is then a
     value found, and ``bound`` <= limit certifies); above the limit it locates the peak as

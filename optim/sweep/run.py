@@ -384,10 +384,15 @@ def _cancelled(future, cluster) -> str:
         future.result()
     except Exception as exc:  # the FutureCancelledError, with dask's reason
         reason = getattr(exc, "reason", str(exc))
-    address = cluster.client.scheduler.address
     if reason == "scheduler-connection-lost":
-        return f"lost the connection to the scheduler at {address}"
+        return _lost_scheduler(cluster)
+    address = cluster.client.scheduler.address
     return f"the scheduler at {address} cancelled the sweep's tasks ({reason})"
+
+
+def _lost_scheduler(cluster) -> str:
+    """What stopped a run whose scheduler is gone (the CLI adds what was stored)."""
+    return f"lost the connection to the scheduler at {cluster.client.scheduler.address}"
 
 
 def _settled(future, cluster):
@@ -404,9 +409,7 @@ def _settled(future, cluster):
             return None
         if future.status == "cancelled":
             raise ClusterError(_cancelled(future, cluster)) from None
-        raise ClusterError(
-            f"lost the connection to the scheduler at {cluster.client.scheduler.address}"
-        ) from None
+        raise ClusterError(_lost_scheduler(cluster)) from None
 
 
 def _lost(case_id: str, fut) -> dict:
