@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from jaxflex.lazy import lazy_names
 
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at once
-    from fem.damping import Rayleigh, rayleigh_zeta
+    from fem.damping import Rayleigh
     from fem.export import export_modes, export_transient, plot_part
     from fem.imports.ansys import from_ansys
     from fem.imports.imported import ImportedModes
@@ -54,7 +54,6 @@ __all__ = [
     "from_r1",
     "modal_analysis",
     "plot_part",
-    "rayleigh_zeta",
     "read_cad",
     "read_mesh",
     "rectangular_plate",

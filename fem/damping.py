@@ -15,12 +15,6 @@ from jaxflex.errors import InputError
 from jaxflex.files import check_positive
 
 
-def rayleigh_zeta(freq_hz, alpha_per_s: float, beta_s: float) -> np.ndarray:
-    """Modal damping ratios zeta_i = alpha/(2 w_i) + beta w_i/2 at ``freq_hz`` (Hz), w = 2 pi f."""
-    omega = 2 * np.pi * np.asarray(freq_hz, dtype=float)
-    return alpha_per_s / (2 * omega) + beta_s * omega / 2
-
-
 @dataclass(frozen=True)
 class Rayleigh:
     """Rayleigh damping C = alpha_per_s M + beta_s K (alpha in 1/s, beta in s, both >= 0)."""
@@ -45,8 +39,10 @@ class Rayleigh:
         return cls(2 * zeta * w1 * w2 / (w1 + w2), 2 * zeta / (w1 + w2))
 
     def zeta(self, freq_hz) -> np.ndarray:
-        """Modal damping ratios at ``freq_hz`` (Hz)."""
-        return rayleigh_zeta(freq_hz, self.alpha_per_s, self.beta_s)
+        """Modal damping ratios zeta_i = alpha/(2 w_i) + beta w_i/2 at ``freq_hz`` (Hz, any
+        shape; the ratios in its shape), w = 2 pi f."""
+        omega = 2 * np.pi * np.asarray(freq_hz, dtype=float)
+        return self.alpha_per_s / (2 * omega) + self.beta_s * omega / 2
 
     def describe(self) -> dict:
         return {"type": "rayleigh", "alpha_per_s": self.alpha_per_s, "beta_s": self.beta_s}

@@ -42,8 +42,8 @@ from jaxflex.lazy import after_import, lazy_names
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): `import jaxflex` loads no JAX
     from jaxflex._profile import Move, as_move, integrate, jerk_limited_move
     from jaxflex._settle import SettleReport, analyze_move, cycle_time, settle_time
-    from jaxflex._simulate import Response, batch_deviation, end_state, simulate
-    from jaxflex._surrogate import cycle_time_smooth, soft_max, soft_max_excess
+    from jaxflex._simulate import Response, batch_deviation, simulate
+    from jaxflex._surrogate import cycle_time_smooth, soft_max
     from jaxflex._turning import Turn, TurningResponse, simulate_turning
     from jaxflex.errors import (
         BudgetError,
@@ -74,7 +74,6 @@ __all__ = [
     "batch_deviation",
     "cycle_time",
     "cycle_time_smooth",
-    "end_state",
     "integrate",
     "jerk_limited_move",
     "load_model",
@@ -83,7 +82,6 @@ __all__ = [
     "simulate",
     "simulate_turning",
     "soft_max",
-    "soft_max_excess",
     "stack_models",
 ]
 

@@ -7,7 +7,7 @@ share) of values v_r with weights w_r in {0, 1} at sharpness s,
     S = (1 / s) log sum_r w_r exp(s v_r),    max_r v_r <= S <= max_r v_r + log(R) / s,
 
 (the maxima over the R rows with w_r = 1) is smooth, and an upper bound of the maximum
-whose excess is at most :func:`soft_max_excess` = log(R) / s.
+whose excess is at most log(R) / s.
 
 The exact cycle time jumps by about half a period whenever an oscillation peak crosses the
 threshold, so it cannot be optimised directly. After the move, each point's deviation is
@@ -32,8 +32,6 @@ soft maximum (K points, s = ``sharpness``). The gradient is exact for this smoot
 
 from __future__ import annotations
 
-import math
-
 import jax
 import jax.numpy as jnp
 
@@ -48,12 +46,6 @@ def soft_max(values, sharpness, weights=None):
     unit) at ``sharpness`` (in the inverse of that unit), over every element whose
     ``weights`` (broadcast to ``values``' shape, 0 or 1; default all 1) is 1. Traceable."""
     return jax.nn.logsumexp(sharpness * values, b=weights) / sharpness
-
-
-def soft_max_excess(count: int, sharpness: float) -> float:
-    """The most :func:`soft_max` of ``count`` rows exceeds their maximum: log(count) /
-    ``sharpness`` (in the values' unit)."""
-    return math.log(count) / sharpness
 
 
 def _envelope_terms(model: ModalModel, x_end, threshold_m):

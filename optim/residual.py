@@ -5,7 +5,7 @@ The modal state at the end of an n-step move is linear in the samples (first-ord
     x_end = sum_k Phi^{n-1-k} (G0 f_k + G1 f_{k+1}),   f_k = -Gamma . a_k,   Phi^j = Phi(j dt),
 
 so jaxflex.response.end_state_map gives the matrix exactly (it equals ``jax.jacfwd`` of
-``jaxflex.end_state`` through the scan, in closed form because its shape changes with n and
+the core's end state through the scan, in closed form because its shape changes with n and
 a jitted Jacobian would recompile for every n tried). After the move the
 part vibrates freely, u_p(t_n + tau) = sum_i phi_i(p) (P11_i(tau) q_i + P12_i(tau) qd_i), again
 linear in the end state. :class:`ResidualModel` samples that response densely to find the

@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from optim.sweep import RUN_COLUMNS
+from optim.sweep.table import RUN_COLUMNS
 
 SPEC = {
     "name": "tiny",

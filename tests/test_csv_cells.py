@@ -13,7 +13,8 @@ from sweep_cases import SPEC
 
 from jaxflex import as_move
 from jaxflex._trajectory_io import COLUMNS, write_trajectory_csv
-from optim.sweep import expand, parse_spec, read_table
+from optim.sweep import parse_spec, read_table
+from optim.sweep.cases import expand
 from optim.sweep.table import FORMULA_STARTS, table_rows, write_table
 
 HOSTILE = ['=HYPERLINK("http://x")', "+1+1", "-2+3", "@SUM(A1)", "'=quoted"]

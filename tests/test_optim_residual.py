@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 import jaxflex
 from jaxflex._engine import end_state_map
 from jaxflex._settle import analyze_move
+from jaxflex._simulate import end_state
 from jaxflex.response import upsample
 from optim.move_response import MoveResponse
 from optim.polytope import ball_normals, support
@@ -23,13 +24,13 @@ from optim.residual import ResidualModel
 def test_end_state_map_is_the_jacobian_of_the_scan(dt_s):
     model = random_model(seed=2, n_modes=5, f_max_hz=120.0)
     acc = smooth_move(40, dt_s)
-    jac = jax.jacfwd(lambda a: jaxflex.end_state(model, a, dt_s))(jnp.asarray(acc))
+    jac = jax.jacfwd(lambda a: end_state(model, a, dt_s))(jnp.asarray(acc))
     emap = end_state_map(model, 40, dt_s)
     # Both are the same sums of exact propagator products; round-off only.
     np.testing.assert_allclose(emap, np.asarray(jac), rtol=0, atol=1e-13 * np.abs(emap).max())
     np.testing.assert_allclose(
         np.einsum("mikc,kc->mi", emap, acc),
-        np.asarray(jaxflex.end_state(model, acc, dt_s)),
+        np.asarray(end_state(model, acc, dt_s)),
         atol=1e-13,
     )
 
@@ -75,7 +76,7 @@ def test_exceedances_find_the_worst_peak():
     model = random_model(seed=5, n_points=20, n_modes=3, f_min_hz=2.0, f_max_hz=15.0)
     residual = ResidualModel(model, (0, 1, 2))
     dt_s, acc = 0.01, smooth_move(25, 0.01)
-    x_end = np.asarray(jaxflex.end_state(model, acc, dt_s))
+    x_end = np.asarray(end_state(model, acc, dt_s))
     tau, d = brute_force_peak(residual, x_end, 6.0)
     limit = 0.5 * d.max()
     peaks = residual.exceedances(x_end, limit, max_peaks=1000)

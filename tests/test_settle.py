@@ -14,6 +14,7 @@ import jaxflex
 from jaxflex._analytic import simply_supported_plate
 from jaxflex._grid import grid_time
 from jaxflex._profile import jerk_limited_move
+from jaxflex._simulate import end_state
 from jaxflex.response import free_states, upsample
 
 BRUTE_STEP_S = 1e-4
@@ -31,7 +32,7 @@ def dense_deviation(model, acc, dt_s, until_s):
 def deviation_at(model, acc, dt_s, t):
     """d(t) for one time t after the move, from the free decay of the end state."""
     n = acc.shape[0] - 1
-    x_end = jaxflex.end_state(model, acc, dt_s)
+    x_end = end_state(model, acc, dt_s)
     q = free_states(model, x_end, jnp.array([t - n * dt_s]))[0, :, 0]
     u = np.einsum("kcm,m->kc", np.asarray(model.shapes), np.asarray(q))
     return float(np.sqrt((u**2).sum(axis=1)).max())
@@ -154,7 +155,7 @@ def test_peaks_hidden_between_samples_are_found():
         return acc
 
     def cos_phase(acc):  # |cos| of the free vibration's phase at the first sample after t_n
-        x = jax.vmap(lambda a: jaxflex.end_state(model, a, dt_s))(jnp.asarray(acc))
+        x = jax.vmap(lambda a: end_state(model, a, dt_s))(jnp.asarray(acc))
         q, v = np.asarray(x[..., 0, 0]), np.asarray(x[..., 0, 1])
         return np.abs(q) / np.hypot(q, (v + sigma * q) / omega_d)
 
@@ -163,7 +164,7 @@ def test_peaks_hidden_between_samples_are_found():
     assert cos_phase(acc[None])[0] < 0.02
     r = jaxflex.simulate(model, acc, dt_s, extend_s=3.0)
     t_steps, d_steps = np.asarray(r.t), np.asarray(r.deviation)
-    q, v = np.asarray(jaxflex.end_state(model, acc, dt_s))[0]
+    q, v = np.asarray(end_state(model, acc, dt_s))[0]
     amplitude = np.hypot(q, (v + sigma * q) / omega_d)
     threshold_m = 0.3 * amplitude
     sampled_settle = t_steps[np.flatnonzero(d_steps > threshold_m)].max(initial=0.0)

@@ -17,7 +17,8 @@ import pytest
 from distributed.client import FutureCancelledError
 from sweep_cases import N_CASES, SPEC, assert_same_table, start_sweep, wait_for_records
 
-from optim.sweep import Executor, expand, parse_spec, read_table, run_sweep
+from optim.sweep import Executor, parse_spec, read_table, run_sweep
+from optim.sweep.cases import expand
 from optim.sweep.cluster import TASKS_PER_THREAD, ClusterError
 from optim.sweep.evaluate import deviation_traces
 from optim.sweep.run import _settled

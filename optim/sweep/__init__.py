@@ -19,23 +19,18 @@ from typing import TYPE_CHECKING
 from jaxflex.lazy import lazy_names
 
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at once
-    from optim.sweep.cases import Case, expand
     from optim.sweep.evaluate import deviation_traces
     from optim.sweep.run import Executor, SweepRun, run_sweep
     from optim.sweep.spec import SweepSpec, load_spec, parse_spec
-    from optim.sweep.table import COLUMNS, RUN_COLUMNS, read_table
+    from optim.sweep.table import read_table
 
 __getattr__, __dir__ = lazy_names(__name__)
 
 __all__ = [
-    "COLUMNS",
-    "RUN_COLUMNS",
-    "Case",
     "Executor",
     "SweepRun",
     "SweepSpec",
     "deviation_traces",
-    "expand",
     "load_spec",
     "parse_spec",
     "read_table",
