@@ -54,7 +54,6 @@ from jaxflex.response import (
     analyze_move,
     as_move,
     require_rotation,
-    simulate_turning,
     turning_settle,
 )
 
@@ -157,7 +156,7 @@ def _case_summary(model, move: Move, threshold_m, case, turning_data, turning) -
         else:
             pivot, gravity = turning_data.pivot_m, turning_data.gravity_m_s2
             turn = Turn(turning.pose, acc, pivot_m=pivot, gravity_m_s2=gravity)
-            report = turning_settle(turn.path, model, simulate_turning(model, turn), threshold_m)
+            report = turning_settle(model, turn, threshold_m)
         times = {key: float(getattr(report, key)) for key in _CASE_TIMES}
     summary.update(times)
     summary["optimisation"] = case  # everything else the optimiser reported, unchanged

@@ -8,8 +8,8 @@ Importing the package loads no JAX: its names are imported from their modules on
 The public interface, the only way the layers above (fem, optim, fmu) and users enter the
 core, each module's names in its ``__all__`` (tests/test_public_core.py checks it):
 
-* ``jaxflex``: the model, moves, the response (of a turning move too: a ``Turn``), settle
-  and cycle time, the errors;
+* ``jaxflex``: the model, moves, the response (of a turning move too: a ``Turn`` and the
+  orientation paths it takes), settle and cycle time, the errors;
 * ``jaxflex.model``: the modal model, its files, ``stack_models``;
 * ``jaxflex.defaults``: the defaults every layer shares (``DT_S``, ``THRESHOLD_M``, ...);
 * ``jaxflex.response``: the building blocks of the certified response (state maps,
@@ -40,11 +40,12 @@ from typing import TYPE_CHECKING
 from jaxflex.lazy import after_import, lazy_names
 
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): `import jaxflex` loads no JAX
+    from jaxflex._pose import fixed_axis_path, orientation_path, turn_acceleration
     from jaxflex._profile import Move, as_move, integrate, jerk_limited_move
-    from jaxflex._settle import SettleReport, analyze_move, cycle_time, settle_time
+    from jaxflex._settle import SettleReport, analyze_move, cycle_time
     from jaxflex._simulate import Response, batch_deviation, simulate
-    from jaxflex._surrogate import cycle_time_smooth, soft_max
-    from jaxflex._turning import Turn, TurningResponse, simulate_turning
+    from jaxflex._surrogate import cycle_time_smooth
+    from jaxflex._turning import Turn, TurningResponse, simulate_turning, turning_settle
     from jaxflex.errors import (
         BudgetError,
         InputError,
@@ -53,7 +54,7 @@ if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): `import jaxflex` load
         ModelError,
         ModelFileError,
     )
-    from jaxflex.model import ModalModel, load_model, save_model, stack_models
+    from jaxflex.model import ModalModel, load_model, stack_models
 
 _lazy_getattr, __dir__ = lazy_names(__name__)
 __all__ = [
@@ -74,15 +75,16 @@ __all__ = [
     "batch_deviation",
     "cycle_time",
     "cycle_time_smooth",
+    "fixed_axis_path",
     "integrate",
     "jerk_limited_move",
     "load_model",
-    "save_model",
-    "settle_time",
+    "orientation_path",
     "simulate",
     "simulate_turning",
-    "soft_max",
     "stack_models",
+    "turn_acceleration",
+    "turning_settle",
 ]
 
 

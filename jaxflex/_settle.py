@@ -467,11 +467,3 @@ def cycle_time(
     see module docstring); inf if undamped modes keep the deviation above ``threshold_m`` (m)
     forever."""
     return analyze_move(model, acc, dt_s, threshold_m, settle=False).cycle_time_s
-
-
-def settle_time(
-    model: ModalModel, acc, dt_s: float | None = None, threshold_m: float = THRESHOLD_M
-) -> float:
-    """Exact settle time sup{t : d(t) > threshold_m} in s of a Move (or of ``acc`` at step
-    ``dt_s`` s), 0 if the deviation never exceeds."""
-    return analyze_move(model, acc, dt_s, threshold_m).settle_time_s

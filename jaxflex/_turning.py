@@ -64,9 +64,17 @@ from jaxflex._rotation_residual import (
     turning_shapes,
     warn_missing_static,
 )
-from jaxflex._settle import PointLayout, _ForcedMotion, point_layout, settle_after
+from jaxflex._scalars import check_positive
+from jaxflex._settle import (
+    PointLayout,
+    SettleReport,
+    _ForcedMotion,
+    point_layout,
+    settle_after,
+)
 from jaxflex._simulate import free_steps, on_device
 from jaxflex._turning_bound import bound_data, neglected_terms, principal_axes, turning_window
+from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import InputError
 
 GRAVITY_M_S2 = (0.0, 0.0, -9.81)
@@ -423,11 +431,29 @@ class _TurningDeviation(_ForcedMotion):
         return turning_coordinates(self.model, q - sag, linear[:, :3], linear[:, 3:])
 
 
-def turning_settle(path: PosePath, model, response: TurningResponse, threshold_m: float):
-    """Exact settle and cycle time (jaxflex._settle.SettleReport) of the turning move of
-    ``response`` (from :func:`simulate_turning` on ``path``): after the move the part, at rest
-    in its final pose, vibrates freely about its sag there, so the certified search of a
-    straight move applies to the end state; a settling inside the move is searched the same
-    way between the samples (the last crossing to 1e-9 s, never before it)."""
+def turning_settle(
+    model,
+    turn: Turn,
+    threshold_m: float = THRESHOLD_M,
+    *,
+    response: TurningResponse | None = None,
+) -> SettleReport:
+    """Exact transfer, settle and cycle time (s) of the turning move ``turn`` against
+    ``threshold_m`` (m), as :func:`jaxflex.analyze_move` of a straight move: after the move
+    the part, at rest in its final pose, vibrates freely about its sag there, so the certified
+    search of a straight move applies to the end state; a settling inside the move is searched
+    the same way between the samples (the last crossing to 1e-9 s, never before it).
+    ``response``: ``simulate_turning(model, turn)`` if the caller has it (any ``extend_s``),
+    so that it is not computed again."""
+    path = require_turn(turn).path
+    threshold_m = check_positive("threshold_m", threshold_m)
+    if response is None:
+        response = simulate_turning(model, turn)
+    steps = len(getattr(response, "acc_body_m_s2", ())) - 1
+    if not isinstance(response, TurningResponse) or steps != path.n_steps:
+        raise InputError(
+            f"response: simulate_turning's response to this turn ({path.n_steps} steps), "
+            f"got a {type(response).__name__} of {steps} steps"
+        )
     during = _TurningDeviation(model, path, response)
     return settle_after(model, response.end_state, path.n_steps * path.dt_s, threshold_m, during)

@@ -53,7 +53,6 @@ __all__ = [
     "ModalModel",
     "load_model",
     "require_model",
-    "save_model",
     "stack_models",
 ]
 

@@ -6,7 +6,7 @@ threshold,
 
     F = (1 / beta) log sum_r exp(beta |u_r|^2 / limit^2),      max_r <= F <= max_r + log(R) / beta,
 
-(the core's soft maximum, jaxflex.soft_max, with its bound; the same one as the smooth
+(the core's soft maximum, jaxflex.response.soft_max, with its bound; the same one as the smooth
 cycle-time bound jaxflex.cycle_time_smooth)
 
 over the same linear kinematic constraints as the exact route. The deviations are exact

@@ -183,7 +183,7 @@ class TurnSpec:
         the neglected terms' bound)."""
         turn = self.with_move(angular_acc, move)
         response = simulate_turning(model, turn)
-        return turning_settle(turn.path, model, response, threshold_m), response
+        return turning_settle(model, turn, threshold_m, response=response), response
 
 
 def _padded(angular_acc, n_steps: int) -> np.ndarray:

@@ -165,8 +165,8 @@ def serial_sweep(tmp_path_factory):
     reference the other executors must reproduce."""
     from sweep_cases import SPEC
 
-    from optim.sweep import parse_spec, read_table, run_sweep
+    from optim.sweep import load_spec, read_table, run_sweep
 
     directory = tmp_path_factory.mktemp("serial")
-    run = run_sweep(parse_spec(SPEC), directory, executor="serial", progress=False)
+    run = run_sweep(load_spec(SPEC), directory, executor="serial", progress=False)
     return run, read_table(directory / "results.csv")

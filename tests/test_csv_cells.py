@@ -13,7 +13,7 @@ from sweep_cases import SPEC
 
 from jaxflex import as_move
 from jaxflex._trajectory_io import COLUMNS, write_trajectory_csv
-from optim.sweep import parse_spec, read_table
+from optim.sweep import load_spec, read_table
 from optim.sweep.cases import expand
 from optim.sweep.table import FORMULA_STARTS, table_rows, write_table
 
@@ -36,7 +36,7 @@ def test_results_table_escapes_formulas_and_reads_them_back(tmp_path):
     ]
     spec["moves"] = [{"name": "=move", "distance_m": [-0.4, 0, 0.1]}]
     spec.pop("grids")
-    cases = expand(parse_spec(spec))
+    cases = expand(load_spec(spec))
     path = tmp_path / "results.csv"
     errors = {
         case.case_id: {"status": "error", "stage": "fe", "error": text}

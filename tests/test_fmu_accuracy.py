@@ -250,7 +250,8 @@ def test_settled_flag_and_settle_time_follow_the_threshold(fmus, part, move, thr
     ref = np.asarray(jaxflex.simulate(part, move, DT, extend_s=EXTEND_S).deviation)
     np.testing.assert_array_equal(flags, ref <= threshold_m)
     assert settle[-1] == pytest.approx(settle_time_at_points(t, ref, threshold_m), abs=1e-12)
-    exact = jaxflex.settle_time(part, move, DT, threshold_m)  # certified: no later crossing
+    # certified: no later crossing
+    exact = jaxflex.analyze_move(part, move, DT, threshold_m).settle_time_s
     assert exact + DT < t[-1]
     assert exact <= settle[-1] < exact + DT
     assert not all(flags) and flags[-1]  # the flag did drop during the move

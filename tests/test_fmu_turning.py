@@ -382,8 +382,7 @@ def test_embedded_move_in_the_resource_and_case(panel, embedded):
     assert poses.shape == (len(acc), 10)
     assert np.array_equal(poses[:, 4:], np.hstack([path.omega_rad_s, path.alpha_rad_s2]))
     assert np.abs(poses[:, :4] - quat).max() <= 1e-15
-    response = simulate_turning(panel, Turn(path, acc, pivot_m=PIVOT, gravity_m_s2=GRAVITY))
-    settle = turning_settle(path, panel, response, 5e-4)
+    settle = turning_settle(panel, Turn(path, acc, pivot_m=PIVOT, gravity_m_s2=GRAVITY), 5e-4)
     assert result.case["cycle_time_s"] == settle.cycle_time_s
     header = result.input_csv.read_text().split("\n", 1)[0].split(",")
     assert header == ["time", *NAMES]

@@ -24,7 +24,7 @@ from sweep_cases import N_CASES, SPEC, assert_same_table, start_sweep
 
 from fmu.cli import load_case
 from jaxflex.errors import InputError
-from optim.sweep import parse_spec, read_table, run_sweep
+from optim.sweep import load_spec, read_table, run_sweep
 
 THRESHOLDS_M = (1e-3, 5e-4)  # two runs with different answers into one directory
 POLL_S = 0.001
@@ -178,7 +178,7 @@ def test_sweep_killed_at_any_point_restarts_with_the_missing_cases(
         killed += _kill_when(start_sweep(spec_path, out, "--serial"), condition)
         stored[point] = len(list((out / "cases").glob("*.json")))
         assert not (out / "results.csv").exists()  # atomic: whole or absent
-    run = run_sweep(parse_spec(SPEC), out, executor="serial", progress=False, plots=False)
+    run = run_sweep(load_spec(SPEC), out, executor="serial", progress=False, plots=False)
     fuzz_tally(
         "kill -9 of sweep",
         tried=len(kills),

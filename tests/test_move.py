@@ -31,7 +31,6 @@ def test_entry_points_take_a_move_alone(small_model):
     by_array = jaxflex.analyze_move(small_model, acc, dt_s, threshold_m)
     assert by_move == by_array
     assert jaxflex.cycle_time(small_model, move, threshold_m=threshold_m) == by_move.cycle_time_s
-    assert jaxflex.settle_time(small_model, move, threshold_m=threshold_m) == by_move.settle_time_s
     response = jaxflex.simulate(small_model, move, extend_s=0.1)
     # the step comes with the move: 30 steps of the move, then 0.1 s of free decay
     assert response.t[-1] == pytest.approx(0.4)

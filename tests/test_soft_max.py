@@ -1,6 +1,6 @@
-"""The core's soft maximum (jaxflex.soft_max), the one the smooth cycle-time bound and the
-gradient route share: its bound max <= S <= max + log(R) / s held against NumPy's maximum of
-the rows, and its gradient against the closed form (the softmax weights)."""
+"""The core's soft maximum (jaxflex.response.soft_max), the one the smooth cycle-time bound
+and the gradient route share: its bound max <= S <= max + log(R) / s held against NumPy's
+maximum of the rows, and its gradient against the closed form (the softmax weights)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import jaxflex
+from jaxflex.response import soft_max
 
 
 @settings(max_examples=40, deadline=None)
@@ -28,7 +28,7 @@ def test_soft_max_lies_between_the_maximum_and_its_excess(values, sharpness, dat
     mask[data.draw(st.integers(0, v.size - 1))] = 1.0  # at least one row counts
     exact = float(np.max(v[mask == 1]))
     count = int(mask.sum())
-    soft = float(jaxflex.soft_max(v, sharpness, mask))
+    soft = float(soft_max(v, sharpness, mask))
     # float64 round-off of a log-sum-exp: a few ulps of the largest term, relative
     slack = 1e-12 * max(1.0, abs(exact))
     # the bound of the module docstring: at most log(R) / s above the maximum of R rows
@@ -38,6 +38,6 @@ def test_soft_max_lies_between_the_maximum_and_its_excess(values, sharpness, dat
 def test_soft_max_gradient_is_the_softmax_weights():
     rng = np.random.default_rng(3)
     v, mask, sharpness = rng.normal(size=12), (rng.random(12) > 0.3).astype(float), 7.0
-    grad = np.asarray(jax.grad(lambda x: jaxflex.soft_max(x, sharpness, mask))(v))
+    grad = np.asarray(jax.grad(lambda x: soft_max(x, sharpness, mask))(v))
     weights = mask * np.exp(sharpness * (v - v.max()))
     np.testing.assert_allclose(grad, weights / weights.sum(), rtol=1e-12, atol=1e-15)

@@ -15,7 +15,7 @@ import pytest
 from sweep_cases import SPEC, assert_same_table, start_sweep, wait_for_records
 
 from jaxflex.errors import InputError, JaxflexWarning
-from optim.sweep import parse_spec, read_table, run_sweep
+from optim.sweep import load_spec, read_table, run_sweep
 from optim.sweep.records import RecordError, as_stored, check_record, sealed
 from optim.sweep.store import ResultStore
 
@@ -111,7 +111,7 @@ def test_bad_records_and_models_are_reported_and_recomputed(serial_sweep, tmp_pa
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        again = run_sweep(parse_spec(SPEC), out, executor="serial", progress=False, plots=False)
+        again = run_sweep(load_spec(SPEC), out, executor="serial", progress=False, plots=False)
     messages = [str(w.message) for w in caught if issubclass(w.category, JaxflexWarning)]
     named = {cid for cid in damaged if any(f"{cid}.json" in m for m in messages)}
     model_named = any(f"{model_layout}.npz" in m and "meta_json" in m for m in messages)
@@ -158,7 +158,7 @@ def test_a_second_sweep_on_a_busy_directory_is_refused(tmp_path):
         wait_for_records(proc, out / "cases", 1)
         n_before = len(list((out / "cases").glob("*.json")))
         with pytest.raises(InputError, match="is being written by another jaxflex run"):
-            run_sweep(parse_spec(SPEC), out, executor="serial", progress=False, plots=False)
+            run_sweep(load_spec(SPEC), out, executor="serial", progress=False, plots=False)
         assert proc.poll() is None
         assert len(list((out / "cases").glob("*.json"))) >= n_before
     finally:

@@ -17,7 +17,7 @@ import pytest
 from distributed.client import FutureCancelledError
 from sweep_cases import N_CASES, SPEC, assert_same_table, start_sweep, wait_for_records
 
-from optim.sweep import Executor, parse_spec, read_table, run_sweep
+from optim.sweep import Executor, load_spec, read_table, run_sweep
 from optim.sweep.cases import expand
 from optim.sweep.cluster import TASKS_PER_THREAD, ClusterError
 from optim.sweep.evaluate import deviation_traces
@@ -70,7 +70,7 @@ def test_local_cluster_gives_the_serial_table_on_this_machine_only(serial_sweep,
         opened.update(_listening([this, *this.children(recursive=True)]) - before)
 
     run = run_sweep(
-        parse_spec(SPEC),
+        load_spec(SPEC),
         tmp_path,
         executor=Executor("dask", n_workers=2, notify=messages.append),
         progress=False,
@@ -120,7 +120,7 @@ def test_interrupted_and_killed_runs_restart_with_the_missing_cases_only(serial_
     before = {p.name: p.read_bytes() for p in cases_dir.glob("*.json")}
     assert 5 <= len(before) < N_CASES, "the kill should land midway"
 
-    run = run_sweep(parse_spec(SPEC), out, executor="serial", progress=False, plots=False)
+    run = run_sweep(load_spec(SPEC), out, executor="serial", progress=False, plots=False)
     assert (run.skipped, run.computed) == (len(before), N_CASES - len(before))
     # the records of the killed run are untouched, nothing half-written is left
     assert {p.name: p.read_bytes() for p in cases_dir.glob("*.json") if p.name in before} == before

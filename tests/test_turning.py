@@ -185,21 +185,25 @@ def test_turning_settle_time_against_the_reference(cantilever):
     result, model = cantilever
     alpha = turn_acceleration(np.pi / 2, RATE, ACC, JERK, DT)
     path = fixed_axis_path("z", alpha, DT)
-    response = simulate_turning(model, Turn(path, np.zeros((len(alpha), 3))), extend_s=0.6)
+    turn = Turn(path, np.zeros((len(alpha), 3)))
+    response = simulate_turning(model, turn, extend_s=0.6)
     full = floating_frame_deviation(result, model, path.alpha_rad_s2, response.t_s[-1], full=True)
     n = path.n_steps
     # a threshold the residual vibration crosses after the move (certified from the end
     # state), and one crossed inside the move (sampled)
     for threshold in (0.3 * full[n], 0.2 * full.max()):
-        report = turning_settle(path, model, response, threshold)
+        report = turning_settle(model, turn, threshold, response=response)
         last = response.t_s[np.flatnonzero(full > threshold)[-1]]
         assert last - DT <= report.settle_time_s <= last + DT, threshold
         assert report.cycle_time_s == max(report.settle_time_s, n * DT)
     assert (
         report.settle_time_s
         < n * DT
-        < turning_settle(path, model, response, 0.3 * full[n]).settle_time_s
+        < turning_settle(model, turn, 0.3 * full[n], response=response).settle_time_s
     )
+    # without a response the door simulates the move itself (no free vibration after it):
+    # the report depends only on the move's samples, so it is the same
+    assert turning_settle(model, turn, threshold) == report
 
 
 def test_combined_move_through_orientations_against_the_reference(cantilever):
@@ -261,9 +265,25 @@ def test_the_turning_functions_refuse_what_is_not_a_turn(cantilever):
     """What is not a jaxflex.Turn (None, the fields as a dict) is refused by name before any
     work, not an AttributeError from deep inside."""
     for turn in (None, _swivel_fields()):
-        for call in (jaxflex.simulate_turning, turning_motion):
+        for call in (jaxflex.simulate_turning, turning_motion, jaxflex.turning_settle):
             with pytest.raises(InputError, match=r"^turn: a jaxflex\.Turn\(path, acc, "):
                 call(cantilever[1], turn)
+
+
+def test_turning_settle_refuses_the_response_of_another_move(cantilever):
+    """A response given to turning_settle must be simulate_turning's to the same turn: one of
+    a shorter turn is refused naming both step counts, not searched from its end state."""
+    model = cantilever[1]
+    turn = Turn(**_swivel_fields())
+    short = fixed_axis_path("z", turn_acceleration(0.1, RATE, ACC, JERK, DT), DT)
+    other = jaxflex.simulate_turning(model, Turn(short, np.zeros((short.n_steps + 1, 3))))
+    n, m = turn.path.n_steps, short.n_steps
+    assert m < n
+    says = rf"^response: .* to this turn \({n} steps\), got a TurningResponse of {m} steps"
+    with pytest.raises(InputError, match=says):
+        jaxflex.turning_settle(model, turn, 1e-3, response=other)
+    with pytest.raises(InputError, match=r"^response: .*got a dict of -1 steps"):
+        jaxflex.turning_settle(model, turn, 1e-3, response={})
 
 
 def test_a_turn_refuses_samples_that_are_not_finite():

@@ -238,7 +238,8 @@ def test_settling_inside_the_move_is_never_reported_early(turning_plate):
     alpha = turn_acceleration(np.radians(30.0), 2.0, 10.0, 100.0, 0.01)
     path = fixed_axis_path("x", np.concatenate([alpha, np.zeros(120)]), 0.01)
     acc = np.zeros((path.n_steps + 1, 3))
-    response = simulate_turning(turning_plate, Turn(path, acc))
+    turn = Turn(path, acc)
+    response = simulate_turning(turning_plate, turn)
     n, dt = path.n_steps, path.dt_s
     fine = dt * np.arange(64 * n + 1) / 64
     dense = _dense_deviation(turning_plate, path, response, fine)
@@ -247,7 +248,7 @@ def test_settling_inside_the_move_is_never_reported_early(turning_plate):
     checked = early = 0
     for share in (0.2, 0.35, 0.5, 0.7):
         threshold = residual + share * (dense.max() - residual)
-        report = turning_settle(path, turning_plate, response, threshold)
+        report = turning_settle(turning_plate, turn, threshold, response=response)
         if report.settle_time_s >= n * dt:  # the vibration after the move crosses it
             continue
         last = fine[np.flatnonzero(dense > threshold)[-1]]

@@ -21,7 +21,7 @@ from jaxflex.lazy import lazy_names
 if TYPE_CHECKING:  # imported on first use (jaxflex.lazy): the package loads at once
     from optim.sweep.evaluate import deviation_traces
     from optim.sweep.run import Executor, SweepRun, run_sweep
-    from optim.sweep.spec import SweepSpec, load_spec, parse_spec
+    from optim.sweep.spec import SweepSpec, load_spec
     from optim.sweep.table import read_table
 
 __getattr__, __dir__ = lazy_names(__name__)
@@ -32,7 +32,6 @@ __all__ = [
     "SweepSpec",
     "deviation_traces",
     "load_spec",
-    "parse_spec",
     "read_table",
     "run_sweep",
 ]

@@ -469,11 +469,14 @@ def parse_spec(data: Mapping, base: str | Path = ".") -> SweepSpec:
     )
 
 
-def load_spec(path: str | Path, data: dict | None = None) -> SweepSpec:
-    """Read and validate a ``.json`` or ``.toml`` specification file; ``data``: its table,
-    if already read (jaxflex.files.read_settings_file: light, so that ``jaxflex sweep``
-    refuses a file it cannot read before the sweep's modules load)."""
-    path = Path(path)
+def load_spec(source: str | Path | Mapping, data: dict | None = None) -> SweepSpec:
+    """Read and validate a ``.json`` or ``.toml`` specification file, or a specification
+    mapping (module docstring; its ``part.path`` relative to the working directory).
+    ``data``: the file's table, if already read (jaxflex.files.read_settings_file: light, so
+    that ``jaxflex sweep`` refuses a file it cannot read before the sweep's modules load)."""
+    if isinstance(source, Mapping):
+        return parse_spec(source)
+    path = Path(source)
     if data is None:
         data = read_settings_file("spec", path)
     try:
