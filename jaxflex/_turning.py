@@ -449,11 +449,10 @@ def turning_settle(
     threshold_m = check_positive("threshold_m", threshold_m)
     if response is None:
         response = simulate_turning(model, turn)
-    steps = len(getattr(response, "acc_body_m_s2", ())) - 1
-    if not isinstance(response, TurningResponse) or steps != path.n_steps:
-        raise InputError(
-            f"response: simulate_turning's response to this turn ({path.n_steps} steps), "
-            f"got a {type(response).__name__} of {steps} steps"
-        )
+    wanted = f"response: simulate_turning's response to this turn ({path.n_steps} steps)"
+    if not isinstance(response, TurningResponse):
+        raise InputError(f"{wanted}, got a {type(response).__name__}")
+    if len(response.acc_body_m_s2) != path.n_steps + 1:
+        raise InputError(f"{wanted}, got one of {len(response.acc_body_m_s2) - 1} steps")
     during = _TurningDeviation(model, path, response)
     return settle_after(model, response.end_state, path.n_steps * path.dt_s, threshold_m, during)

@@ -279,10 +279,10 @@ def test_turning_settle_refuses_the_response_of_another_move(cantilever):
     other = jaxflex.simulate_turning(model, Turn(short, np.zeros((short.n_steps + 1, 3))))
     n, m = turn.path.n_steps, short.n_steps
     assert m < n
-    says = rf"^response: .* to this turn \({n} steps\), got a TurningResponse of {m} steps"
+    says = rf"^response: .* to this turn \({n} steps\), got one of {m} steps$"
     with pytest.raises(InputError, match=says):
         jaxflex.turning_settle(model, turn, 1e-3, response=other)
-    with pytest.raises(InputError, match=r"^response: .*got a dict of -1 steps"):
+    with pytest.raises(InputError, match=r"^response: .*got a dict$"):
         jaxflex.turning_settle(model, turn, 1e-3, response={})
 
 
