@@ -114,24 +114,16 @@ class Turn:
                 "path: a jaxflex.response.PosePath (e.g. fixed_axis_path, orientation_path), "
                 f"got {type(path).__name__}"
             )
-        n = path.n_steps
-        acc = self.acc
-        if isinstance(acc, Move):
-            if not math.isclose(acc.dt_s, path.dt_s, rel_tol=1e-12):
-                raise InputError(
-                    f"acc: the move is sampled every {acc.dt_s} s, the path every {path.dt_s} s"
-                )
-            acc = acc.acc
-        try:
-            acc = np.asarray(acc, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise InputError(f"acc: (n+1, 3) numbers in m/s^2, got {exc}") from None
+        n, acc = path.n_steps, self.acc
+        if isinstance(acc, Move) and not math.isclose(acc.dt_s, path.dt_s, rel_tol=1e-12):
+            raise InputError(
+                f"acc: the move is sampled every {acc.dt_s} s, the path every {path.dt_s} s"
+            )
+        acc = as_move(acc, path.dt_s).acc  # numbers, (m, 3), finite: the moves' own checks
         if acc.shape != (n + 1, 3):
             raise InputError(
                 f"acc: expected shape ({n + 1}, 3) like the pose path, got {acc.shape}"
             )
-        if not np.isfinite(acc).all():
-            raise InputError("acc: finite numbers in m/s^2, got NaN or infinity")
         pivot = _vector("pivot_m", self.pivot_m, "m in the model frame")
         gravity = _vector("gravity_m_s2", self.gravity_m_s2, "m/s^2 in the world frame")
         for name, value in (("acc", acc), ("pivot_m", pivot), ("gravity_m_s2", gravity)):

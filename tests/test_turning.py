@@ -246,8 +246,8 @@ def _swivel_fields() -> dict:
     [
         ("path", "z", "a jaxflex.response.PosePath"),
         ("acc", np.zeros((3, 3)), r"expected shape \(\d+, 3\) like the pose path, got \(3, 3\)"),
-        ("acc", "fast", r"numbers in m/s\^2"),
-        ("acc", np.nan, "expected shape"),
+        ("acc", "fast", r"must be a numeric array of shape \(n\+1, 3\), got dtype <U4"),
+        ("acc", np.nan, r"expected acceleration samples of shape \(n\+1, 3\) in m/s\^2"),
         ("pivot_m", (0.1, 0.2), r"three finite numbers, m in the model frame; got \(0.1, 0.2\)"),
         ("pivot_m", "middle", "three finite numbers"),
         ("gravity_m_s2", (0.0, 0.0, np.inf), r"three finite numbers, m/s\^2 in the world frame"),
@@ -289,7 +289,8 @@ def test_turning_settle_refuses_the_response_of_another_move(cantilever):
 def test_a_turn_refuses_samples_that_are_not_finite():
     fields = _swivel_fields()
     fields["acc"][3, 1] = np.nan
-    with pytest.raises(InputError, match=r"^acc: finite numbers in m/s\^2, got NaN"):
+    says = r"^acc: sample 3 \(axis y\) is nan; every sample must be finite"
+    with pytest.raises(InputError, match=says):
         jaxflex.Turn(**fields)
 
 
