@@ -14,9 +14,12 @@ from types import SimpleNamespace
 import numpy as np
 import psutil
 import pytest
+from conftest import random_model, smooth_move
 from distributed.client import FutureCancelledError
 from sweep_cases import N_CASES, SPEC, assert_same_table, start_sweep, wait_for_records
 
+import jaxflex
+from jaxflex.errors import InputError
 from optim.sweep import Executor, load_spec, read_table, run_sweep
 from optim.sweep.cases import expand
 from optim.sweep.cluster import TASKS_PER_THREAD, ClusterError
@@ -128,6 +131,19 @@ def test_interrupted_and_killed_runs_restart_with_the_missing_cases_only(serial_
     assert_same_table(read_table(out / "results.csv"), reference)
 
 
+def test_deviation_traces_take_moves_at_one_step():
+    """A group's traces take jaxflex.Move objects (raw samples carry no step) that share one
+    step (the traces share one time grid); anything else is refused naming the field."""
+    model, acc = random_model(seed=1, n_points=5, n_modes=2), smooth_move(10, 0.01)
+    with pytest.raises(InputError, match=r"^moves\[0\]: a jaxflex\.Move .*got ndarray"):
+        deviation_traces([model], [acc], 0.5)
+    moves = [jaxflex.as_move(acc, 0.01), jaxflex.as_move(acc, 0.02)]
+    with pytest.raises(
+        InputError, match=r"^moves: one group needs one step dt_s, got \[0.01, 0.02\]"
+    ):
+        deviation_traces([model, model], moves, 0.5)
+
+
 def test_batched_evaluation_matches_loop_and_optimiser(serial_sweep):
     """The batched deviation traces equal jaxflex.simulate case by case (round-off) and,
     over the move, optim's own peak deviation (numpy, exact samples every dt / 8)."""
@@ -136,10 +152,11 @@ def test_batched_evaluation_matches_loop_and_optimiser(serial_sweep):
     cases = [c for c in expand(run.spec) if run.records[c.case_id]["status"] == "ok"]
     models = [store.load_model(c.layout_id)[0] for c in cases]
     records = [run.records[c.case_id] for c in cases]
-    accs = [np.asarray(r["acc_m_s2"]) for r in records]
+    moves = [jaxflex.as_move(r["acc_m_s2"], 0.01) for r in records]
+    accs = [move.acc for move in moves]
     horizon = 0.8
-    t, batched = deviation_traces(models, accs, 0.01, horizon)
-    _, loop = deviation_traces(models, accs, 0.01, horizon, method="loop")
+    t, batched = deviation_traces(models, moves, horizon)
+    _, loop = deviation_traces(models, moves, horizon, method="loop")
     assert t[-1] >= horizon and t[1] == pytest.approx(0.01 / 8)
     assert batched.shape == loop.shape == (len(cases), t.size)
     np.testing.assert_allclose(batched, loop, rtol=1e-10, atol=1e-12 * loop.max())

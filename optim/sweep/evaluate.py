@@ -27,7 +27,7 @@ import numpy as np
 import jaxflex
 from jaxflex.errors import InputError
 from jaxflex.model import ModalModel, stack_models
-from jaxflex.response import padded_steps, rest_padded, upsample
+from jaxflex.response import Move, padded_steps, rest_padded, upsample
 
 METHODS = ("batched", "loop")
 
@@ -45,24 +45,32 @@ def padded_moves(accs: Sequence[np.ndarray], horizon_steps: int, substeps: int) 
 
 def deviation_traces(
     models: Sequence[ModalModel],
-    accs: Sequence[np.ndarray],
-    dt_s: float,
+    moves: Sequence[Move],
     horizon_s: float,
     *,
     substeps: int = 8,
     method: str = "batched",
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Times t (T,) s and deviations d (B, T) m of each model under its move ``accs[b]``
-    ((n_b + 1, 3) m/s^2 at step ``dt_s``), from 0 to ``horizon_s``. All models must have
-    the same number of points and modes (one group of the sweep). The horizon is rounded up
-    to whole blocks of jaxflex._engine.PAD_STEPS steps (t reaches at least ``horizon_s``)."""
+    """Times t (T,) s and deviations d (B, T) m of each model under its move ``moves[b]``
+    (a jaxflex.Move of n_b steps; all at one step dt_s), from 0 to ``horizon_s``. All models
+    must have the same number of points and modes (one group of the sweep). The horizon is
+    rounded up to whole blocks of jaxflex._engine.PAD_STEPS steps (t reaches at least
+    ``horizon_s``)."""
     if method not in METHODS:
         raise InputError(f"method: must be one of {list(METHODS)}, got {method!r}")
-    if len(models) != len(accs) or not models:
-        raise InputError(f"models/accs: need equally many (>= 1), got {len(models)}/{len(accs)}")
+    if len(models) != len(moves) or not models:
+        raise InputError(f"models/moves: need equally many (>= 1), got {len(models)}/{len(moves)}")
+    for b, move in enumerate(moves):
+        if not isinstance(move, Move):
+            raise InputError(f"moves[{b}]: a jaxflex.Move (jaxflex.as_move(acc, dt_s)), got "
+                             f"{type(move).__name__}")  # fmt: skip
+    steps = sorted({move.dt_s for move in moves})
+    if len(steps) != 1:
+        raise InputError(f"moves: one group needs one step dt_s, got {steps} s")
     sizes = {(m.n_points, m.n_modes) for m in models}
     if len(sizes) != 1:
         raise InputError(f"models: one group needs one size (points, modes), got {sorted(sizes)}")
+    dt_s, accs = steps[0], [move.acc for move in moves]
     # whole blocks of steps, so that groups of similar moves share the compiled code
     horizon_steps = padded_steps(int(np.ceil(horizon_s / dt_s - 1e-9)))
     fine = padded_moves(accs, horizon_steps, substeps)

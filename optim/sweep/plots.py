@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from jaxflex.plots import deviation_axes, plt, save_figure
+from jaxflex.response import as_move
 from optim.sweep.best import best_layouts, objective_s, rank_key
 from optim.sweep.evaluate import deviation_traces, group_by_size
 
@@ -134,16 +135,16 @@ def plot_deviations(run, store, path, *, method: str = "batched") -> bool:
     )
     for ax, (name, items) in zip(axes[:, 0], by_move.items(), strict=True):
         horizon = 1.15 * max(r["opt"]["cycle_time_s"] for _, r in items) + dt_s
-        models, accs = {}, {}
+        models, moves = {}, {}
         for case, record in items:
             found = store.load_model(case.layout_id)
             if found is not None:
                 models[case.case_id] = found[0]
-                accs[case.case_id] = np.asarray(record["acc_m_s2"])
+                moves[case.case_id] = as_move(record["acc_m_s2"], dt_s)
         traces = {}
         for keys in group_by_size(models).values():
             t, d = deviation_traces(
-                [models[k] for k in keys], [accs[k] for k in keys], dt_s, horizon, method=method
+                [models[k] for k in keys], [moves[k] for k in keys], horizon, method=method
             )
             traces.update(zip(keys, d, strict=True))
         # rank like optim.sweep.best: the optimised objective, ties by the peak deviation

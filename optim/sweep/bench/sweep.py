@@ -23,7 +23,7 @@ import numpy as np
 
 from fem.bench.emit import emit_json
 from jaxflex.model import ModalModel
-from jaxflex.response import ARRAY_FIELDS
+from jaxflex.response import ARRAY_FIELDS, as_move
 from optim.limits import Limits
 from optim.optimize import optimize
 from optim.options import RobustSpec, Search
@@ -105,14 +105,15 @@ def _evaluation(run, repeats: int = 3) -> dict:
         if c.move.name == move and run.records[c.case_id]["status"] == "ok"
     ]
     models = [store.load_model(c.layout_id)[0] for c in cases]
-    accs = [np.asarray(run.records[c.case_id]["acc_m_s2"]) for c in cases]
-    horizon = 1.15 * max(a.shape[0] for a in accs) * run.spec.optimization.dt_s
+    dt_s = run.spec.optimization.dt_s
+    moves = [as_move(run.records[c.case_id]["acc_m_s2"], dt_s) for c in cases]
+    horizon = 1.15 * max(move.n_steps + 1 for move in moves) * dt_s
     out = {"cases": len(cases), "points": models[0].n_points, "modes": models[0].n_modes}
     for method in ("batched", "loop"):
-        deviation_traces(models, accs, run.spec.optimization.dt_s, horizon, method=method)
+        deviation_traces(models, moves, horizon, method=method)
         tick = time.perf_counter()
         for _ in range(repeats):
-            deviation_traces(models, accs, run.spec.optimization.dt_s, horizon, method=method)
+            deviation_traces(models, moves, horizon, method=method)
         out[f"{method}_ms_per_case"] = round(
             1e3 * (time.perf_counter() - tick) / (repeats * len(cases)), 3
         )
