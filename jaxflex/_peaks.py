@@ -48,9 +48,8 @@ from jaxflex._engine import (
     states_between,
 )
 from jaxflex._profile import Move, acceleration_at, as_move
+from jaxflex._settle import SUBDIVISIONS, TIME_TOL_S  # the settle search's refinement
 
-SUBDIVISIONS = 16
-TIME_TOL_S = 1e-9
 SAMPLES_PER_PERIOD = 16
 CHUNK = 256
 MAX_EVALUATIONS = 200_000_000  # item-time evaluations before the search reports a bound only

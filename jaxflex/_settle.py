@@ -59,8 +59,8 @@ from jaxflex.defaults import THRESHOLD_M
 from jaxflex.errors import BudgetError
 from jaxflex.model import ModalModel, require_model, shape_cache
 
-SUBDIVISIONS = 16
-TIME_TOL_S = 1e-9
+SUBDIVISIONS = 16  # sub-intervals per refined interval (also jaxflex._peaks' search)
+TIME_TOL_S = 1e-9  # intervals this short are not refined further (s)
 # Tail grid step: the curvature term of the certification bound is at most this share of the
 # threshold, so intervals whose samples stay below (1 - share) * threshold certify at once.
 CURVATURE_SHARE = 0.1
